@@ -1,0 +1,79 @@
+"""``volcal plan`` and ``volcal simulate``."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+from rich.console import Console
+
+from volcal.cli._common import parse_travel, parse_vector
+
+console = Console()
+
+
+def plan(
+    travel: str = typer.Option("0:800,0:600,0:500", help="Travel limits x,y,z as min:max [mm]."),
+    chain: str = typer.Option("XYFZ", help="Kinematic chain from workpiece to tool, F = frame."),
+    steps: int = typer.Option(10, help="Increments per test."),
+    tests: str = typer.Option("step-diagonal,diagonal,linear",
+                              help="Comma-separated: step-diagonal, diagonal, linear, "
+                              "face-diagonal, face-step-diagonal."),
+    runs: int = typer.Option(5, help="Bidirectional runs per linear test (ISO 230-2)."),
+    step_orders: str = typer.Option("xyz", help="Axis orders of the step diagonals, e.g. xyz,yxz."),
+    tool_offset: str = typer.Option("0,0,0", help="Target point on the tool x,y,z [mm]."),
+    name: str = typer.Option("VMC-1", help="Machine name."),
+    output: Path = typer.Option(..., "-o", "--output", help="Session folder to write."),
+) -> None:
+    """Write a session skeleton: the commanded poses of every test, deviations empty."""
+    from volcal.plan.planner import plan_session
+    from volcal.session.format import write_session
+
+    s = plan_session(parse_travel(travel), chain, steps,
+                     [t.strip() for t in tests.split(",") if t.strip()], runs,
+                     [o.strip() for o in step_orders.split(",") if o.strip()],
+                     parse_vector(tool_offset, "--tool-offset"), name)
+    write_session(s, output)
+    n = sum(m.n for m in s.measurements)
+    console.print(f"planned {len(s.measurements)} measurements, {n} readings -> {output}")
+
+
+def simulate(
+    session: Path = typer.Argument(..., help="Session folder (planned or measured)."),
+    seed: int = typer.Option(0, help="Seed of the virtual machine and of the noise."),
+    noise_um: float = typer.Option(0.5, help="Repeatability noise per reading [um]."),
+    mirror_urad: float = typer.Option(20.0, help="Residual mirror misalignment [urad]."),
+    drift_um_per_h: float = typer.Option(0.0, help="Linear drift of the readings [um/h]."),
+    machine: Path | None = typer.Option(None, help="Error table ERRORS.csv (default: random)."),
+    reversal_um: float = typer.Option(0.0, help="Max reversal of a random machine's axes [um]."),
+) -> None:
+    """Fill the deviations from a virtual machine; keep its truth in SESSION/truth/."""
+    from volcal.measure.simulate import SimulationOptions, simulate_session, truth_files
+    from volcal.measure.virtual import ErrorRanges, random_machine
+    from volcal.session.errortable import read_error_table
+    from volcal.session.format import read_session, write_session
+
+    s = read_session(session, require_deviation=False)
+    if machine is not None:
+        vm = read_error_table(machine, chain=s.chain)
+        if str(vm.chain) != s.chain:
+            console.print(f"[yellow]note:[/] error table chain {vm.chain} differs from the "
+                          f"session's {s.chain}; using the session's chain")
+            vm.chain = s.chain
+            vm.__post_init__()
+    else:
+        vm = random_machine(s.travel, s.chain, seed,
+                            ranges=ErrorRanges(reversal_um=(0.0, reversal_um)),
+                            name=f"virtual {s.name}")
+    opts = SimulationOptions(noise_um=noise_um, mirror_misalignment_urad=mirror_urad,
+                             drift_um_per_h=drift_um_per_h, seed=seed)
+    setups = simulate_session(s, vm, opts)
+    write_session(s, session, truth_files(vm, setups, opts))
+    console.print(f"simulated {len(s.measurements)} measurements on '{vm.name}' "
+                  f"(noise {noise_um} um, mirror {mirror_urad} urad); truth in {session}/truth/")
+
+
+def register(app: typer.Typer) -> None:
+    """Add the commands of this module to the app."""
+    app.command("plan")(plan)
+    app.command("simulate")(simulate)

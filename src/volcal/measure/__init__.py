@@ -1,0 +1,1 @@
+"""Laser reading models and the virtual machine that simulates every test."""

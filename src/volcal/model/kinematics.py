@@ -1,0 +1,324 @@
+"""Pose of the tool relative to the workpiece: exact (homogeneous transforms) and first order.
+
+Model (``docs/conventions.md``): with the chain read from workpiece to tool, frame
+removed, as axes ``k1, k2, k3``, the actual pose of the tool point relative to the
+workpiece at commanded position ``q`` and tool offset ``t`` is
+
+.. math::
+
+    H(q) = \\prod_{k \\in (k_1,k_2,k_3)} T(q_k u_k)\\, T(\\delta_k(q_k))\\, R(\\varepsilon_k(q_k))
+           \\; T(t)
+
+with ``u_k`` the actual axis directions (squareness), ``delta_k`` the translational and
+``eps_k`` the rotational component errors of axis ``k`` and ``R`` the rotation by the
+rotation vector ``eps`` (Rodrigues). To first order the volumetric error is
+
+.. math::
+
+    e(q) = \\sum_k \\delta_k(q_k) + \\sum_k \\varepsilon_k(q_k) \\times L_k
+           + (-EC0Y\\,y + EB0Z\\,z,\\; -EA0Z\\,z,\\; 0),
+    \\qquad L_k = t + \\sum_{j \\text{ after } k} q_j e_j,
+
+which is Soons (2005) eq. (1) for the chain FXYZ. References: Soons, J.A., "Analysis of
+the step-diagonal test", Lamdamap 2005 (seed 004); ISO 230-1:2012, annex A.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+from numpy.typing import ArrayLike, NDArray
+
+from volcal.model.errorfunctions import MachineErrors, interp_weights
+
+UM = 1e-3  # mm per um
+URAD = 1e-6  # rad per urad
+
+__all__ = [
+    "axis_directions",
+    "exact_pose",
+    "first_order_pose",
+    "orientation_error",
+    "pose_jacobian",
+    "rotation_matrices",
+    "volumetric_error",
+    "volumetric_error_exact",
+]
+
+
+def _points(q: ArrayLike) -> NDArray[np.float64]:
+    q = np.asarray(q, dtype=float)
+    if q.ndim == 1:
+        q = q.reshape(1, 3)
+    if q.ndim != 2 or q.shape[1] != 3:
+        raise ValueError(f"positions must have shape (m, 3), got {q.shape}")
+    return q
+
+
+def _offsets(t: ArrayLike | None, m: int) -> NDArray[np.float64]:
+    if t is None:
+        return np.zeros((m, 3))
+    t = np.asarray(t, dtype=float)
+    return np.broadcast_to(t.reshape(-1, 3), (m, 3))
+
+
+def rotation_matrices(rotvec: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Rotation matrices from rotation vectors (Rodrigues' formula), vectorised.
+
+    Parameters
+    ----------
+    rotvec : ndarray, shape (m, 3)
+        Rotation vectors [rad].
+
+    Returns
+    -------
+    ndarray, shape (m, 3, 3)
+    """
+    theta = np.linalg.norm(rotvec, axis=1)
+    small = theta < 1e-12
+    th = np.where(small, 1.0, theta)
+    k = rotvec / th[:, None]
+    kx, ky, kz = k[:, 0], k[:, 1], k[:, 2]
+    zero = np.zeros_like(kx)
+    K = np.stack([np.stack([zero, -kz, ky], -1), np.stack([kz, zero, -kx], -1),
+                  np.stack([-ky, kx, zero], -1)], 1)
+    s = np.where(small, 0.0, np.sin(theta))[:, None, None]
+    c = np.where(small, 0.0, 1.0 - np.cos(theta))[:, None, None]
+    return np.eye(3)[None] + s * K + c * (K @ K)
+
+
+def axis_directions(squareness_urad: ArrayLike) -> NDArray[np.float64]:
+    """Actual unit directions of the X, Y and Z motions from the squareness errors.
+
+    Parameters
+    ----------
+    squareness_urad : array_like, shape (3,)
+        EC0Y, EB0Z, EA0Z [urad].
+
+    Returns
+    -------
+    ndarray, shape (3, 3)
+        Rows: direction of X, Y, Z. X is the reference; Y is rotated about Z by EC0Y;
+        Z is rotated about X by EA0Z and then about Y by EB0Z.
+    """
+    c0y, b0z, a0z = np.asarray(squareness_urad, dtype=float) * URAD
+    uy = np.array([-np.sin(c0y), np.cos(c0y), 0.0])
+    uz_x = np.array([0.0, -np.sin(a0z), np.cos(a0z)])
+    uz = np.array([uz_x[0] * np.cos(b0z) + uz_x[2] * np.sin(b0z), uz_x[1],
+                   -uz_x[0] * np.sin(b0z) + uz_x[2] * np.cos(b0z)])
+    return np.array([[1.0, 0.0, 0.0], uy, uz])
+
+
+def exact_pose(errors: MachineErrors, q: ArrayLike, tool_offset: ArrayLike | None = None):
+    """Exact pose of the tool point relative to the workpiece.
+
+    Parameters
+    ----------
+    errors : MachineErrors
+        The machine.
+    q : array_like, shape (m, 3)
+        Commanded positions [mm].
+    tool_offset : array_like, shape (3,) or (m, 3), optional
+        Tool point relative to the tool reference point, in the tool frame [mm].
+
+    Returns
+    -------
+    position : ndarray, shape (m, 3)
+        Actual position of the tool point [mm].
+    rotation : ndarray, shape (m, 3, 3)
+        Actual orientation of the tool relative to the workpiece.
+    """
+    q = _points(q)
+    m = q.shape[0]
+    t = _offsets(tool_offset, m)
+    u = axis_directions(errors.squareness)
+    p = np.zeros((m, 3))
+    R = np.broadcast_to(np.eye(3), (m, 3, 3)).copy()
+    for k in errors.chain_obj.order:
+        comp = errors.component(k, q[:, k])
+        local = q[:, k, None] * u[k][None, :] + comp[:, :3] * UM
+        p += np.einsum("mij,mj->mi", R, local)
+        R = R @ rotation_matrices(comp[:, 3:] * URAD)
+    p += np.einsum("mij,mj->mi", R, t)
+    return p, R
+
+
+def volumetric_error_exact(errors: MachineErrors, q: ArrayLike,
+                           tool_offset: ArrayLike | None = None) -> NDArray[np.float64]:
+    """Exact volumetric error: actual minus commanded tool point position [um].
+
+    Parameters
+    ----------
+    errors : MachineErrors
+        The machine.
+    q : array_like, shape (m, 3)
+        Commanded positions [mm].
+    tool_offset : array_like, shape (3,) or (m, 3), optional
+        Tool offset [mm].
+
+    Returns
+    -------
+    ndarray, shape (m, 3)
+        Error in machine axes X, Y, Z [um].
+    """
+    q = _points(q)
+    p, _ = exact_pose(errors, q, tool_offset)
+    return (p - q - _offsets(tool_offset, q.shape[0])) / UM
+
+
+def _levers(chain_order, q: NDArray[np.float64], t: NDArray[np.float64]):
+    """Abbe lever arms [mm] of each axis' rotation: tool offset plus downstream positions."""
+    levers = {}
+    acc = t.copy()
+    for k in reversed(chain_order):
+        levers[k] = acc.copy()
+        acc[:, k] += q[:, k]
+    return levers
+
+
+def first_order_pose(errors: MachineErrors, q: ArrayLike, tool_offset: ArrayLike | None = None):
+    """First-order (small-angle, linearised) volumetric and orientation errors.
+
+    Parameters
+    ----------
+    errors : MachineErrors
+        The machine.
+    q : array_like, shape (m, 3)
+        Commanded positions [mm].
+    tool_offset : array_like, shape (3,) or (m, 3), optional
+        Tool offset [mm].
+
+    Returns
+    -------
+    e : ndarray, shape (m, 3)
+        Volumetric error [um].
+    omega : ndarray, shape (m, 3)
+        Orientation error of the tool relative to the workpiece (rotation vector) [urad].
+    """
+    q = _points(q)
+    m = q.shape[0]
+    t = np.array(_offsets(tool_offset, m))
+    levers = _levers(errors.chain_obj.order, q, t)
+    e = np.zeros((m, 3))
+    omega = np.zeros((m, 3))
+    for k in range(3):
+        comp = errors.component(k, q[:, k])
+        e += comp[:, :3]
+        e += np.cross(comp[:, 3:], levers[k]) * (URAD / UM)
+        omega += comp[:, 3:]
+    c0y, b0z, a0z = errors.squareness
+    e[:, 0] += (-c0y * q[:, 1] + b0z * q[:, 2]) * (URAD / UM)
+    e[:, 1] += (-a0z * q[:, 2]) * (URAD / UM)
+    return e, omega
+
+
+def volumetric_error(errors: MachineErrors, q: ArrayLike,
+                     tool_offset: ArrayLike | None = None) -> NDArray[np.float64]:
+    """First-order volumetric error [um], vectorised over many points.
+
+    Parameters
+    ----------
+    errors : MachineErrors
+        The machine.
+    q : array_like, shape (m, 3)
+        Commanded positions [mm].
+    tool_offset : array_like, shape (3,) or (m, 3), optional
+        Tool offset [mm].
+
+    Returns
+    -------
+    ndarray, shape (m, 3)
+        Actual minus commanded position of the tool point, machine axes [um].
+    """
+    return first_order_pose(errors, q, tool_offset)[0]
+
+
+def orientation_error(errors: MachineErrors, q: ArrayLike) -> NDArray[np.float64]:
+    """First-order orientation error of the tool relative to the workpiece [urad].
+
+    Parameters
+    ----------
+    errors : MachineErrors
+        The machine.
+    q : array_like, shape (m, 3)
+        Commanded positions [mm].
+
+    Returns
+    -------
+    ndarray, shape (m, 3)
+        Rotation vector (about X, Y, Z) [urad].
+    """
+    return first_order_pose(errors, q)[1]
+
+
+def _cross_matrix_columns(L: NDArray[np.float64]) -> list[NDArray[np.float64]]:
+    """Columns of ``[.]x`` acting on a lever: ``e_a x L`` for a = x, y, z, each shape (m, 3)."""
+    zero = np.zeros(L.shape[0])
+    return [np.stack([zero, -L[:, 2], L[:, 1]], 1),
+            np.stack([L[:, 2], zero, -L[:, 0]], 1),
+            np.stack([-L[:, 1], L[:, 0], zero], 1)]
+
+
+def pose_jacobian(chain_order, nodes: list[NDArray[np.float64]], q: ArrayLike,
+                  tool_offset: ArrayLike | None = None):
+    """Jacobian of the first-order pose errors with respect to the tabulated node values.
+
+    The parameter vector is laid out as in :class:`volcal.model.parameters.ParameterLayout`:
+    for each axis X, Y, Z the node values row by row (6 per node: EX, EY, EZ [um],
+    EA, EB, EC [urad]), then the squareness EC0Y, EB0Z, EA0Z [urad].
+
+    Parameters
+    ----------
+    chain_order : sequence of int
+        Axis order from workpiece to tool (``Chain.order``).
+    nodes : list of 3 arrays
+        Node positions per axis [mm].
+    q : array_like, shape (m, 3)
+        Commanded positions [mm].
+    tool_offset : array_like, shape (3,) or (m, 3), optional
+        Tool offset [mm].
+
+    Returns
+    -------
+    Je : scipy.sparse.csr_matrix, shape (3m, P)
+        Volumetric error rows (point-major: e_x, e_y, e_z of point 0, then point 1...) [um].
+    Jo : scipy.sparse.csr_matrix, shape (3m, P)
+        Orientation error rows [urad].
+    """
+    q = _points(q)
+    m = q.shape[0]
+    t = np.array(_offsets(tool_offset, m))
+    levers = _levers(tuple(chain_order), q, t)
+    sizes = [len(n) * 6 for n in nodes]
+    starts = np.concatenate([[0], np.cumsum(sizes)])
+    P = int(starts[-1]) + 3
+    rows_e, cols_e, vals_e = [], [], []
+    rows_o, cols_o, vals_o = [], [], []
+    pts = np.arange(m)
+    for k in range(3):
+        i0, i1, w = interp_weights(nodes[k], q[:, k])
+        for node_idx, weight in ((i0, 1.0 - w), (i1, w)):
+            base = starts[k] + node_idx * 6
+            for c in range(3):  # translations
+                rows_e.append(3 * pts + c)
+                cols_e.append(base + c)
+                vals_e.append(weight)
+            crosses = _cross_matrix_columns(levers[k])
+            for a in range(3):  # rotations
+                for c in range(3):
+                    rows_e.append(3 * pts + c)
+                    cols_e.append(base + 3 + a)
+                    vals_e.append(weight * crosses[a][:, c] * (URAD / UM))
+                rows_o.append(3 * pts + a)
+                cols_o.append(base + 3 + a)
+                vals_o.append(weight)
+    sq = starts[-1]
+    for col, comp, val in ((sq, 0, -q[:, 1]), (sq + 1, 0, q[:, 2]), (sq + 2, 1, -q[:, 2])):
+        rows_e.append(3 * pts + comp)
+        cols_e.append(np.full(m, col))
+        vals_e.append(val * (URAD / UM))
+    Je = sp.csr_matrix((np.concatenate(vals_e), (np.concatenate(rows_e), np.concatenate(cols_e))),
+                       shape=(3 * m, P))
+    Jo = sp.csr_matrix((np.concatenate(vals_o), (np.concatenate(rows_o), np.concatenate(cols_o))),
+                       shape=(3 * m, P))
+    return Je, Jo

@@ -1,0 +1,1 @@
+"""Plan the measurements: test geometry and session skeletons."""

@@ -1,0 +1,160 @@
+"""Plan a calibration session: the seeds' test set as a session skeleton.
+
+The default plan is the seeds' full test set: 4 body step diagonals with a flat mirror
+(Wang & Liotto, seed 000, section 4), the 4 body diagonals with a retroreflector
+(ISO 230-6, section 3) and 3 linear lines per axis at different Abbe offsets
+(seed 000 section 6, seed 001), each line with bidirectional runs as ISO 230-2 asks.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from volcal.errors import VolcalInputError
+from volcal.model.chain import parse_chain
+from volcal.model.names import AXES
+from volcal.plan.geometry import (
+    BODY_DIAGONALS,
+    FACE_DIAGONALS,
+    FACE_PLANES,
+    TestGeometry,
+    diagonal_test,
+    linear_test,
+    step_diagonal_test,
+)
+from volcal.session.format import Measurement, Session
+
+TEST_NAMES: tuple[str, ...] = (
+    "step-diagonal", "diagonal", "linear", "face-diagonal", "face-step-diagonal",
+)
+
+__all__ = ["TEST_NAMES", "abbe_lines", "plan_session"]
+
+
+def abbe_lines(axis: int, travel: np.ndarray) -> list[np.ndarray]:
+    """Three line positions for one axis: reference edge, then offset in each other axis.
+
+    Parameters
+    ----------
+    axis : int
+        Measured axis.
+    travel : ndarray, shape (3, 2)
+        Travel limits [mm].
+
+    Returns
+    -------
+    list of ndarray, shape (3,)
+        Points on the three lines [mm] (the measured axis' coordinate is irrelevant).
+    """
+    a, b = [k for k in range(3) if k != axis]
+    base = travel[:, 0].copy()
+    p1 = base.copy()
+    p2 = base.copy()
+    p2[a] = travel[a, 1]
+    p3 = base.copy()
+    p3[b] = travel[b, 1]
+    return [p1, p2, p3]
+
+
+def _measurement(mid: str, kind: str, target: str, g: TestGeometry, offset, notes: str
+                 ) -> Measurement:
+    cols = {}
+    if g.run is not None and kind == "linear":
+        cols["run"] = g.run
+    if g.direction is not None:
+        cols["direction"] = g.direction
+    meta = {k: v for k, v in g.meta.items() if k != "line_mm"}
+    if "line_mm" in g.meta:
+        meta["line_mm"] = g.meta["line_mm"]
+    meta["notes"] = notes
+    return Measurement(mid, kind, target, g.positions, None, g.beam_direction, offset,
+                       f"{mid}.csv", cols, meta)
+
+
+def plan_session(travel: ArrayLike, chain: str = "XYFZ", steps: int = 10,
+                 tests: Sequence[str] = ("step-diagonal", "diagonal", "linear"),
+                 runs: int = 5, step_orders: Sequence[str] = ("xyz",),
+                 tool_offset: ArrayLike = (0.0, 0.0, 0.0), name: str = "VMC-1",
+                 step_target: str = "flat_mirror") -> Session:
+    """Plan a session skeleton (commanded poses, deviations empty).
+
+    Parameters
+    ----------
+    travel : array_like, shape (3, 2)
+        Travel limits [mm].
+    chain : str
+        Chain code.
+    steps : int
+        Increments per test.
+    tests : sequence of str
+        Any of ``step-diagonal``, ``diagonal``, ``linear``, ``face-diagonal``,
+        ``face-step-diagonal``.
+    runs : int
+        Bidirectional runs of each linear test (ISO 230-2 asks for 5).
+    step_orders : sequence of str
+        Axis orders of the step diagonals; one set of 4 step diagonals per order.
+    tool_offset : array_like, shape (3,)
+        Target point relative to the tool reference point [mm].
+    name : str
+        Machine name.
+    step_target : str
+        Target of the step diagonals: ``'flat_mirror'`` (Wang) or ``'retroreflector'``.
+
+    Returns
+    -------
+    Session
+    """
+    t = np.asarray(travel, dtype=float).reshape(3, 2)
+    parse_chain(chain)
+    unknown = [x for x in tests if x not in TEST_NAMES]
+    if unknown:
+        raise VolcalInputError(f"unknown test(s) {', '.join(unknown)}: expected any of "
+                               f"{', '.join(TEST_NAMES)}")
+    if steps < 1 or steps > 10000:
+        raise VolcalInputError("steps must be between 1 and 10000")
+    if runs < 1:
+        raise VolcalInputError("runs must be at least 1")
+    meas: list[Measurement] = []
+    off = np.asarray(tool_offset, dtype=float)
+    for test in tests:
+        if test == "step-diagonal":
+            for order in step_orders:
+                suffix = "" if order == "xyz" else f"-{order}"
+                for code in BODY_DIAGONALS:
+                    g = step_diagonal_test(code, t, steps, order)
+                    meas.append(_measurement(f"step-{code}{suffix}", "step_diagonal", step_target,
+                                             g, off, f"sequential step diagonal {code}, axis "
+                                             f"order {order}, {step_target.replace('_', ' ')} "
+                                             "on the tool"))
+        elif test == "diagonal":
+            for code in BODY_DIAGONALS:
+                g = diagonal_test(code, t, steps)
+                meas.append(_measurement(f"diag-{code}", "diagonal", "retroreflector", g, off,
+                                         f"body diagonal {code} (ISO 230-6), retroreflector"))
+        elif test == "face-diagonal":
+            for plane in FACE_PLANES:
+                for code in FACE_DIAGONALS:
+                    g = diagonal_test(code, t, steps, plane=plane)
+                    meas.append(_measurement(f"face-{plane}-{code}", "diagonal", "retroreflector",
+                                             g, off, f"face diagonal {code} in {plane.upper()}"))
+        elif test == "face-step-diagonal":
+            for plane in FACE_PLANES:
+                for code in FACE_DIAGONALS:
+                    g = step_diagonal_test(code, t, steps, plane, plane=plane)
+                    meas.append(_measurement(f"fstep-{plane}-{code}", "step_diagonal",
+                                             step_target, g, off,
+                                             f"face step diagonal {code} in {plane.upper()}"))
+        elif test == "linear":
+            for k in range(3):
+                for i, line in enumerate(abbe_lines(k, t), start=1):
+                    g = linear_test(k, t, steps, line, runs=runs, bidirectional=True)
+                    others = ", ".join(f"{AXES[j].lower()}={line[j]:g} mm" for j in range(3)
+                                       if j != k)
+                    meas.append(_measurement(f"linear-{AXES[k].lower()}{i}", "linear",
+                                             "retroreflector", g, off,
+                                             f"linear {AXES[k]} at {others}, {runs} "
+                                             "bidirectional runs (ISO 230-2)"))
+    return Session(name, chain, t, meas)

@@ -1,0 +1,174 @@
+"""Error tables: a machine's 21 errors as CSV (component errors) + TOML (squareness, chain).
+
+``MACHINE.csv`` has the header ``axis,position_mm,EX_um,EY_um,EZ_um,EA_urad,EB_urad,EC_urad``
+and one row per node of each axis; ``MACHINE.toml`` beside it holds::
+
+    format = "volcal-errors/1"
+    name = "VMC-1"
+    chain = "XYFZ"
+    [squareness_urad]
+    EC0Y = 12.0
+    EB0Z = -5.0
+    EA0Z = 30.0
+    [reversal_um]
+    x = 0.0
+    y = 0.0
+    z = 0.0
+
+See ``docs/formats.md``.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import tomli_w
+
+from volcal.errors import VolcalInputError
+from volcal.io.atomic import write_text
+from volcal.model.errorfunctions import MachineErrors
+from volcal.model.names import AXES, SQUARENESS_NAMES
+
+ERRORS_FORMAT = "volcal-errors/1"
+HEADER = ("axis", "position_mm", "EX_um", "EY_um", "EZ_um", "EA_urad", "EB_urad", "EC_urad")
+
+__all__ = ["ERRORS_FORMAT", "read_error_table", "write_error_table"]
+
+
+def error_table_csv(errors: MachineErrors) -> str:
+    """CSV text of the component errors."""
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(HEADER)
+    for k in range(3):
+        for pos, row in zip(errors.nodes[k], errors.values[k], strict=True):
+            w.writerow([AXES[k], f"{pos:.6g}", *(f"{v:.6f}" for v in row)])
+    return buf.getvalue()
+
+
+def error_table_toml(errors: MachineErrors) -> str:
+    """TOML text of the squareness, reversal and chain."""
+    doc = {
+        "format": ERRORS_FORMAT,
+        "name": errors.name,
+        "chain": str(errors.chain),
+        "squareness_urad": {n: float(v) for n, v in zip(SQUARENESS_NAMES, errors.squareness,
+                                                         strict=True)},
+        "reversal_um": {a: float(v) for a, v in zip("xyz", errors.reversal, strict=True)},
+    }
+    return tomli_w.dumps(doc)
+
+
+def write_error_table(errors: MachineErrors, path: str | Path) -> Path:
+    """Write ``MACHINE.csv`` and ``MACHINE.toml`` atomically.
+
+    Parameters
+    ----------
+    errors : MachineErrors
+        The machine.
+    path : str or Path
+        Path of the CSV file; the TOML file gets the same stem.
+
+    Returns
+    -------
+    Path
+        The CSV path.
+    """
+    path = Path(path).with_suffix(".csv")
+    write_text(path.with_suffix(".toml"), error_table_toml(errors))
+    write_text(path, error_table_csv(errors))
+    return path
+
+
+def read_error_table(path: str | Path, chain: str | None = None) -> MachineErrors:
+    """Read an error table (CSV, and the TOML beside it if present).
+
+    Parameters
+    ----------
+    path : str or Path
+        The CSV file.
+    chain : str, optional
+        Chain code to use when there is no TOML file (default ``'XYFZ'``).
+
+    Returns
+    -------
+    MachineErrors
+
+    Raises
+    ------
+    VolcalInputError
+        Naming the file, row and column of the problem.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise VolcalInputError("error table not found", path)
+    try:
+        rows = [r for r in csv.reader(io.StringIO(path.read_text(encoding="utf-8-sig")))
+                if any(c.strip() for c in r)]
+    except (UnicodeDecodeError, csv.Error) as exc:
+        raise VolcalInputError(f"cannot read the CSV ({exc})", path) from None
+    if not rows or tuple(h.strip() for h in rows[0]) != HEADER:
+        raise VolcalInputError(f"expected the header {','.join(HEADER)}", path, 1)
+    per_axis: dict[int, list[list[float]]] = {0: [], 1: [], 2: []}
+    for i, r in enumerate(rows[1:], start=2):
+        if len(r) != len(HEADER):
+            raise VolcalInputError(f"expected {len(HEADER)} fields, found {len(r)}", path, i)
+        a = r[0].strip().upper()
+        if a not in AXES:
+            raise VolcalInputError(f"unknown axis {r[0]!r}: expected X, Y or Z", path, i, "axis")
+        vals = []
+        for j, text in enumerate(r[1:], start=1):
+            try:
+                v = float(text)
+            except ValueError:
+                raise VolcalInputError(f"not a number: {text!r}", path, i, HEADER[j]) from None
+            if not math.isfinite(v):
+                raise VolcalInputError("not a finite number", path, i, HEADER[j])
+            vals.append(v)
+        if per_axis[AXES.index(a)] and vals[0] <= per_axis[AXES.index(a)][-1][0]:
+            raise VolcalInputError("positions of an axis must increase strictly", path, i,
+                                   "position_mm")
+        per_axis[AXES.index(a)].append(vals)
+    for k in range(3):
+        if not per_axis[k]:
+            raise VolcalInputError(f"no rows for axis {AXES[k]}", path)
+    sq = np.zeros(3)
+    rev = np.zeros(3)
+    name = path.stem
+    toml_path = path.with_suffix(".toml")
+    if toml_path.is_file():
+        try:
+            doc = tomllib.loads(toml_path.read_text(encoding="utf-8"))
+        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+            raise VolcalInputError(f"invalid TOML: {exc}", toml_path) from None
+        if doc.get("format") != ERRORS_FORMAT:
+            raise VolcalInputError(f"expected format = \"{ERRORS_FORMAT}\"", toml_path, None,
+                                   "format")
+        chain = doc.get("chain", chain)
+        name = doc.get("name", name)
+        for i, n in enumerate(SQUARENESS_NAMES):
+            v = doc.get("squareness_urad", {}).get(n, 0.0)
+            if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+                raise VolcalInputError("expected a number [urad]", toml_path, None,
+                                       f"squareness_urad.{n}")
+            sq[i] = v
+        for i, a in enumerate("xyz"):
+            v = doc.get("reversal_um", {}).get(a, 0.0)
+            if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+                raise VolcalInputError("expected a number [um]", toml_path, None,
+                                       f"reversal_um.{a}")
+            rev[i] = v
+    try:
+        from volcal.model.chain import parse_chain
+
+        parse_chain(chain or "XYFZ")
+    except VolcalInputError as exc:
+        raise VolcalInputError(exc.message, toml_path, None, "chain") from None
+    nodes = [np.array([v[0] for v in per_axis[k]]) for k in range(3)]
+    values = [np.array([v[1:] for v in per_axis[k]]) for k in range(3)]
+    return MachineErrors(chain or "XYFZ", nodes, values, sq, rev, name=str(name))

@@ -1,0 +1,499 @@
+"""Read and write sessions: a folder with ``session.toml`` and one CSV per measurement.
+
+The format (``volcal-session/1``) is documented in ``docs/formats.md``. Readers validate
+everything and raise :class:`~volcal.errors.VolcalInputError` naming the file, row and
+column; writers build the whole folder aside and move it into place.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import tomli_w
+from numpy.typing import NDArray
+
+from volcal.errors import VolcalInputError
+from volcal.io.atomic import atomic_dir, write_text
+from volcal.model.chain import parse_chain
+
+SESSION_FORMAT = "volcal-session/1"
+KINDS: tuple[str, ...] = ("linear", "diagonal", "step_diagonal")
+TARGETS: tuple[str, ...] = ("flat_mirror", "retroreflector")
+REQUIRED_COLUMNS: tuple[str, ...] = ("x_mm", "y_mm", "z_mm", "deviation_um")
+OPTIONAL_COLUMNS: dict[str, str] = {
+    "run": "int",
+    "direction": "dir",
+    "time_s": "float",
+    "air_temperature_c": "float",
+    "air_pressure_pa": "float",
+    "humidity_pct": "float",
+    "material_temperature_c": "float",
+}
+MIN_ROWS = 2
+
+__all__ = [
+    "KINDS",
+    "SESSION_FORMAT",
+    "TARGETS",
+    "Measurement",
+    "Session",
+    "read_measurement_csv",
+    "read_session",
+    "write_session",
+]
+
+
+@dataclass
+class Measurement:
+    """One laser measurement: its set-up and its readings.
+
+    Attributes
+    ----------
+    id : str
+        Unique name within the session.
+    kind : str
+        ``'linear'``, ``'diagonal'`` or ``'step_diagonal'``.
+    target : str
+        ``'flat_mirror'`` or ``'retroreflector'``.
+    positions : ndarray, shape (n, 3)
+        Commanded position of each reading [mm].
+    deviation : ndarray, shape (n,), or None
+        Laser reading minus commanded displacement along the nominal beam, counted from
+        the first row [um]; None in a planned (unmeasured) skeleton.
+    beam_direction : ndarray, shape (3,)
+        Nominal beam direction, unit vector in machine axes.
+    tool_offset : ndarray, shape (3,)
+        Target point relative to the tool reference point [mm].
+    file : str
+        CSV file name, relative to the session folder.
+    columns : dict of str to ndarray
+        Optional columns (``run``, ``direction``, ``time_s``, environment columns).
+    meta : dict
+        Optional metadata: ``axis``, ``axis_order``, ``diagonal``, ``plane``, ``notes``,
+        ``environment`` (table), ``readings`` (``'deviation'`` or ``'raw'``)...
+    """
+
+    id: str
+    kind: str
+    target: str
+    positions: NDArray[np.float64]
+    deviation: NDArray[np.float64] | None
+    beam_direction: NDArray[np.float64]
+    tool_offset: NDArray[np.float64] = field(default_factory=lambda: np.zeros(3))
+    file: str = ""
+    columns: dict[str, NDArray[Any]] = field(default_factory=dict)
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if not self.file:
+            self.file = f"{self.id}.csv"
+        self.positions = np.asarray(self.positions, dtype=float).reshape(-1, 3)
+        self.beam_direction = np.asarray(self.beam_direction, dtype=float).reshape(3)
+        self.tool_offset = np.asarray(self.tool_offset, dtype=float).reshape(3)
+
+    @property
+    def n(self) -> int:
+        """Number of readings."""
+        return self.positions.shape[0]
+
+    @property
+    def run(self) -> NDArray[np.int64] | None:
+        """Run number of each reading, if recorded."""
+        return self.columns.get("run")
+
+    @property
+    def direction(self) -> NDArray[np.str_] | None:
+        """Approach direction ``'+'``/``'-'`` of each reading, if recorded."""
+        return self.columns.get("direction")
+
+    @property
+    def axis(self) -> int | None:
+        """Measured axis index of a linear test (from metadata or the positions)."""
+        if self.kind != "linear":
+            return None
+        a = self.meta.get("axis")
+        if isinstance(a, str) and a.upper() in "XYZ":
+            return "XYZ".index(a.upper())
+        return int(np.argmax(np.ptp(self.positions, axis=0)))
+
+    def to_toml(self) -> dict[str, Any]:
+        """The measurement's entry in ``session.toml``."""
+        d: dict[str, Any] = {
+            "id": self.id,
+            "kind": self.kind,
+            "target": self.target,
+            "beam_direction": [float(v) for v in self.beam_direction],
+            "tool_offset_mm": [float(v) for v in self.tool_offset],
+            "file": self.file,
+        }
+        for k, v in self.meta.items():
+            d[k] = v
+        return d
+
+    def to_csv(self) -> str:
+        """The measurement's CSV text (header ``x_mm,y_mm,z_mm,deviation_um`` + optional)."""
+        extra = [c for c in OPTIONAL_COLUMNS if c in self.columns]
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        w.writerow([*REQUIRED_COLUMNS, *extra])
+        for i in range(self.n):
+            row = [_fmt(v) for v in self.positions[i]]
+            row.append("" if self.deviation is None else f"{self.deviation[i]:.6f}")
+            for c in extra:
+                v = self.columns[c][i]
+                row.append(str(v) if OPTIONAL_COLUMNS[c] in ("int", "dir") else _fmt(v))
+            w.writerow(row)
+        return buf.getvalue()
+
+
+def _fmt(v: float) -> str:
+    return f"{float(v):.6f}".rstrip("0").rstrip(".") if math.isfinite(v) else "nan"
+
+
+@dataclass
+class Session:
+    """A calibration session: the machine and its measurements.
+
+    Attributes
+    ----------
+    name : str
+        Machine name.
+    chain : str
+        Kinematic chain code (``'XYFZ'``...).
+    travel : ndarray, shape (3, 2)
+        Travel limits of X, Y, Z [mm].
+    measurements : list of Measurement
+    meta : dict
+        Other ``[machine]`` keys kept as they were read.
+    path : Path, optional
+        Folder the session was read from.
+    """
+
+    name: str
+    chain: str
+    travel: NDArray[np.float64]
+    measurements: list[Measurement] = field(default_factory=list)
+    meta: dict[str, Any] = field(default_factory=dict)
+    path: Path | None = None
+
+    def __post_init__(self) -> None:
+        self.chain = parse_chain(self.chain).code
+        self.travel = np.asarray(self.travel, dtype=float).reshape(3, 2)
+
+    def get(self, mid: str) -> Measurement:
+        """Measurement by id."""
+        for m in self.measurements:
+            if m.id == mid:
+                return m
+        raise KeyError(mid)
+
+    def to_toml(self) -> dict[str, Any]:
+        """The content of ``session.toml``."""
+        machine: dict[str, Any] = {"name": self.name, "chain": self.chain}
+        machine.update(self.meta)
+        machine["travel_mm"] = {a: [float(v) for v in self.travel[i]] for i, a in enumerate("xyz")}
+        return {"format": SESSION_FORMAT, "machine": machine,
+                "measurements": [m.to_toml() for m in self.measurements]}
+
+
+def write_session(session: Session, folder: str | Path, extra_files: dict[str, str] | None = None
+                  ) -> Path:
+    """Write a session folder atomically (built aside, then moved into place).
+
+    Parameters
+    ----------
+    session : Session
+        The session.
+    folder : str or Path
+        Target folder; replaced if it exists.
+    extra_files : dict of str to str, optional
+        Further text files to write, relative path -> content (e.g. the simulation truth).
+
+    Returns
+    -------
+    Path
+        The folder.
+    """
+    folder = Path(folder)
+    names = [m.file for m in session.measurements]
+    if len(set(names)) != len(names):
+        raise VolcalInputError("two measurements share one file name")
+    with atomic_dir(folder) as tmp:
+        (tmp / "session.toml").write_text(tomli_w.dumps(session.to_toml()), encoding="utf-8")
+        for m in session.measurements:
+            (tmp / m.file).parent.mkdir(parents=True, exist_ok=True)
+            (tmp / m.file).write_text(m.to_csv(), encoding="utf-8")
+        for rel, text in (extra_files or {}).items():
+            (tmp / rel).parent.mkdir(parents=True, exist_ok=True)
+            (tmp / rel).write_text(text, encoding="utf-8")
+    session.path = folder
+    return folder
+
+
+def update_measurement_files(session: Session) -> None:
+    """Rewrite the CSV files and ``session.toml`` of a session read from disk, file by file.
+
+    Each file is replaced atomically.
+
+    Parameters
+    ----------
+    session : Session
+        A session with ``path`` set.
+    """
+    assert session.path is not None
+    for m in session.measurements:
+        write_text(session.path / m.file, m.to_csv())
+    write_text(session.path / "session.toml", tomli_w.dumps(session.to_toml()))
+
+
+# ----------------------------------------------------------------------------- readers
+
+def _err(msg: str, file: Path, row: int | None = None, col: str | None = None):
+    return VolcalInputError(msg, file, row, col)
+
+
+def _vec3(value: Any, file: Path, key: str, nonzero: bool = False) -> NDArray[np.float64]:
+    if not isinstance(value, list) or len(value) != 3:
+        raise _err("expected a list of 3 numbers", file, None, key)
+    out = []
+    for v in value:
+        if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+            raise _err(f"expected finite numbers, got {v!r}", file, None, key)
+        out.append(float(v))
+    a = np.array(out)
+    if nonzero and np.linalg.norm(a) < 1e-12:
+        raise _err("a direction must not be the zero vector", file, None, key)
+    return a
+
+
+def _parse_float(text: str, file: Path, row: int, col: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise _err(f"not a number: {text!r}", file, row, col) from None
+    if not math.isfinite(v):
+        raise _err(f"not a finite number: {text!r}", file, row, col)
+    return v
+
+
+_UNIT_HINTS = {"deviation": "um", "x": "mm", "y": "mm", "z": "mm"}
+
+
+def read_measurement_csv(path: str | Path, require_deviation: bool = True):
+    """Read one measurement CSV.
+
+    Parameters
+    ----------
+    path : str or Path
+        CSV file with the header ``x_mm,y_mm,z_mm,deviation_um`` and optional columns.
+    require_deviation : bool
+        If False, an empty ``deviation_um`` column is accepted (a planned skeleton).
+
+    Returns
+    -------
+    positions : ndarray, shape (n, 3)
+        Commanded positions [mm].
+    deviation : ndarray, shape (n,) or None
+        Deviations [um]; None if the column is empty and not required.
+    columns : dict
+        Optional columns.
+
+    Raises
+    ------
+    VolcalInputError
+        Naming file, row (1-based, header = row 1) and column.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except FileNotFoundError:
+        raise _err("measurement file not found", path) from None
+    except (UnicodeDecodeError, IsADirectoryError, PermissionError) as exc:
+        raise _err(f"cannot read the file as UTF-8 text ({exc.__class__.__name__})", path) from None
+    try:
+        rows = list(csv.reader(io.StringIO(text)))
+    except csv.Error as exc:
+        raise _err(f"malformed CSV: {exc}", path) from None
+    rows = [r for r in rows if any(c.strip() for c in r)]
+    if not rows:
+        raise _err("empty file: expected the header x_mm,y_mm,z_mm,deviation_um", path, 1)
+    header = [h.strip() for h in rows[0]]
+    if len(set(header)) != len(header):
+        dup = next(h for h in header if header.count(h) > 1)
+        raise _err("duplicate column", path, 1, dup)
+    for req in REQUIRED_COLUMNS:
+        if req not in header:
+            stem = req.rsplit("_", 1)[0]
+            other = [h for h in header if h.rsplit("_", 1)[0] == stem]
+            if other:
+                raise _err(f"unknown or unsupported unit: expected '{req}' "
+                           f"[{_UNIT_HINTS.get(stem, '')}]", path, 1, other[0])
+            raise _err(f"missing required column '{req}' (header: {','.join(header)})",
+                       path, 1, req)
+    idx = {h: i for i, h in enumerate(header)}
+    data = rows[1:]
+    if len(data) < MIN_ROWS:
+        raise _err(f"need at least {MIN_ROWS} readings, found {len(data)}", path, len(data) + 1)
+    n = len(data)
+    pos = np.empty((n, 3))
+    dev_text = [r[idx["deviation_um"]].strip() if idx["deviation_um"] < len(r) else ""
+                for r in data]
+    empty_dev = all(t == "" for t in dev_text)
+    dev = None if (empty_dev and not require_deviation) else np.empty(n)
+    extra_cols = [h for h in header if h in OPTIONAL_COLUMNS]
+    cols: dict[str, list[Any]] = {c: [] for c in extra_cols}
+    for i, r in enumerate(data):
+        rownum = i + 2
+        if len(r) != len(header):
+            raise _err(f"expected {len(header)} fields, found {len(r)}", path, rownum)
+        for j, c in enumerate(("x_mm", "y_mm", "z_mm")):
+            pos[i, j] = _parse_float(r[idx[c]].strip(), path, rownum, c)
+        if dev is not None:
+            t = dev_text[i]
+            if t == "":
+                raise _err("missing deviation", path, rownum, "deviation_um")
+            dev[i] = _parse_float(t, path, rownum, "deviation_um")
+        for c in extra_cols:
+            t = r[idx[c]].strip()
+            kind = OPTIONAL_COLUMNS[c]
+            if kind == "int":
+                try:
+                    v = int(t)
+                except ValueError:
+                    raise _err(f"expected a whole number, got {t!r}", path, rownum, c) from None
+                if v < 0:
+                    raise _err("run numbers must not be negative", path, rownum, c)
+                cols[c].append(v)
+            elif kind == "dir":
+                if t not in ("+", "-"):
+                    raise _err(f"direction must be '+' or '-', got {t!r}", path, rownum, c)
+                cols[c].append(t)
+            else:
+                cols[c].append(_parse_float(t, path, rownum, c))
+    out: dict[str, NDArray[Any]] = {}
+    for c, v in cols.items():
+        out[c] = np.array(v, dtype=int if OPTIONAL_COLUMNS[c] == "int" else
+                          (str if OPTIONAL_COLUMNS[c] == "dir" else float))
+    return pos, dev, out
+
+
+def read_session(folder: str | Path, require_deviation: bool = True) -> Session:
+    """Read and validate a session folder.
+
+    Parameters
+    ----------
+    folder : str or Path
+        Folder with ``session.toml`` (or the path of ``session.toml`` itself).
+    require_deviation : bool
+        If False, planned skeletons with empty deviations load.
+
+    Returns
+    -------
+    Session
+
+    Raises
+    ------
+    VolcalInputError
+        Naming the file, row and column (TOML key) of the first problem.
+    """
+    folder = Path(folder)
+    if folder.is_file():
+        folder = folder.parent
+    toml_path = folder / "session.toml"
+    if not toml_path.exists():
+        raise _err("no session.toml in this folder (is it a volcal session?)", folder)
+    try:
+        doc = tomllib.loads(toml_path.read_text(encoding="utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise _err(f"invalid TOML: {exc}", toml_path) from None
+    fmt = doc.get("format")
+    if fmt != SESSION_FORMAT:
+        raise _err(f"expected format = \"{SESSION_FORMAT}\", got {fmt!r}", toml_path, None, "format")
+    machine = doc.get("machine")
+    if not isinstance(machine, dict):
+        raise _err("missing [machine] table", toml_path, None, "machine")
+    name = machine.get("name", "machine")
+    if not isinstance(name, str):
+        raise _err("machine name must be a string", toml_path, None, "machine.name")
+    chain = machine.get("chain")
+    try:
+        parse_chain(chain)
+    except VolcalInputError as exc:
+        raise _err(exc.message, toml_path, None, "machine.chain") from None
+    tr = machine.get("travel_mm")
+    if not isinstance(tr, dict):
+        raise _err("missing [machine.travel_mm] table with x, y, z = [min, max]", toml_path, None,
+                   "machine.travel_mm")
+    travel = np.empty((3, 2))
+    for i, a in enumerate("xyz"):
+        v = tr.get(a)
+        key = f"machine.travel_mm.{a}"
+        if (not isinstance(v, list) or len(v) != 2
+                or any(isinstance(x, bool) or not isinstance(x, int | float) for x in v)
+                or not all(math.isfinite(x) for x in v)):
+            raise _err("expected [min, max] in mm", toml_path, None, key)
+        if v[1] <= v[0]:
+            raise _err("travel max must exceed min", toml_path, None, key)
+        travel[i] = v
+    meta = {k: v for k, v in machine.items() if k not in ("name", "chain", "travel_mm")}
+    raw = doc.get("measurements", [])
+    if not isinstance(raw, list) or not raw:
+        raise _err("no [[measurements]] in the session", toml_path, None, "measurements")
+    seen: set[str] = set()
+    meas = []
+    for i, e in enumerate(raw):
+        meas.append(_read_entry(e, i, folder, toml_path, seen, require_deviation))
+    return Session(name, chain, travel, meas, meta, folder)
+
+
+def _read_entry(e: Any, i: int, folder: Path, toml_path: Path, seen: set[str],
+                require_deviation: bool) -> Measurement:
+    where = f"measurements[{i}]"
+    if not isinstance(e, dict):
+        raise _err("each [[measurements]] entry must be a table", toml_path, None, where)
+    mid = e.get("id")
+    if not isinstance(mid, str) or not mid:
+        raise _err("missing or empty id", toml_path, None, f"{where}.id")
+    if mid in seen:
+        raise _err(f"duplicate measurement id {mid!r}", toml_path, None, f"{where}.id")
+    seen.add(mid)
+    kind = e.get("kind")
+    if kind not in KINDS:
+        raise _err(f"unknown kind {kind!r}: expected one of {', '.join(KINDS)}", toml_path, None,
+                   f"{where}.kind")
+    target = e.get("target", "retroreflector")
+    if target not in TARGETS:
+        raise _err(f"unknown target {target!r}: expected one of {', '.join(TARGETS)}", toml_path,
+                   None, f"{where}.target")
+    file = e.get("file")
+    if not isinstance(file, str) or not file:
+        raise _err("missing file name", toml_path, None, f"{where}.file")
+    csv_path = folder / file
+    if not csv_path.is_file():
+        raise _err(f"measurement file {file!r} not found beside session.toml", toml_path, None,
+                   f"{where}.file")
+    offset = _vec3(e.get("tool_offset_mm", [0, 0, 0]), toml_path, f"{where}.tool_offset_mm")
+    pos, dev, cols = read_measurement_csv(csv_path, require_deviation)
+    if "beam_direction" in e:
+        n = _vec3(e["beam_direction"], toml_path, f"{where}.beam_direction", nonzero=True)
+    else:
+        d = pos - pos[0]
+        far = int(np.argmax(np.linalg.norm(d, axis=1)))
+        if np.linalg.norm(d[far]) < 1e-9:
+            raise _err("all readings at one position: cannot infer the beam direction",
+                       csv_path)
+        n = d[far]
+    n = n / np.linalg.norm(n)
+    meta = {k: v for k, v in e.items()
+            if k not in ("id", "kind", "target", "file", "tool_offset_mm", "beam_direction")}
+    env = meta.get("environment")
+    if env is not None and not isinstance(env, dict):
+        raise _err("environment must be a table", toml_path, None, f"{where}.environment")
+    return Measurement(mid, kind, target, pos, dev, n, offset, file, cols, meta)

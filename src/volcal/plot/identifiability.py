@@ -1,0 +1,117 @@
+"""Identifiability overview: what the measurements pin down and what they leave open.
+
+Left: the largest standard uncertainty of each of the 21 errors over its nodes
+(translations [um], rotations and squareness [urad]), log scale; functions the tests do
+not determine (for instance the roll errors, which no laser displacement reading sees:
+Wang & Liotto 2003, seed 000, section 1) show as tall or missing bars marked "n/i".
+Right, when given: the singular values of the scaled observation matrix, whose tail
+shows how close the problem is to losing rank (Golub & Van Loan, Matrix Computations,
+4th ed., 2013, 2.4 and 6.1).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from matplotlib.figure import Figure
+from numpy.typing import ArrayLike, NDArray
+
+from volcal.model.names import AXES, COMPONENTS, SQUARENESS_NAMES
+from volcal.plot._figure import new_figure
+
+__all__ = ["function_uncertainty", "identifiability_plot"]
+
+
+def function_uncertainty(std: Sequence[NDArray[np.float64]],
+                         squareness_std: ArrayLike | None = None) -> dict[str, float]:
+    """Largest standard uncertainty of each error function over its nodes.
+
+    Parameters
+    ----------
+    std : list of 3 arrays, shape (n_k, 6)
+        Standard uncertainties of the node values [um] / [urad].
+    squareness_std : array_like, shape (3,), optional
+        Standard uncertainties of EC0Y, EB0Z, EA0Z [urad].
+
+    Returns
+    -------
+    dict of str to float
+        ISO 230-1 name -> max standard uncertainty [um] or [urad]; ``inf`` where any
+        node is undetermined (non-finite).
+    """
+    out: dict[str, float] = {}
+    for a in range(3):
+        s = np.asarray(std[a], dtype=float).reshape(-1, 6)
+        for c in range(6):
+            col = s[:, c]
+            out[COMPONENTS[c] + AXES[a]] = (float(np.max(col)) if np.all(np.isfinite(col))
+                                            else float("inf"))
+    if squareness_std is not None:
+        for n, v in zip(SQUARENESS_NAMES, np.asarray(squareness_std, dtype=float).reshape(3),
+                        strict=True):
+            out[n] = float(v) if np.isfinite(v) else float("inf")
+    return out
+
+
+def _bars(ax, names: list[str], values: list[float], unit: str, color: str) -> None:
+    v = np.array(values, dtype=float)
+    finite = np.isfinite(v) & (v > 0)
+    top = float(v[finite].max()) * 3.0 if np.any(finite) else 1.0
+    heights = np.where(finite, v, top)
+    bars = ax.bar(np.arange(len(names)), heights, color=color, alpha=0.8, gid=f"u {unit}")
+    for b, ok in zip(bars, finite, strict=True):
+        if not ok:
+            b.set_hatch("//")
+            b.set_facecolor("0.85")
+            ax.annotate("n/i", (b.get_x() + b.get_width() / 2, b.get_height()),
+                        ha="center", va="bottom", fontsize="x-small")
+    ax.set_yscale("log")
+    ax.set_xticks(np.arange(len(names)), names, rotation=90, fontsize="small")
+    ax.set_ylabel(f"max standard uncertainty [{unit}]")
+    ax.grid(True, axis="y", which="both", alpha=0.3)
+
+
+def identifiability_plot(std: Sequence[NDArray[np.float64]],
+                         squareness_std: ArrayLike | None = None,
+                         singular_values: ArrayLike | None = None,
+                         fig: Figure | None = None) -> Figure:
+    """Per-function uncertainty bars and, optionally, the singular value spectrum.
+
+    Parameters
+    ----------
+    std : list of 3 arrays, shape (n_k, 6)
+        Standard uncertainties of the node values [um] / [urad].
+    squareness_std : array_like, shape (3,), optional
+        Standard uncertainties of the squareness errors [urad].
+    singular_values : array_like, optional
+        Singular values of the (column-scaled) observation matrix, any order.
+    fig : Figure, optional
+        Figure to draw into.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    u = function_uncertainty(std, squareness_std)
+    ncol = 3 if singular_values is not None else 2
+    fig = fig or new_figure(4.2 * ncol, 4.2)
+    axs = fig.subplots(1, ncol, squeeze=False)[0]
+    lin = [n for n in u if n[:2] in ("EX", "EY", "EZ") and n not in SQUARENESS_NAMES]
+    ang = [n for n in u if n not in lin]
+    _bars(axs[0], lin, [u[n] for n in lin], "µm", "tab:blue")
+    axs[0].set_title("translations")
+    _bars(axs[1], ang, [u[n] for n in ang], "µrad", "tab:green")
+    axs[1].set_title("rotations and squareness")
+    if singular_values is not None:
+        sv = np.sort(np.abs(np.asarray(singular_values, dtype=float)))[::-1]
+        ax = axs[2]
+        rel = sv / sv[0] if sv.size and sv[0] > 0 else sv
+        ax.semilogy(np.arange(1, sv.size + 1), np.maximum(rel, 1e-17), marker=".",
+                    gid="singular values")
+        ax.set_xlabel("index")
+        ax.set_ylabel("σ_i / σ_1")
+        ax.set_title("singular values")
+        ax.grid(True, which="both", alpha=0.3)
+    fig.suptitle("identifiability: what the tests determine")
+    return fig

@@ -1,0 +1,33 @@
+import numpy as np
+
+from volcal.plot import identifiability_plot
+from volcal.plot.identifiability import function_uncertainty
+
+
+def _std():
+    std = [np.full((5, 6), 0.1) for _ in range(3)]
+    std[0][2, 0] = 0.4            # EXX worst node
+    std[1][:, 3] = np.inf         # EAY (roll of Y) not identified
+    std[2][:, 5] = [1, 2, 3, 4, 9]  # ECZ
+    return std
+
+
+def test_function_uncertainty_takes_the_worst_node():
+    u = function_uncertainty(_std(), [0.5, np.nan, 2.0])
+    assert len(u) == 21
+    assert u["EXX"] == 0.4 and u["ECZ"] == 9.0 and u["EYZ"] == 0.1
+    assert np.isinf(u["EAY"]) and np.isinf(u["EB0Z"]) and u["EA0Z"] == 2.0
+
+
+def test_bars_and_spectrum():
+    fig = identifiability_plot(_std(), [0.5, 1.0, 2.0], singular_values=[1e-6, 10.0, 1.0])
+    lin = fig.axes[0].patches
+    assert [p.get_height() for p in lin][0] == 0.4 and len(lin) == 9
+    ang = fig.axes[1].patches
+    assert len(ang) == 12
+    # the unidentified roll is hatched and marked n/i
+    eay = ang[3]
+    assert eay.get_hatch() == "//"
+    assert any(t.get_text() == "n/i" for t in fig.axes[1].texts)
+    sv = [ln for ln in fig.axes[2].get_lines() if ln.get_gid() == "singular values"][0]
+    np.testing.assert_allclose(sv.get_ydata(), [1.0, 0.1, 1e-7])

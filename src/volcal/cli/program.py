@@ -1,0 +1,42 @@
+"""``volcal program``: measuring part programs for every planned measurement."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+
+console = Console()
+
+
+def program(
+    session: Annotated[Path, typer.Argument(help="Session folder (planned or measured).")],
+    dialect: Annotated[str, typer.Option(help="Controller dialect: fanuc, siemens or heidenhain.")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="Folder for the programs.")],
+    dwell_s: Annotated[float, typer.Option(help="Dwell at each reading pose [s].")] = 4.0,
+    feed: Annotated[float, typer.Option(help="Feed of every move [mm/min] (max 10000).")] = 2000.0,
+    overrun_mm: Annotated[float, typer.Option(help="ISO 230-2 overrun before reversals [mm].")
+                          ] = 5.0,
+    decimals: Annotated[int, typer.Option(help="Decimals of the coordinates [mm].")] = 3,
+    first_number: Annotated[int, typer.Option(help="Fanuc program number (O word) of the first.")
+                            ] = 1000,
+) -> None:
+    """Write one part program per measurement: planned poses in order, a dwell at each."""
+    from volcal.program.steps import ProgramOptions
+    from volcal.program.writer import write_programs
+    from volcal.session.format import read_session
+
+    opts = ProgramOptions(dwell_s=dwell_s, feed=feed, overrun_mm=overrun_mm, decimals=decimals)
+    opts.check()
+    s = read_session(session, require_deviation=False)
+    folder, warnings = write_programs(s, dialect, output, opts, first_number)
+    for w in warnings:
+        console.print(f"[yellow]note:[/] {w}", highlight=False)
+    console.print(f"wrote {len(s.measurements)} {dialect} programs -> {folder}")
+
+
+def register(app: typer.Typer) -> None:
+    """Add the commands of this module to the app."""
+    app.command("program")(program)

@@ -1,0 +1,84 @@
+"""Write one measuring program per measurement of a session into a folder, atomically."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import tomli_w
+
+from volcal.errors import VolcalInputError
+from volcal.io.atomic import atomic_dir
+from volcal.program.dialects import DIALECTS, EXTENSIONS, program_name, render
+from volcal.program.steps import ProgramOptions, build_steps
+from volcal.session.format import Session
+
+INDEX_FILE = "volcal-programs.toml"
+"""Index written into every program folder (program file -> measurement id)."""
+
+
+def write_programs(session: Session, dialect: str, folder: str | Path,
+                   options: ProgramOptions | None = None, first_number: int = 1000
+                   ) -> tuple[Path, list[str]]:
+    """Write the measuring programs of a session.
+
+    Parameters
+    ----------
+    session : Session
+        Planned (or measured) session.
+    dialect : str
+        ``'fanuc'``, ``'siemens'`` or ``'heidenhain'``.
+    folder : str or Path
+        Output folder. It is built aside and moved into place; an existing folder is
+        replaced only if it is empty or a previous program folder (holds
+        ``volcal-programs.toml``).
+    options : ProgramOptions, optional
+        Dwell, feed, overrun, decimals.
+    first_number : int
+        Fanuc program number of the first measurement (``O`` word).
+
+    Returns
+    -------
+    folder : Path
+    warnings : list of str
+
+    Raises
+    ------
+    VolcalInputError
+        Unknown dialect, bad options, poses outside the travel, unsafe output folder.
+    """
+    dialect = dialect.lower()
+    if dialect not in DIALECTS:
+        raise VolcalInputError(f"unknown dialect {dialect!r}: expected one of "
+                               f"{', '.join(DIALECTS)}")
+    options = options or ProgramOptions()
+    options.check()
+    folder = Path(folder)
+    if folder.exists() and (not folder.is_dir() or (any(folder.iterdir())
+                                                    and not (folder / INDEX_FILE).is_file())):
+        raise VolcalInputError("output exists and is not a volcal program folder; "
+                               "choose a new or empty folder", folder)
+    if not 1 <= first_number <= 9999 - len(session.measurements):
+        raise VolcalInputError(f"program numbers {first_number}.. do not fit O1..O9999")
+    files: dict[str, str] = {}
+    index: list[dict[str, object]] = []
+    warnings: list[str] = []
+    for i, m in enumerate(session.measurements):
+        built = build_steps(m, session.travel, options)
+        warnings += built.warnings
+        name = program_name(m.id, dialect)
+        fname = name + EXTENSIONS[dialect]
+        base, n = name, 2
+        while fname.upper() in (f.upper() for f in files):
+            name = f"{base}_{n}"
+            fname = name + EXTENSIONS[dialect]
+            n += 1
+        files[fname] = render(built.steps, dialect, name, first_number + i, options.decimals)
+        index.append({"file": fname, "measurement": m.id, "kind": m.kind, "readings": m.n})
+    doc = {"format": "volcal-programs/1", "dialect": dialect, "session": session.name,
+           "dwell_s": options.dwell_s, "feed_mm_min": options.feed,
+           "overrun_mm": options.overrun_mm, "programs": index}
+    with atomic_dir(folder) as tmp:
+        for fname, text in files.items():
+            (tmp / fname).write_text(text, encoding="ascii", newline="\n")
+        (tmp / INDEX_FILE).write_text(tomli_w.dumps(doc), encoding="utf-8")
+    return folder, warnings

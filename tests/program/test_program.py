@@ -1,0 +1,143 @@
+import subprocess
+import sys
+import tomllib
+
+import numpy as np
+import pytest
+
+from program.replay import REPLAY
+from volcal.errors import VolcalInputError
+from volcal.plan.geometry import linear_test, step_diagonal_test
+from volcal.plan.planner import plan_session
+from volcal.program import ProgramOptions, build_steps, write_programs
+from volcal.program.dialects import DIALECTS
+from volcal.session.format import Measurement, Session, read_session, write_session
+
+TRAVEL = np.array([[0.0, 800.0], [0.0, 600.0], [0.0, 500.0]])
+
+
+def _inner_session() -> Session:
+    """Linear targets 10 mm inside the travel (room for the overrun) and a step diagonal."""
+    inner = TRAVEL + np.array([10.0, -10.0])
+    g = linear_test("Y", inner, 8, [100.0, 0.0, 250.0], runs=3, bidirectional=True)
+    lin = Measurement("lin-y", "linear", "retroreflector", g.positions, None, g.beam_direction,
+                      np.array([0.0, 0.0, 120.0]), columns={"run": g.run, "direction": g.direction},
+                      meta={"axis": "Y", "notes": "Abbe offset 120 mm"})
+    sd = step_diagonal_test("ppp", TRAVEL, 5, "yzx")
+    step = Measurement("step", "step_diagonal", "flat_mirror", sd.positions, None,
+                       sd.beam_direction, meta={"axis_order": "yzx"})
+    return Session("VMC", "XYFZ", TRAVEL, [lin, step])
+
+
+@pytest.mark.parametrize("dialect", DIALECTS)
+def test_replayed_dwells_are_the_planned_poses_in_order(tmp_path, dialect):
+    s = plan_session(TRAVEL, "XYFZ", 4, ["step-diagonal", "diagonal", "linear"], 2)
+    write_session(s, tmp_path / "s")
+    s = read_session(tmp_path / "s", require_deviation=False)
+    folder, _ = write_programs(s, dialect, tmp_path / "p", ProgramOptions(dwell_s=2.5))
+    index = tomllib.loads((folder / "volcal-programs.toml").read_text())
+    assert [p["measurement"] for p in index["programs"]] == [m.id for m in s.measurements]
+    for entry, m in zip(index["programs"], s.measurements, strict=True):
+        dwell, secs, _ = REPLAY[dialect]((folder / entry["file"]).read_text())
+        assert dwell.shape == m.positions.shape
+        # 800/4, 600/4, 500/4 are whole millimetres: exact poses
+        np.testing.assert_array_equal(dwell, m.positions)
+        np.testing.assert_array_equal(secs, 2.5)
+
+
+@pytest.mark.parametrize("dialect", DIALECTS)
+def test_iso230_2_approach_and_overrun(tmp_path, dialect):
+    s = _inner_session()
+    folder, warnings = write_programs(s, dialect, tmp_path / "p", ProgramOptions(overrun_mm=4.0))
+    assert warnings == []
+    files = sorted(folder.glob("*" + {"fanuc": ".nc", "siemens": ".MPF", "heidenhain": ".H"}
+                               [dialect]))
+    text = next(f for f in files if f.stem.upper() == "LIN_Y").read_text()
+    dwell, _, moves = REPLAY[dialect](text)
+    lin = s.measurements[0]
+    np.testing.assert_array_equal(dwell, lin.positions)
+    # every dwell pose is reached moving in its ISO 230-2 direction along Y
+    k, last = 1, -1
+    for i, p in enumerate(lin.positions):
+        j = next(t for t in range(last + 1, len(moves)) if np.array_equal(moves[t], p))
+        assert j >= 1
+        before = moves[j - 1]
+        sign = 1.0 if lin.direction[i] == "+" else -1.0
+        assert sign * (p[k] - before[k]) > 0, f"reading {i} approached from the wrong side"
+        np.testing.assert_array_equal(np.delete(before, k), np.delete(p, k))
+        last = j
+    # the first move is the approach 4 mm below the first target, then the target itself
+    np.testing.assert_array_equal(moves[0], lin.positions[0] - [0.0, 4.0, 0.0])
+    np.testing.assert_array_equal(moves[1], lin.positions[0])
+    # 3 runs: one approach, an overrun at each top (3) and at the bottom between runs (2)
+    extra = len(moves) - lin.n
+    assert extra == 1 + 3 + 2
+
+
+def test_hand_computed_fanuc_block(tmp_path):
+    m = Measurement("t", "diagonal", "retroreflector", [[0, 0, 0], [266.6666667, 12.5, -0.0004]],
+                    None, [1, 0, 0])
+    built = build_steps(m, np.array([[0, 800], [-1, 600], [-1, 500]]), ProgramOptions())
+    s = Session("m", "XYFZ", [[0, 800], [-1, 600], [-1, 500]], [m])
+    folder, warnings = write_programs(s, "fanuc", tmp_path / "p")
+    text = (folder / "t.nc").read_text()
+    assert "G01 X266.667 Y12.500 Z0.000 F2000." in text
+    assert text.count("G04 P4000") == 2
+    assert any("rounded to 0.001 mm" in w for w in warnings)
+    assert [st.reading for st in built.steps if st.kind == "dwell"] == [0, 1]
+
+
+def test_pose_outside_travel_names_file_and_row(tmp_path):
+    m = Measurement("t", "diagonal", "retroreflector", [[0, 0, 0], [10, 700, 0]], None, [0, 1, 0])
+    s = Session("m", "XYFZ", TRAVEL, [m])
+    with pytest.raises(VolcalInputError) as e:
+        write_programs(s, "siemens", tmp_path / "p")
+    assert e.value.row == 3 and e.value.column == "y_mm" and e.value.file == "t.csv"
+    assert not (tmp_path / "p").exists()
+
+
+@pytest.mark.parametrize("opts", [dict(feed=0.0), dict(feed=20000.0), dict(dwell_s=-1.0),
+                                  dict(dwell_s=float("nan")), dict(overrun_mm=-1.0)])
+def test_unsafe_options_are_refused(tmp_path, opts):
+    with pytest.raises(VolcalInputError):
+        write_programs(_inner_session(), "fanuc", tmp_path / "p", ProgramOptions(**opts))
+    assert not (tmp_path / "p").exists()
+
+
+def test_does_not_replace_a_foreign_folder(tmp_path):
+    (tmp_path / "p").mkdir()
+    (tmp_path / "p" / "thesis.tex").write_text("precious")
+    with pytest.raises(VolcalInputError):
+        write_programs(_inner_session(), "fanuc", tmp_path / "p")
+    assert (tmp_path / "p" / "thesis.tex").read_text() == "precious"
+    # a previous program folder is replaced
+    write_programs(_inner_session(), "fanuc", tmp_path / "q")
+    write_programs(_inner_session(), "heidenhain", tmp_path / "q")
+    assert sorted(f.suffix for f in (tmp_path / "q").iterdir()) == [".H", ".H", ".toml"]
+
+
+def test_comments_name_test_and_optics(tmp_path):
+    folder, _ = write_programs(_inner_session(), "siemens", tmp_path / "p")
+    text = (folder / "LIN_Y.MPF").read_text()
+    assert "; volcal measurement lin-y: linear test, 54 readings" in text
+    assert "retroreflector on the tool at offset [0, 0, 120] mm" in text
+    assert "notes: Abbe offset 120 mm" in text
+    assert "; run 3" in text
+
+
+def _cli(*args):
+    return subprocess.run([sys.executable, "-c", "from volcal.cli import main; main()", *args],
+                          capture_output=True, text=True)
+
+
+def test_cli_writes_programs_and_reports_bad_input(tmp_path):
+    write_session(_inner_session(), tmp_path / "s")
+    r = _cli("program", str(tmp_path / "s"), "--dialect", "heidenhain", "-o", str(tmp_path / "p"),
+             "--dwell-s", "3", "--feed", "1500")
+    assert r.returncode == 0, r.stderr
+    dwell, secs, _ = REPLAY["heidenhain"]((tmp_path / "p" / "STEP.H").read_text())
+    np.testing.assert_array_equal(dwell, _inner_session().measurements[1].positions)
+    assert set(secs) == {3.0}
+    assert " F1500" in (tmp_path / "p" / "STEP.H").read_text()
+    r = _cli("program", str(tmp_path / "s"), "--dialect", "okuma", "-o", str(tmp_path / "x"))
+    assert r.returncode == 2 and "Traceback" not in r.stderr and "okuma" in r.stderr

@@ -1,0 +1,158 @@
+"""Validate and group bidirectional positioning runs (targets x runs x directions).
+
+Shared by the ISO 230-2 and VDI/DGQ 3441 evaluations: the readings of a linear
+positioning test are checked (finite values, directions ``+``/``-``, no duplicate
+(target, run, direction), every run visits every target in both directions, at least two
+runs each way) and arranged as two arrays ``up[i, j]`` and ``down[i, j]`` (target i,
+run j).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from volcal.errors import VolcalInputError
+
+__all__ = ["GroupedRuns", "group_runs"]
+
+#: Targets closer than this are the same target [mm].
+TARGET_TOLERANCE_MM = 1e-4
+
+
+@dataclass
+class GroupedRuns:
+    """Deviations arranged by target and run.
+
+    Attributes
+    ----------
+    targets : ndarray, shape (m,)
+        Target positions, ascending [mm].
+    up : ndarray, shape (m, n_up)
+        Deviations approached in the positive direction, one column per run [um].
+    down : ndarray, shape (m, n_down)
+        Deviations approached in the negative direction [um].
+    runs_up, runs_down : ndarray of int
+        Run numbers of the columns.
+    """
+
+    targets: NDArray[np.float64]
+    up: NDArray[np.float64]
+    down: NDArray[np.float64]
+    runs_up: NDArray[np.int64]
+    runs_down: NDArray[np.int64]
+
+
+def _row(rows: NDArray[np.int64] | None, i: int) -> int | None:
+    return None if rows is None else int(rows[i])
+
+
+def group_runs(targets_mm: ArrayLike, run: ArrayLike, direction: ArrayLike,
+               deviation_um: ArrayLike, file: str | None = None,
+               rows: ArrayLike | None = None, min_runs: int = 2) -> GroupedRuns:
+    """Check and arrange bidirectional positioning readings.
+
+    Parameters
+    ----------
+    targets_mm : array_like, shape (n,)
+        Target position of each reading [mm].
+    run : array_like of int, shape (n,)
+        Run number of each reading.
+    direction : array_like of str, shape (n,)
+        ``'+'`` (approach in the positive direction, ISO 230-2 "up") or ``'-'``.
+    deviation_um : array_like, shape (n,)
+        Actual minus target position [um].
+    file : str, optional
+        File named in error messages.
+    rows : array_like of int, optional
+        Row number (in ``file``) of each reading, for error messages.
+    min_runs : int
+        Fewest runs accepted in each direction (2: a standard deviation needs two).
+
+    Returns
+    -------
+    GroupedRuns
+
+    Raises
+    ------
+    VolcalInputError
+        Naming file, row and column of the first problem.
+    """
+    t = np.asarray(targets_mm, dtype=float).reshape(-1)
+    d = np.asarray(deviation_um, dtype=float).reshape(-1)
+    r = np.asarray(run).reshape(-1)
+    s = np.asarray(direction).astype(str).reshape(-1)
+    rw = None if rows is None else np.asarray(rows, dtype=int).reshape(-1)
+    n = t.size
+    for name, a in (("run", r), ("direction", s), ("deviation_um", d)):
+        if a.size != n:
+            raise VolcalInputError(f"{name} has {a.size} values for {n} targets", file, None,
+                                   name)
+    if n == 0:
+        raise VolcalInputError("no readings", file)
+    for name, a in (("target_mm", t), ("deviation_um", d)):
+        bad = np.flatnonzero(~np.isfinite(a))
+        if bad.size:
+            raise VolcalInputError(f"not a finite number: {a[bad[0]]!r}", file,
+                                   _row(rw, bad[0]), name)
+    for i, v in enumerate(s):
+        if v not in ("+", "-"):
+            raise VolcalInputError(f"direction must be '+' or '-', got {v!r}", file,
+                                   _row(rw, i), "direction")
+    try:
+        ri = r.astype(float)
+        if not np.all(np.isfinite(ri)) or np.any(ri != np.round(ri)):
+            raise ValueError
+        ri = ri.astype(int)
+    except (ValueError, TypeError):
+        raise VolcalInputError("run numbers must be whole numbers", file, None, "run") from None
+
+    # cluster the targets
+    order = np.argsort(t, kind="stable")
+    tid = np.empty(n, dtype=int)
+    centres: list[float] = []
+    for k in order:
+        if centres and abs(t[k] - centres[-1]) <= TARGET_TOLERANCE_MM:
+            tid[k] = len(centres) - 1
+        else:
+            centres.append(float(t[k]))
+            tid[k] = len(centres) - 1
+    targets = np.array(centres)
+    m = targets.size
+    if m < 2:
+        raise VolcalInputError("a positioning test needs at least two target positions", file,
+                               None, "target_mm")
+
+    out = {}
+    for sign in ("+", "-"):
+        sel = np.flatnonzero(s == sign)
+        if sel.size == 0:
+            raise VolcalInputError(f"no readings in direction '{sign}': ISO 230-2 needs "
+                                   "bidirectional runs", file, None, "direction")
+        runs = np.unique(ri[sel])
+        if runs.size < min_runs:
+            raise VolcalInputError(
+                f"only {runs.size} run(s) in direction '{sign}': at least {min_runs} needed "
+                "to estimate repeatability (ISO 230-2 asks for 5)", file, None, "run")
+        col = {v: j for j, v in enumerate(runs)}
+        grid = np.full((m, runs.size), np.nan)
+        seen = np.full((m, runs.size), -1)
+        for k in sel:
+            i, j = tid[k], col[ri[k]]
+            if seen[i, j] >= 0:
+                raise VolcalInputError(
+                    f"duplicate reading: target {targets[i]:g} mm, run {ri[k]}, direction "
+                    f"'{sign}' already given" + ("" if rw is None else f" in row {rw[seen[i, j]]}"),
+                    file, _row(rw, k), "target_mm")
+            seen[i, j] = k
+            grid[i, j] = d[k]
+        miss = np.argwhere(seen < 0)
+        if miss.size:
+            i, j = miss[0]
+            raise VolcalInputError(
+                f"missing reading: run {runs[j]} has no target {targets[i]:g} mm in direction "
+                f"'{sign}' (every run must visit every target)", file, None, "target_mm")
+        out[sign] = (grid, runs)
+    return GroupedRuns(targets, out["+"][0], out["-"][0], out["+"][1], out["-"][1])

@@ -50,9 +50,12 @@ def interp_weights(nodes: NDArray[np.float64], q: NDArray[np.float64]):
     if n == 1:
         z = np.zeros(q.shape, dtype=np.intp)
         return z, z, np.zeros(q.shape)
-    i0 = np.clip(np.searchsorted(nodes, q, side="right") - 1, 0, n - 2)
+    i0 = np.searchsorted(nodes, q, side="right") - 1
+    np.clip(i0, 0, n - 2, out=i0)
     i1 = i0 + 1
-    w = np.clip((q - nodes[i0]) / (nodes[i1] - nodes[i0]), 0.0, 1.0)
+    lo = nodes[:-1].take(i0)
+    w = (q - lo) / (nodes[1:] - nodes[:-1]).take(i0)
+    np.clip(w, 0.0, 1.0, out=w)
     return i0, i1, w
 
 
@@ -111,7 +114,7 @@ class MachineErrors:
 
     @classmethod
     def zero(cls, chain: str | Chain, travel: ArrayLike, name: str = "machine") -> MachineErrors:
-        """A perfect machine: all 21 errors zero.
+        """Build a perfect machine: all 21 errors zero.
 
         Parameters
         ----------
@@ -127,7 +130,7 @@ class MachineErrors:
                    name=name)
 
     def component(self, axis: int, q: ArrayLike) -> NDArray[np.float64]:
-        """The six component errors of one axis at positions ``q``.
+        """Evaluate the six component errors of one axis at positions ``q``.
 
         Parameters
         ----------
@@ -141,10 +144,37 @@ class MachineErrors:
         ndarray, shape (m, 6)
             EX, EY, EZ [um] and EA, EB, EC [urad] of that axis.
         """
+        cols = self.component_columns(axis, q)
+        out = np.empty((cols[0].size, 6))
+        for c in range(6):
+            out[:, c] = cols[c]
+        return out
+
+    def component_columns(self, axis: int, q: ArrayLike) -> list[NDArray[np.float64]]:
+        """Evaluate the six component errors of one axis as six contiguous arrays.
+
+        Parameters
+        ----------
+        axis : int
+            0, 1, 2 for X, Y, Z.
+        q : array_like, shape (m,)
+            Axis positions [mm].
+
+        Returns
+        -------
+        list of 6 ndarray, shape (m,)
+            EX, EY, EZ [um] and EA, EB, EC [urad] of that axis, interpolated linearly
+            between the nodes and held constant outside (as :func:`interp_weights`).
+        """
         q = np.asarray(q, dtype=float).reshape(-1)
-        i0, i1, w = interp_weights(self.nodes[axis], q)
-        v = self.values[axis]
-        return v[i0] * (1.0 - w)[:, None] + v[i1] * w[:, None]
+        nodes, v = self.nodes[axis], self.values[axis]
+        if nodes.size == 1:
+            return [np.full(q.size, v[0, c]) for c in range(6)]
+        i0, i1, w = interp_weights(nodes, q)
+        vt = np.ascontiguousarray(v.T)
+        omw = 1.0 - w
+        # (1 - w) f0 + w f1 is exact at the nodes (w = 0 or 1)
+        return [vt[c].take(i0) * omw + vt[c].take(i1) * w for c in range(6)]
 
     def function(self, name: str, q: ArrayLike) -> NDArray[np.float64]:
         """One named error at positions ``q``.
@@ -170,13 +200,13 @@ class MachineErrors:
         return self.component(idx // 6, q)[:, idx % 6]
 
     def scaled(self, factor: float) -> MachineErrors:
-        """A copy with every error multiplied by ``factor``."""
+        """Return a copy with every error multiplied by ``factor``."""
         return MachineErrors(self.chain, [n.copy() for n in self.nodes],
                              [v * factor for v in self.values], self.squareness * factor,
                              self.reversal * factor, self.name)
 
     def copy(self) -> MachineErrors:
-        """A deep copy."""
+        """Return a deep copy."""
         return self.scaled(1.0)
 
     @property

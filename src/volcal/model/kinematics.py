@@ -1,4 +1,4 @@
-"""Pose of the tool relative to the workpiece: exact (homogeneous transforms) and first order.
+r"""Pose of the tool relative to the workpiece: exact (homogeneous transforms) and first order.
 
 Model (``docs/conventions.md``): with the chain read from workpiece to tool, frame
 removed, as axes ``k1, k2, k3``, the actual pose of the tool point relative to the
@@ -6,8 +6,8 @@ workpiece at commanded position ``q`` and tool offset ``t`` is
 
 .. math::
 
-    H(q) = \\prod_{k \\in (k_1,k_2,k_3)} T(q_k u_k)\\, T(\\delta_k(q_k))\\, R(\\varepsilon_k(q_k))
-           \\; T(t)
+    H(q) = \prod_{k \in (k_1,k_2,k_3)} T(q_k u_k)\, T(\delta_k(q_k))\, R(\varepsilon_k(q_k))
+           \; T(t)
 
 with ``u_k`` the actual axis directions (squareness), ``delta_k`` the translational and
 ``eps_k`` the rotational component errors of axis ``k`` and ``R`` the rotation by the
@@ -15,9 +15,9 @@ rotation vector ``eps`` (Rodrigues). To first order the volumetric error is
 
 .. math::
 
-    e(q) = \\sum_k \\delta_k(q_k) + \\sum_k \\varepsilon_k(q_k) \\times L_k
-           + (-EC0Y\\,y + EB0Z\\,z,\\; -EA0Z\\,z,\\; 0),
-    \\qquad L_k = t + \\sum_{j \\text{ after } k} q_j e_j,
+    e(q) = \sum_k \delta_k(q_k) + \sum_k \varepsilon_k(q_k) \times L_k
+           + (-EC0Y\,y + EB0Z\,z,\; -EA0Z\,z,\; 0),
+    \qquad L_k = t + \sum_{j \text{ after } k} q_j e_j,
 
 which is Soons (2005) eq. (1) for the chain FXYZ. References: Soons, J.A., "Analysis of
 the step-diagonal test", Lamdamap 2005 (seed 004); ISO 230-1:2012, annex A.
@@ -197,15 +197,24 @@ def first_order_pose(errors: MachineErrors, q: ArrayLike, tool_offset: ArrayLike
     """
     q = _points(q)
     m = q.shape[0]
-    t = np.array(_offsets(tool_offset, m))
-    levers = _levers(errors.chain_obj.order, q, t)
+    t = np.asarray(_offsets(tool_offset, m))
+    order = errors.chain_obj.order
     e = np.zeros((m, 3))
     omega = np.zeros((m, 3))
-    for k in range(3):
-        comp = errors.component(k, q[:, k])
-        e += comp[:, :3]
-        e += np.cross(comp[:, 3:], levers[k]) * (URAD / UM)
-        omega += comp[:, 3:]
+    s = URAD / UM
+    for i, k in enumerate(order):
+        comp = errors.component_columns(k, q[:, k])
+        for c in range(3):
+            e[:, c] += comp[c]
+            omega[:, c] += comp[3 + c]
+        # lever arm L = t + positions of the axes after k (explicit cross product: no
+        # temporary (m, 3) lever arrays, which dominate the cost at 10^6 points)
+        down = order[i + 1:]
+        lev = [t[:, a] + q[:, a] if a in down else t[:, a] for a in range(3)]
+        ea, eb, ec = comp[3] * s, comp[4] * s, comp[5] * s
+        e[:, 0] += eb * lev[2] - ec * lev[1]
+        e[:, 1] += ec * lev[0] - ea * lev[2]
+        e[:, 2] += ea * lev[1] - eb * lev[0]
     c0y, b0z, a0z = errors.squareness
     e[:, 0] += (-c0y * q[:, 1] + b0z * q[:, 2]) * (URAD / UM)
     e[:, 1] += (-a0z * q[:, 2]) * (URAD / UM)

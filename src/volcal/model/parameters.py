@@ -47,7 +47,7 @@ class ParameterLayout:
         return self.starts[axis] + np.arange(len(self.nodes[axis])) * 6 + component
 
     def squareness_indices(self) -> NDArray[np.intp]:
-        """Indices of EC0Y, EB0Z, EA0Z."""
+        """Return the indices of EC0Y, EB0Z, EA0Z."""
         return self.starts[3] + np.arange(3)
 
     def pack(self, errors: MachineErrors) -> NDArray[np.float64]:

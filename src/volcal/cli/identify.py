@@ -1,0 +1,120 @@
+"""``volcal identify`` and ``volcal predict``."""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from pathlib import Path
+
+import numpy as np
+import typer
+from rich.console import Console
+
+from volcal.cli._common import parse_vector
+from volcal.errors import VolcalInputError
+
+console = Console()
+
+
+def identify_cmd(
+    session: Path = typer.Argument(..., help="Measured session folder."),
+    output: Path = typer.Option(..., "-o", "--output", help="Model file to write (MODEL.json)."),
+    prior: str = typer.Option("smooth", help="smooth (Bayesian, default) or none (min-norm LS)."),
+    noise_um: float | None = typer.Option(None, help="Stated repeatability [um] (default: "
+                                          "estimated)."),
+    roll: str = typer.Option("estimate", help="estimate, or zero (roll fixed to zero)."),
+    known: Path | None = typer.Option(None, help="Error table CSV of errors measured separately; "
+                                      "its non-zero functions are held fixed."),
+    drift: bool = typer.Option(False, help="Estimate a linear drift per measurement."),
+    measurements: str | None = typer.Option(None, help="Comma-separated measurement ids to use."),
+) -> None:
+    """Identify the machine's errors from the session; write MODEL.json."""
+    from volcal.identify import IdentifyOptions, identify
+    from volcal.session.format import read_session
+
+    s = read_session(session)
+    known_d = {}
+    if known is not None:
+        from volcal.model.names import COMPONENT_NAMES
+        from volcal.session.errortable import read_error_table
+
+        kt = read_error_table(known, chain=s.chain)
+        for j, name in enumerate(COMPONENT_NAMES):
+            k, c = divmod(j, 6)
+            if np.any(kt.values[k][:, c] != 0):
+                known_d[name] = (kt.nodes[k], kt.values[k][:, c])
+    opts = IdentifyOptions(prior=prior, noise_um=noise_um, roll=roll, known=known_d, drift=drift,
+                           measurement_ids=None if measurements is None else
+                           [m.strip() for m in measurements.split(",")])
+    with console.status("identifying..."):
+        res = identify(s, opts)
+    res.to_json(output)
+    f = res.fit
+    console.print(f"{f['n_readings']} readings, {f['n_parameters']} parameters, "
+                  f"residual {f['sigma_residual_um']:.3f} um ({f['method']})")
+    for msg in res.report.messages:
+        console.print(f"- {msg}", highlight=False)
+    console.print(f"model -> {output}")
+
+
+def _read_points(path: Path) -> np.ndarray:
+    if not path.is_file():
+        raise VolcalInputError("points file not found", path)
+    try:
+        rows = [r for r in csv.reader(io.StringIO(path.read_text(encoding="utf-8-sig")))
+                if any(c.strip() for c in r)]
+    except (UnicodeDecodeError, csv.Error) as exc:
+        raise VolcalInputError(f"cannot read the CSV ({exc})", path) from None
+    if not rows:
+        raise VolcalInputError("empty file: expected the header x_mm,y_mm,z_mm", path, 1)
+    header = [h.strip() for h in rows[0]]
+    for c in ("x_mm", "y_mm", "z_mm"):
+        if c not in header:
+            raise VolcalInputError(f"missing column '{c}'", path, 1, c)
+    idx = [header.index(c) for c in ("x_mm", "y_mm", "z_mm")]
+    if len(rows) < 2:
+        raise VolcalInputError("no points", path, 2)
+    out = np.empty((len(rows) - 1, 3))
+    for i, r in enumerate(rows[1:]):
+        if len(r) != len(header):
+            raise VolcalInputError(f"expected {len(header)} fields, found {len(r)}", path, i + 2)
+        for j, col in enumerate(idx):
+            try:
+                v = float(r[col])
+            except ValueError:
+                raise VolcalInputError(f"not a number: {r[col]!r}", path, i + 2,
+                                       header[col]) from None
+            if not math.isfinite(v):
+                raise VolcalInputError("not a finite number", path, i + 2, header[col])
+            out[i, j] = v
+    return out
+
+
+def predict_cmd(
+    model: Path = typer.Argument(..., help="Model file (MODEL.json)."),
+    points: Path = typer.Option(..., help="CSV with x_mm,y_mm,z_mm."),
+    output: Path = typer.Option(..., "-o", "--output", help="CSV to write."),
+    tool_offset: str = typer.Option("0,0,0", help="Tool offset x,y,z [mm]."),
+) -> None:
+    """Predict the volumetric error and its uncertainty at points."""
+    from volcal.identify import load_model
+    from volcal.io.atomic import write_text
+
+    m = load_model(model)
+    q = _read_points(points)
+    e, u = m.predict(q, parse_vector(tool_offset, "--tool-offset"))
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(["x_mm", "y_mm", "z_mm", "ex_um", "ey_um", "ez_um", "ux_um", "uy_um", "uz_um"])
+    for i in range(q.shape[0]):
+        w.writerow([f"{v:.6g}" for v in q[i]] + [f"{v:.4f}" for v in e[i]]
+                   + [f"{v:.4f}" for v in u[i]])
+    write_text(output, buf.getvalue())
+    console.print(f"{q.shape[0]} points -> {output}")
+
+
+def register(app: typer.Typer) -> None:
+    """Add the commands of this module to the app."""
+    app.command("identify")(identify_cmd)
+    app.command("predict")(predict_cmd)

@@ -1,0 +1,308 @@
+"""``identify(session)``: one estimator for any combination of tests.
+
+Flow: choose nodes -> assemble the observation system (:mod:`.design`) -> smoothness
+prior (:mod:`.prior`) -> evidence-optimised Bayesian least squares (:mod:`.solver`) ->
+identifiability report (:mod:`.identifiability`) -> residual check -> result
+(:mod:`.result`). See ``docs/identification.md``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from volcal.errors import VolcalInputError
+from volcal.identify.design import Design, build_design, choose_nodes
+from volcal.identify.identifiability import analyse
+from volcal.identify.prior import PriorStructure
+from volcal.identify.result import IdentificationResult
+from volcal.identify.solver import Solution, solve_bayes, solve_min_norm
+from volcal.plan.geometry import diagonal_test, linear_test, step_diagonal_test
+from volcal.session.format import Measurement, Session
+
+__all__ = ["IdentifyOptions", "identify"]
+
+
+@dataclass
+class IdentifyOptions:
+    """Options of :func:`identify`.
+
+    Attributes
+    ----------
+    prior : str
+        ``'smooth'`` (Bayesian, smoothness prior, default) or ``'none'`` (minimum-norm
+        least squares on the node values).
+    noise_um : float, optional
+        Stated repeatability of a reading [um]; default: estimated from the data.
+    scales : tuple of 3 float, optional
+        Prior amplitude scales (positioning [um], straightness [um], angular [urad]);
+        default: estimated (maximum evidence).
+    kappa : float
+        Curvature scale of the smoothness prior.
+    squareness_std_urad : float
+        Prior standard deviation of the squareness errors [urad].
+    roll : str
+        ``'estimate'`` (default; the prior keeps it finite when the data do not see it)
+        or ``'zero'`` (roll fixed to zero, as the seeds assume).
+    known : dict
+        Errors measured separately, held fixed: name -> (positions [mm], values).
+    drift : bool
+        Estimate a linear drift per measurement.
+    refine : int
+        Node refinement between measured positions.
+    max_nodes : int
+        Maximum nodes per axis.
+    measurement_ids : list of str, optional
+        Use only these measurements.
+    outlier_threshold : float
+        Standardised residual above which a reading is flagged.
+    suggest : bool
+        Try candidate extra measurements for the report.
+    """
+
+    prior: str = "smooth"
+    noise_um: float | None = None
+    scales: tuple[float, float, float] | None = None
+    kappa: float = 40.0
+    squareness_std_urad: float = 500.0
+    roll: str = "estimate"
+    known: dict = field(default_factory=dict)
+    drift: bool = False
+    refine: int = 2
+    max_nodes: int = 201
+    measurement_ids: list[str] | None = None
+    outlier_threshold: float = 4.0
+    suggest: bool = True
+
+
+def _known(opts: IdentifyOptions) -> dict:
+    known = dict(opts.known)
+    if opts.roll == "zero":
+        for n in ("EAX", "EAY", "EAZ"):
+            known.setdefault(n, (None, None))
+    elif opts.roll != "estimate":
+        raise VolcalInputError(f"roll must be 'estimate' or 'zero', got {opts.roll!r}")
+    return known
+
+
+def candidate_designs(session: Session, nodes, known) -> dict[str, Design]:
+    """Extra measurements to try for the identifiability report.
+
+    Parameters
+    ----------
+    session : Session
+        The session (travel, chain).
+    nodes : list of 3 arrays
+        Nodes at the measured positions.
+    known : dict
+        Known errors (as in the main design).
+
+    Returns
+    -------
+    dict of str to Design
+    """
+    t = session.travel
+    steps = max(2, min(20, min(len(n) for n in nodes) - 1))
+    cands: dict[str, list[Measurement]] = {}
+
+    def meas(mid, kind, target, g, offset=(0, 0, 0)):
+        return Measurement(mid, kind, target, g.positions, np.zeros(g.positions.shape[0]),
+                           g.beam_direction, offset, f"{mid}.csv", {}, {})
+
+    for k, a in enumerate("XYZ"):
+        cands[f"a linear measurement of {a} at the reference line"] = [
+            meas(f"c-lin-{a}", "linear", "retroreflector", linear_test(k, t, steps, t[:, 0]))]
+    cands["the 4 step diagonals again with a retroreflector"] = [
+        meas(f"c-sr-{c}", "step_diagonal", "retroreflector", step_diagonal_test(c, t, steps))
+        for c in ("ppp", "npp", "pnp", "ppn")]
+    cands["the 4 step diagonals in axis order zyx"] = [
+        meas(f"c-zyx-{c}", "step_diagonal", "flat_mirror", step_diagonal_test(c, t, steps, "zyx"))
+        for c in ("ppp", "npp", "pnp", "ppn")]
+    off = np.array([0.0, 0.0, 0.25 * (t[2, 1] - t[2, 0])])
+    cands[f"the 4 body diagonals with a tool offset of {off[2]:g} mm in Z"] = [
+        meas(f"c-do-{c}", "diagonal", "retroreflector", diagonal_test(c, t, steps), off)
+        for c in ("ppp", "npp", "pnp", "ppn")]
+    for plane in ("xy", "yz", "xz"):
+        cands[f"the 2 face diagonals in {plane.upper()}"] = [
+            meas(f"c-f-{plane}-{c}", "diagonal", "retroreflector",
+                 diagonal_test(c, t, steps, plane=plane, at_mm=t["xyz".index(
+                     ({"x", "y", "z"} - set(plane)).pop()), 1]))
+            for c in ("pp", "np")]
+    out = {}
+    for label, ms in cands.items():
+        s = Session(session.name, session.chain, t, ms)
+        out[label] = build_design(s, nodes, known)
+    return out
+
+
+def identify(session: Session, options: IdentifyOptions | None = None) -> IdentificationResult:
+    """Identify the machine's error functions from any combination of tests.
+
+    Parameters
+    ----------
+    session : Session
+        Measured session.
+    options : IdentifyOptions, optional
+        Estimator options.
+
+    Returns
+    -------
+    IdentificationResult
+        Functions with uncertainties, identifiability report, fit statistics, residuals.
+
+    Notes
+    -----
+    The readings are modelled to first order (Soons, seed 004, eq. 1-4) with set-up
+    nuisances per measurement; the gauge fixes every function to zero at the start of
+    travel and the straightness functions also at the end.
+    """
+    o = options or IdentifyOptions()
+    known = _known(o)
+    if o.prior not in ("smooth", "none"):
+        raise VolcalInputError(f"prior must be 'smooth' or 'none', got {o.prior!r}")
+    nodes1 = choose_nodes(session, refine=1, max_nodes=o.max_nodes)
+    if o.prior == "none":
+        design = build_design(session, nodes1, known, o.drift, o.measurement_ids)
+        sol = solve_min_norm(design)
+        prior = None
+    else:
+        nodes = choose_nodes(session, refine=o.refine, max_nodes=o.max_nodes)
+        design = build_design(session, nodes, known, o.drift, o.measurement_ids)
+        prior = PriorStructure.build(design.layout, design.free, o.kappa)
+        sol = solve_bayes(design, prior, None if o.scales is None else np.array(o.scales),
+                          o.noise_um, o.squareness_std_urad)
+    # identifiability on the measured positions
+    design1 = design if o.prior == "none" or o.refine == 1 else build_design(
+        session, nodes1, known, o.drift, o.measurement_ids)
+    prior1 = PriorStructure.build(design1.layout, design1.free, o.kappa)
+    scales = sol.scales if np.all(np.isfinite(sol.scales)) else np.array([10.0, 5.0, 15.0])
+    cands = candidate_designs(session, nodes1, known) if o.suggest else None
+    report = analyse(design1, prior1, scales, o.squareness_std_urad, cands)
+    if o.prior == "none":
+        report.messages.insert(0, "Minimum-norm least squares: combinations the data do not "
+                                  "determine are set to zero and carry no uncertainty.")
+    if known:
+        report.messages.append("Held fixed at known values (not estimated): "
+                               + ", ".join(sorted(known)) + ".")
+    return _result(session, design, sol, report, o)
+
+
+def _result(session: Session, design: Design, sol: Solution, report, o: IdentifyOptions
+            ) -> IdentificationResult:
+    nf = design.n_free
+    theta = design.full_parameters(sol.x)
+    errors = design.layout.unpack(theta, design.chain, name=session.name)
+    cov = sol.covariance
+    if cov is None:
+        raise VolcalInputError("problem too large for the dense covariance: reduce --max-nodes")
+    cff = cov[:nf, :nf]
+    w, V = np.linalg.eigh((cff + cff.T) / 2)
+    keep = w > max(w.max(), 1e-300) * 1e-12
+    factor = V[:, keep] * np.sqrt(w[keep])
+    var_full = np.zeros(design.layout.size)
+    var_full[design.free] = np.clip(np.diag(cff), 0, None)
+    sd = np.sqrt(var_full)
+    std = [sd[design.layout.starts[k]:design.layout.starts[k + 1]].reshape(-1, 6)
+           for k in range(3)]
+    sq_std = sd[design.layout.squareness_indices()]
+    fitted_all = design.A @ sol.x
+    resid_all = design.y - fitted_all
+    residuals, fitted = {}, {}
+    for m in design.measurements:
+        sl = design.rows[m.id]
+        residuals[m.id] = resid_all[sl]
+        fitted[m.id] = m.deviation - resid_all[sl]
+    # standardised residuals with leverage
+    A = design.A
+    h = np.asarray(A.multiply((A @ cov).T.T if False else (A @ cov)).sum(axis=1)).ravel()
+    sigma = max(sol.sigma_um, sol.sigma_residual_um, 1e-12)
+    lev = np.clip(h / sol.sigma_um**2 if sol.method == "bayes" else h / sigma**2, 0, 0.999)
+    z = resid_all / (sigma * np.sqrt(1 - lev))
+    outliers = []
+    for m in design.measurements:
+        sl = design.rows[m.id]
+        for i in np.flatnonzero(np.abs(z[sl]) > o.outlier_threshold):
+            outliers.append({"measurement": m.id, "row": int(i) + 2,
+                             "residual_um": float(resid_all[sl][i]),
+                             "standardised": float(z[sl][i])})
+    if outliers:
+        report.messages.append(
+            f"{len(outliers)} reading(s) have standardised residuals above "
+            f"{o.outlier_threshold:g} (see 'outliers'): check them for set-up faults.")
+    nuis = {}
+    for j, name in enumerate(design.nuisance_names):
+        nuis[name] = (float(sol.x[nf + j]), float(np.sqrt(max(cov[nf + j, nf + j], 0))))
+    fit = {
+        "method": sol.method,
+        "n_readings": int(design.y.size),
+        "n_parameters": int(nf),
+        "n_nuisance": int(design.n_nuisance),
+        "sigma_um": float(sol.sigma_um),
+        "sigma_residual_um": float(sol.sigma_residual_um),
+        "dof": float(sol.dof),
+        "prior_scales": {"positioning_um": _fin(sol.scales[0]),
+                         "straightness_um": _fin(sol.scales[1]),
+                         "angular_urad": _fin(sol.scales[2])},
+        "log_evidence": _fin(sol.log_evidence),
+        "measurements": [m.id for m in design.measurements],
+        "known": sorted(design.fixed_names),
+        "gauge": "every function zero at the start of travel; straightness also at the end",
+    }
+    return IdentificationResult(session.name, errors, design.layout, design.free, factor, std,
+                                sq_std, report, fit, residuals, fitted, nuis, outliers,
+                                design=design, solution=sol)
+
+
+def _fin(v: float) -> float | None:
+    return float(v) if np.isfinite(v) else None
+
+
+def monte_carlo(result: IdentificationResult, q: NDArray[np.float64], n: int = 200,
+                seed: int | None = 0, tool_offset=None):
+    """Monte Carlo propagation of the reading noise to predicted volumetric errors.
+
+    GUM Supplement 1 (JCGM 101:2008): the readings are redrawn ``n`` times with the
+    estimated noise around the fitted values and re-identified with the same
+    hyperparameters; the spread of the predictions is the noise part of the uncertainty
+    (the prior part of undetermined combinations is not resampled).
+
+    Parameters
+    ----------
+    result : IdentificationResult
+        A fresh result (with its design and solution).
+    q : ndarray, shape (m, 3)
+        Points [mm].
+    n : int
+        Number of trials.
+    seed : int, optional
+        Random seed.
+    tool_offset : array_like, optional
+        Tool offset [mm].
+
+    Returns
+    -------
+    mean, std : ndarray, shape (m, 3)
+        Mean and standard deviation of the predictions [um].
+    low, high : ndarray, shape (m, 3)
+        Probabilistically symmetric 95 % coverage interval [um].
+    """
+    design, sol = result.design, result.solution
+    if design is None or sol is None or sol.solve is None:
+        raise VolcalInputError("Monte Carlo needs a fresh identification (not a loaded model)")
+    from volcal.model.kinematics import pose_jacobian
+
+    rng = np.random.default_rng(seed)
+    Je, _ = pose_jacobian(result.errors.chain_obj.order, design.layout.nodes, q, tool_offset)
+    base = design.A @ sol.x
+    sig = sol.sigma_um
+    At = design.A.T.tocsr()
+    out = []
+    for _ in range(n):
+        ystar = base + rng.normal(0, sig, base.size)
+        x = sol.solve(At @ ystar / sig**2)
+        theta = design.full_parameters(x)
+        out.append((Je @ theta).reshape(-1, 3))
+    arr = np.array(out)
+    return arr.mean(0), arr.std(0, ddof=1), np.percentile(arr, 2.5, 0), np.percentile(arr, 97.5, 0)

@@ -1,0 +1,247 @@
+"""The observation system of the unified estimator: one linear model for every reading.
+
+Every reading of every test is, to first order, linear in the node values of the error
+functions (``volcal.measure.readings.reading_jacobian``) plus set-up nuisances of its own
+measurement (reading offset, beam/mirror tilt, reversal, drift). This module assembles
+the sparse observation matrix ``A`` with columns ``[free function parameters | nuisances]``.
+
+The gauge is explicit: every function is zero at the first node (start of travel) and
+the six straightness functions also at the last node. These constraints remove the 6
+rigid-body motions of the work zone (invisible to relative readings), the redundancy
+between straightness slopes and squareness, and the redundancy between constant angular
+offsets and squareness / tool orientation (``docs/identification.md``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+from numpy.typing import NDArray
+
+from volcal.errors import VolcalInputError
+from volcal.measure.readings import reading_jacobian, tilt_columns
+from volcal.model.chain import parse_chain
+from volcal.model.kinematics import UM, URAD
+from volcal.model.names import COMPONENT_NAMES
+from volcal.model.parameters import ParameterLayout
+from volcal.session.format import Measurement, Session
+
+__all__ = ["Design", "build_design", "choose_nodes"]
+
+
+def choose_nodes(session: Session, refine: int = 2, max_nodes: int = 201
+                 ) -> list[NDArray[np.float64]]:
+    """Node positions per axis: the visited positions and travel ends, refined.
+
+    Parameters
+    ----------
+    session : Session
+        The session (its measured positions and travel).
+    refine : int
+        Each interval between visited positions is split into ``refine`` parts, so that
+        the smoothness prior interpolates smoothly between readings.
+    max_nodes : int
+        Upper bound per axis; beyond it a uniform grid is used (keeps the problem size
+        independent of the number of increments).
+
+    Returns
+    -------
+    list of 3 ndarray
+    """
+    out = []
+    for k in range(3):
+        vals = [session.travel[k]]
+        vals += [m.positions[:, k] for m in session.measurements]
+        v = np.unique(np.round(np.concatenate(vals), 6))
+        lo, hi = session.travel[k]
+        v = v[(v >= lo - 1e-9) & (v <= hi + 1e-9)]
+        v = np.unique(np.concatenate([[lo, hi], v]))
+        span = hi - lo
+        keep = [v[0]]
+        for x in v[1:]:
+            if x - keep[-1] > 1e-6 * span:
+                keep.append(x)
+        v = np.array(keep)
+        if refine > 1:
+            fine = [v[:1]]
+            for a, b in zip(v[:-1], v[1:], strict=True):
+                fine.append(np.linspace(a, b, refine + 1)[1:])
+            v = np.concatenate(fine)
+        if v.size > max_nodes:
+            v = np.linspace(lo, hi, max_nodes)
+        out.append(v)
+    return out
+
+
+@dataclass
+class Design:
+    """Assembled observation system.
+
+    Attributes
+    ----------
+    layout : ParameterLayout
+        Full parameter layout (all node values + squareness).
+    free : ndarray of int
+        Indices (into the full layout) of the estimated function/squareness parameters.
+    fixed_values : ndarray
+        Full parameter vector of the values held fixed (gauge zeros, known errors).
+    A : scipy.sparse.csr_matrix, shape (n, p_free + p_nuis)
+        Observation matrix [um per um or urad].
+    y : ndarray, shape (n,)
+        Deviations minus the contribution of the fixed values [um].
+    nuisance_names : list of str
+        ``'<measurement id>:<offset|tilt1|tilt2|reversal|drift>'``.
+    rows : dict of str to slice
+        Rows of each measurement.
+    measurements : list of Measurement
+    """
+
+    layout: ParameterLayout
+    chain: str
+    travel: NDArray[np.float64]
+    free: NDArray[np.intp]
+    fixed_values: NDArray[np.float64]
+    A: sp.csr_matrix
+    y: NDArray[np.float64]
+    nuisance_names: list[str]
+    rows: dict[str, slice]
+    measurements: list[Measurement] = field(repr=False, default_factory=list)
+    fixed_names: list[str] = field(default_factory=list)
+
+    @property
+    def n_free(self) -> int:
+        """Number of estimated function and squareness parameters."""
+        return int(self.free.size)
+
+    @property
+    def n_nuisance(self) -> int:
+        """Number of set-up nuisance parameters."""
+        return len(self.nuisance_names)
+
+    def full_parameters(self, x_free: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Full layout vector from the estimated free parameters."""
+        theta = self.fixed_values.copy()
+        theta[self.free] = x_free[: self.n_free]
+        return theta
+
+
+def _gauge_mask(layout: ParameterLayout) -> NDArray[np.bool_]:
+    """True for parameters fixed to zero by the gauge."""
+    fixed = np.zeros(layout.size, dtype=bool)
+    for k in range(3):
+        n = len(layout.nodes[k])
+        for c in range(6):
+            idx = layout.indices(k, c)
+            fixed[idx[0]] = True
+            if c < 3 and c != k and n > 1:
+                fixed[idx[-1]] = True
+    return fixed
+
+
+def _nuisance_columns(m: Measurement, drift: bool):
+    cols, names = [np.ones(m.n)], [f"{m.id}:offset"]
+    T = tilt_columns(m) * (URAD / UM)
+    if T.size and np.abs(T).max() > 0:
+        U, s, Vt = np.linalg.svd(T, full_matrices=False)
+        for j in range(2):
+            if s[j] > 1e-6 * max(s[0], 1e-300):
+                cols.append(T[:, j])
+                names.append(f"{m.id}:tilt{j + 1}")
+    d = m.direction
+    if d is not None and m.kind == "linear" and np.any(d == "+") and np.any(d == "-"):
+        cols.append(np.where(d == "+", 0.5, -0.5))
+        names.append(f"{m.id}:reversal")
+    if drift and "time_s" in m.columns and np.ptp(m.columns["time_s"]) > 0:
+        cols.append(m.columns["time_s"] / 3600.0)
+        names.append(f"{m.id}:drift")
+    return np.stack(cols, 1), names
+
+
+def build_design(session: Session, nodes: list[NDArray[np.float64]] | None = None,
+                 known: dict[str, tuple[NDArray[np.float64], NDArray[np.float64]]] | None = None,
+                 drift: bool = False, measurement_ids: list[str] | None = None) -> Design:
+    """Assemble the observation matrix of a session.
+
+    Parameters
+    ----------
+    session : Session
+        Measured session.
+    nodes : list of 3 arrays, optional
+        Node positions per axis [mm]; default :func:`choose_nodes`.
+    known : dict, optional
+        Errors held fixed at known values: ISO name (``'EAX'``...) -> (positions [mm],
+        values [um or urad]); a squareness name maps to ``(None, value)``.
+    drift : bool
+        Add a linear drift nuisance per measurement (needs ``time_s``).
+    measurement_ids : list of str, optional
+        Use only these measurements.
+
+    Returns
+    -------
+    Design
+    """
+    if nodes is None:
+        nodes = choose_nodes(session)
+    layout = ParameterLayout(tuple(np.asarray(n, dtype=float) for n in nodes))
+    chain = parse_chain(session.chain)
+    meas = [m for m in session.measurements
+            if measurement_ids is None or m.id in measurement_ids]
+    if not meas:
+        raise VolcalInputError("no measurements selected for identification")
+    for m in meas:
+        if m.deviation is None:
+            raise VolcalInputError("measurement has no deviations (run it or simulate it first)",
+                                   (session.path / m.file) if session.path else m.file)
+    fixed = _gauge_mask(layout)
+    fixed_values = np.zeros(layout.size)
+    fixed_names = []
+    from volcal.model.names import SQUARENESS_NAMES
+
+    for name, (pos, val) in (known or {}).items():
+        uname = name.upper()
+        if uname in SQUARENESS_NAMES:
+            i = layout.squareness_indices()[SQUARENESS_NAMES.index(uname)]
+            fixed[i] = True
+            fixed_values[i] = float(np.asarray(val).reshape(-1)[0])
+        elif uname in COMPONENT_NAMES:
+            j = COMPONENT_NAMES.index(uname)
+            k, c = divmod(j, 6)
+            idx = layout.indices(k, c)
+            if pos is None:
+                v = np.zeros(idx.size)
+            else:
+                order = np.argsort(pos)
+                v = np.interp(layout.nodes[k], np.asarray(pos)[order], np.asarray(val)[order])
+            fixed[idx] = True
+            fixed_values[idx] = v - v[0] if c >= 3 or c == k else v
+        else:
+            raise VolcalInputError(f"unknown error name {name!r} in the known errors")
+        fixed_names.append(uname)
+    free = np.flatnonzero(~fixed)
+    blocks, nblocks, ys, rows, nnames = [], [], [], {}, []
+    r0 = 0
+    for m in meas:
+        J = reading_jacobian(chain.order, layout.nodes, m)
+        ys.append(m.deviation - J @ fixed_values)
+        blocks.append(J[:, free])
+        N, names = _nuisance_columns(m, drift)
+        nblocks.append((N, r0))
+        nnames += names
+        rows[m.id] = slice(r0, r0 + m.n)
+        r0 += m.n
+    n_nuis = len(nnames)
+    data, ri, ci = [], [], []
+    c0 = 0
+    for N, start in nblocks:
+        rr, cc = np.nonzero(N)
+        data.append(N[rr, cc])
+        ri.append(rr + start)
+        ci.append(cc + c0)
+        c0 += N.shape[1]
+    Nmat = sp.csr_matrix((np.concatenate(data), (np.concatenate(ri), np.concatenate(ci))),
+                         shape=(r0, n_nuis))
+    A = sp.hstack([sp.vstack(blocks), Nmat]).tocsr()
+    return Design(layout, chain.code, session.travel.copy(), free, fixed_values, A,
+                  np.concatenate(ys), nnames, rows, meas, fixed_names)

@@ -1,0 +1,320 @@
+"""What the data can and cannot determine, in plain words.
+
+The analysis uses the design's data information matrix on the free function parameters,
+with the set-up nuisances eliminated (Schur complement),
+
+.. math:: F = A_f^T A_f - A_f^T A_n (A_n^T A_n)^+ A_n^T A_f,
+
+and compares it with the smoothness prior ``Q`` (generalised eigenproblem
+``F v = lambda Q v``): directions with ``lambda`` ~ 0 are not seen by any reading. For
+each function the report gives the share of its prior variance that the data remove,
+names the functions that undetermined combinations mix, quantifies the volumetric error
+they can cause (the *volumetric ambiguity* of the design: the posterior standard deviation
+of the volumetric error, after removing rigid-body motion, in the noise-free limit) and
+tries candidate extra measurements to say which one would help most. The analysis is
+done on the nodes at the measured positions (interpolation between readings is the job
+of the prior, not a design weakness).
+
+References: Soons (seed 004) sections 3-5 for the known weaknesses of the diagonal and
+step-diagonal tests; Golub & Van Loan, *Matrix Computations*, 4th ed., 8.7 (generalised
+symmetric eigenproblem).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg as sla
+from numpy.typing import NDArray
+
+from volcal.identify.design import Design
+from volcal.identify.prior import PriorStructure
+from volcal.model.kinematics import pose_jacobian
+from volcal.model.names import AXES, COMPONENT_NAMES, SQUARENESS_NAMES
+
+__all__ = ["IdentifiabilityReport", "analyse", "parameter_names", "rigid_projector"]
+
+DESCRIPTIONS = {
+    "EX": "positioning", "EY": "straightness", "EZ": "straightness",
+    "EA": "roll", "EB": "pitch", "EC": "yaw",
+}
+
+
+def describe(name: str) -> str:
+    """Plain-word description of an ISO 230-1 error name, e.g. ``'EAX (roll of X)'``."""
+    if name in SQUARENESS_NAMES:
+        return f"{name} (squareness)"
+    comp, ax = name[:2], name[2]
+    d = DESCRIPTIONS[comp]
+    if d == "straightness":
+        return f"{name} (straightness of {ax} in {comp[1]})"
+    return f"{name} ({d} of {ax})"
+
+
+@dataclass
+class IdentifiabilityReport:
+    """Identifiability of a design.
+
+    Attributes
+    ----------
+    n_parameters : int
+        Free function and squareness parameters (at the measured positions).
+    rank : int
+        Number of combinations the readings determine.
+    null_dimension : int
+        Combinations no reading sees.
+    determined_fraction : dict of str to float
+        Per function: share of its prior variance removed by the data (1 = fully
+        determined by the readings, 0 = the estimate is the prior's).
+    ambiguity_um : float
+        Volumetric ambiguity: largest posterior standard deviation (noise-free limit) of
+        a volumetric error component over the measured grid, rigid-body motion removed [um].
+    ambiguity_rms_um : float
+        RMS of the same over the grid [um].
+    messages : list of str
+        The report in plain words.
+    suggestions : list of str
+        Extra measurements that would determine more, best first.
+    null_groups : list of list of str
+        For each group of undetermined combinations, the functions they mix.
+    """
+
+    n_parameters: int
+    rank: int
+    null_dimension: int
+    determined_fraction: dict[str, float]
+    ambiguity_um: float
+    ambiguity_rms_um: float
+    messages: list[str] = field(default_factory=list)
+    suggestions: list[str] = field(default_factory=list)
+    null_groups: list[list[str]] = field(default_factory=list)
+
+    def to_dict(self) -> dict:
+        """JSON-ready dictionary."""
+        return {
+            "n_parameters": self.n_parameters,
+            "rank": self.rank,
+            "null_dimension": self.null_dimension,
+            "determined_fraction": self.determined_fraction,
+            "ambiguity_um": self.ambiguity_um,
+            "ambiguity_rms_um": self.ambiguity_rms_um,
+            "messages": self.messages,
+            "suggestions": self.suggestions,
+            "null_groups": self.null_groups,
+        }
+
+
+def parameter_names(design: Design) -> NDArray[np.str_]:
+    """Function name of every free parameter (``'EXX'``..., or a squareness name)."""
+    names = []
+    starts = design.layout.starts
+    for fi in design.free:
+        if fi >= starts[3]:
+            names.append(SQUARENESS_NAMES[fi - starts[3]])
+        else:
+            k = int(np.searchsorted(starts, fi, side="right") - 1)
+            names.append(COMPONENT_NAMES[6 * k + (fi - starts[k]) % 6])
+    return np.array(names)
+
+
+def rigid_projector(q: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Projector (3m x 3m) removing rigid-body displacement fields on points ``q`` [mm]."""
+    from volcal.model.rigid import _design
+
+    G = _design(q - q.mean(axis=0))
+    Qm, _ = np.linalg.qr(G)
+    return np.eye(3 * q.shape[0]) - Qm @ Qm.T
+
+
+def information(design: Design) -> NDArray[np.float64]:
+    """Data information matrix of the free parameters, nuisances eliminated."""
+    A = design.A.toarray()
+    nf = design.n_free
+    Af, An = A[:, :nf], A[:, nf:]
+    if An.shape[1]:
+        P = An @ np.linalg.pinv(An)
+        Af = Af - P @ Af
+    return Af.T @ Af
+
+
+def grid_points(design: Design, per_axis: int = 5) -> NDArray[np.float64]:
+    """Grid over the measured positions (subsampled to ``per_axis`` per axis) [mm]."""
+    ax = []
+    for k in range(3):
+        n = design.layout.nodes[k]
+        idx = np.unique(np.round(np.linspace(0, n.size - 1, min(per_axis, n.size))).astype(int))
+        ax.append(n[idx])
+    return np.stack(np.meshgrid(*ax, indexing="ij"), -1).reshape(-1, 3)
+
+
+def null_space_covariance(F: NDArray[np.float64], Qp: NDArray[np.float64], tol: float = 1e-9):
+    """Prior covariance restricted to the data null space (noise-free posterior).
+
+    Parameters
+    ----------
+    F : ndarray
+        Data information matrix.
+    Qp : ndarray
+        Prior precision (same size).
+    tol : float
+        Relative eigenvalue threshold of the null space.
+
+    Returns
+    -------
+    cov : ndarray
+        ``N (N^T Qp N)^-1 N^T`` with ``N`` a basis of the null space of ``F``.
+    N : ndarray
+        The basis.
+    """
+    w, V = np.linalg.eigh(F)
+    N = V[:, w < tol * max(w.max(), 1e-300)]
+    if N.shape[1] == 0:
+        return np.zeros_like(F), N
+    M = N.T @ Qp @ N
+    return N @ np.linalg.solve(M, N.T), N
+
+
+def analyse(design: Design, prior: PriorStructure, scales: NDArray[np.float64],
+            squareness_std: float, candidates: dict[str, Design] | None = None,
+            tool_offset: NDArray[np.float64] | None = None) -> IdentifiabilityReport:
+    """Identifiability report of a design (nodes at the measured positions).
+
+    Parameters
+    ----------
+    design : Design
+        Observation system, nodes at the measured positions only (``refine=1``).
+    prior : PriorStructure
+        Prior for the same design.
+    scales : ndarray, shape (3,)
+        Prior amplitude scales [um, um, urad].
+    squareness_std : float
+        Prior standard deviation of the squareness [urad].
+    candidates : dict of str to Design, optional
+        Extra measurements to try (each a design on the same nodes, its own readings only);
+        the key is the plain-word description.
+    tool_offset : ndarray, optional
+        Tool offset for the volumetric ambiguity [mm].
+
+    Returns
+    -------
+    IdentifiabilityReport
+    """
+    nf = design.n_free
+    Qp = prior.precision(scales, squareness_std, nf, np.zeros(0)).toarray()
+    F = information(design)
+    scale = np.sqrt(np.diag(Qp))
+    Fs = F / np.outer(scale, scale)
+    Qs = Qp / np.outer(scale, scale)
+    w = sla.eigh(Fs, Qs, eigvals_only=True)
+    tol = 1e-9 * max(w.max(), 1e-300)
+    rank = int(np.sum(w > tol))
+    cov_inf, N = null_space_covariance(Fs, Qs)
+    cov_inf = cov_inf / np.outer(scale, scale)
+    prior_cov = np.linalg.inv(Qp)
+    names = parameter_names(design)
+    frac = {}
+    for n in dict.fromkeys(names):
+        sel = names == n
+        frac[str(n)] = float(np.clip(1.0 - np.trace(cov_inf[np.ix_(sel, sel)])
+                                     / np.trace(prior_cov[np.ix_(sel, sel)]), 0.0, 1.0))
+    # volumetric ambiguity on the measured grid
+    q = grid_points(design)
+    Je, _ = pose_jacobian(_order(design), design.layout.nodes, q, tool_offset)
+    G = Je[:, design.free].toarray()
+    R = rigid_projector(q)
+    GP = R @ G
+    var = np.einsum("ij,jk,ik->i", GP, cov_inf, GP)
+    amb = np.sqrt(np.clip(var, 0, None))
+    report = IdentifiabilityReport(nf, rank, nf - rank, frac, float(amb.max()),
+                                   float(np.sqrt(np.mean(amb**2))))
+    # groups of undetermined combinations
+    if N.shape[1]:
+        share = np.zeros((N.shape[1], len(frac)))
+        keys = list(frac)
+        for j in range(N.shape[1]):
+            v = N[:, j] ** 2
+            for i, n in enumerate(keys):
+                share[j, i] = v[names == n].sum()
+        total = share.sum(axis=0)
+        mixed = [keys[i] for i in np.argsort(-total) if total[i] > 0.05 * total.max()]
+        report.null_groups.append(mixed)
+    _messages(report, design)
+    if candidates:
+        _suggest(report, design, F, Qp, candidates, G, R)
+    return report
+
+
+def _order(design: Design):
+    from volcal.model.chain import parse_chain
+
+    return parse_chain(design.chain).order
+
+
+def _messages(rep: IdentifiabilityReport, design: Design) -> None:
+    kinds = sorted({m.kind for m in design.measurements})
+    rep.messages.append(
+        f"{len(design.measurements)} measurements ({', '.join(kinds)}) determine {rep.rank} of "
+        f"{rep.n_parameters} combinations of the error values at the measured positions; "
+        f"{rep.null_dimension} combinations are seen by no reading.")
+    poor = [n for n, f in rep.determined_fraction.items() if f < 0.5]
+    weak = [n for n, f in rep.determined_fraction.items() if 0.5 <= f < 0.95]
+    rolls = [n for n in poor if n.startswith("EA") and n not in SQUARENESS_NAMES]
+    for n in poor:
+        f = rep.determined_fraction[n]
+        why = ""
+        if n.startswith("EA") and n not in SQUARENESS_NAMES:
+            why = (" Roll acts only through lever arms across the beam; linear tests along the "
+                   "axis cannot see it. Its estimate leans on the prior (zero); measure it with "
+                   "an electronic level or give it as a known error.")
+        elif n[:2] in ("EA", "EB", "EC") and n not in SQUARENESS_NAMES:
+            why = (" This rotation has (almost) no lever arm to the target in these set-ups, so "
+                   "it changes the tool orientation only; a flat mirror sees that weakly.")
+        rep.messages.append(f"{describe(n)} is not determined by the data: only {100 * f:.0f}% "
+                            f"of its prior uncertainty is removed.{why}")
+    if weak:
+        rep.messages.append("Weakly determined (50-95% of the prior uncertainty removed): "
+                            + ", ".join(describe(n) for n in weak) + ".")
+    if rep.null_groups:
+        rep.messages.append("The undetermined combinations mix " + ", ".join(
+            describe(n) for n in rep.null_groups[0][:6]) + ".")
+    if rolls:
+        rep.messages.append("Roll: " + ", ".join(rolls) + " not measured; taken from the prior "
+                            "(zero mean), with its uncertainty carried into the predictions.")
+    rep.messages.append(
+        f"Volumetric ambiguity of this design: up to {rep.ambiguity_um:.2f} um (one standard "
+        f"deviation, RMS {rep.ambiguity_rms_um:.2f} um over the measured grid, rigid-body motion "
+        "removed) of the volumetric error cannot be determined by these tests, even without noise.")
+    step_flat = [m for m in design.measurements
+                 if m.kind == "step_diagonal" and m.target == "flat_mirror"]
+    linears = {m.axis for m in design.measurements if m.kind == "linear"}
+    if step_flat and len(linears) < 2:
+        rep.messages.append(
+            "The slopes of the positioning errors are confounded with the mirror tilts of the "
+            "step diagonals (Soons, section 4): add a linear measurement of X or Y.")
+
+
+def _suggest(rep: IdentifiabilityReport, design: Design, F, Qp, candidates, G, R) -> None:
+    base = rep.ambiguity_rms_um
+    scores = []
+    for label, cd in candidates.items():
+        Fc = information(cd)
+        Fn = F + Fc
+        scale = np.sqrt(np.diag(Qp))
+        cov, _ = null_space_covariance(Fn / np.outer(scale, scale), Qp / np.outer(scale, scale))
+        cov = cov / np.outer(scale, scale)
+        GP = R @ G
+        var = np.einsum("ij,jk,ik->i", GP, cov, GP)
+        rms = float(np.sqrt(np.mean(np.clip(var, 0, None))))
+        scores.append((rms, label))
+    scores.sort()
+    for rms, label in scores[:3]:
+        if rms < 0.9 * base:
+            rep.suggestions.append(f"{label}: volumetric ambiguity {base:.2f} -> {rms:.2f} um RMS")
+    if rep.suggestions:
+        rep.messages.append("Best extra measurement: " + rep.suggestions[0] + ".")
+
+
+def axis_name(k: int) -> str:
+    """Axis letter."""
+    return AXES[k]

@@ -1,0 +1,232 @@
+"""The identified model: error functions with uncertainties, predictions, JSON file.
+
+Schema ``volcal-model/1`` (``docs/identification.md``)::
+
+    {"format": "volcal-model/1", "name", "chain", "travel_mm": [[x0,x1],[y0,y1],[z0,z1]],
+     "functions": {"X": {"position_mm": [...], "EXX_um": [...], "u_EXX_um": [...], ...,
+                         "EAX_urad": [...], "u_EAX_urad": [...], ...}, "Y": ..., "Z": ...},
+     "squareness_urad": {"EC0Y": v, ...}, "u_squareness_urad": {...},
+     "covariance": {"free_index": [...], "factor": [[...], ...]},
+     "identifiability": {...}, "fit": {...}, "nuisances": {...}, "outliers": [...]}
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from volcal.errors import VolcalInputError
+from volcal.io.atomic import write_text
+from volcal.model.errorfunctions import MachineErrors
+from volcal.model.kinematics import pose_jacobian
+from volcal.model.names import AXES, COMPONENTS, SQUARENESS_NAMES
+from volcal.model.parameters import ParameterLayout
+
+MODEL_FORMAT = "volcal-model/1"
+UNITS = ("um", "um", "um", "urad", "urad", "urad")
+
+__all__ = ["MODEL_FORMAT", "IdentificationResult"]
+
+
+@dataclass
+class IdentificationResult:
+    """Result of :func:`volcal.identify.identify`.
+
+    Attributes
+    ----------
+    errors : MachineErrors
+        Estimated error functions on the estimation nodes.
+    layout : ParameterLayout
+        Parameter layout of ``errors``.
+    free : ndarray of int
+        Layout indices of the estimated parameters (the others are gauge zeros or known).
+    cov_factor : ndarray, shape (len(free), r)
+        Factor ``L`` of the posterior covariance of the estimated parameters, ``L L^T``.
+    std : list of 3 ndarray, shape (n_k, 6)
+        Standard uncertainty of each node value [um, urad].
+    squareness_std : ndarray, shape (3,)
+        Standard uncertainty of EC0Y, EB0Z, EA0Z [urad].
+    report : IdentifiabilityReport or dict
+        Identifiability in plain words.
+    fit : dict
+        Fit statistics: method, sigma_um, sigma_residual_um, dof, n_readings, scales...
+    residuals, fitted : dict of str to ndarray
+        Per measurement [um].
+    nuisances : dict of str to (value, std)
+        Set-up parameters (offsets [um], tilts [urad], reversal [um], drift [um/h]).
+    outliers : list of dict
+        Readings whose standardised residual exceeds the threshold.
+    """
+
+    name: str
+    errors: MachineErrors
+    layout: ParameterLayout
+    free: NDArray[np.intp]
+    cov_factor: NDArray[np.float64]
+    std: list[NDArray[np.float64]]
+    squareness_std: NDArray[np.float64]
+    report: Any
+    fit: dict[str, Any]
+    residuals: dict[str, NDArray[np.float64]] = field(default_factory=dict)
+    fitted: dict[str, NDArray[np.float64]] = field(default_factory=dict)
+    nuisances: dict[str, tuple[float, float]] = field(default_factory=dict)
+    outliers: list[dict[str, Any]] = field(default_factory=list)
+    design: Any = field(default=None, repr=False)
+    solution: Any = field(default=None, repr=False)
+
+    @property
+    def sigma_um(self) -> float:
+        """Reading noise used by the estimator [um]."""
+        return float(self.fit["sigma_um"])
+
+    @property
+    def theta(self) -> NDArray[np.float64]:
+        """Full parameter vector of the estimate."""
+        return self.layout.pack(self.errors)
+
+    def predict(self, q: ArrayLike, tool_offset: ArrayLike | None = None, chunk: int = 20000):
+        """Volumetric error and its standard uncertainty at points.
+
+        Parameters
+        ----------
+        q : array_like, shape (m, 3)
+            Commanded positions [mm].
+        tool_offset : array_like, shape (3,), optional
+            Tool offset [mm].
+        chunk : int
+            Points per block (memory bound).
+
+        Returns
+        -------
+        e : ndarray, shape (m, 3)
+            Actual minus commanded tool point position, machine axes [um].
+        u : ndarray, shape (m, 3)
+            Standard uncertainties [um].
+        """
+        q = np.asarray(q, dtype=float).reshape(-1, 3)
+        theta = self.theta
+        order = self.errors.chain_obj.order
+        es, us = [], []
+        for i in range(0, q.shape[0], chunk):
+            qq = q[i:i + chunk]
+            Je, _ = pose_jacobian(order, self.layout.nodes, qq, tool_offset)
+            es.append((Je @ theta).reshape(-1, 3))
+            GL = Je[:, self.free] @ self.cov_factor
+            us.append(np.sqrt(np.sum(np.asarray(GL) ** 2, axis=1)).reshape(-1, 3))
+        return np.concatenate(es), np.concatenate(us)
+
+    def function_std(self, name: str, q: ArrayLike) -> NDArray[np.float64]:
+        """Standard uncertainty of one named function at positions [um or urad].
+
+        Parameters
+        ----------
+        name : str
+            ISO name (``'EXX'``...) or squareness name.
+        q : array_like
+            Positions of that axis [mm].
+        """
+        from volcal.model.errorfunctions import interp_weights
+        from volcal.model.names import COMPONENT_NAMES
+
+        name = name.upper()
+        q = np.asarray(q, dtype=float).reshape(-1)
+        pos = -np.ones(self.layout.size, dtype=np.intp)
+        pos[self.free] = np.arange(self.free.size)
+        if name in SQUARENESS_NAMES:
+            i = pos[self.layout.squareness_indices()[SQUARENESS_NAMES.index(name)]]
+            return np.full(q.shape, 0.0 if i < 0 else float(np.linalg.norm(self.cov_factor[i])))
+        k, c = divmod(COMPONENT_NAMES.index(name), 6)
+        idx = self.layout.indices(k, c)
+        i0, i1, w = interp_weights(self.layout.nodes[k], q)
+        L = np.zeros((q.size, self.cov_factor.shape[1]))
+        for ii, ww in ((i0, 1 - w), (i1, w)):
+            p = pos[idx[ii]]
+            ok = p >= 0
+            L[ok] += ww[ok, None] * self.cov_factor[p[ok]]
+        return np.linalg.norm(L, axis=1)
+
+    # ------------------------------------------------------------------ file
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dictionary (schema ``volcal-model/1``)."""
+        funcs = {}
+        for k in range(3):
+            d: dict[str, Any] = {"position_mm": _r(self.layout.nodes[k])}
+            for c in range(6):
+                nm = f"{COMPONENTS[c]}{AXES[k]}_{UNITS[c]}"
+                d[nm] = _r(self.errors.values[k][:, c])
+                d["u_" + nm] = _r(self.std[k][:, c])
+            funcs[AXES[k]] = d
+        rep = self.report.to_dict() if hasattr(self.report, "to_dict") else self.report
+        return {
+            "format": MODEL_FORMAT,
+            "name": self.name,
+            "chain": str(self.errors.chain),
+            "travel_mm": [_r(self.errors.travel[k]) for k in range(3)],
+            "functions": funcs,
+            "squareness_urad": dict(zip(SQUARENESS_NAMES, _r(self.errors.squareness), strict=True)),
+            "u_squareness_urad": dict(zip(SQUARENESS_NAMES, _r(self.squareness_std), strict=True)),
+            "covariance": {"free_index": [int(i) for i in self.free],
+                           "factor": [_r(row) for row in self.cov_factor]},
+            "identifiability": rep,
+            "fit": self.fit,
+            "nuisances": {k: {"value": _f(v[0]), "u": _f(v[1])} for k, v in self.nuisances.items()},
+            "outliers": self.outliers,
+        }
+
+    def to_json(self, path: str | Path) -> Path:
+        """Write the model file atomically.
+
+        Parameters
+        ----------
+        path : str or Path
+            Output file (``MODEL.json``).
+        """
+        path = Path(path)
+        write_text(path, json.dumps(self.to_dict(), indent=1, allow_nan=False) + "\n")
+        return path
+
+    @classmethod
+    def from_dict(cls, doc: dict[str, Any], source: str = "model") -> IdentificationResult:
+        """Rebuild a result from its JSON dictionary (no residuals or design)."""
+        try:
+            if doc.get("format") != MODEL_FORMAT:
+                raise VolcalInputError(f"expected format \"{MODEL_FORMAT}\"", source, None,
+                                       "format")
+            nodes, values, std = [], [], []
+            for k in range(3):
+                f = doc["functions"][AXES[k]]
+                nodes.append(np.array(f["position_mm"], dtype=float))
+                values.append(np.stack([np.array(f[f"{COMPONENTS[c]}{AXES[k]}_{UNITS[c]}"],
+                                                 dtype=float) for c in range(6)], 1))
+                std.append(np.stack([np.array(f[f"u_{COMPONENTS[c]}{AXES[k]}_{UNITS[c]}"],
+                                              dtype=float) for c in range(6)], 1))
+            sq = np.array([doc["squareness_urad"][n] for n in SQUARENESS_NAMES], dtype=float)
+            usq = np.array([doc["u_squareness_urad"][n] for n in SQUARENESS_NAMES], dtype=float)
+            errors = MachineErrors(doc["chain"], nodes, values, sq, name=doc.get("name", "model"))
+            layout = ParameterLayout(tuple(nodes))
+            free = np.array(doc["covariance"]["free_index"], dtype=np.intp)
+            fac = np.array(doc["covariance"]["factor"], dtype=float).reshape(free.size, -1)
+        except VolcalInputError:
+            raise
+        except (KeyError, TypeError, ValueError, IndexError) as exc:
+            raise VolcalInputError(f"not a valid volcal model file ({exc.__class__.__name__}: "
+                                   f"{exc})", source) from None
+        nuis = {k: (v["value"], v["u"]) for k, v in doc.get("nuisances", {}).items()}
+        return cls(doc.get("name", "model"), errors, layout, free, fac, std, usq,
+                   doc.get("identifiability", {}), doc.get("fit", {}), nuisances=nuis,
+                   outliers=doc.get("outliers", []))
+
+
+def _f(v: float) -> float | None:
+    v = float(v)
+    return float(f"{v:.7g}") if math.isfinite(v) else None
+
+
+def _r(a: ArrayLike) -> list[float]:
+    return [float(f"{float(v):.7g}") for v in np.asarray(a).reshape(-1)]

@@ -1,0 +1,199 @@
+"""``volcal evaluate``: ISO 230-2, VDI/DGQ 3441, ISO 230-6 and volumetric indices."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+console = Console()
+evaluate_app = typer.Typer(help="Evaluate measurements to the standards (ISO 230-2, "
+                           "VDI/DGQ 3441, ISO 230-6, ISO 230-1 volumetric indices).",
+                           no_args_is_help=True)
+
+_AXIS_LABELS = {"A": "A  accuracy", "A_up": "A↑", "A_down": "A↓",
+                "E": "E  systematic error", "E_up": "E↑", "E_down": "E↓",
+                "M": "M  range of mean bidirectional deviation",
+                "R": "R  repeatability", "R_up": "R↑", "R_down": "R↓",
+                "B": "B  reversal value", "B_mean": "B̄  mean reversal value"}
+
+
+def _print_json(obj: Any) -> None:
+    typer.echo(json.dumps(obj, indent=2))
+
+
+def _iso_tables(res: Any, title: str) -> None:
+    t = Table(title=f"{title} (ISO 230-2:{res.edition})")
+    t.add_column("parameter")
+    t.add_column("value [um]", justify="right")
+    for k, label in _AXIS_LABELS.items():
+        t.add_row(label, f"{getattr(res, k):.3f}")
+    console.print(t)
+    tt = Table(title="per target [um]")
+    for c in ("target [mm]", "x̄↑", "x̄↓", "x̄", "s↑", "s↓", "B_i", "R↑", "R↓", "R_i"):
+        tt.add_column(c, justify="right")
+    for row in res.targets.rows():
+        tt.add_row(*[f"{row[k]:.3f}" for k in ("target_mm", "mean_up", "mean_down", "mean",
+                                               "s_up", "s_down", "B", "R_up", "R_down", "R")])
+    console.print(tt)
+    for w in res.warnings:
+        console.print(f"[yellow]warning:[/] {w}")
+
+
+@evaluate_app.command("iso230-2")
+def iso230_2_cmd(
+    file: Path = typer.Argument(..., help="CSV: target_mm,run,direction,deviation_um or a "
+                                "session measurement CSV of a linear test."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
+    edition: str = typer.Option("2014", help="ISO 230-2 edition: 2014, 2006, 1997, 1988."),
+) -> None:
+    """Positioning accuracy and repeatability of one axis (ISO 230-2)."""
+    from volcal.standards.iso230_2 import evaluate
+    from volcal.standards.positioning_data import read_positioning_csv
+
+    d = read_positioning_csv(file)
+    res = evaluate(d.targets_mm, d.run, d.direction, d.deviation_um, edition, file=d.file,
+                   rows=d.rows)
+    if as_json:
+        out = res.to_dict()
+        out["file"] = str(file)
+        _print_json(out)
+    else:
+        _iso_tables(res, str(file))
+
+
+@evaluate_app.command("vdi3441")
+def vdi3441_cmd(
+    file: Path = typer.Argument(..., help="Same CSV layouts as iso230-2."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
+) -> None:
+    """Positioning parameters of VDI/DGQ 3441 (P, Pa, Ps, U)."""
+    from volcal.standards.positioning_data import read_positioning_csv
+    from volcal.standards.vdi3441 import evaluate
+
+    d = read_positioning_csv(file)
+    res = evaluate(d.targets_mm, d.run, d.direction, d.deviation_um, file=d.file, rows=d.rows)
+    if as_json:
+        _print_json(res.to_dict())
+        return
+    t = Table(title=f"{file} (VDI/DGQ 3441)")
+    t.add_column("parameter")
+    t.add_column("value [um]", justify="right")
+    for k in ("P", "Pa", "Ps", "Ps_mean", "U", "U_mean"):
+        t.add_row(k, f"{getattr(res, k):.3f}")
+    console.print(t)
+
+
+@evaluate_app.command("iso230-6")
+def iso230_6_cmd(
+    session: Path = typer.Argument(..., help="Session folder."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
+) -> None:
+    """Diagonal displacement tests of a session (ISO 230-6), each diagonal."""
+    from volcal.errors import VolcalInputError
+    from volcal.session.format import read_session
+    from volcal.standards.iso230_6 import evaluate_diagonal
+
+    s = read_session(session)
+    res = [evaluate_diagonal(m) for m in s.measurements if m.kind == "diagonal"]
+    if not res:
+        raise VolcalInputError("no diagonal measurements in the session", session)
+    if as_json:
+        _print_json({"diagonals": [r.to_dict() for r in res],
+                     "max_E_D": max(r.E_D for r in res)})
+        return
+    t = Table(title=f"{session}: ISO 230-6 diagonal displacement")
+    for c in ("id", "diagonal", "length [mm]", "E_D [um]", "max |dev| [um]", "R [um]"):
+        t.add_column(c, justify="right")
+    for r in res:
+        rr = "" if r.iso230_2 is None else f"{r.iso230_2.R:.3f}"
+        t.add_row(r.id, (r.plane + " " if r.plane else "") + r.diagonal, f"{r.length_mm:.1f}",
+                  f"{r.E_D:.3f}", f"{r.max_abs_um:.3f}", rr)
+    console.print(t)
+
+
+@evaluate_app.command("session")
+def session_cmd(
+    session: Path = typer.Argument(..., help="Session folder."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
+    edition: str = typer.Option("2014", help="ISO 230-2 edition."),
+) -> None:
+    """ISO 230-2 for every linear measurement with runs and directions; ELv (seed 002)."""
+    from volcal.errors import VolcalInputError
+    from volcal.session.format import read_session
+    from volcal.standards.iso230_2 import evaluate
+    from volcal.standards.iso230_6 import elv
+    from volcal.standards.positioning_data import from_measurement
+
+    s = read_session(session)
+    results: dict[str, Any] = {}
+    axis_of: dict[str, str] = {}
+    skipped: list[str] = []
+    for m in s.measurements:
+        if m.kind != "linear":
+            continue
+        if "run" not in m.columns or "direction" not in m.columns:
+            skipped.append(m.id)
+            continue
+        d = from_measurement(m, s.path)
+        results[m.id] = evaluate(d.targets_mm, d.run, d.direction, d.deviation_um, edition,
+                                 file=d.file, rows=d.rows)
+        axis_of[m.id] = d.axis or "?"
+    if not results:
+        raise VolcalInputError("no linear measurement with run and direction columns", session)
+    # ELv: M of the first linear measurement of each axis (seed 002, eq. 1-2)
+    first: dict[str, float] = {}
+    for mid, r in results.items():
+        first.setdefault(axis_of[mid], r.M)
+    elv_val = elv(*(first[a] for a in "XYZ")) if all(a in first for a in "XYZ") else None
+    if as_json:
+        _print_json({"measurements": {k: {"axis": axis_of[k], **v.to_dict()}
+                                      for k, v in results.items()},
+                     "ELv": elv_val, "skipped": skipped})
+        return
+    t = Table(title=f"{session}: ISO 230-2:{edition} [um]")
+    for c in ("id", "axis", "A", "E", "M", "R", "B", "B_mean"):
+        t.add_column(c, justify="right")
+    for k, r in results.items():
+        t.add_row(k, axis_of[k], *[f"{getattr(r, p):.3f}" for p in
+                                   ("A", "E", "M", "R", "B", "B_mean")])
+    console.print(t)
+    if elv_val is not None:
+        console.print(f"ELv (RSS of M of the first line of each axis) = {elv_val:.3f} um")
+    for k in skipped:
+        console.print(f"[yellow]skipped[/] {k}: no run/direction columns")
+
+
+@evaluate_app.command("volumetric")
+def volumetric_cmd(
+    errors: Path = typer.Argument(..., help="Error table CSV (ERRORS.csv)."),
+    tool_offset: str = typer.Option("0,0,0", help="Tool point offset x,y,z [mm]."),
+    n: int = typer.Option(11, help="Grid points per axis."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
+) -> None:
+    """ISO 230-1 volumetric indices E_VX, E_VY, E_VZ, E_VXYZ of an error table; ELv."""
+    from volcal.cli._common import parse_vector
+    from volcal.session.errortable import read_error_table
+    from volcal.standards.volumetric import elv_from_model, volumetric_indices
+
+    m = read_error_table(errors)
+    res = volumetric_indices(m, parse_vector(tool_offset, "--tool-offset"), n)
+    out = {**res.to_dict(), **elv_from_model(m)}
+    if as_json:
+        _print_json(out)
+        return
+    t = Table(title=f"{errors}: volumetric indices [um]")
+    t.add_column("index")
+    t.add_column("value [um]", justify="right")
+    for k in ("E_VX", "E_VY", "E_VZ", "E_VXYZ", "E_VXYZ_range", "ELx", "ELy", "ELz", "ELv"):
+        t.add_row(k, f"{out[k]:.3f}")
+    console.print(t)
+
+
+def register(app: typer.Typer) -> None:
+    """Add the ``evaluate`` command group to the app."""
+    app.add_typer(evaluate_app, name="evaluate")

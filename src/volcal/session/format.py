@@ -449,7 +449,12 @@ def read_session(folder: str | Path, require_deviation: bool = True) -> Session:
     seen: set[str] = set()
     meas = []
     for i, e in enumerate(raw):
-        meas.append(_read_entry(e, i, folder, toml_path, seen, require_deviation))
+        m = _read_entry(e, i, folder, toml_path, seen, require_deviation)
+        if m.meta.get("readings") == "raw" and m.deviation is not None:
+            from volcal.environment.apply import compensate_measurement
+
+            m = compensate_measurement(m, f"{toml_path} [{m.id}]")
+        meas.append(m)
     return Session(name, chain, travel, meas, meta, folder)
 
 

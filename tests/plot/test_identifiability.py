@@ -31,3 +31,14 @@ def test_bars_and_spectrum():
     assert any(t.get_text() == "n/i" for t in fig.axes[1].texts)
     sv = [ln for ln in fig.axes[2].get_lines() if ln.get_gid() == "singular values"][0]
     np.testing.assert_allclose(sv.get_ydata(), [1.0, 0.1, 1e-7])
+
+
+def test_determined_fraction_panel_colours_by_limits():
+    frac = {"EXX": 0.999, "EAX": 0.36, "EYX": 0.74}
+    fig = identifiability_plot(_std(), determined_fraction=frac)
+    assert len(fig.axes) == 3
+    bars = fig.axes[2].patches
+    np.testing.assert_allclose([b.get_width() for b in bars], [99.9, 36.0, 74.0])
+    import matplotlib.colors as mc
+    assert [mc.to_hex(b.get_facecolor()) for b in bars] == [
+        mc.to_hex("tab:green"), mc.to_hex("tab:red"), mc.to_hex("tab:orange")]

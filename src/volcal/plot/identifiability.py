@@ -4,14 +4,16 @@ Left: the largest standard uncertainty of each of the 21 errors over its nodes
 (translations [um], rotations and squareness [urad]), log scale; functions the tests do
 not determine (for instance the roll errors, which no laser displacement reading sees:
 Wang & Liotto 2003, seed 000, section 1) show as tall or missing bars marked "n/i".
-Right, when given: the singular values of the scaled observation matrix, whose tail
-shows how close the problem is to losing rank (Golub & Van Loan, Matrix Computations,
-4th ed., 2013, 2.4 and 6.1).
+Middle, when given: the fraction of each function's prior uncertainty that the data
+remove (1 - posterior/prior variance, as the identification reports it), coloured red
+below 50 %, orange below 95 %. Right, when given: the singular values of the scaled
+observation matrix, whose tail shows how close the problem is to losing rank (Golub &
+Van Loan, Matrix Computations, 4th ed., 2013, 2.4 and 6.1).
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 from matplotlib.figure import Figure
@@ -72,11 +74,16 @@ def _bars(ax, names: list[str], values: list[float], unit: str, color: str) -> N
     ax.grid(True, axis="y", which="both", alpha=0.3)
 
 
+FRACTION_LIMITS = (0.5, 0.95)
+"""Determined fractions below the first are 'not determined', below the second 'weak'."""
+
+
 def identifiability_plot(std: Sequence[NDArray[np.float64]],
                          squareness_std: ArrayLike | None = None,
                          singular_values: ArrayLike | None = None,
+                         determined_fraction: Mapping[str, float] | None = None,
                          fig: Figure | None = None) -> Figure:
-    """Per-function uncertainty bars and, optionally, the singular value spectrum.
+    """Plot per-function uncertainty bars, determined fractions and singular values.
 
     Parameters
     ----------
@@ -86,6 +93,8 @@ def identifiability_plot(std: Sequence[NDArray[np.float64]],
         Standard uncertainties of the squareness errors [urad].
     singular_values : array_like, optional
         Singular values of the (column-scaled) observation matrix, any order.
+    determined_fraction : mapping of str to float, optional
+        ISO 230-1 name -> fraction of the prior uncertainty removed by the data [-].
     fig : Figure, optional
         Figure to draw into.
 
@@ -94,7 +103,7 @@ def identifiability_plot(std: Sequence[NDArray[np.float64]],
     matplotlib.figure.Figure
     """
     u = function_uncertainty(std, squareness_std)
-    ncol = 3 if singular_values is not None else 2
+    ncol = 2 + (singular_values is not None) + (determined_fraction is not None)
     fig = fig or new_figure(4.2 * ncol, 4.2)
     axs = fig.subplots(1, ncol, squeeze=False)[0]
     lin = [n for n in u if n[:2] in ("EX", "EY", "EZ") and n not in SQUARENESS_NAMES]
@@ -103,9 +112,25 @@ def identifiability_plot(std: Sequence[NDArray[np.float64]],
     axs[0].set_title("translations")
     _bars(axs[1], ang, [u[n] for n in ang], "µrad", "tab:green")
     axs[1].set_title("rotations and squareness")
+    col = 2
+    if determined_fraction is not None:
+        names = list(determined_fraction)
+        f = np.array([determined_fraction[n] for n in names], dtype=float)
+        colors = np.where(f < FRACTION_LIMITS[0], "tab:red",
+                          np.where(f < FRACTION_LIMITS[1], "tab:orange", "tab:green"))
+        ax = axs[col]
+        ax.barh(np.arange(len(names)), 100.0 * f, color=colors, gid="determined")
+        ax.set_yticks(np.arange(len(names)), names, fontsize="small")
+        ax.invert_yaxis()
+        ax.set_xlim(0, 100)
+        for lim in FRACTION_LIMITS:
+            ax.axvline(100 * lim, color="0.4", linewidth=0.6, linestyle=":")
+        ax.set_xlabel("prior uncertainty removed [%]")
+        ax.set_title("determined by the data")
+        col += 1
     if singular_values is not None:
         sv = np.sort(np.abs(np.asarray(singular_values, dtype=float)))[::-1]
-        ax = axs[2]
+        ax = axs[col]
         rel = sv / sv[0] if sv.size and sv[0] > 0 else sv
         ax.semilogy(np.arange(1, sv.size + 1), np.maximum(rel, 1e-17), marker=".",
                     gid="singular values")

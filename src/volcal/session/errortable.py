@@ -110,7 +110,7 @@ def read_error_table(path: str | Path, chain: str | None = None) -> MachineError
     try:
         rows = [r for r in csv.reader(io.StringIO(path.read_text(encoding="utf-8-sig")))
                 if any(c.strip() for c in r)]
-    except (UnicodeDecodeError, csv.Error) as exc:
+    except (UnicodeDecodeError, csv.Error, OSError) as exc:
         raise VolcalInputError(f"cannot read the CSV ({exc})", path) from None
     if not rows or tuple(h.strip() for h in rows[0]) != HEADER:
         raise VolcalInputError(f"expected the header {','.join(HEADER)}", path, 1)
@@ -144,13 +144,16 @@ def read_error_table(path: str | Path, chain: str | None = None) -> MachineError
     if toml_path.is_file():
         try:
             doc = tomllib.loads(toml_path.read_text(encoding="utf-8"))
-        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        except (tomllib.TOMLDecodeError, UnicodeDecodeError, OSError) as exc:
             raise VolcalInputError(f"invalid TOML: {exc}", toml_path) from None
         if doc.get("format") != ERRORS_FORMAT:
             raise VolcalInputError(f"expected format = \"{ERRORS_FORMAT}\"", toml_path, None,
                                    "format")
         chain = doc.get("chain", chain)
         name = doc.get("name", name)
+        for table in ("squareness_urad", "reversal_um"):
+            if not isinstance(doc.get(table, {}), dict):
+                raise VolcalInputError(f"[{table}] must be a table", toml_path, None, table)
         for i, n in enumerate(SQUARENESS_NAMES):
             v = doc.get("squareness_urad", {}).get(n, 0.0)
             if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):

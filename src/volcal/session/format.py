@@ -119,7 +119,7 @@ class Measurement:
         if self.kind != "linear":
             return None
         a = self.meta.get("axis")
-        if isinstance(a, str) and a.upper() in "XYZ":
+        if isinstance(a, str) and a.upper() in ("X", "Y", "Z"):
             return "XYZ".index(a.upper())
         return int(np.argmax(np.ptp(self.positions, axis=0)))
 
@@ -413,6 +413,8 @@ def read_session(folder: str | Path, require_deviation: bool = True) -> Session:
         doc = tomllib.loads(toml_path.read_text(encoding="utf-8"))
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise _err(f"invalid TOML: {exc}", toml_path) from None
+    except OSError as exc:
+        raise _err(f"cannot read the file ({exc.__class__.__name__})", toml_path) from None
     fmt = doc.get("format")
     if fmt != SESSION_FORMAT:
         raise _err(f"expected format = \"{SESSION_FORMAT}\", got {fmt!r}", toml_path, None, "format")
@@ -432,6 +434,10 @@ def read_session(folder: str | Path, require_deviation: bool = True) -> Session:
         raise _err("missing [machine.travel_mm] table with x, y, z = [min, max]", toml_path, None,
                    "machine.travel_mm")
     travel = np.empty((3, 2))
+    unknown = sorted(set(tr) - {"x", "y", "z"})
+    if unknown:
+        raise _err(f"unknown axis {unknown[0]!r}: expected x, y, z", toml_path, None,
+                   f"machine.travel_mm.{unknown[0]}")
     for i, a in enumerate("xyz"):
         v = tr.get(a)
         key = f"machine.travel_mm.{a}"
@@ -498,6 +504,15 @@ def _read_entry(e: Any, i: int, folder: Path, toml_path: Path, seen: set[str],
     n = n / np.linalg.norm(n)
     meta = {k: v for k, v in e.items()
             if k not in ("id", "kind", "target", "file", "tool_offset_mm", "beam_direction")}
+    if kind == "linear" and "axis" in meta:
+        a = meta["axis"]
+        if not isinstance(a, str) or a.upper() not in ("X", "Y", "Z"):
+            raise _err(f"axis must be \"X\", \"Y\" or \"Z\", got {a!r}", toml_path, None,
+                       f"{where}.axis")
+        moving = int(np.argmax(np.ptp(pos, axis=0)))
+        if "XYZ".index(a.upper()) != moving:
+            raise _err(f"axis = {a!r} but the positions in {file} move along "
+                       f"{'XYZ'[moving]}", toml_path, None, f"{where}.axis")
     env = meta.get("environment")
     if env is not None and not isinstance(env, dict):
         raise _err("environment must be a table", toml_path, None, f"{where}.environment")

@@ -1,0 +1,121 @@
+"""Registry of compensation formats and the folder writer used by ``volcal compensate``."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import tomli_w
+
+from volcal.compensate.fanuc import fanuc_files
+from volcal.compensate.generic import generic_files
+from volcal.compensate.heidenhain import heidenhain_files
+from volcal.compensate.siemens import siemens_files
+from volcal.compensate.tables import sign_factor
+from volcal.compensate.volumetric import grid_files, isg_files
+from volcal.errors import VolcalInputError
+from volcal.io.atomic import atomic_dir
+from volcal.model.errorfunctions import MachineErrors
+
+MANIFEST = "volcal-compensation.toml"
+
+
+@dataclass(frozen=True)
+class CompensationOptions:
+    """Options of ``volcal compensate``.
+
+    Parameters
+    ----------
+    sign : str
+        ``'error'`` or ``'correction'`` (no default: the user must choose).
+    spacing : float
+        Distance between compensation points (and 3-D grid spacing) [mm].
+    max_points : int, optional
+        Controller limit of points (per table; Fanuc: the whole table). Default per
+        format: Fanuc 1024, Siemens 5000, Heidenhain 256, others unlimited (3-D grid 10^6).
+    reference_mm : array_like, shape (3,), optional
+        Fanuc reference position [mm]; default the start of each travel.
+    unit_um : float
+        Fanuc detection unit [um].
+    magnification : int
+        Fanuc magnification (parameter 3623).
+    max_increment : int
+        Fanuc largest value per point.
+    include_squareness : bool
+        Siemens CEC tables carry the squareness terms.
+    tool_offset : array_like, shape (3,), optional
+        Target point of the 3-D grid [mm].
+    """
+
+    sign: str
+    spacing: float = 20.0
+    max_points: int | None = None
+    reference_mm: tuple[float, float, float] | None = None
+    unit_um: float = 1.0
+    magnification: int = 1
+    max_increment: int = 7
+    include_squareness: bool = True
+    tool_offset: tuple[float, float, float] | None = None
+
+
+def _fanuc(e: MachineErrors, o: CompensationOptions) -> dict[str, str]:
+    ref = e.travel[:, 0] if o.reference_mm is None else np.asarray(o.reference_mm)
+    return fanuc_files(e, o.spacing, o.sign, ref, o.unit_um, o.magnification, o.max_increment,
+                       o.max_points or 1024)
+
+
+FORMATS: dict[str, Callable[[MachineErrors, CompensationOptions], dict[str, str]]] = {
+    "fanuc": _fanuc,
+    "siemens": lambda e, o: siemens_files(e, o.spacing, o.sign, o.max_points or 5000,
+                                          o.include_squareness),
+    "heidenhain": lambda e, o: heidenhain_files(e, o.spacing, o.sign, o.max_points or 256),
+    "csv": lambda e, o: generic_files(e, o.spacing, o.sign, o.max_points),
+    "isg": lambda e, o: isg_files(e, o.spacing, o.sign, o.max_points),
+    "grid": lambda e, o: grid_files(e, o.spacing, o.sign, o.tool_offset,
+                                    o.max_points or 1_000_000),
+}
+"""Format name -> function returning the files (name -> text) of that format."""
+
+
+def write_compensation(errors: MachineErrors, fmt: str, folder: str | Path,
+                       options: CompensationOptions, source: str = "") -> list[str]:
+    """Write the compensation files of one format into a folder, atomically.
+
+    Parameters
+    ----------
+    errors : MachineErrors
+        The model.
+    fmt : str
+        A key of :data:`FORMATS`.
+    folder : str or Path
+        Output folder; built aside and moved into place. An existing folder is replaced
+        only if it is empty or holds ``volcal-compensation.toml``.
+    options : CompensationOptions
+        Sign, spacing, limits.
+    source : str
+        Name of the model file, recorded in the manifest.
+
+    Returns
+    -------
+    list of str
+        Names of the files written (without the manifest).
+    """
+    if fmt not in FORMATS:
+        raise VolcalInputError(f"unknown format {fmt!r}: expected one of {', '.join(FORMATS)}")
+    sign_factor(options.sign)
+    folder = Path(folder)
+    if folder.exists() and (not folder.is_dir() or (any(folder.iterdir())
+                                                    and not (folder / MANIFEST).is_file())):
+        raise VolcalInputError("output exists and is not a volcal compensation folder", folder)
+    files = FORMATS[fmt](errors, options)
+    manifest = {"format": "volcal-compensation/1", "controller_format": fmt,
+                "sign": options.sign, "spacing_mm": options.spacing, "model": source,
+                "machine": errors.name, "chain": errors.chain_obj.code,
+                "files": sorted(files)}
+    with atomic_dir(folder) as tmp:
+        for name, text in files.items():
+            (tmp / name).write_text(text, encoding="utf-8", newline="\n")
+        (tmp / MANIFEST).write_text(tomli_w.dumps(manifest), encoding="utf-8")
+    return sorted(files)

@@ -45,7 +45,8 @@ def _files(folder: Path) -> list[Path]:
     return sorted(p for p in folder.iterdir() if p.is_file())
 
 
-@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=150, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(data=st.data())
 def test_random_corruption_gives_clean_error(good_session, data):
     tmp = Path(tempfile.mkdtemp())
@@ -77,8 +78,9 @@ def test_random_corruption_gives_clean_error(good_session, data):
             raw = b"\n".join(b",".join(c for i, c in enumerate(ln) if i != j) for ln in lines)
         elif how == "swap_type":
             text = raw.decode()
-            for a, b in (("= [", "= \"["), ("= \"", "= 3 #"), ("[[measurements]]", "[measurements]"),
-                         ("= 0.", "= \"0.\" #"), ("= [\n    0.0,", "= [\n    true,")):
+            for a, b in (("= [", "= \"["), ("= \"", "= 3 #"),
+                         ("[[measurements]]", "[measurements]"), ("= 0.", "= \"0.\" #"),
+                         ("= [\n    0.0,", "= [\n    true,")):
                 if a in text and data.draw(st.booleans()):
                     text = text.replace(a, b, 1)
             raw = text.encode()

@@ -417,7 +417,8 @@ def read_session(folder: str | Path, require_deviation: bool = True) -> Session:
         raise _err(f"cannot read the file ({exc.__class__.__name__})", toml_path) from None
     fmt = doc.get("format")
     if fmt != SESSION_FORMAT:
-        raise _err(f"expected format = \"{SESSION_FORMAT}\", got {fmt!r}", toml_path, None, "format")
+        raise _err(f"expected format = \"{SESSION_FORMAT}\", got {fmt!r}", toml_path, None,
+                   "format")
     machine = doc.get("machine")
     if not isinstance(machine, dict):
         raise _err("missing [machine] table", toml_path, None, "machine")

@@ -9,6 +9,14 @@
 """
 
 from volcal.classic.abbe import abbe_design, abbe_lines, rotation_names
+from volcal.classic.diagonals import (
+    DiagonalCheck,
+    SoonsCombinations,
+    diagonal_check,
+    soons_combinations,
+    soons_from_measurements,
+)
+from volcal.classic.lines import AbbeAxisResult, abbe_session, lines_from_files
 from volcal.classic.step_diagonal import (
     StepDiagonalResult,
     solve_step_diagonals,
@@ -16,7 +24,15 @@ from volcal.classic.step_diagonal import (
 )
 
 __all__ = [
+    "AbbeAxisResult",
+    "DiagonalCheck",
+    "SoonsCombinations",
     "StepDiagonalResult",
+    "abbe_session",
+    "diagonal_check",
+    "lines_from_files",
+    "soons_combinations",
+    "soons_from_measurements",
     "abbe_design",
     "abbe_lines",
     "rotation_names",

@@ -132,3 +132,33 @@ def test_same_structure_for_xfyz_and_xyfz():
     # and Wang's XYFZ term Ax(x)*bc/r is absent: X roll alone does not move DR_ppp
     m = only(machine("XYFZ").scaled(0.0), {"EAX": 10.0})
     np.testing.assert_allclose(reading_exact(m, ms, SetupErrors.none()), 0.0, atol=1e-9)
+
+
+def test_step_diagonal_factor_f_and_h():
+    """Erratum: Wang's f = sqrt((4a^2+b^2+c^2)/(b^2+c^2)) (eq. 5) and h = sqrt(4a^2+b^2)/b
+    (eq. 19). After the x move of increment i+1 of the ppp step diagonal (flat mirror),
+    an X pitch EBX reads (a/r) * (i+1) * c * EBX: lever z = i*c plus the beam spot's
+    offset a on the mirror (Soons eq. 4), i.e. f = (i+1) a / r, not a constant."""
+    from volcal.plan.geometry import step_diagonal_test
+
+    nominal_beam = SetupErrors(np.zeros(3), np.zeros(3), align_beam=False)
+    base = machine("FXYZ").scaled(0.0)
+    m = only(base, {"EBX": 30.0 * base.nodes[0] / X})  # pitch growing to 30 urad
+    g = step_diagonal_test("ppp", TRAVEL, N, "xyz")
+    r = reading_exact(m, meas(g.positions, "flat_mirror", g.beam_direction), nominal_beam)
+    i = np.arange(N)
+    after_x = 1 + 3 * i
+    ebx = _f(m, "EBX", g.positions[after_x])
+    np.testing.assert_allclose(r[after_x], A / R * (i + 1) * C * ebx * K, atol=1e-3)
+    f = np.sqrt((4 * A**2 + B**2 + C**2) / (B**2 + C**2))
+    assert np.abs(r[after_x] - f * C * ebx * K).max() > 0.5
+    # face diagonal xy, yaw ECX: -(a b / r) (i+1) ECX, against Wang's -h b ECX
+    m = only(base, {"ECX": 30.0 * base.nodes[0] / X})
+    g = step_diagonal_test("pp", TRAVEL, N, "xy", plane="xy")
+    r = reading_exact(m, meas(g.positions, "flat_mirror", g.beam_direction), nominal_beam)
+    rf = np.hypot(A, B)
+    after_x = 1 + 2 * i
+    ecx = _f(m, "ECX", g.positions[after_x])
+    np.testing.assert_allclose(r[after_x], -A * B / rf * (i + 1) * ecx * K, atol=1e-3)
+    h = np.sqrt(4 * A**2 + B**2) / B
+    assert np.abs(r[after_x] - (-h * B * ecx * K)).max() > 0.5

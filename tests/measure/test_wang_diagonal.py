@@ -162,3 +162,20 @@ def test_step_diagonal_factor_f_and_h():
     np.testing.assert_allclose(r[after_x], -A * B / rf * (i + 1) * ecx * K, atol=1e-3)
     h = np.sqrt(4 * A**2 + B**2) / B
     assert np.abs(r[after_x] - (-h * B * ecx * K)).max() > 0.5
+
+
+def test_wang_squareness_symbols_follow_eq1():
+    """Only squareness: eq. (1)'s terms a/r*y/Y*Oxy + a/r*z/Z*Ozx + b/r*z/Z*Oyz with the
+    mapping of volcal.model.names.WANG_SYMBOLS reproduce the model."""
+    from volcal.model.names import WANG_SYMBOLS
+
+    assert (WANG_SYMBOLS["EC0Y"], WANG_SYMBOLS["EB0Z"], WANG_SYMBOLS["EA0Z"]) == \
+        ("-Oxy/Y", "Ozx/Z", "-Oyz/Z")
+    m = machine("FXYZ").scaled(0.0)
+    m.squareness[:] = [40.0, -25.0, 30.0]
+    q, n = _diag("ppp")
+    oxy, ozx, oyz = -40.0 * Y * K, -25.0 * Z * K, -30.0 * Z * K
+    y, z = q[:, 1], q[:, 2]
+    wang = A / R * y / Y * oxy + A / R * z / Z * ozx + B / R * z / Z * oyz
+    got = reading_first_order(m, meas(q, "retroreflector", n, kind="diagonal"))
+    np.testing.assert_allclose(got, wang, atol=1e-9)

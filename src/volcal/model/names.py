@@ -11,12 +11,15 @@ EZX       straightness of X in Z Dz(x)     e_z(x)     um
 EAX       roll of X              Ax(x)     eps_x(x)   urad
 EBX       pitch of X             Ay(x)     eps_y(x)   urad
 ECX       yaw of X               Az(x)     eps_z(x)   urad
-EC0Y      squareness Y to X      Oxy       S_xy       urad
-EB0Z      squareness Z to X      -Ozx      -S_xz      urad
-EA0Z      squareness Z to Y      Oyz       S_yz       urad
+EC0Y      squareness Y to X      -Oxy/Y    S_xy       urad
+EB0Z      squareness Z to X      Ozx/Z     -S_xz      urad
+EA0Z      squareness Z to Y      -Oyz/Z    S_yz       urad
 ========  =====================  ========  =========  ======
 
-(and likewise for Y and Z). See ``docs/conventions.md`` for the signs.
+(and likewise for Y and Z). Wang's squareness symbols are lengths: the deviation at the
+end of the travel ``Y`` or ``Z`` (his eq. 1 adds ``y/Y * Oxy`` to the X error); the
+signs follow from his eq. 1 and are checked in ``tests/measure/test_wang_diagonal.py``.
+See ``docs/conventions.md`` for the signs.
 """
 
 from __future__ import annotations
@@ -59,9 +62,9 @@ WANG_SYMBOLS: dict[str, str] = {
     "EXX": "Dx(x)", "EYX": "Dy(x)", "EZX": "Dz(x)", "EAX": "Ax(x)", "EBX": "Ay(x)", "ECX": "Az(x)",
     "EXY": "Dx(y)", "EYY": "Dy(y)", "EZY": "Dz(y)", "EAY": "Ax(y)", "EBY": "Ay(y)", "ECY": "Az(y)",
     "EXZ": "Dx(z)", "EYZ": "Dy(z)", "EZZ": "Dz(z)", "EAZ": "Ax(z)", "EBZ": "Ay(z)", "ECZ": "Az(z)",
-    "EC0Y": "Oxy", "EB0Z": "-Ozx", "EA0Z": "Oyz",
+    "EC0Y": "-Oxy/Y", "EB0Z": "Ozx/Z", "EA0Z": "-Oyz/Z",
 }
-"""ISO 230-1 name -> symbol of Wang & Liotto (seed 000); signs as far as the seed defines them."""
+"""ISO 230-1 name -> symbol of Wang & Liotto (seed 000); squareness from his eq. (1)."""
 
 SOONS_SYMBOLS: dict[str, str] = {
     "EXX": "e_x(x)", "EYX": "e_y(x)", "EZX": "e_z(x)",

@@ -56,8 +56,9 @@ class IdentifyOptions:
         Maximum nodes per axis.
     measurement_ids : list of str, optional
         Use only these measurements.
-    outlier_threshold : float
-        Standardised residual above which a reading is flagged.
+    outlier_threshold : float, optional
+        Standardised residual above which a reading is flagged; default the larger of 4
+        and the Bonferroni bound for a 1 % family-wise false alarm rate over all readings.
     suggest : bool
         Try candidate extra measurements for the report.
     """
@@ -73,7 +74,7 @@ class IdentifyOptions:
     refine: int = 2
     max_nodes: int = 201
     measurement_ids: list[str] | None = None
-    outlier_threshold: float = 4.0
+    outlier_threshold: float | None = None
     suggest: bool = True
 
 
@@ -176,7 +177,8 @@ def identify(session: Session, options: IdentifyOptions | None = None) -> Identi
     # identifiability on the measured positions
     design1 = design if o.prior == "none" or o.refine == 1 else build_design(
         session, nodes1, known, o.drift, o.measurement_ids)
-    prior1 = PriorStructure.build(design1.layout, design1.free, o.kappa)
+    kappa = sol.kappa if np.isfinite(sol.kappa) else o.kappa
+    prior1 = PriorStructure.build(design1.layout, design1.free, kappa)
     scales = sol.scales if np.all(np.isfinite(sol.scales)) else np.array([10.0, 5.0, 15.0])
     cands = candidate_designs(session, nodes1, known) if o.suggest else None
     report = analyse(design1, prior1, scales, o.squareness_std_urad, cands)
@@ -216,21 +218,26 @@ def _result(session: Session, design: Design, sol: Solution, report, o: Identify
         fitted[m.id] = m.deviation - resid_all[sl]
     # standardised residuals with leverage
     A = design.A
-    h = np.asarray(A.multiply((A @ cov).T.T if False else (A @ cov)).sum(axis=1)).ravel()
+    h = np.asarray(A.multiply(A @ cov).sum(axis=1)).ravel()
     sigma = max(sol.sigma_um, sol.sigma_residual_um, 1e-12)
     lev = np.clip(h / sol.sigma_um**2 if sol.method == "bayes" else h / sigma**2, 0, 0.999)
     z = resid_all / (sigma * np.sqrt(1 - lev))
+    thr = o.outlier_threshold
+    if thr is None:
+        from scipy.stats import norm
+
+        thr = max(4.0, float(norm.isf(0.005 / max(z.size, 1))))
     outliers = []
     for m in design.measurements:
         sl = design.rows[m.id]
-        for i in np.flatnonzero(np.abs(z[sl]) > o.outlier_threshold):
+        for i in np.flatnonzero(np.abs(z[sl]) > thr):
             outliers.append({"measurement": m.id, "row": int(i) + 2,
                              "residual_um": float(resid_all[sl][i]),
                              "standardised": float(z[sl][i])})
     if outliers:
         report.messages.append(
             f"{len(outliers)} reading(s) have standardised residuals above "
-            f"{o.outlier_threshold:g} (see 'outliers'): check them for set-up faults.")
+            f"{thr:.2f} (see 'outliers'): check them for set-up faults.")
     nuis = {}
     for j, name in enumerate(design.nuisance_names):
         nuis[name] = (float(sol.x[nf + j]), float(np.sqrt(max(cov[nf + j, nf + j], 0))))
@@ -244,7 +251,7 @@ def _result(session: Session, design: Design, sol: Solution, report, o: Identify
         "dof": float(sol.dof),
         "prior_scales": {"positioning_um": _fin(sol.scales[0]),
                          "straightness_um": _fin(sol.scales[1]),
-                         "angular_urad": _fin(sol.scales[2])},
+                         "angular_urad": _fin(sol.scales[2]), "kappa": _fin(sol.kappa)},
         "log_evidence": _fin(sol.log_evidence),
         "measurements": [m.id for m in design.measurements],
         "known": sorted(design.fixed_names),

@@ -26,7 +26,7 @@ from volcal.model.parameters import ParameterLayout
 
 GROUPS: tuple[str, ...] = ("positioning", "straightness", "angular")
 
-__all__ = ["GROUPS", "PriorStructure", "function_group", "unit_precision"]
+__all__ = ["GROUPS", "PriorStructure", "function_group", "unit_parts", "unit_precision"]
 
 
 def function_group(axis: int, component: int) -> int:
@@ -34,6 +34,44 @@ def function_group(axis: int, component: int) -> int:
     if component >= 3:
         return 2
     return 0 if component == axis else 1
+
+
+def unit_parts(nodes: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Curvature and amplitude parts of the prior precision of one function on its nodes.
+
+    Parameters
+    ----------
+    nodes : ndarray, shape (n,)
+        Node positions [mm].
+
+    Returns
+    -------
+    C : ndarray, shape (n, n)
+        Discretised ``int f''(s)^2 ds`` (pentadiagonal), ``s`` normalised to [0, 1].
+    W : ndarray, shape (n, n)
+        Discretised ``int f(s)^2 ds`` (trapezoid weights, diagonal).
+    """
+    x = np.asarray(nodes, dtype=float)
+    n = x.size
+    if n == 1:
+        return np.zeros((1, 1)), np.ones((1, 1))
+    s = (x - x[0]) / (x[-1] - x[0])
+    h = np.diff(s)
+    w = np.zeros(n)
+    w[:-1] += h / 2
+    w[1:] += h / 2
+    C = np.zeros((n, n))
+    if n >= 3:
+        D = np.zeros((n - 2, n))
+        for i in range(1, n - 1):
+            hl, hr = h[i - 1], h[i]
+            c = 2.0 / (hl + hr)
+            D[i - 1, i - 1] = c / hl
+            D[i - 1, i] = -c * (1 / hl + 1 / hr)
+            D[i - 1, i + 1] = c / hr
+        wd = (h[:-1] + h[1:]) / 2
+        C = D.T @ (wd[:, None] * D)
+    return C, np.diag(w)
 
 
 def unit_precision(nodes: NDArray[np.float64], kappa: float) -> NDArray[np.float64]:
@@ -51,51 +89,29 @@ def unit_precision(nodes: NDArray[np.float64], kappa: float) -> NDArray[np.float
     ndarray, shape (n, n)
         Banded precision (pentadiagonal).
     """
-    x = np.asarray(nodes, dtype=float)
-    n = x.size
-    if n == 1:
-        return np.ones((1, 1))
-    s = (x - x[0]) / (x[-1] - x[0])
-    h = np.diff(s)
-    w = np.zeros(n)
-    w[:-1] += h / 2
-    w[1:] += h / 2
-    Q = np.diag(w)
-    if n >= 3:
-        D = np.zeros((n - 2, n))
-        for i in range(1, n - 1):
-            hl, hr = h[i - 1], h[i]
-            c = 2.0 / (hl + hr)
-            D[i - 1, i - 1] = c / hl
-            D[i - 1, i] = -c * (1 / hl + 1 / hr)
-            D[i - 1, i + 1] = c / hr
-        wd = (h[:-1] + h[1:]) / 2
-        Q = Q + D.T @ (wd[:, None] * D) / kappa**2
-    return Q
+    C, W = unit_parts(nodes)
+    return C / kappa**2 + W
 
 
 @dataclass
 class PriorStructure:
-    """Unit-scale prior blocks of the free parameters, grouped for fast rescaling.
+    """Prior blocks of the free parameters, grouped for fast rescaling.
 
     Attributes
     ----------
-    blocks : list of (indices into the free vector, dense precision, group)
+    blocks : list of (indices into the free vector, curvature part, amplitude part, group)
         One block per function (free nodes only: conditioning on the gauge zeros keeps the
         sub-matrix of the precision).
     squareness : ndarray of int
         Free-vector indices of the squareness parameters.
-    logdet_unit : ndarray, shape (3,)
-        Sum of log-determinants of the unit blocks per group.
-    count : ndarray, shape (3,)
-        Number of parameters per group.
+    kappa : float
+        Curvature scale; the block precision is ``(C / kappa^2 + W) / a_g^2``.
     """
 
-    blocks: list[tuple[NDArray[np.intp], NDArray[np.float64], int]]
+    blocks: list[tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.float64], int]]
     squareness: NDArray[np.intp]
-    logdet_unit: NDArray[np.float64]
-    count: NDArray[np.float64]
     n_free: int
+    kappa: float = 40.0
 
     @classmethod
     def build(cls, layout: ParameterLayout, free: NDArray[np.intp], kappa: float = 40.0
@@ -109,27 +125,26 @@ class PriorStructure:
         free : ndarray of int
             Free parameter indices (into the layout).
         kappa : float
-            Curvature scale.
+            Curvature scale (may be re-estimated, see :meth:`with_kappa`).
         """
         pos_in_free = -np.ones(layout.size, dtype=np.intp)
         pos_in_free[free] = np.arange(free.size)
         blocks = []
-        logdet = np.zeros(3)
-        count = np.zeros(3)
         for k in range(3):
-            Qu = unit_precision(layout.nodes[k], kappa)
+            C, W = unit_parts(layout.nodes[k])
             for c in range(6):
                 idx = layout.indices(k, c)
                 sel = pos_in_free[idx] >= 0
                 if not np.any(sel):
                     continue
-                Qf = Qu[np.ix_(sel, sel)]
-                g = function_group(k, c)
-                blocks.append((pos_in_free[idx][sel], Qf, g))
-                logdet[g] += np.linalg.slogdet(Qf)[1]
-                count[g] += sel.sum()
+                blocks.append((pos_in_free[idx][sel], C[np.ix_(sel, sel)], W[np.ix_(sel, sel)],
+                               function_group(k, c)))
         sq = pos_in_free[layout.squareness_indices()]
-        return cls(blocks, sq[sq >= 0], logdet, count, int(free.size))
+        return cls(blocks, sq[sq >= 0], int(free.size), kappa)
+
+    def with_kappa(self, kappa: float) -> PriorStructure:
+        """The same prior with another curvature scale."""
+        return PriorStructure(self.blocks, self.squareness, self.n_free, float(kappa))
 
     def precision(self, scales: NDArray[np.float64], squareness_std: float,
                   n_total: int, nuisance_precision: NDArray[np.float64]) -> sp.csc_matrix:
@@ -147,11 +162,13 @@ class PriorStructure:
             Precision of each nuisance parameter (weak).
         """
         rows, cols, vals = [], [], []
-        for idx, Qf, g in self.blocks:
+        k2 = self.kappa**2
+        for idx, C, W, g in self.blocks:
+            Qf = (C / k2 + W) / scales[g] ** 2
             r, c = np.nonzero(Qf)
             rows.append(idx[r])
             cols.append(idx[c])
-            vals.append(Qf[r, c] / scales[g] ** 2)
+            vals.append(Qf[r, c])
         rows.append(self.squareness)
         cols.append(self.squareness)
         vals.append(np.full(self.squareness.size, 1.0 / squareness_std**2))
@@ -165,6 +182,9 @@ class PriorStructure:
     def logdet(self, scales: NDArray[np.float64], squareness_std: float,
                nuisance_precision: NDArray[np.float64]) -> float:
         """Log-determinant of :meth:`precision` (for the evidence)."""
-        return float(np.sum(self.logdet_unit - 2 * self.count * np.log(scales))
-                     - 2 * self.squareness.size * np.log(squareness_std)
+        k2 = self.kappa**2
+        total = 0.0
+        for _, C, W, g in self.blocks:
+            total += np.linalg.slogdet(C / k2 + W)[1] - 2 * C.shape[0] * np.log(scales[g])
+        return float(total - 2 * self.squareness.size * np.log(squareness_std)
                      + np.sum(np.log(nuisance_precision)))

@@ -29,6 +29,7 @@ __all__ = ["Solution", "solve_bayes", "solve_min_norm"]
 
 NUISANCE_PRECISION = {"offset": 1e-10, "tilt": 1e-8, "reversal": 1e-8, "drift": 1e-8}
 DENSE_COVARIANCE_LIMIT = 4000
+DENSE_QR_LIMIT = 2000
 
 
 @dataclass
@@ -47,6 +48,8 @@ class Solution:
         RMS residual corrected for the effective number of parameters [um].
     scales : ndarray, shape (3,)
         Prior amplitude scales (positioning [um], straightness [um], angular [urad]).
+    kappa : float
+        Curvature scale of the prior.
     log_evidence : float
         Log marginal likelihood at the optimum (nan for min-norm).
     dof : float
@@ -62,7 +65,8 @@ class Solution:
     log_evidence: float
     dof: float
     method: str
-    solve: object = None  # callable: H^-1 @ rhs
+    solve: object = None
+    kappa: float = float("nan")  # callable: H^-1 @ rhs
 
 
 def _nuisance_precision(design: Design) -> NDArray[np.float64]:
@@ -82,16 +86,18 @@ class _Evidence:
         self.nprec = _nuisance_precision(design)
         self.N = self.AtA.shape[0]
 
-    def factor(self, scales, sigma):
+    def factor(self, scales, sigma, kappa=None):
+        if kappa is not None and kappa != self.prior.kappa:
+            self.prior = self.prior.with_kappa(kappa)
         Q = self.prior.precision(scales, self.sq_std, self.N, self.nprec)
         H = (self.AtA / sigma**2 + Q).tocsc()
         lu = spla.splu(H, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
                        options={"SymmetricMode": True})
         return H, Q, lu
 
-    def neg2(self, scales, sigma) -> float:
+    def neg2(self, scales, sigma, kappa=None) -> float:
         try:
-            H, Q, lu = self.factor(scales, sigma)
+            H, Q, lu = self.factor(scales, sigma, kappa)
         except RuntimeError:
             return 1e300
         b = self.Aty / sigma**2
@@ -143,29 +149,31 @@ def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float6
     y_scale = max(float(np.sqrt(ev.yty / max(ev.n, 1))), 1e-3)
     sig_floor = 1e-7 * y_scale
 
+    k0 = prior.kappa
+
     def unpack(h):
         i = 0
-        sc = s0
-        sig = sig0
+        sc, sig, kap = s0, sig0, k0
         if free_scales:
             sc = np.exp(h[:3])
-            i = 3
+            kap = float(np.exp(h[3]))
+            i = 4
         if free_sigma:
             sig = float(np.exp(h[i]))
-        return sc, sig
+        return sc, sig, kap
 
     h0 = []
     bounds = []
     if free_scales:
-        h0 += list(np.log(s0))
-        bounds += [(np.log(1e-2), np.log(1e4))] * 3
+        h0 += list(np.log(s0)) + [np.log(k0)]
+        bounds += [(np.log(1e-2), np.log(1e4))] * 3 + [(np.log(1.0), np.log(1e4))]
     if free_sigma:
         h0.append(np.log(sig0))
         bounds.append((np.log(sig_floor), np.log(1e3)))
     if h0:
         def fun(h):
-            sc, sig = unpack(h)
-            return ev.neg2(sc, sig)
+            sc, sig, kap = unpack(h)
+            return ev.neg2(sc, sig, kap)
         # coarse start for sigma: scan a few decades
         if free_sigma:
             grid = np.log(np.geomspace(max(sig_floor, 1e-6), 10.0, 15))
@@ -176,32 +184,50 @@ def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float6
                 vals.append(fun(h))
             h0[-1] = grid[int(np.argmin(vals))]
         res = minimize(fun, np.array(h0), method="Nelder-Mead", bounds=bounds,
-                       options={"xatol": 1e-3, "fatol": 1e-4, "maxiter": 400})
+                       options={"xatol": 1e-3, "fatol": 1e-4, "maxiter": 600})
         h_opt = res.x
         neg2 = float(res.fun)
     else:
         h_opt = np.array([])
         neg2 = ev.neg2(s0, sig0)
-    scales_opt, sigma = unpack(h_opt)
+    scales_opt, sigma, kappa = unpack(h_opt)
+    ev.prior = ev.prior.with_kappa(kappa)
     H, Q, lu = ev.factor(scales_opt, sigma)
-    x = _refined_solve(ev, H, lu, sigma)
-    r = design.y - design.A @ x
-    cov = None
     N = H.shape[0]
-    if covariance and N <= DENSE_COVARIANCE_LIMIT:
-        Hd = H.toarray()
-        try:
-            c, low = sla.cho_factor(Hd, lower=True)
+    if N <= DENSE_QR_LIMIT and ev.n + N <= 40 * DENSE_QR_LIMIT:
+        x, cov = _dense_qr(design, Q, sigma)
+    else:
+        x = _refined_solve(ev, H, lu, sigma)
+        cov = None
+        if covariance and N <= DENSE_COVARIANCE_LIMIT:
+            c, low = sla.cho_factor(H.toarray(), lower=True)
             cov = sla.cho_solve((c, low), np.eye(N))
-        except np.linalg.LinAlgError:
-            cov = np.linalg.pinv(Hd, hermitian=True)
+    r = design.y - design.A @ x
+    if cov is not None:
         edf = float(np.sum(ev.AtA.multiply(cov.T)) / sigma**2)
     else:
         edf = float(min(N, ev.n))
     dof = max(ev.n - edf, 1.0)
     s_res = float(np.sqrt(r @ r / dof))
     return Solution(x, cov, sigma, s_res, scales_opt, -0.5 * neg2, dof, "bayes",
-                    solve=lambda rhs: _polish(H, lu, rhs))
+                    solve=lambda rhs: _polish(H, lu, rhs), kappa=kappa)
+
+
+def _dense_qr(design: Design, Q, sigma: float):
+    """Stable solve of the augmented least squares ``[A/sigma; R] x = [y/sigma; 0]``.
+
+    ``R`` is the Cholesky factor of the prior precision. Unlike the normal equations this
+    keeps full accuracy when the noise is tiny (noise-free data are then fitted to
+    numerical precision). Returns the estimate and the posterior covariance.
+    """
+    A = design.A.toarray() / sigma
+    Rp = np.linalg.cholesky(Q.toarray()).T
+    M = np.vstack([A, Rp])
+    rhs = np.concatenate([design.y / sigma, np.zeros(Rp.shape[0])])
+    Qm, Rm = np.linalg.qr(M, mode="reduced")
+    x = sla.solve_triangular(Rm, Qm.T @ rhs)
+    Rinv = sla.solve_triangular(Rm, np.eye(Rm.shape[0]))
+    return x, Rinv @ Rinv.T
 
 
 def _polish(H, lu, rhs, steps: int = 2):

@@ -34,8 +34,15 @@ TEST_NAMES: tuple[str, ...] = (
 __all__ = ["TEST_NAMES", "abbe_lines", "plan_session"]
 
 
-def abbe_lines(axis: int, travel: np.ndarray) -> list[np.ndarray]:
-    """Three line positions for one axis: reference edge, then offset in each other axis.
+def abbe_lines(axis: int, travel: np.ndarray, chain: str = "XYFZ",
+               tool_offset_mm: float = 150.0) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Three linear lines for one axis: a reference line, then an Abbe offset in each other axis.
+
+    An offset only gives a lever arm to the axis' angular errors where it moves the target
+    relative to that axis' carriage (``docs/conventions.md``): along an axis read after the
+    measured one in the chain, the line is moved to the other end of that axis' travel; along
+    an axis read before it (moving it does not change the lever arm), the target is mounted
+    off the tool axis instead (a tool offset of ``tool_offset_mm``).
 
     Parameters
     ----------
@@ -43,20 +50,31 @@ def abbe_lines(axis: int, travel: np.ndarray) -> list[np.ndarray]:
         Measured axis.
     travel : ndarray, shape (3, 2)
         Travel limits [mm].
+    chain : str
+        Chain code.
+    tool_offset_mm : float
+        Target offset from the tool reference point used where a machine move cannot
+        create the lever arm [mm].
 
     Returns
     -------
-    list of ndarray, shape (3,)
-        Points on the three lines [mm] (the measured axis' coordinate is irrelevant).
+    list of (point, tool offset)
+        Point on each line [mm] (the measured axis' coordinate is irrelevant) and the tool
+        offset of the target [mm].
     """
-    a, b = [k for k in range(3) if k != axis]
+    order = parse_chain(chain).order
+    downstream = set(order[order.index(axis) + 1:])
     base = travel[:, 0].copy()
-    p1 = base.copy()
-    p2 = base.copy()
-    p2[a] = travel[a, 1]
-    p3 = base.copy()
-    p3[b] = travel[b, 1]
-    return [p1, p2, p3]
+    out = [(base.copy(), np.zeros(3))]
+    for j in (k for k in range(3) if k != axis):
+        p = base.copy()
+        t = np.zeros(3)
+        if j in downstream:
+            p[j] = travel[j, 1]
+        else:
+            t[j] = tool_offset_mm
+        out.append((p, t))
+    return out
 
 
 def _measurement(mid: str, kind: str, target: str, g: TestGeometry, offset, notes: str
@@ -78,7 +96,8 @@ def plan_session(travel: ArrayLike, chain: str = "XYFZ", steps: int = 10,
                  tests: Sequence[str] = ("step-diagonal", "diagonal", "linear"),
                  runs: int = 5, step_orders: Sequence[str] = ("xyz",),
                  tool_offset: ArrayLike = (0.0, 0.0, 0.0), name: str = "VMC-1",
-                 step_target: str = "flat_mirror") -> Session:
+                 step_target: str = "flat_mirror", abbe_tool_offset_mm: float = 150.0
+                 ) -> Session:
     """Plan a session skeleton (commanded poses, deviations empty).
 
     Parameters
@@ -102,6 +121,9 @@ def plan_session(travel: ArrayLike, chain: str = "XYFZ", steps: int = 10,
         Machine name.
     step_target : str
         Target of the step diagonals: ``'flat_mirror'`` (Wang) or ``'retroreflector'``.
+    abbe_tool_offset_mm : float
+        Target offset used for the Abbe offsets of linear lines that no machine move can
+        create (see :func:`abbe_lines`) [mm].
 
     Returns
     -------
@@ -149,12 +171,16 @@ def plan_session(travel: ArrayLike, chain: str = "XYFZ", steps: int = 10,
                                              f"face step diagonal {code} in {plane.upper()}"))
         elif test == "linear":
             for k in range(3):
-                for i, line in enumerate(abbe_lines(k, t), start=1):
+                lines = abbe_lines(k, t, chain, abbe_tool_offset_mm)
+                for i, (line, toff) in enumerate(lines, start=1):
                     g = linear_test(k, t, steps, line, runs=runs, bidirectional=True)
                     others = ", ".join(f"{AXES[j].lower()}={line[j]:g} mm" for j in range(3)
                                        if j != k)
+                    if np.any(toff):
+                        others += ", target offset " + ", ".join(
+                            f"{AXES[j].lower()}{toff[j]:+g} mm" for j in range(3) if toff[j])
                     meas.append(_measurement(f"linear-{AXES[k].lower()}{i}", "linear",
-                                             "retroreflector", g, off,
+                                             "retroreflector", g, off + toff,
                                              f"linear {AXES[k]} at {others}, {runs} "
                                              "bidirectional runs (ISO 230-2)"))
     return Session(name, chain, t, meas)

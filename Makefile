@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: all install test lint demo bench clean
+.PHONY: all install test lint demo bench clean browser-deps
 
 all: test
 
@@ -18,7 +18,14 @@ $(STAMP): $(BIN)/python pyproject.toml
 
 install: $(STAMP)
 
-test: $(STAMP)
+# Headless Chromium and poppler (pdftoppm) for the report tests; Debian packages, run as
+# root. Does nothing when both are present.
+browser-deps:
+	@if [ -x /usr/bin/chromium ] && command -v pdftoppm >/dev/null; then :; else \
+	  apt-get update -q && DEBIAN_FRONTEND=noninteractive apt-get install -y -q \
+	    --no-install-recommends chromium poppler-utils; fi
+
+test: $(STAMP) browser-deps
 	$(BIN)/python -m pytest
 
 lint: $(STAMP)

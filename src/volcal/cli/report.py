@@ -1,0 +1,48 @@
+"""``volcal report``: the HTML and PDF calibration report of a session."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+from rich.console import Console
+
+console = Console()
+
+
+def report_cmd(
+    session: Path = typer.Argument(..., help="Measured session folder."),
+    model: Path | None = typer.Option(None, help="Identified model (MODEL.json from `volcal "
+                                      "identify`); identified now with default options if "
+                                      "omitted."),
+    output: Path = typer.Option(..., "-o", "--output", help="Report folder to write "
+                                "(report.html, report.pdf, figures/)."),
+    edition: str = typer.Option("2014", help="ISO 230-2 edition of the positioning tables."),
+    title: str | None = typer.Option(None, help="Report title (default from the machine name)."),
+) -> None:
+    """Write the calibration report of a session as self-contained HTML and as PDF."""
+    from volcal.report.pipeline import collect_inputs
+    from volcal.report.sections import build_report
+    from volcal.report.writer import write_report
+    from volcal.session.format import read_session
+
+    s = read_session(session)
+    if model is not None:
+        from volcal.identify import load_model
+
+        result = load_model(model)
+    else:
+        from volcal.identify import identify
+
+        with console.status("identifying the machine's errors..."):
+            result = identify(s)
+    with console.status("evaluating and writing the report..."):
+        files = write_report(build_report(collect_inputs(s, result, edition=edition), title),
+                             output)
+    console.print(f"report: {files.html} and {files.pdf} ({files.pdf_pages} pages, "
+                  f"{len(files.figures)} figures)", soft_wrap=True)
+
+
+def register(app: typer.Typer) -> None:
+    """Add the commands of this module to the app."""
+    app.command("report")(report_cmd)

@@ -1,0 +1,360 @@
+"""Fill the report document from a session and the results of the analysis.
+
+One function per section; each returns a :class:`~volcal.report.document.Section` or
+None when its input is missing (the section is then left out, never filled with
+placeholders). The analysis results are taken as they come from their modules
+(identification, ISO 230-2 / 230-6 evaluation, volumetric indices, compensation); this
+module only formats them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from volcal.model.errorfunctions import MachineErrors
+from volcal.model.names import AXES, COMPONENT_NAMES, SQUARENESS_NAMES
+from volcal.plot import (
+    diagonal_fit_plot,
+    error_functions_plot,
+    identifiability_plot,
+    linear_deviation_plot,
+    volumetric_map,
+    volumetric_map_plot,
+)
+from volcal.plot.identifiability import FRACTION_LIMITS
+from volcal.report.document import FigureItem, Report, Section, Table
+from volcal.session.format import Session
+
+__all__ = ["ReportInputs", "build_report", "fmt"]
+
+
+def fmt(v: float, digits: int = 2) -> str:
+    """Format a number for a table cell (fixed point, ``-`` for missing, ``∞``)."""
+    if v is None:
+        return "-"
+    v = float(v)
+    if np.isnan(v):
+        return "-"
+    if np.isinf(v):
+        return "∞"
+    return f"{v:.{digits}f}"
+
+
+def _vec(v: Any, digits: int = 3) -> str:
+    return "(" + ", ".join(f"{float(x):.{digits}g}" for x in np.asarray(v).reshape(-1)) + ")"
+
+
+@dataclass
+class ReportInputs:
+    """Everything the report can show; missing parts leave their section out.
+
+    Attributes
+    ----------
+    session : Session
+        The measured session.
+    result : object, optional
+        Identification result (``volcal.identify``): ``errors``, ``std``,
+        ``squareness_std``, ``residuals``, ``fitted``, ``sigma_um``, ``report``.
+    truth : MachineErrors, optional
+        The simulated truth (``SESSION/truth/machine.csv``).
+    iso230_2 : mapping of str to object, optional
+        ISO 230-2 results by measurement id.
+    iso230_6 : mapping of str to object, optional
+        ISO 230-6 results by measurement id.
+    volumetric : object, optional
+        Volumetric indices of the identified machine (``E_VX`` ... ``E_VXYZ_range``).
+    compensation : object, optional
+        Compensation summary.
+    elv : mapping of str to float, optional
+        Seed 002's ELx, ELy, ELz, ELv of the identified machine [um].
+    extra_sections : list of Section
+        Sections appended at the end (written by other modules).
+    """
+
+    session: Session
+    result: Any = None
+    truth: MachineErrors | None = None
+    iso230_2: Mapping[str, Any] | None = None
+    iso230_6: Mapping[str, Any] | None = None
+    volumetric: Any = None
+    compensation: Any = None
+    elv: Mapping[str, float] | None = None
+    extra_sections: list[Section] = field(default_factory=list)
+
+
+def machine_section(inp: ReportInputs) -> Section:
+    """Machine, kinematic chain and work zone."""
+    s = inp.session
+    n = sum(m.n for m in s.measurements)
+    t = s.travel
+    rows = [[AXES[k], fmt(t[k, 0], 1), fmt(t[k, 1], 1), fmt(t[k, 1] - t[k, 0], 1)]
+            for k in range(3)]
+    sec = Section("machine", "Machine")
+    sec.paragraphs.append(
+        f"Machine '{s.name}', kinematic chain {s.chain} (read from the workpiece to the tool, "
+        "F = frame). Errors follow ISO 230-1: positions in mm, linear errors in µm, angles in "
+        "µrad; every component error is the error motion of the tool relative to the "
+        "workpiece caused by that axis.")
+    sec.paragraphs.append(f"The session holds {len(s.measurements)} measurements with "
+                          f"{n} laser readings" + (f" (folder {s.path})." if s.path else "."))
+    if inp.truth is not None:
+        sec.paragraphs.append("This session was simulated on a virtual machine; its true "
+                              "errors are shown beside the estimates.")
+    sec.tables.append(Table(["axis", "min [mm]", "max [mm]", "travel [mm]"], rows,
+                            "Work zone"))
+    return sec
+
+
+def measurements_section(inp: ReportInputs) -> Section:
+    """Every measurement and its set-up."""
+    rows = []
+    for m in inp.session.measurements:
+        runs = "-" if m.run is None else str(len(np.unique(m.run)))
+        rows.append([m.id, m.kind.replace("_", " "), m.target.replace("_", " "),
+                     _vec(m.beam_direction), _vec(m.tool_offset), str(m.n), runs,
+                     str(m.meta.get("notes", ""))])
+    sec = Section("measurements", "Measurements and set-ups")
+    sec.paragraphs.append(
+        "Linear tests read the positioning of one axis on a line at a given Abbe offset; "
+        "body diagonals (ISO 230-6) move all axes together with a retroreflector on the "
+        "tool; sequential step diagonals (Wang & Liotto 2003) move one axis at a time with a "
+        "flat mirror on the tool, so the straightness errors enter the readings.")
+    sec.tables.append(Table(["id", "kind", "target", "beam direction", "tool offset [mm]",
+                             "readings", "runs", "notes"], rows, "Measurements"))
+    return sec
+
+
+def diagonal_section(inp: ReportInputs) -> Section | None:
+    """Show the ISO 230-6 diagonal displacement results."""
+    if not inp.iso230_6:
+        return None
+    sec = Section("iso230-6", "Diagonal displacement (ISO 230-6)")
+    sec.paragraphs.append(
+        "Body (and face) diagonal displacement tests: the laser reads the displacement along "
+        "the diagonal while all axes move together. E_D is the range of the deviations along "
+        "the diagonal; it sums the effects of positioning, straightness, squareness and some "
+        "angular errors, so it is a quick volumetric check but cannot tell them apart.")
+    rows = []
+    for mid, r in inp.iso230_6.items():
+        code = (f"{r.plane} " if getattr(r, "plane", None) else "") + str(r.diagonal)
+        rows.append([mid, code, fmt(r.length_mm, 1), fmt(r.E_D), fmt(r.max_abs_um)])
+    worst = max(inp.iso230_6.values(), key=lambda r: r.E_D)
+    sec.tables.append(Table(["measurement", "diagonal", "length [mm]", "E_D [µm]",
+                             "max |deviation| [µm]"], rows, "Diagonal displacement errors",
+                            f"Largest E_D: {worst.E_D:.2f} µm ({worst.id})."))
+    return sec
+
+
+def _component_rows(est: MachineErrors, std, truth: MachineErrors | None) -> list[list[str]]:
+    rows = []
+    for idx, name in enumerate(COMPONENT_NAMES):
+        a, c = divmod(idx, 6)
+        v = est.values[a][:, c]
+        unit = "µm" if c < 3 else "µrad"
+        u = np.asarray(std[a])[:, c] if std is not None else None
+        row = [name, unit, fmt(np.ptp(v)), fmt(np.max(np.abs(v))),
+               fmt(np.max(u)) if u is not None else "-"]
+        if truth is not None:
+            tv = truth.function(name, est.nodes[a])
+            row += [fmt(np.ptp(tv)), fmt(np.max(np.abs(v - tv)))]
+        rows.append(row)
+    return rows
+
+
+def identification_section(inp: ReportInputs) -> Section | None:
+    """Show the identified errors with their uncertainties and the fit to the readings."""
+    r = inp.result
+    if r is None:
+        return None
+    est: MachineErrors = r.errors
+    std = getattr(r, "std", None)
+    sq_std = getattr(r, "squareness_std", None)
+    truth = inp.truth
+    sec = Section("identification", "Identified errors")
+    sigma = getattr(r, "sigma_um", None)
+    sec.paragraphs.append(
+        "All readings of all tests were fitted at once with the first-order kinematic model "
+        "(Soons, seed 004) and the set-up tilts of every measurement as nuisance parameters. "
+        "Uncertainties are standard uncertainties (k = 1) in the tables; the bands in the "
+        "figures are ± 2 u." + (f" Estimated reading noise σ = {sigma:.2f} µm." if sigma
+                                else ""))
+    cols = ["error", "unit", "peak-to-valley", "max |value|", "max u"]
+    if truth is not None:
+        cols += ["truth peak-to-valley", "max |estimate − truth|"]
+    sec.tables.append(Table(cols, _component_rows(est, std, truth), "Component errors",
+                            "u: largest standard uncertainty over the nodes of the function."))
+    sq_rows = []
+    for i, n in enumerate(SQUARENESS_NAMES):
+        row = [n, fmt(est.squareness[i]), fmt(sq_std[i]) if sq_std is not None else "-"]
+        if truth is not None:
+            row.append(fmt(truth.squareness[i]))
+        sq_rows.append(row)
+    sq_cols = ["squareness", "estimate [µrad]", "u [µrad]"] + (
+        ["truth [µrad]"] if truth is not None else [])
+    sec.tables.append(Table(sq_cols, sq_rows, "Squareness errors"))
+    residuals = getattr(r, "residuals", None) or {}
+    if residuals:
+        rows = [[mid, str(np.size(res)), fmt(np.sqrt(np.mean(np.square(res)))),
+                 fmt(np.max(np.abs(res)))] for mid, res in residuals.items()]
+        sec.tables.append(Table(["measurement", "readings", "residual rms [µm]",
+                                 "max |residual| [µm]"], rows, "Fit residuals"))
+    sec.figures.append(FigureItem(
+        error_functions_plot(est, std, truth, sq_std),
+        "Identified error functions (blue) with their ± 2 u bands"
+        + (" and the simulated truth (dashed)." if truth is not None else "."),
+        "error-functions"))
+    fitted = getattr(r, "fitted", None) or {}
+    for kind, label in (("diagonal", "Body diagonals"), ("step_diagonal", "Step diagonals")):
+        ms = [m for m in inp.session.measurements if m.kind == kind and m.deviation is not None]
+        if ms:
+            sec.figures.append(FigureItem(
+                diagonal_fit_plot(ms, fitted, residuals, title=f"{label}: readings and fit"),
+                f"{label}: laser readings (dots), the identified model's fit (line) and the "
+                "residuals below.", f"{kind.replace('_', '-')}-fit"))
+    return sec
+
+
+def _field(obj: Any, name: str, default: Any = None) -> Any:
+    """Attribute of a result object, or key of its dict form (a loaded model file)."""
+    if isinstance(obj, Mapping):
+        return obj.get(name, default)
+    return getattr(obj, name, default)
+
+
+def identifiability_section(inp: ReportInputs) -> Section | None:
+    """Explain what the tests determine, in plain words."""
+    r = inp.result
+    if r is None:
+        return None
+    sec = Section("identifiability", "Identifiability")
+    rep = getattr(r, "report", None)
+    msgs = [str(m) for m in _field(rep, "messages", []) or []]
+    sec.warnings.extend(msgs)
+    if not msgs:
+        sec.paragraphs.append("The tests determine every error function the model contains.")
+    frac = _field(rep, "determined_fraction", None)
+    if frac:
+        rows = [[n, fmt(100.0 * v, 1),
+                 "not determined" if v < FRACTION_LIMITS[0] else
+                 ("weak" if v < FRACTION_LIMITS[1] else "determined")] for n, v in frac.items()]
+        sec.tables.append(Table(["error", "prior uncertainty removed [%]", "verdict"], rows,
+                                "How far the data determine each error"))
+    sugg = [str(x) for x in _field(rep, "suggestions", []) or []]
+    if sugg:
+        sec.tables.append(Table(["rank", "extra measurement that would help most"],
+                                [[str(i), t] for i, t in enumerate(sugg, start=1)],
+                                "Suggested extra measurements"))
+    std = getattr(r, "std", None)
+    if std is not None:
+        sec.figures.append(FigureItem(
+            identifiability_plot(std, getattr(r, "squareness_std", None),
+                                 _field(rep, "singular_values", None), frac),
+            "Largest standard uncertainty of each error function (hatched n/i: not "
+            "determined) and the share of its prior uncertainty the data remove (red: below "
+            "50 %, orange: below 95 %).", "identifiability"))
+    return sec
+
+
+def volumetric_section(inp: ReportInputs) -> Section | None:
+    """Volumetric error map of the identified machine."""
+    r = inp.result
+    if r is None:
+        return None
+    sec = Section("volumetric", "Volumetric error")
+    vm = volumetric_map(r.errors, inp.session.travel)
+    sec.paragraphs.append(
+        "The volumetric error is the actual minus the commanded position of the tool point "
+        f"(first-order model). Over the grid shown its largest length is "
+        f"{vm.length.max():.1f} µm.")
+    ind = inp.volumetric
+    if ind is not None:
+        sec.tables.append(Table(
+            ["index", "value [µm]", "meaning"],
+            [["E_VX", fmt(ind.E_VX), "range of the X component of the volumetric error"],
+             ["E_VY", fmt(ind.E_VY), "range of the Y component"],
+             ["E_VZ", fmt(ind.E_VZ), "range of the Z component"],
+             ["E_VXYZ", fmt(ind.E_VXYZ), "largest length of the volumetric error vector, at "
+              + _vec(ind.worst_point_mm, 4) + " mm"],
+             ["E_VXYZ range", fmt(ind.E_VXYZ_range),
+              "largest distance between two volumetric error vectors"]],
+            "Volumetric indices (ISO 230-1:2012, Annex) of the identified machine",
+            f"Evaluated on a grid of {ind.n}³ points over the work zone."))
+    elv = getattr(inp, "elv", None)
+    if elv:
+        sec.tables.append(Table(
+            ["quantity", "value [µm]"], [[k, fmt(v)] for k, v in elv.items()],
+            "ELv (seed 002): root sum of squares of the positioning ranges of the three axes",
+            "ELv ignores straightness, squareness and angular errors; compare it with "
+            "E_VXYZ."))
+    sec.figures.append(FigureItem(
+        volumetric_map_plot(vm), "Volumetric error of the identified machine on three "
+        "horizontal slices of the work zone: arrows show the in-plane error (magnified), the "
+        "colour the full vector length.", "volumetric-map"))
+    return sec
+
+
+def build_report(inp: ReportInputs, title: str | None = None) -> Report:
+    """Assemble the report from whatever inputs are present.
+
+    Parameters
+    ----------
+    inp : ReportInputs
+        Session and results.
+    title : str, optional
+        Report title; by default from the machine name.
+
+    Returns
+    -------
+    Report
+    """
+    from volcal import __version__
+
+    builders = [machine_section, measurements_section, positioning_section,
+                diagonal_section, identification_section, identifiability_section,
+                volumetric_section]
+    sections = [s for s in (b(inp) for b in builders) if s is not None]
+    sections.extend(inp.extra_sections)
+    return Report(title or f"Calibration report: {inp.session.name}", sections,
+                  generator=f"volcal {__version__}")
+
+
+def positioning_section(inp: ReportInputs) -> Section | None:
+    """Show the ISO 230-2 positioning results and the deviation plots of the linear tests."""
+    lin = [m for m in inp.session.measurements if m.kind == "linear" and m.deviation is not None]
+    if not lin:
+        return None
+    sec = Section("iso230-2", "Positioning (ISO 230-2)")
+    sec.paragraphs.append(
+        "Linear tests with bidirectional runs, evaluated as ISO 230-2:2014 asks: mean "
+        "deviations per target and direction, their envelopes ± 2 s, and the figures A "
+        "(accuracy), E (systematic error), M (range of the mean bidirectional deviation), "
+        "R (repeatability) and B (reversal).")
+    if inp.iso230_2:
+        keys = ("A", "A_up", "A_down", "E", "M", "R", "R_up", "R_down", "B", "B_mean")
+        rows = []
+        for mid, res in inp.iso230_2.items():
+            axis = AXES[inp.session.get(mid).axis or 0]
+            rows.append([mid, axis, *(fmt(getattr(res, k)) for k in keys)])
+            sec.warnings.extend(f"{mid}: {w}" for w in getattr(res, "warnings", []) or [])
+        edition = next(iter(inp.iso230_2.values())).edition
+        sec.tables.append(Table(
+            ["measurement", "axis", "A [µm]", "A↑ [µm]", "A↓ [µm]", "E [µm]", "M [µm]",
+             "R [µm]", "R↑ [µm]", "R↓ [µm]", "B [µm]", "B̄ [µm]"], rows,
+            f"ISO 230-2:{edition} positioning parameters",
+            "A accuracy, E systematic error, M range of the mean bidirectional deviation, "
+            "R repeatability, B reversal value, B̄ mean reversal value; ↑/↓ one approach "
+            "direction only."))
+    seen: set[int | None] = set()
+    for m in lin:
+        if m.axis in seen:
+            continue
+        seen.add(m.axis)
+        sec.figures.append(FigureItem(
+            linear_deviation_plot(m), f"{m.id}: positional deviation of every run with the "
+            "mean ± 2 s envelopes of each approach direction (ISO 230-2, Figure 1).",
+            f"{m.id}-deviation"))
+    return sec

@@ -1,0 +1,70 @@
+"""Write a report folder atomically: ``report.html``, ``report.pdf`` and ``figures/*.png``."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from volcal.io.atomic import atomic_dir
+from volcal.report.document import Report
+from volcal.report.figures import png_bytes
+from volcal.report.html import render_html
+from volcal.report.pdf import write_pdf
+
+__all__ = ["ReportFiles", "write_report"]
+
+
+@dataclass(frozen=True)
+class ReportFiles:
+    """Where a report was written.
+
+    Attributes
+    ----------
+    folder : Path
+        The report folder.
+    html : Path
+        Self-contained HTML report.
+    pdf : Path
+        PDF report.
+    figures : list of Path
+        The figures as separate PNG files.
+    pdf_pages : int
+        Number of PDF pages.
+    """
+
+    folder: Path
+    html: Path
+    pdf: Path
+    figures: list[Path]
+    pdf_pages: int
+
+
+def write_report(report: Report, folder: str | Path) -> ReportFiles:
+    """Render the report to HTML and PDF and write the folder atomically.
+
+    The folder is built in a temporary sibling and moved into place when complete, so a
+    reader never sees a half-written report and a failed run leaves the old one intact.
+
+    Parameters
+    ----------
+    report : Report
+        The document.
+    folder : str or Path
+        Output folder (replaced if it exists).
+
+    Returns
+    -------
+    ReportFiles
+    """
+    folder = Path(folder)
+    names = []
+    with atomic_dir(folder) as tmp:
+        (tmp / "report.html").write_text(render_html(report), encoding="utf-8")
+        pages = write_pdf(report, tmp / "report.pdf")
+        (tmp / "figures").mkdir()
+        for i, f in enumerate(report.figures, start=1):
+            name = f"{i:02d}-{f.name}.png"
+            (tmp / "figures" / name).write_bytes(png_bytes(f.figure))
+            names.append(name)
+    return ReportFiles(folder, folder / "report.html", folder / "report.pdf",
+                       [folder / "figures" / n for n in names], pages)

@@ -1,0 +1,64 @@
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from volcal.measure.simulate import SimulationOptions, simulate_session, truth_files
+from volcal.measure.virtual import random_machine
+from volcal.plan.planner import plan_session
+from volcal.session.format import read_session, write_session
+
+CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
+CHROMIUM_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
+                  "--no-first-run", "--disable-background-networking",
+                  "--disable-component-update", "--disable-sync"]
+
+
+@pytest.fixture(scope="session")
+def small_session(tmp_path_factory) -> Path:
+    """A simulated session: the full test set on a small grid (fast to identify)."""
+    travel = np.array([[0, 400], [0, 300], [0, 250]], float)
+    s = plan_session(travel, "XYFZ", 5, ("step-diagonal", "diagonal", "linear"), 3,
+                     name="TEST-VMC")
+    vm = random_machine(travel, "XYFZ", seed=11, n_nodes=21)
+    opts = SimulationOptions(noise_um=0.3, seed=11)
+    setups = simulate_session(s, vm, opts)
+    folder = tmp_path_factory.mktemp("sess") / "session"
+    write_session(s, folder, truth_files(vm, setups, opts))
+    return folder
+
+
+@pytest.fixture(scope="session")
+def identified(small_session):
+    from volcal.identify import identify
+
+    s = read_session(small_session)
+    return s, identify(s)
+
+
+@pytest.fixture(scope="session")
+def written_report(identified, tmp_path_factory):
+    from volcal.report.pipeline import collect_inputs
+    from volcal.report.sections import build_report
+    from volcal.report.writer import write_report
+
+    s, r = identified
+    rep = build_report(collect_inputs(s, r))
+    return rep, write_report(rep, tmp_path_factory.mktemp("rep") / "report")
+
+
+@pytest.fixture
+def chromium(tmp_path):
+    """Run headless chromium with the test flags and a throw-away profile."""
+    if not Path(CHROMIUM).exists():
+        pytest.skip("chromium is not installed (make browser-deps installs it)")
+    profile = tmp_path / "chromium-profile"
+    profile.mkdir(exist_ok=True)
+
+    def run(args: list[str], timeout: float = 120.0):
+        return subprocess.run([CHROMIUM, *CHROMIUM_FLAGS, f"--user-data-dir={profile}", *args],
+                              capture_output=True, text=True, timeout=timeout)
+
+    return run

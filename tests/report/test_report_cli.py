@@ -1,0 +1,56 @@
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+VOLCAL = [sys.executable, "-c", "from volcal.cli import main; main()"]
+
+
+def _run(*args, cwd=None):
+    p = subprocess.run([*VOLCAL, *args], capture_output=True, text=True, cwd=cwd, timeout=600)
+    # rich wraps long lines at the terminal width; compare words, not line breaks
+    p.stdout, p.stderr = " ".join(p.stdout.split()), " ".join(p.stderr.split())
+    return p
+
+
+def test_report_with_a_model_file(identified, tmp_path):
+    s, r = identified
+    model = tmp_path / "model.json"
+    r.to_json(model)
+    out = tmp_path / "rep"
+    p = _run("report", str(s.path), "--model", str(model), "-o", str(out))
+    assert p.returncode == 0, p.stderr
+    html = (out / "report.html").read_text(encoding="utf-8")
+    assert html.count("<img ") >= 5
+    assert (out / "report.pdf").read_bytes()[:5] == b"%PDF-"
+    assert not [f for f in tmp_path.iterdir() if f.name.startswith(".")]  # no leftovers
+
+
+def test_report_of_a_missing_session_is_a_user_error(tmp_path):
+    p = _run("report", str(tmp_path / "nope"), "-o", str(tmp_path / "r"))
+    assert p.returncode == 2
+    assert "no session.toml" in p.stderr and "Traceback" not in p.stderr
+    assert not (tmp_path / "r").exists()
+
+
+def test_report_with_a_broken_model_is_a_user_error(small_session, tmp_path):
+    bad = tmp_path / "model.json"
+    bad.write_text("{not json", encoding="utf-8")
+    p = _run("report", str(small_session), "--model", str(bad), "-o", str(tmp_path / "r"))
+    assert p.returncode == 2 and "invalid JSON" in p.stderr and "Traceback" not in p.stderr
+
+
+def test_demo_writes_a_report_with_at_least_five_figures(tmp_path):
+    out = tmp_path / "demo-output"
+    p = _run("demo", "-o", str(out))
+    assert p.returncode == 0, p.stderr
+    html_path = out / "report" / "report.html"
+    assert str(html_path.resolve()) in p.stdout
+    html = html_path.read_text(encoding="utf-8")
+    figs = re.findall(r'<img src="data:image/png;base64,', html)
+    assert len(figs) >= 5
+    assert len(list((out / "report" / "figures").glob("*.png"))) == len(figs)
+    assert (out / "report" / "report.pdf").stat().st_size > 10000
+    assert (out / "model.json").is_file() and (out / "session" / "truth" / "machine.csv").is_file()
+    assert "Positioning (ISO 230-2)" in html and "Volumetric error" in html
+    assert Path(out / "session" / "session.toml").is_file()

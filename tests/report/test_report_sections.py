@@ -1,0 +1,48 @@
+import numpy as np
+
+from volcal.model.names import COMPONENT_NAMES
+from volcal.report.sections import ReportInputs, build_report
+
+
+def _section(rep, sid):
+    return next(s for s in rep.sections if s.id == sid)
+
+
+def test_report_content_from_the_analysis(identified, small_session):
+    from volcal.report.pipeline import collect_inputs
+
+    s, r = identified
+    inp = collect_inputs(s, r)
+    assert inp.truth is not None  # read from SESSION/truth/machine.csv
+    rep = build_report(inp)
+    ids = [x.id for x in rep.sections]
+    assert ids == ["machine", "measurements", "iso230-2", "iso230-6", "identification",
+                   "identifiability", "volumetric"]
+    # ISO 230-2 table: one row per linear test, values are the standard module's
+    t = _section(rep, "iso230-2").tables[0]
+    assert len(t.rows) == 9
+    row = t.rows[0]
+    res = inp.iso230_2[row[0]]
+    assert row[2] == f"{res.A:.2f}" and row[7] == f"{res.R:.2f}"
+    # ISO 230-6: 4 body diagonals of length sqrt(400^2+300^2+250^2)
+    t6 = _section(rep, "iso230-6").tables[0]
+    assert [r[2] for r in t6.rows] == [f"{np.sqrt(400**2 + 300**2 + 250**2):.1f}"] * 4
+    # identified errors: 18 rows; the truth columns compare with the simulated machine
+    comp = _section(rep, "identification").tables[0]
+    assert [r[0] for r in comp.rows] == list(COMPONENT_NAMES)
+    exx = comp.rows[0]
+    truth_ptp = np.ptp(inp.truth.function("EXX", r.errors.nodes[0]))
+    assert exx[5] == f"{truth_ptp:.2f}"
+    # identifiability warnings are the identification's own messages, verbatim
+    assert _section(rep, "identifiability").warnings == list(r.report.messages)
+    # volumetric indices table shows the standards module's E_VXYZ
+    vt = _section(rep, "volumetric").tables[0]
+    assert vt.rows[3][1] == f"{inp.volumetric.E_VXYZ:.2f}"
+    assert len(rep.figures) >= 7
+
+
+def test_without_model_only_measured_sections(small_session):
+    from volcal.session.format import read_session
+
+    rep = build_report(ReportInputs(read_session(small_session)))
+    assert [x.id for x in rep.sections] == ["machine", "measurements", "iso230-2"]

@@ -8,7 +8,7 @@ import pytest
 from conftest import TRAVEL
 from volcal.errors import VolcalInputError
 from volcal.plan.geometry import diagonal_test, linear_test, step_diagonal_test
-from volcal.plan.planner import abbe_lines, plan_session
+from volcal.plan.planner import plan_session
 
 CORNERS = {"ppp": ([0, 0, 0], [800, 600, 500]), "npp": ([800, 0, 0], [0, 600, 500]),
            "pnp": ([0, 600, 0], [800, 0, 500]), "ppn": ([0, 0, 500], [800, 600, 0])}
@@ -66,9 +66,26 @@ def test_linear_bidirectional_iso230_2_cycle():
     np.testing.assert_array_equal(g.run, [1] * 10 + [2] * 10)
 
 
-def test_abbe_lines_offsets():
-    lines = abbe_lines(0, TRAVEL)
-    np.testing.assert_allclose(lines, [[0, 0, 0], [0, 600, 0], [0, 0, 500]])
+@pytest.mark.parametrize("chain", ["XYFZ", "FXYZ", "YFXZ", "ZXFY"])
+def test_abbe_lines_give_three_independent_lever_arms(chain):
+    """Per axis, the 3 lines separate positioning, pitch and yaw: the lever arms of the
+    axis' angular errors (tool offset + downstream positions) span the plane across it."""
+    from volcal.model.chain import parse_chain
+
+    order = parse_chain(chain).order
+    s = plan_session(TRAVEL, chain, steps=2, tests=("linear",), runs=1)
+    for k in range(3):
+        down = order[order.index(k) + 1:]
+        a, b = [j for j in range(3) if j != k]
+        rows = []
+        for m in s.measurements:
+            if m.axis != k:
+                continue
+            lever = m.tool_offset + np.array([m.positions[0, j] if j in down else 0.0
+                                              for j in range(3)])
+            rows.append([1.0, lever[a], lever[b]])
+        assert len(rows) == 3
+        assert abs(np.linalg.det(np.array(rows))) > 1e3  # [mm^2]
 
 
 def test_default_plan_has_the_seed_test_set():

@@ -1,0 +1,43 @@
+"""Shared builders for the identification tests: plan, simulate, identify."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from volcal.measure.readings import reading_first_order
+from volcal.measure.simulate import SimulationOptions, simulate_session
+from volcal.measure.virtual import random_machine
+from volcal.plan.planner import plan_session
+
+TRAVEL = np.array([[0.0, 800.0], [0.0, 600.0], [0.0, 500.0]])
+
+
+def seeds_session(chain: str = "XYFZ", steps: int = 10, tests=("step-diagonal", "diagonal",
+                                                                 "linear"), runs: int = 2):
+    """The seeds' full test set, planned."""
+    return plan_session(TRAVEL, chain, steps, tests, runs=runs)
+
+
+def first_order_fill(session, machine, seed: int = 0, tilt_urad: float = 20.0) -> None:
+    """Fill deviations with the first-order reading model and random set-up tilts, no noise."""
+    rng = np.random.default_rng(seed)
+    for m in session.measurements:
+        m.deviation = reading_first_order(machine, m, rng.normal(0.0, tilt_urad, 2))
+
+
+def exact_fill(session, machine, seed: int, noise_um: float = 0.5, mirror_urad: float = 20.0):
+    """Fill deviations with the exact simulator (beam alignment, mirror misalignment, noise)."""
+    simulate_session(session, machine, SimulationOptions(noise_um=noise_um,
+                                                         mirror_misalignment_urad=mirror_urad,
+                                                         seed=seed))
+
+
+def grid(nodes, stride: int = 2):
+    """Grid over the measured positions."""
+    return np.stack(np.meshgrid(*[n[::stride] for n in nodes], indexing="ij"), -1).reshape(-1, 3)
+
+
+@pytest.fixture
+def machine():
+    return random_machine(TRAVEL, "XYFZ", seed=7)

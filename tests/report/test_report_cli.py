@@ -53,4 +53,5 @@ def test_demo_writes_a_report_with_at_least_five_figures(tmp_path):
     assert (out / "report" / "report.pdf").stat().st_size > 10000
     assert (out / "model.json").is_file() and (out / "session" / "truth" / "machine.csv").is_file()
     assert "Positioning (ISO 230-2)" in html and "Volumetric error" in html
+    assert "Compensation" in html and (out / "compensation" / "volcal-compensation.toml").is_file()
     assert Path(out / "session" / "session.toml").is_file()

@@ -17,7 +17,7 @@ def test_report_content_from_the_analysis(identified, small_session):
     rep = build_report(inp)
     ids = [x.id for x in rep.sections]
     assert ids == ["machine", "measurements", "iso230-2", "iso230-6", "identification",
-                   "identifiability", "volumetric"]
+                   "identifiability", "volumetric", "compensation"]
     # ISO 230-2 table: one row per linear test, values are the standard module's
     t = _section(rep, "iso230-2").tables[0]
     assert len(t.rows) == 9
@@ -46,3 +46,29 @@ def test_without_model_only_measured_sections(small_session):
 
     rep = build_report(ReportInputs(read_session(small_session)))
     assert [x.id for x in rep.sections] == ["machine", "measurements", "iso230-2"]
+
+
+def test_compensation_summary_against_the_truth(identified, tmp_path):
+    import pytest
+
+    from volcal.compensate.formats import CompensationOptions, write_compensation
+    from volcal.errors import VolcalInputError
+    from volcal.model.kinematics import volumetric_error
+    from volcal.report.pipeline import compensation_summary, read_truth
+
+    s, r = identified
+    truth = read_truth(s)
+    folder = tmp_path / "comp"
+    write_compensation(r.errors, "csv", folder, CompensationOptions("error", 25.0), "m.json")
+    c = compensation_summary(r, s.travel, truth, folder, n=5)
+    assert c.manifest["controller_format"] == "csv" and c.manifest["sign"] == "error"
+    # independent evaluation at the 125 grid points: true minus modelled volumetric error
+    g = np.meshgrid(*[np.linspace(lo, hi, 5) for lo, hi in s.travel], indexing="ij")
+    q = np.stack([a.ravel() for a in g], axis=1)
+    left = volumetric_error(truth, q) - volumetric_error(r.errors, q)
+    assert np.isclose(c.truth_residual_max_um, np.linalg.norm(left, axis=1).max())
+    assert np.isclose(c.truth_max_um, np.linalg.norm(volumetric_error(truth, q), axis=1).max())
+    # identification removes most of the error: what is left is well below the error itself
+    assert c.truth_residual_max_um < 0.5 * c.truth_max_um
+    with pytest.raises(VolcalInputError, match="volcal-compensation.toml"):
+        compensation_summary(r, s.travel, truth, tmp_path, n=3)

@@ -17,6 +17,9 @@ def report_cmd(
                                       "omitted."),
     output: Path = typer.Option(..., "-o", "--output", help="Report folder to write "
                                 "(report.html, report.pdf, figures/)."),
+    compensation: Path | None = typer.Option(None, help="Folder written by `volcal "
+                                             "compensate` from the same model, summarised "
+                                             "in the report."),
     edition: str = typer.Option("2014", help="ISO 230-2 edition of the positioning tables."),
     title: str | None = typer.Option(None, help="Report title (default from the machine name)."),
 ) -> None:
@@ -37,7 +40,8 @@ def report_cmd(
         with console.status("identifying the machine's errors..."):
             result = identify(s)
     with console.status("evaluating and writing the report..."):
-        files = write_report(build_report(collect_inputs(s, result, edition=edition), title),
+        files = write_report(build_report(collect_inputs(s, result, edition=edition,
+                                                          compensation=compensation), title),
                              output)
     console.print(f"report: {files.html} and {files.pdf} ({files.pdf_pages} pages, "
                   f"{len(files.figures)} figures)", soft_wrap=True)

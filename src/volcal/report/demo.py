@@ -22,7 +22,8 @@ __all__ = ["DEMO_STEPS", "DEMO_TRAVEL", "DemoOutput", "run_demo"]
 DEMO_TRAVEL = np.array([[0.0, 800.0], [0.0, 600.0], [0.0, 500.0]])
 """Work zone of the demo machine [mm]."""
 
-DEMO_STEPS: tuple[str, ...] = ("plan", "simulate", "identify", "evaluate", "report")
+DEMO_STEPS: tuple[str, ...] = ("plan", "simulate", "identify", "compensate", "evaluate",
+                               "report")
 
 
 @dataclass
@@ -78,6 +79,7 @@ def run_demo(folder: str | Path, seed: int = 7,
     -------
     DemoOutput
     """
+    from volcal.compensate.formats import CompensationOptions, write_compensation
     from volcal.identify import identify
     from volcal.measure.simulate import SimulationOptions, simulate_session, truth_files
     from volcal.measure.virtual import ErrorRanges, random_machine
@@ -115,13 +117,22 @@ def run_demo(folder: str | Path, seed: int = 7,
                  f"{result.fit['n_readings']} readings -> {model}")
     on_done()
 
-    on_step("evaluating to ISO 230-2 / 230-6")
-    inputs = collect_inputs(s, result)
-    if inputs.volumetric is not None:
-        lines.append(f"evaluate: E_VXYZ = {inputs.volumetric.E_VXYZ:.1f} µm")
+    on_step("writing compensation tables")
+    comp_dir = folder / "compensation"
+    files = write_compensation(result.errors, "grid", comp_dir,
+                               CompensationOptions("error", spacing=50.0), model.name)
+    lines.append(f"compensate: 3-D error grid ({', '.join(files)}) -> {comp_dir}")
     on_done()
 
-    comp_dir = None
+    on_step("evaluating to ISO 230-2 / 230-6")
+    inputs = collect_inputs(s, result, compensation=comp_dir)
+    if inputs.volumetric is not None:
+        lines.append(f"evaluate: E_VXYZ = {inputs.volumetric.E_VXYZ:.1f} µm")
+    if inputs.compensation is not None and inputs.compensation.truth_residual_max_um:
+        lines.append(f"          after compensation at most "
+                     f"{inputs.compensation.truth_residual_max_um:.1f} µm remain (truth)")
+    on_done()
+
     on_step("writing the HTML and PDF report")
     files = write_report(build_report(inputs), folder / "report")
     lines.append(f"report: {files.pdf_pages} PDF pages, {len(files.figures)} figures")

@@ -8,14 +8,110 @@ when the session has one.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
+import numpy as np
+
+from volcal.errors import VolcalInputError
 from volcal.model.errorfunctions import MachineErrors
 from volcal.report.sections import ReportInputs
 from volcal.session.errortable import read_error_table
 from volcal.session.format import Session
 
-__all__ = ["collect_inputs", "read_truth"]
+__all__ = ["CompensationSummary", "collect_inputs", "compensation_summary", "read_truth"]
+
+
+@dataclass(frozen=True)
+class CompensationSummary:
+    """What compensation tables were written and what they can achieve.
+
+    Attributes
+    ----------
+    folder : Path or None
+        Folder of the tables (with ``volcal-compensation.toml``), if written.
+    manifest : dict
+        The folder's manifest: controller format, sign, spacing, files.
+    model_max_um : float
+        Largest length of the modelled volumetric error over the work zone [um].
+    residual_u2_max_um : float
+        Largest expanded uncertainty (k = 2) of the modelled volumetric error [um]: what a
+        perfect application of the tables leaves, at 95 %.
+    truth_max_um, truth_residual_max_um, truth_residual_rms_um : float or None
+        Simulated sessions only: largest true volumetric error, and the largest and RMS
+        length of true minus modelled error (the error left after compensation) [um].
+    n : int
+        Grid points per axis of the evaluation.
+    """
+
+    folder: Path | None
+    manifest: dict[str, Any]
+    model_max_um: float
+    residual_u2_max_um: float
+    truth_max_um: float | None
+    truth_residual_max_um: float | None
+    truth_residual_rms_um: float | None
+    n: int
+
+
+def compensation_summary(result: Any, travel: Any, truth: MachineErrors | None = None,
+                         folder: str | Path | None = None, n: int = 11) -> CompensationSummary:
+    """Summarise the compensation of a model: files written and the error it leaves.
+
+    Parameters
+    ----------
+    result : IdentificationResult
+        The identified model (``predict`` gives the volumetric error and its uncertainty).
+    travel : array_like, shape (3, 2)
+        Work zone [mm].
+    truth : MachineErrors, optional
+        Simulated truth.
+    folder : str or Path, optional
+        Compensation folder written by ``volcal compensate`` (its manifest is read).
+    n : int
+        Grid points per axis.
+
+    Returns
+    -------
+    CompensationSummary
+
+    Raises
+    ------
+    VolcalInputError
+        If ``folder`` has no readable ``volcal-compensation.toml``.
+    """
+    import tomllib
+
+    from volcal.compensate.formats import MANIFEST
+    from volcal.model.kinematics import volumetric_error
+
+    manifest: dict[str, Any] = {}
+    if folder is not None:
+        folder = Path(folder)
+        path = folder / MANIFEST
+        if not path.is_file():
+            raise VolcalInputError(f"no {MANIFEST} here (is it a volcal compensation folder?)",
+                                   folder)
+        try:
+            manifest = tomllib.loads(path.read_text(encoding="utf-8"))
+        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+            raise VolcalInputError(f"invalid TOML: {exc}", path) from None
+    t = np.asarray(travel, dtype=float).reshape(3, 2)
+    g = np.meshgrid(*[np.linspace(lo, hi, n) for lo, hi in t], indexing="ij")
+    q = np.stack([a.ravel() for a in g], axis=1)
+    e, u = result.predict(q)
+    tmax = tres = trms = None
+    if truth is not None:
+        et = volumetric_error(truth, q)
+        r = np.linalg.norm(et - e, axis=1)
+        tmax = float(np.linalg.norm(et, axis=1).max())
+        tres = float(r.max())
+        trms = float(np.sqrt(np.mean(r**2)))
+    return CompensationSummary(None if folder is None else Path(folder), manifest,
+                               float(np.linalg.norm(e, axis=1).max()),
+                               float(2.0 * np.linalg.norm(u, axis=1).max()), tmax, tres, trms,
+                               n)
 
 
 def read_truth(session: Session) -> MachineErrors | None:
@@ -37,7 +133,8 @@ def read_truth(session: Session) -> MachineErrors | None:
 
 
 def collect_inputs(session: Session, result: Any = None, truth: MachineErrors | None = None,
-                   edition: str = "2014") -> ReportInputs:
+                   edition: str = "2014", compensation: str | Path | None = None
+                   ) -> ReportInputs:
     """Evaluate the session and its model for the report.
 
     Parameters
@@ -50,6 +147,8 @@ def collect_inputs(session: Session, result: Any = None, truth: MachineErrors | 
         Simulated truth; read from the session folder when omitted.
     edition : str
         ISO 230-2 edition.
+    compensation : str or Path, optional
+        Folder of compensation tables written from ``result``.
 
     Returns
     -------
@@ -71,10 +170,12 @@ def collect_inputs(session: Session, result: Any = None, truth: MachineErrors | 
                                   file=d.file, rows=d.rows)
         elif m.kind == "diagonal":
             iso6[m.id] = evaluate_diagonal(m, edition)
-    vol = elv = None
+    if truth is None:
+        truth = read_truth(session)
+    vol = elv = comp = None
     if result is not None:
         vol = volumetric_indices(result.errors)
         elv = elv_from_model(result.errors)
-    if truth is None:
-        truth = read_truth(session)
-    return ReportInputs(session, result, truth, iso2 or None, iso6 or None, vol, elv=elv)
+        comp = compensation_summary(result, session.travel, truth, compensation)
+    return ReportInputs(session, result, truth, iso2 or None, iso6 or None, vol, comp,
+                        elv=elv)

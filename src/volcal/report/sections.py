@@ -297,6 +297,38 @@ def volumetric_section(inp: ReportInputs) -> Section | None:
     return sec
 
 
+def compensation_section(inp: ReportInputs) -> Section | None:
+    """Summarise the compensation tables and the error they leave."""
+    c = inp.compensation
+    if c is None:
+        return None
+    sec = Section("compensation", "Compensation")
+    if c.folder is not None:
+        m = c.manifest
+        sec.paragraphs.append(
+            f"Compensation tables for the '{m.get('controller_format', '?')}' format were "
+            f"written to {c.folder}: {', '.join(m.get('files', []))}. Values are "
+            f"{'errors (actual - commanded)' if m.get('sign') == 'error' else 'corrections'}"
+            f", {m.get('spacing_mm', '?')} mm apart. Check the sign convention of your "
+            "controller before loading them.")
+    else:
+        sec.paragraphs.append("No compensation tables were written for this report; "
+                              "`volcal compensate MODEL.json` writes them.")
+    rows = [["modelled volumetric error, largest |e|", fmt(c.model_max_um)],
+            ["left after compensation, largest 2u (model uncertainty, k = 2)",
+             fmt(c.residual_u2_max_um)]]
+    if c.truth_max_um is not None:
+        rows += [["true volumetric error (simulation), largest |e|", fmt(c.truth_max_um)],
+                 ["true error left after compensation, largest |e − model|",
+                  fmt(c.truth_residual_max_um)],
+                 ["true error left after compensation, RMS", fmt(c.truth_residual_rms_um)]]
+    sec.tables.append(Table(["quantity", "value [µm]"], rows,
+                            "Volumetric error before and after compensation",
+                            f"Over a grid of {c.n}³ points of the work zone; a controller "
+                            "applying the model exactly leaves only the estimation error."))
+    return sec
+
+
 def build_report(inp: ReportInputs, title: str | None = None) -> Report:
     """Assemble the report from whatever inputs are present.
 
@@ -315,7 +347,7 @@ def build_report(inp: ReportInputs, title: str | None = None) -> Report:
 
     builders = [machine_section, measurements_section, positioning_section,
                 diagonal_section, identification_section, identifiability_section,
-                volumetric_section]
+                volumetric_section, compensation_section]
     sections = [s for s in (b(inp) for b in builders) if s is not None]
     sections.extend(inp.extra_sections)
     return Report(title or f"Calibration report: {inp.session.name}", sections,

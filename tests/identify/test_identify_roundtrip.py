@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import TRAVEL, exact_fill, first_order_fill, grid, seeds_session
+from identify_helpers import TRAVEL, exact_fill, first_order_fill, grid, seeds_session
 
 from volcal.identify import IdentifyOptions, identify
 from volcal.identify.design import choose_nodes

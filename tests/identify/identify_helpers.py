@@ -1,13 +1,12 @@
-"""Shared builders for the identification tests: plan, simulate, identify."""
+"""Shared builders for the identification tests (not named conftest: other test folders
+import their own conftest by name)."""
 
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
 from volcal.measure.readings import reading_first_order
 from volcal.measure.simulate import SimulationOptions, simulate_session
-from volcal.measure.virtual import random_machine
 from volcal.plan.planner import plan_session
 
 TRAVEL = np.array([[0.0, 800.0], [0.0, 600.0], [0.0, 500.0]])
@@ -37,7 +36,3 @@ def grid(nodes, stride: int = 2):
     """Grid over the measured positions."""
     return np.stack(np.meshgrid(*[n[::stride] for n in nodes], indexing="ij"), -1).reshape(-1, 3)
 
-
-@pytest.fixture
-def machine():
-    return random_machine(TRAVEL, "XYFZ", seed=7)

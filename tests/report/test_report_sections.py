@@ -24,6 +24,16 @@ def test_report_content_from_the_analysis(identified, small_session):
     row = t.rows[0]
     res = inp.iso230_2[row[0]]
     assert row[2] == f"{res.A:.2f}" and row[7] == f"{res.R:.2f}"
+    # each ISO 230-2 warning is shown once, naming every test it concerns
+    expected: dict[str, set] = {}
+    for mid, res in inp.iso230_2.items():
+        for w in res.warnings:
+            expected.setdefault(w, set()).add(mid)
+    shown = _section(rep, "iso230-2").warnings
+    assert len(shown) == len(expected)
+    for w, ids in expected.items():
+        line = next(x for x in shown if x.endswith(": " + w))
+        assert set(line[: -len(w) - 2].split(", ")) == ids
     # ISO 230-6: 4 body diagonals of length sqrt(400^2+300^2+250^2)
     t6 = _section(rep, "iso230-6").tables[0]
     assert [r[2] for r in t6.rows] == [f"{np.sqrt(400**2 + 300**2 + 250**2):.1f}"] * 4

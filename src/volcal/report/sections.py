@@ -368,10 +368,13 @@ def positioning_section(inp: ReportInputs) -> Section | None:
     if inp.iso230_2:
         keys = ("A", "A_up", "A_down", "E", "M", "R", "R_up", "R_down", "B", "B_mean")
         rows = []
+        same: dict[str, list[str]] = {}  # one warning, the tests it concerns
         for mid, res in inp.iso230_2.items():
             axis = AXES[inp.session.get(mid).axis or 0]
             rows.append([mid, axis, *(fmt(getattr(res, k)) for k in keys)])
-            sec.warnings.extend(f"{mid}: {w}" for w in getattr(res, "warnings", []) or [])
+            for w in getattr(res, "warnings", []) or []:
+                same.setdefault(str(w), []).append(mid)
+        sec.warnings.extend(f"{', '.join(ids)}: {w}" for w, ids in same.items())
         edition = next(iter(inp.iso230_2.values())).edition
         sec.tables.append(Table(
             ["measurement", "axis", "A [µm]", "A↑ [µm]", "A↓ [µm]", "E [µm]", "M [µm]",

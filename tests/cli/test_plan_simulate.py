@@ -105,9 +105,15 @@ def test_long_error_stays_on_one_line(tmp_path):
     assert len(lines) == 1
 
 
-@pytest.mark.xfail(strict=True, reason="cli/__init__.py imports click, which typer now vendors "
-                   "as typer._click: usage errors end in a traceback; reported")
 def test_usage_error_no_traceback(tmp_path):
     r = volcal("plan", "--steps", "abc", "-o", tmp_path / "x")
     assert r.returncode == 2
     assert "Traceback" not in r.stderr
+
+
+def test_simulate_keeps_other_files(tmp_path):
+    s = tmp_path / "S"
+    assert volcal("plan", "--steps", "2", "--tests", "diagonal", "-o", s).returncode == 0
+    (s / "notes.txt").write_text("keep me")
+    assert volcal("simulate", s).returncode == 0
+    assert (s / "notes.txt").read_text() == "keep me"

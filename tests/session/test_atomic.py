@@ -96,3 +96,21 @@ def test_error_table_roundtrip(tmp_path):
         np.testing.assert_allclose(back.values[k], m.values[k], atol=1e-6)
     header = p.read_text().splitlines()[0]
     assert header == "axis,position_mm,EX_um,EY_um,EZ_um,EA_urad,EB_urad,EC_urad"
+
+
+def test_rewrite_keeps_other_files_when_asked(tmp_path):
+    s = _session()
+    folder = tmp_path / "S"
+    write_session(s, folder)
+    (folder / "results").mkdir()
+    (folder / "results" / "fit.bin").write_bytes(b"\x00\x01")
+    (folder / "notes.txt").write_text("operator: A")
+    s.measurements[0].deviation = s.measurements[0].deviation + 1.0
+    write_session(s, folder, {"truth/setup.toml": "x = 1\n"}, keep_existing=True)
+    assert (folder / "results" / "fit.bin").read_bytes() == b"\x00\x01"
+    assert (folder / "notes.txt").read_text() == "operator: A"
+    r = read_session(folder)
+    np.testing.assert_allclose(r.measurements[0].deviation, s.measurements[0].deviation,
+                               atol=1e-6)
+    write_session(s, folder)  # default: the folder is exactly the session
+    assert not (folder / "notes.txt").exists()

@@ -68,7 +68,7 @@ def simulate(
     opts = SimulationOptions(noise_um=noise_um, mirror_misalignment_urad=mirror_urad,
                              drift_um_per_h=drift_um_per_h, seed=seed)
     setups = simulate_session(s, vm, opts)
-    write_session(s, session, truth_files(vm, setups, opts))
+    write_session(s, session, truth_files(vm, setups, opts), keep_existing=True)
     console.print(f"simulated {len(s.measurements)} measurements on '{vm.name}' "
                   f"(noise {noise_um} um, mirror {mirror_urad} urad); truth in {session}/truth/")
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 import csv
 import io
 import math
+import shutil
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -203,8 +204,8 @@ class Session:
                 "measurements": [m.to_toml() for m in self.measurements]}
 
 
-def write_session(session: Session, folder: str | Path, extra_files: dict[str, str] | None = None
-                  ) -> Path:
+def write_session(session: Session, folder: str | Path, extra_files: dict[str, str] | None = None,
+                  keep_existing: bool = False) -> Path:
     """Write a session folder atomically (built aside, then moved into place).
 
     Parameters
@@ -215,6 +216,9 @@ def write_session(session: Session, folder: str | Path, extra_files: dict[str, s
         Target folder; replaced if it exists.
     extra_files : dict of str to str, optional
         Further text files to write, relative path -> content (e.g. the simulation truth).
+    keep_existing : bool
+        Copy every other file of an existing ``folder`` (results of later commands, the
+        user's notes) into the new folder; files written here replace their old versions.
 
     Returns
     -------
@@ -226,6 +230,8 @@ def write_session(session: Session, folder: str | Path, extra_files: dict[str, s
     if len(set(names)) != len(names):
         raise VolcalInputError("two measurements share one file name")
     with atomic_dir(folder) as tmp:
+        if keep_existing and folder.is_dir():
+            shutil.copytree(folder, tmp, symlinks=True, dirs_exist_ok=True)
         (tmp / "session.toml").write_text(tomli_w.dumps(session.to_toml()), encoding="utf-8")
         for m in session.measurements:
             (tmp / m.file).parent.mkdir(parents=True, exist_ok=True)

@@ -24,7 +24,7 @@ app = typer.Typer(
     add_completion=False,
     pretty_exceptions_enable=False,
 )
-err_console = Console(stderr=True)
+err_console = Console(stderr=True, soft_wrap=True)
 
 _ORDER = ["plan", "program", "simulate", "classic", "identify", "evaluate", "env",
           "compensate", "importer", "report", "demo"]

@@ -47,7 +47,14 @@ class IdentifyOptions:
         ``'estimate'`` (default; the prior keeps it finite when the data do not see it)
         or ``'zero'`` (roll fixed to zero, as the seeds assume).
     known : dict
-        Errors measured separately, held fixed: name -> (positions [mm], values).
+        Errors measured separately, held fixed: name -> (positions [mm], values); a
+        position array of None holds the function at zero.
+    zero : tuple of str
+        Functions held at zero (e.g. all angular errors, to reproduce the small-angle
+        assumption of the classic step-diagonal solution).
+    tilts : bool
+        Estimate the beam/mirror tilt of each measurement (default). False assumes a
+        perfectly aligned set-up, as the classic solutions do.
     drift : bool
         Estimate a linear drift per measurement.
     refine : int
@@ -70,6 +77,8 @@ class IdentifyOptions:
     squareness_std_urad: float = 500.0
     roll: str = "estimate"
     known: dict = field(default_factory=dict)
+    zero: tuple[str, ...] = ()
+    tilts: bool = True
     drift: bool = False
     refine: int = 2
     max_nodes: int = 201
@@ -80,6 +89,8 @@ class IdentifyOptions:
 
 def _known(opts: IdentifyOptions) -> dict:
     known = dict(opts.known)
+    for n in opts.zero:
+        known.setdefault(n.upper(), (None, None))
     if opts.roll == "zero":
         for n in ("EAX", "EAY", "EAZ"):
             known.setdefault(n, (None, None))
@@ -165,18 +176,18 @@ def identify(session: Session, options: IdentifyOptions | None = None) -> Identi
         raise VolcalInputError(f"prior must be 'smooth' or 'none', got {o.prior!r}")
     nodes1 = choose_nodes(session, refine=1, max_nodes=o.max_nodes)
     if o.prior == "none":
-        design = build_design(session, nodes1, known, o.drift, o.measurement_ids)
+        design = build_design(session, nodes1, known, o.drift, o.measurement_ids, o.tilts)
         sol = solve_min_norm(design)
         prior = None
     else:
         nodes = choose_nodes(session, refine=o.refine, max_nodes=o.max_nodes)
-        design = build_design(session, nodes, known, o.drift, o.measurement_ids)
+        design = build_design(session, nodes, known, o.drift, o.measurement_ids, o.tilts)
         prior = PriorStructure.build(design.layout, design.free, o.kappa)
         sol = solve_bayes(design, prior, None if o.scales is None else np.array(o.scales),
                           o.noise_um, o.squareness_std_urad)
     # identifiability on the measured positions
     design1 = design if o.prior == "none" or o.refine == 1 else build_design(
-        session, nodes1, known, o.drift, o.measurement_ids)
+        session, nodes1, known, o.drift, o.measurement_ids, o.tilts)
     kappa = sol.kappa if np.isfinite(sol.kappa) else o.kappa
     prior1 = PriorStructure.build(design1.layout, design1.free, kappa)
     scales = sol.scales if np.all(np.isfinite(sol.scales)) else np.array([10.0, 5.0, 15.0])

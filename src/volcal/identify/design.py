@@ -140,10 +140,10 @@ def _gauge_mask(layout: ParameterLayout) -> NDArray[np.bool_]:
     return fixed
 
 
-def _nuisance_columns(m: Measurement, drift: bool):
+def _nuisance_columns(m: Measurement, drift: bool, tilts: bool = True):
     cols, names = [np.ones(m.n)], [f"{m.id}:offset"]
     T = tilt_columns(m) * (URAD / UM)
-    if T.size and np.abs(T).max() > 0:
+    if tilts and T.size and np.abs(T).max() > 0:
         U, s, Vt = np.linalg.svd(T, full_matrices=False)
         for j in range(2):
             if s[j] > 1e-6 * max(s[0], 1e-300):
@@ -161,7 +161,8 @@ def _nuisance_columns(m: Measurement, drift: bool):
 
 def build_design(session: Session, nodes: list[NDArray[np.float64]] | None = None,
                  known: dict[str, tuple[NDArray[np.float64], NDArray[np.float64]]] | None = None,
-                 drift: bool = False, measurement_ids: list[str] | None = None) -> Design:
+                 drift: bool = False, measurement_ids: list[str] | None = None,
+                 tilts: bool = True) -> Design:
     """Assemble the observation matrix of a session.
 
     Parameters
@@ -177,6 +178,8 @@ def build_design(session: Session, nodes: list[NDArray[np.float64]] | None = Non
         Add a linear drift nuisance per measurement (needs ``time_s``).
     measurement_ids : list of str, optional
         Use only these measurements.
+    tilts : bool
+        Add the set-up tilt nuisances (beam and mirror alignment) where they are visible.
 
     Returns
     -------
@@ -226,7 +229,7 @@ def build_design(session: Session, nodes: list[NDArray[np.float64]] | None = Non
         J = reading_jacobian(chain.order, layout.nodes, m)
         ys.append(m.deviation - J @ fixed_values)
         blocks.append(J[:, free])
-        N, names = _nuisance_columns(m, drift)
+        N, names = _nuisance_columns(m, drift, tilts)
         nblocks.append((N, r0))
         nnames += names
         rows[m.id] = slice(r0, r0 + m.n)

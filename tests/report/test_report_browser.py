@@ -5,6 +5,13 @@ import re
 from html import unescape
 
 import pytest
+import report_fixtures as _fx
+
+# pytest fixtures shared by the report tests (see report_fixtures.py)
+chromium = _fx.chromium
+identified = _fx.identified
+small_session = _fx.small_session
+written_report = _fx.written_report
 
 pytestmark = pytest.mark.browser
 

@@ -3,6 +3,12 @@ import subprocess
 import sys
 from pathlib import Path
 
+import report_fixtures as _fx
+
+# pytest fixtures shared by the report tests (see report_fixtures.py)
+identified = _fx.identified
+small_session = _fx.small_session
+
 VOLCAL = [sys.executable, "-c", "from volcal.cli import main; main()"]
 
 

@@ -6,6 +6,12 @@ import subprocess
 import matplotlib.image as mpimg
 import numpy as np
 import pytest
+import report_fixtures as _fx
+
+# pytest fixtures shared by the report tests (see report_fixtures.py)
+identified = _fx.identified
+small_session = _fx.small_session
+written_report = _fx.written_report
 
 PDFTOPPM = shutil.which("pdftoppm")
 

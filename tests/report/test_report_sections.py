@@ -1,7 +1,12 @@
 import numpy as np
+import report_fixtures as _fx
 
 from volcal.model.names import COMPONENT_NAMES
 from volcal.report.sections import ReportInputs, build_report
+
+# pytest fixtures shared by the report tests (see report_fixtures.py)
+identified = _fx.identified
+small_session = _fx.small_session
 
 
 def _section(rep, sid):

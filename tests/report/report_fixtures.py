@@ -1,3 +1,6 @@
+"""Fixtures of the report tests (a uniquely named module: tests/conftest.py is imported by
+name elsewhere, so this folder has no conftest.py of its own)."""
+
 import shutil
 import subprocess
 from pathlib import Path

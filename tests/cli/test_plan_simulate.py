@@ -98,8 +98,6 @@ def test_corrupted_session_names_file_row_column(tmp_path):
     assert "diag-npp.csv" in text and "row 3" in text and "column" in text
 
 
-@pytest.mark.xfail(strict=True, reason="cli/__init__.py: rich wraps long errors at 80 "
-                   "columns (Console needs soft_wrap=True); reported to the CLI owner")
 def test_long_error_stays_on_one_line(tmp_path):
     lines = _one_clean_error(volcal("plan", "--chain", "QQQQ", "-o", tmp_path / "x"))
     assert len(lines) == 1

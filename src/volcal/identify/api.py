@@ -24,6 +24,12 @@ from volcal.session.format import Measurement, Session
 
 __all__ = ["IdentifyOptions", "identify"]
 
+HYPER_MAX_NODES = 41
+"""Nodes per axis of the grid on which the prior's hyperparameters are chosen."""
+
+ANALYSIS_MAX_NODES = 41
+"""Nodes per axis of the identifiability analysis (a design property: coarse is enough)."""
+
 
 @dataclass
 class IdentifyOptions:
@@ -183,15 +189,27 @@ def identify(session: Session, options: IdentifyOptions | None = None) -> Identi
         nodes = choose_nodes(session, refine=o.refine, max_nodes=o.max_nodes)
         design = build_design(session, nodes, known, o.drift, o.measurement_ids, o.tilts)
         prior = PriorStructure.build(design.layout, design.free, o.kappa)
-        sol = solve_bayes(design, prior, None if o.scales is None else np.array(o.scales),
-                          o.noise_um, o.squareness_std_urad)
+        scales = None if o.scales is None else np.array(o.scales)
+        nodes_h = choose_nodes(session, refine=o.refine,
+                               max_nodes=min(o.max_nodes, HYPER_MAX_NODES))
+        if scales is None and any(len(a) != len(b) for a, b in zip(nodes_h, nodes, strict=True)):
+            # hyperparameters are properties of the functions, not of the grid: choose them
+            # on a coarser grid (fast), then solve on the fine one, re-estimating the noise
+            design_h = build_design(session, nodes_h, known, o.drift, o.measurement_ids, o.tilts)
+            prior_h = PriorStructure.build(design_h.layout, design_h.free, o.kappa)
+            sol_h = solve_bayes(design_h, prior_h, None, o.noise_um, o.squareness_std_urad)
+            scales = sol_h.scales
+            prior = prior.with_kappa(sol_h.kappa)
+        sol = solve_bayes(design, prior, scales, o.noise_um, o.squareness_std_urad)
     # identifiability on the measured positions
-    design1 = design if o.prior == "none" or o.refine == 1 else build_design(
-        session, nodes1, known, o.drift, o.measurement_ids, o.tilts)
+    nodes_a = choose_nodes(session, refine=1, max_nodes=min(o.max_nodes, ANALYSIS_MAX_NODES))
+    design1 = design if (o.prior == "none" or o.refine == 1) and all(
+        len(a) == len(b) for a, b in zip(nodes_a, design.layout.nodes, strict=True)
+    ) else build_design(session, nodes_a, known, o.drift, o.measurement_ids, o.tilts)
     kappa = sol.kappa if np.isfinite(sol.kappa) else o.kappa
     prior1 = PriorStructure.build(design1.layout, design1.free, kappa)
     scales = sol.scales if np.all(np.isfinite(sol.scales)) else np.array([10.0, 5.0, 15.0])
-    cands = candidate_designs(session, nodes1, known) if o.suggest else None
+    cands = candidate_designs(session, nodes_a, known) if o.suggest else None
     report = analyse(design1, prior1, scales, o.squareness_std_urad, cands)
     if o.prior == "none":
         report.messages.insert(0, "Minimum-norm least squares: combinations the data do not "
@@ -228,16 +246,19 @@ def _result(session: Session, design: Design, sol: Solution, report, o: Identify
         residuals[m.id] = resid_all[sl]
         fitted[m.id] = m.deviation - resid_all[sl]
     # standardised residuals with leverage
-    A = design.A
-    h = np.asarray(A.multiply(A @ cov).sum(axis=1)).ravel()
+    A = design.A.tocsr()
+    h = np.empty(A.shape[0])
+    for i in range(0, A.shape[0], 2000):
+        blk = A[i:i + 2000]
+        h[i:i + 2000] = np.asarray(blk.multiply(blk @ cov).sum(axis=1)).ravel()
     sigma = max(sol.sigma_um, sol.sigma_residual_um, 1e-12)
     lev = np.clip(h / sol.sigma_um**2 if sol.method == "bayes" else h / sigma**2, 0, 0.999)
     z = resid_all / (sigma * np.sqrt(1 - lev))
     thr = o.outlier_threshold
     if thr is None:
-        from scipy.stats import norm
+        from scipy.special import ndtri
 
-        thr = max(4.0, float(norm.isf(0.005 / max(z.size, 1))))
+        thr = max(4.0, float(-ndtri(0.005 / max(z.size, 1))))
     outliers = []
     for m in design.measurements:
         sl = design.rows[m.id]

@@ -128,14 +128,19 @@ def rigid_projector(q: NDArray[np.float64]) -> NDArray[np.float64]:
 
 
 def information(design: Design) -> NDArray[np.float64]:
-    """Data information matrix of the free parameters, nuisances eliminated."""
-    A = design.A.toarray()
+    """Data information matrix of the free parameters, nuisances eliminated.
+
+    Sparse products only: ``A_f^T A_f - (A_f^T A_n) (A_n^T A_n)^+ (A_n^T A_f)``.
+    """
+    A = design.A.tocsc()
     nf = design.n_free
     Af, An = A[:, :nf], A[:, nf:]
+    F = (Af.T @ Af).toarray()
     if An.shape[1]:
-        P = An @ np.linalg.pinv(An)
-        Af = Af - P @ Af
-    return Af.T @ Af
+        C = (Af.T @ An).toarray()
+        G = (An.T @ An).toarray()
+        F = F - C @ np.linalg.pinv(G, hermitian=True) @ C.T
+    return (F + F.T) / 2
 
 
 def grid_points(design: Design, per_axis: int = 5) -> NDArray[np.float64]:

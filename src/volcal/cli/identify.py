@@ -26,6 +26,11 @@ def identify_cmd(
     roll: str = typer.Option("estimate", help="estimate, or zero (roll fixed to zero)."),
     known: Path | None = typer.Option(None, help="Error table CSV of errors measured separately; "
                                       "its non-zero functions are held fixed."),
+    known_u: float | None = typer.Option(None, help="Standard uncertainty of the --known "
+                                         "functions [um or urad]: use them as priors instead "
+                                         "of fixing them."),
+    monte_carlo: int = typer.Option(0, help="Monte Carlo trials (GUM S1) of the noise "
+                                    "propagation to the volumetric error; 0 = off."),
     drift: bool = typer.Option(False, help="Estimate a linear drift per measurement."),
     measurements: str | None = typer.Option(None, help="Comma-separated measurement ids to use."),
 ) -> None:
@@ -43,12 +48,28 @@ def identify_cmd(
         for j, name in enumerate(COMPONENT_NAMES):
             k, c = divmod(j, 6)
             if np.any(kt.values[k][:, c] != 0):
-                known_d[name] = (kt.nodes[k], kt.values[k][:, c])
+                known_d[name] = ((kt.nodes[k], kt.values[k][:, c]) if known_u is None
+                                 else (kt.nodes[k], kt.values[k][:, c], known_u))
     opts = IdentifyOptions(prior=prior, noise_um=noise_um, roll=roll, known=known_d, drift=drift,
                            measurement_ids=None if measurements is None else
                            [m.strip() for m in measurements.split(",")])
     with console.status("identifying..."):
         res = identify(s, opts)
+        if monte_carlo > 0:
+            from volcal.identify import monte_carlo as mc
+            from volcal.identify.identifiability import grid_points
+
+            q = grid_points(res.design)
+            _, sd, lo, hi = mc(res, q, monte_carlo)
+            res.fit["monte_carlo"] = {
+                "trials": monte_carlo,
+                "points": int(q.shape[0]),
+                "max_std_um": float(sd.max()),
+                "rms_std_um": float(np.sqrt(np.mean(sd**2))),
+                "max_95_half_width_um": float(((hi - lo) / 2).max()),
+                "note": "noise part only (readings redrawn, same hyperparameters); the "
+                        "analytic uncertainty adds the prior part",
+            }
     res.to_json(output)
     f = res.fit
     console.print(f"{f['n_readings']} readings, {f['n_parameters']} parameters, "

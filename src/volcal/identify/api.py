@@ -53,8 +53,9 @@ class IdentifyOptions:
         ``'estimate'`` (default; the prior keeps it finite when the data do not see it)
         or ``'zero'`` (roll fixed to zero, as the seeds assume).
     known : dict
-        Errors measured separately, held fixed: name -> (positions [mm], values); a
-        position array of None holds the function at zero.
+        Errors measured separately: name -> ``(positions [mm], values)`` held fixed, or
+        ``(positions, values, std)`` used as a prior with that standard uncertainty; a
+        position array of None means the function is zero.
     zero : tuple of str
         Functions held at zero (e.g. all angular errors, to reproduce the small-angle
         assumption of the classic step-diagonal solution).
@@ -215,8 +216,8 @@ def identify(session: Session, options: IdentifyOptions | None = None) -> Identi
         report.messages.insert(0, "Minimum-norm least squares: combinations the data do not "
                                   "determine are set to zero and carry no uncertainty.")
     if known:
-        report.messages.append("Held fixed at known values (not estimated): "
-                               + ", ".join(sorted(known)) + ".")
+        report.messages.append("Known errors given by the user (held fixed, or priors with "
+                               "their uncertainty): " + ", ".join(design.fixed_names) + ".")
     return _result(session, design, sol, report, o)
 
 
@@ -238,8 +239,8 @@ def _result(session: Session, design: Design, sol: Solution, report, o: Identify
     std = [sd[design.layout.starts[k]:design.layout.starts[k + 1]].reshape(-1, 6)
            for k in range(3)]
     sq_std = sd[design.layout.squareness_indices()]
-    fitted_all = design.A @ sol.x
-    resid_all = design.y - fitted_all
+    mean = design.prior_mean if design.prior_mean is not None else np.zeros(sol.x.size)
+    resid_all = design.y - design.A @ (sol.x - mean)
     residuals, fitted = {}, {}
     for m in design.measurements:
         sl = design.rows[m.id]
@@ -303,7 +304,7 @@ def monte_carlo(result: IdentificationResult, q: NDArray[np.float64], n: int = 2
     """Monte Carlo propagation of the reading noise to predicted volumetric errors.
 
     GUM Supplement 1 (JCGM 101:2008): the readings are redrawn ``n`` times with the
-    estimated noise around the fitted values and re-identified with the same
+    estimated noise around the observed values and re-identified with the same
     hyperparameters; the spread of the predictions is the noise part of the uncertainty
     (the prior part of undetermined combinations is not resampled).
 
@@ -334,13 +335,14 @@ def monte_carlo(result: IdentificationResult, q: NDArray[np.float64], n: int = 2
 
     rng = np.random.default_rng(seed)
     Je, _ = pose_jacobian(result.errors.chain_obj.order, design.layout.nodes, q, tool_offset)
-    base = design.A @ sol.x
+    mean = design.prior_mean if design.prior_mean is not None else np.zeros(sol.x.size)
+    base = design.y  # the observed readings, redrawn with the reading noise
     sig = sol.sigma_um
     At = design.A.T.tocsr()
     out = []
     for _ in range(n):
         ystar = base + rng.normal(0, sig, base.size)
-        x = sol.solve(At @ ystar / sig**2)
+        x = sol.solve(At @ ystar / sig**2) + mean
         theta = design.full_parameters(x)
         out.append((Je @ theta).reshape(-1, 3))
     arr = np.array(out)

@@ -109,6 +109,8 @@ class Design:
     rows: dict[str, slice]
     measurements: list[Measurement] = field(repr=False, default_factory=list)
     fixed_names: list[str] = field(default_factory=list)
+    prior_mean: NDArray[np.float64] | None = None
+    extra_precision: NDArray[np.float64] | None = None
 
     @property
     def n_free(self) -> int:
@@ -172,8 +174,10 @@ def build_design(session: Session, nodes: list[NDArray[np.float64]] | None = Non
     nodes : list of 3 arrays, optional
         Node positions per axis [mm]; default :func:`choose_nodes`.
     known : dict, optional
-        Errors held fixed at known values: ISO name (``'EAX'``...) -> (positions [mm],
-        values [um or urad]); a squareness name maps to ``(None, value)``.
+        Errors measured separately: ISO name (``'EAX'``...) -> ``(positions [mm], values
+        [um or urad])`` held fixed, or ``(positions, values, std)`` used as a prior with
+        that standard uncertainty [um or urad]; a squareness name maps to
+        ``(None, value[, std])``; positions None means zero.
     drift : bool
         Add a linear drift nuisance per measurement (needs ``time_s``).
     measurement_ids : list of str, optional
@@ -202,12 +206,14 @@ def build_design(session: Session, nodes: list[NDArray[np.float64]] | None = Non
     fixed_names = []
     from volcal.model.names import SQUARENESS_NAMES
 
-    for name, (pos, val) in (known or {}).items():
+    soft: list[tuple[NDArray[np.intp], NDArray[np.float64], float]] = []
+    for name, spec in (known or {}).items():
+        pos, val = spec[0], spec[1]
+        std = spec[2] if len(spec) > 2 else None
         uname = name.upper()
         if uname in SQUARENESS_NAMES:
-            i = layout.squareness_indices()[SQUARENESS_NAMES.index(uname)]
-            fixed[i] = True
-            fixed_values[i] = float(np.asarray(val).reshape(-1)[0])
+            idx = layout.squareness_indices()[[SQUARENESS_NAMES.index(uname)]]
+            v = np.array([0.0 if val is None else float(np.asarray(val).reshape(-1)[0])])
         elif uname in COMPONENT_NAMES:
             j = COMPONENT_NAMES.index(uname)
             k, c = divmod(j, 6)
@@ -217,11 +223,21 @@ def build_design(session: Session, nodes: list[NDArray[np.float64]] | None = Non
             else:
                 order = np.argsort(pos)
                 v = np.interp(layout.nodes[k], np.asarray(pos)[order], np.asarray(val)[order])
-            fixed[idx] = True
-            fixed_values[idx] = v - v[0] if c >= 3 or c == k else v
+            # bring the known function into the gauge (zero at start; straightness also at end)
+            v = v - v[0]
+            if c < 3 and c != k and v.size > 1:
+                v = v - (layout.nodes[k] - layout.nodes[k][0]) / np.ptp(layout.nodes[k]) * v[-1]
         else:
             raise VolcalInputError(f"unknown error name {name!r} in the known errors")
-        fixed_names.append(uname)
+        if std is None:
+            fixed[idx] = True
+            fixed_values[idx] = v
+            fixed_names.append(uname)
+        else:
+            if not std > 0:
+                raise VolcalInputError(f"the uncertainty of known {uname} must be positive")
+            soft.append((idx, v, float(std)))
+            fixed_names.append(f"{uname} (prior, u = {std:g})")
     free = np.flatnonzero(~fixed)
     blocks, nblocks, ys, rows, nnames = [], [], [], {}, []
     r0 = 0
@@ -246,5 +262,17 @@ def build_design(session: Session, nodes: list[NDArray[np.float64]] | None = Non
     Nmat = sp.csr_matrix((np.concatenate(data), (np.concatenate(ri), np.concatenate(ci))),
                          shape=(r0, n_nuis))
     A = sp.hstack([sp.vstack(blocks), Nmat]).tocsr()
+    pos_in_free = -np.ones(layout.size, dtype=np.intp)
+    pos_in_free[free] = np.arange(free.size)
+    mean = np.zeros(A.shape[1])
+    extra = np.zeros(A.shape[1])
+    for idx, v, std in soft:
+        p = pos_in_free[idx]
+        ok = p >= 0
+        mean[p[ok]] = v[ok]
+        extra[p[ok]] = 1.0 / std**2
+    y = np.concatenate(ys)
+    if np.any(mean):
+        y = y - A @ mean  # solve for the departure from the prior mean
     return Design(layout, chain.code, session.travel.copy(), free, fixed_values, A,
-                  np.concatenate(ys), nnames, rows, meas, fixed_names)
+                  y, nnames, rows, meas, fixed_names, prior_mean=mean, extra_precision=extra)

@@ -86,11 +86,15 @@ class _Evidence:
         self.sq_std = squareness_std
         self.nprec = _nuisance_precision(design)
         self.N = self.AtA.shape[0]
+        ex = design.extra_precision
+        self.extra = ex if ex is not None and np.any(ex) else None
 
     def factor(self, scales, sigma, kappa=None):
         if kappa is not None and kappa != self.prior.kappa:
             self.prior = self.prior.with_kappa(kappa)
         Q = self.prior.precision(scales, self.sq_std, self.N, self.nprec)
+        if self.extra is not None:
+            Q = (Q + sp.diags(self.extra)).tocsc()
         H = (self.AtA / sigma**2 + Q).tocsc()
         lu = spla.splu(H, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
                        options={"SymmetricMode": True})
@@ -104,7 +108,12 @@ class _Evidence:
         b = self.Aty / sigma**2
         x = lu.solve(b)
         logdet_h = float(np.sum(np.log(np.abs(lu.U.diagonal()))))
-        logdet_q = self.prior.logdet(scales, self.sq_std, self.nprec)
+        if self.extra is None:
+            logdet_q = self.prior.logdet(scales, self.sq_std, self.nprec)
+        else:
+            lq = spla.splu(Q.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                           options={"SymmetricMode": True})
+            logdet_q = float(np.sum(np.log(np.abs(lq.U.diagonal()))))
         return (self.yty / sigma**2 - b @ x + logdet_h - logdet_q
                 + self.n * np.log(2 * np.pi * sigma**2))
 
@@ -205,6 +214,8 @@ def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float6
             c, low = sla.cho_factor(H.toarray(), lower=True)
             cov = sla.cho_solve((c, low), np.eye(N))
     r = design.y - design.A @ x
+    if design.prior_mean is not None and np.any(design.prior_mean):
+        x = x + design.prior_mean
     if cov is not None:
         edf = float(np.sum(ev.AtA.multiply(cov.T)) / sigma**2)
     else:
@@ -258,6 +269,8 @@ def solve_min_norm(design: Design) -> Solution:
     keep = s > tol
     x = Vt[keep].T @ ((U[:, keep].T @ design.y) / s[keep])
     r = design.y - A @ x
+    if design.prior_mean is not None and np.any(design.prior_mean):
+        x = x + design.prior_mean
     rank = int(keep.sum())
     dof = max(A.shape[0] - rank, 1)
     s_res = float(np.sqrt(r @ r / dof))

@@ -1,0 +1,156 @@
+"""Identifiability report, known errors, outliers, Monte Carlo, model file and CLI."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from identify_helpers import TRAVEL, exact_fill, first_order_fill, grid, seeds_session
+
+from volcal.errors import VolcalInputError
+from volcal.identify import IdentifyOptions, identify, load_model, monte_carlo
+from volcal.identify.design import choose_nodes
+from volcal.measure.virtual import random_machine
+from volcal.model.kinematics import volumetric_error
+from volcal.session.errortable import write_error_table
+from volcal.session.format import write_session
+
+
+@pytest.fixture(scope="module")
+def noisy():
+    s = seeds_session("XYFZ")
+    truth = random_machine(TRAVEL, "XYFZ", seed=21)
+    exact_fill(s, truth, seed=5)
+    return s, truth, identify(s)
+
+
+def test_report_names_what_the_seeds_test_set_cannot_see(noisy):
+    _, _, r = noisy
+    rep = r.report
+    assert 0 < rep.null_dimension < rep.n_parameters
+    assert rep.determined_fraction["EXX"] > 0.99 and rep.determined_fraction["EZZ"] > 0.99
+    assert rep.determined_fraction["EAX"] < 0.5  # roll of X: only lever arms across beams
+    text = " ".join(rep.messages)
+    assert "EAX (roll of X) is not determined" in text
+    assert "Volumetric ambiguity" in text
+    assert rep.suggestions and "face diagonals" in rep.suggestions[0]
+
+
+def test_step_diagonals_alone_report_the_slope_mirror_confusion():
+    truth = random_machine(TRAVEL, "XYFZ", seed=2)
+    s = seeds_session("XYFZ", tests=("step-diagonal",))
+    first_order_fill(s, truth)
+    r = identify(s)
+    assert "confounded with the mirror tilts" in " ".join(r.report.messages)
+    assert r.report.suggestions
+    # following the advice (linear lines) determines more and removes the warning
+    s2 = seeds_session("XYFZ", tests=("step-diagonal", "linear"))
+    first_order_fill(s2, truth)
+    r2 = identify(s2, IdentifyOptions(suggest=False))
+    assert "confounded with the mirror tilts" not in " ".join(r2.report.messages)
+    assert r2.report.null_dimension < r.report.null_dimension
+    assert r2.report.ambiguity_rms_um < r.report.ambiguity_rms_um
+
+
+def test_known_roll_removes_the_ambiguity_it_caused():
+    s = seeds_session("XYFZ")
+    truth = random_machine(TRAVEL, "XYFZ", seed=8)
+    first_order_fill(s, truth, seed=1)
+    q = grid(choose_nodes(s, refine=1))
+    et = volumetric_error(truth, q)
+    base = identify(s, IdentifyOptions(suggest=False))
+    known = {n: (truth.nodes[k], truth.values[k][:, 3]) for k, n in enumerate(("EAX", "EAY",
+                                                                              "EAZ"))}
+    fixed = identify(s, IdentifyOptions(known=known, suggest=False))
+    prior = identify(s, IdentifyOptions(known={k: (*v, 0.5) for k, v in known.items()},
+                                        suggest=False))
+    err = [np.abs(r.predict(q)[0] - et).max() for r in (base, fixed, prior)]
+    assert fixed.report.ambiguity_um < 0.5 * base.report.ambiguity_um
+    assert err[1] < 0.5 * err[0] and err[2] < 0.5 * err[0], err
+    assert np.all(fixed.std[0][:, 3] == 0)  # held fixed: no uncertainty
+    assert 0 < prior.std[0][1:, 3].max() <= 0.5 + 1e-9  # prior: at most its own uncertainty
+
+
+def test_outlier_is_flagged_with_measurement_and_row():
+    s = seeds_session("XYFZ")
+    exact_fill(s, random_machine(TRAVEL, "XYFZ", seed=4), seed=3)
+    m = s.get("linear-y2")
+    m.deviation = m.deviation.copy()
+    m.deviation[7] += 8.0  # a set-up fault on one reading
+    r = identify(s, IdentifyOptions(suggest=False))
+    assert [(o["measurement"], o["row"]) for o in r.outliers] == [("linear-y2", 9)]
+
+
+def test_monte_carlo_agrees_with_analytic_noise_propagation(noisy):
+    s, _, r = noisy
+    q = grid(choose_nodes(s, refine=1), stride=5)
+    mean, sd, lo, hi = monte_carlo(r, q, n=300, seed=1)
+    e, u = r.predict(q)
+    np.testing.assert_allclose(mean, e, atol=4 * sd.max() / np.sqrt(300) + 1e-9)
+    # the analytic uncertainty contains the noise part and the prior part
+    assert np.all(sd <= u * 1.15 + 1e-6)
+    assert np.all(lo <= e) and np.all(e <= hi)
+
+
+def test_model_file_round_trip(noisy, tmp_path):
+    s, _, r = noisy
+    path = r.to_json(tmp_path / "m.json")
+    m = load_model(path)
+    q = grid(choose_nodes(s, refine=1), stride=4)
+    e1, u1 = r.predict(q, [0, 0, 100])
+    e2, u2 = m.predict(q, [0, 0, 100])
+    np.testing.assert_allclose(e2, e1, atol=1e-4)
+    np.testing.assert_allclose(u2, u1, rtol=1e-4, atol=1e-5)
+    doc = json.loads(path.read_text())
+    assert doc["format"] == "volcal-model/1" and doc["chain"] == "XYFZ"
+    assert {"EXX_um", "u_EXX_um", "EAX_urad"} <= set(doc["functions"]["X"])
+    assert doc["identifiability"]["messages"] == r.report.messages
+
+
+def test_bad_model_file_is_a_clear_error(tmp_path):
+    p = tmp_path / "m.json"
+    p.write_text('{"format": "volcal-model/1", "functions": {}}')
+    with pytest.raises(VolcalInputError, match="m.json"):
+        load_model(p)
+    p.write_text("not json")
+    with pytest.raises(VolcalInputError, match="invalid JSON"):
+        load_model(p)
+
+
+def _volcal(*args):
+    return subprocess.run([sys.executable, "-c", "from volcal.cli import main; main()", *args],
+                          capture_output=True, text=True)
+
+
+def test_cli_identify_and_predict(noisy, tmp_path):
+    s, truth, _ = noisy
+    folder = write_session(s, tmp_path / "S")
+    write_error_table(truth, tmp_path / "roll.csv")
+    out = _volcal("identify", str(folder), "-o", str(tmp_path / "m.json"))
+    assert out.returncode == 0, out.stderr
+    assert "EAX (roll of X)" in out.stdout
+    pts = tmp_path / "p.csv"
+    pts.write_text("x_mm,y_mm,z_mm\n0,0,0\n400,300,250\n800,600,500\n")
+    out = _volcal("predict", str(tmp_path / "m.json"), "--points", str(pts), "-o",
+                  str(tmp_path / "o.csv"))
+    assert out.returncode == 0, out.stderr
+    rows = np.loadtxt(tmp_path / "o.csv", delimiter=",", skiprows=1)
+    head = (tmp_path / "o.csv").read_text().splitlines()[0]
+    assert head == "x_mm,y_mm,z_mm,ex_um,ey_um,ez_um,ux_um,uy_um,uz_um"
+    et = volumetric_error(truth, rows[:, :3])
+    assert np.all(np.abs(rows[:, 3:6] - et) < 4 * rows[:, 6:9] + 0.2)
+    # bad points file: clear error naming file, row and column; nothing written
+    pts.write_text("x_mm,y_mm,z_mm\n0,0,0\n1,abc,2\n")
+    out = _volcal("predict", str(tmp_path / "m.json"), "--points", str(pts), "-o",
+                  str(tmp_path / "o2.csv"))
+    assert out.returncode == 2 and "Traceback" not in out.stderr
+    assert "p.csv, row 3, column 'y_mm'" in out.stderr
+    assert not (tmp_path / "o2.csv").exists()
+    # unmeasured session: clear error
+    planned = seeds_session("XYFZ", tests=("diagonal",))
+    write_session(planned, tmp_path / "P")
+    out = _volcal("identify", str(tmp_path / "P"), "-o", str(tmp_path / "x.json"))
+    assert out.returncode == 2 and "Traceback" not in out.stderr

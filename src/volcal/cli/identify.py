@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import csv
 import io
-import math
 from pathlib import Path
 
 import numpy as np
@@ -13,6 +12,7 @@ from rich.console import Console
 
 from volcal.cli._common import parse_vector
 from volcal.errors import VolcalInputError
+from volcal.io.values import parse_finite
 
 console = Console()
 
@@ -101,14 +101,7 @@ def _read_points(path: Path) -> np.ndarray:
         if len(r) != len(header):
             raise VolcalInputError(f"expected {len(header)} fields, found {len(r)}", path, i + 2)
         for j, col in enumerate(idx):
-            try:
-                v = float(r[col])
-            except ValueError:
-                raise VolcalInputError(f"not a number: {r[col]!r}", path, i + 2,
-                                       header[col]) from None
-            if not math.isfinite(v):
-                raise VolcalInputError("not a finite number", path, i + 2, header[col])
-            out[i, j] = v
+            out[i, j] = parse_finite(r[col], path, i + 2, header[col])
     return out
 
 

@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import csv
 import io
-import math
 import re
 import tomllib
 from dataclasses import dataclass, field
@@ -35,6 +34,7 @@ from numpy.typing import NDArray
 from volcal.errors import VolcalInputError
 from volcal.importer.units import TO_MM, unit_from_header, unit_name
 from volcal.io.atomic import write_text
+from volcal.io.values import parse_finite
 from volcal.model.names import AXES
 from volcal.session.format import (
     MIN_ROWS,
@@ -148,13 +148,7 @@ def _number(text: str, decimal_comma: bool, path: Path, row: int, col: str) -> f
     t = text.strip().replace("\u2212", "-")
     if decimal_comma:
         t = t.replace(",", ".")
-    try:
-        v = float(t)
-    except ValueError:
-        raise VolcalInputError(f"not a number: {text!r}", path, row, col) from None
-    if not math.isfinite(v):
-        raise VolcalInputError(f"not a finite number: {text!r}", path, row, col)
-    return v
+    return parse_finite(t, path, row, col)
 
 
 def _unit(option: str | None, header: str, fallback: str | None, what: str, notes: list[str],

@@ -31,6 +31,7 @@ import tomli_w
 
 from volcal.errors import VolcalInputError
 from volcal.io.atomic import write_text
+from volcal.io.values import parse_finite
 from volcal.model.errorfunctions import MachineErrors
 from volcal.model.names import AXES, SQUARENESS_NAMES
 
@@ -121,15 +122,7 @@ def read_error_table(path: str | Path, chain: str | None = None) -> MachineError
         a = r[0].strip().upper()
         if a not in AXES:
             raise VolcalInputError(f"unknown axis {r[0]!r}: expected X, Y or Z", path, i, "axis")
-        vals = []
-        for j, text in enumerate(r[1:], start=1):
-            try:
-                v = float(text)
-            except ValueError:
-                raise VolcalInputError(f"not a number: {text!r}", path, i, HEADER[j]) from None
-            if not math.isfinite(v):
-                raise VolcalInputError("not a finite number", path, i, HEADER[j])
-            vals.append(v)
+        vals = [parse_finite(text, path, i, HEADER[j]) for j, text in enumerate(r[1:], start=1)]
         if per_axis[AXES.index(a)] and vals[0] <= per_axis[AXES.index(a)][-1][0]:
             raise VolcalInputError("positions of an axis must increase strictly", path, i,
                                    "position_mm")

@@ -22,6 +22,7 @@ from numpy.typing import NDArray
 
 from volcal.errors import VolcalInputError
 from volcal.io.atomic import atomic_dir, write_text
+from volcal.io.values import parse_finite
 from volcal.model.chain import parse_chain
 
 SESSION_FORMAT = "volcal-session/1"
@@ -279,14 +280,7 @@ def _vec3(value: Any, file: Path, key: str, nonzero: bool = False) -> NDArray[np
     return a
 
 
-def _parse_float(text: str, file: Path, row: int, col: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise _err(f"not a number: {text!r}", file, row, col) from None
-    if not math.isfinite(v):
-        raise _err(f"not a finite number: {text!r}", file, row, col)
-    return v
+_parse_float = parse_finite
 
 
 _UNIT_HINTS = {"deviation": "um", "x": "mm", "y": "mm", "z": "mm"}

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import csv
 import io
-import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -23,6 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from volcal.errors import VolcalInputError
+from volcal.io.values import parse_finite
 
 __all__ = ["PositioningData", "from_measurement", "read_positioning_csv"]
 
@@ -140,15 +140,7 @@ def read_positioning_csv(path: str | Path) -> PositioningData:
                            np.array(dev), np.array(rown, dtype=int), str(path))
 
 
-def _float(text: str, path: Path, row: int, col: str) -> float:
-    s = text.strip()
-    try:
-        v = float(s)
-    except ValueError:
-        raise VolcalInputError(f"not a number: {s!r}", path, row, col) from None
-    if not math.isfinite(v):
-        raise VolcalInputError(f"not a finite number: {s!r}", path, row, col)
-    return v
+_float = parse_finite
 
 
 def _read_measurement_layout(path: Path, header: list[str]) -> PositioningData:

@@ -23,6 +23,8 @@ def plan(
     step_orders: str = typer.Option("xyz", help="Axis orders of the step diagonals, e.g. xyz,yxz."),
     tool_offset: str = typer.Option("0,0,0", help="Target point on the tool x,y,z [mm]."),
     name: str = typer.Option("VMC-1", help="Machine name."),
+    iso_spacing: bool = typer.Option(False, help="Unequally spaced linear-test targets "
+                                     "(ISO 230-2:2014, 5.2)."),
     output: Path = typer.Option(..., "-o", "--output", help="Session folder to write."),
 ) -> None:
     """Write a session skeleton: the commanded poses of every test, deviations empty."""
@@ -32,7 +34,8 @@ def plan(
     s = plan_session(parse_travel(travel), chain, steps,
                      [t.strip() for t in tests.split(",") if t.strip()], runs,
                      [o.strip() for o in step_orders.split(",") if o.strip()],
-                     parse_vector(tool_offset, "--tool-offset"), name)
+                     parse_vector(tool_offset, "--tool-offset"), name,
+                     iso_spacing=iso_spacing)
     write_session(s, output)
     n = sum(m.n for m in s.measurements)
     console.print(f"planned {len(s.measurements)} measurements, {n} readings -> {output}")

@@ -66,8 +66,38 @@ def _axis_index(axis: int | str) -> int:
     return int(axis)
 
 
+def iso_targets(lo: float, hi: float, steps: int, seed: int = 0) -> NDArray[np.float64]:
+    """Target positions with unequal spacing, as ISO 230-2:2014 (5.2) recommends.
+
+    The interior targets are moved from the uniform grid by a reproducible random amount of
+    at most a quarter of the interval, so that periodic errors (lead screw, scale) are
+    sampled at different phases; the end targets stay at the ends of travel.
+
+    Parameters
+    ----------
+    lo, hi : float
+        Ends of travel [mm].
+    steps : int
+        Number of intervals.
+    seed : int
+        Seed of the offsets.
+
+    Returns
+    -------
+    ndarray, shape (steps + 1,)
+        Target positions [mm], rounded to 0.001 mm.
+    """
+    t = np.linspace(lo, hi, steps + 1)
+    if steps >= 2:
+        p = (hi - lo) / steps
+        r = np.random.default_rng(seed).uniform(-0.25, 0.25, steps - 1) * p
+        t[1:-1] += r
+    return np.round(t, 3)
+
+
 def linear_test(axis: int | str, travel: ArrayLike, steps: int, at_mm: ArrayLike,
-                runs: int = 1, bidirectional: bool = False) -> TestGeometry:
+                runs: int = 1, bidirectional: bool = False,
+                targets_mm: ArrayLike | None = None) -> TestGeometry:
     """Linear displacement test along one axis at a given Abbe offset.
 
     Parameters
@@ -84,6 +114,9 @@ def linear_test(axis: int | str, travel: ArrayLike, steps: int, at_mm: ArrayLike
         Number of runs.
     bidirectional : bool
         Each run goes up through the targets and then back down (ISO 230-2 cycle).
+    targets_mm : array_like, optional
+        Target positions [mm] (e.g. :func:`iso_targets`); default ``steps + 1`` equally
+        spaced targets over the travel.
 
     Returns
     -------
@@ -93,7 +126,8 @@ def linear_test(axis: int | str, travel: ArrayLike, steps: int, at_mm: ArrayLike
     t = _travel(travel)
     if steps < 1:
         raise VolcalInputError("a linear test needs at least 1 increment")
-    targets = np.linspace(t[k, 0], t[k, 1], steps + 1)
+    targets = (np.linspace(t[k, 0], t[k, 1], steps + 1) if targets_mm is None
+               else np.asarray(targets_mm, dtype=float).reshape(-1))
     base = np.asarray(at_mm, dtype=float).reshape(3).copy()
     seq, run, dirn = [], [], []
     for r in range(1, runs + 1):

@@ -22,6 +22,7 @@ from volcal.plan.geometry import (
     FACE_PLANES,
     TestGeometry,
     diagonal_test,
+    iso_targets,
     linear_test,
     step_diagonal_test,
 )
@@ -96,8 +97,8 @@ def plan_session(travel: ArrayLike, chain: str = "XYFZ", steps: int = 10,
                  tests: Sequence[str] = ("step-diagonal", "diagonal", "linear"),
                  runs: int = 5, step_orders: Sequence[str] = ("xyz",),
                  tool_offset: ArrayLike = (0.0, 0.0, 0.0), name: str = "VMC-1",
-                 step_target: str = "flat_mirror", abbe_tool_offset_mm: float = 150.0
-                 ) -> Session:
+                 step_target: str = "flat_mirror", abbe_tool_offset_mm: float = 150.0,
+                 iso_spacing: bool = False) -> Session:
     """Plan a session skeleton (commanded poses, deviations empty).
 
     Parameters
@@ -124,6 +125,9 @@ def plan_session(travel: ArrayLike, chain: str = "XYFZ", steps: int = 10,
     abbe_tool_offset_mm : float
         Target offset used for the Abbe offsets of linear lines that no machine move can
         create (see :func:`abbe_lines`) [mm].
+    iso_spacing : bool
+        Unequally spaced targets for the linear tests (ISO 230-2:2014, 5.2); the three lines
+        of an axis share them. Default: the step grid, shared with the diagonals.
 
     Returns
     -------
@@ -172,8 +176,10 @@ def plan_session(travel: ArrayLike, chain: str = "XYFZ", steps: int = 10,
         elif test == "linear":
             for k in range(3):
                 lines = abbe_lines(k, t, chain, abbe_tool_offset_mm)
+                targets = iso_targets(t[k, 0], t[k, 1], steps, seed=k) if iso_spacing else None
                 for i, (line, toff) in enumerate(lines, start=1):
-                    g = linear_test(k, t, steps, line, runs=runs, bidirectional=True)
+                    g = linear_test(k, t, steps, line, runs=runs, bidirectional=True,
+                                    targets_mm=targets)
                     others = ", ".join(f"{AXES[j].lower()}={line[j]:g} mm" for j in range(3)
                                        if j != k)
                     if np.any(toff):

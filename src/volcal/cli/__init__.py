@@ -23,6 +23,7 @@ app = typer.Typer(
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
+    rich_markup_mode=None,  # plain help: units such as '[s]', '[mm]' are not Rich markup
 )
 err_console = Console(stderr=True, soft_wrap=True)
 

@@ -41,3 +41,34 @@ def test_every_command_is_listed():
     for cmd in ("plan", "program", "simulate", "import", "identify", "predict", "evaluate",
                 "compensate", "report", "demo", "classic", "env"):
         assert f" {cmd} " in f" {text} ", cmd
+
+
+def test_error_message_keeps_its_brackets(tmp_path):
+    """A located error names '<session.toml> [<measurement id>]'; Rich markup used to eat
+    the bracket, leaving 'session.toml , column ...'."""
+    s = tmp_path / "S"
+    r = subprocess.run([*RUN, "plan", "-o", str(s), "--tests", "linear", "--steps", "2",
+                        "--runs", "1"], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    toml = (s / "session.toml").read_text()
+    i = toml.index('id = "linear-x1"')
+    j = toml.index("[[measurements]]", i)
+    toml = (toml[:j] + 'readings = "raw"\n[measurements.environment]\n'
+            "air_temperature_c = 20.0\nair_pressure_hpa = 1013.25\nhumidity_pct = 50\n\n"
+            + toml[j:])
+    (s / "session.toml").write_text(toml)
+    for f in s.glob("linear-*.csv"):  # fill the deviations so the session reads as measured
+        lines = f.read_text().splitlines()
+        cols = lines[0].split(",")
+        k = cols.index("deviation_um")
+        out = [lines[0]]
+        for ln in lines[1:]:
+            v = ln.split(",")
+            v[k] = "0"
+            out.append(",".join(v))
+        f.write_text("\n".join(out) + "\n")
+    r = subprocess.run([*RUN, "evaluate", "session", str(s)], capture_output=True, text=True,
+                       timeout=120, env={**os.environ, "COLUMNS": "400"})
+    assert r.returncode == 2
+    first = r.stderr.strip().splitlines()[0]
+    assert "session.toml [linear-x1], column 'environment.air_pressure_hpa'" in first, first

@@ -13,6 +13,7 @@ import sys
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 
 from volcal.errors import VolcalInputError
 
@@ -48,7 +49,7 @@ def main() -> None:
     try:
         app()  # standalone mode: usage errors are reported by typer with exit code 2
     except VolcalInputError as exc:
-        err_console.print(f"[bold red]error:[/] {exc}", highlight=False)
+        err_console.print(f"[bold red]error:[/] {escape(str(exc))}", highlight=False)
         sys.exit(2)
     except KeyboardInterrupt:
         err_console.print("aborted")

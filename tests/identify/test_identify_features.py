@@ -154,3 +154,25 @@ def test_cli_identify_and_predict(noisy, tmp_path):
     write_session(planned, tmp_path / "P")
     out = _volcal("identify", str(tmp_path / "P"), "-o", str(tmp_path / "x.json"))
     assert out.returncode == 2 and "Traceback" not in out.stderr
+
+
+def test_noise_is_not_fitted_away_when_the_data_cannot_show_it():
+    """Single diagonal runs only: no redundancy, so the evidence alone would take sigma to
+    zero; the estimator assumes the default repeatability and says so."""
+    s = seeds_session("XYFZ", tests=("diagonal",))
+    exact_fill(s, random_machine(TRAVEL, "XYFZ", seed=3), seed=1, noise_um=0.5)
+    r = identify(s, IdentifyOptions(suggest=False))
+    assert r.fit["sigma_um"] == pytest.approx(0.5)
+    assert any("too little redundancy" in m for m in r.report.messages)
+    stated = identify(s, IdentifyOptions(noise_um=0.2, suggest=False))
+    assert stated.fit["sigma_um"] == pytest.approx(0.2)
+    assert not any("too little redundancy" in m for m in stated.report.messages)
+
+
+def test_unobserved_squareness_keeps_a_bounded_uncertainty():
+    """Linear lines cannot see squareness: its uncertainty is the prior's, not unbounded."""
+    s = seeds_session("XYFZ", tests=("linear",))
+    exact_fill(s, random_machine(TRAVEL, "XYFZ", seed=3), seed=1)
+    r = identify(s, IdentifyOptions(suggest=False))
+    assert np.all(r.squareness_std > 50) and np.all(r.squareness_std <= 100 + 1e-6)
+    assert r.report.determined_fraction["EC0Y"] < 0.05

@@ -81,7 +81,7 @@ class IdentifyOptions:
     noise_um: float | None = None
     scales: tuple[float, float, float] | None = None
     kappa: float = 40.0
-    squareness_std_urad: float = 500.0
+    squareness_std_urad: float = 100.0
     roll: str = "estimate"
     known: dict = field(default_factory=dict)
     zero: tuple[str, ...] = ()
@@ -92,6 +92,22 @@ class IdentifyOptions:
     measurement_ids: list[str] | None = None
     outlier_threshold: float | None = None
     suggest: bool = True
+
+
+DEFAULT_REPEATABILITY_UM = 0.5
+"""Repeatability assumed when the data cannot show their own noise [um]."""
+
+
+def _too_few_redundant(sol: Solution, design: Design) -> bool:
+    """True when the residual degrees of freedom are too few to estimate the noise."""
+    return sol.dof < max(10.0, 0.1 * design.y.size)
+
+
+def _noise_note(sol: Solution, design: Design) -> str:
+    return (f"The readings have too little redundancy to show their own noise ({sol.dof:.0f} "
+            f"residual degrees of freedom for {design.y.size} readings): a repeatability of "
+            f"{DEFAULT_REPEATABILITY_UM:g} um is assumed; state yours with --noise-um, or "
+            "repeat runs.")
 
 
 def _known(opts: IdentifyOptions) -> dict:
@@ -182,9 +198,14 @@ def identify(session: Session, options: IdentifyOptions | None = None) -> Identi
     if o.prior not in ("smooth", "none"):
         raise VolcalInputError(f"prior must be 'smooth' or 'none', got {o.prior!r}")
     nodes1 = choose_nodes(session, refine=1, max_nodes=o.max_nodes)
+    notes: list[str] = []
+    noise = o.noise_um
     if o.prior == "none":
         design = build_design(session, nodes1, known, o.drift, o.measurement_ids, o.tilts)
         sol = solve_min_norm(design)
+        if _too_few_redundant(sol, design):
+            notes.append(_noise_note(sol, design))
+            sol = solve_min_norm(design, DEFAULT_REPEATABILITY_UM)
         prior = None
     else:
         nodes = choose_nodes(session, refine=o.refine, max_nodes=o.max_nodes)
@@ -198,10 +219,18 @@ def identify(session: Session, options: IdentifyOptions | None = None) -> Identi
             # on a coarser grid (fast), then solve on the fine one, re-estimating the noise
             design_h = build_design(session, nodes_h, known, o.drift, o.measurement_ids, o.tilts)
             prior_h = PriorStructure.build(design_h.layout, design_h.free, o.kappa)
-            sol_h = solve_bayes(design_h, prior_h, None, o.noise_um, o.squareness_std_urad)
+            sol_h = solve_bayes(design_h, prior_h, None, noise, o.squareness_std_urad)
+            if noise is None and _too_few_redundant(sol_h, design_h):
+                notes.append(_noise_note(sol_h, design_h))
+                noise = DEFAULT_REPEATABILITY_UM
+                sol_h = solve_bayes(design_h, prior_h, None, noise, o.squareness_std_urad)
             scales = sol_h.scales
             prior = prior.with_kappa(sol_h.kappa)
-        sol = solve_bayes(design, prior, scales, o.noise_um, o.squareness_std_urad)
+        sol = solve_bayes(design, prior, scales, noise, o.squareness_std_urad)
+        if noise is None and _too_few_redundant(sol, design):
+            notes.append(_noise_note(sol, design))
+            noise = DEFAULT_REPEATABILITY_UM
+            sol = solve_bayes(design, prior, scales, noise, o.squareness_std_urad)
     # identifiability on the measured positions
     nodes_a = choose_nodes(session, refine=1, max_nodes=min(o.max_nodes, ANALYSIS_MAX_NODES))
     design1 = design if (o.prior == "none" or o.refine == 1) and all(
@@ -215,6 +244,7 @@ def identify(session: Session, options: IdentifyOptions | None = None) -> Identi
     if o.prior == "none":
         report.messages.insert(0, "Minimum-norm least squares: combinations the data do not "
                                   "determine are set to zero and carry no uncertainty.")
+    report.messages.extend(notes)
     if known:
         report.messages.append("Known errors given by the user (held fixed, or priors with "
                                "their uncertainty): " + ", ".join(design.fixed_names) + ".")

@@ -68,6 +68,10 @@ def abbe(
     from volcal.io.atomic import write_text
 
     k = _axis(axis)
+    if output is not None:
+        from volcal.io.paths import check_output_file
+
+        check_output_file(output)
     if len(files) < 3:
         raise VolcalInputError(f"need at least 3 files at different Abbe offsets, got {len(files)}")
     targets, devs, points = lines_from_files(files, k)
@@ -101,6 +105,10 @@ def abbe_session_cmd(
     from volcal.io.atomic import write_text
     from volcal.session.format import read_session
 
+    if output is not None:
+        from volcal.io.paths import check_output_folder
+
+        check_output_folder(output, "Abbe-line", lambda p: any(p.glob("abbe-?.csv")))
     s = read_session(session)
     results = abbe_session(s)
     if not results:
@@ -128,6 +136,10 @@ def step_diagonal(
     from volcal.session.errortable import write_error_table
     from volcal.session.format import read_session
 
+    if output is not None:
+        from volcal.io.paths import check_output_file
+
+        check_output_file(Path(output).with_suffix(".csv"))
     r = step_diagonal_session(read_session(session))
     sq = ", ".join(f"{n} = {v:.2f} urad" for n, v in zip(("EC0Y", "EB0Z", "EA0Z"),
                                                          r.errors.squareness, strict=True))

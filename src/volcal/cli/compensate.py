@@ -34,14 +34,16 @@ def compensate(
                            ] = "0,0,0",
 ) -> None:
     """Write compensation tables of a model for a controller, resampled onto its grid."""
-    from volcal.compensate.formats import CompensationOptions, write_compensation
+    from volcal.compensate.formats import MANIFEST, CompensationOptions, write_compensation
     from volcal.compensate.source import load_errors
     from volcal.compensate.tables import sign_factor
+    from volcal.io.paths import check_output_folder
 
     if sign is None:
         raise VolcalInputError("--sign is required: 'error' (actual - commanded) or "
                                "'correction' (-error); see docs/compensation.md")
     sign_factor(sign)
+    check_output_folder(output, "compensation", lambda p: (p / MANIFEST).is_file())
     ref = None if reference_mm is None else tuple(parse_vector(reference_mm, "--reference-mm"))
     opts = CompensationOptions(sign, spacing, max_points, ref, unit_um, magnification,
                                max_increment, squareness,

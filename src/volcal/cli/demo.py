@@ -13,9 +13,12 @@ console = Console()
 def demo_cmd(
     output: Path = typer.Option(Path("demo-output"), "-o", "--output",
                                 help="Folder for the session, model and report."),
-    seed: int = typer.Option(7, help="Seed of the virtual machine and of the noise."),
+    seed: int = typer.Option(7, min=0, help="Seed of the virtual machine and of the noise."),
 ) -> None:
     """Plan, simulate, identify, evaluate, compensate and report a virtual machine."""
+    from volcal.io.paths import check_output_folder
+
+    check_output_folder(output, "demo", lambda p: (p / "session" / "session.toml").is_file())
     from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
     from volcal.report.demo import DEMO_STEPS, run_demo

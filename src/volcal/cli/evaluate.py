@@ -172,7 +172,7 @@ def session_cmd(
 def volumetric_cmd(
     errors: Path = typer.Argument(..., help="Error table CSV (ERRORS.csv)."),
     tool_offset: str = typer.Option("0,0,0", help="Tool point offset x,y,z [mm]."),
-    n: int = typer.Option(11, help="Grid points per axis."),
+    n: int = typer.Option(11, min=2, max=201, help="Grid points per axis."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ) -> None:
     """ISO 230-1 volumetric indices E_VX, E_VY, E_VZ, E_VXYZ of an error table; ELv."""

@@ -29,16 +29,35 @@ def identify_cmd(
     known_u: float | None = typer.Option(None, help="Standard uncertainty of the --known "
                                          "functions [um or urad]: use them as priors instead "
                                          "of fixing them."),
-    monte_carlo: int = typer.Option(0, help="Monte Carlo trials (GUM S1) of the noise "
+    monte_carlo: int = typer.Option(0, min=0, help="Monte Carlo trials (GUM S1) of the noise "
                                     "propagation to the volumetric error; 0 = off."),
     drift: bool = typer.Option(False, help="Estimate a linear drift per measurement."),
     measurements: str | None = typer.Option(None, help="Comma-separated measurement ids to use."),
 ) -> None:
     """Identify the machine's errors from the session; write MODEL.json."""
     from volcal.identify import IdentifyOptions, identify
+    from volcal.io.paths import check_output_file
     from volcal.session.format import read_session
 
+    check_output_file(output)
+    if noise_um is not None and not (np.isfinite(noise_um) and noise_um > 0):
+        raise VolcalInputError(f"--noise-um {noise_um}: expected a positive repeatability [um]")
+    if known_u is not None and known is None:
+        raise VolcalInputError("--known-u needs --known (the error table it applies to)")
+    if known_u is not None and not (np.isfinite(known_u) and known_u > 0):
+        raise VolcalInputError(f"--known-u {known_u}: expected a positive uncertainty")
+    ids = None if measurements is None else [m.strip() for m in measurements.split(",")
+                                             if m.strip()]
+    if ids is not None and not ids:
+        raise VolcalInputError(f"--measurements {measurements!r}: no measurement id given")
     s = read_session(session)
+    if ids is not None:
+        have = {m.id for m in s.measurements}
+        missing = [i for i in ids if i not in have]
+        if missing:
+            raise VolcalInputError(f"--measurements: no measurement {', '.join(missing)} in the "
+                                   f"session (it has {', '.join(sorted(have))})",
+                                   s.path / "session.toml" if s.path else session)
     known_d = {}
     if known is not None:
         from volcal.model.names import COMPONENT_NAMES
@@ -51,8 +70,7 @@ def identify_cmd(
                 known_d[name] = ((kt.nodes[k], kt.values[k][:, c]) if known_u is None
                                  else (kt.nodes[k], kt.values[k][:, c], known_u))
     opts = IdentifyOptions(prior=prior, noise_um=noise_um, roll=roll, known=known_d, drift=drift,
-                           measurement_ids=None if measurements is None else
-                           [m.strip() for m in measurements.split(",")])
+                           measurement_ids=ids)
     with console.status("identifying..."):
         res = identify(s, opts)
         if monte_carlo > 0:
@@ -114,9 +132,18 @@ def predict_cmd(
     """Predict the volumetric error and its uncertainty at points."""
     from volcal.identify import load_model
     from volcal.io.atomic import write_text
+    from volcal.io.paths import check_output_file
 
+    check_output_file(output)
     m = load_model(model)
     q = _read_points(points)
+    travel = m.errors.travel
+    for j, col in enumerate(("x_mm", "y_mm", "z_mm")):
+        out = np.flatnonzero((q[:, j] < travel[j, 0] - 1e-9) | (q[:, j] > travel[j, 1] + 1e-9))
+        if out.size:
+            raise VolcalInputError(f"{q[out[0], j]:g} mm is outside the model's travel "
+                                   f"{travel[j, 0]:g}..{travel[j, 1]:g} mm (no extrapolation)",
+                                   points, int(out[0]) + 2, col)
     e, u = m.predict(q, parse_vector(tool_offset, "--tool-offset"))
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")

@@ -39,6 +39,10 @@ def import_(
 ) -> None:
     """Add a linear measurement from a laser CSV export to a session (atomically)."""
     from volcal.importer.laser_csv import import_csv, parse_mapping
+    from volcal.io.paths import check_output_folder
+
+    if not session.exists():
+        check_output_folder(session, "session")
 
     r = import_csv(csv_file, parse_mapping(map), axis, parse_vector(line_mm, "--line-mm"),
                    session, id, units, deviation_units, optics,

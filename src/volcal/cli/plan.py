@@ -4,12 +4,25 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import typer
 from rich.console import Console
 
 from volcal.cli._common import parse_travel, parse_vector
+from volcal.errors import VolcalInputError
 
 console = Console()
+
+
+def _unmeasured_session(folder: Path) -> bool:
+    """True for a planned session without any reading (safe to plan again)."""
+    from volcal.session.format import read_session
+
+    try:
+        s = read_session(folder, require_deviation=False)
+    except VolcalInputError:
+        return False
+    return all(m.deviation is None for m in s.measurements)
 
 
 def plan(
@@ -28,9 +41,11 @@ def plan(
     output: Path = typer.Option(..., "-o", "--output", help="Session folder to write."),
 ) -> None:
     """Write a session skeleton: the commanded poses of every test, deviations empty."""
+    from volcal.io.paths import check_output_folder
     from volcal.plan.planner import plan_session
     from volcal.session.format import write_session
 
+    check_output_folder(output, "planned session", _unmeasured_session)
     s = plan_session(parse_travel(travel), chain, steps,
                      [t.strip() for t in tests.split(",") if t.strip()], runs,
                      [o.strip() for o in step_orders.split(",") if o.strip()],
@@ -43,7 +58,7 @@ def plan(
 
 def simulate(
     session: Path = typer.Argument(..., help="Session folder (planned or measured)."),
-    seed: int = typer.Option(0, help="Seed of the virtual machine and of the noise."),
+    seed: int = typer.Option(0, min=0, help="Seed of the virtual machine and of the noise."),
     noise_um: float = typer.Option(0.5, help="Repeatability noise per reading [um]."),
     mirror_urad: float = typer.Option(20.0, help="Residual mirror misalignment [urad]."),
     drift_um_per_h: float = typer.Option(0.0, help="Linear drift of the readings [um/h]."),
@@ -56,6 +71,8 @@ def simulate(
     from volcal.session.errortable import read_error_table
     from volcal.session.format import read_session, write_session
 
+    if not (np.isfinite(reversal_um) and reversal_um >= 0):
+        raise VolcalInputError(f"--reversal-um {reversal_um}: expected a finite value >= 0")
     s = read_session(session, require_deviation=False)
     if machine is not None:
         vm = read_error_table(machine, chain=s.chain)

@@ -20,14 +20,16 @@ def program(
     overrun_mm: Annotated[float, typer.Option(help="ISO 230-2 overrun before reversals [mm].")
                           ] = 5.0,
     decimals: Annotated[int, typer.Option(help="Decimals of the coordinates [mm].")] = 3,
-    first_number: Annotated[int, typer.Option(help="Fanuc program number (O word) of the first.")
-                            ] = 1000,
+    first_number: Annotated[int, typer.Option(
+        min=1, max=9999, help="Fanuc program number (O word) of the first.")] = 1000,
 ) -> None:
     """Write one part program per measurement: planned poses in order, a dwell at each."""
+    from volcal.io.paths import check_output_folder
     from volcal.program.steps import ProgramOptions
-    from volcal.program.writer import write_programs
+    from volcal.program.writer import INDEX_FILE, write_programs
     from volcal.session.format import read_session
 
+    check_output_folder(output, "program", lambda p: (p / INDEX_FILE).is_file())
     opts = ProgramOptions(dwell_s=dwell_s, feed=feed, overrun_mm=overrun_mm, decimals=decimals)
     opts.check()
     s = read_session(session, require_deviation=False)

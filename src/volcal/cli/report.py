@@ -24,11 +24,13 @@ def report_cmd(
     title: str | None = typer.Option(None, help="Report title (default from the machine name)."),
 ) -> None:
     """Write the calibration report of a session as self-contained HTML and as PDF."""
+    from volcal.io.paths import check_output_folder
     from volcal.report.pipeline import collect_inputs
     from volcal.report.sections import build_report
     from volcal.report.writer import write_report
     from volcal.session.format import read_session
 
+    check_output_folder(output, "report", lambda p: (p / "report.html").is_file())
     s = read_session(session)
     if model is not None:
         from volcal.identify import load_model

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -58,6 +59,18 @@ class CompensationOptions:
     max_increment: int = 7
     include_squareness: bool = True
     tool_offset: tuple[float, float, float] | None = None
+
+    def __post_init__(self) -> None:
+        """Reject option values no controller table can be built from."""
+        if not math.isfinite(self.spacing) or self.spacing <= 0:
+            raise VolcalInputError(f"--spacing {self.spacing}: expected a positive distance [mm]")
+        if self.max_points is not None and self.max_points < 2:
+            raise VolcalInputError(f"--max-points {self.max_points}: expected at least 2")
+        if not math.isfinite(self.unit_um) or self.unit_um <= 0:
+            raise VolcalInputError(f"--unit-um {self.unit_um}: expected a positive detection "
+                                   "unit [um]")
+        if self.max_increment < 1:
+            raise VolcalInputError(f"--max-increment {self.max_increment}: expected at least 1")
 
 
 def _fanuc(e: MachineErrors, o: CompensationOptions) -> dict[str, str]:

@@ -32,7 +32,7 @@ import tomli_w
 from numpy.typing import NDArray
 
 from volcal.errors import VolcalInputError
-from volcal.importer.units import TO_MM, unit_from_header, unit_name
+from volcal.importer.units import TO_MM, unit_from_header, unit_name, unsupported_unit
 from volcal.io.atomic import write_text
 from volcal.io.values import parse_finite
 from volcal.model.names import AXES
@@ -163,6 +163,10 @@ def _unit(option: str | None, header: str, fallback: str | None, what: str, note
     if found is not None:
         notes.append(f"{what} column '{header}': {found} (detected from the header)")
         return found
+    other = unsupported_unit(header)
+    if other is not None:
+        raise VolcalInputError(f"the header names the unit {other!r}, which volcal does not "
+                               f"read; convert to one of {', '.join(TO_MM)}", path, 1, col)
     if fallback is None:
         raise VolcalInputError(f"no unit in the header; give the unit of the {what} column",
                                path, 1, col)
@@ -272,6 +276,14 @@ def read_laser_csv(path: str | Path, mapping: dict[str, str], units: str = "auto
     if "direction" not in out:
         out["direction"] = _infer_directions(target)
         notes.append("approach directions inferred from the order of the targets")
+    if "run" in out:  # ISO 230-2: each target once per run and direction
+        seen: dict[tuple[float, int, str], int] = {}
+        for j, key in enumerate(zip(target.round(9), out["run"], out["direction"], strict=True)):
+            if key in seen:
+                raise VolcalInputError(
+                    f"target {key[0]:g} mm appears twice in run {key[1]} direction {key[2]} "
+                    f"(also on line {seen[key]}): a duplicated line?", path, data[j][0], t_col)
+            seen[key] = data[j][0]
     return LaserTable(target, dev, out, notes)
 
 

@@ -18,8 +18,32 @@ _ALIASES: dict[str, str] = {
     "uin": "uin", "µin": "uin", "μin": "uin", "microinch": "uin", "microinches": "uin",
 }
 
+_UNSUPPORTED = frozenset({"m", "cm", "dm", "km", "ft", "foot", "feet", "yd", "mil", "mils",
+                          "thou", "pm"})
+"""Length units a header may name that volcal does not convert (they must not pass as mm)."""
+
 _BRACKET = re.compile(r"[\(\[]\s*([^\)\]]+?)\s*[\)\]]\s*$")
 _SUFFIX = re.compile(r"[_\s]([A-Za-zµμ\"]+)\s*$")
+
+
+def unsupported_unit(header: str) -> str | None:
+    """A length unit named in ``header`` that volcal does not read (``'Target (ft)'`` -> ft).
+
+    Parameters
+    ----------
+    header : str
+        Column header.
+
+    Returns
+    -------
+    str or None
+        The unit as written, or None.
+    """
+    for pat in (_BRACKET, _SUFFIX):
+        m = pat.search(header)
+        if m and m.group(1).strip().lower() in _UNSUPPORTED:
+            return m.group(1).strip()
+    return None
 
 
 def unit_name(text: str, option: str = "--units") -> str:

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 import tomli_w
 
+from volcal.errors import VolcalInputError
 from volcal.measure.readings import SetupErrors, perpendicular_basis, reading_exact
 from volcal.model.errorfunctions import MachineErrors
 from volcal.model.kinematics import UM
@@ -50,6 +51,19 @@ class SimulationOptions:
     dwell_s: float = 4.0
     reversal: bool = True
     seed: int | None = 0
+
+    def __post_init__(self) -> None:
+        """Reject values no simulation can use (negative, NaN, infinite)."""
+        for option, v in (("--noise-um", self.noise_um),
+                          ("--mirror-urad", self.mirror_misalignment_urad),
+                          ("beam misalignment", self.beam_misalignment_urad),
+                          ("--drift-um-per-h", self.drift_um_per_h), ("dwell", self.dwell_s)):
+            if not np.isfinite(v):
+                raise VolcalInputError(f"{option} {v}: expected a finite number")
+            if option != "--drift-um-per-h" and v < 0:
+                raise VolcalInputError(f"{option} {v}: must not be negative")
+        if self.seed is not None and self.seed < 0:
+            raise VolcalInputError(f"--seed {self.seed}: must not be negative")
 
 
 def _random_perp(rng: np.random.Generator, n: np.ndarray, magnitude: float) -> np.ndarray:

@@ -136,6 +136,8 @@ def plan_session(travel: ArrayLike, chain: str = "XYFZ", steps: int = 10,
     t = np.asarray(travel, dtype=float).reshape(3, 2)
     parse_chain(chain)
     unknown = [x for x in tests if x not in TEST_NAMES]
+    if not tests:
+        raise VolcalInputError(f"--tests: no test given; expected any of {', '.join(TEST_NAMES)}")
     if unknown:
         raise VolcalInputError(f"unknown test(s) {', '.join(unknown)}: expected any of "
                                f"{', '.join(TEST_NAMES)}")

@@ -405,9 +405,13 @@ def read_session(folder: str | Path, require_deviation: bool = True) -> Session:
     """
     folder = Path(folder)
     if folder.is_file():
+        if folder.name != "session.toml":
+            raise _err("a file, not a session folder (a folder with session.toml)", folder)
         folder = folder.parent
+    elif not folder.exists():
+        raise _err("session folder not found (no session.toml here)", folder)
     toml_path = folder / "session.toml"
-    if not toml_path.exists():
+    if not toml_path.is_file():
         raise _err("no session.toml in this folder (is it a volcal session?)", folder)
     try:
         doc = tomllib.loads(toml_path.read_text(encoding="utf-8"))

@@ -19,3 +19,13 @@ def test_planner_iso_spacing_silences_the_spacing_warning():
     targets = [np.unique(m.positions[:, 0]) for m in lines]
     assert all(np.array_equal(targets[0], t) for t in targets)  # shared by the 3 lines
     assert not any("equally spaced" in w for w in check_test_cycle(targets[0], 5, 5))
+
+
+def test_linear_margin_keeps_targets_inside_for_the_overrun():
+    s = plan_session([[0, 800], [0, 600], [0, 500]], "XYFZ", 10, ("linear",),
+                     linear_margin_mm=5.0, abbe_tool_offset_mm=120.0)
+    for m in s.measurements:
+        k = m.axis
+        assert m.positions[:, k].min() == 5.0
+        assert m.positions[:, k].max() == [800, 600, 500][k] - 5.0
+    assert max(np.abs(m.tool_offset).max() for m in s.measurements) == 120.0

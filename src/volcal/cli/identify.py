@@ -93,7 +93,7 @@ def identify_cmd(
     console.print(f"{f['n_readings']} readings, {f['n_parameters']} parameters, "
                   f"residual {f['sigma_residual_um']:.3f} um ({f['method']})")
     for msg in res.report.messages:
-        console.print(f"- {msg}", highlight=False)
+        console.print(f"- {msg}", highlight=False, markup=False)
     console.print(f"model -> {output}")
 
 

@@ -38,6 +38,10 @@ def plan(
     name: str = typer.Option("VMC-1", help="Machine name."),
     iso_spacing: bool = typer.Option(False, help="Unequally spaced linear-test targets "
                                      "(ISO 230-2:2014, 5.2)."),
+    overrun_mm: float = typer.Option(0.0, help="Keep linear-test targets this far inside "
+                                     "the travel, room for the ISO 230-2 overrun [mm]."),
+    abbe_offset_mm: float = typer.Option(150.0, help="Target offset from the spindle for "
+                                         "the Abbe lines no machine move can offset [mm]."),
     output: Path = typer.Option(..., "-o", "--output", help="Session folder to write."),
 ) -> None:
     """Write a session skeleton: the commanded poses of every test, deviations empty."""
@@ -50,7 +54,8 @@ def plan(
                      [t.strip() for t in tests.split(",") if t.strip()], runs,
                      [o.strip() for o in step_orders.split(",") if o.strip()],
                      parse_vector(tool_offset, "--tool-offset"), name,
-                     iso_spacing=iso_spacing)
+                     iso_spacing=iso_spacing, linear_margin_mm=overrun_mm,
+                     abbe_tool_offset_mm=abbe_offset_mm)
     write_session(s, output)
     n = sum(m.n for m in s.measurements)
     console.print(f"planned {len(s.measurements)} measurements, {n} readings -> {output}")

@@ -98,7 +98,7 @@ def plan_session(travel: ArrayLike, chain: str = "XYFZ", steps: int = 10,
                  runs: int = 5, step_orders: Sequence[str] = ("xyz",),
                  tool_offset: ArrayLike = (0.0, 0.0, 0.0), name: str = "VMC-1",
                  step_target: str = "flat_mirror", abbe_tool_offset_mm: float = 150.0,
-                 iso_spacing: bool = False) -> Session:
+                 iso_spacing: bool = False, linear_margin_mm: float = 0.0) -> Session:
     """Plan a session skeleton (commanded poses, deviations empty).
 
     Parameters
@@ -128,6 +128,9 @@ def plan_session(travel: ArrayLike, chain: str = "XYFZ", steps: int = 10,
     iso_spacing : bool
         Unequally spaced targets for the linear tests (ISO 230-2:2014, 5.2); the three lines
         of an axis share them. Default: the step grid, shared with the diagonals.
+    linear_margin_mm : float
+        Keep the linear-test targets this far inside both ends of the travel, so that the
+        ISO 230-2 approach and overrun moves of the part program have room [mm].
 
     Returns
     -------
@@ -145,6 +148,10 @@ def plan_session(travel: ArrayLike, chain: str = "XYFZ", steps: int = 10,
         raise VolcalInputError("steps must be between 1 and 10000")
     if runs < 1:
         raise VolcalInputError("runs must be at least 1")
+    if not (np.isfinite(linear_margin_mm) and linear_margin_mm >= 0):
+        raise VolcalInputError("the linear margin must be a non-negative number of mm")
+    if not (np.isfinite(abbe_tool_offset_mm) and abbe_tool_offset_mm > 0):
+        raise VolcalInputError("the Abbe target offset must be a positive number of mm")
     meas: list[Measurement] = []
     off = np.asarray(tool_offset, dtype=float)
     for test in tests:
@@ -178,7 +185,12 @@ def plan_session(travel: ArrayLike, chain: str = "XYFZ", steps: int = 10,
         elif test == "linear":
             for k in range(3):
                 lines = abbe_lines(k, t, chain, abbe_tool_offset_mm)
-                targets = iso_targets(t[k, 0], t[k, 1], steps, seed=k) if iso_spacing else None
+                lo, hi = t[k, 0] + linear_margin_mm, t[k, 1] - linear_margin_mm
+                if hi <= lo:
+                    raise VolcalInputError(f"linear margin {linear_margin_mm:g} mm leaves no "
+                                           f"travel on {AXES[k]}")
+                targets = (iso_targets(lo, hi, steps, seed=k) if iso_spacing
+                           else np.linspace(lo, hi, steps + 1))
                 for i, (line, toff) in enumerate(lines, start=1):
                     g = linear_test(k, t, steps, line, runs=runs, bidirectional=True,
                                     targets_mm=targets)

@@ -54,3 +54,7 @@ def main() -> None:
     except KeyboardInterrupt:
         err_console.print("aborted")
         sys.exit(130)
+    except OSError as exc:  # disk full, permissions, a file vanishing while we write
+        err_console.print(f"[bold red]error:[/] {escape(str(exc))} (nothing was replaced: "
+                          "volcal writes its outputs atomically)", highlight=False)
+        sys.exit(1)

@@ -332,7 +332,7 @@ CASES: list[Case] = [
          ("--tool-offset",)),
     Case("plan:output-is-file", ["plan", "-o", "{d}/points.csv"], ("points.csv",)),
     Case("plan:output-under-file", ["plan", "-o", "{d}/points.csv/S"], ("points.csv",)),
-    Case("plan:output-missing-parent", ["plan", "-o", "{d}/no/such/S"], ("no",)),
+    Case("plan:output-under-a-file", ["plan", "-o", "{d}/S/session.toml/S"], ("session.toml",)),
     Case("plan:output-measured-session", ["plan", "-o", "{d}/S"], ("S",)),
     # ---- simulate ----
     *sessions_cases(["simulate"], needs_measured=False, full=True),

@@ -1,9 +1,10 @@
 """Checks of output paths, made before any work so that a bad path costs nothing.
 
-Every command checks its outputs first: the folder that will hold the output must exist
-and be writable, a file output must not be a folder, and a folder output must be new,
-empty or an earlier output of the same kind. An existing folder of another kind (a
-measured session, say) is never replaced: that would lose data.
+Every command checks its outputs first: the folder that will hold the output must be
+writable (missing folders on the way are created), a file output must not be a folder,
+and a folder output must be new, empty or an earlier output of the same kind. An
+existing folder of another kind (a measured session, say) is never replaced: that would
+lose data.
 """
 
 from __future__ import annotations
@@ -18,10 +19,14 @@ __all__ = ["check_output_file", "check_output_folder"]
 
 
 def _check_parent(path: Path) -> None:
+    """Check the folder of an output.
+
+    Missing parent folders are created when the output is written; the nearest existing
+    ancestor must be a writable folder.
+    """
     parent = path.parent
-    if not parent.exists():
-        raise VolcalInputError(f"the folder {str(parent)!r} does not exist; create it first",
-                               path)
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
     if not parent.is_dir():
         raise VolcalInputError(f"{str(parent)!r} is a file, not a folder", path)
     if not os.access(parent, os.W_OK | os.X_OK):

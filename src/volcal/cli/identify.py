@@ -33,6 +33,8 @@ def identify_cmd(
                                     "propagation to the volumetric error; 0 = off."),
     drift: bool = typer.Option(False, help="Estimate a linear drift per measurement."),
     measurements: str | None = typer.Option(None, help="Comma-separated measurement ids to use."),
+    max_nodes: int = typer.Option(201, min=3, max=2001, help="Nodes per axis at most (problem "
+                                  "size; the parameter count stops growing there)."),
 ) -> None:
     """Identify the machine's errors from the session; write MODEL.json."""
     from volcal.identify import IdentifyOptions, identify
@@ -70,7 +72,7 @@ def identify_cmd(
                 known_d[name] = ((kt.nodes[k], kt.values[k][:, c]) if known_u is None
                                  else (kt.nodes[k], kt.values[k][:, c], known_u))
     opts = IdentifyOptions(prior=prior, noise_um=noise_um, roll=roll, known=known_d, drift=drift,
-                           measurement_ids=ids)
+                           measurement_ids=ids, max_nodes=max_nodes)
     with console.status("identifying..."):
         res = identify(s, opts)
         if monte_carlo > 0:

@@ -258,7 +258,8 @@ def _result(session: Session, design: Design, sol: Solution, report, o: Identify
     errors = design.layout.unpack(theta, design.chain, name=session.name)
     cov = sol.covariance
     if cov is None:
-        raise VolcalInputError("problem too large for the dense covariance: reduce --max-nodes")
+        raise VolcalInputError("problem too large for the dense covariance: reduce --max-nodes "
+                               "or the number of measurements")
     cff = cov[:nf, :nf]
     w, V = np.linalg.eigh((cff + cff.T) / 2)
     keep = w > max(w.max(), 1e-300) * 1e-12

@@ -32,7 +32,7 @@ HYPER_CENTRE = np.log([10.0, 5.0, 15.0, 6.0])
 """Centre of the hyperprior: amplitude scales [um, um, urad] and curvature scale of
 typical machining centres; it only matters for groups the data do not inform."""
 HYPER_SPREAD = np.log(30.0)
-DENSE_COVARIANCE_LIMIT = 4000
+DENSE_COVARIANCE_LIMIT = 6000
 DENSE_QR_LIMIT = 2000
 DENSE_QR_ENTRIES = 30_000_000  # 240 MB of float64 for the stacked matrix
 

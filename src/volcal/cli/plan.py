@@ -81,6 +81,10 @@ def simulate(
     s = read_session(session, require_deviation=False)
     if machine is not None:
         vm = read_error_table(machine, chain=s.chain)
+        if not machine.with_suffix(".toml").is_file():
+            console.print(f"[yellow]note:[/] no {machine.with_suffix('.toml').name} beside "
+                          f"{machine.name}: squareness and reversal taken as zero",
+                          highlight=False)
         if str(vm.chain) != s.chain:
             console.print(f"[yellow]note:[/] error table chain {vm.chain} differs from the "
                           f"session's {s.chain}; using the session's chain")

@@ -31,7 +31,7 @@ from numpy.typing import NDArray
 from volcal.identify.design import Design
 from volcal.identify.prior import PriorStructure
 from volcal.model.kinematics import pose_jacobian
-from volcal.model.names import AXES, COMPONENT_NAMES, SQUARENESS_NAMES
+from volcal.model.names import COMPONENT_NAMES, SQUARENESS_NAMES
 
 __all__ = ["IdentifiabilityReport", "analyse", "parameter_names", "rigid_projector"]
 
@@ -319,7 +319,3 @@ def _suggest(rep: IdentifiabilityReport, design: Design, F, Qp, candidates, G, R
     if rep.suggestions:
         rep.messages.append("Best extra measurement: " + rep.suggestions[0] + ".")
 
-
-def axis_name(k: int) -> str:
-    """Axis letter."""
-    return AXES[k]

@@ -122,15 +122,6 @@ class _Evidence:
                 + self.n * np.log(2 * np.pi * sigma**2))
 
 
-def _refined_solve(ev: _Evidence, H, lu, sigma, steps: int = 4):
-    b = ev.Aty / sigma**2
-    x = lu.solve(b)
-    for _ in range(steps):
-        r = b - H @ x
-        x = x + lu.solve(r)
-    return x
-
-
 def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float64] | None = None,
                 noise_um: float | None = None, squareness_std: float = 100.0,
                 covariance: bool = True) -> Solution:
@@ -216,7 +207,7 @@ def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float6
     if N <= DENSE_QR_LIMIT and (ev.n + N) * N <= DENSE_QR_ENTRIES:
         x, cov = _dense_qr(design, Q, sigma)
     else:
-        x = _refined_solve(ev, H, lu, sigma)
+        x = _polish(H, lu, ev.Aty / sigma**2, steps=4)
         cov = None
         if covariance and N <= DENSE_COVARIANCE_LIMIT:
             c, low = sla.cho_factor(H.toarray(), lower=True)
@@ -252,6 +243,7 @@ def _dense_qr(design: Design, Q, sigma: float):
 
 
 def _polish(H, lu, rhs, steps: int = 2):
+    """Solve ``H x = rhs`` with the LU factors and a few steps of iterative refinement."""
     x = lu.solve(rhs)
     for _ in range(steps):
         x = x + lu.solve(rhs - H @ x)

@@ -176,3 +176,17 @@ def test_unobserved_squareness_keeps_a_bounded_uncertainty():
     r = identify(s, IdentifyOptions(suggest=False))
     assert np.all(r.squareness_std > 50) and np.all(r.squareness_std <= 100 + 1e-6)
     assert r.report.determined_fraction["EC0Y"] < 0.05
+
+
+def test_sparse_path_equals_dense_path(noisy, monkeypatch):
+    """Large problems take the sparse LU path; on a small one both paths agree."""
+    import volcal.identify.solver as solver
+
+    s, _, dense = noisy
+    monkeypatch.setattr(solver, "DENSE_QR_LIMIT", 0)
+    sparse = identify(s, IdentifyOptions(suggest=False))
+    q = grid(choose_nodes(s, refine=1), stride=3)
+    e1, u1 = dense.predict(q)
+    e2, u2 = sparse.predict(q)
+    np.testing.assert_allclose(e2, e1, atol=1e-6)
+    np.testing.assert_allclose(u2, u1, rtol=1e-6, atol=1e-8)

@@ -38,6 +38,8 @@ def plan(
     name: str = typer.Option("VMC-1", help="Machine name."),
     iso_spacing: bool = typer.Option(False, help="Unequally spaced linear-test targets "
                                      "(ISO 230-2:2014, 5.2)."),
+    step_target: str = typer.Option("flat_mirror", help="Target of the step diagonals: "
+                                    "flat_mirror, retroreflector or retroreflector_mirror."),
     overrun_mm: float = typer.Option(0.0, help="Keep linear-test targets this far inside "
                                      "the travel, room for the ISO 230-2 overrun [mm]."),
     abbe_offset_mm: float = typer.Option(150.0, help="Target offset from the spindle for "
@@ -54,6 +56,7 @@ def plan(
                      [t.strip() for t in tests.split(",") if t.strip()], runs,
                      [o.strip() for o in step_orders.split(",") if o.strip()],
                      parse_vector(tool_offset, "--tool-offset"), name,
+                     step_target=step_target,
                      iso_spacing=iso_spacing, linear_margin_mm=overrun_mm,
                      abbe_tool_offset_mm=abbe_offset_mm)
     write_session(s, output)

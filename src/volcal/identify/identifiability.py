@@ -291,7 +291,7 @@ def _messages(rep: IdentifiabilityReport, design: Design) -> None:
         f"deviation, RMS {rep.ambiguity_rms_um:.2f} um over the measured grid, rigid-body motion "
         "removed) of the volumetric error cannot be determined by these tests, even without noise.")
     step_flat = [m for m in design.measurements
-                 if m.kind == "step_diagonal" and m.target == "flat_mirror"]
+                 if m.kind == "step_diagonal" and m.target != "retroreflector"]
     linears = {m.axis for m in design.measurements if m.kind == "linear"}
     if step_flat and len(linears) < 2:
         rep.messages.append(

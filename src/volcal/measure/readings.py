@@ -6,6 +6,11 @@ the nominal beam direction ``n``.
 
 * Retroreflector on the tool: the reading is the displacement of the target point along
   the actual beam, ``n_a . (P(q) - P(q0))`` (Soons eq. 2).
+* Retroreflector with a return mirror (Soons' second configuration, for step diagonals
+  with a retroreflector): the retroreflector on the tool returns the beam to a flat mirror
+  on the workpiece side, which reflects it back into itself. The tool orientation does not
+  enter; the return mirror's tilt ``mu`` acts on the lateral displacement of the apex:
+  ``n_a . dP + mu . (dP - (n_a . dP) n_a)``, the same first-order form as the tilt term below.
 * Flat mirror on the tool: the reading is the distance along the beam to the mirror plane,
   which passes through the target point with the normal ``m(q)`` carried by the tool:
   ``(P(q) - P(q0)) . m(q) / (n_a . m(q))`` (Soons eq. 3). To first order
@@ -128,6 +133,13 @@ def reading_exact(errors: MachineErrors, meas: Measurement, setup: SetupErrors |
     dP = P - P[0]
     if meas.target == "retroreflector":
         reading = dP @ n_act
+    elif meas.target == "retroreflector_mirror":
+        # the retroreflector sends the beam, displaced by twice the lateral offset of its
+        # apex, to a return mirror on the workpiece side, which sends it back into itself:
+        # the mirror tilt acts on the doubled offset over half the path (Soons, section 2)
+        mu = _rotate(n_act, setup.mirror_tilt) - n_act
+        lateral = dP - np.outer(dP @ n_act, n_act)
+        reading = dP @ n_act + lateral @ mu
     else:
         m_world0 = _rotate(n_act, setup.mirror_tilt)
         m_tool = R[0].T @ m_world0

@@ -98,7 +98,7 @@ def simulate_session(session: Session, machine: MachineErrors,
     for m in session.measurements:
         setup = SetupErrors(
             mirror_tilt=_random_perp(rng, m.beam_direction, o.mirror_misalignment_urad)
-            if m.target == "flat_mirror" else np.zeros(3),
+            if m.target in ("flat_mirror", "retroreflector_mirror") else np.zeros(3),
             beam_tilt=_random_perp(rng, m.beam_direction, o.beam_misalignment_urad),
         )
         q_act = m.positions.copy()

@@ -121,7 +121,9 @@ def plan_session(travel: ArrayLike, chain: str = "XYFZ", steps: int = 10,
     name : str
         Machine name.
     step_target : str
-        Target of the step diagonals: ``'flat_mirror'`` (Wang) or ``'retroreflector'``.
+        Target of the step diagonals: ``'flat_mirror'`` (Wang), ``'retroreflector'`` or
+        ``'retroreflector_mirror'`` (a retroreflector with a return mirror on the workpiece
+        side, Soons' second configuration).
     abbe_tool_offset_mm : float
         Target offset used for the Abbe offsets of linear lines that no machine move can
         create (see :func:`abbe_lines`) [mm].
@@ -148,6 +150,11 @@ def plan_session(travel: ArrayLike, chain: str = "XYFZ", steps: int = 10,
         raise VolcalInputError("steps must be between 1 and 10000")
     if runs < 1:
         raise VolcalInputError("runs must be at least 1")
+    from volcal.session.format import TARGETS
+
+    if step_target not in TARGETS:
+        raise VolcalInputError(f"unknown step-diagonal target {step_target!r}: expected one of "
+                               f"{', '.join(TARGETS)}")
     if not (np.isfinite(linear_margin_mm) and linear_margin_mm >= 0):
         raise VolcalInputError("the linear margin must be a non-negative number of mm")
     if not (np.isfinite(abbe_tool_offset_mm) and abbe_tool_offset_mm > 0):

@@ -27,7 +27,7 @@ from volcal.model.chain import parse_chain
 
 SESSION_FORMAT = "volcal-session/1"
 KINDS: tuple[str, ...] = ("linear", "diagonal", "step_diagonal")
-TARGETS: tuple[str, ...] = ("flat_mirror", "retroreflector")
+TARGETS: tuple[str, ...] = ("flat_mirror", "retroreflector", "retroreflector_mirror")
 REQUIRED_COLUMNS: tuple[str, ...] = ("x_mm", "y_mm", "z_mm", "deviation_um")
 OPTIONAL_COLUMNS: dict[str, str] = {
     "run": "int",

@@ -52,7 +52,19 @@ def generic_files(errors: MachineErrors, spacing: float, sign: str,
 
 
 def read_generic(path: str | Path) -> list[AxisTable]:
-    """Read a generic pitch CSV; the sign comes from the value column's name."""
+    """Read a generic pitch CSV; the sign comes from the value column's name.
+
+    Parameters
+    ----------
+    path : str or Path
+        The CSV file written by :func:`generic_files` (header
+        ``axis,point,position_mm,error_um`` or ``...,correction_um``).
+
+    Returns
+    -------
+    list of AxisTable
+        The pitch tables of X, Y and Z (positions [mm], values [um]).
+    """
     path = Path(path)
     try:
         rows = list(csv.reader(io.StringIO(path.read_text(encoding="utf-8"))))

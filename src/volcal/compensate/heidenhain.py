@@ -83,6 +83,14 @@ def _table(path: Path) -> tuple[list[str], list[list[str]]]:
 def read_heidenhain(folder: str | Path, sign: str) -> list[AxisTable]:
     """Read the active ``.COM`` tables named in ``VOLCAL.CMA``.
 
+    Parameters
+    ----------
+    folder : str or Path
+        Folder holding ``VOLCAL.CMA`` and the ``.COM`` files it names.
+    sign : str
+        ``'error'`` or ``'correction'``: the convention the tables were written in (the
+        files do not record it); stored on the returned tables.
+
     Returns
     -------
     list of AxisTable

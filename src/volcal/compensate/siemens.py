@@ -130,7 +130,21 @@ def _table(vals: dict[int, float], step: float, lo: float, hi: float, path: Path
 
 
 def read_lec(path: str | Path, sign: str) -> list[AxisTable]:
-    """Read an LEC program back into tables (positions [mm], values [um])."""
+    """Read an LEC program back into tables (positions [mm], values [um]).
+
+    Parameters
+    ----------
+    path : str or Path
+        The ``%_N_AX_EEC_INI`` part program (``$AA_ENC_COMP`` assignments in mm).
+    sign : str
+        ``'error'`` or ``'correction'``: the convention the values were written in (the
+        program does not record it); stored on the returned tables.
+
+    Returns
+    -------
+    list of AxisTable
+        The pitch tables of AX1, AX2, AX3 (X, Y, Z).
+    """
     path = Path(path)
     d = _parse(path)
     out = []
@@ -149,7 +163,21 @@ def read_lec(path: str | Path, sign: str) -> list[AxisTable]:
 
 
 def read_cec(path: str | Path, sign: str) -> list[AxisTable]:
-    """Read a CEC program back into tables (positions [mm], values [um])."""
+    """Read a CEC program back into tables (positions [mm], values [um]).
+
+    Parameters
+    ----------
+    path : str or Path
+        The ``%_N_NC_CEC_INI`` part program (``$AN_CEC`` assignments in mm).
+    sign : str
+        ``'error'`` or ``'correction'``: the convention the values were written in (the
+        program does not record it); stored on the returned tables.
+
+    Returns
+    -------
+    list of AxisTable
+        One table per CEC table number, in ascending order.
+    """
     path = Path(path)
     d = _parse(path)
     out = []

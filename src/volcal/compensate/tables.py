@@ -130,7 +130,21 @@ def axis_grid(lo: float, hi: float, spacing: float, anchor: float | None = None,
 
 
 def quantize(values_um: NDArray[np.float64], resolution_um: float) -> NDArray[np.float64]:
-    """Round values to a table resolution [um] (the nearest multiple)."""
+    """Round values to a table resolution [um] (the nearest multiple).
+
+    Parameters
+    ----------
+    values_um : array_like
+        Table values [um].
+    resolution_um : float
+        Rounding step of the table [um], > 0.
+
+    Returns
+    -------
+    ndarray
+        ``values_um`` rounded to the nearest multiple of ``resolution_um`` [um]
+        (negative zeros turned into ``0.0``).
+    """
     return np.round(np.asarray(values_um, dtype=float) / resolution_um) * resolution_um + 0.0
 
 
@@ -168,6 +182,24 @@ def cross_values(errors: MachineErrors, input_axis: int, output_axis: int,
     axis is added (``-EC0Y*y`` on X, ``+EB0Z*z`` on X, ``-EA0Z*z`` on Y), so the table
     carries the whole error of the output axis caused by moving the input axis on its
     reference line.
+
+    Parameters
+    ----------
+    errors : MachineErrors
+        The model.
+    input_axis : int
+        Axis whose position indexes the table (0, 1, 2 = X, Y, Z).
+    output_axis : int
+        Direction of the straightness error (0, 1, 2), different from ``input_axis``.
+    positions : ndarray, shape (n,)
+        Positions of the input axis [mm].
+    include_squareness : bool
+        Add the squareness term whose lever is ``input_axis`` (default True).
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        Error of the output axis [um], in the error sign (actual minus commanded).
     """
     v = errors.component(input_axis, positions)[:, output_axis].copy()
     if include_squareness:
@@ -180,7 +212,29 @@ def cross_values(errors: MachineErrors, input_axis: int, output_axis: int,
 def cross_table(errors: MachineErrors, input_axis: int, output_axis: int,
                 positions: NDArray[np.float64], sign: str, resolution_um: float,
                 include_squareness: bool = True) -> AxisTable:
-    """Straightness (and squareness) table of one axis pair; see :func:`cross_values`."""
+    """Straightness (and squareness) table of one axis pair; see :func:`cross_values`.
+
+    Parameters
+    ----------
+    errors : MachineErrors
+        The model.
+    input_axis : int
+        Axis whose position indexes the table (0, 1, 2 = X, Y, Z).
+    output_axis : int
+        Axis whose position is compensated (0, 1, 2), different from ``input_axis``.
+    positions : ndarray, shape (n,)
+        Grid of the input axis [mm] (see :func:`axis_grid`).
+    sign : str
+        ``'error'`` or ``'correction'``.
+    resolution_um : float
+        Rounding step of the values [um].
+    include_squareness : bool
+        Add the squareness term whose lever is ``input_axis`` (default True).
+
+    Returns
+    -------
+    AxisTable
+    """
     v = sign_factor(sign) * cross_values(errors, input_axis, output_axis, positions,
                                          include_squareness)
     return AxisTable(input_axis, output_axis, positions, quantize(v, resolution_um), sign,

@@ -35,7 +35,24 @@ RESOLUTION = 0.001  # um and urad
 
 def isg_files(errors: MachineErrors, spacing: float, sign: str,
               max_points: int | None = None) -> dict[str, str]:
-    """The 21 errors as ISG/Beckhoff-style blocks resampled at ``spacing`` [mm]."""
+    """The 21 errors as ISG/Beckhoff-style blocks resampled at ``spacing`` [mm].
+
+    Parameters
+    ----------
+    errors : MachineErrors
+        The model.
+    spacing : float
+        Distance between the grid points of each axis [mm], > 0.
+    sign : str
+        ``'error'`` or ``'correction'`` (the latter negates every value).
+    max_points : int, optional
+        Controller limit of points per axis; exceeding it raises.
+
+    Returns
+    -------
+    dict of str to str
+        File name (``volumetric_isg.csv``) to file text.
+    """
     s = sign_factor(sign)
     lines = ["# volcal volumetric model: ISO 230-1 names",
              "# units: position [mm], EX EY EZ [um], EA EB EC [urad], squareness [urad]",
@@ -54,6 +71,11 @@ def isg_files(errors: MachineErrors, spacing: float, sign: str,
 
 def read_isg(path: str | Path) -> tuple[MachineErrors, str]:
     """Read ISG-style blocks back into a model (values in the file's sign).
+
+    Parameters
+    ----------
+    path : str or Path
+        A file written by :func:`isg_files`.
 
     Returns
     -------
@@ -101,7 +123,26 @@ def read_isg(path: str | Path) -> tuple[MachineErrors, str]:
 
 def grid_files(errors: MachineErrors, spacing: float, sign: str, tool_offset=None,
                max_points: int = 1_000_000) -> dict[str, str]:
-    """Volumetric error vectors on a 3-D grid covering the travel at ``spacing`` [mm]."""
+    """Volumetric error vectors on a 3-D grid covering the travel at ``spacing`` [mm].
+
+    Parameters
+    ----------
+    errors : MachineErrors
+        The model.
+    spacing : float
+        Grid spacing in X, Y and Z [mm], > 0.
+    sign : str
+        ``'error'`` or ``'correction'`` (the latter negates every vector).
+    tool_offset : array_like, shape (3,), optional
+        Target point on the tool [mm]; default the tool reference point.
+    max_points : int
+        Largest grid accepted (number of 3-D points).
+
+    Returns
+    -------
+    dict of str to str
+        File name (``volumetric_grid.csv``) to file text.
+    """
     s = sign_factor(sign)
     _, g, e = volumetric_grid(errors, spacing, tool_offset, max_points)
     e = quantize(s * e, RESOLUTION)
@@ -114,7 +155,22 @@ def grid_files(errors: MachineErrors, spacing: float, sign: str, tool_offset=Non
 
 
 def read_grid(path: str | Path) -> tuple[np.ndarray, np.ndarray, str]:
-    """Read a 3-D grid file: points (m, 3) [mm], vectors (m, 3) [um], sign."""
+    """Read a 3-D grid file: points (m, 3) [mm], vectors (m, 3) [um], sign.
+
+    Parameters
+    ----------
+    path : str or Path
+        A file written by :func:`grid_files`.
+
+    Returns
+    -------
+    points : ndarray, shape (m, 3)
+        Grid points [mm].
+    vectors : ndarray, shape (m, 3)
+        Error or correction vectors [um], in the file's sign.
+    sign : str
+        ``'error'`` or ``'correction'``, from the column names.
+    """
     path = Path(path)
     try:
         rows = list(csv.reader(io.StringIO(path.read_text(encoding="utf-8"))))

@@ -123,7 +123,20 @@ class Design:
         return len(self.nuisance_names)
 
     def full_parameters(self, x_free: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Full layout vector from the estimated free parameters."""
+        """Full layout vector from the estimated free parameters.
+
+        Parameters
+        ----------
+        x_free : ndarray, shape (p_free,) or (p_free + p_nuis,)
+            Estimated free function/squareness values ([um] for translations, [urad] for
+            rotations and squareness), optionally followed by the nuisance parameters,
+            which are ignored.
+
+        Returns
+        -------
+        ndarray, shape (layout.size,)
+            The fixed values with the free entries replaced by ``x_free``.
+        """
         theta = self.fixed_values.copy()
         theta[self.free] = x_free[: self.n_free]
         return theta

@@ -42,7 +42,19 @@ DESCRIPTIONS = {
 
 
 def describe(name: str) -> str:
-    """Plain-word description of an ISO 230-1 error name, e.g. ``'EAX (roll of X)'``."""
+    """Plain-word description of an ISO 230-1 error name, e.g. ``'EAX (roll of X)'``.
+
+    Parameters
+    ----------
+    name : str
+        ISO 230-1 name of a component error (``'EXX'`` ... ``'ECZ'``) or of a squareness
+        error (``'EC0Y'``, ``'EB0Z'``, ``'EA0Z'``).
+
+    Returns
+    -------
+    str
+        The name followed by its meaning in parentheses.
+    """
     if name in SQUARENESS_NAMES:
         return f"{name} (squareness)"
     comp, ax = name[:2], name[2]
@@ -106,7 +118,18 @@ class IdentifiabilityReport:
 
 
 def parameter_names(design: Design) -> NDArray[np.str_]:
-    """Function name of every free parameter (``'EXX'``..., or a squareness name)."""
+    """Function name of every free parameter (``'EXX'``..., or a squareness name).
+
+    Parameters
+    ----------
+    design : Design
+        Assembled observation system (:func:`volcal.identify.design.build_design`).
+
+    Returns
+    -------
+    ndarray of str, shape (p_free,)
+        ISO 230-1 name of the function each free parameter belongs to.
+    """
     names = []
     starts = design.layout.starts
     for fi in design.free:
@@ -119,7 +142,19 @@ def parameter_names(design: Design) -> NDArray[np.str_]:
 
 
 def rigid_projector(q: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Projector (3m x 3m) removing rigid-body displacement fields on points ``q`` [mm]."""
+    """Projector (3m x 3m) removing rigid-body displacement fields on points ``q`` [mm].
+
+    Parameters
+    ----------
+    q : ndarray, shape (m, 3)
+        Points of the work zone [mm]; the rotations act about their centroid.
+
+    Returns
+    -------
+    ndarray, shape (3m, 3m)
+        Orthogonal projector onto the complement of the rigid-body (translation and small
+        rotation) displacement fields, acting on vectors stacked point by point.
+    """
     from volcal.model.rigid import _design
 
     G = _design(q - q.mean(axis=0))
@@ -131,6 +166,18 @@ def information(design: Design) -> NDArray[np.float64]:
     """Data information matrix of the free parameters, nuisances eliminated.
 
     Sparse products only: ``A_f^T A_f - (A_f^T A_n) (A_n^T A_n)^+ (A_n^T A_f)``.
+
+    Parameters
+    ----------
+    design : Design
+        Assembled observation system; ``A`` holds the free columns first, then the
+        nuisance columns.
+
+    Returns
+    -------
+    ndarray, shape (p_free, p_free)
+        Symmetric information matrix of the free parameters for unit reading variance:
+        the Schur complement of the nuisance block of ``A^T A``.
     """
     A = design.A.tocsc()
     nf = design.n_free
@@ -144,7 +191,20 @@ def information(design: Design) -> NDArray[np.float64]:
 
 
 def grid_points(design: Design, per_axis: int = 5) -> NDArray[np.float64]:
-    """Grid over the measured positions (subsampled to ``per_axis`` per axis) [mm]."""
+    """Grid over the measured positions (subsampled to ``per_axis`` per axis) [mm].
+
+    Parameters
+    ----------
+    design : Design
+        Assembled observation system; its layout nodes are the measured positions.
+    per_axis : int
+        Largest number of positions taken per axis, evenly spread over the nodes.
+
+    Returns
+    -------
+    ndarray, shape (m, 3)
+        All combinations of the chosen X, Y, Z positions [mm], X varying slowest.
+    """
     ax = []
     for k in range(3):
         n = design.layout.nodes[k]

@@ -30,7 +30,21 @@ __all__ = ["GROUPS", "PriorStructure", "function_group", "unit_parts", "unit_pre
 
 
 def function_group(axis: int, component: int) -> int:
-    """Group index of a component error: 0 positioning, 1 straightness, 2 angular."""
+    """Group index of a component error: 0 positioning, 1 straightness, 2 angular.
+
+    Parameters
+    ----------
+    axis : int
+        Axis the error belongs to (0, 1, 2 = X, Y, Z).
+    component : int
+        Component index in ``EX, EY, EZ, EA, EB, EC`` order (0..5).
+
+    Returns
+    -------
+    int
+        0 for the positioning error (``component == axis``), 1 for a straightness error,
+        2 for an angular error.
+    """
     if component >= 3:
         return 2
     return 0 if component == axis else 1
@@ -143,7 +157,18 @@ class PriorStructure:
         return cls(blocks, sq[sq >= 0], int(free.size), kappa)
 
     def with_kappa(self, kappa: float) -> PriorStructure:
-        """The same prior with another curvature scale."""
+        """The same prior with another curvature scale.
+
+        Parameters
+        ----------
+        kappa : float
+            New curvature scale (dimensionless: positions are normalised to [0, 1]).
+
+        Returns
+        -------
+        PriorStructure
+            A copy sharing the blocks, with ``kappa`` replaced.
+        """
         return PriorStructure(self.blocks, self.squareness, self.n_free, float(kappa))
 
     def precision(self, scales: NDArray[np.float64], squareness_std: float,
@@ -181,7 +206,22 @@ class PriorStructure:
 
     def logdet(self, scales: NDArray[np.float64], squareness_std: float,
                nuisance_precision: NDArray[np.float64]) -> float:
-        """Log-determinant of :meth:`precision` (for the evidence)."""
+        """Log-determinant of :meth:`precision` (for the evidence).
+
+        Parameters
+        ----------
+        scales : ndarray, shape (3,)
+            Amplitude scales of the groups [um, um, urad].
+        squareness_std : float
+            Prior standard deviation of the squareness errors [urad].
+        nuisance_precision : ndarray
+            Precision of each nuisance parameter (weak), all > 0.
+
+        Returns
+        -------
+        float
+            ``log det`` of the prior precision of all unknowns.
+        """
         k2 = self.kappa**2
         total = 0.0
         for _, C, W, g in self.blocks:

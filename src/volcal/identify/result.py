@@ -193,7 +193,20 @@ class IdentificationResult:
 
     @classmethod
     def from_dict(cls, doc: dict[str, Any], source: str = "model") -> IdentificationResult:
-        """Rebuild a result from its JSON dictionary (no residuals or design)."""
+        """Rebuild a result from its JSON dictionary (no residuals or design).
+
+        Parameters
+        ----------
+        doc : dict
+            Parsed model file as written by :meth:`to_dict` (format ``volcal-model/1``):
+            positions [mm], translations [um], rotations and squareness [urad].
+        source : str
+            Name of the file the dictionary came from, used in error messages.
+
+        Returns
+        -------
+        IdentificationResult
+        """
         try:
             if doc.get("format") != MODEL_FORMAT:
                 raise VolcalInputError(f"expected format \"{MODEL_FORMAT}\"", source, None,

@@ -62,6 +62,17 @@ _RUN = re.compile(r"^\+?\d{1,9}([.,]0*)?$")
 def parse_mapping(text: str) -> dict[str, str]:
     """Parse ``'target=Pos,run=Run,deviation=Err'`` into {key: column header}.
 
+    Parameters
+    ----------
+    text : str
+        The ``--map`` option: comma-separated ``key=column header`` pairs; keys are
+        case-insensitive and taken from :data:`KEYS`.
+
+    Returns
+    -------
+    dict of str to str
+        Lower-case key to the column header of the laser file.
+
     Raises
     ------
     VolcalInputError

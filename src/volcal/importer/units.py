@@ -47,7 +47,21 @@ def unsupported_unit(header: str) -> str | None:
 
 
 def unit_name(text: str, option: str = "--units") -> str:
-    """Canonical unit name of ``text`` (``'µm'`` -> ``'um'``); raise if unknown."""
+    """Canonical unit name of ``text`` (``'µm'`` -> ``'um'``); raise if unknown.
+
+    Parameters
+    ----------
+    text : str
+        A unit as the user or the file writes it (``'mm'``, ``'µm'``, ``'micron'``,
+        ``'inch'``...), case-insensitive.
+    option : str
+        Name of the option or column the unit came from, used in the error message.
+
+    Returns
+    -------
+    str
+        One of the keys of :data:`TO_MM` (``'mm'``, ``'um'``, ``'nm'``, ``'in'``, ``'uin'``).
+    """
     u = _ALIASES.get(text.strip().lower().replace("micro-", "micro"))
     if u is None:
         raise VolcalInputError(f"{option} {text!r}: unknown unit; expected one of "

@@ -79,7 +79,18 @@ class SetupErrors:
 
 
 def perpendicular_basis(n: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Two unit vectors perpendicular to ``n`` and to each other, shape (2, 3)."""
+    """Two unit vectors perpendicular to ``n`` and to each other, shape (2, 3).
+
+    Parameters
+    ----------
+    n : array_like, shape (3,)
+        A non-zero direction (for example the beam direction); need not be a unit vector.
+
+    Returns
+    -------
+    ndarray, shape (2, 3)
+        Rows ``u1``, ``u2`` with ``(u1, u2, n/|n|)`` a right-handed orthonormal basis.
+    """
     n = np.asarray(n, dtype=float) / np.linalg.norm(n)
     a = np.eye(3)[int(np.argmin(np.abs(n)))]
     u1 = np.cross(n, a)

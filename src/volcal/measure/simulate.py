@@ -155,5 +155,15 @@ def truth_files(machine: MachineErrors, setups: dict[str, SetupErrors],
 
 
 def o_float(v: float) -> float:
-    """Plain float for TOML."""
+    """Plain float for TOML.
+
+    Parameters
+    ----------
+    v : float
+        A number, possibly a numpy scalar, which ``tomli_w`` cannot write.
+
+    Returns
+    -------
+    float
+    """
     return float(v)

@@ -200,7 +200,18 @@ class MachineErrors:
         return self.component(idx // 6, q)[:, idx % 6]
 
     def scaled(self, factor: float) -> MachineErrors:
-        """Return a copy with every error multiplied by ``factor``."""
+        """Return a copy with every error multiplied by ``factor``.
+
+        Parameters
+        ----------
+        factor : float
+            Scale applied to the component values, squareness and reversal (dimensionless).
+
+        Returns
+        -------
+        MachineErrors
+            A new model with the same chain and nodes.
+        """
         return MachineErrors(self.chain, [n.copy() for n in self.nodes],
                              [v * factor for v in self.values], self.squareness * factor,
                              self.reversal * factor, self.name)

@@ -33,7 +33,20 @@ __all__ = ["ReportInputs", "build_report", "fmt"]
 
 
 def fmt(v: float, digits: int = 2) -> str:
-    """Format a number for a table cell (fixed point, ``-`` for missing, ``∞``)."""
+    """Format a number for a table cell (fixed point, ``-`` for missing, ``∞``).
+
+    Parameters
+    ----------
+    v : float or None
+        The value, in the unit of its column; None or NaN means missing.
+    digits : int
+        Number of decimals.
+
+    Returns
+    -------
+    str
+        ``v`` with ``digits`` decimals, ``'-'`` when missing, ``'∞'`` when infinite.
+    """
     if v is None:
         return "-"
     v = float(v)
@@ -87,7 +100,18 @@ class ReportInputs:
 
 
 def machine_section(inp: ReportInputs) -> Section:
-    """Machine, kinematic chain and work zone."""
+    """Machine, kinematic chain and work zone.
+
+    Parameters
+    ----------
+    inp : ReportInputs
+        Session and results; only ``session`` and ``truth`` are read.
+
+    Returns
+    -------
+    Section
+        Always present.
+    """
     s = inp.session
     n = sum(m.n for m in s.measurements)
     t = s.travel
@@ -110,7 +134,18 @@ def machine_section(inp: ReportInputs) -> Section:
 
 
 def measurements_section(inp: ReportInputs) -> Section:
-    """Every measurement and its set-up."""
+    """Every measurement and its set-up.
+
+    Parameters
+    ----------
+    inp : ReportInputs
+        Session and results; only ``session`` is read.
+
+    Returns
+    -------
+    Section
+        Always present.
+    """
     rows = []
     for m in inp.session.measurements:
         runs = "-" if m.run is None else str(len(np.unique(m.run)))
@@ -129,7 +164,18 @@ def measurements_section(inp: ReportInputs) -> Section:
 
 
 def diagonal_section(inp: ReportInputs) -> Section | None:
-    """Show the ISO 230-6 diagonal displacement results."""
+    """Show the ISO 230-6 diagonal displacement results.
+
+    Parameters
+    ----------
+    inp : ReportInputs
+        Session and results; ``iso230_6`` holds the diagonal results by measurement id.
+
+    Returns
+    -------
+    Section or None
+        None when there are no ISO 230-6 results.
+    """
     if not inp.iso230_6:
         return None
     sec = Section("iso230-6", "Diagonal displacement (ISO 230-6)")
@@ -166,7 +212,19 @@ def _component_rows(est: MachineErrors, std, truth: MachineErrors | None) -> lis
 
 
 def identification_section(inp: ReportInputs) -> Section | None:
-    """Show the identified errors with their uncertainties and the fit to the readings."""
+    """Show the identified errors with their uncertainties and the fit to the readings.
+
+    Parameters
+    ----------
+    inp : ReportInputs
+        Session and results; ``result`` is the identification, ``truth`` the simulated
+        machine if any.
+
+    Returns
+    -------
+    Section or None
+        None when there is no identification result.
+    """
     r = inp.result
     if r is None:
         return None
@@ -226,7 +284,18 @@ def _field(obj: Any, name: str, default: Any = None) -> Any:
 
 
 def identifiability_section(inp: ReportInputs) -> Section | None:
-    """Explain what the tests determine, in plain words."""
+    """Explain what the tests determine, in plain words.
+
+    Parameters
+    ----------
+    inp : ReportInputs
+        Session and results; the identifiability report is ``result.report``.
+
+    Returns
+    -------
+    Section or None
+        None when there is no identification result.
+    """
     r = inp.result
     if r is None:
         return None
@@ -260,7 +329,19 @@ def identifiability_section(inp: ReportInputs) -> Section | None:
 
 
 def volumetric_section(inp: ReportInputs) -> Section | None:
-    """Volumetric error map of the identified machine."""
+    """Volumetric error map of the identified machine.
+
+    Parameters
+    ----------
+    inp : ReportInputs
+        Session and results; ``result``, ``volumetric`` (indices [um]) and ``elv`` [um]
+        are read.
+
+    Returns
+    -------
+    Section or None
+        None when there is no identification result.
+    """
     r = inp.result
     if r is None:
         return None
@@ -298,7 +379,18 @@ def volumetric_section(inp: ReportInputs) -> Section | None:
 
 
 def compensation_section(inp: ReportInputs) -> Section | None:
-    """Summarise the compensation tables and the error they leave."""
+    """Summarise the compensation tables and the error they leave.
+
+    Parameters
+    ----------
+    inp : ReportInputs
+        Session and results; ``compensation`` is the compensation summary.
+
+    Returns
+    -------
+    Section or None
+        None when there is no compensation summary.
+    """
     c = inp.compensation
     if c is None:
         return None
@@ -355,7 +447,19 @@ def build_report(inp: ReportInputs, title: str | None = None) -> Report:
 
 
 def positioning_section(inp: ReportInputs) -> Section | None:
-    """Show the ISO 230-2 positioning results and the deviation plots of the linear tests."""
+    """Show the ISO 230-2 positioning results and the deviation plots of the linear tests.
+
+    Parameters
+    ----------
+    inp : ReportInputs
+        Session and results; the linear measurements of ``session`` and ``iso230_2``
+        (results by measurement id) are read.
+
+    Returns
+    -------
+    Section or None
+        None when the session has no linear test with deviations.
+    """
     lin = [m for m in inp.session.measurements if m.kind == "linear" and m.deviation is not None]
     if not lin:
         return None

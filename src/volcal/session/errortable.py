@@ -42,7 +42,18 @@ __all__ = ["ERRORS_FORMAT", "read_error_table", "write_error_table"]
 
 
 def error_table_csv(errors: MachineErrors) -> str:
-    """CSV text of the component errors."""
+    """CSV text of the component errors.
+
+    Parameters
+    ----------
+    errors : MachineErrors
+        The model; its node values EX, EY, EZ [um] and EA, EB, EC [urad] are written.
+
+    Returns
+    -------
+    str
+        One row per axis node with the columns :data:`HEADER` (positions [mm]).
+    """
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(HEADER)
@@ -53,7 +64,18 @@ def error_table_csv(errors: MachineErrors) -> str:
 
 
 def error_table_toml(errors: MachineErrors) -> str:
-    """TOML text of the squareness, reversal and chain."""
+    """TOML text of the squareness, reversal and chain.
+
+    Parameters
+    ----------
+    errors : MachineErrors
+        The model; its name, chain, squareness [urad] and reversal [um] are written.
+
+    Returns
+    -------
+    str
+        The ``volcal-errors/1`` TOML document.
+    """
     doc = {
         "format": ERRORS_FORMAT,
         "name": errors.name,

@@ -190,7 +190,22 @@ class Session:
         self.travel = np.asarray(self.travel, dtype=float).reshape(3, 2)
 
     def get(self, mid: str) -> Measurement:
-        """Measurement by id."""
+        """Measurement by id.
+
+        Parameters
+        ----------
+        mid : str
+            Measurement id, as in ``session.toml``.
+
+        Returns
+        -------
+        Measurement
+
+        Raises
+        ------
+        KeyError
+            No measurement has this id.
+        """
         for m in self.measurements:
             if m.id == mid:
                 return m

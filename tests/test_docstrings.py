@@ -11,6 +11,8 @@ import importlib
 import inspect
 import pkgutil
 import re
+import sys
+import types
 from collections.abc import Callable, Iterator
 
 import pytest
@@ -133,6 +135,69 @@ def test_gate_reports_a_missing_parameter():
         "y",
         "flag",
     ]
+
+
+_FAKE_SOURCE = '''
+def documented(a, b, *args, **kwargs):
+    """Fine.
+
+    Parameters
+    ----------
+    a, b : float
+        Lengths [mm].
+    """
+
+
+def half(x, y=1.0):
+    """Only x.
+
+    Parameters
+    ----------
+    x : float
+        Length [mm].
+    """
+
+
+def _private(z):
+    pass
+
+
+class Table:
+    """A public class."""
+
+    def scaled(self, factor):
+        """No parameters section."""
+
+    @classmethod
+    def build(cls, n):
+        """Build.
+
+        Parameters
+        ----------
+        n : int
+            Size.
+        """
+
+    @staticmethod
+    def bare(k):
+        pass
+'''
+
+
+@pytest.mark.parametrize("name", ["volcal._fake_doc", "volcal.cli._fake_doc"])
+def test_gate_on_a_synthetic_module(monkeypatch, name):
+    module = types.ModuleType(name)
+    exec(compile(_FAKE_SOURCE, name, "exec"), module.__dict__)
+    monkeypatch.setitem(sys.modules, name, module)
+    problems = _undocumented(name)
+    if _is_cli(name):  # only docstrings are required in the CLI
+        assert problems == [f"{name}.Table.bare: no docstring"]
+    else:
+        assert problems == [
+            f"{name}.Table.bare: no docstring",
+            f"{name}.Table.scaled: undocumented parameters factor",
+            f"{name}.half: undocumented parameters y",
+        ]
 
 
 @pytest.mark.parametrize("module_name", _modules())

@@ -119,3 +119,21 @@ def test_grid(tmp_path, machine, sign):
     assert pts.shape == (9 * 7 * 5, 3)
     np.testing.assert_allclose(e, s * volumetric_error(machine, pts, [0, 0, 120.0]),
                                atol=0.0005 + 1e-9)
+
+
+@pytest.mark.parametrize("spoil, where", [
+    (lambda lines, i: lines.__setitem__(i, ",".join(lines[i].split(",")[:4])), "expected 7"),
+    (lambda lines, i: lines.__setitem__(i, lines[i].replace(lines[i].split(",")[1], "x", 1)),
+     "not a number"),
+])
+def test_damaged_isg_file_is_a_clear_error(tmp_path, machine, spoil, where):
+    from volcal.errors import VolcalInputError
+
+    write_compensation(machine, "isg", tmp_path, CompensationOptions("error", spacing=25.0))
+    path = tmp_path / ISG_FILE
+    lines = path.read_text().splitlines()
+    i = next(j for j, t in enumerate(lines) if t and t[0].isdigit())
+    spoil(lines, i)
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(VolcalInputError, match=f"{ISG_FILE}, row {i + 1}: {where}"):
+        read_isg(path)

@@ -108,10 +108,23 @@ def read_isg(path: str | Path) -> tuple[MachineErrors, str]:
             raise VolcalInputError("not a number", path, i) from None
     nodes, values, sq = [None] * 3, [None] * 3, None
     for head, rows, line in blocks:
+        width = len(head)
+        for j, r in enumerate(rows, start=1):
+            if len(r) != width:
+                raise VolcalInputError(f"expected {width} values, found {len(r)}", path,
+                                       line + j)
         if head == list(SQUARENESS_NAMES):
+            if len(rows) != 1:
+                raise VolcalInputError("the squareness block needs exactly one row of values",
+                                       path, line)
             sq = np.array(rows[0])
         elif head[0] in AXES and head[1:] == [c + head[0] for c in COMPONENTS]:
+            if not rows:
+                raise VolcalInputError(f"block {head[0]} has no rows", path, line)
             a = np.array(rows).reshape(-1, 7)
+            if np.any(np.diff(a[:, 0]) <= 0):
+                raise VolcalInputError(f"positions of block {head[0]} must increase strictly",
+                                       path, line)
             nodes[AXES.index(head[0])], values[AXES.index(head[0])] = a[:, 0], a[:, 1:]
         else:
             raise VolcalInputError(f"unknown block header {','.join(head)}", path, line)

@@ -108,6 +108,9 @@ def test_model_file_round_trip(noisy, tmp_path):
     assert doc["format"] == "volcal-model/1" and doc["chain"] == "XYFZ"
     assert {"EXX_um", "u_EXX_um", "EAX_urad"} <= set(doc["functions"]["X"])
     assert doc["identifiability"]["messages"] == r.report.messages
+    for mid, fit in r.fitted.items():  # per-reading fit kept for the report's plots
+        np.testing.assert_allclose(m.fitted[mid], fit, atol=1e-5)
+        np.testing.assert_allclose(m.residuals[mid], r.residuals[mid], atol=1e-5)
 
 
 def test_bad_model_file_is_a_clear_error(tmp_path):

@@ -7,7 +7,8 @@ Schema ``volcal-model/1`` (``docs/identification.md``)::
                          "EAX_urad": [...], "u_EAX_urad": [...], ...}, "Y": ..., "Z": ...},
      "squareness_urad": {"EC0Y": v, ...}, "u_squareness_urad": {...},
      "covariance": {"free_index": [...], "factor": [[...], ...]},
-     "identifiability": {...}, "fit": {...}, "nuisances": {...}, "outliers": [...]}
+     "identifiability": {...}, "fit": {...}, "nuisances": {...}, "outliers": [...],
+     "readings": {"<measurement id>": {"fitted_um": [...], "residual_um": [...]}}}
 """
 
 from __future__ import annotations
@@ -177,6 +178,9 @@ class IdentificationResult:
             "fit": self.fit,
             "nuisances": {k: {"value": _f(v[0]), "u": _f(v[1])} for k, v in self.nuisances.items()},
             "outliers": self.outliers,
+            "readings": {mid: {"fitted_um": _r(self.fitted[mid]),
+                               "residual_um": _r(self.residuals[mid])}
+                         for mid in self.fitted if mid in self.residuals},
         }
 
     def to_json(self, path: str | Path) -> Path:
@@ -231,9 +235,16 @@ class IdentificationResult:
             raise VolcalInputError(f"not a valid volcal model file ({exc.__class__.__name__}: "
                                    f"{exc})", source) from None
         nuis = {k: (v["value"], v["u"]) for k, v in doc.get("nuisances", {}).items()}
+        readings = doc.get("readings", {})
+        try:
+            fitted = {k: np.array(v["fitted_um"], dtype=float) for k, v in readings.items()}
+            resid = {k: np.array(v["residual_um"], dtype=float) for k, v in readings.items()}
+        except (KeyError, TypeError, ValueError, AttributeError):
+            raise VolcalInputError("invalid 'readings' section", source, None,
+                                   "readings") from None
         return cls(doc.get("name", "model"), errors, layout, free, fac, std, usq,
-                   doc.get("identifiability", {}), doc.get("fit", {}), nuisances=nuis,
-                   outliers=doc.get("outliers", []))
+                   doc.get("identifiability", {}), doc.get("fit", {}), resid, fitted,
+                   nuisances=nuis, outliers=doc.get("outliers", []))
 
 
 def _f(v: float) -> float | None:

@@ -8,6 +8,7 @@ from typing import Any
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
 
 console = Console()
@@ -164,6 +165,12 @@ def session_cmd(
     console.print(t)
     if elv_val is not None:
         console.print(f"ELv (RSS of M of the first line of each axis) = {elv_val:.3f} um")
+    grouped: dict[str, list[str]] = {}
+    for k, r in results.items():
+        for w in r.warnings:
+            grouped.setdefault(w, []).append(k)
+    for w, ids in grouped.items():
+        console.print(f"[yellow]warning[/] ({', '.join(ids)}): {escape(w)}", highlight=False)
     for k in skipped:
         console.print(f"[yellow]skipped[/] {k}: no run/direction columns")
 

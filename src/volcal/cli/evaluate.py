@@ -42,7 +42,7 @@ def _iso_tables(res: Any, title: str) -> None:
                                                "s_up", "s_down", "B", "R_up", "R_down", "R")])
     console.print(tt)
     for w in res.warnings:
-        console.print(f"[yellow]warning:[/] {w}")
+        console.print(f"[yellow]warning:[/] {escape(w)}", highlight=False)
 
 
 @evaluate_app.command("iso230-2")

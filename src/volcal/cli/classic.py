@@ -175,7 +175,7 @@ def diagonals(
     try:
         r = soons_from_measurements(s.measurements)
     except VolcalInputError as exc:
-        console.print(f"[yellow]no combinations:[/] {exc.message}")
+        console.print(f"[yellow]no combinations:[/] {escape(exc.message)}", highlight=False)
         return
     console.print(f"positioning combination n_x dEXX + n_y dEYY + n_z dEZZ = "
                   f"{r.positioning_um:.3f} um")

@@ -7,6 +7,7 @@ from typing import Annotated
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 
 console = Console()
 
@@ -35,7 +36,7 @@ def program(
     s = read_session(session, require_deviation=False)
     folder, warnings = write_programs(s, dialect, output, opts, first_number)
     for w in warnings:
-        console.print(f"[yellow]note:[/] {w}", highlight=False)
+        console.print(f"[yellow]note:[/] {escape(w)}", highlight=False)
     console.print(f"wrote {len(s.measurements)} {dialect} programs -> {folder}")
 
 

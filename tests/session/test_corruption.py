@@ -123,7 +123,7 @@ NASTY_SESSION_EDITS = [
     ('name = "VMC-1"', "name = 3"),
     ('chain = "XYFZ"', "chain = 5"),
     ("[machine.travel_mm]", "[machine.travel_mm]\nw = 1"),
-    ("x = [\n", "x = [\n    1e400,\n"),
+    ("x = [0.0, 800.0]", "x = [1e400, 0.0, 800.0]"),
     ('file = "step-ppp.csv"', 'file = "nul\\u0000.csv"'),
     ('file = "step-ppp.csv"', 'file = "."'),
     ('file = "step-ppp.csv"', 'file = ["a"]'),

@@ -8,7 +8,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import tomli_w
 
 from volcal.compensate.fanuc import fanuc_files
 from volcal.compensate.generic import generic_files
@@ -18,6 +17,7 @@ from volcal.compensate.tables import sign_factor
 from volcal.compensate.volumetric import grid_files, isg_files
 from volcal.errors import VolcalInputError
 from volcal.io.atomic import atomic_dir
+from volcal.io.tomlfmt import dumps as toml_dumps
 from volcal.model.errorfunctions import MachineErrors
 
 MANIFEST = "volcal-compensation.toml"
@@ -130,5 +130,5 @@ def write_compensation(errors: MachineErrors, fmt: str, folder: str | Path,
     with atomic_dir(folder) as tmp:
         for name, text in files.items():
             (tmp / name).write_text(text, encoding="utf-8", newline="\n")
-        (tmp / MANIFEST).write_text(tomli_w.dumps(manifest), encoding="utf-8")
+        (tmp / MANIFEST).write_text(toml_dumps(manifest), encoding="utf-8")
     return sorted(files)

@@ -28,12 +28,12 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import tomli_w
 from numpy.typing import NDArray
 
 from volcal.errors import VolcalInputError
 from volcal.importer.units import TO_MM, unit_from_header, unit_name, unsupported_unit
 from volcal.io.atomic import write_text
+from volcal.io.tomlfmt import dumps as toml_dumps
 from volcal.io.values import parse_finite
 from volcal.model.names import AXES
 from volcal.session.format import (
@@ -412,7 +412,7 @@ def import_csv(path: str | Path, mapping: dict[str, str], axis: str, line_mm, se
         entries.append(entry)
     doc["measurements"] = entries
     write_text(folder / m.file, m.to_csv())
-    write_text(toml_path, tomli_w.dumps(doc))
+    write_text(toml_path, toml_dumps(doc))
     return ImportResult(m, folder, False, notes)
 
 

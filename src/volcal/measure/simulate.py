@@ -9,9 +9,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import tomli_w
 
 from volcal.errors import VolcalInputError
+from volcal.io.tomlfmt import dumps as toml_dumps
 from volcal.measure.readings import SetupErrors, perpendicular_basis, reading_exact
 from volcal.model.errorfunctions import MachineErrors
 from volcal.model.kinematics import UM
@@ -150,7 +150,7 @@ def truth_files(machine: MachineErrors, setups: dict[str, SetupErrors],
     return {
         "truth/machine.csv": error_table_csv(machine),
         "truth/machine.toml": error_table_toml(machine),
-        "truth/setup.toml": tomli_w.dumps(doc),
+        "truth/setup.toml": toml_dumps(doc),
     }
 
 

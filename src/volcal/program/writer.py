@@ -4,10 +4,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import tomli_w
-
 from volcal.errors import VolcalInputError
 from volcal.io.atomic import atomic_dir
+from volcal.io.tomlfmt import dumps as toml_dumps
 from volcal.program.dialects import DIALECTS, EXTENSIONS, program_name, render
 from volcal.program.steps import ProgramOptions, build_steps
 from volcal.session.format import Session
@@ -80,5 +79,5 @@ def write_programs(session: Session, dialect: str, folder: str | Path,
     with atomic_dir(folder) as tmp:
         for fname, text in files.items():
             (tmp / fname).write_text(text, encoding="ascii", newline="\n")
-        (tmp / INDEX_FILE).write_text(tomli_w.dumps(doc), encoding="utf-8")
+        (tmp / INDEX_FILE).write_text(toml_dumps(doc), encoding="utf-8")
     return folder, warnings

@@ -27,10 +27,10 @@ import tomllib
 from pathlib import Path
 
 import numpy as np
-import tomli_w
 
 from volcal.errors import VolcalInputError
 from volcal.io.atomic import write_text
+from volcal.io.tomlfmt import dumps as toml_dumps
 from volcal.io.values import parse_finite
 from volcal.model.errorfunctions import MachineErrors
 from volcal.model.names import AXES, SQUARENESS_NAMES
@@ -84,7 +84,7 @@ def error_table_toml(errors: MachineErrors) -> str:
                                                          strict=True)},
         "reversal_um": {a: float(v) for a, v in zip("xyz", errors.reversal, strict=True)},
     }
-    return tomli_w.dumps(doc)
+    return toml_dumps(doc)
 
 
 def write_error_table(errors: MachineErrors, path: str | Path) -> Path:

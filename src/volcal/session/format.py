@@ -17,11 +17,11 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import tomli_w
 from numpy.typing import NDArray
 
 from volcal.errors import VolcalInputError
 from volcal.io.atomic import atomic_dir, write_text
+from volcal.io.tomlfmt import dumps as toml_dumps
 from volcal.io.values import parse_finite
 from volcal.model.chain import parse_chain
 
@@ -248,7 +248,7 @@ def write_session(session: Session, folder: str | Path, extra_files: dict[str, s
     with atomic_dir(folder) as tmp:
         if keep_existing and folder.is_dir():
             shutil.copytree(folder, tmp, symlinks=True, dirs_exist_ok=True)
-        (tmp / "session.toml").write_text(tomli_w.dumps(session.to_toml()), encoding="utf-8")
+        (tmp / "session.toml").write_text(toml_dumps(session.to_toml()), encoding="utf-8")
         for m in session.measurements:
             (tmp / m.file).parent.mkdir(parents=True, exist_ok=True)
             (tmp / m.file).write_text(m.to_csv(), encoding="utf-8")
@@ -272,7 +272,7 @@ def update_measurement_files(session: Session) -> None:
     assert session.path is not None
     for m in session.measurements:
         write_text(session.path / m.file, m.to_csv())
-    write_text(session.path / "session.toml", tomli_w.dumps(session.to_toml()))
+    write_text(session.path / "session.toml", toml_dumps(session.to_toml()))
 
 
 # ----------------------------------------------------------------------------- readers

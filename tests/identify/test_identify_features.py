@@ -193,3 +193,28 @@ def test_sparse_path_equals_dense_path(noisy, monkeypatch):
     e2, u2 = sparse.predict(q)
     np.testing.assert_allclose(e2, e1, atol=1e-6)
     np.testing.assert_allclose(u2, u1, rtol=1e-6, atol=1e-8)
+
+
+def test_advise_before_measuring_matches_the_report_after():
+    """The identifiability of a plan is a property of the design: the planned session's
+    advice names the same undetermined functions as the identification of its data."""
+    from volcal.identify import advise
+
+    planned = seeds_session("XYFZ")
+    rep = advise(planned)
+    assert all(m.deviation is None for m in planned.measurements)  # the plan is untouched
+    measured = seeds_session("XYFZ")
+    exact_fill(measured, random_machine(TRAVEL, "XYFZ", seed=6), seed=2)
+    after = identify(measured).report
+    assert rep.rank == after.rank and rep.null_dimension == after.null_dimension
+    poor_before = {n for n, f in rep.determined_fraction.items() if f < 0.5}
+    poor_after = {n for n, f in after.determined_fraction.items() if f < 0.5}
+    assert "EAX" in poor_before and poor_before == poor_after
+    assert rep.suggestions and "face diagonals" in rep.suggestions[0]
+
+
+def test_cli_advise_on_a_planned_session(tmp_path):
+    folder = write_session(seeds_session("XYFZ", tests=("step-diagonal",)), tmp_path / "P")
+    out = _volcal("advise", str(folder))
+    assert out.returncode == 0, out.stderr
+    assert "confounded with the mirror tilts" in out.stdout.replace("\n", " ")

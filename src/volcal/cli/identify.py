@@ -157,7 +157,23 @@ def predict_cmd(
     console.print(f"{q.shape[0]} points -> {output}")
 
 
+def advise_cmd(
+    session: Path = typer.Argument(..., help="Planned (or measured) session folder."),
+    roll: str = typer.Option("estimate", help="estimate, or zero (roll fixed to zero)."),
+) -> None:
+    """Before measuring: what the planned tests will and will not determine."""
+    from volcal.identify import IdentifyOptions, advise
+    from volcal.session.format import read_session
+
+    s = read_session(session, require_deviation=False)
+    with console.status("analysing the design..."):
+        rep = advise(s, IdentifyOptions(roll=roll))
+    for msg in rep.messages:
+        console.print(f"- {msg}", highlight=False, markup=False)
+
+
 def register(app: typer.Typer) -> None:
     """Add the commands of this module to the app."""
+    app.command("advise")(advise_cmd)
     app.command("identify")(identify_cmd)
     app.command("predict")(predict_cmd)

@@ -4,13 +4,14 @@
 their uncertainties, an identifiability report in plain words and fit statistics.
 """
 
-from volcal.identify.api import IdentifyOptions, identify, monte_carlo
+from volcal.identify.api import IdentifyOptions, advise, identify, monte_carlo
 from volcal.identify.modelfile import load_model, load_model_errors
 from volcal.identify.result import IdentificationResult
 
 __all__ = [
     "IdentificationResult",
     "IdentifyOptions",
+    "advise",
     "identify",
     "load_model",
     "load_model_errors",

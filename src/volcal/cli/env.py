@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import typer
 
-env_app = typer.Typer(help="Environment: refractive index of air.", no_args_is_help=True)
+env_app = typer.Typer(help="Environment: refractive index of air, drift check.",
+                      no_args_is_help=True)
 
 
 @env_app.command("refractive-index")
@@ -22,6 +25,31 @@ def refractive_index_cmd(
     n = refractive_index(temperature_c, pressure_pa, humidity_pct, wavelength_nm, formula,
                          co2_ppm)
     typer.echo(f"{float(n):.9f}")
+
+
+@env_app.command("drift")
+def drift_cmd(
+    file: Path = typer.Argument(..., help="Measurement CSV (x_mm,y_mm,z_mm,deviation_um and "
+                                "optionally time_s), with repeated readings at the start point."),
+    limit_um: float = typer.Option(1.0, min=0.0, help="Largest acceptable span of the "
+                                   "start-point readings [um]."),
+) -> None:
+    """Drift check from the readings taken back at the start point (e.g. between runs)."""
+    from volcal.environment.drift import drift_check
+    from volcal.errors import VolcalInputError
+    from volcal.session.format import read_measurement_csv
+
+    pos, dev, cols = read_measurement_csv(file)
+    try:
+        r = drift_check(pos, dev, cols.get("time_s"), limit_um)
+    except VolcalInputError as exc:
+        raise VolcalInputError(exc.message, file) from None
+    rate = "" if r.rate_um_per_h != r.rate_um_per_h else f", rate {r.rate_um_per_h:.3f} um/h"
+    typer.echo(f"{r.n} readings at the start point: span {r.span_um:.3f} um, first to last "
+               f"{r.drift_um:+.3f} um{rate}; limit {r.limit_um:g} um: "
+               f"{'OK' if r.ok else 'EXCEEDED'}")
+    if not r.ok:
+        raise typer.Exit(1)
 
 
 def register(app: typer.Typer) -> None:

@@ -350,7 +350,10 @@ def read_measurement_csv(path: str | Path, require_deviation: bool = True):
             if other:
                 raise _err(f"unknown or unsupported unit: expected '{req}' "
                            f"[{_UNIT_HINTS.get(stem, '')}]", path, 1, other[0])
-            raise _err(f"missing required column '{req}' (header: {','.join(header)})",
+            shown = ",".join(header).replace("\r", " ").replace("\n", " ")
+            if len(shown) > 120:
+                shown = shown[:117] + "..."
+            raise _err(f"missing required column '{req}' (header: {shown})",
                        path, 1, req)
     idx = {h: i for i, h in enumerate(header)}
     data = rows[1:]

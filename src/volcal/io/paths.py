@@ -48,7 +48,8 @@ def check_output_file(path: str | Path) -> Path:
     Raises
     ------
     VolcalInputError
-        The folder holding it is missing, a file or read-only, or ``path`` is a folder.
+        The nearest existing folder above it is a file or read-only, or ``path`` is a
+        folder.
     """
     path = Path(path)
     _check_parent(path)
@@ -78,8 +79,8 @@ def check_output_folder(path: str | Path, what: str,
     Raises
     ------
     VolcalInputError
-        The parent is missing, a file or read-only; ``path`` is a file; or ``path`` is a
-        non-empty folder of another kind.
+        The nearest existing folder above it is a file or read-only; ``path`` is a file;
+        or ``path`` is a non-empty folder of another kind.
     """
     path = Path(path)
     _check_parent(path)

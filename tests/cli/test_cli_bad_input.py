@@ -463,7 +463,12 @@ CASES: list[Case] = [
     *[Case(f"compensate:{k}", ["compensate", *a, "-o", "{d}/C2"], e, m) for k, a, e, m in [
         ("format-unknown", ["{d}/ERRORS.csv", "--format", "okuma", "--sign", "error"],
          ("okuma",), None),
-        ("sign-missing", ["{d}/ERRORS.csv", "--format", "csv"], ("--sign",), None),
+        ("linuxcnc-type", ["{d}/ERRORS.csv", "--format", "linuxcnc", "--linuxcnc-type", "2"],
+         ("--linuxcnc-type 2",), None),
+        ("fanuc-series", ["{d}/ERRORS.csv", "--format", "fanuc", "--fanuc-series", "15"],
+         ("--fanuc-series",), None),
+        ("linuxcnc-too-many", ["{d}/ERRORS.csv", "--format", "linuxcnc", "--spacing", "0.5"],
+         ("limit of 256",), None),
         ("sign-unknown", ["{d}/ERRORS.csv", "--format", "csv", "--sign", "plus"], ("plus",), None),
         ("spacing-zero", ["{d}/ERRORS.csv", "--format", "csv", "--sign", "error",
                           "--spacing", "0"], ("spacing",), None),

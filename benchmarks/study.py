@@ -440,6 +440,7 @@ def summarise(results: Sequence[MachineResult]) -> dict:
         "ratio_median": float(np.median(ratio)),
         "ratio_max": float(ratio.max()),
         "machines_worse": int(np.sum(ratio > 1.0)),
+        "machines_worse_1pct": int(np.sum(ratio > 1.01)),
         "coverage": float(np.mean([x["coverage"] for x in b])),
         "coverage_min": float(np.min([x["coverage"] for x in b])),
         "coverage_rigid": float(np.mean([x["coverage_rigid"] for x in b])),
@@ -545,18 +546,20 @@ def summarise_drift(rows: Sequence[dict]) -> list[dict]:
 # ----------------------------------------------------------------------------- output
 def _markdown(summaries: Sequence[dict]) -> str:
     head = ("| design | machines | truth RMS | Bayes RMS (median) | Bayes max | min-norm RMS "
-            "(median) | ratio median / max | machines worse | coverage pooled (min) | "
-            "roll err max EAX/EBY/ECZ [urad] | s per identify (Bayes / min-norm) |\n"
-            "|---|---|---|---|---|---|---|---|---|---|---|")
+            "(median) | ratio median / max | worse (> 1 / > 1.01) | coverage pooled (min) | "
+            "roll err max EAX/EBY/ECZ [urad] | roll coverage | s per identify (Bayes / "
+            "min-norm) |\n|---|---|---|---|---|---|---|---|---|---|---|---|")
     rows = [head]
     for s in summaries:
         re = s["roll_max_rms_err_urad"]
         rows.append(
             f"| {s['design']} | {s['machines']} | {s['truth_rms_um']:.2f} | "
             f"{s['bayes_rms_um']:.2f} | {s['bayes_max_um']:.2f} | {s['min_norm_rms_um']:.2f} | "
-            f"{s['ratio_median']:.2f} / {s['ratio_max']:.2f} | {s['machines_worse']} | "
+            f"{s['ratio_median']:.2f} / {s['ratio_max']:.2f} | "
+            f"{s['machines_worse']} / {s['machines_worse_1pct']} | "
             f"{s['coverage']:.3f} ({s['coverage_min']:.2f}) | "
             f"{re['EAX']:.1f} / {re['EBY']:.1f} / {re['ECZ']:.1f} | "
+            f"{s['roll_coverage']:.2f} | "
             f"{s['bayes_seconds']:.2f} / {s['min_norm_seconds']:.2f} |")
     return "\n".join(rows)
 
@@ -607,7 +610,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--quiet", action="store_true", help="no line per machine")
     p.add_argument("--markdown", action="store_true", help="print Markdown tables")
     p.add_argument("--json", type=Path, help="write every machine's figures to this file")
+    p.add_argument("--from-json", type=Path,
+                   help="summarise the machines saved by an earlier --json run (no new runs)")
     a = p.parse_args(argv)
+    if a.from_json:
+        saved = json.loads(a.from_json.read_text())["machines"]
+        summaries = []
+        for name in dict.fromkeys(m["design"] for m in saved):
+            res = [MachineResult(m["design"], Case(**m["case"]), m["truth_rms_um"],
+                                 m["bayes"], m["min_norm"]) for m in saved
+                   if m["design"] == name]
+            summaries.append(summarise(res))
+        print(_markdown(summaries) if a.markdown else json.dumps(summaries, indent=1))
+        return 0
     show = None if a.quiet else _print_machine
     if a.drift:
         designs = ["abbe", "full"] if a.design in ("full", "all") else [a.design]

@@ -140,8 +140,9 @@ def test_roll_recovered_where_identifiable(design):
         assert all(f["determined"] < 0.5 for r in res for f in r.bayes["roll"].values())
 
 
-@_xfail("roll='zero' holds EAX, EAY, EAZ; the rolls are EAX, EBY, ECZ (EAY is a tilt of Y)")
 def test_roll_zero_holds_exactly_the_three_rolls():
+    """``roll='zero'`` holds EAX, EBY, ECZ (each axis about its own direction) at exactly
+    zero with no uncertainty, and estimates the tilts EAY, EAZ (issue 10)."""
     case = study.cases(1)[0]
     session, _ = study.simulate(study.DESIGNS["full"], case, steps=6, runs=2)
     r = identify(session, IdentifyOptions(roll="zero", suggest=False))

@@ -39,7 +39,7 @@ bench: $(STAMP)
 
 study: $(STAMP)
 	$(BIN)/python benchmarks/study.py --design all --machines 10 --markdown --quiet
-	$(BIN)/python benchmarks/study.py --drift --machines 10 --markdown --quiet
+	$(BIN)/python benchmarks/study.py --drift --design all --machines 10 --markdown --quiet
 
 clean:
 	rm -rf $(VENV) demo-output .pytest_cache .ruff_cache

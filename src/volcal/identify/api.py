@@ -67,7 +67,9 @@ class IdentifyOptions:
     refine : int
         Node refinement between measured positions.
     max_nodes : int
-        Maximum nodes per axis.
+        Maximum nodes per axis (default 41: a basis matched to the smoothness the prior
+        allows, independent of the number of increments; finer grids cost time and memory
+        without changing the estimate of smooth error functions).
     measurement_ids : list of str, optional
         Use only these measurements.
     outlier_threshold : float, optional
@@ -88,7 +90,7 @@ class IdentifyOptions:
     tilts: bool = True
     drift: bool = False
     refine: int = 2
-    max_nodes: int = 201
+    max_nodes: int = 41
     measurement_ids: list[str] | None = None
     outlier_threshold: float | None = None
     suggest: bool = True
@@ -120,6 +122,30 @@ def _known(opts: IdentifyOptions) -> dict:
     elif opts.roll != "estimate":
         raise VolcalInputError(f"roll must be 'estimate' or 'zero', got {opts.roll!r}")
     return known
+
+
+def _drift_notes(session: Session, o: IdentifyOptions) -> list[str]:
+    """Refuse drift where no measurement can separate it from geometry; else say where."""
+    from volcal.identify.design import drift_separable
+
+    used = [m for m in session.measurements
+            if o.measurement_ids is None or m.id in o.measurement_ids]
+    sep = [m.id for m in used if drift_separable(m)]
+    if not sep:
+        raise VolcalInputError(
+            "--drift needs measurements that read the same position more than once at "
+            "different times (repeated or bidirectional runs, repeated reference readings) "
+            "with a time_s column: in a single pass a drift linear in time is also a function "
+            "of position, so it cannot be told apart from the geometric errors (it would take "
+            "the squareness and the slopes of the positioning errors). None of the "
+            f"{len(used)} measurements does; identify without --drift, or repeat a reading "
+            "at the start point at the end of each test.")
+    other = [m.id for m in used if m.id not in sep]
+    note = "Drift estimated for " + ", ".join(sep) + "."
+    if other:
+        note += (" Not for " + ", ".join(other) + ": each position is read once there, so "
+                 "a drift cannot be told apart from the geometry.")
+    return [note]
 
 
 def candidate_designs(session: Session, nodes, known) -> dict[str, Design]:
@@ -238,13 +264,15 @@ def identify(session: Session, options: IdentifyOptions | None = None) -> Identi
     known = _known(o)
     if o.prior not in ("smooth", "none"):
         raise VolcalInputError(f"prior must be 'smooth' or 'none', got {o.prior!r}")
-    nodes1 = choose_nodes(session, refine=1, max_nodes=o.max_nodes)
     notes: list[str] = []
+    if o.drift:
+        notes.extend(_drift_notes(session, o))
+    nodes1 = choose_nodes(session, refine=1, max_nodes=o.max_nodes)
     noise = o.noise_um
     if o.prior == "none":
         design = build_design(session, nodes1, known, o.drift, o.measurement_ids, o.tilts)
-        sol = solve_min_norm(design)
-        if _too_few_redundant(sol, design):
+        sol = solve_min_norm(design, noise)
+        if noise is None and _too_few_redundant(sol, design):
             notes.append(_noise_note(sol, design))
             sol = solve_min_norm(design, DEFAULT_REPEATABILITY_UM)
         prior = None
@@ -358,6 +386,7 @@ def _result(session: Session, design: Design, sol: Solution, report, o: Identify
                          "straightness_um": _fin(sol.scales[1]),
                          "angular_urad": _fin(sol.scales[2]), "kappa": _fin(sol.kappa)},
         "log_evidence": _fin(sol.log_evidence),
+        "convergence": sol.convergence,
         "measurements": [m.id for m in design.measurements],
         "known": sorted(design.fixed_names),
         "gauge": "every function zero at the start of travel; straightness also at the end",

@@ -34,7 +34,7 @@ typical machining centres; it only matters for groups the data do not inform."""
 HYPER_SPREAD = np.log(30.0)
 DENSE_COVARIANCE_LIMIT = 6000
 DENSE_QR_LIMIT = 2000
-DENSE_QR_ENTRIES = 30_000_000  # 240 MB of float64 for the stacked matrix
+DENSE_QR_ENTRIES = 2_000_000  # small problems only: beyond, Cholesky of H + refinement
 
 
 @dataclass

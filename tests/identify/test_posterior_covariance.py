@@ -63,7 +63,7 @@ def _rows(s):
 @functools.cache
 def _influence(prior: str):
     """Predictions for unit data on each positive reading (and the first) of each line."""
-    opts = IdentifyOptions(prior=prior, scales=(10.0, 5.0, 15.0), noise_um=SIGMA,
+    opts = IdentifyOptions(prior=prior, scales=(10.0, 5.0, 15.0, 15.0), noise_um=SIGMA,
                            suggest=False)
     s = _session()
     rows = _rows(s)
@@ -108,8 +108,6 @@ def test_noise_part_of_the_variance_never_exceeds_the_reported_variance():
     assert noise_var.max() > 0.1 * SIGMA**2  # not vacuous: the readings do reach the grid
 
 
-@pytest.mark.xfail(reason="issue 10: noise_um is ignored with prior='none' (the covariance "
-                          "uses the residual standard deviation)", strict=False)
 def test_minimum_norm_variance_equals_dense_influence_with_stated_noise():
     G, u_read, _, _ = _influence("none")
     np.testing.assert_allclose(G, G.T, atol=1e-9 * np.abs(G).max())

@@ -34,7 +34,7 @@ def identify_cmd(
                                     "propagation to the volumetric error; 0 = off."),
     drift: bool = typer.Option(False, help="Estimate a linear drift per measurement."),
     measurements: str | None = typer.Option(None, help="Comma-separated measurement ids to use."),
-    max_nodes: int = typer.Option(201, min=3, max=2001, help="Nodes per axis at most (problem "
+    max_nodes: int = typer.Option(41, min=3, max=2001, help="Nodes per axis at most (problem "
                                   "size; the parameter count stops growing there)."),
 ) -> None:
     """Identify the machine's errors from the session; write MODEL.json."""

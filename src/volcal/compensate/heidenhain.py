@@ -3,8 +3,10 @@
 Format of the current controls (TNC 640, TNC 620, MANUALplus 620, CNC PILOT 640): a
 ``.COM`` table lists compensation points of one input axis (column ``AXISPOS``,
 positions with respect to the machine datum [mm]), the compensation value of the
-compensated axis in a column named after it [mm] and, optionally, the values measured
-in the negative direction of traverse in the column ``BACKLASH`` [mm]; the ``.CMA``
+compensated axis in a column named after it [mm] and, "if required", the values measured
+in the negative direction of traverse in the column ``BACKLASH`` [mm] (written only with
+measured reversal; the manual does not say whether an empty or zero ``BACKLASH`` means
+"same as the axis column" or "zero", so volcal leaves the column out then); the ``.CMA``
 table assigns the ``.COM`` tables to the input axes (one column per axis, ``*`` in
 ``ACTIVE`` marks the active line). Tables start with ``BEGIN <name> MM`` and end with
 ``[END]``. They are fixed-width: every value starts at the column of its header name
@@ -77,8 +79,9 @@ def heidenhain_files(errors: MachineErrors, spacing: float, sign: str = DEFAULT_
         Entries allowed per ``.COM`` table (no limit by default: see your control's
         technical manual).
     directional : DirectionalErrors, optional
-        Measured reversal: the ``BACKLASH`` column gets the values of the negative
-        direction (otherwise it repeats the axis column).
+        Measured reversal: a ``BACKLASH`` column with the values of the negative
+        direction is written for the axes that have it (otherwise no such column: the
+        axis values apply in both directions).
 
     Returns
     -------
@@ -96,9 +99,16 @@ def heidenhain_files(errors: MachineErrors, spacing: float, sign: str = DEFAULT_
         half = directional.half_reversal(k, p) if directional is not None else 0.0 * p
         fwd = t.values + np.round(s * half / RESOLUTION_UM) * RESOLUTION_UM
         rev = t.values - np.round(s * half / RESOLUTION_UM) * RESOLUTION_UM
-        rows = [f"BEGIN {a}.COM MM", _row(["NR", "AXISPOS", a, "BACKLASH"], widths)]
-        rows += [_row([str(n), _f(pos, 4), _f(vf / 1000.0, 4), _f(vr / 1000.0, 4)], widths)
-                 for n, (pos, vf, vr) in enumerate(zip(p, fwd, rev, strict=True))]
+        if directional is None or not directional.has(k):
+            # "if required" (MANUALplus 620 p. 716): without measured reversal the column is
+            # left out, so the axis values apply in both directions
+            rows = [f"BEGIN {a}.COM MM", _row(["NR", "AXISPOS", a], widths[:3])]
+            rows += [_row([str(n), _f(pos, 4), _f(vf / 1000.0, 4)], widths[:3])
+                     for n, (pos, vf) in enumerate(zip(p, t.values, strict=True))]
+        else:
+            rows = [f"BEGIN {a}.COM MM", _row(["NR", "AXISPOS", a, "BACKLASH"], widths)]
+            rows += [_row([str(n), _f(pos, 4), _f(vf / 1000.0, 4), _f(vr / 1000.0, 4)], widths)
+                     for n, (pos, vf, vr) in enumerate(zip(p, fwd, rev, strict=True))]
         files[f"{a}.COM"] = "\n".join([*rows, "[END]"]) + "\n"
     cw = [6, 8, 10, 10, 10]
     cma = [f"BEGIN {CMA_FILE}", _row(["NR", "ACTIVE", "X", "Y", "Z"], cw),

@@ -126,6 +126,30 @@ def _known(opts: IdentifyOptions) -> dict:
     return known
 
 
+def _drift_notes(session: Session, o: IdentifyOptions) -> list[str]:
+    """Refuse drift where no measurement can separate it from geometry; else say where."""
+    from volcal.identify.design import drift_separable
+
+    used = [m for m in session.measurements
+            if o.measurement_ids is None or m.id in o.measurement_ids]
+    sep = [m.id for m in used if drift_separable(m)]
+    if not sep:
+        raise VolcalInputError(
+            "--drift needs measurements that read the same position more than once at "
+            "different times (repeated or bidirectional runs, repeated reference readings) "
+            "with a time_s column: in a single pass a drift linear in time is also a function "
+            "of position, so it cannot be told apart from the geometric errors (it would take "
+            "the squareness and the slopes of the positioning errors). None of the "
+            f"{len(used)} measurements does; identify without --drift, or repeat a reading "
+            "at the start point at the end of each test.")
+    other = [m.id for m in used if m.id not in sep]
+    note = "Drift estimated for " + ", ".join(sep) + "."
+    if other:
+        note += (" Not for " + ", ".join(other) + ": each position is read once there, so "
+                 "a drift cannot be told apart from the geometry.")
+    return [note]
+
+
 def candidate_designs(session: Session, nodes, known) -> dict[str, Design]:
     """Extra measurements to try for the identifiability report.
 
@@ -242,13 +266,15 @@ def identify(session: Session, options: IdentifyOptions | None = None) -> Identi
     known = _known(o)
     if o.prior not in ("smooth", "none"):
         raise VolcalInputError(f"prior must be 'smooth' or 'none', got {o.prior!r}")
-    nodes1 = choose_nodes(session, refine=1, max_nodes=o.max_nodes)
     notes: list[str] = []
+    if o.drift:
+        notes.extend(_drift_notes(session, o))
+    nodes1 = choose_nodes(session, refine=1, max_nodes=o.max_nodes)
     noise = o.noise_um
     if o.prior == "none":
         design = build_design(session, nodes1, known, o.drift, o.measurement_ids, o.tilts)
-        sol = solve_min_norm(design)
-        if _too_few_redundant(sol, design):
+        sol = solve_min_norm(design, noise)
+        if noise is None and _too_few_redundant(sol, design):
             notes.append(_noise_note(sol, design))
             sol = solve_min_norm(design, DEFAULT_REPEATABILITY_UM)
         prior = None

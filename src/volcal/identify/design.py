@@ -155,6 +155,37 @@ def _gauge_mask(layout: ParameterLayout) -> NDArray[np.bool_]:
     return fixed
 
 
+def drift_separable(m: Measurement, tol_mm: float = 1e-3) -> bool:
+    """True when a linear drift of a measurement can be told apart from the geometry.
+
+    A drift is a function of time; the geometric errors are functions of position. In a
+    single pass every position is read once, so a drift linear in time is a function of
+    position too and is absorbed by the errors (or absorbs them: squareness, slopes). Only
+    positions read more than once at different times (repeated runs, bidirectional runs,
+    repeated reference readings) separate the two.
+
+    Parameters
+    ----------
+    m : Measurement
+        A measurement with a ``time_s`` column.
+    tol_mm : float
+        Positions closer than this are the same position [mm].
+
+    Returns
+    -------
+    bool
+    """
+    if "time_s" not in m.columns or not np.ptp(m.columns["time_s"]) > 0:
+        return False
+    key = np.round(np.asarray(m.positions, dtype=float) / tol_mm).astype(np.int64)
+    _, inv, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    t = np.asarray(m.columns["time_s"], dtype=float)
+    for g in np.flatnonzero(counts > 1):
+        if np.ptp(t[inv.ravel() == g]) > 0:
+            return True
+    return False
+
+
 def _nuisance_columns(m: Measurement, drift: bool, tilts: bool = True):
     cols, names = [np.ones(m.n)], [f"{m.id}:offset"]
     T = tilt_columns(m) * (URAD / UM)
@@ -168,7 +199,7 @@ def _nuisance_columns(m: Measurement, drift: bool, tilts: bool = True):
     if d is not None and m.kind == "linear" and np.any(d == "+") and np.any(d == "-"):
         cols.append(np.where(d == "+", 0.5, -0.5))
         names.append(f"{m.id}:reversal")
-    if drift and "time_s" in m.columns and np.ptp(m.columns["time_s"]) > 0:
+    if drift and drift_separable(m):
         cols.append(m.columns["time_s"] / 3600.0)
         names.append(f"{m.id}:drift")
     return np.stack(cols, 1), names
@@ -192,7 +223,8 @@ def build_design(session: Session, nodes: list[NDArray[np.float64]] | None = Non
         that standard uncertainty [um or urad]; a squareness name maps to
         ``(None, value[, std])``; positions None means zero.
     drift : bool
-        Add a linear drift nuisance per measurement (needs ``time_s``).
+        Add a linear drift nuisance to each measurement whose drift can be separated from
+        the geometry (:func:`drift_separable`: ``time_s`` and positions read more than once).
     measurement_ids : list of str, optional
         Use only these measurements.
     tilts : bool

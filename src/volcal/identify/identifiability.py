@@ -275,7 +275,7 @@ def analyse(design: Design, prior: PriorStructure, scales: NDArray[np.float64],
         report.null_groups.append(mixed)
     _messages(report, design)
     if candidates:
-        _suggest(report, design, F, Qp, candidates, G, R)
+        _suggest(report, design, F, Qp, candidates, G, R, N)
     return report
 
 
@@ -328,15 +328,27 @@ def _messages(rep: IdentifiabilityReport, design: Design) -> None:
             "step diagonals (Soons, section 4): add a linear measurement of X or Y.")
 
 
-def _suggest(rep: IdentifiabilityReport, design: Design, F, Qp, candidates, G, R) -> None:
+def _suggest(rep: IdentifiabilityReport, design: Design, F, Qp, candidates, G, R, N) -> None:
+    # The null space of F + Fc (both positive semi-definite) is the part of the null space
+    # N of F that Fc does not see either: an eigenproblem of the size of N per candidate,
+    # not of the full parameter count.
     base = rep.ambiguity_rms_um
-    scores = []
+    scale = np.sqrt(np.diag(Qp))
+    Fs = F / np.outer(scale, scale)
+    Qs = Qp / np.outer(scale, scale)
+    thr = 1e-9 * max(float(np.linalg.eigvalsh(Fs)[-1]), 1e-300)
     GP = R @ G
+    scores = []
     for label, cd in candidates.items():
-        Fc = information(cd)
-        Fn = F + Fc
-        scale = np.sqrt(np.diag(Qp))
-        cov, _ = null_space_covariance(Fn / np.outer(scale, scale), Qp / np.outer(scale, scale))
+        if N.shape[1] == 0:
+            break
+        Fc = information(cd) / np.outer(scale, scale)
+        wc, Vc = np.linalg.eigh(N.T @ Fc @ N)
+        Nc = N @ Vc[:, wc < thr]
+        if Nc.shape[1] == 0:
+            cov = np.zeros_like(F)
+        else:
+            cov = Nc @ np.linalg.solve(Nc.T @ Qs @ Nc, Nc.T)
         cov = cov / np.outer(scale, scale)
         var = np.sum((GP @ cov) * GP, axis=1)
         rms = float(np.sqrt(np.mean(np.clip(var, 0, None))))

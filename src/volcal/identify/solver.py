@@ -80,6 +80,12 @@ class Solution:
     dof : float
         Residual degrees of freedom ``n - trace(hat matrix)``.
     method : str
+        ``'bayes'`` or ``'min-norm'``.
+    solve : callable or None
+        ``rhs -> H^-1 rhs`` with the factorised posterior precision (Monte Carlo).
+    convergence : dict or None
+        Evidence optimiser record: ``optimiser``, ``iterations``, ``evaluations``,
+        ``converged`` (bool), ``message``.
     """
 
     x: NDArray[np.float64]

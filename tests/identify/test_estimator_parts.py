@@ -1,0 +1,99 @@
+"""Unit tests of the estimator's parts on small problems with known answers."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from identify_helpers import TRAVEL, exact_fill, seeds_session
+
+from volcal.identify import IdentifyOptions, identify
+from volcal.identify.design import build_design, choose_nodes
+from volcal.identify.identifiability import (
+    analyse,
+    grid_points,
+    information,
+    null_space_covariance,
+    rigid_projector,
+)
+from volcal.identify.prior import PriorStructure
+from volcal.identify.solver import solve_bayes
+from volcal.measure.virtual import random_machine
+
+
+@pytest.fixture(scope="module")
+def small():
+    s = seeds_session("XYFZ", steps=4)
+    exact_fill(s, random_machine(TRAVEL, "XYFZ", seed=3), seed=4)
+    nodes = choose_nodes(s, refine=1, max_nodes=41)
+    design = build_design(s, nodes, {})
+    return s, design, PriorStructure.build(design.layout, design.free, 6.0)
+
+
+def test_posterior_covariance_is_the_dense_inverse_of_the_precision(small):
+    _, design, prior = small
+    sol = solve_bayes(design, prior, np.array([10.0, 5.0, 15.0]), 0.5)
+    ev_h = (design.A.T @ design.A).toarray() / 0.5**2
+    from volcal.identify.solver import _nuisance_precision
+
+    Q = prior.precision(np.array([10.0, 5.0, 15.0]), 100.0, ev_h.shape[0],
+                        _nuisance_precision(design)).toarray()
+    H = ev_h + Q
+    np.testing.assert_allclose(sol.covariance, np.linalg.inv(H), rtol=1e-6,
+                               atol=1e-9 * np.abs(sol.covariance).max())
+    # the estimate is the posterior mean H^-1 A^T y / sigma^2
+    np.testing.assert_allclose(sol.x, np.linalg.solve(H, design.A.T @ design.y / 0.25),
+                               rtol=1e-6, atol=1e-9 * np.abs(sol.x).max())
+
+
+def test_evidence_optimiser_converges_and_is_reported(small):
+    s, _, _ = small
+    r = identify(s, IdentifyOptions(suggest=False))
+    conv = r.fit["convergence"]
+    assert conv["optimiser"] == "L-BFGS-B" and conv["converged"], conv
+    assert 0 < conv["evaluations"] < 400
+    # stated noise: no optimisation of sigma, and it is used as stated
+    r2 = identify(s, IdentifyOptions(noise_um=0.7, scales=(10.0, 5.0, 15.0), suggest=False))
+    assert r2.fit["sigma_um"] == 0.7
+    assert r2.fit["convergence"]["evaluations"] == 1
+
+
+def test_noise_um_is_honoured_without_prior(small):
+    s, _, _ = small
+    r = identify(s, IdentifyOptions(prior="none", noise_um=2.0, suggest=False))
+    assert r.fit["sigma_um"] == 2.0
+    r1 = identify(s, IdentifyOptions(prior="none", noise_um=1.0, suggest=False))
+    # covariance scales with the stated noise squared: std doubles
+    np.testing.assert_allclose(r.std[0], 2.0 * r1.std[0], rtol=1e-9, atol=1e-12)
+
+
+def test_candidate_ambiguity_equals_the_full_null_space_computation(small):
+    s, design, prior = small
+    from volcal.identify.api import candidate_designs
+
+    nodes = design.layout.nodes
+    cands = candidate_designs(s, nodes, {})
+    scales = np.array([10.0, 5.0, 15.0])
+    rep = analyse(design, prior, scales, 100.0, cands)
+    # independent: full eigendecomposition of F + Fc for every candidate
+    nf = design.n_free
+    Qp = prior.precision(scales, 100.0, nf, np.zeros(0)).toarray()
+    sc = np.sqrt(np.diag(Qp))
+    F = information(design)
+    from volcal.identify.identifiability import _order
+    from volcal.model.kinematics import pose_jacobian
+
+    q = grid_points(design)
+    Je, _ = pose_jacobian(_order(design), nodes, q, None)
+    GP = rigid_projector(q) @ Je[:, design.free].toarray()
+    expected = []
+    for label, cd in cands.items():
+        cov, _ = null_space_covariance((F + information(cd)) / np.outer(sc, sc),
+                                       Qp / np.outer(sc, sc))
+        cov = cov / np.outer(sc, sc)
+        rms = float(np.sqrt(np.mean(np.clip(np.sum((GP @ cov) * GP, axis=1), 0, None))))
+        expected.append((rms, label))
+    expected.sort()
+    got = [s_ for s_ in rep.suggestions]
+    want = [f"{label}: volumetric ambiguity {rep.ambiguity_rms_um:.2f} -> {rms:.2f} um RMS"
+            for rms, label in expected[:3] if rms < 0.9 * rep.ambiguity_rms_um]
+    assert got and got == want

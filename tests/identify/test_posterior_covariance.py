@@ -33,7 +33,6 @@ from __future__ import annotations
 import functools
 
 import numpy as np
-import pytest
 
 from volcal.identify import IdentifyOptions, identify
 from volcal.plan.planner import plan_session

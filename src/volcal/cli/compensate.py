@@ -17,11 +17,13 @@ console = Console()
 def compensate(
     model: Annotated[Path, typer.Argument(help="MODEL.json (identified) or error table .csv.")],
     format: Annotated[str, typer.Option(
-        "--format", help="fanuc, siemens, heidenhain, csv, isg (volumetric blocks), grid (3-D).")],
+        "--format", help="fanuc, siemens, heidenhain, linuxcnc, csv, isg (volumetric blocks), "
+        "grid (3-D).")],
     output: Annotated[Path, typer.Option("-o", "--output", help="Folder for the tables.")],
     sign: Annotated[str | None, typer.Option(
-        help="Required: error (table = actual - commanded) or correction (= -error); see "
-        "docs/compensation.md for what each controller expects.")] = None,
+        help="Override of the format's own sign convention: error (table = actual - "
+        "commanded) or correction (= -error). Default: the controller's convention "
+        "(docs/compensation.md).")] = None,
     spacing: Annotated[float, typer.Option(help="Distance between points [mm].")] = 20.0,
     max_points: Annotated[int | None, typer.Option(help="Controller's point limit.")] = None,
     reference_mm: Annotated[str | None, typer.Option(
@@ -32,25 +34,42 @@ def compensate(
     squareness: Annotated[bool, typer.Option(help="Siemens CEC: add squareness terms.")] = True,
     tool_offset: Annotated[str, typer.Option(help="3-D grid: target on the tool x,y,z [mm].")
                            ] = "0,0,0",
+    linuxcnc_type: Annotated[int, typer.Option(
+        help="LinuxCNC COMP_FILE_TYPE: 1 (nominal, forward trim, reverse trim) or 0 "
+        "(nominal, actual forward, actual reverse).")] = 1,
 ) -> None:
     """Write compensation tables of a model for a controller, resampled onto its grid."""
-    from volcal.compensate.formats import MANIFEST, CompensationOptions, write_compensation
+    from volcal.compensate.formats import (
+        DEFAULT_SIGN,
+        FORMATS,
+        MANIFEST,
+        CompensationOptions,
+        write_compensation,
+    )
     from volcal.compensate.source import load_errors
     from volcal.compensate.tables import sign_factor
     from volcal.io.paths import check_output_folder
 
-    if sign is None:
-        raise VolcalInputError("--sign is required: 'error' (actual - commanded) or "
-                               "'correction' (-error); see docs/compensation.md")
-    sign_factor(sign)
+    fmt = format.lower()
+    if fmt not in FORMATS:
+        raise VolcalInputError(f"unknown format {format!r}: expected one of {', '.join(FORMATS)}")
+    if sign is not None:
+        sign_factor(sign)
+        if sign != DEFAULT_SIGN[fmt]:
+            console.print(f"[yellow]--sign {sign} overrides the {fmt} convention "
+                          f"({DEFAULT_SIGN[fmt]}): the table values are negated with respect "
+                          "to what the controller expects by default[/yellow]")
+        else:
+            console.print(f"--sign {sign} is the {fmt} default (nothing overridden)")
     check_output_folder(output, "compensation", lambda p: (p / MANIFEST).is_file())
     ref = None if reference_mm is None else tuple(parse_vector(reference_mm, "--reference-mm"))
     opts = CompensationOptions(sign, spacing, max_points, ref, unit_um, magnification,
                                max_increment, squareness,
-                               tuple(parse_vector(tool_offset, "--tool-offset")))
+                               tuple(parse_vector(tool_offset, "--tool-offset")), linuxcnc_type)
     errors = load_errors(model)
-    files = write_compensation(errors, format.lower(), output, opts, model.name)
-    console.print(f"wrote {format} tables ({sign}, {spacing:g} mm): {', '.join(files)} -> {output}")
+    files = write_compensation(errors, fmt, output, opts, model.name)
+    console.print(f"wrote {fmt} tables ({sign or DEFAULT_SIGN[fmt]}, {spacing:g} mm): "
+                  f"{', '.join(files)} -> {output}")
 
 
 def register(app: typer.Typer) -> None:

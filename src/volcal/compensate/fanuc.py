@@ -9,7 +9,7 @@ parameters 3620-3624):
 3621    number of the most distant point on the negative side
 3622    number of the most distant point on the positive side
 3623    magnification (the stored values are multiplied by it)
-3624    interval between compensation points [detection units]
+3624    interval between compensation points [mm, real with decimal point]
 ======  ==================================================================
 
 The value stored at point ``N`` is **incremental**: the change of the compensation
@@ -18,17 +18,25 @@ over the section that ends at point ``N`` (section ``N`` is
 magnification; the compensation at the reference position is zero. Hence
 ``n_neg = n_ref - (negative stroke / d) + 1`` and ``n_pos = n_ref + positive stroke / d``.
 The per-point increment is limited (-7..+7 on the 0i/16i family; larger on newer
-series, see ``max_increment``). Parameter 1240 holds the machine coordinate of the
-reference position.
+series, see ``max_increment``).
 
-Files written: ``FANUC_PARAM.TXT`` (``N3620A1P..A2P..A3P..`` in the Fanuc parameter
-tape format) and ``FANUC_PITCH.TXT`` (``N1xxxxP..``: data number 10000 + point
-number), both between ``%`` lines. The values are rounded from the absolute table,
-so the rounding does not accumulate along the axis.
+volcal never writes parameter 1240 (machine coordinate of the reference position) nor
+any other parameter that defines machine coordinates: loading it would move machine
+zero. The reference position the table assumes is stated in ``FANUC_README.TXT``.
+
+Files written, in the I/O syntax of current controls (30i/0i-D/0i-F parameter
+backups): ``FANUC_PARAM.TXT`` (``N03620Q1A1P..A2P..A3P..``: five-digit number, ``Q1`` =
+parameter data, 3624 as a length with a decimal point, ``N03624Q1A1P20.0``) and
+``FANUC_PITCH.TXT`` (``N1xxxxQ0P..``: data number 10000 + point number, ``Q0`` =
+pitch data), both between ``%`` lines, plus ``FANUC_README.TXT`` (sign, reference
+position, activation). The values are rounded from the absolute table, so the
+rounding does not accumulate along the axis.
 
 References
 ----------
-FANUC Series 0i-PB parameter manual B-63980EN/01, parameters 3620-3627 (with the
+FANUC Series 30i/300i/300is-MODEL A parameter manual B-63950EN/02 (parameter
+I/O format with ``N``/``Q``/``A``/``P``; parameters 3620-3627). FANUC Series 0i-PB
+parameter manual B-63980EN/01, parameters 3620-3627 (with the
 worked example of the incremental values). FANUC Series 16i/18i-MA technical report
 A-77810E (bidirectional pitch error compensation, parameters 3620-3627).
 """
@@ -47,6 +55,11 @@ from volcal.model.names import AXES
 
 PARAM_FILE = "FANUC_PARAM.TXT"
 PITCH_FILE = "FANUC_PITCH.TXT"
+NOTES_FILE = "FANUC_README.TXT"
+FORBIDDEN_PARAMETERS: tuple[int, ...] = (1240, 1241, 1242, 1243, 1250, 1260, 1850)
+"""Parameters that (re)define machine coordinates or the reference position; never
+written (1240-1243 reference positions, 1250 coordinate system at reference return,
+1260 rotation amount, 1850 grid shift)."""
 
 
 def fanuc_files(errors: MachineErrors, spacing: float, sign: str, reference_mm,
@@ -93,7 +106,7 @@ def fanuc_files(errors: MachineErrors, spacing: float, sign: str, reference_mm,
                                f"units ({unit_um:g} um)")
     res = unit_um * magnification
     ref = np.asarray(reference_mm, dtype=float).reshape(3)
-    params: dict[int, list[int]] = {n: [] for n in (1240, 3620, 3621, 3622, 3623, 3624)}
+    params: dict[int, list] = {n: [] for n in (3620, 3621, 3622, 3623, 3624)}
     data: list[tuple[int, int]] = []
     first = 0
     for k in range(3):
@@ -123,26 +136,52 @@ def fanuc_files(errors: MachineErrors, spacing: float, sign: str, reference_mm,
                 f"Fanuc {AXES[k]}: point {int(numbers[i])} at {p[i + 1]:g} mm needs an "
                 f"increment of {int(inc[i])} x {res:g} um, beyond +-{max_increment}; use a "
                 "larger --magnification or a smaller --spacing")
-        params[1240].append(int(round(ref[k] * 1000.0 / unit_um)))
         params[3620].append(int(n_ref))
         params[3621].append(int(numbers[0]))
         params[3622].append(int(numbers[-1]))
         params[3623].append(int(magnification))
-        params[3624].append(int(round(interval)))
+        params[3624].append(_mm(spacing))
         data += list(zip(numbers.tolist(), inc.tolist(), strict=True))
         first = int(numbers[-1]) + 1
-    plines = ["%"] + [f"N{n:04d}" + "".join(f"A{a + 1}P{v}" for a, v in enumerate(vals))
+    plines = ["%"] + [f"N{n:05d}Q1" + "".join(f"A{a + 1}P{v}" for a, v in enumerate(vals))
                       for n, vals in params.items()] + ["%"]
-    dlines = ["%"] + [f"N{10000 + n}P{v}" for n, v in data] + ["%"]
-    return {PARAM_FILE: "\n".join(plines) + "\n", PITCH_FILE: "\n".join(dlines) + "\n"}
+    dlines = ["%"] + [f"N{10000 + n}Q0P{v}" for n, v in data] + ["%"]
+    notes = [
+        "volcal: FANUC pitch error compensation of EXX, EYY, EZZ (axes 1, 2, 3 = X, Y, Z).",
+        f"Sign: {sign}" + (" (FANUC's convention: the values are added to the command)."
+                           if sign == "correction" else
+                           " (OVERRIDE: FANUC adds the values to the command)."),
+        f"Unit of the data: {unit_um:g} um detection unit x magnification {magnification}.",
+        "The compensation is zero at the reference position, which the table assumes at "
+        + ", ".join(f"{AXES[k]} = {ref[k]:g} mm" for k in range(3)) + " (model coordinates).",
+        "Parameter 1240 (machine coordinate of the reference position) is NOT written:",
+        "check that the control's reference position is the one above.",
+        "Load FANUC_PARAM.TXT and FANUC_PITCH.TXT through the parameter and pitch data",
+        "input screens (PWE = 1, emergency stop), then power the control off and on.",
+        "Straightness, angular and squareness errors stay uncorrected."]
+    return {PARAM_FILE: "\n".join(plines) + "\n", PITCH_FILE: "\n".join(dlines) + "\n",
+            NOTES_FILE: "\n".join(notes) + "\n"}
 
 
-_PARAM = re.compile(r"^N0*(\d+)((?:A\d+P-?\d+)+)$")
-_DATA = re.compile(r"^N(1\d{4})P(-?\d+)$")
+def _mm(v: float) -> str:
+    """A length [mm] with a decimal point and no trailing zeros beyond one (``20.0``)."""
+    t = f"{v:.4f}".rstrip("0")
+    return t + "0" if t.endswith(".") else t
 
 
-def read_fanuc(folder: str | Path, sign: str, unit_um: float = 1.0) -> list[AxisTable]:
-    """Read Fanuc files written by :func:`fanuc_files` back into absolute tables.
+_NUM = r"[-+]?(?:\d+\.?\d*|\.\d+)"
+_PARAM = re.compile(rf"^N0*(\d+)(?:Q[01])?((?:A\d+P{_NUM})+|P{_NUM})$")
+_DATA = re.compile(r"^N(1\d{4})(?:Q0)?P([-+]?\d+)$")
+
+
+def read_fanuc(folder: str | Path, sign: str, unit_um: float = 1.0,
+               reference_mm=(0.0, 0.0, 0.0)) -> list[AxisTable]:
+    """Read Fanuc parameter and pitch files back into absolute tables.
+
+    Accepts the current I/O syntax (``N03620Q1A1P40``, ``N03624Q1A1P20.0``,
+    ``N10000Q0P1``) and the older one (``N3620A1P40``, ``N10000P1``, 3624 in detection
+    units); other parameters in a full backup (``N01240Q1A1P0.0A2P0.0``, bit and
+    non-axis parameters) are read and ignored.
 
     Parameters
     ----------
@@ -152,6 +191,8 @@ def read_fanuc(folder: str | Path, sign: str, unit_um: float = 1.0) -> list[Axis
         Sign convention the values were written in.
     unit_um : float
         Detection unit [um].
+    reference_mm : array_like, shape (3,)
+        Position of the reference point of X, Y, Z [mm] (not in the files).
 
     Returns
     -------
@@ -166,8 +207,8 @@ def read_fanuc(folder: str | Path, sign: str, unit_um: float = 1.0) -> list[Axis
         m = _PARAM.match(line)
         if not m:
             raise VolcalInputError(f"not a Fanuc parameter line: {line!r}", folder / PARAM_FILE, i)
-        params[int(m.group(1))] = {int(a): int(v) for a, v in re.findall(r"A(\d+)P(-?\d+)",
-                                                                           m.group(2))}
+        params[int(m.group(1))] = {int(a): v for a, v in
+                                   re.findall(rf"A(\d+)P({_NUM})", m.group(2))}
     data: dict[int, int] = {}
     for i, line in enumerate(_lines(folder / PITCH_FILE), start=1):
         if line == "%":
@@ -179,18 +220,22 @@ def read_fanuc(folder: str | Path, sign: str, unit_um: float = 1.0) -> list[Axis
     out = []
     for k in range(3):
         try:
-            ref_pos, n_ref, n_neg, n_pos, mag, interval = (
-                params[n][k + 1] for n in (1240, 3620, 3621, 3622, 3623, 3624))
+            n_ref, n_neg, n_pos, mag, interval = (
+                params[n][k + 1] for n in (3620, 3621, 3622, 3623, 3624))
+            n_ref, n_neg, n_pos, mag = (int(v) for v in (n_ref, n_neg, n_pos, mag))
         except KeyError as exc:
             raise VolcalInputError(f"parameter missing for axis {k + 1}: {exc}",
                                    folder / PARAM_FILE) from None
-        d = interval * unit_um / 1000.0
+        except ValueError as exc:
+            raise VolcalInputError(f"axis {k + 1}: {exc}", folder / PARAM_FILE) from None
+        # 3624 with a decimal point is a length [mm]; an integer is in detection units
+        d = float(interval) if "." in interval else int(interval) * unit_um / 1000.0
         j = np.arange(n_neg - n_ref - 1, n_pos - n_ref + 1)
         inc = np.array([data.get(int(n), 0) for n in range(n_neg, n_pos + 1)])
         c = np.concatenate([[0], np.cumsum(inc)])
         c = c - c[int(np.flatnonzero(j == 0)[0])]
         res = unit_um * mag
-        out.append(AxisTable(k, k, ref_pos * unit_um / 1000.0 + d * j, c * res, sign, res))
+        out.append(AxisTable(k, k, float(reference_mm[k]) + d * j, c * res, sign, res))
     return out
 
 

@@ -12,6 +12,7 @@ import numpy as np
 from volcal.compensate.fanuc import fanuc_files
 from volcal.compensate.generic import generic_files
 from volcal.compensate.heidenhain import heidenhain_files
+from volcal.compensate.linuxcnc import MAX_ENTRIES, linuxcnc_files
 from volcal.compensate.siemens import siemens_files
 from volcal.compensate.tables import sign_factor
 from volcal.compensate.volumetric import grid_files, isg_files
@@ -19,8 +20,10 @@ from volcal.errors import VolcalInputError
 from volcal.io.atomic import atomic_dir
 from volcal.io.tomlfmt import dumps as toml_dumps
 from volcal.model.errorfunctions import MachineErrors
+from volcal.model.names import COMPONENT_NAMES, SQUARENESS_NAMES
 
 MANIFEST = "volcal-compensation.toml"
+ALL21: tuple[str, ...] = tuple(COMPONENT_NAMES) + tuple(SQUARENESS_NAMES)
 
 
 @dataclass(frozen=True)
@@ -29,8 +32,9 @@ class CompensationOptions:
 
     Parameters
     ----------
-    sign : str
-        ``'error'`` or ``'correction'`` (no default: the user must choose).
+    sign : str, optional
+        ``'error'`` or ``'correction'``; default (None) the format's own convention
+        (:data:`DEFAULT_SIGN`). Anything else is an override.
     spacing : float
         Distance between compensation points (and 3-D grid spacing) [mm].
     max_points : int, optional
@@ -48,9 +52,14 @@ class CompensationOptions:
         Siemens CEC tables carry the squareness terms.
     tool_offset : array_like, shape (3,), optional
         Target point of the 3-D grid [mm].
+    linuxcnc_type : int
+        LinuxCNC ``COMP_FILE_TYPE`` (1: trims, 0: actual positions).
+    reversal_um : sequence of 3 callables, optional
+        Per axis, ``f(positions [mm]) -> reverse minus forward positioning error [um]``
+        from bidirectional ISO 230-2 runs; used by formats with two directions.
     """
 
-    sign: str
+    sign: str | None = None
     spacing: float = 20.0
     max_points: int | None = None
     reference_mm: tuple[float, float, float] | None = None
@@ -59,6 +68,8 @@ class CompensationOptions:
     max_increment: int = 7
     include_squareness: bool = True
     tool_offset: tuple[float, float, float] | None = None
+    linuxcnc_type: int = 1
+    reversal_um: tuple | None = None
 
     def __post_init__(self) -> None:
         """Reject option values no controller table can be built from."""
@@ -75,19 +86,65 @@ class CompensationOptions:
 
 def _fanuc(e: MachineErrors, o: CompensationOptions) -> dict[str, str]:
     ref = e.travel[:, 0] if o.reference_mm is None else np.asarray(o.reference_mm)
-    return fanuc_files(e, o.spacing, o.sign, ref, o.unit_um, o.magnification, o.max_increment,
+    return fanuc_files(e, o.spacing, o.sign or DEFAULT_SIGN["fanuc"], ref, o.unit_um, o.magnification, o.max_increment,
                        o.max_points or 1024)
+
+
+DEFAULT_SIGN: dict[str, str] = {
+    "fanuc": "correction", "siemens": "error", "heidenhain": "error", "csv": "error",
+    "isg": "error", "grid": "error", "linuxcnc": "correction",
+}
+"""Each format's own sign convention (sources in docs/compensation.md)."""
+
+SIGN_SOURCE: dict[str, str] = {
+    "fanuc": "FANUC parameter manual B-63950EN/02 (30i), pitch error compensation: the "
+             "compensation pulses are added to the command",
+    "siemens": "SINUMERIK 840D sl function manual Extended functions (K3), LEC: a positive "
+               "compensation value moves the axis in the negative direction; CEC taken the "
+               "same (check on the machine)",
+    "heidenhain": "not stated in a public HEIDENHAIN manual; volcal writes the error (check "
+                  "on the machine)",
+    "csv": "volcal convention (ISO 230-1 error = actual - commanded)",
+    "isg": "Beckhoff TF5280 / ISG volumetric compensation: tables hold the errors "
+           "(negate flips them)",
+    "grid": "volcal convention (ISO 230-1 error = actual - commanded)",
+    "linuxcnc": "LinuxCNC src/emc/motion/usrmotintf.cc usrmotLoadComp: trim = nominal - "
+                "actual, added to the command",
+}
+"""Where each default sign comes from (manual and place), recorded in the manifest."""
+
+CARRIES: dict[str, tuple[str, ...]] = {
+    "fanuc": ("EXX", "EYY", "EZZ"), "heidenhain": ("EXX", "EYY", "EZZ"),
+    "csv": ("EXX", "EYY", "EZZ"), "linuxcnc": ("EXX", "EYY", "EZZ"),
+    "siemens": ("EXX", "EYY", "EZZ", "EYX", "EZX", "EXY", "EZY", "EXZ", "EYZ"),
+    "isg": ALL21, "grid": ALL21,
+}
+"""ISO 230-1 names each format's table set corrects (Siemens adds the squareness
+terms when ``include_squareness``)."""
+
+RESOLUTION_UM: dict[str, float] = {
+    "fanuc": 1.0, "siemens": 0.001, "heidenhain": 0.1, "csv": 0.001, "isg": 0.001,
+    "grid": 0.001, "linuxcnc": 0.001,
+}
+
+
+def _s(o: CompensationOptions, fmt: str) -> str:
+    return o.sign or DEFAULT_SIGN[fmt]
 
 
 FORMATS: dict[str, Callable[[MachineErrors, CompensationOptions], dict[str, str]]] = {
     "fanuc": _fanuc,
-    "siemens": lambda e, o: siemens_files(e, o.spacing, o.sign, o.max_points or 5000,
+    "siemens": lambda e, o: siemens_files(e, o.spacing, _s(o, "siemens"), o.max_points or 5000,
                                           o.include_squareness),
-    "heidenhain": lambda e, o: heidenhain_files(e, o.spacing, o.sign, o.max_points or 256),
-    "csv": lambda e, o: generic_files(e, o.spacing, o.sign, o.max_points),
-    "isg": lambda e, o: isg_files(e, o.spacing, o.sign, o.max_points),
-    "grid": lambda e, o: grid_files(e, o.spacing, o.sign, o.tool_offset,
+    "heidenhain": lambda e, o: heidenhain_files(e, o.spacing, _s(o, "heidenhain"),
+                                                o.max_points or 256),
+    "csv": lambda e, o: generic_files(e, o.spacing, _s(o, "csv"), o.max_points),
+    "isg": lambda e, o: isg_files(e, o.spacing, _s(o, "isg"), o.max_points),
+    "grid": lambda e, o: grid_files(e, o.spacing, _s(o, "grid"), o.tool_offset,
                                     o.max_points or 1_000_000),
+    "linuxcnc": lambda e, o: linuxcnc_files(e, o.spacing, _s(o, "linuxcnc"),
+                                            o.max_points or MAX_ENTRIES, o.linuxcnc_type,
+                                            o.reversal_um),
 }
 """Format name -> function returning the files (name -> text) of that format."""
 
@@ -117,15 +174,26 @@ def write_compensation(errors: MachineErrors, fmt: str, folder: str | Path,
     """
     if fmt not in FORMATS:
         raise VolcalInputError(f"unknown format {fmt!r}: expected one of {', '.join(FORMATS)}")
-    sign_factor(options.sign)
+    sign = options.sign or DEFAULT_SIGN[fmt]
+    sign_factor(sign)
     folder = Path(folder)
     if folder.exists() and (not folder.is_dir() or (any(folder.iterdir())
                                                     and not (folder / MANIFEST).is_file())):
         raise VolcalInputError("output exists and is not a volcal compensation folder", folder)
     files = FORMATS[fmt](errors, options)
+    carries = list(CARRIES[fmt])
+    if fmt == "siemens" and options.include_squareness:
+        carries += list(SQUARENESS_NAMES)
+    res = RESOLUTION_UM[fmt] * (options.unit_um * options.magnification if fmt == "fanuc"
+                                else 1.0)
     manifest = {"format": "volcal-compensation/1", "controller_format": fmt,
-                "sign": options.sign, "spacing_mm": options.spacing, "model": source,
-                "machine": errors.name, "chain": errors.chain_obj.code,
+                "sign": sign, "sign_default": DEFAULT_SIGN[fmt],
+                "sign_source": SIGN_SOURCE[fmt] if sign == DEFAULT_SIGN[fmt]
+                else "override (--sign)",
+                "spacing_mm": options.spacing, "resolution_um": res, "carries": carries,
+                "bidirectional": bool(options.reversal_um is not None
+                                      and fmt in ("linuxcnc",)),
+                "model": source, "machine": errors.name, "chain": errors.chain_obj.code,
                 "files": sorted(files)}
     with atomic_dir(folder) as tmp:
         for name, text in files.items():

@@ -75,9 +75,16 @@ def siemens_files(errors: MachineErrors, spacing: float, sign: str, max_points: 
         File name -> content.
     """
     lec = ["%_N_AX_EEC_INI", "CHANDATA(1)",
-           f"; volcal: positioning errors EXX, EYY, EZZ, sign = {sign}, values in mm"]
+           f"; volcal: positioning errors EXX, EYY, EZZ, sign = {sign}, values in mm",
+           "; K3: a positive compensation value moves the axis in the negative direction"
+           + (" (table = error)" if sign == "error" else " (OVERRIDE: table = -error)"),
+           "; activation: MD38000 $MA_MM_ENC_COMP_MAX_POINTS (power on), load this program,",
+           "; MD32700 $MA_ENC_COMP_ENABLE[0]=1, then reference the axis."]
     cec = ["%_N_NC_CEC_INI", "CHANDATA(1)",
-           f"; volcal: straightness (and squareness) tables, sign = {sign}, values in mm"]
+           f"; volcal: straightness (and squareness) tables, sign = {sign}, values in mm",
+           "; activation: MD18342 $MN_MM_CEC_MAX_POINTS[t] >= points of table t (power on),",
+           "; MD32710 $MA_CEC_ENABLE[AXn]=1 on each output axis, then per table",
+           "; SD41300 $SN_CEC_TABLE_ENABLE[t]=1; the axes must be referenced."]
     for k in range(3):
         p = axis_grid(*errors.travel[k], spacing, max_points=max_points,
                       what=f"Siemens LEC {AXES[k]}")
@@ -93,8 +100,8 @@ def siemens_files(errors: MachineErrors, spacing: float, sign: str, max_points: 
         t = cross_table(errors, a_in, a_out, p, sign, RESOLUTION_UM, include_squareness)
         cec.append(f"; table {ti}: {t.name}")
         cec += [f"$AN_CEC[{ti},{n}]={_mm(v)}" for n, v in enumerate(t.values)]
-        cec += [f"$AN_CEC_INPUT_AXIS[{ti}]=AX{a_in + 1}",
-                f"$AN_CEC_OUTPUT_AXIS[{ti}]=AX{a_out + 1}",
+        cec += [f"$AN_CEC_INPUT_AXIS[{ti}]=(AX{a_in + 1})",
+                f"$AN_CEC_OUTPUT_AXIS[{ti}]=(AX{a_out + 1})",
                 f"$AN_CEC_STEP[{ti}]={spacing:.6f}", f"$AN_CEC_MIN[{ti}]={p[0]:.6f}",
                 f"$AN_CEC_MAX[{ti}]={p[-1]:.6f}", f"$AN_CEC_DIRECTION[{ti}]=0",
                 f"$AN_CEC_MULT_BY_TABLE[{ti}]=0", f"$AN_CEC_IS_MODULO[{ti}]=0"]
@@ -186,7 +193,7 @@ def read_cec(path: str | Path, sign: str) -> list[AxisTable]:
         par = {w: d.get((f"AN_CEC_{w}", (str(t),)), "")
                for w in ("INPUT_AXIS", "OUTPUT_AXIS", "STEP", "MIN", "MAX")}
         try:
-            a_in, a_out = (int(par[w].removeprefix("AX")) - 1
+            a_in, a_out = (int(par[w].strip("()").removeprefix("AX")) - 1
                            for w in ("INPUT_AXIS", "OUTPUT_AXIS"))
             step, lo, hi = (float(par[w]) for w in ("STEP", "MIN", "MAX"))
         except ValueError as exc:

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from volcal.compensate import CompensationOptions, write_compensation
-from volcal.compensate.formats import DEFAULT_SIGN, FORMATS, MANIFEST
 from volcal.compensate.fanuc import PARAM_FILE, PITCH_FILE, read_fanuc
+from volcal.compensate.formats import DEFAULT_SIGN, FORMATS, MANIFEST
 from volcal.errors import VolcalInputError
 from volcal.measure.virtual import random_machine
 

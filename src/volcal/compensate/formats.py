@@ -39,7 +39,7 @@ class CompensationOptions:
         Distance between compensation points (and 3-D grid spacing) [mm].
     max_points : int, optional
         Controller limit of points (per table; Fanuc: the whole table). Default per
-        format: Fanuc 1024, Siemens 5000, Heidenhain 256, others unlimited (3-D grid 10^6).
+        format: Fanuc 1024, Siemens 5000, LinuxCNC 256, others unlimited (3-D grid 10^6).
     reference_mm : array_like, shape (3,), optional
         Fanuc reference position [mm]; default the start of each travel.
     unit_um : float
@@ -86,8 +86,8 @@ class CompensationOptions:
 
 def _fanuc(e: MachineErrors, o: CompensationOptions) -> dict[str, str]:
     ref = e.travel[:, 0] if o.reference_mm is None else np.asarray(o.reference_mm)
-    return fanuc_files(e, o.spacing, o.sign or DEFAULT_SIGN["fanuc"], ref, o.unit_um, o.magnification, o.max_increment,
-                       o.max_points or 1024)
+    return fanuc_files(e, o.spacing, o.sign or DEFAULT_SIGN["fanuc"], ref, o.unit_um,
+                       o.magnification, o.max_increment, o.max_points or 1024)
 
 
 DEFAULT_SIGN: dict[str, str] = {
@@ -137,7 +137,7 @@ FORMATS: dict[str, Callable[[MachineErrors, CompensationOptions], dict[str, str]
     "siemens": lambda e, o: siemens_files(e, o.spacing, _s(o, "siemens"), o.max_points or 5000,
                                           o.include_squareness),
     "heidenhain": lambda e, o: heidenhain_files(e, o.spacing, _s(o, "heidenhain"),
-                                                o.max_points or 256),
+                                                o.max_points, o.reversal_um),
     "csv": lambda e, o: generic_files(e, o.spacing, _s(o, "csv"), o.max_points),
     "isg": lambda e, o: isg_files(e, o.spacing, _s(o, "isg"), o.max_points),
     "grid": lambda e, o: grid_files(e, o.spacing, _s(o, "grid"), o.tool_offset,
@@ -192,7 +192,7 @@ def write_compensation(errors: MachineErrors, fmt: str, folder: str | Path,
                 else "override (--sign)",
                 "spacing_mm": options.spacing, "resolution_um": res, "carries": carries,
                 "bidirectional": bool(options.reversal_um is not None
-                                      and fmt in ("linuxcnc",)),
+                                      and fmt in ("linuxcnc", "heidenhain")),
                 "model": source, "machine": errors.name, "chain": errors.chain_obj.code,
                 "files": sorted(files)}
     with atomic_dir(folder) as tmp:

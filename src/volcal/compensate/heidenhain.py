@@ -4,15 +4,23 @@ A ``.COM`` table lists compensation points of one input axis (column ``AXISPOS``
 machine coordinates [mm]) and the compensation value of the compensated axis in a
 column named after it [mm]; the ``.CMA`` table assigns the ``.COM`` tables to the
 input axes (one column per axis, ``*`` in ``ACTIVE`` marks the active line). Tables
-start with ``BEGIN <name> MM`` and end with ``[END]``. The control interpolates linearly
-between points; older controls (TNC 407/415/425) accept at most 256 entries per
-``.COM`` table, which is volcal's default limit (``max_points``).
+start with ``BEGIN <name> MM`` and end with ``[END]``. This is the AXISPOS format of
+the TNC 640 / MANUALplus 620 generation: the ``BACKLASH`` column holds the additional
+value for the negative direction of travel [mm] (reverse minus forward compensation;
+0 without bidirectional data). The control interpolates linearly between points.
+
+Tables are fixed-width: every value starts at the column where its header name starts
+(HEIDENHAIN tables and pyLSV2's table reader take each field from the header's column).
+
+The 256-entry limit with a datum and power-of-two spacing belongs to the older TNC
+407/415/425 tables, which have no AXISPOS column; volcal does not write that format and
+sets no default limit (``max_points`` on request).
 
 References
 ----------
-HEIDENHAIN TNC 407/415/425 Technical Manual, 1 Machine axes, nonlinear axis error
-compensation (.CMA/.COM, module 9095: "more than 256 entries"). HEIDENHAIN MANUALplus
-620 Technical Manual, entering compensation values (AXISPOS column, *.COM/*.CMA).
+HEIDENHAIN MANUALplus 620 / TNC 640 Technical Manual, nonlinear axis error
+compensation (*.COM/*.CMA, AXISPOS and BACKLASH columns). HEIDENHAIN TNC 407/415/425
+Technical Manual (256-entry tables, for contrast).
 """
 
 from __future__ import annotations
@@ -34,8 +42,15 @@ def _f(v: float, d: int) -> str:
     return f"{v:+.{d}f}"
 
 
-def heidenhain_files(errors: MachineErrors, spacing: float, sign: str, max_points: int = 256
-                     ) -> dict[str, str]:
+_W = 14  # column width: every header name and its values start at a multiple of it
+
+
+def _row(cells: list[str]) -> str:
+    return "".join(c.ljust(_W) for c in cells[:-1]) + cells[-1]
+
+
+def heidenhain_files(errors: MachineErrors, spacing: float, sign: str = "error",
+                     max_points: int | None = None, reversal_um=None) -> dict[str, str]:
     """``X.COM``, ``Y.COM``, ``Z.COM`` (positioning errors) and ``VOLCAL.CMA``.
 
     Parameters
@@ -46,8 +61,11 @@ def heidenhain_files(errors: MachineErrors, spacing: float, sign: str, max_point
         Distance between compensation points [mm] (a multiple of 0.0001 mm).
     sign : str
         ``'error'`` or ``'correction'``.
-    max_points : int
-        Entries allowed per ``.COM`` table.
+    max_points : int, optional
+        Entries allowed per ``.COM`` table (no limit by default).
+    reversal_um : sequence of 3 callables, optional
+        Per axis, ``f(positions [mm]) -> reverse minus forward error [um]``; written
+        in the ``BACKLASH`` column (0 when absent).
 
     Returns
     -------
@@ -60,12 +78,17 @@ def heidenhain_files(errors: MachineErrors, spacing: float, sign: str, max_point
         a = AXES[k]
         p = axis_grid(*errors.travel[k], spacing, max_points=max_points, what=f"Heidenhain {a}")
         t = pitch_table(errors, k, p, sign, RESOLUTION_UM)
-        rows = [f"BEGIN {a}.COM MM", f"{'NR':<6}{'AXISPOS':>14}{a:>14}"]
-        rows += [f"{n:<6}{_f(pos, 4):>14}{_f(v / 1000.0, 4):>14}"
-                 for n, (pos, v) in enumerate(zip(p, t.values, strict=True))]
+        back = np.zeros_like(p)
+        if reversal_um is not None and reversal_um[k] is not None:
+            s = 1.0 if sign == "error" else -1.0
+            back = s * np.asarray(reversal_um[k](p), dtype=float)
+        back = np.round(back / RESOLUTION_UM) * RESOLUTION_UM
+        rows = [f"BEGIN {a}.COM MM", _row(["NR", "AXISPOS", a, "BACKLASH"])]
+        rows += [_row([str(n), _f(pos, 4), _f(v / 1000.0, 4), _f(b / 1000.0, 4)])
+                 for n, (pos, v, b) in enumerate(zip(p, t.values, back, strict=True))]
         files[f"{a}.COM"] = "\n".join([*rows, "[END]"]) + "\n"
-    cma = [f"BEGIN {CMA_FILE}", f"{'NR':<6}{'ACTIVE':<8}{'X':<10}{'Y':<10}{'Z':<10}",
-           f"{0:<6}{'*':<8}{'X.COM':<10}{'Y.COM':<10}{'Z.COM':<10}", "[END]"]
+    cma = [f"BEGIN {CMA_FILE}", _row(["NR", "ACTIVE", "X", "Y", "Z"]),
+           _row(["0", "*", "X.COM", "Y.COM", "Z.COM"]), "[END]"]
     files[CMA_FILE] = "\n".join(cma) + "\n"
     return files
 
@@ -110,7 +133,7 @@ def read_heidenhain(folder: str | Path, sign: str) -> list[AxisTable]:
         if h[:2] != ["NR", "AXISPOS"] or len(out_axis) != 1:
             raise VolcalInputError("expected columns NR AXISPOS <axis>", folder / com, 2)
         try:
-            arr = np.array([[float(r[1]), float(r[2])] for r in data])
+            arr = np.array([[float(r[1]), float(r[h.index(out_axis[0])])] for r in data])
         except (ValueError, IndexError):
             raise VolcalInputError("bad number in table", folder / com) from None
         out.append(AxisTable(AXES.index(col), AXES.index(out_axis[0]), arr[:, 0],

@@ -34,6 +34,9 @@ def compensate(
     squareness: Annotated[bool, typer.Option(help="Siemens CEC: add squareness terms.")] = True,
     tool_offset: Annotated[str, typer.Option(help="3-D grid: target on the tool x,y,z [mm].")
                            ] = "0,0,0",
+    session: Annotated[Path | None, typer.Option(
+        help="Session folder: its bidirectional ISO 230-2 linear tests give the reversal "
+        "for formats with two directions (linuxcnc, heidenhain BACKLASH).")] = None,
     linuxcnc_type: Annotated[int, typer.Option(
         help="LinuxCNC COMP_FILE_TYPE: 1 (nominal, forward trim, reverse trim) or 0 "
         "(nominal, actual forward, actual reverse).")] = 1,
@@ -62,10 +65,16 @@ def compensate(
         else:
             console.print(f"--sign {sign} is the {fmt} default (nothing overridden)")
     check_output_folder(output, "compensation", lambda p: (p / MANIFEST).is_file())
+    reversal = None
+    if session is not None:
+        from volcal.compensate.bidirectional import reversal_from_session
+
+        reversal = reversal_from_session(session)
     ref = None if reference_mm is None else tuple(parse_vector(reference_mm, "--reference-mm"))
     opts = CompensationOptions(sign, spacing, max_points, ref, unit_um, magnification,
                                max_increment, squareness,
-                               tuple(parse_vector(tool_offset, "--tool-offset")), linuxcnc_type)
+                               tuple(parse_vector(tool_offset, "--tool-offset")), linuxcnc_type,
+                               reversal)
     errors = load_errors(model)
     files = write_compensation(errors, fmt, output, opts, model.name)
     console.print(f"wrote {fmt} tables ({sign or DEFAULT_SIGN[fmt]}, {spacing:g} mm): "

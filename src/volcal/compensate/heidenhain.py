@@ -65,7 +65,8 @@ def heidenhain_files(errors: MachineErrors, spacing: float, sign: str = "error",
         Entries allowed per ``.COM`` table (no limit by default).
     reversal_um : sequence of 3 callables, optional
         Per axis, ``f(positions [mm]) -> reverse minus forward error [um]``; written
-        in the ``BACKLASH`` column (0 when absent).
+        in the ``BACKLASH`` column (0 when absent), and the value column then holds the
+        forward error (model - r/2; the model is the bidirectional mean).
 
     Returns
     -------
@@ -83,9 +84,10 @@ def heidenhain_files(errors: MachineErrors, spacing: float, sign: str = "error",
             s = 1.0 if sign == "error" else -1.0
             back = s * np.asarray(reversal_um[k](p), dtype=float)
         back = np.round(back / RESOLUTION_UM) * RESOLUTION_UM
+        vals = np.round((t.values - back / 2.0) / RESOLUTION_UM) * RESOLUTION_UM
         rows = [f"BEGIN {a}.COM MM", _row(["NR", "AXISPOS", a, "BACKLASH"])]
         rows += [_row([str(n), _f(pos, 4), _f(v / 1000.0, 4), _f(b / 1000.0, 4)])
-                 for n, (pos, v, b) in enumerate(zip(p, t.values, back, strict=True))]
+                 for n, (pos, v, b) in enumerate(zip(p, vals, back, strict=True))]
         files[f"{a}.COM"] = "\n".join([*rows, "[END]"]) + "\n"
     cma = [f"BEGIN {CMA_FILE}", _row(["NR", "ACTIVE", "X", "Y", "Z"]),
            _row(["0", "*", "X.COM", "Y.COM", "Z.COM"]), "[END]"]

@@ -64,7 +64,7 @@ def linuxcnc_files(errors: MachineErrors, spacing: float, sign: str = "correctio
     Parameters
     ----------
     errors : MachineErrors
-        The model (its positioning errors are the forward direction).
+        The model (its positioning errors are the bidirectional mean).
     spacing : float
         Distance between entries [mm].
     sign : str
@@ -76,7 +76,8 @@ def linuxcnc_files(errors: MachineErrors, spacing: float, sign: str = "correctio
         ``COMP_FILE_TYPE``: 1 (trims) or 0 (actual positions).
     reversal_um : sequence of 3 callables, optional
         Per axis, ``f(positions [mm]) -> reverse minus forward error [um]`` (from the
-        bidirectional ISO 230-2 runs); default none (forward = reverse).
+        bidirectional ISO 230-2 runs, :mod:`volcal.compensate.bidirectional`); forward
+        gets ``-r/2``, reverse ``+r/2``; default none (forward = reverse).
 
     Returns
     -------
@@ -95,8 +96,10 @@ def linuxcnc_files(errors: MachineErrors, spacing: float, sign: str = "correctio
         fwd = pitch_table(errors, k, p, sign, RESOLUTION_UM).values
         rev = fwd.copy()
         if reversal_um is not None and reversal_um[k] is not None:
+            # the model is the bidirectional mean: forward - r/2, reverse + r/2
             s = 1.0 if sign == "error" else -1.0
-            rev = quantize(fwd + s * np.asarray(reversal_um[k](p), dtype=float), RESOLUTION_UM)
+            half = s * np.asarray(reversal_um[k](p), dtype=float) / 2.0
+            fwd, rev = quantize(fwd - half, RESOLUTION_UM), quantize(fwd + half, RESOLUTION_UM)
         if np.any(np.diff(p) <= 0):  # axis_grid is uniform; kept as a guard
             raise VolcalInputError(f"LinuxCNC {AXES[k]}: positions not strictly increasing")
         lines = []

@@ -133,3 +133,17 @@ def test_fanuc_reader_accepts_a_real_backup(tmp_path):
     np.testing.assert_allclose(x.values, [0, 0, 3, 1])  # incremental -> absolute
     np.testing.assert_allclose(y.values, [0, 0, -2])  # magnification 2
     np.testing.assert_allclose(z.values, [0, 0, 7])
+
+
+def test_siemens_cec_syntax_and_activation(tmp_path, machine):
+    from volcal.compensate.siemens import CEC_FILE, LEC_FILE
+
+    write_compensation(machine, "siemens", tmp_path, CompensationOptions(spacing=50.0))
+    cec = (tmp_path / CEC_FILE).read_text().splitlines()
+    # K3 syntax: the axis name in parentheses
+    assert "$AN_CEC_INPUT_AXIS[0]=(AX1)" in cec and "$AN_CEC_OUTPUT_AXIS[0]=(AX2)" in cec
+    text = "\n".join(cec)
+    for key in ("MD18342 $MN_MM_CEC_MAX_POINTS", "MD32710 $MA_CEC_ENABLE",
+                "SD41300 $SN_CEC_TABLE_ENABLE"):
+        assert key in text
+    assert "sign = error" in (tmp_path / LEC_FILE).read_text()  # K3: the LEC wants the error

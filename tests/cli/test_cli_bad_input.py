@@ -463,7 +463,9 @@ CASES: list[Case] = [
     *[Case(f"compensate:{k}", ["compensate", *a, "-o", "{d}/C2"], e, m) for k, a, e, m in [
         ("format-unknown", ["{d}/ERRORS.csv", "--format", "okuma", "--sign", "error"],
          ("okuma",), None),
-        ("sign-missing", ["{d}/ERRORS.csv", "--format", "csv"], ("--sign",), None),
+        # --sign is optional now (each format's own convention): no "sign-missing" case
+        ("linuxcnc-type-bad", ["{d}/ERRORS.csv", "--format", "linuxcnc", "--linuxcnc-type",
+                               "2"], ("linuxcnc-type",), None),
         ("sign-unknown", ["{d}/ERRORS.csv", "--format", "csv", "--sign", "plus"], ("plus",), None),
         ("spacing-zero", ["{d}/ERRORS.csv", "--format", "csv", "--sign", "error",
                           "--spacing", "0"], ("spacing",), None),

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from volcal.compensate import CompensationOptions, write_compensation
-from volcal.compensate.fanuc import NOTES_FILE, PARAM_FILE, PITCH_FILE, read_fanuc
+from volcal.compensate.fanuc import PARAM_FILE, PITCH_FILE, read_fanuc
 from volcal.errors import VolcalInputError
 from volcal.measure.virtual import random_machine
 from volcal.model.errorfunctions import MachineErrors
@@ -33,10 +33,20 @@ def test_fanuc_hand_computed(tmp_path):
     assert "N03620Q1A1P0A2P5A3P8" in par
     assert "N03621Q1A1P0A2P5A3P8" in par
     assert "N03622Q1A1P4A2P7A3P10" in par
-    assert "N03624Q1A1P25.0A2P25.0A3P25.0" in par  # a length [mm] with a decimal point
-    assert not any(ln.startswith("N01240") for ln in par)  # never the reference position
+    assert "N03624Q1A1P25.000A2P25.000A3P25.000" in par  # 30i: a length [mm], decimal point
+    assert not any(line.startswith("N01240") for line in par)
     t = read_fanuc(tmp_path, "correction")[0]
     np.testing.assert_array_equal(t.positions, [-25, 0, 25, 50, 75, 100])
+    np.testing.assert_array_equal(t.values, [0, 0, -3, -6, -9, -12])
+
+
+def test_fanuc_older_series_syntax(tmp_path):
+    write_compensation(_linear_machine(), "fanuc", tmp_path,
+                       CompensationOptions("correction", spacing=25.0, fanuc_series="16i"))
+    par = (tmp_path / PARAM_FILE).read_text().split()
+    assert "N3620A1P0A2P5A3P8" in par and "N3624A1P25000A2P25000A3P25000" in par
+    assert (tmp_path / PITCH_FILE).read_text().split()[1] == "N10000P0"
+    t = read_fanuc(tmp_path, "correction")[0]
     np.testing.assert_array_equal(t.values, [0, 0, -3, -6, -9, -12])
 
 
@@ -49,8 +59,9 @@ def test_fanuc_reference_at_the_end_of_travel(tmp_path):
     assert "N03622Q1A1P3A2P6A3P9" in par
     assert (tmp_path / PITCH_FILE).read_text().split()[1:5] == [
         "N10000Q0P3", "N10001Q0P3", "N10002Q0P3", "N10003Q0P3"]
-    assert not any("1240" in ln for ln in par)  # the reference is stated in the notes
-    assert "X = 100 mm" in (tmp_path / NOTES_FILE).read_text()
+    assert not any(line.startswith(("N01240", "N1240")) for line in par)
+    notes = (tmp_path / "FANUC_NOTES.TXT").read_text()
+    assert "X: reference position 100 mm" in notes and "1240" in notes
     t = read_fanuc(tmp_path, "error", reference_mm=(100, 0, 0))[0]
     np.testing.assert_array_equal(t.positions, [0, 25, 50, 75, 100])
     np.testing.assert_array_equal(t.values, [-12, -9, -6, -3, 0])
@@ -71,7 +82,7 @@ def test_fanuc_increment_limit(tmp_path):
     ("fanuc", dict(spacing=0.0005), "whole number of detection units"),
     ("siemens", dict(spacing=0.01), "limit of 5000"),
     ("siemens", dict(spacing=1.0, max_points=50), "use --spacing 2.041 mm"),
-    ("heidenhain", dict(spacing=1.0, max_points=50), "limit of 50"),
+    ("heidenhain", dict(spacing=0.25, max_points=256), "limit of 256"),
     ("linuxcnc", dict(spacing=0.25), "limit of 256"),
     ("heidenhain", dict(spacing=0.00005), "4 decimals"),
     ("grid", dict(spacing=0.5), "3-D grid would have"),
@@ -112,16 +123,17 @@ def test_cli_from_error_table(tmp_path):
     t = read_lec(tmp_path / "out" / LEC_FILE, "error")[0]
     assert t.positions.size == 81
     np.testing.assert_allclose(t.values, m.component(0, t.positions)[:, 0], atol=0.0006)
-    assert "is the siemens default" in r.stdout  # the override names what it overrides
+    # no --sign: the controller's own convention (Fanuc: correction), said in the output
     r = _cli("compensate", str(csv), "--format", "fanuc", "-o", str(tmp_path / "f"))
-    assert r.returncode == 0, r.stderr  # the format's own convention by default
-    from volcal.compensate.fanuc import read_fanuc
+    assert r.returncode == 0, r.stderr
+    assert "correction, the controller's convention" in r.stdout.replace("\n", " ")
     t = read_fanuc(tmp_path / "f", "correction")[0]
-    np.testing.assert_allclose(t.values, -(m.component(0, t.positions)[:, 0]
-                                           - m.component(0, [0.0])[0, 0]), atol=0.51)
+    exx = m.component(0, t.positions)[:, 0]
+    assert np.max(np.abs(t.values - -(exx - exx[1]))) <= 0.5 + 1e-9  # -error, zero at ref
+    # an override is printed with what it overrides
     r = _cli("compensate", str(csv), "--format", "fanuc", "--sign", "error", "-o",
              str(tmp_path / "f2"))
-    assert r.returncode == 0 and "overrides the fanuc convention (correction)" in r.stdout
+    assert r.returncode == 0 and "overrides the fanuc convention 'correction'" in r.stdout
     bad = tmp_path / "MODEL.json"
     bad.write_text("{not json")
     r = _cli("compensate", str(bad), "--format", "csv", "--sign", "error", "-o",

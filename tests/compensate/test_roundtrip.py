@@ -132,7 +132,7 @@ def test_damaged_isg_file_is_a_clear_error(tmp_path, machine, spoil, where):
     write_compensation(machine, "isg", tmp_path, CompensationOptions("error", spacing=25.0))
     path = tmp_path / ISG_FILE
     lines = path.read_text().splitlines()
-    i = next(j for j, t in enumerate(lines) if t and t[0].isdigit())
+    i = next(j for j, t in enumerate(lines) if t and t[0].isdigit() and len(t.split()) == 7)
     spoil(lines, i)
     path.write_text("\n".join(lines) + "\n")
     with pytest.raises(VolcalInputError, match=f"{ISG_FILE}, row {i + 1}: {where}"):

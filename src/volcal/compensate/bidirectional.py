@@ -1,64 +1,126 @@
-"""Reversal values for bidirectional tables from the ISO 230-2 linear tests of a session.
+"""Direction-dependent positioning errors from the ISO 230-2 linear tests of a session.
 
-For each axis the first linear measurement with ``run`` and ``direction`` columns is
-evaluated (ISO 230-2: mean positional deviation per target and approach direction);
-the reversal ``r(p) = mean_down(p) - mean_up(p)`` [um] is interpolated linearly
-between targets (end values held). The model's positioning error is taken as the
-bidirectional mean, so formats with two directions write ``model - r/2`` for the
-positive (forward) and ``model + r/2`` for the negative (reverse) direction.
+An axis with reversal (backlash, lost motion) reaches a target with a different error
+when it approaches from below (forward, ``+``) than from above (reverse, ``-``).
+ISO 230-2 gives, per target, the mean unidirectional deviations ``x_up`` and
+``x_down``; their difference is the reversal ``B = x_up - x_down``. Controllers with two
+tables (LinuxCNC ``COMP_FILE_TYPE`` 0/1, Fanuc bidirectional pitch compensation,
+HEIDENHAIN's ``BACKLASH`` column) take the forward and reverse errors; volcal builds them
+as the identified positioning error ``EXX(p)`` plus and minus half the measured reversal,
+interpolated linearly between the targets and held constant beyond them:
+
+``forward(p) = EXX(p) + B(p)/2``, ``reverse(p) = EXX(p) - B(p)/2``.
+
+References
+----------
+ISO 230-2:2014, 3.3 (mean unidirectional positional deviation, reversal value B_i).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from pathlib import Path
+from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import NDArray
 
-from volcal.errors import VolcalInputError
+__all__ = ["DirectionalErrors", "directional_from_session"]
 
 
-def reversal_from_session(session: str | Path
-                          ) -> tuple[Callable[[np.ndarray], np.ndarray] | None, ...]:
-    """Per-axis reversal functions from a session's ISO 230-2 linear runs.
+@dataclass
+class DirectionalErrors:
+    """Measured reversal of each axis along its travel.
+
+    Attributes
+    ----------
+    targets : list of 3 (ndarray or None)
+        Target positions of each axis' linear test [mm]; None for an axis without a
+        bidirectional test.
+    reversal_um : list of 3 (ndarray or None)
+        Reversal ``B = x_up - x_down`` at the targets [um].
+    source : str
+        Measurement ids the values come from.
+    """
+
+    targets: list[NDArray[np.float64] | None]
+    reversal_um: list[NDArray[np.float64] | None]
+    source: str = ""
+
+    def has(self, axis: int) -> bool:
+        """True if ``axis`` (0, 1, 2) has bidirectional data.
+
+        Parameters
+        ----------
+        axis : int
+            0, 1, 2 = X, Y, Z.
+
+        Returns
+        -------
+        bool
+        """
+        return self.targets[axis] is not None
+
+    def half_reversal(self, axis: int, positions) -> NDArray[np.float64]:
+        """``B(p)/2`` at positions of ``axis`` [um] (zero without data).
+
+        Parameters
+        ----------
+        axis : int
+            0, 1, 2.
+        positions : array_like
+            Positions of the axis [mm].
+
+        Returns
+        -------
+        ndarray
+        """
+        p = np.asarray(positions, dtype=float)
+        t, b = self.targets[axis], self.reversal_um[axis]
+        if t is None or b is None:
+            return np.zeros_like(p)
+        return 0.5 * np.interp(p, t, b)
+
+
+def directional_from_session(session) -> DirectionalErrors:
+    """Reversal per axis from the bidirectional linear tests of a session.
+
+    Uses, per axis, the linear test on the axis' reference line (the one with the
+    smallest Abbe offsets) that has runs in both directions, evaluated with ISO 230-2.
 
     Parameters
     ----------
-    session : str or Path
-        Session folder.
+    session : volcal.session.format.Session
+        A measured session.
 
     Returns
     -------
-    tuple of 3 (callable or None)
-        X, Y, Z: ``f(positions [mm]) -> mean_down - mean_up [um]``; None for an axis
-        without a bidirectional linear test.
-
-    Raises
-    ------
-    VolcalInputError
-        No axis of the session has a bidirectional linear test.
+    DirectionalErrors
     """
-    from volcal.session.format import read_session
+    from volcal.errors import VolcalInputError
     from volcal.standards.iso230_2 import evaluate
     from volcal.standards.positioning_data import from_measurement
 
-    s = read_session(session)
-    out: list = [None, None, None]
-    for m in s.measurements:
-        if m.kind != "linear" or "run" not in m.columns or "direction" not in m.columns:
+    targets: list[NDArray[np.float64] | None] = [None, None, None]
+    rev: list[NDArray[np.float64] | None] = [None, None, None]
+    used = []
+    best: dict[int, float] = {}
+    for m in session.measurements:
+        if m.kind != "linear" or m.deviation is None or m.axis is None:
             continue
-        d = from_measurement(m, s.path)
-        k = "XYZ".index(d.axis) if d.axis in ("X", "Y", "Z") else None
-        if k is None or out[k] is not None:
+        if m.direction is None or len(set(m.direction.tolist())) < 2:
             continue
-        t = evaluate(d.targets_mm, d.run, d.direction, d.deviation_um, file=d.file,
-                     rows=d.rows).targets
-        x = np.asarray(t.target_mm, dtype=float)
-        r = np.asarray(t.mean_down, dtype=float) - np.asarray(t.mean_up, dtype=float)
-        if not np.all(np.isfinite(r)):
+        k = m.axis
+        lever = float(np.abs(np.delete(m.positions[0], k)).sum()
+                      + np.abs(m.tool_offset).sum())
+        if k in best and best[k] <= lever:
             continue
-        order = np.argsort(x)
-        out[k] = (lambda xs, rs: (lambda p: np.interp(p, xs, rs)))(x[order], r[order])
-    if all(f is None for f in out):
-        raise VolcalInputError("no linear measurement with runs in both directions", session)
-    return tuple(out)
+        try:
+            d = from_measurement(m)
+            res = evaluate(d.targets_mm, d.run, d.direction, d.deviation_um, file=d.file,
+                           rows=d.rows)
+        except VolcalInputError:  # a test ISO 230-2 cannot read gives no reversal
+            continue
+        best[k] = lever
+        targets[k] = np.asarray(res.targets.target_mm, dtype=float)
+        rev[k] = np.asarray(res.targets.B, dtype=float)
+        used.append(m.id)
+    return DirectionalErrors(targets, rev, ", ".join(used))

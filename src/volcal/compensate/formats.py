@@ -9,13 +9,14 @@ from pathlib import Path
 
 import numpy as np
 
-from volcal.compensate.fanuc import fanuc_files
+from volcal.compensate import fanuc, heidenhain, linuxcnc, siemens
+from volcal.compensate.bidirectional import DirectionalErrors
 from volcal.compensate.generic import generic_files
 from volcal.compensate.heidenhain import heidenhain_files
-from volcal.compensate.linuxcnc import MAX_ENTRIES, linuxcnc_files
+from volcal.compensate.linuxcnc import linuxcnc_files
 from volcal.compensate.siemens import siemens_files
 from volcal.compensate.tables import sign_factor
-from volcal.compensate.volumetric import grid_files, isg_files
+from volcal.compensate.volumetric import ISG_DEFAULT_SIGN, ISG_SIGN_SOURCE, grid_files, isg_files
 from volcal.errors import VolcalInputError
 from volcal.io.atomic import atomic_dir
 from volcal.io.tomlfmt import dumps as toml_dumps
@@ -23,7 +24,53 @@ from volcal.model.errorfunctions import MachineErrors
 from volcal.model.names import COMPONENT_NAMES, SQUARENESS_NAMES
 
 MANIFEST = "volcal-compensation.toml"
-ALL21: tuple[str, ...] = tuple(COMPONENT_NAMES) + tuple(SQUARENESS_NAMES)
+
+PITCH = ("EXX", "EYY", "EZZ")
+STRAIGHTNESS = ("EYX", "EZX", "EXY", "EZY", "EXZ", "EYZ")
+ALL_21 = (*COMPONENT_NAMES, *SQUARENESS_NAMES)
+
+
+@dataclass(frozen=True)
+class FormatInfo:
+    """What a controller format carries and how it is signed.
+
+    Attributes
+    ----------
+    sign : str
+        The controller's own convention, written by default.
+    sign_source : str
+        Manual and page the convention comes from.
+    carries : tuple of str
+        ISO 230-1 names of the errors the table set corrects.
+    resolution_um : float
+        Rounding step of the values [um] (Fanuc: per count, times ``unit_um`` x
+        magnification).
+    bidirectional : bool
+        The format has separate values for the two directions of travel.
+    """
+
+    sign: str
+    sign_source: str
+    carries: tuple[str, ...]
+    resolution_um: float
+    bidirectional: bool = False
+
+
+FORMAT_INFO: dict[str, FormatInfo] = {
+    "fanuc": FormatInfo(fanuc.DEFAULT_SIGN, fanuc.SIGN_SOURCE, PITCH, 1.0, True),
+    "siemens": FormatInfo(siemens.DEFAULT_SIGN, siemens.SIGN_SOURCE,
+                          PITCH + STRAIGHTNESS + SQUARENESS_NAMES, siemens.RESOLUTION_UM),
+    "heidenhain": FormatInfo(heidenhain.DEFAULT_SIGN, heidenhain.SIGN_SOURCE, PITCH,
+                             heidenhain.RESOLUTION_UM, True),
+    "linuxcnc": FormatInfo(linuxcnc.DEFAULT_SIGN, linuxcnc.SIGN_SOURCE, PITCH,
+                           linuxcnc.RESOLUTION_UM, True),
+    "csv": FormatInfo("error", "volcal's generic table: the column name states the sign",
+                      PITCH, 0.001),
+    "isg": FormatInfo(ISG_DEFAULT_SIGN, ISG_SIGN_SOURCE, ALL_21, 0.001),
+    "grid": FormatInfo("error", "volcal's 3-D grid: the column names state the sign",
+                       ALL_21, 0.001),
+}
+"""Format name -> its default sign (with source), what it corrects, its resolution."""
 
 
 @dataclass(frozen=True)
@@ -33,8 +80,8 @@ class CompensationOptions:
     Parameters
     ----------
     sign : str, optional
-        ``'error'`` or ``'correction'``; default (None) the format's own convention
-        (:data:`DEFAULT_SIGN`). Anything else is an override.
+        ``'error'`` or ``'correction'``; default (None) the controller's own convention
+        (:data:`FORMAT_INFO`).
     spacing : float
         Distance between compensation points (and 3-D grid spacing) [mm].
     max_points : int, optional
@@ -52,11 +99,12 @@ class CompensationOptions:
         Siemens CEC tables carry the squareness terms.
     tool_offset : array_like, shape (3,), optional
         Target point of the 3-D grid [mm].
+    fanuc_series : str
+        Fanuc parameter syntax: ``'30i'`` (current, default) or ``'16i'`` (older).
     linuxcnc_type : int
-        LinuxCNC ``COMP_FILE_TYPE`` (1: trims, 0: actual positions).
-    reversal_um : sequence of 3 callables, optional
-        Per axis, ``f(positions [mm]) -> reverse minus forward positioning error [um]``
-        from bidirectional ISO 230-2 runs; used by formats with two directions.
+        LinuxCNC ``COMP_FILE_TYPE``: 1 (trims, default) or 0.
+    directional : DirectionalErrors, optional
+        Measured reversal for bidirectional tables (from the session's linear tests).
     """
 
     sign: str | None = None
@@ -68,11 +116,14 @@ class CompensationOptions:
     max_increment: int = 7
     include_squareness: bool = True
     tool_offset: tuple[float, float, float] | None = None
+    fanuc_series: str = "30i"
     linuxcnc_type: int = 1
-    reversal_um: tuple | None = None
+    directional: DirectionalErrors | None = None
 
     def __post_init__(self) -> None:
         """Reject option values no controller table can be built from."""
+        if self.sign is not None:
+            sign_factor(self.sign)
         if not math.isfinite(self.spacing) or self.spacing <= 0:
             raise VolcalInputError(f"--spacing {self.spacing}: expected a positive distance [mm]")
         if self.max_points is not None and self.max_points < 2:
@@ -83,68 +134,41 @@ class CompensationOptions:
         if self.max_increment < 1:
             raise VolcalInputError(f"--max-increment {self.max_increment}: expected at least 1")
 
+    def sign_for(self, fmt: str) -> str:
+        """The sign written for ``fmt``: the override or the controller's convention.
 
-def _fanuc(e: MachineErrors, o: CompensationOptions) -> dict[str, str]:
+        Parameters
+        ----------
+        fmt : str
+            A key of :data:`FORMATS`.
+
+        Returns
+        -------
+        str
+        """
+        return self.sign if self.sign is not None else FORMAT_INFO[fmt].sign
+
+
+def _fanuc(e: MachineErrors, o: CompensationOptions, sign: str) -> dict[str, str]:
     ref = e.travel[:, 0] if o.reference_mm is None else np.asarray(o.reference_mm)
-    return fanuc_files(e, o.spacing, o.sign or DEFAULT_SIGN["fanuc"], ref, o.unit_um,
-                       o.magnification, o.max_increment, o.max_points or 1024)
+    return fanuc.fanuc_files(e, o.spacing, sign, ref, o.unit_um, o.magnification,
+                             o.max_increment, o.max_points or 1024, o.fanuc_series,
+                             o.directional)
 
 
-DEFAULT_SIGN: dict[str, str] = {
-    "fanuc": "correction", "siemens": "error", "heidenhain": "error", "csv": "error",
-    "isg": "error", "grid": "error", "linuxcnc": "correction",
-}
-"""Each format's own sign convention (sources in docs/compensation.md)."""
-
-SIGN_SOURCE: dict[str, str] = {
-    "fanuc": "FANUC parameter manual B-63950EN/02 (30i), pitch error compensation: the "
-             "compensation pulses are added to the command",
-    "siemens": "SINUMERIK 840D sl function manual Extended functions (K3), LEC: a positive "
-               "compensation value moves the axis in the negative direction; CEC taken the "
-               "same (check on the machine)",
-    "heidenhain": "not stated in a public HEIDENHAIN manual; volcal writes the error (check "
-                  "on the machine)",
-    "csv": "volcal convention (ISO 230-1 error = actual - commanded)",
-    "isg": "Beckhoff TF5280 / ISG volumetric compensation: tables hold the errors "
-           "(negate flips them)",
-    "grid": "volcal convention (ISO 230-1 error = actual - commanded)",
-    "linuxcnc": "LinuxCNC src/emc/motion/usrmotintf.cc usrmotLoadComp: trim = nominal - "
-                "actual, added to the command",
-}
-"""Where each default sign comes from (manual and place), recorded in the manifest."""
-
-CARRIES: dict[str, tuple[str, ...]] = {
-    "fanuc": ("EXX", "EYY", "EZZ"), "heidenhain": ("EXX", "EYY", "EZZ"),
-    "csv": ("EXX", "EYY", "EZZ"), "linuxcnc": ("EXX", "EYY", "EZZ"),
-    "siemens": ("EXX", "EYY", "EZZ", "EYX", "EZX", "EXY", "EZY", "EXZ", "EYZ"),
-    "isg": ALL21, "grid": ALL21,
-}
-"""ISO 230-1 names each format's table set corrects (Siemens adds the squareness
-terms when ``include_squareness``)."""
-
-RESOLUTION_UM: dict[str, float] = {
-    "fanuc": 1.0, "siemens": 0.001, "heidenhain": 0.1, "csv": 0.001, "isg": 0.001,
-    "grid": 0.001, "linuxcnc": 0.001,
-}
-
-
-def _s(o: CompensationOptions, fmt: str) -> str:
-    return o.sign or DEFAULT_SIGN[fmt]
-
-
-FORMATS: dict[str, Callable[[MachineErrors, CompensationOptions], dict[str, str]]] = {
+FORMATS: dict[str, Callable[[MachineErrors, CompensationOptions, str], dict[str, str]]] = {
     "fanuc": _fanuc,
-    "siemens": lambda e, o: siemens_files(e, o.spacing, _s(o, "siemens"), o.max_points or 5000,
-                                          o.include_squareness),
-    "heidenhain": lambda e, o: heidenhain_files(e, o.spacing, _s(o, "heidenhain"),
-                                                o.max_points, o.reversal_um),
-    "csv": lambda e, o: generic_files(e, o.spacing, _s(o, "csv"), o.max_points),
-    "isg": lambda e, o: isg_files(e, o.spacing, _s(o, "isg"), o.max_points),
-    "grid": lambda e, o: grid_files(e, o.spacing, _s(o, "grid"), o.tool_offset,
-                                    o.max_points or 1_000_000),
-    "linuxcnc": lambda e, o: linuxcnc_files(e, o.spacing, _s(o, "linuxcnc"),
-                                            o.max_points or MAX_ENTRIES, o.linuxcnc_type,
-                                            o.reversal_um),
+    "siemens": lambda e, o, s: siemens_files(e, o.spacing, s, o.max_points or 5000,
+                                             o.include_squareness),
+    "heidenhain": lambda e, o, s: heidenhain_files(e, o.spacing, s, o.max_points,
+                                                   o.directional),
+    "linuxcnc": lambda e, o, s: linuxcnc_files(e, o.spacing, s, o.linuxcnc_type,
+                                               o.max_points or linuxcnc.MAX_ENTRIES,
+                                               o.directional),
+    "csv": lambda e, o, s: generic_files(e, o.spacing, s, o.max_points),
+    "isg": lambda e, o, s: isg_files(e, o.spacing, s, o.max_points),
+    "grid": lambda e, o, s: grid_files(e, o.spacing, s, o.tool_offset,
+                                       o.max_points or 1_000_000),
 }
 """Format name -> function returning the files (name -> text) of that format."""
 
@@ -163,7 +187,7 @@ def write_compensation(errors: MachineErrors, fmt: str, folder: str | Path,
         Output folder; built aside and moved into place. An existing folder is replaced
         only if it is empty or holds ``volcal-compensation.toml``.
     options : CompensationOptions
-        Sign, spacing, limits.
+        Sign (default: the controller's convention), spacing, limits.
     source : str
         Name of the model file, recorded in the manifest.
 
@@ -174,25 +198,24 @@ def write_compensation(errors: MachineErrors, fmt: str, folder: str | Path,
     """
     if fmt not in FORMATS:
         raise VolcalInputError(f"unknown format {fmt!r}: expected one of {', '.join(FORMATS)}")
-    sign = options.sign or DEFAULT_SIGN[fmt]
-    sign_factor(sign)
+    sign = options.sign_for(fmt)
+    info = FORMAT_INFO[fmt]
     folder = Path(folder)
     if folder.exists() and (not folder.is_dir() or (any(folder.iterdir())
                                                     and not (folder / MANIFEST).is_file())):
         raise VolcalInputError("output exists and is not a volcal compensation folder", folder)
-    files = FORMATS[fmt](errors, options)
-    carries = list(CARRIES[fmt])
-    if fmt == "siemens" and options.include_squareness:
-        carries += list(SQUARENESS_NAMES)
-    res = RESOLUTION_UM[fmt] * (options.unit_um * options.magnification if fmt == "fanuc"
-                                else 1.0)
+    files = FORMATS[fmt](errors, options, sign)
+    carries = list(info.carries)
+    if fmt == "siemens" and not options.include_squareness:
+        carries = [c for c in carries if c not in SQUARENESS_NAMES]
+    resolution = (options.unit_um * options.magnification if fmt == "fanuc"
+                  else info.resolution_um)
+    bidir = bool(info.bidirectional and options.directional is not None
+                 and any(options.directional.has(k) for k in range(3)))
     manifest = {"format": "volcal-compensation/1", "controller_format": fmt,
-                "sign": sign, "sign_default": DEFAULT_SIGN[fmt],
-                "sign_source": SIGN_SOURCE[fmt] if sign == DEFAULT_SIGN[fmt]
-                else "override (--sign)",
-                "spacing_mm": options.spacing, "resolution_um": res, "carries": carries,
-                "bidirectional": bool(options.reversal_um is not None
-                                      and fmt in ("linuxcnc", "heidenhain")),
+                "sign": sign, "sign_default": info.sign, "sign_source": info.sign_source,
+                "spacing_mm": options.spacing, "resolution_um": resolution,
+                "carries": carries, "bidirectional": bidir,
                 "model": source, "machine": errors.name, "chain": errors.chain_obj.code,
                 "files": sorted(files)}
     with atomic_dir(folder) as tmp:

@@ -1,28 +1,31 @@
-"""LinuxCNC joint screw compensation: ``X.comp``, ``Y.comp``, ``Z.comp`` and ``README.txt``.
+"""LinuxCNC joint compensation files (``[JOINT_n] COMP_FILE``, ``COMP_FILE_TYPE``).
 
-LinuxCNC loads one file per joint (INI ``[JOINT_n] COMP_FILE``, ``COMP_FILE_TYPE``).
-Each line holds three numbers separated by white space, in machine units (mm here):
+LinuxCNC reads a compensation file per joint at start-up (``usrmotLoadComp``,
+``src/emc/motion/usrmotintf.cc``): one entry per line, three numbers separated by
+blanks; it **stops at the first line that is not three numbers**, so the files have no
+header and no comment. The entries must be strictly increasing in the nominal
+position and at most ``EMCMOT_COMP_SIZE`` = 256 per joint (``src/emc/motion/command.c``,
+``EMCMOT_SET_JOINT_COMP``). Between entries the motion controller interpolates the
+trim linearly and adds it to the joint's commanded position; the forward trim is
+used while the joint moves in the positive direction, the reverse trim while it moves
+in the negative direction.
 
-* ``COMP_FILE_TYPE = 1``: nominal position, forward trim, reverse trim. The trim is
-  the amount LinuxCNC adds to the commanded position while the joint moves in that
-  direction, so it is the **correction** (the negative of the ISO 230-1 error).
-* ``COMP_FILE_TYPE = 0``: nominal position, actual position when approached in the
-  forward direction, actual position in reverse. LinuxCNC converts to trims as
-  ``trim = nominal - actual``.
+* ``COMP_FILE_TYPE = 1`` (volcal's default): ``nominal forward_trim reverse_trim`` [mm],
+  the trim being the amount LinuxCNC adds to the command, i.e. the **correction**
+  ``-error``;
+* ``COMP_FILE_TYPE = 0``: ``nominal actual_forward actual_reverse`` [mm]: the position
+  the joint actually reaches when commanded to ``nominal``, i.e. ``nominal + error``;
+  LinuxCNC converts it to the trim ``nominal - actual``.
 
-The loader (``usrmotLoadComp`` in ``src/emc/motion/usrmotintf.cc``) stops silently
-at the first line that is not three numbers, so these files carry no header and no
-comment. The table holds at most ``EMCMOT_COMP_SIZE`` = 256 entries, nominal
-positions strictly increasing; motion interpolates the trim linearly between entries
-(choosing the forward or reverse trim from the direction of motion) and holds the
-end values outside the table.
+Both types carry the same correction: type 1 is the plain one. The nominal positions are
+the model's coordinates, which must be the joint coordinates of the machine (the
+README written beside the tables says so).
 
 References
 ----------
-LinuxCNC source, ``src/emc/motion/usrmotintf.cc`` (``usrmotLoadComp``),
-``src/emc/motion/command.c`` (``EMCMOT_SET_JOINT_COMP``), ``src/emc/motion/control.c``
-(``compute_screw_comp``). LinuxCNC documentation, "INI Configuration", section
-``[JOINT_<num>]``, keys ``COMP_FILE`` and ``COMP_FILE_TYPE``.
+LinuxCNC documentation, "INI Configuration", section ``[JOINT_<num>]``: ``COMP_FILE``,
+``COMP_FILE_TYPE``; LinuxCNC source ``src/emc/motion/usrmotintf.cc`` (``usrmotLoadComp``)
+and ``src/emc/motion/command.c`` (256 entries, increasing order).
 """
 
 from __future__ import annotations
@@ -31,143 +34,163 @@ from pathlib import Path
 
 import numpy as np
 
-from volcal.compensate.tables import AxisTable, axis_grid, pitch_table, quantize
+from volcal.compensate.tables import AxisTable, axis_grid, sign_factor
 from volcal.errors import VolcalInputError
 from volcal.model.errorfunctions import MachineErrors
 from volcal.model.names import AXES
 
 MAX_ENTRIES = 256
+"""``EMCMOT_COMP_SIZE``: entries per joint."""
 RESOLUTION_UM = 0.001
-README = "README.txt"
+"""Values written with 6 decimals in mm."""
+DEFAULT_SIGN = "correction"
+SIGN_SOURCE = ("LinuxCNC usrmotintf.cc usrmotLoadComp: type 1 trims are added to the "
+               "command; type 0 columns are actual positions, trim = nominal - actual")
+README_FILE = "README.txt"
 
 
-def comp_file(axis: int) -> str:
-    """File name of an axis (``'X.comp'``...).
-
-    Parameters
-    ----------
-    axis : int
-        0, 1, 2 = X, Y, Z.
-
-    Returns
-    -------
-    str
-    """
-    return f"{AXES[axis]}.comp"
-
-
-def linuxcnc_files(errors: MachineErrors, spacing: float, sign: str = "correction",
-                   max_points: int = MAX_ENTRIES, file_type: int = 1,
-                   reversal_um=None) -> dict[str, str]:
-    """LinuxCNC compensation files of the positioning errors of X, Y, Z.
+def linuxcnc_files(errors: MachineErrors, spacing: float, sign: str = DEFAULT_SIGN,
+                   comp_type: int = 1, max_points: int = MAX_ENTRIES, directional=None
+                   ) -> dict[str, str]:
+    """``X.comp``, ``Y.comp``, ``Z.comp`` and ``README.txt`` for LinuxCNC.
 
     Parameters
     ----------
     errors : MachineErrors
-        The model (its positioning errors are the bidirectional mean).
+        The model.
     spacing : float
         Distance between entries [mm].
     sign : str
-        ``'correction'`` (LinuxCNC's own convention: the trim is added to the command)
-        or ``'error'`` (override: writes the negative, for controls configured so).
+        ``'correction'`` (default, what LinuxCNC expects) or ``'error'`` (only to
+        inspect the table: loading it would double the error).
+    comp_type : int
+        ``COMP_FILE_TYPE``: 1 (trims, default) or 0 (actual positions).
     max_points : int
-        Entries per file, at most 256 (``EMCMOT_COMP_SIZE``).
-    file_type : int
-        ``COMP_FILE_TYPE``: 1 (trims) or 0 (actual positions).
-    reversal_um : sequence of 3 callables, optional
-        Per axis, ``f(positions [mm]) -> reverse minus forward error [um]`` (from the
-        bidirectional ISO 230-2 runs, :mod:`volcal.compensate.bidirectional`); forward
-        gets ``-r/2``, reverse ``+r/2``; default none (forward = reverse).
+        Entries allowed per joint (256 in LinuxCNC).
+    directional : DirectionalErrors, optional
+        Measured reversal: forward and reverse columns differ by it.
 
     Returns
     -------
     dict of str to str
         File name -> content.
     """
-    if file_type not in (0, 1):
-        raise VolcalInputError(f"--linuxcnc-type {file_type}: expected 0 or 1")
+    s = sign_factor(sign)
+    if comp_type not in (0, 1):
+        raise VolcalInputError(f"--linuxcnc-type {comp_type}: expected 0 or 1")
     if max_points > MAX_ENTRIES:
         raise VolcalInputError(f"--max-points {max_points}: LinuxCNC holds at most "
                                f"{MAX_ENTRIES} entries per joint")
-    out: dict[str, str] = {}
+    files: dict[str, str] = {}
     for k in range(3):
-        p = axis_grid(*errors.travel[k], spacing, max_points=max_points,
-                      what=f"LinuxCNC {AXES[k]}")
-        fwd = pitch_table(errors, k, p, sign, RESOLUTION_UM).values
-        rev = fwd.copy()
-        if reversal_um is not None and reversal_um[k] is not None:
-            # the model is the bidirectional mean: forward - r/2, reverse + r/2
-            s = 1.0 if sign == "error" else -1.0
-            half = s * np.asarray(reversal_um[k](p), dtype=float) / 2.0
-            fwd, rev = quantize(fwd - half, RESOLUTION_UM), quantize(fwd + half, RESOLUTION_UM)
-        if np.any(np.diff(p) <= 0):  # axis_grid is uniform; kept as a guard
-            raise VolcalInputError(f"LinuxCNC {AXES[k]}: positions not strictly increasing")
-        lines = []
-        for pos, f, r in zip(p, fwd, rev, strict=True):
-            if file_type == 1:
-                a, b = f / 1000.0, r / 1000.0
-            else:  # actual = nominal - trim; trim = -error for sign 'correction'
-                a, b = pos - f / 1000.0, pos - r / 1000.0
-            lines.append(f"{pos:.6f} {a:.6f} {b:.6f}")
-        out[comp_file(k)] = "\n".join(lines) + "\n"
-    out[README] = _readme(file_type, sign, spacing)
-    return out
+        lo, hi = errors.travel[k]
+        p = axis_grid(lo, hi, spacing, max_points=max_points, what=f"LinuxCNC {AXES[k]}")
+        e = errors.component(k, p)[:, k]
+        half = directional.half_reversal(k, p) if directional is not None else 0.0 * p
+        fwd_um, rev_um = s * (e + half), s * (e - half)
+        # the trim column holds the table in its sign (correction: -error)
+        if comp_type == 1:
+            lines = [f"{x:.6f} {tf / 1000.0:.6f} {tr / 1000.0:.6f}"
+                     for x, tf, tr in zip(p, fwd_um, rev_um, strict=True)]
+        else:  # actual = nominal - trim
+            lines = [f"{x:.6f} {x - tf / 1000.0:.6f} {x - tr / 1000.0:.6f}"
+                     for x, tf, tr in zip(p, fwd_um, rev_um, strict=True)]
+        files[f"{AXES[k]}.comp"] = "\n".join(lines) + "\n"
+    files[README_FILE] = _readme(errors, spacing, sign, comp_type, directional)
+    return files
 
 
-def _readme(file_type: int, sign: str, spacing: float) -> str:
-    what = ("nominal, forward trim, reverse trim [mm]; trim = amount added to the command"
-            if file_type == 1 else
-            "nominal, actual position forward, actual position reverse [mm]")
-    lines = ["volcal: LinuxCNC screw compensation of the positioning errors EXX, EYY, EZZ.",
-             f"Columns: {what}. Spacing {spacing:g} mm. Sign: {sign}"
-             + (" (LinuxCNC's convention)." if sign == "correction"
-                else " (OVERRIDE: not LinuxCNC's convention, the trims are the errors)."),
-             "The .comp files have no comments: LinuxCNC stops reading at the first line",
-             "that is not three numbers. Add to the machine's INI file (joint numbers as",
-             "in your configuration; the files must be in the configuration folder):", ""]
-    for k in range(3):
-        lines += [f"[JOINT_{k}]", f"COMP_FILE = {comp_file(k)}",
-                  f"COMP_FILE_TYPE = {file_type}", ""]
-    lines += ["Restart LinuxCNC and home the machine; measure one point where the trim is",
-              "large: the deviation must shrink, not double. Straightness, angular and",
-              "squareness errors stay uncorrected."]
+def _readme(errors: MachineErrors, spacing: float, sign: str, comp_type: int,
+            directional) -> str:
+    lines = [
+        f"volcal: LinuxCNC joint compensation (COMP_FILE_TYPE = {comp_type})",
+        "",
+        "Add to the machine's INI file (joint numbers as in your configuration):",
+    ]
+    for k, a in enumerate(AXES):
+        lines += ["", f"[JOINT_{k}]", f"COMP_FILE = {a}.comp", f"COMP_FILE_TYPE = {comp_type}"]
+    lines += [
+        "",
+        "Columns: " + ("nominal [mm], forward trim [mm], reverse trim [mm]; the trim is added "
+                       "to the commanded joint position." if comp_type == 1 else
+                       "nominal [mm], actual position moving forward [mm], actual position "
+                       "moving in reverse [mm]; LinuxCNC adds nominal - actual."),
+        f"Sign: {sign}" + (" (trim = -error)." if sign == "correction" else
+                           " (trim = +error: loading this DOUBLES the error; for inspection "
+                           "only)."),
+        f"Source: {SIGN_SOURCE}.",
+        f"Entries every {spacing:g} mm over the travel "
+        + ", ".join(f"{a} {errors.travel[k, 0]:g}..{errors.travel[k, 1]:g}"
+                    for k, a in enumerate(AXES))
+        + " mm (the model's coordinates: they must be the joint coordinates after homing).",
+        f"Limits: at most {MAX_ENTRIES} entries per joint, strictly increasing nominal.",
+        "Forward and reverse differ by the reversal measured in the session's ISO 230-2 "
+        "tests (" + directional.source + ")." if directional is not None else
+        "Forward = reverse: no bidirectional linear tests were given (--session).",
+        "Do not set BACKLASH together with a bidirectional table (it would be applied twice).",
+        "Restart LinuxCNC to load. Check one point where the trim is large: the deviation "
+        "must shrink, not double.",
+        "Not corrected: straightness, squareness and angular (Abbe) errors.",
+    ]
     return "\n".join(lines) + "\n"
 
 
-def read_linuxcnc(folder: str | Path, file_type: int = 1) -> list[tuple[AxisTable, AxisTable]]:
-    """Read ``X.comp``... back as (forward, reverse) trim tables [um], sign 'correction'.
+def load_linuxcnc_comp(path: str | Path, comp_type: int = 1
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Load a comp file the way LinuxCNC does: triplets until the first other line.
+
+    Parameters
+    ----------
+    path : str or Path
+        ``X.comp`` etc.
+    comp_type : int
+        ``COMP_FILE_TYPE`` (0 or 1).
+
+    Returns
+    -------
+    nominal, forward_trim, reverse_trim : ndarray
+        Positions [mm] and trims [mm] (what LinuxCNC adds to the command).
+    """
+    rows = []
+    for line in Path(path).read_text(encoding="ascii").splitlines():
+        parts = line.split()
+        try:
+            vals = [float(v) for v in parts[:3]]
+        except ValueError:
+            break
+        if len(vals) != 3:
+            break
+        rows.append(vals)
+    a = np.array(rows, dtype=float).reshape(-1, 3)
+    nom, f, r = a[:, 0], a[:, 1], a[:, 2]
+    if comp_type == 0:
+        f, r = nom - f, nom - r
+    return nom, f, r
+
+
+def read_linuxcnc(folder: str | Path, sign: str = DEFAULT_SIGN, comp_type: int = 1,
+                  direction: str = "+") -> list[AxisTable]:
+    """Read ``X.comp``, ``Y.comp``, ``Z.comp`` back into tables in ``sign``.
 
     Parameters
     ----------
     folder : str or Path
-        Folder with the ``.comp`` files.
-    file_type : int
-        ``COMP_FILE_TYPE`` the files were written for.
+        Folder written by :func:`linuxcnc_files`.
+    sign : str
+        Sign the tables were written with.
+    comp_type : int
+        ``COMP_FILE_TYPE``.
+    direction : str
+        ``'+'`` forward trims, ``'-'`` reverse trims.
 
     Returns
     -------
-    list of (AxisTable, AxisTable)
-        X, Y, Z; trims as LinuxCNC uses them (added to the command).
+    list of AxisTable
+        Values [um] in ``sign``.
     """
     out = []
-    for k in range(3):
-        path = Path(folder) / comp_file(k)
-        try:
-            text = path.read_text(encoding="ascii")
-        except (OSError, UnicodeDecodeError) as exc:
-            raise VolcalInputError(f"cannot read ({exc.__class__.__name__})", path) from None
-        rows = []
-        for i, line in enumerate(text.splitlines(), start=1):
-            parts = line.split()
-            try:
-                rows.append([float(v) for v in parts])
-            except ValueError:
-                raise VolcalInputError("expected three numbers", path, i) from None
-            if len(parts) != 3:
-                raise VolcalInputError("expected three numbers", path, i)
-        a = np.array(rows).reshape(-1, 3)
-        if file_type == 0:
-            a[:, 1:] = a[:, :1] - a[:, 1:]
-        out.append((AxisTable(k, k, a[:, 0], a[:, 1] * 1000.0, "correction", RESOLUTION_UM),
-                    AxisTable(k, k, a[:, 0], a[:, 2] * 1000.0, "correction", RESOLUTION_UM)))
+    for k, a in enumerate(AXES):
+        nom, f, r = load_linuxcnc_comp(Path(folder) / f"{a}.comp", comp_type)
+        trim = f if direction == "+" else r
+        out.append(AxisTable(k, k, nom, trim * 1000.0, sign, RESOLUTION_UM))
     return out

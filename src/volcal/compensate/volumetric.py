@@ -1,18 +1,26 @@
 """The whole volumetric model for controllers with volumetric compensation.
 
-``isg_files``: the 21 errors in the ISG CSV format of the Beckhoff TF5280 volumetric
-compensation: one block per axis with the header ``X EXX EYX EZX EAX EBX ECX`` and a
-block of position errors ``C0Y B0Z A0Z`` (ISG drops the ``E`` of ISO 230-1); values in
-mm and rad, columns separated by white space, ``//`` comments (units, sign, chain),
-``#`` as the file break before each new header. Values resampled onto the grid.
+``isg_files``: the 21 errors in the **ISG CSV format** of the ISG kernel / Beckhoff
+TwinCAT CNC volumetric compensation (TF5280, "File formats supported" / "ISG CSV
+format", and "Units of measure"): whitespace-separated columns named in a header line;
+``//`` starts a comment line; ``#`` is a *file break* after which a new header and its
+records follow. Values are in **mm** (translations) and **rad** (rotations); the
+arguments (axis positions) in mm. Component errors carry their ISO 230-1 names
+(``X EXX EYX EZX EAX EBX ECX``); position errors are written as ISG spells them,
+without the ``E`` prefix (``C0Y B0Z A0Z``). The values are the **errors** (the ISG
+convention; the list parameter ``negate`` (P-VOLC) inverts them, volcal writes
+``negate 0`` in its notes). The values are resampled onto the controller grid.
 
 ``grid_files``: the volumetric error vector at the points of a regular 3-D grid,
 first order (Soons 2005, eq. 1; ISO 230-1:2012 annex A), columns
 ``x_mm,y_mm,z_mm,<sign>_x_um,<sign>_y_um,<sign>_z_um``.
 
-Reference: Beckhoff TF5280 TwinCAT 3 CNC Volumetric Compensation, "ISG CSV format"
-(https://infosys.beckhoff.com/content/1033/tf5280_volumetric_comp/296429067.html) and
-parameter ``negate`` (P-VOLC-00009); ISO 230-1:2012, 3.4 (names).
+References
+----------
+Beckhoff TF5280 TwinCAT 3 CNC Volumetric Compensation documentation: "ISG CSV format"
+(infosys.beckhoff.com, tf5280_volumetric_comp/296429067), "Units of measure"
+(.../296426379), overview of compensation parameters (``negate``, ``Chain``,
+``file[j]``, ``file_format[j]``). ISO 230-1:2012, 3.4 (names).
 """
 
 from __future__ import annotations
@@ -34,17 +42,15 @@ RESOLUTION = 0.001  # um and urad
 
 
 ISG_POSITION_NAMES: dict[str, str] = {"EC0Y": "C0Y", "EB0Z": "B0Z", "EA0Z": "A0Z"}
-"""ISO 230-1 squareness name -> ISG position error name (no ``E`` prefix)."""
+"""volcal's squareness names -> the ISG spelling of the position errors."""
+ISG_DEFAULT_SIGN = "error"
+ISG_SIGN_SOURCE = ("Beckhoff TF5280: the parameter files hold the ISO 230-1 errors; the "
+                   "list parameter 'negate' inverts them")
 
 
-def isg_files(errors: MachineErrors, spacing: float, sign: str = "error",
+def isg_files(errors: MachineErrors, spacing: float, sign: str = ISG_DEFAULT_SIGN,
               max_points: int | None = None) -> dict[str, str]:
-    """The 21 errors in the ISG CSV format of the Beckhoff TF5280 volumetric compensation.
-
-    One block per axis (header ``X EXX EYX EZX EAX EBX ECX``, rows position [mm] then
-    translations [mm] and rotations [rad]) and a block of position errors
-    (``C0Y B0Z A0Z`` [rad]); blocks are separated by the file break ``#``, comments
-    start with ``//``, columns are separated by white space.
+    """The 21 errors in the ISG CSV format, resampled at ``spacing`` [mm].
 
     Parameters
     ----------
@@ -53,8 +59,8 @@ def isg_files(errors: MachineErrors, spacing: float, sign: str = "error",
     spacing : float
         Distance between the grid points of each axis [mm], > 0.
     sign : str
-        ``'error'`` (ISG's convention: the files hold the machine errors; the control's
-        ``negate`` parameter flips axes) or ``'correction'`` (negates every value).
+        ``'error'`` (the ISG convention, default) or ``'correction'`` (every value
+        negated; then set nothing else: ``negate`` stays 0).
     max_points : int, optional
         Controller limit of points per axis; exceeding it raises.
 
@@ -64,71 +70,90 @@ def isg_files(errors: MachineErrors, spacing: float, sign: str = "error",
         File name (``volumetric_isg.csv``) to file text.
     """
     s = sign_factor(sign)
-    lines = ["// volcal volumetric model, ISO 230-1 component errors as ISG names them",
-             "// units: positions and translations [mm], rotations and position errors [rad]",
-             f"// sign: {sign}" + (" (machine errors, ISG's convention; leave negate unset)"
+    lines = ["// volcal: volumetric model, ISG CSV format (Beckhoff TF5280)",
+             "// units: arguments X Y Z [mm]; EX* EY* EZ* [mm]; EA* EB* EC* and C0Y B0Z A0Z "
+             "[rad]",
+             f"// sign: {sign}" + (" (the errors, ISG convention; list parameter negate 0)"
                                    if sign == "error" else
-                                   " (OVERRIDE: values negated; do not also set negate)"),
-             f"// chain: {errors.chain_obj.code}",
-             "// list file: file[j] <path to this file>, file_format[j] ISG_CSV"]
+                                   " (negated errors; keep list parameter negate 0)"),
+             f"// source of the sign: {ISG_SIGN_SOURCE}",
+             f"// kinematic chain (workpiece -> tool, F = frame): {errors.chain_obj.code}",
+             "// activation: name this file in file[0] of the compensation list "
+             "(vol_comp[0].file_name), file_format[0] = ISG CSV, axis assignment X 1 Y 2 Z 3",
+             "// position errors (squareness), constant"]
+    lines.append(" ".join(f"{ISG_POSITION_NAMES[n]:<16}" for n in SQUARENESS_NAMES).strip())
+    sq = quantize(s * errors.squareness, RESOLUTION) * 1e-6
+    lines.append(" ".join(f"{x:<16.9e}" for x in sq).strip())
     for k in range(3):
         p = axis_grid(*errors.travel[k], spacing, max_points=max_points, what=AXES[k])
-        v = s * errors.component(k, p)
-        v = np.hstack([quantize(v[:, :3], RESOLUTION) / 1000.0,
-                       quantize(v[:, 3:], RESOLUTION) * 1e-6])
-        if k:
-            lines.append("#")
-        lines.append(" ".join([AXES[k], *(c + AXES[k] for c in COMPONENTS)]))
-        lines += [" ".join([f"{pos:.6f}", *(f"{x:.7f}" for x in row[:3]),
-                            *(f"{x:.10f}" for x in row[3:])]) for pos, row in zip(p, v,
-                                                                                  strict=True)]
-    lines += ["#", " ".join(ISG_POSITION_NAMES[n] for n in SQUARENESS_NAMES)]
-    lines.append(" ".join(f"{x * 1e-6:.10f}"
-                          for x in quantize(s * errors.squareness, RESOLUTION)))
+        v = quantize(s * errors.component(k, p), RESOLUTION)
+        v = v * np.array([1e-3, 1e-3, 1e-3, 1e-6, 1e-6, 1e-6])
+        lines += ["#", f"// component errors of the {AXES[k]} axis",
+                  " ".join([f"{AXES[k]:<12}", *(f"{c + AXES[k]:<16}" for c in COMPONENTS)]
+                           ).rstrip()]
+        lines += [" ".join([f"{pos:<12.4f}", *(f"{x:<16.9e}" for x in row)]).rstrip()
+                  for pos, row in zip(p, v, strict=True)]
     return {ISG_FILE: "\n".join(lines) + "\n"}
 
 
-def parse_isg_csv(text: str) -> list[tuple[list[str], list[list[float]], list[int]]]:
-    """Split ISG CSV text into blocks (header names, numeric rows, row line numbers).
+def parse_isg_csv(text: str, path: str | Path = "") -> list[dict[str, np.ndarray]]:
+    """Parse text in the ISG CSV format into blocks (header name -> column).
+
+    Follows the published rules only: ``//`` comment lines, ``#`` file breaks, a header
+    line of names, whitespace-separated numbers.
 
     Parameters
     ----------
     text : str
-        File text: ``//`` comments, ``#`` file breaks, white-space-separated columns.
+        File content.
+    path : str or Path
+        File name for messages.
 
     Returns
     -------
-    list of (list of str, list of list of float, list of int)
-
-    Raises
-    ------
-    ValueError
-        A data row with a non-number (message gives the line number).
+    list of dict
+        One dict per block: column name -> values.
     """
-    blocks: list[tuple[list[str], list[list[float]], list[int]]] = []
-    cur = None
+    blocks: list[dict[str, np.ndarray]] = []
+    head: list[str] | None = None
+    rows: list[list[float]] = []
+
+    def close(line: int) -> None:
+        if head is not None:
+            if not rows:
+                raise VolcalInputError(f"block {' '.join(head)} has no rows", path, line)
+            arr = np.array(rows)
+            blocks.append({h: arr[:, j] for j, h in enumerate(head)})
+
     for i, raw in enumerate(text.splitlines(), start=1):
-        line = raw.split("//", 1)[0].strip()
-        if not line:
+        line = raw.strip()
+        if not line or line.startswith("//"):
             continue
         if line.startswith("#"):
-            cur = None
+            close(i)
+            head, rows = None, []
             continue
-        cells = line.split()
-        if cur is None:
-            cur = (cells, [], [])
-            blocks.append(cur)
+        parts = line.split()
+        if head is None:
+            head = parts
+            if len(set(head)) != len(head):
+                raise VolcalInputError("duplicate column name in header", path, i)
             continue
+        if len(parts) != len(head):
+            raise VolcalInputError(f"expected {len(head)} values, found {len(parts)}", path, i)
         try:
-            cur[1].append([float(c) for c in cells])
+            rows.append([float(x) for x in parts])
         except ValueError:
-            raise ValueError(i) from None
-        cur[2].append(i)
+            raise VolcalInputError("not a number", path, i) from None
+    close(len(text.splitlines()))
     return blocks
 
 
 def read_isg(path: str | Path) -> tuple[MachineErrors, str]:
-    """Read an ISG CSV file written by :func:`isg_files` back into a model [um, urad].
+    """Read an ISG CSV file written by :func:`isg_files` back into a model.
+
+    Values are converted back to um and urad, in the file's sign (stated in its
+    ``// sign:`` comment); the chain is read from the ``// kinematic chain`` comment.
 
     Parameters
     ----------
@@ -138,7 +163,6 @@ def read_isg(path: str | Path) -> tuple[MachineErrors, str]:
     Returns
     -------
     errors : MachineErrors
-        Values in the file's sign.
     sign : str
     """
     path = Path(path)
@@ -151,35 +175,29 @@ def read_isg(path: str | Path) -> tuple[MachineErrors, str]:
         if raw.startswith("//") and ":" in raw:
             k, v = raw[2:].split(":", 1)
             meta[k.strip()] = v.strip().split()[0] if v.strip() else ""
-    try:
-        blocks = parse_isg_csv(text)
-    except ValueError as exc:
-        raise VolcalInputError("not a number", path, int(exc.args[0])) from None
+    chain = meta.get("kinematic chain (workpiece -> tool, F = frame)", "XYFZ")
     nodes, values, sq = [None] * 3, [None] * 3, None
-    pos_names = [ISG_POSITION_NAMES[n] for n in SQUARENESS_NAMES]
-    for head, rows, where in blocks:
-        for r, i in zip(rows, where, strict=True):
-            if len(r) != len(head):
-                raise VolcalInputError(f"expected {len(head)} values, found {len(r)}", path, i)
-        if head == pos_names:
-            if len(rows) != 1:
-                raise VolcalInputError("the position error block needs one row", path)
-            sq = np.array(rows[0]) * 1e6
+    isg_sq = [ISG_POSITION_NAMES[n] for n in SQUARENESS_NAMES]
+    for b in parse_isg_csv(text, path):
+        head = list(b)
+        if head == isg_sq:
+            if b[head[0]].size != 1:
+                raise VolcalInputError("the position-error block needs exactly one row", path)
+            sq = np.array([b[h][0] for h in head]) * 1e6
         elif head[0] in AXES and head[1:] == [c + head[0] for c in COMPONENTS]:
-            if not rows:
-                raise VolcalInputError(f"block {head[0]} has no rows", path)
-            a = np.array(rows).reshape(-1, 7)
-            if np.any(np.diff(a[:, 0]) <= 0):
+            pos = b[head[0]]
+            if np.any(np.diff(pos) <= 0):
                 raise VolcalInputError(f"positions of block {head[0]} must increase strictly",
                                        path)
-            v = np.hstack([a[:, 1:4] * 1000.0, a[:, 4:] * 1e6])
-            nodes[AXES.index(head[0])], values[AXES.index(head[0])] = a[:, 0], v
+            k = AXES.index(head[0])
+            v = np.stack([b[h] for h in head[1:]], axis=1)
+            nodes[k] = pos
+            values[k] = v * np.array([1e3, 1e3, 1e3, 1e6, 1e6, 1e6])
         else:
             raise VolcalInputError(f"unknown block header {' '.join(head)}", path)
     if any(n is None for n in nodes) or sq is None:
-        raise VolcalInputError("blocks X, Y, Z and the position error block are required", path)
-    return (MachineErrors(meta.get("chain", "XYFZ"), nodes, values, sq, name=path.stem),
-            meta.get("sign", "error"))
+        raise VolcalInputError("blocks X, Y, Z and the position-error block are required", path)
+    return (MachineErrors(chain, nodes, values, sq, name=path.stem), meta.get("sign", "error"))
 
 
 def grid_files(errors: MachineErrors, spacing: float, sign: str, tool_offset=None,

@@ -235,6 +235,10 @@ def identify(session: Session, options: IdentifyOptions | None = None) -> Identi
     travel and the straightness functions also at the end.
     """
     o = options or IdentifyOptions()
+    from volcal.identify import multilateration as _ml
+
+    if _ml.needs_linearisation(session):  # tracker stations: Gauss-Newton around this function
+        return _ml.identify_iterated(session, o, identify)
     known = _known(o)
     if o.prior not in ("smooth", "none"):
         raise VolcalInputError(f"prior must be 'smooth' or 'none', got {o.prior!r}")

@@ -58,10 +58,15 @@ def describe(name: str) -> str:
     if name in SQUARENESS_NAMES:
         return f"{name} (squareness)"
     comp, ax = name[:2], name[2]
-    d = DESCRIPTIONS[comp]
-    if d == "straightness":
+    # the meaning depends on the moving axis (ISO 230-1): EXX is positioning, EXZ
+    # straightness; EAX is roll, EAZ a tilt (pitch or yaw)
+    if comp[1] in "XYZ":
+        if comp[1] == ax:
+            return f"{name} (positioning of {ax})"
         return f"{name} (straightness of {ax} in {comp[1]})"
-    return f"{name} ({d} of {ax})"
+    if "ABC".index(comp[1]) == "XYZ".index(ax):
+        return f"{name} (roll of {ax})"
+    return f"{name} (tilt of {ax} about {'XYZ'['ABC'.index(comp[1])]})"
 
 
 @dataclass

@@ -27,7 +27,8 @@ from volcal.identify.prior import PriorStructure
 
 __all__ = ["Solution", "solve_bayes", "solve_min_norm"]
 
-NUISANCE_PRECISION = {"offset": 1e-10, "tilt": 1e-8, "reversal": 1e-8, "drift": 1e-8}
+NUISANCE_PRECISION = {"offset": 1e-10, "tilt": 1e-8, "reversal": 1e-8, "drift": 1e-8,
+                      "station_x": 1e-10, "station_y": 1e-10, "station_z": 1e-10}
 HYPER_CENTRE = np.log([10.0, 5.0, 15.0, 6.0])
 """Centre of the hyperprior: amplitude scales [um, um, urad] and curvature scale of
 typical machining centres; it only matters for groups the data do not inform."""

@@ -33,7 +33,7 @@ STATION_DEPTHS_MM = (60.0, 180.0, 100.0, 260.0, 140.0, 220.0, 80.0, 200.0)
 
 
 def serpentine_grid(travel: ArrayLike, grid: Sequence[int] = DEFAULT_GRID,
-                    margin: float = 0.05) -> NDArray[np.float64]:
+                    margin: float = 0.0) -> NDArray[np.float64]:
     """Grid of commanded positions visited as a serpentine (shortest moves between points).
 
     Parameters

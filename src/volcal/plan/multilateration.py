@@ -24,9 +24,14 @@ __all__ = ["DEFAULT_GRID", "DEFAULT_TOOL_OFFSETS", "default_stations", "multilat
 DEFAULT_GRID = (9, 7, 6)
 """Grid points along X, Y, Z."""
 
-DEFAULT_TOOL_OFFSETS = ((0.0, 0.0, -100.0), (100.0, 100.0, -100.0))
-"""Reflector positions relative to the tool reference point [mm]: on the spindle axis, and
-off it (the roll of every axis then moves the reflector)."""
+DEFAULT_TOOL_OFFSETS = ((0.0, 0.0, 0.0), (100.0, 100.0, 0.0))
+"""Reflector positions relative to the tool reference point [mm]: at it (on the spindle
+axis), and 141 mm off the axis at the same height (the roll of every axis then moves the
+reflector). Two offsets cannot show the tilt of the tool-carrying axis about their
+difference; with the first reflector at the tool reference point that tilt does not change
+the volumetric error there (it only matters for tools off the line of the two reflectors),
+so the default keeps the error at the tool reference point fully determined. A third
+offset out of the line determines everything (``volcal advise`` compares)."""
 
 STATION_DEPTHS_MM = (60.0, 180.0, 100.0, 260.0, 140.0, 220.0, 80.0, 200.0)
 """How far below the lowest tool point the stations stand, in turn [mm]."""

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import pytest
 from identify_helpers import TRAVEL, exact_fill, grid, seeds_session
@@ -62,10 +64,10 @@ def test_noise_free_identifiable_part_is_exact():
 def test_stations_off_by_5_mm_converge_to_the_same_result():
     """Exact simulation without noise; the same readings with station_mm 5 mm off."""
     truth = random_machine(TRAVEL, "XYFZ", seed=22)
-    s = tracker_session()
+    s = tracker_session(grid_=(4, 3, 3))
     simulate_session(s, truth, SimulationOptions(noise_um=0.0), QUIET)
     r0 = identify(s, IdentifyOptions(suggest=False, scales=(10.0, 5.0, 15.0), noise_um=0.3))
-    s5 = tracker_session()
+    s5 = tracker_session(grid_=(4, 3, 3))
     simulate_session(s5, truth, SimulationOptions(noise_um=0.0), QUIET)
     moved(s5, np.array([5.0, -5.0, 5.0]))
     r5 = identify(s5, IdentifyOptions(suggest=False, scales=(10.0, 5.0, 15.0), noise_um=0.3))
@@ -93,7 +95,8 @@ def test_gauge_by_rank():
         assert d.n_nuisance == 4 * 3 + len(s.measurements)  # shared stations + distances
 
 
-def test_noisy_round_trip_beats_the_seeds_test_set():
+@functools.lru_cache(maxsize=1)
+def _noisy_case():
     """Exact simulation, stations known to ~1 mm, two tool offsets, tracker noise 0.2 um +
     0.3 um/m, machine repeatability 0.2 um; a machine with large roll errors."""
     ranges = ErrorRanges(angular_urad=(15.0, 40.0))
@@ -101,7 +104,11 @@ def test_noisy_round_trip_beats_the_seeds_test_set():
     s = tracker_session()
     simulate_session(s, truth, SimulationOptions(noise_um=0.2, seed=5),
                      TrackerOptions(station_error_mm=1.0))
-    r = identify(s, IdentifyOptions(suggest=False))
+    return truth, s, identify(s, IdentifyOptions(suggest=False))
+
+
+def test_noisy_round_trip_within_uncertainty_and_roll_recovered():
+    truth, s, r = _noisy_case()
     q = grid(choose_nodes(s, refine=1))
     e, u = r.predict(q)
     diff = e - volumetric_error(truth, q)
@@ -109,24 +116,30 @@ def test_noisy_round_trip_beats_the_seeds_test_set():
     rms = np.sqrt(np.mean(remove_rigid_body(q, diff) ** 2))
     truth_rms = np.sqrt(np.mean(remove_rigid_body(q, volumetric_error(truth, q)) ** 2))
     assert rms < 0.1 * truth_rms
-    # the seeds' full test set on the same machine, same points
-    seeds = seeds_session("XYFZ", steps=5, runs=1)
+    # roll of X and Y (workpiece side) and of Z (tool side, seen through the offset)
+    for name in ("EAX", "EBY", "ECZ"):
+        k, c = divmod(COMPONENT_NAMES.index(name), 6)
+        n = r.layout.nodes[k]
+        err = np.abs(r.errors.function(name, n) - truth.function(name, n))
+        assert err.max() < 0.15 * np.ptp(truth.function(name, n)), name
+        assert np.all(err <= 3 * r.std[k][:, c] + 0.05), name
+    # the fitted stations are the true ones (1 mm set-up error) within their uncertainty
+    assert r.fit["multilateration"]["converged"]
+
+
+def test_noisy_round_trip_beats_the_seeds_test_set():
+    """The same machine measured with the seeds' full test set (lines, diagonals, step
+    diagonals, laser noise 0.5 um): the tracker's volumetric error is much closer."""
+    truth, s, r = _noisy_case()
+    q = grid(choose_nodes(s, refine=1))
+    rms = np.sqrt(np.mean(remove_rigid_body(q, r.predict(q)[0] - volumetric_error(truth, q))
+                          ** 2))
+    seeds = seeds_session("XYFZ", steps=4, runs=1)
     exact_fill(seeds, truth, seed=5, noise_um=0.5)
     rs = identify(seeds, IdentifyOptions(suggest=False))
     rms_seeds = np.sqrt(np.mean(remove_rigid_body(q, rs.predict(q)[0]
                                                   - volumetric_error(truth, q)) ** 2))
     assert rms < 0.5 * rms_seeds, (rms, rms_seeds)
-    # roll of X and Y (workpiece side) and of Z (tool side, seen through the offset)
-    for name in ("EAX", "EBY", "ECZ"):
-        k = COMPONENT_NAMES.index(name) // 6
-        n = choose_nodes(s, refine=1)[k]
-        est, tru = r.errors.function(name, n), truth.function(name, n)
-        sd = r.std[k][: n.size, COMPONENT_NAMES.index(name) % 6] if r.std[k].shape[0] == n.size \
-            else None
-        err = np.abs(est - tru).max()
-        assert err < 0.2 * np.ptp(tru) + 0.5, (name, err, np.ptp(tru))
-        if sd is not None:
-            assert err < 4 * sd.max() + 0.2
 
 
 @pytest.mark.parametrize("chain,seed", [("FXYZ", 24), ("YFXZ", 25)])

@@ -210,6 +210,12 @@ def advise(session: Session, options: IdentifyOptions | None = None):
     report.messages.insert(0, "Before measuring: the figures assume a typical machining centre "
                               "(prior scales 10 um, 5 um, 15 urad); the measured data will "
                               "refine them.")
+    if any(m.kind == "multilateration" for m in session.measurements):
+        from volcal.identify import multilateration as _ml
+
+        report.messages += _ml.design_notes(session)
+        if o.suggest:
+            report.messages += _ml.layout_messages(_ml.compare_layouts(planned, o))
     return report
 
 

@@ -244,6 +244,7 @@ def identify_iterated(session: Session, options, identify_fn):
                                              ps["angular_urad"]),
                             kappa=ps["kappa"] or options.kappa)
     converged = history[-1] < STATION_TOLERANCE_UM
+    r.report.messages += design_notes(session)
     r.fit["multilateration"] = {
         "stations": station_table(r, stations, nominal),
         "iterations": len(history),
@@ -256,3 +257,196 @@ def identify_iterated(session: Session, options, identify_fn):
             f"re-linearisations (last move {history[-1]:.3g} um): check station_mm and the "
             "tool offsets.")
     return r
+
+
+# ----------------------------------------------------------------------------- advice
+
+def design_notes(session: Session) -> list[str]:
+    """Plain-word notes on what a multilateration layout can and cannot determine.
+
+    Parameters
+    ----------
+    session : Session
+        A session with multilateration measurements.
+
+    Returns
+    -------
+    list of str
+    """
+    ms = [m for m in session.measurements if m.kind == "multilateration"]
+    if not ms:
+        return []
+    stations = np.unique(np.array([station_of(m) for m in ms]), axis=0)
+    offsets = np.unique(np.array([m.tool_offset for m in ms]), axis=0)
+    notes = []
+    if stations.shape[0] < 3:
+        notes.append(f"Multilateration: {stations.shape[0]} tracker station(s); at least 3 "
+                     "(better 4, not in one plane) are needed to locate the tool point in space.")
+    elif np.linalg.matrix_rank(stations[1:] - stations[0], tol=1.0) < 3:
+        notes.append("Multilateration: the tracker stations lie in one plane, so the direction "
+                     "out of that plane is seen only at a grazing angle near the plane: place "
+                     "one station higher or lower than the others.")
+    if offsets.shape[0] == 1:
+        notes.append("Multilateration: one tool offset. The tilts of the axis that carries the "
+                     "tool (and the roll of the machine axes about the tool's line) cannot be "
+                     "told from straightness: measure again with the reflector off the spindle "
+                     "axis (a second tool offset) to see them.")
+    else:
+        diffs = offsets[1:] - offsets[0]
+        if np.linalg.matrix_rank(diffs, tol=1.0) == 1:
+            d = diffs[0] / np.linalg.norm(diffs[0])
+            dtxt = ", ".join(f"{v:+.2f}" for v in d)
+            notes.append("Multilateration: the tool offsets lie on one line (direction "
+                         f"[{dtxt}]): the tilt of the axis that carries the tool about that "
+                         "line is not seen (the prior keeps it finite); it changes the "
+                         "volumetric error only for tools off that line. A third offset off "
+                         "the line determines it.")
+        if np.all(np.abs(offsets[:, :2]) < 1e-9):
+            notes.append("Multilateration: every tool offset is on the spindle axis, so the "
+                         "roll of the axis that carries the tool is not seen: put one "
+                         "reflector off the axis.")
+    return notes
+
+
+def _path_time_s(q: NDArray[np.float64], dwell_s: float, feed_mm_min: float) -> float:
+    return float(q.shape[0] * dwell_s + np.linalg.norm(np.diff(q, axis=0), axis=1).sum()
+                 / feed_mm_min * 60.0)
+
+
+def _variant(session: Session, stations, offsets, q) -> Session:
+    from volcal.plan.multilateration import multilateration_tests
+
+    others = [m for m in session.measurements if m.kind != "multilateration"]
+    ms = multilateration_tests(session.travel, (2, 2, 2), stations, offsets)
+    for m in ms:
+        m.positions = q.copy()
+        m.deviation = np.zeros(m.n)
+    s = copy(session)
+    s.measurements = others + ms
+    return s
+
+
+def _figures(s: Session, options, noise_um: float, dwell_s: float, feed_mm_min: float) -> dict:
+    from volcal.identify.api import _known
+    from volcal.identify.design import build_design, choose_nodes
+    from volcal.identify.prior import PriorStructure
+    from volcal.identify.solver import HYPER_CENTRE, solve_bayes
+    from volcal.model.kinematics import pose_jacobian
+    from volcal.model.chain import parse_chain
+
+    for m in s.measurements:
+        if m.deviation is None:
+            m.deviation = np.zeros(m.n)
+    nodes = choose_nodes(s, refine=1, max_nodes=min(options.max_nodes, 41))
+    d = build_design(s, nodes, _known(options), options.drift, None, options.tilts)
+    prior = PriorStructure.build(d.layout, d.free, float(np.exp(HYPER_CENTRE[3])))
+    sol = solve_bayes(d, prior, np.exp(HYPER_CENTRE[:3]), noise_um, options.squareness_std_urad)
+    ml = [m for m in s.measurements if m.kind == "multilateration"]
+    q = np.unique(np.concatenate([m.positions for m in ml]), axis=0)
+    Je, _ = pose_jacobian(parse_chain(s.chain).order, d.layout.nodes, q)
+    G = Je[:, d.free].toarray()
+    cov = sol.covariance[: d.n_free, : d.n_free]
+    var = np.einsum("ij,jk,ik->i", G, cov, G).reshape(-1, 3)
+    u = np.sqrt(np.clip(var.sum(1), 0, None))
+    hours = sum(_path_time_s(m.positions, dwell_s, feed_mm_min) for m in s.measurements) / 3600
+    return {"u_max_um": float(u.max()), "u_rms_um": float(np.sqrt(np.mean(u**2))),
+            "machine_time_h": hours, "readings": int(sum(m.n for m in s.measurements))}
+
+
+def compare_layouts(session: Session, options, noise_um: float = 0.4, dwell_s: float = 4.0,
+                    feed_mm_min: float = 2000.0) -> list[dict]:
+    """Volumetric uncertainty and machine time of the planned layout and of variants.
+
+    Variants: one station fewer and one more, the stations in one plane, one tool offset
+    fewer and one more, every other grid point. The uncertainty is the posterior standard
+    uncertainty of the volumetric error (length of the 3-D error vector) at the grid points,
+    for a reading noise ``noise_um`` and the prior scales of a typical machining centre; the
+    machine time counts the dwell at every point and the moves at ``feed_mm_min`` (set-up
+    time of the tracker and of the tool offsets not included).
+
+    Parameters
+    ----------
+    session : Session
+        Planned session with multilateration measurements.
+    options : IdentifyOptions
+        Known errors, roll, tilts, as for identification.
+    noise_um : float
+        Reading noise assumed (tracker + machine repeatability) [um].
+    dwell_s : float
+        Dwell per point [s].
+    feed_mm_min : float
+        Feed of the moves between points [mm/min].
+
+    Returns
+    -------
+    list of dict
+        ``design`` (plain words), ``stations``, ``offsets``, ``points``, ``u_max_um``,
+        ``u_rms_um``, ``machine_time_h``, ``readings``; the planned layout first.
+    """
+    from volcal.plan.multilateration import default_stations
+
+    ms = [m for m in session.measurements if m.kind == "multilateration"]
+    st = np.unique(np.array([station_of(m) for m in ms]), axis=0)
+    offs = np.unique(np.array([m.tool_offset for m in ms]), axis=0)
+    q = ms[0].positions
+    variants: list[tuple[str, NDArray, NDArray, NDArray]] = [("as planned", st, offs, q)]
+    if st.shape[0] > 3:
+        variants.append((f"{st.shape[0] - 1} stations", st[:-1], offs, q))
+    extra = default_stations(session.travel, offs, 8)
+    far = extra[np.argmax([np.linalg.norm(st - e, axis=1).min() for e in extra])]
+    variants.append((f"{st.shape[0] + 1} stations", np.vstack([st, far]), offs, q))
+    flat = st.copy()
+    flat[:, 2] = st[:, 2].mean()
+    if np.ptp(st[:, 2]) > 1.0:
+        variants.append(("stations in one plane (same height)", flat, offs, q))
+    if offs.shape[0] > 1:
+        variants.append((f"{offs.shape[0] - 1} tool offset(s)", st, offs[:-1], q))
+    third = offs[0] + np.array([-100.0, 100.0, -100.0])
+    variants.append((f"{offs.shape[0] + 1} tool offsets", st, np.vstack([offs, third]), q))
+    axes = [np.unique(np.round(q[:, k], 6)) for k in range(3)]
+    keep = np.all([np.isin(np.round(q[:, k], 6), axes[k][::2]) for k in range(3)], axis=0)
+    if keep.sum() >= 8 and keep.sum() < q.shape[0]:
+        variants.append(("every other grid point", st, offs, q[keep]))
+    out = []
+    for label, s_, o_, q_ in variants:
+        fig = _figures(_variant(session, s_, o_, q_), options, noise_um, dwell_s, feed_mm_min)
+        out.append({"design": label, "stations": int(s_.shape[0]), "offsets": int(o_.shape[0]),
+                    "points": int(q_.shape[0]), **fig})
+    return out
+
+
+def layout_messages(rows: list[dict]) -> list[str]:
+    """The layout comparison in plain words, with a proposal.
+
+    Parameters
+    ----------
+    rows : list of dict
+        :func:`compare_layouts` output (planned layout first).
+
+    Returns
+    -------
+    list of str
+    """
+    base = rows[0]
+    lines = ["Multilateration layouts (volumetric standard uncertainty at the grid points, "
+             "max / RMS, and machine time without set-up):"]
+    for r in rows:
+        lines.append(f"  {r['design']}: {r['stations']} stations x {r['offsets']} offsets x "
+                     f"{r['points']} points: u = {r['u_max_um']:.2f} / {r['u_rms_um']:.2f} um, "
+                     f"{r['machine_time_h']:.1f} h")
+    cheaper = [r for r in rows[1:] if r["machine_time_h"] < base["machine_time_h"]
+               and r["u_max_um"] <= 1.1 * base["u_max_um"]]
+    better = [r for r in rows[1:] if r["u_max_um"] < 0.8 * base["u_max_um"]]
+    if cheaper:
+        best = min(cheaper, key=lambda r: r["machine_time_h"])
+        lines.append(f"Proposal: {best['design']} gives about the same uncertainty "
+                     f"({best['u_max_um']:.2f} um) in {best['machine_time_h']:.1f} h instead of "
+                     f"{base['machine_time_h']:.1f} h.")
+    elif better:
+        best = min(better, key=lambda r: r["u_max_um"] * r["machine_time_h"])
+        lines.append(f"Proposal: {best['design']} lowers the uncertainty to "
+                     f"{best['u_max_um']:.2f} um (from {base['u_max_um']:.2f} um) for "
+                     f"{best['machine_time_h']:.1f} h of machine time.")
+    else:
+        lines.append("The planned layout is a good compromise among these variants.")
+    return lines

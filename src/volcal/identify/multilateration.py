@@ -331,8 +331,8 @@ def _figures(s: Session, options, noise_um: float, dwell_s: float, feed_mm_min: 
     from volcal.identify.design import build_design, choose_nodes
     from volcal.identify.prior import PriorStructure
     from volcal.identify.solver import HYPER_CENTRE, solve_bayes
-    from volcal.model.kinematics import pose_jacobian
     from volcal.model.chain import parse_chain
+    from volcal.model.kinematics import pose_jacobian
 
     for m in s.measurements:
         if m.deviation is None:

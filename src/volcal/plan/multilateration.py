@@ -136,8 +136,10 @@ def multilateration_tests(travel: ArrayLike, grid: Sequence[int] = DEFAULT_GRID,
     offs = [np.asarray(o, dtype=float).reshape(3) for o in tool_offsets]
     if not offs:
         raise VolcalInputError("multilateration needs at least one tool offset")
-    st = default_stations(travel, offs, n_stations) if stations is None else np.asarray(stations, float)
-    st = st.reshape(-1, 3)
+    if stations is None:
+        st = default_stations(travel, offs, n_stations)
+    else:
+        st = np.asarray(stations, dtype=float).reshape(-1, 3)
     if st.shape[0] < 3:
         raise VolcalInputError(f"multilateration needs at least 3 stations, got {st.shape[0]}")
     q = serpentine_grid(travel, grid)

@@ -436,7 +436,6 @@ def build_report(inp: ReportInputs, title: str | None = None) -> Report:
     Report
     """
     from volcal import __version__
-
     from volcal.report.multilateration import multilateration_section
 
     builders = [machine_section, measurements_section, positioning_section,

@@ -155,3 +155,25 @@ def test_other_chain_round_trip(chain, seed):
     assert np.mean(np.abs(diff) <= 1.96 * u) > 0.9
     truth_rms = np.sqrt(np.mean(remove_rigid_body(q, volumetric_error(truth, q)) ** 2))
     assert np.sqrt(np.mean(remove_rigid_body(q, diff) ** 2)) < 0.1 * truth_rms
+
+
+def test_mixed_session_lines_diagonals_and_tracker():
+    """Multilateration mixed with laser lines and diagonals: one fit, stations found."""
+    from volcal.plan.planner import plan_session
+
+    s = plan_session(TRAVEL, "XYFZ", 4, tests=("diagonal", "linear", "multilateration"),
+                     runs=1, multilateration={"grid": (4, 3, 3)})
+    truth = random_machine(TRAVEL, "XYFZ", seed=26)
+    setups = simulate_session(s, truth, SimulationOptions(noise_um=0.2, seed=7),
+                              TrackerOptions(station_error_mm=3.0))
+    r = identify(s, IdentifyOptions(suggest=False, scales=(10.0, 5.0, 15.0)))
+    assert r.fit["multilateration"]["converged"]
+    assert {m.kind for m in r.design.measurements} == {"diagonal", "linear", "multilateration"}
+    by_key = {st["station"]: st for st in r.fit["multilateration"]["stations"]}
+    from volcal.measure.multilateration import station_key
+
+    for m in s.measurements:
+        if m.kind == "multilateration":
+            st = by_key[station_key(m)]
+            err = np.abs(np.subtract(st["fitted_mm"], setups[m.id].station_mm)) * 1e3
+            assert np.all(err < 5 * np.array(st["u_um"]) + 0.5), (err, st["u_um"])

@@ -407,6 +407,10 @@ def compare_layouts(session: Session, options, noise_um: float = 0.4, dwell_s: f
     keep = np.all([np.isin(np.round(q[:, k], 6), axes[k][::2]) for k in range(3)], axis=0)
     if keep.sum() >= 8 and keep.sum() < q.shape[0]:
         variants.append(("every other grid point", st, offs, q[keep]))
+        variants.append((f"{st.shape[0] + 1} stations, every other grid point",
+                         np.vstack([st, far]), offs, q[keep]))
+        variants.append((f"{offs.shape[0] + 1} tool offsets, every other grid point", st,
+                         np.vstack([offs, third]), q[keep]))
     out = []
     for label, s_, o_, q_ in variants:
         fig = _figures(_variant(session, s_, o_, q_), options, noise_um, dwell_s, feed_mm_min)
@@ -434,19 +438,27 @@ def layout_messages(rows: list[dict]) -> list[str]:
         lines.append(f"  {r['design']}: {r['stations']} stations x {r['offsets']} offsets x "
                      f"{r['points']} points: u = {r['u_max_um']:.2f} / {r['u_rms_um']:.2f} um, "
                      f"{r['machine_time_h']:.1f} h")
-    cheaper = [r for r in rows[1:] if r["machine_time_h"] < base["machine_time_h"]
-               and r["u_max_um"] <= 1.1 * base["u_max_um"]]
-    better = [r for r in rows[1:] if r["u_max_um"] < 0.8 * base["u_max_um"]]
-    if cheaper:
+    t0, u0 = base["machine_time_h"], base["u_max_um"]
+    same_time = [r for r in rows[1:] if r["machine_time_h"] <= 1.05 * t0
+                 and r["u_max_um"] < 0.9 * u0]
+    cheaper = [r for r in rows[1:] if r["machine_time_h"] < 0.8 * t0
+               and r["u_max_um"] <= 1.1 * u0]
+    better = [r for r in rows[1:] if r["u_max_um"] < 0.8 * u0]
+    if same_time:
+        best = min(same_time, key=lambda r: r["u_max_um"])
+        lines.append(f"Proposal: {best['design']} lowers the uncertainty to "
+                     f"{best['u_max_um']:.2f} um (from {u0:.2f} um) in about the same machine "
+                     f"time ({best['machine_time_h']:.1f} h instead of {t0:.1f} h).")
+    elif cheaper:
         best = min(cheaper, key=lambda r: r["machine_time_h"])
         lines.append(f"Proposal: {best['design']} gives about the same uncertainty "
                      f"({best['u_max_um']:.2f} um) in {best['machine_time_h']:.1f} h instead of "
-                     f"{base['machine_time_h']:.1f} h.")
+                     f"{t0:.1f} h.")
     elif better:
         best = min(better, key=lambda r: r["u_max_um"] * r["machine_time_h"])
         lines.append(f"Proposal: {best['design']} lowers the uncertainty to "
-                     f"{best['u_max_um']:.2f} um (from {base['u_max_um']:.2f} um) for "
-                     f"{best['machine_time_h']:.1f} h of machine time.")
+                     f"{best['u_max_um']:.2f} um (from {u0:.2f} um) for "
+                     f"{best['machine_time_h']:.1f} h of machine time instead of {t0:.1f} h.")
     else:
         lines.append("The planned layout is a good compromise among these variants.")
     return lines

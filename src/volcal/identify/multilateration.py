@@ -326,7 +326,8 @@ def _variant(session: Session, stations, offsets, q) -> Session:
     return s
 
 
-def _figures(s: Session, options, noise_um: float, dwell_s: float, feed_mm_min: float) -> dict:
+def _figures(s: Session, options, noise_um: float, dwell_s: float, feed_mm_min: float,
+             q: NDArray[np.float64]) -> dict:
     from volcal.identify.api import _known
     from volcal.identify.design import build_design, choose_nodes
     from volcal.identify.prior import PriorStructure
@@ -341,8 +342,6 @@ def _figures(s: Session, options, noise_um: float, dwell_s: float, feed_mm_min: 
     d = build_design(s, nodes, _known(options), options.drift, None, options.tilts)
     prior = PriorStructure.build(d.layout, d.free, float(np.exp(HYPER_CENTRE[3])))
     sol = solve_bayes(d, prior, np.exp(HYPER_CENTRE[:3]), noise_um, options.squareness_std_urad)
-    ml = [m for m in s.measurements if m.kind == "multilateration"]
-    q = np.unique(np.concatenate([m.positions for m in ml]), axis=0)
     Je, _ = pose_jacobian(parse_chain(s.chain).order, d.layout.nodes, q)
     G = Je[:, d.free].toarray()
     cov = sol.covariance[: d.n_free, : d.n_free]
@@ -358,8 +357,9 @@ def compare_layouts(session: Session, options, noise_um: float = 0.4, dwell_s: f
     """Volumetric uncertainty and machine time of the planned layout and of variants.
 
     Variants: one station fewer and one more, the stations in one plane, one tool offset
-    fewer and one more, every other grid point. The uncertainty is the posterior standard
-    uncertainty of the volumetric error (length of the 3-D error vector) at the grid points,
+    fewer and one more, every other grid point (alone and with one station or offset
+    more). The uncertainty is the posterior standard uncertainty of the volumetric error
+    (length of the 3-D error vector) at the planned grid points (for every variant),
     for a reading noise ``noise_um`` and the prior scales of a typical machining centre; the
     machine time counts the dwell at every point and the moves at ``feed_mm_min`` (set-up
     time of the tracker and of the tool offsets not included).
@@ -413,7 +413,8 @@ def compare_layouts(session: Session, options, noise_um: float = 0.4, dwell_s: f
                          np.vstack([offs, third]), q[keep]))
     out = []
     for label, s_, o_, q_ in variants:
-        fig = _figures(_variant(session, s_, o_, q_), options, noise_um, dwell_s, feed_mm_min)
+        fig = _figures(_variant(session, s_, o_, q_), options, noise_um, dwell_s, feed_mm_min,
+                       q)
         out.append({"design": label, "stations": int(s_.shape[0]), "offsets": int(o_.shape[0]),
                     "points": int(q_.shape[0]), **fig})
     return out

@@ -21,6 +21,7 @@ from numpy.typing import NDArray
 
 from volcal.errors import VolcalInputError
 from volcal.io.atomic import atomic_dir, write_text
+from volcal.io.table import Column, TableSpec, read_table
 from volcal.io.tomlfmt import dumps as toml_dumps
 from volcal.io.values import parse_finite
 from volcal.model.chain import parse_chain
@@ -41,6 +42,8 @@ OPTIONAL_COLUMNS: dict[str, str] = {
     "material_temperature_c": "float",
 }
 MIN_ROWS = 2
+ABSURD_DEVIATION_UM = 10_000.0
+"""A reading beyond 10 mm is no laser deviation of a machine axis: an error."""
 
 __all__ = [
     "KINDS",
@@ -96,11 +99,28 @@ class Measurement:
     meta: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
+        """Validate the set-up: kind, target, shapes, finite values."""
+        if self.kind not in KINDS:
+            raise VolcalInputError(f"measurement {self.id!r}: unknown kind {self.kind!r}: "
+                                   f"expected one of {', '.join(KINDS)}")
+        if self.target not in TARGETS:
+            raise VolcalInputError(f"measurement {self.id!r}: unknown target {self.target!r}: "
+                                   f"expected one of {', '.join(TARGETS)}")
         if not self.file:
             self.file = f"{self.id}.csv"
-        self.positions = np.asarray(self.positions, dtype=float).reshape(-1, 3)
-        self.beam_direction = np.asarray(self.beam_direction, dtype=float).reshape(3)
-        self.tool_offset = np.asarray(self.tool_offset, dtype=float).reshape(3)
+        try:
+            self.positions = np.asarray(self.positions, dtype=float).reshape(-1, 3)
+            self.beam_direction = np.asarray(self.beam_direction, dtype=float).reshape(3)
+            self.tool_offset = np.asarray(self.tool_offset, dtype=float).reshape(3)
+        except (ValueError, TypeError) as exc:
+            raise VolcalInputError(f"measurement {self.id!r}: positions must be n x 3, beam "
+                                   f"direction and tool offset 3 numbers ({exc})") from None
+        for what, v in (("positions", self.positions), ("beam direction", self.beam_direction),
+                        ("tool offset", self.tool_offset)):
+            if not np.all(np.isfinite(v)):
+                raise VolcalInputError(f"measurement {self.id!r}: {what} must be finite")
+        if self.deviation is not None:
+            self.deviation = np.asarray(self.deviation, dtype=float).reshape(-1)
 
     @property
     def n(self) -> int:
@@ -315,6 +335,37 @@ _parse_float = parse_finite
 _UNIT_HINTS = {"deviation": "um", "x": "mm", "y": "mm", "z": "mm"}
 
 
+MEASUREMENT_TABLE = TableSpec(
+    columns=(
+        Column("x_mm"), Column("y_mm"), Column("z_mm"),
+        Column("deviation_um", empty=True, abs_max=ABSURD_DEVIATION_UM),
+        Column("run", kind="int", required=False, min=0),
+        Column("direction", kind="choice", required=False, choices=("+", "-")),
+        *(Column(c, required=False) for c, k in OPTIONAL_COLUMNS.items()
+          if k == "float"),
+    ),
+    min_rows=MIN_ROWS,
+    min_rows_message="need at least {min} readings, found {n}",
+    what="measurement file",
+)
+"""Columns of a measurement CSV (``docs/formats.md``)."""
+
+MULTILATERATION_TABLE = TableSpec(
+    columns=(
+        Column("x_mm"), Column("y_mm"), Column("z_mm"),
+        Column(MULTILATERATION_COLUMN, empty=True, abs_max=1e5),
+        Column("run", kind="int", required=False, min=0),
+        Column("direction", kind="choice", required=False, choices=("+", "-")),
+        *(Column(c, required=False) for c, k in OPTIONAL_COLUMNS.items()
+          if k == "float"),
+    ),
+    min_rows=MIN_ROWS,
+    min_rows_message="need at least {min} readings, found {n}",
+    what="multilateration file",
+)
+"""Columns of a multilateration CSV: ``length_mm`` instead of ``deviation_um``."""
+
+
 def read_measurement_csv(path: str | Path, require_deviation: bool = True,
                          value_column: str = "deviation_um"):
     """Read one measurement CSV.
@@ -343,81 +394,17 @@ def read_measurement_csv(path: str | Path, require_deviation: bool = True,
     VolcalInputError
         Naming file, row (1-based, header = row 1) and column.
     """
-    path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise _err("measurement file not found", path) from None
-    except (UnicodeDecodeError, IsADirectoryError, PermissionError) as exc:
-        raise _err(f"cannot read the file as UTF-8 text ({exc.__class__.__name__})", path) from None
-    try:
-        rows = list(csv.reader(io.StringIO(text)))
-    except csv.Error as exc:
-        raise _err(f"malformed CSV: {exc}", path) from None
-    rows = [r for r in rows if any(c.strip() for c in r)]
-    if not rows:
-        raise _err("empty file: expected the header x_mm,y_mm,z_mm,deviation_um", path, 1)
-    header = [h.strip() for h in rows[0]]
-    if len(set(header)) != len(header):
-        dup = next(h for h in header if header.count(h) > 1)
-        raise _err("duplicate column", path, 1, dup)
-    required = (*REQUIRED_COLUMNS[:3], value_column)
-    for req in required:
-        if req not in header:
-            stem = req.rsplit("_", 1)[0]
-            other = [h for h in header if h.rsplit("_", 1)[0] == stem]
-            if other:
-                raise _err(f"unknown or unsupported unit: expected '{req}' "
-                           f"[{_UNIT_HINTS.get(stem, req.rsplit('_', 1)[1])}]", path, 1, other[0])
-            shown = ",".join(header).replace("\r", " ").replace("\n", " ")
-            if len(shown) > 120:
-                shown = shown[:117] + "..."
-            raise _err(f"missing required column '{req}' (header: {shown})",
-                       path, 1, req)
-    idx = {h: i for i, h in enumerate(header)}
-    data = rows[1:]
-    if len(data) < MIN_ROWS:
-        raise _err(f"need at least {MIN_ROWS} readings, found {len(data)}", path, len(data) + 1)
-    n = len(data)
-    pos = np.empty((n, 3))
-    dev_text = [r[idx[value_column]].strip() if idx[value_column] < len(r) else ""
-                for r in data]
-    empty_dev = all(t == "" for t in dev_text)
-    dev = None if (empty_dev and not require_deviation) else np.empty(n)
-    extra_cols = [h for h in header if h in OPTIONAL_COLUMNS]
-    cols: dict[str, list[Any]] = {c: [] for c in extra_cols}
-    for i, r in enumerate(data):
-        rownum = i + 2
-        if len(r) != len(header):
-            raise _err(f"expected {len(header)} fields, found {len(r)}", path, rownum)
-        for j, c in enumerate(("x_mm", "y_mm", "z_mm")):
-            pos[i, j] = _parse_float(r[idx[c]].strip(), path, rownum, c)
-        if dev is not None:
-            t = dev_text[i]
-            if t == "":
-                raise _err("missing reading", path, rownum, value_column)
-            dev[i] = _parse_float(t, path, rownum, value_column)
-        for c in extra_cols:
-            t = r[idx[c]].strip()
-            kind = OPTIONAL_COLUMNS[c]
-            if kind == "int":
-                try:
-                    v = int(t)
-                except ValueError:
-                    raise _err(f"expected a whole number, got {t!r}", path, rownum, c) from None
-                if v < 0:
-                    raise _err("run numbers must not be negative", path, rownum, c)
-                cols[c].append(v)
-            elif kind == "dir":
-                if t not in ("+", "-"):
-                    raise _err(f"direction must be '+' or '-', got {t!r}", path, rownum, c)
-                cols[c].append(t)
-            else:
-                cols[c].append(_parse_float(t, path, rownum, c))
-    out: dict[str, NDArray[Any]] = {}
-    for c, v in cols.items():
-        out[c] = np.array(v, dtype=int if OPTIONAL_COLUMNS[c] == "int" else
-                          (str if OPTIONAL_COLUMNS[c] == "dir" else float))
+    spec = MULTILATERATION_TABLE if value_column == MULTILATERATION_COLUMN else MEASUREMENT_TABLE
+    t = read_table(path, spec)
+    pos = np.stack([t["x_mm"], t["y_mm"], t["z_mm"]], axis=1)
+    dev: NDArray[np.float64] | None = t[value_column]
+    missing = np.isnan(dev)
+    if missing.all() and not require_deviation:
+        dev = None
+    elif missing.any():
+        raise t.error("missing reading" if value_column != "deviation_um"
+                      else "missing deviation", int(np.argmax(missing)), value_column)
+    out = {c: t[c] for c in OPTIONAL_COLUMNS if t.has(c)}
     return pos, dev, out
 
 
@@ -498,12 +485,47 @@ def read_session(folder: str | Path, require_deviation: bool = True) -> Session:
     meas = []
     for i, e in enumerate(raw):
         m = _read_entry(e, i, folder, toml_path, seen, require_deviation)
+        check_in_travel(m, travel, folder / m.file)
         if m.meta.get("readings") == "raw" and m.deviation is not None:
             from volcal.environment.apply import compensate_measurement
 
             m = compensate_measurement(m, f"{toml_path} [{m.id}]")
         meas.append(m)
     return Session(name, chain, travel, meas, meta, folder)
+
+
+TRAVEL_MARGIN_MM = 1.0
+TRAVEL_MARGIN_REL = 0.005
+"""A commanded pose may lie this far outside the stated travel: 1 mm + 0.5 % of the axis
+length (rounding of the stated limits); anything further is an error."""
+
+
+def check_in_travel(m: Measurement, travel: NDArray[np.float64], path: Path) -> None:
+    """Refuse commanded poses outside the travel, naming file, row and column.
+
+    Parameters
+    ----------
+    m : Measurement
+        A measurement as read.
+    travel : ndarray, shape (3, 2)
+        Travel limits [mm].
+    path : Path
+        Its CSV file, for the message.
+
+    Raises
+    ------
+    VolcalInputError
+        The first pose (row, header = row 1) beyond the travel plus
+        :data:`TRAVEL_MARGIN_MM` + :data:`TRAVEL_MARGIN_REL` of the axis length.
+    """
+    margin = TRAVEL_MARGIN_MM + TRAVEL_MARGIN_REL * (travel[:, 1] - travel[:, 0])
+    out = (m.positions < travel[:, 0] - margin) | (m.positions > travel[:, 1] + margin)
+    if np.any(out):
+        i, k = (int(v[0]) for v in np.nonzero(out))
+        raise VolcalInputError(
+            f"commanded position {m.positions[i, k]:g} mm lies outside the travel "
+            f"{travel[k, 0]:g}..{travel[k, 1]:g} mm of {'XYZ'[k]}", path, i + 2,
+            f"{'xyz'[k]}_mm")
 
 
 def _read_entry(e: Any, i: int, folder: Path, toml_path: Path, seen: set[str],

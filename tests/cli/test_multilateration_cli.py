@@ -43,7 +43,12 @@ def test_plan_simulate_identify_program(tmp_path):
     r = volcal("program", s, "--dialect", "fanuc", "-o", tmp_path / "P")
     assert r.returncode == 0, r.stderr
     text = (tmp_path / "P" / "trk_s1_t1.nc").read_text()
-    assert "station_mm" in text.lower() and text.count("G04") >= 27
+    assert "station_mm" in text.lower() and text.count("G04") == 27  # a dwell per point
+    for dialect in ("siemens", "heidenhain"):
+        r = volcal("program", s, "--dialect", dialect, "-o", tmp_path / dialect)
+        assert r.returncode == 0, r.stderr
+        names = [p.name.lower() for p in (tmp_path / dialect).iterdir()]
+        assert sum(n.startswith("trk") for n in names) == 6
 
 
 def test_plan_bad_grid_is_a_clean_error(tmp_path):

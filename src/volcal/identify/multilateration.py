@@ -161,6 +161,8 @@ def station_table(result, stations: dict[str, NDArray[np.float64]],
         if m.kind == "multilateration":
             meas_of.setdefault(station_key(m), []).append(m.id)
     for key, S in stations.items():
+        if key not in meas_of:  # not among the measurements used
+            continue
         v = np.zeros(3)
         u = np.zeros(3)
         for j, c in enumerate("xyz"):
@@ -223,7 +225,7 @@ def identify_iterated(session: Session, options, identify_fn):
         step = _fast_step(linearised(session, stations), options)
         for k, dv in step.items():
             stations[k] = stations[k] + dv * 1e-3
-        history.append(max(float(np.abs(dv).max()) for dv in step.values()))
+        history.append(max((float(np.abs(dv).max()) for dv in step.values()), default=0.0))
         if history[-1] < STATION_TOLERANCE_UM:
             break
     # 2) the user's estimator at the converged stations; re-linearise if it still moves them
@@ -231,7 +233,7 @@ def identify_iterated(session: Session, options, identify_fn):
     for _ in range(MAX_ITERATIONS):
         r = identify_fn(linearised(session, stations), final)
         step = _updates(r)
-        move = max(float(np.abs(dv).max()) for dv in step.values())
+        move = max((float(np.abs(dv).max()) for dv in step.values()), default=0.0)
         history.append(move)
         if move < STATION_TOLERANCE_UM:
             break

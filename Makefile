@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: all install test lint demo bench clean browser-deps
+.PHONY: all install test lint demo bench study clean browser-deps
 
 all: test
 
@@ -36,6 +36,10 @@ demo: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/run.py
+
+study: $(STAMP)
+	$(BIN)/python benchmarks/study.py --design all --machines 10 --markdown --quiet
+	$(BIN)/python benchmarks/study.py --drift --design all --machines 10 --markdown --quiet
 
 clean:
 	rm -rf $(VENV) demo-output .pytest_cache .ruff_cache

@@ -44,7 +44,10 @@ def test_report_names_what_the_seeds_test_set_cannot_see(noisy):
     text = " ".join(rep.messages)
     assert "EAX (roll of X) is not determined" in text
     assert "Volumetric ambiguity" in text
-    assert rep.suggestions and "face diagonals" in rep.suggestions[0]
+    # With separate prior scales for roll and tilts (issue 10) three candidates remove the
+    # roll ambiguity about equally well (0.87 -> 0.07-0.08 um RMS on the seeds' set): the
+    # face diagonals in XY must be among them, not necessarily first.
+    assert rep.suggestions and any("face diagonals" in t for t in rep.suggestions)
 
 
 def test_step_diagonals_alone_report_the_slope_mirror_confusion():
@@ -220,7 +223,10 @@ def test_advise_before_measuring_matches_the_report_after():
     poor_before = {n for n, f in rep.determined_fraction.items() if f < 0.5}
     poor_after = {n for n, f in after.determined_fraction.items() if f < 0.5}
     assert "EAX" in poor_before and poor_before == poor_after
-    assert rep.suggestions and "face diagonals" in rep.suggestions[0]
+    # With separate prior scales for roll and tilts (issue 10) three candidates remove the
+    # roll ambiguity about equally well (0.87 -> 0.07-0.08 um RMS on the seeds' set): the
+    # face diagonals in XY must be among them, not necessarily first.
+    assert rep.suggestions and any("face diagonals" in t for t in rep.suggestions)
 
 
 def test_cli_advise_on_a_planned_session(tmp_path):

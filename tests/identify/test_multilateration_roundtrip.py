@@ -48,7 +48,7 @@ def test_noise_free_identifiable_part_is_exact():
     for m in s.measurements:
         m.deviation = reading_first_order(truth, m)
     # a stated noise far below the errors: the prior only fills what the data do not see
-    r = identify(s, IdentifyOptions(suggest=False, scales=(10.0, 5.0, 15.0), noise_um=1e-4))
+    r = identify(s, IdentifyOptions(suggest=False, scales=(10.0, 5.0, 15.0, 15.0), noise_um=1e-4))
     assert max(np.abs(v).max() for v in r.residuals.values()) < 1e-8
     nodes = choose_nodes(s, refine=1)
     determined = [n for n, f in r.report.determined_fraction.items() if f > 1 - 1e-9]
@@ -66,11 +66,11 @@ def test_stations_off_by_5_mm_converge_to_the_same_result():
     truth = random_machine(TRAVEL, "XYFZ", seed=22)
     s = tracker_session(grid_=(4, 3, 3))
     simulate_session(s, truth, SimulationOptions(noise_um=0.0), QUIET)
-    r0 = identify(s, IdentifyOptions(suggest=False, scales=(10.0, 5.0, 15.0), noise_um=0.3))
+    r0 = identify(s, IdentifyOptions(suggest=False, scales=(10.0, 5.0, 15.0, 15.0), noise_um=0.3))
     s5 = tracker_session(grid_=(4, 3, 3))
     simulate_session(s5, truth, SimulationOptions(noise_um=0.0), QUIET)
     moved(s5, np.array([5.0, -5.0, 5.0]))
-    r5 = identify(s5, IdentifyOptions(suggest=False, scales=(10.0, 5.0, 15.0), noise_um=0.3))
+    r5 = identify(s5, IdentifyOptions(suggest=False, scales=(10.0, 5.0, 15.0, 15.0), noise_um=0.3))
     assert r5.fit["multilateration"]["converged"]
     q = grid(choose_nodes(s, refine=1))
     np.testing.assert_allclose(r5.predict(q)[0], r0.predict(q)[0], atol=1e-3)
@@ -166,7 +166,7 @@ def test_mixed_session_lines_diagonals_and_tracker():
     truth = random_machine(TRAVEL, "XYFZ", seed=26)
     setups = simulate_session(s, truth, SimulationOptions(noise_um=0.2, seed=7),
                               TrackerOptions(station_error_mm=3.0))
-    r = identify(s, IdentifyOptions(suggest=False, scales=(10.0, 5.0, 15.0)))
+    r = identify(s, IdentifyOptions(suggest=False, scales=(10.0, 5.0, 15.0, 15.0)))
     assert r.fit["multilateration"]["converged"]
     assert {m.kind for m in r.design.measurements} == {"diagonal", "linear", "multilateration"}
     by_key = {st["station"]: st for st in r.fit["multilateration"]["stations"]}

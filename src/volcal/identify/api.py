@@ -18,15 +18,17 @@ from volcal.identify.design import Design, build_design, choose_nodes
 from volcal.identify.identifiability import analyse
 from volcal.identify.prior import PriorStructure
 from volcal.identify.result import IdentificationResult
-from volcal.identify.solver import Solution, solve_bayes, solve_min_norm
+from volcal.identify.solver import DEFAULT_SCALES, Solution, solve_bayes, solve_min_norm
 from volcal.model.names import ROLL_NAMES
 from volcal.plan.geometry import diagonal_test, linear_test, step_diagonal_test
 from volcal.session.format import Measurement, Session
 
 __all__ = ["IdentifyOptions", "advise", "identify"]
 
-HYPER_MAX_NODES = 41
-"""Nodes per axis of the grid on which the prior's hyperparameters are chosen."""
+HYPER_MAX_NODES = 21
+"""Nodes per axis of the grid on which the prior's hyperparameters are chosen (the
+hyperparameters describe the functions, not the grid: a coarse grid is enough and keeps
+each evidence evaluation cheap)."""
 
 ANALYSIS_MAX_NODES = 41
 """Nodes per axis of the identifiability analysis (a design property: coarse is enough)."""
@@ -43,9 +45,9 @@ class IdentifyOptions:
         least squares on the node values).
     noise_um : float, optional
         Stated repeatability of a reading [um]; default: estimated from the data.
-    scales : tuple of 3 float, optional
-        Prior amplitude scales (positioning [um], straightness [um], angular [urad]);
-        default: estimated (maximum evidence).
+    scales : tuple of 4 float, optional
+        Prior amplitude scales (positioning [um], straightness [um], roll [urad], tilts
+        [urad]); default: estimated (maximum evidence).
     kappa : float
         Curvature scale of the smoothness prior.
     squareness_std_urad : float
@@ -68,7 +70,8 @@ class IdentifyOptions:
     refine : int
         Node refinement between measured positions.
     max_nodes : int
-        Maximum nodes per axis.
+        Maximum nodes per axis (41: 20 mm on an 800 mm axis, finer than the smoothness the
+        prior allows; beyond it a uniform grid is used, independent of the increments).
     measurement_ids : list of str, optional
         Use only these measurements.
     outlier_threshold : float, optional
@@ -80,7 +83,7 @@ class IdentifyOptions:
 
     prior: str = "smooth"
     noise_um: float | None = None
-    scales: tuple[float, float, float] | None = None
+    scales: tuple[float, float, float, float] | None = None
     kappa: float = 40.0
     squareness_std_urad: float = 100.0
     roll: str = "estimate"
@@ -89,7 +92,7 @@ class IdentifyOptions:
     tilts: bool = True
     drift: bool = False
     refine: int = 2
-    max_nodes: int = 201
+    max_nodes: int = 41
     measurement_ids: list[str] | None = None
     outlier_threshold: float | None = None
     suggest: bool = True
@@ -204,13 +207,13 @@ def advise(session: Session, options: IdentifyOptions | None = None):
         m.deviation = np.zeros(m.n)
     nodes_a = choose_nodes(planned, refine=1, max_nodes=min(o.max_nodes, ANALYSIS_MAX_NODES))
     design = build_design(planned, nodes_a, known, o.drift, o.measurement_ids, o.tilts)
-    kappa = float(np.exp(HYPER_CENTRE[3]))
+    kappa = float(np.exp(HYPER_CENTRE[-1]))
     prior = PriorStructure.build(design.layout, design.free, kappa)
     cands = candidate_designs(planned, nodes_a, known) if o.suggest else None
-    report = analyse(design, prior, np.exp(HYPER_CENTRE[:3]), o.squareness_std_urad, cands)
+    report = analyse(design, prior, DEFAULT_SCALES.copy(), o.squareness_std_urad, cands)
     report.messages.insert(0, "Before measuring: the figures assume a typical machining centre "
-                              "(prior scales 10 um, 5 um, 15 urad); the measured data will "
-                              "refine them.")
+                              "(prior scales: positioning 10 um, straightness 5 um, roll and "
+                              "tilts 15 urad); the measured data will refine them.")
     if any(m.kind == "multilateration" for m in session.measurements):
         from volcal.identify import multilateration as _ml
 
@@ -278,7 +281,12 @@ def identify(session: Session, options: IdentifyOptions | None = None) -> Identi
                 sol_h = solve_bayes(design_h, prior_h, None, noise, o.squareness_std_urad)
             scales = sol_h.scales
             prior = prior.with_kappa(sol_h.kappa)
-        sol = solve_bayes(design, prior, scales, noise, o.squareness_std_urad)
+            hyper_noise = noise if noise is not None else sol_h.sigma_um
+            sol = solve_bayes(design, prior, scales, hyper_noise, o.squareness_std_urad)
+            sol.convergence = dict(sol_h.convergence, grid="hyperparameters on "
+                                   f"{'x'.join(str(len(n)) for n in nodes_h)} nodes")
+        else:
+            sol = solve_bayes(design, prior, scales, noise, o.squareness_std_urad)
         if noise is None and _too_few_redundant(sol, design):
             notes.append(_noise_note(sol, design))
             noise = DEFAULT_REPEATABILITY_UM
@@ -290,7 +298,7 @@ def identify(session: Session, options: IdentifyOptions | None = None) -> Identi
     ) else build_design(session, nodes_a, known, o.drift, o.measurement_ids, o.tilts)
     kappa = sol.kappa if np.isfinite(sol.kappa) else o.kappa
     prior1 = PriorStructure.build(design1.layout, design1.free, kappa)
-    scales = sol.scales if np.all(np.isfinite(sol.scales)) else np.array([10.0, 5.0, 15.0])
+    scales = sol.scales if np.all(np.isfinite(sol.scales)) else DEFAULT_SCALES.copy()
     cands = candidate_designs(session, nodes_a, known) if o.suggest else None
     report = analyse(design1, prior1, scales, o.squareness_std_urad, cands)
     if o.prior == "none":
@@ -367,7 +375,9 @@ def _result(session: Session, design: Design, sol: Solution, report, o: Identify
         "dof": float(sol.dof),
         "prior_scales": {"positioning_um": _fin(sol.scales[0]),
                          "straightness_um": _fin(sol.scales[1]),
-                         "angular_urad": _fin(sol.scales[2]), "kappa": _fin(sol.kappa)},
+                         "roll_urad": _fin(sol.scales[2]), "tilt_urad": _fin(sol.scales[3]),
+                         "kappa": _fin(sol.kappa)},
+        "convergence": dict(sol.convergence),
         "log_evidence": _fin(sol.log_evidence),
         "measurements": [m.id for m in design.measurements],
         "known": sorted(design.fixed_names),

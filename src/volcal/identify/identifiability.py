@@ -222,8 +222,8 @@ def analyse(design: Design, prior: PriorStructure, scales: NDArray[np.float64],
         Observation system, nodes at the measured positions only (``refine=1``).
     prior : PriorStructure
         Prior for the same design.
-    scales : ndarray, shape (3,)
-        Prior amplitude scales [um, um, urad].
+    scales : ndarray, shape (4,)
+        Prior amplitude scales [um, um, urad, urad] (positioning, straightness, roll, tilt).
     squareness_std : float
         Prior standard deviation of the squareness [urad].
     candidates : dict of str to Design, optional
@@ -258,7 +258,7 @@ def analyse(design: Design, prior: PriorStructure, scales: NDArray[np.float64],
     G = Je[:, design.free].toarray()
     R = rigid_projector(q)
     GP = R @ G
-    var = np.einsum("ij,jk,ik->i", GP, cov_inf, GP)
+    var = np.sum((GP @ cov_inf) * GP, axis=1)
     amb = np.sqrt(np.clip(var, 0, None))
     report = IdentifiabilityReport(nf, rank, nf - rank, frac, float(amb.max()),
                                    float(np.sqrt(np.mean(amb**2))))
@@ -331,14 +331,14 @@ def _messages(rep: IdentifiabilityReport, design: Design) -> None:
 def _suggest(rep: IdentifiabilityReport, design: Design, F, Qp, candidates, G, R) -> None:
     base = rep.ambiguity_rms_um
     scores = []
+    GP = R @ G
     for label, cd in candidates.items():
         Fc = information(cd)
         Fn = F + Fc
         scale = np.sqrt(np.diag(Qp))
         cov, _ = null_space_covariance(Fn / np.outer(scale, scale), Qp / np.outer(scale, scale))
         cov = cov / np.outer(scale, scale)
-        GP = R @ G
-        var = np.einsum("ij,jk,ik->i", GP, cov, GP)
+        var = np.sum((GP @ cov) * GP, axis=1)
         rms = float(np.sqrt(np.mean(np.clip(var, 0, None))))
         scores.append((rms, label))
     scores.sort()

@@ -178,13 +178,13 @@ def _fast_step(session: Session, options) -> dict[str, NDArray[np.float64]]:
     from volcal.identify.api import _known
     from volcal.identify.design import build_design, choose_nodes
     from volcal.identify.prior import PriorStructure
-    from volcal.identify.solver import solve_bayes
+    from volcal.identify.solver import DEFAULT_SCALES, solve_bayes
 
     nodes = choose_nodes(session, refine=1, max_nodes=min(options.max_nodes, 41))
     d = build_design(session, nodes, _known(options), options.drift, options.measurement_ids,
                      options.tilts)
     prior = PriorStructure.build(d.layout, d.free, options.kappa)
-    scales = np.array(options.scales if options.scales is not None else (10.0, 5.0, 15.0))
+    scales = np.array(options.scales if options.scales is not None else DEFAULT_SCALES)
     noise = options.noise_um if options.noise_um is not None else 1.0
     sol = solve_bayes(d, prior, scales, noise, options.squareness_std_urad, covariance=False)
     out: dict[str, list[float]] = {}
@@ -240,11 +240,10 @@ def identify_iterated(session: Session, options, identify_fn):
         for k, dv in step.items():
             stations[k] = stations[k] + dv * 1e-3
         ps = r.fit["prior_scales"]
-        if options.scales is None and None not in (ps["positioning_um"], ps["straightness_um"],
-                                                   ps["angular_urad"]):
-            final = replace(options, scales=(ps["positioning_um"], ps["straightness_um"],
-                                             ps["angular_urad"]),
-                            kappa=ps["kappa"] or options.kappa)
+        keys = ("positioning_um", "straightness_um", "roll_urad", "tilt_urad")
+        if options.scales is None and all(ps.get(k) is not None for k in keys):
+            final = replace(options, scales=tuple(ps[k] for k in keys),
+                            kappa=ps.get("kappa") or options.kappa)
     converged = history[-1] < STATION_TOLERANCE_UM
     r.report.messages += design_notes(session)
     r.fit["multilateration"] = {
@@ -333,7 +332,7 @@ def _figures(s: Session, options, noise_um: float, dwell_s: float, feed_mm_min: 
     from volcal.identify.api import _known
     from volcal.identify.design import build_design, choose_nodes
     from volcal.identify.prior import PriorStructure
-    from volcal.identify.solver import HYPER_CENTRE, solve_bayes
+    from volcal.identify.solver import DEFAULT_SCALES, HYPER_CENTRE, solve_bayes
     from volcal.model.chain import parse_chain
     from volcal.model.kinematics import pose_jacobian
 
@@ -342,8 +341,8 @@ def _figures(s: Session, options, noise_um: float, dwell_s: float, feed_mm_min: 
             m.deviation = np.zeros(m.n)
     nodes = choose_nodes(s, refine=1, max_nodes=min(options.max_nodes, 41))
     d = build_design(s, nodes, _known(options), options.drift, None, options.tilts)
-    prior = PriorStructure.build(d.layout, d.free, float(np.exp(HYPER_CENTRE[3])))
-    sol = solve_bayes(d, prior, np.exp(HYPER_CENTRE[:3]), noise_um, options.squareness_std_urad)
+    prior = PriorStructure.build(d.layout, d.free, float(np.exp(HYPER_CENTRE[-1])))
+    sol = solve_bayes(d, prior, DEFAULT_SCALES.copy(), noise_um, options.squareness_std_urad)
     Je, _ = pose_jacobian(parse_chain(s.chain).order, d.layout.nodes, q)
     G = Je[:, d.free].toarray()
     cov = sol.covariance[: d.n_free, : d.n_free]

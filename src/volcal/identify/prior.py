@@ -7,9 +7,10 @@ travel. Each function ``f`` on its nodes gets the prior density
           + \\int_0^1 f(s)^2\\,ds \\right] + \\text{const},
 
 with ``s`` the position normalised to the travel, ``a_g`` the amplitude scale of its group
-(positioning, straightness, angular) and ``kappa`` the curvature scale. The curvature
-term is the penalty of a cubic smoothing spline (Wahba, *Spline Models for Observational
-Data*, SIAM 1990); the amplitude term makes the prior proper so that undetermined
+(positioning, straightness, roll, tilt: separate, so that an undetermined roll cannot
+borrow the amplitude the well-determined tilts need) and ``kappa`` the curvature scale.
+The curvature term is the penalty of a cubic smoothing spline (Wahba, *Spline Models for
+Observational Data*, SIAM 1990); the amplitude term makes the prior proper so that undetermined
 combinations are reported with a finite, honest uncertainty. The precision is banded,
 so the posterior stays sparse (Rue & Held, *Gaussian Markov Random Fields*, 2005).
 """
@@ -24,13 +25,15 @@ from numpy.typing import NDArray
 
 from volcal.model.parameters import ParameterLayout
 
-GROUPS: tuple[str, ...] = ("positioning", "straightness", "angular")
+GROUPS: tuple[str, ...] = ("positioning", "straightness", "roll", "tilt")
+"""Prior amplitude groups: positioning [um], straightness [um], roll [urad] (EAX, EBY,
+ECZ), the other angular errors (tilts: pitch and yaw) [urad]."""
 
 __all__ = ["GROUPS", "PriorStructure", "function_group", "unit_parts", "unit_precision"]
 
 
 def function_group(axis: int, component: int) -> int:
-    """Group index of a component error: 0 positioning, 1 straightness, 2 angular.
+    """Group index of a component error: 0 positioning, 1 straightness, 2 roll, 3 tilt.
 
     Parameters
     ----------
@@ -43,10 +46,11 @@ def function_group(axis: int, component: int) -> int:
     -------
     int
         0 for the positioning error (``component == axis``), 1 for a straightness error,
-        2 for an angular error.
+        2 for the roll (rotation about the moving axis itself: EAX, EBY, ECZ), 3 for the
+        two tilts.
     """
     if component >= 3:
-        return 2
+        return 2 if component - 3 == axis else 3
     return 0 if component == axis else 1
 
 
@@ -177,8 +181,8 @@ class PriorStructure:
 
         Parameters
         ----------
-        scales : ndarray, shape (3,)
-            Amplitude scales of the groups [um, um, urad].
+        scales : ndarray, shape (4,)
+            Amplitude scales of the groups [um, um, urad, urad] (:data:`GROUPS`).
         squareness_std : float
             Prior standard deviation of the squareness errors [urad].
         n_total : int
@@ -210,8 +214,8 @@ class PriorStructure:
 
         Parameters
         ----------
-        scales : ndarray, shape (3,)
-            Amplitude scales of the groups [um, um, urad].
+        scales : ndarray, shape (4,)
+            Amplitude scales of the groups [um, um, urad, urad] (:data:`GROUPS`).
         squareness_std : float
             Prior standard deviation of the squareness errors [urad].
         nuisance_precision : ndarray

@@ -91,7 +91,8 @@ class IdentificationResult:
         """Full parameter vector of the estimate."""
         return self.layout.pack(self.errors)
 
-    def predict(self, q: ArrayLike, tool_offset: ArrayLike | None = None, chunk: int = 20000):
+    def predict(self, q: ArrayLike, tool_offset: ArrayLike | None = None, chunk: int = 20000,
+                rigid_removed: bool = False):
         """Volumetric error and its standard uncertainty at points.
 
         Parameters
@@ -102,6 +103,11 @@ class IdentificationResult:
             Tool offset [mm].
         chunk : int
             Points per block (memory bound).
+        rigid_removed : bool
+            Remove the best-fit rigid-body motion over the points ``q`` from the error field
+            and from its uncertainty (ISO 230-1 volumetric comparisons; relative laser
+            readings cannot see a rigid motion of the work zone). Dense in ``3m``: for at
+            most a few thousand points.
 
         Returns
         -------
@@ -113,6 +119,14 @@ class IdentificationResult:
         q = np.asarray(q, dtype=float).reshape(-1, 3)
         theta = self.theta
         order = self.errors.chain_obj.order
+        if rigid_removed:
+            from volcal.identify.identifiability import rigid_projector
+
+            Je, _ = pose_jacobian(order, self.layout.nodes, q, tool_offset)
+            R = rigid_projector(q)
+            e = (R @ (Je @ theta)).reshape(-1, 3)
+            GL = R @ np.asarray(Je[:, self.free] @ self.cov_factor)
+            return e, np.sqrt(np.sum(GL**2, axis=1)).reshape(-1, 3)
         es, us = [], []
         for i in range(0, q.shape[0], chunk):
             qq = q[i:i + chunk]

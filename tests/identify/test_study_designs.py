@@ -1,0 +1,162 @@
+"""Issue 10's acceptance checks per test design, on random machines (benchmarks/study.py).
+
+The machines are the first :data:`N_MACHINES` of the study's fixed sequence
+(``study.cases``: chains and seeds drawn by a fixed generator, not chosen), simulated with
+the exact simulator (0.5 um noise, 20 urad mirror and beam misalignment) at the study's
+plan with 10 increments per test but 2 bidirectional runs per line instead of 5 (to save
+time; the figures of machines 0-7 are within a few per cent of the 5-run study's). Each
+design is identified with the default estimator and with minimum-norm least squares; the
+checks are issue 10's:
+
+* the volumetric residual is never worse than minimum-norm least squares on the same data;
+* the 95 % intervals of the predicted volumetric error cover 90-99 % of the grid points and
+  components, pooled over the machines;
+* the roll (EAX, EBY, ECZ) is recovered where the report calls it determined, and its
+  95 % intervals cover the truth (pooled) where it is not.
+
+The checks the estimator of main does not meet yet carry ``xfail`` marks with the
+measured numbers (``strict=False``); they are to be removed when the new estimator lands.
+Runtime with the estimator of main: 3-5 minutes on the shared 2-core box (80 Bayesian and
+80 minimum-norm identifications; the Bayesian ones, ~2 s each now, are what issue 10 is to
+make ~50x faster, which brings the file well under 90 s).
+"""
+
+from __future__ import annotations
+
+import functools
+import importlib.util
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from volcal.identify import IdentifyOptions, identify
+
+_STUDY = Path(__file__).resolve().parents[2] / "benchmarks" / "study.py"
+
+
+def _load_study():
+    if "volcal_study" in sys.modules:
+        return sys.modules["volcal_study"]
+    spec = importlib.util.spec_from_file_location("volcal_study", _STUDY)
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules["volcal_study"] = mod  # dataclasses look their module up by name
+    assert spec.loader is not None
+    spec.loader.exec_module(mod)
+    return mod
+
+
+study = _load_study()
+
+N_MACHINES = 8
+STEPS, RUNS, GRID = 10, 2, 9
+
+RATIO_SLACK = 1.01
+"""Allowed ratio of the residuals (default / minimum norm).
+
+Where most of the residual is a part no reading sees (Abbe lines only: ~10 um of
+undetermined squareness and straightness, set to zero by both estimators), the two
+residuals share that part and differ only by how each propagates the 0.5 um noise:
+``ratio - 1 ~ (d_bayes^2 - d_minnorm^2) / (2 R^2)``, a few 1e-4 on those machines
+(measured max 1.001). One per cent is far below the 1.05-2.5x failures this check exists
+to catch.
+"""
+
+DETERMINED = 0.9
+"""A roll is 'identifiable' where the report's determined fraction is at least this."""
+
+
+@functools.cache
+def _results(design: str):
+    return study.run_design(design, N_MACHINES, STEPS, RUNS, GRID)
+
+
+def _xfail(reason: str):
+    return pytest.mark.xfail(reason=f"issue 10: {reason}", strict=False)
+
+
+def _params(marks: dict[str, str]):
+    return [pytest.param(d, marks=_xfail(marks[d])) if d in marks else d
+            for d in study.DESIGNS]
+
+
+# Measured with the estimator of main (2026-11-23, commit b735ad0, machines 0-7, 2 runs).
+RATIO_XFAIL = {
+    "full": "machines 3 (XFYZ) and 6 (FXYZ) 1.23x and 1.02x worse than minimum-norm LS "
+            "(machine 3: X roll 0.06 determined, 14 urad off)",
+    "step": "7 of 8 machines worse than minimum-norm LS, up to 2.54x (median 1.34)",
+    "abbe+diag": "machines 2 and 6 are 1.08x and 1.03x worse than minimum-norm LS",
+    "long": "machine 6 (FXYZ) 1.04x worse than minimum-norm LS (machine 3: 1.20x with 5 "
+            "runs per line)",
+}
+COVERAGE_XFAIL = {
+    "step": "95 % intervals cover 87.5 % pooled, 50 % on machine 6 (slope/mirror confound "
+            "not in the uncertainty)",
+}
+ROLL_XFAIL = {
+    "full": "ECZ 'determined' (1.0) but 7.9, 8.0, 14.0 urad off on machines 0, 2, 5 "
+            "(true RMS 4.9, 9.5, 7.2); EBY 4.8 urad off (true 2.2) on machine 6",
+    "step": "ECZ 12.0 urad off (true 4.9) on machine 0 though 0.96 determined; EAX of "
+            "machine 0 5.0 off (true 4.6), EBY of machine 5 4.4 off (true 4.5)",
+    "abbe+diag": "EBY 9.1 urad off (true 2.2) on machine 6 though 0.96 determined",
+    "long": "ECZ 'determined' (>= 0.97) but 7.2 and 11.7 urad off (true 4.9, 7.2) on "
+            "machines 0 and 5",
+}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("design", _params(RATIO_XFAIL))
+def test_never_worse_than_minimum_norm_least_squares(design):
+    res = _results(design)
+    ratios = {r.case.index: round(r.ratio, 3) for r in res}
+    assert all(r.bayes["rms_um"] <= RATIO_SLACK * r.min_norm["rms_um"] for r in res), ratios
+    # the comparison is not vacuous: the truth is far from what either estimate leaves
+    assert all(r.min_norm["rms_um"] < r.truth_rms_um for r in res)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("design", _params(COVERAGE_XFAIL))
+def test_95_percent_intervals_cover_90_to_99_percent(design):
+    res = _results(design)
+    cover = float(np.mean([r.bayes["coverage"] for r in res]))
+    per_machine = [round(r.bayes["coverage"], 2) for r in res]
+    assert 0.90 <= cover <= 0.99, (cover, per_machine)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("design", _params(ROLL_XFAIL))
+def test_roll_recovered_where_identifiable(design):
+    """Where the report calls a roll determined, its RMS error is at most half its true
+    RMS plus 2 urad (0.5 um of noise over a lever arm of 250 mm); everywhere, its 95 %
+    intervals cover the truth at >= 90 % of the positions, pooled."""
+    res = _results(design)
+    bad, cover = [], []
+    for r in res:
+        for name, f in r.bayes["roll"].items():
+            cover.append(f["coverage"])
+            if f["determined"] >= DETERMINED and (
+                    f["rms_err_urad"] > 0.5 * f["rms_true_urad"] + 2.0):
+                bad.append((r.case.index, name, round(f["rms_err_urad"], 1),
+                            round(f["rms_true_urad"], 1), round(f["determined"], 2)))
+    assert not bad, bad
+    assert np.mean(cover) >= 0.90, np.mean(cover)
+    if design == "abbe":
+        # linear lines cannot see a roll: the report must not claim it
+        assert all(f["determined"] < 0.5 for r in res for f in r.bayes["roll"].values())
+
+
+def test_roll_zero_holds_exactly_the_three_rolls():
+    """``roll='zero'`` holds EAX, EBY, ECZ (each axis about its own direction) at exactly
+    zero with no uncertainty, and estimates the tilts EAY, EAZ (issue 10)."""
+    case = study.cases(1)[0]
+    session, _ = study.simulate(study.DESIGNS["full"], case, steps=6, runs=2)
+    r = identify(session, IdentifyOptions(roll="zero", suggest=False))
+    for k, name in enumerate(("EAX", "EBY", "ECZ")):
+        pos = np.linspace(*session.travel[k], 13)
+        assert np.all(r.errors.function(name, pos) == 0.0), name
+        assert np.all(r.function_std(name, pos) == 0.0), name
+    # the tilts of Y and Z are estimated, not held
+    for k, name in ((1, "EAY"), (2, "EAZ")):
+        pos = np.linspace(*session.travel[k], 13)
+        assert np.abs(r.function_std(name, pos)).max() > 0, name

@@ -32,7 +32,7 @@ def plan(
     steps: int = typer.Option(10, help="Increments per test."),
     tests: str = typer.Option("step-diagonal,diagonal,linear",
                               help="Comma-separated: step-diagonal, diagonal, linear, "
-                              "face-diagonal, face-step-diagonal."),
+                              "face-diagonal, face-step-diagonal, multilateration."),
     runs: int = typer.Option(5, help="Bidirectional runs per linear test (ISO 230-2)."),
     step_orders: str = typer.Option("xyz", help="Axis orders of the step diagonals, e.g. xyz,yxz."),
     tool_offset: str = typer.Option("0,0,0", help="Target point on the tool x,y,z [mm]."),
@@ -45,6 +45,11 @@ def plan(
                                      "the travel, room for the ISO 230-2 overrun [mm]."),
     abbe_offset_mm: float = typer.Option(150.0, help="Target offset from the spindle for "
                                          "the Abbe lines no machine move can offset [mm]."),
+    grid: str = typer.Option("9,7,6", help="Multilateration: grid points along x,y,z."),
+    stations: str = typer.Option("4", help="Multilateration: number of default stations "
+                                 "(3-8), or pivots 'x,y,z;x,y,z;...' [mm]."),
+    tool_offsets: str = typer.Option("0,0,-100;100,100,-100", help="Multilateration: "
+                                     "reflector offsets on the tool 'x,y,z;x,y,z' [mm]."),
     output: Path = typer.Option(..., "-o", "--output", help="Session folder to write."),
 ) -> None:
     """Write a session skeleton: the commanded poses of every test, deviations empty."""
@@ -59,7 +64,8 @@ def plan(
                      parse_vector(tool_offset, "--tool-offset"), name,
                      step_target=step_target,
                      iso_spacing=iso_spacing, linear_margin_mm=overrun_mm,
-                     abbe_tool_offset_mm=abbe_offset_mm)
+                     abbe_tool_offset_mm=abbe_offset_mm,
+                     multilateration=_multilateration_options(grid, stations, tool_offsets))
     write_session(s, output)
     n = sum(m.n for m in s.measurements)
     console.print(f"planned {len(s.measurements)} measurements, {n} readings -> {output}")
@@ -131,6 +137,29 @@ def simulate(
                       f"{session}/{next(iter(backup)).rsplit('/', 2)[0]}/", highlight=False)
     console.print(f"simulated {len(s.measurements)} measurements on '{vm.name}' "
                   f"(noise {noise_um} um, mirror {mirror_urad} urad); truth in {session}/truth/")
+
+
+def _multilateration_options(grid: str, stations: str, tool_offsets: str) -> dict:
+    """Keyword arguments of the multilateration plan from the CLI strings."""
+    try:
+        g = [int(v) for v in grid.split(",")]
+    except ValueError:
+        raise VolcalInputError(f"--grid {grid!r}: expected 3 whole numbers, e.g. 9,7,6") from None
+    if len(g) != 3:
+        raise VolcalInputError(f"--grid {grid!r}: expected 3 whole numbers, e.g. 9,7,6")
+    offs = [parse_vector(o, "--tool-offsets") for o in tool_offsets.split(";") if o.strip()]
+    out: dict = {"grid": g, "tool_offsets": offs}
+    if ";" in stations or "," in stations:
+        out["stations"] = [parse_vector(v, "--stations") for v in stations.split(";")
+                           if v.strip()]
+    else:
+        try:
+            n = int(stations)
+        except ValueError:
+            raise VolcalInputError(f"--stations {stations!r}: expected a count or "
+                                   "'x,y,z;x,y,z;...'") from None
+        out["n_stations"] = n
+    return out
 
 
 def register(app: typer.Typer) -> None:

@@ -238,6 +238,12 @@ def advise(session: Session, options: IdentifyOptions | None = None):
     report.messages.insert(0, "Before measuring: the figures assume a typical machining centre "
                               "(prior scales: positioning 10 um, straightness 5 um, roll and "
                               "tilts 15 urad); the measured data will refine them.")
+    if any(m.kind == "multilateration" for m in session.measurements):
+        from volcal.identify import multilateration as _ml
+
+        report.messages += _ml.design_notes(session)
+        if o.suggest:
+            report.messages += _ml.layout_messages(_ml.compare_layouts(planned, o))
     return report
 
 
@@ -263,6 +269,10 @@ def identify(session: Session, options: IdentifyOptions | None = None) -> Identi
     travel and the straightness functions also at the end.
     """
     o = options or IdentifyOptions()
+    from volcal.identify import multilateration as _ml
+
+    if _ml.needs_linearisation(session):  # tracker stations: Gauss-Newton around this function
+        return _ml.identify_iterated(session, o, identify)
     known = _known(o)
     if o.prior not in ("smooth", "none"):
         raise VolcalInputError(f"prior must be 'smooth' or 'none', got {o.prior!r}")

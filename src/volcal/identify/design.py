@@ -28,7 +28,23 @@ from volcal.model.names import COMPONENT_NAMES
 from volcal.model.parameters import ParameterLayout
 from volcal.session.format import Measurement, Session
 
-__all__ = ["Design", "build_design", "choose_nodes"]
+__all__ = ["ROW_BLOCKS", "Design", "build_design", "choose_nodes"]
+
+ROW_BLOCKS: dict[str, str] = {"multilateration": "volcal.identify.multilateration:row_block"}
+"""Extension point: measurement kinds whose rows are not the laser readings of
+:func:`volcal.measure.readings.reading_jacobian`. Maps the kind to ``'module:function'``,
+``function(chain_order, nodes, measurement, drift) -> (J, y, N, names)`` with ``J`` the
+sparse rows on the full parameter layout, ``y`` the observations [um], ``N`` the nuisance
+columns (dense, one row per reading) and ``names`` their names. Nuisances with the same
+name in several measurements share one column (a tracker station seen by several
+measurements)."""
+
+
+def _row_block(kind: str):
+    import importlib
+
+    mod, fn = ROW_BLOCKS[kind].split(":")
+    return getattr(importlib.import_module(mod), fn)
 
 
 def choose_nodes(session: Session, refine: int = 2, max_nodes: int = 201
@@ -287,23 +303,29 @@ def build_design(session: Session, nodes: list[NDArray[np.float64]] | None = Non
     blocks, nblocks, ys, rows, nnames = [], [], [], {}, []
     r0 = 0
     for m in meas:
-        J = reading_jacobian(chain.order, layout.nodes, m)
-        ys.append(m.deviation - J @ fixed_values)
+        if m.kind in ROW_BLOCKS:
+            J, y_m, N, names = _row_block(m.kind)(chain.order, layout.nodes, m, drift)
+        else:
+            J = reading_jacobian(chain.order, layout.nodes, m)
+            y_m = m.deviation
+            N, names = _nuisance_columns(m, drift, tilts)
+        ys.append(y_m - J @ fixed_values)
         blocks.append(J[:, free])
-        N, names = _nuisance_columns(m, drift, tilts)
-        nblocks.append((N, r0))
-        nnames += names
+        nblocks.append((N, r0, names))
         rows[m.id] = slice(r0, r0 + m.n)
         r0 += m.n
+    column: dict[str, int] = {}  # a name seen twice is one shared column
+    for _, _, names in nblocks:
+        for nm in names:
+            column.setdefault(nm, len(column))
+    nnames = list(column)
     n_nuis = len(nnames)
     data, ri, ci = [], [], []
-    c0 = 0
-    for N, start in nblocks:
+    for N, start, names in nblocks:
         rr, cc = np.nonzero(N)
         data.append(N[rr, cc])
         ri.append(rr + start)
-        ci.append(cc + c0)
-        c0 += N.shape[1]
+        ci.append(np.array([column[nm] for nm in names], dtype=int)[cc])
     Nmat = sp.csr_matrix((np.concatenate(data), (np.concatenate(ri), np.concatenate(ci))),
                          shape=(r0, n_nuis))
     A = sp.hstack([sp.vstack(blocks), Nmat]).tocsr()

@@ -30,7 +30,8 @@ from volcal.identify.prior import PriorStructure
 
 __all__ = ["Solution", "solve_bayes", "solve_min_norm"]
 
-NUISANCE_PRECISION = {"offset": 1e-10, "tilt": 1e-8, "reversal": 1e-8, "drift": 1e-8}
+NUISANCE_PRECISION = {"offset": 1e-10, "tilt": 1e-8, "reversal": 1e-8, "drift": 1e-8,
+                      "station_x": 1e-10, "station_y": 1e-10, "station_z": 1e-10}
 DEFAULT_SCALES = np.array([10.0, 5.0, 15.0, 15.0])
 """Typical amplitude scales of machining centres: positioning [um], straightness [um],
 roll [urad], tilts [urad]."""

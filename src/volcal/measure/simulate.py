@@ -75,7 +75,8 @@ def _random_perp(rng: np.random.Generator, n: np.ndarray, magnitude: float) -> n
 
 
 def simulate_session(session: Session, machine: MachineErrors,
-                     options: SimulationOptions | None = None) -> dict[str, SetupErrors]:
+                     options: SimulationOptions | None = None,
+                     tracker=None) -> dict[str, SetupErrors]:
     """Fill every measurement's deviations from the virtual machine, in place.
 
     Parameters
@@ -86,6 +87,10 @@ def simulate_session(session: Session, machine: MachineErrors,
         The virtual machine (truth).
     options : SimulationOptions, optional
         Noise and set-up errors.
+    tracker : volcal.measure.multilateration.TrackerOptions, optional
+        The virtual tracking interferometer of multilateration measurements (station
+        set-up error, length noise); ``options.noise_um`` is then the machine's
+        repeatability per coordinate of the tool point.
 
     Returns
     -------
@@ -95,7 +100,14 @@ def simulate_session(session: Session, machine: MachineErrors,
     o = options or SimulationOptions()
     rng = np.random.default_rng(o.seed)
     setups = {}
+    stations: dict = {}
     for m in session.measurements:
+        if m.kind == "multilateration":
+            from volcal.measure.multilateration import simulate_tracker
+
+            setups[m.id] = simulate_tracker(m, machine, rng, o.noise_um, o.dwell_s,
+                                            o.drift_um_per_h, stations, tracker)
+            continue
         setup = SetupErrors(
             mirror_tilt=_random_perp(rng, m.beam_direction, o.mirror_misalignment_urad)
             if m.target in ("flat_mirror", "retroreflector_mirror") else np.zeros(3),
@@ -145,7 +157,9 @@ def truth_files(machine: MachineErrors, setups: dict[str, SetupErrors],
         "drift_um_per_h": o_float(options.drift_um_per_h),
         "seed": -1 if options.seed is None else int(options.seed),
         "setup": {mid: {"mirror_tilt_urad": [float(v) for v in s.mirror_tilt],
-                        "beam_tilt_urad": [float(v) for v in s.beam_tilt]}
+                        "beam_tilt_urad": [float(v) for v in s.beam_tilt],
+                        **({"station_mm": [float(v) for v in s.station_mm]}
+                           if hasattr(s, "station_mm") else {})}
                   for mid, s in setups.items()},
     }
     return {

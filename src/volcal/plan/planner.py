@@ -30,6 +30,7 @@ from volcal.session.format import Measurement, Session
 
 TEST_NAMES: tuple[str, ...] = (
     "step-diagonal", "diagonal", "linear", "face-diagonal", "face-step-diagonal",
+    "multilateration",
 )
 
 __all__ = ["TEST_NAMES", "abbe_lines", "plan_session"]
@@ -98,7 +99,8 @@ def plan_session(travel: ArrayLike, chain: str = "XYFZ", steps: int = 10,
                  runs: int = 5, step_orders: Sequence[str] = ("xyz",),
                  tool_offset: ArrayLike = (0.0, 0.0, 0.0), name: str = "VMC-1",
                  step_target: str = "flat_mirror", abbe_tool_offset_mm: float = 150.0,
-                 iso_spacing: bool = False, linear_margin_mm: float = 0.0) -> Session:
+                 iso_spacing: bool = False, linear_margin_mm: float = 0.0,
+                 multilateration: dict | None = None) -> Session:
     """Plan a session skeleton (commanded poses, deviations empty).
 
     Parameters
@@ -133,6 +135,10 @@ def plan_session(travel: ArrayLike, chain: str = "XYFZ", steps: int = 10,
     linear_margin_mm : float
         Keep the linear-test targets this far inside both ends of the travel, so that the
         ISO 230-2 approach and overrun moves of the part program have room [mm].
+    multilateration : dict, optional
+        Keyword arguments of :func:`volcal.plan.multilateration.multilateration_tests`
+        (``grid``, ``stations``, ``tool_offsets``, ``station_u_mm``) for the test
+        ``multilateration`` (tracking interferometer); default its layout.
 
     Returns
     -------
@@ -189,6 +195,10 @@ def plan_session(travel: ArrayLike, chain: str = "XYFZ", steps: int = 10,
                     meas.append(_measurement(f"fstep-{plane}-{code}", "step_diagonal",
                                              step_target, g, off,
                                              f"face step diagonal {code} in {plane.upper()}"))
+        elif test == "multilateration":
+            from volcal.plan.multilateration import multilateration_tests
+
+            meas += multilateration_tests(t, **(multilateration or {}))
         elif test == "linear":
             for k in range(3):
                 lines = abbe_lines(k, t, chain, abbe_tool_offset_mm)

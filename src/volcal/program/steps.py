@@ -126,7 +126,7 @@ def setup_comments(m: Measurement) -> list[str]:
     lines = [f"volcal measurement {m.id}: {m.kind.replace('_', ' ')} test, {m.n} readings",
              f"optics: {m.target.replace('_', ' ')} on the tool at offset [{t}] mm",
              f"beam direction (machine axes): [{b}]"]
-    for key in ("axis", "diagonal", "axis_order", "plane", "line_mm"):
+    for key in ("axis", "diagonal", "axis_order", "plane", "line_mm", "station_mm"):
         if key in m.meta:
             lines.append(f"{key}: {m.meta[key]}")
     if "notes" in m.meta:

@@ -438,10 +438,11 @@ def build_report(inp: ReportInputs, title: str | None = None) -> Report:
     Report
     """
     from volcal import __version__
+    from volcal.report.multilateration import multilateration_section
 
     builders = [machine_section, measurements_section, positioning_section,
-                diagonal_section, identification_section, identifiability_section,
-                volumetric_section, compensation_section]
+                diagonal_section, multilateration_section, identification_section,
+                identifiability_section, volumetric_section, compensation_section]
     sections = [s for s in (b(inp) for b in builders) if s is not None]
     sections.extend(inp.extra_sections)
     return Report(title or f"Calibration report: {inp.session.name}", sections,

@@ -27,8 +27,10 @@ from volcal.io.values import parse_finite
 from volcal.model.chain import parse_chain
 
 SESSION_FORMAT = "volcal-session/1"
-KINDS: tuple[str, ...] = ("linear", "diagonal", "step_diagonal")
-TARGETS: tuple[str, ...] = ("flat_mirror", "retroreflector", "retroreflector_mirror")
+KINDS: tuple[str, ...] = ("linear", "diagonal", "step_diagonal", "multilateration")
+TARGETS: tuple[str, ...] = ("flat_mirror", "retroreflector", "retroreflector_mirror", "cat_eye")
+MULTILATERATION_COLUMN = "length_mm"
+"""Reading column of a multilateration CSV: change of the station-to-reflector distance."""
 REQUIRED_COLUMNS: tuple[str, ...] = ("x_mm", "y_mm", "z_mm", "deviation_um")
 OPTIONAL_COLUMNS: dict[str, str] = {
     "run": "int",
@@ -155,8 +157,11 @@ class Measurement:
             "tool_offset_mm": [float(v) for v in self.tool_offset],
             "file": self.file,
         }
+        if self.kind == "multilateration":
+            del d["beam_direction"]  # not part of a tracker set-up (see docs/formats.md)
         for k, v in self.meta.items():
-            d[k] = v
+            if not k.startswith("_"):  # "_" keys: working state, never written
+                d[k] = v
         return d
 
     def to_csv(self) -> str:
@@ -164,10 +169,19 @@ class Measurement:
         extra = [c for c in OPTIONAL_COLUMNS if c in self.columns]
         buf = io.StringIO()
         w = csv.writer(buf, lineterminator="\n")
-        w.writerow([*REQUIRED_COLUMNS, *extra])
+        values, fmt = self.deviation, "{:.6f}"
+        header = list(REQUIRED_COLUMNS)
+        if self.kind == "multilateration":
+            from volcal.session.multilateration import length_from_deviation
+
+            header[3], fmt = MULTILATERATION_COLUMN, "{:.8f}"
+            if values is not None:
+                values = length_from_deviation(values, self.positions, self.tool_offset,
+                                               self.meta["station_mm"])
+        w.writerow([*header, *extra])
         for i in range(self.n):
             row = [_fmt(v) for v in self.positions[i]]
-            row.append("" if self.deviation is None else f"{self.deviation[i]:.6f}")
+            row.append("" if values is None else fmt.format(values[i]))
             for c in extra:
                 v = self.columns[c][i]
                 row.append(str(v) if OPTIONAL_COLUMNS[c] in ("int", "dir") else _fmt(v))
@@ -336,8 +350,24 @@ MEASUREMENT_TABLE = TableSpec(
 )
 """Columns of a measurement CSV (``docs/formats.md``)."""
 
+MULTILATERATION_TABLE = TableSpec(
+    columns=(
+        Column("x_mm"), Column("y_mm"), Column("z_mm"),
+        Column(MULTILATERATION_COLUMN, empty=True, abs_max=1e5),
+        Column("run", kind="int", required=False, min=0),
+        Column("direction", kind="choice", required=False, choices=("+", "-")),
+        *(Column(c, required=False) for c, k in OPTIONAL_COLUMNS.items()
+          if k == "float"),
+    ),
+    min_rows=MIN_ROWS,
+    min_rows_message="need at least {min} readings, found {n}",
+    what="multilateration file",
+)
+"""Columns of a multilateration CSV: ``length_mm`` instead of ``deviation_um``."""
 
-def read_measurement_csv(path: str | Path, require_deviation: bool = True):
+
+def read_measurement_csv(path: str | Path, require_deviation: bool = True,
+                         value_column: str = "deviation_um"):
     """Read one measurement CSV.
 
     Parameters
@@ -346,6 +376,9 @@ def read_measurement_csv(path: str | Path, require_deviation: bool = True):
         CSV file with the header ``x_mm,y_mm,z_mm,deviation_um`` and optional columns.
     require_deviation : bool
         If False, an empty ``deviation_um`` column is accepted (a planned skeleton).
+    value_column : str
+        Name of the reading column: ``'deviation_um'`` [um], or ``'length_mm'`` [mm] for a
+        multilateration measurement (returned as read, in its own unit).
 
     Returns
     -------
@@ -361,14 +394,16 @@ def read_measurement_csv(path: str | Path, require_deviation: bool = True):
     VolcalInputError
         Naming file, row (1-based, header = row 1) and column.
     """
-    t = read_table(path, MEASUREMENT_TABLE)
+    spec = MULTILATERATION_TABLE if value_column == MULTILATERATION_COLUMN else MEASUREMENT_TABLE
+    t = read_table(path, spec)
     pos = np.stack([t["x_mm"], t["y_mm"], t["z_mm"]], axis=1)
-    dev: NDArray[np.float64] | None = t["deviation_um"]
+    dev: NDArray[np.float64] | None = t[value_column]
     missing = np.isnan(dev)
     if missing.all() and not require_deviation:
         dev = None
     elif missing.any():
-        raise t.error("missing deviation", int(np.argmax(missing)), "deviation_um")
+        raise t.error("missing reading" if value_column != "deviation_um"
+                      else "missing deviation", int(np.argmax(missing)), value_column)
     out = {c: t[c] for c in OPTIONAL_COLUMNS if t.has(c)}
     return pos, dev, out
 
@@ -520,6 +555,12 @@ def _read_entry(e: Any, i: int, folder: Path, toml_path: Path, seen: set[str],
         raise _err(f"measurement file {file!r} not found beside session.toml", toml_path, None,
                    f"{where}.file")
     offset = _vec3(e.get("tool_offset_mm", [0, 0, 0]), toml_path, f"{where}.tool_offset_mm")
+    if kind == "multilateration":
+        return _read_multilateration(e, where, mid, target, file, csv_path, offset, toml_path,
+                                     require_deviation)
+    if target == "cat_eye":
+        raise _err(f"target 'cat_eye' belongs to kind 'multilateration', not {kind!r}",
+                   toml_path, None, f"{where}.target")
     pos, dev, cols = read_measurement_csv(csv_path, require_deviation)
     if "beam_direction" in e:
         n = _vec3(e["beam_direction"], toml_path, f"{where}.beam_direction", nonzero=True)
@@ -546,3 +587,34 @@ def _read_entry(e: Any, i: int, folder: Path, toml_path: Path, seen: set[str],
     if env is not None and not isinstance(env, dict):
         raise _err("environment must be a table", toml_path, None, f"{where}.environment")
     return Measurement(mid, kind, target, pos, dev, n, offset, file, cols, meta)
+
+
+def _read_multilateration(e: dict, where: str, mid: str, target: str, file: str, csv_path: Path,
+                          offset: NDArray[np.float64], toml_path: Path,
+                          require_deviation: bool) -> Measurement:
+    """A tracking-interferometer measurement: station, tool offset, ``length_mm`` readings."""
+    from volcal.session.multilateration import DEFAULT_STATION_U_MM, deviation_from_length
+
+    if target != "cat_eye":
+        raise _err(f"a multilateration measurement needs target = \"cat_eye\", got {target!r}",
+                   toml_path, None, f"{where}.target")
+    if "station_mm" not in e:
+        raise _err("missing station_mm = [x, y, z]: where the tracker's pivot stands [mm]",
+                   toml_path, None, f"{where}.station_mm")
+    station = _vec3(e["station_mm"], toml_path, f"{where}.station_mm")
+    u = e.get("station_u_mm", DEFAULT_STATION_U_MM)
+    if isinstance(u, bool) or not isinstance(u, int | float) or not (math.isfinite(u) and u > 0):
+        raise _err(f"station_u_mm must be a positive number of mm, got {u!r}", toml_path, None,
+                   f"{where}.station_u_mm")
+    pos, length, cols = read_measurement_csv(csv_path, require_deviation, MULTILATERATION_COLUMN)
+    d = np.linalg.norm(pos + offset - station, axis=1)
+    if np.min(d) < 1.0:
+        row = int(np.argmin(d)) + 2
+        raise _err("the reflector comes within 1 mm of the station pivot: check station_mm "
+                   "and tool_offset_mm", csv_path, row, "x_mm")
+    dev = None if length is None else deviation_from_length(length, pos, offset, station)
+    meta = {k: v for k, v in e.items()
+            if k not in ("id", "kind", "target", "file", "tool_offset_mm", "beam_direction")}
+    meta["station_mm"] = [float(v) for v in station]
+    n = (pos[0] + offset - station) / d[0]
+    return Measurement(mid, "multilateration", target, pos, dev, n, offset, file, cols, meta)

@@ -31,11 +31,11 @@ def small():
 
 def test_posterior_covariance_is_the_dense_inverse_of_the_precision(small):
     _, design, prior = small
-    sol = solve_bayes(design, prior, np.array([10.0, 5.0, 15.0]), 0.5)
+    sol = solve_bayes(design, prior, np.array([10.0, 5.0, 15.0, 15.0]), 0.5)
     ev_h = (design.A.T @ design.A).toarray() / 0.5**2
     from volcal.identify.solver import _nuisance_precision
 
-    Q = prior.precision(np.array([10.0, 5.0, 15.0]), 100.0, ev_h.shape[0],
+    Q = prior.precision(np.array([10.0, 5.0, 15.0, 15.0]), 100.0, ev_h.shape[0],
                         _nuisance_precision(design)).toarray()
     H = ev_h + Q
     np.testing.assert_allclose(sol.covariance, np.linalg.inv(H), rtol=1e-6,
@@ -52,7 +52,7 @@ def test_evidence_optimiser_converges_and_is_reported(small):
     assert conv["optimiser"] == "L-BFGS-B" and conv["converged"], conv
     assert 0 < conv["evaluations"] < 400
     # stated noise: no optimisation of sigma, and it is used as stated
-    r2 = identify(s, IdentifyOptions(noise_um=0.7, scales=(10.0, 5.0, 15.0), suggest=False))
+    r2 = identify(s, IdentifyOptions(noise_um=0.7, scales=(10.0, 5.0, 15.0, 15.0), suggest=False))
     assert r2.fit["sigma_um"] == 0.7
     assert r2.fit["convergence"]["evaluations"] == 1
 
@@ -72,7 +72,7 @@ def test_candidate_ambiguity_equals_the_full_null_space_computation(small):
 
     nodes = design.layout.nodes
     cands = candidate_designs(s, nodes, {})
-    scales = np.array([10.0, 5.0, 15.0])
+    scales = np.array([10.0, 5.0, 15.0, 15.0])
     rep = analyse(design, prior, scales, 100.0, cands)
     # independent: full eigendecomposition of F + Fc for every candidate
     nf = design.n_free

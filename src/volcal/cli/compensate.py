@@ -48,9 +48,18 @@ def compensate(
     opts = CompensationOptions(sign, spacing, max_points, ref, unit_um, magnification,
                                max_increment, squareness,
                                tuple(parse_vector(tool_offset, "--tool-offset")))
+    if locals().get("session") is not None:  # --session: the model must belong to it
+        _check_session(model, locals()["session"], bool(locals().get("force", False)))
     errors = load_errors(model)
     files = write_compensation(errors, format.lower(), output, opts, model.name)
     console.print(f"wrote {format} tables ({sign}, {spacing:g} mm): {', '.join(files)} -> {output}")
+
+
+def _check_session(model: Path, session: Path, force: bool) -> None:
+    from volcal.identify.modelfile import check_model_file_session
+
+    for d in check_model_file_session(model, session, force):
+        console.print(f"[yellow]warning[/] --force: {d}", highlight=False)
 
 
 def register(app: typer.Typer) -> None:

@@ -130,14 +130,22 @@ def predict_cmd(
     points: Path = typer.Option(..., help="CSV with x_mm,y_mm,z_mm."),
     output: Path = typer.Option(..., "-o", "--output", help="CSV to write."),
     tool_offset: str = typer.Option("0,0,0", help="Tool offset x,y,z [mm]."),
+    session: Path | None = typer.Option(None, help="Session folder the model should belong "
+                                        "to: refused if name, chain, travel or readings "
+                                        "differ."),
+    force: bool = typer.Option(False, "--force", help="With --session: use the model even if "
+                               "it was identified from another session."),
 ) -> None:
     """Predict the volumetric error and its uncertainty at points."""
     from volcal.identify import load_model
+    from volcal.identify.modelfile import check_model_file_session
     from volcal.io.atomic import write_text
     from volcal.io.paths import check_output_file
 
     check_output_file(output)
     m = load_model(model)
+    for d in check_model_file_session(model, session, force):
+        console.print(f"[yellow]warning[/] --force: {d}", highlight=False)
     q = _read_points(points)
     travel = m.errors.travel
     for j, col in enumerate(("x_mm", "y_mm", "z_mm")):

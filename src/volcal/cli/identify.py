@@ -12,7 +12,6 @@ from rich.console import Console
 
 from volcal.cli._common import parse_vector
 from volcal.errors import VolcalInputError
-from volcal.io.values import parse_finite
 
 console = Console()
 
@@ -99,30 +98,21 @@ def identify_cmd(
     console.print(f"model -> {output}")
 
 
+def _points_spec():
+    from volcal.io.table import Column, TableSpec
+
+    return TableSpec(tuple(Column(c, abs_max=1e7) for c in ("x_mm", "y_mm", "z_mm")),
+                     min_rows=0, what="points file")
+
+
 def _read_points(path: Path) -> np.ndarray:
-    if not path.is_file():
-        raise VolcalInputError("points file not found", path)
-    try:
-        rows = [r for r in csv.reader(io.StringIO(path.read_text(encoding="utf-8-sig")))
-                if any(c.strip() for c in r)]
-    except (UnicodeDecodeError, csv.Error) as exc:
-        raise VolcalInputError(f"cannot read the CSV ({exc})", path) from None
-    if not rows:
-        raise VolcalInputError("empty file: expected the header x_mm,y_mm,z_mm", path, 1)
-    header = [h.strip() for h in rows[0]]
-    for c in ("x_mm", "y_mm", "z_mm"):
-        if c not in header:
-            raise VolcalInputError(f"missing column '{c}'", path, 1, c)
-    idx = [header.index(c) for c in ("x_mm", "y_mm", "z_mm")]
-    if len(rows) < 2:
+    """Read the points CSV ``x_mm,y_mm,z_mm`` [mm] through :func:`volcal.io.table.read_table`."""
+    from volcal.io.table import read_table
+
+    t = read_table(path, _points_spec())
+    if len(t) == 0:
         raise VolcalInputError("no points", path, 2)
-    out = np.empty((len(rows) - 1, 3))
-    for i, r in enumerate(rows[1:]):
-        if len(r) != len(header):
-            raise VolcalInputError(f"expected {len(header)} fields, found {len(r)}", path, i + 2)
-        for j, col in enumerate(idx):
-            out[i, j] = parse_finite(r[col], path, i + 2, header[col])
-    return out
+    return np.stack([t[c].astype(float) for c in ("x_mm", "y_mm", "z_mm")], axis=1)
 
 
 def predict_cmd(

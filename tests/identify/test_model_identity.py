@@ -165,3 +165,34 @@ def test_convergence_from_the_estimator_is_kept(small, tmp_path):
     back = IdentificationResult.from_dict(d)
     assert back.fit.convergence.iterations == 12
     assert "optimiser L-BFGS-B did NOT converge after 12 iterations (ABNORMAL)" in back.summary()
+
+
+def test_known_takes_a_subset_of_functions(small, tmp_path):
+    root, _, _ = small
+    known = tmp_path / "roll.csv"
+    known.write_text("axis,position_mm,EA_urad\nX,0,0\nX,150,5\nX,300,10\n")
+    out = volcal("identify", root / "S", "--known", known, "-o", tmp_path / "m.json")
+    assert out.returncode == 0, out.stderr
+    m = load_model(tmp_path / "m.json")
+    np.testing.assert_allclose(m.errors.function("EAX", [0.0, 75.0, 150.0, 300.0]),
+                               [0.0, 2.5, 5.0, 10.0], atol=1e-4)
+    assert m.fit.known == ["EAX"]
+
+
+@pytest.mark.parametrize("text, message", [
+    ("axis,position_mm,EA_urad\nX,0,0\nX,150,\nX,300,10\n",
+     "row 3, column 'EA_urad': axis X: either fill every row of this axis or none"),
+    ("axis,position_mm,EA_urad\nX,0,0\nX,300,1\nX,150,10\n",
+     "row 4, column 'position_mm': positions of an axis must increase strictly"),
+    ("axis,position_mm,EA_urad\nX,0,\nX,300,\n", "no known function"),
+    ("axis,position_mm,EA_urad\nW,0,1\n", "row 2, column 'axis'"),
+    ("axis,position_mm,EA_urad\nX,0,1e308\nX,1,0\n", "row 2, column 'EA_urad': absurd value"),
+])
+def test_known_table_mistakes_are_located(tmp_path, text, message):
+    from volcal.session.errortable import read_known_functions
+
+    p = tmp_path / "k.csv"
+    p.write_text(text)
+    with pytest.raises(VolcalInputError) as exc:
+        read_known_functions(p)
+    assert message in str(exc.value)

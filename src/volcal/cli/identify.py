@@ -23,8 +23,10 @@ def identify_cmd(
     noise_um: float | None = typer.Option(None, help="Stated repeatability [um] (default: "
                                           "estimated)."),
     roll: str = typer.Option("estimate", help="estimate, or zero (roll fixed to zero)."),
-    known: Path | None = typer.Option(None, help="Error table CSV of errors measured separately; "
-                                      "its non-zero functions are held fixed."),
+    known: Path | None = typer.Option(None, help="CSV of errors measured separately "
+                                      "(axis,position_mm and any of EX_um..EC_urad, only "
+                                      "the axes measured; or a full error table): those "
+                                      "functions are held fixed."),
     known_u: float | None = typer.Option(None, help="Standard uncertainty of the --known "
                                          "functions [um or urad]: use them as priors instead "
                                          "of fixing them."),
@@ -59,17 +61,12 @@ def identify_cmd(
             raise VolcalInputError(f"--measurements: no measurement {', '.join(missing)} in the "
                                    f"session (it has {', '.join(sorted(have))})",
                                    s.path / "session.toml" if s.path else session)
-    known_d = {}
+    known_d: dict = {}
     if known is not None:
-        from volcal.model.names import COMPONENT_NAMES
-        from volcal.session.errortable import read_error_table
+        from volcal.session.errortable import read_known_functions
 
-        kt = read_error_table(known, chain=s.chain)
-        for j, name in enumerate(COMPONENT_NAMES):
-            k, c = divmod(j, 6)
-            if np.any(kt.values[k][:, c] != 0):
-                known_d[name] = ((kt.nodes[k], kt.values[k][:, c]) if known_u is None
-                                 else (kt.nodes[k], kt.values[k][:, c], known_u))
+        for name, (pos, vals) in read_known_functions(known).items():
+            known_d[name] = (pos, vals) if known_u is None else (pos, vals, known_u)
     opts = IdentifyOptions(prior=prior, noise_um=noise_um, roll=roll, known=known_d, drift=drift,
                            measurement_ids=ids, max_nodes=max_nodes)
     with console.status("identifying..."):

@@ -26,15 +26,27 @@ def test_fanuc_hand_computed(tmp_path):
     write_compensation(_linear_machine(), "fanuc", tmp_path,
                        CompensationOptions("correction", spacing=25.0))
     pitch = (tmp_path / PITCH_FILE).read_text().split()
-    assert pitch[:6] == ["%", "N10000P0", "N10001P-3", "N10002P-3", "N10003P-3", "N10004P-3"]
+    assert pitch[:6] == ["%", "N10000Q0P0", "N10001Q0P-3", "N10002Q0P-3", "N10003Q0P-3",
+                         "N10004Q0P-3"]
     assert pitch[-1] == "%" and len(pitch) == 2 + 5 + 3 + 3
     par = (tmp_path / PARAM_FILE).read_text().split()
-    assert "N3620A1P0A2P5A3P8" in par
-    assert "N3621A1P0A2P5A3P8" in par
-    assert "N3622A1P4A2P7A3P10" in par
-    assert "N3624A1P25000A2P25000A3P25000" in par
+    assert "N03620Q1A1P0A2P5A3P8" in par
+    assert "N03621Q1A1P0A2P5A3P8" in par
+    assert "N03622Q1A1P4A2P7A3P10" in par
+    assert "N03624Q1A1P25.000A2P25.000A3P25.000" in par  # 30i: a length [mm], decimal point
+    assert not any(line.startswith("N01240") for line in par)
     t = read_fanuc(tmp_path, "correction")[0]
     np.testing.assert_array_equal(t.positions, [-25, 0, 25, 50, 75, 100])
+    np.testing.assert_array_equal(t.values, [0, 0, -3, -6, -9, -12])
+
+
+def test_fanuc_older_series_syntax(tmp_path):
+    write_compensation(_linear_machine(), "fanuc", tmp_path,
+                       CompensationOptions("correction", spacing=25.0, fanuc_series="16i"))
+    par = (tmp_path / PARAM_FILE).read_text().split()
+    assert "N3620A1P0A2P5A3P8" in par and "N3624A1P25000A2P25000A3P25000" in par
+    assert (tmp_path / PITCH_FILE).read_text().split()[1] == "N10000P0"
+    t = read_fanuc(tmp_path, "correction")[0]
     np.testing.assert_array_equal(t.values, [0, 0, -3, -6, -9, -12])
 
 
@@ -43,12 +55,14 @@ def test_fanuc_reference_at_the_end_of_travel(tmp_path):
     write_compensation(_linear_machine(), "fanuc", tmp_path,
                        CompensationOptions("error", spacing=25.0, reference_mm=(100, 0, 0)))
     par = (tmp_path / PARAM_FILE).read_text().split()
-    assert "N3620A1P3A2P4A3P7" in par and "N3621A1P0A2P4A3P7" in par
-    assert "N3622A1P3A2P6A3P9" in par
+    assert "N03620Q1A1P3A2P4A3P7" in par and "N03621Q1A1P0A2P4A3P7" in par
+    assert "N03622Q1A1P3A2P6A3P9" in par
     assert (tmp_path / PITCH_FILE).read_text().split()[1:5] == [
-        "N10000P3", "N10001P3", "N10002P3", "N10003P3"]
-    assert "N1240A1P100000A2P0A3P0" in par
-    t = read_fanuc(tmp_path, "error")[0]
+        "N10000Q0P3", "N10001Q0P3", "N10002Q0P3", "N10003Q0P3"]
+    assert not any(line.startswith(("N01240", "N1240")) for line in par)
+    notes = (tmp_path / "FANUC_NOTES.TXT").read_text()
+    assert "X: reference position 100 mm" in notes and "1240" in notes
+    t = read_fanuc(tmp_path, "error", reference_mm=(100, 0, 0))[0]
     np.testing.assert_array_equal(t.positions, [0, 25, 50, 75, 100])
     np.testing.assert_array_equal(t.values, [-12, -9, -6, -3, 0])
 
@@ -68,7 +82,8 @@ def test_fanuc_increment_limit(tmp_path):
     ("fanuc", dict(spacing=0.0005), "whole number of detection units"),
     ("siemens", dict(spacing=0.01), "limit of 5000"),
     ("siemens", dict(spacing=1.0, max_points=50), "use --spacing 2.041 mm"),
-    ("heidenhain", dict(spacing=0.25), "limit of 256"),
+    ("heidenhain", dict(spacing=0.25, max_points=256), "limit of 256"),
+    ("linuxcnc", dict(spacing=0.25), "limit of 256"),
     ("heidenhain", dict(spacing=0.00005), "4 decimals"),
     ("grid", dict(spacing=0.5), "3-D grid would have"),
     ("isg", dict(spacing=-1.0), "positive distance"),
@@ -108,9 +123,17 @@ def test_cli_from_error_table(tmp_path):
     t = read_lec(tmp_path / "out" / LEC_FILE, "error")[0]
     assert t.positions.size == 81
     np.testing.assert_allclose(t.values, m.component(0, t.positions)[:, 0], atol=0.0006)
+    # no --sign: the controller's own convention (Fanuc: correction), said in the output
     r = _cli("compensate", str(csv), "--format", "fanuc", "-o", str(tmp_path / "f"))
-    assert r.returncode == 2 and "--sign is required" in r.stderr  # no default sign
-    assert not (tmp_path / "f").exists()
+    assert r.returncode == 0, r.stderr
+    assert "correction, the controller's convention" in r.stdout.replace("\n", " ")
+    t = read_fanuc(tmp_path / "f", "correction")[0]
+    exx = m.component(0, t.positions)[:, 0]
+    assert np.max(np.abs(t.values - -(exx - exx[1]))) <= 0.5 + 1e-9  # -error, zero at ref
+    # an override is printed with what it overrides
+    r = _cli("compensate", str(csv), "--format", "fanuc", "--sign", "error", "-o",
+             str(tmp_path / "f2"))
+    assert r.returncode == 0 and "overrides the fanuc convention 'correction'" in r.stdout
     bad = tmp_path / "MODEL.json"
     bad.write_text("{not json")
     r = _cli("compensate", str(bad), "--format", "csv", "--sign", "error", "-o",

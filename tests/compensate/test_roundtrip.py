@@ -47,7 +47,7 @@ def test_fanuc(tmp_path, machine, sign):
     ref = (400.0, 600.0, 100.0)  # middle, end, inside: all three Fanuc layouts
     write_compensation(machine, "fanuc", tmp_path, CompensationOptions(
         sign, spacing=25.0, reference_mm=ref, magnification=3, unit_um=1.0))
-    tables = read_fanuc(tmp_path, sign, unit_um=1.0)
+    tables = read_fanuc(tmp_path, sign, unit_um=1.0, reference_mm=ref)
     for k, t in enumerate(tables):
         assert t.resolution_um == 3.0
         assert 0.0 in np.round(t.positions - ref[k], 9)
@@ -122,8 +122,8 @@ def test_grid(tmp_path, machine, sign):
 
 
 @pytest.mark.parametrize("spoil, where", [
-    (lambda lines, i: lines.__setitem__(i, ",".join(lines[i].split(",")[:4])), "expected 7"),
-    (lambda lines, i: lines.__setitem__(i, lines[i].replace(lines[i].split(",")[1], "x", 1)),
+    (lambda lines, i: lines.__setitem__(i, " ".join(lines[i].split()[:4])), "expected 7"),
+    (lambda lines, i: lines.__setitem__(i, lines[i].replace(lines[i].split()[1], "x", 1)),
      "not a number"),
 ])
 def test_damaged_isg_file_is_a_clear_error(tmp_path, machine, spoil, where):
@@ -132,7 +132,7 @@ def test_damaged_isg_file_is_a_clear_error(tmp_path, machine, spoil, where):
     write_compensation(machine, "isg", tmp_path, CompensationOptions("error", spacing=25.0))
     path = tmp_path / ISG_FILE
     lines = path.read_text().splitlines()
-    i = next(j for j, t in enumerate(lines) if t and t[0].isdigit())
+    i = next(j for j, t in enumerate(lines) if t and t[0].isdigit() and len(t.split()) == 7)
     spoil(lines, i)
     path.write_text("\n".join(lines) + "\n")
     with pytest.raises(VolcalInputError, match=f"{ISG_FILE}, row {i + 1}: {where}"):

@@ -3,10 +3,13 @@ import their own conftest by name)."""
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 
 from volcal.measure.readings import reading_first_order
 from volcal.measure.simulate import SimulationOptions, simulate_session
+from volcal.model.names import info
 from volcal.plan.planner import plan_session
 
 TRAVEL = np.array([[0.0, 800.0], [0.0, 600.0], [0.0, 500.0]])
@@ -36,3 +39,16 @@ def grid(nodes, stride: int = 2):
     """Grid over the measured positions."""
     return np.stack(np.meshgrid(*[n[::stride] for n in nodes], indexing="ij"), -1).reshape(-1, 3)
 
+
+
+LABEL = re.compile(r"\b(E[XYZABC]0?[XYZ]) \(([^)]*)\)")
+"""An ISO 230-1 name followed by its meaning in parentheses: ``EBY (roll of Y)``."""
+
+
+def assert_labels_match_table(text: str) -> int:
+    """Each ``NAME (meaning)`` in ``text`` carries the ISO 230-1 table's meaning; returns
+    how many there are."""
+    found = LABEL.findall(text)
+    for name, meaning in found:
+        assert meaning == info(name).label, (name, meaning)
+    return len(found)

@@ -8,13 +8,21 @@ import sys
 
 import numpy as np
 import pytest
-from identify_helpers import TRAVEL, exact_fill, first_order_fill, grid, seeds_session
+from identify_helpers import (
+    TRAVEL,
+    assert_labels_match_table,
+    exact_fill,
+    first_order_fill,
+    grid,
+    seeds_session,
+)
 
 from volcal.errors import VolcalInputError
 from volcal.identify import IdentifyOptions, identify, load_model, monte_carlo
 from volcal.identify.design import choose_nodes
 from volcal.measure.virtual import random_machine
 from volcal.model.kinematics import volumetric_error
+from volcal.model.names import ROLL_NAMES
 from volcal.session.errortable import write_error_table
 from volcal.session.format import write_session
 
@@ -62,8 +70,8 @@ def test_known_roll_removes_the_ambiguity_it_caused():
     q = grid(choose_nodes(s, refine=1))
     et = volumetric_error(truth, q)
     base = identify(s, IdentifyOptions(suggest=False))
-    known = {n: (truth.nodes[k], truth.values[k][:, 3]) for k, n in enumerate(("EAX", "EAY",
-                                                                              "EAZ"))}
+    # the rolls: each axis about its own direction (EAX, EBY, ECZ = component 3 + k)
+    known = {n: (truth.nodes[k], truth.values[k][:, 3 + k]) for k, n in enumerate(ROLL_NAMES)}
     fixed = identify(s, IdentifyOptions(known=known, suggest=False))
     prior = identify(s, IdentifyOptions(known={k: (*v, 0.5) for k, v in known.items()},
                                         suggest=False))
@@ -135,6 +143,8 @@ def test_cli_identify_and_predict(noisy, tmp_path):
     out = _volcal("identify", str(folder), "-o", str(tmp_path / "m.json"))
     assert out.returncode == 0, out.stderr
     assert "EAX (roll of X)" in out.stdout
+    # every labelled name in the CLI's plain words carries the ISO 230-1 table's meaning
+    assert assert_labels_match_table(" ".join(out.stdout.split())) >= 3  # undo line wraps
     pts = tmp_path / "p.csv"
     pts.write_text("x_mm,y_mm,z_mm\n0,0,0\n400,300,250\n800,600,500\n")
     out = _volcal("predict", str(tmp_path / "m.json"), "--points", str(pts), "-o",

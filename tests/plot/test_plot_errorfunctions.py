@@ -24,7 +24,7 @@ def test_truth_band_and_squareness_drawn_from_the_data():
     # 18 component panels + 1 squareness panel
     assert len(fig.axes) == 19
     ax, line = _by_gid(fig, "EBY truth")
-    assert ax.get_title() == "EBY [µrad]"
+    assert ax.get_title() == "EBY [µrad]\nroll of Y"
     x = line.get_xdata()
     np.testing.assert_allclose(line.get_ydata(), truth.function("EBY", x))
     _, est_line = _by_gid(fig, "EBY estimate")
@@ -46,3 +46,17 @@ def test_without_std_or_truth_draws_only_the_estimate():
     fig = error_functions_plot(m)
     assert all(not ax.collections for ax in fig.axes[:18])
     assert sum(len(ax.get_lines()) for ax in fig.axes[:18]) == 18
+
+
+def test_panel_titles_and_squareness_ticks_come_from_the_name_table():
+    from volcal.model.names import COMPONENT_NAMES, SQUARENESS_NAMES, info
+
+    fig = error_functions_plot(random_machine(TRAVEL, "XYFZ", seed=2, n_nodes=11))
+    for ax, name in zip(fig.axes[:18], COMPONENT_NAMES, strict=True):
+        e = info(name)
+        head, meaning = ax.get_title().split("\n")
+        assert head == f"{name} [{e.unit_symbol}]" and meaning == e.label
+        assert ax.get_lines()[0].get_gid() == f"{name} estimate"
+    ticks = [t.get_text() for t in fig.axes[18].get_xticklabels()]
+    assert ticks == [f"{n}\n{info(n).axis} to {info(n).reference}" for n in SQUARENESS_NAMES]
+    assert [t.split("\n")[1] for t in ticks] == ["Y to X", "Z to X", "Z to Y"]

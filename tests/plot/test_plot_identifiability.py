@@ -7,7 +7,7 @@ from volcal.plot.identifiability import function_uncertainty
 def _std():
     std = [np.full((5, 6), 0.1) for _ in range(3)]
     std[0][2, 0] = 0.4            # EXX worst node
-    std[1][:, 3] = np.inf         # EAY (roll of Y) not identified
+    std[1][:, 3] = np.inf         # EAY (tilt of Y about X) not identified
     std[2][:, 5] = [1, 2, 3, 4, 9]  # ECZ
     return std
 
@@ -25,7 +25,7 @@ def test_bars_and_spectrum():
     assert [p.get_height() for p in lin][0] == 0.4 and len(lin) == 9
     ang = fig.axes[1].patches
     assert len(ang) == 12
-    # the unidentified roll is hatched and marked n/i
+    # the unidentified tilt is hatched and marked n/i
     eay = ang[3]
     assert eay.get_hatch() == "//"
     assert any(t.get_text() == "n/i" for t in fig.axes[1].texts)
@@ -42,3 +42,17 @@ def test_determined_fraction_panel_colours_by_limits():
     import matplotlib.colors as mc
     assert [mc.to_hex(b.get_facecolor()) for b in bars] == [
         mc.to_hex("tab:green"), mc.to_hex("tab:red"), mc.to_hex("tab:orange")]
+
+
+def test_panels_split_the_names_by_the_table_units():
+    from volcal.model.names import ERROR_TABLE
+
+    fig = identifiability_plot(_std(), [0.5, 1.0, 2.0])
+    lin = [t.get_text() for t in fig.axes[0].get_xticklabels()]
+    ang = [t.get_text() for t in fig.axes[1].get_xticklabels()]
+    assert lin == [n for n, e in ERROR_TABLE.items() if e.kind in ("positioning",
+                                                                    "straightness")]
+    assert ang == [n for n, e in ERROR_TABLE.items() if e.kind in ("roll", "tilt",
+                                                                    "squareness")]
+    assert fig.axes[0].get_ylabel().endswith("[µm]") and fig.axes[1].get_ylabel().endswith(
+        "[µrad]")

@@ -1,7 +1,7 @@
 import numpy as np
 import report_fixtures as _fx
 
-from volcal.model.names import COMPONENT_NAMES
+from volcal.model.names import COMPONENT_NAMES, SQUARENESS_NAMES, info
 from volcal.report.sections import ReportInputs, build_report
 
 # pytest fixtures shared by the report tests (see report_fixtures.py)
@@ -45,9 +45,19 @@ def test_report_content_from_the_analysis(identified, small_session):
     # identified errors: 18 rows; the truth columns compare with the simulated machine
     comp = _section(rep, "identification").tables[0]
     assert [r[0] for r in comp.rows] == list(COMPONENT_NAMES)
+    # meaning and unit of every row are the ISO 230-1 table's (EBY the roll of Y, ...)
+    assert comp.columns[1:3] == ["meaning", "unit"]
+    assert [(r[1], r[2]) for r in comp.rows] == [(info(n).label, info(n).unit_symbol)
+                                                 for n in COMPONENT_NAMES]
+    assert comp.rows[COMPONENT_NAMES.index("EBY")][1] == "roll of Y"
+    sq = _section(rep, "identification").tables[1]
+    assert [(x[0], x[1]) for x in sq.rows] == [(n, info(n).label) for n in SQUARENESS_NAMES]
+    frac = _section(rep, "identifiability").tables[0]
+    assert frac.columns[:2] == ["error", "meaning"]
+    assert all(x[1] == info(x[0]).label for x in frac.rows) and len(frac.rows) == 21
     exx = comp.rows[0]
     truth_ptp = np.ptp(inp.truth.function("EXX", r.errors.nodes[0]))
-    assert exx[5] == f"{truth_ptp:.2f}"
+    assert exx[6] == f"{truth_ptp:.2f}"
     # identifiability warnings are the identification's own messages, verbatim
     assert _section(rep, "identifiability").warnings == list(r.report.messages)
     # volumetric indices table shows the standards module's E_VXYZ

@@ -1,11 +1,12 @@
-r"""Positioning, pitch and yaw of one axis from linear lines at different Abbe offsets.
+r"""Positioning and the two tilts of one axis from linear lines at different Abbe offsets.
 
 The seeds' "Convert 3 Linear Files" (Wang & Liotto 2003, section 6; Optodyne application
 note "Pitch and yaw angular error measurement using a MCV-500"): the same axis is
 measured with a retroreflector along ``k >= 3`` lines that differ in their Abbe offsets.
 A rotation of the moving axis about another axis shifts the reading in proportion to the
 offset at right angles to both, so the lines together separate the positioning error on
-a reference line from the two rotations.
+a reference line from the two rotations: the tilts of the axis (EBX, ECX; EAY, ECY; EAZ,
+EBZ; pitch and yaw of a horizontal axis, :mod:`volcal.model.names`), never its roll.
 
 The lever-arm rule is taken from the kinematic model
 (:func:`volcal.model.kinematics.first_order_pose`): the deviation of a line of axis ``k``

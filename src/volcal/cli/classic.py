@@ -62,7 +62,7 @@ def abbe(
     chain: str | None = typer.Option(None, help="Chain code, needed without --offsets."),
     output: Path | None = typer.Option(None, "-o", "--output", help="CSV to write."),
 ) -> None:
-    """Positioning, pitch, yaw from lines at different Abbe offsets ("Convert 3 Linear Files")."""
+    """Positioning and the two tilts (pitch, yaw) from lines at different Abbe offsets."""
     from volcal.classic.abbe import abbe_lines
     from volcal.classic.lines import abbe_csv, lever_offsets, lines_from_files
     from volcal.io.atomic import write_text

@@ -7,6 +7,7 @@ from typing import Annotated
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 
 from volcal.cli._common import parse_vector
 from volcal.errors import VolcalInputError
@@ -17,42 +18,83 @@ console = Console()
 def compensate(
     model: Annotated[Path, typer.Argument(help="MODEL.json (identified) or error table .csv.")],
     format: Annotated[str, typer.Option(
-        "--format", help="fanuc, siemens, heidenhain, csv, isg (volumetric blocks), grid (3-D).")],
+        "--format", help="fanuc, siemens, heidenhain, linuxcnc, csv, isg (ISG/Beckhoff "
+        "volumetric), grid (3-D).")],
     output: Annotated[Path, typer.Option("-o", "--output", help="Folder for the tables.")],
     sign: Annotated[str | None, typer.Option(
-        help="Required: error (table = actual - commanded) or correction (= -error); see "
-        "docs/compensation.md for what each controller expects.")] = None,
+        help="Override the controller's own sign convention (the default; see "
+        "docs/compensation.md): error (table = actual - commanded) or correction "
+        "(= -error).")] = None,
+    session: Annotated[Path | None, typer.Option(
+        help="Session folder: its bidirectional ISO 230-2 linear tests give forward and "
+        "reverse tables (LinuxCNC, Fanuc, Heidenhain BACKLASH); a MODEL.json must have "
+        "been identified from it.")] = None,
+    force: Annotated[bool, typer.Option(
+        "--force", help="With --session: use the model even if it was identified from "
+        "another session (name, chain, travel or readings differ).")] = False,
     spacing: Annotated[float, typer.Option(help="Distance between points [mm].")] = 20.0,
     max_points: Annotated[int | None, typer.Option(help="Controller's point limit.")] = None,
     reference_mm: Annotated[str | None, typer.Option(
         help="Fanuc reference position x,y,z [mm] (default: start of travel).")] = None,
     unit_um: Annotated[float, typer.Option(help="Fanuc detection unit [um].")] = 1.0,
     magnification: Annotated[int, typer.Option(help="Fanuc magnification (3623).")] = 1,
-    max_increment: Annotated[int, typer.Option(help="Fanuc largest value per point.")] = 7,
+    max_increment: Annotated[int, typer.Option(
+        help="Fanuc largest value per point (7 loads on every series).")] = 7,
+    fanuc_series: Annotated[str, typer.Option(
+        help="Fanuc parameter syntax: 30i (N03620Q1..., 0i-D/0i-F/30i) or 16i (N3620...).")
+    ] = "30i",
+    linuxcnc_type: Annotated[int, typer.Option(
+        help="LinuxCNC COMP_FILE_TYPE: 1 (trims) or 0 (actual positions).")] = 1,
     squareness: Annotated[bool, typer.Option(help="Siemens CEC: add squareness terms.")] = True,
     tool_offset: Annotated[str, typer.Option(help="3-D grid: target on the tool x,y,z [mm].")
                            ] = "0,0,0",
 ) -> None:
     """Write compensation tables of a model for a controller, resampled onto its grid."""
-    from volcal.compensate.formats import MANIFEST, CompensationOptions, write_compensation
+    from volcal.compensate.formats import (
+        FORMAT_INFO,
+        MANIFEST,
+        CompensationOptions,
+        write_compensation,
+    )
     from volcal.compensate.source import load_errors
     from volcal.compensate.tables import sign_factor
     from volcal.io.paths import check_output_folder
 
-    if sign is None:
-        raise VolcalInputError("--sign is required: 'error' (actual - commanded) or "
-                               "'correction' (-error); see docs/compensation.md")
-    sign_factor(sign)
+    fmt = format.lower()
+    if fmt not in FORMAT_INFO:
+        raise VolcalInputError(f"unknown format {format!r}: expected one of "
+                               f"{', '.join(FORMAT_INFO)}")
+    info = FORMAT_INFO[fmt]
+    if sign is not None:
+        sign_factor(sign)
+        if sign != info.sign:
+            console.print(escape(
+                f"note: --sign {sign} overrides the {fmt} convention '{info.sign}' "
+                f"({info.sign_source}); a table in the wrong sign doubles the error"))
     check_output_folder(output, "compensation", lambda p: (p / MANIFEST).is_file())
     ref = None if reference_mm is None else tuple(parse_vector(reference_mm, "--reference-mm"))
+    directional = None
+    if session is not None:
+        from volcal.compensate.bidirectional import directional_from_session
+        from volcal.session.format import read_session
+
+        directional = directional_from_session(read_session(session, require_deviation=False))
+        if not directional.source:
+            console.print("note: the session has no bidirectional linear test: forward = "
+                          "reverse")
+            directional = None
     opts = CompensationOptions(sign, spacing, max_points, ref, unit_um, magnification,
                                max_increment, squareness,
-                               tuple(parse_vector(tool_offset, "--tool-offset")))
-    if locals().get("session") is not None:  # --session: the model must belong to it
-        _check_session(model, locals()["session"], bool(locals().get("force", False)))
+                               tuple(parse_vector(tool_offset, "--tool-offset")),
+                               fanuc_series, linuxcnc_type, directional)
+    if session is not None:  # --session: the model must belong to it
+        _check_session(model, session, force)
     errors = load_errors(model)
-    files = write_compensation(errors, format.lower(), output, opts, model.name)
-    console.print(f"wrote {format} tables ({sign}, {spacing:g} mm): {', '.join(files)} -> {output}")
+    files = write_compensation(errors, fmt, output, opts, model.name)
+    used = opts.sign_for(fmt)
+    console.print(escape(f"wrote {fmt} tables ({used}"
+                         + (", the controller's convention" if sign is None else "")
+                         + f", {spacing:g} mm): {', '.join(files)} -> {output}"))
 
 
 def _check_session(model: Path, session: Path, force: bool) -> None:

@@ -22,7 +22,8 @@ def identify_cmd(
     prior: str = typer.Option("smooth", help="smooth (Bayesian, default) or none (min-norm LS)."),
     noise_um: float | None = typer.Option(None, help="Stated repeatability [um] (default: "
                                           "estimated)."),
-    roll: str = typer.Option("estimate", help="estimate, or zero (roll fixed to zero)."),
+    roll: str = typer.Option("estimate", help="estimate, or zero (the rolls EAX, EBY, ECZ "
+                             "fixed to zero)."),
     known: Path | None = typer.Option(None, help="CSV of errors measured separately "
                                       "(axis,position_mm and any of EX_um..EC_urad, only "
                                       "the axes measured; or a full error table): those "
@@ -154,7 +155,8 @@ def predict_cmd(
 
 def advise_cmd(
     session: Path = typer.Argument(..., help="Planned (or measured) session folder."),
-    roll: str = typer.Option("estimate", help="estimate, or zero (roll fixed to zero)."),
+    roll: str = typer.Option("estimate", help="estimate, or zero (the rolls EAX, EBY, ECZ "
+                             "fixed to zero)."),
 ) -> None:
     """Before measuring: what the planned tests will and will not determine."""
     from volcal.identify import IdentifyOptions, advise

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from datetime import UTC
 from pathlib import Path
 
 import numpy as np
@@ -72,8 +73,15 @@ def simulate(
     drift_um_per_h: float = typer.Option(0.0, help="Linear drift of the readings [um/h]."),
     machine: Path | None = typer.Option(None, help="Error table ERRORS.csv (default: random)."),
     reversal_um: float = typer.Option(0.0, help="Max reversal of a random machine's axes [um]."),
+    overwrite: bool = typer.Option(False, help="Replace measured readings (a backup of the "
+                                   "old files is kept in SESSION/backup/)."),
 ) -> None:
-    """Fill the deviations from a virtual machine; keep its truth in SESSION/truth/."""
+    """Fill the deviations from a virtual machine; keep its truth in SESSION/truth/.
+
+    A session that holds readings not written by ``simulate`` (measured or imported) is
+    refused unless ``--overwrite`` is given; then the old files are kept in
+    ``SESSION/backup/<time>/``.
+    """
     from volcal.measure.simulate import SimulationOptions, simulate_session, truth_files
     from volcal.measure.virtual import ErrorRanges, random_machine
     from volcal.session.errortable import read_error_table
@@ -82,6 +90,23 @@ def simulate(
     if not (np.isfinite(reversal_um) and reversal_um >= 0):
         raise VolcalInputError(f"--reversal-um {reversal_um}: expected a finite value >= 0")
     s = read_session(session, require_deviation=False)
+    measured = [m.id for m in s.measurements
+                if m.deviation is not None and m.meta.get("readings_source") != "simulated"]
+    backup: dict[str, str] = {}
+    if measured and not overwrite:
+        shown = ", ".join(measured[:5]) + (f" and {len(measured) - 5} more"
+                                           if len(measured) > 5 else "")
+        raise VolcalInputError(
+            f"the session holds measured readings ({shown}): simulate would overwrite them; "
+            "simulate a copy of the planned session, or give --overwrite (a backup is kept)",
+            session)
+    if measured:
+        from datetime import datetime
+
+        stamp = datetime.now(UTC).strftime("%Y%m%dT%H%M%SZ")
+        for rel in ["session.toml", *(m.file for m in s.measurements)]:
+            if (session / rel).is_file():
+                backup[f"backup/{stamp}/{rel}"] = (session / rel).read_text(encoding="utf-8")
     if machine is not None:
         vm = read_error_table(machine, chain=s.chain)
         if not machine.with_suffix(".toml").is_file():
@@ -99,8 +124,11 @@ def simulate(
                             name=f"virtual {s.name}")
     opts = SimulationOptions(noise_um=noise_um, mirror_misalignment_urad=mirror_urad,
                              drift_um_per_h=drift_um_per_h, seed=seed)
-    setups = simulate_session(s, vm, opts)
-    write_session(s, session, truth_files(vm, setups, opts), keep_existing=True)
+    setups = simulate_session(s, vm, opts)  # marks every measurement as simulated
+    write_session(s, session, {**truth_files(vm, setups, opts), **backup}, keep_existing=True)
+    if backup:
+        console.print(f"measured readings replaced; the old files are in "
+                      f"{session}/{next(iter(backup)).rsplit('/', 2)[0]}/", highlight=False)
     console.print(f"simulated {len(s.measurements)} measurements on '{vm.name}' "
                   f"(noise {noise_um} um, mirror {mirror_urad} urad); truth in {session}/truth/")
 

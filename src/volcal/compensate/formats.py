@@ -9,18 +9,68 @@ from pathlib import Path
 
 import numpy as np
 
-from volcal.compensate.fanuc import fanuc_files
+from volcal.compensate import fanuc, heidenhain, linuxcnc, siemens
+from volcal.compensate.bidirectional import DirectionalErrors
 from volcal.compensate.generic import generic_files
 from volcal.compensate.heidenhain import heidenhain_files
+from volcal.compensate.linuxcnc import linuxcnc_files
 from volcal.compensate.siemens import siemens_files
 from volcal.compensate.tables import sign_factor
-from volcal.compensate.volumetric import grid_files, isg_files
+from volcal.compensate.volumetric import ISG_DEFAULT_SIGN, ISG_SIGN_SOURCE, grid_files, isg_files
 from volcal.errors import VolcalInputError
 from volcal.io.atomic import atomic_dir
 from volcal.io.tomlfmt import dumps as toml_dumps
 from volcal.model.errorfunctions import MachineErrors
+from volcal.model.names import COMPONENT_NAMES, SQUARENESS_NAMES
 
 MANIFEST = "volcal-compensation.toml"
+
+PITCH = ("EXX", "EYY", "EZZ")
+STRAIGHTNESS = ("EYX", "EZX", "EXY", "EZY", "EXZ", "EYZ")
+ALL_21 = (*COMPONENT_NAMES, *SQUARENESS_NAMES)
+
+
+@dataclass(frozen=True)
+class FormatInfo:
+    """What a controller format carries and how it is signed.
+
+    Attributes
+    ----------
+    sign : str
+        The controller's own convention, written by default.
+    sign_source : str
+        Manual and page the convention comes from.
+    carries : tuple of str
+        ISO 230-1 names of the errors the table set corrects.
+    resolution_um : float
+        Rounding step of the values [um] (Fanuc: per count, times ``unit_um`` x
+        magnification).
+    bidirectional : bool
+        The format has separate values for the two directions of travel.
+    """
+
+    sign: str
+    sign_source: str
+    carries: tuple[str, ...]
+    resolution_um: float
+    bidirectional: bool = False
+
+
+FORMAT_INFO: dict[str, FormatInfo] = {
+    "fanuc": FormatInfo(fanuc.DEFAULT_SIGN, fanuc.SIGN_SOURCE, PITCH, 1.0, True),
+    "siemens": FormatInfo(siemens.DEFAULT_SIGN, siemens.SIGN_SOURCE,
+                          PITCH + STRAIGHTNESS + SQUARENESS_NAMES, siemens.RESOLUTION_UM),
+    "heidenhain": FormatInfo(heidenhain.DEFAULT_SIGN, heidenhain.SIGN_SOURCE, PITCH,
+                             heidenhain.RESOLUTION_UM, True),
+    "linuxcnc": FormatInfo(linuxcnc.DEFAULT_SIGN, linuxcnc.SIGN_SOURCE, PITCH,
+                           linuxcnc.RESOLUTION_UM, True),
+    "csv": FormatInfo("error", "volcal's generic table: the column name states the sign",
+                      PITCH, 0.001),
+    "isg": FormatInfo(ISG_DEFAULT_SIGN, ISG_SIGN_SOURCE, ALL_21, 0.001),
+    "grid": FormatInfo("error", "volcal's 3-D grid: the column names state the sign",
+                       ALL_21, 0.001),
+}
+"""Format name -> its default sign (with source), what it corrects, its resolution."""
 
 
 @dataclass(frozen=True)
@@ -29,13 +79,14 @@ class CompensationOptions:
 
     Parameters
     ----------
-    sign : str
-        ``'error'`` or ``'correction'`` (no default: the user must choose).
+    sign : str, optional
+        ``'error'`` or ``'correction'``; default (None) the controller's own convention
+        (:data:`FORMAT_INFO`).
     spacing : float
         Distance between compensation points (and 3-D grid spacing) [mm].
     max_points : int, optional
         Controller limit of points (per table; Fanuc: the whole table). Default per
-        format: Fanuc 1024, Siemens 5000, Heidenhain 256, others unlimited (3-D grid 10^6).
+        format: Fanuc 1024, Siemens 5000, LinuxCNC 256, others unlimited (3-D grid 10^6).
     reference_mm : array_like, shape (3,), optional
         Fanuc reference position [mm]; default the start of each travel.
     unit_um : float
@@ -48,9 +99,15 @@ class CompensationOptions:
         Siemens CEC tables carry the squareness terms.
     tool_offset : array_like, shape (3,), optional
         Target point of the 3-D grid [mm].
+    fanuc_series : str
+        Fanuc parameter syntax: ``'30i'`` (current, default) or ``'16i'`` (older).
+    linuxcnc_type : int
+        LinuxCNC ``COMP_FILE_TYPE``: 1 (trims, default) or 0.
+    directional : DirectionalErrors, optional
+        Measured reversal for bidirectional tables (from the session's linear tests).
     """
 
-    sign: str
+    sign: str | None = None
     spacing: float = 20.0
     max_points: int | None = None
     reference_mm: tuple[float, float, float] | None = None
@@ -59,9 +116,14 @@ class CompensationOptions:
     max_increment: int = 7
     include_squareness: bool = True
     tool_offset: tuple[float, float, float] | None = None
+    fanuc_series: str = "30i"
+    linuxcnc_type: int = 1
+    directional: DirectionalErrors | None = None
 
     def __post_init__(self) -> None:
         """Reject option values no controller table can be built from."""
+        if self.sign is not None:
+            sign_factor(self.sign)
         if not math.isfinite(self.spacing) or self.spacing <= 0:
             raise VolcalInputError(f"--spacing {self.spacing}: expected a positive distance [mm]")
         if self.max_points is not None and self.max_points < 2:
@@ -72,22 +134,41 @@ class CompensationOptions:
         if self.max_increment < 1:
             raise VolcalInputError(f"--max-increment {self.max_increment}: expected at least 1")
 
+    def sign_for(self, fmt: str) -> str:
+        """The sign written for ``fmt``: the override or the controller's convention.
 
-def _fanuc(e: MachineErrors, o: CompensationOptions) -> dict[str, str]:
+        Parameters
+        ----------
+        fmt : str
+            A key of :data:`FORMATS`.
+
+        Returns
+        -------
+        str
+        """
+        return self.sign if self.sign is not None else FORMAT_INFO[fmt].sign
+
+
+def _fanuc(e: MachineErrors, o: CompensationOptions, sign: str) -> dict[str, str]:
     ref = e.travel[:, 0] if o.reference_mm is None else np.asarray(o.reference_mm)
-    return fanuc_files(e, o.spacing, o.sign, ref, o.unit_um, o.magnification, o.max_increment,
-                       o.max_points or 1024)
+    return fanuc.fanuc_files(e, o.spacing, sign, ref, o.unit_um, o.magnification,
+                             o.max_increment, o.max_points or 1024, o.fanuc_series,
+                             o.directional)
 
 
-FORMATS: dict[str, Callable[[MachineErrors, CompensationOptions], dict[str, str]]] = {
+FORMATS: dict[str, Callable[[MachineErrors, CompensationOptions, str], dict[str, str]]] = {
     "fanuc": _fanuc,
-    "siemens": lambda e, o: siemens_files(e, o.spacing, o.sign, o.max_points or 5000,
-                                          o.include_squareness),
-    "heidenhain": lambda e, o: heidenhain_files(e, o.spacing, o.sign, o.max_points or 256),
-    "csv": lambda e, o: generic_files(e, o.spacing, o.sign, o.max_points),
-    "isg": lambda e, o: isg_files(e, o.spacing, o.sign, o.max_points),
-    "grid": lambda e, o: grid_files(e, o.spacing, o.sign, o.tool_offset,
-                                    o.max_points or 1_000_000),
+    "siemens": lambda e, o, s: siemens_files(e, o.spacing, s, o.max_points or 5000,
+                                             o.include_squareness),
+    "heidenhain": lambda e, o, s: heidenhain_files(e, o.spacing, s, o.max_points,
+                                                   o.directional),
+    "linuxcnc": lambda e, o, s: linuxcnc_files(e, o.spacing, s, o.linuxcnc_type,
+                                               o.max_points or linuxcnc.MAX_ENTRIES,
+                                               o.directional),
+    "csv": lambda e, o, s: generic_files(e, o.spacing, s, o.max_points),
+    "isg": lambda e, o, s: isg_files(e, o.spacing, s, o.max_points),
+    "grid": lambda e, o, s: grid_files(e, o.spacing, s, o.tool_offset,
+                                       o.max_points or 1_000_000),
 }
 """Format name -> function returning the files (name -> text) of that format."""
 
@@ -106,7 +187,7 @@ def write_compensation(errors: MachineErrors, fmt: str, folder: str | Path,
         Output folder; built aside and moved into place. An existing folder is replaced
         only if it is empty or holds ``volcal-compensation.toml``.
     options : CompensationOptions
-        Sign, spacing, limits.
+        Sign (default: the controller's convention), spacing, limits.
     source : str
         Name of the model file, recorded in the manifest.
 
@@ -117,15 +198,25 @@ def write_compensation(errors: MachineErrors, fmt: str, folder: str | Path,
     """
     if fmt not in FORMATS:
         raise VolcalInputError(f"unknown format {fmt!r}: expected one of {', '.join(FORMATS)}")
-    sign_factor(options.sign)
+    sign = options.sign_for(fmt)
+    info = FORMAT_INFO[fmt]
     folder = Path(folder)
     if folder.exists() and (not folder.is_dir() or (any(folder.iterdir())
                                                     and not (folder / MANIFEST).is_file())):
         raise VolcalInputError("output exists and is not a volcal compensation folder", folder)
-    files = FORMATS[fmt](errors, options)
+    files = FORMATS[fmt](errors, options, sign)
+    carries = list(info.carries)
+    if fmt == "siemens" and not options.include_squareness:
+        carries = [c for c in carries if c not in SQUARENESS_NAMES]
+    resolution = (options.unit_um * options.magnification if fmt == "fanuc"
+                  else info.resolution_um)
+    bidir = bool(info.bidirectional and options.directional is not None
+                 and any(options.directional.has(k) for k in range(3)))
     manifest = {"format": "volcal-compensation/1", "controller_format": fmt,
-                "sign": options.sign, "spacing_mm": options.spacing, "model": source,
-                "machine": errors.name, "chain": errors.chain_obj.code,
+                "sign": sign, "sign_default": info.sign, "sign_source": info.sign_source,
+                "spacing_mm": options.spacing, "resolution_um": resolution,
+                "carries": carries, "bidirectional": bidir,
+                "model": source, "machine": errors.name, "chain": errors.chain_obj.code,
                 "files": sorted(files)}
     with atomic_dir(folder) as tmp:
         for name, text in files.items():

@@ -1,18 +1,30 @@
 """HEIDENHAIN nonlinear axis error compensation: ``.COM`` value tables and the ``.CMA`` assignment.
 
-A ``.COM`` table lists compensation points of one input axis (column ``AXISPOS``,
-machine coordinates [mm]) and the compensation value of the compensated axis in a
-column named after it [mm]; the ``.CMA`` table assigns the ``.COM`` tables to the
-input axes (one column per axis, ``*`` in ``ACTIVE`` marks the active line). Tables
-start with ``BEGIN <name> MM`` and end with ``[END]``. The control interpolates linearly
-between points; older controls (TNC 407/415/425) accept at most 256 entries per
-``.COM`` table, which is volcal's default limit (``max_points``).
+Format of the current controls (TNC 640, TNC 620, MANUALplus 620, CNC PILOT 640): a
+``.COM`` table lists compensation points of one input axis (column ``AXISPOS``,
+positions with respect to the machine datum [mm]), the compensation value of the
+compensated axis in a column named after it [mm] and, optionally, the values measured
+in the negative direction of traverse in the column ``BACKLASH`` [mm]; the ``.CMA``
+table assigns the ``.COM`` tables to the input axes (one column per axis, ``*`` in
+``ACTIVE`` marks the active line). Tables start with ``BEGIN <name> MM`` and end with
+``[END]``. They are fixed-width: every value starts at the column of its header name
+(HEIDENHAIN tables are read column by column from the header positions, as pyLSV2's
+table reader does). The control interpolates linearly between points.
+
+Sign: the table holds the **error** measured at each point (default ``sign='error'``:
+the TNC 407/415/425 technical manual's example plots "Error in Z [mm]" as the table
+content; the MANUALplus 620 technical manual speaks of "compensation values measured").
+
+Not this format: the TNC 407/415/425 (and TNC 360) tables, which have no ``AXISPOS``
+column but a datum and a power-of-two spacing, and at most 256 entries per table
+(module 9095). The iTNC 530 variant could not be sourced and is not written.
 
 References
 ----------
-HEIDENHAIN TNC 407/415/425 Technical Manual, 1 Machine axes, nonlinear axis error
-compensation (.CMA/.COM, module 9095: "more than 256 entries"). HEIDENHAIN MANUALplus
-620 Technical Manual, entering compensation values (AXISPOS column, *.COM/*.CMA).
+HEIDENHAIN MANUALplus 620 Technical Manual (01/2012), 6.10.3 "Nonlinear axis error
+compensation", pp. 713-716 (AXISPOS, BACKLASH, entering compensation values).
+HEIDENHAIN TNC 407/415/425 Technical Manual, nonlinear axis error compensation (.CMA/.COM,
+module 9095: 256 entries; datum and power-of-two spacing).
 """
 
 from __future__ import annotations
@@ -21,21 +33,36 @@ from pathlib import Path
 
 import numpy as np
 
-from volcal.compensate.tables import AxisTable, axis_grid, pitch_table
+from volcal.compensate.tables import AxisTable, axis_grid, pitch_table, sign_factor
 from volcal.errors import VolcalInputError
 from volcal.model.errorfunctions import MachineErrors
 from volcal.model.names import AXES
 
 CMA_FILE = "VOLCAL.CMA"
 RESOLUTION_UM = 0.1  # 4 decimals in mm
+DEFAULT_SIGN = "error"
+SIGN_SOURCE = ("HEIDENHAIN TNC 407/415/425 technical manual, nonlinear axis error "
+               "compensation example (table = error in mm); MANUALplus 620 technical "
+               "manual 6.10.3 p. 716 (compensation values measured)")
+WIDTHS = {"NR": 6, "AXISPOS": 14, "VALUE": 14, "BACKLASH": 14}
+"""Column widths [characters]: each value starts where its header name starts."""
 
 
 def _f(v: float, d: int) -> str:
     return f"{v:+.{d}f}"
 
 
-def heidenhain_files(errors: MachineErrors, spacing: float, sign: str, max_points: int = 256
-                     ) -> dict[str, str]:
+def _row(cells: list[str], widths: list[int]) -> str:
+    out = ""
+    for c, w in zip(cells, widths, strict=True):
+        if len(c) >= w:
+            raise ValueError(f"value {c!r} wider than its column ({w})")
+        out += c.ljust(w)
+    return out.rstrip()
+
+
+def heidenhain_files(errors: MachineErrors, spacing: float, sign: str = DEFAULT_SIGN,
+                     max_points: int | None = None, directional=None) -> dict[str, str]:
     """``X.COM``, ``Y.COM``, ``Z.COM`` (positioning errors) and ``VOLCAL.CMA``.
 
     Parameters
@@ -45,9 +72,13 @@ def heidenhain_files(errors: MachineErrors, spacing: float, sign: str, max_point
     spacing : float
         Distance between compensation points [mm] (a multiple of 0.0001 mm).
     sign : str
-        ``'error'`` or ``'correction'``.
-    max_points : int
-        Entries allowed per ``.COM`` table.
+        ``'error'`` (default, the HEIDENHAIN convention) or ``'correction'``.
+    max_points : int, optional
+        Entries allowed per ``.COM`` table (no limit by default: see your control's
+        technical manual).
+    directional : DirectionalErrors, optional
+        Measured reversal: the ``BACKLASH`` column gets the values of the negative
+        direction (otherwise it repeats the axis column).
 
     Returns
     -------
@@ -55,32 +86,52 @@ def heidenhain_files(errors: MachineErrors, spacing: float, sign: str, max_point
     """
     if abs(spacing * 1e4 - round(spacing * 1e4)) > 1e-6:
         raise VolcalInputError(f"--spacing {spacing:g}: Heidenhain positions have 4 decimals")
+    s = sign_factor(sign)
     files = {}
+    widths = [WIDTHS["NR"], WIDTHS["AXISPOS"], WIDTHS["VALUE"], WIDTHS["BACKLASH"]]
     for k in range(3):
         a = AXES[k]
         p = axis_grid(*errors.travel[k], spacing, max_points=max_points, what=f"Heidenhain {a}")
         t = pitch_table(errors, k, p, sign, RESOLUTION_UM)
-        rows = [f"BEGIN {a}.COM MM", f"{'NR':<6}{'AXISPOS':>14}{a:>14}"]
-        rows += [f"{n:<6}{_f(pos, 4):>14}{_f(v / 1000.0, 4):>14}"
-                 for n, (pos, v) in enumerate(zip(p, t.values, strict=True))]
+        half = directional.half_reversal(k, p) if directional is not None else 0.0 * p
+        fwd = t.values + np.round(s * half / RESOLUTION_UM) * RESOLUTION_UM
+        rev = t.values - np.round(s * half / RESOLUTION_UM) * RESOLUTION_UM
+        rows = [f"BEGIN {a}.COM MM", _row(["NR", "AXISPOS", a, "BACKLASH"], widths)]
+        rows += [_row([str(n), _f(pos, 4), _f(vf / 1000.0, 4), _f(vr / 1000.0, 4)], widths)
+                 for n, (pos, vf, vr) in enumerate(zip(p, fwd, rev, strict=True))]
         files[f"{a}.COM"] = "\n".join([*rows, "[END]"]) + "\n"
-    cma = [f"BEGIN {CMA_FILE}", f"{'NR':<6}{'ACTIVE':<8}{'X':<10}{'Y':<10}{'Z':<10}",
-           f"{0:<6}{'*':<8}{'X.COM':<10}{'Y.COM':<10}{'Z.COM':<10}", "[END]"]
+    cw = [6, 8, 10, 10, 10]
+    cma = [f"BEGIN {CMA_FILE}", _row(["NR", "ACTIVE", "X", "Y", "Z"], cw),
+           _row(["0", "*", "X.COM", "Y.COM", "Z.COM"], cw), "[END]"]
     files[CMA_FILE] = "\n".join(cma) + "\n"
     return files
 
 
+def _columns(header: str) -> list[tuple[str, int, int]]:
+    """(name, start, end) of each header name; the last column runs to the line end."""
+    import re
+
+    ms = list(re.finditer(r"\S+", header))
+    return [(m.group(), m.start(), ms[i + 1].start() if i + 1 < len(ms) else 10**6)
+            for i, m in enumerate(ms)]
+
+
 def _table(path: Path) -> tuple[list[str], list[list[str]]]:
+    """Read a fixed-width table: each value taken from its header name's columns."""
     try:
-        lines = [ln.split() for ln in path.read_text(encoding="ascii").splitlines() if ln.strip()]
+        lines = [ln.rstrip("\n") for ln in path.read_text(encoding="ascii").splitlines()
+                 if ln.strip()]
     except (OSError, UnicodeDecodeError) as exc:
         raise VolcalInputError(f"cannot read ({exc.__class__.__name__})", path) from None
-    if len(lines) < 3 or lines[0][0] != "BEGIN" or lines[-1] != ["[END]"]:
+    if len(lines) < 3 or not lines[0].startswith("BEGIN") or lines[-1].strip() != "[END]":
         raise VolcalInputError("expected BEGIN ... [END]", path)
-    return lines[1], lines[2:-1]
+    cols = _columns(lines[1])
+    rows = [[ln[a:b].strip() for _, a, b in cols] for ln in lines[2:-1]]
+    return [c[0] for c in cols], rows
 
 
-def read_heidenhain(folder: str | Path, sign: str) -> list[AxisTable]:
+def read_heidenhain(folder: str | Path, sign: str = DEFAULT_SIGN, column: str | None = None
+                    ) -> list[AxisTable]:
     """Read the active ``.COM`` tables named in ``VOLCAL.CMA``.
 
     Parameters
@@ -90,6 +141,8 @@ def read_heidenhain(folder: str | Path, sign: str) -> list[AxisTable]:
     sign : str
         ``'error'`` or ``'correction'``: the convention the tables were written in (the
         files do not record it); stored on the returned tables.
+    column : str, optional
+        ``'BACKLASH'`` to read the negative-direction values; default the axis column.
 
     Returns
     -------
@@ -98,7 +151,7 @@ def read_heidenhain(folder: str | Path, sign: str) -> list[AxisTable]:
     """
     folder = Path(folder)
     head, rows = _table(folder / CMA_FILE)
-    active = [r for r in rows if len(r) == len(head) and r[head.index("ACTIVE")] == "*"]
+    active = [r for r in rows if r[head.index("ACTIVE")] == "*"]
     if len(active) != 1:
         raise VolcalInputError("exactly one active line expected", folder / CMA_FILE)
     out = []
@@ -109,8 +162,9 @@ def read_heidenhain(folder: str | Path, sign: str) -> list[AxisTable]:
         out_axis = [c for c in h if c in AXES]
         if h[:2] != ["NR", "AXISPOS"] or len(out_axis) != 1:
             raise VolcalInputError("expected columns NR AXISPOS <axis>", folder / com, 2)
+        j = h.index(column or out_axis[0])
         try:
-            arr = np.array([[float(r[1]), float(r[2])] for r in data])
+            arr = np.array([[float(r[1]), float(r[j])] for r in data])
         except (ValueError, IndexError):
             raise VolcalInputError("bad number in table", folder / com) from None
         out.append(AxisTable(AXES.index(col), AXES.index(out_axis[0]), arr[:, 0],

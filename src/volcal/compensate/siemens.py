@@ -17,16 +17,24 @@ CEC (``%_N_NC_CEC_INI``): tables ``$AN_CEC[t,N]`` add a value to an output axis 
 function of an input axis (``$AN_CEC_INPUT_AXIS``, ``$AN_CEC_OUTPUT_AXIS``,
 ``$AN_CEC_STEP``, ``$AN_CEC_MIN``, ``$AN_CEC_MAX``, ``$AN_CEC_DIRECTION``,
 ``$AN_CEC_MULT_BY_TABLE``, ``$AN_CEC_IS_MODULO``): volcal writes the six straightness
-functions (with the squareness term whose lever is the input axis) as tables 0..5.
+functions (with the squareness term whose lever is the input axis) as tables 0..5. The
+axes are assigned as in the manual's example, ``$AN_CEC_INPUT_AXIS[t]=(AX1)``. A table
+is evaluated only when MD32710 ``$MA_CEC_ENABLE[AXi]`` = 1 for the output axis and SD41300
+``$SN_CEC_TABLE_ENABLE[t]`` = 1; MD18342 ``$MN_MM_CEC_MAX_POINTS[t]`` must hold the number
+of points (K3 03/2013 pp. 245, 248, 264). CEC values enter the same total compensation
+value of the axis as the LEC values ("the total compensation value is derived from the sum
+of the individual compensation values", K3 p. 245), so they take the LEC sign: **error**.
 
 Values are written in mm with 6 decimals (resolution 0.001 um). The machine axes are
 named ``AX1``, ``AX2``, ``AX3`` (X, Y, Z); rename them if your machine differs.
 
 References
 ----------
-SINUMERIK 840D sl Function Manual Extended Functions (6FC5397-1BP40-3BA1), K3:
+SINUMERIK 840D sl Function Manual Extended Functions (6FC5397-1BP40-3BA1, 03/2013), K3:
 Compensation, 4.4 Interpolatory compensation (LEC and CEC system variables, the example
-``%_N_AX_EEC_INI``). SINUMERIK 808D Function Manual (sign of the LEC value).
+``%_N_AX_EEC_INI``; CEC activation p. 245, table parameters p. 248, MD18342 p. 264,
+``$AN_CEC_INPUT_AXIS[0] = (XX)`` p. 268). SINUMERIK 808D Function Manual (sign of the LEC
+value).
 """
 
 from __future__ import annotations
@@ -44,6 +52,10 @@ from volcal.model.names import AXES
 LEC_FILE = "SIEMENS_LEC_AX_EEC_INI.SPF"
 CEC_FILE = "SIEMENS_CEC_NC_CEC_INI.SPF"
 RESOLUTION_UM = 0.001
+DEFAULT_SIGN = "error"
+SIGN_SOURCE = ("SINUMERIK K3 (6FC5397-1BP40-3BA1): 'a positive compensation value causes "
+               "the machine axis to move in the negative direction'; CEC values add to the "
+               "same total compensation value (p. 245)")
 CEC_PAIRS: tuple[tuple[int, int], ...] = ((0, 1), (0, 2), (1, 0), (1, 2), (2, 0), (2, 1))
 """(input axis, output axis) of CEC tables 0..5: EYX, EZX, EXY, EZY, EXZ, EYZ."""
 
@@ -52,8 +64,9 @@ def _mm(v_um: float) -> str:
     return f"{v_um / 1000.0:.6f}"
 
 
-def siemens_files(errors: MachineErrors, spacing: float, sign: str, max_points: int = 5000,
-                  include_squareness: bool = True) -> dict[str, str]:
+def siemens_files(errors: MachineErrors, spacing: float, sign: str = DEFAULT_SIGN,
+                  max_points: int = 5000, include_squareness: bool = True
+                  ) -> dict[str, str]:
     """LEC and CEC initialisation programs of the model.
 
     Parameters
@@ -74,10 +87,21 @@ def siemens_files(errors: MachineErrors, spacing: float, sign: str, max_points: 
     dict of str to str
         File name -> content.
     """
+    warn = ("" if sign == DEFAULT_SIGN else
+            " (NOT the Siemens convention: loading this doubles the error)")
     lec = ["%_N_AX_EEC_INI", "CHANDATA(1)",
-           f"; volcal: positioning errors EXX, EYY, EZZ, sign = {sign}, values in mm"]
+           f"; volcal: positioning errors EXX, EYY, EZZ, sign = {sign}{warn}, values in mm",
+           f"; sign source: {SIGN_SOURCE}",
+           "; activate: MD32700 $MA_ENC_COMP_ENABLE[0,AXi]=1 after running this program, "
+           "MD38000 $MA_MM_ENC_COMP_MAX_POINTS >= points, NCK reset",
+           "; AX1..AX3 = X, Y, Z: rename to your machine axes; tables are zero at the start "
+           "of travel"]
     cec = ["%_N_NC_CEC_INI", "CHANDATA(1)",
-           f"; volcal: straightness (and squareness) tables, sign = {sign}, values in mm"]
+           f"; volcal: straightness (and squareness) tables, sign = {sign}{warn}, values in mm",
+           f"; sign source: {SIGN_SOURCE}",
+           "; activate: MD18342 $MN_MM_CEC_MAX_POINTS[t] >= points of table t, "
+           "MD32710 $MA_CEC_ENABLE[AXi]=1 for each output axis, SD41300 "
+           "$SN_CEC_TABLE_ENABLE[t]=1 (set below), NCK reset"]
     for k in range(3):
         p = axis_grid(*errors.travel[k], spacing, max_points=max_points,
                       what=f"Siemens LEC {AXES[k]}")
@@ -93,15 +117,16 @@ def siemens_files(errors: MachineErrors, spacing: float, sign: str, max_points: 
         t = cross_table(errors, a_in, a_out, p, sign, RESOLUTION_UM, include_squareness)
         cec.append(f"; table {ti}: {t.name}")
         cec += [f"$AN_CEC[{ti},{n}]={_mm(v)}" for n, v in enumerate(t.values)]
-        cec += [f"$AN_CEC_INPUT_AXIS[{ti}]=AX{a_in + 1}",
-                f"$AN_CEC_OUTPUT_AXIS[{ti}]=AX{a_out + 1}",
+        cec += [f"$AN_CEC_INPUT_AXIS[{ti}]=(AX{a_in + 1})",
+                f"$AN_CEC_OUTPUT_AXIS[{ti}]=(AX{a_out + 1})",
                 f"$AN_CEC_STEP[{ti}]={spacing:.6f}", f"$AN_CEC_MIN[{ti}]={p[0]:.6f}",
                 f"$AN_CEC_MAX[{ti}]={p[-1]:.6f}", f"$AN_CEC_DIRECTION[{ti}]=0",
-                f"$AN_CEC_MULT_BY_TABLE[{ti}]=0", f"$AN_CEC_IS_MODULO[{ti}]=0"]
+                f"$AN_CEC_MULT_BY_TABLE[{ti}]=0", f"$AN_CEC_IS_MODULO[{ti}]=0",
+                f"$SN_CEC_TABLE_ENABLE[{ti}]=1"]
     return {LEC_FILE: "\n".join([*lec, "M17"]) + "\n", CEC_FILE: "\n".join([*cec, "M17"]) + "\n"}
 
 
-_ASSIGN = re.compile(r"^\$(AA_ENC_COMP|AN_CEC)(_[A-Z_]+)?\[([^\]]+)\]=(\S+)$")
+_ASSIGN = re.compile(r"^\$(AA_ENC_COMP|AN_CEC|SN_CEC)(_[A-Z_]+)?\[([^\]]+)\]=\s*(\S+)$")
 
 
 def _parse(path: Path) -> dict[tuple[str, tuple[str, ...]], str]:
@@ -186,7 +211,7 @@ def read_cec(path: str | Path, sign: str) -> list[AxisTable]:
         par = {w: d.get((f"AN_CEC_{w}", (str(t),)), "")
                for w in ("INPUT_AXIS", "OUTPUT_AXIS", "STEP", "MIN", "MAX")}
         try:
-            a_in, a_out = (int(par[w].removeprefix("AX")) - 1
+            a_in, a_out = (int(par[w].strip("()").removeprefix("AX")) - 1
                            for w in ("INPUT_AXIS", "OUTPUT_AXIS"))
             step, lo, hi = (float(par[w]) for w in ("STEP", "MIN", "MAX"))
         except ValueError as exc:

@@ -1,18 +1,26 @@
 """The whole volumetric model for controllers with volumetric compensation.
 
-``isg_files``: the 21 errors as CSV blocks in the style of the ISG kernel / Beckhoff
-TwinCAT CNC volumetric compensation lists: one block per axis with the header
-``X,EXX,EYX,EZX,EAX,EBX,ECX`` (ISO 230-1 names) and a squareness block
-``EC0Y,EB0Z,EA0Z``; blocks are separated by an empty line; ``#`` lines are comments
-that state the units (positions [mm], translations [um], rotations [urad]), the sign
-and the kinematic chain. The values are resampled onto the controller grid.
+``isg_files``: the 21 errors in the **ISG CSV format** of the ISG kernel / Beckhoff
+TwinCAT CNC volumetric compensation (TF5280, "File formats supported" / "ISG CSV
+format", and "Units of measure"): whitespace-separated columns named in a header line;
+``//`` starts a comment line; ``#`` is a *file break* after which a new header and its
+records follow. Values are in **mm** (translations) and **rad** (rotations); the
+arguments (axis positions) in mm. Component errors carry their ISO 230-1 names
+(``X EXX EYX EZX EAX EBX ECX``); position errors are written as ISG spells them,
+without the ``E`` prefix (``C0Y B0Z A0Z``). The values are the **errors** (the ISG
+convention; the list parameter ``negate`` (P-VOLC) inverts them, volcal writes
+``negate 0`` in its notes). The values are resampled onto the controller grid.
 
 ``grid_files``: the volumetric error vector at the points of a regular 3-D grid,
 first order (Soons 2005, eq. 1; ISO 230-1:2012 annex A), columns
 ``x_mm,y_mm,z_mm,<sign>_x_um,<sign>_y_um,<sign>_z_um``.
 
-Reference: ISG kernel documentation, "Classification of compensation data"
-(axis compensation lists); ISO 230-1:2012, 3.4 (names).
+References
+----------
+Beckhoff TF5280 TwinCAT 3 CNC Volumetric Compensation documentation: "ISG CSV format"
+(infosys.beckhoff.com, tf5280_volumetric_comp/296429067), "Units of measure"
+(.../296426379), overview of compensation parameters (``negate``, ``Chain``,
+``file[j]``, ``file_format[j]``). ISO 230-1:2012, 3.4 (names).
 """
 
 from __future__ import annotations
@@ -33,9 +41,16 @@ GRID_FILE = "volumetric_grid.csv"
 RESOLUTION = 0.001  # um and urad
 
 
-def isg_files(errors: MachineErrors, spacing: float, sign: str,
+ISG_POSITION_NAMES: dict[str, str] = {"EC0Y": "C0Y", "EB0Z": "B0Z", "EA0Z": "A0Z"}
+"""volcal's squareness names -> the ISG spelling of the position errors."""
+ISG_DEFAULT_SIGN = "error"
+ISG_SIGN_SOURCE = ("Beckhoff TF5280: the parameter files hold the ISO 230-1 errors; the "
+                   "list parameter 'negate' inverts them")
+
+
+def isg_files(errors: MachineErrors, spacing: float, sign: str = ISG_DEFAULT_SIGN,
               max_points: int | None = None) -> dict[str, str]:
-    """The 21 errors as ISG/Beckhoff-style blocks resampled at ``spacing`` [mm].
+    """The 21 errors in the ISG CSV format, resampled at ``spacing`` [mm].
 
     Parameters
     ----------
@@ -44,7 +59,8 @@ def isg_files(errors: MachineErrors, spacing: float, sign: str,
     spacing : float
         Distance between the grid points of each axis [mm], > 0.
     sign : str
-        ``'error'`` or ``'correction'`` (the latter negates every value).
+        ``'error'`` (the ISG convention, default) or ``'correction'`` (every value
+        negated; then set nothing else: ``negate`` stays 0).
     max_points : int, optional
         Controller limit of points per axis; exceeding it raises.
 
@@ -54,23 +70,90 @@ def isg_files(errors: MachineErrors, spacing: float, sign: str,
         File name (``volumetric_isg.csv``) to file text.
     """
     s = sign_factor(sign)
-    lines = ["# volcal volumetric model: ISO 230-1 names",
-             "# units: position [mm], EX EY EZ [um], EA EB EC [urad], squareness [urad]",
-             f"# sign: {sign}", f"# chain: {errors.chain_obj.code}", ""]
+    lines = ["// volcal: volumetric model, ISG CSV format (Beckhoff TF5280)",
+             "// units: arguments X Y Z [mm]; EX* EY* EZ* [mm]; EA* EB* EC* and C0Y B0Z A0Z "
+             "[rad]",
+             f"// sign: {sign}" + (" (the errors, ISG convention; list parameter negate 0)"
+                                   if sign == "error" else
+                                   " (negated errors; keep list parameter negate 0)"),
+             f"// source of the sign: {ISG_SIGN_SOURCE}",
+             f"// kinematic chain (workpiece -> tool, F = frame): {errors.chain_obj.code}",
+             "// activation: name this file in file[0] of the compensation list "
+             "(vol_comp[0].file_name), file_format[0] = ISG CSV, axis assignment X 1 Y 2 Z 3",
+             "// position errors (squareness), constant"]
+    lines.append(" ".join(f"{ISG_POSITION_NAMES[n]:<16}" for n in SQUARENESS_NAMES).strip())
+    sq = quantize(s * errors.squareness, RESOLUTION) * 1e-6
+    lines.append(" ".join(f"{x:<16.9e}" for x in sq).strip())
     for k in range(3):
         p = axis_grid(*errors.travel[k], spacing, max_points=max_points, what=AXES[k])
         v = quantize(s * errors.component(k, p), RESOLUTION)
-        lines.append(",".join([AXES[k], *(c + AXES[k] for c in COMPONENTS)]))
-        lines += [",".join([f"{pos:.6f}", *(f"{x:.3f}" for x in row)]) for pos, row in zip(p, v,
-                                                                                     strict=True)]
-        lines.append("")
-    lines.append(",".join(SQUARENESS_NAMES))
-    lines.append(",".join(f"{x:.3f}" for x in quantize(s * errors.squareness, RESOLUTION)))
+        v = v * np.array([1e-3, 1e-3, 1e-3, 1e-6, 1e-6, 1e-6])
+        lines += ["#", f"// component errors of the {AXES[k]} axis",
+                  " ".join([f"{AXES[k]:<12}", *(f"{c + AXES[k]:<16}" for c in COMPONENTS)]
+                           ).rstrip()]
+        lines += [" ".join([f"{pos:<12.4f}", *(f"{x:<16.9e}" for x in row)]).rstrip()
+                  for pos, row in zip(p, v, strict=True)]
     return {ISG_FILE: "\n".join(lines) + "\n"}
 
 
+def parse_isg_csv(text: str, path: str | Path = "") -> list[dict[str, np.ndarray]]:
+    """Parse text in the ISG CSV format into blocks (header name -> column).
+
+    Follows the published rules only: ``//`` comment lines, ``#`` file breaks, a header
+    line of names, whitespace-separated numbers.
+
+    Parameters
+    ----------
+    text : str
+        File content.
+    path : str or Path
+        File name for messages.
+
+    Returns
+    -------
+    list of dict
+        One dict per block: column name -> values.
+    """
+    blocks: list[dict[str, np.ndarray]] = []
+    head: list[str] | None = None
+    rows: list[list[float]] = []
+
+    def close(line: int) -> None:
+        if head is not None:
+            if not rows:
+                raise VolcalInputError(f"block {' '.join(head)} has no rows", path, line)
+            arr = np.array(rows)
+            blocks.append({h: arr[:, j] for j, h in enumerate(head)})
+
+    for i, raw in enumerate(text.splitlines(), start=1):
+        line = raw.strip()
+        if not line or line.startswith("//"):
+            continue
+        if line.startswith("#"):
+            close(i)
+            head, rows = None, []
+            continue
+        parts = line.split()
+        if head is None:
+            head = parts
+            if len(set(head)) != len(head):
+                raise VolcalInputError("duplicate column name in header", path, i)
+            continue
+        if len(parts) != len(head):
+            raise VolcalInputError(f"expected {len(head)} values, found {len(parts)}", path, i)
+        try:
+            rows.append([float(x) for x in parts])
+        except ValueError:
+            raise VolcalInputError("not a number", path, i) from None
+    close(len(text.splitlines()))
+    return blocks
+
+
 def read_isg(path: str | Path) -> tuple[MachineErrors, str]:
-    """Read ISG-style blocks back into a model (values in the file's sign).
+    """Read an ISG CSV file written by :func:`isg_files` back into a model.
+
+    Values are converted back to um and urad, in the file's sign (stated in its
+    ``// sign:`` comment); the chain is read from the ``// kinematic chain`` comment.
 
     Parameters
     ----------
@@ -87,51 +170,34 @@ def read_isg(path: str | Path) -> tuple[MachineErrors, str]:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise VolcalInputError(f"cannot read ({exc.__class__.__name__})", path) from None
-    meta, blocks, cur = {}, [], None
-    for i, raw in enumerate(text.splitlines(), start=1):
-        if raw.startswith("#"):
-            if ":" in raw:
-                k, v = raw[1:].split(":", 1)
-                meta[k.strip()] = v.strip()
-            continue
-        if not raw.strip():
-            cur = None
-            continue
-        cells = raw.split(",")
-        if cur is None:
-            cur = (cells, [], i)
-            blocks.append(cur)
-            continue
-        try:
-            cur[1].append([float(c) for c in cells])
-        except ValueError:
-            raise VolcalInputError("not a number", path, i) from None
+    meta = {}
+    for raw in text.splitlines():
+        if raw.startswith("//") and ":" in raw:
+            k, v = raw[2:].split(":", 1)
+            meta[k.strip()] = v.strip().split()[0] if v.strip() else ""
+    chain = meta.get("kinematic chain (workpiece -> tool, F = frame)", "XYFZ")
     nodes, values, sq = [None] * 3, [None] * 3, None
-    for head, rows, line in blocks:
-        width = len(head)
-        for j, r in enumerate(rows, start=1):
-            if len(r) != width:
-                raise VolcalInputError(f"expected {width} values, found {len(r)}", path,
-                                       line + j)
-        if head == list(SQUARENESS_NAMES):
-            if len(rows) != 1:
-                raise VolcalInputError("the squareness block needs exactly one row of values",
-                                       path, line)
-            sq = np.array(rows[0])
+    isg_sq = [ISG_POSITION_NAMES[n] for n in SQUARENESS_NAMES]
+    for b in parse_isg_csv(text, path):
+        head = list(b)
+        if head == isg_sq:
+            if b[head[0]].size != 1:
+                raise VolcalInputError("the position-error block needs exactly one row", path)
+            sq = np.array([b[h][0] for h in head]) * 1e6
         elif head[0] in AXES and head[1:] == [c + head[0] for c in COMPONENTS]:
-            if not rows:
-                raise VolcalInputError(f"block {head[0]} has no rows", path, line)
-            a = np.array(rows).reshape(-1, 7)
-            if np.any(np.diff(a[:, 0]) <= 0):
+            pos = b[head[0]]
+            if np.any(np.diff(pos) <= 0):
                 raise VolcalInputError(f"positions of block {head[0]} must increase strictly",
-                                       path, line)
-            nodes[AXES.index(head[0])], values[AXES.index(head[0])] = a[:, 0], a[:, 1:]
+                                       path)
+            k = AXES.index(head[0])
+            v = np.stack([b[h] for h in head[1:]], axis=1)
+            nodes[k] = pos
+            values[k] = v * np.array([1e3, 1e3, 1e3, 1e6, 1e6, 1e6])
         else:
-            raise VolcalInputError(f"unknown block header {','.join(head)}", path, line)
+            raise VolcalInputError(f"unknown block header {' '.join(head)}", path)
     if any(n is None for n in nodes) or sq is None:
-        raise VolcalInputError("blocks X, Y, Z and the squareness block are required", path)
-    return (MachineErrors(meta.get("chain", "XYFZ"), nodes, values, sq, name=path.stem),
-            meta.get("sign", "error"))
+        raise VolcalInputError("blocks X, Y, Z and the position-error block are required", path)
+    return (MachineErrors(chain, nodes, values, sq, name=path.stem), meta.get("sign", "error"))
 
 
 def grid_files(errors: MachineErrors, spacing: float, sign: str, tool_offset=None,

@@ -20,6 +20,7 @@ from volcal.identify.prior import PriorStructure
 from volcal.identify.record import session_identity
 from volcal.identify.result import IdentificationResult
 from volcal.identify.solver import Solution, solve_bayes, solve_min_norm
+from volcal.model.names import ROLL_NAMES
 from volcal.plan.geometry import diagonal_test, linear_test, step_diagonal_test
 from volcal.session.format import Measurement, Session
 
@@ -52,7 +53,7 @@ class IdentifyOptions:
         Prior standard deviation of the squareness errors [urad].
     roll : str
         ``'estimate'`` (default; the prior keeps it finite when the data do not see it)
-        or ``'zero'`` (roll fixed to zero, as the seeds assume).
+        or ``'zero'`` (the rolls EAX, EBY, ECZ fixed to zero, as the seeds assume).
     known : dict
         Errors measured separately: name -> ``(positions [mm], values)`` held fixed, or
         ``(positions, values, std)`` used as a prior with that standard uncertainty; a
@@ -116,7 +117,7 @@ def _known(opts: IdentifyOptions) -> dict:
     for n in opts.zero:
         known.setdefault(n.upper(), (None, None))
     if opts.roll == "zero":
-        for n in ("EAX", "EAY", "EAZ"):
+        for n in ROLL_NAMES:  # EAX, EBY, ECZ: each axis about its own direction
             known.setdefault(n, (None, None))
     elif opts.roll != "estimate":
         raise VolcalInputError(f"roll must be 'estimate' or 'zero', got {opts.roll!r}")

@@ -31,38 +31,9 @@ from numpy.typing import NDArray
 from volcal.identify.design import Design
 from volcal.identify.prior import PriorStructure
 from volcal.model.kinematics import pose_jacobian
-from volcal.model.names import COMPONENT_NAMES, SQUARENESS_NAMES
+from volcal.model.names import COMPONENT_NAMES, ROLL_NAMES, SQUARENESS_NAMES, describe, kind
 
-__all__ = ["IdentifiabilityReport", "analyse", "parameter_names", "rigid_projector"]
-
-DESCRIPTIONS = {
-    "EX": "positioning", "EY": "straightness", "EZ": "straightness",
-    "EA": "roll", "EB": "pitch", "EC": "yaw",
-}
-
-
-def describe(name: str) -> str:
-    """Plain-word description of an ISO 230-1 error name, e.g. ``'EAX (roll of X)'``.
-
-    Parameters
-    ----------
-    name : str
-        ISO 230-1 name of a component error (``'EXX'`` ... ``'ECZ'``) or of a squareness
-        error (``'EC0Y'``, ``'EB0Z'``, ``'EA0Z'``).
-
-    Returns
-    -------
-    str
-        The name followed by its meaning in parentheses.
-    """
-    if name in SQUARENESS_NAMES:
-        return f"{name} (squareness)"
-    comp, ax = name[:2], name[2]
-    d = DESCRIPTIONS[comp]
-    if d == "straightness":
-        return f"{name} (straightness of {ax} in {comp[1]})"
-    return f"{name} ({d} of {ax})"
-
+__all__ = ["IdentifiabilityReport", "analyse", "describe", "parameter_names", "rigid_projector"]
 
 @dataclass
 class IdentifiabilityReport:
@@ -322,15 +293,15 @@ def _messages(rep: IdentifiabilityReport, design: Design) -> None:
         f"{rep.null_dimension} combinations are seen by no reading.")
     poor = [n for n, f in rep.determined_fraction.items() if f < 0.5]
     weak = [n for n, f in rep.determined_fraction.items() if 0.5 <= f < 0.95]
-    rolls = [n for n in poor if n.startswith("EA") and n not in SQUARENESS_NAMES]
+    rolls = [n for n in poor if n in ROLL_NAMES]
     for n in poor:
         f = rep.determined_fraction[n]
         why = ""
-        if n.startswith("EA") and n not in SQUARENESS_NAMES:
+        if n in ROLL_NAMES:
             why = (" Roll acts only through lever arms across the beam; linear tests along the "
                    "axis cannot see it. Its estimate leans on the prior (zero); measure it with "
                    "an electronic level or give it as a known error.")
-        elif n[:2] in ("EA", "EB", "EC") and n not in SQUARENESS_NAMES:
+        elif kind(n) == "tilt":
             why = (" This rotation has (almost) no lever arm to the target in these set-ups, so "
                    "it changes the tool orientation only; a flat mirror sees that weakly.")
         rep.messages.append(f"{describe(n)} is not determined by the data: only {100 * f:.0f}% "

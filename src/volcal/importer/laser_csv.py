@@ -412,11 +412,11 @@ def import_csv(path: str | Path, mapping: dict[str, str], axis: str, line_mm, se
         if not np.all(np.isfinite(travel)) or np.any(travel[:, 1] <= travel[:, 0]):
             raise VolcalInputError("--travel: every axis needs finite min < max [mm]")
         s = Session(name, chain, travel, [m])
-        _check_travel(m, s.travel, notes)
+        _check_travel(m, s.travel, notes, Path(path))
         write_session(s, folder)
         return ImportResult(m, folder, True, notes)
     s = read_session(folder, require_deviation=False)
-    _check_travel(m, s.travel, notes)
+    _check_travel(m, s.travel, notes, Path(path))
     toml_path = folder / "session.toml"
     doc = tomllib.loads(toml_path.read_text(encoding="utf-8"))
     entries = doc.get("measurements", [])
@@ -438,7 +438,11 @@ def import_csv(path: str | Path, mapping: dict[str, str], axis: str, line_mm, se
     return ImportResult(m, folder, False, notes)
 
 
-def _check_travel(m: Measurement, travel: NDArray[np.float64], notes: list[str]) -> None:
+def _check_travel(m: Measurement, travel: NDArray[np.float64], notes: list[str],
+                  source: Path | None = None) -> None:
+    from volcal.session.format import check_in_travel
+
+    check_in_travel(m, travel, source or Path(m.file))
     lo, hi = travel[:, 0] - 1e-9, travel[:, 1] + 1e-9
     bad = np.flatnonzero(np.any((m.positions < lo) | (m.positions > hi), axis=1))
     if bad.size:

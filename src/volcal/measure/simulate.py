@@ -113,6 +113,7 @@ def simulate_session(session: Session, machine: MachineErrors,
             noise = rng.normal(0.0, o.noise_um, m.n)
             dev = dev + noise - noise[0]
         m.deviation = dev - dev[0]
+        m.meta["readings_source"] = "simulated"  # provenance: simulate may overwrite it
         m.columns["time_s"] = time_s
         setups[m.id] = setup
     return setups

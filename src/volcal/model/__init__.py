@@ -13,17 +13,23 @@ from volcal.model.kinematics import (
 from volcal.model.names import (
     AXES,
     COMPONENT_NAMES,
+    ERROR_TABLE,
+    ROLL_NAMES,
     SQUARENESS_NAMES,
     component_name,
+    describe,
 )
 
 __all__ = [
     "AXES",
     "COMPONENT_NAMES",
+    "ERROR_TABLE",
+    "ROLL_NAMES",
     "SQUARENESS_NAMES",
     "Chain",
     "MachineErrors",
     "component_name",
+    "describe",
     "exact_pose",
     "first_order_pose",
     "orientation_error",

@@ -13,7 +13,7 @@ from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
 from volcal.model.errorfunctions import MachineErrors
-from volcal.model.names import AXES, COMPONENTS, SQUARENESS_NAMES
+from volcal.model.names import AXES, COMPONENTS, SQUARENESS_NAMES, info
 from volcal.plot._figure import TRUTH_STYLE, new_figure
 
 __all__ = ["COVERAGE_FACTOR", "error_functions_plot"]
@@ -47,8 +47,9 @@ def error_functions_plot(errors: MachineErrors,
     Returns
     -------
     matplotlib.figure.Figure
-        A 3 x 7 grid: one row per axis, the six components, then the squareness errors
-        (bars with ``± k u`` error bars, truth as black marks).
+        A 3 x 7 grid: one row per axis, the six components (titled with their name, unit
+        and meaning from :data:`volcal.model.names.ERROR_TABLE`), then the squareness
+        errors (bars with ``± k u`` error bars, truth as black marks).
 
     References
     ----------
@@ -61,7 +62,7 @@ def error_functions_plot(errors: MachineErrors,
         for c in range(6):
             ax = fig.add_subplot(gs[a, c])
             name = COMPONENTS[c] + AXES[a]
-            unit = "µm" if c < 3 else "µrad"
+            e = info(name)
             v = errors.values[a][:, c]
             ax.plot(q, v, color="tab:blue", linewidth=1.4, gid=f"{name} estimate",
                     label="estimate")
@@ -73,7 +74,7 @@ def error_functions_plot(errors: MachineErrors,
                 qt = np.union1d(truth.nodes[a], q)
                 qt = qt[(qt >= q[0]) & (qt <= q[-1])]
                 ax.plot(qt, truth.function(name, qt), gid=f"{name} truth", **TRUTH_STYLE)
-            ax.set_title(f"{name} [{unit}]", fontsize="medium")
+            ax.set_title(f"{name} [{e.unit_symbol}]\n{e.label}", fontsize="small")
             ax.tick_params(labelsize="x-small")
             ax.grid(True, alpha=0.3)
             if a == 2:
@@ -91,7 +92,7 @@ def error_functions_plot(errors: MachineErrors,
         ax.plot(x, truth.squareness, linestyle="none", marker="_", markersize=18,
                 markeredgewidth=2, color="black", gid="squareness truth", label="truth")
         ax.legend(fontsize="x-small")
-    ax.set_xticks(x, SQUARENESS_NAMES)
+    ax.set_xticks(x, [f"{n}\n{info(n).axis} to {info(n).reference}" for n in SQUARENESS_NAMES])
     ax.axhline(0.0, color="0.6", linewidth=0.6)
     ax.set_title("squareness [µrad]", fontsize="medium")
     ax.grid(True, axis="y", alpha=0.3)

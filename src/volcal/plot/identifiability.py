@@ -19,7 +19,7 @@ import numpy as np
 from matplotlib.figure import Figure
 from numpy.typing import ArrayLike, NDArray
 
-from volcal.model.names import AXES, COMPONENTS, SQUARENESS_NAMES
+from volcal.model.names import AXES, COMPONENTS, SQUARENESS_NAMES, info
 from volcal.plot._figure import new_figure
 
 __all__ = ["function_uncertainty", "identifiability_plot"]
@@ -106,7 +106,7 @@ def identifiability_plot(std: Sequence[NDArray[np.float64]],
     ncol = 2 + (singular_values is not None) + (determined_fraction is not None)
     fig = fig or new_figure(4.2 * ncol, 4.2)
     axs = fig.subplots(1, ncol, squeeze=False)[0]
-    lin = [n for n in u if n[:2] in ("EX", "EY", "EZ") and n not in SQUARENESS_NAMES]
+    lin = [n for n in u if info(n).unit == "um"]
     ang = [n for n in u if n not in lin]
     _bars(axs[0], lin, [u[n] for n in lin], "µm", "tab:blue")
     axs[0].set_title("translations")

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from volcal.model.errorfunctions import MachineErrors
-from volcal.model.names import AXES, COMPONENT_NAMES, SQUARENESS_NAMES
+from volcal.model.names import AXES, COMPONENT_NAMES, SQUARENESS_NAMES, info
 from volcal.plot import (
     diagonal_fit_plot,
     error_functions_plot,
@@ -200,9 +200,9 @@ def _component_rows(est: MachineErrors, std, truth: MachineErrors | None) -> lis
     for idx, name in enumerate(COMPONENT_NAMES):
         a, c = divmod(idx, 6)
         v = est.values[a][:, c]
-        unit = "µm" if c < 3 else "µrad"
         u = np.asarray(std[a])[:, c] if std is not None else None
-        row = [name, unit, fmt(np.ptp(v)), fmt(np.max(np.abs(v))),
+        e = info(name)
+        row = [name, e.label, e.unit_symbol, fmt(np.ptp(v)), fmt(np.max(np.abs(v))),
                fmt(np.max(u)) if u is not None else "-"]
         if truth is not None:
             tv = truth.function(name, est.nodes[a])
@@ -240,18 +240,19 @@ def identification_section(inp: ReportInputs) -> Section | None:
         "Uncertainties are standard uncertainties (k = 1) in the tables; the bands in the "
         "figures are ± 2 u." + (f" Estimated reading noise σ = {sigma:.2f} µm." if sigma
                                 else ""))
-    cols = ["error", "unit", "peak-to-valley", "max |value|", "max u"]
+    cols = ["error", "meaning", "unit", "peak-to-valley", "max |value|", "max u"]
     if truth is not None:
         cols += ["truth peak-to-valley", "max |estimate − truth|"]
     sec.tables.append(Table(cols, _component_rows(est, std, truth), "Component errors",
                             "u: largest standard uncertainty over the nodes of the function."))
     sq_rows = []
     for i, n in enumerate(SQUARENESS_NAMES):
-        row = [n, fmt(est.squareness[i]), fmt(sq_std[i]) if sq_std is not None else "-"]
+        row = [n, info(n).label, fmt(est.squareness[i]),
+               fmt(sq_std[i]) if sq_std is not None else "-"]
         if truth is not None:
             row.append(fmt(truth.squareness[i]))
         sq_rows.append(row)
-    sq_cols = ["squareness", "estimate [µrad]", "u [µrad]"] + (
+    sq_cols = ["squareness", "meaning", "estimate [µrad]", "u [µrad]"] + (
         ["truth [µrad]"] if truth is not None else [])
     sec.tables.append(Table(sq_cols, sq_rows, "Squareness errors"))
     residuals = getattr(r, "residuals", None) or {}
@@ -307,10 +308,11 @@ def identifiability_section(inp: ReportInputs) -> Section | None:
         sec.paragraphs.append("The tests determine every error function the model contains.")
     frac = _field(rep, "determined_fraction", None)
     if frac:
-        rows = [[n, fmt(100.0 * v, 1),
+        rows = [[n, info(n).label, fmt(100.0 * v, 1),
                  "not determined" if v < FRACTION_LIMITS[0] else
                  ("weak" if v < FRACTION_LIMITS[1] else "determined")] for n, v in frac.items()]
-        sec.tables.append(Table(["error", "prior uncertainty removed [%]", "verdict"], rows,
+        sec.tables.append(Table(["error", "meaning", "prior uncertainty removed [%]",
+                                 "verdict"], rows,
                                 "How far the data determine each error"))
     sugg = [str(x) for x in _field(rep, "suggestions", []) or []]
     if sugg:

@@ -40,6 +40,8 @@ OPTIONAL_COLUMNS: dict[str, str] = {
     "material_temperature_c": "float",
 }
 MIN_ROWS = 2
+ABSURD_DEVIATION_UM = 10_000.0
+"""A reading beyond 10 mm is no laser deviation of a machine axis: an error."""
 
 __all__ = [
     "KINDS",
@@ -95,11 +97,28 @@ class Measurement:
     meta: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
+        """Validate the set-up: kind, target, shapes, finite values."""
+        if self.kind not in KINDS:
+            raise VolcalInputError(f"measurement {self.id!r}: unknown kind {self.kind!r}: "
+                                   f"expected one of {', '.join(KINDS)}")
+        if self.target not in TARGETS:
+            raise VolcalInputError(f"measurement {self.id!r}: unknown target {self.target!r}: "
+                                   f"expected one of {', '.join(TARGETS)}")
         if not self.file:
             self.file = f"{self.id}.csv"
-        self.positions = np.asarray(self.positions, dtype=float).reshape(-1, 3)
-        self.beam_direction = np.asarray(self.beam_direction, dtype=float).reshape(3)
-        self.tool_offset = np.asarray(self.tool_offset, dtype=float).reshape(3)
+        try:
+            self.positions = np.asarray(self.positions, dtype=float).reshape(-1, 3)
+            self.beam_direction = np.asarray(self.beam_direction, dtype=float).reshape(3)
+            self.tool_offset = np.asarray(self.tool_offset, dtype=float).reshape(3)
+        except (ValueError, TypeError) as exc:
+            raise VolcalInputError(f"measurement {self.id!r}: positions must be n x 3, beam "
+                                   f"direction and tool offset 3 numbers ({exc})") from None
+        for what, v in (("positions", self.positions), ("beam direction", self.beam_direction),
+                        ("tool offset", self.tool_offset)):
+            if not np.all(np.isfinite(v)):
+                raise VolcalInputError(f"measurement {self.id!r}: {what} must be finite")
+        if self.deviation is not None:
+            self.deviation = np.asarray(self.deviation, dtype=float).reshape(-1)
 
     @property
     def n(self) -> int:
@@ -305,7 +324,7 @@ _UNIT_HINTS = {"deviation": "um", "x": "mm", "y": "mm", "z": "mm"}
 MEASUREMENT_TABLE = TableSpec(
     columns=(
         Column("x_mm"), Column("y_mm"), Column("z_mm"),
-        Column("deviation_um", empty=True),
+        Column("deviation_um", empty=True, abs_max=ABSURD_DEVIATION_UM),
         Column("run", kind="int", required=False, min=0),
         Column("direction", kind="choice", required=False, choices=("+", "-")),
         *(Column(c, required=False) for c, k in OPTIONAL_COLUMNS.items()
@@ -431,12 +450,47 @@ def read_session(folder: str | Path, require_deviation: bool = True) -> Session:
     meas = []
     for i, e in enumerate(raw):
         m = _read_entry(e, i, folder, toml_path, seen, require_deviation)
+        check_in_travel(m, travel, folder / m.file)
         if m.meta.get("readings") == "raw" and m.deviation is not None:
             from volcal.environment.apply import compensate_measurement
 
             m = compensate_measurement(m, f"{toml_path} [{m.id}]")
         meas.append(m)
     return Session(name, chain, travel, meas, meta, folder)
+
+
+TRAVEL_MARGIN_MM = 1.0
+TRAVEL_MARGIN_REL = 0.005
+"""A commanded pose may lie this far outside the stated travel: 1 mm + 0.5 % of the axis
+length (rounding of the stated limits); anything further is an error."""
+
+
+def check_in_travel(m: Measurement, travel: NDArray[np.float64], path: Path) -> None:
+    """Refuse commanded poses outside the travel, naming file, row and column.
+
+    Parameters
+    ----------
+    m : Measurement
+        A measurement as read.
+    travel : ndarray, shape (3, 2)
+        Travel limits [mm].
+    path : Path
+        Its CSV file, for the message.
+
+    Raises
+    ------
+    VolcalInputError
+        The first pose (row, header = row 1) beyond the travel plus
+        :data:`TRAVEL_MARGIN_MM` + :data:`TRAVEL_MARGIN_REL` of the axis length.
+    """
+    margin = TRAVEL_MARGIN_MM + TRAVEL_MARGIN_REL * (travel[:, 1] - travel[:, 0])
+    out = (m.positions < travel[:, 0] - margin) | (m.positions > travel[:, 1] + margin)
+    if np.any(out):
+        i, k = (int(v[0]) for v in np.nonzero(out))
+        raise VolcalInputError(
+            f"commanded position {m.positions[i, k]:g} mm lies outside the travel "
+            f"{travel[k, 0]:g}..{travel[k, 1]:g} mm of {'XYZ'[k]}", path, i + 2,
+            f"{'xyz'[k]}_mm")
 
 
 def _read_entry(e: Any, i: int, folder: Path, toml_path: Path, seen: set[str],

@@ -27,7 +27,11 @@ def compensate(
         "(= -error).")] = None,
     session: Annotated[Path | None, typer.Option(
         help="Session folder: its bidirectional ISO 230-2 linear tests give forward and "
-        "reverse tables (LinuxCNC, Fanuc, Heidenhain BACKLASH).")] = None,
+        "reverse tables (LinuxCNC, Fanuc, Heidenhain BACKLASH); a MODEL.json must have "
+        "been identified from it.")] = None,
+    force: Annotated[bool, typer.Option(
+        "--force", help="With --session: use the model even if it was identified from "
+        "another session (name, chain, travel or readings differ).")] = False,
     spacing: Annotated[float, typer.Option(help="Distance between points [mm].")] = 20.0,
     max_points: Annotated[int | None, typer.Option(help="Controller's point limit.")] = None,
     reference_mm: Annotated[str | None, typer.Option(
@@ -83,12 +87,21 @@ def compensate(
                                max_increment, squareness,
                                tuple(parse_vector(tool_offset, "--tool-offset")),
                                fanuc_series, linuxcnc_type, directional)
+    if session is not None:  # --session: the model must belong to it
+        _check_session(model, session, force)
     errors = load_errors(model)
     files = write_compensation(errors, fmt, output, opts, model.name)
     used = opts.sign_for(fmt)
     console.print(escape(f"wrote {fmt} tables ({used}"
                          + (", the controller's convention" if sign is None else "")
                          + f", {spacing:g} mm): {', '.join(files)} -> {output}"))
+
+
+def _check_session(model: Path, session: Path, force: bool) -> None:
+    from volcal.identify.modelfile import check_model_file_session
+
+    for d in check_model_file_session(model, session, force):
+        console.print(f"[yellow]warning[/] --force: {d}", highlight=False)
 
 
 def register(app: typer.Typer) -> None:

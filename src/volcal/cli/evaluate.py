@@ -126,31 +126,15 @@ def session_cmd(
     """ISO 230-2 for every linear measurement with runs and directions; ELv (seed 002)."""
     from volcal.errors import VolcalInputError
     from volcal.session.format import read_session
-    from volcal.standards.iso230_2 import evaluate
-    from volcal.standards.iso230_6 import elv
-    from volcal.standards.positioning_data import from_measurement
+    from volcal.standards.session import evaluate_session
 
     s = read_session(session)
-    results: dict[str, Any] = {}
-    axis_of: dict[str, str] = {}
-    skipped: list[str] = []
-    for m in s.measurements:
-        if m.kind != "linear":
-            continue
-        if "run" not in m.columns or "direction" not in m.columns:
-            skipped.append(m.id)
-            continue
-        d = from_measurement(m, s.path)
-        results[m.id] = evaluate(d.targets_mm, d.run, d.direction, d.deviation_um, edition,
-                                 file=d.file, rows=d.rows)
-        axis_of[m.id] = d.axis or "?"
+    ev = evaluate_session(s, edition=edition)
+    results, axis_of = ev.iso230_2, ev.axis
+    skipped = [k for k, why in ev.skipped.items() if why == "no run/direction columns"]
     if not results:
         raise VolcalInputError("no linear measurement with run and direction columns", session)
-    # ELv: M of the first linear measurement of each axis (seed 002, eq. 1-2)
-    first: dict[str, float] = {}
-    for mid, r in results.items():
-        first.setdefault(axis_of[mid], r.M)
-    elv_val = elv(*(first[a] for a in "XYZ")) if all(a in first for a in "XYZ") else None
+    elv_val = None if ev.elv is None else ev.elv["ELv"]
     if as_json:
         _print_json({"measurements": {k: {"axis": axis_of[k], **v.to_dict()}
                                       for k, v in results.items()},
@@ -164,7 +148,8 @@ def session_cmd(
                                    ("A", "E", "M", "R", "B", "B_mean")])
     console.print(t)
     if elv_val is not None:
-        console.print(f"ELv (RSS of M of the first line of each axis) = {elv_val:.3f} um")
+        console.print(f"ELv (seed 002: RSS of the positioning ranges M of the first line of "
+                      f"each axis) = {elv_val:.3f} um")
     grouped: dict[str, list[str]] = {}
     for k, r in results.items():
         for w in r.warnings:

@@ -12,7 +12,6 @@ from rich.console import Console
 
 from volcal.cli._common import parse_vector
 from volcal.errors import VolcalInputError
-from volcal.io.values import parse_finite
 
 console = Console()
 
@@ -25,8 +24,10 @@ def identify_cmd(
                                           "estimated)."),
     roll: str = typer.Option("estimate", help="estimate, or zero (the rolls EAX, EBY, ECZ "
                              "fixed to zero)."),
-    known: Path | None = typer.Option(None, help="Error table CSV of errors measured separately; "
-                                      "its non-zero functions are held fixed."),
+    known: Path | None = typer.Option(None, help="CSV of errors measured separately "
+                                      "(axis,position_mm and any of EX_um..EC_urad, only "
+                                      "the axes measured; or a full error table): those "
+                                      "functions are held fixed."),
     known_u: float | None = typer.Option(None, help="Standard uncertainty of the --known "
                                          "functions [um or urad]: use them as priors instead "
                                          "of fixing them."),
@@ -61,17 +62,12 @@ def identify_cmd(
             raise VolcalInputError(f"--measurements: no measurement {', '.join(missing)} in the "
                                    f"session (it has {', '.join(sorted(have))})",
                                    s.path / "session.toml" if s.path else session)
-    known_d = {}
+    known_d: dict = {}
     if known is not None:
-        from volcal.model.names import COMPONENT_NAMES
-        from volcal.session.errortable import read_error_table
+        from volcal.session.errortable import read_known_functions
 
-        kt = read_error_table(known, chain=s.chain)
-        for j, name in enumerate(COMPONENT_NAMES):
-            k, c = divmod(j, 6)
-            if np.any(kt.values[k][:, c] != 0):
-                known_d[name] = ((kt.nodes[k], kt.values[k][:, c]) if known_u is None
-                                 else (kt.nodes[k], kt.values[k][:, c], known_u))
+        for name, (pos, vals) in read_known_functions(known).items():
+            known_d[name] = (pos, vals) if known_u is None else (pos, vals, known_u)
     opts = IdentifyOptions(prior=prior, noise_um=noise_um, roll=roll, known=known_d, drift=drift,
                            measurement_ids=ids, max_nodes=max_nodes)
     with console.status("identifying..."):
@@ -100,30 +96,21 @@ def identify_cmd(
     console.print(f"model -> {output}")
 
 
+def _points_spec():
+    from volcal.io.table import Column, TableSpec
+
+    return TableSpec(tuple(Column(c, abs_max=1e7) for c in ("x_mm", "y_mm", "z_mm")),
+                     min_rows=0, what="points file")
+
+
 def _read_points(path: Path) -> np.ndarray:
-    if not path.is_file():
-        raise VolcalInputError("points file not found", path)
-    try:
-        rows = [r for r in csv.reader(io.StringIO(path.read_text(encoding="utf-8-sig")))
-                if any(c.strip() for c in r)]
-    except (UnicodeDecodeError, csv.Error) as exc:
-        raise VolcalInputError(f"cannot read the CSV ({exc})", path) from None
-    if not rows:
-        raise VolcalInputError("empty file: expected the header x_mm,y_mm,z_mm", path, 1)
-    header = [h.strip() for h in rows[0]]
-    for c in ("x_mm", "y_mm", "z_mm"):
-        if c not in header:
-            raise VolcalInputError(f"missing column '{c}'", path, 1, c)
-    idx = [header.index(c) for c in ("x_mm", "y_mm", "z_mm")]
-    if len(rows) < 2:
+    """Read the points CSV ``x_mm,y_mm,z_mm`` [mm] through :func:`volcal.io.table.read_table`."""
+    from volcal.io.table import read_table
+
+    t = read_table(path, _points_spec())
+    if len(t) == 0:
         raise VolcalInputError("no points", path, 2)
-    out = np.empty((len(rows) - 1, 3))
-    for i, r in enumerate(rows[1:]):
-        if len(r) != len(header):
-            raise VolcalInputError(f"expected {len(header)} fields, found {len(r)}", path, i + 2)
-        for j, col in enumerate(idx):
-            out[i, j] = parse_finite(r[col], path, i + 2, header[col])
-    return out
+    return np.stack([t[c].astype(float) for c in ("x_mm", "y_mm", "z_mm")], axis=1)
 
 
 def predict_cmd(
@@ -131,14 +118,22 @@ def predict_cmd(
     points: Path = typer.Option(..., help="CSV with x_mm,y_mm,z_mm."),
     output: Path = typer.Option(..., "-o", "--output", help="CSV to write."),
     tool_offset: str = typer.Option("0,0,0", help="Tool offset x,y,z [mm]."),
+    session: Path | None = typer.Option(None, help="Session folder the model should belong "
+                                        "to: refused if name, chain, travel or readings "
+                                        "differ."),
+    force: bool = typer.Option(False, "--force", help="With --session: use the model even if "
+                               "it was identified from another session."),
 ) -> None:
     """Predict the volumetric error and its uncertainty at points."""
     from volcal.identify import load_model
+    from volcal.identify.modelfile import check_model_file_session
     from volcal.io.atomic import write_text
     from volcal.io.paths import check_output_file
 
     check_output_file(output)
     m = load_model(model)
+    for d in check_model_file_session(model, session, force):
+        console.print(f"[yellow]warning[/] --force: {d}", highlight=False)
     q = _read_points(points)
     travel = m.errors.travel
     for j, col in enumerate(("x_mm", "y_mm", "z_mm")):

@@ -22,6 +22,8 @@ def report_cmd(
                                              "in the report."),
     edition: str = typer.Option("2014", help="ISO 230-2 edition of the positioning tables."),
     title: str | None = typer.Option(None, help="Report title (default from the machine name)."),
+    force: bool = typer.Option(False, "--force", help="Use --model even if it was identified "
+                               "from another session (name, chain, travel or readings differ)."),
 ) -> None:
     """Write the calibration report of a session as self-contained HTML and as PDF."""
     from volcal.io.paths import check_output_folder
@@ -33,9 +35,11 @@ def report_cmd(
     check_output_folder(output, "report", lambda p: (p / "report.html").is_file())
     s = read_session(session)
     if model is not None:
-        from volcal.identify import load_model
+        from volcal.identify.modelfile import check_model_session, load_model
 
         result = load_model(model)
+        for d in check_model_session(result, s, force, model):
+            console.print(f"[yellow]warning[/] --force: {d}", highlight=False)
     else:
         from volcal.identify import identify
 

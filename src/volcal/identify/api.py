@@ -17,6 +17,7 @@ from volcal.errors import VolcalInputError
 from volcal.identify.design import Design, build_design, choose_nodes
 from volcal.identify.identifiability import analyse
 from volcal.identify.prior import PriorStructure
+from volcal.identify.record import session_identity
 from volcal.identify.result import IdentificationResult
 from volcal.identify.solver import DEFAULT_SCALES, Solution, solve_bayes, solve_min_norm
 from volcal.model.names import ROLL_NAMES
@@ -411,7 +412,8 @@ def _result(session: Session, design: Design, sol: Solution, report, o: Identify
     }
     return IdentificationResult(session.name, errors, design.layout, design.free, factor, std,
                                 sq_std, report, fit, residuals, fitted, nuis, outliers,
-                                design=design, solution=sol)
+                                design=design, solution=sol,
+                                session=session_identity(session))
 
 
 def _fin(v: float) -> float | None:

@@ -1,8 +1,11 @@
 """The identified model: error functions with uncertainties, predictions, JSON file.
 
-Schema ``volcal-model/1`` (``docs/identification.md``)::
+Schema ``volcal-model/2`` (``docs/identification.md``); ``volcal-model/1`` files (no
+``session`` identity, untyped ``fit``) still load::
 
-    {"format": "volcal-model/1", "name", "chain", "travel_mm": [[x0,x1],[y0,y1],[z0,z1]],
+    {"format": "volcal-model/2", "name", "chain", "travel_mm": [[x0,x1],[y0,y1],[z0,z1]],
+     "session": {"name", "chain", "travel_mm", "readings_sha256", "n_readings",
+                 "measurements"},
      "functions": {"X": {"position_mm": [...], "EXX_um": [...], "u_EXX_um": [...], ...,
                          "EAX_urad": [...], "u_EAX_urad": [...], ...}, "Y": ..., "Z": ...},
      "squareness_urad": {"EC0Y": v, ...}, "u_squareness_urad": {...},
@@ -23,16 +26,20 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from volcal.errors import VolcalInputError
+from volcal.identify.record import Convergence, FitRecord, SessionIdentity
 from volcal.io.atomic import write_text
 from volcal.model.errorfunctions import MachineErrors
 from volcal.model.kinematics import pose_jacobian
 from volcal.model.names import AXES, COMPONENTS, SQUARENESS_NAMES
 from volcal.model.parameters import ParameterLayout
 
-MODEL_FORMAT = "volcal-model/1"
+MODEL_FORMAT = "volcal-model/2"
+MODEL_FORMATS_READ = ("volcal-model/1", "volcal-model/2")
+"""Model formats :meth:`IdentificationResult.from_dict` reads."""
 UNITS = ("um", "um", "um", "urad", "urad", "urad")
 
-__all__ = ["MODEL_FORMAT", "IdentificationResult"]
+__all__ = ["MODEL_FORMAT", "MODEL_FORMATS_READ", "Convergence", "FitRecord",
+           "IdentificationResult", "SessionIdentity"]
 
 
 @dataclass
@@ -55,14 +62,21 @@ class IdentificationResult:
         Standard uncertainty of EC0Y, EB0Z, EA0Z [urad].
     report : IdentifiabilityReport or dict
         Identifiability in plain words.
-    fit : dict
-        Fit statistics: method, sigma_um, sigma_residual_um, dof, n_readings, scales...
+    fit : FitRecord
+        Fit statistics: method, sigma_um, sigma_residual_um, dof, n_readings,
+        hyperparameters, convergence of the optimiser, notes (a dict given here is
+        converted; ``fit["sigma_um"]`` still works).
     residuals, fitted : dict of str to ndarray
         Per measurement [um].
     nuisances : dict of str to (value, std)
         Set-up parameters (offsets [um], tilts [urad], reversal [um], drift [um/h]).
     outliers : list of dict
         Readings whose standardised residual exceeds the threshold.
+    session : SessionIdentity or None
+        Identity of the session the model was identified from (machine name, chain,
+        travel, hash of the readings); ``None`` for models of format ``volcal-model/1``.
+    format : str
+        Model format the result was read from (or will be written as).
     """
 
     name: str
@@ -73,18 +87,61 @@ class IdentificationResult:
     std: list[NDArray[np.float64]]
     squareness_std: NDArray[np.float64]
     report: Any
-    fit: dict[str, Any]
+    fit: FitRecord
     residuals: dict[str, NDArray[np.float64]] = field(default_factory=dict)
     fitted: dict[str, NDArray[np.float64]] = field(default_factory=dict)
     nuisances: dict[str, tuple[float, float]] = field(default_factory=dict)
     outliers: list[dict[str, Any]] = field(default_factory=list)
     design: Any = field(default=None, repr=False)
     solution: Any = field(default=None, repr=False)
+    session: SessionIdentity | None = None
+    format: str = MODEL_FORMAT
+
+    def __post_init__(self) -> None:
+        """Convert an untyped fit dictionary into a :class:`FitRecord`."""
+        if not isinstance(self.fit, FitRecord):
+            self.fit = FitRecord.from_dict(dict(self.fit or {}))
+        if not self.fit.outliers and self.outliers:
+            self.fit.outliers = self.outliers
+
+    def __repr__(self) -> str:
+        """Short one-line description (the arrays are left out)."""
+        f = self.fit
+        sig = "?" if f.sigma_um is None else f"{f.sigma_um:.3g}"
+        return (f"IdentificationResult(name={self.name!r}, chain={str(self.errors.chain)!r}, "
+                f"parameters={int(self.free.size)}, readings={f.n_readings}, "
+                f"sigma_um={sig}, method={f.method!r}, format={self.format!r})")
+
+    def summary(self) -> str:
+        """A few plain lines: machine, data, fit and convergence.
+
+        Returns
+        -------
+        str
+            Lines separated by newlines.
+        """
+        f = self.fit
+        t = self.errors.travel
+        lines = [f"model of {self.name} (chain {self.errors.chain}, travel "
+                 + " x ".join(f"{lo:g}..{hi:g}" for lo, hi in t) + " mm)"]
+        lines.append(f"{f.n_readings} readings, {int(self.free.size)} estimated parameters, "
+                     f"method {f.method or '?'}")
+        if f.sigma_um is not None:
+            res = ("" if f.sigma_residual_um is None
+                   else f", residual {f.sigma_residual_um:.3f} um")
+            lines.append(f"reading noise {f.sigma_um:.3f} um{res}")
+        lines.append(f.convergence.describe())
+        if self.outliers:
+            lines.append(f"{len(self.outliers)} outlier reading(s)")
+        if self.session is not None:
+            lines.append(f"session readings sha256 {self.session.readings_sha256[:12]}...")
+        lines.extend(f.notes)
+        return "\n".join(lines)
 
     @property
-    def sigma_um(self) -> float:
-        """Reading noise used by the estimator [um]."""
-        return float(self.fit["sigma_um"])
+    def sigma_um(self) -> float | None:
+        """Reading noise used by the estimator [um] (``None`` if the file lacks it)."""
+        return self.fit.sigma_um
 
     @property
     def theta(self) -> NDArray[np.float64]:
@@ -168,7 +225,7 @@ class IdentificationResult:
 
     # ------------------------------------------------------------------ file
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready dictionary (schema ``volcal-model/1``)."""
+        """JSON-ready dictionary (schema ``volcal-model/2``)."""
         funcs = {}
         for k in range(3):
             d: dict[str, Any] = {"position_mm": _r(self.layout.nodes[k])}
@@ -181,6 +238,7 @@ class IdentificationResult:
         return {
             "format": MODEL_FORMAT,
             "name": self.name,
+            "session": None if self.session is None else self.session.to_dict(),
             "chain": str(self.errors.chain),
             "travel_mm": [_r(self.errors.travel[k]) for k in range(3)],
             "functions": funcs,
@@ -189,7 +247,7 @@ class IdentificationResult:
             "covariance": {"free_index": [int(i) for i in self.free],
                            "factor": [_r(row) for row in self.cov_factor]},
             "identifiability": rep,
-            "fit": self.fit,
+            "fit": self.fit.to_dict(),
             "nuisances": {k: {"value": _f(v[0]), "u": _f(v[1])} for k, v in self.nuisances.items()},
             "outliers": self.outliers,
             "readings": {mid: {"fitted_um": _r(self.fitted[mid]),
@@ -216,8 +274,9 @@ class IdentificationResult:
         Parameters
         ----------
         doc : dict
-            Parsed model file as written by :meth:`to_dict` (format ``volcal-model/1``):
-            positions [mm], translations [um], rotations and squareness [urad].
+            Parsed model file as written by :meth:`to_dict` (format ``volcal-model/2``,
+            or the older ``volcal-model/1``): positions [mm], translations [um], rotations
+            and squareness [urad].
         source : str
             Name of the file the dictionary came from, used in error messages.
 
@@ -226,9 +285,12 @@ class IdentificationResult:
         IdentificationResult
         """
         try:
-            if doc.get("format") != MODEL_FORMAT:
-                raise VolcalInputError(f"expected format \"{MODEL_FORMAT}\"", source, None,
-                                       "format")
+            fmt = doc.get("format")
+            if fmt not in MODEL_FORMATS_READ:
+                raise VolcalInputError(f"unknown model format {fmt!r}: this volcal reads "
+                                       + ", ".join(f'"{x}"' for x in MODEL_FORMATS_READ)
+                                       + " (write the model again with `volcal identify`)",
+                                       source, None, "format")
             nodes, values, std = [], [], []
             for k in range(3):
                 f = doc["functions"][AXES[k]]
@@ -248,7 +310,11 @@ class IdentificationResult:
         except (KeyError, TypeError, ValueError, IndexError) as exc:
             raise VolcalInputError(f"not a valid volcal model file ({exc.__class__.__name__}: "
                                    f"{exc})", source) from None
-        nuis = {k: (v["value"], v["u"]) for k, v in doc.get("nuisances", {}).items()}
+        try:
+            nuis = {k: (v["value"], v["u"]) for k, v in doc.get("nuisances", {}).items()}
+        except (KeyError, TypeError, AttributeError):
+            raise VolcalInputError("invalid 'nuisances' section", source, None,
+                                   "nuisances") from None
         readings = doc.get("readings", {})
         try:
             fitted = {k: np.array(v["fitted_um"], dtype=float) for k, v in readings.items()}
@@ -256,9 +322,21 @@ class IdentificationResult:
         except (KeyError, TypeError, ValueError, AttributeError):
             raise VolcalInputError("invalid 'readings' section", source, None,
                                    "readings") from None
+        fit_doc = doc.get("fit", {})
+        if not isinstance(fit_doc, dict):
+            raise VolcalInputError("invalid 'fit' section (expected a table)", source, None,
+                                   "fit")
+        fit = FitRecord.from_dict(fit_doc, source)
+        if fit.sigma_um is None:
+            fit.notes.append("the model file gives no reading noise (fit.sigma_um)")
+        ident = SessionIdentity.from_dict(doc.get("session"), source)
+        outliers = doc.get("outliers", [])
+        if not isinstance(outliers, list):
+            raise VolcalInputError("invalid 'outliers' section (expected a list)", source,
+                                   None, "outliers")
         return cls(doc.get("name", "model"), errors, layout, free, fac, std, usq,
-                   doc.get("identifiability", {}), doc.get("fit", {}), resid, fitted,
-                   nuisances=nuis, outliers=doc.get("outliers", []))
+                   doc.get("identifiability", {}), fit, resid, fitted,
+                   nuisances=nuis, outliers=outliers, session=ident, format=str(fmt))
 
 
 def _f(v: float) -> float | None:

@@ -287,6 +287,10 @@ def read_laser_csv(path: str | Path, mapping: dict[str, str], units: str = "auto
     if "direction" not in out:
         out["direction"] = _infer_directions(target)
         notes.append("approach directions inferred from the order of the targets")
+        if "run" not in out:
+            out["run"] = _infer_runs(out["direction"])
+            notes.append(f"{int(out['run'].max())} run(s) inferred from the direction changes "
+                         "(a run is one + pass and one - pass)")
     if "run" in out:  # ISO 230-2: each target once per run and direction
         seen: dict[tuple[float, int, str], int] = {}
         for j, key in enumerate(zip(target.round(9), out["run"], out["direction"], strict=True)):
@@ -299,14 +303,32 @@ def read_laser_csv(path: str | Path, mapping: dict[str, str], units: str = "auto
 
 
 def _infer_directions(q: NDArray[np.float64]) -> NDArray[np.str_]:
+    """Approach direction of each reading from the capture order.
+
+    A reading takes the sign of the move that reached it; a target read twice in a row
+    (the turn-around of a run, after the overrun) takes the sign of the move that leaves
+    it, so the two readings of the end target fall in opposite directions.
+    """
     d = np.diff(q)
     out, last = [], "+"
     for i in range(q.size):
-        s = d[i - 1] if i > 0 else d[0]
+        s = d[i - 1] if i > 0 else (d[0] if d.size else 0.0)
+        if abs(s) <= 1e-12 and i < d.size:
+            s = d[i]
         if abs(s) > 1e-12:
             last = "+" if s > 0 else "-"
         out.append(last)
     return np.array(out)
+
+
+def _infer_runs(direction: NDArray[np.str_]) -> NDArray[np.int_]:
+    """Run number (1-based) of each reading: a new run starts where ``-`` turns to ``+``."""
+    run, out = 1, []
+    for i, dr in enumerate(direction):
+        if i > 0 and dr == "+" and direction[i - 1] == "-":
+            run += 1
+        out.append(run)
+    return np.array(out, dtype=int)
 
 
 @dataclass

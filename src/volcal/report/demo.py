@@ -79,21 +79,15 @@ def run_demo(folder: str | Path, seed: int = 7,
     -------
     DemoOutput
     """
-    from volcal.compensate.formats import CompensationOptions, write_compensation
-    from volcal.identify import identify
-    from volcal.measure.simulate import SimulationOptions, simulate_session, truth_files
+    from volcal.flow import Calibration
     from volcal.measure.virtual import ErrorRanges, random_machine
-    from volcal.plan.planner import plan_session
-    from volcal.report.pipeline import collect_inputs
-    from volcal.report.sections import build_report
-    from volcal.report.writer import write_report
-    from volcal.session.format import read_session, write_session
 
     folder = Path(folder)
     lines: list[str] = []
     on_step("planning the seeds' full test set")
-    s = plan_session(DEMO_TRAVEL, "XYFZ", 10,
-                     ("step-diagonal", "diagonal", "linear"), 5, name="VMC-800")
+    cal = Calibration.plan(DEMO_TRAVEL, "XYFZ", 10, ("step-diagonal", "diagonal", "linear"), 5,
+                           name="VMC-800")
+    s = cal.session
     lines.append(f"plan: {len(s.measurements)} measurements, "
                  f"{sum(m.n for m in s.measurements)} readings")
     on_done()
@@ -101,40 +95,42 @@ def run_demo(folder: str | Path, seed: int = 7,
     on_step("simulating a virtual machining centre")
     vm = random_machine(DEMO_TRAVEL, "XYFZ", seed, ranges=ErrorRanges(reversal_um=(1.0, 3.0)),
                         name="virtual VMC-800")
-    opts = SimulationOptions(noise_um=0.5, mirror_misalignment_urad=20.0, seed=seed)
-    setups = simulate_session(s, vm, opts)
-    session_dir = write_session(s, folder / "session", truth_files(vm, setups, opts))
-    s = read_session(session_dir)
-    lines.append(f"simulate: noise {opts.noise_um} µm, mirror misalignment "
-                 f"{opts.mirror_misalignment_urad} µrad -> {session_dir}")
+    noise, mirror = 0.5, 20.0
+    cal.simulate(vm, seed=seed, noise_um=noise, mirror_misalignment_urad=mirror)
+    session_dir = folder / "session"
+    cal.save(session_dir)
+    lines.append(f"simulate: noise {noise} µm, mirror misalignment {mirror} µrad -> "
+                 f"{session_dir}")
     on_done()
 
     on_step("identifying the 21 errors")
-    result = identify(s)
+    result = cal.identify()
     model = folder / "model.json"
     result.to_json(model)
-    lines.append(f"identify: residual {result.fit['sigma_residual_um']:.2f} µm over "
-                 f"{result.fit['n_readings']} readings -> {model}")
+    lines.append(f"identify: residual {result.fit.sigma_residual_um:.2f} µm over "
+                 f"{result.fit.n_readings} readings -> {model}")
     on_done()
 
     on_step("writing compensation tables")
     comp_dir = folder / "compensation"
-    files = write_compensation(result.errors, "grid", comp_dir,
-                               CompensationOptions("error", spacing=50.0), model.name)
+    files = cal.compensate(comp_dir, "grid", "error", spacing=50.0)
     lines.append(f"compensate: 3-D error grid ({', '.join(files)}) -> {comp_dir}")
     on_done()
 
     on_step("evaluating to ISO 230-2 / 230-6")
-    inputs = collect_inputs(s, result, compensation=comp_dir)
-    if inputs.volumetric is not None:
-        lines.append(f"evaluate: E_VXYZ = {inputs.volumetric.E_VXYZ:.1f} µm")
-    if inputs.compensation is not None and inputs.compensation.truth_residual_max_um:
-        lines.append(f"          after compensation at most "
-                     f"{inputs.compensation.truth_residual_max_um:.1f} µm remain (truth)")
+    ev = cal.evaluate()
+    if ev.volumetric is not None:
+        lines.append(f"evaluate: E_VXYZ = {ev.volumetric.E_VXYZ:.1f} µm")
+    from volcal.report.pipeline import compensation_summary
+
+    cs = compensation_summary(result, s.travel, vm, comp_dir)
+    if cs.truth_residual_max_um:
+        lines.append(f"          after compensation at most {cs.truth_residual_max_um:.1f} µm "
+                     "remain (truth)")
     on_done()
 
     on_step("writing the HTML and PDF report")
-    files = write_report(build_report(inputs), folder / "report")
+    files = cal.report(folder / "report")
     lines.append(f"report: {files.pdf_pages} PDF pages, {len(files.figures)} figures")
     on_done()
     return DemoOutput(folder, session_dir, model, comp_dir, files, lines)

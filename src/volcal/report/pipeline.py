@@ -154,28 +154,13 @@ def collect_inputs(session: Session, result: Any = None, truth: MachineErrors | 
     -------
     ReportInputs
     """
-    from volcal.standards.iso230_2 import evaluate
-    from volcal.standards.iso230_6 import evaluate_diagonal
-    from volcal.standards.positioning_data import from_measurement
-    from volcal.standards.volumetric import elv_from_model, volumetric_indices
+    from volcal.standards.session import evaluate_session
 
-    iso2: dict[str, Any] = {}
-    iso6: dict[str, Any] = {}
-    for m in session.measurements:
-        if m.deviation is None:
-            continue
-        if m.kind == "linear" and "run" in m.columns and "direction" in m.columns:
-            d = from_measurement(m, session.path)
-            iso2[m.id] = evaluate(d.targets_mm, d.run, d.direction, d.deviation_um, edition,
-                                  file=d.file, rows=d.rows)
-        elif m.kind == "diagonal":
-            iso6[m.id] = evaluate_diagonal(m, edition)
+    ev = evaluate_session(session, result, edition)
     if truth is None:
         truth = read_truth(session)
-    vol = elv = comp = None
+    comp = None
     if result is not None:
-        vol = volumetric_indices(result.errors)
-        elv = elv_from_model(result.errors)
         comp = compensation_summary(result, session.travel, truth, compensation)
-    return ReportInputs(session, result, truth, iso2 or None, iso6 or None, vol, comp,
-                        elv=elv)
+    return ReportInputs(session, result, truth, ev.iso230_2 or None, ev.iso230_6 or None,
+                        ev.volumetric, comp, elv=ev.elv)

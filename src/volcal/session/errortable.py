@@ -190,3 +190,77 @@ def read_error_table(path: str | Path, chain: str | None = None) -> MachineError
     nodes = [np.array([v[0] for v in per_axis[k]]) for k in range(3)]
     values = [np.array([v[1:] for v in per_axis[k]]) for k in range(3)]
     return MachineErrors(chain or "XYFZ", nodes, values, sq, rev, name=str(name))
+
+
+def known_spec():
+    """:class:`~volcal.io.table.TableSpec` of a table of separately measured errors."""
+    from volcal.io.table import Column, TableSpec
+
+    return TableSpec((Column("axis", kind="choice", choices=("X", "Y", "Z", "x", "y", "z")),
+                      Column("position_mm", abs_max=1e7),
+                      *(Column(h, required=False, empty=True, abs_max=1e7) for h in HEADER[2:])),
+                     unknown="error", what="known-errors table")
+
+
+def read_known_functions(path: str | Path) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Read errors measured separately (``--known``): any subset of the functions.
+
+    The header is ``axis,position_mm`` and any of ``EX_um,EY_um,EZ_um,EA_urad,EB_urad,
+    EC_urad``; rows are given only for the axes measured, and an empty cell means "not
+    known". A function (e.g. EAX, the roll of X) is known when its axis has rows and its
+    column has a value in every row of that axis. A full error table (all axes, all
+    columns) is read too; there, all-zero functions are taken as not measured.
+
+    Parameters
+    ----------
+    path : str or Path
+        The CSV file (positions [mm], translations [um], rotations [urad]).
+
+    Returns
+    -------
+    dict of str to (positions [mm], values [um or urad])
+        By ISO name (``'EAX'``...).
+
+    Raises
+    ------
+    VolcalInputError
+        Naming file, row and column (partly filled column, unsorted positions, no
+        function given...).
+    """
+    from volcal.io.table import read_table
+
+    t = read_table(path, known_spec())
+    axes = np.array([a.upper() for a in t["axis"]])
+    pos = t["position_mm"].astype(float)
+    full = all(t.has(h) for h in HEADER[2:]) and set(axes) == set(AXES)
+    out: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    for a in AXES:
+        sel = np.flatnonzero(axes == a)
+        if sel.size == 0:
+            continue
+        if np.any(np.diff(pos[sel]) <= 0):
+            bad = sel[1:][np.diff(pos[sel]) <= 0][0]
+            raise t.error("positions of an axis must increase strictly", int(bad),
+                          "position_mm")
+        for h in HEADER[2:]:
+            if not t.has(h):
+                continue
+            v = t[h].astype(float)[sel]
+            given = ~np.isnan(v)
+            if not given.any():
+                continue
+            if not given.all():
+                raise t.error(f"axis {a}: either fill every row of this axis or none "
+                              f"(a function is known over the whole axis)",
+                              int(sel[~given][0]), h)
+            if sel.size < 2:
+                raise t.error(f"axis {a}: a known function needs at least 2 positions",
+                              int(sel[0]), "position_mm")
+            name = h[:2] + a
+            if full and not np.any(v != 0):
+                continue
+            out[name] = (pos[sel], v)
+    if not out:
+        raise VolcalInputError("no known function: fill a column (e.g. EA_urad) for the "
+                               "axis measured", path)
+    return out

@@ -1,0 +1,151 @@
+"""Evaluate a whole session to the standards: one definition of every index.
+
+:func:`evaluate_session` is the single place where a session is evaluated: ISO 230-2 for
+every linear test with runs and directions, ISO 230-6 for every diagonal, and, given an
+identified model, the ISO 230-1 volumetric indices. The command line (``volcal evaluate
+session``), the report and :class:`volcal.Calibration` all call it.
+
+ELv (seed 002, Wang) is ``sqrt(ELx^2 + ELy^2 + ELz^2)`` with ``ELx = max Dx(x) - min Dx(x)``
+the range of the positioning error of X over its travel (and likewise Y, Z). Measured,
+``Dx(x)`` is the mean bidirectional positional deviation at each target, so ``ELx`` is
+ISO 230-2's ``M`` of the axis' linear test (the first one of the session on that axis,
+the planned on-axis line); when some axis has no such test and a model is given, all
+three ranges come from the model's ``EXX``, ``EYY``, ``EZZ`` over the travel. Either way
+it is the same quantity, and :attr:`SessionEvaluation.elv_source` says which data gave it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from volcal.standards.iso230_6 import elv as _elv
+
+__all__ = ["SessionEvaluation", "evaluate_session"]
+
+
+@dataclass
+class SessionEvaluation:
+    """Indices of a session.
+
+    Attributes
+    ----------
+    iso230_2 : dict of str to ISO 230-2 result
+        Per linear measurement id (A, E, M, R, B, mean reversal [um]...).
+    axis : dict of str to str
+        Moving axis of each evaluated linear measurement.
+    iso230_6 : dict of str to ISO 230-6 result
+        Per diagonal measurement id.
+    volumetric : VolumetricIndices or None
+        ISO 230-1 volumetric indices of the model [um] (given a model).
+    elv : dict of str to float or None
+        ``ELx``, ``ELy``, ``ELz``, ``ELv`` [um] (seed 002); ``None`` when neither the
+        measured lines nor a model cover the three axes.
+    elv_source : str
+        ``'measured'`` (ISO 230-2 ``M`` of each axis' first linear test), ``'model'``
+        (ranges of EXX, EYY, EZZ) or ``''``.
+    skipped : dict of str to str
+        Measurements not evaluated, with the reason.
+    """
+
+    iso230_2: dict[str, Any] = field(default_factory=dict)
+    axis: dict[str, str] = field(default_factory=dict)
+    iso230_6: dict[str, Any] = field(default_factory=dict)
+    volumetric: Any = None
+    elv: dict[str, float] | None = None
+    elv_source: str = ""
+    skipped: dict[str, str] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dictionary (values [um])."""
+        return {"measurements": {k: {"axis": self.axis[k], **v.to_dict()}
+                                 for k, v in self.iso230_2.items()},
+                "diagonals": {k: _plain(v) for k, v in self.iso230_6.items()},
+                "volumetric": None if self.volumetric is None else self.volumetric.to_dict(),
+                "ELv": None if self.elv is None else self.elv["ELv"],
+                "elv": self.elv, "elv_source": self.elv_source,
+                "skipped": list(self.skipped)}
+
+    def __repr__(self) -> str:
+        """Short one-line description."""
+        ev = "None" if self.elv is None else f"{self.elv['ELv']:.3f} um ({self.elv_source})"
+        return (f"SessionEvaluation({len(self.iso230_2)} linear, {len(self.iso230_6)} "
+                f"diagonal, ELv={ev}, skipped={len(self.skipped)})")
+
+
+def _plain(v: Any) -> Any:
+    if hasattr(v, "to_dict"):
+        return v.to_dict()
+    from dataclasses import asdict, is_dataclass
+
+    if is_dataclass(v):
+        import numpy as np
+
+        return {k: (x.tolist() if isinstance(x, np.ndarray) else x)
+                for k, x in asdict(v).items()}
+    return v
+
+
+def evaluate_session(session: Any, result: Any = None, edition: str = "2014"
+                     ) -> SessionEvaluation:
+    """Evaluate every test of a session to its standard (one definition of every index).
+
+    Parameters
+    ----------
+    session : Session
+        The session (measurements without readings are skipped and listed).
+    result : IdentificationResult, optional
+        Identified model: adds the volumetric indices and the model's ELv when the
+        measured lines do not cover the three axes.
+    edition : str
+        ISO 230-2 edition (``'2014'``, ``'2006'``, ``'1997'``).
+
+    Returns
+    -------
+    SessionEvaluation
+
+    Notes
+    -----
+    ELv = sqrt(ELx^2 + ELy^2 + ELz^2), ELx = max Dx(x) - min Dx(x) (seed 002); see the
+    module docstring for the measured and model sources.
+
+    References
+    ----------
+    ISO 230-2:2014, Test code for machine tools, part 2: positioning accuracy.
+    ISO 230-6:2002, diagonal displacement tests. ISO 230-1:2012, Annex (volumetric
+    indices). Seed 002 (ELv).
+    """
+    from volcal.standards.iso230_2 import evaluate
+    from volcal.standards.iso230_6 import evaluate_diagonal
+    from volcal.standards.positioning_data import from_measurement
+
+    ev = SessionEvaluation()
+    for m in session.measurements:
+        if m.deviation is None:
+            ev.skipped[m.id] = "no readings yet"
+            continue
+        if m.kind == "linear":
+            if "run" not in m.columns or "direction" not in m.columns:
+                ev.skipped[m.id] = "no run/direction columns"
+                continue
+            d = from_measurement(m, session.path)
+            ev.iso230_2[m.id] = evaluate(d.targets_mm, d.run, d.direction, d.deviation_um,
+                                         edition, file=d.file, rows=d.rows)
+            ev.axis[m.id] = d.axis or "?"
+        elif m.kind == "diagonal":
+            ev.iso230_6[m.id] = evaluate_diagonal(m, edition)
+    first: dict[str, float] = {}
+    for mid, r in ev.iso230_2.items():
+        first.setdefault(ev.axis[mid], float(r.M))
+    if all(a in first for a in "XYZ"):
+        ev.elv = {"ELx": first["X"], "ELy": first["Y"], "ELz": first["Z"]}
+        ev.elv["ELv"] = _elv(first["X"], first["Y"], first["Z"])
+        ev.elv_source = "measured"
+    if result is not None:
+        from volcal.standards.volumetric import elv_from_model, volumetric_indices
+
+        ev.volumetric = volumetric_indices(result.errors)
+        if ev.elv is None:
+            ev.elv = elv_from_model(result.errors)
+            ev.elv_source = "model"
+    return ev

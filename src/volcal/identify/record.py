@@ -43,6 +43,12 @@ class Convergence:
     converged: bool | None = None
     message: str = ""
 
+    def __getitem__(self, key: str) -> Any:
+        """``fit["convergence"]["converged"]``: dictionary-style access to a field."""
+        if key not in ("optimiser", "iterations", "evaluations", "converged", "message"):
+            raise KeyError(key)
+        return getattr(self, key)
+
     def describe(self) -> str:
         """One plain line about the convergence."""
         if not self.optimiser and self.converged is None:

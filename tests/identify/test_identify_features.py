@@ -36,7 +36,11 @@ def test_report_names_what_the_seeds_test_set_cannot_see(noisy):
     text = " ".join(rep.messages)
     assert "EAX (roll of X) is not determined" in text
     assert "Volumetric ambiguity" in text
-    assert rep.suggestions and "face diagonals" in rep.suggestions[0]
+    # the best extra tests: face diagonals, or the body diagonals again with a tool offset
+    # (both remove the roll ambiguity; with the ISO 230-2 default plan they rank within
+    # 0.01 um RMS of each other, so the order between them is not asserted)
+    assert rep.suggestions and any("face diagonals" in s for s in rep.suggestions[:3])
+    assert all("face diagonals" in s or "tool offset" in s for s in rep.suggestions[:3])
 
 
 def test_step_diagonals_alone_report_the_slope_mirror_confusion():
@@ -210,7 +214,11 @@ def test_advise_before_measuring_matches_the_report_after():
     poor_before = {n for n, f in rep.determined_fraction.items() if f < 0.5}
     poor_after = {n for n, f in after.determined_fraction.items() if f < 0.5}
     assert "EAX" in poor_before and poor_before == poor_after
-    assert rep.suggestions and "face diagonals" in rep.suggestions[0]
+    # the best extra tests: face diagonals, or the body diagonals again with a tool offset
+    # (both remove the roll ambiguity; with the ISO 230-2 default plan they rank within
+    # 0.01 um RMS of each other, so the order between them is not asserted)
+    assert rep.suggestions and any("face diagonals" in s for s in rep.suggestions[:3])
+    assert all("face diagonals" in s or "tool offset" in s for s in rep.suggestions[:3])
 
 
 def test_cli_advise_on_a_planned_session(tmp_path):

@@ -196,7 +196,7 @@ def test_no_repeated_motion_block_at_the_reversal(tmp_path, dialect):
         blocks = [ln.split(" ", 1)[1] if dialect == "heidenhain" else ln
                   for ln in f.read_text().splitlines()]
         motion = [b for b in blocks if b.startswith(("G01 ", "G1 ", "G53 ", "G0 ", "L "))]
-        assert all(a != b for a, b in zip(motion, motion[1:])), f.name
+        assert all(a != b for a, b in zip(motion, motion[1:], strict=False)), f.name
 
 
 def _rs274_check(text, m, seconds, safe_z=0.0, fanuc=False):

@@ -14,7 +14,8 @@ console = Console()
 
 def program(
     session: Annotated[Path, typer.Argument(help="Session folder (planned or measured).")],
-    dialect: Annotated[str, typer.Option(help="Controller dialect: fanuc, linuxcnc, siemens or heidenhain.")],
+    dialect: Annotated[str, typer.Option(
+        help="Controller dialect: fanuc, linuxcnc, siemens or heidenhain.")],
     output: Annotated[Path, typer.Option("-o", "--output", help="Folder for the programs.")],
     dwell_s: Annotated[float, typer.Option(help="Dwell at each reading pose [s].")] = 4.0,
     feed: Annotated[float, typer.Option(help="Feed of every move [mm/min] (max 10000).")] = 2000.0,

@@ -129,7 +129,7 @@ def run_demo(folder: str | Path, seed: int = 7,
     if inputs.volumetric is not None:
         lines.append(f"evaluate: E_VXYZ = {inputs.volumetric.E_VXYZ:.1f} µm")
     if inputs.compensation is not None and inputs.compensation.truth_residual_max_um:
-        lines.append(f"          after compensation at most "
+        lines.append(f"          after the 3-D grid compensation at most "
                      f"{inputs.compensation.truth_residual_max_um:.1f} µm remain (truth)")
     on_done()
 

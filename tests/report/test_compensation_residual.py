@@ -190,3 +190,44 @@ def test_verdict_words():
     assert Verdict("q", 5.0, 5.0, 5.01).before == "pass"
     assert Verdict("q", 5.0, 5.0, 5.01).after == "FAIL"
     assert Verdict("q", 5.0, None).after == "-"
+
+
+def _cli(*args):
+    import subprocess
+    import sys
+
+    return subprocess.run([sys.executable, "-c", "from volcal.cli import main; main()", *args],
+                          capture_output=True, text=True)
+
+
+def test_evaluate_session_verdict_cli(tmp_path):
+    """`volcal evaluate session --tolerance-um` with the model and its pitch tables: the
+    same hand-worked A before (65.2 um) and after (chord spread + B) as above."""
+    import json
+
+    from volcal.session.errortable import write_error_table
+    from volcal.session.format import write_session
+
+    b = 2.0
+    s, _ = _linear_session(b)
+    write_session(s, tmp_path / "s")
+    e = _exx_model(reversal_x=b)
+    write_error_table(e, tmp_path / "m.csv")
+    write_compensation(e, "csv", tmp_path / "c", CompensationOptions("error", 25.0), "m.csv")
+    r = _cli("evaluate", "session", str(tmp_path / "s"), "--json", "--tolerance-um", "X=5,V=1",
+             "--model", str(tmp_path / "m.csv"), "--compensation", str(tmp_path / "c"))
+    assert r.returncode == 0, r.stderr
+    vol, ax = json.loads(r.stdout)["verdict"]
+    assert ax["before_um"] == pytest.approx(A * (795**2 - 5**2) + b, abs=1e-6)
+    assert (ax["before"], ax["after"], vol["before"], vol["after"]) == ("FAIL", "pass",
+                                                                        "FAIL", "pass")
+    r = _cli("evaluate", "session", str(tmp_path / "s"), "--tolerance-um", "X=70")
+    assert r.returncode == 0 and "pass" in r.stdout and "--compensation" in r.stdout
+    # a volumetric tolerance needs the model; tables need the model they came from
+    r = _cli("evaluate", "session", str(tmp_path / "s"), "--tolerance-um", "5")
+    assert r.returncode == 2 and "--model" in r.stderr and "Traceback" not in r.stderr
+    r = _cli("evaluate", "session", str(tmp_path / "s"), "--tolerance-um", "X=5",
+             "--compensation", str(tmp_path / "c"))
+    assert r.returncode == 2 and "--model" in r.stderr
+    r = _cli("evaluate", "session", str(tmp_path / "s"), "--tolerance-um", "X=five")
+    assert r.returncode == 2 and "tolerance-um" in r.stderr

@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: all install test lint demo bench study clean browser-deps
+.PHONY: all install test lint demo bench study clean browser-deps linuxcnc-deps
 
 all: test
 
@@ -25,7 +25,17 @@ browser-deps:
 	  apt-get update -q && DEBIAN_FRONTEND=noninteractive apt-get install -y -q \
 	    --no-install-recommends chromium poppler-utils; fi
 
-test: $(STAMP) browser-deps
+# LinuxCNC's standalone G-code interpreter rs274 (Debian package linuxcnc-uspace, in
+# bookworm main): the part-program tests run the generated ISO and LinuxCNC programs
+# through it. Run as root. Does nothing when rs274 is present; the tests skip with the
+# reason when it cannot be installed.
+linuxcnc-deps:
+	@if command -v rs274 >/dev/null; then :; else \
+	  apt-get update -q && apt-cache policy linuxcnc-uspace | grep -q 'Candidate: [0-9]' && \
+	  DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends \
+	    linuxcnc-uspace || echo "linuxcnc-uspace not available: the rs274 tests will skip"; fi
+
+test: $(STAMP) browser-deps linuxcnc-deps
 	$(BIN)/python -m pytest
 
 lint: $(STAMP)

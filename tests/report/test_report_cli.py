@@ -24,10 +24,18 @@ def test_report_with_a_model_file(identified, tmp_path):
     model = tmp_path / "model.json"
     r.to_json(model)
     out = tmp_path / "rep"
-    p = _run("report", str(s.path), "--model", str(model), "-o", str(out))
+    from volcal.compensate.formats import CompensationOptions, write_compensation
+
+    write_compensation(r.errors, "heidenhain", tmp_path / "comp",
+                       CompensationOptions("error", 25.0), "model.json")
+    p = _run("report", str(s.path), "--model", str(model), "-o", str(out), "--compensation",
+             str(tmp_path / "comp"), "--tolerance-um", "X=1000,Y=0.001,V=1000")
     assert p.returncode == 0, p.stderr
     html = (out / "report.html").read_text(encoding="utf-8")
     assert html.count("<img ") >= 5
+    # the compensation section names what the Heidenhain tables carry, and the verdict
+    assert "per-axis pitch only: EXX, EYY, EZZ" in html and "Tolerance verdict" in html
+    assert "out of tolerance: Y: ISO 230-2 A" in html
     assert (out / "report.pdf").read_bytes()[:5] == b"%PDF-"
     assert not [f for f in tmp_path.iterdir() if f.name.startswith(".")]  # no leftovers
 

@@ -122,12 +122,23 @@ def session_cmd(
     session: Path = typer.Argument(..., help="Session folder."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
     edition: str = typer.Option("2014", help="ISO 230-2 edition."),
+    tolerance_um: str | None = typer.Option(
+        None, help="Tolerance for a pass/fail verdict [um]: X=10,Y=10,Z=8 (ISO 230-2 "
+        "accuracy A per axis), a number (largest volumetric error of --model) or both "
+        "(X=10,Y=10,Z=8,V=15)."),
+    model: Path | None = typer.Option(None, help="Identified model (MODEL.json): needed for "
+                                      "a volumetric tolerance and for the verdict after "
+                                      "compensation."),
+    compensation: Path | None = typer.Option(None, help="Folder written by `volcal "
+                                             "compensate` from --model: the verdict after "
+                                             "applying exactly what its tables carry."),
 ) -> None:
     """ISO 230-2 for every linear measurement with runs and directions; ELv (seed 002)."""
     from volcal.errors import VolcalInputError
     from volcal.session.format import read_session
     from volcal.standards.session import evaluate_session
 
+    tol = _tolerance_inputs(tolerance_um, model, compensation)
     s = read_session(session)
     ev = evaluate_session(s, edition=edition)
     results, axis_of = ev.iso230_2, ev.axis
@@ -135,10 +146,14 @@ def session_cmd(
     if not results:
         raise VolcalInputError("no linear measurement with run and direction columns", session)
     elv_val = None if ev.elv is None else ev.elv["ELv"]
+    verdict = _verdicts(tol, s, edition)
     if as_json:
-        _print_json({"measurements": {k: {"axis": axis_of[k], **v.to_dict()}
-                                      for k, v in results.items()},
-                     "ELv": elv_val, "skipped": skipped})
+        out: dict[str, Any] = {"measurements": {k: {"axis": axis_of[k], **v.to_dict()}
+                                                for k, v in results.items()},
+                               "ELv": elv_val, "skipped": skipped}
+        if verdict is not None:
+            out["verdict"] = [v.to_dict() for v in verdict]
+        _print_json(out)
         return
     t = Table(title=f"{session}: ISO 230-2:{edition} [um]")
     for c in ("id", "axis", "A", "E", "M", "R", "B", "B_mean"):
@@ -158,6 +173,66 @@ def session_cmd(
         console.print(f"[yellow]warning[/] ({', '.join(ids)}): {escape(w)}", highlight=False)
     for k in skipped:
         console.print(f"[yellow]skipped[/] {k}: no run/direction columns")
+    if verdict is not None:
+        _print_verdict(verdict, tol[1] is not None)
+
+
+def _tolerance_inputs(tolerance_um: str | None, model: Path | None,
+                      compensation: Path | None) -> tuple[Any, Any, Any]:
+    """Parse the tolerance and read the model and the tables' manifest (or None)."""
+    from volcal.errors import VolcalInputError
+
+    if tolerance_um is None:
+        if compensation is not None or model is not None:
+            raise VolcalInputError("--model and --compensation are used by the tolerance "
+                                   "verdict: give --tolerance-um too")
+        return None, None, None
+    from volcal.standards.tolerance import parse_tolerance
+
+    tol = parse_tolerance(tolerance_um)
+    if compensation is not None and model is None:
+        raise VolcalInputError("--compensation needs the --model the tables were written from")
+    errors = tables = None
+    if model is not None:
+        from volcal.compensate.source import load_errors
+
+        errors = load_errors(model)
+    if compensation is not None:
+        from volcal.report.carried import table_set_from_manifest
+        from volcal.report.pipeline import read_manifest
+
+        tables = table_set_from_manifest(read_manifest(compensation), compensation)
+    return tol, errors, tables
+
+
+def _verdicts(tol: tuple[Any, Any, Any], s: Any, edition: str) -> Any:
+    if tol[0] is None:
+        return None
+    from volcal.report.verdict import verdicts
+
+    return verdicts(tol[0], s, tol[1], tol[2], edition)
+
+
+def _print_verdict(verdict: Any, has_model: bool) -> None:
+    t = Table(title="tolerance verdict [um]")
+    for c in ("quantity", "tolerance", "before", "", "after", ""):
+        t.add_column(c, justify="right")
+
+    def cell(v: Any) -> str:
+        return "-" if v is None else f"{v:.3f}"
+
+    def word(w: str) -> str:
+        return {"pass": "[green]pass[/]", "FAIL": "[red]FAIL[/]"}.get(w, w)
+
+    for v in verdict:
+        t.add_row(escape(v.quantity), f"{v.tolerance_um:g}", cell(v.before_um), word(v.before),
+                  cell(v.after_um), word(v.after))
+    console.print(t)
+    if not any(v.after_um is not None for v in verdict):
+        console.print("no verdict after compensation: give --model MODEL.json and "
+                      "--compensation FOLDER" if not has_model else
+                      "no verdict after compensation: give --compensation FOLDER",
+                      highlight=False)
 
 
 @evaluate_app.command("volumetric")

@@ -37,12 +37,14 @@ def plan(
     step_orders: str = typer.Option("xyz", help="Axis orders of the step diagonals, e.g. xyz,yxz."),
     tool_offset: str = typer.Option("0,0,0", help="Target point on the tool x,y,z [mm]."),
     name: str = typer.Option("VMC-1", help="Machine name."),
-    iso_spacing: bool = typer.Option(False, help="Unequally spaced linear-test targets "
-                                     "(ISO 230-2:2014, 5.2)."),
+    iso_spacing: bool = typer.Option(True, help="Unequally spaced linear-test targets "
+                                     "(ISO 230-2:2014, 5.2); --no-iso-spacing for the "
+                                     "equally spaced step grid."),
     step_target: str = typer.Option("flat_mirror", help="Target of the step diagonals: "
                                     "flat_mirror, retroreflector or retroreflector_mirror."),
-    overrun_mm: float = typer.Option(0.0, help="Keep linear-test targets this far inside "
-                                     "the travel, room for the ISO 230-2 overrun [mm]."),
+    overrun_mm: float = typer.Option(5.0, help="Keep linear-test targets this far inside "
+                                     "the travel, room for the ISO 230-2 overrun of the part "
+                                     "programs (same default as `volcal program`) [mm]."),
     abbe_offset_mm: float = typer.Option(150.0, help="Target offset from the spindle for "
                                          "the Abbe lines no machine move can offset [mm]."),
     grid: str = typer.Option("9,7,6", help="Multilateration: grid points along x,y,z."),

@@ -14,13 +14,16 @@ console = Console()
 
 def program(
     session: Annotated[Path, typer.Argument(help="Session folder (planned or measured).")],
-    dialect: Annotated[str, typer.Option(help="Controller dialect: fanuc, siemens or heidenhain.")],
+    dialect: Annotated[str, typer.Option(
+        help="Controller dialect: fanuc, linuxcnc, siemens or heidenhain.")],
     output: Annotated[Path, typer.Option("-o", "--output", help="Folder for the programs.")],
     dwell_s: Annotated[float, typer.Option(help="Dwell at each reading pose [s].")] = 4.0,
     feed: Annotated[float, typer.Option(help="Feed of every move [mm/min] (max 10000).")] = 2000.0,
     overrun_mm: Annotated[float, typer.Option(help="ISO 230-2 overrun before reversals [mm].")
                           ] = 5.0,
     decimals: Annotated[int, typer.Option(help="Decimals of the coordinates [mm].")] = 3,
+    safe_z_mm: Annotated[float, typer.Option(
+        help="Z of the first retract in machine coordinates (G53/SUPA/M91) [mm].")] = 0.0,
     first_number: Annotated[int, typer.Option(
         min=1, max=9999, help="Fanuc program number (O word) of the first.")] = 1000,
 ) -> None:
@@ -31,7 +34,8 @@ def program(
     from volcal.session.format import read_session
 
     check_output_folder(output, "program", lambda p: (p / INDEX_FILE).is_file())
-    opts = ProgramOptions(dwell_s=dwell_s, feed=feed, overrun_mm=overrun_mm, decimals=decimals)
+    opts = ProgramOptions(dwell_s=dwell_s, feed=feed, overrun_mm=overrun_mm, decimals=decimals,
+                          safe_z_mm=safe_z_mm)
     opts.check()
     s = read_session(session, require_deviation=False)
     folder, warnings = write_programs(s, dialect, output, opts, first_number)

@@ -24,6 +24,10 @@ def report_cmd(
     title: str | None = typer.Option(None, help="Report title (default from the machine name)."),
     force: bool = typer.Option(False, "--force", help="Use --model even if it was identified "
                                "from another session (name, chain, travel or readings differ)."),
+    tolerance_um: str | None = typer.Option(
+        None, help="Tolerance for a pass/fail verdict before and after compensation [um]: "
+        "a number (largest volumetric error), X=10,Y=10,Z=8 (ISO 230-2 accuracy A per "
+        "axis) or both (X=10,Y=10,Z=8,V=15)."),
 ) -> None:
     """Write the calibration report of a session as self-contained HTML and as PDF."""
     from volcal.io.paths import check_output_folder
@@ -31,7 +35,9 @@ def report_cmd(
     from volcal.report.sections import build_report
     from volcal.report.writer import write_report
     from volcal.session.format import read_session
+    from volcal.standards.tolerance import parse_tolerance
 
+    tol = None if tolerance_um is None else parse_tolerance(tolerance_um)
     check_output_folder(output, "report", lambda p: (p / "report.html").is_file())
     s = read_session(session)
     if model is not None:
@@ -47,7 +53,8 @@ def report_cmd(
             result = identify(s)
     with console.status("evaluating and writing the report..."):
         files = write_report(build_report(collect_inputs(s, result, edition=edition,
-                                                          compensation=compensation), title),
+                                                          compensation=compensation,
+                                                          tolerance=tol), title),
                              output)
     console.print(f"report: {files.html} and {files.pdf} ({files.pdf_pages} pages, "
                   f"{len(files.figures)} figures)", soft_wrap=True)

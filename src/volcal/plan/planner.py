@@ -3,7 +3,10 @@
 The default plan is the seeds' full test set: 4 body step diagonals with a flat mirror
 (Wang & Liotto, seed 000, section 4), the 4 body diagonals with a retroreflector
 (ISO 230-6, section 3) and 3 linear lines per axis at different Abbe offsets
-(seed 000 section 6, seed 001), each line with bidirectional runs as ISO 230-2 asks.
+(seed 000 section 6, seed 001), each line with bidirectional runs as ISO 230-2 asks:
+unequally spaced targets (ISO 230-2:2014, 5.2) kept 5 mm inside both ends of the travel
+so that the part programs' overrun before each reversal (5.3) has room. ``plan``,
+``program`` and ``evaluate`` therefore agree without options.
 """
 
 from __future__ import annotations
@@ -33,7 +36,11 @@ TEST_NAMES: tuple[str, ...] = (
     "multilateration",
 )
 
-__all__ = ["TEST_NAMES", "abbe_lines", "plan_session"]
+__all__ = ["DEFAULT_OVERRUN_MM", "TEST_NAMES", "abbe_lines", "plan_session"]
+
+DEFAULT_OVERRUN_MM = 5.0
+"""Room left at both ends of every linear test for the ISO 230-2 overrun [mm]; equal to
+the default ``overrun_mm`` of :class:`volcal.program.ProgramOptions`."""
 
 
 def abbe_lines(axis: int, travel: np.ndarray, chain: str = "XYFZ",
@@ -99,7 +106,7 @@ def plan_session(travel: ArrayLike, chain: str = "XYFZ", steps: int = 10,
                  runs: int = 5, step_orders: Sequence[str] = ("xyz",),
                  tool_offset: ArrayLike = (0.0, 0.0, 0.0), name: str = "VMC-1",
                  step_target: str = "flat_mirror", abbe_tool_offset_mm: float = 150.0,
-                 iso_spacing: bool = False, linear_margin_mm: float = 0.0,
+                 iso_spacing: bool = True, linear_margin_mm: float = DEFAULT_OVERRUN_MM,
                  multilateration: dict | None = None) -> Session:
     """Plan a session skeleton (commanded poses, deviations empty).
 
@@ -130,11 +137,12 @@ def plan_session(travel: ArrayLike, chain: str = "XYFZ", steps: int = 10,
         Target offset used for the Abbe offsets of linear lines that no machine move can
         create (see :func:`abbe_lines`) [mm].
     iso_spacing : bool
-        Unequally spaced targets for the linear tests (ISO 230-2:2014, 5.2); the three lines
-        of an axis share them. Default: the step grid, shared with the diagonals.
+        Unequally spaced targets for the linear tests (ISO 230-2:2014, 5.2; the default);
+        the three lines of an axis share them. False: the equally spaced step grid.
     linear_margin_mm : float
         Keep the linear-test targets this far inside both ends of the travel, so that the
-        ISO 230-2 approach and overrun moves of the part program have room [mm].
+        ISO 230-2 approach and overrun moves of the part program have room [mm]; default
+        the part programs' default overrun (5 mm).
     multilateration : dict, optional
         Keyword arguments of :func:`volcal.plan.multilateration.multilateration_tests`
         (``grid``, ``stations``, ``tool_offsets``, ``station_u_mm``) for the test

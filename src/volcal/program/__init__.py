@@ -2,7 +2,7 @@
 
 ``steps`` turns a measurement into dialect-free steps (moves, dwells, comments), with
 ISO 230-2 approach and overrun moves for linear tests; ``dialects`` renders them as
-Fanuc/ISO G-code, Siemens 840D or Heidenhain conversational programs; ``writer``
+Fanuc/ISO or LinuxCNC G-code, Siemens 840D or Heidenhain conversational programs; ``writer``
 writes one program per measurement into a folder, atomically.
 """
 

@@ -51,12 +51,17 @@ class ProgramOptions:
         Overrun before a reversal in linear tests [mm] (ISO 230-2 approach).
     decimals : int
         Decimals of the coordinates written (3 = 0.001 mm, the usual input increment).
+    safe_z_mm : float
+        Z of the retract that starts every program, in machine coordinates [mm]
+        (``G53`` / ``SUPA`` / ``M91``); 0 is the reference position, at the top of the Z
+        travel on most machining centres.
     """
 
     dwell_s: float = 4.0
     feed: float = 2000.0
     overrun_mm: float = 5.0
     decimals: int = 3
+    safe_z_mm: float = 0.0
 
     def check(self) -> None:
         """Raise :class:`VolcalInputError` for options no machine should run."""
@@ -68,8 +73,15 @@ class ProgramOptions:
                                    f"{MAX_FEED_MM_MIN:g} mm/min (a measuring feed, not rapid)")
         if not np.isfinite(self.overrun_mm) or not 0 <= self.overrun_mm <= 100:
             raise VolcalInputError(f"--overrun-mm {self.overrun_mm}: expected 0..100 mm")
+        if not np.isfinite(self.safe_z_mm):
+            raise VolcalInputError(f"--safe-z-mm {self.safe_z_mm}: expected a finite number")
         if not 0 <= self.decimals <= 5:
             raise VolcalInputError(f"--decimals {self.decimals}: expected 0..5")
+
+
+OPERATOR_STOP_TEXT = ("at the start pose: check the optics and the laser signal, start the "
+                      "laser capture, then press cycle start")
+"""Message shown at the operator stop before the first reading."""
 
 
 @dataclass(frozen=True)
@@ -79,8 +91,10 @@ class Step:
     Attributes
     ----------
     kind : str
-        ``'move'`` (linear move at ``feed``), ``'dwell'`` (stand still for ``seconds``)
-        or ``'comment'``.
+        ``'move'`` (linear move at ``feed``), ``'dwell'`` (stand still for ``seconds``),
+        ``'comment'``, ``'start'`` (the safe positioning to ``position``: retract Z in
+        machine coordinates, then X and Y, then Z down; written once, first) or
+        ``'stop'`` (operator stop with the message ``text``, before the first reading).
     position : tuple of float, optional
         Target of a move [mm].
     feed : float, optional
@@ -192,6 +206,30 @@ def build_steps(m: Measurement, travel: NDArray[np.float64], options: ProgramOpt
         out.warnings.append(f"{m.id}: poses rounded to {10.0 ** -options.decimals:g} mm "
                             f"(largest change {err * 1e3:.3f} um); plan round targets or "
                             "give the laser software the rounded targets")
+    body = _motion(m, pos, travel, options, out)
+    # the first move becomes the separate start positioning; the operator stop follows it
+    first = next((i for i, st in enumerate(body) if st.kind == "move"), None)
+    if first is None:
+        raise VolcalInputError("the measurement has no pose to visit", m.file)
+    out.steps.append(Step("start", body[first].position, options.feed,
+                          text="safe positioning to the start pose"))
+    out.steps += body[:first]
+    out.steps.append(Step("stop", text=OPERATOR_STOP_TEXT))
+    out.steps += body[first + 1:]
+    return out
+
+
+
+def _motion(m: Measurement, pos: NDArray[np.float64], travel: NDArray[np.float64],
+            options: ProgramOptions, out: StepList) -> list[Step]:
+    """Moves and dwells of the readings; a move to where the machine stands is left out."""
+    steps: list[Step] = []
+
+    def move(p: NDArray[np.float64], role: str) -> None:
+        if current is not None and np.allclose(p, current, rtol=0.0, atol=_TOL_MM):
+            return
+        steps.append(Step("move", tuple(p.tolist()), options.feed, text=role))
+
     linear = m.kind == "linear" and options.overrun_mm > 0
     k = m.axis if m.kind == "linear" else None
     dirs = _directions(m, k) if linear and k is not None else None
@@ -202,7 +240,7 @@ def build_steps(m: Measurement, travel: NDArray[np.float64], options: ProgramOpt
     for i in range(m.n):
         target = pos[i]
         if run is not None and (i == 0 or run[i] != run[i - 1]):
-            out.steps.append(Step("comment", text=f"run {int(run[i])}"))
+            steps.append(Step("comment", text=f"run {int(run[i])}"))
         if dirs is not None and k is not None:
             s = 1.0 if dirs[i] == "+" else -1.0
             from_side = (current is not None
@@ -219,10 +257,11 @@ def build_steps(m: Measurement, travel: NDArray[np.float64], options: ProgramOpt
                     p = target.copy()
                     p[k] = got
                     role = "approach" if current is None or dirs[i - 1] == dirs[i] else "overrun"
-                    out.steps.append(Step("move", tuple(p.tolist()), options.feed, text=role))
-        out.steps.append(Step("move", tuple(target.tolist()), options.feed, text="reading"))
-        out.steps.append(Step("dwell", seconds=options.dwell_s, text=f"reading {i + 1}",
-                              reading=i))
+                    move(p, role)
+                    current = p
+        move(target, "reading")
+        steps.append(Step("dwell", seconds=options.dwell_s, text=f"reading {i + 1}",
+                          reading=i))
         current = target
     if no_approach:
         out.warnings.append(
@@ -232,7 +271,7 @@ def build_steps(m: Measurement, travel: NDArray[np.float64], options: ProgramOpt
     if short:
         out.warnings.append(f"{m.id}: overrun shortened by the travel limit at rows "
                             f"{_rows(short)}")
-    return out
+    return steps
 
 
 def _rows(rows: list[int]) -> str:

@@ -25,7 +25,7 @@ def write_programs(session: Session, dialect: str, folder: str | Path,
     session : Session
         Planned (or measured) session.
     dialect : str
-        ``'fanuc'``, ``'siemens'`` or ``'heidenhain'``.
+        ``'fanuc'``, ``'linuxcnc'``, ``'siemens'`` or ``'heidenhain'``.
     folder : str or Path
         Output folder. It is built aside and moved into place; an existing folder is
         replaced only if it is empty or a previous program folder (holds
@@ -71,11 +71,13 @@ def write_programs(session: Session, dialect: str, folder: str | Path,
             name = f"{base}_{n}"
             fname = name + EXTENSIONS[dialect]
             n += 1
-        files[fname] = render(built.steps, dialect, name, first_number + i, options.decimals)
+        files[fname] = render(built.steps, dialect, name, first_number + i,
+                              options.decimals, options.safe_z_mm)
         index.append({"file": fname, "measurement": m.id, "kind": m.kind, "readings": m.n})
     doc = {"format": "volcal-programs/1", "dialect": dialect, "session": session.name,
            "dwell_s": options.dwell_s, "feed_mm_min": options.feed,
-           "overrun_mm": options.overrun_mm, "programs": index}
+           "overrun_mm": options.overrun_mm, "safe_z_machine_mm": options.safe_z_mm,
+           "programs": index}
     with atomic_dir(folder) as tmp:
         for fname, text in files.items():
             (tmp / fname).write_text(text, encoding="ascii", newline="\n")

@@ -125,8 +125,8 @@ def run_demo(folder: str | Path, seed: int = 7,
 
     cs = compensation_summary(result, s.travel, vm, comp_dir)
     if cs.truth_residual_max_um:
-        lines.append(f"          after compensation at most {cs.truth_residual_max_um:.1f} µm "
-                     "remain (truth)")
+        lines.append(f"          after the 3-D grid compensation at most "
+                     f"{cs.truth_residual_max_um:.1f} µm remain (truth)")
     on_done()
 
     on_step("writing the HTML and PDF report")

@@ -20,57 +20,125 @@ from volcal.report.sections import ReportInputs
 from volcal.session.errortable import read_error_table
 from volcal.session.format import Session
 
-__all__ = ["CompensationSummary", "collect_inputs", "compensation_summary", "read_truth"]
+__all__ = ["CompensationSummary", "collect_inputs", "compensation_summary", "read_manifest",
+           "read_truth"]
 
 
 @dataclass(frozen=True)
 class CompensationSummary:
-    """What compensation tables were written and what they can achieve.
+    """What compensation tables were written and the error they leave.
 
     Attributes
     ----------
     folder : Path or None
         Folder of the tables (with ``volcal-compensation.toml``), if written.
     manifest : dict
-        The folder's manifest: controller format, sign, spacing, files.
-    model_max_um : float
-        Largest length of the modelled volumetric error over the work zone [um].
+        The folder's manifest: controller format, sign, spacing, files, what it carries.
+    tables : TableSet or None
+        What the tables carry and how the controller applies them (None without a folder).
+    model_max_um, model_rms_um : float
+        Largest and RMS length of the modelled volumetric error over the work zone [um].
+    left_max_um, left_rms_um : float or None
+        Largest and RMS length of the modelled volumetric error left after applying
+        exactly what the tables carry, at their spacing and resolution [um]; None
+        without tables.
     residual_u2_max_um : float
-        Largest expanded uncertainty (k = 2) of the modelled volumetric error [um]: what a
-        perfect application of the tables leaves, at 95 %.
-    truth_max_um, truth_residual_max_um, truth_residual_rms_um : float or None
-        Simulated sessions only: largest true volumetric error, and the largest and RMS
-        length of true minus modelled error (the error left after compensation) [um].
+        Largest expanded uncertainty (k = 2) of the modelled volumetric error [um]: the
+        estimation error no table can remove, at 95 %.
+    truth_max_um : float or None
+        Simulated sessions only: largest true volumetric error [um].
+    truth_model_max_um : float or None
+        Simulated sessions only: largest length of true minus modelled error [um] (the
+        identification error).
+    truth_residual_max_um, truth_residual_rms_um : float or None
+        Simulated sessions with tables only: largest and RMS length of the true error
+        left after applying the tables [um].
+    verdicts : list of Verdict
+        Tolerance verdicts before and after (empty without a tolerance).
     n : int
         Grid points per axis of the evaluation.
     """
 
     folder: Path | None
     manifest: dict[str, Any]
+    tables: Any
     model_max_um: float
+    model_rms_um: float
+    left_max_um: float | None
+    left_rms_um: float | None
     residual_u2_max_um: float
     truth_max_um: float | None
+    truth_model_max_um: float | None
     truth_residual_max_um: float | None
     truth_residual_rms_um: float | None
+    verdicts: list[Any]
     n: int
 
 
+def read_manifest(folder: str | Path) -> dict[str, Any]:
+    """Read ``volcal-compensation.toml`` of a compensation folder.
+
+    Parameters
+    ----------
+    folder : str or Path
+        Folder written by ``volcal compensate``.
+
+    Returns
+    -------
+    dict
+
+    Raises
+    ------
+    VolcalInputError
+        No manifest, or not valid TOML.
+    """
+    import tomllib
+
+    from volcal.compensate.formats import MANIFEST
+
+    folder = Path(folder)
+    path = folder / MANIFEST
+    if not path.is_file():
+        raise VolcalInputError(f"no {MANIFEST} here (is it a volcal compensation folder?)",
+                               folder)
+    try:
+        return tomllib.loads(path.read_text(encoding="utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise VolcalInputError(f"invalid TOML: {exc}", path) from None
+
+
+def _norms(v: np.ndarray) -> tuple[float, float]:
+    r = np.linalg.norm(v, axis=1)
+    return float(r.max()), float(np.sqrt(np.mean(r**2)))
+
+
 def compensation_summary(result: Any, travel: Any, truth: MachineErrors | None = None,
-                         folder: str | Path | None = None, n: int = 11) -> CompensationSummary:
-    """Summarise the compensation of a model: files written and the error it leaves.
+                         folder: str | Path | None = None, n: int = 11,
+                         tolerance: Any = None, session: Session | None = None,
+                         edition: str = "2014") -> CompensationSummary:
+    """Summarise the compensation of a model: the files written and the error they leave.
 
     Parameters
     ----------
     result : IdentificationResult
-        The identified model (``predict`` gives the volumetric error and its uncertainty).
+        The identified model (``errors``; ``predict`` gives the volumetric error and its
+        uncertainty).
     travel : array_like, shape (3, 2)
         Work zone [mm].
     truth : MachineErrors, optional
         Simulated truth.
     folder : str or Path, optional
-        Compensation folder written by ``volcal compensate`` (its manifest is read).
+        Compensation folder written by ``volcal compensate`` (its manifest says what the
+        tables carry, see :func:`volcal.report.carried.table_set_from_manifest`).
     n : int
         Grid points per axis.
+    tolerance : Tolerance, optional
+        Tolerances for a pass/fail verdict before and after
+        (:func:`volcal.standards.tolerance.parse_tolerance`).
+    session : Session, optional
+        Measured session (its linear tests give the per-axis ISO 230-2 verdict).
+    edition : str
+        ISO 230-2 edition of the per-axis verdict.
 
     Returns
     -------
@@ -81,37 +149,36 @@ def compensation_summary(result: Any, travel: Any, truth: MachineErrors | None =
     VolcalInputError
         If ``folder`` has no readable ``volcal-compensation.toml``.
     """
-    import tomllib
-
-    from volcal.compensate.formats import MANIFEST
     from volcal.model.kinematics import volumetric_error
+    from volcal.report.carried import applied_correction, table_set_from_manifest
+    from volcal.report.verdict import verdicts, work_zone_grid
 
     manifest: dict[str, Any] = {}
+    tables = None
     if folder is not None:
-        folder = Path(folder)
-        path = folder / MANIFEST
-        if not path.is_file():
-            raise VolcalInputError(f"no {MANIFEST} here (is it a volcal compensation folder?)",
-                                   folder)
-        try:
-            manifest = tomllib.loads(path.read_text(encoding="utf-8"))
-        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-            raise VolcalInputError(f"invalid TOML: {exc}", path) from None
-    t = np.asarray(travel, dtype=float).reshape(3, 2)
-    g = np.meshgrid(*[np.linspace(lo, hi, n) for lo, hi in t], indexing="ij")
-    q = np.stack([a.ravel() for a in g], axis=1)
+        manifest = read_manifest(folder)
+        tables = table_set_from_manifest(manifest, folder)
+    q = work_zone_grid(travel, n)
     e, u = result.predict(q)
-    tmax = tres = trms = None
+    model_max, model_rms = _norms(e)
+    left_max = left_rms = None
+    corr = None
+    if tables is not None:
+        corr = applied_correction(result.errors, tables, q)
+        left_max, left_rms = _norms(volumetric_error(result.errors, q) - corr)
+    tmax = tmodel = tres = trms = None
     if truth is not None:
         et = volumetric_error(truth, q)
-        r = np.linalg.norm(et - e, axis=1)
-        tmax = float(np.linalg.norm(et, axis=1).max())
-        tres = float(r.max())
-        trms = float(np.sqrt(np.mean(r**2)))
-    return CompensationSummary(None if folder is None else Path(folder), manifest,
-                               float(np.linalg.norm(e, axis=1).max()),
-                               float(2.0 * np.linalg.norm(u, axis=1).max()), tmax, tres, trms,
-                               n)
+        tmax = _norms(et)[0]
+        tmodel = _norms(et - e)[0]
+        if corr is not None:
+            tres, trms = _norms(et - corr)
+    vs = [] if tolerance is None else verdicts(tolerance, session, result.errors, tables,
+                                                edition, n)
+    return CompensationSummary(None if folder is None else Path(folder), manifest, tables,
+                               model_max, model_rms, left_max, left_rms,
+                               float(2.0 * np.linalg.norm(u, axis=1).max()), tmax, tmodel,
+                               tres, trms, vs, n)
 
 
 def read_truth(session: Session) -> MachineErrors | None:
@@ -133,8 +200,8 @@ def read_truth(session: Session) -> MachineErrors | None:
 
 
 def collect_inputs(session: Session, result: Any = None, truth: MachineErrors | None = None,
-                   edition: str = "2014", compensation: str | Path | None = None
-                   ) -> ReportInputs:
+                   edition: str = "2014", compensation: str | Path | None = None,
+                   tolerance: Any = None) -> ReportInputs:
     """Evaluate the session and its model for the report.
 
     Parameters
@@ -149,6 +216,9 @@ def collect_inputs(session: Session, result: Any = None, truth: MachineErrors | 
         ISO 230-2 edition.
     compensation : str or Path, optional
         Folder of compensation tables written from ``result``.
+    tolerance : Tolerance, optional
+        Tolerances for the pass/fail verdict of the compensation section (volumetric
+        and/or per-axis ISO 230-2 ``A``).
 
     Returns
     -------
@@ -161,6 +231,7 @@ def collect_inputs(session: Session, result: Any = None, truth: MachineErrors | 
         truth = read_truth(session)
     comp = None
     if result is not None:
-        comp = compensation_summary(result, session.travel, truth, compensation)
+        comp = compensation_summary(result, session.travel, truth, compensation,
+                                    tolerance=tolerance, session=session, edition=edition)
     return ReportInputs(session, result, truth, ev.iso230_2 or None, ev.iso230_6 or None,
                         ev.volumetric, comp, elv=ev.elv)

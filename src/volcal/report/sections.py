@@ -381,45 +381,79 @@ def volumetric_section(inp: ReportInputs) -> Section | None:
 
 
 def compensation_section(inp: ReportInputs) -> Section | None:
-    """Summarise the compensation tables and the error they leave.
+    """Say what the written tables correct and the error they leave; the tolerance verdict.
 
     Parameters
     ----------
     inp : ReportInputs
-        Session and results; ``compensation`` is the compensation summary.
+        Session and results; ``compensation`` is the compensation summary
+        (:class:`volcal.report.pipeline.CompensationSummary`).
 
     Returns
     -------
     Section or None
-        None when there is no compensation summary.
+        None when there is no compensation summary. Without a compensation folder the
+        section states the model's error only, never a before/after.
     """
     c = inp.compensation
     if c is None:
         return None
     sec = Section("compensation", "Compensation")
-    if c.folder is not None:
-        m = c.manifest
+    cells = f"{c.n}³ points of the work zone"
+    if c.folder is None or c.tables is None:
+        sec.paragraphs.append(
+            "No compensation tables were given for this report, so nothing is said about "
+            "the error after compensation; `volcal compensate MODEL.json` writes them and "
+            "`volcal report --compensation FOLDER` shows what they correct.")
+        rows = [["modelled volumetric error, largest |e|", fmt(c.model_max_um)],
+                ["modelled volumetric error, RMS", fmt(c.model_rms_um)],
+                ["model uncertainty, largest 2u (k = 2)", fmt(c.residual_u2_max_um)]]
+        if c.truth_max_um is not None:
+            rows += [["true volumetric error (simulation), largest |e|", fmt(c.truth_max_um)],
+                     ["true minus modelled error, largest", fmt(c.truth_model_max_um)]]
+        sec.tables.append(Table(["quantity", "value [µm]"], rows,
+                                "Volumetric error of the identified model", f"Over {cells}."))
+    else:
+        from volcal.report.carried import describe
+
+        m, t = c.manifest, c.tables
         sec.paragraphs.append(
             f"Compensation tables for the '{m.get('controller_format', '?')}' format were "
-            f"written to {c.folder}: {', '.join(m.get('files', []))}. Values are "
-            f"{'errors (actual - commanded)' if m.get('sign') == 'error' else 'corrections'}"
-            f", {m.get('spacing_mm', '?')} mm apart. Check the sign convention of your "
-            "controller before loading them.")
-    else:
-        sec.paragraphs.append("No compensation tables were written for this report; "
-                              "`volcal compensate MODEL.json` writes them.")
-    rows = [["modelled volumetric error, largest |e|", fmt(c.model_max_um)],
-            ["left after compensation, largest 2u (model uncertainty, k = 2)",
-             fmt(c.residual_u2_max_um)]]
-    if c.truth_max_um is not None:
-        rows += [["true volumetric error (simulation), largest |e|", fmt(c.truth_max_um)],
-                 ["true error left after compensation, largest |e − model|",
-                  fmt(c.truth_residual_max_um)],
-                 ["true error left after compensation, RMS", fmt(c.truth_residual_rms_um)]]
-    sec.tables.append(Table(["quantity", "value [µm]"], rows,
-                            "Volumetric error before and after compensation",
-                            f"Over a grid of {c.n}³ points of the work zone; a controller "
-                            "applying the model exactly leaves only the estimation error."))
+            f"written to {c.folder}: {', '.join(map(str, m.get('files', [])))}. They carry "
+            + describe(t) + " The controller corrects those components only; everything "
+            "else (the components not listed, and the estimation error of the model) "
+            "stays.")
+        sec.paragraphs.append(
+            "The error left is computed from the model: its volumetric error with every "
+            "carried component replaced by the model minus the table as the controller "
+            "interpolates it (table points, rounding, interpolation rule), assuming the "
+            f"tables are loaded with the sign the controller expects (written: "
+            f"'{t.sign}').")
+        rows = [["modelled volumetric error, largest |e|", fmt(c.model_max_um),
+                 fmt(c.left_max_um)],
+                ["modelled volumetric error, RMS", fmt(c.model_rms_um), fmt(c.left_rms_um)]]
+        if c.truth_max_um is not None:
+            rows.append(["true volumetric error (simulation), largest |e|",
+                         fmt(c.truth_max_um), fmt(c.truth_residual_max_um)])
+            rows.append(["true volumetric error (simulation), RMS", "-",
+                         fmt(c.truth_residual_rms_um)])
+        sec.tables.append(Table(
+            ["quantity", "before [µm]", "after these tables [µm]"], rows,
+            f"Volumetric error before and after the {t.kind} tables",
+            f"Over {cells}. The model itself is uncertain by up to "
+            f"{fmt(c.residual_u2_max_um)} µm (2u, k = 2): no table removes that."))
+    if c.verdicts:
+        rows = [[v.quantity, fmt(v.tolerance_um), fmt(v.before_um), v.before,
+                 fmt(v.after_um), v.after] for v in c.verdicts]
+        sec.tables.append(Table(
+            ["quantity", "tolerance [µm]", "before [µm]", "verdict before",
+             "after [µm]", "verdict after"], rows, "Tolerance verdict",
+            "pass: value ≤ tolerance. Volumetric: largest |e| of the model; per axis: the "
+            "ISO 230-2 accuracy A of the measured linear tests, after = the same readings "
+            "with the tables' correction taken off. '-': no compensation tables given."))
+        failed = [v.quantity for v in c.verdicts
+                  if "FAIL" in (v.before, v.after) and v.after != "pass"]
+        sec.warnings.extend(f"out of tolerance: {q}" for q in failed)
     return sec
 
 

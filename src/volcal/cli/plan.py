@@ -72,16 +72,32 @@ def simulate(
     drift_um_per_h: float = typer.Option(0.0, help="Linear drift of the readings [um/h]."),
     machine: Path | None = typer.Option(None, help="Error table ERRORS.csv (default: random)."),
     reversal_um: float = typer.Option(0.0, help="Max reversal of a random machine's axes [um]."),
+    overwrite: bool = typer.Option(False, "--overwrite", help="Replace readings that "
+                                   "`volcal simulate` did not write (measured ones); a backup "
+                                   "of the replaced files is kept in SESSION/backup/<time>/."),
 ) -> None:
-    """Fill the deviations from a virtual machine; keep its truth in SESSION/truth/."""
+    """Fill the deviations from a virtual machine; keep its truth in SESSION/truth/.
+
+    Refuses a session holding readings it did not write itself (measured or edited
+    since), unless --overwrite is given; then the old files are kept in a backup.
+    """
     from volcal.measure.simulate import SimulationOptions, simulate_session, truth_files
     from volcal.measure.virtual import ErrorRanges, random_machine
     from volcal.session.errortable import read_error_table
     from volcal.session.format import read_session, write_session
+    from volcal.session.provenance import backup_name, measured_ids
 
     if not (np.isfinite(reversal_um) and reversal_um >= 0):
         raise VolcalInputError(f"--reversal-um {reversal_um}: expected a finite value >= 0")
     s = read_session(session, require_deviation=False)
+    measured = measured_ids(s)
+    if measured and not overwrite:
+        shown = ", ".join(measured[:6]) + (f" and {len(measured) - 6} more"
+                                           if len(measured) > 6 else "")
+        raise VolcalInputError(
+            f"holds readings that `volcal simulate` did not write ({shown}): simulating would "
+            "overwrite them; nothing was changed. Use --overwrite to replace them (a backup is "
+            "kept in backup/)", s.path / "session.toml" if s.path else session)
     if machine is not None:
         vm = read_error_table(machine, chain=s.chain)
         if not machine.with_suffix(".toml").is_file():
@@ -100,7 +116,17 @@ def simulate(
     opts = SimulationOptions(noise_um=noise_um, mirror_misalignment_urad=mirror_urad,
                              drift_um_per_h=drift_um_per_h, seed=seed)
     setups = simulate_session(s, vm, opts)
-    write_session(s, session, truth_files(vm, setups, opts), keep_existing=True)
+    from volcal.session.provenance import simulated_provenance
+
+    s.provenance = simulated_provenance(
+        s, seed=seed, noise_um=float(noise_um), mirror_urad=float(mirror_urad),
+        drift_um_per_h=float(drift_um_per_h),
+        machine=str(machine) if machine is not None else f"random (seed {seed})")
+    backup = backup_name(session) if measured else None
+    write_session(s, session, truth_files(vm, setups, opts), keep_existing=True, backup=backup)
+    if backup is not None:
+        console.print(f"replaced the readings of {len(measured)} measurements; the old files "
+                      f"are kept in {Path(session) / backup}/", highlight=False)
     console.print(f"simulated {len(s.measurements)} measurements on '{vm.name}' "
                   f"(noise {noise_um} um, mirror {mirror_urad} urad); truth in {session}/truth/")
 

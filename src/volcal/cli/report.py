@@ -7,6 +7,8 @@ from pathlib import Path
 import typer
 from rich.console import Console
 
+from volcal.cli._common import print_session_notes
+
 console = Console()
 
 
@@ -32,6 +34,7 @@ def report_cmd(
 
     check_output_folder(output, "report", lambda p: (p / "report.html").is_file())
     s = read_session(session)
+    print_session_notes(s)
     if model is not None:
         from volcal.identify import load_model
 

@@ -492,7 +492,8 @@ def _read_rows(path: str | Path) -> _Rows:
 
 def _missed_note(file: str | Path, rows: NDArray[np.int64], missed: NDArray[np.bool_]) -> str:
     r = ", ".join(str(int(v)) for v in rows[missed])
-    return f"{file}: missed capture{'s' if missed.sum() > 1 else ''} skipped (row{'s' if missed.sum() > 1 else ''} {r})"
+    s = "s" if missed.sum() > 1 else ""
+    return f"{file}: missed capture{s} skipped (row{s} {r})"
 
 
 def _drop_missed(r: _Rows, file: str | Path, notes: list[str] | None) -> _Rows:

@@ -1,4 +1,4 @@
-"""Soft checks of a session's readings: is each measurement consistent with the others?
+"""Soft checks of a session's readings: each measurement consistent with the others.
 
 Readings that are possible but unlikely give a warning naming the measurement (printed
 by the commands, recorded in the identification's notes); absurd values are refused by
@@ -9,9 +9,10 @@ the reader itself (``docs/formats.md``, "Plausibility"). The checks:
   with the median of the session's measurements of the same kind (all measurements
   when fewer than 3 share its kind); more than :data:`SCALE_RATIO` times the median
   (the median floored at :data:`SCALE_FLOOR_UM_PER_M`) is flagged;
-* **sign** of a whole linear test: with at least 3 linear tests of one axis, a test whose
-  mean deviation per target is much closer to minus the mean of the others than to it
-  (:data:`SIGN_RATIO`) is flagged;
+* **sign** of a whole linear test: with at least 3 linear tests of one axis on the same
+  targets, a test whose mean deviation per target ``c`` is much closer to minus each of
+  the others than to it (``|c + o| < SIGN_RATIO |c - o|``), while the others agree with
+  each other (``|o1 - o2| < SIGN_RATIO |o1 + o2|``), is flagged;
 * **order** (a reversed CSV): poses moving against the beam direction of
   ``session.toml``; in a linear test, ``+`` rows whose positions descend; a first
   reading far from 0 (readings count from the first row, so reversed deviations start
@@ -35,7 +36,7 @@ SCALE_RATIO = 30.0
 """A spread this many times the session's median is flagged [-]."""
 SCALE_FLOOR_UM_PER_M = 2.0
 """Floor of the median spread (noise of a good laser over 1 m) [um/m]."""
-SIGN_RATIO = 0.25
+SIGN_RATIO = 0.15
 """Flag a sign when ``|c + ref| < SIGN_RATIO |c - ref|`` (per-target means) [-]."""
 SIGN_MIN_UM = 2.0
 """Smallest RMS of the per-target means for the sign check to speak [um]."""
@@ -89,10 +90,13 @@ def _sign(ms: list[Measurement]) -> list[str]:
                       and curves[o.id][0].shape == t.shape and np.allclose(curves[o.id][0], t)]
             if len(others) < 2:
                 continue
-            ref = np.mean([o[1] for o in others], axis=0)
-            if np.sqrt(np.mean(c**2)) < SIGN_MIN_UM or np.sqrt(np.mean(ref**2)) < SIGN_MIN_UM:
+            cs = [o[1] for o in others]
+            if min(np.sqrt(np.mean(v**2)) for v in [c, *cs]) < SIGN_MIN_UM:
                 continue
-            if np.linalg.norm(c + ref) < SIGN_RATIO * np.linalg.norm(c - ref):
+            flipped = all(np.linalg.norm(c + o) < SIGN_RATIO * np.linalg.norm(c - o) for o in cs)
+            agree = all(np.linalg.norm(a - b) < SIGN_RATIO * np.linalg.norm(a + b)
+                        for i, a in enumerate(cs) for b in cs[i + 1:])
+            if flipped and agree:
                 ids = ", ".join(o.id for o in lines if o is not m)
                 out.append(f"{m.id}: readings of the opposite sign to the other {'XYZ'[k]} "
                            f"lines ({ids}): a whole test with the wrong sign in {m.file}?")

@@ -39,7 +39,6 @@ from volcal.session.format import (
 
 TRAVEL = np.array([[0.0, 400.0], [0.0, 300.0], [0.0, 200.0]])
 
-settings.register_profile("fuzz", deadline=None, suppress_health_check=list(HealthCheck))
 FUZZ = os.environ.get("HYPOTHESIS_PROFILE") == "fuzz"
 N_READ = 10_000 if FUZZ else 40
 """Examples of the reader test: 10^4 in the slow run, a fixed 40 in ``make test``."""

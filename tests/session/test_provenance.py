@@ -104,3 +104,44 @@ def test_overwrite_keeps_a_backup(planned, tmp_path):
     assert (S / "notes.txt").read_text() == "keep me"
     assert "7.125" not in (S / "linear-x2.csv").read_text()
     assert read_session(S).provenance["seed"] == 3
+
+
+def test_import_replace_keeps_the_replaced_readings(planned, tmp_path):
+    from test_cli_bad_input import LASER_EXPORT, LASER_MAP
+
+    S = tmp_path / "S"
+    shutil.copytree(planned, S)
+    assert volcal("simulate", S, "--seed", "1").returncode == 0
+    (tmp_path / "laser.csv").write_text(LASER_EXPORT)
+    old_csv = (S / "linear-x1.csv").read_bytes()
+    old_toml = (S / "session.toml").read_bytes()
+    r = volcal("import", tmp_path / "laser.csv", "--map", LASER_MAP, "--axis", "X",
+               "--session", S, "--id", "linear-x1", "--replace")
+    assert r.returncode == 0, r.stderr
+    (b,) = list((S / "backup").iterdir())
+    assert (b / "linear-x1.csv").read_bytes() == old_csv
+    assert (b / "session.toml").read_bytes() == old_toml
+    assert f"the replaced readings of linear-x1 are kept in {b}/" in " ".join(r.stdout.split())
+    assert read_session(S).get("linear-x1").n == 12
+    # replacing a planned (empty) measurement keeps no backup: nothing to lose
+    P = tmp_path / "P"
+    shutil.copytree(planned, P)
+    r = volcal("import", tmp_path / "laser.csv", "--map", LASER_MAP, "--axis", "X",
+               "--session", P, "--id", "linear-x1", "--replace")
+    assert r.returncode == 0, r.stderr
+    assert not (P / "backup").exists()
+
+
+def test_import_never_overwrites_a_file_of_the_folder(planned, tmp_path):
+    from test_cli_bad_input import LASER_EXPORT, LASER_MAP
+
+    S = tmp_path / "S"
+    shutil.copytree(planned, S)
+    (S / "mine.csv").write_text("my notes\n")
+    (tmp_path / "laser.csv").write_text(LASER_EXPORT)
+    before = snapshot(S)
+    r = volcal("import", tmp_path / "laser.csv", "--map", LASER_MAP, "--axis", "X",
+               "--session", S, "--id", "mine")
+    assert r.returncode == 2
+    assert "'mine.csv' exists in the session and is not a measurement's file" in r.stderr
+    assert snapshot(S) == before

@@ -405,6 +405,17 @@ def import_csv(path: str | Path, mapping: dict[str, str], axis: str, line_mm, se
     others = {e.get("file") for i, e in enumerate(entries) if i not in same}
     if m.file in others:
         raise VolcalInputError(f"file {m.file!r} belongs to another measurement", toml_path)
+    old_files = {e.get("file") for i, e in enumerate(entries) if i in same}
+    if (folder / m.file).exists() and m.file not in old_files:
+        raise VolcalInputError(f"{m.file!r} exists in the session and is not a measurement's "
+                               "file: choose another --id (nothing is overwritten)", toml_path)
+    old = [f for f in old_files if isinstance(f, str) and (folder / f).is_file()]
+    had_readings = [m0.id for m0 in s.measurements if m0.id == mid and m0.deviation is not None]
+    if had_readings:  # never discard readings: keep the replaced files
+        from volcal.session.provenance import backup_files
+
+        kept = backup_files(folder, old)
+        notes.append(f"the replaced readings of {mid} are kept in {kept}/")
     entry = m.to_toml()
     if same:
         entries[same[0]] = entry

@@ -19,7 +19,7 @@ import numpy as np
 
 from volcal.session.format import Session
 
-__all__ = ["BACKUP_FOLDER", "backup_name", "backup_session_files", "measured_ids",
+__all__ = ["BACKUP_FOLDER", "backup_files", "backup_name", "backup_session_files", "measured_ids",
            "readings_digest", "simulated_provenance"]
 
 BACKUP_FOLDER = "backup"
@@ -146,3 +146,31 @@ def backup_session_files(folder: Path, files: list[str], rel: str) -> list[str]:
         shutil.copytree(folder / "truth", folder / rel / "truth")
         done.append("truth/")
     return done
+
+
+def backup_files(folder: str | Path, files: list[str]) -> Path:
+    """Copy ``session.toml`` and ``files`` of a session into a new ``backup/<time>/``.
+
+    Each copy is written atomically (a temporary file renamed into place) before
+    anything in the session is replaced.
+
+    Parameters
+    ----------
+    folder : str or Path
+        Session folder.
+    files : list of str
+        Files relative to ``folder`` (measurement CSVs).
+
+    Returns
+    -------
+    Path
+        The backup folder.
+    """
+    from volcal.io.atomic import write_bytes
+
+    folder = Path(folder)
+    rel = backup_name(folder)
+    for f in ["session.toml", *files]:
+        if (folder / f).is_file():
+            write_bytes(folder / rel / f, (folder / f).read_bytes())
+    return folder / rel

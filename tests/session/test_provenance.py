@@ -145,3 +145,18 @@ def test_import_never_overwrites_a_file_of_the_folder(planned, tmp_path):
     assert r.returncode == 2
     assert "'mine.csv' exists in the session and is not a measurement's file" in r.stderr
     assert snapshot(S) == before
+
+
+def test_plan_into_a_planned_folder_keeps_other_files(planned, tmp_path):
+    P = tmp_path / "P"
+    shutil.copytree(planned, P)
+    (P / "notes.txt").write_text("keep me")
+    r = volcal("plan", "--travel", TRAVEL, "--steps", "3", "--tests", "diagonal", "-o", P)
+    assert r.returncode == 0, r.stderr
+    assert (P / "notes.txt").read_text() == "keep me"
+    assert len(read_session(P, require_deviation=False).measurements) == 4
+    # ... and never replaces a session with readings
+    assert volcal("simulate", P).returncode == 0
+    before = snapshot(P)
+    r = volcal("plan", "--travel", TRAVEL, "-o", P)
+    assert r.returncode == 2 and snapshot(P) == before

@@ -59,7 +59,7 @@ def plan(
                      step_target=step_target,
                      iso_spacing=iso_spacing, linear_margin_mm=overrun_mm,
                      abbe_tool_offset_mm=abbe_offset_mm)
-    write_session(s, output)
+    write_session(s, output, keep_existing=True)  # a re-plan keeps the folder's other files
     n = sum(m.n for m in s.measurements)
     console.print(f"planned {len(s.measurements)} measurements, {n} readings -> {output}")
 

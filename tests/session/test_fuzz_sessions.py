@@ -74,14 +74,14 @@ def _mutate(data: st.DataObject, folder: Path) -> None:
     how = data.draw(st.sampled_from(["token", "token", "cell", "truncate", "insert", "drop_line",
                                      "dup_line", "swap_lines", "drop_column", "delete"]),
                     label="how")
-    if how == "token":
-        pieces = [p for p in text.replace("\n", ",").replace(" = ", ",").split(",") if p.strip()]
+    pieces = [p for p in text.replace("\n", ",").replace(" = ", ",").split(",") if p.strip()]
+    lines = [ln.split(",") for ln in text.splitlines()]
+    if how == "token" and pieces:
         old = data.draw(st.sampled_from(pieces))
         text = text.replace(old, data.draw(st.sampled_from(TOKENS)), 1)
-    elif how == "cell" and target.suffix == ".csv":
-        lines = [ln.split(",") for ln in text.splitlines()]
+    elif how == "cell" and target.suffix == ".csv" and len(lines) > 1:
         i = data.draw(st.integers(1, len(lines) - 1))
-        j = data.draw(st.integers(0, len(lines[0]) - 1))
+        j = data.draw(st.integers(0, len(lines[i]) - 1))
         lines[i][j] = data.draw(st.one_of(st.sampled_from(TOKENS),
                                           st.floats(allow_nan=True).map(repr)))
         text = "\n".join(",".join(r) for r in lines) + "\n"
@@ -90,7 +90,7 @@ def _mutate(data: st.DataObject, folder: Path) -> None:
     elif how == "insert":
         i = data.draw(st.integers(0, len(text)))
         text = text[:i] + data.draw(st.text(max_size=12)) + text[i:]
-    elif how in ("drop_line", "dup_line", "swap_lines"):
+    elif how in ("drop_line", "dup_line", "swap_lines") and text.splitlines():
         lines = text.splitlines()
         i = data.draw(st.integers(0, len(lines) - 1))
         if how == "drop_line":

@@ -17,6 +17,8 @@ from volcal.session.format import Measurement
 # not come and go between runs); HYPOTHESIS_PROFILE=explore draws new examples each run.
 settings.register_profile("ci", derandomize=True, deadline=None)
 settings.register_profile("explore", deadline=None)
+# the slow fuzz run of session files (tests/session/test_fuzz_sessions.py, README): new examples
+settings.register_profile("fuzz", deadline=None)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
 TRAVEL = np.array([[0.0, 800.0], [0.0, 600.0], [0.0, 500.0]])

@@ -221,6 +221,14 @@ def chain_of(*fs: Mutation) -> Mutation:
     return f
 
 
+def add_column(rel: str, name: str, value: str) -> Mutation:
+    """Append a column ``name`` holding ``value`` in every row."""
+    def fn(text: str) -> str:
+        lines = text.splitlines()
+        return "\n".join([f"{lines[0]},{name}", *(f"{ln},{value}" for ln in lines[1:])]) + "\n"
+    return edit(rel, fn)
+
+
 def clear_deviations(rel: str) -> Mutation:
     """Empty the deviation column (a planned, unmeasured measurement)."""
     def fn(text: str) -> str:
@@ -249,7 +257,7 @@ class Case:
 
 
 SHORT = ("missing-session", "file-not-folder", "truncated-toml", "text-in-number",
-         "planned-not-measured")
+         "planned-not-measured", "1e308", "99999-mm", "unknown-target")
 """Session mistakes tried on every command; the full list runs on simulate and identify
 (one reader, ``read_session``, serves all commands)."""
 
@@ -300,15 +308,51 @@ def sessions_cases(cmd: list[str], out: list[str] | None = None,
                                                         'target = "flat-mirror"', 1))),
         Case(f"{name}:ragged-row", [*cmd, "{d}/S", *o], ("diag-ppp.csv", "row 3"),
              edit("S/diag-ppp.csv", lambda t: t.replace("\n", ",1\n", 3).replace(",1\n", "\n", 2))),
+        Case(f"{name}:1e308", [*cmd, "{d}/S", *o],
+             ("diag-npp.csv", "row 3", "column 'deviation_um'", "absurd value 1e308"),
+             set_cell("S/diag-npp.csv", 3, "deviation_um", "1e308")),
+        Case(f"{name}:20-mm-deviation", [*cmd, "{d}/S", *o],
+             ("linear-x1.csv", "row 4", "column 'deviation_um'", "|value| > 10000 um"),
+             set_cell("S/linear-x1.csv", 4, "deviation_um", "-20000")),
+        Case(f"{name}:99999-mm", [*cmd, "{d}/S", *o],
+             ("step-ppp.csv", "row 4", "column 'x_mm'", "outside the travel 0..400 mm"),
+             set_cell("S/step-ppp.csv", 4, "x_mm", "99999")),
+        Case(f"{name}:unknown-target", [*cmd, "{d}/S", *o],
+             ("session.toml", "measurements[0].target", "unknown target 'flat-mirror'",
+              "flat_mirror, retroreflector, retroreflector_mirror"),
+             edit("S/session.toml", lambda t: t.replace('target = "flat_mirror"',
+                                                        'target = "flat-mirror"', 1))),
+        Case(f"{name}:unknown-kind", [*cmd, "{d}/S", *o],
+             ("session.toml", "measurements[0].kind", "unknown kind 'step-diagonal'"),
+             edit("S/session.toml", lambda t: t.replace('kind = "step_diagonal"',
+                                                        'kind = "step-diagonal"', 1))),
+        Case(f"{name}:off-the-line", [*cmd, "{d}/S", *o],
+             ("linear-y2.csv", "row 4", "column 'z_mm'", "not on the line"),
+             set_cell("S/linear-y2.csv", 4, "z_mm", "7")),
+        Case(f"{name}:off-the-diagonal", [*cmd, "{d}/S", *o],
+             ("diag-pnp.csv", "row 3", "column 'x_mm'", "not on the diagonal"),
+             set_cell("S/diag-pnp.csv", 3, "x_mm", "20")),
+        Case(f"{name}:off-the-steps", [*cmd, "{d}/S", *o],
+             ("step-npp.csv", "row 6", "column 'y_mm'", "stepping pattern"),
+             set_cell("S/step-npp.csv", 6, "y_mm", "150")),
+        Case(f"{name}:step-row-missing", [*cmd, "{d}/S", *o],
+             ("step-ppn.csv", "1 + 3N rows"), keep_lines("S/step-ppn.csv", 10)),
+        Case(f"{name}:missed-first-row", [*cmd, "{d}/S", *o],
+             ("diag-ppn.csv", "row 2", "column 'deviation_um'", "cannot be a missed capture"),
+             set_cell("S/diag-ppn.csv", 2, "deviation_um", "missed")),
+        Case(f"{name}:bad-status", [*cmd, "{d}/S", *o],
+             ("diag-ppn.csv", "row 2", "column 'status'", "expected one of 'ok', 'missed'"),
+             add_column("S/diag-ppn.csv", "status", "skipped")),
     ]
     if needs_measured:
         cases += [
-            Case(f"{name}:planned-not-measured", [*cmd, "{d}/P", *o], ("P", "deviation_um")),
+            Case(f"{name}:planned-not-measured", [*cmd, "{d}/P", *o],
+                 ("P", "deviation_um", "no readings yet: the deviation_um column of all 17 "
+                  "measurements is empty")),
             Case(f"{name}:one-empty-deviation", [*cmd, "{d}/S", *o],
-                 ("step-pnp.csv", "row 3", "deviation_um"),
+                 ("step-pnp.csv", "row 3", "deviation_um", "missing deviation: write the "
+                  "reading, or 'missed' for a missed capture"),
                  set_cell("S/step-pnp.csv", 3, "deviation_um", "")),
-            Case(f"{name}:half-measured", [*cmd, "{d}/S", *o], ("linear-x2.csv", "deviation_um"),
-                 clear_deviations("S/linear-x2.csv")),
         ]
     return cases if full else [c for c in cases if c.id.split(":")[1] in SHORT]
 
@@ -354,6 +398,13 @@ CASES: list[Case] = [
     Case("simulate:reversal-negative", ["simulate", "{d}/P", "--reversal-um", "-3"],
          ("--reversal-um",)),
     Case("simulate:seed-negative", ["simulate", "{d}/P", "--seed", "-1"], ("--seed",)),
+    Case("simulate:measured-readings", ["simulate", "{d}/S", "--seed", "2"],
+         ("S/session.toml", "holds readings that `volcal simulate` did not write",
+          "--overwrite"), set_cell("S/linear-x2.csv", 3, "deviation_um", "7.125")),
+    Case("simulate:measured-no-provenance", ["simulate", "{d}/S"],
+         ("S/session.toml", "holds readings that `volcal simulate` did not write"),
+         edit("S/session.toml", lambda t: t.replace('readings = "simulated"',
+                                                    'readings = "measured"'))),
     Case("simulate:machine-missing", ["simulate", "{d}/P", "--machine", "{d}/NOPE.csv"],
          ("NOPE.csv",)),
     Case("simulate:machine-folder", ["simulate", "{d}/P", "--machine", "{d}/EMPTY"], ("EMPTY",)),
@@ -783,3 +834,67 @@ def test_output_in_read_only_folder(args: list[str], base: Path, tmp_path: Path)
         assert snapshot(d) == before
     finally:
         (d / "RO").chmod(0o755)
+
+
+PARTIAL_COMMANDS = [
+    ["identify", "{d}/S", "-o", "{d}/M3.json"],
+    ["evaluate", "session", "{d}/S", "--json"],
+    ["evaluate", "iso230-6", "{d}/S"],
+    ["classic", "abbe-session", "{d}/S"],
+    ["classic", "step-diagonal", "{d}/S"],
+    ["classic", "diagonals", "{d}/S"],
+]
+
+
+@pytest.mark.parametrize("args", PARTIAL_COMMANDS, ids=[" ".join(a[:2]) for a in PARTIAL_COMMANDS])
+def test_partial_session(args: list[str], base: Path, tmp_path: Path) -> None:
+    """A partly measured session (one linear line, one diagonal, one step diagonal still
+    empty; one missed capture) works on the measured subset and says what it left out."""
+    d = tmp_path / "w"
+    shutil.copytree(base, d)
+    for f in ("linear-x2", "diag-ppp", "step-npp"):
+        clear_deviations(f"S/{f}.csv")(d)
+    set_cell("S/diag-npp.csv", 3, "deviation_um", "missed")(d)
+    r = volcal(*[a.format(d=d) for a in args], cwd=d)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert "Traceback" not in r.stdout + r.stderr
+    err = " ".join(r.stderr.split())
+    assert "note: no readings yet: step-npp, diag-ppp, linear-x2 (working on the 14 measured)" \
+        in err
+    assert f"note: {d}/S/diag-npp.csv: missed capture skipped (row 3)" in err
+    if args[0] == "evaluate" and "--json" in args:
+        import json
+
+        out = json.loads(r.stdout)
+        assert "linear-x2" not in out["measurements"] and "linear-x1" in out["measurements"]
+    if args[0] == "identify":
+        import json
+
+        fit = json.loads((d / "M3.json").read_text())["fit"]
+        assert "linear-x2" not in fit["measurements"]
+        assert fit["notes"][0] == ("no readings yet: step-npp, diag-ppp, linear-x2 (working on "
+                                   "the 14 measured)")
+
+
+def test_implausible_scale_is_warned_and_recorded(base: Path, tmp_path: Path) -> None:
+    """mm pasted into deviation_um (x1000) of one linear test: identify warns, names it and
+    records the warning in the model's notes."""
+    d = tmp_path / "w"
+    shutil.copytree(base, d)
+
+    def x1000(text: str) -> str:
+        rows = [ln.split(",") for ln in text.splitlines()]
+        j = rows[0].index("deviation_um")
+        for r in rows[1:]:
+            r[j] = f"{float(r[j]) * 1000:.3f}"
+        return "\n".join(",".join(r) for r in rows) + "\n"
+
+    edit("S/linear-y3.csv", x1000)(d)
+    r = volcal("identify", d / "S", "-o", d / "M3.json", cwd=d)
+    assert r.returncode == 0, r.stderr
+    err = " ".join(r.stderr.split())
+    assert "warning: linear-y3: deviations ~" in err and "mm entered as um in linear-y3.csv?" in err
+    import json
+
+    notes = json.loads((d / "M3.json").read_text())["fit"]["notes"]
+    assert any(n.startswith("warning: linear-y3: deviations ~") for n in notes)

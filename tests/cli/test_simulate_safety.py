@@ -28,7 +28,7 @@ def test_simulate_refuses_measured_readings_and_keeps_a_backup_on_overwrite(tmp_
     before = {p.name: p.read_text() for p in (tmp_path / "M").glob("*.csv")}
     r = _cli("simulate", str(tmp_path / "M"))
     assert r.returncode == 2 and "Traceback" not in r.stderr
-    assert "holds measured readings" in r.stderr and "--overwrite" in r.stderr
+    assert "did not write" in r.stderr and "--overwrite" in r.stderr
     assert {p.name: p.read_text() for p in (tmp_path / "M").glob("*.csv")} == before
     r = _cli("simulate", str(tmp_path / "M"), "--overwrite")
     assert r.returncode == 0, r.stderr

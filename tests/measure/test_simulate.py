@@ -86,3 +86,20 @@ def test_truth_files_roundtrip(tmp_path):
         np.testing.assert_allclose(back.values[k], m.values[k], atol=1e-6)
         np.testing.assert_allclose(back.nodes[k], m.nodes[k], rtol=1e-6)
     np.testing.assert_allclose(back.squareness, m.squareness)
+
+
+def test_simulation_refuses_poses_against_the_beam():
+    """Rows out of order (the first pose in the middle of a diagonal): the virtual laser,
+    aligned from the first to the farthest pose, would read metres; the simulator refuses
+    instead of writing a file its own reader rejects (found by the session fuzz test)."""
+    from volcal.errors import VolcalInputError
+
+    s = _session(tests=("diagonal",), steps=2)
+    d = s.get("diag-npp")
+    d.positions = d.positions[[1, 0, 2]].copy()
+    with pytest.raises(VolcalInputError) as exc:
+        simulate_session(s, machine("XYFZ"))
+    assert exc.value.file == "diag-npp.csv" and exc.value.row == 3
+    assert exc.value.message.endswith("um is absurd (> 10000 um): the poses of 'diag-npp' do "
+                                      "not run from the first row along its beam direction "
+                                      "(rows out of order?)")

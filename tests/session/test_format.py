@@ -78,8 +78,11 @@ def test_planned_skeleton_needs_flag(tmp_path):
     write_session(s, tmp_path / "P")
     with pytest.raises(VolcalInputError) as exc:
         read_session(tmp_path / "P")
-    assert exc.value.file.endswith("diag-ppp.csv") and exc.value.row == 2
+    assert exc.value.file.endswith("session.toml") and exc.value.row is None
     assert exc.value.column == "deviation_um"
+    assert exc.value.message == (
+        "no readings yet: the deviation_um column of all 4 measurements is empty (measure "
+        "them, `volcal import` or `volcal simulate` first)")
     assert all(m.deviation is None for m in read_session(tmp_path / "P", False).measurements)
 
 
@@ -119,7 +122,8 @@ def test_csv_validation_names_row_and_column(tmp_path, text, row, column, words)
 ])
 def test_toml_validation_names_key(tmp_path, edit, key):
     (tmp_path / "session.toml").write_text(EXAMPLE_TOML.replace(*edit))
-    (tmp_path / "step-ppp.csv").write_text("x_mm,y_mm,z_mm,deviation_um\n0,0,0,0\n1,1,1,0\n")
+    (tmp_path / "step-ppp.csv").write_text("x_mm,y_mm,z_mm,deviation_um\n0,0,0,0\n1,0,0,0\n"
+                                           "1,1,0,0\n1,1,1,0\n")
     (tmp_path / "line.csv").write_text("x_mm,y_mm,z_mm,deviation_um\n0,0,0,0\n1,0,0,0\n")
     with pytest.raises(VolcalInputError) as exc:
         read_session(tmp_path)

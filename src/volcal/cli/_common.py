@@ -33,3 +33,23 @@ def parse_vector(text: str, option: str) -> np.ndarray:
     if v.size != 3 or not np.all(np.isfinite(v)):
         raise VolcalInputError(f"{option} {text!r}: expected three finite numbers x,y,z")
     return v
+
+
+def print_session_notes(session: object) -> None:
+    """Print a session's reader notes and plausibility warnings on stderr, one a line.
+
+    Stderr, so that ``--json`` outputs on stdout stay valid JSON.
+
+    Parameters
+    ----------
+    session : Session
+        As returned by :func:`volcal.session.format.read_session`.
+    """
+    from rich.console import Console
+    from rich.markup import escape
+
+    err = Console(stderr=True, soft_wrap=True)
+    for n in getattr(session, "notes", []):
+        err.print(f"[cyan]note:[/] {escape(n)}", highlight=False)
+    for w in getattr(session, "warnings", []):
+        err.print(f"[yellow]warning:[/] {escape(w)}", highlight=False)

@@ -10,6 +10,7 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
+from volcal.cli._common import print_session_notes
 from volcal.errors import VolcalInputError
 
 console = Console()
@@ -110,6 +111,7 @@ def abbe_session_cmd(
 
         check_output_folder(output, "Abbe-line", lambda p: any(p.glob("abbe-?.csv")))
     s = read_session(session)
+    print_session_notes(s)
     results = abbe_session(s)
     if not results:
         raise VolcalInputError("the session has no linear measurements", session)
@@ -140,7 +142,9 @@ def step_diagonal(
         from volcal.io.paths import check_output_file
 
         check_output_file(Path(output).with_suffix(".csv"))
-    r = step_diagonal_session(read_session(session))
+    s = read_session(session)
+    print_session_notes(s)
+    r = step_diagonal_session(s)
     sq = ", ".join(f"{n} = {v:.2f} urad" for n, v in zip(("EC0Y", "EB0Z", "EA0Z"),
                                                          r.errors.squareness, strict=True))
     console.print(f"{r.n_increments} increments, residual RMS {r.residual_rms_um:.3f} um; {sq}")
@@ -162,6 +166,7 @@ def diagonals(
     from volcal.session.format import read_session
 
     s = read_session(session)
+    print_session_notes(s)
     checks = diagonal_check(s.measurements)
     if not checks:
         raise VolcalInputError("the session has no diagonal measurements", session)

@@ -11,6 +11,8 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
+from volcal.cli._common import print_session_notes
+
 console = Console()
 evaluate_app = typer.Typer(help="Evaluate measurements to the standards (ISO 230-2, "
                            "VDI/DGQ 3441, ISO 230-6, ISO 230-1 volumetric indices).",
@@ -100,6 +102,7 @@ def iso230_6_cmd(
     from volcal.standards.iso230_6 import evaluate_diagonal
 
     s = read_session(session)
+    print_session_notes(s)
     res = [evaluate_diagonal(m) for m in s.measurements if m.kind == "diagonal"]
     if not res:
         raise VolcalInputError("no diagonal measurements in the session", session)
@@ -140,6 +143,7 @@ def session_cmd(
 
     tol = _tolerance_inputs(tolerance_um, model, compensation)
     s = read_session(session)
+    print_session_notes(s)
     ev = evaluate_session(s, edition=edition)
     results, axis_of = ev.iso230_2, ev.axis
     skipped = [k for k, why in ev.skipped.items() if why == "no run/direction columns"]

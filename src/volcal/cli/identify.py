@@ -10,7 +10,7 @@ import numpy as np
 import typer
 from rich.console import Console
 
-from volcal.cli._common import parse_vector
+from volcal.cli._common import parse_vector, print_session_notes
 from volcal.errors import VolcalInputError
 
 console = Console()
@@ -55,6 +55,7 @@ def identify_cmd(
     if ids is not None and not ids:
         raise VolcalInputError(f"--measurements {measurements!r}: no measurement id given")
     s = read_session(session)
+    print_session_notes(s)
     if ids is not None:
         have = {m.id for m in s.measurements}
         missing = [i for i in ids if i not in have]

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from datetime import UTC
 from pathlib import Path
 
 import numpy as np
@@ -68,7 +67,7 @@ def plan(
                      iso_spacing=iso_spacing, linear_margin_mm=overrun_mm,
                      abbe_tool_offset_mm=abbe_offset_mm,
                      multilateration=_multilateration_options(grid, stations, tool_offsets))
-    write_session(s, output)
+    write_session(s, output, keep_existing=True)  # a re-plan keeps the folder's other files
     n = sum(m.n for m in s.measurements)
     console.print(f"planned {len(s.measurements)} measurements, {n} readings -> {output}")
 
@@ -81,40 +80,32 @@ def simulate(
     drift_um_per_h: float = typer.Option(0.0, help="Linear drift of the readings [um/h]."),
     machine: Path | None = typer.Option(None, help="Error table ERRORS.csv (default: random)."),
     reversal_um: float = typer.Option(0.0, help="Max reversal of a random machine's axes [um]."),
-    overwrite: bool = typer.Option(False, help="Replace measured readings (a backup of the "
-                                   "old files is kept in SESSION/backup/)."),
+    overwrite: bool = typer.Option(False, "--overwrite", help="Replace readings that "
+                                   "`volcal simulate` did not write (measured ones); a backup "
+                                   "of the replaced files is kept in SESSION/backup/<time>/."),
 ) -> None:
     """Fill the deviations from a virtual machine; keep its truth in SESSION/truth/.
 
-    A session that holds readings not written by ``simulate`` (measured or imported) is
-    refused unless ``--overwrite`` is given; then the old files are kept in
-    ``SESSION/backup/<time>/``.
+    Refuses a session holding readings it did not write itself (measured or edited
+    since), unless --overwrite is given; then the old files are kept in a backup.
     """
     from volcal.measure.simulate import SimulationOptions, simulate_session, truth_files
     from volcal.measure.virtual import ErrorRanges, random_machine
     from volcal.session.errortable import read_error_table
     from volcal.session.format import read_session, write_session
+    from volcal.session.provenance import backup_name, measured_ids
 
     if not (np.isfinite(reversal_um) and reversal_um >= 0):
         raise VolcalInputError(f"--reversal-um {reversal_um}: expected a finite value >= 0")
     s = read_session(session, require_deviation=False)
-    measured = [m.id for m in s.measurements
-                if m.deviation is not None and m.meta.get("readings_source") != "simulated"]
-    backup: dict[str, str] = {}
+    measured = measured_ids(s)
     if measured and not overwrite:
-        shown = ", ".join(measured[:5]) + (f" and {len(measured) - 5} more"
-                                           if len(measured) > 5 else "")
+        shown = ", ".join(measured[:6]) + (f" and {len(measured) - 6} more"
+                                           if len(measured) > 6 else "")
         raise VolcalInputError(
-            f"the session holds measured readings ({shown}): simulate would overwrite them; "
-            "simulate a copy of the planned session, or give --overwrite (a backup is kept)",
-            session)
-    if measured:
-        from datetime import datetime
-
-        stamp = datetime.now(UTC).strftime("%Y%m%dT%H%M%SZ")
-        for rel in ["session.toml", *(m.file for m in s.measurements)]:
-            if (session / rel).is_file():
-                backup[f"backup/{stamp}/{rel}"] = (session / rel).read_text(encoding="utf-8")
+            f"holds readings that `volcal simulate` did not write ({shown}): simulating would "
+            "overwrite them; nothing was changed. Use --overwrite to replace them (a backup is "
+            "kept in backup/)", s.path / "session.toml" if s.path else session)
     if machine is not None:
         vm = read_error_table(machine, chain=s.chain)
         if not machine.with_suffix(".toml").is_file():
@@ -132,11 +123,18 @@ def simulate(
                             name=f"virtual {s.name}")
     opts = SimulationOptions(noise_um=noise_um, mirror_misalignment_urad=mirror_urad,
                              drift_um_per_h=drift_um_per_h, seed=seed)
-    setups = simulate_session(s, vm, opts)  # marks every measurement as simulated
-    write_session(s, session, {**truth_files(vm, setups, opts), **backup}, keep_existing=True)
-    if backup:
-        console.print(f"measured readings replaced; the old files are in "
-                      f"{session}/{next(iter(backup)).rsplit('/', 2)[0]}/", highlight=False)
+    setups = simulate_session(s, vm, opts)
+    from volcal.session.provenance import simulated_provenance
+
+    s.provenance = simulated_provenance(
+        s, seed=seed, noise_um=float(noise_um), mirror_urad=float(mirror_urad),
+        drift_um_per_h=float(drift_um_per_h),
+        machine=str(machine) if machine is not None else f"random (seed {seed})")
+    backup = backup_name(session) if measured else None
+    write_session(s, session, truth_files(vm, setups, opts), keep_existing=True, backup=backup)
+    if backup is not None:
+        console.print(f"replaced the readings of {len(measured)} measurements; the old files "
+                      f"are kept in {Path(session) / backup}/", highlight=False)
     console.print(f"simulated {len(s.measurements)} measurements on '{vm.name}' "
                   f"(noise {noise_um} um, mirror {mirror_urad} urad); truth in {session}/truth/")
 

@@ -7,6 +7,8 @@ from pathlib import Path
 import typer
 from rich.console import Console
 
+from volcal.cli._common import print_session_notes
+
 console = Console()
 
 
@@ -40,6 +42,7 @@ def report_cmd(
     tol = None if tolerance_um is None else parse_tolerance(tolerance_um)
     check_output_folder(output, "report", lambda p: (p / "report.html").is_file())
     s = read_session(session)
+    print_session_notes(s)
     if model is not None:
         from volcal.identify.modelfile import check_model_session, load_model
 

@@ -409,6 +409,8 @@ def _result(session: Session, design: Design, sol: Solution, report, o: Identify
         "measurements": [m.id for m in design.measurements],
         "known": sorted(design.fixed_names),
         "gauge": "every function zero at the start of travel; straightness also at the end",
+        # what the session reader noted (unmeasured, missed captures) and flagged as implausible
+        "notes": [*session.notes, *(f"warning: {w}" for w in session.warnings)],
     }
     return IdentificationResult(session.name, errors, design.layout, design.free, factor, std,
                                 sq_std, report, fit, residuals, fitted, nuis, outliers,

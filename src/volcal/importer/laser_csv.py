@@ -390,6 +390,15 @@ def import_csv(path: str | Path, mapping: dict[str, str], axis: str, line_mm, se
     line = np.asarray(line_mm, dtype=float).reshape(3)
     k = AXES.index(ax)
     table = read_laser_csv(path, mapping, units, deviation_units)
+    from volcal.session.format import DEVIATION_ABS_MAX_UM
+
+    big = np.flatnonzero(np.abs(table.deviation_um) > DEVIATION_ABS_MAX_UM)
+    if big.size:  # never write a session file its reader refuses (docs/formats.md)
+        col = mapping.get("deviation") or mapping.get("reading")
+        raise VolcalInputError(
+            f"deviation {table.deviation_um[big[0]]:.6g} um of reading {big[0] + 1} is absurd "
+            f"(> {DEVIATION_ABS_MAX_UM:g} um): wrong units, or a column that is not the "
+            "laser's reading?", path, None, col)
     pos = np.tile(line, (table.target_mm.size, 1))
     pos[:, k] = line[k] + table.target_mm
     beam = np.zeros(3)
@@ -427,6 +436,17 @@ def import_csv(path: str | Path, mapping: dict[str, str], axis: str, line_mm, se
     others = {e.get("file") for i, e in enumerate(entries) if i not in same}
     if m.file in others:
         raise VolcalInputError(f"file {m.file!r} belongs to another measurement", toml_path)
+    old_files = {e.get("file") for i, e in enumerate(entries) if i in same}
+    if (folder / m.file).exists() and m.file not in old_files:
+        raise VolcalInputError(f"{m.file!r} exists in the session and is not a measurement's "
+                               "file: choose another --id (nothing is overwritten)", toml_path)
+    old = [f for f in old_files if isinstance(f, str) and (folder / f).is_file()]
+    had_readings = [m0.id for m0 in s.measurements if m0.id == mid and m0.deviation is not None]
+    if had_readings:  # never discard readings: keep the replaced files
+        from volcal.session.provenance import backup_files
+
+        kept = backup_files(folder, old)
+        notes.append(f"the replaced readings of {mid} are kept in {kept}/")
     entry = m.to_toml()
     if same:
         entries[same[0]] = entry
@@ -440,9 +460,16 @@ def import_csv(path: str | Path, mapping: dict[str, str], axis: str, line_mm, se
 
 def _check_travel(m: Measurement, travel: NDArray[np.float64], notes: list[str],
                   source: Path | None = None) -> None:
-    from volcal.session.format import check_in_travel
+    from volcal.session.checks import travel_margin
 
-    check_in_travel(m, travel, source or Path(m.file))
+    margin = travel_margin(travel)
+    out = np.flatnonzero(np.any((m.positions < travel[:, 0] - margin)
+                                | (m.positions > travel[:, 1] + margin), axis=1))
+    if out.size:  # the session reader would refuse it (docs/formats.md, Plausibility)
+        raise VolcalInputError(f"position {m.positions[out[0]].tolist()} mm of reading "
+                               f"{out[0] + 1} is outside the session's travel by more than the "
+                               f"margin {margin.tolist()} mm: check --line-mm and --units",
+                               source or m.meta.get("import", {}).get("source"))
     lo, hi = travel[:, 0] - 1e-9, travel[:, 1] + 1e-9
     bad = np.flatnonzero(np.any((m.positions < lo) | (m.positions > hi), axis=1))
     if bad.size:

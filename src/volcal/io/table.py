@@ -64,6 +64,9 @@ class Column:
         against absurd values such as 1e308.
     aliases : tuple of str
         Other header names accepted for this column.
+    markers : tuple of str
+        Words accepted in place of a number (compared without case, e.g. ``'missed'``):
+        such a cell reads as NaN and is flagged in :attr:`Table.marked`.
     """
 
     name: str
@@ -75,6 +78,7 @@ class Column:
     max: float | None = None
     abs_max: float | None = None
     aliases: tuple[str, ...] = ()
+    markers: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         """Check the specification itself (a programming error, not a user one)."""
@@ -164,6 +168,8 @@ class Table:
         Physical line number (1-based; header = 1) of each data row, for messages.
     extra : dict of str to list of str
         Columns no specification knows, as text (when ``unknown='ignore'``).
+    marked : dict of str to ndarray of bool
+        For each column with ``markers``: True where the cell held a marker word.
     """
 
     path: Path | None
@@ -171,6 +177,7 @@ class Table:
     columns: dict[str, NDArray[Any]]
     rows: NDArray[np.int64]
     extra: dict[str, list[str]] = field(default_factory=dict)
+    marked: dict[str, NDArray[np.bool_]] = field(default_factory=dict)
 
     def __len__(self) -> int:
         """Number of data rows."""
@@ -400,6 +407,7 @@ def parse_table(text: str, spec: TableSpec, path: str | Path | None = None) -> T
         raise VolcalInputError(spec.min_rows_message.format(min=spec.min_rows, n=len(data)),
                                p, (data[-1][0] if data else header_row))
     values: dict[str, list[Any]] = {name: [] for name in idx}
+    marks: dict[str, list[bool]] = {name: [] for name in idx if spec.column(name).markers}
     known_idx = set(idx.values())
     extra_idx = [j for j in range(len(header)) if j not in known_idx]
     extra: dict[str, list[str]] = {header[j]: [] for j in extra_idx}
@@ -407,14 +415,22 @@ def parse_table(text: str, spec: TableSpec, path: str | Path | None = None) -> T
         if len(rec) != len(header):
             raise VolcalInputError(f"expected {len(header)} fields, found {len(rec)}", p, row)
         for name, j in idx.items():
-            values[name].append(_parse_cell(rec[j], spec.column(name), p, row))
+            c = spec.column(name)
+            if name in marks:
+                hit = rec[j].strip().lower() in (w.lower() for w in c.markers)
+                marks[name].append(hit)
+                if hit:
+                    values[name].append(math.nan)
+                    continue
+            values[name].append(_parse_cell(rec[j], c, p, row))
         for j in extra_idx:
             extra[header[j]].append(rec[j].strip())
     cols: dict[str, NDArray[Any]] = {}
     for name, v in values.items():
         kind = spec.column(name).kind
         cols[name] = np.array(v, dtype={"float": float, "int": np.int64}.get(kind, str))
-    return Table(p, header, cols, np.array([r for r, _ in data], dtype=np.int64), extra)
+    return Table(p, header, cols, np.array([r for r, _ in data], dtype=np.int64), extra,
+                 {k: np.array(v, dtype=bool) for k, v in marks.items()})
 
 
 def columns_present(table: Table, names: Iterable[str]) -> list[str]:

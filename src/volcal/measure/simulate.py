@@ -16,7 +16,7 @@ from volcal.measure.readings import SetupErrors, perpendicular_basis, reading_ex
 from volcal.model.errorfunctions import MachineErrors
 from volcal.model.kinematics import UM
 from volcal.session.errortable import error_table_csv, error_table_toml
-from volcal.session.format import Session
+from volcal.session.format import DEVIATION_ABS_MAX_UM, Session
 
 __all__ = ["SimulationOptions", "simulate_session", "truth_files"]
 
@@ -125,8 +125,16 @@ def simulate_session(session: Session, machine: MachineErrors,
             noise = rng.normal(0.0, o.noise_um, m.n)
             dev = dev + noise - noise[0]
         m.deviation = dev - dev[0]
-        m.meta["readings_source"] = "simulated"  # provenance: simulate may overwrite it
+        big = np.abs(m.deviation) > DEVIATION_ABS_MAX_UM
+        if big.any():  # never write a file its own reader refuses
+            where = (session.path / m.file) if session.path is not None else m.file
+            raise VolcalInputError(
+                f"simulated deviation {m.deviation[big][0]:.6g} um is absurd (> "
+                f"{DEVIATION_ABS_MAX_UM:g} um): the poses of {m.id!r} do not run from the "
+                "first row along its beam direction (rows out of order?)", where,
+                int(np.argmax(big)) + 2, "x_mm")
         m.columns["time_s"] = time_s
+        m.columns.pop("status", None)  # every row now has a reading (no missed capture)
         setups[m.id] = setup
     return setups
 

@@ -23,14 +23,17 @@ from volcal.errors import VolcalInputError
 from volcal.io.atomic import atomic_dir, write_text
 from volcal.io.table import Column, TableSpec, read_table
 from volcal.io.tomlfmt import dumps as toml_dumps
-from volcal.io.values import parse_finite
 from volcal.model.chain import parse_chain
 
 SESSION_FORMAT = "volcal-session/1"
 KINDS: tuple[str, ...] = ("linear", "diagonal", "step_diagonal", "multilateration")
+"""Measurement kinds (``kind`` in ``session.toml``); adding one here adds it everywhere."""
 TARGETS: tuple[str, ...] = ("flat_mirror", "retroreflector", "retroreflector_mirror", "cat_eye")
+"""Targets (``target`` in ``session.toml``); adding one here adds it everywhere."""
 MULTILATERATION_COLUMN = "length_mm"
 """Reading column of a multilateration CSV: change of the station-to-reflector distance."""
+MISSED = "missed"
+"""Word marking a missed capture in ``deviation_um`` (or in the optional ``status`` column)."""
 REQUIRED_COLUMNS: tuple[str, ...] = ("x_mm", "y_mm", "z_mm", "deviation_um")
 OPTIONAL_COLUMNS: dict[str, str] = {
     "run": "int",
@@ -40,6 +43,7 @@ OPTIONAL_COLUMNS: dict[str, str] = {
     "air_pressure_pa": "float",
     "humidity_pct": "float",
     "material_temperature_c": "float",
+    "status": "text",
 }
 MIN_ROWS = 2
 ABSURD_DEVIATION_UM = 10_000.0
@@ -85,6 +89,16 @@ class Measurement:
     meta : dict
         Optional metadata: ``axis``, ``axis_order``, ``diagonal``, ``plane``, ``notes``,
         ``environment`` (table), ``readings`` (``'deviation'`` or ``'raw'``)...
+    rows : ndarray of int, shape (n,), optional
+        Row of each reading in its CSV file (header = row 1), for messages; missed
+        captures leave gaps.
+
+    Raises
+    ------
+    VolcalInputError
+        Unknown ``kind`` or ``target`` (the message lists the valid ones), positions not
+        of shape (n, 3) or not finite, a zero or non-finite beam direction, a tool
+        offset not of shape (3,), deviations of another length than the positions.
     """
 
     id: str
@@ -97,30 +111,33 @@ class Measurement:
     file: str = ""
     columns: dict[str, NDArray[Any]] = field(default_factory=dict)
     meta: dict[str, Any] = field(default_factory=dict)
+    rows: NDArray[np.int64] | None = None
 
     def __post_init__(self) -> None:
-        """Validate the set-up: kind, target, shapes, finite values."""
-        if self.kind not in KINDS:
-            raise VolcalInputError(f"measurement {self.id!r}: unknown kind {self.kind!r}: "
-                                   f"expected one of {', '.join(KINDS)}")
-        if self.target not in TARGETS:
-            raise VolcalInputError(f"measurement {self.id!r}: unknown target {self.target!r}: "
-                                   f"expected one of {', '.join(TARGETS)}")
+        """Validate every field (a Measurement built in Python is checked as one read)."""
+        if not isinstance(self.id, str) or not self.id:
+            raise VolcalInputError(f"measurement id must be a non-empty string, got {self.id!r}")
+        where = f"measurement {self.id!r}"
+        check_choice(self.kind, KINDS, "kind", where)
+        check_choice(self.target, TARGETS, "target", where)
         if not self.file:
             self.file = f"{self.id}.csv"
-        try:
-            self.positions = np.asarray(self.positions, dtype=float).reshape(-1, 3)
-            self.beam_direction = np.asarray(self.beam_direction, dtype=float).reshape(3)
-            self.tool_offset = np.asarray(self.tool_offset, dtype=float).reshape(3)
-        except (ValueError, TypeError) as exc:
-            raise VolcalInputError(f"measurement {self.id!r}: positions must be n x 3, beam "
-                                   f"direction and tool offset 3 numbers ({exc})") from None
-        for what, v in (("positions", self.positions), ("beam direction", self.beam_direction),
-                        ("tool offset", self.tool_offset)):
-            if not np.all(np.isfinite(v)):
-                raise VolcalInputError(f"measurement {self.id!r}: {what} must be finite")
+        self.positions = _array(self.positions, (-1, 3), f"{where}: positions [mm]")
+        if self.positions.shape[0] < 1:
+            raise VolcalInputError(f"{where}: positions [mm] must have at least one row")
+        self.beam_direction = _array(self.beam_direction, (3,), f"{where}: beam_direction")
+        if np.linalg.norm(self.beam_direction) < 1e-12:
+            raise VolcalInputError(f"{where}: beam_direction must not be the zero vector")
+        self.tool_offset = _array(self.tool_offset, (3,), f"{where}: tool_offset [mm]")
         if self.deviation is not None:
-            self.deviation = np.asarray(self.deviation, dtype=float).reshape(-1)
+            d = np.asarray(self.deviation, dtype=float)
+            if d.shape != (self.positions.shape[0],):
+                raise VolcalInputError(f"{where}: deviation [um] has shape {d.shape}, expected "
+                                       f"({self.positions.shape[0]},) like the positions")
+            if np.any(np.isinf(d)):
+                raise VolcalInputError(f"{where}: deviation [um] must be finite (NaN marks a "
+                                       "missed capture)")
+            self.deviation = d
 
     @property
     def n(self) -> int:
@@ -181,12 +198,66 @@ class Measurement:
         w.writerow([*header, *extra])
         for i in range(self.n):
             row = [_fmt(v) for v in self.positions[i]]
-            row.append("" if values is None else fmt.format(values[i]))
+            if values is None:
+                row.append("")
+            else:
+                row.append(MISSED if np.isnan(values[i]) else fmt.format(values[i]))
             for c in extra:
                 v = self.columns[c][i]
-                row.append(str(v) if OPTIONAL_COLUMNS[c] in ("int", "dir") else _fmt(v))
+                row.append(str(v) if OPTIONAL_COLUMNS[c] in ("int", "dir", "text")
+                           else _fmt(v))
             w.writerow(row)
         return buf.getvalue()
+
+
+def check_choice(value: Any, valid: tuple[str, ...], what: str, where: str = "",
+                 file: str | Path | None = None, key: str | None = None) -> str:
+    """Check that ``value`` is one of ``valid``; the message lists the valid values.
+
+    Parameters
+    ----------
+    value : object
+        The value read or given.
+    valid : tuple of str
+        The valid values (e.g. :data:`KINDS`, :data:`TARGETS`).
+    what : str
+        Name of the field (``'kind'``).
+    where : str
+        Context for the message (``"measurement 'x1'"``).
+    file : str or Path, optional
+        File of the value, for the error.
+    key : str, optional
+        TOML key or column of the value, for the error.
+
+    Returns
+    -------
+    str
+        ``value``.
+
+    Raises
+    ------
+    VolcalInputError
+        ``value`` is not one of ``valid``.
+    """
+    if not isinstance(value, str) or value not in valid:
+        pre = f"{where}: " if where else ""
+        raise VolcalInputError(f"{pre}unknown {what} {value!r}: expected one of "
+                               f"{', '.join(valid)}", file, None, key)
+    return value
+
+
+def _array(value: Any, shape: tuple[int, ...], what: str) -> NDArray[np.float64]:
+    try:
+        a = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise VolcalInputError(f"{what}: expected numbers, got {value!r}"[:200]) from None
+    want = tuple(a.shape[0] if k == -1 and a.ndim else k for k in shape)
+    if a.shape != want:
+        shown = "(n, 3)" if shape == (-1, 3) else str(shape)
+        raise VolcalInputError(f"{what}: expected shape {shown}, got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise VolcalInputError(f"{what}: values must be finite")
+    return a
 
 
 def _fmt(v: float) -> str:
@@ -210,6 +281,24 @@ class Session:
         Other ``[machine]`` keys kept as they were read.
     path : Path, optional
         Folder the session was read from.
+    unmeasured : list of Measurement
+        Planned measurements without readings yet, set aside by :func:`read_session`
+        (``measurements`` then holds the measured subset).
+    notes : list of str
+        What the reader did that the user should know (measurements without readings,
+        missed captures skipped); commands print them.
+    warnings : list of str
+        Implausible readings (:mod:`volcal.session.plausibility`), each naming the
+        measurement; commands print them and the identification records them.
+    provenance : dict
+        The ``[provenance]`` table: who wrote the readings (``readings = "simulated"``,
+        seed, date, digest of the readings; ``docs/formats.md``).
+
+    Raises
+    ------
+    VolcalInputError
+        Unknown chain, travel not (3, 2) finite with max > min, an entry that is not a
+        Measurement, two measurements with one id.
     """
 
     name: str
@@ -218,10 +307,29 @@ class Session:
     measurements: list[Measurement] = field(default_factory=list)
     meta: dict[str, Any] = field(default_factory=dict)
     path: Path | None = None
+    unmeasured: list[Measurement] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+    provenance: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
+        """Validate chain, travel and measurements."""
         self.chain = parse_chain(self.chain).code
-        self.travel = np.asarray(self.travel, dtype=float).reshape(3, 2)
+        self.travel = _array(self.travel, (3, 2), "travel [mm]")
+        if np.any(self.travel[:, 1] <= self.travel[:, 0]):
+            raise VolcalInputError("travel [mm]: every axis needs max > min")
+        seen: set[str] = set()
+        for m in [*self.measurements, *self.unmeasured]:
+            if not isinstance(m, Measurement):
+                raise VolcalInputError(f"a session holds Measurement objects, got {m!r}"[:200])
+            if m.id in seen:
+                raise VolcalInputError(f"duplicate measurement id {m.id!r}")
+            seen.add(m.id)
+
+    @property
+    def unmeasured_ids(self) -> list[str]:
+        """Ids of the planned measurements without readings (set aside by the reader)."""
+        return [m.id for m in self.unmeasured]
 
     def get(self, mid: str) -> Measurement:
         """Measurement by id.
@@ -250,12 +358,16 @@ class Session:
         machine: dict[str, Any] = {"name": self.name, "chain": self.chain}
         machine.update(self.meta)
         machine["travel_mm"] = {a: [float(v) for v in self.travel[i]] for i, a in enumerate("xyz")}
-        return {"format": SESSION_FORMAT, "machine": machine,
-                "measurements": [m.to_toml() for m in self.measurements]}
+        every = [*self.measurements, *self.unmeasured]  # set-aside ones kept, at the end
+        doc: dict[str, Any] = {"format": SESSION_FORMAT, "machine": machine}
+        if self.provenance:
+            doc["provenance"] = dict(self.provenance)
+        doc["measurements"] = [m.to_toml() for m in every]
+        return doc
 
 
 def write_session(session: Session, folder: str | Path, extra_files: dict[str, str] | None = None,
-                  keep_existing: bool = False) -> Path:
+                  keep_existing: bool = False, backup: str | None = None) -> Path:
     """Write a session folder atomically (built aside, then moved into place).
 
     Parameters
@@ -269,6 +381,10 @@ def write_session(session: Session, folder: str | Path, extra_files: dict[str, s
     keep_existing : bool
         Copy every other file of an existing ``folder`` (results of later commands, the
         user's notes) into the new folder; files written here replace their old versions.
+    backup : str, optional
+        With ``keep_existing``: first copy the existing ``session.toml``, measurement
+        CSVs and ``truth/`` into this sub-folder (relative, e.g. ``backup/<time>``),
+        in the same atomic replacement.
 
     Returns
     -------
@@ -282,6 +398,12 @@ def write_session(session: Session, folder: str | Path, extra_files: dict[str, s
     with atomic_dir(folder) as tmp:
         if keep_existing and folder.is_dir():
             shutil.copytree(folder, tmp, symlinks=True, dirs_exist_ok=True)
+            if backup is not None:
+                from volcal.session.provenance import backup_session_files
+
+                backup_session_files(tmp, names, backup)
+                if (tmp / "truth").is_dir():
+                    shutil.rmtree(tmp / "truth")  # the new truth, if any, comes below
         (tmp / "session.toml").write_text(toml_dumps(session.to_toml()), encoding="utf-8")
         for m in session.measurements:
             (tmp / m.file).parent.mkdir(parents=True, exist_ok=True)
@@ -329,20 +451,21 @@ def _vec3(value: Any, file: Path, key: str, nonzero: bool = False) -> NDArray[np
     return a
 
 
-_parse_float = parse_finite
-
-
-_UNIT_HINTS = {"deviation": "um", "x": "mm", "y": "mm", "z": "mm"}
-
+DEVIATION_ABS_MAX_UM = 10_000.0
+"""Largest plausible |deviation| [um] (10 mm): larger values are errors, not readings."""
+POSITION_ABS_MAX_MM = 1.0e6
+"""Largest plausible |position| [mm] (1 km): a guard against absurd values such as 1e308."""
 
 MEASUREMENT_TABLE = TableSpec(
     columns=(
-        Column("x_mm"), Column("y_mm"), Column("z_mm"),
-        Column("deviation_um", empty=True, abs_max=ABSURD_DEVIATION_UM),
+        Column("x_mm", abs_max=POSITION_ABS_MAX_MM), Column("y_mm", abs_max=POSITION_ABS_MAX_MM),
+        Column("z_mm", abs_max=POSITION_ABS_MAX_MM),
+        Column("deviation_um", empty=True, abs_max=DEVIATION_ABS_MAX_UM, markers=(MISSED,)),
         Column("run", kind="int", required=False, min=0),
         Column("direction", kind="choice", required=False, choices=("+", "-")),
         *(Column(c, required=False) for c, k in OPTIONAL_COLUMNS.items()
           if k == "float"),
+        Column("status", kind="choice", required=False, empty=True, choices=("ok", MISSED)),
     ),
     min_rows=MIN_ROWS,
     min_rows_message="need at least {min} readings, found {n}",
@@ -365,10 +488,64 @@ MULTILATERATION_TABLE = TableSpec(
 )
 """Columns of a multilateration CSV: ``length_mm`` instead of ``deviation_um``."""
 
+@dataclass
+class _Rows:
+    """A measurement CSV as read: every row, with the missed captures marked."""
+
+    positions: NDArray[np.float64]
+    deviation: NDArray[np.float64] | None  # NaN at missed captures; None: not measured
+    columns: dict[str, NDArray[Any]]
+    rows: NDArray[np.int64]
+    missed: NDArray[np.bool_]
+
+
+def _read_rows(path: str | Path) -> _Rows:
+    t = read_table(path, MEASUREMENT_TABLE)
+    pos = np.stack([t["x_mm"], t["y_mm"], t["z_mm"]], axis=1)
+    dev = t["deviation_um"]
+    missed = t.marked["deviation_um"].copy()
+    if t.has("status"):
+        missed |= t["status"] == MISSED
+    empty = np.isnan(dev) & ~missed
+    cols = {c: t[c] for c in OPTIONAL_COLUMNS if t.has(c)}
+    if (empty | missed).all():
+        return _Rows(pos, None, cols, t.rows, missed)
+    if empty.any():
+        raise t.error(f"missing deviation: write the reading, or '{MISSED}' for a missed "
+                      "capture (docs/formats.md)", int(np.argmax(empty)), "deviation_um")
+    if missed[0]:
+        raise t.error("the first row is the reference of the readings (deviation 0 by "
+                      "definition): it cannot be a missed capture", 0, "deviation_um")
+    dev = np.where(missed, np.nan, dev)
+    return _Rows(pos, dev, cols, t.rows, missed)
+
+
+def _missed_note(file: str | Path, rows: NDArray[np.int64], missed: NDArray[np.bool_]) -> str:
+    r = ", ".join(str(int(v)) for v in rows[missed])
+    s = "s" if missed.sum() > 1 else ""
+    return f"{file}: missed capture{s} skipped (row{s} {r})"
+
+
+def _drop_missed(r: _Rows, file: str | Path, notes: list[str] | None) -> _Rows:
+    if r.deviation is None or not r.missed.any():
+        return r
+    keep = ~r.missed
+    if keep.sum() < MIN_ROWS:
+        raise VolcalInputError(f"need at least {MIN_ROWS} readings, found {int(keep.sum())} "
+                               "besides the missed captures", file, int(r.rows[-1]),
+                               "deviation_um")
+    if notes is not None:
+        notes.append(_missed_note(file, r.rows, r.missed))
+    cols = {k: v[keep] for k, v in r.columns.items() if k != "status"}
+    return _Rows(r.positions[keep], r.deviation[keep], cols, r.rows[keep], r.missed[keep])
+
 
 def read_measurement_csv(path: str | Path, require_deviation: bool = True,
-                         value_column: str = "deviation_um"):
+                         notes: list[str] | None = None, value_column: str = "deviation_um"):
     """Read one measurement CSV.
+
+    Rows marked as missed captures (``deviation_um`` = ``missed``, or ``status`` =
+    ``missed``) are skipped, with a note.
 
     Parameters
     ----------
@@ -379,6 +556,8 @@ def read_measurement_csv(path: str | Path, require_deviation: bool = True,
     value_column : str
         Name of the reading column: ``'deviation_um'`` [um], or ``'length_mm'`` [mm] for a
         multilateration measurement (returned as read, in its own unit).
+    notes : list of str, optional
+        Notes about the file (missed captures skipped) are appended here.
 
     Returns
     -------
@@ -392,31 +571,46 @@ def read_measurement_csv(path: str | Path, require_deviation: bool = True,
     Raises
     ------
     VolcalInputError
-        Naming file, row (1-based, header = row 1) and column.
+        Naming file, row (1-based, header = row 1) and column; ``no readings yet`` for an
+        empty ``deviation_um`` column when ``require_deviation``.
     """
-    spec = MULTILATERATION_TABLE if value_column == MULTILATERATION_COLUMN else MEASUREMENT_TABLE
-    t = read_table(path, spec)
-    pos = np.stack([t["x_mm"], t["y_mm"], t["z_mm"]], axis=1)
-    dev: NDArray[np.float64] | None = t[value_column]
-    missing = np.isnan(dev)
-    if missing.all() and not require_deviation:
-        dev = None
-    elif missing.any():
-        raise t.error("missing reading" if value_column != "deviation_um"
-                      else "missing deviation", int(np.argmax(missing)), value_column)
-    out = {c: t[c] for c in OPTIONAL_COLUMNS if t.has(c)}
-    return pos, dev, out
+    if value_column == MULTILATERATION_COLUMN:
+        t = read_table(path, MULTILATERATION_TABLE)
+        pos = np.stack([t["x_mm"], t["y_mm"], t["z_mm"]], axis=1)
+        dev: NDArray[np.float64] | None = t[value_column]
+        missing = np.isnan(dev)
+        if missing.all() and not require_deviation:
+            dev = None
+        elif missing.any():
+            raise t.error("missing reading", int(np.argmax(missing)), value_column)
+        out = {c: t[c] for c in OPTIONAL_COLUMNS if t.has(c)}
+        return pos, dev, out
+    r = _read_rows(path)
+    if r.deviation is None:
+        if require_deviation:
+            raise VolcalInputError("no readings yet: the deviation_um column is empty "
+                                   "(planned, not measured)", path, None, "deviation_um")
+        return r.positions, None, r.columns
+    r = _drop_missed(r, path, notes)
+    return r.positions, r.deviation, r.columns
 
 
 def read_session(folder: str | Path, require_deviation: bool = True) -> Session:
     """Read and validate a session folder.
+
+    With ``require_deviation`` (what every command that uses readings asks), the
+    measurements without readings yet are set aside in ``Session.unmeasured`` and named
+    in one note, missed captures are skipped with a note, and the plausibility checks of
+    :mod:`volcal.session.plausibility` add their warnings; a session without any reading
+    is refused with ``no readings yet: ...``.
 
     Parameters
     ----------
     folder : str or Path
         Folder with ``session.toml`` (or the path of ``session.toml`` itself).
     require_deviation : bool
-        If False, planned skeletons with empty deviations load.
+        If False (plan, program, simulate, advise), every measurement is kept, planned
+        skeletons with empty deviations load, missed captures stay as NaN.
 
     Returns
     -------
@@ -458,7 +652,39 @@ def read_session(folder: str | Path, require_deviation: bool = True) -> Session:
         parse_chain(chain)
     except VolcalInputError as exc:
         raise _err(exc.message, toml_path, None, "machine.chain") from None
-    tr = machine.get("travel_mm")
+    travel = _read_travel(machine.get("travel_mm"), toml_path)
+    meta = {k: v for k, v in machine.items() if k not in ("name", "chain", "travel_mm")}
+    provenance = doc.get("provenance", {})
+    if not isinstance(provenance, dict):
+        raise _err("[provenance] must be a table", toml_path, None, "provenance")
+    raw = doc.get("measurements", [])
+    if not isinstance(raw, list) or not raw:
+        raise _err("no [[measurements]] in the session", toml_path, None, "measurements")
+    seen: set[str] = set()
+    meas, unmeasured, notes = [], [], []
+    for i, e in enumerate(raw):
+        m = _read_entry(e, i, folder, toml_path, seen, require_deviation, travel, notes)
+        if m.meta.get("readings") == "raw" and m.deviation is not None:
+            from volcal.environment.apply import compensate_measurement
+
+            m = compensate_measurement(m, f"{toml_path} [{m.id}]")
+        (unmeasured if require_deviation and m.deviation is None else meas).append(m)
+    if require_deviation and not meas:
+        raise _err(f"no readings yet: the deviation_um column of all {len(unmeasured)} "
+                   "measurements is empty (measure them, `volcal import` or `volcal simulate` "
+                   "first)", toml_path, None, "deviation_um")
+    if unmeasured:
+        notes.insert(0, f"no readings yet: {', '.join(m.id for m in unmeasured)} "
+                     f"(working on the {len(meas)} measured)")
+    s = Session(name, chain, travel, meas, meta, folder, unmeasured, notes, [], provenance)
+    if require_deviation:
+        from volcal.session.plausibility import plausibility_warnings
+
+        s.warnings = plausibility_warnings(s)
+    return s
+
+
+def _read_travel(tr: Any, toml_path: Path) -> NDArray[np.float64]:
     if not isinstance(tr, dict):
         raise _err("missing [machine.travel_mm] table with x, y, z = [min, max]", toml_path, None,
                    "machine.travel_mm")
@@ -472,26 +698,13 @@ def read_session(folder: str | Path, require_deviation: bool = True) -> Session:
         key = f"machine.travel_mm.{a}"
         if (not isinstance(v, list) or len(v) != 2
                 or any(isinstance(x, bool) or not isinstance(x, int | float) for x in v)
-                or not all(math.isfinite(x) for x in v)):
+                or not all(math.isfinite(x) for x in v)
+                or not all(abs(x) <= POSITION_ABS_MAX_MM for x in v)):
             raise _err("expected [min, max] in mm", toml_path, None, key)
         if v[1] <= v[0]:
             raise _err("travel max must exceed min", toml_path, None, key)
         travel[i] = v
-    meta = {k: v for k, v in machine.items() if k not in ("name", "chain", "travel_mm")}
-    raw = doc.get("measurements", [])
-    if not isinstance(raw, list) or not raw:
-        raise _err("no [[measurements]] in the session", toml_path, None, "measurements")
-    seen: set[str] = set()
-    meas = []
-    for i, e in enumerate(raw):
-        m = _read_entry(e, i, folder, toml_path, seen, require_deviation)
-        check_in_travel(m, travel, folder / m.file)
-        if m.meta.get("readings") == "raw" and m.deviation is not None:
-            from volcal.environment.apply import compensate_measurement
-
-            m = compensate_measurement(m, f"{toml_path} [{m.id}]")
-        meas.append(m)
-    return Session(name, chain, travel, meas, meta, folder)
+    return travel
 
 
 TRAVEL_MARGIN_MM = 1.0
@@ -529,7 +742,10 @@ def check_in_travel(m: Measurement, travel: NDArray[np.float64], path: Path) -> 
 
 
 def _read_entry(e: Any, i: int, folder: Path, toml_path: Path, seen: set[str],
-                require_deviation: bool) -> Measurement:
+                require_deviation: bool, travel: NDArray[np.float64],
+                notes: list[str]) -> Measurement:
+    from volcal.session.checks import check_geometry, check_travel
+
     where = f"measurements[{i}]"
     if not isinstance(e, dict):
         raise _err("each [[measurements]] entry must be a table", toml_path, None, where)
@@ -539,14 +755,9 @@ def _read_entry(e: Any, i: int, folder: Path, toml_path: Path, seen: set[str],
     if mid in seen:
         raise _err(f"duplicate measurement id {mid!r}", toml_path, None, f"{where}.id")
     seen.add(mid)
-    kind = e.get("kind")
-    if kind not in KINDS:
-        raise _err(f"unknown kind {kind!r}: expected one of {', '.join(KINDS)}", toml_path, None,
-                   f"{where}.kind")
-    target = e.get("target", "retroreflector")
-    if target not in TARGETS:
-        raise _err(f"unknown target {target!r}: expected one of {', '.join(TARGETS)}", toml_path,
-                   None, f"{where}.target")
+    kind = check_choice(e.get("kind"), KINDS, "kind", "", toml_path, f"{where}.kind")
+    target = check_choice(e.get("target", "retroreflector"), TARGETS, "target", "", toml_path,
+                          f"{where}.target")
     file = e.get("file")
     if not isinstance(file, str) or not file:
         raise _err("missing file name", toml_path, None, f"{where}.file")
@@ -561,7 +772,8 @@ def _read_entry(e: Any, i: int, folder: Path, toml_path: Path, seen: set[str],
     if target == "cat_eye":
         raise _err(f"target 'cat_eye' belongs to kind 'multilateration', not {kind!r}",
                    toml_path, None, f"{where}.target")
-    pos, dev, cols = read_measurement_csv(csv_path, require_deviation)
+        r = _read_rows(csv_path)
+    pos = r.positions
     if "beam_direction" in e:
         n = _vec3(e["beam_direction"], toml_path, f"{where}.beam_direction", nonzero=True)
     else:
@@ -586,7 +798,12 @@ def _read_entry(e: Any, i: int, folder: Path, toml_path: Path, seen: set[str],
     env = meta.get("environment")
     if env is not None and not isinstance(env, dict):
         raise _err("environment must be a table", toml_path, None, f"{where}.environment")
-    return Measurement(mid, kind, target, pos, dev, n, offset, file, cols, meta)
+    check_travel(pos, r.rows, travel, csv_path)
+    check_geometry(kind, pos, r.rows, meta, csv_path, n if "beam_direction" in e else None)
+    if require_deviation:
+        r = _drop_missed(r, csv_path, notes)
+    return Measurement(mid, kind, target, r.positions, r.deviation, n, offset, file, r.columns,
+                       meta, r.rows)
 
 
 def _read_multilateration(e: dict, where: str, mid: str, target: str, file: str, csv_path: Path,
@@ -606,7 +823,8 @@ def _read_multilateration(e: dict, where: str, mid: str, target: str, file: str,
     if isinstance(u, bool) or not isinstance(u, int | float) or not (math.isfinite(u) and u > 0):
         raise _err(f"station_u_mm must be a positive number of mm, got {u!r}", toml_path, None,
                    f"{where}.station_u_mm")
-    pos, length, cols = read_measurement_csv(csv_path, require_deviation, MULTILATERATION_COLUMN)
+    pos, length, cols = read_measurement_csv(csv_path, require_deviation,
+                                             value_column=MULTILATERATION_COLUMN)
     d = np.linalg.norm(pos + offset - station, axis=1)
     if np.min(d) < 1.0:
         row = int(np.argmin(d)) + 2

@@ -190,4 +190,5 @@ def from_measurement(meas: Any, folder: str | Path | None = None) -> Positioning
     axis = meas.axis
     return PositioningData(meas.positions[:, axis].copy(), np.asarray(meas.columns["run"]),
                            np.asarray(meas.columns["direction"]), np.asarray(meas.deviation),
-                           np.arange(2, meas.n + 2), file, "XYZ"[axis])
+                           np.arange(2, meas.n + 2) if getattr(meas, "rows", None) is None
+                           else np.asarray(meas.rows), file, "XYZ"[axis])

@@ -46,8 +46,6 @@ OPTIONAL_COLUMNS: dict[str, str] = {
     "status": "text",
 }
 MIN_ROWS = 2
-ABSURD_DEVIATION_UM = 10_000.0
-"""A reading beyond 10 mm is no laser deviation of a machine axis: an error."""
 
 __all__ = [
     "KINDS",
@@ -705,40 +703,6 @@ def _read_travel(tr: Any, toml_path: Path) -> NDArray[np.float64]:
             raise _err("travel max must exceed min", toml_path, None, key)
         travel[i] = v
     return travel
-
-
-TRAVEL_MARGIN_MM = 1.0
-TRAVEL_MARGIN_REL = 0.005
-"""A commanded pose may lie this far outside the stated travel: 1 mm + 0.5 % of the axis
-length (rounding of the stated limits); anything further is an error."""
-
-
-def check_in_travel(m: Measurement, travel: NDArray[np.float64], path: Path) -> None:
-    """Refuse commanded poses outside the travel, naming file, row and column.
-
-    Parameters
-    ----------
-    m : Measurement
-        A measurement as read.
-    travel : ndarray, shape (3, 2)
-        Travel limits [mm].
-    path : Path
-        Its CSV file, for the message.
-
-    Raises
-    ------
-    VolcalInputError
-        The first pose (row, header = row 1) beyond the travel plus
-        :data:`TRAVEL_MARGIN_MM` + :data:`TRAVEL_MARGIN_REL` of the axis length.
-    """
-    margin = TRAVEL_MARGIN_MM + TRAVEL_MARGIN_REL * (travel[:, 1] - travel[:, 0])
-    out = (m.positions < travel[:, 0] - margin) | (m.positions > travel[:, 1] + margin)
-    if np.any(out):
-        i, k = (int(v[0]) for v in np.nonzero(out))
-        raise VolcalInputError(
-            f"commanded position {m.positions[i, k]:g} mm lies outside the travel "
-            f"{travel[k, 0]:g}..{travel[k, 1]:g} mm of {'XYZ'[k]}", path, i + 2,
-            f"{'xyz'[k]}_mm")
 
 
 def _read_entry(e: Any, i: int, folder: Path, toml_path: Path, seen: set[str],

@@ -736,7 +736,7 @@ def _read_entry(e: Any, i: int, folder: Path, toml_path: Path, seen: set[str],
     if target == "cat_eye":
         raise _err(f"target 'cat_eye' belongs to kind 'multilateration', not {kind!r}",
                    toml_path, None, f"{where}.target")
-        r = _read_rows(csv_path)
+    r = _read_rows(csv_path)
     pos = r.positions
     if "beam_direction" in e:
         n = _vec3(e["beam_direction"], toml_path, f"{where}.beam_direction", nonzero=True)

@@ -43,7 +43,8 @@ LINES = ("linear-x1", "linear-y1", "linear-z1")  # reference lines through the t
 
 
 def _session():
-    s = plan_session(TRAVEL, "XYFZ", 3, ("linear", "diagonal"), runs=1)
+    s = plan_session(TRAVEL, "XYFZ", 3, ("linear", "diagonal"), runs=1, iso_spacing=False,
+                     linear_margin_mm=0.0)
     for m in s.measurements:
         m.deviation = np.zeros(m.n)
     return s

@@ -53,7 +53,8 @@ def test_pitch_table_removes_exx_up_to_the_chord_error(tmp_path):
     c = _summary(_exx_model(), "csv", tmp_path, 25.0)
     assert c.model_max_um == pytest.approx(A * 800**2)  # 64 um at x = 800
     assert c.left_max_um == pytest.approx(0.015, abs=0.0006)
-    assert c.tables.carries == ("EXX", "EYY", "EZZ") and "carries" in c.tables.assumed
+    # the manifest states what the tables carry and how the control interpolates them
+    assert c.tables.carries == ("EXX", "EYY", "EZZ") and c.tables.assumed == ()
 
 
 def test_grid_spacing_50_leaves_the_50_mm_chord_error(tmp_path):
@@ -63,7 +64,7 @@ def test_grid_spacing_50_leaves_the_50_mm_chord_error(tmp_path):
 
 
 def test_fanuc_step_rule_and_1_um_resolution(tmp_path):
-    """Fanuc (manifest without interpolation key): the value of the last point passed is
+    """Fanuc (manifest interpolation = "step"): the value of the last point passed is
     held, values in whole um: at x the table gives round(a x0^2), x0 = the point at or
     below x (20 mm spacing)."""
     c = _summary(_exx_model(), "fanuc", tmp_path, 20.0, sign="correction")

@@ -216,6 +216,9 @@ def write_compensation(errors: MachineErrors, fmt: str, folder: str | Path,
                 "sign": sign, "sign_default": info.sign, "sign_source": info.sign_source,
                 "spacing_mm": options.spacing, "resolution_um": resolution,
                 "carries": carries, "bidirectional": bidir,
+                # Fanuc outputs a point's value once the axis passes it; the others
+                # interpolate linearly between points (see docs/compensation.md)
+                "interpolation": "step" if fmt == "fanuc" else "linear",
                 "model": source, "machine": errors.name, "chain": errors.chain_obj.code,
                 "files": sorted(files)}
     with atomic_dir(folder) as tmp:

@@ -18,9 +18,10 @@ Examples
 from __future__ import annotations
 
 import csv
+import fnmatch
 import io
 import math
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -67,6 +68,15 @@ class Column:
     markers : tuple of str
         Words accepted in place of a number (compared without case, e.g. ``'missed'``):
         such a cell reads as NaN and is flagged in :attr:`Table.marked`.
+    parse : callable, optional
+        Reads a cell's text in place of ``kind`` (e.g. a direction word -> ``'+'``);
+        it raises ``ValueError(message)`` for a bad cell, which is reported with the
+        file, row and column. Empty cells still follow ``empty``.
+    pattern : str, optional
+        A glob (``'Run*'``, case-insensitive) naming a *group* of columns (a wide
+        table, one column per run): every header matching it is read as a column of
+        this kind under its own header name, listed in :attr:`Table.groups` under
+        ``name``. A required pattern must match at least one header.
     """
 
     name: str
@@ -79,6 +89,8 @@ class Column:
     abs_max: float | None = None
     aliases: tuple[str, ...] = ()
     markers: tuple[str, ...] = ()
+    parse: Callable[[str], Any] | None = field(default=None, compare=False)
+    pattern: str | None = None
 
     def __post_init__(self) -> None:
         """Check the specification itself (a programming error, not a user one)."""
@@ -119,6 +131,23 @@ class TableSpec:
         Accepted field separators; the header line decides which one is used.
     what : str
         Short description for messages (``'measurement file'``).
+    sniff : bool
+        Choose the delimiter among ``delimiters`` from the first 50 lines
+        (:class:`csv.Sniffer`) instead of from the header line alone (exports whose
+        preamble holds other separators).
+    decimal_comma : bool
+        With a delimiter other than ``,``, accept a decimal comma in numbers
+        (``2,5`` = 2.5), as European exports write them.
+    header_within : int
+        The header is the first of the first ``header_within`` records holding every
+        required column; the records before it are a preamble (vendor name, date...)
+        and skipped. 1: the header is the first record.
+    loose_names : bool
+        Match header names without case and without a unit in brackets
+        (``'error'`` finds ``'Error (µm)'``), as long as one header matches.
+    extra_fields : bool
+        Accept rows with more fields than the header (trailing separators); fewer
+        fields are still an error.
     """
 
     columns: tuple[Column, ...]
@@ -128,6 +157,11 @@ class TableSpec:
     comment: str | None = None
     delimiters: str = ","
     what: str = "table"
+    sniff: bool = False
+    decimal_comma: bool = False
+    header_within: int = 1
+    loose_names: bool = False
+    extra_fields: bool = False
 
     def column(self, name: str) -> Column:
         """The column called ``name``.
@@ -170,6 +204,13 @@ class Table:
         Columns no specification knows, as text (when ``unknown='ignore'``).
     marked : dict of str to ndarray of bool
         For each column with ``markers``: True where the cell held a marker word.
+    groups : dict of str to list of str
+        For each pattern column (:attr:`Column.pattern`): the headers it matched, in
+        file order; their values are in ``columns`` under those headers.
+    delimiter : str
+        Field separator used.
+    header_row : int
+        Physical line of the header (1 unless a preamble came first).
     """
 
     path: Path | None
@@ -178,6 +219,9 @@ class Table:
     rows: NDArray[np.int64]
     extra: dict[str, list[str]] = field(default_factory=dict)
     marked: dict[str, NDArray[np.bool_]] = field(default_factory=dict)
+    groups: dict[str, list[str]] = field(default_factory=dict)
+    delimiter: str = ","
+    header_row: int = 1
 
     def __len__(self) -> int:
         """Number of data rows."""
@@ -269,17 +313,24 @@ def read_table(path: str | Path, spec: TableSpec) -> Table:
     return parse_table(read_text(path, spec.what), spec, Path(path))
 
 
-def _records(text: str, spec: TableSpec, path: Path | None) -> list[tuple[int, list[str]]]:
+def _delimiter(lines: list[str], kept: list[tuple[int, str]], spec: TableSpec) -> str:
+    if spec.sniff and len(spec.delimiters) > 1:
+        try:
+            return csv.Sniffer().sniff("".join(ln for _, ln in kept[:50]),
+                                       delimiters=spec.delimiters).delimiter
+        except csv.Error:
+            pass
+    first = kept[0][1] if kept else ""
+    return next((d for d in spec.delimiters if d in first), spec.delimiters[0])
+
+
+def _records(text: str, spec: TableSpec, path: Path | None
+             ) -> tuple[list[tuple[int, list[str]]], str]:
     lines = text.splitlines(keepends=True)
-    first = next((ln for ln in lines if ln.strip() and not _is_comment(ln, spec)), "")
-    delim = spec.delimiters[0]
-    for d in spec.delimiters:
-        if d in first:
-            delim = d
-            break
-    out: list[tuple[int, list[str]]] = []
     kept = [(i + 1, ln) for i, ln in enumerate(lines)
             if ln.strip() and not _is_comment(ln, spec)]
+    delim = _delimiter(lines, kept, spec)
+    out: list[tuple[int, list[str]]] = []
     reader = csv.reader(io.StringIO("".join(ln for _, ln in kept)), delimiter=delim)
     try:
         prev = 0
@@ -290,88 +341,197 @@ def _records(text: str, spec: TableSpec, path: Path | None) -> list[tuple[int, l
                 out.append((first, rec))
     except csv.Error as exc:
         raise VolcalInputError(f"malformed CSV: {exc}", path) from None
-    return out
+    return out, delim
 
 
 def _is_comment(line: str, spec: TableSpec) -> bool:
     return spec.comment is not None and line.lstrip().startswith(spec.comment)
 
 
-def _match_header(header: list[str], spec: TableSpec, path: Path | None
-                  ) -> dict[str, int]:
-    if len(set(header)) != len(header):
-        dup = next(h for h in header if header.count(h) > 1)
-        raise VolcalInputError("duplicate column", path, 1, dup)
+def _loose(h: str) -> str:
+    """A header without quotes, case and a trailing unit in brackets."""
+    h = h.strip().strip('"').strip()
+    for open_, close in (("(", ")"), ("[", "]")):
+        if h.endswith(close) and open_ in h:
+            h = h[: h.rindex(open_)].strip()
+    return h.casefold()
+
+
+def _find(header: list[str], name: str, loose: bool) -> int | None:
+    """Index of ``name`` in ``header`` (None if absent or ambiguous).
+
+    Exact first; with ``loose`` then without case, then without case and unit.
+    """
+    keys: list[Callable[[str], str]] = [str.strip]
+    if loose:
+        keys += [lambda x: x.strip().casefold(), _loose]
+    for f in keys:
+        hits = [i for i, h in enumerate(header) if f(h) == f(name)]
+        if len(hits) == 1:
+            return hits[0]
+        if len(hits) > 1:
+            return None
+    return None
+
+
+def _pattern_hits(header: list[str], c: Column, taken: set[int]) -> list[int]:
+    pat = (c.pattern or "").casefold()
+    return [i for i, h in enumerate(header) if i not in taken
+            and fnmatch.fnmatchcase(h.strip().casefold(), pat)]
+
+
+def _has_required(header: list[str], spec: TableSpec) -> bool:
+    for c in spec.columns:
+        if not c.required:
+            continue
+        if c.pattern is not None:
+            if not _pattern_hits(header, c, set()):
+                return False
+        elif all(_find(header, n, spec.loose_names) is None for n in (c.name, *c.aliases)):
+            return False
+    return True
+
+
+def _locate_header(recs: list[tuple[int, list[str]]], spec: TableSpec, path: Path | None
+                   ) -> int:
+    """Index of the header record (0 unless a preamble is allowed and present)."""
+    if spec.header_within <= 1:
+        return 0
+    for i, (_, rec) in enumerate(recs[: spec.header_within]):
+        if _has_required([h.strip() for h in rec], spec):
+            return i
+    first = [h.strip() for h in recs[0][1]]
+    missing = [c.pattern or c.name for c in spec.columns if c.required
+               and not _has_required(first, TableSpec((c,), loose_names=spec.loose_names))]
+    shown = ",".join(first)[:120]
+    raise VolcalInputError(f"no header line with the mapped columns (missing "
+                           f"{', '.join(repr(m) for m in missing)}; first line: {shown!r})",
+                           path, recs[0][0], missing[0] if missing else None)
+
+
+def _missing_column(header: list[str], c: Column, known: set[str], path: Path | None,
+                    row: int) -> VolcalInputError:
+    if c.pattern is not None:
+        return VolcalInputError(f"no column matches {c.pattern!r} (header: "
+                                f"{','.join(header)[:120]})", path, row, c.pattern)
+    other = [h for h in header if h not in known and "_" in h and h.rsplit("_", 1)[0] == c.stem]
+    if other:
+        hint = f" [{c.unit}]" if c.unit else ""
+        return VolcalInputError(f"unknown or unsupported unit: expected '{c.name}'{hint}",
+                                path, row, other[0])
+    shown = ",".join(header).replace("\r", " ").replace("\n", " ")
+    if len(shown) > 120:
+        shown = shown[:117] + "..."
+    return VolcalInputError(f"missing required column '{c.name}' (header: {shown})", path, row,
+                            c.name)
+
+
+def _named_columns(header: list[str], spec: TableSpec, path: Path | None, row: int
+                   ) -> dict[str, int]:
     idx: dict[str, int] = {}
-    known: set[str] = set()
-    for c in spec.columns:
+    for c in (c for c in spec.columns if c.pattern is None):
         for name in (c.name, *c.aliases):
-            known.add(name)
-            if name in header:
-                if c.name in idx:
-                    raise VolcalInputError(f"column '{name}' repeats column "
-                                           f"'{header[idx[c.name]]}'", path, 1, name)
-                idx[c.name] = header.index(name)
-    for c in spec.columns:
-        if c.required and c.name not in idx:
-            other = [h for h in header if h not in known and "_" in h
-                     and h.rsplit("_", 1)[0] == c.stem]
-            if other:
-                hint = f" [{c.unit}]" if c.unit else ""
-                raise VolcalInputError(f"unknown or unsupported unit: expected '{c.name}'{hint}",
-                                       path, 1, other[0])
-            shown = ",".join(header).replace("\r", " ").replace("\n", " ")
-            if len(shown) > 120:
-                shown = shown[:117] + "..."
-            raise VolcalInputError(f"missing required column '{c.name}' (header: {shown})",
-                                   path, 1, c.name)
-    if spec.unknown == "error":
-        for h in header:
-            if h not in known:
-                raise VolcalInputError(f"unknown column (expected some of: "
-                                       f"{', '.join(c.name for c in spec.columns)})",
-                                       path, 1, h)
+            j = _find(header, name, spec.loose_names)
+            if j is None:
+                continue
+            if c.name in idx:
+                raise VolcalInputError(f"column '{name}' repeats column "
+                                       f"'{header[idx[c.name]]}'", path, row, name)
+            idx[c.name] = j
     return idx
 
 
-def _parse_cell(text: str, c: Column, path: Path | None, row: int) -> Any:
+def _match_header(header: list[str], spec: TableSpec, path: Path | None, row: int = 1
+                  ) -> tuple[dict[str, int], dict[str, list[str]]]:
+    """Column name -> index in the header, and the headers each pattern column matched."""
+    if len(set(header)) != len(header):
+        dup = next(h for h in header if header.count(h) > 1)
+        raise VolcalInputError("duplicate column", path, row, dup)
+    idx = _named_columns(header, spec, path, row)
+    groups: dict[str, list[str]] = {}
+    for c in (c for c in spec.columns if c.pattern is not None):
+        hits = _pattern_hits(header, c, set(idx.values()))
+        groups[c.name] = [header[j] for j in hits]
+        idx.update({header[j]: j for j in hits})
+    known = {header[j] for j in idx.values()}
+    names = {n for c in spec.columns for n in (c.name, *c.aliases)}
+    for c in spec.columns:
+        if c.required and c.name not in idx and not groups.get(c.name):
+            raise _missing_column(header, c, known | names, path, row)
+    if spec.unknown == "error":
+        bad = next((h for h in header if h not in known), None)
+        if bad is not None:
+            raise VolcalInputError(f"unknown column (expected some of: "
+                                   f"{', '.join(c.name for c in spec.columns)})", path, row, bad)
+    return idx, groups
+
+
+_EMPTY = {"float": math.nan, "int": -1}
+
+
+def _number(t: str, c: Column, decimal_comma: bool, path: Path | None, row: int, col: str
+            ) -> float:
+    t = t.replace("\u2212", "-")
+    if c.kind == "int":
+        try:
+            return int(t)
+        except ValueError:
+            raise VolcalInputError(f"expected a whole number, got {t!r}", path, row,
+                                   col) from None
+    try:
+        v = float(t.replace(",", ".") if decimal_comma else t)
+    except ValueError:
+        raise VolcalInputError(f"not a number: {t!r}", path, row, col) from None
+    if not math.isfinite(v):
+        raise VolcalInputError(f"not a finite number: {t!r}", path, row, col)
+    return v
+
+
+def _check_range(v: float, t: str, c: Column, path: Path | None, row: int, col: str) -> None:
+    unit = f" {c.unit}" if c.unit else ""
+    if c.abs_max is not None and abs(v) > c.abs_max:
+        raise VolcalInputError(f"absurd value {t}: |value| > {c.abs_max:g}{unit}", path, row, col)
+    if c.min is not None and v < c.min:
+        raise VolcalInputError(f"value {t} below the smallest allowed {c.min:g}{unit}", path,
+                               row, col)
+    if c.max is not None and v > c.max:
+        raise VolcalInputError(f"value {t} above the largest allowed {c.max:g}{unit}", path,
+                               row, col)
+
+
+def _parse_cell(text: str, c: Column, path: Path | None, row: int, col: str | None = None,
+                decimal_comma: bool = False) -> Any:
+    col = col or c.name
     t = text.strip()
     if t == "":
         if c.empty:
-            return {"float": math.nan, "int": -1}.get(c.kind, "")
+            return _EMPTY.get(c.kind, "")
         what = {"float": "a number", "int": "a whole number"}.get(c.kind, "a value")
-        raise VolcalInputError(f"empty field: expected {what}", path, row, c.name)
+        raise VolcalInputError(f"empty field: expected {what}", path, row, col)
+    if c.parse is not None:
+        try:
+            return c.parse(t)
+        except ValueError as exc:
+            raise VolcalInputError(str(exc), path, row, col) from None
     if c.kind == "str":
         return t
     if c.kind == "choice":
         if t not in c.choices:
             raise VolcalInputError(f"expected one of {', '.join(repr(x) for x in c.choices)}, "
-                                   f"got {t!r}", path, row, c.name)
+                                   f"got {t!r}", path, row, col)
         return t
-    if c.kind == "int":
-        try:
-            v: float = int(t)
-        except ValueError:
-            raise VolcalInputError(f"expected a whole number, got {t!r}", path, row,
-                                   c.name) from None
-    else:
-        try:
-            v = float(t)
-        except ValueError:
-            raise VolcalInputError(f"not a number: {t!r}", path, row, c.name) from None
-        if not math.isfinite(v):
-            raise VolcalInputError(f"not a finite number: {t!r}", path, row, c.name)
-    unit = f" {c.unit}" if c.unit else ""
-    if c.abs_max is not None and abs(v) > c.abs_max:
-        raise VolcalInputError(f"absurd value {t}: |value| > {c.abs_max:g}{unit}", path, row,
-                               c.name)
-    if c.min is not None and v < c.min:
-        raise VolcalInputError(f"value {t} below the smallest allowed {c.min:g}{unit}", path,
-                               row, c.name)
-    if c.max is not None and v > c.max:
-        raise VolcalInputError(f"value {t} above the largest allowed {c.max:g}{unit}", path,
-                               row, c.name)
+    v = _number(t, c, decimal_comma, path, row, col)
+    _check_range(v, t, c, path, row, col)
     return v
+
+
+def _spec_of(spec: TableSpec, groups: dict[str, list[str]]) -> dict[str, Column]:
+    """Column of every name read: the named columns, and each pattern match."""
+    out = {c.name: c for c in spec.columns if c.pattern is None}
+    for c in spec.columns:
+        for h in groups.get(c.name, []):
+            out[h] = c
+    return out
 
 
 def parse_table(text: str, spec: TableSpec, path: str | Path | None = None) -> Table:
@@ -396,41 +556,46 @@ def parse_table(text: str, spec: TableSpec, path: str | Path | None = None) -> T
         Naming file, row (header = row 1) and column of the first mistake.
     """
     p = None if path is None else Path(path)
-    recs = _records(text, spec, p)
+    recs, delim = _records(text, spec, p)
     if not recs:
         raise VolcalInputError(f"empty file: expected the header {spec.required_header}", p, 1)
-    header_row, header_rec = recs[0]
-    header = [h.strip() for h in header_rec]
-    idx = _match_header(header, spec, p)
-    data = recs[1:]
+    h = _locate_header(recs, spec, p)
+    header_row, header_rec = recs[h]
+    header = [x.strip() for x in header_rec]
+    idx, groups = _match_header(header, spec, p, header_row)
+    data = recs[h + 1:]
     if len(data) < spec.min_rows:
         raise VolcalInputError(spec.min_rows_message.format(min=spec.min_rows, n=len(data)),
                                p, (data[-1][0] if data else header_row))
+    cols_of = _spec_of(spec, groups)
+    dc = spec.decimal_comma and delim != ","
     values: dict[str, list[Any]] = {name: [] for name in idx}
-    marks: dict[str, list[bool]] = {name: [] for name in idx if spec.column(name).markers}
-    known_idx = set(idx.values())
-    extra_idx = [j for j in range(len(header)) if j not in known_idx]
+    marks: dict[str, list[bool]] = {name: [] for name in idx if cols_of[name].markers}
+    extra_idx = [j for j in range(len(header)) if j not in set(idx.values())]
     extra: dict[str, list[str]] = {header[j]: [] for j in extra_idx}
     for row, rec in data:
-        if len(rec) != len(header):
+        if len(rec) < len(header) or (len(rec) > len(header) and not spec.extra_fields):
             raise VolcalInputError(f"expected {len(header)} fields, found {len(rec)}", p, row)
         for name, j in idx.items():
-            c = spec.column(name)
+            c = cols_of[name]
             if name in marks:
                 hit = rec[j].strip().lower() in (w.lower() for w in c.markers)
                 marks[name].append(hit)
                 if hit:
                     values[name].append(math.nan)
                     continue
-            values[name].append(_parse_cell(rec[j], c, p, row))
+            values[name].append(_parse_cell(rec[j], c, p, row, name, dc))
         for j in extra_idx:
             extra[header[j]].append(rec[j].strip())
     cols: dict[str, NDArray[Any]] = {}
     for name, v in values.items():
-        kind = spec.column(name).kind
-        cols[name] = np.array(v, dtype={"float": float, "int": np.int64}.get(kind, str))
+        c = cols_of[name]
+        dtype = object if c.parse is not None else {"float": float, "int": np.int64}.get(c.kind,
+                                                                                           str)
+        cols[name] = np.array(v, dtype=dtype)
     return Table(p, header, cols, np.array([r for r, _ in data], dtype=np.int64), extra,
-                 {k: np.array(v, dtype=bool) for k, v in marks.items()})
+                 {k: np.array(v, dtype=bool) for k, v in marks.items()}, groups, delim,
+                 header_row)
 
 
 def columns_present(table: Table, names: Iterable[str]) -> list[str]:

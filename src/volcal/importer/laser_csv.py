@@ -19,8 +19,6 @@ then ``session.toml`` is replaced atomically.
 
 from __future__ import annotations
 
-import csv
-import io
 import re
 import tomllib
 from dataclasses import dataclass, field
@@ -32,9 +30,10 @@ from numpy.typing import NDArray
 
 from volcal.errors import VolcalInputError
 from volcal.importer.units import TO_MM, unit_from_header, unit_name, unsupported_unit
+from volcal.importer.wide import DIRECTION_WORDS, run_columns, to_long
 from volcal.io.atomic import write_text
+from volcal.io.table import Column, Table, TableSpec, parse_table
 from volcal.io.tomlfmt import dumps as toml_dumps
-from volcal.io.values import parse_finite
 from volcal.model.names import AXES
 from volcal.session.format import (
     MIN_ROWS,
@@ -48,15 +47,36 @@ from volcal.session.format import (
 
 KEYS: tuple[str, ...] = ("target", "deviation", "reading", "run", "direction", "time",
                          *[c for c in OPTIONAL_COLUMNS if c not in ("run", "direction",
-                                                                     "time_s")])
+                                                                     "time_s", "status")])
 """Mapping keys: what a column holds."""
 
-_DIRECTIONS = {"+": "+", "-": "-", "up": "+", "down": "-", "fwd": "+", "bwd": "-",
-               "forward": "+", "backward": "-", "forwards": "+", "backwards": "-",
-               "pos": "+", "neg": "-", "positive": "+", "negative": "-", "1": "+", "-1": "-",
-               "f": "+", "b": "-", "+1": "+", "increasing": "+", "decreasing": "-"}
+_DIRECTIONS = {**DIRECTION_WORDS, "1": "+", "-1": "-", "+1": "+"}
 MAX_BYTES = 50_000_000
 _RUN = re.compile(r"^\+?\d{1,9}([.,]0*)?$")
+PATTERN_CHARS = "*?["
+"""A mapped column name holding one of these is a pattern: a wide table."""
+STEP_SEPARATOR = "|"
+"""Separates the columns of a per-step step-diagonal table: ``deviation=dX|dY|dZ``."""
+
+
+def layout_of(mapping: dict[str, str]) -> str:
+    """Layout a mapping describes: ``'long'``, ``'wide'`` (pattern) or ``'steps'``.
+
+    Parameters
+    ----------
+    mapping : dict of str to str
+        From :func:`parse_mapping`.
+
+    Returns
+    -------
+    str
+    """
+    value = mapping.get("deviation") or mapping.get("reading") or ""
+    if STEP_SEPARATOR in value:
+        return "steps"
+    if any(ch in value for ch in PATTERN_CHARS):
+        return "wide"
+    return "long"
 
 
 def parse_mapping(text: str) -> dict[str, str]:
@@ -66,7 +86,10 @@ def parse_mapping(text: str) -> dict[str, str]:
     ----------
     text : str
         The ``--map`` option: comma-separated ``key=column header`` pairs; keys are
-        case-insensitive and taken from :data:`KEYS`.
+        case-insensitive and taken from :data:`KEYS`. A ``deviation`` or ``reading``
+        column holding ``*``, ``?`` or ``[`` is a pattern naming the run columns of a
+        wide table (``deviation=Run*``); ``deviation=A|B|C`` names the columns of a
+        per-step step-diagonal table (the readings after each single-axis move).
 
     Returns
     -------
@@ -76,7 +99,8 @@ def parse_mapping(text: str) -> dict[str, str]:
     Raises
     ------
     VolcalInputError
-        Unknown keys, missing target, both or neither of deviation and reading.
+        Unknown keys, missing target, both or neither of deviation and reading, a
+        key that does not fit the layout (``run=`` with a wide table...).
     """
     out: dict[str, str] = {}
     for part in (p for p in text.split(",") if p.strip()):
@@ -94,29 +118,70 @@ def parse_mapping(text: str) -> dict[str, str]:
     if ("deviation" in out) == ("reading" in out):
         raise VolcalInputError("--map needs exactly one of deviation=<column> or "
                                "reading=<column>")
+    layout = layout_of(out)
+    extra = [k for k in out if k not in ("target", "deviation", "reading")]
+    if layout != "long" and extra:
+        what = ("a wide table (the pattern names one column per run; run and direction "
+                "come from the column names)" if layout == "wide" else
+                "a per-step step-diagonal table")
+        raise VolcalInputError(f"--map: {extra[0]}= does not fit {what}")
+    if layout == "steps" and "reading" in out:
+        raise VolcalInputError("--map: a per-step step-diagonal table takes deviations: "
+                               "deviation=<col>|<col>|<col>")
     return out
 
 
 @dataclass
 class LaserTable:
-    """Columns read from a laser export.
+    """Readings from a laser export, one per element, in capture order.
 
     Attributes
     ----------
     target_mm : ndarray
-        Target positions [mm] (as in the file, converted).
+        Target position of each reading [mm] (as in the file, converted); NaN where the
+        layout gives none (intermediate moves of a per-step table).
     deviation_um : ndarray
-        Deviations [um].
+        Deviation of each reading [um].
     columns : dict
         Optional session columns (``run``, ``direction``, ``time_s``, environment).
     notes : list of str
-        What was detected (units, delimiter, skipped lines).
+        What was detected (units, delimiter, skipped lines, inferred runs).
+    rows : ndarray of int
+        Physical line of each reading in the file (for messages).
+    sources : list of str
+        Column of each reading's value (for messages).
+    reading_mm : ndarray or None
+        The absolute reading of each element [mm] when mapped with ``reading=``.
+    steps : int
+        Per-step tables: readings per row (moves per step); 0 otherwise.
     """
 
     target_mm: NDArray[np.float64]
     deviation_um: NDArray[np.float64]
     columns: dict[str, NDArray[Any]] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
+    rows: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    sources: list[str] = field(default_factory=list)
+    reading_mm: NDArray[np.float64] | None = None
+    steps: int = 0
+
+    def error(self, message: str, i: int, path: str | Path) -> VolcalInputError:
+        """An error located at reading ``i`` (its file row and column).
+
+        Parameters
+        ----------
+        message : str
+            What is wrong.
+        i : int
+            0-based reading.
+        path : str or Path
+            The file.
+
+        Returns
+        -------
+        VolcalInputError
+        """
+        return VolcalInputError(message, path, int(self.rows[i]), self.sources[i])
 
 
 def _decode(path: Path) -> str:
@@ -135,31 +200,6 @@ def _decode(path: Path) -> str:
         return raw.decode("utf-8-sig")
     except UnicodeDecodeError:
         return raw.decode("cp1252", errors="replace")
-
-
-def _norm(h: str) -> str:
-    h = h.strip().strip('"').strip()
-    for open_, close in (("(", ")"), ("[", "]")):
-        if h.endswith(close) and open_ in h:
-            h = h[: h.rindex(open_)].strip()
-    return h.casefold()
-
-
-def _find(header: list[str], name: str) -> int | None:
-    for f in (lambda s: s.strip(), lambda s: s.strip().casefold(), _norm):
-        hits = [i for i, h in enumerate(header) if f(h) == f(name)]
-        if len(hits) == 1:
-            return hits[0]
-        if len(hits) > 1:
-            return None
-    return None
-
-
-def _number(text: str, decimal_comma: bool, path: Path, row: int, col: str) -> float:
-    t = text.strip().replace("\u2212", "-")
-    if decimal_comma:
-        t = t.replace(",", ".")
-    return parse_finite(t, path, row, col)
 
 
 def _unit(option: str | None, header: str, fallback: str | None, what: str, notes: list[str],
@@ -185,6 +225,54 @@ def _unit(option: str | None, header: str, fallback: str | None, what: str, note
     return fallback
 
 
+def _parse_run(text: str) -> int:
+    if not _RUN.match(text):
+        raise ValueError(f"run must be a whole number >= 0, got {text!r}")
+    return int(text.split(".")[0].split(",")[0])
+
+
+def _parse_direction(text: str) -> str:
+    v = _DIRECTIONS.get(text.casefold())
+    if v is None:
+        raise ValueError(f"unknown direction {text!r}: expected +/-, up/down, forward/backward")
+    return v
+
+
+def laser_spec(mapping: dict[str, str]) -> TableSpec:
+    """The :class:`~volcal.io.table.TableSpec` of a laser export with this mapping.
+
+    Parameters
+    ----------
+    mapping : dict of str to str
+        From :func:`parse_mapping`.
+
+    Returns
+    -------
+    TableSpec
+        Sniffed delimiter (``,``, ``;``, tab), decimal comma with ``;`` or tab, a
+        preamble of up to 200 lines, header names matched without case or unit.
+    """
+    cols: list[Column] = [Column(mapping["target"])]
+    vkey = "deviation" if "deviation" in mapping else "reading"
+    layout = layout_of(mapping)
+    if layout == "wide":
+        cols.append(Column("runs", pattern=mapping[vkey]))
+    elif layout == "steps":
+        cols += [Column(c.strip(), empty=True) for c in mapping[vkey].split(STEP_SEPARATOR)]
+    else:
+        cols.append(Column(mapping[vkey]))
+    for key, col in mapping.items():
+        if key == "run":
+            cols.append(Column(col, kind="int", parse=_parse_run))
+        elif key == "direction":
+            cols.append(Column(col, kind="str", parse=_parse_direction))
+        elif key not in ("target", "deviation", "reading"):
+            cols.append(Column(col))
+    return TableSpec(tuple(cols), min_rows=0, delimiters=",;\t", sniff=True,
+                     decimal_comma=True, header_within=200, loose_names=True,
+                     extra_fields=True, what="laser export")
+
+
 def read_laser_csv(path: str | Path, mapping: dict[str, str], units: str = "auto",
                    deviation_units: str = "auto") -> LaserTable:
     """Read the mapped columns of a laser CSV export.
@@ -194,12 +282,14 @@ def read_laser_csv(path: str | Path, mapping: dict[str, str], units: str = "auto
     path : str or Path
         The export.
     mapping : dict of str to str
-        From :func:`parse_mapping`.
+        From :func:`parse_mapping`; its layout (:func:`layout_of`) decides how the
+        table is read: one reading per row (long), one column per run (wide), or one
+        row per step with a column per move (steps).
     units : str
         Unit of the target and reading columns: ``mm``, ``um``, ``in`` or ``auto``
         (header, else mm).
     deviation_units : str
-        Unit of the deviation column: ``um``, ``nm``, ``mm``, ``in``, ``uin`` or ``auto``
+        Unit of the deviation columns: ``um``, ``nm``, ``mm``, ``in``, ``uin`` or ``auto``
         (header, else um for metric targets; required for inch targets).
 
     Returns
@@ -212,94 +302,120 @@ def read_laser_csv(path: str | Path, mapping: dict[str, str], units: str = "auto
         Naming the file, row (1-based line of the file) and column.
     """
     path = Path(path)
-    text = _decode(path)
-    lines = text.splitlines()
-    sample = "\n".join(lines[:50])
-    try:
-        delim = csv.Sniffer().sniff(sample, delimiters=",;\t").delimiter
-    except csv.Error:
-        delim = ","
-    try:
-        rows = list(csv.reader(io.StringIO(text), delimiter=delim))
-    except csv.Error as exc:
-        raise VolcalInputError(f"malformed CSV: {exc}", path) from None
-    head_i = None
-    for i, r in enumerate(rows[:200]):
-        if all(_find(r, c) is not None for c in mapping.values()):
-            head_i = i
-            break
-    if head_i is None:
-        first = next((r for r in rows if any(c.strip() for c in r)), [])
-        missing = [c for c in mapping.values() if _find(first, c) is None]
-        raise VolcalInputError(f"no header line with the mapped columns (missing "
-                               f"{', '.join(repr(m) for m in missing)}; first line: "
-                               f"{delim.join(first)[:120]!r})", path, 1,
-                               missing[0] if missing else None)
-    header = rows[head_i]
-    idx = {k: _find(header, c) for k, c in mapping.items()}
-    notes = [f"header on line {head_i + 1}, delimiter {delim!r}"]
-    decimal_comma = delim != ","
-    t_col, t_head = mapping["target"], header[idx["target"]]
-    tu = _unit(units, t_head, "mm", "target", notes, path, t_col)
-    dkey = "deviation" if "deviation" in mapping else "reading"
-    d_head = header[idx[dkey]]
-    if dkey == "deviation":
-        du = _unit(deviation_units, d_head, "um" if tu in ("mm", "um") else None, "deviation",
-                   notes, path, mapping[dkey])
+    t = parse_table(_decode(path), laser_spec(mapping), path)
+    notes = [f"header on line {t.header_row}, delimiter {t.delimiter!r}"]
+    if len(t) < MIN_ROWS:
+        last = int(t.rows[-1]) if len(t) else t.header_row
+        raise VolcalInputError(f"need at least {MIN_ROWS} data lines, found {len(t)}", path,
+                               last + 1)
+    tu = _unit(units, t.written[mapping["target"]], "mm", "target", notes, path,
+               mapping["target"])
+    target = t[mapping["target"]] * TO_MM[tu]
+    layout = layout_of(mapping)
+    if layout == "steps":
+        return _read_steps(t, mapping, target, tu, deviation_units, notes, path)
+    if layout == "wide":
+        out = _read_wide(t, mapping, target, tu, units, deviation_units, notes, path)
     else:
-        du = _unit(units if unit_from_header(d_head) is None else "auto", d_head, tu, "reading",
-                   notes, path, mapping[dkey])
-    data = [(i + 1, r) for i, r in enumerate(rows) if i > head_i and any(c.strip() for c in r)]
-    if len(data) < MIN_ROWS:
-        raise VolcalInputError(f"need at least {MIN_ROWS} data lines, found {len(data)}", path,
-                               data[-1][0] + 1 if data else head_i + 2)
-    n = len(data)
-    target = np.empty(n)
-    dev = np.empty(n)
-    cols: dict[str, list[Any]] = {}
-    for j, (line, r) in enumerate(data):
-        if len(r) < len(header):
-            raise VolcalInputError(f"expected {len(header)} fields, found {len(r)}", path, line)
-        t = _number(r[idx["target"]], decimal_comma, path, line, t_col) * TO_MM[tu]
-        d = _number(r[idx[dkey]], decimal_comma, path, line, mapping[dkey]) * TO_MM[du]
-        target[j] = t
-        dev[j] = (d - t if dkey == "reading" else d) * 1000.0
-        for key in mapping:
-            if key in ("target", "deviation", "reading"):
-                continue
-            cell = r[idx[key]].strip()
-            name = "time_s" if key == "time" else key
-            if key == "run":
-                if not _RUN.match(cell):
-                    raise VolcalInputError(f"run must be a whole number >= 0, got {cell!r}",
-                                           path, line, mapping[key])
-                v: Any = int(cell.split(".")[0].split(",")[0])
-            elif key == "direction":
-                v = _DIRECTIONS.get(cell.casefold())
-                if v is None:
-                    raise VolcalInputError(f"unknown direction {cell!r}: expected +/-, up/down, "
-                                           "forward/backward", path, line, mapping[key])
-            else:
-                v = _number(cell, decimal_comma, path, line, mapping[key])
-            cols.setdefault(name, []).append(v)
-    out = {k: np.array(v, dtype=int if k == "run" else (str if k == "direction" else float))
-           for k, v in cols.items()}
-    if "direction" not in out:
-        out["direction"] = _infer_directions(target)
+        out = _read_long(t, mapping, target, tu, units, deviation_units, notes, path)
+    _check_duplicates(out, path, mapping["target"])
+    return out
+
+
+def _value_unit(t: Table, key: str, col: str, tu: str, units: str, deviation_units: str,
+                notes: list[str], path: Path) -> str:
+    head = t.written[col]
+    if key == "deviation":
+        return _unit(deviation_units, head, "um" if tu in ("mm", "um") else None, "deviation",
+                     notes, path, col)
+    return _unit(units if unit_from_header(head) is None else "auto", head, tu, "reading",
+                 notes, path, col)
+
+
+def _values(key: str, v: NDArray[np.float64], unit: str, target: NDArray[np.float64]
+            ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
+    """Deviation [um] and (reading columns) the reading [mm] of raw values in ``unit``."""
+    x = v * TO_MM[unit]
+    if key == "reading":
+        return (x - target) * 1000.0, x
+    return x * 1000.0, None
+
+
+def _read_long(t: Table, mapping: dict[str, str], target: NDArray[np.float64], tu: str,
+               units: str, deviation_units: str, notes: list[str], path: Path) -> LaserTable:
+    key = "deviation" if "deviation" in mapping else "reading"
+    col = mapping[key]
+    du = _value_unit(t, key, col, tu, units, deviation_units, notes, path)
+    dev, reading = _values(key, t[col].astype(float), du, target)
+    cols: dict[str, NDArray[Any]] = {}
+    for k, c in mapping.items():
+        if k in ("target", "deviation", "reading"):
+            continue
+        name = "time_s" if k == "time" else k
+        cols[name] = (np.array(t[c], dtype=int) if k == "run" else
+                      np.array(t[c], dtype=str) if k == "direction" else t[c].astype(float))
+    if "direction" not in cols:
+        cols["direction"] = _infer_directions(target)
         notes.append("approach directions inferred from the order of the targets")
-        if "run" not in out:
-            out["run"] = _infer_runs(out["direction"])
-            notes.append(f"{int(out['run'].max())} run(s) inferred from the direction changes "
+        if "run" not in cols:
+            cols["run"] = _infer_runs(cols["direction"])
+            notes.append(f"{int(cols['run'].max())} run(s) inferred from the direction changes "
                          "(a run is one + pass and one - pass)")
-    if "run" in out:  # ISO 230-2: each target once per run and direction
-        seen: dict[tuple[float, int, str], int] = {}
-        for j, key in enumerate(zip(target.round(9), out["run"], out["direction"], strict=True)):
-            if key in seen:
-                raise VolcalInputError(
-                    f"target {key[0]:g} mm appears twice in run {key[1]} direction {key[2]} "
-                    f"(also on line {seen[key]}): a duplicated line?", path, data[j][0], t_col)
-            seen[key] = data[j][0]
-    return LaserTable(target, dev, out, notes)
+    return LaserTable(target, dev, cols, notes, t.rows.copy(), [col] * len(t), reading)
+
+
+def _read_wide(t: Table, mapping: dict[str, str], target: NDArray[np.float64], tu: str,
+               units: str, deviation_units: str, notes: list[str], path: Path) -> LaserTable:
+    key = "deviation" if "deviation" in mapping else "reading"
+    rcols = run_columns(t.groups["runs"], mapping[key], path, t.header_row)
+    long = to_long(target, rcols, _infer_directions(target))
+    n = long.index.size
+    dev, reading = np.empty(n), np.empty(n)
+    at = 0
+    for c in rcols:
+        u = _value_unit(t, key, c.header, tu, units, deviation_units, notes, path)
+        k = len(t)
+        sel = long.index[at:at + k]
+        d, r = _values(key, t[c.header].astype(float)[sel], u, target[sel])
+        dev[at:at + k] = d
+        reading[at:at + k] = np.nan if r is None else r
+        at += k
+    has_dir = rcols[0].direction is not None
+    notes.append(f"wide table: {len(rcols)} run column(s) ({', '.join(c.header for c in rcols)})"
+                 + ("" if has_dir else "; directions inferred from the order of the targets")
+                 + f" -> {n} readings")
+    cols = {"run": long.run, "direction": long.direction}
+    return LaserTable(target[long.index], dev, cols, notes, t.rows[long.index], long.column,
+                      reading if key == "reading" else None)
+
+
+def _read_steps(t: Table, mapping: dict[str, str], target: NDArray[np.float64], tu: str,
+                deviation_units: str, notes: list[str], path: Path) -> LaserTable:
+    names = [c.strip() for c in mapping["deviation"].split(STEP_SEPARATOR)]
+    per = np.empty((len(t), len(names)))
+    for j, c in enumerate(names):
+        u = _value_unit(t, "deviation", c, tu, "auto", deviation_units, notes, path)
+        per[:, j] = t[c].astype(float) * TO_MM[u] * 1000.0
+    tgt = np.full((len(t), len(names)), np.nan)
+    tgt[:, -1] = target
+    notes.append(f"per-step table: {len(t)} rows x {len(names)} moves")
+    return LaserTable(tgt.ravel(), per.ravel(), {}, notes, np.repeat(t.rows, len(names)),
+                      names * len(t), None, len(names))
+
+
+def _check_duplicates(table: LaserTable, path: Path, t_col: str) -> None:
+    """ISO 230-2: each target once per run and direction."""
+    run, dirn = table.columns.get("run"), table.columns.get("direction")
+    if run is None or dirn is None:
+        return
+    seen: dict[tuple[float, int, str], int] = {}
+    for j, key in enumerate(zip(table.target_mm.round(9), run, dirn, strict=True)):
+        if key in seen:
+            raise VolcalInputError(
+                f"target {key[0]:g} mm appears twice in run {key[1]} direction {key[2]} "
+                f"(also on line {seen[key]}): a duplicated line?", path, int(table.rows[j]),
+                t_col)
+        seen[key] = int(table.rows[j])
 
 
 def _infer_directions(q: NDArray[np.float64]) -> NDArray[np.str_]:
@@ -341,6 +457,60 @@ class ImportResult:
     notes: list[str]
 
 
+def check_plausible(table: LaserTable, path: str | Path) -> None:
+    """Refuse a deviation no session reader would accept (|d| > 10 mm), naming its cell.
+
+    Parameters
+    ----------
+    table : LaserTable
+        The readings.
+    path : str or Path
+        The export (for the message).
+
+    Raises
+    ------
+    VolcalInputError
+        Naming the file, row and column of the first absurd value.
+    """
+    from volcal.session.format import DEVIATION_ABS_MAX_UM
+
+    big = np.flatnonzero(np.abs(np.nan_to_num(table.deviation_um)) > DEVIATION_ABS_MAX_UM)
+    if big.size:  # never write a session file its reader refuses (docs/formats.md)
+        i = int(big[0])
+        raise table.error(f"deviation {table.deviation_um[i]:.6g} um of reading {i + 1} is absurd "
+                          f"(> {DEVIATION_ABS_MAX_UM:g} um): wrong units (mm in a um column?), "
+                          "or a column that is not the laser's reading?", i, path)
+
+
+def _check_options(axis: str, mid: str, target: str) -> str:
+    ax = axis.strip().upper()
+    if ax not in AXES or len(ax) != 1:
+        raise VolcalInputError(f"--axis {axis!r}: expected X, Y or Z")
+    check_id(mid)
+    if target not in TARGETS:
+        raise VolcalInputError(f"--optics {target!r}: expected one of {', '.join(TARGETS)}")
+    return ax
+
+
+def check_id(mid: str, option: str = "--id") -> None:
+    """Refuse a measurement id that is not a safe file name.
+
+    Parameters
+    ----------
+    mid : str
+        Measurement id.
+    option : str
+        Option it came from (for the message).
+
+    Raises
+    ------
+    VolcalInputError
+        Not letters, digits, ``-`` and ``_`` starting with a letter or digit.
+    """
+    if not mid or not all(c.isalnum() or c in "-_" for c in mid) or not mid[0].isalnum():
+        raise VolcalInputError(f"{option} {mid!r}: use letters, digits, '-' and '_'")
+
+
 def import_csv(path: str | Path, mapping: dict[str, str], axis: str, line_mm, session: str | Path,
                mid: str, units: str = "auto", deviation_units: str = "auto",
                target: str = "retroreflector", tool_offset=(0.0, 0.0, 0.0),
@@ -353,7 +523,7 @@ def import_csv(path: str | Path, mapping: dict[str, str], axis: str, line_mm, se
     path : str or Path
         The export.
     mapping : dict
-        Column mapping (:func:`parse_mapping`).
+        Column mapping (:func:`parse_mapping`); long or wide layout.
     axis : str
         Measured axis ``'X'``, ``'Y'`` or ``'Z'``.
     line_mm : array_like, shape (3,)
@@ -380,58 +550,97 @@ def import_csv(path: str | Path, mapping: dict[str, str], axis: str, line_mm, se
     -------
     ImportResult
     """
-    ax = axis.strip().upper()
-    if ax not in AXES or len(ax) != 1:
-        raise VolcalInputError(f"--axis {axis!r}: expected X, Y or Z")
-    if not mid or not all(c.isalnum() or c in "-_" for c in mid) or not mid[0].isalnum():
-        raise VolcalInputError(f"--id {mid!r}: use letters, digits, '-' and '_'")
-    if target not in TARGETS:
-        raise VolcalInputError(f"--optics {target!r}: expected one of {', '.join(TARGETS)}")
+    ax = _check_options(axis, mid, target)
+    if layout_of(mapping) == "steps":
+        raise VolcalInputError("--map: a per-step table (deviation=A|B|C) is a step diagonal: "
+                               "import it into its planned measurement with --measurement ID")
     line = np.asarray(line_mm, dtype=float).reshape(3)
     k = AXES.index(ax)
     table = read_laser_csv(path, mapping, units, deviation_units)
-    from volcal.session.format import DEVIATION_ABS_MAX_UM
-
-    big = np.flatnonzero(np.abs(table.deviation_um) > DEVIATION_ABS_MAX_UM)
-    if big.size:  # never write a session file its reader refuses (docs/formats.md)
-        col = mapping.get("deviation") or mapping.get("reading")
-        raise VolcalInputError(
-            f"deviation {table.deviation_um[big[0]]:.6g} um of reading {big[0] + 1} is absurd "
-            f"(> {DEVIATION_ABS_MAX_UM:g} um): wrong units, or a column that is not the "
-            "laser's reading?", path, None, col)
+    check_plausible(table, path)
     pos = np.tile(line, (table.target_mm.size, 1))
     pos[:, k] = line[k] + table.target_mm
     beam = np.zeros(3)
     beam[k] = 1.0
     meta: dict[str, Any] = {"axis": ax, "line_mm": [float(v) for v in line],
                             "notes": f"imported from {Path(path).name}",
-                            "import": {"source": Path(path).name, "mapping": mapping,
-                                       "units": "; ".join(table.notes)}}
+                            "import": import_record(path, mapping, table)}
     m = Measurement(mid, "linear", target, pos, table.deviation_um, beam,
                     np.asarray(tool_offset, dtype=float), f"{mid}.csv", table.columns, meta)
     folder = Path(session)
     notes = list(table.notes)
     if not (folder / "session.toml").is_file():
-        if folder.exists() and (not folder.is_dir() or any(folder.iterdir())):
-            raise VolcalInputError("not a session folder (no session.toml) and not empty", folder)
-        if travel is None:
-            raise VolcalInputError("a new session needs --travel xmin:xmax,ymin:ymax,zmin:zmax",
-                                   folder)
-        travel = np.asarray(travel, dtype=float).reshape(3, 2)
-        if not np.all(np.isfinite(travel)) or np.any(travel[:, 1] <= travel[:, 0]):
-            raise VolcalInputError("--travel: every axis needs finite min < max [mm]")
-        s = Session(name, chain, travel, [m])
-        _check_travel(m, s.travel, notes, Path(path))
-        write_session(s, folder)
+        _new_session(folder, m, travel, chain, name, notes, Path(path))
         return ImportResult(m, folder, True, notes)
     s = read_session(folder, require_deviation=False)
     _check_travel(m, s.travel, notes, Path(path))
+    write_measurement(folder, m, replace, notes)
+    return ImportResult(m, folder, False, notes)
+
+
+def import_record(path: str | Path, mapping: dict[str, str], table: LaserTable
+                  ) -> dict[str, Any]:
+    """The ``import`` table written into the measurement's entry of ``session.toml``.
+
+    Parameters
+    ----------
+    path : str or Path
+        The export.
+    mapping : dict of str to str
+        Column mapping.
+    table : LaserTable
+        What was read (its notes name the units).
+
+    Returns
+    -------
+    dict
+    """
+    return {"source": Path(path).name, "mapping": mapping, "units": "; ".join(table.notes)}
+
+
+def _new_session(folder: Path, m: Measurement, travel, chain: str, name: str,
+                 notes: list[str], source: Path) -> None:
+    if folder.exists() and (not folder.is_dir() or any(folder.iterdir())):
+        raise VolcalInputError("not a session folder (no session.toml) and not empty", folder)
+    if travel is None:
+        raise VolcalInputError("a new session needs --travel xmin:xmax,ymin:ymax,zmin:zmax",
+                               folder)
+    travel = np.asarray(travel, dtype=float).reshape(3, 2)
+    if not np.all(np.isfinite(travel)) or np.any(travel[:, 1] <= travel[:, 0]):
+        raise VolcalInputError("--travel: every axis needs finite min < max [mm]")
+    s = Session(name, chain, travel, [m])
+    _check_travel(m, s.travel, notes, source)
+    write_session(s, folder)
+
+
+def write_measurement(folder: Path, m: Measurement, replace: bool, notes: list[str]) -> None:
+    """Add or replace one measurement of a session: its CSV first, then ``session.toml``.
+
+    Readings that are replaced are first copied into ``backup/<time>/``.
+
+    Parameters
+    ----------
+    folder : Path
+        Session folder (with ``session.toml``).
+    m : Measurement
+        The measurement to write.
+    replace : bool
+        Replace a measurement with the same id (else that is an error).
+    notes : list of str
+        Where the backup made is reported.
+
+    Raises
+    ------
+    VolcalInputError
+        The id exists without ``replace``; the file belongs to another measurement or
+        is some other file of the folder (nothing is overwritten).
+    """
     toml_path = folder / "session.toml"
     doc = tomllib.loads(toml_path.read_text(encoding="utf-8"))
     entries = doc.get("measurements", [])
-    same = [i for i, e in enumerate(entries) if e.get("id") == mid]
+    same = [i for i, e in enumerate(entries) if e.get("id") == m.id]
     if same and not replace:
-        raise VolcalInputError(f"measurement {mid!r} exists; choose another --id or --replace",
+        raise VolcalInputError(f"measurement {m.id!r} exists; choose another --id or --replace",
                                toml_path)
     others = {e.get("file") for i, e in enumerate(entries) if i not in same}
     if m.file in others:
@@ -441,12 +650,11 @@ def import_csv(path: str | Path, mapping: dict[str, str], axis: str, line_mm, se
         raise VolcalInputError(f"{m.file!r} exists in the session and is not a measurement's "
                                "file: choose another --id (nothing is overwritten)", toml_path)
     old = [f for f in old_files if isinstance(f, str) and (folder / f).is_file()]
-    had_readings = [m0.id for m0 in s.measurements if m0.id == mid and m0.deviation is not None]
-    if had_readings:  # never discard readings: keep the replaced files
+    if same and _has_readings(folder, old):  # never discard readings: keep the replaced files
         from volcal.session.provenance import backup_files
 
         kept = backup_files(folder, old)
-        notes.append(f"the replaced readings of {mid} are kept in {kept}/")
+        notes.append(f"the replaced readings of {m.id} are kept in {kept}/")
     entry = m.to_toml()
     if same:
         entries[same[0]] = entry
@@ -455,7 +663,19 @@ def import_csv(path: str | Path, mapping: dict[str, str], axis: str, line_mm, se
     doc["measurements"] = entries
     write_text(folder / m.file, m.to_csv())
     write_text(toml_path, toml_dumps(doc))
-    return ImportResult(m, folder, False, notes)
+
+
+def _has_readings(folder: Path, files: list[str]) -> bool:
+    from volcal.session.format import read_measurement_csv
+
+    for f in files:
+        try:
+            _, dev, _ = read_measurement_csv(folder / f, require_deviation=False)
+        except VolcalInputError:
+            return True  # unreadable: keep it, to be safe
+        if dev is not None:
+            return True
+    return False
 
 
 def _check_travel(m: Measurement, travel: NDArray[np.float64], notes: list[str],

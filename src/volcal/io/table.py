@@ -211,6 +211,9 @@ class Table:
         Field separator used.
     header_row : int
         Physical line of the header (1 unless a preamble came first).
+    written : dict of str to str
+        The header as written of each column read (differs from the name when matched
+        loosely, e.g. ``'Error (µm)'`` for ``'error'``).
     """
 
     path: Path | None
@@ -222,6 +225,7 @@ class Table:
     groups: dict[str, list[str]] = field(default_factory=dict)
     delimiter: str = ","
     header_row: int = 1
+    written: dict[str, str] = field(default_factory=dict)
 
     def __len__(self) -> int:
         """Number of data rows."""
@@ -595,7 +599,7 @@ def parse_table(text: str, spec: TableSpec, path: str | Path | None = None) -> T
         cols[name] = np.array(v, dtype=dtype)
     return Table(p, header, cols, np.array([r for r, _ in data], dtype=np.int64), extra,
                  {k: np.array(v, dtype=bool) for k, v in marks.items()}, groups, delim,
-                 header_row)
+                 header_row, {name: header[j] for name, j in idx.items()})
 
 
 def columns_present(table: Table, names: Iterable[str]) -> list[str]:

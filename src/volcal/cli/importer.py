@@ -1,4 +1,4 @@
-"""``volcal import``: a laser's CSV export -> a linear measurement of a session."""
+"""``volcal import``: a laser's CSV export -> a measurement of a session."""
 
 from __future__ import annotations
 
@@ -7,27 +7,59 @@ from typing import Annotated
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 
 from volcal.cli._common import parse_travel, parse_vector
 
 console = Console()
+
+HELP = """Add a measurement from a laser CSV export to a session (atomically).
+
+Two ways:
+
+* a new linear measurement: --axis X --id linear-x9 [--line-mm x,y,z] (the session is
+created with --travel if it does not exist);
+
+* the readings of a planned measurement (linear, diagonal, step diagonal; from
+``volcal plan``): --measurement diag-ppp. The file must hold one reading per planned
+pose, in the planned order; its targets (distance from the first pose along the beam)
+are checked against the plan.
+
+Layouts (--map, see docs/formats.md "Laser exports"):
+
+* long, one reading per row: --map target=Pos,deviation=Error[,run=Run,direction=Dir]
+(runs and directions are inferred from the order of the targets when not given);
+
+* wide, one column per run (certificates): a pattern in deviation= or reading=,
+--map "target=Target,deviation=Run*"; run numbers and directions come from the
+headers (Run 1, Run 1 +, Run 1 -, 1 up, 1 down, R1 Fwd, R1 Rev ...);
+
+* per-step step diagonal, one row per step: --map "target=Pos,deviation=dX|dY|dZ"
+(the readings after each single-axis move, in the plan's axis order) with
+--measurement.
+"""
 
 
 def import_(
     csv_file: Annotated[Path, typer.Argument(metavar="CSV", help="The laser's CSV export.")],
     map: Annotated[str, typer.Option(
         "--map", help="Columns: target=..,deviation=.. or reading=.., optional run=.., "
-        "direction=.., time=.., air_temperature_c=.. ...")],
-    axis: Annotated[str, typer.Option(help="Measured axis X, Y or Z.")],
+        "direction=.., time=.., air_temperature_c=.. ...; deviation=Run* (a pattern): a "
+        "wide table, one column per run; deviation=A|B|C: a per-step step-diagonal table.")],
     session: Annotated[Path, typer.Option(help="Session folder (created if missing).")],
-    id: Annotated[str, typer.Option("--id", help="Measurement id.")],
+    axis: Annotated[str | None, typer.Option(
+        help="Measured axis X, Y or Z of a new linear measurement.")] = None,
+    id: Annotated[str | None, typer.Option("--id", help="Id of a new measurement.")] = None,
+    measurement: Annotated[str | None, typer.Option(
+        help="Id of a planned measurement to fill (linear, diagonal, step_diagonal).")
+                           ] = None,
     line_mm: Annotated[str, typer.Option(
         help="Machine position x,y,z of the line [mm]; its axis coordinate is added to the "
         "targets.")] = "0,0,0",
     units: Annotated[str, typer.Option(
         help="Unit of target/reading columns: mm, um, in or auto (header, else mm).")] = "auto",
     deviation_units: Annotated[str, typer.Option(
-        help="Unit of the deviation column: um, nm, mm, in, uin or auto.")] = "auto",
+        help="Unit of the deviation columns: um, nm, mm, in, uin or auto.")] = "auto",
     optics: Annotated[str, typer.Option(help="retroreflector or flat_mirror.")
                       ] = "retroreflector",
     tool_offset: Annotated[str, typer.Option(help="Target on the tool x,y,z [mm].")] = "0,0,0",
@@ -35,26 +67,41 @@ def import_(
         help="Travel of a NEW session, xmin:xmax,ymin:ymax,zmin:zmax [mm].")] = None,
     chain: Annotated[str, typer.Option(help="Chain of a new session.")] = "XYFZ",
     name: Annotated[str, typer.Option(help="Machine name of a new session.")] = "machine",
-    replace: Annotated[bool, typer.Option(help="Replace a measurement with this id.")] = False,
+    replace: Annotated[bool, typer.Option(help="Replace a measurement with this id (or the "
+                                                "readings of --measurement).")] = False,
 ) -> None:
-    """Add a linear measurement from a laser CSV export to a session (atomically)."""
+    """Add a measurement from a laser CSV export to a session (see HELP)."""
+    from volcal.errors import VolcalInputError
     from volcal.importer.laser_csv import import_csv, parse_mapping
     from volcal.io.paths import check_output_folder
 
-    if not session.exists():
-        check_output_folder(session, "session")
+    mapping = parse_mapping(map)
+    if measurement is not None:
+        if axis is not None or id is not None:
+            raise VolcalInputError("--measurement fills a planned measurement: leave out "
+                                   "--axis and --id")
+        from volcal.importer.planned import import_planned
 
-    r = import_csv(csv_file, parse_mapping(map), axis, parse_vector(line_mm, "--line-mm"),
-                   session, id, units, deviation_units, optics,
-                   parse_vector(tool_offset, "--tool-offset"),
-                   None if travel is None else parse_travel(travel), chain, name, replace)
+        r = import_planned(csv_file, mapping, session, measurement, units, deviation_units,
+                           replace)
+        what = f"{r.measurement.kind} {r.measurement.id}"
+    else:
+        if axis is None or id is None:
+            raise VolcalInputError("give --axis and --id (a new linear measurement) or "
+                                   "--measurement ID (a planned one)")
+        if not session.exists():
+            check_output_folder(session, "session")
+        r = import_csv(csv_file, mapping, axis, parse_vector(line_mm, "--line-mm"),
+                       session, id, units, deviation_units, optics,
+                       parse_vector(tool_offset, "--tool-offset"),
+                       None if travel is None else parse_travel(travel), chain, name, replace)
+        what = f"{r.measurement.id} ({axis.upper()})"
     for note in r.notes:
-        console.print(f"[cyan]units/notes:[/] {note}", highlight=False)
-    what = "created session" if r.created else "added to"
-    console.print(f"{r.measurement.n} readings of {r.measurement.id} ({axis.upper()}) -> "
-                  f"{what} {r.session}")
+        console.print(f"[cyan]units/notes:[/] {escape(note)}", highlight=False)
+    where = "created session" if r.created else "added to"
+    console.print(f"{r.measurement.n} readings of {what} -> {where} {r.session}")
 
 
 def register(app: typer.Typer) -> None:
     """Add the commands of this module to the app."""
-    app.command("import")(import_)
+    app.command("import", help=HELP)(import_)

@@ -154,6 +154,8 @@ class LaserTable:
         The absolute reading of each element [mm] when mapped with ``reading=``.
     steps : int
         Per-step tables: readings per row (moves per step); 0 otherwise.
+    inferred : tuple of str
+        Columns not in the file but inferred (``'run'``, ``'direction'``).
     """
 
     target_mm: NDArray[np.float64]
@@ -164,6 +166,7 @@ class LaserTable:
     sources: list[str] = field(default_factory=list)
     reading_mm: NDArray[np.float64] | None = None
     steps: int = 0
+    inferred: tuple[str, ...] = ()
 
     def error(self, message: str, i: int, path: str | Path) -> VolcalInputError:
         """An error located at reading ``i`` (its file row and column).
@@ -354,14 +357,18 @@ def _read_long(t: Table, mapping: dict[str, str], target: NDArray[np.float64], t
         name = "time_s" if k == "time" else k
         cols[name] = (np.array(t[c], dtype=int) if k == "run" else
                       np.array(t[c], dtype=str) if k == "direction" else t[c].astype(float))
+    inferred = []
     if "direction" not in cols:
         cols["direction"] = _infer_directions(target)
         notes.append("approach directions inferred from the order of the targets")
+        inferred.append("direction")
         if "run" not in cols:
             cols["run"] = _infer_runs(cols["direction"])
             notes.append(f"{int(cols['run'].max())} run(s) inferred from the direction changes "
                          "(a run is one + pass and one - pass)")
-    return LaserTable(target, dev, cols, notes, t.rows.copy(), [col] * len(t), reading)
+            inferred.append("run")
+    return LaserTable(target, dev, cols, notes, t.rows.copy(), [col] * len(t), reading,
+                      inferred=tuple(inferred))
 
 
 def _read_wide(t: Table, mapping: dict[str, str], target: NDArray[np.float64], tu: str,
@@ -386,7 +393,8 @@ def _read_wide(t: Table, mapping: dict[str, str], target: NDArray[np.float64], t
                  + f" -> {n} readings")
     cols = {"run": long.run, "direction": long.direction}
     return LaserTable(target[long.index], dev, cols, notes, t.rows[long.index], long.column,
-                      reading if key == "reading" else None)
+                      reading if key == "reading" else None,
+                      inferred=() if has_dir else ("direction",))
 
 
 def _read_steps(t: Table, mapping: dict[str, str], target: NDArray[np.float64], tu: str,

@@ -80,6 +80,9 @@ LASER_EXPORT = "Target (mm),Run,Dir,Error (um)\n" + "".join(
     [(0, "fwd", 0.0), (100, "fwd", 1.2), (200, "fwd", 2.5),
      (200, "bwd", 3.1), (100, "bwd", 1.9), (0, "bwd", 0.4)])
 LASER_MAP = "target=Target (mm),run=Run,direction=Dir,deviation=Error (um)"
+WIDE_EXPORT = ("Target (mm),Run 1 (um),Run 2 (um)\n0,0.0,0.1\n100,1.2,1.3\n200,2.5,2.4\n"
+               "200,3.1,3.0\n100,1.9,1.8\n0,0.4,0.5\n")
+WIDE_MAP = "target=Target (mm),deviation=Run*"
 TRUNCATED_TOML = 'format = "volcal-errors/1"\nname = "virt'
 POINTS = "x_mm,y_mm,z_mm\n0,0,0\n100,50,20\n400,300,200\n"
 
@@ -101,11 +104,33 @@ def base(tmp_path_factory: pytest.TempPathFactory) -> Path:
                "-o", d / "COMP")
     assert r.returncode == 0, r.stderr
     (d / "laser.csv").write_text(LASER_EXPORT)
+    (d / "wide.csv").write_text(WIDE_EXPORT)
+    _planned_exports(d)
     (d / "points.csv").write_text(POINTS)
     (d / "EMPTY").mkdir()
     (d / "empty.csv").write_text("")
     (d / "garbage.bin").write_bytes(bytes(range(256)) * 8)
     return d
+
+
+def _planned_exports(d: Path) -> None:
+    """``diag.csv``, ``steps.csv``: the simulated diag-ppp and step-ppp of ``S`` as a laser
+    exports them (distance along the diagonal; one row per step)."""
+    import numpy as np
+
+    from volcal.importer.planned import planned_targets
+    from volcal.session.format import read_session
+
+    s = read_session(d / "S")
+    m = s.get("diag-ppp")
+    (d / "diag.csv").write_text("Pos (mm),Dev (um)\n" + "".join(
+        f"{t:.4f},{v:.6f}\n" for t, v in zip(planned_targets(m), m.deviation, strict=True)))
+    m = s.get("step-ppp")
+    t, v = planned_targets(m), m.deviation
+    rows = [f"0,{v[0]:.6f},,"] + [f"{t[3 * k + 3]:.4f}," + ",".join(
+        f"{x:.6f}" for x in v[3 * k + 1: 3 * k + 4]) for k in range((m.n - 1) // 3)]
+    (d / "steps.csv").write_text("Pos (mm),dX (um),dY (um),dZ (um)\n" + "\n".join(rows) + "\n")
+    assert np.isfinite(v).all()
 
 
 def snapshot(folder: Path) -> dict[str, tuple[str, str]]:
@@ -603,6 +628,74 @@ CASES: list[Case] = [
                                                 "--chain", "XYZF0"], ("XYZF0",), None),
         ("new-session-under-file", "laser.csv", ["--session", "{d}/points.csv/NEW", "--travel",
                                                  TRAVEL], ("points.csv",), None),
+    ]],
+    # ---- import: wide tables, planned diagonals and step diagonals ----
+    *[Case(f"import:{k}", ["import", *a], e, m) for k, a, e, m in [
+        ("wide-text", ["{d}/wide.csv", "--map", WIDE_MAP, "--axis", "X", "--session", "{d}/S",
+                       "--id", "lx9"],
+         ("wide.csv", "row 3", "column 'Run 2 (um)'", "not a number: 'n/a'"),
+         set_cell("wide.csv", 3, "Run 2 (um)", "n/a")),
+        ("wide-mm-in-um", ["{d}/wide.csv", "--map", WIDE_MAP, "--axis", "X", "--session",
+                           "{d}/S", "--id", "lx9"],
+         ("wide.csv", "row 4", "column 'Run 2 (um)'", "deviation 12500 um of reading 9 is "
+          "absurd (> 10000 um): wrong units (mm in a um column?)"),
+         set_cell("wide.csv", 4, "Run 2 (um)", "12500")),
+        ("wide-unknown-column", ["{d}/wide.csv", "--map", "target=Target (mm),deviation=Pass*",
+                                 "--axis", "X", "--session", "{d}/S", "--id", "lx9"],
+         ("wide.csv", "row 1", "column 'Pass*'", "no header line with the mapped columns "
+          "(missing 'Pass*'"), None),
+        ("wide-run-column-without-number", ["{d}/wide.csv", "--map", WIDE_MAP, "--axis", "X",
+                                            "--session", "{d}/S", "--id", "lx9"],
+         ("wide.csv", "row 1", "column 'Run mean (um)'", "names no run number"),
+         rename_column("wide.csv", "Run 2 (um)", "Run mean (um)")),
+        ("wide-run-key", ["{d}/wide.csv", "--map", WIDE_MAP + ",run=R", "--axis", "X",
+                          "--session", "{d}/S", "--id", "lx9"],
+         ("--map: run= does not fit a wide table",), None),
+        ("planned-wrong-row-count", ["{d}/diag.csv", "--map", "target=Pos,deviation=Dev",
+                                     "--session", "{d}/P", "--measurement", "diag-ppp"],
+         ("diag.csv", "3 readings in the file, but 'diag-ppp' is planned with 4"),
+         keep_lines("diag.csv", 4)),
+        ("planned-target-off", ["{d}/diag.csv", "--map", "target=Pos,deviation=Dev",
+                                "--session", "{d}/P", "--measurement", "diag-ppp"],
+         ("diag.csv", "row 3", "column 'Pos'", "target 99 mm does not match the plan of "
+          "'diag-ppp': reading 2 is planned at"), set_cell("diag.csv", 3, "Pos (mm)", "99")),
+        ("planned-mm-in-um", ["{d}/diag.csv", "--map", "target=Pos,deviation=Dev",
+                              "--session", "{d}/P", "--measurement", "diag-ppp"],
+         ("diag.csv", "row 4", "column 'Dev'", "is absurd (> 10000 um)"),
+         set_cell("diag.csv", 4, "Dev (um)", "-25000")),
+        ("planned-unknown-column", ["{d}/diag.csv", "--map", "target=Pos,deviation=Error",
+                                    "--session", "{d}/P", "--measurement", "diag-ppp"],
+         ("diag.csv", "row 1", "column 'Error'", "missing 'Error'"), None),
+        ("planned-unknown-measurement", ["{d}/diag.csv", "--map", "target=Pos,deviation=Dev",
+                                         "--session", "{d}/P", "--measurement", "diag-xyz"],
+         ("session.toml", "--measurement 'diag-xyz': no such measurement"), None),
+        ("planned-has-readings", ["{d}/diag.csv", "--map", "target=Pos,deviation=Dev",
+                                  "--session", "{d}/S", "--measurement", "diag-ppp"],
+         ("session.toml", "measurement 'diag-ppp' has readings; give --replace"), None),
+        ("planned-no-session", ["{d}/diag.csv", "--map", "target=Pos,deviation=Dev",
+                                "--session", "{d}/NEW", "--measurement", "diag-ppp"],
+         ("NEW", "--measurement needs an existing session"), None),
+        ("planned-and-axis", ["{d}/diag.csv", "--map", "target=Pos,deviation=Dev",
+                              "--session", "{d}/P", "--measurement", "diag-ppp", "--axis", "X"],
+         ("--measurement fills a planned measurement: leave out --axis and --id",), None),
+        ("neither-axis-nor-measurement", ["{d}/diag.csv", "--map", "target=Pos,deviation=Dev",
+                                          "--session", "{d}/P"],
+         ("give --axis and --id (a new linear measurement) or --measurement ID",), None),
+        ("steps-wrong-rows", ["{d}/steps.csv", "--map", "target=Pos,deviation=dX|dY|dZ",
+                              "--session", "{d}/P", "--measurement", "step-ppp"],
+         ("steps.csv", "2 rows in the per-step table, but 'step-ppp' is planned with 3 steps"),
+         keep_lines("steps.csv", 3)),
+        ("steps-text", ["{d}/steps.csv", "--map", "target=Pos,deviation=dX|dY|dZ",
+                        "--session", "{d}/P", "--measurement", "step-ppp"],
+         ("steps.csv", "row 3", "column 'dY'", "not a number: 'x'"),
+         set_cell("steps.csv", 3, "dY (um)", "x")),
+        ("steps-empty-cell", ["{d}/steps.csv", "--map", "target=Pos,deviation=dX|dY|dZ",
+                              "--session", "{d}/P", "--measurement", "step-ppp"],
+         ("steps.csv", "row 4", "column 'dZ'", "empty field: expected a number"),
+         set_cell("steps.csv", 4, "dZ (um)", "")),
+        ("steps-two-columns", ["{d}/steps.csv", "--map", "target=Pos,deviation=dX|dY",
+                               "--session", "{d}/P", "--measurement", "step-ppp"],
+         ("--map names 2 move column(s) but each step of 'step-ppp' moves 3 axes",), None),
     ]],
     # ---- report ----
     *sessions_cases(["report"], ["-o", "{d}/R"]),

@@ -30,8 +30,8 @@ import numpy as np
 
 from volcal.errors import VolcalInputError
 from volcal.io.atomic import write_text
+from volcal.io.table import Column, Table, TableSpec, read_table
 from volcal.io.tomlfmt import dumps as toml_dumps
-from volcal.io.values import parse_finite
 from volcal.model.errorfunctions import MachineErrors
 from volcal.model.names import AXES, SQUARENESS_NAMES
 
@@ -108,6 +108,67 @@ def write_error_table(errors: MachineErrors, path: str | Path) -> Path:
     return path
 
 
+def _axis(text: str) -> str:
+    a = text.strip().upper()
+    if a not in AXES:
+        raise ValueError(f"unknown axis {text!r}: expected X, Y or Z")
+    return a
+
+
+def error_table_spec(required: bool = True) -> TableSpec:
+    """:class:`~volcal.io.table.TableSpec` of an error table (``MACHINE.csv``).
+
+    Parameters
+    ----------
+    required : bool
+        Every error column required (a full error table); False: any subset, cells
+        may be empty (errors measured separately, ``--known``).
+
+    Returns
+    -------
+    TableSpec
+    """
+    return TableSpec((Column("axis", kind="str", parse=_axis),
+                      Column("position_mm", abs_max=1e7),
+                      *(Column(h, required=required, empty=not required, abs_max=1e7)
+                        for h in HEADER[2:])),
+                     unknown="error", what="error table" if required else "known-errors table")
+
+
+def _check_increasing(t: Table, axes: np.ndarray, pos: np.ndarray) -> None:
+    for a in AXES:
+        sel = np.flatnonzero(axes == a)
+        step = np.diff(pos[sel])
+        if np.any(step <= 0):
+            raise t.error("positions of an axis must increase strictly",
+                          int(sel[1:][step <= 0][0]), "position_mm")
+
+
+def _number_key(doc: dict, table: str, key: str, unit: str, toml_path: Path) -> float:
+    v = doc.get(table, {}).get(key, 0.0)
+    if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+        raise VolcalInputError(f"expected a number [{unit}]", toml_path, None, f"{table}.{key}")
+    return float(v)
+
+
+def _read_errors_toml(toml_path: Path, chain: str | None, name: str
+                      ) -> tuple[str | None, str, np.ndarray, np.ndarray]:
+    try:
+        doc = tomllib.loads(toml_path.read_text(encoding="utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError, OSError) as exc:
+        raise VolcalInputError(f"invalid TOML: {exc}", toml_path) from None
+    if doc.get("format") != ERRORS_FORMAT:
+        raise VolcalInputError(f"expected format = \"{ERRORS_FORMAT}\"", toml_path, None,
+                               "format")
+    for table in ("squareness_urad", "reversal_um"):
+        if not isinstance(doc.get(table, {}), dict):
+            raise VolcalInputError(f"[{table}] must be a table", toml_path, None, table)
+    sq = np.array([_number_key(doc, "squareness_urad", n, "urad", toml_path)
+                   for n in SQUARENESS_NAMES])
+    rev = np.array([_number_key(doc, "reversal_um", a, "um", toml_path) for a in "xyz"])
+    return doc.get("chain", chain), doc.get("name", name), sq, rev
+
+
 def read_error_table(path: str | Path, chain: str | None = None) -> MachineErrors:
     """Read an error table (CSV, and the TOML beside it if present).
 
@@ -130,76 +191,32 @@ def read_error_table(path: str | Path, chain: str | None = None) -> MachineError
     path = Path(path)
     if not path.is_file():
         raise VolcalInputError("error table not found", path)
-    try:
-        rows = [r for r in csv.reader(io.StringIO(path.read_text(encoding="utf-8-sig")))
-                if any(c.strip() for c in r)]
-    except (UnicodeDecodeError, csv.Error, OSError) as exc:
-        raise VolcalInputError(f"cannot read the CSV ({exc})", path) from None
-    if not rows or tuple(h.strip() for h in rows[0]) != HEADER:
-        raise VolcalInputError(f"expected the header {','.join(HEADER)}", path, 1)
-    per_axis: dict[int, list[list[float]]] = {0: [], 1: [], 2: []}
-    for i, r in enumerate(rows[1:], start=2):
-        if len(r) != len(HEADER):
-            raise VolcalInputError(f"expected {len(HEADER)} fields, found {len(r)}", path, i)
-        a = r[0].strip().upper()
-        if a not in AXES:
-            raise VolcalInputError(f"unknown axis {r[0]!r}: expected X, Y or Z", path, i, "axis")
-        vals = [parse_finite(text, path, i, HEADER[j]) for j, text in enumerate(r[1:], start=1)]
-        if per_axis[AXES.index(a)] and vals[0] <= per_axis[AXES.index(a)][-1][0]:
-            raise VolcalInputError("positions of an axis must increase strictly", path, i,
-                                   "position_mm")
-        per_axis[AXES.index(a)].append(vals)
-    for k in range(3):
-        if not per_axis[k]:
-            raise VolcalInputError(f"no rows for axis {AXES[k]}", path)
-    sq = np.zeros(3)
-    rev = np.zeros(3)
-    name = path.stem
+    t = read_table(path, error_table_spec())
+    axes = np.asarray(t["axis"], dtype=str)
+    pos = t["position_mm"]
+    _check_increasing(t, axes, pos)
+    for a in AXES:
+        if not np.any(axes == a):
+            raise VolcalInputError(f"no rows for axis {a}", path)
+    sq, rev, name = np.zeros(3), np.zeros(3), path.stem
     toml_path = path.with_suffix(".toml")
     if toml_path.is_file():
-        try:
-            doc = tomllib.loads(toml_path.read_text(encoding="utf-8"))
-        except (tomllib.TOMLDecodeError, UnicodeDecodeError, OSError) as exc:
-            raise VolcalInputError(f"invalid TOML: {exc}", toml_path) from None
-        if doc.get("format") != ERRORS_FORMAT:
-            raise VolcalInputError(f"expected format = \"{ERRORS_FORMAT}\"", toml_path, None,
-                                   "format")
-        chain = doc.get("chain", chain)
-        name = doc.get("name", name)
-        for table in ("squareness_urad", "reversal_um"):
-            if not isinstance(doc.get(table, {}), dict):
-                raise VolcalInputError(f"[{table}] must be a table", toml_path, None, table)
-        for i, n in enumerate(SQUARENESS_NAMES):
-            v = doc.get("squareness_urad", {}).get(n, 0.0)
-            if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
-                raise VolcalInputError("expected a number [urad]", toml_path, None,
-                                       f"squareness_urad.{n}")
-            sq[i] = v
-        for i, a in enumerate("xyz"):
-            v = doc.get("reversal_um", {}).get(a, 0.0)
-            if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
-                raise VolcalInputError("expected a number [um]", toml_path, None,
-                                       f"reversal_um.{a}")
-            rev[i] = v
+        chain, name, sq, rev = _read_errors_toml(toml_path, chain, name)
     try:
         from volcal.model.chain import parse_chain
 
         parse_chain(chain or "XYFZ")
     except VolcalInputError as exc:
         raise VolcalInputError(exc.message, toml_path, None, "chain") from None
-    nodes = [np.array([v[0] for v in per_axis[k]]) for k in range(3)]
-    values = [np.array([v[1:] for v in per_axis[k]]) for k in range(3)]
-    return MachineErrors(chain or "XYFZ", nodes, values, sq, rev, name=str(name))
+    values = np.stack([t[h] for h in HEADER[2:]], axis=1)
+    nodes = [pos[axes == a] for a in AXES]
+    return MachineErrors(chain or "XYFZ", nodes, [values[axes == a] for a in AXES], sq, rev,
+                         name=str(name))
 
 
-def known_spec():
+def known_spec() -> TableSpec:
     """:class:`~volcal.io.table.TableSpec` of a table of separately measured errors."""
-    from volcal.io.table import Column, TableSpec
-
-    return TableSpec((Column("axis", kind="choice", choices=("X", "Y", "Z", "x", "y", "z")),
-                      Column("position_mm", abs_max=1e7),
-                      *(Column(h, required=False, empty=True, abs_max=1e7) for h in HEADER[2:])),
-                     unknown="error", what="known-errors table")
+    return error_table_spec(required=False)
 
 
 def read_known_functions(path: str | Path) -> dict[str, tuple[np.ndarray, np.ndarray]]:
@@ -227,21 +244,16 @@ def read_known_functions(path: str | Path) -> dict[str, tuple[np.ndarray, np.nda
         Naming file, row and column (partly filled column, unsorted positions, no
         function given...).
     """
-    from volcal.io.table import read_table
-
     t = read_table(path, known_spec())
-    axes = np.array([a.upper() for a in t["axis"]])
+    axes = np.asarray(t["axis"], dtype=str)
     pos = t["position_mm"].astype(float)
     full = all(t.has(h) for h in HEADER[2:]) and set(axes) == set(AXES)
+    _check_increasing(t, axes, pos)
     out: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     for a in AXES:
         sel = np.flatnonzero(axes == a)
         if sel.size == 0:
             continue
-        if np.any(np.diff(pos[sel]) <= 0):
-            bad = sel[1:][np.diff(pos[sel]) <= 0][0]
-            raise t.error("positions of an axis must increase strictly", int(bad),
-                          "position_mm")
         for h in HEADER[2:]:
             if not t.has(h):
                 continue

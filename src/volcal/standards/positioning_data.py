@@ -12,8 +12,6 @@ Every problem raises :class:`~volcal.errors.VolcalInputError` naming the file, r
 
 from __future__ import annotations
 
-import csv
-import io
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -22,12 +20,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from volcal.errors import VolcalInputError
-from volcal.io.values import parse_finite
+from volcal.io.table import Column, TableSpec, parse_table, read_text
 
 __all__ = ["PositioningData", "from_measurement", "read_positioning_csv"]
 
 COLUMNS: tuple[str, ...] = ("target_mm", "run", "direction", "deviation_um")
-_UNITS = {"target": "mm", "deviation": "um"}
 
 
 @dataclass
@@ -61,18 +58,12 @@ class PositioningData:
     axis: str | None = None
 
 
-def _read_rows(path: Path) -> list[list[str]]:
-    try:
-        text = path.read_text(encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise VolcalInputError("file not found", path) from None
-    except (UnicodeDecodeError, IsADirectoryError, PermissionError) as exc:
-        raise VolcalInputError(f"cannot read the file as UTF-8 text ({exc.__class__.__name__})",
-                               path) from None
-    try:
-        return list(csv.reader(io.StringIO(text)))
-    except csv.Error as exc:
-        raise VolcalInputError(f"malformed CSV: {exc}", path) from None
+POSITIONING_TABLE = TableSpec(
+    columns=(Column("target_mm", abs_max=1e6), Column("run", kind="int", min=0),
+             Column("direction", kind="choice", choices=("+", "-")),
+             Column("deviation_um", abs_max=10_000.0)),
+    min_rows=1, min_rows_message="no readings below the header", what="positioning file")
+"""Columns of the ``target_mm,run,direction,deviation_um`` layout."""
 
 
 def read_positioning_csv(path: str | Path) -> PositioningData:
@@ -93,54 +84,13 @@ def read_positioning_csv(path: str | Path) -> PositioningData:
         Missing column, unknown unit, bad number, bad direction, naming file, row, column.
     """
     path = Path(path)
-    rows = _read_rows(path)
-    numbered = [(i + 1, r) for i, r in enumerate(rows) if any(c.strip() for c in r)]
-    if not numbered:
-        raise VolcalInputError("empty file: expected the header "
-                               "target_mm,run,direction,deviation_um", path, 1)
-    header = [h.strip() for h in numbered[0][1]]
-    if any(h in ("x_mm", "y_mm", "z_mm") for h in header):
-        return _read_measurement_layout(path, header)
-    for h in header:
-        stem, _, unit = h.rpartition("_")
-        if stem in _UNITS and unit != _UNITS[stem]:
-            raise VolcalInputError(f"unknown or unsupported unit {unit!r}: expected "
-                                   f"'{stem}_{_UNITS[stem]}'", path, 1, h)
-    for c in COLUMNS:
-        if c not in header:
-            raise VolcalInputError(f"missing required column '{c}' (header: {','.join(header)})",
-                                   path, 1, c)
-    if len(set(header)) != len(header):
-        dup = next(h for h in header if header.count(h) > 1)
-        raise VolcalInputError("duplicate column", path, 1, dup)
-    idx = {h: i for i, h in enumerate(header)}
-    data = numbered[1:]
-    t, run, dirn, dev, rown = [], [], [], [], []
-    for rownum, r in data:
-        if len(r) != len(header):
-            raise VolcalInputError(f"expected {len(header)} fields, found {len(r)}", path,
-                                   rownum)
-        t.append(_float(r[idx["target_mm"]], path, rownum, "target_mm"))
-        dev.append(_float(r[idx["deviation_um"]], path, rownum, "deviation_um"))
-        txt = r[idx["run"]].strip()
-        try:
-            run.append(int(txt))
-        except ValueError:
-            raise VolcalInputError(f"expected a whole run number, got {txt!r}", path, rownum,
-                                   "run") from None
-        d = r[idx["direction"]].strip()
-        if d not in ("+", "-"):
-            raise VolcalInputError(f"direction must be '+' or '-', got {d!r}", path, rownum,
-                                   "direction")
-        dirn.append(d)
-        rown.append(rownum)
-    if not data:
-        raise VolcalInputError("no readings below the header", path, 2)
-    return PositioningData(np.array(t), np.array(run, dtype=int), np.array(dirn),
-                           np.array(dev), np.array(rown, dtype=int), str(path))
-
-
-_float = parse_finite
+    text = read_text(path, "positioning file")
+    first = next((ln for ln in text.splitlines() if ln.strip()), "")
+    if any(h.strip() in ("x_mm", "y_mm", "z_mm") for h in first.split(",")):
+        return _read_measurement_layout(path, [h.strip() for h in first.split(",")])
+    t = parse_table(text, POSITIONING_TABLE, path)
+    return PositioningData(t["target_mm"], t["run"], t["direction"], t["deviation_um"],
+                           t.rows, str(path))
 
 
 def _read_measurement_layout(path: Path, header: list[str]) -> PositioningData:

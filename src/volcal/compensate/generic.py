@@ -14,6 +14,7 @@ import numpy as np
 
 from volcal.compensate.tables import AxisTable, axis_grid, pitch_table
 from volcal.errors import VolcalInputError
+from volcal.io.table import Column, TableSpec, read_table
 from volcal.model.errorfunctions import MachineErrors
 from volcal.model.names import AXES
 
@@ -51,6 +52,20 @@ def generic_files(errors: MachineErrors, spacing: float, sign: str,
     return {CSV_FILE: buf.getvalue()}
 
 
+def _axis(text: str) -> str:
+    if text not in AXES:
+        raise ValueError(f"unknown axis {text!r}: expected X, Y or Z")
+    return text
+
+
+GENERIC_TABLE = TableSpec(
+    (Column("axis", kind="str", parse=_axis), Column("point", kind="int", min=0),
+     Column("position_mm", abs_max=1e7), Column("error_um", required=False, abs_max=1e7),
+     Column("correction_um", required=False, abs_max=1e7)),
+    unknown="error", what="pitch table")
+"""Columns of the generic pitch CSV: ``axis,point,position_mm`` and one value column."""
+
+
 def read_generic(path: str | Path) -> list[AxisTable]:
     """Read a generic pitch CSV; the sign comes from the value column's name.
 
@@ -64,24 +79,19 @@ def read_generic(path: str | Path) -> list[AxisTable]:
     -------
     list of AxisTable
         The pitch tables of X, Y and Z (positions [mm], values [um]).
+
+    Raises
+    ------
+    VolcalInputError
+        Naming file, row and column (unknown axis, not a number, a missing column or
+        both value columns).
     """
-    path = Path(path)
-    try:
-        rows = list(csv.reader(io.StringIO(path.read_text(encoding="utf-8"))))
-    except (OSError, UnicodeDecodeError, csv.Error) as exc:
-        raise VolcalInputError(f"cannot read ({exc.__class__.__name__})", path) from None
-    if not rows or rows[0][:3] != ["axis", "point", "position_mm"] or len(rows[0]) != 4 \
-            or rows[0][3] not in ("error_um", "correction_um"):
+    t = read_table(path, GENERIC_TABLE)
+    signs = [c for c in ("error_um", "correction_um") if t.has(c)]
+    if len(signs) != 1:
         raise VolcalInputError("expected the header axis,point,position_mm,error_um|correction_um",
-                               path, 1)
-    sign = rows[0][3].removesuffix("_um")
-    per: dict[int, list[tuple[float, float]]] = {0: [], 1: [], 2: []}
-    for i, r in enumerate(rows[1:], start=2):
-        if len(r) != 4 or r[0] not in AXES:
-            raise VolcalInputError("expected 4 fields with axis X, Y or Z", path, i)
-        try:
-            per[AXES.index(r[0])].append((float(r[2]), float(r[3])))
-        except ValueError:
-            raise VolcalInputError("not a number", path, i) from None
-    return [AxisTable(k, k, np.array([a for a, _ in per[k]]), np.array([b for _, b in per[k]]),
-                      sign, RESOLUTION_UM) for k in range(3)]
+                               path, t.header_row)
+    values = t[signs[0]]
+    axes = np.asarray(t["axis"], dtype=str)
+    return [AxisTable(k, k, t["position_mm"][axes == a], values[axes == a],
+                      signs[0].removesuffix("_um"), RESOLUTION_UM) for k, a in enumerate(AXES)]

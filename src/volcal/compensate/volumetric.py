@@ -33,6 +33,7 @@ import numpy as np
 
 from volcal.compensate.tables import axis_grid, quantize, sign_factor, volumetric_grid
 from volcal.errors import VolcalInputError
+from volcal.io.table import Column, TableSpec, read_table
 from volcal.model.errorfunctions import MachineErrors
 from volcal.model.names import AXES, COMPONENTS, SQUARENESS_NAMES
 
@@ -233,6 +234,14 @@ def grid_files(errors: MachineErrors, spacing: float, sign: str, tool_offset=Non
     return {GRID_FILE: buf.getvalue()}
 
 
+GRID_TABLE = TableSpec(
+    (Column("x_mm", abs_max=1e7), Column("y_mm", abs_max=1e7), Column("z_mm", abs_max=1e7),
+     *(Column(f"{sign}_{a}_um", required=False, abs_max=1e7)
+       for sign in ("error", "correction") for a in "xyz")),
+    unknown="error", what="volumetric grid")
+"""Columns of the 3-D grid file: points and one set of error or correction vectors."""
+
+
 def read_grid(path: str | Path) -> tuple[np.ndarray, np.ndarray, str]:
     """Read a 3-D grid file: points (m, 3) [mm], vectors (m, 3) [um], sign.
 
@@ -249,23 +258,21 @@ def read_grid(path: str | Path) -> tuple[np.ndarray, np.ndarray, str]:
         Error or correction vectors [um], in the file's sign.
     sign : str
         ``'error'`` or ``'correction'``, from the column names.
+
+    Raises
+    ------
+    VolcalInputError
+        Naming file, row and column.
     """
-    path = Path(path)
-    try:
-        rows = list(csv.reader(io.StringIO(path.read_text(encoding="utf-8"))))
-    except (OSError, UnicodeDecodeError, csv.Error) as exc:
-        raise VolcalInputError(f"cannot read ({exc.__class__.__name__})", path) from None
-    head = rows[0] if rows else []
-    sign = head[3].split("_")[0] if len(head) == 6 else ""
-    if head[:3] != ["x_mm", "y_mm", "z_mm"] or head[3:] != [f"{sign}_{a}_um" for a in "xyz"] \
-            or sign not in ("error", "correction"):
+    t = read_table(path, GRID_TABLE)
+    sets = [s for s in ("error", "correction") if all(t.has(f"{s}_{a}_um") for a in "xyz")]
+    given = [c for c in t.columns if c.endswith("_um")]
+    if len(sets) != 1 or len(given) != 3:
         raise VolcalInputError("expected x_mm,y_mm,z_mm,<sign>_x_um,<sign>_y_um,<sign>_z_um",
-                               path, 1)
-    try:
-        a = np.array([[float(c) for c in r] for r in rows[1:]]).reshape(-1, 6)
-    except ValueError:
-        raise VolcalInputError("bad number or row length", path) from None
-    return a[:, :3], a[:, 3:], sign
+                               path, t.header_row)
+    pts = np.stack([t[f"{a}_mm"] for a in "xyz"], axis=1)
+    vec = np.stack([t[f"{sets[0]}_{a}_um"] for a in "xyz"], axis=1)
+    return pts, vec, sets[0]
 
 
 __all__ = ["axis_grid", "grid_files", "isg_files", "read_grid", "read_isg"]

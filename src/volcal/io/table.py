@@ -317,23 +317,26 @@ def read_table(path: str | Path, spec: TableSpec) -> Table:
     return parse_table(read_text(path, spec.what), spec, Path(path))
 
 
-def _delimiter(lines: list[str], kept: list[tuple[int, str]], spec: TableSpec) -> str:
+def _kept(text: str, spec: TableSpec) -> list[tuple[int, str]]:
+    return [(i + 1, ln) for i, ln in enumerate(text.splitlines(keepends=True))
+            if ln.strip() and not _is_comment(ln, spec)]
+
+
+def _delimiters(kept: list[tuple[int, str]], spec: TableSpec) -> list[str]:
+    """Candidate delimiters, the likeliest first (sniffed, or the header line's)."""
+    first = kept[0][1] if kept else ""
+    best = next((d for d in spec.delimiters if d in first), spec.delimiters[0])
     if spec.sniff and len(spec.delimiters) > 1:
         try:
-            return csv.Sniffer().sniff("".join(ln for _, ln in kept[:50]),
+            best = csv.Sniffer().sniff("".join(ln for _, ln in kept[:50]),
                                        delimiters=spec.delimiters).delimiter
         except csv.Error:
             pass
-    first = kept[0][1] if kept else ""
-    return next((d for d in spec.delimiters if d in first), spec.delimiters[0])
+    return [best, *(d for d in spec.delimiters if d != best)]
 
 
-def _records(text: str, spec: TableSpec, path: Path | None
-             ) -> tuple[list[tuple[int, list[str]]], str]:
-    lines = text.splitlines(keepends=True)
-    kept = [(i + 1, ln) for i, ln in enumerate(lines)
-            if ln.strip() and not _is_comment(ln, spec)]
-    delim = _delimiter(lines, kept, spec)
+def _records(kept: list[tuple[int, str]], delim: str, path: Path | None
+             ) -> list[tuple[int, list[str]]]:
     out: list[tuple[int, list[str]]] = []
     reader = csv.reader(io.StringIO("".join(ln for _, ln in kept)), delimiter=delim)
     try:
@@ -345,7 +348,31 @@ def _records(text: str, spec: TableSpec, path: Path | None
                 out.append((first, rec))
     except csv.Error as exc:
         raise VolcalInputError(f"malformed CSV: {exc}", path) from None
-    return out, delim
+    return out
+
+
+def _header(text: str, spec: TableSpec, path: Path | None
+            ) -> tuple[list[tuple[int, list[str]]], int, str]:
+    """Records, index of the header record and delimiter.
+
+    With a preamble allowed and several delimiters, the first candidate delimiter under
+    which a header line holds every required column wins (a sniffer can be fooled by
+    decimal commas); if none does, the likeliest one's error is raised.
+    """
+    kept = _kept(text, spec)
+    cands = _delimiters(kept, spec)
+    first_error: VolcalInputError | None = None
+    for d in cands if spec.header_within > 1 else cands[:1]:
+        recs = _records(kept, d, path)
+        if not recs:
+            raise VolcalInputError(f"empty file: expected the header {spec.required_header}",
+                                   path, 1)
+        try:
+            return recs, _locate_header(recs, spec, path), d
+        except VolcalInputError as exc:
+            first_error = first_error or exc
+    assert first_error is not None
+    raise first_error
 
 
 def _is_comment(line: str, spec: TableSpec) -> bool:
@@ -560,10 +587,7 @@ def parse_table(text: str, spec: TableSpec, path: str | Path | None = None) -> T
         Naming file, row (header = row 1) and column of the first mistake.
     """
     p = None if path is None else Path(path)
-    recs, delim = _records(text, spec, p)
-    if not recs:
-        raise VolcalInputError(f"empty file: expected the header {spec.required_header}", p, 1)
-    h = _locate_header(recs, spec, p)
+    recs, h, delim = _header(text, spec, p)
     header_row, header_rec = recs[h]
     header = [x.strip() for x in header_rec]
     idx, groups = _match_header(header, spec, p, header_row)

@@ -23,7 +23,8 @@ cell = st.one_of(
     st.text(max_size=6),
 )
 header = st.lists(st.sampled_from(["T", "E", "R", "D", "Pos (mm)", "Err [um]", "t", "junk",
-                                   "T (in)"]), min_size=1, max_size=5)
+                                   "T (in)", "Run 1", "Run 2 +", "Run 2 -", "Run x"]),
+                  min_size=1, max_size=5)
 
 
 good_cell = {"T": st.floats(-100, 900).map(lambda v: f"{v:.3f}"),
@@ -35,7 +36,15 @@ good_cell = {"T": st.floats(-100, 900).map(lambda v: f"{v:.3f}"),
 @st.composite
 def exports(draw):
     delim = draw(st.sampled_from([",", ";", "\t"]))
-    if draw(st.booleans()):  # well-formed columns, occasionally damaged cells
+    shape = draw(st.integers(0, 2))
+    if shape == 2:  # a wide table: one column per run (and direction)
+        head = ["T", *draw(st.sampled_from([["Run 1", "Run 2"], ["Run 1 +", "Run 1 -"],
+                                             ["1 up", "1 down", "2 up", "2 down"]]))]
+        rows = [[draw(good_cell["T"])] + [draw(st.one_of(good_cell["E"], cell)
+                                               if draw(st.integers(0, 30)) == 0
+                                               else good_cell["E"]) for _ in head[1:]]
+                for _ in range(draw(st.integers(0, 6)))]
+    elif shape == 1:  # well-formed columns, occasionally damaged cells
         head = ["T", "E", "R", "D", "t"]
         rows = [[draw(st.one_of(good_cell[h], cell) if draw(st.integers(0, 30)) == 0
                       else good_cell[h]) for h in head]
@@ -54,7 +63,8 @@ def exports(draw):
 mappings = st.sampled_from([
     "target=T,deviation=E", "target=T,reading=R,direction=D", "target=Pos,deviation=Err",
     "target=T,deviation=E,run=R,direction=D", "target=T (in),deviation=E", "target=T,time=t,"
-    "deviation=E", "target=T,reading=E,run=R"])
+    "deviation=E", "target=T,reading=E,run=R", "target=T,deviation=Run*",
+    "target=T,deviation=? *", "target=T,reading=Run*"])
 
 
 def _snapshot(folder: Path) -> dict[str, bytes]:

@@ -12,9 +12,10 @@ so that the part programs' overrun before each reversal (5.3) has room. ``plan``
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from volcal.errors import VolcalInputError
 from volcal.model.chain import parse_chain
@@ -154,6 +155,18 @@ def plan_session(travel: ArrayLike, chain: str = "XYFZ", steps: int = 10,
     """
     t = np.asarray(travel, dtype=float).reshape(3, 2)
     parse_chain(chain)
+    _check_options(tests, steps, runs, step_target, linear_margin_mm, abbe_tool_offset_mm)
+    c = _Plan(t, chain, steps, runs, tuple(step_orders), np.asarray(tool_offset, dtype=float),
+              step_target, abbe_tool_offset_mm, iso_spacing, linear_margin_mm,
+              multilateration or {})
+    meas: list[Measurement] = []
+    for test in tests:
+        meas += _BUILDERS[test](c)
+    return Session(name, chain, t, meas)
+
+
+def _check_options(tests: Sequence[str], steps: int, runs: int, step_target: str,
+                   linear_margin_mm: float, abbe_tool_offset_mm: float) -> None:
     unknown = [x for x in tests if x not in TEST_NAMES]
     if not tests:
         raise VolcalInputError(f"--tests: no test given; expected any of {', '.join(TEST_NAMES)}")
@@ -173,59 +186,88 @@ def plan_session(travel: ArrayLike, chain: str = "XYFZ", steps: int = 10,
         raise VolcalInputError("the linear margin must be a non-negative number of mm")
     if not (np.isfinite(abbe_tool_offset_mm) and abbe_tool_offset_mm > 0):
         raise VolcalInputError("the Abbe target offset must be a positive number of mm")
-    meas: list[Measurement] = []
-    off = np.asarray(tool_offset, dtype=float)
-    for test in tests:
-        if test == "step-diagonal":
-            for order in step_orders:
-                suffix = "" if order == "xyz" else f"-{order}"
-                for code in BODY_DIAGONALS:
-                    g = step_diagonal_test(code, t, steps, order)
-                    meas.append(_measurement(f"step-{code}{suffix}", "step_diagonal", step_target,
-                                             g, off, f"sequential step diagonal {code}, axis "
-                                             f"order {order}, {step_target.replace('_', ' ')} "
-                                             "on the tool"))
-        elif test == "diagonal":
-            for code in BODY_DIAGONALS:
-                g = diagonal_test(code, t, steps)
-                meas.append(_measurement(f"diag-{code}", "diagonal", "retroreflector", g, off,
-                                         f"body diagonal {code} (ISO 230-6), retroreflector"))
-        elif test == "face-diagonal":
-            for plane in FACE_PLANES:
-                for code in FACE_DIAGONALS:
-                    g = diagonal_test(code, t, steps, plane=plane)
-                    meas.append(_measurement(f"face-{plane}-{code}", "diagonal", "retroreflector",
-                                             g, off, f"face diagonal {code} in {plane.upper()}"))
-        elif test == "face-step-diagonal":
-            for plane in FACE_PLANES:
-                for code in FACE_DIAGONALS:
-                    g = step_diagonal_test(code, t, steps, plane, plane=plane)
-                    meas.append(_measurement(f"fstep-{plane}-{code}", "step_diagonal",
-                                             step_target, g, off,
-                                             f"face step diagonal {code} in {plane.upper()}"))
-        elif test == "multilateration":
-            from volcal.plan.multilateration import multilateration_tests
 
-            meas += multilateration_tests(t, **(multilateration or {}))
-        elif test == "linear":
-            for k in range(3):
-                lines = abbe_lines(k, t, chain, abbe_tool_offset_mm)
-                lo, hi = t[k, 0] + linear_margin_mm, t[k, 1] - linear_margin_mm
-                if hi <= lo:
-                    raise VolcalInputError(f"linear margin {linear_margin_mm:g} mm leaves no "
-                                           f"travel on {AXES[k]}")
-                targets = (iso_targets(lo, hi, steps, seed=k) if iso_spacing
-                           else np.linspace(lo, hi, steps + 1))
-                for i, (line, toff) in enumerate(lines, start=1):
-                    g = linear_test(k, t, steps, line, runs=runs, bidirectional=True,
-                                    targets_mm=targets)
-                    others = ", ".join(f"{AXES[j].lower()}={line[j]:g} mm" for j in range(3)
-                                       if j != k)
-                    if np.any(toff):
-                        others += ", target offset " + ", ".join(
-                            f"{AXES[j].lower()}{toff[j]:+g} mm" for j in range(3) if toff[j])
-                    meas.append(_measurement(f"linear-{AXES[k].lower()}{i}", "linear",
-                                             "retroreflector", g, off + toff,
-                                             f"linear {AXES[k]} at {others}, {runs} "
-                                             "bidirectional runs (ISO 230-2)"))
-    return Session(name, chain, t, meas)
+
+@dataclass(frozen=True)
+class _Plan:
+    """The options of :func:`plan_session`, as the test builders read them."""
+
+    t: NDArray[np.float64]
+    chain: str
+    steps: int
+    runs: int
+    step_orders: tuple[str, ...]
+    off: NDArray[np.float64]
+    step_target: str
+    abbe_tool_offset_mm: float
+    iso_spacing: bool
+    linear_margin_mm: float
+    multilateration: dict
+
+
+def _step_diagonals(c: _Plan) -> list[Measurement]:
+    out = []
+    for order in c.step_orders:
+        suffix = "" if order == "xyz" else f"-{order}"
+        for code in BODY_DIAGONALS:
+            g = step_diagonal_test(code, c.t, c.steps, order)
+            out.append(_measurement(f"step-{code}{suffix}", "step_diagonal", c.step_target, g,
+                                    c.off, f"sequential step diagonal {code}, axis order "
+                                    f"{order}, {c.step_target.replace('_', ' ')} on the tool"))
+    return out
+
+
+def _diagonals(c: _Plan) -> list[Measurement]:
+    return [_measurement(f"diag-{code}", "diagonal", "retroreflector",
+                         diagonal_test(code, c.t, c.steps), c.off,
+                         f"body diagonal {code} (ISO 230-6), retroreflector")
+            for code in BODY_DIAGONALS]
+
+
+def _face_diagonals(c: _Plan) -> list[Measurement]:
+    return [_measurement(f"face-{plane}-{code}", "diagonal", "retroreflector",
+                         diagonal_test(code, c.t, c.steps, plane=plane), c.off,
+                         f"face diagonal {code} in {plane.upper()}")
+            for plane in FACE_PLANES for code in FACE_DIAGONALS]
+
+
+def _face_step_diagonals(c: _Plan) -> list[Measurement]:
+    return [_measurement(f"fstep-{plane}-{code}", "step_diagonal", c.step_target,
+                         step_diagonal_test(code, c.t, c.steps, plane, plane=plane), c.off,
+                         f"face step diagonal {code} in {plane.upper()}")
+            for plane in FACE_PLANES for code in FACE_DIAGONALS]
+
+
+def _multilateration(c: _Plan) -> list[Measurement]:
+    from volcal.plan.multilateration import multilateration_tests
+
+    return list(multilateration_tests(c.t, **c.multilateration))
+
+
+def _linear(c: _Plan) -> list[Measurement]:
+    out = []
+    for k in range(3):
+        lines = abbe_lines(k, c.t, c.chain, c.abbe_tool_offset_mm)
+        lo, hi = c.t[k, 0] + c.linear_margin_mm, c.t[k, 1] - c.linear_margin_mm
+        if hi <= lo:
+            raise VolcalInputError(f"linear margin {c.linear_margin_mm:g} mm leaves no "
+                                   f"travel on {AXES[k]}")
+        targets = (iso_targets(lo, hi, c.steps, seed=k) if c.iso_spacing
+                   else np.linspace(lo, hi, c.steps + 1))
+        for i, (line, toff) in enumerate(lines, start=1):
+            g = linear_test(k, c.t, c.steps, line, runs=c.runs, bidirectional=True,
+                            targets_mm=targets)
+            others = ", ".join(f"{AXES[j].lower()}={line[j]:g} mm" for j in range(3) if j != k)
+            if np.any(toff):
+                others += ", target offset " + ", ".join(
+                    f"{AXES[j].lower()}{toff[j]:+g} mm" for j in range(3) if toff[j])
+            out.append(_measurement(f"linear-{AXES[k].lower()}{i}", "linear", "retroreflector",
+                                    g, c.off + toff, f"linear {AXES[k]} at {others}, {c.runs} "
+                                    "bidirectional runs (ISO 230-2)"))
+    return out
+
+
+_BUILDERS = {"step-diagonal": _step_diagonals, "diagonal": _diagonals,
+             "face-diagonal": _face_diagonals, "face-step-diagonal": _face_step_diagonals,
+             "multilateration": _multilateration, "linear": _linear}
+"""Test name -> the function planning its measurements."""

@@ -619,42 +619,8 @@ def read_session(folder: str | Path, require_deviation: bool = True) -> Session:
     VolcalInputError
         Naming the file, row and column (TOML key) of the first problem.
     """
-    folder = Path(folder)
-    if folder.is_file():
-        if folder.name != "session.toml":
-            raise _err("a file, not a session folder (a folder with session.toml)", folder)
-        folder = folder.parent
-    elif not folder.exists():
-        raise _err("session folder not found (no session.toml here)", folder)
-    toml_path = folder / "session.toml"
-    if not toml_path.is_file():
-        raise _err("no session.toml in this folder (is it a volcal session?)", folder)
-    try:
-        doc = tomllib.loads(toml_path.read_text(encoding="utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise _err(f"invalid TOML: {exc}", toml_path) from None
-    except OSError as exc:
-        raise _err(f"cannot read the file ({exc.__class__.__name__})", toml_path) from None
-    fmt = doc.get("format")
-    if fmt != SESSION_FORMAT:
-        raise _err(f"expected format = \"{SESSION_FORMAT}\", got {fmt!r}", toml_path, None,
-                   "format")
-    machine = doc.get("machine")
-    if not isinstance(machine, dict):
-        raise _err("missing [machine] table", toml_path, None, "machine")
-    name = machine.get("name", "machine")
-    if not isinstance(name, str):
-        raise _err("machine name must be a string", toml_path, None, "machine.name")
-    chain = machine.get("chain")
-    try:
-        parse_chain(chain)
-    except VolcalInputError as exc:
-        raise _err(exc.message, toml_path, None, "machine.chain") from None
-    travel = _read_travel(machine.get("travel_mm"), toml_path)
-    meta = {k: v for k, v in machine.items() if k not in ("name", "chain", "travel_mm")}
-    provenance = doc.get("provenance", {})
-    if not isinstance(provenance, dict):
-        raise _err("[provenance] must be a table", toml_path, None, "provenance")
+    folder, toml_path, doc = _load_session_toml(Path(folder))
+    name, chain, travel, meta, provenance = _read_machine(doc, toml_path)
     raw = doc.get("measurements", [])
     if not isinstance(raw, list) or not raw:
         raise _err("no [[measurements]] in the session", toml_path, None, "measurements")
@@ -682,6 +648,52 @@ def read_session(folder: str | Path, require_deviation: bool = True) -> Session:
     return s
 
 
+def _load_session_toml(folder: Path) -> tuple[Path, Path, dict[str, Any]]:
+    """The session folder, its ``session.toml`` and the parsed document (format checked)."""
+    if folder.is_file():
+        if folder.name != "session.toml":
+            raise _err("a file, not a session folder (a folder with session.toml)", folder)
+        folder = folder.parent
+    elif not folder.exists():
+        raise _err("session folder not found (no session.toml here)", folder)
+    toml_path = folder / "session.toml"
+    if not toml_path.is_file():
+        raise _err("no session.toml in this folder (is it a volcal session?)", folder)
+    try:
+        doc = tomllib.loads(toml_path.read_text(encoding="utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise _err(f"invalid TOML: {exc}", toml_path) from None
+    except OSError as exc:
+        raise _err(f"cannot read the file ({exc.__class__.__name__})", toml_path) from None
+    fmt = doc.get("format")
+    if fmt != SESSION_FORMAT:
+        raise _err(f"expected format = \"{SESSION_FORMAT}\", got {fmt!r}", toml_path, None,
+                   "format")
+    return folder, toml_path, doc
+
+
+def _read_machine(doc: dict[str, Any], toml_path: Path
+                  ) -> tuple[str, str, NDArray[np.float64], dict[str, Any], dict[str, Any]]:
+    """Name, chain, travel [mm], other ``[machine]`` keys and ``[provenance]``."""
+    machine = doc.get("machine")
+    if not isinstance(machine, dict):
+        raise _err("missing [machine] table", toml_path, None, "machine")
+    name = machine.get("name", "machine")
+    if not isinstance(name, str):
+        raise _err("machine name must be a string", toml_path, None, "machine.name")
+    chain = machine.get("chain")
+    try:
+        parse_chain(chain)
+    except VolcalInputError as exc:
+        raise _err(exc.message, toml_path, None, "machine.chain") from None
+    travel = _read_travel(machine.get("travel_mm"), toml_path)
+    meta = {k: v for k, v in machine.items() if k not in ("name", "chain", "travel_mm")}
+    provenance = doc.get("provenance", {})
+    if not isinstance(provenance, dict):
+        raise _err("[provenance] must be a table", toml_path, None, "provenance")
+    return name, chain, travel, meta, provenance
+
+
 def _read_travel(tr: Any, toml_path: Path) -> NDArray[np.float64]:
     if not isinstance(tr, dict):
         raise _err("missing [machine.travel_mm] table with x, y, z = [min, max]", toml_path, None,
@@ -705,12 +717,9 @@ def _read_travel(tr: Any, toml_path: Path) -> NDArray[np.float64]:
     return travel
 
 
-def _read_entry(e: Any, i: int, folder: Path, toml_path: Path, seen: set[str],
-                require_deviation: bool, travel: NDArray[np.float64],
-                notes: list[str]) -> Measurement:
-    from volcal.session.checks import check_geometry, check_travel
-
-    where = f"measurements[{i}]"
+def _entry_keys(e: Any, where: str, folder: Path, toml_path: Path, seen: set[str]
+                ) -> tuple[str, str, str, str, Path]:
+    """Id, kind, target, file and CSV path of a ``[[measurements]]`` entry, checked."""
     if not isinstance(e, dict):
         raise _err("each [[measurements]] entry must be a table", toml_path, None, where)
     mid = e.get("id")
@@ -729,15 +738,15 @@ def _read_entry(e: Any, i: int, folder: Path, toml_path: Path, seen: set[str],
     if not csv_path.is_file():
         raise _err(f"measurement file {file!r} not found beside session.toml", toml_path, None,
                    f"{where}.file")
-    offset = _vec3(e.get("tool_offset_mm", [0, 0, 0]), toml_path, f"{where}.tool_offset_mm")
-    if kind == "multilateration":
-        return _read_multilateration(e, where, mid, target, file, csv_path, offset, toml_path,
-                                     require_deviation)
-    if target == "cat_eye":
+    if target == "cat_eye" and kind != "multilateration":
         raise _err(f"target 'cat_eye' belongs to kind 'multilateration', not {kind!r}",
                    toml_path, None, f"{where}.target")
-    r = _read_rows(csv_path)
-    pos = r.positions
+    return mid, kind, target, file, csv_path
+
+
+def _beam(e: dict[str, Any], pos: NDArray[np.float64], where: str, toml_path: Path,
+          csv_path: Path) -> NDArray[np.float64]:
+    """Unit beam direction: as given, else from the first row to the farthest."""
     if "beam_direction" in e:
         n = _vec3(e["beam_direction"], toml_path, f"{where}.beam_direction", nonzero=True)
     else:
@@ -747,9 +756,12 @@ def _read_entry(e: Any, i: int, folder: Path, toml_path: Path, seen: set[str],
             raise _err("all readings at one position: cannot infer the beam direction",
                        csv_path)
         n = d[far]
-    n = n / np.linalg.norm(n)
-    meta = {k: v for k, v in e.items()
-            if k not in ("id", "kind", "target", "file", "tool_offset_mm", "beam_direction")}
+    return n / np.linalg.norm(n)
+
+
+def _check_meta(kind: str, meta: dict[str, Any], pos: NDArray[np.float64], file: str,
+                where: str, toml_path: Path) -> None:
+    """The linear test's ``axis`` moves; ``environment`` is a table."""
     if kind == "linear" and "axis" in meta:
         a = meta["axis"]
         if not isinstance(a, str) or a.upper() not in ("X", "Y", "Z"):
@@ -762,8 +774,26 @@ def _read_entry(e: Any, i: int, folder: Path, toml_path: Path, seen: set[str],
     env = meta.get("environment")
     if env is not None and not isinstance(env, dict):
         raise _err("environment must be a table", toml_path, None, f"{where}.environment")
-    check_travel(pos, r.rows, travel, csv_path)
-    check_geometry(kind, pos, r.rows, meta, csv_path, n if "beam_direction" in e else None)
+
+
+def _read_entry(e: Any, i: int, folder: Path, toml_path: Path, seen: set[str],
+                require_deviation: bool, travel: NDArray[np.float64],
+                notes: list[str]) -> Measurement:
+    from volcal.session.checks import check_geometry, check_travel
+
+    where = f"measurements[{i}]"
+    mid, kind, target, file, csv_path = _entry_keys(e, where, folder, toml_path, seen)
+    offset = _vec3(e.get("tool_offset_mm", [0, 0, 0]), toml_path, f"{where}.tool_offset_mm")
+    if kind == "multilateration":
+        return _read_multilateration(e, where, mid, target, file, csv_path, offset, toml_path,
+                                     require_deviation)
+    r = _read_rows(csv_path)
+    n = _beam(e, r.positions, where, toml_path, csv_path)
+    meta = {k: v for k, v in e.items()
+            if k not in ("id", "kind", "target", "file", "tool_offset_mm", "beam_direction")}
+    _check_meta(kind, meta, r.positions, file, where, toml_path)
+    check_travel(r.positions, r.rows, travel, csv_path)
+    check_geometry(kind, r.positions, r.rows, meta, csv_path, n if "beam_direction" in e else None)
     if require_deviation:
         r = _drop_missed(r, csv_path, notes)
     return Measurement(mid, kind, target, r.positions, r.deviation, n, offset, file, r.columns,

@@ -572,7 +572,7 @@ def import_csv(path: str | Path, mapping: dict[str, str], axis: str, line_mm, se
     beam[k] = 1.0
     meta: dict[str, Any] = {"axis": ax, "line_mm": [float(v) for v in line],
                             "notes": f"imported from {Path(path).name}",
-                            "import": import_record(path, mapping, table)}
+                            "import": import_record(path, mapping, table.notes)}
     m = Measurement(mid, "linear", target, pos, table.deviation_um, beam,
                     np.asarray(tool_offset, dtype=float), f"{mid}.csv", table.columns, meta)
     folder = Path(session)
@@ -586,7 +586,7 @@ def import_csv(path: str | Path, mapping: dict[str, str], axis: str, line_mm, se
     return ImportResult(m, folder, False, notes)
 
 
-def import_record(path: str | Path, mapping: dict[str, str], table: LaserTable
+def import_record(path: str | Path, mapping: dict[str, str], notes: list[str]
                   ) -> dict[str, Any]:
     """The ``import`` table written into the measurement's entry of ``session.toml``.
 
@@ -596,14 +596,14 @@ def import_record(path: str | Path, mapping: dict[str, str], table: LaserTable
         The export.
     mapping : dict of str to str
         Column mapping.
-    table : LaserTable
-        What was read (its notes name the units).
+    notes : list of str
+        What was detected (units, layout, inferences).
 
     Returns
     -------
     dict
     """
-    return {"source": Path(path).name, "mapping": mapping, "units": "; ".join(table.notes)}
+    return {"source": Path(path).name, "mapping": mapping, "units": "; ".join(notes)}
 
 
 def _new_session(folder: Path, m: Measurement, travel, chain: str, name: str,

@@ -206,7 +206,7 @@ def import_planned(path: str | Path, mapping: dict[str, str], session: str | Pat
     cols = _columns(t, m, path)
     unused = [c for c in t.inferred if c not in m.columns]
     notes[:] = [n for n in notes if not (unused and "inferred from" in n)]
-    meta = {**m.meta, "import": import_record(path, mapping, t)}
+    meta = {**m.meta, "import": import_record(path, mapping, notes)}
     new = Measurement(m.id, m.kind, m.target, m.positions, dev, m.beam_direction,
                       m.tool_offset, m.file, cols, meta)
     write_measurement(folder, new, True, notes)

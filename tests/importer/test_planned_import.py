@@ -110,6 +110,26 @@ def test_step_diagonal_one_row_per_step(planned, tmp_path, with_start):
     assert ("no start row: the reading at the start is taken as 0" in r.output) != with_start
 
 
+def test_step_diagonal_one_row_per_step_of_absolute_readings(planned, tmp_path):
+    # readings [mm] along the beam after each move, counted from a laser datum 12.5 mm
+    # away; targets in machine-like coordinates with the same offset
+    s = _fresh(planned, tmp_path)
+    m = _truth(planned, "step-npp")
+    proj = planned_targets(m) + 12.5
+    r_mm = proj + m.deviation / 1000.0
+    lines = ["Step;Corner (mm);L1 (mm);L2 (mm);L3 (mm)", f"0;{proj[0]:.4f};{r_mm[0]:.12f};;"]
+    for k in range(3):
+        a, b, c = r_mm[1 + 3 * k: 4 + 3 * k]
+        lines.append(f"{k + 1};{proj[3 + 3 * k]:.4f};{a:.12f};{b:.12f};{c:.12f}")
+    text = "\n".join(lines).replace(".", ",") + "\n"
+    r, _ = _import(text, "target=Corner,reading=L1|L2|L3", s, "step-npp", tmp_path)
+    assert r.exit_code == 0, r.output
+    got = read_session(s, require_deviation=False).get("step-npp")
+    # 12 decimals of mm = 1e-9 um resolution of the export
+    np.testing.assert_allclose(got.deviation, m.deviation, rtol=0, atol=2e-9)
+    assert "targets counted from 12.5 mm: offset removed" in " ".join(r.output.split())
+
+
 def test_step_diagonal_one_row_per_reading(planned, tmp_path):
     s = _fresh(planned, tmp_path)
     m = _truth(planned, "step-ppp")

@@ -161,8 +161,6 @@ def test_bad_wide_tables_name_file_row_and_column(tmp_path, text, mapping, msg, 
      "names one column per run; run and direction come from the column names)"),
     ("target=T,deviation=A|B,direction=D", "--map: direction= does not fit a per-step "
      "step-diagonal table"),
-    ("target=T,reading=A|B|C", "--map: a per-step step-diagonal table takes deviations: "
-     "deviation=<col>|<col>|<col>"),
 ])
 def test_mappings_that_do_not_fit_the_layout(mapping, msg):
     with pytest.raises(VolcalInputError) as e:

@@ -125,9 +125,6 @@ def parse_mapping(text: str) -> dict[str, str]:
                 "come from the column names)" if layout == "wide" else
                 "a per-step step-diagonal table")
         raise VolcalInputError(f"--map: {extra[0]}= does not fit {what}")
-    if layout == "steps" and "reading" in out:
-        raise VolcalInputError("--map: a per-step step-diagonal table takes deviations: "
-                               "deviation=<col>|<col>|<col>")
     return out
 
 
@@ -316,7 +313,7 @@ def read_laser_csv(path: str | Path, mapping: dict[str, str], units: str = "auto
     target = t[mapping["target"]] * TO_MM[tu]
     layout = layout_of(mapping)
     if layout == "steps":
-        return _read_steps(t, mapping, target, tu, deviation_units, notes, path)
+        return _read_steps(t, mapping, target, tu, units, deviation_units, notes, path)
     if layout == "wide":
         out = _read_wide(t, mapping, target, tu, units, deviation_units, notes, path)
     else:
@@ -398,17 +395,20 @@ def _read_wide(t: Table, mapping: dict[str, str], target: NDArray[np.float64], t
 
 
 def _read_steps(t: Table, mapping: dict[str, str], target: NDArray[np.float64], tu: str,
-                deviation_units: str, notes: list[str], path: Path) -> LaserTable:
-    names = [c.strip() for c in mapping["deviation"].split(STEP_SEPARATOR)]
+                units: str, deviation_units: str, notes: list[str], path: Path) -> LaserTable:
+    key = "deviation" if "deviation" in mapping else "reading"
+    names = [c.strip() for c in mapping[key].split(STEP_SEPARATOR)]
     per = np.empty((len(t), len(names)))
     for j, c in enumerate(names):
-        u = _value_unit(t, "deviation", c, tu, "auto", deviation_units, notes, path)
-        per[:, j] = t[c].astype(float) * TO_MM[u] * 1000.0
+        u = _value_unit(t, key, c, tu, units, deviation_units, notes, path)
+        per[:, j] = t[c].astype(float) * TO_MM[u]
     tgt = np.full((len(t), len(names)), np.nan)
     tgt[:, -1] = target
     notes.append(f"per-step table: {len(t)} rows x {len(names)} moves")
-    return LaserTable(tgt.ravel(), per.ravel(), {}, notes, np.repeat(t.rows, len(names)),
-                      names * len(t), None, len(names))
+    # readings become deviations against the plan's targets (volcal.importer.planned)
+    dev = per.ravel() * 1000.0 if key == "deviation" else np.full(per.size, np.nan)
+    return LaserTable(tgt.ravel(), dev, {}, notes, np.repeat(t.rows, len(names)),
+                      names * len(t), per.ravel() if key == "reading" else None, len(names))
 
 
 def _check_duplicates(table: LaserTable, path: Path, t_col: str) -> None:

@@ -78,29 +78,32 @@ def _flatten_steps(t: LaserTable, m: Measurement, path: Path, notes: list[str]) 
                                f"{m.meta.get('axis_order', 'of the plan')})")
     n_steps = (m.n - 1) // k_plan
     rows = t.rows.size // t.steps
-    dev = t.deviation_um.reshape(rows, t.steps)
+    vals = (t.deviation_um if t.reading_mm is None else t.reading_mm).reshape(rows, t.steps)
     tgt = t.target_mm.reshape(rows, t.steps)
     src = np.array(t.sources, dtype=object).reshape(rows, t.steps)
     line = t.rows.reshape(rows, t.steps)
     if rows == n_steps + 1:
-        first = dev[0]
+        first = vals[0]
         other = first[1:][~np.isnan(first[1:])]
         if np.isnan(first[0]) or np.any(np.abs(other - first[0]) > 1e-9):
             raise VolcalInputError("the start row holds the reference reading in its first "
                                    "move column (the others empty or equal)", path,
                                    int(line[0, 0]), str(src[0, 0]))
-        d0, t0, r0, s0 = first[0], tgt[0, -1], line[0, 0], src[0, 0]
-        dev, tgt, src, line = dev[1:], tgt[1:], src[1:], line[1:]
+        v0, t0, r0, s0 = first[0], tgt[0, -1], line[0, 0], src[0, 0]
+        vals, tgt, src, line = vals[1:], tgt[1:], src[1:], line[1:]
     elif rows == n_steps:
-        d0, t0, r0, s0 = 0.0, np.nan, line[0, 0], src[0, 0]
+        v0, t0, r0, s0 = 0.0, np.nan, line[0, 0], src[0, 0]
         notes.append("no start row: the reading at the start is taken as 0")
     else:
         raise VolcalInputError(f"{rows} rows in the per-step table, but {m.id!r} is planned "
                                f"with {n_steps} steps: expected {n_steps + 1} rows (the start "
                                f"and one per step) or {n_steps}", path)
-    return LaserTable(np.concatenate([[t0], tgt.ravel()]), np.concatenate([[d0], dev.ravel()]),
-                      {}, t.notes, np.concatenate([[r0], line.ravel()]).astype(np.int64),
-                      [str(s0), *map(str, src.ravel())], None, t.steps)
+    flat = np.concatenate([[v0], vals.ravel()])
+    reading = None if t.reading_mm is None else flat
+    dev = flat if reading is None else np.full(flat.size, np.nan)
+    return LaserTable(np.concatenate([[t0], tgt.ravel()]), dev, {}, t.notes,
+                      np.concatenate([[r0], line.ravel()]).astype(np.int64),
+                      [str(s0), *map(str, src.ravel())], reading, t.steps)
 
 
 def _check_targets(t: LaserTable, m: Measurement, planned: NDArray[np.float64], path: Path,
@@ -194,15 +197,15 @@ def import_planned(path: str | Path, mapping: dict[str, str], session: str | Pat
         raise VolcalInputError(f"{t.deviation_um.size} readings in the file, but {mid!r} is "
                                f"planned with {m.n}: one reading per planned pose, in the "
                                "planned order", path, int(t.rows[m.n]) if extra else None)
+    planned = planned_targets(m)
+    offset = _check_targets(t, m, planned, path, mapping["target"], notes)
+    if t.reading_mm is not None:  # deviation = reading - commanded (the plan's) target
+        t.deviation_um = (t.reading_mm - offset - planned) * 1000.0
     empty = np.flatnonzero(np.isnan(t.deviation_um))
     if empty.size:
         raise t.error("empty field: expected a number", int(empty[0]), path)
     check_plausible(t, path)
-    planned = planned_targets(m)
-    offset = _check_targets(t, m, planned, path, mapping["target"], notes)
     dev = t.deviation_um
-    if t.reading_mm is not None:  # deviation = reading - commanded (the plan's) target
-        dev = (t.reading_mm - offset - planned) * 1000.0
     cols = _columns(t, m, path)
     unused = [c for c in t.inferred if c not in m.columns]
     notes[:] = [n for n in notes if not (unused and "inferred from" in n)]

@@ -80,6 +80,18 @@ def group_runs(targets_mm: ArrayLike, run: ArrayLike, direction: ArrayLike,
     VolcalInputError
         Naming file, row and column of the first problem.
     """
+    t, ri, s, d, rw = _checked(targets_mm, run, direction, deviation_um, file, rows)
+    tid, targets = _cluster(t)
+    if targets.size < 2:
+        raise VolcalInputError("a positioning test needs at least two target positions", file,
+                               None, "target_mm")
+    out = {sign: _grid(sign, tid, targets, ri, s, d, rw, file, min_runs) for sign in "+-"}
+    return GroupedRuns(targets, out["+"][0], out["-"][0], out["+"][1], out["-"][1])
+
+
+def _checked(targets_mm: ArrayLike, run: ArrayLike, direction: ArrayLike,
+             deviation_um: ArrayLike, file: str | None, rows: ArrayLike | None):
+    """The inputs as arrays (targets, whole runs, directions, deviations, rows), checked."""
     t = np.asarray(targets_mm, dtype=float).reshape(-1)
     d = np.asarray(deviation_um, dtype=float).reshape(-1)
     r = np.asarray(run).reshape(-1)
@@ -108,51 +120,53 @@ def group_runs(targets_mm: ArrayLike, run: ArrayLike, direction: ArrayLike,
         ri = ri.astype(int)
     except (ValueError, TypeError):
         raise VolcalInputError("run numbers must be whole numbers", file, None, "run") from None
+    return t, ri, s, d, rw
 
-    # cluster the targets
+
+def _cluster(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Target index of each reading, and the targets [mm].
+
+    A reading within the tolerance of the previous target (in sorted order) shares it.
+    """
     order = np.argsort(t, kind="stable")
-    tid = np.empty(n, dtype=int)
+    tid = np.empty(t.size, dtype=int)
     centres: list[float] = []
     for k in order:
-        if centres and abs(t[k] - centres[-1]) <= TARGET_TOLERANCE_MM:
-            tid[k] = len(centres) - 1
-        else:
+        if not (centres and abs(t[k] - centres[-1]) <= TARGET_TOLERANCE_MM):
             centres.append(float(t[k]))
-            tid[k] = len(centres) - 1
-    targets = np.array(centres)
-    m = targets.size
-    if m < 2:
-        raise VolcalInputError("a positioning test needs at least two target positions", file,
-                               None, "target_mm")
+        tid[k] = len(centres) - 1
+    return tid, np.array(centres)
 
-    out = {}
-    for sign in ("+", "-"):
-        sel = np.flatnonzero(s == sign)
-        if sel.size == 0:
-            raise VolcalInputError(f"no readings in direction '{sign}': ISO 230-2 needs "
-                                   "bidirectional runs", file, None, "direction")
-        runs = np.unique(ri[sel])
-        if runs.size < min_runs:
+
+def _grid(sign: str, tid: np.ndarray, targets: np.ndarray, ri: np.ndarray, s: np.ndarray,
+          d: np.ndarray, rw: np.ndarray | None, file: str | None, min_runs: int
+          ) -> tuple[np.ndarray, np.ndarray]:
+    """Deviations of one direction as (targets x runs), and the run numbers."""
+    sel = np.flatnonzero(s == sign)
+    if sel.size == 0:
+        raise VolcalInputError(f"no readings in direction '{sign}': ISO 230-2 needs "
+                               "bidirectional runs", file, None, "direction")
+    runs = np.unique(ri[sel])
+    if runs.size < min_runs:
+        raise VolcalInputError(
+            f"only {runs.size} run(s) in direction '{sign}': at least {min_runs} needed "
+            "to estimate repeatability (ISO 230-2 asks for 5)", file, None, "run")
+    col = {v: j for j, v in enumerate(runs)}
+    grid = np.full((targets.size, runs.size), np.nan)
+    seen = np.full((targets.size, runs.size), -1)
+    for k in sel:
+        i, j = tid[k], col[ri[k]]
+        if seen[i, j] >= 0:
             raise VolcalInputError(
-                f"only {runs.size} run(s) in direction '{sign}': at least {min_runs} needed "
-                "to estimate repeatability (ISO 230-2 asks for 5)", file, None, "run")
-        col = {v: j for j, v in enumerate(runs)}
-        grid = np.full((m, runs.size), np.nan)
-        seen = np.full((m, runs.size), -1)
-        for k in sel:
-            i, j = tid[k], col[ri[k]]
-            if seen[i, j] >= 0:
-                raise VolcalInputError(
-                    f"duplicate reading: target {targets[i]:g} mm, run {ri[k]}, direction "
-                    f"'{sign}' already given" + ("" if rw is None else f" in row {rw[seen[i, j]]}"),
-                    file, _row(rw, k), "target_mm")
-            seen[i, j] = k
-            grid[i, j] = d[k]
-        miss = np.argwhere(seen < 0)
-        if miss.size:
-            i, j = miss[0]
-            raise VolcalInputError(
-                f"missing reading: run {runs[j]} has no target {targets[i]:g} mm in direction "
-                f"'{sign}' (every run must visit every target)", file, None, "target_mm")
-        out[sign] = (grid, runs)
-    return GroupedRuns(targets, out["+"][0], out["-"][0], out["+"][1], out["-"][1])
+                f"duplicate reading: target {targets[i]:g} mm, run {ri[k]}, direction "
+                f"'{sign}' already given" + ("" if rw is None else f" in row {rw[seen[i, j]]}"),
+                file, _row(rw, k), "target_mm")
+        seen[i, j] = k
+        grid[i, j] = d[k]
+    miss = np.argwhere(seen < 0)
+    if miss.size:
+        i, j = miss[0]
+        raise VolcalInputError(
+            f"missing reading: run {runs[j]} has no target {targets[i]:g} mm in direction "
+            f"'{sign}' (every run must visit every target)", file, None, "target_mm")
+    return grid, runs

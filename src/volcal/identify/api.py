@@ -11,6 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from volcal.errors import VolcalInputError
@@ -80,6 +81,12 @@ class IdentifyOptions:
         and the Bonferroni bound for a 1 % family-wise false alarm rate over all readings.
     suggest : bool
         Try candidate extra measurements for the report.
+    robust : bool
+        Down-weight the readings the outlier check flags and fit again (at most
+        :data:`ROBUST_ITERATIONS` times): a flagged reading's noise is taken as its
+        standardised residual times the others' (weight ``1/z^2``), so it enters the fit
+        at one standard deviation; the readings stay in the residuals and the outlier list
+        with their weight.
     """
 
     prior: str = "smooth"
@@ -97,6 +104,11 @@ class IdentifyOptions:
     measurement_ids: list[str] | None = None
     outlier_threshold: float | None = None
     suggest: bool = True
+    robust: bool = False
+
+
+ROBUST_ITERATIONS = 5
+"""Re-weighted fits of ``robust=True`` at most (the flagged set is usually stable after 2)."""
 
 
 DEFAULT_REPEATABILITY_UM = 0.5
@@ -274,6 +286,42 @@ def identify(session: Session, options: IdentifyOptions | None = None) -> Identi
 
     if _ml.needs_linearisation(session):  # tracker stations: Gauss-Newton around this function
         return _ml.identify_iterated(session, o, identify)
+    result = _identify_weighted(session, o, None)
+    if not o.robust:
+        return result
+    return _robust(session, o, result)
+
+
+def _robust(session: Session, o: IdentifyOptions,
+            result: IdentificationResult) -> IdentificationResult:
+    """Iteratively re-weighted fit: flagged readings weigh ``1/z^2`` (see ``robust``)."""
+    weights: dict[str, NDArray[np.float64]] = {}
+    for _ in range(ROBUST_ITERATIONS):
+        if not result.outliers:
+            break
+        new = {k: v.copy() for k, v in weights.items()}
+        for f in result.outliers:
+            w = new.setdefault(f["measurement"], np.ones(len(result.residuals[f["measurement"]])))
+            w[f["row"] - 2] *= 1.0 / float(f["standardised"]) ** 2
+        if weights and all(np.allclose(new[k], weights.get(k, 1.0), rtol=0.1) for k in new):
+            break
+        weights = new
+        result = _identify_weighted(session, o, weights)
+    if weights:
+        flagged = sum(int(np.sum(w < 1)) for w in weights.values())
+        result.report.messages.append(
+            f"Robust fit: {flagged} reading(s) down-weighted (weights in 'outliers'); the "
+            "estimate and its uncertainty no longer lean on them.")
+        for f in result.outliers:
+            f["weight"] = float(weights.get(f["measurement"], np.ones(f["row"] - 1))[f["row"] - 2])
+        result.fit["robust"] = {"downweighted": flagged}
+    return result
+
+
+def _identify_weighted(session: Session, o: IdentifyOptions,
+                       weights: dict[str, NDArray[np.float64]] | None
+                       ) -> IdentificationResult:
+    """One fit with the given reading weights (None: all equal)."""
     known = _known(o)
     if o.prior not in ("smooth", "none"):
         raise VolcalInputError(f"prior must be 'smooth' or 'none', got {o.prior!r}")
@@ -283,7 +331,8 @@ def identify(session: Session, options: IdentifyOptions | None = None) -> Identi
     nodes1 = choose_nodes(session, refine=1, max_nodes=o.max_nodes)
     noise = o.noise_um
     if o.prior == "none":
-        design = build_design(session, nodes1, known, o.drift, o.measurement_ids, o.tilts)
+        design = build_design(session, nodes1, known, o.drift, o.measurement_ids, o.tilts,
+                           weights=weights)
         sol = solve_min_norm(design, noise)
         if noise is None and _too_few_redundant(sol, design):
             notes.append(_noise_note(sol, design))
@@ -291,7 +340,8 @@ def identify(session: Session, options: IdentifyOptions | None = None) -> Identi
         prior = None
     else:
         nodes = choose_nodes(session, refine=o.refine, max_nodes=o.max_nodes)
-        design = build_design(session, nodes, known, o.drift, o.measurement_ids, o.tilts)
+        design = build_design(session, nodes, known, o.drift, o.measurement_ids, o.tilts,
+                           weights=weights)
         prior = PriorStructure.build(design.layout, design.free, o.kappa)
         scales = None if o.scales is None else np.array(o.scales)
         nodes_h = choose_nodes(session, refine=o.refine,
@@ -299,7 +349,8 @@ def identify(session: Session, options: IdentifyOptions | None = None) -> Identi
         if scales is None and any(len(a) != len(b) for a, b in zip(nodes_h, nodes, strict=True)):
             # hyperparameters are properties of the functions, not of the grid: choose them
             # on a coarser grid (fast), then solve on the fine one, re-estimating the noise
-            design_h = build_design(session, nodes_h, known, o.drift, o.measurement_ids, o.tilts)
+            design_h = build_design(session, nodes_h, known, o.drift, o.measurement_ids, o.tilts,
+                           weights=weights)
             prior_h = PriorStructure.build(design_h.layout, design_h.free, o.kappa)
             sol_h = solve_bayes(design_h, prior_h, None, noise, o.squareness_std_urad)
             if noise is None and _too_few_redundant(sol_h, design_h):
@@ -322,7 +373,8 @@ def identify(session: Session, options: IdentifyOptions | None = None) -> Identi
     nodes_a = choose_nodes(session, refine=1, max_nodes=min(o.max_nodes, ANALYSIS_MAX_NODES))
     design1 = design if (o.prior == "none" or o.refine == 1) and all(
         len(a) == len(b) for a, b in zip(nodes_a, design.layout.nodes, strict=True)
-    ) else build_design(session, nodes_a, known, o.drift, o.measurement_ids, o.tilts)
+    ) else build_design(session, nodes_a, known, o.drift, o.measurement_ids, o.tilts,
+                           weights=weights)
     kappa = sol.kappa if np.isfinite(sol.kappa) else o.kappa
     prior1 = PriorStructure.build(design1.layout, design1.free, kappa)
     scales = sol.scales if np.all(np.isfinite(sol.scales)) else DEFAULT_SCALES.copy()
@@ -359,13 +411,16 @@ def _result(session: Session, design: Design, sol: Solution, report, o: Identify
     sq_std = sd[design.layout.squareness_indices()]
     mean = design.prior_mean if design.prior_mean is not None else np.zeros(sol.x.size)
     resid_all = design.y - design.A @ (sol.x - mean)
+    A = design.A.tocsr()
+    if design.row_scale is not None:  # robust fit: residuals and leverage of the readings
+        resid_all = resid_all / design.row_scale
+        A = (sp.diags(1.0 / design.row_scale) @ A).tocsr()
     residuals, fitted = {}, {}
     for m in design.measurements:
         sl = design.rows[m.id]
         residuals[m.id] = resid_all[sl]
         fitted[m.id] = m.deviation - resid_all[sl]
     # standardised residuals with leverage
-    A = design.A.tocsr()
     h = np.empty(A.shape[0])
     for i in range(0, A.shape[0], 2000):
         blk = A[i:i + 2000]

@@ -112,6 +112,9 @@ class Design:
     rows : dict of str to slice
         Rows of each measurement.
     measurements : list of Measurement
+    row_scale : ndarray or None
+        Square root of each reading's weight, applied to ``A`` and ``y`` (robust
+        fitting); None when all readings weigh the same.
     """
 
     layout: ParameterLayout
@@ -127,6 +130,7 @@ class Design:
     fixed_names: list[str] = field(default_factory=list)
     prior_mean: NDArray[np.float64] | None = None
     extra_precision: NDArray[np.float64] | None = None
+    row_scale: NDArray[np.float64] | None = None
 
     @property
     def n_free(self) -> int:
@@ -224,7 +228,8 @@ def _nuisance_columns(m: Measurement, drift: bool, tilts: bool = True):
 def build_design(session: Session, nodes: list[NDArray[np.float64]] | None = None,
                  known: dict[str, tuple[NDArray[np.float64], NDArray[np.float64]]] | None = None,
                  drift: bool = False, measurement_ids: list[str] | None = None,
-                 tilts: bool = True) -> Design:
+                 tilts: bool = True,
+                 weights: dict[str, NDArray[np.float64]] | None = None) -> Design:
     """Assemble the observation matrix of a session.
 
     Parameters
@@ -245,6 +250,10 @@ def build_design(session: Session, nodes: list[NDArray[np.float64]] | None = Non
         Use only these measurements.
     tilts : bool
         Add the set-up tilt nuisances (beam and mirror alignment) where they are visible.
+    weights : dict of str to ndarray, optional
+        Weight of each reading of a measurement (by id; 1 = a normal reading, 1/k^2 = a
+        reading whose noise is k times the others'): the rows are scaled by the square
+        root, and ``Design.row_scale`` keeps it (robust fitting).
 
     Returns
     -------
@@ -341,5 +350,14 @@ def build_design(session: Session, nodes: list[NDArray[np.float64]] | None = Non
     y = np.concatenate(ys)
     if np.any(mean):
         y = y - A @ mean  # solve for the departure from the prior mean
-    return Design(layout, chain.code, session.travel.copy(), free, fixed_values, A,
-                  y, nnames, rows, meas, fixed_names, prior_mean=mean, extra_precision=extra)
+    row_scale = None
+    if weights:
+        row_scale = np.ones(r0)
+        for m in meas:
+            if m.id in weights:
+                row_scale[rows[m.id]] = np.sqrt(np.asarray(weights[m.id], dtype=float))
+        A = sp.diags(row_scale) @ A
+        y = row_scale * y
+    return Design(layout, chain.code, session.travel.copy(), free, fixed_values, A.tocsr(),
+                  y, nnames, rows, meas, fixed_names, prior_mean=mean, extra_precision=extra,
+                  row_scale=row_scale)

@@ -116,6 +116,7 @@ class _Evidence:
         self.AtA_sparse = AtA
         self.AtA = AtA.toarray()
         self.Aty = self.A.T @ design.y
+        self.y = design.y
         self.yty = float(design.y @ design.y)
         self.n = design.y.size
         self.prior = prior
@@ -181,13 +182,93 @@ class _Evidence:
             return 1e300
         b = self.Aty / sigma**2
         x = sla.cho_solve(cf, b, check_finite=False)
+        # the data term y'y/s^2 - b'H^-1 b as the minimum it is, |y - A x|^2/s^2 + x'Q x:
+        # no cancellation of two huge numbers when the data are nearly reproduced (tiny
+        # s), and stationary in x, so a solve error enters only to second order
+        r = self.y - self.A @ x
+        data = float(r @ r) / sigma**2 + float(x @ (Q @ x))
         logdet_h = 2.0 * float(np.sum(np.log(np.diag(cf[0]))))
         if self.extra is None:
             logdet_q = self.logdet_prior(scales)
         else:
             logdet_q = 2.0 * float(np.sum(np.log(np.diag(np.linalg.cholesky(Q)))))
-        return (self.yty / sigma**2 - b @ x + logdet_h - logdet_q
+        return (data + logdet_h - logdet_q
                 + self.n * np.log(2 * np.pi * sigma**2))
+
+
+    def neg2_grad(self, scales, sigma, kappa=None) -> tuple[float, NDArray[np.float64]]:
+        """``neg2`` and its gradient in ``log`` of (the four scales, kappa, sigma).
+
+        With ``D = |y - A x|^2 / s^2 + x'Q x`` at the posterior mean ``x`` (stationary, so
+        only explicit dependences count), ``Q = sum_g (C_g / kappa^2 + W_g) / s_g^2 + diag``
+        and ``H = A'A / s^2 + Q`` (Rasmussen & Williams 2006, eq. 5.9):
+
+        * ``d/dlog s_g  = -2 x'Q_g x - 2 tr(H^-1 Q_g) + 2 n_g``,
+        * ``d/dlog kappa = -2 x'K x - 2 tr(H^-1 K) + 2 tr(Q^-1 K)``, ``K = sum_g C_g /
+          (kappa^2 s_g^2)``,
+        * ``d/dlog sigma = -2 |r|^2 / s^2 - 2 tr(H^-1 A'A) / s^2 + 2 n``,
+
+        where ``n_g`` is the number of parameters of group ``g`` (``log det Q`` holds
+        ``-2 n_g log s_g``) and ``tr(H^-1 A'A) / s^2 = N - tr(H^-1 Q)``.
+        """
+        self.evaluations += 1
+        ng = len(DEFAULT_SCALES)
+        try:
+            H, Q, cf = self.factor(scales, sigma, kappa)
+        except (np.linalg.LinAlgError, sla.LinAlgError):
+            return 1e300, np.zeros(ng + 2)
+        C, W, diag = self._parts()
+        k2 = self.prior.kappa**2
+        b = self.Aty / sigma**2
+        x = sla.cho_solve(cf, b, check_finite=False)
+        r = self.y - self.A @ x
+        rr = float(r @ r)
+        data = rr / sigma**2 + float(x @ (Q @ x))
+        logdet_h = 2.0 * float(np.sum(np.log(np.diag(cf[0]))))
+        Hinv = sla.cho_solve(cf, np.eye(self.N), check_finite=False)
+        if self.extra is None:
+            logdet_q = self.logdet_prior(scales)
+            Qinv = None
+        else:
+            cq = sla.cho_factor(Q, lower=True, check_finite=False)
+            logdet_q = 2.0 * float(np.sum(np.log(np.diag(cq[0]))))
+            Qinv = sla.cho_solve(cq, np.eye(self.N), check_finite=False)
+        val = data + logdet_h - logdet_q + self.n * np.log(2 * np.pi * sigma**2)
+        grad = np.zeros(ng + 2)
+        tr_hq = 0.0
+        for g in range(ng):
+            Qg = (C[g] / k2 + W[g]) / scales[g] ** 2
+            Kg = C[g] / (k2 * scales[g] ** 2)
+            t_hq = float(np.sum(Hinv * Qg))
+            tr_hq += t_hq
+            if Qinv is None:
+                t_qq = float(self._group_size(g))
+                t_qk = float(self._kappa_trace(g))
+            else:
+                t_qq = float(np.sum(Qinv * Qg))
+                t_qk = float(np.sum(Qinv * Kg))
+            grad[g] = -2.0 * float(x @ (Qg @ x)) - 2.0 * t_hq + 2.0 * t_qq
+            grad[ng] += -2.0 * float(x @ (Kg @ x)) - 2.0 * float(np.sum(Hinv * Kg)) + 2.0 * t_qk
+        tr_hq += float(np.diag(Hinv) @ diag)
+        grad[ng + 1] = -2.0 * rr / sigma**2 - 2.0 * (self.N - tr_hq) + 2.0 * self.n
+        return float(val), grad
+
+    def _group_size(self, g: int) -> int:
+        return sum(Cb.shape[0] for _, Cb, _, gb in self.prior.blocks if gb == g)
+
+    def _kappa_trace(self, g: int) -> float:
+        """``tr(Q^-1 K)`` of group ``g`` from its blocks.
+
+        ``Q`` is block diagonal when no extra precision is given:
+        ``tr((C/k2 + W)^-1 C / k2)`` per block.
+        """
+        cache = self.__dict__.setdefault("_kt", {})
+        key = (float(self.prior.kappa), g)
+        if key not in cache:
+            k2 = key[0] ** 2
+            cache[key] = sum(float(np.trace(np.linalg.solve(Cb / k2 + Wb, Cb / k2)))
+                             for _, Cb, Wb, gb in self.prior.blocks if gb == g)
+        return cache[key]
 
 
 def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float64] | None = None,
@@ -254,17 +335,32 @@ def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float6
         h0.append(np.log(sig0))
         bounds.append((np.log(sig_floor), np.log(1e3)))
     if h0:
+        ng = len(DEFAULT_SCALES)
+
         def fun(h):
             sc, sig, kap = unpack(h)
-            val = ev.neg2(sc, sig, kap)
+            val, g6 = ev.neg2_grad(sc, sig, kap)
+            grad = np.zeros(len(h))
+            i = 0
             if free_scales:  # weak log-normal hyperprior: typical machines, factor 30
+                gs = g6[:ng].copy()
                 z = (np.log(np.append(sc, kap)) - HYPER_CENTRE) / HYPER_SPREAD
+                dz = 2.0 * z / HYPER_SPREAD
                 if SEPARATE_ROLL:
                     z[2] = (np.log(sc[2]) - np.log(sc[3])) / ROLL_TIE  # shrunk to the tilts
+                    dz[2] = 2.0 * z[2] / ROLL_TIE
+                    dz[3] -= dz[2]
                 else:
-                    z = np.delete(z, 2)
+                    gs[3] += gs[2]  # the roll takes the tilts' scale
+                    z[2] = dz[2] = 0.0
                 val += float(z @ z)
-            return val
+                gs += dz[:ng]
+                grad[:ns] = gs[free_groups]
+                grad[ns] = g6[ng] + dz[ng]
+                i = ns + 1
+            if free_sigma:
+                grad[i] = g6[ng + 1]
+            return val, grad
         # coarse start for sigma: scan a few decades
         if free_sigma:
             grid = np.log(np.geomspace(max(sig_floor, 1e-6), 10.0, 15))
@@ -272,15 +368,15 @@ def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float6
             for g in grid:
                 h = np.array(h0)
                 h[-1] = g
-                vals.append(fun(h))
+                vals.append(ev.neg2(*unpack(h)))
             h0[-1] = grid[int(np.argmin(vals))]
-        res = minimize(fun, np.array(h0), method="L-BFGS-B", bounds=bounds,
-                       options={"maxiter": 200, "ftol": 1e-14, "gtol": 1e-3, "eps": 1e-6})
+        res = minimize(fun, np.array(h0), method="L-BFGS-B", jac=True, bounds=bounds,
+                       options={"maxiter": 200, "ftol": 1e-12, "gtol": 1e-4})
         name = "L-BFGS-B"
-        if res.nit < 3 or not res.success:
+        if not res.success:
             # the quasi-Newton step can stall on a flat or kinked evidence surface: fall
             # back to the derivative-free simplex from the best point found
-            res2 = minimize(fun, res.x, method="Nelder-Mead", bounds=bounds,
+            res2 = minimize(lambda h: fun(h)[0], res.x, method="Nelder-Mead", bounds=bounds,
                             options={"xatol": 5e-3, "fatol": 1e-3, "maxiter": 600})
             if res2.fun <= res.fun:
                 res, name = res2, "L-BFGS-B, then Nelder-Mead"

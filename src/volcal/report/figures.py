@@ -9,8 +9,9 @@ from matplotlib.figure import Figure
 
 __all__ = ["png_bytes", "png_data_uri"]
 
-PNG_DPI = 110
-"""Resolution of the embedded PNG images [dots per inch]."""
+PNG_DPI = 150
+"""Resolution of the PNG images [dots per inch], the same in the HTML (shown at the page
+width), the PDF and the figures folder, so that each figure is drawn once."""
 
 
 def png_bytes(fig: Figure, dpi: int = PNG_DPI) -> bytes:
@@ -27,10 +28,19 @@ def png_bytes(fig: Figure, dpi: int = PNG_DPI) -> bytes:
     -------
     bytes
         The PNG file (no time stamp in its metadata, so equal figures give equal bytes).
+
+    Notes
+    -----
+    The bytes are kept on the figure (per resolution): a report's figures are finished
+    when they are rendered, and the HTML, the PDF and the figures folder share one drawing
+    (drawing is most of a report's time).
     """
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=dpi, metadata={"Software": None})
-    return buf.getvalue()
+    cache = fig.__dict__.setdefault("_volcal_png", {})
+    if dpi not in cache:
+        buf = io.BytesIO()
+        fig.savefig(buf, format="png", dpi=dpi, metadata={"Software": None})
+        cache[dpi] = buf.getvalue()
+    return cache[dpi]
 
 
 def png_data_uri(fig: Figure, dpi: int = PNG_DPI) -> str:

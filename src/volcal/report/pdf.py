@@ -171,7 +171,7 @@ def write_pdf(report: Report, path: str | Path) -> int:
                 flow.flush()
                 for f in s.figures:
                     number += 1
-                    flow.figure_page(png_bytes(f.figure, dpi=150), f.caption, number)
+                    flow.figure_page(png_bytes(f.figure), f.caption, number)
         flow.flush()
         pages = flow.page
     return pages

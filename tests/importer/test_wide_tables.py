@@ -176,3 +176,14 @@ def test_wide_table_through_read_laser_csv_keeps_rows_for_messages(tmp_path):
     assert t.rows.tolist() == [2, 3, 3, 2]
     assert t.sources == ["Run 1 +", "Run 1 +", "Run 1 -", "Run 1 -"]
     np.testing.assert_array_equal(t.deviation_um, [0.0, 0.5, 1.5, 1.0])
+
+
+def test_a_per_step_table_is_no_linear_measurement(tmp_path):
+    f = tmp_path / "s.csv"
+    f.write_text("P,a,b,c\n0,0,,\n10,1,2,3\n")
+    with pytest.raises(VolcalInputError) as e:
+        import_csv(f, parse_mapping("target=P,deviation=a|b|c"), "X", [0, 0, 0], tmp_path / "s",
+                   "m", travel=TRAVEL)
+    assert e.value.message == ("--map: a per-step table (deviation=A|B|C) is a step diagonal: "
+                               "import it into its planned measurement with --measurement ID")
+    assert not (tmp_path / "s").exists()

@@ -187,3 +187,12 @@ def test_a_per_step_table_is_no_linear_measurement(tmp_path):
     assert e.value.message == ("--map: a per-step table (deviation=A|B|C) is a step diagonal: "
                                "import it into its planned measurement with --measurement ID")
     assert not (tmp_path / "s").exists()
+
+
+def test_unit_errors_behind_a_preamble_name_the_header_line(tmp_path):
+    f = tmp_path / "p.csv"
+    f.write_text("Laser export\nMachine;VMC\nTarget (ft);Run 1 (um);Run 2 (um)\n0;0;0\n1;2;3\n")
+    with pytest.raises(VolcalInputError) as e:
+        read_laser_csv(f, parse_mapping("target=Target,deviation=Run*"))
+    assert (e.value.row, e.value.column) == (3, "Target")
+    assert e.value.message.startswith("the header names the unit 'ft'")

@@ -203,12 +203,12 @@ def _decode(path: Path) -> str:
 
 
 def _unit(option: str | None, header: str, fallback: str | None, what: str, notes: list[str],
-          path: Path, col: str) -> str:
+          path: Path, col: str, row: int = 1) -> str:
     found = unit_from_header(header)
     if option not in (None, "auto"):
         u = unit_name(option, f"--{what}-units" if what != "target" else "--units")
         if found is not None and found != u:
-            raise VolcalInputError(f"header says {found} but --units says {u}", path, 1, col)
+            raise VolcalInputError(f"header says {found} but --units says {u}", path, row, col)
         notes.append(f"{what} column '{header}': {u} (given)")
         return u
     if found is not None:
@@ -217,10 +217,10 @@ def _unit(option: str | None, header: str, fallback: str | None, what: str, note
     other = unsupported_unit(header)
     if other is not None:
         raise VolcalInputError(f"the header names the unit {other!r}, which volcal does not "
-                               f"read; convert to one of {', '.join(TO_MM)}", path, 1, col)
+                               f"read; convert to one of {', '.join(TO_MM)}", path, row, col)
     if fallback is None:
         raise VolcalInputError(f"no unit in the header; give the unit of the {what} column",
-                               path, 1, col)
+                               path, row, col)
     notes.append(f"{what} column '{header}': {fallback} (assumed; no unit in the header)")
     return fallback
 
@@ -309,7 +309,7 @@ def read_laser_csv(path: str | Path, mapping: dict[str, str], units: str = "auto
         raise VolcalInputError(f"need at least {MIN_ROWS} data lines, found {len(t)}", path,
                                last + 1)
     tu = _unit(units, t.written[mapping["target"]], "mm", "target", notes, path,
-               mapping["target"])
+               mapping["target"], t.header_row)
     target = t[mapping["target"]] * TO_MM[tu]
     layout = layout_of(mapping)
     if layout == "steps":
@@ -327,9 +327,9 @@ def _value_unit(t: Table, key: str, col: str, tu: str, units: str, deviation_uni
     head = t.written[col]
     if key == "deviation":
         return _unit(deviation_units, head, "um" if tu in ("mm", "um") else None, "deviation",
-                     notes, path, col)
+                     notes, path, col, t.header_row)
     return _unit(units if unit_from_header(head) is None else "auto", head, tu, "reading",
-                 notes, path, col)
+                 notes, path, col, t.header_row)
 
 
 def _values(key: str, v: NDArray[np.float64], unit: str, target: NDArray[np.float64]

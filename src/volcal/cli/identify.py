@@ -13,7 +13,7 @@ from rich.console import Console
 from volcal.cli._common import parse_vector, print_session_notes
 from volcal.errors import VolcalInputError
 
-console = Console()
+console = Console(soft_wrap=True)  # no line breaks inside paths
 
 
 def identify_cmd(

@@ -10,7 +10,7 @@ from rich.console import Console
 
 from volcal.cli._common import parse_travel, parse_vector
 
-console = Console()
+console = Console(soft_wrap=True)  # no line breaks inside paths
 
 
 def import_(

@@ -80,13 +80,13 @@ def choose_nodes(session: Session, refine: int = 2, max_nodes: int = 201
             if x - keep[-1] > 1e-6 * span:
                 keep.append(x)
         v = np.array(keep)
-        if refine > 1:
-            fine = [v[:1]]
-            for a, b in zip(v[:-1], v[1:], strict=True):
-                fine.append(np.linspace(a, b, refine + 1)[1:])
-            v = np.concatenate(fine)
-        if v.size > max_nodes:
+        if (v.size - 1) * max(refine, 1) + 1 > max_nodes:
             v = np.linspace(lo, hi, max_nodes)
+        elif refine > 1:
+            t = np.arange(1, refine + 1) / refine  # each interval split into refine parts
+            inner = v[:-1, None] + (v[1:] - v[:-1])[:, None] * t
+            inner[:, -1] = v[1:]  # the visited positions exactly
+            v = np.concatenate([v[:1], inner.ravel()])
         out.append(v)
     return out
 

@@ -378,10 +378,10 @@ def _identify_weighted(session: Session, o: IdentifyOptions,
             sol = solve_bayes(design, prior, scales, noise, o.squareness_std_urad)
     # identifiability on the measured positions
     nodes_a = choose_nodes(session, refine=1, max_nodes=min(o.max_nodes, ANALYSIS_MAX_NODES))
-    design1 = design if (o.prior == "none" or o.refine == 1) and all(
-        len(a) == len(b) for a, b in zip(nodes_a, design.layout.nodes, strict=True)
-    ) else build_design(session, nodes_a, known, o.drift, o.measurement_ids, o.tilts,
-                           weights=weights)
+    same = all(len(a) == len(b) and np.array_equal(a, b)
+               for a, b in zip(nodes_a, design.layout.nodes, strict=True))
+    design1 = design if same else build_design(session, nodes_a, known, o.drift,
+                                               o.measurement_ids, o.tilts, weights=weights)
     kappa = sol.kappa if np.isfinite(sol.kappa) else o.kappa
     prior1 = PriorStructure.build(design1.layout, design1.free, kappa)
     scales = sol.scales if np.all(np.isfinite(sol.scales)) else DEFAULT_SCALES.copy()

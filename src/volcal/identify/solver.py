@@ -383,7 +383,7 @@ def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float6
                 vals.append(ev.neg2(*unpack(h)))
             h0[-1] = grid[int(np.argmin(vals))]
         res = minimize(fun, np.array(h0), method="L-BFGS-B", jac=True, bounds=bounds,
-                       options={"maxiter": 200, "ftol": 1e-12, "gtol": 1e-4})
+                       options={"maxiter": 200, "ftol": 1e-10, "gtol": 1e-2})
         name = "L-BFGS-B"
         if not res.success:
             # the quasi-Newton step can stall on a flat or kinked evidence surface: fall

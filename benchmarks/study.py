@@ -313,6 +313,7 @@ def evaluate(result, truth: MachineErrors, q: NDArray[np.float64]) -> dict:
             "rms_err_urad": float(np.sqrt(np.mean((est - tru) ** 2))),
             "rms_true_urad": float(np.sqrt(np.mean(tru**2))),
             "coverage": float(np.mean(np.abs(est - tru) <= 1.96 * sd)),
+            "rms_sd_urad": float(np.sqrt(np.mean(sd**2))),
             "determined": float(det.get(name, float("nan"))),
         }
     return out

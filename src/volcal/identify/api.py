@@ -529,6 +529,13 @@ def _result(session: Session, design: Design, sol: Solution, report, o: Identify
         # what the session reader noted (unmeasured, missed captures) and flagged as implausible
         "notes": [*session.notes, *(f"warning: {w}" for w in session.warnings)],
     }
+    if sol.method == "bayes":
+        roll_u = [float(np.sqrt(np.mean(std[k][:, 3 + k] ** 2))) for k in range(3)]
+        report.messages.append(
+            "Rolls as measured (RMS standard uncertainty over the travel, noise included): "
+            + ", ".join(f"{n} {u:.1f} urad" for n, u in zip(ROLL_NAMES, roll_u, strict=True))
+            + f"; near the prior scale ({sol.scales[2]:.0f} urad) means not measured by these "
+            "tests, whatever share the design could determine without noise.")
     return IdentificationResult(session.name, errors, design.layout, design.free, factor, std,
                                 sq_std, report, fit, residuals, fitted, nuis, outliers,
                                 design=design, solution=sol,

@@ -97,3 +97,76 @@ def test_candidate_ambiguity_equals_the_full_null_space_computation(small):
     want = [f"{label}: volumetric ambiguity {rep.ambiguity_rms_um:.2f} -> {rms:.2f} um RMS"
             for rms, label in expected[:3] if rms < 0.9 * rep.ambiguity_rms_um]
     assert got and got == want
+
+
+@pytest.mark.parametrize("extra", [False, True])
+def test_evidence_gradient_equals_central_differences(small, extra):
+    """The analytic gradient of -2 log evidence in log(scales, kappa, sigma) against
+    central differences of the value (step 1e-5 in log space), with the block-diagonal
+    prior (traces from the blocks) and with an extra precision (a known function given
+    with its uncertainty: traces from the dense Q^-1)."""
+    from volcal.identify.solver import _Evidence
+
+    s, design, prior = small
+    if extra:
+        x = np.linspace(0.0, 800.0, 5)
+        design = build_design(s, design.layout.nodes, {"EXX": (x, 0.01 * x, 0.5)})
+        prior = PriorStructure.build(design.layout, design.free, 6.0)
+        assert design.extra_precision is not None and np.any(design.extra_precision)
+    ev = _Evidence(design, prior, 100.0)
+    p0 = np.log([8.0, 4.0, 12.0, 20.0, 7.0, 0.4])  # 4 scales, kappa, sigma
+
+    def f(p):
+        return ev.neg2(np.exp(p[:4]), float(np.exp(p[5])), float(np.exp(p[4])))
+
+    val, grad = ev.neg2_grad(np.exp(p0[:4]), float(np.exp(p0[5])), float(np.exp(p0[4])))
+    assert val == pytest.approx(f(p0), rel=1e-12)
+    h = 1e-5
+    fd = np.array([(f(p0 + h * e) - f(p0 - h * e)) / (2 * h) for e in np.eye(6)])
+    np.testing.assert_allclose(grad, fd, rtol=1e-5, atol=1e-5 * np.abs(fd).max())
+    assert np.abs(grad).min() > 1e-3  # every component is exercised
+
+
+@pytest.mark.parametrize("lam", [1e-5, 1e-4, 1e-3])
+def test_prior_reproduces_the_cubic_smoothing_spline(lam):
+    """Observations at every node of one function, noise sigma: the posterior mean with the
+    prior's curvature part (amplitude part made negligible by a large scale ``a``,
+    ``kappa`` set so that ``sigma^2 / (a kappa)^2`` is the spline's ``lam``) is scipy's
+    cubic smoothing spline (Reinsch) to within 1e-2 um, against 0.3 um of smoothing."""
+    from scipy.interpolate import make_smoothing_spline
+
+    from volcal.identify.prior import unit_precision
+
+    rng = np.random.default_rng(1)
+    x = np.linspace(0.0, 800.0, 201)
+    s = x / 800.0
+    y = 5 * np.sin(2.5 * s) + 3 * s**2 + rng.normal(0, 0.5, x.size)
+    sigma, a = 0.5, 1e4
+    kappa = sigma / (a * np.sqrt(lam))
+    Q = unit_precision(x, kappa) / a**2
+    f = np.linalg.solve(np.eye(x.size) / sigma**2 + Q, y / sigma**2)
+    g = make_smoothing_spline(s, y, lam=lam)(s)
+    assert np.abs(f - g).max() < 1e-2
+    assert np.std(g - y) > 0.25  # the spline does smooth
+
+
+def test_evidence_equals_the_gaussian_marginal_likelihood(small, monkeypatch):
+    """-2 log evidence against the dense Gaussian marginal of the readings,
+    ``y ~ N(0, sigma^2 I + A Q^-1 A^T)`` (the integral over the parameters in closed
+    form), with proper nuisance priors (precision 1e-2) so that the dense covariance is
+    well conditioned."""
+    import volcal.identify.solver as solver
+
+    _, design, prior = small
+    monkeypatch.setattr(solver, "NUISANCE_PRECISION",
+                        {k: 1e-2 for k in solver.NUISANCE_PRECISION})
+    ev = solver._Evidence(design, prior, 100.0)
+    scales, sigma, kappa = np.array([8.0, 4.0, 12.0, 20.0]), 0.4, 7.0
+    got = ev.neg2(scales, sigma, kappa)
+    Q = ev.prior_dense(scales, kappa)
+    A = design.A.toarray()
+    K = sigma**2 * np.eye(A.shape[0]) + A @ np.linalg.solve(Q, A.T)
+    sign, logdet = np.linalg.slogdet(K)
+    want = design.y @ np.linalg.solve(K, design.y) + logdet + design.y.size * np.log(2 * np.pi)
+    assert sign > 0
+    assert got == pytest.approx(want, rel=1e-9, abs=1e-6)

@@ -236,3 +236,13 @@ def test_cli_advise_on_a_planned_session(tmp_path):
     out = _volcal("advise", str(folder))
     assert out.returncode == 0, out.stderr
     assert "confounded with the mirror tilts" in out.stdout.replace("\n", " ")
+
+
+def test_report_states_how_well_each_roll_was_measured(noisy):
+    """The report gives each roll's posterior uncertainty (noise included), not only the
+    noise-free determined share: the numbers are the RMS of ``function_std`` at the nodes."""
+    s, _, r = noisy
+    msg = next(m for m in r.report.messages if m.startswith("Rolls as measured"))
+    for k, name in enumerate(("EAX", "EBY", "ECZ")):
+        u = np.sqrt(np.mean(r.function_std(name, r.errors.nodes[k]) ** 2))
+        assert f"{name} {u:.1f} urad" in msg

@@ -25,7 +25,14 @@ def test_noise_free_identifiable_part_is_exact(prior, chain):
     r = identify(s, IdentifyOptions(prior=prior, suggest=False))
     assert max(np.abs(v).max() for v in r.residuals.values()) < 1e-8
     nodes = choose_nodes(s, refine=1)
-    determined = [n for n, f in r.report.determined_fraction.items() if f > 1 - 1e-9]
+    # "fully determined": at most 1e-5 of the prior variance left. Not 1e-9: the fraction
+    # comes from the null space of the prior-scaled information (eigenvalues below 1e-9 of
+    # the largest), and that scaling moves with the prior scales, which noise-free data
+    # leave to the hyperprior; weak but real directions then fall under the threshold and
+    # leak into functions the data fix (YFXZ with kappa 6: 2.5e-6 of ECX, 7.8e-8 of EXX
+    # "undetermined", while both are recovered to 2e-11). The exactness checked below
+    # (1e-6 um) is unchanged.
+    determined = [n for n, f in r.report.determined_fraction.items() if f > 1 - 1e-5]
     assert {"EXX", "EYY", "EZZ", "EBX", "ECX"} <= set(determined)
     for name in determined:
         if name in COMPONENT_NAMES:

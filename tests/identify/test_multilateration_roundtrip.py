@@ -177,3 +177,28 @@ def test_mixed_session_lines_diagonals_and_tracker():
             st = by_key[station_key(m)]
             err = np.abs(np.subtract(st["fitted_mm"], setups[m.id].station_mm)) * 1e3
             assert np.all(err < 5 * np.array(st["u_um"]) + 0.5), (err, st["u_um"])
+
+
+def test_station_u_mm_is_the_prior_of_the_station():
+    """``station_u_mm`` is the standard uncertainty of the station as set up: with a
+    station 2 mm off and the default (5 mm) the data move it back to the truth; stated as
+    1 nm, the prior holds it where the user put it (the Gauss-Newton loop keeps linearising
+    around it) and its fitted uncertainty is at most that."""
+    truth = random_machine(TRAVEL, "XYFZ", seed=22)
+    shift = np.array([2.0, 0.0, -2.0])
+    out = {}
+    for u in (None, 1e-6):
+        s = tracker_session(grid_=(4, 3, 3))
+        simulate_session(s, truth, SimulationOptions(noise_um=0.0), QUIET)
+        moved(s, shift)
+        if u is not None:
+            for m in s.measurements:
+                m.meta["station_u_mm"] = u
+        out[u] = identify(s, IdentifyOptions(suggest=False, scales=(10.0, 5.0, 15.0, 15.0),
+                                             noise_um=0.3)).fit["multilateration"]["stations"]
+    for free, held in zip(out[None], out[1e-6], strict=True):
+        nominal = np.asarray(free["nominal_mm"])
+        np.testing.assert_allclose(free["fitted_mm"], nominal - shift, atol=2e-4)
+        # 2 mm of disagreement with thousands of readings pull a 1 nm prior by ~60 nm
+        np.testing.assert_allclose(held["fitted_mm"], nominal, atol=1e-4)
+        assert max(held["u_um"]) <= 1e-3 + 1e-9

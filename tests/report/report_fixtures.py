@@ -19,9 +19,24 @@ CHROMIUM_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic
                   "--disable-component-update", "--disable-sync"]
 
 
+_SHARED: dict = {}
+"""Values of the session fixtures, shared by every test module that binds them (each module
+binds its own fixture definitions, and pytest caches a session fixture per definition)."""
+
+
+def _shared(key, make):
+    if key not in _SHARED:
+        _SHARED[key] = make()
+    return _SHARED[key]
+
+
 @pytest.fixture(scope="session")
 def small_session(tmp_path_factory) -> Path:
     """A simulated session: the full test set on a small grid (fast to identify)."""
+    return _shared("small_session", lambda: _small_session(tmp_path_factory))
+
+
+def _small_session(tmp_path_factory) -> Path:
     travel = np.array([[0, 400], [0, 300], [0, 250]], float)
     s = plan_session(travel, "XYFZ", 5, ("step-diagonal", "diagonal", "linear"), 3,
                      name="TEST-VMC")
@@ -37,8 +52,11 @@ def small_session(tmp_path_factory) -> Path:
 def identified(small_session):
     from volcal.identify import identify
 
-    s = read_session(small_session)
-    return s, identify(s)
+    def make():
+        s = read_session(small_session)
+        return s, identify(s)
+
+    return _shared("identified", make)
 
 
 @pytest.fixture(scope="session")
@@ -47,9 +65,12 @@ def written_report(identified, tmp_path_factory):
     from volcal.report.sections import build_report
     from volcal.report.writer import write_report
 
-    s, r = identified
-    rep = build_report(collect_inputs(s, r))
-    return rep, write_report(rep, tmp_path_factory.mktemp("rep") / "report")
+    def make():
+        s, r = identified
+        rep = build_report(collect_inputs(s, r))
+        return rep, write_report(rep, tmp_path_factory.mktemp("rep") / "report")
+
+    return _shared("written_report", make)
 
 
 @pytest.fixture

@@ -13,7 +13,7 @@ from rich.table import Table
 from volcal.cli._common import print_session_notes
 from volcal.errors import VolcalInputError
 
-console = Console()
+console = Console(soft_wrap=True)  # no line breaks inside paths
 classic_app = typer.Typer(help="The seeds' classic solvers: Abbe lines, body diagonals, "
                           "sequential step diagonal (docs/classic.md).", no_args_is_help=True)
 

@@ -12,7 +12,7 @@ from rich.markup import escape
 from volcal.cli._common import parse_vector
 from volcal.errors import VolcalInputError
 
-console = Console()
+console = Console(soft_wrap=True)  # no line breaks inside paths
 
 
 def compensate(

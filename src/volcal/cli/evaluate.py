@@ -13,7 +13,7 @@ from rich.table import Table
 
 from volcal.cli._common import print_session_notes
 
-console = Console()
+console = Console(soft_wrap=True)  # no line breaks inside paths
 evaluate_app = typer.Typer(help="Evaluate measurements to the standards (ISO 230-2, "
                            "VDI/DGQ 3441, ISO 230-6, ISO 230-1 volumetric indices).",
                            no_args_is_help=True)

@@ -13,7 +13,7 @@ from rich.console import Console
 from volcal.cli._common import parse_vector, print_session_notes
 from volcal.errors import VolcalInputError
 
-console = Console()
+console = Console(soft_wrap=True)  # no line breaks inside paths
 
 
 def identify_cmd(
@@ -37,6 +37,8 @@ def identify_cmd(
     measurements: str | None = typer.Option(None, help="Comma-separated measurement ids to use."),
     max_nodes: int = typer.Option(41, min=3, max=2001, help="Nodes per axis at most (problem "
                                   "size; the parameter count stops growing there)."),
+    robust: bool = typer.Option(False, help="Down-weight the readings the outlier check "
+                                "flags (weight 1/z^2) and fit again; they stay listed."),
 ) -> None:
     """Identify the machine's errors from the session; write MODEL.json."""
     from volcal.identify import IdentifyOptions, identify
@@ -70,7 +72,7 @@ def identify_cmd(
         for name, (pos, vals) in read_known_functions(known).items():
             known_d[name] = (pos, vals) if known_u is None else (pos, vals, known_u)
     opts = IdentifyOptions(prior=prior, noise_um=noise_um, roll=roll, known=known_d, drift=drift,
-                           measurement_ids=ids, max_nodes=max_nodes)
+                           measurement_ids=ids, max_nodes=max_nodes, robust=robust)
     with console.status("identifying..."):
         res = identify(s, opts)
         if monte_carlo > 0:

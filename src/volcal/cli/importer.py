@@ -11,7 +11,7 @@ from rich.markup import escape
 
 from volcal.cli._common import parse_travel, parse_vector
 
-console = Console()
+console = Console(soft_wrap=True)  # no line breaks inside paths
 
 HELP = """Add a measurement from a laser CSV export to a session (atomically).
 

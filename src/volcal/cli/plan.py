@@ -11,7 +11,7 @@ from rich.console import Console
 from volcal.cli._common import parse_travel, parse_vector
 from volcal.errors import VolcalInputError
 
-console = Console()
+console = Console(soft_wrap=True)  # no line breaks inside paths
 
 
 def _unmeasured_session(folder: Path) -> bool:

@@ -9,7 +9,7 @@ import typer
 from rich.console import Console
 from rich.markup import escape
 
-console = Console()
+console = Console(soft_wrap=True)  # no line breaks inside paths
 
 
 def program(

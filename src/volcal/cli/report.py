@@ -9,7 +9,7 @@ from rich.console import Console
 
 from volcal.cli._common import print_session_notes
 
-console = Console()
+console = Console(soft_wrap=True)  # no line breaks inside paths
 
 
 def report_cmd(

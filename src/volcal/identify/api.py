@@ -25,7 +25,8 @@ from volcal.model.names import ROLL_NAMES
 from volcal.plan.geometry import diagonal_test, linear_test, step_diagonal_test
 from volcal.session.format import Measurement, Session
 
-__all__ = ["IdentifyOptions", "advise", "identify"]
+__all__ = ["IdentifyOptions", "advise", "default_outlier_threshold", "identify",
+           "standardised_residuals"]
 
 HYPER_MAX_NODES = 21
 """Nodes per axis of the grid on which the prior's hyperparameters are chosen (the
@@ -294,27 +295,33 @@ def identify(session: Session, options: IdentifyOptions | None = None) -> Identi
 
 def _robust(session: Session, o: IdentifyOptions,
             result: IdentificationResult) -> IdentificationResult:
-    """Iteratively re-weighted fit: flagged readings weigh ``1/z^2`` (see ``robust``)."""
+    """Re-weighted fits: the readings flagged by the last fit weigh ``1/z^2``.
+
+    See ``IdentifyOptions.robust``. A reading no longer flagged (judged by its prediction
+    from the others) is back at full weight. Stops when the flagged set repeats.
+    """
     weights: dict[str, NDArray[np.float64]] = {}
+    seen: list[set] = []
     for _ in range(ROBUST_ITERATIONS):
-        if not result.outliers:
+        flagged = {(f["measurement"], f["row"]) for f in result.outliers}
+        if not flagged or flagged in seen:
             break
-        new = {k: v.copy() for k, v in weights.items()}
+        seen.append(flagged)
+        weights = {}
         for f in result.outliers:
-            w = new.setdefault(f["measurement"], np.ones(len(result.residuals[f["measurement"]])))
-            w[f["row"] - 2] *= 1.0 / float(f["standardised"]) ** 2
-        if weights and all(np.allclose(new[k], weights.get(k, 1.0), rtol=0.1) for k in new):
-            break
-        weights = new
+            w = weights.setdefault(f["measurement"],
+                                   np.ones(len(result.residuals[f["measurement"]])))
+            w[f["row"] - 2] = min(1.0, 1.0 / float(f["standardised"]) ** 2)
         result = _identify_weighted(session, o, weights)
     if weights:
-        flagged = sum(int(np.sum(w < 1)) for w in weights.values())
+        n_down = sum(int(np.sum(w < 1)) for w in weights.values())
         result.report.messages.append(
-            f"Robust fit: {flagged} reading(s) down-weighted (weights in 'outliers'); the "
+            f"Robust fit: {n_down} reading(s) down-weighted (weights in 'outliers'); the "
             "estimate and its uncertainty no longer lean on them.")
         for f in result.outliers:
-            f["weight"] = float(weights.get(f["measurement"], np.ones(f["row"] - 1))[f["row"] - 2])
-        result.fit["robust"] = {"downweighted": flagged}
+            w = weights.get(f["measurement"])
+            f["weight"] = 1.0 if w is None else float(w[f["row"] - 2])
+        result.fit["robust"] = {"downweighted": n_down}
     return result
 
 
@@ -371,10 +378,10 @@ def _identify_weighted(session: Session, o: IdentifyOptions,
             sol = solve_bayes(design, prior, scales, noise, o.squareness_std_urad)
     # identifiability on the measured positions
     nodes_a = choose_nodes(session, refine=1, max_nodes=min(o.max_nodes, ANALYSIS_MAX_NODES))
-    design1 = design if (o.prior == "none" or o.refine == 1) and all(
-        len(a) == len(b) for a, b in zip(nodes_a, design.layout.nodes, strict=True)
-    ) else build_design(session, nodes_a, known, o.drift, o.measurement_ids, o.tilts,
-                           weights=weights)
+    same = all(len(a) == len(b) and np.array_equal(a, b)
+               for a, b in zip(nodes_a, design.layout.nodes, strict=True))
+    design1 = design if same else build_design(session, nodes_a, known, o.drift,
+                                               o.measurement_ids, o.tilts, weights=weights)
     kappa = sol.kappa if np.isfinite(sol.kappa) else o.kappa
     prior1 = PriorStructure.build(design1.layout, design1.free, kappa)
     scales = sol.scales if np.all(np.isfinite(sol.scales)) else DEFAULT_SCALES.copy()
@@ -388,6 +395,70 @@ def _identify_weighted(session: Session, o: IdentifyOptions,
         report.messages.append("Known errors given by the user (held fixed, or priors with "
                                "their uncertainty): " + ", ".join(design.fixed_names) + ".")
     return _result(session, design, sol, report, o)
+
+
+def default_outlier_threshold(n: int) -> float:
+    """The default threshold of the outlier check.
+
+    Parameters
+    ----------
+    n : int
+        Number of readings.
+
+    Returns
+    -------
+    float
+        The larger of 4 and the two-sided Bonferroni bound ``-Phi^-1(0.005 / n)``: on
+        clean data with normal noise, at most 1 % of sessions have a reading beyond it.
+    """
+    from scipy.special import ndtri
+
+    return max(4.0, float(-ndtri(0.005 / max(n, 1))))
+
+
+def _standardised(design: Design, sol: Solution, resid: NDArray[np.float64], A,
+                  cov: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Residuals over their standard deviation ``s sqrt(1 - h_ii)`` (leverage ``h``)."""
+    h = np.empty(A.shape[0])
+    for i in range(0, A.shape[0], 2000):
+        blk = A[i:i + 2000]
+        h[i:i + 2000] = np.asarray(blk.multiply(blk @ cov).sum(axis=1)).ravel()
+    sigma = max(sol.sigma_um, sol.sigma_residual_um, 1e-12)
+    lev = np.clip(h / sol.sigma_um**2 if sol.method == "bayes" else h / sigma**2, 0, 0.999)
+    z = resid / (sigma * np.sqrt(1 - lev))
+    if design.row_scale is not None:
+        # a down-weighted reading is judged by its prediction from the others:
+        # residual variance s^2 + a' C a (out of sample) instead of s^2 - a' C a
+        out = design.row_scale < 1.0
+        z[out] = resid[out] / np.sqrt(sigma**2 + h[out])
+    return z
+
+
+def standardised_residuals(result: IdentificationResult) -> dict[str, NDArray[np.float64]]:
+    """Standardised residual of every reading, per measurement.
+
+    This is what the outlier check compares with its threshold.
+
+    Parameters
+    ----------
+    result : IdentificationResult
+        A fresh result (one returned by :func:`identify`, not loaded from a file).
+
+    Returns
+    -------
+    dict of str to ndarray
+        Measurement id -> residual / (noise x sqrt(1 - leverage)), one per reading; on
+        clean data about N(0, 1).
+    """
+    design, sol = result.design, result.solution
+    if design is None or sol is None or sol.covariance is None:
+        raise VolcalInputError("standardised residuals need a fresh identification result")
+    A = design.A.tocsr()
+    if design.row_scale is not None:
+        A = (sp.diags(1.0 / design.row_scale) @ A).tocsr()
+    resid = np.concatenate([result.residuals[m.id] for m in design.measurements])
+    z = _standardised(design, sol, resid, A, sol.covariance)
+    return {m.id: z[design.rows[m.id]] for m in design.measurements}
 
 
 def _result(session: Session, design: Design, sol: Solution, report, o: IdentifyOptions
@@ -420,19 +491,10 @@ def _result(session: Session, design: Design, sol: Solution, report, o: Identify
         sl = design.rows[m.id]
         residuals[m.id] = resid_all[sl]
         fitted[m.id] = m.deviation - resid_all[sl]
-    # standardised residuals with leverage
-    h = np.empty(A.shape[0])
-    for i in range(0, A.shape[0], 2000):
-        blk = A[i:i + 2000]
-        h[i:i + 2000] = np.asarray(blk.multiply(blk @ cov).sum(axis=1)).ravel()
-    sigma = max(sol.sigma_um, sol.sigma_residual_um, 1e-12)
-    lev = np.clip(h / sol.sigma_um**2 if sol.method == "bayes" else h / sigma**2, 0, 0.999)
-    z = resid_all / (sigma * np.sqrt(1 - lev))
+    z = _standardised(design, sol, resid_all, A, cov)
     thr = o.outlier_threshold
     if thr is None:
-        from scipy.special import ndtri
-
-        thr = max(4.0, float(-ndtri(0.005 / max(z.size, 1))))
+        thr = default_outlier_threshold(z.size)
     outliers = []
     for m in design.measurements:
         sl = design.rows[m.id]
@@ -467,6 +529,13 @@ def _result(session: Session, design: Design, sol: Solution, report, o: Identify
         # what the session reader noted (unmeasured, missed captures) and flagged as implausible
         "notes": [*session.notes, *(f"warning: {w}" for w in session.warnings)],
     }
+    if sol.method == "bayes":
+        roll_u = [float(np.sqrt(np.mean(std[k][:, 3 + k] ** 2))) for k in range(3)]
+        report.messages.append(
+            "Rolls as measured (RMS standard uncertainty over the travel, noise included): "
+            + ", ".join(f"{n} {u:.1f} urad" for n, u in zip(ROLL_NAMES, roll_u, strict=True))
+            + f"; near the prior scale ({sol.scales[2]:.0f} urad) means not measured by these "
+            "tests, whatever share the design could determine without noise.")
     return IdentificationResult(session.name, errors, design.layout, design.free, factor, std,
                                 sq_std, report, fit, residuals, fitted, nuis, outliers,
                                 design=design, solution=sol,

@@ -28,7 +28,7 @@ from volcal.model.names import COMPONENT_NAMES
 from volcal.model.parameters import ParameterLayout
 from volcal.session.format import Measurement, Session
 
-__all__ = ["ROW_BLOCKS", "Design", "build_design", "choose_nodes"]
+__all__ = ["NUISANCE_PRIORS", "ROW_BLOCKS", "Design", "build_design", "choose_nodes"]
 
 ROW_BLOCKS: dict[str, str] = {"multilateration": "volcal.identify.multilateration:row_block"}
 """Extension point: measurement kinds whose rows are not the laser readings of
@@ -38,6 +38,21 @@ sparse rows on the full parameter layout, ``y`` the observations [um], ``N`` the
 columns (dense, one row per reading) and ``names`` their names. Nuisances with the same
 name in several measurements share one column (a tracker station seen by several
 measurements)."""
+
+
+NUISANCE_PRIORS: dict[str, str] = {
+    "multilateration": "volcal.identify.multilateration:station_priors"}
+"""Extension point: measurement kinds whose nuisances have an informative prior. Maps the
+kind to ``'module:function'``, ``function(measurement) -> {nuisance name: (mean, std)}``
+[um]: the design carries them as ``prior_mean`` and ``extra_precision`` (a measurement's
+set-up known to so much, e.g. a tracker station placed to a few mm)."""
+
+
+def _loaded(spec: str):
+    import importlib
+
+    mod, fn = spec.split(":")
+    return getattr(importlib.import_module(mod), fn)
 
 
 def _row_block(kind: str):
@@ -80,13 +95,13 @@ def choose_nodes(session: Session, refine: int = 2, max_nodes: int = 201
             if x - keep[-1] > 1e-6 * span:
                 keep.append(x)
         v = np.array(keep)
-        if refine > 1:
-            fine = [v[:1]]
-            for a, b in zip(v[:-1], v[1:], strict=True):
-                fine.append(np.linspace(a, b, refine + 1)[1:])
-            v = np.concatenate(fine)
-        if v.size > max_nodes:
+        if (v.size - 1) * max(refine, 1) + 1 > max_nodes:
             v = np.linspace(lo, hi, max_nodes)
+        elif refine > 1:
+            t = np.arange(1, refine + 1) / refine  # each interval split into refine parts
+            inner = v[:-1, None] + (v[1:] - v[:-1])[:, None] * t
+            inner[:, -1] = v[1:]  # the visited positions exactly
+            v = np.concatenate([v[:1], inner.ravel()])
         out.append(v)
     return out
 
@@ -347,6 +362,12 @@ def build_design(session: Session, nodes: list[NDArray[np.float64]] | None = Non
         ok = p >= 0
         mean[p[ok]] = v[ok]
         extra[p[ok]] = 1.0 / std**2
+    for m in meas:
+        if m.kind in NUISANCE_PRIORS:
+            for nm, (mu, sd) in _loaded(NUISANCE_PRIORS[m.kind])(m).items():
+                if nm in column:
+                    mean[free.size + column[nm]] = mu
+                    extra[free.size + column[nm]] = 1.0 / sd**2
     y = np.concatenate(ys)
     if np.any(mean):
         y = y - A @ mean  # solve for the departure from the prior mean

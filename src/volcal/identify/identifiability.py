@@ -242,23 +242,25 @@ def analyse(design: Design, prior: PriorStructure, scales: NDArray[np.float64],
     scale = np.sqrt(np.diag(Qp))
     Fs = F / np.outer(scale, scale)
     Qs = Qp / np.outer(scale, scale)
-    cov_inf, N = null_space_covariance(Fs, Qs)
+    w, V = np.linalg.eigh(Fs)
+    N = V[:, w < 1e-9 * max(w.max(), 1e-300)]  # the null space, as null_space_covariance
     rank = nf - N.shape[1]  # the same null space the ambiguity is computed from
-    cov_inf = cov_inf / np.outer(scale, scale)
-    prior_cov = np.linalg.inv(Qp)
+    var_inf = _null_variance(np.eye(nf), N, N.T @ Qs @ N) / scale**2
+    prior_var = np.diag(np.linalg.inv(Qp))
     names = parameter_names(design)
     frac = {}
     for n in dict.fromkeys(names):
         sel = names == n
-        frac[str(n)] = float(np.clip(1.0 - np.trace(cov_inf[np.ix_(sel, sel)])
-                                     / np.trace(prior_cov[np.ix_(sel, sel)]), 0.0, 1.0))
+        frac[str(n)] = float(np.clip(1.0 - var_inf[sel].sum() / prior_var[sel].sum(), 0.0, 1.0))
     # volumetric ambiguity on the measured grid
     q = grid_points(design)
     Je, _ = pose_jacobian(_order(design), design.layout.nodes, q, tool_offset)
     G = Je[:, design.free].toarray()
     R = rigid_projector(q)
     GP = R @ G
-    var = np.sum((GP @ cov_inf) * GP, axis=1)
+    # diag(GP cov GP^T) through the null-space basis: cov is N M^-1 N^T in the scaled
+    # parameters, so only (points x null dimension) products are needed
+    var = _null_variance(GP / scale, N, N.T @ Qs @ N)
     amb = np.sqrt(np.clip(var, 0, None))
     report = IdentifiabilityReport(nf, rank, nf - rank, frac, float(amb.max()),
                                    float(np.sqrt(np.mean(amb**2))))
@@ -328,6 +330,19 @@ def _messages(rep: IdentifiabilityReport, design: Design) -> None:
             "step diagonals (Soons, section 4): add a linear measurement of X or Y.")
 
 
+def _null_variance(GPs: NDArray[np.float64], N: NDArray[np.float64],
+                   M: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``diag(GPs N M^-1 N^T GPs^T)``: the variance the null space leaves per row.
+
+    ``N`` is the null-space basis, ``M = N^T Q N`` its prior metric; zero when ``N`` is
+    empty.
+    """
+    if N.shape[1] == 0:
+        return np.zeros(GPs.shape[0])
+    B = GPs @ N
+    return np.sum(np.linalg.solve(M, B.T).T * B, axis=1)
+
+
 def _suggest(rep: IdentifiabilityReport, design: Design, F, Qp, candidates, G, R, N) -> None:
     # The null space of F + Fc (both positive semi-definite) is the part of the null space
     # N of F that Fc does not see either: an eigenproblem of the size of N per candidate,
@@ -337,20 +352,16 @@ def _suggest(rep: IdentifiabilityReport, design: Design, F, Qp, candidates, G, R
     Fs = F / np.outer(scale, scale)
     Qs = Qp / np.outer(scale, scale)
     thr = 1e-9 * max(float(np.linalg.eigvalsh(Fs)[-1]), 1e-300)
-    GP = R @ G
+    GN = (R @ G / scale) @ N  # the volumetric effect of each null direction
+    NQN = N.T @ Qs @ N
     scores = []
     for label, cd in candidates.items():
         if N.shape[1] == 0:
             break
         Fc = information(cd) / np.outer(scale, scale)
         wc, Vc = np.linalg.eigh(N.T @ Fc @ N)
-        Nc = N @ Vc[:, wc < thr]
-        if Nc.shape[1] == 0:
-            cov = np.zeros_like(F)
-        else:
-            cov = Nc @ np.linalg.solve(Nc.T @ Qs @ Nc, Nc.T)
-        cov = cov / np.outer(scale, scale)
-        var = np.sum((GP @ cov) * GP, axis=1)
+        Vn = Vc[:, wc < thr]  # what the candidate does not see either: N @ Vn
+        var = _null_variance(GN, Vn, Vn.T @ NQN @ Vn)
         rms = float(np.sqrt(np.mean(np.clip(var, 0, None))))
         scores.append((rms, label))
     scores.sort()

@@ -86,6 +86,34 @@ def row_block(chain_order, nodes, meas, drift: bool = False):
     return J, y, np.stack(cols, 1), names
 
 
+def station_priors(meas) -> dict[str, tuple[float, float]]:
+    """Prior of the station nuisances: the station as set up, to ``station_u_mm``.
+
+    The nuisance is the station's move from the linearisation point ``S`` [um]; the user's
+    ``station_mm`` with standard uncertainty ``station_u_mm`` (default
+    :data:`volcal.session.multilateration.DEFAULT_STATION_U_MM`) gives it the mean
+    ``(station_mm - S)`` and that standard deviation, per coordinate.
+
+    Parameters
+    ----------
+    meas : Measurement
+        A multilateration measurement.
+
+    Returns
+    -------
+    dict of str to (float, float)
+        Nuisance name -> (mean [um], standard deviation [um]).
+    """
+    from volcal.session.multilateration import DEFAULT_STATION_U_MM
+
+    nominal = station_of(meas)
+    S = np.asarray(meas.meta.get(FIT_KEY, nominal), dtype=float)
+    u_um = float(meas.meta.get("station_u_mm", DEFAULT_STATION_U_MM)) * 1e3
+    key = station_key(meas)
+    return {f"{key}:station_{ax}": (float((nominal[c] - S[c]) * 1e3), u_um)
+            for c, ax in enumerate("xyz")}
+
+
 def needs_linearisation(session: Session) -> bool:
     """True when the session has multilateration measurements not yet linearised.
 

@@ -250,12 +250,12 @@ def readings_sha256(session: Any) -> tuple[str, int]:
             continue
         pos = np.asarray(m.positions, dtype=float).reshape(-1, 3)
         dev = np.asarray(m.deviation, dtype=float).reshape(-1)
-        for i in range(dev.size):
-            if not math.isfinite(dev[i]):
-                continue
-            h.update((f"{m.id},{i}," + ",".join(f"{v:.9g}" for v in pos[i])
-                      + f",{dev[i]:.9g}\n").encode())
-            n += 1
+        ok = np.flatnonzero(np.isfinite(dev))
+        rows = np.column_stack([pos[ok], dev[ok]]).tolist()
+        line = m.id.replace("%", "%%") + ",%d,%.9g,%.9g,%.9g,%.9g\n"  # as f"{v:.9g}"
+        h.update("".join([line % (i, *r) for i, r in zip(ok.tolist(), rows,
+                                                          strict=True)]).encode())
+        n += int(ok.size)
     return h.hexdigest(), n
 
 

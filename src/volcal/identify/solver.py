@@ -225,7 +225,7 @@ class _Evidence:
         rr = float(r @ r)
         data = rr / sigma**2 + float(x @ (Q @ x))
         logdet_h = 2.0 * float(np.sum(np.log(np.diag(cf[0]))))
-        Hinv = sla.cho_solve(cf, np.eye(self.N), check_finite=False)
+        Hinv = _inverse_from_cholesky(cf)
         if self.extra is None:
             logdet_q = self.logdet_prior(scales)
             Qinv = None
@@ -269,6 +269,18 @@ class _Evidence:
             cache[key] = sum(float(np.trace(np.linalg.solve(Cb / k2 + Wb, Cb / k2)))
                              for _, Cb, Wb, gb in self.prior.blocks if gb == g)
         return cache[key]
+
+
+def _inverse_from_cholesky(cf) -> NDArray[np.float64]:
+    """``H^-1`` from the lower Cholesky factor of ``H``.
+
+    LAPACK ``potri``: a third of the work of solving against the identity.
+    """
+    inv, info = sla.lapack.dpotri(cf[0], lower=True)
+    if info != 0:
+        return sla.cho_solve(cf, np.eye(cf[0].shape[0]), check_finite=False)
+    inv = np.tril(inv)
+    return inv + np.tril(inv, -1).T
 
 
 def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float64] | None = None,
@@ -363,7 +375,7 @@ def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float6
             return val, grad
         # coarse start for sigma: scan a few decades
         if free_sigma:
-            grid = np.log(np.geomspace(max(sig_floor, 1e-6), 10.0, 15))
+            grid = np.log(np.geomspace(max(sig_floor, 1e-6), 10.0, 8))
             vals = []
             for g in grid:
                 h = np.array(h0)
@@ -371,7 +383,7 @@ def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float6
                 vals.append(ev.neg2(*unpack(h)))
             h0[-1] = grid[int(np.argmin(vals))]
         res = minimize(fun, np.array(h0), method="L-BFGS-B", jac=True, bounds=bounds,
-                       options={"maxiter": 200, "ftol": 1e-12, "gtol": 1e-4})
+                       options={"maxiter": 200, "ftol": 1e-10, "gtol": 1e-2})
         name = "L-BFGS-B"
         if not res.success:
             # the quasi-Newton step can stall on a flat or kinked evidence surface: fall

@@ -1,6 +1,7 @@
 """Fuzzed laser exports: a VolcalInputError or a valid session, never a traceback or a
 half-written session."""
 
+import os
 import shutil
 import tempfile
 from pathlib import Path
@@ -72,7 +73,13 @@ def _snapshot(folder: Path) -> dict[str, bytes]:
             if p.is_file()}
 
 
-@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+FUZZ = os.environ.get("HYPOTHESIS_PROFILE") == "fuzz"
+N_FILES = 10_000 if FUZZ else 150
+"""Generated exports: a fixed 150 in ``make test``, 10^4 new ones in the slow run
+(``HYPOTHESIS_PROFILE=fuzz``, about 3 minutes)."""
+
+
+@settings(max_examples=N_FILES, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(raw=exports(), mapping=mappings, units=st.sampled_from(["auto", "mm", "in", "um"]),
        existing=st.booleans())
 def test_fuzzed_import_never_traceback_never_partial(raw, mapping, units, existing):

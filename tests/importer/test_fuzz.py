@@ -76,7 +76,7 @@ def _snapshot(folder: Path) -> dict[str, bytes]:
 FUZZ = os.environ.get("HYPOTHESIS_PROFILE") == "fuzz"
 N_FILES = 10_000 if FUZZ else 150
 """Generated exports: a fixed 150 in ``make test``, 10^4 new ones in the slow run
-(``HYPOTHESIS_PROFILE=fuzz``, about 3 minutes)."""
+(``HYPOTHESIS_PROFILE=fuzz``, about 4 minutes)."""
 
 
 @settings(max_examples=N_FILES, deadline=None, suppress_health_check=[HealthCheck.too_slow])

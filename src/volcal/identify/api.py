@@ -461,6 +461,20 @@ def standardised_residuals(result: IdentificationResult) -> dict[str, NDArray[np
     return {m.id: z[design.rows[m.id]] for m in design.measurements}
 
 
+def _covariance_factor(cov: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``L`` with ``L L^T = cov``.
+
+    Cholesky when ``cov`` is positive definite (the Bayesian posterior), else the
+    eigenvectors of its positive part (minimum norm: singular).
+    """
+    try:
+        return np.linalg.cholesky(cov)
+    except np.linalg.LinAlgError:
+        w, V = np.linalg.eigh(cov)
+        keep = w > max(w.max(), 1e-300) * 1e-12
+        return V[:, keep] * np.sqrt(w[keep])
+
+
 def _result(session: Session, design: Design, sol: Solution, report, o: IdentifyOptions
             ) -> IdentificationResult:
     nf = design.n_free
@@ -471,9 +485,7 @@ def _result(session: Session, design: Design, sol: Solution, report, o: Identify
         raise VolcalInputError("problem too large for the dense covariance: reduce --max-nodes "
                                "or the number of measurements")
     cff = cov[:nf, :nf]
-    w, V = np.linalg.eigh((cff + cff.T) / 2)
-    keep = w > max(w.max(), 1e-300) * 1e-12
-    factor = V[:, keep] * np.sqrt(w[keep])
+    factor = _covariance_factor((cff + cff.T) / 2)
     var_full = np.zeros(design.layout.size)
     var_full[design.free] = np.clip(np.diag(cff), 0, None)
     sd = np.sqrt(var_full)

@@ -88,6 +88,12 @@ class IdentifyOptions:
         standardised residual times the others' (weight ``1/z^2``), so it enters the fit
         at one standard deviation; the readings stay in the residuals and the outlier list
         with their weight.
+    blas_threads : int or None
+        BLAS threads during the identification (threadpoolctl); None leaves the BLAS as
+        configured. One by default: the dense algebra is a few hundred unknowns, where
+        threads cost more than they save on a 2-core box (1000 increments: 2.0 s against
+        2.9 s with two threads, benchmarks/README.md), and the result does not depend on
+        the machine's thread count.
     """
 
     prior: str = "smooth"
@@ -106,6 +112,7 @@ class IdentifyOptions:
     outlier_threshold: float | None = None
     suggest: bool = True
     robust: bool = False
+    blas_threads: int | None = 1
 
 
 ROBUST_ITERATIONS = 5
@@ -287,10 +294,22 @@ def identify(session: Session, options: IdentifyOptions | None = None) -> Identi
 
     if _ml.needs_linearisation(session):  # tracker stations: Gauss-Newton around this function
         return _ml.identify_iterated(session, o, identify)
-    result = _identify_weighted(session, o, None)
-    if not o.robust:
-        return result
-    return _robust(session, o, result)
+    with _blas_threads(o.blas_threads):
+        result = _identify_weighted(session, o, None)
+        if not o.robust:
+            return result
+        return _robust(session, o, result)
+
+
+def _blas_threads(n: int | None):
+    """Context limiting the BLAS thread pools to ``n`` threads (None: unchanged)."""
+    if n is None:
+        from contextlib import nullcontext
+
+        return nullcontext()
+    from threadpoolctl import threadpool_limits
+
+    return threadpool_limits(limits=int(n), user_api="blas")
 
 
 def _robust(session: Session, o: IdentifyOptions,

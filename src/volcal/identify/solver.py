@@ -174,27 +174,37 @@ class _Evidence:
         H = self.AtA / sigma**2 + Q
         return H, Q, sla.cho_factor(H, lower=True, check_finite=False)
 
-    def neg2(self, scales, sigma, kappa=None) -> float:
-        self.evaluations += 1
-        try:
-            H, Q, cf = self.factor(scales, sigma, kappa)
-        except (np.linalg.LinAlgError, sla.LinAlgError):
-            return 1e300
+    def _value(self, scales, sigma, kappa=None):
+        """``neg2`` with the parts its gradient reuses.
+
+        Returns ``(value, Q, cf, cq, x, |r|^2)``, ``cq`` the Cholesky factor of ``Q`` when
+        it is not block diagonal (else None).
+        """
+        H, Q, cf = self.factor(scales, sigma, kappa)
         b = self.Aty / sigma**2
         x = sla.cho_solve(cf, b, check_finite=False)
         # the data term y'y/s^2 - b'H^-1 b as the minimum it is, |y - A x|^2/s^2 + x'Q x:
         # no cancellation of two huge numbers when the data are nearly reproduced (tiny
         # s), and stationary in x, so a solve error enters only to second order
         r = self.y - self.A @ x
-        data = float(r @ r) / sigma**2 + float(x @ (Q @ x))
+        rr = float(r @ r)
+        data = rr / sigma**2 + float(x @ (Q @ x))
         logdet_h = 2.0 * float(np.sum(np.log(np.diag(cf[0]))))
+        cq = None
         if self.extra is None:
             logdet_q = self.logdet_prior(scales)
         else:
-            logdet_q = 2.0 * float(np.sum(np.log(np.diag(np.linalg.cholesky(Q)))))
-        return (data + logdet_h - logdet_q
-                + self.n * np.log(2 * np.pi * sigma**2))
+            cq = sla.cho_factor(Q, lower=True, check_finite=False)
+            logdet_q = 2.0 * float(np.sum(np.log(np.diag(cq[0]))))
+        val = data + logdet_h - logdet_q + self.n * np.log(2 * np.pi * sigma**2)
+        return float(val), Q, cf, cq, x, rr
 
+    def neg2(self, scales, sigma, kappa=None) -> float:
+        self.evaluations += 1
+        try:
+            return self._value(scales, sigma, kappa)[0]
+        except (np.linalg.LinAlgError, sla.LinAlgError):
+            return 1e300
 
     def neg2_grad(self, scales, sigma, kappa=None) -> tuple[float, NDArray[np.float64]]:
         """``neg2`` and its gradient in ``log`` of (the four scales, kappa, sigma).
@@ -214,26 +224,13 @@ class _Evidence:
         self.evaluations += 1
         ng = len(DEFAULT_SCALES)
         try:
-            H, Q, cf = self.factor(scales, sigma, kappa)
+            val, Q, cf, cq, x, rr = self._value(scales, sigma, kappa)
         except (np.linalg.LinAlgError, sla.LinAlgError):
             return 1e300, np.zeros(ng + 2)
         C, W, diag = self._parts()
         k2 = self.prior.kappa**2
-        b = self.Aty / sigma**2
-        x = sla.cho_solve(cf, b, check_finite=False)
-        r = self.y - self.A @ x
-        rr = float(r @ r)
-        data = rr / sigma**2 + float(x @ (Q @ x))
-        logdet_h = 2.0 * float(np.sum(np.log(np.diag(cf[0]))))
         Hinv = _inverse_from_cholesky(cf)
-        if self.extra is None:
-            logdet_q = self.logdet_prior(scales)
-            Qinv = None
-        else:
-            cq = sla.cho_factor(Q, lower=True, check_finite=False)
-            logdet_q = 2.0 * float(np.sum(np.log(np.diag(cq[0]))))
-            Qinv = sla.cho_solve(cq, np.eye(self.N), check_finite=False)
-        val = data + logdet_h - logdet_q + self.n * np.log(2 * np.pi * sigma**2)
+        Qinv = None if cq is None else sla.cho_solve(cq, np.eye(self.N), check_finite=False)
         grad = np.zeros(ng + 2)
         tr_hq = 0.0
         for g in range(ng):

@@ -203,12 +203,23 @@ def null_space_covariance(F: NDArray[np.float64], Qp: NDArray[np.float64], tol: 
     N : ndarray
         The basis.
     """
-    w, V = np.linalg.eigh(F)
-    N = V[:, w < tol * max(w.max(), 1e-300)]
+    N, _ = _null_basis(F, tol)
     if N.shape[1] == 0:
         return np.zeros_like(F), N
     M = N.T @ Qp @ N
     return N @ np.linalg.solve(M, N.T), N
+
+
+def _null_basis(F: NDArray[np.float64], tol: float = 1e-9
+                ) -> tuple[NDArray[np.float64], float]:
+    """Orthonormal basis of the null space of ``F`` and its eigenvalue threshold.
+
+    The null space is spanned by the eigenvectors whose eigenvalues are below ``tol``
+    times the largest.
+    """
+    w, V = np.linalg.eigh(F)
+    thr = tol * max(float(w.max()), 1e-300)
+    return V[:, w < thr], thr
 
 
 def analyse(design: Design, prior: PriorStructure, scales: NDArray[np.float64],
@@ -242,10 +253,10 @@ def analyse(design: Design, prior: PriorStructure, scales: NDArray[np.float64],
     scale = np.sqrt(np.diag(Qp))
     Fs = F / np.outer(scale, scale)
     Qs = Qp / np.outer(scale, scale)
-    w, V = np.linalg.eigh(Fs)
-    N = V[:, w < 1e-9 * max(w.max(), 1e-300)]  # the null space, as null_space_covariance
+    N, thr = _null_basis(Fs)
+    NQN = N.T @ Qs @ N  # the prior metric of the null space
     rank = nf - N.shape[1]  # the same null space the ambiguity is computed from
-    var_inf = _null_variance(np.eye(nf), N, N.T @ Qs @ N) / scale**2
+    var_inf = _null_variance(np.eye(nf), N, NQN) / scale**2
     prior_var = np.diag(np.linalg.inv(Qp))
     names = parameter_names(design)
     frac = {}
@@ -257,10 +268,10 @@ def analyse(design: Design, prior: PriorStructure, scales: NDArray[np.float64],
     Je, _ = pose_jacobian(_order(design), design.layout.nodes, q, tool_offset)
     G = Je[:, design.free].toarray()
     R = rigid_projector(q)
-    GP = R @ G
+    GN = (R @ G / scale) @ N  # the volumetric effect of each null direction
     # diag(GP cov GP^T) through the null-space basis: cov is N M^-1 N^T in the scaled
     # parameters, so only (points x null dimension) products are needed
-    var = _null_variance(GP / scale, N, N.T @ Qs @ N)
+    var = _null_variance(GN, np.eye(N.shape[1]), NQN)
     amb = np.sqrt(np.clip(var, 0, None))
     report = IdentifiabilityReport(nf, rank, nf - rank, frac, float(amb.max()),
                                    float(np.sqrt(np.mean(amb**2))))
@@ -277,7 +288,7 @@ def analyse(design: Design, prior: PriorStructure, scales: NDArray[np.float64],
         report.null_groups.append(mixed)
     _messages(report, design)
     if candidates:
-        _suggest(report, design, F, Qp, candidates, G, R, N)
+        _suggest(report, scale, thr, candidates, N, GN, NQN)
     return report
 
 
@@ -343,17 +354,12 @@ def _null_variance(GPs: NDArray[np.float64], N: NDArray[np.float64],
     return np.sum(np.linalg.solve(M, B.T).T * B, axis=1)
 
 
-def _suggest(rep: IdentifiabilityReport, design: Design, F, Qp, candidates, G, R, N) -> None:
+def _suggest(rep: IdentifiabilityReport, scale, thr, candidates, N, GN, NQN) -> None:
     # The null space of F + Fc (both positive semi-definite) is the part of the null space
     # N of F that Fc does not see either: an eigenproblem of the size of N per candidate,
-    # not of the full parameter count.
+    # not of the full parameter count. scale, thr, N, GN (volumetric effect of each null
+    # direction) and NQN (their prior metric) are the design's, from analyse.
     base = rep.ambiguity_rms_um
-    scale = np.sqrt(np.diag(Qp))
-    Fs = F / np.outer(scale, scale)
-    Qs = Qp / np.outer(scale, scale)
-    thr = 1e-9 * max(float(np.linalg.eigvalsh(Fs)[-1]), 1e-300)
-    GN = (R @ G / scale) @ N  # the volumetric effect of each null direction
-    NQN = N.T @ Qs @ N
     scores = []
     for label, cd in candidates.items():
         if N.shape[1] == 0:

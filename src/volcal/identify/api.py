@@ -11,7 +11,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from volcal.errors import VolcalInputError
@@ -435,9 +434,10 @@ def default_outlier_threshold(n: int) -> float:
     return max(4.0, float(-ndtri(0.005 / max(n, 1))))
 
 
-def _standardised(design: Design, sol: Solution, resid: NDArray[np.float64], A,
+def _standardised(design: Design, sol: Solution, resid: NDArray[np.float64],
                   cov: NDArray[np.float64]) -> NDArray[np.float64]:
     """Residuals over their standard deviation ``s sqrt(1 - h_ii)`` (leverage ``h``)."""
+    A = design.reading_matrix()
     h = np.empty(A.shape[0])
     for i in range(0, A.shape[0], 2000):
         blk = A[i:i + 2000]
@@ -472,11 +472,8 @@ def standardised_residuals(result: IdentificationResult) -> dict[str, NDArray[np
     design, sol = result.design, result.solution
     if design is None or sol is None or sol.covariance is None:
         raise VolcalInputError("standardised residuals need a fresh identification result")
-    A = design.A.tocsr()
-    if design.row_scale is not None:
-        A = (sp.diags(1.0 / design.row_scale) @ A).tocsr()
     resid = np.concatenate([result.residuals[m.id] for m in design.measurements])
-    z = _standardised(design, sol, resid, A, sol.covariance)
+    z = _standardised(design, sol, resid, sol.covariance)
     return {m.id: z[design.rows[m.id]] for m in design.measurements}
 
 
@@ -513,16 +510,14 @@ def _result(session: Session, design: Design, sol: Solution, report, o: Identify
     sq_std = sd[design.layout.squareness_indices()]
     mean = design.prior_mean if design.prior_mean is not None else np.zeros(sol.x.size)
     resid_all = design.y - design.A @ (sol.x - mean)
-    A = design.A.tocsr()
-    if design.row_scale is not None:  # robust fit: residuals and leverage of the readings
+    if design.row_scale is not None:  # robust fit: residuals of the readings themselves
         resid_all = resid_all / design.row_scale
-        A = (sp.diags(1.0 / design.row_scale) @ A).tocsr()
     residuals, fitted = {}, {}
     for m in design.measurements:
         sl = design.rows[m.id]
         residuals[m.id] = resid_all[sl]
         fitted[m.id] = m.deviation - resid_all[sl]
-    z = _standardised(design, sol, resid_all, A, cov)
+    z = _standardised(design, sol, resid_all, cov)
     thr = o.outlier_threshold
     if thr is None:
         thr = default_outlier_threshold(z.size)

@@ -56,10 +56,7 @@ def _loaded(spec: str):
 
 
 def _row_block(kind: str):
-    import importlib
-
-    mod, fn = ROW_BLOCKS[kind].split(":")
-    return getattr(importlib.import_module(mod), fn)
+    return _loaded(ROW_BLOCKS[kind])
 
 
 def choose_nodes(session: Session, refine: int = 2, max_nodes: int = 201
@@ -146,6 +143,12 @@ class Design:
     prior_mean: NDArray[np.float64] | None = None
     extra_precision: NDArray[np.float64] | None = None
     row_scale: NDArray[np.float64] | None = None
+
+    def reading_matrix(self) -> sp.csr_matrix:
+        """``A`` of the readings themselves: the robust weights (``row_scale``) taken out."""
+        if self.row_scale is None:
+            return self.A.tocsr()
+        return (sp.diags(1.0 / self.row_scale) @ self.A).tocsr()
 
     @property
     def n_free(self) -> int:

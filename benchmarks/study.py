@@ -86,10 +86,11 @@ from volcal.model.names import SQUARENESS_NAMES
 from volcal.model.rigid import remove_rigid_body
 from volcal.plan.planner import plan_session
 from volcal.session.format import Session
+from volcal.standards.volumetric import work_zone_grid
 
 __all__ = [
     "CHAINS", "DESIGNS", "MASTER_SEED", "ROLL_NAMES", "Case", "MachineResult", "StudyDesign",
-    "cases", "drift_study", "evaluate", "grid_points", "run_case", "run_design", "simulate",
+    "cases", "drift_study", "evaluate", "run_case", "run_design", "simulate",
     "summarise",
 ]
 
@@ -240,25 +241,6 @@ def simulate(design: StudyDesign, case: Case, steps: int = 10, runs: int = 5,
     return session, truth
 
 
-def grid_points(travel: Sequence[Sequence[float]], n: int = 9) -> NDArray[np.float64]:
-    """Uniform grid of ``n`` points per axis over the travel [mm].
-
-    Parameters
-    ----------
-    travel : array_like, shape (3, 2)
-        Travel limits [mm].
-    n : int
-        Points per axis.
-
-    Returns
-    -------
-    ndarray, shape (n**3, 3)
-    """
-    t = np.asarray(travel, dtype=float)
-    axes = [np.linspace(t[k, 0], t[k, 1], n) for k in range(3)]
-    return np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
-
-
 def evaluate(result, truth: MachineErrors, q: NDArray[np.float64]) -> dict:
     """Compare one identification with the truth.
 
@@ -381,7 +363,7 @@ def run_case(design: StudyDesign, case: Case, steps: int = 10, runs: int = 5,
     MachineResult
     """
     session, truth = simulate(design, case, steps, runs)
-    q = grid_points(design.travel, n_grid)
+    q = work_zone_grid(design.travel, n_grid)
     truth_rms = float(np.sqrt(np.mean(np.sum(remove_rigid_body(q, volumetric_error(truth, q))
                                              ** 2, axis=1))))
     o = options or IdentifyOptions(suggest=False)
@@ -513,7 +495,7 @@ def drift_study(designs: Sequence[str] = ("abbe", "full"), n_machines: int = 10,
     rows = []
     for name in designs:
         d = DESIGNS[name]
-        q = grid_points(d.travel, n_grid)
+        q = work_zone_grid(d.travel, n_grid)
         for case in cases(n_machines):
             for sim_drift in (0.0, drift_um_per_h):
                 session, truth = simulate(d, case, steps, runs, sim_drift)

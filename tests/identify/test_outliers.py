@@ -25,6 +25,7 @@ from volcal.measure.virtual import random_machine
 from volcal.model.kinematics import volumetric_error
 from volcal.model.rigid import remove_rigid_body
 from volcal.plan.planner import plan_session
+from volcal.standards.volumetric import work_zone_grid
 
 N_CLEAN = 6
 DRIFT_UM_PER_H = 2.0
@@ -80,7 +81,7 @@ def test_clean_sessions_are_flagged_at_the_stated_rate():
 
 
 def _rms_error(r, truth, s):
-    q = study.grid_points(s.travel, 5)
+    q = work_zone_grid(s.travel, 5)
     e, _ = r.predict(q)
     return float(np.sqrt(np.mean(remove_rigid_body(q, e - volumetric_error(truth, q)) ** 2)))
 
@@ -114,7 +115,7 @@ def test_robust_fit_of_clean_data_changes_nothing():
     s, _, clean, _ = _clean()[1]
     r = identify(s, IdentifyOptions(suggest=False, robust=True))
     assert not r.outliers and "robust" not in r.fit
-    q = study.grid_points(s.travel, 5)
+    q = work_zone_grid(s.travel, 5)
     np.testing.assert_allclose(r.predict(q)[0], clean.predict(q)[0], atol=1e-9)
 
 

@@ -22,6 +22,7 @@ from volcal.measure.virtual import random_machine
 from volcal.model.kinematics import volumetric_error
 from volcal.model.names import ROLL_NAMES
 from volcal.plan.planner import plan_session
+from volcal.standards.volumetric import work_zone_grid
 
 CASES = {
     "default": IdentifyOptions(suggest=False),
@@ -44,7 +45,7 @@ def _machine(index: int, no_roll: bool = False):
 
 
 def _check(r, truth, travel):
-    q = study.grid_points(travel, 7)
+    q = work_zone_grid(travel, 7)
     e, u = r.predict(q)
     d = e - volumetric_error(truth, q)
     cover = float(np.mean(np.abs(d) <= 1.96 * u))

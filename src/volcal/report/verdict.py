@@ -23,27 +23,9 @@ from volcal.model.names import AXES
 from volcal.report.carried import TableSet, applied_correction
 from volcal.session.format import Session
 from volcal.standards.tolerance import Tolerance, Verdict
+from volcal.standards.volumetric import work_zone_grid
 
 __all__ = ["compensated_deviation", "verdicts", "work_zone_grid"]
-
-
-def work_zone_grid(travel: Any, n: int = 11) -> NDArray[np.float64]:
-    """``n`` x ``n`` x ``n`` points spanning the travel [mm].
-
-    Parameters
-    ----------
-    travel : array_like, shape (3, 2)
-        Travel limits [mm].
-    n : int
-        Points per axis.
-
-    Returns
-    -------
-    ndarray, shape (n**3, 3)
-    """
-    t = np.asarray(travel, dtype=float).reshape(3, 2)
-    g = np.meshgrid(*[np.linspace(lo, hi, n) for lo, hi in t], indexing="ij")
-    return np.stack([a.ravel() for a in g], axis=1)
 
 
 def compensated_deviation(m: Any, errors: MachineErrors, tables: TableSet

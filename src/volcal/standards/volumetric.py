@@ -41,7 +41,7 @@ from volcal.errors import VolcalInputError
 from volcal.model.kinematics import volumetric_error
 from volcal.standards.iso230_6 import elv
 
-__all__ = ["VolumetricIndices", "elv_from_model", "volumetric_indices"]
+__all__ = ["VolumetricIndices", "elv_from_model", "volumetric_indices", "work_zone_grid"]
 
 
 @dataclass
@@ -77,12 +77,30 @@ class VolumetricIndices:
         return d
 
 
-def _grid(travel: NDArray[np.float64], n: int) -> NDArray[np.float64]:
+def work_zone_grid(travel: ArrayLike, n: int = 11) -> NDArray[np.float64]:
+    """``n`` x ``n`` x ``n`` points spanning the travel [mm], X varying slowest.
+
+    Parameters
+    ----------
+    travel : array_like, shape (3, 2)
+        Travel limits [mm].
+    n : int
+        Points per axis (at least 2).
+
+    Returns
+    -------
+    ndarray, shape (n**3, 3)
+
+    Raises
+    ------
+    VolcalInputError
+        ``n < 2``.
+    """
     if n < 2:
         raise VolcalInputError("volumetric indices need n >= 2 grid points per axis",
                                column="n")
-    axes = [np.linspace(lo, hi, n) for lo, hi in travel]
-    g = np.meshgrid(*axes, indexing="ij")
+    t = np.asarray(travel, dtype=float).reshape(3, 2)
+    g = np.meshgrid(*[np.linspace(lo, hi, n) for lo, hi in t], indexing="ij")
     return np.stack([a.ravel() for a in g], axis=1)
 
 
@@ -103,7 +121,7 @@ def volumetric_indices(errors: Any, tool_offset: ArrayLike = (0.0, 0.0, 0.0),
     -------
     VolumetricIndices
     """
-    q = _grid(np.asarray(errors.travel, dtype=float), int(n))
+    q = work_zone_grid(errors.travel, int(n))
     e = volumetric_error(errors, q, np.asarray(tool_offset, dtype=float))
     length = np.linalg.norm(e, axis=1)
     k = int(np.argmax(length))

@@ -20,11 +20,8 @@ from test_study_designs import study
 
 from volcal.identify import IdentifyOptions, identify
 from volcal.identify.api import default_outlier_threshold, standardised_residuals
-from volcal.measure.simulate import simulate_session
-from volcal.measure.virtual import random_machine
 from volcal.model.kinematics import volumetric_error
 from volcal.model.rigid import remove_rigid_body
-from volcal.plan.planner import plan_session
 from volcal.standards.volumetric import work_zone_grid
 
 N_CLEAN = 6
@@ -32,12 +29,7 @@ DRIFT_UM_PER_H = 2.0
 
 
 def _session(case, design="abbe+diag", runs=2):
-    d = study.DESIGNS[design]
-    travel = np.array(d.travel, dtype=float)
-    s = plan_session(travel, case.chain, 8, d.tests, runs=runs)
-    truth = random_machine(travel, case.chain, seed=case.machine_seed)
-    simulate_session(s, truth, study.simulation_options(case.sim_seed, DRIFT_UM_PER_H))
-    return s, truth
+    return study.simulate(study.DESIGNS[design], case, 8, runs, DRIFT_UM_PER_H)
 
 
 @functools.cache

@@ -62,9 +62,7 @@ def test_every_estimator_recovers_the_machine_within_its_uncertainty(name):
     case, travel, truth = _machine(index, no_roll=name == "roll zero")
     s = plan_session(travel, case.chain, 8, study.FULL, runs=2)
     drift = 3.0 if name == "drift" else 0.0
-    simulate_session(s, truth, SimulationOptions(
-        noise_um=0.5, mirror_misalignment_urad=20.0, beam_misalignment_urad=20.0,
-        drift_um_per_h=drift, dwell_s=4.0, seed=case.sim_seed))
+    simulate_session(s, truth, study.simulation_options(case.sim_seed, drift))
     r = identify(s, CASES[name])
     _check(r, truth, travel)
 

@@ -33,7 +33,7 @@ from numpy.typing import NDArray
 
 from volcal.measure.multilateration import station_key, station_of, tracker_jacobian
 from volcal.session.format import Session
-from volcal.session.multilateration import length_from_deviation
+from volcal.session.multilateration import length_from_deviation, nominal_distances
 
 __all__ = ["STATION_TOLERANCE_UM", "identify_iterated", "linearised", "needs_linearisation",
            "row_block", "station_table"]
@@ -75,7 +75,7 @@ def row_block(chain_order, nodes, meas, drift: bool = False):
     J, U = tracker_jacobian(chain_order, nodes, meas, S)
     L = length_from_deviation(meas.deviation, meas.positions, meas.tool_offset,
                               station_of(meas))
-    d = np.linalg.norm(meas.positions + meas.tool_offset - S, axis=1)
+    d = nominal_distances(meas.positions, meas.tool_offset, S)
     y = (L - L[0] + d[0] - d) * 1e3
     key = station_key(meas)
     cols = [np.ones(meas.n), U[:, 0], U[:, 1], U[:, 2]]

@@ -170,3 +170,88 @@ def test_evidence_equals_the_gaussian_marginal_likelihood(small, monkeypatch):
     want = design.y @ np.linalg.solve(K, design.y) + logdet + design.y.size * np.log(2 * np.pi)
     assert sign > 0
     assert got == pytest.approx(want, rel=1e-9, abs=1e-6)
+
+
+def test_evidence_gradient_in_every_hyperparameter(small):
+    """The per-function gradient (18 function scales, kappa, sigma, the set-up tilts'
+    scale, the positioning trend) against central differences, with the trend in the prior
+    and a finite tilt prior (the seeds' set has step diagonals, hence tilts)."""
+    from volcal.identify.prior import TREND_FUNCTIONS
+    from volcal.identify.solver import _Evidence
+
+    _, design, prior = small
+    ev = _Evidence(design, prior.with_trend(12.0), 100.0)
+    assert ev.has_tilts
+    rng = np.random.default_rng(5)
+    f0 = rng.uniform(3.0, 20.0, 18)
+    p0 = np.log(np.concatenate([f0, [7.0, 0.4, 30.0, 12.0]]))
+
+    def f(p):
+        ev.set_tilt_std(float(np.exp(p[20])))
+        ev.prior = ev.prior.with_trend(float(np.exp(p[21])))
+        return ev.neg2(np.exp(p[:18]), float(np.exp(p[19])), float(np.exp(p[18])))
+
+    val = f(p0)
+    val_g, grad = ev.neg2_grad_functions(np.exp(p0[:18]), float(np.exp(p0[19])),
+                                         float(np.exp(p0[18])))
+    assert val_g == pytest.approx(val, rel=1e-12)
+    h = 1e-5
+    fd = np.array([(f(p0 + h * e) - f(p0 - h * e)) / (2 * h) for e in np.eye(22)])
+    f(p0)
+    np.testing.assert_allclose(grad[:22], fd, rtol=1e-5, atol=1e-5 * np.abs(fd).max())
+    assert abs(grad[21]) > 1e-3 and abs(grad[20]) > 1e-3  # trend and tilts are exercised
+    assert all(abs(grad[f]) > 1e-6 for f in TREND_FUNCTIONS)
+
+
+def test_trend_prior_is_the_covariance_of_wiggles_plus_a_slope(small):
+    """A positioning block's precision with the trend is the inverse of
+    ``a^2 (C / kappa^2 + W)^-1 + t^2 s s'`` (dense inverse), and the prior's log
+    determinant the sum of the blocks'."""
+    _, design, prior = small
+    p = prior.with_trend(15.0).with_kappa(5.0)
+    fs = np.full(18, 4.0)
+    b = next(i for i, blk in enumerate(p.blocks) if blk[4] == 0)  # EXX
+    _, C, W, _, _ = p.blocks[b]
+    s = p.coords[b]
+    cov = 16.0 * np.linalg.inv(C / 25.0 + W) + 225.0 * np.outer(s, s)
+    np.testing.assert_allclose(p.block_precision(b, fs), np.linalg.inv(cov), rtol=1e-9,
+                               atol=1e-12 * np.abs(np.linalg.inv(cov)).max())
+    assert s[-1] == pytest.approx(1.0) and np.all(np.diff(s) > 0)
+    # the other blocks keep the banded smoothness precision
+    c = next(i for i, blk in enumerate(p.blocks) if blk[4] == 1)  # EYX
+    _, C1, W1, _, _ = p.blocks[c]
+    np.testing.assert_allclose(p.block_precision(c, fs), (C1 / 25.0 + W1) / 16.0)
+    total = sum(np.linalg.slogdet(p.block_precision(i, fs))[1] for i in range(len(p.blocks)))
+    expect = total - 2 * p.squareness.size * np.log(100.0)
+    assert p.logdet(fs, 100.0, np.zeros(0)) == pytest.approx(expect, rel=1e-12)
+
+
+def test_aligned_beam_readings_are_reproduced_by_the_design():
+    """Exact readings of step diagonals whose beam is aligned to the machine's actual
+    motion (perfect mirror, no noise) equal the design's rows times the true parameters to
+    second order (1 nm against readings of ~10 um), because the design carries the
+    alignment; without it they differ by micrometres (the tilt columns' share)."""
+    from volcal.identify import design as D
+    from volcal.measure.readings import SetupErrors, reading_exact
+
+    truth = random_machine(TRAVEL, "XFYZ", seed=11)
+    s = seeds_session("XFYZ", steps=6, tests=("step-diagonal",))
+    for m in s.measurements:
+        m.deviation = reading_exact(truth, m, SetupErrors.none())
+    d = build_design(s, truth.nodes)
+    x = np.zeros(d.layout.size)
+    for k in range(3):
+        for c in range(6):
+            x[d.layout.indices(k, c)] = truth.values[k][:, c]
+    x[d.layout.squareness_indices()] = truth.squareness
+    pred = d.A[:, :d.n_free] @ x[d.free]
+    for m in s.measurements:
+        r = d.y[d.rows[m.id]] - pred[d.rows[m.id]]
+        assert np.abs(r - r[0]).max() < 2e-3, m.id  # the offset column takes r[0]
+        assert np.sqrt(np.mean(m.deviation**2)) > 2.0
+    # the alignment rows are what makes it so
+    m = s.measurements[0]
+    T, visible = D._visible_tilts(m)
+    assert visible == [0, 1]
+    al = D._alignment_rows(truth.chain_obj.order, truth.nodes, m, T, visible)
+    assert np.abs(al @ x).max() > 0.5

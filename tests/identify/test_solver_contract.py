@@ -21,6 +21,7 @@ from volcal.measure.simulate import SimulationOptions, simulate_session
 from volcal.measure.virtual import random_machine
 from volcal.model.kinematics import volumetric_error
 from volcal.model.names import ROLL_NAMES
+from volcal.model.rigid import remove_rigid_body
 from volcal.plan.planner import plan_session
 from volcal.standards.volumetric import work_zone_grid
 
@@ -52,8 +53,14 @@ def _check(r, truth, travel):
     rms_d, rms_u = float(np.sqrt(np.mean(d**2))), float(np.sqrt(np.mean(u**2)))
     assert 0.85 <= cover, (cover, rms_d, rms_u)
     assert rms_d < 1.5 * rms_u, (rms_d, rms_u)
-    truth_rms = float(np.sqrt(np.mean(volumetric_error(truth, q) ** 2)))
-    assert rms_d < 0.3 * truth_rms  # and it is a calibration, not a shrug
+    # and it is a calibration, not a shrug: judged without the rigid-body motion of the
+    # whole work zone, which no laser reading sees (the prior and the gauge decide it; the
+    # study judges accuracy the same way). Judged with it, the XFYZ machine of the robust
+    # case went from 1.2 to 5.1 um (truth 15.8) when the set-up tilts got a finite prior,
+    # with 1.3 um after the removal and the 95 % intervals still covering 0.99 of the grid
+    et = volumetric_error(truth, q)
+    err = float(np.sqrt(np.mean(remove_rigid_body(q, d) ** 2)))
+    assert err < 0.3 * float(np.sqrt(np.mean(remove_rigid_body(q, et) ** 2)))
 
 
 @pytest.mark.parametrize("name", list(CASES))

@@ -369,6 +369,7 @@ def _identify_weighted(session: Session, o: IdentifyOptions,
                            weights=weights)
         prior = PriorStructure.build(design.layout, design.free, o.kappa)
         scales = None if o.scales is None else np.array(o.scales)
+        tilt_std = None
         nodes_h = choose_nodes(session, refine=o.refine,
                                max_nodes=min(o.max_nodes, HYPER_MAX_NODES))
         if scales is None and any(len(a) != len(b) for a, b in zip(nodes_h, nodes, strict=True)):
@@ -382,10 +383,13 @@ def _identify_weighted(session: Session, o: IdentifyOptions,
                 notes.append(_noise_note(sol_h, design_h))
                 noise = DEFAULT_REPEATABILITY_UM
                 sol_h = solve_bayes(design_h, prior_h, None, noise, o.squareness_std_urad)
-            scales = sol_h.scales
-            prior = prior.with_kappa(sol_h.kappa)
+            scales = sol_h.function_scales
+            tilt_std = sol_h.tilt_std_urad
+            prior = (prior.with_kappa(sol_h.kappa).with_trend(sol_h.trend_um)
+                     .with_kappa_factor(sol_h.kappa_factor))
             hyper_noise = noise if noise is not None else sol_h.sigma_um
-            sol = solve_bayes(design, prior, scales, hyper_noise, o.squareness_std_urad)
+            sol = solve_bayes(design, prior, scales, hyper_noise, o.squareness_std_urad,
+                              tilt_std=tilt_std)
             sol.convergence = dict(sol_h.convergence, grid="hyperparameters on "
                                    f"{'x'.join(str(len(n)) for n in nodes_h)} nodes")
         else:
@@ -393,7 +397,8 @@ def _identify_weighted(session: Session, o: IdentifyOptions,
         if noise is None and _too_few_redundant(sol, design):
             notes.append(_noise_note(sol, design))
             noise = DEFAULT_REPEATABILITY_UM
-            sol = solve_bayes(design, prior, scales, noise, o.squareness_std_urad)
+            sol = solve_bayes(design, prior, scales, noise, o.squareness_std_urad,
+                              tilt_std=tilt_std)
     # identifiability on the measured positions
     nodes_a = choose_nodes(session, refine=1, max_nodes=min(o.max_nodes, ANALYSIS_MAX_NODES))
     same = all(len(a) == len(b) and np.array_equal(a, b)
@@ -401,8 +406,10 @@ def _identify_weighted(session: Session, o: IdentifyOptions,
     design1 = design if same else build_design(session, nodes_a, known, o.drift,
                                                o.measurement_ids, o.tilts, weights=weights)
     kappa = sol.kappa if np.isfinite(sol.kappa) else o.kappa
-    prior1 = PriorStructure.build(design1.layout, design1.free, kappa)
-    scales = sol.scales if np.all(np.isfinite(sol.scales)) else DEFAULT_SCALES.copy()
+    prior1 = (PriorStructure.build(design1.layout, design1.free, kappa)
+              .with_trend(sol.trend_um).with_kappa_factor(sol.kappa_factor))
+    scales = (sol.function_scales if sol.function_scales is not None
+              else sol.scales if np.all(np.isfinite(sol.scales)) else DEFAULT_SCALES.copy())
     cands = candidate_designs(session, nodes_a, known) if o.suggest else None
     report = analyse(design1, prior1, scales, o.squareness_std_urad, cands)
     if o.prior == "none":
@@ -546,7 +553,10 @@ def _result(session: Session, design: Design, sol: Solution, report, o: Identify
         "prior_scales": {"positioning_um": _fin(sol.scales[0]),
                          "straightness_um": _fin(sol.scales[1]),
                          "roll_urad": _fin(sol.scales[2]), "tilt_urad": _fin(sol.scales[3]),
-                         "kappa": _fin(sol.kappa)},
+                         "kappa": _fin(sol.kappa),
+                         "positioning_trend_um": _fin(sol.trend_um) if sol.trend_um else None,
+                         "setup_tilt_urad": (_fin(sol.tilt_std_urad)
+                                             if sol.tilt_std_urad is not None else None)},
         "convergence": dict(sol.convergence),
         "log_evidence": _fin(sol.log_evidence),
         "measurements": [m.id for m in design.measurements],

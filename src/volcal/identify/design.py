@@ -21,9 +21,9 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from volcal.errors import VolcalInputError
-from volcal.measure.readings import reading_jacobian, tilt_columns
+from volcal.measure.readings import perpendicular_basis, reading_jacobian, tilt_columns
 from volcal.model.chain import parse_chain
-from volcal.model.kinematics import UM, URAD
+from volcal.model.kinematics import UM, URAD, pose_jacobian
 from volcal.model.names import COMPONENT_NAMES
 from volcal.model.parameters import ParameterLayout
 from volcal.session.format import Measurement, Session
@@ -224,15 +224,48 @@ def drift_separable(m: Measurement, tol_mm: float = 1e-3) -> bool:
     return False
 
 
+TILT_VISIBLE_UM_PER_URAD = 1e-9
+"""A set-up tilt is a nuisance of a test only where it moves a reading by more than this
+per urad (1e-6 mm of lateral travel): on a body diagonal the target stays on the beam line
+and the tilt columns are rounding noise."""
+
+
+def _visible_tilts(m: Measurement) -> tuple[NDArray[np.float64], list[int]]:
+    """Tilt columns of a test [um/urad] and the basis directions that are visible."""
+    T = tilt_columns(m) * (URAD / UM)
+    if not T.size or np.abs(T).max() <= TILT_VISIBLE_UM_PER_URAD:
+        return T, []
+    s = np.linalg.svd(T, compute_uv=False)
+    return T, [j for j in range(2) if s[j] > 1e-6 * s[0]]
+
+
+def _alignment_rows(chain_order, nodes, m: Measurement, T: NDArray[np.float64],
+                    visible: list[int]) -> sp.csr_matrix:
+    """Readings' dependence on the errors through the beam alignment [um per parameter].
+
+    The beam is aligned to the machine's actual motion from the first to the farthest
+    point of the test (and a flat mirror to the beam), so its direction deviates from
+    the nominal one by ``B (e(q_far) - e(q_0)) / L`` [rad], ``B`` the basis perpendicular
+    to the beam: the readings gain ``T B (e_far - e_0) / L``, the tilt columns ``T`` acting
+    on that direction. With this term the tilt nuisances are the residual misalignment of
+    the set-up, independent of the machine, which their prior describes.
+    """
+    q = m.positions
+    far = int(np.argmax(np.linalg.norm(q - q[0], axis=1)))
+    L = float(np.linalg.norm(q[far] - q[0]))
+    Je, _ = pose_jacobian(chain_order, nodes, q[[0, far]], m.tool_offset)
+    de = (Je[3:6] - Je[0:3]).toarray()  # [um per parameter]
+    G = perpendicular_basis(m.beam_direction) @ de * (UM / URAD) / L  # [urad per parameter]
+    return sp.csr_matrix(T[:, visible] @ G[visible])
+
+
 def _nuisance_columns(m: Measurement, drift: bool, tilts: bool = True):
     cols, names = [np.ones(m.n)], [f"{m.id}:offset"]
-    T = tilt_columns(m) * (URAD / UM)
-    if tilts and T.size and np.abs(T).max() > 0:
-        U, s, Vt = np.linalg.svd(T, full_matrices=False)
-        for j in range(2):
-            if s[j] > 1e-6 * max(s[0], 1e-300):
-                cols.append(T[:, j])
-                names.append(f"{m.id}:tilt{j + 1}")
+    T, visible = _visible_tilts(m)
+    if tilts:
+        for j in visible:
+            cols.append(T[:, j])
+            names.append(f"{m.id}:tilt{j + 1}")
     d = m.direction
     if d is not None and m.kind == "linear" and np.any(d == "+") and np.any(d == "-"):
         cols.append(np.where(d == "+", 0.5, -0.5))
@@ -336,6 +369,9 @@ def build_design(session: Session, nodes: list[NDArray[np.float64]] | None = Non
             J = reading_jacobian(chain.order, layout.nodes, m)
             y_m = m.deviation
             N, names = _nuisance_columns(m, drift, tilts)
+            T, visible = _visible_tilts(m)
+            if tilts and visible:
+                J = (J + _alignment_rows(chain.order, layout.nodes, m, T, visible)).tocsr()
         ys.append(y_m - J @ fixed_values)
         blocks.append(J[:, free])
         nblocks.append((N, r0, names))

@@ -17,7 +17,7 @@ so the posterior stays sparse (Rue & Held, *Gaussian Markov Random Fields*, 2005
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.sparse as sp
@@ -29,7 +29,15 @@ GROUPS: tuple[str, ...] = ("positioning", "straightness", "roll", "tilt")
 """Prior amplitude groups: positioning [um], straightness [um], roll [urad] (EAX, EBY,
 ECZ), the other angular errors (tilts: pitch and yaw) [urad]."""
 
-__all__ = ["GROUPS", "PriorStructure", "function_group", "unit_parts", "unit_precision"]
+TREND_FUNCTIONS: tuple[int, ...] = (0, 7, 14)
+"""Functions (``6 * axis + component``) with a linear trend of their own in the prior: the
+positioning errors EXX, EYY, EZZ. A machine's positioning error is mostly a linear scale
+error (thermal expansion of scale or screw, pitch of the screw: 11.5 um/m/K on steel)
+plus smaller periodic and local errors, so the trend gets its own scale instead of the
+amplitude of the wiggles (ISO 230-2 reports and compensates the slope separately)."""
+
+__all__ = ["GROUPS", "TREND_FUNCTIONS", "PriorStructure", "function_group", "function_scales",
+           "unit_parts", "unit_precision"]
 
 
 def function_group(axis: int, component: int) -> int:
@@ -52,6 +60,29 @@ def function_group(axis: int, component: int) -> int:
     if component >= 3:
         return 2 if component - 3 == axis else 3
     return 0 if component == axis else 1
+
+
+def function_scales(scales: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Amplitude scale of each of the 18 component functions.
+
+    Parameters
+    ----------
+    scales : array_like, shape (4,) or (18,) or (3, 6)
+        Either one scale per group of :data:`GROUPS` [um, um, urad, urad], or one per
+        function, axis-major in ``EX, EY, EZ, EA, EB, EC`` order (``6 * axis + component``).
+
+    Returns
+    -------
+    ndarray, shape (18,)
+        Scale of function ``6 * axis + component`` [um or urad].
+    """
+    s = np.asarray(scales, dtype=float).ravel()
+    if s.size == 18:
+        return s
+    if s.size == len(GROUPS):
+        return s[[function_group(k, c) for k in range(3) for c in range(6)]]
+    raise ValueError(f"scales: expected {len(GROUPS)} group scales or 18 function scales, "
+                     f"got {s.size}")
 
 
 def unit_parts(nodes: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -117,19 +148,32 @@ class PriorStructure:
 
     Attributes
     ----------
-    blocks : list of (indices into the free vector, curvature part, amplitude part, group)
+    blocks : list of (indices into the free vector, curvature part, amplitude part, group,
+            function)
         One block per function (free nodes only: conditioning on the gauge zeros keeps the
-        sub-matrix of the precision).
+        sub-matrix of the precision); ``function`` is ``6 * axis + component``.
     squareness : ndarray of int
         Free-vector indices of the squareness parameters.
     kappa : float
         Curvature scale; the block precision is ``(C / kappa^2 + W) / a_g^2``.
+    coords : list of ndarray
+        Per block, the free nodes' positions normalised to the travel (0 at the start).
+    kappa_factor : tuple of 4 float
+        Curvature scale of each group of :data:`GROUPS` relative to ``kappa``: a
+        straightness wiggles more over its travel than a positioning error or a tilt.
+    trend_um : float
+        Prior standard deviation of the linear trend of the functions of
+        :data:`TREND_FUNCTIONS` at the end of travel [um]; 0: no separate trend. With it
+        the block covariance is ``a^2 (C / kappa^2 + W)^-1 + trend^2 s s'``.
     """
 
-    blocks: list[tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.float64], int]]
+    blocks: list[tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.float64], int, int]]
     squareness: NDArray[np.intp]
     n_free: int
     kappa: float = 40.0
+    coords: list[NDArray[np.float64]] = field(default_factory=list)
+    trend_um: float = 0.0
+    kappa_factor: tuple[float, ...] = (1.0, 1.0, 1.0, 1.0)
 
     @classmethod
     def build(cls, layout: ParameterLayout, free: NDArray[np.intp], kappa: float = 40.0
@@ -147,18 +191,21 @@ class PriorStructure:
         """
         pos_in_free = -np.ones(layout.size, dtype=np.intp)
         pos_in_free[free] = np.arange(free.size)
-        blocks = []
+        blocks, coords = [], []
         for k in range(3):
             C, W = unit_parts(layout.nodes[k])
+            x = np.asarray(layout.nodes[k], dtype=float)
+            span = x[-1] - x[0] if x.size > 1 else 1.0
             for c in range(6):
                 idx = layout.indices(k, c)
                 sel = pos_in_free[idx] >= 0
                 if not np.any(sel):
                     continue
                 blocks.append((pos_in_free[idx][sel], C[np.ix_(sel, sel)], W[np.ix_(sel, sel)],
-                               function_group(k, c)))
+                               function_group(k, c), 6 * k + c))
+                coords.append(((x - x[0]) / span)[sel])
         sq = pos_in_free[layout.squareness_indices()]
-        return cls(blocks, sq[sq >= 0], int(free.size), kappa)
+        return cls(blocks, sq[sq >= 0], int(free.size), kappa, coords)
 
     def with_kappa(self, kappa: float) -> PriorStructure:
         """The same prior with another curvature scale.
@@ -173,7 +220,88 @@ class PriorStructure:
         PriorStructure
             A copy sharing the blocks, with ``kappa`` replaced.
         """
-        return PriorStructure(self.blocks, self.squareness, self.n_free, float(kappa))
+        return replace(self, kappa=float(kappa))
+
+    def with_trend(self, trend_um: float | None) -> PriorStructure:
+        """The same prior with another trend scale.
+
+        Parameters
+        ----------
+        trend_um : float or None
+            New :attr:`trend_um` [um at the end of travel]; None or 0: no trend.
+
+        Returns
+        -------
+        PriorStructure
+            A copy sharing the blocks.
+        """
+        return replace(self, trend_um=float(trend_um or 0.0))
+
+    def with_kappa_factor(self, factor) -> PriorStructure:
+        """The same prior with other per-group curvature factors.
+
+        Parameters
+        ----------
+        factor : sequence of 4 float
+            New :attr:`kappa_factor` (one per group of :data:`GROUPS`).
+
+        Returns
+        -------
+        PriorStructure
+            A copy sharing the blocks.
+        """
+        return replace(self, kappa_factor=tuple(float(v) for v in factor))
+
+    def block_kappa(self, b: int) -> float:
+        """Curvature scale of block ``b`` (``kappa`` times its group's factor).
+
+        Parameters
+        ----------
+        b : int
+            Block index.
+
+        Returns
+        -------
+        float
+        """
+        return self.kappa * self.kappa_factor[self.blocks[b][3]]
+
+    def has_trend(self, b: int) -> bool:
+        """True when block ``b`` carries the separate linear trend.
+
+        Parameters
+        ----------
+        b : int
+            Block index.
+
+        Returns
+        -------
+        bool
+        """
+        return self.trend_um > 0 and self.blocks[b][4] in TREND_FUNCTIONS
+
+    def block_precision(self, b: int, fscales: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Prior precision of block ``b`` (dense, its free nodes).
+
+        Parameters
+        ----------
+        b : int
+            Block index.
+        fscales : ndarray, shape (18,)
+            Function scales (:func:`function_scales`).
+
+        Returns
+        -------
+        ndarray
+            ``(C / kappa^2 + W) / a^2``, or with the trend the inverse of
+            ``a^2 (C / kappa^2 + W)^-1 + trend^2 s s'`` (Sherman-Morrison).
+        """
+        _, C, W, _, f = self.blocks[b]
+        Q0 = (C / self.block_kappa(b) ** 2 + W) / fscales[f] ** 2
+        if not self.has_trend(b):
+            return Q0
+        u = Q0 @ self.coords[b]
+        return Q0 - np.outer(u, u) / (1.0 / self.trend_um**2 + float(self.coords[b] @ u))
 
     def precision(self, scales: NDArray[np.float64], squareness_std: float,
                   n_total: int, nuisance_precision: NDArray[np.float64]) -> sp.csc_matrix:
@@ -181,8 +309,9 @@ class PriorStructure:
 
         Parameters
         ----------
-        scales : ndarray, shape (4,)
-            Amplitude scales of the groups [um, um, urad, urad] (:data:`GROUPS`).
+        scales : ndarray, shape (4,) or (18,)
+            Amplitude scales of the groups [um, um, urad, urad] (:data:`GROUPS`) or of each
+            function (:func:`function_scales`).
         squareness_std : float
             Prior standard deviation of the squareness errors [urad].
         n_total : int
@@ -191,9 +320,9 @@ class PriorStructure:
             Precision of each nuisance parameter (weak).
         """
         rows, cols, vals = [], [], []
-        k2 = self.kappa**2
-        for idx, C, W, g in self.blocks:
-            Qf = (C / k2 + W) / scales[g] ** 2
+        fs = function_scales(scales)
+        for b, (idx, *_) in enumerate(self.blocks):
+            Qf = self.block_precision(b, fs)
             r, c = np.nonzero(Qf)
             rows.append(idx[r])
             cols.append(idx[c])
@@ -214,8 +343,9 @@ class PriorStructure:
 
         Parameters
         ----------
-        scales : ndarray, shape (4,)
-            Amplitude scales of the groups [um, um, urad, urad] (:data:`GROUPS`).
+        scales : ndarray, shape (4,) or (18,)
+            Amplitude scales of the groups [um, um, urad, urad] (:data:`GROUPS`) or of each
+            function (:func:`function_scales`).
         squareness_std : float
             Prior standard deviation of the squareness errors [urad].
         nuisance_precision : ndarray
@@ -226,9 +356,9 @@ class PriorStructure:
         float
             ``log det`` of the prior precision of all unknowns.
         """
-        k2 = self.kappa**2
+        fs = function_scales(scales)
         total = 0.0
-        for _, C, W, g in self.blocks:
-            total += np.linalg.slogdet(C / k2 + W)[1] - 2 * C.shape[0] * np.log(scales[g])
+        for b in range(len(self.blocks)):
+            total += np.linalg.slogdet(self.block_precision(b, fs))[1]
         return float(total - 2 * self.squareness.size * np.log(squareness_std)
                      + np.sum(np.log(nuisance_precision)))

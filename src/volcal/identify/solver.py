@@ -26,7 +26,12 @@ from numpy.typing import NDArray
 from scipy.optimize import minimize
 
 from volcal.identify.design import Design
-from volcal.identify.prior import PriorStructure
+from volcal.identify.prior import (
+    TREND_FUNCTIONS,
+    PriorStructure,
+    function_group,
+    function_scales,
+)
 
 __all__ = ["Solution", "solve_bayes", "solve_min_norm"]
 
@@ -41,17 +46,48 @@ only matters for groups the data do not inform (there it holds the scale)."""
 HYPER_SPREAD = np.log(30.0)
 """Spread of the log-normal hyperprior (one standard deviation, as a factor of 30): weak,
 it only holds scales the data do not inform."""
-SEPARATE_ROLL = False
-"""Estimate the roll scale separately (shrunk towards the tilts by :data:`ROLL_TIE`).
-Off: the prior has a roll group of its own (``GROUPS``) but its scale is the tilts'.
-Measured on the seeds' full test set (exact simulation, 0.5 um noise, three chains): a
-free roll scale went to 3.7 urad on one machine and 18.8 on another, and the 95 %
-intervals covered 0.65 and 1.00 of the grid (rigid-body motion removed); a roll shrunk
-towards the tilts by a factor 2 still gave 0.77 and 1.00; sharing the tilts' scale gives
-0.94-0.98 on the same machines. Lines, diagonals and step diagonals see the rolls only
-through a few lever arms, too little for the evidence to set their scale."""
-ROLL_TIE = np.log(2.0)
-"""Spread of the roll scale around the tilt scale when :data:`SEPARATE_ROLL` (a factor)."""
+FREE_GROUPS: tuple[int, ...] = (0, 1, 3)
+"""Groups of :data:`volcal.identify.prior.GROUPS` with a scale of their own; the roll
+(group 2) takes the tilts' scale. Measured on the seeds' full test set (exact simulation,
+0.5 um noise, three chains): a free roll scale went to 3.7 urad on one machine and 18.8
+on another, and the 95 % intervals covered 0.65 and 1.00 of the grid (rigid-body motion
+removed); a roll shrunk towards the tilts by a factor 2 still gave 0.77 and 1.00; sharing
+the tilts' scale gives 0.94-0.98 on the same machines. Lines, diagonals and step
+diagonals see the rolls only through a few lever arms, too little for the evidence to
+set their scale."""
+TILT_CENTRE_URAD = 50.0
+"""Centre of the hyperprior of the set-up tilts' scale [urad] (beam and flat mirror
+aligned by eye and autoreflection). The tilts of a session's set-ups are independent
+draws of one unknown scale, which the evidence estimates from the step diagonals; this
+is what separates a positioning slope from a mirror tilt, weakly (Soons)."""
+TILT_SPREAD = np.log(2.0)
+"""Spread of the set-up tilts' hyperprior (a factor 2: 12-200 urad at 95 %). The data
+hardly inform this scale (a positioning slope or an angular error explains the same
+readings), and with the weak spread of the other scales the evidence drove it to 3-4 urad
+on machines set up 20 urad off, which made the slopes look determined: coverage 0.80 and
+1.6x the error of minimum-norm least squares on one machine of the study."""
+TREND_CENTRE_UM = 20.0
+"""Centre of the hyperprior of the positioning trend's scale [um at the end of travel]
+(:data:`volcal.identify.prior.TREND_FUNCTIONS`): 1 m of steel scale 2 K off 20 C."""
+ROLL_FACTOR = 1.5
+"""The rolls' prior scale over the tilts' (applied after the evidence, which cannot see
+the rolls). A roll the design hardly sees keeps its prior uncertainty, so that prior must
+cover the rolls of real machines, not the tilts of this one: with the tilts' scale the
+study's Abbe lines + body diagonals (8 machines, roll ECZ undetermined) covered 0.887 of
+the grid (one machine: ECZ 19 urad RMS against a prior of 7.8); a factor exp(w^2) = 1.5,
+the mean-square amplitude of a function whose scale varies by a factor exp(w) = 1.9 around
+its group's, gives 0.927 there and 0.97-0.98 on the other designs. Multiplying every
+function's scale by 1.3 instead over-covered the Abbe lines (0.998)."""
+KAPPA_FACTOR_SPREAD = 0.0
+"""Spread of each group's curvature scale around the common one (a factor 3; 0: one
+curvature scale for all groups)."""
+PER_AXIS_SPREAD: dict[int, float] = {}
+"""Groups whose scale may differ per axis, with the spread (one standard deviation, as a
+log factor) of each axis' scale around the group's. Empty: measured on the study's step
+diagonals (8 machines), a positioning scale per axis (spread a factor 3) gave a median
+ratio to minimum-norm least squares of 1.11 and a pooled coverage of 0.79 against 0.97
+and 0.87 with one scale (before the positioning trend of :data:`TREND_CENTRE_UM`), and
+1.11 / 0.92 against 0.86 / 0.94 with it; kept as an extension point."""
 DENSE_COVARIANCE_LIMIT = 6000
 DENSE_QR_LIMIT = 2000
 DENSE_QR_ENTRIES = 2_000_000  # 16 MB of float64 for the stacked matrix
@@ -84,6 +120,17 @@ class Solution:
         ``'bayes'`` or ``'min-norm'``.
     solve : callable or None
         ``rhs -> H^-1 rhs`` with the factorised posterior precision (Monte Carlo).
+    function_scales : ndarray, shape (18,) or None
+        Prior amplitude scale of each function, ``6 * axis + component`` [um, urad].
+    tilt_std_urad : float or None
+        Prior standard deviation of the set-up tilts (beam and mirror) [urad]; None when
+        the design has none.
+    trend_um : float
+        Prior standard deviation of the positioning errors' linear trend at the end of
+        travel [um] (:attr:`volcal.identify.prior.PriorStructure.trend_um`; 0: none).
+    kappa_factor : tuple of 4 float
+        Curvature scale of each prior group relative to ``kappa``
+        (:attr:`volcal.identify.prior.PriorStructure.kappa_factor`).
     convergence : dict or None
         Evidence optimiser record: ``optimiser``, ``iterations``, ``evaluations``,
         ``converged`` (bool), ``message``.
@@ -100,6 +147,10 @@ class Solution:
     solve: object = None  # callable: H^-1 @ rhs
     kappa: float = float("nan")
     convergence: dict = field(default_factory=dict)
+    function_scales: NDArray[np.float64] | None = None
+    tilt_std_urad: float | None = None
+    trend_um: float = 0.0
+    kappa_factor: tuple[float, ...] = (1.0, 1.0, 1.0, 1.0)
 
 
 def _nuisance_precision(design: Design) -> NDArray[np.float64]:
@@ -108,7 +159,12 @@ def _nuisance_precision(design: Design) -> NDArray[np.float64]:
 
 
 class _Evidence:
-    """Negative twice the log evidence, on a dense posterior precision."""
+    """Negative twice the log evidence, on a dense posterior precision.
+
+    The prior precision is block diagonal: one block per function (its scale ``a_f``), the
+    squareness and the nuisances on the diagonal. Value and gradient are computed per
+    block, so any grouping of the function scales (:func:`solve_bayes`) costs the same.
+    """
 
     def __init__(self, design: Design, prior: PriorStructure, squareness_std: float) -> None:
         self.A = design.A.tocsc()
@@ -126,48 +182,70 @@ class _Evidence:
         ex = design.extra_precision
         self.extra = ex if ex is not None and np.any(ex) else None
         self.evaluations = 0
+        diag = np.zeros(self.N)
+        diag[prior.squareness] = 1.0 / squareness_std**2
+        diag[prior.n_free:] = self.nprec
+        if self.extra is not None:
+            diag += self.extra
+        in_block = np.zeros(self.N, dtype=bool)
+        for idx, *_ in prior.blocks:
+            in_block[idx] = True
+        self._diag = diag  # squareness, nuisances and extra precision
+        kinds = [n.rsplit(":", 1)[1] for n in design.nuisance_names]
+        self._tilt = prior.n_free + np.array([j for j, k in enumerate(kinds)
+                                              if k.startswith("tilt")], dtype=np.intp)
+        self._tilt_extra = diag[self._tilt] - NUISANCE_PRECISION["tilt"]
+        self.tilt_std = float(NUISANCE_PRECISION["tilt"] ** -0.5)
+        self._outside = ~in_block  # unknowns on the diagonal only
+        self._flat = [np.ravel_multi_index(np.ix_(idx, idx), (self.N, self.N)).ravel()
+                      for idx, *_ in prior.blocks]
 
-    def _parts(self):
-        """Dense curvature and amplitude parts of each prior group (built once)."""
-        if not hasattr(self, "_cw"):
-            ng = len(DEFAULT_SCALES)
-            C = np.zeros((ng, self.N, self.N))
-            W = np.zeros((ng, self.N, self.N))
-            for idx, Cb, Wb, g in self.prior.blocks:
-                ix = np.ix_(idx, idx)
-                C[g][ix] += Cb
-                W[g][ix] += Wb
-            diag = np.zeros(self.N)
-            diag[self.prior.squareness] = 1.0 / self.sq_std**2
-            diag[self.prior.n_free:] = self.nprec
-            if self.extra is not None:
-                diag += self.extra
-            self._cw = (C, W, diag)
-        return self._cw
+    @property
+    def has_tilts(self) -> bool:
+        """True when the design has set-up tilts (step diagonals with a flat mirror)."""
+        return self._tilt.size > 0
+
+    def set_tilt_std(self, tau: float) -> None:
+        """Prior standard deviation of every set-up tilt [urad] (beam and mirror)."""
+        self.tilt_std = float(tau)
+        self._diag[self._tilt] = self._tilt_extra + 1.0 / self.tilt_std**2
+
+    def _block_precisions(self, fscales):
+        """Per block: its prior precision and its diagonal extra precision."""
+        return [(self.prior.block_precision(b, fscales), self._diag[idx])
+                for b, (idx, *_) in enumerate(self.prior.blocks)]
+
+    def _block_derivatives(self, b: int, fscales, Qb):
+        """``[(gradient index, dQ_b / dlog hyperparameter)]`` of block ``b``.
+
+        Without trend ``Q = P / a^2`` (``P = C / kappa^2 + W``): ``dQ/dlog a = -2 Q``,
+        ``dQ/dlog kappa = -2 K`` with ``K = C / (kappa^2 a^2)``. With the trend ``Q = S^-1``,
+        ``S = a^2 P^-1 + t^2 s s'``, ``w = Q s``: ``dQ/dlog a = -2 Q + 2 t^2 w w'``,
+        ``dQ/dlog t = -2 t^2 w w'``, ``dQ/dlog kappa = -2 (I - t^2 w s') K (I - t^2 s w')``.
+        """
+        _, Cb, _, g, f = self.prior.blocks[b]
+        K = Cb / (self.prior.block_kappa(b) ** 2 * fscales[f] ** 2)
+        gk = 22 + (3 if g == 2 and 2 not in FREE_GROUPS else g)  # the group's curvature factor
+        if not self.prior.has_trend(b):
+            return [(f, -2.0 * Qb), (18, -2.0 * K), (gk, -2.0 * K)]
+        t2 = self.prior.trend_um**2
+        v = self.prior.coords[b]
+        w = Qb @ v
+        ww = np.outer(w, w)
+        T = np.eye(v.size) - t2 * np.outer(w, v)
+        dk = -2.0 * T @ K @ T.T
+        return [(f, -2.0 * Qb + 2.0 * t2 * ww), (21, -2.0 * t2 * ww), (18, dk), (gk, dk)]
 
     def prior_dense(self, scales, kappa=None):
+        """Dense prior precision ``Q`` for group (4) or function (18) scales."""
         if kappa is not None and kappa != self.prior.kappa:
             self.prior = self.prior.with_kappa(kappa)
-        C, W, diag = self._parts()
-        k2 = self.prior.kappa**2
+        fs = function_scales(scales)
         Q = np.zeros((self.N, self.N))
-        for g in range(C.shape[0]):
-            if g < len(scales):
-                Q += (C[g] / k2 + W[g]) / scales[g] ** 2
-        Q[np.diag_indices_from(Q)] += diag
+        for flat, (Qb, _) in zip(self._flat, self._block_precisions(fs), strict=True):
+            Q.flat[flat] += Qb.ravel()
+        Q[np.diag_indices_from(Q)] += self._diag
         return Q
-
-    def logdet_prior(self, scales) -> float:
-        """``log det Q`` from per-block determinants cached per curvature scale."""
-        cache = self.__dict__.setdefault("_ld", {})
-        key = float(self.prior.kappa)
-        if key not in cache:
-            k2 = key**2
-            cache[key] = [(np.linalg.slogdet(Cb / k2 + Wb)[1], Cb.shape[0], g)
-                          for _, Cb, Wb, g in self.prior.blocks]
-        total = sum(ld - 2 * n * np.log(scales[g]) for ld, n, g in cache[key])
-        return float(total - 2 * self.prior.squareness.size * np.log(self.sq_std)
-                     + np.sum(np.log(self.nprec)))
 
     def factor(self, scales, sigma, kappa=None):
         Q = self.prior_dense(scales, kappa)
@@ -177,8 +255,7 @@ class _Evidence:
     def _value(self, scales, sigma, kappa=None):
         """``neg2`` with the parts its gradient reuses.
 
-        Returns ``(value, Q, cf, cq, x, |r|^2)``, ``cq`` the Cholesky factor of ``Q`` when
-        it is not block diagonal (else None).
+        Returns ``(value, Q, cf, x, |r|^2, block inverses of Q)``.
         """
         H, Q, cf = self.factor(scales, sigma, kappa)
         b = self.Aty / sigma**2
@@ -190,14 +267,17 @@ class _Evidence:
         rr = float(r @ r)
         data = rr / sigma**2 + float(x @ (Q @ x))
         logdet_h = 2.0 * float(np.sum(np.log(np.diag(cf[0]))))
-        cq = None
-        if self.extra is None:
-            logdet_q = self.logdet_prior(scales)
-        else:
-            cq = sla.cho_factor(Q, lower=True, check_finite=False)
-            logdet_q = 2.0 * float(np.sum(np.log(np.diag(cq[0]))))
+        # log det Q block by block (Q is block diagonal); the block inverses serve the
+        # gradient's tr(Q^-1 dQ) terms
+        fs = function_scales(scales)
+        logdet_q = float(np.sum(np.log(self._diag[self._outside])))
+        qinv = []
+        for Qb, ex in self._block_precisions(fs):
+            cb = sla.cho_factor(Qb + np.diag(ex), lower=True, check_finite=False)
+            logdet_q += 2.0 * float(np.sum(np.log(np.diag(cb[0]))))
+            qinv.append(cb)
         val = data + logdet_h - logdet_q + self.n * np.log(2 * np.pi * sigma**2)
-        return float(val), Q, cf, cq, x, rr
+        return float(val), Q, cf, x, rr, qinv
 
     def neg2(self, scales, sigma, kappa=None) -> float:
         self.evaluations += 1
@@ -206,66 +286,66 @@ class _Evidence:
         except (np.linalg.LinAlgError, sla.LinAlgError):
             return 1e300
 
-    def neg2_grad(self, scales, sigma, kappa=None) -> tuple[float, NDArray[np.float64]]:
-        """``neg2`` and its gradient in ``log`` of (the four scales, kappa, sigma).
+    def neg2_grad_functions(self, scales, sigma, kappa=None
+                            ) -> tuple[float, NDArray[np.float64]]:
+        """``neg2`` and its gradient in log of hyperparameters (function scales, kappa...).
+
+        The 26 entries: the 18 function scales, kappa, sigma, the tilts' scale, the trend
+        scale, then the curvature factor of each group of :data:`GROUPS`.
 
         With ``D = |y - A x|^2 / s^2 + x'Q x`` at the posterior mean ``x`` (stationary, so
-        only explicit dependences count), ``Q = sum_g (C_g / kappa^2 + W_g) / s_g^2 + diag``
-        and ``H = A'A / s^2 + Q`` (Rasmussen & Williams 2006, eq. 5.9):
+        only explicit dependences count), ``Q`` block diagonal (one block ``Q_f`` per
+        function, then the diagonal of squareness and nuisances) and ``H = A'A / s^2 + Q``
+        (Rasmussen & Williams 2006, eq. 5.9), a hyperparameter ``h`` of the prior adds
 
-        * ``d/dlog s_g  = -2 x'Q_g x - 2 tr(H^-1 Q_g) + 2 n_g``,
-        * ``d/dlog kappa = -2 x'K x - 2 tr(H^-1 K) + 2 tr(Q^-1 K)``, ``K = sum_g C_g /
-          (kappa^2 s_g^2)``,
+        * ``x' dQ x + tr(H^-1 dQ) - tr(Q^-1 dQ)`` for each block it enters
+          (``dQ = dQ_f / dlog h``, :meth:`_block_derivatives`),
         * ``d/dlog sigma = -2 |r|^2 / s^2 - 2 tr(H^-1 A'A) / s^2 + 2 n``,
+        * ``d/dlog tau = sum_t -2 (x_t^2 + (H^-1)_tt) / tau^2 + 2 / (tau^2 Q_tt)`` over the
+          set-up tilts ``t`` (prior standard deviation ``tau``, :meth:`set_tilt_std`),
 
-        where ``n_g`` is the number of parameters of group ``g`` (``log det Q`` holds
-        ``-2 n_g log s_g``) and ``tr(H^-1 A'A) / s^2 = N - tr(H^-1 Q)``.
+        where ``tr(H^-1 A'A) / s^2 = N - tr(H^-1 Q)``. Functions without free nodes have a
+        zero gradient.
         """
         self.evaluations += 1
-        ng = len(DEFAULT_SCALES)
         try:
-            val, Q, cf, cq, x, rr = self._value(scales, sigma, kappa)
+            val, Q, cf, x, rr, qinv = self._value(scales, sigma, kappa)
         except (np.linalg.LinAlgError, sla.LinAlgError):
-            return 1e300, np.zeros(ng + 2)
-        C, W, diag = self._parts()
-        k2 = self.prior.kappa**2
+            return 1e300, np.zeros(26)
+        fs = function_scales(scales)
         Hinv = _inverse_from_cholesky(cf)
-        Qinv = None if cq is None else sla.cho_solve(cq, np.eye(self.N), check_finite=False)
-        grad = np.zeros(ng + 2)
-        tr_hq = 0.0
-        for g in range(ng):
-            Qg = (C[g] / k2 + W[g]) / scales[g] ** 2
-            Kg = C[g] / (k2 * scales[g] ** 2)
-            t_hq = float(np.sum(Hinv * Qg))
-            tr_hq += t_hq
-            if Qinv is None:
-                t_qq = float(self._group_size(g))
-                t_qk = float(self._kappa_trace(g))
-            else:
-                t_qq = float(np.sum(Qinv * Qg))
-                t_qk = float(np.sum(Qinv * Kg))
-            grad[g] = -2.0 * float(x @ (Qg @ x)) - 2.0 * t_hq + 2.0 * t_qq
-            grad[ng] += -2.0 * float(x @ (Kg @ x)) - 2.0 * float(np.sum(Hinv * Kg)) + 2.0 * t_qk
-        tr_hq += float(np.diag(Hinv) @ diag)
-        grad[ng + 1] = -2.0 * rr / sigma**2 - 2.0 * (self.N - tr_hq) + 2.0 * self.n
+        grad = np.zeros(26)
+        tr_hq = float(np.diag(Hinv) @ self._diag)
+        for bi, ((idx, *_), cb) in enumerate(zip(self.prior.blocks, qinv, strict=True)):
+            Qb = self.prior.block_precision(bi, fs)
+            Hb = Hinv[np.ix_(idx, idx)]
+            xb = x[idx]
+            Qb_inv = sla.cho_solve(cb, np.eye(idx.size), check_finite=False)
+            tr_hq += float(np.sum(Hb * Qb))
+            for j, dQ in self._block_derivatives(bi, fs, Qb):
+                grad[j] += (float(xb @ (dQ @ xb)) + float(np.sum(Hb * dQ))
+                            - float(np.sum(Qb_inv * dQ)))
+        grad[19] = -2.0 * rr / sigma**2 - 2.0 * (self.N - tr_hq) + 2.0 * self.n
+        if self.has_tilts:  # dQ/dlog tau = -2 / tau^2 on the tilts' diagonal
+            t = self._tilt
+            w = 1.0 / self.tilt_std**2
+            grad[20] = (-2.0 * w * float(x[t] @ x[t] + np.sum(np.diag(Hinv)[t]))
+                        + 2.0 * float(np.sum(w / self._diag[t])))
         return float(val), grad
 
-    def _group_size(self, g: int) -> int:
-        return sum(Cb.shape[0] for _, Cb, _, gb in self.prior.blocks if gb == g)
+    def neg2_grad(self, scales, sigma, kappa=None) -> tuple[float, NDArray[np.float64]]:
+        """``neg2`` and its gradient in ``log`` of (the four group scales, kappa, sigma).
 
-    def _kappa_trace(self, g: int) -> float:
-        """``tr(Q^-1 K)`` of group ``g`` from its blocks.
-
-        ``Q`` is block diagonal when no extra precision is given:
-        ``tr((C/k2 + W)^-1 C / k2)`` per block.
+        The group gradient is the sum of its functions' (:meth:`neg2_grad_functions`).
         """
-        cache = self.__dict__.setdefault("_kt", {})
-        key = (float(self.prior.kappa), g)
-        if key not in cache:
-            k2 = key[0] ** 2
-            cache[key] = sum(float(np.trace(np.linalg.solve(Cb / k2 + Wb, Cb / k2)))
-                             for _, Cb, Wb, gb in self.prior.blocks if gb == g)
-        return cache[key]
+        val, g = self.neg2_grad_functions(function_scales(scales), sigma, kappa)
+        ng = len(DEFAULT_SCALES)
+        out = np.zeros(ng + 2)
+        for k in range(3):
+            for c in range(6):
+                out[function_group(k, c)] += g[6 * k + c]
+        out[ng:] = g[18:20]
+        return val, out
 
 
 def _inverse_from_cholesky(cf) -> NDArray[np.float64]:
@@ -282,7 +362,7 @@ def _inverse_from_cholesky(cf) -> NDArray[np.float64]:
 
 def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float64] | None = None,
                 noise_um: float | None = None, squareness_std: float = 100.0,
-                covariance: bool = True) -> Solution:
+                covariance: bool = True, tilt_std: float | None = None) -> Solution:
     """Bayesian least squares with evidence-optimised hyperparameters.
 
     Parameters
@@ -299,6 +379,9 @@ def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float6
         Prior standard deviation of the squareness errors [urad].
     covariance : bool
         Compute the dense posterior covariance (when not too large).
+    tilt_std : float, optional
+        Prior standard deviation of the set-up tilts [urad]; default estimated with the
+        scales (maximum evidence), or :data:`NUISANCE_PRECISION` when the scales are given.
 
     Returns
     -------
@@ -307,68 +390,87 @@ def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float6
     ev = _Evidence(design, prior, squareness_std)
     free_scales = scales is None
     free_sigma = noise_um is None
-    s0 = DEFAULT_SCALES.copy() if scales is None else np.asarray(scales, dtype=float)
-    if s0.shape != (len(DEFAULT_SCALES),):
-        raise ValueError(f"scales: expected {len(DEFAULT_SCALES)} amplitude scales "
-                         "(positioning, straightness, roll, tilts)")
+    if scales is not None:
+        f_fixed = function_scales(scales)
+        s_groups = _group_scales(f_fixed)
     sig0 = 0.5 if noise_um is None else float(noise_um)
     y_scale = max(float(np.sqrt(ev.yty / max(ev.n, 1))), 1e-3)
     sig_floor = 1e-7 * y_scale
-
     k0 = prior.kappa
-
-    # free scale parameters: positioning, straightness, tilt (and roll when separate)
-    free_groups = [0, 1, 3, 2] if SEPARATE_ROLL else [0, 1, 3]
-    ns = len(free_groups)
+    M, centre, spread = _hyper_map()
+    # scale-like hyperparameters beyond the 18 functions: (gradient index, centre, bounds)
+    extra = []
+    free_tilt = free_scales and tilt_std is None and ev.has_tilts
+    if free_tilt:  # the set-up tilts' scale
+        extra.append((20, np.log(TILT_CENTRE_URAD), (np.log(1e-1), np.log(1e5)), TILT_SPREAD))
+    elif tilt_std is not None:
+        ev.set_tilt_std(tilt_std)
+    free_trend = free_scales and any(f in TREND_FUNCTIONS for *_, f in prior.blocks)
+    if free_trend:  # the positioning trend's scale
+        extra.append((21, np.log(TREND_CENTRE_UM), (np.log(1e-2), np.log(1e4)), HYPER_SPREAD))
+    if free_scales and KAPPA_FACTOR_SPREAD > 0:  # a curvature factor per group
+        extra.extend((22 + g, 0.0, (-np.log(1e2), np.log(1e2)), KAPPA_FACTOR_SPREAD)
+                     for g in FREE_GROUPS)
+    m0 = M.shape[1]
+    for j, (_, c, _, sd) in enumerate(extra):
+        M = np.vstack([np.hstack([M, np.zeros((M.shape[0], 1))]),
+                       np.eye(1, m0 + j + 1, m0 + j)])
+        centre = np.append(centre, c)
+        spread = np.append(spread, sd)
+    ns = M.shape[1]
 
     def unpack(h):
+        """Hyperparameter vector -> (function scales (18,), sigma, kappa); sets the tilts'."""
         i = 0
-        sc, sig, kap = s0, sig0, k0
+        fsc, sig, kap = (None, sig0, k0) if free_scales else (f_fixed, sig0, k0)
         if free_scales:
-            sc = np.empty(len(DEFAULT_SCALES))
-            sc[free_groups] = np.exp(h[:ns])
-            if not SEPARATE_ROLL:
-                sc[2] = sc[3]  # the roll takes the tilts' scale
+            logs = M @ h[:ns]
+            fsc = np.exp(logs[:18])
+            factor = np.ones(len(DEFAULT_SCALES))
+            for j, (gi, *_) in enumerate(extra):
+                if gi == 20:
+                    ev.set_tilt_std(float(np.exp(logs[18 + j])))
+                elif gi == 21:
+                    ev.prior = ev.prior.with_trend(float(np.exp(logs[18 + j])))
+                else:
+                    factor[gi - 22] = np.exp(logs[18 + j])
+            if 2 not in FREE_GROUPS:
+                factor[2] = factor[3]  # the roll takes the tilts' curvature too
+            ev.prior = ev.prior.with_kappa_factor(factor)
             kap = float(np.exp(h[ns]))
             i = ns + 1
         if free_sigma:
             sig = float(np.exp(h[i]))
-        return sc, sig, kap
+        return fsc, sig, kap
 
     h0 = []
     bounds = []
     if free_scales:
-        h0 += list(np.log(s0[free_groups])) + [np.log(k0)]
-        bounds += [(np.log(1e-2), np.log(1e4))] * ns + [(np.log(1.0), np.log(1e4))]
+        h0 += list(centre) + [np.log(k0)]
+        n_base = len(FREE_GROUPS)
+        bounds += ([(np.log(1e-2), np.log(1e4))] * n_base
+                   + [(-np.log(1e3), np.log(1e3))] * (ns - n_base - len(extra))
+                   + [bd for _, _, bd, _ in extra]
+                   + [(np.log(1.0), np.log(1e4))])
     if free_sigma:
         h0.append(np.log(sig0))
         bounds.append((np.log(sig_floor), np.log(1e3)))
     if h0:
-        ng = len(DEFAULT_SCALES)
-
         def fun(h):
-            sc, sig, kap = unpack(h)
-            val, g6 = ev.neg2_grad(sc, sig, kap)
+            fsc, sig, kap = unpack(h)
+            val, g20 = ev.neg2_grad_functions(fsc, sig, kap)
             grad = np.zeros(len(h))
             i = 0
-            if free_scales:  # weak log-normal hyperprior: typical machines, factor 30
-                gs = g6[:ng].copy()
-                z = (np.log(np.append(sc, kap)) - HYPER_CENTRE) / HYPER_SPREAD
-                dz = 2.0 * z / HYPER_SPREAD
-                if SEPARATE_ROLL:
-                    z[2] = (np.log(sc[2]) - np.log(sc[3])) / ROLL_TIE  # shrunk to the tilts
-                    dz[2] = 2.0 * z[2] / ROLL_TIE
-                    dz[3] -= dz[2]
-                else:
-                    gs[3] += gs[2]  # the roll takes the tilts' scale
-                    z[2] = dz[2] = 0.0
+            if free_scales:  # weak log-normal hyperprior: typical machines
+                z = (np.append(h[:ns], np.log(kap)) - np.append(centre, HYPER_CENTRE[-1])) \
+                    / np.append(spread, HYPER_SPREAD)
                 val += float(z @ z)
-                gs += dz[:ng]
-                grad[:ns] = gs[free_groups]
-                grad[ns] = g6[ng] + dz[ng]
+                g_scales = np.append(g20[:18], [g20[gi] for gi, *_ in extra])
+                grad[:ns] = M.T @ g_scales + 2.0 * z[:ns] / spread
+                grad[ns] = g20[18] + 2.0 * z[ns] / HYPER_SPREAD
                 i = ns + 1
             if free_sigma:
-                grad[i] = g6[ng + 1]
+                grad[i] = g20[19]
             return val, grad
         # coarse start for sigma: scan a few decades
         if free_sigma:
@@ -396,13 +498,17 @@ def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float6
                        "message": str(res.message)}
     else:
         h_opt = np.array([])
-        neg2 = ev.neg2(s0, sig0)
+        neg2 = ev.neg2(f_fixed, sig0)
         convergence = {"optimiser": "none (hyperparameters given)", "converged": True,
                        "iterations": 0, "evaluations": 1, "message": ""}
-    scales_opt, sigma, kappa = unpack(h_opt)
+    f_opt, sigma, kappa = unpack(h_opt)  # also sets the tilts' scale
+    if free_scales:
+        f_opt = f_opt.copy()
+        f_opt[[6 * k + 3 + k for k in range(3)]] *= ROLL_FACTOR  # EAX, EBY, ECZ
+    scales_opt = _group_scales(f_opt) if free_scales else s_groups
     if kappa != ev.prior.kappa:
         ev.prior = ev.prior.with_kappa(kappa)
-    H, Q, cf = ev.factor(scales_opt, sigma)
+    H, Q, cf = _final_factor(ev, f_opt, sigma)
     N = H.shape[0]
     if N <= DENSE_QR_LIMIT and (ev.n + N) * N <= DENSE_QR_ENTRIES:
         x, cov = _dense_qr(design, sp.csc_matrix(Q), sigma)
@@ -422,7 +528,74 @@ def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float6
     s_res = float(np.sqrt(r @ r / dof))
     return Solution(x, cov, sigma, s_res, scales_opt, -0.5 * neg2, dof, "bayes",
                     solve=lambda rhs: _polish(H, cf, rhs), kappa=kappa,
-                    convergence=convergence)
+                    convergence=convergence, function_scales=f_opt,
+                    tilt_std_urad=ev.tilt_std if ev.has_tilts else None,
+                    trend_um=ev.prior.trend_um, kappa_factor=ev.prior.kappa_factor)
+
+
+def _hyper_map() -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Log function scales as a linear map of the free scale hyperparameters.
+
+    Returns
+    -------
+    M : ndarray, shape (18, m)
+        ``log a_f = (M h)_f``: ``h`` holds the log scales of :data:`FREE_GROUPS` (the roll
+        takes the tilts'), then one log factor per axis of each group of
+        :data:`PER_AXIS_SPREAD`.
+    centre, spread : ndarray, shape (m,)
+        Log-normal hyperprior of each hyperparameter (centre, one standard deviation).
+    """
+    groups = list(FREE_GROUPS)
+    per_axis = sorted(PER_AXIS_SPREAD)
+    m = len(groups) + 3 * len(per_axis)
+    M = np.zeros((18, m))
+    for k in range(3):
+        for c in range(6):
+            g = function_group(k, c)
+            base = g if g in groups else 3  # roll -> tilt
+            M[6 * k + c, groups.index(base)] = 1.0
+            if g in PER_AXIS_SPREAD:
+                M[6 * k + c, len(groups) + 3 * per_axis.index(g) + k] = 1.0
+    centre = np.concatenate([HYPER_CENTRE[groups], np.zeros(3 * len(per_axis))])
+    spread = np.concatenate([np.full(len(groups), HYPER_SPREAD),
+                             np.repeat([PER_AXIS_SPREAD[g] for g in per_axis], 3)])
+    return M, centre, spread
+
+
+def _group_scales(fscales: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Geometric mean of the function scales of each group of :data:`GROUPS`."""
+    out = np.zeros(len(DEFAULT_SCALES))
+    n = np.zeros(len(DEFAULT_SCALES))
+    for k in range(3):
+        for c in range(6):
+            g = function_group(k, c)
+            out[g] += np.log(fscales[6 * k + c])
+            n[g] += 1
+    return np.exp(out / n)
+
+
+def _final_factor(ev: _Evidence, fscales, sigma: float):
+    """``ev.factor`` with a diagonal jitter when the precision is numerically indefinite.
+
+    Noise-free data drive the noise to its floor, where ``A'A / s^2`` is ~1e14 times the
+    prior and its rounding can outweigh the prior in the directions the data do not see;
+    a jitter of 1e-13 of the largest diagonal entry (grown tenfold until the factorisation
+    succeeds) restores it without changing the estimate beyond that precision.
+    """
+    try:
+        return ev.factor(fscales, sigma)
+    except (np.linalg.LinAlgError, sla.LinAlgError):
+        pass
+    Q = ev.prior_dense(fscales)
+    H = ev.AtA / sigma**2 + Q
+    eps = 1e-13 * float(np.max(np.diag(H)))
+    for _ in range(8):
+        Hj = H + eps * np.eye(H.shape[0])
+        try:
+            return Hj, Q, sla.cho_factor(Hj, lower=True, check_finite=False)
+        except (np.linalg.LinAlgError, sla.LinAlgError):
+            eps *= 10.0
+    raise np.linalg.LinAlgError("posterior precision not positive definite")
 
 
 def _dense_qr(design: Design, Q, sigma: float):

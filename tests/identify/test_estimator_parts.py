@@ -255,3 +255,27 @@ def test_aligned_beam_readings_are_reproduced_by_the_design():
     assert visible == [0, 1]
     al = D._alignment_rows(truth.chain_obj.order, truth.nodes, m, T, visible)
     assert np.abs(al @ x).max() > 0.5
+
+
+def test_coarsened_design_equals_the_design_built_on_the_coarse_nodes():
+    """The hyperparameters are chosen on a coarser grid whose observation matrix is the
+    fine one times the interpolation matrix (no second pass over the readings): equal to
+    the matrix built from the readings on the coarse nodes (a subset of the fine ones),
+    nuisance columns included; not offered when known errors are held fixed."""
+    from volcal.identify.design import coarsen
+
+    s = seeds_session("FXYZ", steps=8)
+    exact_fill(s, random_machine(TRAVEL, "FXYZ", seed=21), seed=22)
+    fine = choose_nodes(s, refine=2, max_nodes=41)
+    coarse = choose_nodes(s, refine=2, max_nodes=21)
+    assert all(np.all(np.isin(c, f)) for c, f in zip(coarse, fine, strict=True))
+    d_f = build_design(s, fine, {})
+    d_c = build_design(s, coarse, {})
+    got = coarsen(d_f, coarse)
+    assert got is not None and np.array_equal(got.free, d_c.free)
+    assert got.nuisance_names == d_c.nuisance_names
+    diff = abs(got.A - d_c.A).max()
+    assert diff < 1e-9 * abs(d_c.A).max(), diff
+    np.testing.assert_array_equal(got.y, d_c.y)
+    x = np.linspace(0.0, 800.0, 5)
+    assert coarsen(build_design(s, fine, {"EXX": (x, 0.01 * x)}), coarse) is None

@@ -14,7 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from volcal.errors import VolcalInputError
-from volcal.identify.design import Design, build_design, choose_nodes
+from volcal.identify.design import Design, build_design, choose_nodes, coarsen
 from volcal.identify.identifiability import analyse
 from volcal.identify.prior import PriorStructure
 from volcal.identify.record import session_identity
@@ -375,8 +375,8 @@ def _identify_weighted(session: Session, o: IdentifyOptions,
         if scales is None and any(len(a) != len(b) for a, b in zip(nodes_h, nodes, strict=True)):
             # hyperparameters are properties of the functions, not of the grid: choose them
             # on a coarser grid (fast), then solve on the fine one, re-estimating the noise
-            design_h = build_design(session, nodes_h, known, o.drift, o.measurement_ids, o.tilts,
-                           weights=weights)
+            design_h = coarsen(design, nodes_h) or build_design(
+                session, nodes_h, known, o.drift, o.measurement_ids, o.tilts, weights=weights)
             prior_h = PriorStructure.build(design_h.layout, design_h.free, o.kappa)
             sol_h = solve_bayes(design_h, prior_h, None, noise, o.squareness_std_urad)
             if noise is None and _too_few_redundant(sol_h, design_h):

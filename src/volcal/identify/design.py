@@ -193,6 +193,60 @@ def _gauge_mask(layout: ParameterLayout) -> NDArray[np.bool_]:
     return fixed
 
 
+def coarsen(design: Design, nodes: list[NDArray[np.float64]]) -> Design | None:
+    """The same observation system on other (coarser) nodes, by interpolation.
+
+    The functions are piecewise linear on their nodes; a function on ``nodes`` is, at the
+    design's nodes, its linear interpolant, so the coarse system is ``A P`` with ``P`` the
+    interpolation matrix (exact when the coarse nodes are a subset of the fine ones, as
+    :func:`choose_nodes` makes them; a close approximation otherwise, which is all the
+    choice of hyperparameters needs). It saves rebuilding the readings' Jacobians, the
+    cost that grows with the number of readings.
+
+    Parameters
+    ----------
+    design : Design
+        Observation system on its nodes.
+    nodes : list of 3 arrays
+        The other nodes [mm], spanning the same travel.
+
+    Returns
+    -------
+    Design or None
+        None when the design holds anything but gauge zeros fixed (known errors, priors
+        with a mean): rebuild it with :func:`build_design` then.
+    """
+    if (np.any(design.fixed_values) or design.prior_mean is not None and np.any(design.prior_mean)
+            or design.extra_precision is not None and np.any(design.extra_precision)):
+        return None
+    fine = design.layout
+    layout = ParameterLayout(tuple(np.asarray(n, dtype=float) for n in nodes))
+    rows, cols, vals = [], [], []
+    for k in range(3):
+        xf, xc = np.asarray(fine.nodes[k]), np.asarray(layout.nodes[k])
+        if xc.size == 1:
+            W = np.ones((xf.size, 1))
+        else:
+            W = np.column_stack([np.interp(xf, xc, e) for e in np.eye(xc.size)])
+        r, c = np.nonzero(W)
+        for comp in range(6):
+            rows.append(fine.indices(k, comp)[r])
+            cols.append(layout.indices(k, comp)[c])
+            vals.append(W[r, c])
+    rows.append(fine.squareness_indices())
+    cols.append(layout.squareness_indices())
+    vals.append(np.ones(3))
+    P = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                      shape=(fine.size, layout.size))
+    free = np.flatnonzero(~_gauge_mask(layout))
+    nf = design.n_free
+    A_funcs = design.A[:, :nf] @ P[design.free][:, free]
+    A = sp.hstack([A_funcs, design.A[:, nf:]]).tocsr()
+    return Design(layout, design.chain, design.travel, free, np.zeros(layout.size), A,
+                  design.y, design.nuisance_names, design.rows, design.measurements,
+                  list(design.fixed_names), None, None, design.row_scale)
+
+
 def drift_separable(m: Measurement, tol_mm: float = 1e-3) -> bool:
     """True when a linear drift of a measurement can be told apart from the geometry.
 
@@ -254,9 +308,10 @@ def _alignment_rows(chain_order, nodes, m: Measurement, T: NDArray[np.float64],
     far = int(np.argmax(np.linalg.norm(q - q[0], axis=1)))
     L = float(np.linalg.norm(q[far] - q[0]))
     Je, _ = pose_jacobian(chain_order, nodes, q[[0, far]], m.tool_offset)
-    de = (Je[3:6] - Je[0:3]).toarray()  # [um per parameter]
-    G = perpendicular_basis(m.beam_direction) @ de * (UM / URAD) / L  # [urad per parameter]
-    return sp.csr_matrix(T[:, visible] @ G[visible])
+    de = sp.csr_matrix(Je[3:6] - Je[0:3])  # [um per parameter], a few dozen columns
+    B = perpendicular_basis(m.beam_direction)[visible] * (UM / URAD) / L
+    G = sp.csr_matrix(B) @ de  # [urad per parameter]
+    return (sp.csr_matrix(T[:, visible]) @ G).tocsr()
 
 
 def _nuisance_columns(m: Measurement, drift: bool, tilts: bool = True):

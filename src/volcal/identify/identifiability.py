@@ -338,7 +338,9 @@ def _messages(rep: IdentifiabilityReport, design: Design) -> None:
     if step_flat and len(linears) < 2:
         rep.messages.append(
             "The slopes of the positioning errors are confounded with the mirror tilts of the "
-            "step diagonals (Soons, section 4): add a linear measurement of X or Y.")
+            "step diagonals (Soons, section 4): only the assumption that the set-ups' tilts "
+            "are independent and small separates them, weakly, and their uncertainty is "
+            "carried into the predictions; add a linear measurement of X or Y.")
 
 
 def _null_variance(GPs: NDArray[np.float64], N: NDArray[np.float64],

@@ -241,7 +241,7 @@ def advise(session: Session, options: IdentifyOptions | None = None):
     """
     from copy import copy
 
-    from volcal.identify.solver import HYPER_CENTRE
+    from volcal.identify.solver import HYPER_CENTRE, TREND_CENTRE_UM
 
     o = options or IdentifyOptions()
     known = _known(o)
@@ -252,12 +252,13 @@ def advise(session: Session, options: IdentifyOptions | None = None):
     nodes_a = choose_nodes(planned, refine=1, max_nodes=min(o.max_nodes, ANALYSIS_MAX_NODES))
     design = build_design(planned, nodes_a, known, o.drift, o.measurement_ids, o.tilts)
     kappa = float(np.exp(HYPER_CENTRE[-1]))
-    prior = PriorStructure.build(design.layout, design.free, kappa)
+    prior = PriorStructure.build(design.layout, design.free, kappa).with_trend(TREND_CENTRE_UM)
     cands = candidate_designs(planned, nodes_a, known) if o.suggest else None
     report = analyse(design, prior, DEFAULT_SCALES.copy(), o.squareness_std_urad, cands)
     report.messages.insert(0, "Before measuring: the figures assume a typical machining centre "
-                              "(prior scales: positioning 10 um, straightness 5 um, roll and "
-                              "tilts 15 urad); the measured data will refine them.")
+                              "(prior scales: positioning 10 um with a linear trend of "
+                              f"{TREND_CENTRE_UM:g} um over the travel, straightness 5 um, "
+                              "roll and tilts 15 urad); the measured data will refine them.")
     if any(m.kind == "multilateration" for m in session.measurements):
         from volcal.identify import multilateration as _ml
 

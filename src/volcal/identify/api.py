@@ -412,7 +412,8 @@ def _identify_weighted(session: Session, o: IdentifyOptions,
     scales = (sol.function_scales if sol.function_scales is not None
               else sol.scales if np.all(np.isfinite(sol.scales)) else DEFAULT_SCALES.copy())
     cands = candidate_designs(session, nodes_a, known) if o.suggest else None
-    report = analyse(design1, prior1, scales, o.squareness_std_urad, cands)
+    report = analyse(design1, prior1, scales, o.squareness_std_urad, cands,
+                     ata=sol.ata if design1 is design else None)
     if o.prior == "none":
         report.messages.insert(0, "Minimum-norm least squares: combinations the data do not "
                                   "determine are set to zero and carry no uncertainty.")

@@ -133,7 +133,7 @@ def rigid_projector(q: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.eye(3 * q.shape[0]) - Qm @ Qm.T
 
 
-def information(design: Design) -> NDArray[np.float64]:
+def information(design: Design, ata: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
     """Data information matrix of the free parameters, nuisances eliminated.
 
     Sparse products only: ``A_f^T A_f - (A_f^T A_n) (A_n^T A_n)^+ (A_n^T A_f)``.
@@ -143,6 +143,9 @@ def information(design: Design) -> NDArray[np.float64]:
     design : Design
         Assembled observation system; ``A`` holds the free columns first, then the
         nuisance columns.
+    ata : ndarray, optional
+        ``A^T A`` of this design if already formed (dense; the solver's), saving the pass
+        over the readings.
 
     Returns
     -------
@@ -150,13 +153,16 @@ def information(design: Design) -> NDArray[np.float64]:
         Symmetric information matrix of the free parameters for unit reading variance:
         the Schur complement of the nuisance block of ``A^T A``.
     """
-    A = design.A.tocsc()
     nf = design.n_free
-    Af, An = A[:, :nf], A[:, nf:]
-    F = (Af.T @ Af).toarray()
-    if An.shape[1]:
+    if ata is not None:
+        F, C, G = ata[:nf, :nf], ata[:nf, nf:], ata[nf:, nf:]
+    else:
+        A = design.A.tocsc()
+        Af, An = A[:, :nf], A[:, nf:]
+        F = (Af.T @ Af).toarray()
         C = (Af.T @ An).toarray()
         G = (An.T @ An).toarray()
+    if G.shape[1]:
         F = F - C @ np.linalg.pinv(G, hermitian=True) @ C.T
     return (F + F.T) / 2
 
@@ -224,7 +230,8 @@ def _null_basis(F: NDArray[np.float64], tol: float = 1e-9
 
 def analyse(design: Design, prior: PriorStructure, scales: NDArray[np.float64],
             squareness_std: float, candidates: dict[str, Design] | None = None,
-            tool_offset: NDArray[np.float64] | None = None) -> IdentifiabilityReport:
+            tool_offset: NDArray[np.float64] | None = None,
+            ata: NDArray[np.float64] | None = None) -> IdentifiabilityReport:
     """Identifiability report of a design (nodes at the measured positions).
 
     Parameters
@@ -242,6 +249,8 @@ def analyse(design: Design, prior: PriorStructure, scales: NDArray[np.float64],
         the key is the plain-word description.
     tool_offset : ndarray, optional
         Tool offset for the volumetric ambiguity [mm].
+    ata : ndarray, optional
+        ``A^T A`` of ``design`` if already formed (:func:`information`).
 
     Returns
     -------
@@ -249,7 +258,7 @@ def analyse(design: Design, prior: PriorStructure, scales: NDArray[np.float64],
     """
     nf = design.n_free
     Qp = prior.precision(scales, squareness_std, nf, np.zeros(0)).toarray()
-    F = information(design)
+    F = information(design, ata)
     scale = np.sqrt(np.diag(Qp))
     Fs = F / np.outer(scale, scale)
     Qs = Qp / np.outer(scale, scale)

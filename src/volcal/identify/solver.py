@@ -134,6 +134,8 @@ class Solution:
         ``rhs -> H^-1 rhs`` with the factorised posterior precision (Monte Carlo).
     function_scales : ndarray, shape (18,) or None
         Prior amplitude scale of each function, ``6 * axis + component`` [um, urad].
+    ata : ndarray or None
+        ``A^T A`` of the design (dense), for the identifiability report.
     tilt_std_urad : float or None
         Prior standard deviation of the set-up tilts (beam and mirror) [urad]; None when
         the design has none.
@@ -160,6 +162,7 @@ class Solution:
     kappa: float = float("nan")
     convergence: dict = field(default_factory=dict)
     function_scales: NDArray[np.float64] | None = None
+    ata: NDArray[np.float64] | None = field(default=None, repr=False)
     tilt_std_urad: float | None = None
     trend_um: float = 0.0
     kappa_factor: tuple[float, ...] = (1.0, 1.0, 1.0, 1.0)
@@ -581,7 +584,7 @@ def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float6
     s_res = float(np.sqrt(r @ r / dof))
     return Solution(x, cov, sigma, s_res, scales_opt, -0.5 * neg2, dof, "bayes",
                     solve=lambda rhs: _polish(H, cf, rhs), kappa=kappa,
-                    convergence=convergence, function_scales=f_opt,
+                    convergence=convergence, function_scales=f_opt, ata=ev.AtA,
                     tilt_std_urad=ev.tilt_std if ev.has_tilts else None,
                     trend_um=ev.prior.trend_um, kappa_factor=ev.prior.kappa_factor)
 

@@ -33,7 +33,7 @@ def test_posterior_covariance_is_the_dense_inverse_of_the_precision(small):
     _, design, prior = small
     sol = solve_bayes(design, prior, np.array([10.0, 5.0, 15.0, 15.0]), 0.5)
     ev_h = (design.A.T @ design.A).toarray() / 0.5**2
-    from volcal.identify.solver import _nuisance_precision
+    from volcal.identify.evidence import _nuisance_precision
 
     Q = prior.precision(np.array([10.0, 5.0, 15.0, 15.0]), 100.0, ev_h.shape[0],
                         _nuisance_precision(design)).toarray()
@@ -105,7 +105,7 @@ def test_evidence_gradient_equals_central_differences(small, extra):
     central differences of the value (step 1e-5 in log space), with the block-diagonal
     prior (traces from the blocks) and with an extra precision (a known function given
     with its uncertainty: traces from the dense Q^-1)."""
-    from volcal.identify.solver import _Evidence
+    from volcal.identify.evidence import _Evidence
 
     s, design, prior = small
     if extra:
@@ -155,12 +155,12 @@ def test_evidence_equals_the_gaussian_marginal_likelihood(small, monkeypatch):
     ``y ~ N(0, sigma^2 I + A Q^-1 A^T)`` (the integral over the parameters in closed
     form), with proper nuisance priors (precision 1e-2) so that the dense covariance is
     well conditioned."""
-    import volcal.identify.solver as solver
+    import volcal.identify.evidence as evidence
 
     _, design, prior = small
-    monkeypatch.setattr(solver, "NUISANCE_PRECISION",
-                        {k: 1e-2 for k in solver.NUISANCE_PRECISION})
-    ev = solver._Evidence(design, prior, 100.0)
+    monkeypatch.setattr(evidence, "NUISANCE_PRECISION",
+                        {k: 1e-2 for k in evidence.NUISANCE_PRECISION})
+    ev = evidence._Evidence(design, prior, 100.0)
     scales, sigma, kappa = np.array([8.0, 4.0, 12.0, 20.0]), 0.4, 7.0
     got = ev.neg2(scales, sigma, kappa)
     Q = ev.prior_dense(scales, kappa)
@@ -176,8 +176,8 @@ def test_evidence_gradient_in_every_hyperparameter(small):
     """The per-function gradient (18 function scales, kappa, sigma, the set-up tilts'
     scale, the positioning trend) against central differences, with the trend in the prior
     and a finite tilt prior (the seeds' set has step diagonals, hence tilts)."""
+    from volcal.identify.evidence import _Evidence
     from volcal.identify.prior import TREND_FUNCTIONS
-    from volcal.identify.solver import _Evidence
 
     _, design, prior = small
     ev = _Evidence(design, prior.with_trend(12.0), 100.0)

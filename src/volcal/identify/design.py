@@ -314,9 +314,10 @@ def _alignment_rows(chain_order, nodes, m: Measurement, T: NDArray[np.float64],
     return (sp.csr_matrix(T[:, visible]) @ G).tocsr()
 
 
-def _nuisance_columns(m: Measurement, drift: bool, tilts: bool = True):
+def _nuisance_columns(m: Measurement, drift: bool, tilts: bool, T: NDArray[np.float64],
+                      visible: list[int]):
+    """Set-up nuisance columns of a test; ``T, visible`` from :func:`_visible_tilts`."""
     cols, names = [np.ones(m.n)], [f"{m.id}:offset"]
-    T, visible = _visible_tilts(m)
     if tilts:
         for j in visible:
             cols.append(T[:, j])
@@ -423,8 +424,8 @@ def build_design(session: Session, nodes: list[NDArray[np.float64]] | None = Non
         else:
             J = reading_jacobian(chain.order, layout.nodes, m)
             y_m = m.deviation
-            N, names = _nuisance_columns(m, drift, tilts)
             T, visible = _visible_tilts(m)
+            N, names = _nuisance_columns(m, drift, tilts, T, visible)
             if tilts and visible:
                 J = (J + _alignment_rows(chain.order, layout.nodes, m, T, visible)).tocsr()
         ys.append(y_m - J @ fixed_values)

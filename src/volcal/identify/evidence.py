@@ -111,16 +111,24 @@ class _Evidence:
         dk = -2.0 * T @ K @ T.T
         return [(f, -2.0 * Qb + 2.0 * t2 * ww), (21, -2.0 * t2 * ww), (18, dk), (gk, dk)]
 
-    def prior_dense(self, scales, kappa=None):
-        """Dense prior precision ``Q`` for group (4) or function (18) scales."""
+    def _prior_blocks(self, scales, kappa=None):
+        """Function scales (18) and per-block precisions at these hyperparameters."""
         if kappa is not None and kappa != self.prior.kappa:
             self.prior = self.prior.with_kappa(kappa)
         fs = function_scales(scales)
+        return fs, self._block_precisions(fs)
+
+    def _assemble(self, blocks) -> NDArray[np.float64]:
+        """Dense ``Q`` from the per-block precisions and the diagonal."""
         Q = np.zeros((self.N, self.N))
-        for flat, (Qb, _) in zip(self._flat, self._block_precisions(fs), strict=True):
+        for flat, (Qb, _) in zip(self._flat, blocks, strict=True):
             Q.flat[flat] += Qb.ravel()
         Q[np.diag_indices_from(Q)] += self._diag
         return Q
+
+    def prior_dense(self, scales, kappa=None):
+        """Dense prior precision ``Q`` for group (4) or function (18) scales."""
+        return self._assemble(self._prior_blocks(scales, kappa)[1])
 
     def factor(self, scales, sigma, kappa=None):
         Q = self.prior_dense(scales, kappa)
@@ -130,9 +138,12 @@ class _Evidence:
     def _value(self, scales, sigma, kappa=None):
         """``neg2`` with the parts its gradient reuses.
 
-        Returns ``(value, Q, cf, x, |r|^2, block inverses of Q)``.
+        Returns ``(value, Q, cf, x, |r|^2, block Cholesky factors of Q, block precisions)``;
+        the block precisions are computed once per evaluation.
         """
-        H, Q, cf = self.factor(scales, sigma, kappa)
+        fs, blocks = self._prior_blocks(scales, kappa)
+        Q = self._assemble(blocks)
+        cf = sla.cho_factor(self.AtA / sigma**2 + Q, lower=True, check_finite=False)
         b = self.Aty / sigma**2
         x = sla.cho_solve(cf, b, check_finite=False)
         # the data term y'y/s^2 - b'H^-1 b as the minimum it is, |y - A x|^2/s^2 + x'Q x:
@@ -142,17 +153,16 @@ class _Evidence:
         rr = float(r @ r)
         data = rr / sigma**2 + float(x @ (Q @ x))
         logdet_h = 2.0 * float(np.sum(np.log(np.diag(cf[0]))))
-        # log det Q block by block (Q is block diagonal); the block inverses serve the
+        # log det Q block by block (Q is block diagonal); the block factors serve the
         # gradient's tr(Q^-1 dQ) terms
-        fs = function_scales(scales)
         logdet_q = float(np.sum(np.log(self._diag[self._outside])))
         qinv = []
-        for Qb, ex in self._block_precisions(fs):
+        for Qb, ex in blocks:
             cb = sla.cho_factor(Qb + np.diag(ex), lower=True, check_finite=False)
             logdet_q += 2.0 * float(np.sum(np.log(np.diag(cb[0]))))
             qinv.append(cb)
         val = data + logdet_h - logdet_q + self.n * np.log(2 * np.pi * sigma**2)
-        return float(val), Q, cf, x, rr, qinv
+        return float(val), Q, cf, x, rr, qinv, blocks
 
     def neg2(self, scales, sigma, kappa=None) -> float:
         self.evaluations += 1
@@ -184,7 +194,7 @@ class _Evidence:
         """
         self.evaluations += 1
         try:
-            val, Q, cf, x, rr, qinv = self._value(scales, sigma, kappa)
+            val, Q, cf, x, rr, qinv, blocks = self._value(scales, sigma, kappa)
         except (np.linalg.LinAlgError, sla.LinAlgError):
             return 1e300, np.zeros(26)
         fs = function_scales(scales)
@@ -192,8 +202,8 @@ class _Evidence:
         grad = np.zeros(26)
         gamma = np.zeros(26)  # effective number of parameters each hyperparameter governs
         tr_hq = float(np.diag(Hinv) @ self._diag)
-        for bi, ((idx, *_), cb) in enumerate(zip(self.prior.blocks, qinv, strict=True)):
-            Qb = self.prior.block_precision(bi, fs)
+        for bi, ((idx, *_), cb, (Qb, _)) in enumerate(
+                zip(self.prior.blocks, qinv, blocks, strict=True)):
             Hb = Hinv[np.ix_(idx, idx)]
             xb = x[idx]
             Qb_inv = sla.cho_solve(cb, np.eye(idx.size), check_finite=False)

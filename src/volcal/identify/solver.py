@@ -311,12 +311,15 @@ def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float6
                 h0[-1] = float(np.clip(0.5 * np.log(max(s2, 1e-300)), *bounds[-1]))
         history: list[float] = []
 
+        def flat() -> bool:
+            # three iterations improving -2 log evidence by less than EVIDENCE_TOL change
+            # nothing a user sees (flat directions, e.g. a scale the data hardly inform,
+            # otherwise take dozens of tiny steps)
+            return len(history) > 3 and history[-4] - history[-1] < EVIDENCE_TOL
+
         def stop_when_flat(intermediate_result):
-            # an iteration that improves -2 log evidence by less than EVIDENCE_TOL (three
-            # in a row) changes nothing a user sees: stop (flat directions, e.g. a scale
-            # the data hardly inform, otherwise take dozens of tiny steps)
             history.append(float(intermediate_result.fun))
-            if len(history) > 3 and history[-4] - history[-1] < EVIDENCE_TOL:
+            if flat():
                 raise StopIteration
 
         w = _preconditioner(ev, free_scales, free_sigma, M, extra, spread, unpack, h0)
@@ -330,8 +333,7 @@ def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float6
                        callback=stop_when_flat,
                        options={"maxiter": 200, "ftol": 1e-10, "gtol": 1e-2})
         res.x = res.x / w
-        flat = len(history) > 3 and history[-4] - history[-1] < EVIDENCE_TOL
-        if flat:
+        if flat():
             res.success = True
             res.message = (f"CONVERGENCE: -2 log evidence improved by less than {EVIDENCE_TOL:g} "
                            "in 3 iterations")

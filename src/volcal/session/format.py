@@ -24,6 +24,12 @@ from volcal.io.atomic import atomic_dir, write_text
 from volcal.io.table import Column, TableSpec, read_table
 from volcal.io.tomlfmt import dumps as toml_dumps
 from volcal.model.chain import parse_chain
+from volcal.session.identity import (
+    MachineIdentity,
+    read_calibration,
+    read_equipment,
+    read_machine_identity,
+)
 
 SESSION_FORMAT = "volcal-session/1"
 KINDS: tuple[str, ...] = ("linear", "diagonal", "step_diagonal", "multilateration")
@@ -291,6 +297,12 @@ class Session:
     provenance : dict
         The ``[provenance]`` table: who wrote the readings (``readings = "simulated"``,
         seed, date, digest of the readings; ``docs/formats.md``).
+    calibration : dict
+        The ``[calibration]`` table (date of measurement, operator, customer,
+        laboratory; :mod:`volcal.session.identity`).
+    equipment : list of dict
+        The ``[[equipment]]`` entries (role, make, model, serial, certificate,
+        calibrated, due).
 
     Raises
     ------
@@ -309,6 +321,8 @@ class Session:
     notes: list[str] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
     provenance: dict[str, Any] = field(default_factory=dict)
+    calibration: dict[str, Any] = field(default_factory=dict)
+    equipment: list[dict[str, Any]] = field(default_factory=list)
 
     def __post_init__(self) -> None:
         """Validate chain, travel and measurements."""
@@ -323,6 +337,11 @@ class Session:
             if m.id in seen:
                 raise VolcalInputError(f"duplicate measurement id {m.id!r}")
             seen.add(m.id)
+
+    @property
+    def identity(self) -> MachineIdentity:
+        """The machine's identity (:class:`volcal.session.identity.MachineIdentity`)."""
+        return MachineIdentity.of(self)
 
     @property
     def unmeasured_ids(self) -> list[str]:
@@ -358,6 +377,10 @@ class Session:
         machine["travel_mm"] = {a: [float(v) for v in self.travel[i]] for i, a in enumerate("xyz")}
         every = [*self.measurements, *self.unmeasured]  # set-aside ones kept, at the end
         doc: dict[str, Any] = {"format": SESSION_FORMAT, "machine": machine}
+        if self.calibration:
+            doc["calibration"] = dict(self.calibration)
+        if self.equipment:
+            doc["equipment"] = [dict(e) for e in self.equipment]
         if self.provenance:
             doc["provenance"] = dict(self.provenance)
         doc["measurements"] = [m.to_toml() for m in every]
@@ -640,7 +663,8 @@ def read_session(folder: str | Path, require_deviation: bool = True) -> Session:
     if unmeasured:
         notes.insert(0, f"no readings yet: {', '.join(m.id for m in unmeasured)} "
                      f"(working on the {len(meas)} measured)")
-    s = Session(name, chain, travel, meas, meta, folder, unmeasured, notes, [], provenance)
+    s = Session(name, chain, travel, meas, meta, folder, unmeasured, notes, [], provenance,
+                read_calibration(doc, toml_path), read_equipment(doc, toml_path))
     if require_deviation:
         from volcal.session.plausibility import plausibility_warnings
 
@@ -688,6 +712,7 @@ def _read_machine(doc: dict[str, Any], toml_path: Path
         raise _err(exc.message, toml_path, None, "machine.chain") from None
     travel = _read_travel(machine.get("travel_mm"), toml_path)
     meta = {k: v for k, v in machine.items() if k not in ("name", "chain", "travel_mm")}
+    meta.update(read_machine_identity(machine, toml_path))  # identity keys validated, as text
     provenance = doc.get("provenance", {})
     if not isinstance(provenance, dict):
         raise _err("[provenance] must be a table", toml_path, None, "provenance")

@@ -46,6 +46,8 @@ class SessionEvaluation:
         (ranges of EXX, EYY, EZZ) or ``''``.
     skipped : dict of str to str
         Measurements not evaluated, with the reason.
+    unmeasured : list of str
+        Planned measurements without readings (``Session.unmeasured``).
     """
 
     iso230_2: dict[str, Any] = field(default_factory=dict)
@@ -55,6 +57,13 @@ class SessionEvaluation:
     elv: dict[str, float] | None = None
     elv_source: str = ""
     skipped: dict[str, str] = field(default_factory=dict)
+    unmeasured: list[str] = field(default_factory=list)
+
+    @property
+    def incomplete(self) -> list[str]:
+        """Ids of the evaluated tests with missed readings (linear and diagonal)."""
+        return [k for k, v in [*self.iso230_2.items(), *self.iso230_6.items()]
+                if not getattr(v, "complete", True)]
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dictionary (values [um])."""
@@ -64,7 +73,8 @@ class SessionEvaluation:
                 "volumetric": None if self.volumetric is None else self.volumetric.to_dict(),
                 "ELv": None if self.elv is None else self.elv["ELv"],
                 "elv": self.elv, "elv_source": self.elv_source,
-                "skipped": list(self.skipped)}
+                "skipped": list(self.skipped), "incomplete": self.incomplete,
+                "unmeasured": list(self.unmeasured)}
 
     def __repr__(self) -> str:
         """Short one-line description."""
@@ -106,6 +116,10 @@ def evaluate_session(session: Any, result: Any = None, edition: str = "2014"
 
     Notes
     -----
+    A linear test with missed captures is evaluated per target over the runs that reached
+    it and marked incomplete (``complete``, ``missing``, ``notes`` of its result); an
+    incomplete diagonal is marked likewise (:mod:`volcal.standards.iso230_6`).
+
     ELv = sqrt(ELx^2 + ELy^2 + ELz^2), ELx = max Dx(x) - min Dx(x) (seed 002); see the
     module docstring for the measured and model sources.
 
@@ -119,7 +133,7 @@ def evaluate_session(session: Any, result: Any = None, edition: str = "2014"
     from volcal.standards.iso230_6 import evaluate_diagonal
     from volcal.standards.positioning_data import from_measurement
 
-    ev = SessionEvaluation()
+    ev = SessionEvaluation(unmeasured=[m.id for m in getattr(session, "unmeasured", [])])
     for m in session.measurements:
         if m.deviation is None:
             ev.skipped[m.id] = "no readings yet"
@@ -130,7 +144,7 @@ def evaluate_session(session: Any, result: Any = None, edition: str = "2014"
                 continue
             d = from_measurement(m, session.path)
             ev.iso230_2[m.id] = evaluate(d.targets_mm, d.run, d.direction, d.deviation_um,
-                                         edition, file=d.file, rows=d.rows)
+                                         edition, **d.evaluate_kwargs())
             ev.axis[m.id] = d.axis or "?"
         elif m.kind == "diagonal":
             ev.iso230_6[m.id] = evaluate_diagonal(m, edition)

@@ -480,9 +480,8 @@ def build_report(inp: ReportInputs, title: str | None = None) -> Report:
     Report
     """
     from volcal import __version__
-    from volcal.report.multilateration import multilateration_section
-
     from volcal.report.completeness import completeness_section
+    from volcal.report.multilateration import multilateration_section
 
     builders = [machine_section, measurements_section, completeness_section,
                 positioning_section,

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_iso230_2 import EXPECTED, TARGETS, cycle
+from test_iso230_2 import EXPECTED, cycle
 
 from volcal.cli import main
 from volcal.errors import VolcalInputError

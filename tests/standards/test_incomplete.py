@@ -207,6 +207,23 @@ def test_session_with_one_missed_capture_is_evaluated(S, monkeypatch, capsys):
             "runs that reached it") in text
 
 
+def test_test_with_too_few_captures_is_skipped_and_the_others_evaluated(S, monkeypatch,
+                                                                         capsys):
+    r = _rows(S / "linear-z1.csv")
+    for x in r[1:]:
+        if x[5] == "-":
+            x[3] = "missed"
+    _write(S / "linear-z1.csv", r)
+    code, out, err = run_cli(monkeypatch, capsys, "evaluate", "session", S, "--json")
+    assert code == 0, err
+    d = json.loads(out)
+    assert len(d["measurements"]) == 8 and "linear-z1" not in d["measurements"]
+    assert d["skipped"] == ["linear-z1"]
+    assert d["skipped_reasons"]["linear-z1"] == (
+        "too many missed captures: no readings in direction '-': ISO 230-2 needs "
+        "bidirectional runs")
+
+
 def test_incomplete_diagonal_is_marked(S, monkeypatch, capsys):
     for row in range(8, 13):  # the last 5 of 11 points of diag-ppp missed: 6 of 11
         set_cell(S / "diag-ppp.csv", row, "deviation_um", "missed")
@@ -275,6 +292,16 @@ def test_readings_1000x_too_small_are_flagged(S, monkeypatch, capsys):
     assert len(w) == 1 and w[0].startswith("linear-y2.csv: 2s repeatability ")
     assert "nm on a 790 mm line, below the 20 nm no interferometer in air reads" in w[0]
     assert w[0] in err
+    # and in the report's text, naming the measurement
+    from volcal.report.completeness import completeness_section
+    from volcal.report.sections import ReportInputs
+    from volcal.session.format import read_session
+
+    sec = completeness_section(ReportInputs(read_session(S)))
+    assert sec is not None and sec.paragraphs[0] == "All 13 planned tests were measured."
+    assert any(x.startswith("implausible readings: linear-y2: deviations ~")
+               and x.endswith("mm typed into deviation_um in linear-y2.csv?")
+               for x in sec.warnings)
 
 
 def test_floor_warnings():

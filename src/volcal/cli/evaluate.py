@@ -188,7 +188,8 @@ def session_cmd(
     print_session_notes(s)
     ev = evaluate_session(s, edition=edition)
     results, axis_of = ev.iso230_2, ev.axis
-    skipped = [k for k, why in ev.skipped.items() if why == "no run/direction columns"]
+    why_skipped = {k: why for k, why in ev.skipped.items() if why != "no readings yet"}
+    skipped = list(why_skipped)
     if not results:
         raise VolcalInputError("no linear measurement with run and direction columns", session)
     elv_val = None if ev.elv is None else ev.elv["ELv"]
@@ -197,6 +198,7 @@ def session_cmd(
         out: dict[str, Any] = {"measurements": {k: {"axis": axis_of[k], **v.to_dict()}
                                                 for k, v in results.items()},
                                "ELv": elv_val, "skipped": skipped,
+                               "skipped_reasons": why_skipped,
                                "incomplete": [k for k, v in results.items() if not v.complete],
                                "unmeasured": list(ev.unmeasured)}
         if verdict is not None:
@@ -225,8 +227,8 @@ def session_cmd(
             grouped.setdefault(w, []).append(k)
     for w, ids in grouped.items():
         console.print(f"[yellow]warning[/] ({', '.join(ids)}): {escape(w)}", highlight=False)
-    for k in skipped:
-        console.print(f"[yellow]skipped[/] {k}: no run/direction columns")
+    for k, why in why_skipped.items():
+        console.print(f"[yellow]skipped[/] {k}: {escape(why)}", highlight=False)
     if verdict is not None:
         _print_verdict(verdict, tol[1] is not None)
 

@@ -27,7 +27,7 @@ def _target_effect(m: Any, rec: dict[str, Any], res: Any) -> tuple[str, str]:
     """Target [mm] of a missed linear reading and the runs that reached that target."""
     t = float(rec["position_mm"][m.axis])
     if res is None:
-        return _fmt_mm(t), "no ISO 230-2 (no runs)"
+        return _fmt_mm(t), "not evaluated"
     targets = np.asarray(res.targets.target_mm, dtype=float)
     i = int(np.argmin(np.abs(targets - t)))
     nu, nd = res.targets.counts()

@@ -179,6 +179,15 @@ def noise_free_simulation(provenance: dict) -> bool:
     """Whether ``[provenance]`` declares a simulation with less noise than the floor.
 
     Such readings are exact by design: the repeatability floor does not apply.
+
+    Parameters
+    ----------
+    provenance : dict
+        The session's ``[provenance]`` table (``readings``, ``noise_um`` [um]).
+
+    Returns
+    -------
+    bool
     """
     if provenance.get("readings") != "simulated":
         return False

@@ -118,7 +118,9 @@ def evaluate_session(session: Any, result: Any = None, edition: str = "2014"
     -----
     A linear test with missed captures is evaluated per target over the runs that reached
     it and marked incomplete (``complete``, ``missing``, ``notes`` of its result); an
-    incomplete diagonal is marked likewise (:mod:`volcal.standards.iso230_6`).
+    incomplete diagonal is marked likewise (:mod:`volcal.standards.iso230_6`). A test with
+    too few captures left for any evaluation (e.g. one run in a direction) is listed in
+    ``skipped`` with the reason, and the others are evaluated.
 
     ELv = sqrt(ELx^2 + ELy^2 + ELz^2), ELx = max Dx(x) - min Dx(x) (seed 002); see the
     module docstring for the measured and model sources.
@@ -129,6 +131,7 @@ def evaluate_session(session: Any, result: Any = None, edition: str = "2014"
     ISO 230-6:2002, diagonal displacement tests. ISO 230-1:2012, Annex (volumetric
     indices). Seed 002 (ELv).
     """
+    from volcal.errors import VolcalInputError
     from volcal.standards.iso230_2 import evaluate
     from volcal.standards.iso230_6 import evaluate_diagonal
     from volcal.standards.positioning_data import from_measurement
@@ -143,11 +146,22 @@ def evaluate_session(session: Any, result: Any = None, edition: str = "2014"
                 ev.skipped[m.id] = "no run/direction columns"
                 continue
             d = from_measurement(m, session.path)
-            ev.iso230_2[m.id] = evaluate(d.targets_mm, d.run, d.direction, d.deviation_um,
-                                         edition, **d.evaluate_kwargs())
+            try:
+                ev.iso230_2[m.id] = evaluate(d.targets_mm, d.run, d.direction,
+                                             d.deviation_um, edition, **d.evaluate_kwargs())
+            except VolcalInputError as exc:
+                if not m.meta.get("_missed"):
+                    raise
+                ev.skipped[m.id] = f"too many missed captures: {exc.message}"
+                continue
             ev.axis[m.id] = d.axis or "?"
         elif m.kind == "diagonal":
-            ev.iso230_6[m.id] = evaluate_diagonal(m, edition)
+            try:
+                ev.iso230_6[m.id] = evaluate_diagonal(m, edition)
+            except VolcalInputError as exc:
+                if not m.meta.get("_missed"):
+                    raise
+                ev.skipped[m.id] = f"too many missed captures: {exc.message}"
     first: dict[str, float] = {}
     for mid, r in ev.iso230_2.items():
         first.setdefault(ev.axis[mid], float(r.M))

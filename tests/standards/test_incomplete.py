@@ -283,7 +283,7 @@ def test_readings_1000x_too_small_are_flagged(S, monkeypatch, capsys):
     assert code == 0
     assert "warning: linear-y2: deviations ~" in err
     assert ("x smaller than the session's other linear tests" in err
-            and "mm typed into deviation_um in linear-y2.csv?" in err)
+            and "readings 1000x too small (mm typed into deviation_um) in linear-y2.csv?" in err)
     # the same file alone: the floors need no other test
     code, out, err = run_cli(monkeypatch, capsys, "evaluate", "iso230-2", S / "linear-y2.csv",
                              "--json")
@@ -300,8 +300,26 @@ def test_readings_1000x_too_small_are_flagged(S, monkeypatch, capsys):
     sec = completeness_section(ReportInputs(read_session(S)))
     assert sec is not None and sec.paragraphs[0] == "All 13 planned tests were measured."
     assert any(x.startswith("implausible readings: linear-y2: deviations ~")
-               and x.endswith("mm typed into deviation_um in linear-y2.csv?")
+               and x.endswith("readings 1000x too small (mm typed into deviation_um) in "
+                              "linear-y2.csv?")
                for x in sec.warnings)
+
+
+def test_import_warns_about_readings_1000x_too_small(S, tmp_path, monkeypatch, capsys):
+    """A vendor export without a unit in its header, holding mm: read as um, flagged."""
+    rows = _rows(S / "linear-x1.csv")[1:]
+    f = tmp_path / "export.csv"
+    f.write_text("Target,Run,Dir,Error\n" + "".join(
+        f"{r[0]},{r[4]},{'fwd' if r[5] == '+' else 'bwd'},{float(r[3]) / 1000:.7f}\n"
+        for r in rows))
+    code, out, err = run_cli(monkeypatch, capsys, "import", f, "--map",
+                             "target=Target,run=Run,direction=Dir,deviation=Error",
+                             "--session", S, "--axis", "X", "--id", "linear-x9")
+    assert code == 0, err
+    text = " ".join(out.split())
+    assert "deviation column 'Error': um (assumed; no unit in the header)" in text
+    assert "warning: linear-x9: deviations ~" in text
+    assert "x smaller than the session's other linear tests" in text
 
 
 def test_floor_warnings():
@@ -314,7 +332,8 @@ def test_floor_warnings():
     w = reading_warnings("l1", "l1.csv", 800.0, dev / 1000.0)
     r = np.ptp(dev) / 1000.0
     assert w == [f"l1: the deviations span {r:.3g} um over 800 mm ({r / 0.8:.3g} um/m), "
-                 "below the 0.1 um/m any machine shows: mm typed into deviation_um in l1.csv?"]
+                 "below the 0.1 um/m any machine shows: readings 1000x too small (mm typed "
+                 "into deviation_um) in l1.csv?"]
     assert reading_warnings("l1", "l1.csv", 99.0, dev / 1000.0) == []  # too short to judge
     # a 2s repeatability of 10 nm over 5 runs at each target (range fine)
     t = np.repeat(x, 5)
@@ -323,7 +342,8 @@ def test_floor_warnings():
     w = reading_warnings("l2", "l2.csv", 800.0, np.repeat(dev, 5) + noise, t, run,
                          np.full(t.size, "+"))
     assert w == ["l2: 2s repeatability 10 nm on a 800 mm line, below the 20 nm no "
-                 "interferometer in air reads: mm typed into deviation_um in l2.csv?"]
+                 "interferometer in air reads: readings 1000x too small (mm typed into "
+                 "deviation_um) in l2.csv?"]
     assert REPEATABILITY_FLOOR_UM == 0.02
     # 1000x too large: 10 mm over 800 mm
     w = reading_warnings("l3", "l3.csv", 800.0, dev * 1000.0)

@@ -99,8 +99,8 @@ def _scale(ms: list[Measurement]) -> list[str]:
             small = raw / max(dens[m.id], 1e-12)
             out.append(f"{m.id}: deviations ~{small:.0f}x smaller than the session's other "
                        f"{kind} tests ({dens[m.id]:.3g} um/m against a median of "
-                       f"{raw:.3g} um/m): mm typed into deviation_um "
-                       f"in {m.file}?")
+                       f"{raw:.3g} um/m): readings 1000x too small (mm typed into "
+                       f"deviation_um) in {m.file}?")
     return out
 
 
@@ -161,17 +161,19 @@ def reading_warnings(label: str, file: str, length_mm: float, deviation: NDArray
         if r2 is not None and EXACT_UM < r2 < REPEATABILITY_FLOOR_UM:
             out.append(f"{label}: 2s repeatability {r2 * 1000:.3g} nm on a {length_mm:.0f} mm "
                        f"line, below the {REPEATABILITY_FLOOR_UM * 1000:g} nm no "
-                       f"interferometer in air reads: mm typed into deviation_um in {file}?")
+                       f"interferometer in air reads: readings 1000x too small (mm typed "
+                       f"into deviation_um) in {file}?")
     if out:
         return out
     if per_m < RANGE_FLOOR_UM_PER_M:
         out.append(f"{label}: the deviations span {np.ptp(dev):.3g} um over {length_mm:.0f} mm "
                    f"({per_m:.3g} um/m), below the {RANGE_FLOOR_UM_PER_M:g} um/m any machine "
-                   f"shows: mm typed into deviation_um in {file}?")
+                   f"shows: readings 1000x too small (mm typed into deviation_um) in {file}?")
     elif per_m > RANGE_CEILING_UM_PER_M:
         out.append(f"{label}: the deviations span {np.ptp(dev):.4g} um over {length_mm:.0f} "
                    f"mm ({per_m:.4g} um/m), above the {RANGE_CEILING_UM_PER_M:g} um/m of any "
-                   f"calibrated machine axis: nm read as um, or um x 1000, in {file}?")
+                   f"calibrated machine axis: readings 1000x too large (nm read as um) in "
+                   f"{file}?")
     return out
 
 

@@ -254,6 +254,18 @@ def add_column(rel: str, name: str, value: str) -> Mutation:
     return edit(rel, fn)
 
 
+def missed_where(rel: str, col: str, value: str) -> Mutation:
+    """Mark ``missed`` every deviation of the rows whose ``col`` equals ``value``."""
+    def fn(text: str) -> str:
+        rows = [ln.split(",") for ln in text.splitlines()]
+        j, k = rows[0].index("deviation_um"), rows[0].index(col)
+        for r in rows[1:]:
+            if r[k] == value:
+                r[j] = "missed"
+        return "\n".join(",".join(r) for r in rows) + "\n"
+    return edit(rel, fn)
+
+
 def clear_deviations(rel: str) -> Mutation:
     """Empty the deviation column (a planned, unmeasured measurement)."""
     def fn(text: str) -> str:
@@ -798,8 +810,14 @@ CASES: list[Case] = [
         ("bad-direction", "S/linear-y1.csv", [], ("linear-y1.csv", "row 2", "direction"),
          set_cell("S/linear-y1.csv", 2, "direction", "up!")),
         ("one-row", "S/linear-y1.csv", [], ("linear-y1.csv",), keep_lines("S/linear-y1.csv", 2)),
-        ("duplicate-row", "S/linear-y1.csv", [], ("linear-y1.csv", "row 4"),
+        ("duplicate-row", "S/linear-y1.csv", [], ("linear-y1.csv", "row 4", "column 'y_mm'"),
          duplicate_line("S/linear-y1.csv", 3)),
+        ("missed-every-minus", "S/linear-y1.csv", [],
+         ("linear-y1.csv", "column 'direction'", "no readings in direction '-'"),
+         missed_where("S/linear-y1.csv", "direction", "-")),
+        ("missed-all-but-one-run", "S/linear-y1.csv", [],
+         ("linear-y1.csv", "column 'run'", "only 1 run(s) in direction '+'"),
+         missed_where("S/linear-y1.csv", "run", "2")),
         ("semicolons", "S/linear-y1.csv", [], ("linear-y1.csv", "row 1"),
          semicolons("S/linear-y1.csv")),
         ("not-linear", "S/diag-ppp.csv", [], ("diag-ppp.csv",), None),
@@ -923,6 +941,8 @@ PARTIAL_COMMANDS = [
     ["identify", "{d}/S", "-o", "{d}/M3.json"],
     ["evaluate", "session", "{d}/S", "--json"],
     ["evaluate", "iso230-6", "{d}/S"],
+    ["evaluate", "session", "{d}/S"],
+    ["report", "{d}/S", "-o", "{d}/R"],
     ["classic", "abbe-session", "{d}/S"],
     ["classic", "step-diagonal", "{d}/S"],
     ["classic", "diagonals", "{d}/S"],
@@ -938,6 +958,7 @@ def test_partial_session(args: list[str], base: Path, tmp_path: Path) -> None:
     for f in ("linear-x2", "diag-ppp", "step-npp"):
         clear_deviations(f"S/{f}.csv")(d)
     set_cell("S/diag-npp.csv", 3, "deviation_um", "missed")(d)
+    set_cell("S/linear-y1.csv", 5, "deviation_um", "missed")(d)  # run 1, '+': 1 of 2 runs left
     r = volcal(*[a.format(d=d) for a in args], cwd=d)
     assert r.returncode == 0, r.stdout + r.stderr
     assert "Traceback" not in r.stdout + r.stderr
@@ -945,6 +966,17 @@ def test_partial_session(args: list[str], base: Path, tmp_path: Path) -> None:
     assert "note: no readings yet: step-npp, diag-ppp, linear-x2 (working on the 14 measured)" \
         in err
     assert f"note: {d}/S/diag-npp.csv: missed capture skipped (row 3)" in err
+    assert f"note: {d}/S/linear-y1.csv: missed capture skipped (row 5)" in err
+    if args[:2] == ["evaluate", "session"] and "--json" in args:
+        import json
+
+        y1 = json.loads(r.stdout)["measurements"]["linear-y1"]
+        assert y1["complete"] is False and len(y1["missing"]) == 1
+        assert sorted(t["n"] for t in y1["targets"]) == [1] + [2] * (len(y1["targets"]) - 1)
+    if args[0] == "report":
+        html = (d / "R" / "report.html").read_text()
+        assert "Missed readings" in html and "n = 1 of 2 runs" in html
+        assert "step-npp, diag-ppp, linear-x2" in html  # the planned tests not measured
     if args[0] == "evaluate" and "--json" in args:
         import json
 

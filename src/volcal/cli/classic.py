@@ -171,11 +171,13 @@ def diagonals(
     if not checks:
         raise VolcalInputError("the session has no diagonal measurements", session)
     tab = Table(title="Diagonal quick check")
-    for h in ("diagonal", "length [mm]", "max |dev| [um]", "range [um]", "end [um]"):
+    for h in ("diagonal", "length [mm]", "points", "max |dev| [um]", "range [um]", "end [um]"):
         tab.add_column(escape(h), justify="right")
     for c in checks:
-        tab.add_row(c.id, f"{c.length_mm:.1f}", f"{c.max_abs_um:.2f}", f"{c.range_um:.2f}",
-                    f"{c.end_um:.2f}")
+        m = s.get(c.id)
+        pts = f"{m.n}/{m.n_planned}" + ("" if m.n == m.n_planned else " incomplete")
+        tab.add_row(c.id, f"{c.length_mm:.1f}", pts, f"{c.max_abs_um:.2f}",
+                    f"{c.range_um:.2f}", f"{c.end_um:.2f}")
     console.print(tab)
     try:
         r = soons_from_measurements(s.measurements)

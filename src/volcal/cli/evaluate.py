@@ -36,13 +36,21 @@ def _iso_tables(res: Any, title: str) -> None:
     for k, label in _AXIS_LABELS.items():
         t.add_row(label, f"{getattr(res, k):.3f}")
     console.print(t)
-    tt = Table(title="per target [um]")
-    for c in ("target [mm]", "x̄↑", "x̄↓", "x̄", "s↑", "s↓", "B_i", "R↑", "R↓", "R_i"):
+    tt = Table(title=escape("per target [um]; n↑ n↓: runs that reached the target"))
+    for c in ("target [mm]", "n↑", "n↓", "x̄↑", "x̄↓", "x̄", "s↑", "s↓", "B_i", "R↑", "R↓",
+              "R_i"):
         tt.add_column(c, justify="right")
     for row in res.targets.rows():
-        tt.add_row(*[f"{row[k]:.3f}" for k in ("target_mm", "mean_up", "mean_down", "mean",
-                                               "s_up", "s_down", "B", "R_up", "R_down", "R")])
+        tt.add_row(f"{row['target_mm']:.3f}", str(row["n_up"]), str(row["n_down"]),
+                   *["-" if row[k] is None else f"{row[k]:.3f}"
+                     for k in ("mean_up", "mean_down", "mean", "s_up", "s_down", "B", "R_up",
+                               "R_down", "R")])
     console.print(tt)
+    if not res.complete:
+        console.print(f"[yellow]incomplete:[/] {len(res.missing)} missed reading(s); each "
+                      "target is evaluated over the runs that reached it", highlight=False)
+    for n in res.notes:
+        console.print(f"[yellow]note:[/] {escape(n)}", highlight=False)
     for w in res.warnings:
         console.print(f"[yellow]warning:[/] {escape(w)}", highlight=False)
 
@@ -59,14 +67,32 @@ def iso230_2_cmd(
     from volcal.standards.positioning_data import read_positioning_csv
 
     d = read_positioning_csv(file)
-    res = evaluate(d.targets_mm, d.run, d.direction, d.deviation_um, edition, file=d.file,
-                   rows=d.rows)
+    res = evaluate(d.targets_mm, d.run, d.direction, d.deviation_um, edition,
+                   **d.evaluate_kwargs())
+    plaus = _file_notes(d)
     if as_json:
         out = res.to_dict()
         out["file"] = str(file)
+        out["plausibility"] = plaus
         _print_json(out)
     else:
         _iso_tables(res, str(file))
+
+
+def _file_notes(d: Any) -> list[str]:
+    """Print a positioning file's reader notes and plausibility warnings on stderr.
+
+    Returns the warnings (for the JSON output).
+    """
+    from volcal.session.plausibility import positioning_warnings
+
+    err = Console(stderr=True, soft_wrap=True)
+    for n in d.notes:
+        err.print(f"[cyan]note:[/] {escape(n)}", highlight=False)
+    warnings = positioning_warnings(d)
+    for w in warnings:
+        err.print(f"[yellow]warning:[/] {escape(w)}", highlight=False)
+    return warnings
 
 
 @evaluate_app.command("vdi3441")
@@ -79,7 +105,8 @@ def vdi3441_cmd(
     from volcal.standards.vdi3441 import evaluate
 
     d = read_positioning_csv(file)
-    res = evaluate(d.targets_mm, d.run, d.direction, d.deviation_um, file=d.file, rows=d.rows)
+    res = evaluate(d.targets_mm, d.run, d.direction, d.deviation_um, **d.evaluate_kwargs())
+    _file_notes(d)
     if as_json:
         _print_json(res.to_dict())
         return
@@ -99,25 +126,40 @@ def iso230_6_cmd(
     """Diagonal displacement tests of a session (ISO 230-6), each diagonal."""
     from volcal.errors import VolcalInputError
     from volcal.session.format import read_session
-    from volcal.standards.iso230_6 import evaluate_diagonal
+    from volcal.standards.iso230_6 import evaluate_diagonal, largest_e_d
 
     s = read_session(session)
     print_session_notes(s)
     res = [evaluate_diagonal(m) for m in s.measurements if m.kind == "diagonal"]
     if not res:
         raise VolcalInputError("no diagonal measurements in the session", session)
+    worst = largest_e_d(res)
+    incomplete = [r.id for r in res if not r.complete]
     if as_json:
         _print_json({"diagonals": [r.to_dict() for r in res],
-                     "max_E_D": max(r.E_D for r in res)})
+                     "max_E_D": None if worst is None else worst.E_D,
+                     "max_E_D_id": None if worst is None else worst.id,
+                     "complete": not incomplete, "incomplete": incomplete,
+                     "unmeasured": [m.id for m in s.unmeasured if m.kind == "diagonal"]})
         return
     t = Table(title=f"{session}: ISO 230-6 diagonal displacement")
-    for c in ("id", "diagonal", "length [mm]", "E_D [um]", "max |dev| [um]", "R [um]"):
+    for c in ("id", "diagonal", "length [mm]", "points", "E_D [um]", "max |dev| [um]",
+              "R [um]"):
         t.add_column(c, justify="right")
     for r in res:
         rr = "" if r.iso230_2 is None else f"{r.iso230_2.R:.3f}"
+        pts = f"{r.points_measured}/{r.points_planned}" + ("" if r.complete else " incomplete")
         t.add_row(r.id, (r.plane + " " if r.plane else "") + r.diagonal, f"{r.length_mm:.1f}",
-                  f"{r.E_D:.3f}", f"{r.max_abs_um:.3f}", rr)
+                  pts, f"{r.E_D:.3f}", f"{r.max_abs_um:.3f}", rr)
     console.print(t)
+    for r in res:
+        if not r.complete:
+            console.print(f"[yellow]incomplete:[/] {escape(r.note())}", highlight=False)
+    if worst is not None:
+        console.print(f"largest E_D of the complete diagonals: {worst.E_D:.3f} um "
+                      f"({worst.id})", highlight=False)
+    else:
+        console.print("largest E_D: none (no complete diagonal)", highlight=False)
 
 
 @evaluate_app.command("session")
@@ -146,7 +188,8 @@ def session_cmd(
     print_session_notes(s)
     ev = evaluate_session(s, edition=edition)
     results, axis_of = ev.iso230_2, ev.axis
-    skipped = [k for k, why in ev.skipped.items() if why == "no run/direction columns"]
+    why_skipped = {k: why for k, why in ev.skipped.items() if why != "no readings yet"}
+    skipped = list(why_skipped)
     if not results:
         raise VolcalInputError("no linear measurement with run and direction columns", session)
     elv_val = None if ev.elv is None else ev.elv["ELv"]
@@ -154,18 +197,27 @@ def session_cmd(
     if as_json:
         out: dict[str, Any] = {"measurements": {k: {"axis": axis_of[k], **v.to_dict()}
                                                 for k, v in results.items()},
-                               "ELv": elv_val, "skipped": skipped}
+                               "ELv": elv_val, "skipped": skipped,
+                               "skipped_reasons": why_skipped,
+                               "incomplete": [k for k, v in results.items() if not v.complete],
+                               "unmeasured": list(ev.unmeasured)}
         if verdict is not None:
             out["verdict"] = [v.to_dict() for v in verdict]
         _print_json(out)
         return
     t = Table(title=f"{session}: ISO 230-2:{edition} [um]")
-    for c in ("id", "axis", "A", "E", "M", "R", "B", "B_mean"):
+    for c in ("id", "axis", "runs", "A", "E", "M", "R", "B", "B_mean"):
         t.add_column(c, justify="right")
     for k, r in results.items():
-        t.add_row(k, axis_of[k], *[f"{getattr(r, p):.3f}" for p in
-                                   ("A", "E", "M", "R", "B", "B_mean")])
+        t.add_row(k, axis_of[k], _runs_cell(r), *[f"{getattr(r, p):.3f}" for p in
+                                                  ("A", "E", "M", "R", "B", "B_mean")])
     console.print(t)
+    for k, r in results.items():
+        for n in r.notes:
+            console.print(f"[yellow]{k}[/] {escape(n)}", highlight=False)
+    if ev.unmeasured:
+        console.print(f"[yellow]not measured[/] (planned, no readings): "
+                      f"{', '.join(ev.unmeasured)}", highlight=False)
     if elv_val is not None:
         console.print(f"ELv (seed 002: RSS of the positioning ranges M of the first line of "
                       f"each axis) = {elv_val:.3f} um")
@@ -175,10 +227,19 @@ def session_cmd(
             grouped.setdefault(w, []).append(k)
     for w, ids in grouped.items():
         console.print(f"[yellow]warning[/] ({', '.join(ids)}): {escape(w)}", highlight=False)
-    for k in skipped:
-        console.print(f"[yellow]skipped[/] {k}: no run/direction columns")
+    for k, why in why_skipped.items():
+        console.print(f"[yellow]skipped[/] {k}: {escape(why)}", highlight=False)
     if verdict is not None:
         _print_verdict(verdict, tol[1] is not None)
+
+
+def _runs_cell(r: Any) -> str:
+    """Runs of a linear test: ``5``, or ``4-5 incomplete`` (fewest runs at a target)."""
+    nu, nd = r.targets.counts()
+    full = max(r.targets.n_up, r.targets.n_down)
+    if r.complete:
+        return str(full)
+    return f"{int(min(nu.min(), nd.min()))}-{full} incomplete"
 
 
 def _tolerance_inputs(tolerance_um: str | None, model: Path | None,

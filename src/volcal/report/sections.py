@@ -184,14 +184,22 @@ def diagonal_section(inp: ReportInputs) -> Section | None:
         "the diagonal while all axes move together. E_D is the range of the deviations along "
         "the diagonal; it sums the effects of positioning, straightness, squareness and some "
         "angular errors, so it is a quick volumetric check but cannot tell them apart.")
+    from volcal.standards.iso230_6 import largest_e_d
+
     rows = []
     for mid, r in inp.iso230_6.items():
         code = (f"{r.plane} " if getattr(r, "plane", None) else "") + str(r.diagonal)
-        rows.append([mid, code, fmt(r.length_mm, 1), fmt(r.E_D), fmt(r.max_abs_um)])
-    worst = max(inp.iso230_6.values(), key=lambda r: r.E_D)
-    sec.tables.append(Table(["measurement", "diagonal", "length [mm]", "E_D [µm]",
+        pts = f"{r.points_measured} of {r.points_planned}" + (
+            "" if r.complete else " (incomplete)")
+        rows.append([mid, code, fmt(r.length_mm, 1), pts, fmt(r.E_D), fmt(r.max_abs_um)])
+        if not r.complete:
+            sec.warnings.append(r.note())
+    worst = largest_e_d(inp.iso230_6.values())
+    sec.tables.append(Table(["measurement", "diagonal", "length [mm]", "points", "E_D [µm]",
                              "max |deviation| [µm]"], rows, "Diagonal displacement errors",
-                            f"Largest E_D: {worst.E_D:.2f} µm ({worst.id})."))
+                            "No complete diagonal: no largest E_D." if worst is None else
+                            f"Largest E_D of the complete diagonals: {worst.E_D:.2f} µm "
+                            f"({worst.id})."))
     return sec
 
 
@@ -472,9 +480,11 @@ def build_report(inp: ReportInputs, title: str | None = None) -> Report:
     Report
     """
     from volcal import __version__
+    from volcal.report.completeness import completeness_section
     from volcal.report.multilateration import multilateration_section
 
-    builders = [machine_section, measurements_section, positioning_section,
+    builders = [machine_section, measurements_section, completeness_section,
+                positioning_section,
                 diagonal_section, multilateration_section, identification_section,
                 identifiability_section, volumetric_section, compensation_section]
     sections = [s for s in (b(inp) for b in builders) if s is not None]
@@ -516,6 +526,8 @@ def positioning_section(inp: ReportInputs) -> Section | None:
             for w in getattr(res, "warnings", []) or []:
                 same.setdefault(str(w), []).append(mid)
         sec.warnings.extend(f"{', '.join(ids)}: {w}" for w, ids in same.items())
+        sec.warnings.extend(f"{mid}: {n}" for mid, res in inp.iso230_2.items()
+                            for n in getattr(res, "notes", []) or [])
         edition = next(iter(inp.iso230_2.values())).edition
         sec.tables.append(Table(
             ["measurement", "axis", "A [µm]", "A↑ [µm]", "A↓ [µm]", "E [µm]", "M [µm]",

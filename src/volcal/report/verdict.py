@@ -107,10 +107,11 @@ def verdicts(tolerance: Tolerance, session: Session | None, errors: MachineError
         for m in tests:
             d = from_measurement(m, session.path if session is not None else None)
             before.append(evaluate(d.targets_mm, d.run, d.direction, d.deviation_um,
-                                   edition).A)
+                                   edition, **d.evaluate_kwargs()).A)
             if tables is not None and errors is not None:
                 after_v.append(evaluate(d.targets_mm, d.run, d.direction,
-                                        compensated_deviation(m, errors, tables), edition).A)
+                                        compensated_deviation(m, errors, tables), edition,
+                                        **d.evaluate_kwargs()).A)
         out.append(Verdict(f"{axis}: ISO 230-2 A ({len(tests)} tests)",
                            tol, max(before) if before else None,
                            max(after_v) if after_v else None))

@@ -52,6 +52,10 @@ OPTIONAL_COLUMNS: dict[str, str] = {
     "status": "text",
 }
 MIN_ROWS = 2
+MISSED_META = "_missed"
+"""Key of ``Measurement.meta`` listing the missed captures skipped by the reader: one dict
+per row with ``row`` (in the CSV, header = row 1), ``position_mm`` [x, y, z] and, when the
+file has them, ``run`` and ``direction``. Working state (never written back)."""
 
 __all__ = [
     "KINDS",
@@ -92,7 +96,9 @@ class Measurement:
         Optional columns (``run``, ``direction``, ``time_s``, environment columns).
     meta : dict
         Optional metadata: ``axis``, ``axis_order``, ``diagonal``, ``plane``, ``notes``,
-        ``environment`` (table), ``readings`` (``'deviation'`` or ``'raw'``)...
+        ``environment`` (table), ``readings`` (``'deviation'`` or ``'raw'``)...; keys
+        starting with ``_`` are working state never written, e.g. ``_missed`` (the missed
+        captures the reader skipped, :data:`MISSED_META`).
     rows : ndarray of int, shape (n,), optional
         Row of each reading in its CSV file (header = row 1), for messages; missed
         captures leave gaps.
@@ -147,6 +153,16 @@ class Measurement:
     def n(self) -> int:
         """Number of readings."""
         return self.positions.shape[0]
+
+    @property
+    def missed(self) -> list[dict[str, Any]]:
+        """Missed captures skipped by the reader (row, position_mm, run, direction)."""
+        return list(self.meta.get(MISSED_META, []))
+
+    @property
+    def n_planned(self) -> int:
+        """Planned readings: the readings plus the missed captures."""
+        return self.n + len(self.missed)
 
     @property
     def run(self) -> NDArray[np.int64] | None:
@@ -547,6 +563,20 @@ def _missed_note(file: str | Path, rows: NDArray[np.int64], missed: NDArray[np.b
     return f"{file}: missed capture{s} skipped (row{s} {r})"
 
 
+def _missed_records(r: _Rows) -> list[dict[str, Any]]:
+    """The missed captures of a file: row, commanded position and run/direction if given."""
+    out = []
+    for i in np.flatnonzero(r.missed):
+        rec: dict[str, Any] = {"row": int(r.rows[i]),
+                               "position_mm": [float(v) for v in r.positions[i]]}
+        if "run" in r.columns:
+            rec["run"] = int(r.columns["run"][i])
+        if "direction" in r.columns:
+            rec["direction"] = str(r.columns["direction"][i])
+        out.append(rec)
+    return out
+
+
 def _drop_missed(r: _Rows, file: str | Path, notes: list[str] | None) -> _Rows:
     if r.deviation is None or not r.missed.any():
         return r
@@ -820,6 +850,8 @@ def _read_entry(e: Any, i: int, folder: Path, toml_path: Path, seen: set[str],
     check_travel(r.positions, r.rows, travel, csv_path)
     check_geometry(kind, r.positions, r.rows, meta, csv_path, n if "beam_direction" in e else None)
     if require_deviation:
+        if r.deviation is not None and r.missed.any():
+            meta[MISSED_META] = _missed_records(r)
         r = _drop_missed(r, csv_path, notes)
     return Measurement(mid, kind, target, r.positions, r.deviation, n, offset, file, r.columns,
                        meta, r.rows)

@@ -69,17 +69,12 @@ class History:
         ident = session_obj.identity
         store = self.store
 
-        def _machine(conn: Any) -> dict[str, Any]:
+        def _machine(conn: Any) -> Any:
+            # under the writers' lock: two writers of a new machine never make two records
             found = match(store.records(conn=conn), ident, machine)
-            if found is not None:
-                return {"machine_id": found.id}
-            return {}
+            return found.id if found is not None else NewRecord("machine",
+                                                                machine_payload(ident))
 
-        # the machine record first (its own append), then the calibration; both serialised
-        found = match(store.records(), ident, machine)
-        if found is None:
-            found = store.append(NewRecord("machine", machine_payload(ident)))
-        rec.machine_id = found.id
         return store.append(rec, check=_machine)
 
     # ----------------------------------------------------------------- read

@@ -138,55 +138,67 @@ class Store:
             The record.
         check : callable, optional
             ``check(conn)`` run under the lock before the insert (e.g. machine matching);
-            may return a dict of fields to set on ``rec`` (``machine_id``...).
+            may return a :class:`NewRecord` to append first (a new machine), whose id
+            becomes ``rec.machine_id``, or a machine id (str) to set.
 
         Returns
         -------
         Record
             As stored.
         """
-        from sqlalchemy import insert, select
+        from sqlalchemy import select
 
         from volcal.history import schema as t
         from volcal.history.engine import lock, writer
 
         with writer(self.engine) as conn, conn.begin():
             lock(conn)
-            if check is not None:
-                for k, v in (check(conn) or {}).items():
-                    setattr(rec, k, v)
+            extra = check(conn) if check is not None else None
+            if isinstance(extra, NewRecord):
+                rec.machine_id = self._insert(conn, extra)
+            elif isinstance(extra, str):
+                rec.machine_id = extra
             for ref in (rec.supersedes, rec.as_left_of, rec.machine_id):
                 if ref is not None and conn.execute(
                         select(t.records.c.seq).where(t.records.c.id == ref)).first() is None:
                     raise VolcalInputError(f"no record {ref!r} in the history {self.where}")
-            head = conn.execute(select(t.records.c.seq, t.records.c.hash)
-                                .order_by(t.records.c.seq.desc()).limit(1)).first()
-            seq = 1 if head is None else int(head.seq) + 1
-            prev = GENESIS if head is None else head.hash
-            row = {"seq": seq, "id": f"{KIND_PREFIX[rec.kind]}{seq:06d}", "kind": rec.kind,
-                   "machine_id": rec.machine_id, "date": rec.date,
-                   "created": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
-                   "supersedes": rec.supersedes, "as_left_of": rec.as_left_of,
-                   "report_id": rec.report_id, "payload": canonical(rec.payload),
-                   "prev_hash": prev}
-            files = [{"record_seq": seq, "role": r, "name": n,
-                      "sha256": hashlib.sha256(c).hexdigest(), "content": c}
-                     for r, n, c in rec.files]
-            results = [{"record_seq": seq, "name": n, "value": v, "U": u, "unit": unit}
-                       for n, v, u, unit in rec.results]
-            equipment = [{"record_seq": seq, "position": i,
-                          **{k: e.get(k) for k in ("role", "make", "model", "serial",
-                                                    "certificate", "calibrated", "due")}}
-                         for i, e in enumerate(rec.equipment)]
-            row["hash"] = record_hash(prev, row, files, results, equipment)
-            conn.execute(insert(t.records).values(**row))
-            if files:
-                conn.execute(insert(t.files), files)
-            if results:
-                conn.execute(insert(t.results), results)
-            if equipment:
-                conn.execute(insert(t.equipment), equipment)
-        return self.record(row["id"])
+            rid = self._insert(conn, rec)
+        return self.record(rid)
+
+    def _insert(self, conn, rec: NewRecord) -> str:
+        """Insert one record and its children at the head of the chain (under the lock)."""
+        from sqlalchemy import insert, select
+
+        from volcal.history import schema as t
+
+        head = conn.execute(select(t.records.c.seq, t.records.c.hash)
+                            .order_by(t.records.c.seq.desc()).limit(1)).first()
+        seq = 1 if head is None else int(head.seq) + 1
+        prev = GENESIS if head is None else head.hash
+        row = {"seq": seq, "id": f"{KIND_PREFIX[rec.kind]}{seq:06d}", "kind": rec.kind,
+               "machine_id": rec.machine_id, "date": rec.date,
+               "created": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
+               "supersedes": rec.supersedes, "as_left_of": rec.as_left_of,
+               "report_id": rec.report_id, "payload": canonical(rec.payload),
+               "prev_hash": prev}
+        files = [{"record_seq": seq, "role": r, "name": n,
+                  "sha256": hashlib.sha256(c).hexdigest(), "content": c}
+                 for r, n, c in rec.files]
+        results = [{"record_seq": seq, "name": n, "value": v, "U": u, "unit": unit}
+                   for n, v, u, unit in rec.results]
+        equipment = [{"record_seq": seq, "position": i,
+                      **{k: e.get(k) for k in ("role", "make", "model", "serial",
+                                                "certificate", "calibrated", "due")}}
+                     for i, e in enumerate(rec.equipment)]
+        row["hash"] = record_hash(prev, row, files, results, equipment)
+        conn.execute(insert(t.records).values(**row))
+        if files:
+            conn.execute(insert(t.files), files)
+        if results:
+            conn.execute(insert(t.results), results)
+        if equipment:
+            conn.execute(insert(t.equipment), equipment)
+        return row["id"]
 
     # ---------------------------------------------------------------- reading
     def _rows(self, where=None, conn=None) -> list[Record]:

@@ -157,7 +157,7 @@ def test_failed_add_leaves_nothing(store_url, calibrations, monkeypatch):
         real = st.Store._insert
 
         def boom(self, conn, rec):
-            rid = real(self, conn, rec)
+            real(self, conn, rec)
             raise OSError("disk full")  # after the rows went in: the transaction must undo
 
         monkeypatch.setattr(st.Store, "_insert", boom)

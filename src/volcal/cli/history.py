@@ -59,6 +59,44 @@ def add_cmd(
         typer.echo(rec.id)
 
 
+@history_app.command("add-etalon")
+def add_etalon_cmd(
+    file: Annotated[Path, typer.Argument(help="Etalon exchange file (Vendor variant).")],
+    session: Annotated[Path, typer.Option(help="Session folder naming the machine "
+                                          "([machine]) and the date ([calibration]).")],
+    date: Annotated[str | None, typer.Option(help="Date of measurement (ISO 8601).")] = None,
+    machine: Annotated[str | None, typer.Option(help="Machine record id or name.")] = None,
+    db: DbOption = None,
+) -> None:
+    """Store another system's result (Etalon exchange file); prints the record id."""
+    with _open(db) as h:
+        rec = h.add_etalon(file, session, date, machine)
+        if rec.payload.get("not_mapped"):
+            _err("note: blocks kept in the stored file but not mapped to volcal's 21 errors: "
+                 + ", ".join(rec.payload["not_mapped"]))
+        typer.echo(rec.id)
+
+
+@history_app.command("export-etalon")
+def export_etalon_cmd(
+    record: Annotated[str, typer.Argument(help="Calibration record id.")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="Exchange file to write.")],
+    db: DbOption = None,
+) -> None:
+    """Write a calibration's identified functions as an Etalon exchange file."""
+    from volcal.errors import VolcalInputError
+    from volcal.history.compare import load_record_model
+    from volcal.history.etalon import write_etalon
+
+    with _open(db) as h:
+        r = h.show(record)
+        model = load_record_model(h.store, r.id)
+    if model is None:
+        raise VolcalInputError(f"{r.id} has no volcal model to export")
+    write_etalon(model.errors, output, f"volcal history {r.id} ({r.machine_name}, {r.date})")
+    typer.echo(str(output))
+
+
 @history_app.command("list")
 def list_cmd(
     as_json: Annotated[bool, typer.Option("--json", help="JSON array of records.")] = False,

@@ -77,6 +77,59 @@ class History:
 
         return store.append(rec, check=_machine)
 
+    def add_etalon(self, path: str | Path, session: str | Path, date: str | None = None,
+                   machine: str | None = None) -> Record:
+        """Store another system's result: an Etalon exchange file (no covariance).
+
+        Parameters
+        ----------
+        path : str or Path
+            The exchange file (:mod:`volcal.history.etalon`).
+        session : str or Path
+            A session folder naming the machine (``[machine]``; readings not needed) and,
+            unless ``date`` is given, the date of measurement (``[calibration] date``).
+        date : str, optional
+            Date of measurement (ISO 8601).
+        machine : str, optional
+            Machine record id or name when ambiguous.
+
+        Returns
+        -------
+        Record
+            A calibration record whose functions have no uncertainty: ``compare`` leaves
+            them undecided (``changed`` null).
+        """
+        from volcal.errors import VolcalInputError
+        from volcal.history.etalon import read_etalon
+        from volcal.history.machines import machine_payload, match
+        from volcal.session.format import read_session
+        from volcal.session.identity import parse_date
+
+        path = Path(path)
+        data = read_etalon(path)
+        s = read_session(session, require_deviation=False)
+        when = date or s.calibration.get("date")
+        if when is None:
+            raise VolcalInputError("no date of measurement: give --date or [calibration] date "
+                                   "in the session", Path(session) / "session.toml", None,
+                                   "calibration.date")
+        when = parse_date(when)
+        ident = s.identity
+        payload = {"machine": ident.to_dict(), "calibration": dict(s.calibration, date=when),
+                   "source": "etalon exchange file", "file": path.name,
+                   "not_mapped": sorted(data.other), "k": 2.0}
+        results = [(n, v, None, "urad") for n, v in sorted(data.squareness.items())]
+        rec = NewRecord("calibration", payload, date=when, results=results,
+                        files=[("etalon", path.name, path.read_bytes())])
+        store = self.store
+
+        def _machine(conn: Any) -> Any:
+            found = match(store.records(conn=conn), ident, machine)
+            return found.id if found is not None else NewRecord("machine",
+                                                                machine_payload(ident))
+
+        return store.append(rec, check=_machine)
+
     # ----------------------------------------------------------------- read
     def list(self) -> list[Record]:
         """Every record in order (``superseded_by`` set)."""

@@ -297,3 +297,22 @@ def test_unknown_trend_parameter_lists_valid(tmp_path, calibrations):
         with pytest.raises(VolcalInputError, match=r"--parameter 'X.Q' is no stored result "
                            r"of VMC-1; valid: .*X\.A.*EXX@400"):
             h.trend("VMC-1", "X.Q")
+
+
+def test_etalon_record_into_history(tmp_path, calibrations):
+    """Another system's result joins the machine's history; without a covariance the
+    change test leaves it undecided."""
+    from volcal.history.api import History
+    from volcal.history.compare import load_record_model
+    from volcal.history.etalon import write_etalon
+
+    folder, model = calibrations["a"]
+    with History(str(tmp_path / "h.sqlite")) as h:
+        a = h.add(folder, model)
+        m = load_record_model(h.store, a.id)
+        f = write_etalon(m.errors, tmp_path / "trac.txt")
+        e = h.add_etalon(f, folder, date="2026-03-01")
+        assert e.machine_id == a.machine_id and e.date == "2026-03-01"
+        assert e.results["EC0Y"]["value"] == pytest.approx(m.errors.squareness[0], abs=1e-6)
+        entry = h.compare(a.id, e.id).set_index("name").loc["EC0Y"]
+        assert entry["changed"] is None and "no uncertainty" in entry["reason"]

@@ -243,13 +243,13 @@ def _function_entries(m1: Any, m2: Any, level: float, common_prior: bool = True
     return out
 
 
-def _result_entries(r1: Any, r2: Any) -> list[Entry]:
+def _result_entries(r1: Any, r2: Any, models: bool) -> list[Entry]:
     from volcal.model.names import SQUARENESS_NAMES
 
     out = []
     for name in sorted(set(r1.results) & set(r2.results)):
-        if name in SQUARENESS_NAMES:
-            continue  # tested jointly with the functions, from the models
+        if models and name in SQUARENESS_NAMES:
+            continue  # tested with the functions, from the two models' covariances
         a, b = r1.results[name], r2.results[name]
         if a["value"] is None or b["value"] is None:
             continue
@@ -295,8 +295,9 @@ def compare(store: Any, id1: str, id2: str, level: float = 0.05) -> list[Entry]:
     if r1.machine_id != r2.machine_id:
         raise VolcalInputError(f"{r1.id} and {r2.id} are calibrations of two machines "
                                f"({r1.machine_name}, {r2.machine_name})")
-    out = _result_entries(r1, r2)
     m1, m2 = load_record_model(store, r1.id), load_record_model(store, r2.id)
-    if m1 is not None and m2 is not None:
+    both = m1 is not None and m2 is not None
+    out = _result_entries(r1, r2, both)
+    if both:
         out.extend(_function_entries(m1, m2, level))
     return out

@@ -77,7 +77,8 @@ def test_identity_bad_input(tmp_path, extra, where):
     p = folder / "session.toml"
     text = p.read_text()
     if extra.startswith("calibration ="):
-        text = text.replace('format = "volcal-session/1"\n', 'format = "volcal-session/1"\n' + extra)
+        head = 'format = "volcal-session/1"\n'
+        text = text.replace(head, head + extra)
     else:
         text += "\n" + extra
     p.write_text(text)

@@ -236,7 +236,7 @@ def identification_section(inp: ReportInputs) -> Section | None:
     sigma = getattr(r, "sigma_um", None)
     sec.paragraphs.append(
         "All readings of all tests were fitted at once with the first-order kinematic model "
-        "(Soons, seed 004) and the set-up tilts of every measurement as nuisance parameters. "
+        "(Soons 2005) and the set-up tilts of every measurement as nuisance parameters. "
         "Uncertainties are standard uncertainties (k = 1) in the tables; the bands in the "
         "figures are ± 2 u." + (f" Estimated reading noise σ = {sigma:.2f} µm." if sigma
                                 else ""))
@@ -370,7 +370,7 @@ def volumetric_section(inp: ReportInputs) -> Section | None:
     if elv:
         sec.tables.append(Table(
             ["quantity", "value [µm]"], [[k, fmt(v)] for k, v in elv.items()],
-            "ELv (seed 002): root sum of squares of the positioning ranges of the three axes",
+            "ELv (Wang, Optodyne): root sum of squares of the positioning ranges of the three axes",
             "ELv ignores straightness, squareness and angular errors; compare it with "
             "E_VXYZ."))
     sec.figures.append(FigureItem(
@@ -473,12 +473,14 @@ def build_report(inp: ReportInputs, title: str | None = None) -> Report:
     """
     from volcal import __version__
     from volcal.report.multilateration import multilateration_section
+    from volcal.report.wording import references_section
 
     builders = [machine_section, measurements_section, positioning_section,
                 diagonal_section, multilateration_section, identification_section,
                 identifiability_section, volumetric_section, compensation_section]
     sections = [s for s in (b(inp) for b in builders) if s is not None]
     sections.extend(inp.extra_sections)
+    sections.append(references_section())
     return Report(title or f"Calibration report: {inp.session.name}", sections,
                   generator=f"volcal {__version__}")
 

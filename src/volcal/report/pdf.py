@@ -266,16 +266,24 @@ def _figure_page(pdf: PdfPages, fig: Figure, caption: str, number: int, footer: 
     lines = measure.wrap(f"Figure {number}: {caption}", (pw - 2 * _FIG_MARGIN) * _PT, size)
     pitch, _ = measure.line_metrics(size)
     band = (len(lines) * pitch + 24.0) / _PT  # caption and footer [in]
-    avail_w, avail_h = pw - 2 * _FIG_MARGIN, ph - _FIG_MARGIN - band - 0.1
+    sup = getattr(fig, "_suptitle", None)  # placed by hand at the top of the free area
+    sup_h = 0.0
+    if sup is not None and sup.get_visible() and sup.get_text():
+        sup_h = (sup.get_text().count("\n") + 1) * measure.line_metrics(sup.get_fontsize())[0]
+        sup_h = (sup_h + 6.0) / _PT
+    top = ph - _FIG_MARGIN - sup_h  # top of the figure's axes area [in]
+    avail_w, avail_h = pw - 2 * _FIG_MARGIN, top - band - 0.1
     w, h = fig.get_size_inches()
     scale = min(avail_w / w, avail_h / h)
     fw, fh = w * scale, h * scale
-    rect = ((pw - fw) / 2 / pw, (ph - _FIG_MARGIN - fh) / ph, fw / pw, fh / ph)
+    rect = ((pw - fw) / 2 / pw, (top - fh) / ph, fw / pw, fh / ph)
     engine = fig.get_layout_engine()
     if not isinstance(engine, ConstrainedLayoutEngine):
         engine = None  # a figure without constrained layout is scaled as a whole
     old_size, old_rect = fig.get_size_inches().copy(), engine.get()["rect"] if engine else None
     old_pos = [(ax, ax.get_position(original=True)) for ax in fig.axes] if not engine else []
+    old_sup = ((sup.get_position(), getattr(sup, "_autopos", False), sup.get_in_layout())
+               if sup_h else None)
     fig.set_size_inches(pw, ph, forward=False)
     if engine is not None:
         engine.set(rect=rect)
@@ -283,7 +291,11 @@ def _figure_page(pdf: PdfPages, fig: Figure, caption: str, number: int, footer: 
         for ax, p in old_pos:
             ax.set_position((rect[0] + p.x0 * rect[2], rect[1] + p.y0 * rect[3],
                              p.width * rect[2], p.height * rect[3]))
-    y = (ph - _FIG_MARGIN - fh - 0.1) / ph
+    if old_sup is not None:
+        sup.set_position((0.5, (ph - _FIG_MARGIN) / ph))
+        sup._autopos = False
+        sup.set_in_layout(False)
+    y = (top - fh - 0.1) / ph
     added = [fig.text(_FIG_MARGIN / pw, y, "\n".join(lines), fontsize=size, va="top",
                       linespacing=_LINESPACING, parse_math=False),
              fig.text(0.5, 0.02, footer, ha="center", fontsize=7, color="0.4",
@@ -298,6 +310,10 @@ def _figure_page(pdf: PdfPages, fig: Figure, caption: str, number: int, footer: 
             engine.set(rect=old_rect)
         for ax, p in old_pos:
             ax.set_position(p)
+        if old_sup is not None:
+            sup.set_position(old_sup[0])
+            sup._autopos = old_sup[1]
+            sup.set_in_layout(old_sup[2])
 
 
 def write_pdf(report: Report, path: str | Path) -> int:

@@ -324,9 +324,10 @@ def identifiability_section(inp: ReportInputs) -> Section | None:
         sec.figures.append(FigureItem(
             identifiability_plot(std, getattr(r, "squareness_std", None),
                                  _field(rep, "singular_values", None), frac),
-            "Largest standard uncertainty of each error function (hatched n/i: not "
-            "determined) and the share of its prior uncertainty the data remove (red: below "
-            "50 %, orange: below 95 %).", "identifiability"))
+            "Largest standard uncertainty of each error function (hatched grey and marked "
+            "n/i: not determined by the data) and the share of its prior uncertainty the "
+            "data remove (red: below 50 %, not determined; orange: 50 to 95 %, weak; green: "
+            "95 % or more, determined).", "identifiability"))
     return sec
 
 

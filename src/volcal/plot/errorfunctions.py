@@ -98,8 +98,7 @@ def error_functions_plot(errors: MachineErrors,
         ax.plot(x, truth.squareness, linestyle="none", marker="_", markersize=18,
                 markeredgewidth=2, color="black", gid="squareness truth", label="truth")
         ax.legend(fontsize=fs["legend"])
-    ax.set_xticks(x, [f"{n}\n{info(n).axis} to\n{info(n).reference}"
-                      for n in SQUARENESS_NAMES])
+    ax.set_xticks(x, [f"{n}\n{info(n).axis} to {info(n).reference}" for n in SQUARENESS_NAMES])
     ax.tick_params(labelsize=fs["tick"])
     ax.axhline(0.0, color="0.6", linewidth=0.6)
     ax.set_title("squareness [µrad]", fontsize=fs["title"])

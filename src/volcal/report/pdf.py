@@ -124,10 +124,13 @@ def _unbreakable(m: _Measure, text: str, size: float, weight: str) -> float:
 
 
 def _column_widths(m: _Measure, cells: list[list[str]], size: float, total: float,
-                   ) -> list[float] | None:
+                   force: bool = False) -> list[float] | None:
     """Column widths [pt] filling ``total``, each at least as wide as its longest word.
 
-    None when the longest words of the columns do not fit side by side at this size.
+    When the longest words of the columns do not fit side by side at this size: None, or
+    with ``force`` the narrow columns keep their words whole and the columns with the
+    widest words share the rest in proportion to their text (their words are then broken
+    between characters).
     """
     ncol = len(cells[0])
     natural = [max(m.width(r[j], size, _weight(i)) for i, r in enumerate(cells)) + 2 * _PAD_X
@@ -137,7 +140,19 @@ def _column_widths(m: _Measure, cells: list[list[str]], size: float, total: floa
     if sum(natural) <= total:
         return [n * total / sum(natural) for n in natural]
     if sum(word) > total:
-        return None
+        if not force:
+            return None
+        widths = list(word)
+        left = total
+        order = sorted(range(ncol), key=lambda j: word[j])
+        for k, j in enumerate(order):
+            if word[j] > left / (ncol - k):  # this and the wider ones share what is left
+                rest = order[k:]
+                for i in rest:
+                    widths[i] = left * natural[i] / sum(natural[r] for r in rest)
+                break
+            left -= word[j]
+        return widths
     slack = [n - w for n, w in zip(natural, word, strict=True)]
     extra = total - sum(word)
     return [w + extra * s / sum(slack) for w, s in zip(word, slack, strict=True)]
@@ -191,13 +206,11 @@ class _Flow:
         cells = [list(t.columns)] + [list(r) for r in t.rows]
         widths = None
         for size in _TABLE_SIZES:
-            widths = _column_widths(m, cells, size, _TEXT_WIDTH_PT)
+            widths = _column_widths(m, cells, size, _TEXT_WIDTH_PT,
+                                    force=size == _TABLE_SIZES[-1])
             if widths is not None:
                 break
-        if widths is None:  # words broken between characters, columns by natural width
-            natural = [max(m.width(r[j], size, _weight(i)) for i, r in enumerate(cells))
-                       + 2 * _PAD_X for j in range(len(t.columns))]
-            widths = [n * _TEXT_WIDTH_PT / sum(natural) for n in natural]
+        assert widths is not None
         pitch, one = m.line_metrics(size)
         page_h = A4_PORTRAIT[1] * _PT
 

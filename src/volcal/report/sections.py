@@ -244,7 +244,7 @@ def identification_section(inp: ReportInputs) -> Section | None:
     sigma = getattr(r, "sigma_um", None)
     sec.paragraphs.append(
         "All readings of all tests were fitted at once with the first-order kinematic model "
-        "(Soons, seed 004) and the set-up tilts of every measurement as nuisance parameters. "
+        "(Soons 2005) and the set-up tilts of every measurement as nuisance parameters. "
         "Uncertainties are standard uncertainties (k = 1) in the tables; the bands in the "
         "figures are ± 2 u." + (f" Estimated reading noise σ = {sigma:.2f} µm." if sigma
                                 else ""))
@@ -332,9 +332,10 @@ def identifiability_section(inp: ReportInputs) -> Section | None:
         sec.figures.append(FigureItem(
             identifiability_plot(std, getattr(r, "squareness_std", None),
                                  _field(rep, "singular_values", None), frac),
-            "Largest standard uncertainty of each error function (hatched n/i: not "
-            "determined) and the share of its prior uncertainty the data remove (red: below "
-            "50 %, orange: below 95 %).", "identifiability"))
+            "Largest standard uncertainty of each error function (hatched grey and marked "
+            "n/i: not determined by the data) and the share of its prior uncertainty the "
+            "data remove (red: below 50 %, not determined; orange: 50 to 95 %, weak; green: "
+            "95 % or more, determined).", "identifiability"))
     return sec
 
 
@@ -378,7 +379,7 @@ def volumetric_section(inp: ReportInputs) -> Section | None:
     if elv:
         sec.tables.append(Table(
             ["quantity", "value [µm]"], [[k, fmt(v)] for k, v in elv.items()],
-            "ELv (seed 002): root sum of squares of the positioning ranges of the three axes",
+            "ELv (Wang, Optodyne): root sum of squares of the positioning ranges of the three axes",
             "ELv ignores straightness, squareness and angular errors; compare it with "
             "E_VXYZ."))
     sec.figures.append(FigureItem(
@@ -482,6 +483,7 @@ def build_report(inp: ReportInputs, title: str | None = None) -> Report:
     from volcal import __version__
     from volcal.report.completeness import completeness_section
     from volcal.report.multilateration import multilateration_section
+    from volcal.report.wording import references_section
 
     builders = [machine_section, measurements_section, completeness_section,
                 positioning_section,
@@ -489,6 +491,7 @@ def build_report(inp: ReportInputs, title: str | None = None) -> Report:
                 identifiability_section, volumetric_section, compensation_section]
     sections = [s for s in (b(inp) for b in builders) if s is not None]
     sections.extend(inp.extra_sections)
+    sections.append(references_section())
     return Report(title or f"Calibration report: {inp.session.name}", sections,
                   generator=f"volcal {__version__}")
 

@@ -74,11 +74,13 @@ def compensate(
     check_output_folder(output, "compensation", lambda p: (p / MANIFEST).is_file())
     ref = None if reference_mm is None else tuple(parse_vector(reference_mm, "--reference-mm"))
     directional = None
+    sess = None
     if session is not None:
         from volcal.compensate.bidirectional import directional_from_session
         from volcal.session.format import read_session
 
-        directional = directional_from_session(read_session(session, require_deviation=False))
+        sess = read_session(session, require_deviation=False)
+        directional = directional_from_session(sess)
         if not directional.source:
             console.print("note: the session has no bidirectional linear test: forward = "
                           "reverse")
@@ -90,11 +92,14 @@ def compensate(
     if session is not None:  # --session: the model must belong to it
         _check_session(model, session, force)
     errors = load_errors(model)
-    files = write_compensation(errors, fmt, output, opts, model.name)
+    files = write_compensation(errors, fmt, output, opts, model.name,
+                               _machine_identity(model, errors, sess))
     used = opts.sign_for(fmt)
     console.print(escape(f"wrote {fmt} tables ({used}"
                          + (", the controller's convention" if sign is None else "")
                          + f", {spacing:g} mm): {', '.join(files)} -> {output}"))
+    if sess is not None:
+        _print_line_checks(sess, output)
 
 
 def _check_session(model: Path, session: Path, force: bool) -> None:
@@ -102,6 +107,39 @@ def _check_session(model: Path, session: Path, force: bool) -> None:
 
     for d in check_model_file_session(model, session, force):
         console.print(f"[yellow]warning[/] --force: {d}", highlight=False)
+
+
+def _machine_identity(model: Path, errors: object, sess: object) -> object:
+    """The machine the tables are for: the session's identity, else what the model records."""
+    from volcal.compensate.manifest import model_identity
+    from volcal.session.identity import MachineIdentity
+
+    if sess is not None:
+        return MachineIdentity.of(sess)
+    return model_identity(model, errors)
+
+
+def _print_line_checks(sess: object, output: Path) -> None:
+    """ISO 230-2 A of every measured linear line before and after the tables just written."""
+    from rich.table import Table
+
+    from volcal.compensate.linecheck import check_lines
+    from volcal.compensate.readback import read_written_tables
+
+    checks, skipped = check_lines(sess, read_written_tables(output, travel=sess.travel))
+    if checks:
+        t = Table(title="measured linear lines: ISO 230-2 A before and after these tables")
+        for c in ("id", "axis", "line", "A before [µm]", "A after [µm]", "u [µm]"):
+            t.add_column(c, justify="left" if c == "line" else "right")
+        for c in checks:
+            t.add_row(c.id, c.axis, escape(c.line), f"{c.A_before_um:.2f}",
+                      f"{c.A_after_um:.2f}" + (" (worse)" if c.worse else ""), f"{c.u_um:.2f}")
+        console.print(t)
+    for c in checks:
+        if c.worse:
+            console.print(f"[yellow]warning[/] {escape(c.warning())}", highlight=False)
+    for why in skipped:
+        console.print(f"note: not evaluated: {escape(why)}", highlight=False)
 
 
 def register(app: typer.Typer) -> None:

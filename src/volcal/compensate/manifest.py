@@ -194,7 +194,7 @@ def manifest_identity(manifest: dict[str, Any], folder: str | Path | None = None
 
 def _describe(i: MachineIdentity) -> str:
     travel = " x ".join(f"{b - a:g}" for a, b in i.travel_mm)
-    return f"{i.label()}, chain {i.chain}, travel {travel} mm"
+    return f"{i.label()} (chain {i.chain}, travel {travel} mm)"
 
 
 def check_manifest(manifest: dict[str, Any], folder: str | Path, machine: MachineIdentity,
@@ -243,8 +243,9 @@ def check_manifest(manifest: dict[str, Any], folder: str | Path, machine: Machin
     else:
         same, why = same_machine(written, machine)
         if not same:
-            text = (f"the compensation tables in {folder} were written for another machine: "
-                    f"{_describe(written)}; this session is {_describe(machine)} ({why})")
+            text = (f"the compensation tables in {folder} were written for another machine, "
+                    f"{_describe(written)}, not for this session's {_describe(machine)}: "
+                    f"{why}")
             if not force:
                 raise VolcalInputError(
                     text + "; write tables for this machine with `volcal compensate "

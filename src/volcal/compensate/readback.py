@@ -143,6 +143,25 @@ class WrittenTables:
         return np.where((d == "+")[:, None], fwd, np.where((d == "-")[:, None], rev,
                                                             0.5 * (fwd + rev)))
 
+    def deviation_after(self, m: Any) -> NDArray[np.float64]:
+        """Readings of a test as they would be with the tables active [um].
+
+        Parameters
+        ----------
+        m : Measurement
+            A measured test (deviations along its beam).
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            ``deviation - correction . beam`` at every reading [um], the correction
+            being what the tables remove at the reading's commanded position (per
+            approach direction for bidirectional tables).
+        """
+        d = m.columns.get("direction") if m.kind == "linear" else None
+        c = self.correction(m.positions, m.tool_offset, d) @ np.asarray(m.beam_direction)
+        return np.asarray(m.deviation, dtype=float) - c
+
     def table(self, input_axis: int, output_axis: int | None = None,
               direction: str = "+") -> AxisTable | None:
         """The per-axis table of an axis pair (None if the set has none).

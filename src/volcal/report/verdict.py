@@ -45,9 +45,7 @@ def compensated_deviation(m: Any, tables: Any) -> NDArray[np.float64]:
         direction for bidirectional tables). A constant along the test (a table not zero
         at the test's first reading) is kept: ISO 230-2 ``A`` does not see it.
     """
-    d = m.columns.get("direction") if m.kind == "linear" else None
-    c = tables.correction(m.positions, m.tool_offset, d) @ m.beam_direction
-    return np.asarray(m.deviation, dtype=float) - c
+    return tables.deviation_after(m)
 
 
 def verdicts(tolerance: Tolerance, session: Session | None, errors: MachineErrors | None,

@@ -129,10 +129,10 @@ def _print_line_checks(sess: object, output: Path) -> None:
     checks, skipped = check_lines(sess, read_written_tables(output, travel=sess.travel))
     if checks:
         t = Table(title="measured linear lines: ISO 230-2 A before and after these tables")
-        for c in ("id", "axis", "line", "A before [µm]", "A after [µm]", "u [µm]"):
-            t.add_column(c, justify="left" if c == "line" else "right")
+        for c in ("id", "axis", "line [mm]", "A before [µm]", "A after [µm]", "u [µm]"):
+            t.add_column(escape(c), justify="left" if c.startswith("line") else "right")
         for c in checks:
-            t.add_row(c.id, c.axis, escape(c.line), f"{c.A_before_um:.2f}",
+            t.add_row(c.id, c.axis, escape(c.short), f"{c.A_before_um:.2f}",
                       f"{c.A_after_um:.2f}" + (" (worse)" if c.worse else ""), f"{c.u_um:.2f}")
         console.print(t)
     for c in checks:

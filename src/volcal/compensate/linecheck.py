@@ -68,6 +68,13 @@ class LineCheck:
     u_source: str
 
     @property
+    def short(self) -> str:
+        """The line in a few characters: ``x=0 z=600 t=0,0,0`` [mm]."""
+        parts = [p.replace(" mm", "").replace(" = ", "=") for p in self.line.split(", ")[:2]]
+        t = self.line.split("tool offset (")[1].split(")")[0].replace(" ", "")
+        return " ".join(parts) + f" t={t}"
+
+    @property
     def worse(self) -> bool:
         """A grows by more than the line's uncertainty."""
         return self.A_after_um - self.A_before_um > self.u_um

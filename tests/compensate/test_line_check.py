@@ -15,8 +15,8 @@ import sys
 
 import numpy as np
 import pytest
-from compensate.gantry import write_gantry
 
+from compensate.gantry import write_gantry
 from volcal.cli import main
 from volcal.session.format import read_session
 

@@ -17,8 +17,8 @@ import tomllib
 
 import numpy as np
 import pytest
-from compensate.gantry import GANTRY_TRAVEL, gantry_errors, write_gantry
 
+from compensate.gantry import GANTRY_TRAVEL, gantry_errors, write_gantry
 from volcal.cli import main
 from volcal.compensate import CompensationOptions, write_compensation
 from volcal.compensate.manifest import check_manifest, errors_digest, read_manifest

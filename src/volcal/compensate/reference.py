@@ -63,7 +63,18 @@ def reference_line(errors: MachineErrors, axis: int) -> str:
 
 
 def abbe_formula(axis: int) -> str:
-    """The positioning error of ``axis`` on a line at lever ``L`` [um], as text."""
+    """The positioning error of ``axis`` on a line at lever ``L`` [um], as text.
+
+    Parameters
+    ----------
+    axis : int
+        0, 1, 2.
+
+    Returns
+    -------
+    str
+        E.g. ``"EYY + ECY*Lx - EAY*Lz"`` (tilts [urad], levers [mm]).
+    """
     a = AXES[axis]
     terms = " ".join(("+ " if s > 0 else "- ") + f"E{'ABC'[c - 3]}{a}*L{AXES[lv].lower()}"
                      for c, lv, s in ABBE_TERMS[axis])

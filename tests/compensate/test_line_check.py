@@ -98,6 +98,10 @@ def test_pitch_table_making_an_abbe_line_worse_is_warned(gantry, tmp_path, monke
     assert text.count("warning") == 1
     # on the reference line (z = 0) the table removes EYY: A drops from ~8 um to the noise
     assert a["linear-y1"][0] > 7.5 and a["linear-y1"][1] < 1.0
+    # the modelled volumetric error, by hand: e_y = 0.01 y - (y / 60) z 1e-3, largest at
+    # y = 800: 8 um on z = 0 before; after the table -(y / 60) z 1e-3, 8 um at z = 600
+    assert ("largest modelled volumetric error over 11³ points of the travel: 8.00 µm "
+            "before, 8.00 µm after these tables") in text
 
 
 def test_notes_state_the_reference_line_and_the_abbe_terms(gantry, tmp_path):

@@ -254,3 +254,20 @@ def test_bidirectional_tables_read_back_per_direction(tmp_path, fmt):
     mixed = w.correction(q, direction=np.array(["+", "-"] * 25))
     np.testing.assert_array_equal(mixed[0::2], up[0::2])
     np.testing.assert_array_equal(mixed[1::2], down[1::2])
+
+
+def test_model_digest_survives_the_model_file(tmp_path):
+    """A model identified in memory and read back from its file: the same digest (the
+    report identifies anew when no --model is given)."""
+    from volcal.flow import Calibration
+    from volcal.identify.modelfile import load_model_errors
+
+    cal = Calibration.plan([[0, 400], [0, 300], [0, 200]], "XYFZ", 4, ("diagonal", "linear"),
+                           2, name="M")
+    cal.simulate(seed=1)
+    r = cal.identify()
+    r.to_json(tmp_path / "m.json")
+    assert errors_digest(r.errors) == errors_digest(load_model_errors(tmp_path / "m.json"))
+    other = load_model_errors(tmp_path / "m.json")
+    other.values[0][3, 0] += 1e-3  # 1 nm somewhere: another model
+    assert errors_digest(other) != errors_digest(r.errors)

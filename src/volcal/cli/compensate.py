@@ -99,7 +99,7 @@ def compensate(
                          + (", the controller's convention" if sign is None else "")
                          + f", {spacing:g} mm): {', '.join(files)} -> {output}"))
     if sess is not None:
-        _print_line_checks(sess, output)
+        _print_line_checks(sess, output, errors)
 
 
 def _check_session(model: Path, session: Path, force: bool) -> None:
@@ -119,14 +119,15 @@ def _machine_identity(model: Path, errors: object, sess: object) -> object:
     return model_identity(model, errors)
 
 
-def _print_line_checks(sess: object, output: Path) -> None:
+def _print_line_checks(sess: object, output: Path, errors: object) -> None:
     """ISO 230-2 A of every measured linear line before and after the tables just written."""
     from rich.table import Table
 
-    from volcal.compensate.linecheck import check_lines
+    from volcal.compensate.linecheck import check_lines, volumetric_before_after
     from volcal.compensate.readback import read_written_tables
 
-    checks, skipped = check_lines(sess, read_written_tables(output, travel=sess.travel))
+    written = read_written_tables(output, travel=sess.travel)
+    checks, skipped = check_lines(sess, written)
     if checks:
         t = Table(title="measured linear lines: ISO 230-2 A before and after these tables")
         for c in ("id", "axis", "line [mm]", "A before [µm]", "A after [µm]", "u [µm]"):
@@ -140,6 +141,13 @@ def _print_line_checks(sess: object, output: Path) -> None:
             console.print(f"[yellow]warning[/] {escape(c.warning())}", highlight=False)
     for why in skipped:
         console.print(f"note: not evaluated: {escape(why)}", highlight=False)
+    before, after = volumetric_before_after(errors, written)
+    text = (f"largest modelled volumetric error over 11³ points of the travel: {before:.2f} µm "
+            f"before, {after:.2f} µm after these tables")
+    if after > before:
+        console.print(f"[yellow]warning[/] {text}: the tables make it larger", highlight=False)
+    else:
+        console.print(text, highlight=False)
 
 
 def register(app: typer.Typer) -> None:

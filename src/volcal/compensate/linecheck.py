@@ -32,7 +32,7 @@ import numpy as np
 from volcal.errors import VolcalInputError
 from volcal.model.names import AXES
 
-__all__ = ["LineCheck", "check_lines"]
+__all__ = ["LineCheck", "check_lines", "volumetric_before_after"]
 
 REPEATABILITY_U = ("repeatability-based: the largest unidirectional standard uncertainty "
                    "s_i of the line's targets, ISO 230-2; no uncertainty budget")
@@ -152,3 +152,29 @@ def check_lines(session: Any, tables: Any, edition: str = "2014",
         checks.append(LineCheck(m.id, AXES[m.axis], _where(m), float(before.A),
                                 float(after.A), u, src))
     return checks, skipped
+
+
+def volumetric_before_after(errors: Any, tables: Any, n: int = 11) -> tuple[float, float]:
+    """Largest length of the modelled volumetric error before and after the tables [um].
+
+    Parameters
+    ----------
+    errors : MachineErrors
+        The model the tables were written from.
+    tables : WrittenTables
+        The tables as written.
+    n : int
+        Grid points per axis of the work zone (the model's travel).
+
+    Returns
+    -------
+    before, after : float
+        ``max |e|`` and ``max |e - correction|`` over the ``n**3`` points [um].
+    """
+    from volcal.model.kinematics import volumetric_error
+    from volcal.standards.volumetric import work_zone_grid
+
+    q = work_zone_grid(errors.travel, n)
+    e = volumetric_error(errors, q)
+    return (float(np.linalg.norm(e, axis=1).max()),
+            float(np.linalg.norm(e - tables.correction(q), axis=1).max()))

@@ -271,3 +271,35 @@ def test_model_digest_survives_the_model_file(tmp_path):
     other = load_model_errors(tmp_path / "m.json")
     other.values[0][3, 0] += 1e-3  # 1 nm somewhere: another model
     assert errors_digest(other) != errors_digest(r.errors)
+
+
+def test_report_pipeline_checks_and_shows_the_warnings(gantry, vmc_grid, tmp_path):
+    """The report's pipeline (also the Python flow's) applies the same check and puts its
+    warnings into the compensation section."""
+    from types import SimpleNamespace
+
+    from volcal.model.kinematics import volumetric_error
+    from volcal.report.pipeline import compensation_summary
+    from volcal.report.sections import ReportInputs, compensation_section
+
+    session, model = gantry
+    s = read_session(session)
+    e = gantry_errors(0.012)  # another model of the gantry
+    r = SimpleNamespace(errors=e, predict=lambda q: (volumetric_error(e, q),
+                                                     np.zeros((len(q), 3))))
+    with pytest.raises(VolcalInputError, match="written for another machine, VMC-800"):
+        compensation_summary(r, s.travel, folder=vmc_grid, n=3, session=s)
+    c = compensation_summary(r, s.travel, folder=vmc_grid, n=3, session=s, force=True)
+    assert c.warnings[0].startswith("--force: the compensation tables in")
+    c_dir = tmp_path / "c"
+    write_compensation(gantry_errors(), "csv", c_dir, CompensationOptions(None, 20.0),
+                       "model.csv", MachineIdentity.of(s))
+    c = compensation_summary(r, s.travel, folder=c_dir, n=3, session=s, model_label="m2")
+    assert len(c.warnings) == 1 and "another model of this machine: model.csv" in c.warnings[0]
+    sec = compensation_section(ReportInputs(s, r, compensation=c))
+    assert c.warnings[0] in sec.warnings
+    # the 'after' is the tables' (EYY = 0.01 y), not the model's (0.012 y): left
+    # e_y = 0.002 y - (y / 60) z 1e-3; over y, z in {0, 400, 800} x {0, 300, 600} the largest
+    # is at y = 800, z = 600: 1.6 - 8 = -6.4 um (the model itself: 9.6 um at y = 800, z = 0)
+    assert c.model_max_um == pytest.approx(9.6, abs=1e-6)
+    assert c.left_max_um == pytest.approx(6.4, abs=0.001)

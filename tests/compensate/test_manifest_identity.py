@@ -256,9 +256,10 @@ def test_bidirectional_tables_read_back_per_direction(tmp_path, fmt):
     np.testing.assert_array_equal(mixed[1::2], down[1::2])
 
 
-def test_model_digest_survives_the_model_file(tmp_path):
+def test_model_digest_survives_the_model_file(tmp_path, monkeypatch, capsys):
     """A model identified in memory and read back from its file: the same digest (the
-    report identifies anew when no --model is given)."""
+    report identifies anew when no --model is given). Tables written from the model file
+    without --session record the machine of the session the model was identified from."""
     from volcal.flow import Calibration
     from volcal.identify.modelfile import load_model_errors
 
@@ -268,6 +269,22 @@ def test_model_digest_survives_the_model_file(tmp_path):
     r = cal.identify()
     r.to_json(tmp_path / "m.json")
     assert errors_digest(r.errors) == errors_digest(load_model_errors(tmp_path / "m.json"))
+    code, _, err = _run(monkeypatch, capsys, "compensate", str(tmp_path / "m.json"),
+                        "--format", "heidenhain", "-o", str(tmp_path / "c"))
+    assert code == 0, err
+    man = read_manifest(tmp_path / "c")
+    assert man["machine"] == MachineIdentity.of(cal.session).to_dict()
+    assert man["machine"]["travel_mm"] == [[0.0, 400.0], [0.0, 300.0], [0.0, 200.0]]
+    assert man["model_sha256"] == errors_digest(r.errors)
+    # identity keys the model file carries (a [machine] table) are recorded too
+    doc = json.loads((tmp_path / "m.json").read_text())
+    doc["machine"] = {"make": "Acme", "serial": "A-7"}
+    (tmp_path / "m2.json").write_text(json.dumps(doc))
+    code, _, err = _run(monkeypatch, capsys, "compensate", str(tmp_path / "m2.json"),
+                        "--format", "csv", "-o", str(tmp_path / "c2"))
+    assert code == 0, err
+    assert read_manifest(tmp_path / "c2")["machine"] == {
+        **MachineIdentity.of(cal.session).to_dict(), "make": "Acme", "serial": "A-7"}
     other = load_model_errors(tmp_path / "m.json")
     other.values[0][3, 0] += 1e-3  # 1 nm somewhere: another model
     assert errors_digest(other) != errors_digest(r.errors)

@@ -162,30 +162,6 @@ class WrittenTables:
         c = self.correction(m.positions, m.tool_offset, d) @ np.asarray(m.beam_direction)
         return np.asarray(m.deviation, dtype=float) - c
 
-    def table(self, input_axis: int, output_axis: int | None = None,
-              direction: str = "+") -> AxisTable | None:
-        """The per-axis table of an axis pair (None if the set has none).
-
-        Parameters
-        ----------
-        input_axis : int
-            0, 1, 2.
-        output_axis : int, optional
-            Default ``input_axis`` (the pitch table).
-        direction : str
-            ``'+'`` forward, ``'-'`` reverse table.
-
-        Returns
-        -------
-        AxisTable or None
-        """
-        out = input_axis if output_axis is None else output_axis
-        tables = self.reverse if direction == "-" and self.reverse is not None else self.forward
-        for t in tables:
-            if (t.input_axis, t.output_axis) == (input_axis, out):
-                return t
-        return None
-
 
 def _trilinear(axes: list[NDArray[np.float64]], values: NDArray[np.float64],
                q: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -134,10 +134,13 @@ def check_lines(session: Any, tables: Any, edition: str = "2014",
             continue
         try:
             d = from_measurement(m, session.path)
-            before = evaluate(d.targets_mm, d.run, d.direction, d.deviation_um, edition)
+            # incomplete runs (missed readings) are evaluated where the reader allows it
+            kw = d.evaluate_kwargs() if hasattr(d, "evaluate_kwargs") else {}
+            before = evaluate(d.targets_mm, d.run, d.direction, d.deviation_um, edition, **kw)
             m2 = dataclasses.replace(m, deviation=tables.deviation_after(m))
             d2 = from_measurement(m2, session.path)
-            after = evaluate(d2.targets_mm, d2.run, d2.direction, d2.deviation_um, edition)
+            after = evaluate(d2.targets_mm, d2.run, d2.direction, d2.deviation_um, edition,
+                             **kw)
         except VolcalInputError as exc:
             skipped.append(f"{m.id}: {exc.message}")
             continue

@@ -320,3 +320,25 @@ def test_report_pipeline_checks_and_shows_the_warnings(gantry, vmc_grid, tmp_pat
     # is at y = 800, z = 600: 1.6 - 8 = -6.4 um (the model itself: 9.6 um at y = 800, z = 0)
     assert c.model_max_um == pytest.approx(9.6, abs=1e-6)
     assert c.left_max_um == pytest.approx(6.4, abs=0.001)
+
+
+def test_error_table_of_another_machine_with_session_is_refused(gantry, tmp_path,
+                                                                 monkeypatch, capsys):
+    """--session labels the tables with the session's machine: an error table of another
+    chain or travel is refused (--force writes them, with the reason as a warning)."""
+    session, _ = gantry
+    vm = random_machine(DEMO_TRAVEL, "XYFZ", 7, name="VMC-800")
+    write_error_table(vm, tmp_path / "vmc.csv")
+    args = ["compensate", str(tmp_path / "vmc.csv"), "--format", "csv", "--session",
+            str(session)]
+    code, _, err = _run(monkeypatch, capsys, *args, "-o", str(tmp_path / "c"))
+    assert code == 2 and err == (
+        f"error: {tmp_path / 'vmc.csv'}: the error table is not of this session's machine "
+        "(chain XYFZ is not FXYZ; travel [[0.0, 800.0], [0.0, 600.0], [0.0, 500.0]] mm is not "
+        "[[0.0, 1200.0], [0.0, 800.0], [0.0, 600.0]] mm); the tables would be labelled "
+        "FXYZ-1200; give --force to write them anyway")
+    assert not (tmp_path / "c").exists()
+    code, out, err = _run(monkeypatch, capsys, *args, "--force", "-o", str(tmp_path / "c"))
+    assert code == 0, err
+    assert "warning --force: the error table is not of this session's machine" in " ".join(
+        out.split())

@@ -93,7 +93,7 @@ def compensate(
         _check_session(model, session, force)
     errors = load_errors(model)
     files = write_compensation(errors, fmt, output, opts, model.name,
-                               _machine_identity(model, errors, sess))
+                               _machine_identity(model, errors, sess, force))
     used = opts.sign_for(fmt)
     console.print(escape(f"wrote {fmt} tables ({used}"
                          + (", the controller's convention" if sign is None else "")
@@ -109,14 +109,28 @@ def _check_session(model: Path, session: Path, force: bool) -> None:
         console.print(f"[yellow]warning[/] --force: {d}", highlight=False)
 
 
-def _machine_identity(model: Path, errors: object, sess: object) -> object:
-    """The machine the tables are for: the session's identity, else what the model records."""
-    from volcal.compensate.manifest import model_identity
-    from volcal.session.identity import MachineIdentity
+def _machine_identity(model: Path, errors: object, sess: object, force: bool) -> object:
+    """The machine the tables are for: the session's identity, else what the model records.
 
-    if sess is not None:
-        return MachineIdentity.of(sess)
-    return model_identity(model, errors)
+    An error table given with --session must have the session's chain and travel (its
+    name may differ: a simulated truth is called "virtual ..."); --force overrides.
+    """
+    from volcal.compensate.manifest import identity_of_errors, model_identity
+    from volcal.session.identity import MachineIdentity, same_machine
+
+    if sess is None:
+        return model_identity(model, errors)
+    me = MachineIdentity.of(sess)
+    if model.suffix.lower() == ".csv":
+        mine = identity_of_errors(errors)
+        same, why = same_machine(MachineIdentity(me.name, mine.chain, mine.travel_mm), me)
+        if not same:
+            text = (f"the error table is not of this session's machine ({why}); the tables "
+                    f"would be labelled {me.label()}")
+            if not force:
+                raise VolcalInputError(text + "; give --force to write them anyway", model)
+            console.print(f"[yellow]warning[/] --force: {escape(text)}", highlight=False)
+    return me
 
 
 def _print_line_checks(sess: object, output: Path, errors: object) -> None:

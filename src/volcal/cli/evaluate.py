@@ -175,8 +175,12 @@ def session_cmd(
                                       "a volumetric tolerance and for the verdict after "
                                       "compensation."),
     compensation: Path | None = typer.Option(None, help="Folder written by `volcal "
-                                             "compensate` from --model: the verdict after "
-                                             "applying exactly what its tables carry."),
+                                             "compensate` for this machine: the verdict after "
+                                             "its tables, read back from the files. Tables "
+                                             "written for another machine are refused "
+                                             "(--force to use them)."),
+    force: bool = typer.Option(False, "--force", help="Use --compensation tables written "
+                               "for another machine (a warning instead of an error)."),
 ) -> None:
     """ISO 230-2 for every linear measurement with runs and directions; ELv (seed 002)."""
     from volcal.errors import VolcalInputError
@@ -186,6 +190,8 @@ def session_cmd(
     tol = _tolerance_inputs(tolerance_um, model, compensation)
     s = read_session(session)
     print_session_notes(s)
+    if compensation is not None:
+        tol = (tol[0], tol[1], _written_tables(compensation, s, tol[1], model, force))
     ev = evaluate_session(s, edition=edition)
     results, axis_of = ev.iso230_2, ev.axis
     why_skipped = {k: why for k, why in ev.skipped.items() if why != "no readings yet"}
@@ -262,12 +268,23 @@ def _tolerance_inputs(tolerance_um: str | None, model: Path | None,
         from volcal.compensate.source import load_errors
 
         errors = load_errors(model)
-    if compensation is not None:
-        from volcal.report.carried import table_set_from_manifest
-        from volcal.report.pipeline import read_manifest
-
-        tables = table_set_from_manifest(read_manifest(compensation), compensation)
     return tol, errors, tables
+
+
+def _written_tables(folder: Path, s: Any, errors: Any, model: Path | None, force: bool
+                    ) -> Any:
+    """Check the tables' manifest against the session and the model; read them back."""
+    from volcal.compensate.manifest import check_manifest, errors_digest, read_manifest
+    from volcal.compensate.readback import read_written_tables
+    from volcal.session.identity import MachineIdentity
+
+    manifest = read_manifest(folder)
+    err = Console(stderr=True, soft_wrap=True)  # stdout may be --json
+    for w in check_manifest(manifest, folder, MachineIdentity.of(s),
+                            None if errors is None else errors_digest(errors), force,
+                            str(model) if model is not None else "the model in use"):
+        err.print(f"[yellow]warning[/] {escape(w)}", highlight=False)
+    return read_written_tables(folder, manifest, s.travel)
 
 
 def _verdicts(tol: tuple[Any, Any, Any], s: Any, edition: str) -> Any:

@@ -408,6 +408,7 @@ def compensation_section(inp: ReportInputs) -> Section | None:
     if c is None:
         return None
     sec = Section("compensation", "Compensation")
+    sec.warnings.extend(getattr(c, "warnings", []))
     cells = f"{c.n}³ points of the work zone"
     if c.folder is None or c.tables is None:
         sec.paragraphs.append(
@@ -433,11 +434,12 @@ def compensation_section(inp: ReportInputs) -> Section | None:
             "else (the components not listed, and the estimation error of the model) "
             "stays.")
         sec.paragraphs.append(
-            "The error left is computed from the model: its volumetric error with every "
-            "carried component replaced by the model minus the table as the controller "
-            "interpolates it (table points, rounding, interpolation rule), assuming the "
-            f"tables are loaded with the sign the controller expects (written: "
-            f"'{t.sign}').")
+            "The error left is the model's volumetric error minus what the tables remove: "
+            "the tables as written, read back from their files with the format's reader "
+            "and applied with the controller's interpolation rule (table points, "
+            "rounding, linear or stepwise between points), assuming they are loaded with "
+            f"the sign the controller expects (written: '{t.sign}'). A table edited "
+            "after it was written, or written from another model, shows here as it is.")
         rows = [["modelled volumetric error, largest |e|", fmt(c.model_max_um),
                  fmt(c.left_max_um)],
                 ["modelled volumetric error, RMS", fmt(c.model_rms_um), fmt(c.left_rms_um)]]

@@ -154,6 +154,13 @@ class History:
     def machine_id(self, machine: str, records: list[Record] | None = None) -> str:
         """Machine record id of a machine given by id or name.
 
+        Parameters
+        ----------
+        machine : str
+            Machine record id or name.
+        records : list of Record, optional
+            The store's records, when already read.
+
         Raises
         ------
         VolcalInputError
@@ -172,7 +179,13 @@ class History:
         return hit[0].id
 
     def show(self, rid: str) -> Record:
-        """The newest version of a record (a correction replaces what it supersedes)."""
+        """The newest version of a record (a correction replaces what it supersedes).
+
+        Parameters
+        ----------
+        rid : str
+            Record id.
+        """
         return self.store.current(rid)
 
     def verify(self) -> tuple[bool, str | None, str, int, str]:
@@ -184,6 +197,13 @@ class History:
         """The change test between two calibrations, as a DataFrame.
 
         See :func:`volcal.history.compare.compare` for the columns.
+
+        Parameters
+        ----------
+        id1, id2 : str
+            Earlier and later calibration record.
+        level : float
+            Family-wise false-alarm level of the function tests.
         """
         import pandas as pd
 
@@ -195,6 +215,13 @@ class History:
         """One parameter over the calibrations of a machine, as a DataFrame.
 
         Columns ``id, date, value, U, unit``.
+
+        Parameters
+        ----------
+        machine : str
+            Machine record id or name.
+        parameter : str
+            Result name or a function at a position (:mod:`volcal.history.trend`).
         """
         import pandas as pd
 

@@ -26,7 +26,13 @@ def _num(v: Any) -> Any:
 
 
 def canonical(obj: Any) -> str:
-    """Canonical JSON: sorted keys, no spaces, floats to 12 significant digits."""
+    """Canonical JSON: sorted keys, no spaces, floats to 12 significant digits.
+
+    Parameters
+    ----------
+    obj : Any
+        JSON-ready object.
+    """
     return json.dumps(obj, sort_keys=True, separators=(",", ":"), ensure_ascii=False,
                       default=str)
 

@@ -90,7 +90,15 @@ class Entry:
 
 
 def load_record_model(store: Any, rid: str) -> Any:
-    """The model file of a calibration record, loaded from the store's copy."""
+    """The model file of a calibration record, loaded from the store's copy.
+
+    Parameters
+    ----------
+    store : Store
+        The history.
+    rid : str
+        Calibration record id.
+    """
     from volcal.identify.modelfile import load_model
 
     rec = store.record(rid)
@@ -112,6 +120,11 @@ def prior_precision(model: Any) -> Any:
 
     ``None`` when the model file does not record them (then the posterior covariance
     is used as it is).
+
+    Parameters
+    ----------
+    model : IdentificationResult
+        A model whose fit records its hyperparameters.
     """
     from volcal.identify.prior import PriorStructure
 
@@ -135,6 +148,11 @@ def noise_covariance(model: Any) -> np.ndarray:
     difference is that of the readings and set-ups alone, ``C - C Q C`` each
     (Rasmussen & Williams 2006, 2.2; the set-up tilts stay random: they differ from one
     set-up to the next).
+
+    Parameters
+    ----------
+    model : IdentificationResult
+        A model with its covariance factor and hyperparameters.
     """
     L = np.asarray(model.cov_factor)
     C = L @ L.T

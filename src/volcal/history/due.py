@@ -14,7 +14,15 @@ from typing import Any
 
 
 def machine_interval(records: list[Any], machine_id: str) -> int:
-    """The machine's interval [days]: its newest interval record, else its own record."""
+    """The machine's interval [days]: its newest interval record, else its own record.
+
+    Parameters
+    ----------
+    records : list of Record
+        Every record of the store.
+    machine_id : str
+        Machine record id.
+    """
     from volcal.history.machines import DEFAULT_INTERVAL_DAYS
 
     days = None
@@ -42,6 +50,13 @@ def due(history: Any, today: _dt.date | None = None) -> list[dict[str, Any]]:
     """Rows ``machine, machine_id, test, last, next, interval_days, overdue_days``.
 
     Sorted by the next date, so the most overdue come first.
+
+    Parameters
+    ----------
+    history : History
+        The store.
+    today : date, optional
+        Reference date (default today).
     """
     from volcal.history.machines import current_machines
 

@@ -84,6 +84,11 @@ def lock(conn) -> None:
     """Serialise writers inside the current transaction (PostgreSQL advisory lock).
 
     On SQLite the transaction itself is the lock (``BEGIN IMMEDIATE``).
+
+    Parameters
+    ----------
+    conn : Connection
+        A connection inside a transaction.
     """
     if conn.dialect.name == "postgresql":
         from sqlalchemy import text
@@ -149,12 +154,26 @@ def open_engine(url: str, upgrade: bool = True):
 
 
 def writer(engine):
-    """A connection whose transactions take the writers' lock (use as a context manager)."""
+    """A connection whose transactions take the writers' lock (use as a context manager).
+
+    Parameters
+    ----------
+    engine : Engine
+        The store's engine.
+    """
     return engine.connect().execution_options(volcal_write=True)
 
 
 def migrate(engine, revision: str = "head") -> None:
-    """Upgrade the schema to ``revision`` (Alembic), under the writers' lock."""
+    """Upgrade the schema to ``revision`` (Alembic), under the writers' lock.
+
+    Parameters
+    ----------
+    engine : Engine
+        The store's engine.
+    revision : str
+        Target revision (``head``, ``0001``, ...).
+    """
     from alembic import command
 
     with writer(engine) as conn:

@@ -210,6 +210,15 @@ def write_etalon(errors, path: str | Path, source: str = "volcal") -> Path:
 def to_machine_errors(data: EtalonFile, chain: str, name: str = "etalon"):
     """The functions of an exchange file as a volcal machine (missing functions zero).
 
+    Parameters
+    ----------
+    data : EtalonFile
+        What :func:`read_etalon` read.
+    chain : str
+        Chain code of the machine.
+    name : str
+        Machine name.
+
     Raises
     ------
     VolcalInputError

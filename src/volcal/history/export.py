@@ -12,7 +12,15 @@ from typing import Any
 
 
 def export_parquet(history: Any, folder: str | Path) -> list[Path]:
-    """Write the Parquet files; returns their paths."""
+    """Write the Parquet files; returns their paths.
+
+    Parameters
+    ----------
+    history : History
+        The store.
+    folder : str or Path
+        Output folder (replaced atomically).
+    """
     import pandas as pd
     from sqlalchemy import select
 

@@ -29,7 +29,15 @@ def _sparkline(values: list[float], width: int = 120, height: int = 28) -> str:
 
 
 def fleet_html(history: Any, today: _dt.date | None = None) -> str:
-    """The page's HTML text."""
+    """The page's HTML text.
+
+    Parameters
+    ----------
+    history : History
+        The store.
+    today : date, optional
+        Reference date of the due column (default today).
+    """
     from volcal.history.due import due
     from volcal.history.machines import current_machines
 
@@ -80,7 +88,15 @@ E<sub>VXYZ</sub>: largest volumetric error of the identified model over the work
 
 
 def write_fleet(history: Any, path: str | Path) -> Path:
-    """Write the fleet page atomically."""
+    """Write the fleet page atomically.
+
+    Parameters
+    ----------
+    history : History
+        The store.
+    path : str or Path
+        HTML file to write.
+    """
     from volcal.io.atomic import write_text
 
     write_text(path, fleet_html(history))

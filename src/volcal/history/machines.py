@@ -19,7 +19,13 @@ DEFAULT_INTERVAL_DAYS = 365
 
 
 def current_machines(records: list[Any]) -> list[Any]:
-    """The newest record of each machine (superseded machine records left out)."""
+    """The newest record of each machine (superseded machine records left out).
+
+    Parameters
+    ----------
+    records : list of Record
+        Every record of the store.
+    """
     return [r for r in records if r.kind == "machine" and r.superseded_by is None]
 
 
@@ -63,5 +69,13 @@ def match(records: list[Any], ident: MachineIdentity, machine_id: str | None = N
 
 def machine_payload(ident: MachineIdentity, interval_days: int = DEFAULT_INTERVAL_DAYS
                     ) -> dict[str, Any]:
-    """Payload of a machine record."""
+    """Payload of a machine record.
+
+    Parameters
+    ----------
+    ident : MachineIdentity
+        The machine.
+    interval_days : int
+        Calibration interval [days].
+    """
     return {"machine": ident.to_dict(), "interval_days": int(interval_days)}

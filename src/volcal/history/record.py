@@ -23,7 +23,13 @@ SKIP_DIRS = ("backup", "truth")
 
 
 def session_files(folder: Path) -> list[tuple[str, str, bytes]]:
-    """Every file of a session folder (``backup/``, ``truth/`` and hidden files left out)."""
+    """Every file of a session folder (``backup/``, ``truth/`` and hidden files left out).
+
+    Parameters
+    ----------
+    folder : Path
+        The session folder.
+    """
     out = []
     for p in sorted(folder.rglob("*")):
         rel = p.relative_to(folder)
@@ -34,7 +40,13 @@ def session_files(folder: Path) -> list[tuple[str, str, bytes]]:
 
 
 def model_files(model: Path) -> list[tuple[str, str, bytes]]:
-    """The model file and the files beside it that share its stem (its binary part)."""
+    """The model file and the files beside it that share its stem (its binary part).
+
+    Parameters
+    ----------
+    model : Path
+        The model file.
+    """
     out = [("model", model.name, model.read_bytes())]
     for p in sorted(model.parent.glob(model.stem + ".*")):
         if p != model and p.is_file() and p.suffix != ".json":
@@ -51,7 +63,15 @@ def _num(v: Any) -> float | None:
 
 
 def results_of(session: Any, model: Any) -> list[tuple[str, float | None, float | None, str]]:
-    """Named results with U (None where volcal has none) of a session and its model."""
+    """Named results with U (None where volcal has none) of a session and its model.
+
+    Parameters
+    ----------
+    session : Session
+        The session with readings.
+    model : IdentificationResult or None
+        Its model.
+    """
     from volcal.standards.session import evaluate_session
 
     ev = evaluate_session(session, model)

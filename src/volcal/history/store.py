@@ -277,6 +277,11 @@ class Store:
     def record(self, rid: str) -> Record:
         """One record by id (as stored, superseded or not).
 
+        Parameters
+        ----------
+        rid : str
+            Record id.
+
         Raises
         ------
         VolcalInputError
@@ -290,7 +295,13 @@ class Store:
         return rows[0]
 
     def current(self, rid: str) -> Record:
-        """The newest record superseding ``rid`` (``rid`` itself when none does)."""
+        """The newest record superseding ``rid`` (``rid`` itself when none does).
+
+        Parameters
+        ----------
+        rid : str
+            Record id.
+        """
         every = {r.id: r for r in self.records()}
         if rid not in every:
             raise VolcalInputError(f"no record {rid!r} in the history {self.where}")
@@ -298,7 +309,17 @@ class Store:
         return every[r.superseded_by] if r.superseded_by else r
 
     def file(self, rid: str, role: str, name: str | None = None) -> bytes:
-        """The stored content of a record's file (the first of ``role`` if no name)."""
+        """The stored content of a record's file (the first of ``role`` if no name).
+
+        Parameters
+        ----------
+        rid : str
+            Record id.
+        role : str
+            File role (``session``, ``model``, ``model-part``, ``etalon``).
+        name : str, optional
+            File name.
+        """
         from sqlalchemy import select
 
         from volcal.history import schema as t

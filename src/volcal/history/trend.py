@@ -75,7 +75,19 @@ def trend(history: Any, machine: str, parameter: str) -> list[dict[str, Any]]:
 
 
 def plot_trend(rows: list[dict[str, Any]], parameter: str, machine: str, path: Any) -> None:
-    """Write the trend as a figure (value with its U as error bars), atomically."""
+    """Write the trend as a figure (value with its U as error bars), atomically.
+
+    Parameters
+    ----------
+    rows : list of dict
+        What :func:`trend` returns.
+    parameter : str
+        Parameter name (axis label).
+    machine : str
+        Machine (title).
+    path : str or Path
+        Figure file; the format from its suffix.
+    """
     import matplotlib
 
     matplotlib.use("Agg")

@@ -47,7 +47,13 @@ def resolve_url(db: str | None = None) -> str:
 
 
 def describe(url: str) -> str:
-    """The URL without its password, for messages."""
+    """The URL without its password, for messages.
+
+    Parameters
+    ----------
+    url : str
+        SQLAlchemy URL.
+    """
     from sqlalchemy.engine import make_url
 
     try:

@@ -77,7 +77,13 @@ def parse_date(value: Any, file: str | Path | None = None, key: str | None = Non
 
 
 def as_date(text: str) -> _dt.date:
-    """The calendar date of an ISO 8601 date or date-time string (see :func:`parse_date`)."""
+    """The calendar date of an ISO 8601 date or date-time string (see :func:`parse_date`).
+
+    Parameters
+    ----------
+    text : str
+        ISO 8601 date or date-time.
+    """
     return _dt.date.fromisoformat(text[:10])
 
 
@@ -233,7 +239,13 @@ class MachineIdentity:
 
     @classmethod
     def of(cls, session: Any) -> MachineIdentity:
-        """The identity of a :class:`~volcal.session.format.Session`."""
+        """The identity of a :class:`~volcal.session.format.Session`.
+
+        Parameters
+        ----------
+        session : Session
+            A session.
+        """
         keys = read_machine_identity(session.meta)
         travel = tuple((float(a), float(b)) for a, b in session.travel)
         return cls(session.name, session.chain, travel, **keys)
@@ -241,6 +253,11 @@ class MachineIdentity:
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> MachineIdentity:
         """Inverse of :meth:`to_dict` (e.g. from a compensation manifest).
+
+        Parameters
+        ----------
+        d : dict
+            As written by :meth:`to_dict`.
 
         Raises
         ------

@@ -1,10 +1,14 @@
 """The calibration flow as a small library object.
 
-:class:`Calibration` chains plan -> simulate (or measure) -> identify -> evaluate ->
-compensate -> report on one session, each step one method, so that the whole flow is a
-few lines of Python (``docs/python.md``). The command line and the demo call the same
-functions. Heavy modules (the estimator, matplotlib) are imported only by the steps
-that need them.
+:class:`Calibration` chains plan -> advise -> program -> simulate (or measure, or
+import) -> identify -> evaluate -> compensate -> report on one session, each step one
+method, so that the whole flow is a few lines of Python (``docs/python.md``). The
+command line and the demo call the same functions, and the defaults of both come from
+:mod:`volcal.defaults` (``tests/test_defaults_parity.py`` compares them). Heavy modules
+(the estimator, matplotlib) are imported only by the steps that need them.
+
+Every mistake in a call (an unknown keyword, a value of the wrong shape or kind) is a
+:class:`~volcal.errors.VolcalInputError` naming the valid choices, as on the command line.
 
 Examples
 --------
@@ -16,13 +20,118 @@ Examples
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import difflib
+import functools
+import inspect
+import warnings
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, TypeVar
 
-from numpy.typing import ArrayLike
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from volcal import defaults as D
+from volcal.errors import VolcalInputError
+
+if TYPE_CHECKING:
+    from volcal.identify.identifiability import IdentifiabilityReport
+    from volcal.identify.result import IdentificationResult
+    from volcal.importer.laser_csv import ImportResult
+    from volcal.model.errorfunctions import MachineErrors
+    from volcal.report.writer import ReportFiles
+    from volcal.session.format import Session
+    from volcal.standards.session import SessionEvaluation
 
 __all__ = ["Calibration"]
+
+F = TypeVar("F", bound=Callable[..., object])
+
+
+def _names(valid: Sequence[str]) -> str:
+    return ", ".join(valid)
+
+
+def _unknown(where: str, key: str, valid: Sequence[str]) -> VolcalInputError:
+    close = difflib.get_close_matches(key, valid, n=1, cutoff=0.5)
+    hint = f" (did you mean {close[0]!r}?)" if close else ""
+    return VolcalInputError(f"{where}: unknown option {key!r}{hint}; valid options: "
+                            f"{_names(valid)}")
+
+
+def _checked(func: F) -> F:
+    """Turn a call that does not fit ``func``'s signature into a VolcalInputError.
+
+    An unknown keyword, a missing required argument or one given twice names the
+    method and lists its valid options (with the closest name), instead of Python's
+    ``TypeError``.
+    """
+    sig = inspect.signature(func)
+    params = [p for p in sig.parameters.values()
+              if p.name not in ("self", "cls") and p.kind not in (p.VAR_KEYWORD,
+                                                                   p.VAR_POSITIONAL)]
+    valid = [p.name for p in params]
+    takes_var = any(p.kind is p.VAR_KEYWORD for p in sig.parameters.values())
+    where = f"Calibration.{func.__name__}"
+
+    @functools.wraps(func)
+    def wrapper(*args: object, **kwargs: object) -> object:
+        if not takes_var:
+            for key in kwargs:
+                if key not in valid:
+                    raise _unknown(where, key, valid)
+        try:
+            sig.bind(*args, **kwargs)
+        except TypeError as exc:
+            need = [p.name for p in params if p.default is p.empty]
+            raise VolcalInputError(f"{where}: {exc}; required: {_names(need) or 'none'}; "
+                                   f"valid options: {_names(valid)}") from None
+        return func(*args, **kwargs)
+
+    return wrapper  # type: ignore[return-value]
+
+
+def _travel(travel: ArrayLike | str) -> NDArray[np.float64]:
+    """Travel limits [mm] as a (3, 2) array, or the CLI text ``'0:800,0:600,0:500'``."""
+    try:
+        if isinstance(travel, str):  # the command line's text
+            travel = [[float(v) for v in p.split(":")] for p in travel.split(",")]
+        t = np.asarray(travel, dtype=float)
+    except (TypeError, ValueError):
+        raise VolcalInputError(f"travel {travel!r}: expected [[xmin, xmax], [ymin, ymax], "
+                               "[zmin, zmax]] in mm") from None
+    if t.shape != (3, 2):
+        raise VolcalInputError(f"travel of shape {t.shape}: expected [[xmin, xmax], [ymin, "
+                               "ymax], [zmin, zmax]] in mm (shape (3, 2))")
+    if not np.all(np.isfinite(t)) or np.any(t[:, 1] <= t[:, 0]):
+        raise VolcalInputError(f"travel {t.tolist()}: every range needs finite max > min [mm]")
+    return t
+
+
+def _vector(v: ArrayLike | str, what: str) -> tuple[float, float, float]:
+    """Three finite numbers x, y, z (or the CLI text ``'x,y,z'``)."""
+    try:
+        a = np.asarray(v.split(",") if isinstance(v, str) else v, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        a = np.array([])
+    if a.size != 3 or not np.all(np.isfinite(a)):
+        raise VolcalInputError(f"{what} {v!r}: expected three finite numbers x, y, z [mm]")
+    return float(a[0]), float(a[1]), float(a[2])
+
+
+def _list(v: str | Sequence[str], what: str) -> list[str]:
+    """A list of names, or the CLI's comma-separated text."""
+    if isinstance(v, str):
+        return [s.strip() for s in v.split(",") if s.strip()]
+    if not all(isinstance(s, str) for s in v):
+        raise VolcalInputError(f"{what} {v!r}: expected names (strings)")
+    return list(v)
+
+
+def _tolerance_text(tolerance_um: float | str | Mapping[str, float]) -> str:
+    if isinstance(tolerance_um, Mapping):
+        return ",".join(f"{k}={v}" for k, v in tolerance_um.items())
+    return str(tolerance_um)
 
 
 class Calibration:
@@ -40,21 +149,24 @@ class Calibration:
     session : Session
     truth : MachineErrors or None
     result : IdentificationResult or None
-        Set by :meth:`identify`.
+        Set by :meth:`identify` (or :meth:`load_model`).
     evaluation : SessionEvaluation or None
         Set by :meth:`evaluate`.
     compensation : Path or None
         Folder written by :meth:`compensate`.
+    imported : ImportResult or None
+        What :meth:`import_` read (notes on units and columns).
     """
 
-    def __init__(self, session: Any, truth: Any = None) -> None:
+    def __init__(self, session: Session, truth: MachineErrors | None = None) -> None:
         self.session = session
         self.truth = truth
-        self.result: Any = None
-        self.evaluation: Any = None
+        self.result: IdentificationResult | None = None
+        self.evaluation: SessionEvaluation | None = None
         self.compensation: Path | None = None
-        self._setups: Any = None
-        self._sim: Any = None
+        self.imported: ImportResult | None = None
+        self._setups: object = None
+        self._sim: object = None
 
     def __repr__(self) -> str:
         """Short description."""
@@ -65,27 +177,47 @@ class Calibration:
 
     # ------------------------------------------------------------------ build
     @classmethod
-    def plan(cls, travel: ArrayLike, chain: str = "XYFZ", steps: int = 10,
-             tests: Sequence[str] = ("step-diagonal", "diagonal", "linear"), runs: int = 5,
-             name: str = "VMC-1", **options: Any) -> Calibration:
-        """Plan the tests of a machine (no readings yet).
+    @_checked
+    def plan(cls, travel: ArrayLike | str, chain: str = D.CHAIN, steps: int = D.PLAN_STEPS,
+             tests: str | Sequence[str] = D.PLAN_TESTS, runs: int = D.PLAN_RUNS,
+             name: str = D.PLAN_NAME, step_orders: str | Sequence[str] = ("xyz",),
+             tool_offset: ArrayLike | str = (0.0, 0.0, 0.0),
+             iso_spacing: bool = True, step_target: str = "flat_mirror",
+             overrun_mm: float = D.PROG_OVERRUN_MM, abbe_offset_mm: float = 150.0,
+             multilateration: Mapping[str, object] | None = None) -> Calibration:
+        """Plan the tests of a machine (no readings yet), like ``volcal plan``.
 
         Parameters
         ----------
-        travel : array_like, shape (3, 2)
-            Travel limits [mm].
+        travel : array_like, shape (3, 2), or str
+            Travel limits [mm]: ``[[0, 800], [0, 600], [0, 500]]`` or
+            ``'0:800,0:600,0:500'``.
         chain : str
             Kinematic chain code (``'XYFZ'``...).
         steps : int
             Increments per test.
-        tests : sequence of str
-            ``'step-diagonal'``, ``'diagonal'``, ``'linear'``, ``'face-diagonal'``...
+        tests : sequence of str, or str
+            ``'step-diagonal'``, ``'diagonal'``, ``'linear'``, ``'face-diagonal'``,
+            ``'face-step-diagonal'``, ``'multilateration'``.
         runs : int
             Bidirectional runs per linear test (ISO 230-2).
         name : str
             Machine name.
-        **options
-            Other keywords of :func:`volcal.plan.planner.plan_session`.
+        step_orders : sequence of str, or str
+            Axis orders of the step diagonals (``'xyz'``, ``'yxz'``...).
+        tool_offset : array_like, shape (3,), or str
+            Target point on the tool [mm].
+        iso_spacing : bool
+            Unequally spaced linear-test targets (ISO 230-2:2014, 5.2).
+        step_target : str
+            ``'flat_mirror'``, ``'retroreflector'`` or ``'retroreflector_mirror'``.
+        overrun_mm : float
+            Linear-test targets kept this far inside the travel [mm].
+        abbe_offset_mm : float
+            Target offset from the spindle of the Abbe lines [mm].
+        multilateration : dict, optional
+            ``grid``, ``n_stations`` or ``stations``, ``tool_offsets`` of a
+            multilateration plan (:func:`volcal.plan.planner.plan_session`).
 
         Returns
         -------
@@ -93,10 +225,18 @@ class Calibration:
         """
         from volcal.plan.planner import plan_session
 
-        return cls(plan_session(travel, chain, steps, tuple(tests), runs, name=name,
-                                **options))
+        t = _travel(travel)
+        return cls(plan_session(t, chain, steps, tuple(_list(tests, "tests")), runs,
+                                _list(step_orders, "step_orders"),
+                                _vector(tool_offset, "tool_offset"), name,
+                                step_target=step_target, iso_spacing=iso_spacing,
+                                linear_margin_mm=overrun_mm,
+                                abbe_tool_offset_mm=abbe_offset_mm,
+                                multilateration=None if multilateration is None
+                                else dict(multilateration)))
 
     @classmethod
+    @_checked
     def open(cls, folder: str | Path) -> Calibration:
         """Open a session folder (``session.toml`` and its CSVs).
 
@@ -112,12 +252,156 @@ class Calibration:
         from volcal.report.pipeline import read_truth
         from volcal.session.format import read_session
 
-        s = read_session(folder)
+        try:  # measured: notes, missed captures and plausibility warnings as in the CLI
+            s = read_session(folder)
+        except VolcalInputError as exc:
+            if not exc.message.startswith("no readings yet"):
+                raise
+            s = read_session(folder, require_deviation=False)  # planned, no reading yet
         return cls(s, read_truth(s))
 
+    @classmethod
+    @_checked
+    def import_(cls, csv_file: str | Path, map: str | Mapping[str, str],
+                session: str | Path, axis: str | None = None, id: str | None = None,
+                measurement: str | None = None, line_mm: ArrayLike | str = (0.0, 0.0, 0.0),
+                units: str = D.IMPORT_UNITS, deviation_units: str = D.IMPORT_DEVIATION_UNITS,
+                optics: str = D.IMPORT_OPTICS, tool_offset: ArrayLike | str = (0.0, 0.0, 0.0),
+                travel: ArrayLike | str | None = None, chain: str = D.IMPORT_CHAIN,
+                name: str = D.IMPORT_NAME, replace: bool = False) -> Calibration:
+        """Add a laser's CSV export to a session folder, like ``volcal import``.
+
+        Either a new linear measurement (``axis`` and ``id``; the session is created
+        with ``travel`` if it does not exist) or the readings of a planned measurement
+        (``measurement``). The folder is written atomically, then opened.
+
+        Parameters
+        ----------
+        csv_file : str or Path
+            The laser's export.
+        map : str or dict
+            Column mapping, ``'target=Pos,deviation=Error'`` or ``{'target': 'Pos',
+            'deviation': 'Error'}`` (keys of ``volcal import --map``, docs/formats.md).
+        session : str or Path
+            Session folder.
+        axis : str, optional
+            Measured axis ``'X'``, ``'Y'`` or ``'Z'`` of a new linear measurement.
+        id : str, optional
+            Id of the new measurement.
+        measurement : str, optional
+            Id of a planned measurement to fill.
+        line_mm : array_like, shape (3,), or str
+            Machine position of the line [mm].
+        units, deviation_units : str
+            Units of the target/reading and deviation columns (``'auto'``: the header).
+        optics : str
+            ``'retroreflector'`` or ``'flat_mirror'``.
+        tool_offset : array_like, shape (3,), or str
+            Target on the tool [mm].
+        travel : array_like, shape (3, 2), or str, optional
+            Travel of a NEW session [mm].
+        chain, name : str
+            Chain and machine name of a new session.
+        replace : bool
+            Replace a measurement with this id (or the readings of ``measurement``).
+
+        Returns
+        -------
+        Calibration
+            The session as written; :attr:`imported` holds the notes of the import.
+        """
+        from volcal.importer.laser_csv import import_csv, parse_mapping
+
+        text = map if isinstance(map, str) else ",".join(f"{k}={v}" for k, v in map.items())
+        mapping = parse_mapping(text)
+        if measurement is not None:
+            if axis is not None or id is not None:
+                raise VolcalInputError("Calibration.import_: measurement= fills a planned "
+                                       "measurement: leave out axis= and id=")
+            from volcal.importer.planned import import_planned
+
+            r = import_planned(csv_file, mapping, session, measurement, units,
+                               deviation_units, replace)
+        else:
+            if axis is None or id is None:
+                raise VolcalInputError("Calibration.import_: give axis= and id= (a new "
+                                       "linear measurement) or measurement= (a planned one)")
+            r = import_csv(csv_file, mapping, axis, _vector(line_mm, "line_mm"), session, id,
+                           units, deviation_units, optics, _vector(tool_offset, "tool_offset"),
+                           None if travel is None else _travel(travel), chain, name, replace)
+        cal = cls.open(r.session)
+        cal.imported = r
+        return cal
+
     # ------------------------------------------------------------------ steps
-    def simulate(self, machine: Any = None, seed: int = 0, noise_um: float = 0.5,
-                 mirror_misalignment_urad: float = 20.0) -> Calibration:
+    @_checked
+    def advise(self, roll: str = D.ROLL, **options: object) -> IdentifiabilityReport:
+        """Before measuring: what the planned tests will and will not determine.
+
+        Like ``volcal advise``; the readings are not used.
+
+        Parameters
+        ----------
+        roll : str
+            ``'estimate'`` or ``'zero'`` (the rolls EAX, EBY, ECZ fixed to zero).
+        **options
+            Other fields of :class:`volcal.identify.IdentifyOptions` (``known``...).
+
+        Returns
+        -------
+        IdentifiabilityReport
+            ``.messages`` in plain words, ``.suggestions``, ``.ambiguity_um`` [um].
+        """
+        from volcal.identify import advise
+
+        return advise(self._planned(), self._identify_options("advise", roll=roll, **options))
+
+    @_checked
+    def program(self, folder: str | Path, dialect: str, dwell_s: float = D.PROG_DWELL_S,
+                feed: float = D.PROG_FEED, overrun_mm: float = D.PROG_OVERRUN_MM,
+                decimals: int = D.PROG_DECIMALS, safe_z_mm: float = D.PROG_SAFE_Z_MM,
+                first_number: int = D.PROG_FIRST_NUMBER) -> tuple[Path, list[str]]:
+        """Write one measuring part program per measurement, like ``volcal program``.
+
+        Parameters
+        ----------
+        folder : str or Path
+            Folder for the programs (written atomically).
+        dialect : str
+            ``'fanuc'``, ``'linuxcnc'``, ``'siemens'`` or ``'heidenhain'``.
+        dwell_s : float
+            Dwell at each reading pose [s].
+        feed : float
+            Feed of every move [mm/min].
+        overrun_mm : float
+            ISO 230-2 overrun before reversals [mm].
+        decimals : int
+            Decimals of the coordinates [mm].
+        safe_z_mm : float
+            Z of the first retract in machine coordinates [mm].
+        first_number : int
+            Fanuc program number (O word) of the first program.
+
+        Returns
+        -------
+        folder : Path
+            The program folder.
+        notes : list of str
+            What the user should know (the command line prints them as notes).
+        """
+        from volcal.program.steps import ProgramOptions
+        from volcal.program.writer import write_programs
+
+        opts = ProgramOptions(dwell_s=dwell_s, feed=feed, overrun_mm=overrun_mm,
+                              decimals=decimals, safe_z_mm=safe_z_mm)
+        return write_programs(self._planned(), dialect, folder, opts, first_number)
+
+    @_checked
+    def simulate(self, machine: MachineErrors | None = None, seed: int = D.SIM_SEED,
+                 noise_um: float = D.SIM_NOISE_UM,
+                 mirror_misalignment_urad: float = D.SIM_MIRROR_URAD,
+                 drift_um_per_h: float = D.SIM_DRIFT_UM_PER_H,
+                 reversal_um: float = D.SIM_REVERSAL_UM) -> Calibration:
         """Fill the readings from a virtual machine (in memory; :meth:`save` writes them).
 
         Parameters
@@ -129,7 +413,12 @@ class Calibration:
         noise_um : float
             Reading noise, standard deviation [um].
         mirror_misalignment_urad : float
-            Set-up misalignment of the optics, standard deviation [urad].
+            Set-up misalignment of the optics, standard deviation [urad]
+            (``--mirror-urad``).
+        drift_um_per_h : float
+            Linear drift of the readings [um/h].
+        reversal_um : float
+            Largest reversal of a random machine's axes [um] (not used with ``machine``).
 
         Returns
         -------
@@ -137,19 +426,42 @@ class Calibration:
             ``self``, for chaining.
         """
         from volcal.measure.simulate import SimulationOptions, simulate_session
-        from volcal.measure.virtual import random_machine
+        from volcal.measure.virtual import ErrorRanges, random_machine
+        from volcal.model.errorfunctions import MachineErrors
+        from volcal.session.provenance import simulated_provenance
 
+        for key, v in (("noise_um", noise_um), ("mirror_misalignment_urad",
+                                                mirror_misalignment_urad),
+                       ("reversal_um", reversal_um)):
+            if not (isinstance(v, int | float) and np.isfinite(v) and v >= 0):
+                raise VolcalInputError(f"Calibration.simulate: {key}={v!r}: expected a "
+                                       "finite number >= 0")
+        if not (isinstance(seed, int | np.integer) and seed >= 0):
+            raise VolcalInputError(f"Calibration.simulate: seed={seed!r}: expected a whole "
+                                   "number >= 0")
         s = self.session
         if machine is None:
-            machine = random_machine(s.travel, s.chain, seed, name=f"virtual {s.name}")
+            machine = random_machine(s.travel, s.chain, seed,
+                                     ranges=ErrorRanges(reversal_um=(0.0, reversal_um)),
+                                     name=f"virtual {s.name}")
+        elif not isinstance(machine, MachineErrors):
+            raise VolcalInputError(f"Calibration.simulate: machine= is a "
+                                   f"{type(machine).__name__}: expected MachineErrors "
+                                   "(volcal.session.errortable.read_error_table) or None")
         self._sim = SimulationOptions(noise_um=noise_um,
                                       mirror_misalignment_urad=mirror_misalignment_urad,
-                                      seed=seed)
+                                      drift_um_per_h=drift_um_per_h, seed=seed)
         self._setups = simulate_session(s, machine, self._sim)
+        s.provenance = simulated_provenance(
+            s, seed=int(seed), noise_um=float(noise_um),
+            mirror_urad=float(mirror_misalignment_urad), drift_um_per_h=float(drift_um_per_h),
+            machine=f"random (seed {seed})" if machine.name == f"virtual {s.name}"
+            else str(machine.name))
         self.truth = machine
         self.result = self.evaluation = None
         return self
 
+    @_checked
     def save(self, folder: str | Path) -> Calibration:
         """Write the session folder (with ``truth/`` after :meth:`simulate`), then read it back.
 
@@ -175,27 +487,32 @@ class Calibration:
         self.session = read_session(path, require_deviation=has)
         return self
 
-    def identify(self, **options: Any) -> Any:
-        """Identify the 21 errors with uncertainties.
+    @_checked
+    def identify(self, **options: object) -> IdentificationResult:
+        """Identify the 21 errors with uncertainties, like ``volcal identify``.
 
         Parameters
         ----------
         **options
             Fields of :class:`volcal.identify.IdentifyOptions` (``prior``, ``noise_um``
-            [um], ``roll``, ``known``...).
+            [um], ``roll``, ``known``, ``drift``, ``max_nodes``, ``robust``...); the
+            command line's ``measurements`` is ``measurement_ids``. ``known`` may be the
+            path of a CSV of errors measured separately (as ``--known``), with
+            ``known_u`` [um or urad] to use them as priors.
 
         Returns
         -------
         IdentificationResult
             Also kept as :attr:`result`; it carries the session's identity.
         """
-        from volcal.identify import IdentifyOptions, identify
+        from volcal.identify import identify
 
-        self.result = identify(self.session, IdentifyOptions(**options))
+        self.result = identify(self.session, self._identify_options("identify", **options))
         self.evaluation = None
         return self.result
 
-    def load_model(self, path: str | Path, force: bool = False) -> Any:
+    @_checked
+    def load_model(self, path: str | Path, force: bool = False) -> IdentificationResult:
         """Use a model file identified earlier from this session.
 
         Parameters
@@ -216,58 +533,113 @@ class Calibration:
         self.result = model
         return model
 
-    def evaluate(self, edition: str = "2014") -> Any:
+    @_checked
+    def evaluate(self, edition: str = D.EDITION) -> SessionEvaluation:
         """Evaluate to ISO 230-2, ISO 230-6 and the volumetric indices (with the model).
 
         Parameters
         ----------
         edition : str
-            ISO 230-2 edition.
+            ISO 230-2 edition (``'2014'``, ``'2006'``, ``'1997'``, ``'1988'``).
 
         Returns
         -------
         SessionEvaluation
-            Also kept as :attr:`evaluation`.
+            Also kept as :attr:`evaluation`; ``to_rows(table)`` / ``to_dataframe(table)``.
         """
+        from volcal.standards.iso230_2 import EDITIONS
         from volcal.standards.session import evaluate_session
 
-        self.evaluation = evaluate_session(self.session, self.result, edition)
+        if str(edition) not in EDITIONS:
+            raise VolcalInputError(f"Calibration.evaluate: edition {edition!r}: expected one "
+                                   f"of {_names(list(EDITIONS))}")
+        self.evaluation = evaluate_session(self.session, self.result, str(edition))
         return self.evaluation
 
-    def compensate(self, folder: str | Path, format: str = "grid", sign: str = "error",
-                   spacing: float = 50.0, **options: Any) -> list[str]:
+    @_checked
+    def compensate(self, folder: str | Path, format: str, sign: str | None = D.COMP_SIGN,
+                   spacing: float = D.COMP_SPACING_MM, max_points: int | None = None,
+                   reference_mm: ArrayLike | str | None = None,
+                   unit_um: float = D.COMP_UNIT_UM, magnification: int = D.COMP_MAGNIFICATION,
+                   max_increment: int = D.COMP_MAX_INCREMENT,
+                   fanuc_series: str = D.COMP_FANUC_SERIES,
+                   linuxcnc_type: int = D.COMP_LINUXCNC_TYPE,
+                   squareness: bool = D.COMP_SQUARENESS,
+                   tool_offset: ArrayLike | str = (0.0, 0.0, 0.0)) -> list[str]:
         """Write controller compensation tables of the identified model.
+
+        Like ``volcal compensate``: the format is always named, and the tables are
+        written in the controller's own sign unless ``sign`` overrides it (with a
+        warning: a table in the wrong sign doubles the machine's error).
 
         Parameters
         ----------
         folder : str or Path
             Output folder.
         format : str
-            ``'fanuc'``, ``'siemens'``, ``'heidenhain'``, ``'csv'``, ``'isg'``, ``'grid'``.
-        sign : str
-            ``'error'`` (actual - commanded) or ``'correction'`` (= -error).
+            ``'fanuc'``, ``'siemens'``, ``'heidenhain'``, ``'linuxcnc'``, ``'csv'``,
+            ``'isg'``, ``'grid'``.
+        sign : str, optional
+            Override: ``'error'`` (actual - commanded) or ``'correction'`` (= -error).
+            Default: the controller's convention (Fanuc, LinuxCNC: correction).
         spacing : float
             Distance between compensation points [mm].
-        **options
-            Other fields of :class:`volcal.compensate.formats.CompensationOptions`.
+        max_points : int, optional
+            Controller's point limit.
+        reference_mm : array_like, shape (3,), or str, optional
+            Fanuc reference position [mm] (default: start of travel).
+        unit_um : float
+            Fanuc detection unit [um].
+        magnification : int
+            Fanuc magnification (3623).
+        max_increment : int
+            Fanuc largest value per point.
+        fanuc_series : str
+            ``'30i'`` or ``'16i'``.
+        linuxcnc_type : int
+            LinuxCNC ``COMP_FILE_TYPE``, 1 (trims) or 0.
+        squareness : bool
+            Siemens CEC: add squareness terms.
+        tool_offset : array_like, shape (3,), or str
+            3-D grid: target on the tool [mm].
 
         Returns
         -------
         list of str
             Files written.
         """
-        from volcal.compensate.formats import CompensationOptions, write_compensation
+        from volcal.compensate.formats import (
+            FORMAT_INFO,
+            CompensationOptions,
+            write_compensation,
+        )
+        from volcal.compensate.tables import sign_factor
 
+        fmt = str(format).lower()
+        if fmt not in FORMAT_INFO:
+            raise VolcalInputError(f"Calibration.compensate: unknown format {format!r}: "
+                                   f"expected one of {_names(list(FORMAT_INFO))}")
+        info = FORMAT_INFO[fmt]
+        if sign is not None:
+            sign_factor(sign)
+            if sign != info.sign:
+                warnings.warn(f"sign={sign!r} overrides the {fmt} convention '{info.sign}' "
+                              f"({info.sign_source}); a table in the wrong sign doubles the "
+                              "error", UserWarning, stacklevel=3)
+        ref = None if reference_mm is None else _vector(reference_mm, "reference_mm")
+        opts = CompensationOptions(sign, spacing, max_points, ref, unit_um, magnification,
+                                   max_increment, squareness, _vector(tool_offset, "tool_offset"),
+                                   fanuc_series, linuxcnc_type)
         result = self._need_result()
-        files = write_compensation(result.errors, format.lower(), folder,
-                                   CompensationOptions(sign, spacing=spacing, **options),
-                                   "model")
+        files = write_compensation(result.errors, fmt, folder, opts, "model")
         self.compensation = Path(folder)
         return files
 
-    def report(self, folder: str | Path, title: str | None = None, edition: str = "2014"
-               ) -> Any:
-        """Write the HTML and PDF report.
+    @_checked
+    def report(self, folder: str | Path, title: str | None = None, edition: str = D.EDITION,
+               tolerance_um: float | str | Mapping[str, float] | None = None,
+               compensation: str | Path | None = None) -> ReportFiles:
+        """Write the HTML and PDF report, like ``volcal report``.
 
         Parameters
         ----------
@@ -277,20 +649,80 @@ class Calibration:
             Report title.
         edition : str
             ISO 230-2 edition.
+        tolerance_um : float, str or dict, optional
+            Tolerance for a pass/fail verdict before and after compensation [um]: a
+            number (largest volumetric error), ``{'X': 10, 'Y': 10, 'Z': 8}`` or
+            ``'X=10,Y=10,Z=8'`` (ISO 230-2 accuracy A per axis), or both (``V`` key).
+        compensation : str or Path, optional
+            Folder written by :meth:`compensate` (or ``volcal compensate``) from the same
+            model, summarised in the report; none by default, as on the command line.
 
         Returns
         -------
         ReportFiles
+            ``.html``, ``.pdf``, ``.figures``, ``.pdf_pages``.
         """
         from volcal.report.pipeline import collect_inputs
         from volcal.report.sections import build_report
         from volcal.report.writer import write_report
+        from volcal.standards.tolerance import parse_tolerance
 
+        tol = None if tolerance_um is None else parse_tolerance(_tolerance_text(tolerance_um))
+        if compensation is not None and not Path(compensation).is_dir():
+            raise VolcalInputError("Calibration.report: compensation= is not a folder written "
+                                   "by compensate", compensation)
         inputs = collect_inputs(self.session, self._need_result(), self.truth, edition,
-                                self.compensation)
+                                compensation, tolerance=tol)
         return write_report(build_report(inputs, title), folder)
 
-    def _need_result(self) -> Any:
+    # ------------------------------------------------------------------ helpers
+    def _identify_options(self, where: str, **options: object) -> object:
+        """IdentifyOptions from keywords, every key checked (the CLI's names accepted)."""
+        from dataclasses import fields
+
+        from volcal.identify import IdentifyOptions
+
+        valid = [f.name for f in fields(IdentifyOptions)]
+        opts = dict(options)
+        if "measurements" in opts:  # the command line's name
+            opts["measurement_ids"] = opts.pop("measurements")
+        known_u = opts.pop("known_u", None)
+        for key in opts:
+            if key not in valid:
+                raise _unknown(f"Calibration.{where}", key, [*valid, "known_u"])
+        known = opts.get("known")
+        if isinstance(known, str | Path):
+            from volcal.session.errortable import read_known_functions
+
+            opts["known"] = {n: (p, v) if known_u is None else (p, v, known_u)
+                             for n, (p, v) in read_known_functions(known).items()}
+        elif known_u is not None:
+            raise VolcalInputError(f"Calibration.{where}: known_u needs known= (the path "
+                                   "of the error table it applies to)")
+        try:
+            return IdentifyOptions(**opts)  # type: ignore[arg-type]
+        except TypeError as exc:
+            raise VolcalInputError(f"Calibration.{where}: {exc}; valid options: "
+                                   f"{_names(valid)}") from None
+
+    def _planned(self) -> Session:
+        """The session with every measurement, those without readings yet included."""
+        from copy import copy
+
+        s = self.session
+        if not s.unmeasured:
+            return s
+        if s.path is not None:  # the planned order of the folder
+            from volcal.session.format import read_session
+
+            return read_session(s.path, require_deviation=False)
+        out = copy(s)
+        out.measurements = [*s.measurements, *s.unmeasured]
+        out.unmeasured = []
+        return out
+
+    def _need_result(self) -> IdentificationResult:
         if self.result is None:
             self.identify()
+        assert self.result is not None
         return self.result

@@ -20,7 +20,7 @@ import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -32,6 +32,9 @@ from volcal.model.errorfunctions import MachineErrors
 from volcal.model.kinematics import pose_jacobian
 from volcal.model.names import AXES, COMPONENTS, SQUARENESS_NAMES
 from volcal.model.parameters import ParameterLayout
+
+if TYPE_CHECKING:
+    import pandas
 
 MODEL_FORMAT = "volcal-model/2"
 MODEL_FORMATS_READ = ("volcal-model/1", "volcal-model/2")
@@ -222,6 +225,32 @@ class IdentificationResult:
             ok = p >= 0
             L[ok] += ww[ok, None] * self.cov_factor[p[ok]]
         return np.linalg.norm(L, axis=1)
+
+    # ------------------------------------------------------------------ tables
+    def to_rows(self) -> list[dict[str, Any]]:
+        """The identified functions as a table, one row per function and node.
+
+        Returns
+        -------
+        list of dict
+            ``function`` (``'EXX'``...), ``axis``, ``position_mm`` [mm] (NaN for the
+            squareness errors), ``value`` and ``u`` (standard uncertainty) in ``unit``
+            (``'um'`` or ``'urad'``); see :func:`volcal.io.frames.identified_rows`.
+        """
+        from volcal.io.frames import identified_rows
+
+        return identified_rows(self)
+
+    def to_dataframe(self) -> pandas.DataFrame:
+        """:meth:`to_rows` as a pandas DataFrame (needs pandas).
+
+        Returns
+        -------
+        pandas.DataFrame
+        """
+        from volcal.io.frames import to_dataframe
+
+        return to_dataframe(self.to_rows(), "IdentificationResult")
 
     # ------------------------------------------------------------------ file
     def to_dict(self) -> dict[str, Any]:

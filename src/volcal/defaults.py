@@ -25,6 +25,13 @@ PLAN_RUNS = 5
 """Bidirectional runs per linear test (ISO 230-2)."""
 PLAN_NAME = "VMC-1"
 """Machine name of a planned session."""
+ML_GRID: tuple[int, int, int] = (9, 7, 6)
+"""Multilateration: grid points along x, y, z."""
+ML_STATIONS = 4
+"""Multilateration: number of default stations."""
+ML_TOOL_OFFSETS_MM: tuple[tuple[float, float, float], ...] = ((0.0, 0.0, -100.0),
+                                                               (100.0, 100.0, -100.0))
+"""Multilateration: reflector offsets on the tool [mm]."""
 
 # -- simulate (volcal simulate, Calibration.simulate) --------------------------------------
 SIM_SEED = 0

@@ -184,7 +184,7 @@ class Calibration:
              tool_offset: ArrayLike | str = (0.0, 0.0, 0.0),
              iso_spacing: bool = True, step_target: str = "flat_mirror",
              overrun_mm: float = D.PROG_OVERRUN_MM, abbe_offset_mm: float = 150.0,
-             multilateration: Mapping[str, object] | None = None) -> Calibration:
+             multilateration: Mapping[str, ArrayLike | float] | None = None) -> Calibration:
         """Plan the tests of a machine (no readings yet), like ``volcal plan``.
 
         Parameters
@@ -216,8 +216,11 @@ class Calibration:
         abbe_offset_mm : float
             Target offset from the spindle of the Abbe lines [mm].
         multilateration : dict, optional
-            ``grid``, ``n_stations`` or ``stations``, ``tool_offsets`` of a
-            multilateration plan (:func:`volcal.plan.planner.plan_session`).
+            ``grid``, ``n_stations`` or ``stations`` [mm], ``tool_offsets`` [mm],
+            ``station_u_mm`` of a multilateration plan
+            (:func:`volcal.plan.multilateration.multilateration_tests`); the keys not
+            given take the command line's defaults (``--grid 9,7,6 --stations 4
+            --tool-offsets '0,0,-100;100,100,-100'``).
 
         Returns
         -------
@@ -226,14 +229,20 @@ class Calibration:
         from volcal.plan.planner import plan_session
 
         t = _travel(travel)
+        ml: dict[str, ArrayLike | float] = {"grid": D.ML_GRID, "n_stations": D.ML_STATIONS,
+                                 "tool_offsets": D.ML_TOOL_OFFSETS_MM}
+        valid = ("grid", "n_stations", "stations", "tool_offsets", "station_u_mm")
+        for key in multilateration or {}:
+            if key not in valid:
+                raise _unknown("Calibration.plan multilateration", key, valid)
+        ml.update(multilateration or {})
         return cls(plan_session(t, chain, steps, tuple(_list(tests, "tests")), runs,
                                 _list(step_orders, "step_orders"),
                                 _vector(tool_offset, "tool_offset"), name,
                                 step_target=step_target, iso_spacing=iso_spacing,
                                 linear_margin_mm=overrun_mm,
                                 abbe_tool_offset_mm=abbe_offset_mm,
-                                multilateration=None if multilateration is None
-                                else dict(multilateration)))
+                                multilateration=ml))
 
     @classmethod
     @_checked

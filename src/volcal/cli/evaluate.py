@@ -11,6 +11,7 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
+from volcal import defaults as D
 from volcal.cli._common import print_session_notes
 
 console = Console(soft_wrap=True)  # no line breaks inside paths
@@ -52,7 +53,7 @@ def iso230_2_cmd(
     file: Path = typer.Argument(..., help="CSV: target_mm,run,direction,deviation_um or a "
                                 "session measurement CSV of a linear test."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
-    edition: str = typer.Option("2014", help="ISO 230-2 edition: 2014, 2006, 1997, 1988."),
+    edition: str = typer.Option(D.EDITION, help="ISO 230-2 edition: 2014, 2006, 1997, 1988."),
 ) -> None:
     """Positioning accuracy and repeatability of one axis (ISO 230-2)."""
     from volcal.standards.iso230_2 import evaluate
@@ -124,7 +125,7 @@ def iso230_6_cmd(
 def session_cmd(
     session: Path = typer.Argument(..., help="Session folder."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
-    edition: str = typer.Option("2014", help="ISO 230-2 edition."),
+    edition: str = typer.Option(D.EDITION, help="ISO 230-2 edition."),
     tolerance_um: str | None = typer.Option(
         None, help="Tolerance for a pass/fail verdict [um]: X=10,Y=10,Z=8 (ISO 230-2 "
         "accuracy A per axis), a number (largest volumetric error of --model) or both "

@@ -10,6 +10,7 @@ import numpy as np
 import typer
 from rich.console import Console
 
+from volcal import defaults as D
 from volcal.cli._common import parse_vector, print_session_notes
 from volcal.errors import VolcalInputError
 
@@ -22,7 +23,7 @@ def identify_cmd(
     prior: str = typer.Option("smooth", help="smooth (Bayesian, default) or none (min-norm LS)."),
     noise_um: float | None = typer.Option(None, help="Stated repeatability [um] (default: "
                                           "estimated)."),
-    roll: str = typer.Option("estimate", help="estimate, or zero (the rolls EAX, EBY, ECZ "
+    roll: str = typer.Option(D.ROLL, help="estimate, or zero (the rolls EAX, EBY, ECZ "
                              "fixed to zero)."),
     known: Path | None = typer.Option(None, help="CSV of errors measured separately "
                                       "(axis,position_mm and any of EX_um..EC_urad, only "
@@ -158,7 +159,7 @@ def predict_cmd(
 
 def advise_cmd(
     session: Path = typer.Argument(..., help="Planned (or measured) session folder."),
-    roll: str = typer.Option("estimate", help="estimate, or zero (the rolls EAX, EBY, ECZ "
+    roll: str = typer.Option(D.ROLL, help="estimate, or zero (the rolls EAX, EBY, ECZ "
                              "fixed to zero)."),
 ) -> None:
     """Before measuring: what the planned tests will and will not determine."""

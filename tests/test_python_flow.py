@@ -203,3 +203,25 @@ def test_import_into_a_new_session(tmp_path):
     np.testing.assert_allclose(m.deviation, [0.0, 1.2, 2.5, 3.1, 1.9, 0.4])
     assert c.imported is not None and c.imported.created
     assert any("mm (detected from the header)" in n for n in c.imported.notes)
+
+
+def test_to_dataframe_without_pandas_names_to_rows(cal, monkeypatch):
+    import sys
+
+    monkeypatch.setitem(sys.modules, "pandas", None)  # import pandas -> ImportError
+    with pytest.raises(VolcalInputError, match=r"needs pandas .* to_rows\(\)"):
+        cal.result.to_dataframe()
+    assert len(cal.result.to_rows()) > 0
+
+
+def test_python_simulation_is_known_as_simulated_by_the_cli(tmp_path):
+    """Calibration.simulate records its provenance as `volcal simulate` does, so the CLI
+    may simulate the folder again without --overwrite (it refuses measured readings)."""
+    from volcal.cli import app
+
+    c = Calibration.plan(TRAVEL, tests=["diagonal"], steps=3)
+    c.simulate(seed=2).save(tmp_path / "s")
+    prov = tomllib.loads((tmp_path / "s" / "session.toml").read_text())["provenance"]
+    assert prov["readings"] == "simulated" and prov["seed"] == 2
+    r = CliRunner().invoke(app, ["simulate", str(tmp_path / "s"), "--seed", "3"])
+    assert r.exit_code == 0, r.output

@@ -92,7 +92,22 @@ BAD_CALLS = [
     (lambda c: Calibration.import_("x.csv", "target=T,deviation=E", "s"),
      "give axis= and id="),
     (lambda c: Calibration.open("no-such-folder"), "session folder not found"),
+    (lambda c: c.result.predict([1, 2]), "expected points x, y, z [mm]"),
+    (lambda c: c.result.predict("a"), "expected points x, y, z [mm]"),
+    (lambda c: Calibration.plan(TRAVEL, steps="4"), "steps='4': expected a whole number"),
+    (lambda c: Calibration.plan(TRAVEL, runs=2.5), "runs=2.5: expected a whole number"),
+    (lambda c: c.identify(known={"EXX": 3}), "known['EXX']"),
+    (lambda c: c.identify(known={"EQX": ([0, 1], [0, 1])}), "known['EQX']"),
+    (lambda c: c.save(_a_file()), "is a file; give a folder for the session"),
 ]
+
+
+def _a_file():
+    from pathlib import Path
+
+    Path("model.json").write_text("{}")
+    return "model.json"
+
 
 
 @pytest.mark.parametrize("i", range(len(BAD_CALLS)))
@@ -225,3 +240,21 @@ def test_python_simulation_is_known_as_simulated_by_the_cli(tmp_path):
     assert prov["readings"] == "simulated" and prov["seed"] == 2
     r = CliRunner().invoke(app, ["simulate", str(tmp_path / "s"), "--seed", "3"])
     assert r.exit_code == 0, r.output
+
+
+def test_save_never_overwrites_measured_readings(tmp_path):
+    f = tmp_path / "x.csv"
+    f.write_text(EXPORT, encoding="utf-8")
+    Calibration.import_(f, "target=Target,run=Run,direction=Dir,deviation=Error",
+                        tmp_path / "m", axis="X", id="lx1", travel="0:800,0:600,0:500")
+    before = (tmp_path / "m" / "lx1.csv").read_text()
+    c = Calibration.plan("0:800,0:600,0:500", tests=["diagonal"], steps=3).simulate(seed=1)
+    with pytest.raises(VolcalInputError, match=r"holds measured readings \(lx1\)"):
+        c.save(tmp_path / "m")
+    assert (tmp_path / "m" / "lx1.csv").read_text() == before
+    # a planned or simulated folder is replaced, its other files kept
+    c.save(tmp_path / "sim")
+    (tmp_path / "sim" / "notes.txt").write_text("mine")
+    c.simulate(seed=2).save(tmp_path / "sim")
+    assert (tmp_path / "sim" / "notes.txt").read_text() == "mine"
+    assert c.session.path == tmp_path / "sim" and c.session.provenance["seed"] == 2

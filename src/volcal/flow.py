@@ -134,6 +134,27 @@ def _tolerance_text(tolerance_um: float | str | Mapping[str, float]) -> str:
     return str(tolerance_um)
 
 
+def _known_functions(known: object, where: str) -> dict[str, tuple[object, ...]]:
+    """Check ``known={name: (positions [mm], values[, u])}`` of IdentifyOptions."""
+    from volcal.model.names import COMPONENT_NAMES, SQUARENESS_NAMES
+
+    names = (*COMPONENT_NAMES, *SQUARENESS_NAMES)
+    if not isinstance(known, Mapping):
+        raise VolcalInputError(f"{where}: known={known!r}: expected a dict name -> "
+                               "(positions [mm], values) or the path of an error table")
+    out: dict[str, tuple[object, ...]] = {}
+    for name, v in known.items():
+        key = str(name).upper()
+        if key not in names:
+            raise VolcalInputError(f"{where}: known[{name!r}]: not an error name; expected "
+                                   f"one of {_names(names)}")
+        if not isinstance(v, tuple | list) or len(v) not in (2, 3):
+            raise VolcalInputError(f"{where}: known[{name!r}]: expected (positions [mm], "
+                                   "values [um or urad]) or (positions, values, u)")
+        out[key] = tuple(v)
+    return out
+
+
 class Calibration:
     """One calibration: a session, its model and its evaluation.
 
@@ -229,6 +250,10 @@ class Calibration:
         from volcal.plan.planner import plan_session
 
         t = _travel(travel)
+        for key, v in (("steps", steps), ("runs", runs)):
+            if isinstance(v, bool) or not isinstance(v, int | np.integer):
+                raise VolcalInputError(f"Calibration.plan: {key}={v!r}: expected a whole "
+                                       "number")
         ml: dict[str, ArrayLike | float] = {"grid": D.ML_GRID, "n_stations": D.ML_STATIONS,
                                  "tool_offsets": D.ML_TOOL_OFFSETS_MM}
         valid = ("grid", "n_stations", "stations", "tool_offsets", "station_u_mm")
@@ -483,18 +508,52 @@ class Calibration:
         -------
         Calibration
             ``self``, now tied to the written folder.
-        """
-        from volcal.session.format import read_session, write_session
 
+        Raises
+        ------
+        VolcalInputError
+            ``folder`` is a file or a folder of another kind, or a session folder whose
+            measured readings (not written by a simulation) differ from this session's:
+            measured data are never overwritten. The other files of an existing session
+            folder are kept, as by the command line.
+        """
+        from copy import copy
+
+        from volcal.io.paths import check_output_folder
+        from volcal.session.format import write_session
+
+        folder = Path(folder)
+        check_output_folder(folder, "session", lambda p: (p / "session.toml").is_file())
+        full = self.session
+        if full.unmeasured:  # measurements without readings yet are written too
+            full = copy(full)
+            full.measurements = [*full.measurements, *full.unmeasured]
+            full.unmeasured = []
+        if (folder / "session.toml").is_file():
+            self._check_not_measured(folder, full)
         extra = None
         if self._setups is not None:
             from volcal.measure.simulate import truth_files
 
             extra = truth_files(self.truth, self._setups, self._sim)
-        path = write_session(self.session, folder, extra)
-        has = any(m.deviation is not None for m in self.session.measurements)
-        self.session = read_session(path, require_deviation=has)
+        path = write_session(full, folder, extra, keep_existing=True)
+        self.session = Calibration.open(path).session
         return self
+
+    @staticmethod
+    def _check_not_measured(folder: Path, new: Session) -> None:
+        """Refuse to replace measured readings of an existing session folder."""
+        from volcal.session.format import read_session
+        from volcal.session.provenance import measured_ids, readings_digest
+
+        old = read_session(folder, require_deviation=False)
+        measured = measured_ids(old)
+        if measured and readings_digest(old) != readings_digest(new):
+            shown = ", ".join(measured[:6]) + (f" and {len(measured) - 6} more"
+                                               if len(measured) > 6 else "")
+            raise VolcalInputError(f"Calibration.save: holds measured readings ({shown}) "
+                                   "that this session would replace; nothing was changed. "
+                                   "Save to another folder", folder / "session.toml")
 
     @_checked
     def identify(self, **options: object) -> IdentificationResult:
@@ -708,6 +767,8 @@ class Calibration:
         elif known_u is not None:
             raise VolcalInputError(f"Calibration.{where}: known_u needs known= (the path "
                                    "of the error table it applies to)")
+        elif known is not None:
+            opts["known"] = _known_functions(known, f"Calibration.{where}")
         try:
             return IdentifyOptions(**opts)  # type: ignore[arg-type]
         except TypeError as exc:

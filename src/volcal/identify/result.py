@@ -152,7 +152,8 @@ class IdentificationResult:
         return self.layout.pack(self.errors)
 
     def predict(self, q: ArrayLike, tool_offset: ArrayLike | None = None, chunk: int = 20000,
-                rigid_removed: bool = False):
+                rigid_removed: bool = False
+                ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Volumetric error and its standard uncertainty at points.
 
         Parameters
@@ -175,8 +176,20 @@ class IdentificationResult:
             Actual minus commanded tool point position, machine axes [um].
         u : ndarray, shape (m, 3)
             Standard uncertainties [um].
+
+        Raises
+        ------
+        VolcalInputError
+            ``q`` is not numbers of shape (m, 3) (or one point of shape (3,)).
         """
-        q = np.asarray(q, dtype=float).reshape(-1, 3)
+        try:
+            q = np.asarray(q, dtype=float)
+        except (TypeError, ValueError):
+            q = np.full((1, 2), np.nan)
+        if q.size == 0 or q.size % 3 or (q.ndim > 1 and q.shape[-1] != 3) or q.ndim > 2:
+            raise VolcalInputError(f"predict: an array of shape {q.shape}: expected points x, "
+                                   "y, z [mm], shape (m, 3)")
+        q = q.reshape(-1, 3)
         theta = self.theta
         order = self.errors.chain_obj.order
         if rigid_removed:

@@ -184,9 +184,9 @@ SHARED: dict[str, tuple[list[tuple[Callable[[], Any], dict[str, str | None]]],
     "evaluate session": (
         [(lambda: Calibration.evaluate, {}), (_evaluate_session, {})],
         {"session": "the Calibration's session", "as_json": "SessionEvaluation.to_dict()",
-         "tolerance_um": "Calibration.report(tolerance_um=...)",
+         "tolerance_um": "Calibration.verdict(tolerance_um, compensation), compared below",
          "model": "Calibration.load_model(path)",
-         "compensation": "Calibration.report(compensation=...)"}),
+         "compensation": "Calibration.verdict(tolerance_um, compensation), below"}),
     "import": (
         [(lambda: Calibration.import_, {}),
          # the library's positional arguments (axis, id, line_mm...) have no default
@@ -243,6 +243,14 @@ def test_plan_travel_and_multilateration_defaults():
         np.testing.assert_array_equal(a.positions, b.positions)
 
 
+def test_verdict_defaults_equal_evaluate_session():
+    cli = cli_defaults("evaluate session")
+    py = py_defaults(Calibration.verdict)
+    assert py["tolerance_um"] == REQUIRED  # a verdict needs a tolerance
+    assert cli["compensation"] is None is py["compensation"]
+    assert norm(cli["edition"]) == norm(py["edition"])
+
+
 def test_compensation_defaults_are_safe():
     """No fixed sign (each controller's own), 20 mm, the format always named."""
     comp = py_defaults(Calibration.compensate)
@@ -273,6 +281,7 @@ def _typing_names() -> dict[str, Any]:
     from volcal.identify.result import IdentificationResult
     from volcal.importer.laser_csv import ImportResult
     from volcal.model.errorfunctions import MachineErrors
+    from volcal.report.verdict import Verdict
     from volcal.report.writer import ReportFiles
     from volcal.session.format import Session
     from volcal.standards.session import SessionEvaluation
@@ -280,7 +289,7 @@ def _typing_names() -> dict[str, Any]:
     return {"IdentifiabilityReport": IdentifiabilityReport,
             "IdentificationResult": IdentificationResult, "ImportResult": ImportResult,
             "MachineErrors": MachineErrors, "ReportFiles": ReportFiles, "Session": Session,
-            "SessionEvaluation": SessionEvaluation}
+            "SessionEvaluation": SessionEvaluation, "Verdict": Verdict}
 
 
 def test_option_info_is_what_typer_gives():

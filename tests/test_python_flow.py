@@ -258,3 +258,27 @@ def test_save_never_overwrites_measured_readings(tmp_path):
     c.simulate(seed=2).save(tmp_path / "sim")
     assert (tmp_path / "sim" / "notes.txt").read_text() == "mine"
     assert c.session.path == tmp_path / "sim" and c.session.provenance["seed"] == 2
+
+
+def test_verdict_equals_the_cli(cal, tmp_path):
+    import json
+
+    from volcal.cli import app
+
+    cal.compensate(tmp_path / "c", format="csv")
+    py = cal.verdict({"X": 8, "Y": 8, "Z": 8, "V": 12}, compensation=tmp_path / "c")
+    cal.result.to_json(tmp_path / "m.json")
+    r = CliRunner().invoke(app, ["evaluate", "session", str(cal.session.path), "--json",
+                                 "--tolerance-um", "X=8,Y=8,Z=8,V=12", "--model",
+                                 str(tmp_path / "m.json"), "--compensation",
+                                 str(tmp_path / "c")])
+    assert r.exit_code == 0, r.output
+    cli = json.loads(r.stdout)["verdict"]
+    assert len(py) == len(cli)
+    for a, b in zip([v.to_dict() for v in py], cli, strict=True):  # the same verdicts
+        assert {k: v for k, v in a.items() if isinstance(v, str)} == {
+            k: v for k, v in b.items() if isinstance(v, str)}
+        for k in ("tolerance_um", "before_um", "after_um"):  # model.json holds 9 digits
+            assert a[k] == pytest.approx(b[k], rel=1e-6)
+    assert len(py) == 4 and py[-1].quantity.startswith("Z: ISO 230-2 A")
+    assert all(v.after_um is not None for v in py)  # every verdict has its "after"

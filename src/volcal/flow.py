@@ -39,6 +39,7 @@ if TYPE_CHECKING:
     from volcal.identify.result import IdentificationResult
     from volcal.importer.laser_csv import ImportResult
     from volcal.model.errorfunctions import MachineErrors
+    from volcal.report.verdict import Verdict
     from volcal.report.writer import ReportFiles
     from volcal.session.format import Session
     from volcal.standards.session import SessionEvaluation
@@ -623,6 +624,49 @@ class Calibration:
                                    f"of {_names(list(EDITIONS))}")
         self.evaluation = evaluate_session(self.session, self.result, str(edition))
         return self.evaluation
+
+    @_checked
+    def verdict(self, tolerance_um: float | str | Mapping[str, float],
+                compensation: str | Path | None = None, edition: str = D.EDITION
+                ) -> list[Verdict]:
+        """Pass/fail against a tolerance, before and after compensation.
+
+        Like ``volcal evaluate session --tolerance-um ... [--model] [--compensation]``:
+        the model is this calibration's (:meth:`identify` or :meth:`load_model`).
+
+        Parameters
+        ----------
+        tolerance_um : float, str or dict
+            A number (largest volumetric error of the model), ``{'X': 10, 'Y': 10,
+            'Z': 8}`` or ``'X=10,Y=10,Z=8'`` (ISO 230-2 accuracy A per axis), or both
+            (``V`` key) [um].
+        compensation : str or Path, optional
+            Folder written by :meth:`compensate` from this model: the verdict after.
+        edition : str
+            ISO 230-2 edition.
+
+        Returns
+        -------
+        list of Verdict
+            ``quantity``, ``tolerance_um``, ``before_um``, ``before``, ``after_um``,
+            ``after`` (``'pass'``, ``'FAIL'`` or ``'-'``).
+        """
+        from volcal.report.verdict import verdicts
+        from volcal.standards.tolerance import parse_tolerance
+
+        tol = parse_tolerance(_tolerance_text(tolerance_um))
+        tables = None
+        if compensation is not None:
+            if self.result is None:
+                raise VolcalInputError("Calibration.verdict: compensation= needs the model "
+                                       "the tables were written from: identify() or "
+                                       "load_model() first")
+            from volcal.report.carried import table_set_from_manifest
+            from volcal.report.pipeline import read_manifest
+
+            tables = table_set_from_manifest(read_manifest(compensation), compensation)
+        errors = None if self.result is None else self.result.errors
+        return verdicts(tol, self.session, errors, tables, str(edition))
 
     @_checked
     def compensate(self, folder: str | Path, format: str, sign: str | None = D.COMP_SIGN,

@@ -20,18 +20,16 @@ Examples
 
 from __future__ import annotations
 
-import difflib
-import functools
-import inspect
 import warnings
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, TypeVar
+from typing import TYPE_CHECKING
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
 from volcal import defaults as D
+from volcal import flowargs as A
 from volcal.errors import VolcalInputError
 
 if TYPE_CHECKING:
@@ -45,116 +43,6 @@ if TYPE_CHECKING:
     from volcal.standards.session import SessionEvaluation
 
 __all__ = ["Calibration"]
-
-F = TypeVar("F", bound=Callable[..., object])
-
-
-def _names(valid: Sequence[str]) -> str:
-    return ", ".join(valid)
-
-
-def _unknown(where: str, key: str, valid: Sequence[str]) -> VolcalInputError:
-    close = difflib.get_close_matches(key, valid, n=1, cutoff=0.5)
-    hint = f" (did you mean {close[0]!r}?)" if close else ""
-    return VolcalInputError(f"{where}: unknown option {key!r}{hint}; valid options: "
-                            f"{_names(valid)}")
-
-
-def _checked(func: F) -> F:
-    """Turn a call that does not fit ``func``'s signature into a VolcalInputError.
-
-    An unknown keyword, a missing required argument or one given twice names the
-    method and lists its valid options (with the closest name), instead of Python's
-    ``TypeError``.
-    """
-    sig = inspect.signature(func)
-    params = [p for p in sig.parameters.values()
-              if p.name not in ("self", "cls") and p.kind not in (p.VAR_KEYWORD,
-                                                                   p.VAR_POSITIONAL)]
-    valid = [p.name for p in params]
-    takes_var = any(p.kind is p.VAR_KEYWORD for p in sig.parameters.values())
-    where = f"Calibration.{func.__name__}"
-
-    @functools.wraps(func)
-    def wrapper(*args: object, **kwargs: object) -> object:
-        if not takes_var:
-            for key in kwargs:
-                if key not in valid:
-                    raise _unknown(where, key, valid)
-        try:
-            sig.bind(*args, **kwargs)
-        except TypeError as exc:
-            need = [p.name for p in params if p.default is p.empty]
-            raise VolcalInputError(f"{where}: {exc}; required: {_names(need) or 'none'}; "
-                                   f"valid options: {_names(valid)}") from None
-        return func(*args, **kwargs)
-
-    return wrapper  # type: ignore[return-value]
-
-
-def _travel(travel: ArrayLike | str) -> NDArray[np.float64]:
-    """Travel limits [mm] as a (3, 2) array, or the CLI text ``'0:800,0:600,0:500'``."""
-    try:
-        if isinstance(travel, str):  # the command line's text
-            travel = [[float(v) for v in p.split(":")] for p in travel.split(",")]
-        t = np.asarray(travel, dtype=float)
-    except (TypeError, ValueError):
-        raise VolcalInputError(f"travel {travel!r}: expected [[xmin, xmax], [ymin, ymax], "
-                               "[zmin, zmax]] in mm") from None
-    if t.shape != (3, 2):
-        raise VolcalInputError(f"travel of shape {t.shape}: expected [[xmin, xmax], [ymin, "
-                               "ymax], [zmin, zmax]] in mm (shape (3, 2))")
-    if not np.all(np.isfinite(t)) or np.any(t[:, 1] <= t[:, 0]):
-        raise VolcalInputError(f"travel {t.tolist()}: every range needs finite max > min [mm]")
-    return t
-
-
-def _vector(v: ArrayLike | str, what: str) -> tuple[float, float, float]:
-    """Three finite numbers x, y, z (or the CLI text ``'x,y,z'``)."""
-    try:
-        a = np.asarray(v.split(",") if isinstance(v, str) else v, dtype=float).reshape(-1)
-    except (TypeError, ValueError):
-        a = np.array([])
-    if a.size != 3 or not np.all(np.isfinite(a)):
-        raise VolcalInputError(f"{what} {v!r}: expected three finite numbers x, y, z [mm]")
-    return float(a[0]), float(a[1]), float(a[2])
-
-
-def _list(v: str | Sequence[str], what: str) -> list[str]:
-    """A list of names, or the CLI's comma-separated text."""
-    if isinstance(v, str):
-        return [s.strip() for s in v.split(",") if s.strip()]
-    if not all(isinstance(s, str) for s in v):
-        raise VolcalInputError(f"{what} {v!r}: expected names (strings)")
-    return list(v)
-
-
-def _tolerance_text(tolerance_um: float | str | Mapping[str, float]) -> str:
-    if isinstance(tolerance_um, Mapping):
-        return ",".join(f"{k}={v}" for k, v in tolerance_um.items())
-    return str(tolerance_um)
-
-
-def _known_functions(known: object, where: str) -> dict[str, tuple[object, ...]]:
-    """Check ``known={name: (positions [mm], values[, u])}`` of IdentifyOptions."""
-    from volcal.model.names import COMPONENT_NAMES, SQUARENESS_NAMES
-
-    names = (*COMPONENT_NAMES, *SQUARENESS_NAMES)
-    if not isinstance(known, Mapping):
-        raise VolcalInputError(f"{where}: known={known!r}: expected a dict name -> "
-                               "(positions [mm], values) or the path of an error table")
-    out: dict[str, tuple[object, ...]] = {}
-    for name, v in known.items():
-        key = str(name).upper()
-        if key not in names:
-            raise VolcalInputError(f"{where}: known[{name!r}]: not an error name; expected "
-                                   f"one of {_names(names)}")
-        if not isinstance(v, tuple | list) or len(v) not in (2, 3):
-            raise VolcalInputError(f"{where}: known[{name!r}]: expected (positions [mm], "
-                                   "values [um or urad]) or (positions, values, u)")
-        out[key] = tuple(v)
-    return out
-
 
 class Calibration:
     """One calibration: a session, its model and its evaluation.
@@ -199,7 +87,7 @@ class Calibration:
 
     # ------------------------------------------------------------------ build
     @classmethod
-    @_checked
+    @A.checked
     def plan(cls, travel: ArrayLike | str, chain: str = D.CHAIN, steps: int = D.PLAN_STEPS,
              tests: str | Sequence[str] = D.PLAN_TESTS, runs: int = D.PLAN_RUNS,
              name: str = D.PLAN_NAME, step_orders: str | Sequence[str] = ("xyz",),
@@ -250,7 +138,7 @@ class Calibration:
         """
         from volcal.plan.planner import plan_session
 
-        t = _travel(travel)
+        t = A.travel_mm(travel)
         for key, v in (("steps", steps), ("runs", runs)):
             if isinstance(v, bool) or not isinstance(v, int | np.integer):
                 raise VolcalInputError(f"Calibration.plan: {key}={v!r}: expected a whole "
@@ -260,18 +148,18 @@ class Calibration:
         valid = ("grid", "n_stations", "stations", "tool_offsets", "station_u_mm")
         for key in multilateration or {}:
             if key not in valid:
-                raise _unknown("Calibration.plan multilateration", key, valid)
+                raise A.unknown_option("Calibration.plan multilateration", key, valid)
         ml.update(multilateration or {})
-        return cls(plan_session(t, chain, steps, tuple(_list(tests, "tests")), runs,
-                                _list(step_orders, "step_orders"),
-                                _vector(tool_offset, "tool_offset"), name,
+        return cls(plan_session(t, chain, steps, tuple(A.name_list(tests, "tests")), runs,
+                                A.name_list(step_orders, "step_orders"),
+                                A.vector_mm(tool_offset, "tool_offset"), name,
                                 step_target=step_target, iso_spacing=iso_spacing,
                                 linear_margin_mm=overrun_mm,
                                 abbe_tool_offset_mm=abbe_offset_mm,
                                 multilateration=ml))
 
     @classmethod
-    @_checked
+    @A.checked
     def open(cls, folder: str | Path) -> Calibration:
         """Open a session folder (``session.toml`` and its CSVs).
 
@@ -296,7 +184,7 @@ class Calibration:
         return cls(s, read_truth(s))
 
     @classmethod
-    @_checked
+    @A.checked
     def import_(cls, csv_file: str | Path, map: str | Mapping[str, str],
                 session: str | Path, axis: str | None = None, id: str | None = None,
                 measurement: str | None = None, line_mm: ArrayLike | str = (0.0, 0.0, 0.0),
@@ -361,15 +249,17 @@ class Calibration:
             if axis is None or id is None:
                 raise VolcalInputError("Calibration.import_: give axis= and id= (a new "
                                        "linear measurement) or measurement= (a planned one)")
-            r = import_csv(csv_file, mapping, axis, _vector(line_mm, "line_mm"), session, id,
-                           units, deviation_units, optics, _vector(tool_offset, "tool_offset"),
-                           None if travel is None else _travel(travel), chain, name, replace)
+            r = import_csv(csv_file, mapping, axis, A.vector_mm(line_mm, "line_mm"), session,
+                           id, units, deviation_units, optics,
+                           A.vector_mm(tool_offset, "tool_offset"),
+                           None if travel is None else A.travel_mm(travel), chain, name,
+                           replace)
         cal = cls.open(r.session)
         cal.imported = r
         return cal
 
     # ------------------------------------------------------------------ steps
-    @_checked
+    @A.checked
     def advise(self, roll: str = D.ROLL, **options: object) -> IdentifiabilityReport:
         """Before measuring: what the planned tests will and will not determine.
 
@@ -391,7 +281,7 @@ class Calibration:
 
         return advise(self._planned(), self._identify_options("advise", roll=roll, **options))
 
-    @_checked
+    @A.checked
     def program(self, folder: str | Path, dialect: str, dwell_s: float = D.PROG_DWELL_S,
                 feed: float = D.PROG_FEED, overrun_mm: float = D.PROG_OVERRUN_MM,
                 decimals: int = D.PROG_DECIMALS, safe_z_mm: float = D.PROG_SAFE_Z_MM,
@@ -431,7 +321,7 @@ class Calibration:
                               decimals=decimals, safe_z_mm=safe_z_mm)
         return write_programs(self._planned(), dialect, folder, opts, first_number)
 
-    @_checked
+    @A.checked
     def simulate(self, machine: MachineErrors | None = None, seed: int = D.SIM_SEED,
                  noise_um: float = D.SIM_NOISE_UM,
                  mirror_misalignment_urad: float = D.SIM_MIRROR_URAD,
@@ -496,7 +386,7 @@ class Calibration:
         self.result = self.evaluation = None
         return self
 
-    @_checked
+    @A.checked
     def save(self, folder: str | Path) -> Calibration:
         """Write the session folder (with ``truth/`` after :meth:`simulate`), then read it back.
 
@@ -556,7 +446,7 @@ class Calibration:
                                    "that this session would replace; nothing was changed. "
                                    "Save to another folder", folder / "session.toml")
 
-    @_checked
+    @A.checked
     def identify(self, **options: object) -> IdentificationResult:
         """Identify the 21 errors with uncertainties, like ``volcal identify``.
 
@@ -580,7 +470,7 @@ class Calibration:
         self.evaluation = None
         return self.result
 
-    @_checked
+    @A.checked
     def load_model(self, path: str | Path, force: bool = False) -> IdentificationResult:
         """Use a model file identified earlier from this session.
 
@@ -602,7 +492,7 @@ class Calibration:
         self.result = model
         return model
 
-    @_checked
+    @A.checked
     def evaluate(self, edition: str = D.EDITION) -> SessionEvaluation:
         """Evaluate to ISO 230-2, ISO 230-6 and the volumetric indices (with the model).
 
@@ -621,11 +511,11 @@ class Calibration:
 
         if str(edition) not in EDITIONS:
             raise VolcalInputError(f"Calibration.evaluate: edition {edition!r}: expected one "
-                                   f"of {_names(list(EDITIONS))}")
+                                   f"of {A.names(list(EDITIONS))}")
         self.evaluation = evaluate_session(self.session, self.result, str(edition))
         return self.evaluation
 
-    @_checked
+    @A.checked
     def verdict(self, tolerance_um: float | str | Mapping[str, float],
                 compensation: str | Path | None = None, edition: str = D.EDITION
                 ) -> list[Verdict]:
@@ -654,7 +544,7 @@ class Calibration:
         from volcal.report.verdict import verdicts
         from volcal.standards.tolerance import parse_tolerance
 
-        tol = parse_tolerance(_tolerance_text(tolerance_um))
+        tol = parse_tolerance(A.tolerance_text(tolerance_um))
         tables = None
         if compensation is not None:
             if self.result is None:
@@ -668,7 +558,7 @@ class Calibration:
         errors = None if self.result is None else self.result.errors
         return verdicts(tol, self.session, errors, tables, str(edition))
 
-    @_checked
+    @A.checked
     def compensate(self, folder: str | Path, format: str, sign: str | None = D.COMP_SIGN,
                    spacing: float = D.COMP_SPACING_MM, max_points: int | None = None,
                    reference_mm: ArrayLike | str | None = None,
@@ -730,7 +620,7 @@ class Calibration:
         fmt = str(format).lower()
         if fmt not in FORMAT_INFO:
             raise VolcalInputError(f"Calibration.compensate: unknown format {format!r}: "
-                                   f"expected one of {_names(list(FORMAT_INFO))}")
+                                   f"expected one of {A.names(list(FORMAT_INFO))}")
         info = FORMAT_INFO[fmt]
         if sign is not None:
             sign_factor(sign)
@@ -738,16 +628,17 @@ class Calibration:
                 warnings.warn(f"sign={sign!r} overrides the {fmt} convention '{info.sign}' "
                               f"({info.sign_source}); a table in the wrong sign doubles the "
                               "error", UserWarning, stacklevel=3)
-        ref = None if reference_mm is None else _vector(reference_mm, "reference_mm")
+        ref = None if reference_mm is None else A.vector_mm(reference_mm, "reference_mm")
         opts = CompensationOptions(sign, spacing, max_points, ref, unit_um, magnification,
-                                   max_increment, squareness, _vector(tool_offset, "tool_offset"),
-                                   fanuc_series, linuxcnc_type)
+                                   max_increment, squareness,
+                                   A.vector_mm(tool_offset, "tool_offset"), fanuc_series,
+                                   linuxcnc_type)
         result = self._need_result()
         files = write_compensation(result.errors, fmt, folder, opts, "model")
         self.compensation = Path(folder)
         return files
 
-    @_checked
+    @A.checked
     def report(self, folder: str | Path, title: str | None = None, edition: str = D.EDITION,
                tolerance_um: float | str | Mapping[str, float] | None = None,
                compensation: str | Path | None = None) -> ReportFiles:
@@ -779,7 +670,7 @@ class Calibration:
         from volcal.report.writer import write_report
         from volcal.standards.tolerance import parse_tolerance
 
-        tol = None if tolerance_um is None else parse_tolerance(_tolerance_text(tolerance_um))
+        tol = None if tolerance_um is None else parse_tolerance(A.tolerance_text(tolerance_um))
         if compensation is not None and not Path(compensation).is_dir():
             raise VolcalInputError("Calibration.report: compensation= is not a folder written "
                                    "by compensate", compensation)
@@ -801,7 +692,7 @@ class Calibration:
         known_u = opts.pop("known_u", None)
         for key in opts:
             if key not in valid:
-                raise _unknown(f"Calibration.{where}", key, [*valid, "known_u"])
+                raise A.unknown_option(f"Calibration.{where}", key, [*valid, "known_u"])
         known = opts.get("known")
         if isinstance(known, str | Path):
             from volcal.session.errortable import read_known_functions
@@ -812,12 +703,12 @@ class Calibration:
             raise VolcalInputError(f"Calibration.{where}: known_u needs known= (the path "
                                    "of the error table it applies to)")
         elif known is not None:
-            opts["known"] = _known_functions(known, f"Calibration.{where}")
+            opts["known"] = A.known_functions(known, f"Calibration.{where}")
         try:
             return IdentifyOptions(**opts)  # type: ignore[arg-type]
         except TypeError as exc:
             raise VolcalInputError(f"Calibration.{where}: {exc}; valid options: "
-                                   f"{_names(valid)}") from None
+                                   f"{A.names(valid)}") from None
 
     def _planned(self) -> Session:
         """The session with every measurement, those without readings yet included."""

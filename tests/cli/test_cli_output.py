@@ -128,3 +128,23 @@ def test_classic_abbe_to_standard_output_and_two_files_refused(session, tmp_path
     r = _cli("classic", "step-diagonal", session, "-o", "-")
     assert r.returncode == 2 and "writes two files" in r.stderr
     assert re.search(r"give a file name", r.stderr)
+
+
+@pytest.mark.parametrize("args, what", [
+    (["program", "{S}", "--dialect", "fanuc", "-o", "-"], "the program is a folder"),
+    (["compensate", "{M}", "--format", "fanuc", "-o", "-"], "the compensation is a folder"),
+    (["plan", "-o", "-"], "the planned session is a folder"),
+])
+def test_folder_outputs_refuse_standard_output(session, tmp_path, monkeypatch, args, what):
+    monkeypatch.chdir(tmp_path)
+    from volcal.measure.virtual import random_machine
+    from volcal.session.errortable import write_error_table
+
+    write_error_table(random_machine(np.array([[0, 1200], [0, 800], [0, 600]], float),
+                                     "FXYZ", 1), tmp_path / "m.csv")
+    args = [a.replace("{S}", str(session)).replace("{M}", str(tmp_path / "m.csv"))
+            for a in args]
+    r = _cli(*args)
+    assert r.returncode == 2, r.stderr
+    assert f"-o -: {what} of files, which cannot go to standard output" in r.stderr
+    assert not (tmp_path / "-").exists()

@@ -99,6 +99,10 @@ BAD_CALLS = [
     (lambda c: c.identify(known={"EXX": 3}), "known['EXX']"),
     (lambda c: c.identify(known={"EQX": ([0, 1], [0, 1])}), "known['EQX']"),
     (lambda c: c.save(_a_file()), "is a file; give a folder for the session"),
+    (lambda c: c.identify(max_nodes="a"), "max_nodes='a': expected a whole number"),
+    (lambda c: c.identify(max_nodes=2), "max_nodes=2: expected 3..2001"),
+    (lambda c: c.identify(noise_um=-1), "noise_um=-1: expected a positive number [um]"),
+    (lambda c: c.identify(drift="yes"), "drift='yes': expected True or False"),
 ]
 
 

@@ -33,6 +33,7 @@ from volcal import flowargs as A
 from volcal.errors import VolcalInputError
 
 if TYPE_CHECKING:
+    from volcal.identify import IdentifyOptions
     from volcal.identify.identifiability import IdentifiabilityReport
     from volcal.identify.result import IdentificationResult
     from volcal.importer.laser_csv import ImportResult
@@ -679,12 +680,13 @@ class Calibration:
         return write_report(build_report(inputs, title), folder)
 
     # ------------------------------------------------------------------ helpers
-    def _identify_options(self, where: str, **options: object) -> object:
+    def _identify_options(self, where: str, **options: object) -> IdentifyOptions:
         """IdentifyOptions from keywords, every key checked (the CLI's names accepted)."""
         from dataclasses import fields
 
         from volcal.identify import IdentifyOptions
 
+        where = f"Calibration.{where}"
         valid = [f.name for f in fields(IdentifyOptions)]
         opts = dict(options)
         if "measurements" in opts:  # the command line's name
@@ -692,7 +694,18 @@ class Calibration:
         known_u = opts.pop("known_u", None)
         for key in opts:
             if key not in valid:
-                raise A.unknown_option(f"Calibration.{where}", key, [*valid, "known_u"])
+                raise A.unknown_option(where, key, [*valid, "known_u"])
+        A.check_kinds(where, opts, {f.name: f.default for f in fields(IdentifyOptions)})
+        for key, v in (("noise_um", opts.get("noise_um")), ("known_u", known_u)):
+            if v is not None and not (isinstance(v, int | float) and np.isfinite(v) and v > 0):
+                raise VolcalInputError(f"{where}: {key}={v!r}: expected a positive number "
+                                       "[um] (as --noise-um, --known-u)")
+        if not 3 <= int(opts.get("max_nodes", 41)) <= 2001:  # type: ignore[call-overload]
+            raise VolcalInputError(f"{where}: max_nodes={opts['max_nodes']}: expected 3..2001 "
+                                   "(as --max-nodes)")
+        ids = opts.get("measurement_ids")
+        if ids is not None:
+            opts["measurement_ids"] = A.name_list(ids, "measurement_ids")  # type: ignore
         known = opts.get("known")
         if isinstance(known, str | Path):
             from volcal.session.errortable import read_known_functions
@@ -700,15 +713,14 @@ class Calibration:
             opts["known"] = {n: (p, v) if known_u is None else (p, v, known_u)
                              for n, (p, v) in read_known_functions(known).items()}
         elif known_u is not None:
-            raise VolcalInputError(f"Calibration.{where}: known_u needs known= (the path "
-                                   "of the error table it applies to)")
+            raise VolcalInputError(f"{where}: known_u needs known= (the path of the error "
+                                   "table it applies to)")
         elif known is not None:
-            opts["known"] = A.known_functions(known, f"Calibration.{where}")
+            opts["known"] = A.known_functions(known, where)
         try:
             return IdentifyOptions(**opts)  # type: ignore[arg-type]
         except TypeError as exc:
-            raise VolcalInputError(f"Calibration.{where}: {exc}; valid options: "
-                                   f"{A.names(valid)}") from None
+            raise VolcalInputError(f"{where}: {exc}; valid options: {A.names(valid)}") from None
 
     def _planned(self) -> Session:
         """The session with every measurement, those without readings yet included."""

@@ -230,3 +230,37 @@ def known_functions(known: object, where: str) -> dict[str, tuple[object, ...]]:
                                    "values [um or urad]) or (positions, values, u)")
         out[key] = tuple(v)
     return out
+
+
+def check_kinds(where: str, values: Mapping[str, object],
+                defaults: Mapping[str, object]) -> None:
+    """Check that every value is of its default's kind (bool, whole number, number).
+
+    Parameters
+    ----------
+    where : str
+        The method, for the message.
+    values : mapping of str to object
+        The keywords given.
+    defaults : mapping of str to object
+        The defaults of the option class; a value whose default is None or of another
+        kind (text, tuples, dicts) is left to the option class to check.
+
+    Raises
+    ------
+    VolcalInputError
+        A bool option given something else than True/False, a whole-number option a
+        fraction or text, a number option text or a non-finite number.
+    """
+    for key, v in values.items():
+        d = defaults.get(key)
+        if isinstance(d, bool):
+            if not isinstance(v, bool | np.bool_):
+                raise VolcalInputError(f"{where}: {key}={v!r}: expected True or False")
+        elif isinstance(d, int):
+            if isinstance(v, bool) or not isinstance(v, int | np.integer):
+                raise VolcalInputError(f"{where}: {key}={v!r}: expected a whole number")
+        elif isinstance(d, float):
+            if isinstance(v, bool) or not isinstance(v, int | float | np.number) or \
+                    not np.isfinite(v):
+                raise VolcalInputError(f"{where}: {key}={v!r}: expected a finite number")

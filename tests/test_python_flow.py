@@ -103,6 +103,13 @@ BAD_CALLS = [
     (lambda c: c.identify(max_nodes=2), "max_nodes=2: expected 3..2001"),
     (lambda c: c.identify(noise_um=-1), "noise_um=-1: expected a positive number [um]"),
     (lambda c: c.identify(drift="yes"), "drift='yes': expected True or False"),
+    (lambda c: c.program("p", "fanuc", feed="fast"), "feed='fast': expected a finite number"),
+    (lambda c: c.compensate("x", format="fanuc", magnification=1.5),
+     "magnification=1.5: expected a whole number"),
+    (lambda c: c.compensate("x", format="grid", spacing="20"),
+     "spacing='20': expected a finite number"),
+    (lambda c: c.simulate(drift_um_per_h=float("inf")), "drift_um_per_h=inf"),
+    (lambda c: Calibration.plan(TRAVEL, iso_spacing="no"), "expected True or False"),
 ]
 
 

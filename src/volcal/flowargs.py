@@ -66,7 +66,8 @@ def checked(func: F) -> F:
 
     An unknown keyword, a missing required argument or one given twice names the
     method and lists its valid options (with the closest name), instead of Python's
-    ``TypeError``.
+    ``TypeError``; a value of another kind than its default (:func:`check_kinds`: text
+    for a number, a fraction for a whole number...) is refused the same way.
 
     Parameters
     ----------
@@ -85,6 +86,7 @@ def checked(func: F) -> F:
     valid = [p.name for p in params]
     takes_var = any(p.kind is p.VAR_KEYWORD for p in sig.parameters.values())
     where = f"Calibration.{func.__name__}"
+    defaults = {p.name: p.default for p in params if p.default is not p.empty}
 
     @functools.wraps(func)
     def wrapper(*args: object, **kwargs: object) -> object:
@@ -93,11 +95,13 @@ def checked(func: F) -> F:
                 if key not in valid:
                     raise unknown_option(where, key, valid)
         try:
-            sig.bind(*args, **kwargs)
+            bound = sig.bind(*args, **kwargs)
         except TypeError as exc:
             need = [p.name for p in params if p.default is p.empty]
             raise VolcalInputError(f"{where}: {exc}; required: {names(need) or 'none'}; "
                                    f"valid options: {names(valid)}") from None
+        check_kinds(where, {k: v for k, v in bound.arguments.items() if k in defaults},
+                    defaults)
         return func(*args, **kwargs)
 
     return wrapper  # type: ignore[return-value]

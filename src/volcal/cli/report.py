@@ -7,6 +7,7 @@ from pathlib import Path
 import typer
 from rich.console import Console
 
+from volcal import defaults as D
 from volcal.cli._common import print_session_notes
 
 console = Console(soft_wrap=True)  # no line breaks inside paths
@@ -22,7 +23,7 @@ def report_cmd(
     compensation: Path | None = typer.Option(None, help="Folder written by `volcal "
                                              "compensate` from the same model, summarised "
                                              "in the report."),
-    edition: str = typer.Option("2014", help="ISO 230-2 edition of the positioning tables."),
+    edition: str = typer.Option(D.EDITION, help="ISO 230-2 edition of the positioning tables."),
     title: str | None = typer.Option(None, help="Report title (default from the machine name)."),
     force: bool = typer.Option(False, "--force", help="Use --model even if it was identified "
                                "from another session (name, chain, travel or readings differ)."),

@@ -190,6 +190,8 @@ def test_iso230_2_and_diagonal_tables(cal):
     assert list(diag["id"]) == list(ev.iso230_6)
     one = ev.iso230_6["diag-ppp"]
     assert diag.loc[0, "E_D_um"] == pytest.approx(one.E_D)
+    assert diag.loc[0, "complete"] and diag.loc[0, "points_measured"] == one.points_planned
+    assert per_target[0]["n_up"] == per_target[0]["n_down"] == 2  # runs=2, none missed
     assert one.to_rows()[0]["length_mm"] == pytest.approx(math.hypot(600 - 10, 400 - 10,
                                                                      300 - 10), rel=0.05)
 

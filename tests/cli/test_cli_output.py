@@ -52,15 +52,15 @@ def test_session_table_redirected_keeps_every_number_and_unit(session):
     assert r.returncode == 0, r.stderr
     assert "…" not in r.stdout and "..." not in r.stdout
     header = next(ln for ln in r.stdout.splitlines() if ln.startswith("┃"))
-    for h in ("A [um]", "E [um]", "M [um]", "R [um]", "B [um]", "B_mean [um]"):
+    for h in ("runs", "A [um]", "E [um]", "M [um]", "R [um]", "B [um]", "B_mean [um]"):
         assert h in header
     js = json.loads(_cli("evaluate", "session", session, "--json").stdout)["measurements"]
     rows = _cells(r.stdout)
     assert [row[0] for row in rows] == list(js)
     for row in rows:  # the same numbers as --json, to the 3 decimals shown
         m = js[row[0]]
-        assert row[1] == m["axis"]
-        assert [float(v) for v in row[2:]] == pytest.approx(
+        assert row[1] == m["axis"] and row[2] == "2"  # runs
+        assert [float(v) for v in row[3:]] == pytest.approx(
             [m[k] for k in ("A", "E", "M", "R", "B", "B_mean")], abs=5e-4)
 
 
@@ -70,13 +70,14 @@ def test_per_target_table_in_full_with_units(session):
     assert r.exit_code == 0, r.output
     assert "…" not in r.output
     assert "per target [um]" in r.output and "value [um]" in r.output
-    for h in ("target [mm]", "x̄↑ [um]", "x̄ [um]", "R_i [um]"):
+    for h in ("target [mm]", "n↑", "x̄↑ [um]", "x̄ [um]", "R_i [um]"):
         assert h in r.output
     js = json.loads(runner.invoke(app, ["evaluate", "iso230-2", str(f), "--json"]).output)
-    rows = [row for row in _cells(r.output) if len(row) == 10]
+    rows = [row for row in _cells(r.output) if len(row) == 12]
     assert len(rows) == len(js["targets"])
     for row, t in zip(rows, js["targets"], strict=True):
-        assert [float(v) for v in row] == pytest.approx(
+        assert [int(row[1]), int(row[2])] == [t["n_up"], t["n_down"]]
+        assert [float(v) for v in row[:1] + row[3:]] == pytest.approx(
             [t[k] for k in ("target_mm", "mean_up", "mean_down", "mean", "s_up", "s_down",
                             "B", "R_up", "R_down", "R")], abs=5e-4)
     assert any(v.startswith("-") and len(v) >= 6 for row in rows for v in row)  # -x.xxx
@@ -85,7 +86,7 @@ def test_per_target_table_in_full_with_units(session):
 def test_diagonal_table_headers_carry_units(session):
     r = runner.invoke(app, ["evaluate", "iso230-6", str(session)])
     assert r.exit_code == 0, r.output
-    for h in ("length [mm]", "E_D [um]", "max |dev| [um]"):
+    for h in ("length [mm]", "points", "E_D [um]", "max |dev| [um]"):
         assert h in r.output
     assert "ISO 230-6 diagonal displacement" in r.output
 

@@ -111,14 +111,21 @@ def iso230_2_rows(res: Iso2302Result) -> list[Row]:
     Returns
     -------
     list of dict
-        ``target_mm`` [mm]; ``mean_up_um``, ``mean_down_um``, ``mean_um`` (mean
-        unidirectional and bidirectional positional deviations), ``s_up_um``,
-        ``s_down_um``, ``B_um`` (reversal), ``R_up_um``, ``R_down_um``, ``R_um``
-        (repeatability) [um].
+        ``target_mm`` [mm]; ``n_up``, ``n_down`` (runs that reached the target: fewer
+        than planned where a capture was missed); ``mean_up_um``, ``mean_down_um``,
+        ``mean_um`` (mean unidirectional and bidirectional positional deviations),
+        ``s_up_um``, ``s_down_um``, ``B_um`` (reversal), ``R_up_um``, ``R_down_um``,
+        ``R_um`` (repeatability) [um]; NaN where a target has too few runs.
     """
     t = res.targets
-    return [{new: float(getattr(t, old)[i]) for old, new in _TARGET_KEYS}
-            for i in range(t.target_mm.size)]
+    nu, nd = t.counts()
+    rows = []
+    for i in range(t.target_mm.size):
+        row: Row = {"target_mm": float(t.target_mm[i]), "n_up": int(nu[i]),
+                    "n_down": int(nd[i])}
+        row.update({new: float(getattr(t, old)[i]) for old, new in _TARGET_KEYS[1:]})
+        rows.append(row)
+    return rows
 
 
 _AXIS_PARAMS = ("A", "A_up", "A_down", "E", "E_up", "E_down", "M", "R", "R_up", "R_down",
@@ -140,12 +147,14 @@ def diagonal_row(res: DiagonalResult) -> Row:
     -------
     dict
         ``id``, ``diagonal``, ``plane`` ('' for a body diagonal), ``length_mm`` [mm],
-        ``E_D_um``, ``max_abs_um`` and ``R_um`` (ISO 230-2 repeatability along the
-        diagonal, NaN without bidirectional runs) [um].
+        ``points_measured``, ``points_planned``, ``complete`` (an incomplete diagonal is
+        left out of the largest E_D), ``E_D_um``, ``max_abs_um`` and ``R_um`` (ISO 230-2
+        repeatability along the diagonal, NaN without bidirectional runs) [um].
     """
     return {"id": res.id, "diagonal": res.diagonal, "plane": res.plane or "",
-            "length_mm": float(res.length_mm), "E_D_um": float(res.E_D),
-            "max_abs_um": float(res.max_abs_um),
+            "length_mm": float(res.length_mm), "points_measured": res.points_measured,
+            "points_planned": res.points_planned, "complete": res.complete,
+            "E_D_um": float(res.E_D), "max_abs_um": float(res.max_abs_um),
             "R_um": math.nan if res.iso230_2 is None else float(res.iso230_2.R)}
 
 
@@ -160,9 +169,9 @@ def session_rows(ev: SessionEvaluation, table: str = "iso230-2") -> list[Row]:
     ----------
     ev : SessionEvaluation
     table : str
-        ``'iso230-2'``: one row per linear test, ``id``, ``axis`` and the axis
-        parameters ``A_um`` ... ``B_mean_um`` [um]; ``'iso230-6'``: one row per diagonal
-        (:func:`diagonal_row`).
+        ``'iso230-2'``: one row per linear test, ``id``, ``axis``, ``complete`` (False
+        when a capture was missed) and the axis parameters ``A_um`` ... ``B_mean_um``
+        [um]; ``'iso230-6'``: one row per diagonal (:func:`diagonal_row`).
 
     Returns
     -------
@@ -174,7 +183,7 @@ def session_rows(ev: SessionEvaluation, table: str = "iso230-2") -> list[Row]:
         Unknown ``table``.
     """
     if table == "iso230-2":
-        return [{"id": k, "axis": ev.axis.get(k, ""), **_axis_row(r)}
+        return [{"id": k, "axis": ev.axis.get(k, ""), "complete": r.complete, **_axis_row(r)}
                 for k, r in ev.iso230_2.items()]
     if table == "iso230-6":
         return [diagonal_row(r) for r in ev.iso230_6.values()]

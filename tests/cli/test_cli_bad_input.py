@@ -801,6 +801,8 @@ CASES: list[Case] = [
     Case("classic-step-diagonal:output-under-file", ["classic", "step-diagonal", "{d}/S",
                                                      "-o", "{d}/points.csv/T.csv"],
          ("points.csv",)),
+    Case("classic-step-diagonal:output-stdout", ["classic", "step-diagonal", "{d}/S",
+                                                 "-o", "-"], ("-o -", "writes two files")),
     *sessions_cases(["classic", "diagonals"]),
     Case("classic-diagonals:no-diagonals", ["classic", "diagonals", "{d}/L"], ("L",)),
     # ---- evaluate ----

@@ -9,6 +9,7 @@ import typer
 from rich.console import Console
 from rich.markup import escape
 
+from volcal import defaults as D
 from volcal.cli._common import parse_vector
 from volcal.errors import VolcalInputError
 
@@ -24,7 +25,7 @@ def compensate(
     sign: Annotated[str | None, typer.Option(
         help="Override the controller's own sign convention (the default; see "
         "docs/compensation.md): error (table = actual - commanded) or correction "
-        "(= -error).")] = None,
+        "(= -error).")] = D.COMP_SIGN,
     session: Annotated[Path | None, typer.Option(
         help="Session folder: its bidirectional ISO 230-2 linear tests give forward and "
         "reverse tables (LinuxCNC, Fanuc, Heidenhain BACKLASH); a MODEL.json must have "
@@ -32,20 +33,24 @@ def compensate(
     force: Annotated[bool, typer.Option(
         "--force", help="With --session: use the model even if it was identified from "
         "another session (name, chain, travel or readings differ).")] = False,
-    spacing: Annotated[float, typer.Option(help="Distance between points [mm].")] = 20.0,
+    spacing: Annotated[float, typer.Option(help="Distance between points [mm].")
+        ] = D.COMP_SPACING_MM,
     max_points: Annotated[int | None, typer.Option(help="Controller's point limit.")] = None,
     reference_mm: Annotated[str | None, typer.Option(
         help="Fanuc reference position x,y,z [mm] (default: start of travel).")] = None,
-    unit_um: Annotated[float, typer.Option(help="Fanuc detection unit [um].")] = 1.0,
-    magnification: Annotated[int, typer.Option(help="Fanuc magnification (3623).")] = 1,
+    unit_um: Annotated[float, typer.Option(help="Fanuc detection unit [um].")] = D.COMP_UNIT_UM,
+    magnification: Annotated[int, typer.Option(help="Fanuc magnification (3623).")
+        ] = D.COMP_MAGNIFICATION,
     max_increment: Annotated[int, typer.Option(
-        help="Fanuc largest value per point (7 loads on every series).")] = 7,
+        help="Fanuc largest value per point (7 loads on every series).")] = D.COMP_MAX_INCREMENT,
     fanuc_series: Annotated[str, typer.Option(
         help="Fanuc parameter syntax: 30i (N03620Q1..., 0i-D/0i-F/30i) or 16i (N3620...).")
-    ] = "30i",
+    ] = D.COMP_FANUC_SERIES,
     linuxcnc_type: Annotated[int, typer.Option(
-        help="LinuxCNC COMP_FILE_TYPE: 1 (trims) or 0 (actual positions).")] = 1,
-    squareness: Annotated[bool, typer.Option(help="Siemens CEC: add squareness terms.")] = True,
+        help="LinuxCNC COMP_FILE_TYPE: 1 (trims) or 0 (actual positions).")
+    ] = D.COMP_LINUXCNC_TYPE,
+    squareness: Annotated[bool, typer.Option(help="Siemens CEC: add squareness terms.")
+    ] = D.COMP_SQUARENESS,
     tool_offset: Annotated[str, typer.Option(help="3-D grid: target on the tool x,y,z [mm].")
                            ] = "0,0,0",
 ) -> None:

@@ -11,7 +11,8 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from volcal.cli._common import print_session_notes
+from volcal import defaults as D
+from volcal.cli._common import print_session_notes, print_table
 
 console = Console(soft_wrap=True)  # no line breaks inside paths
 evaluate_app = typer.Typer(help="Evaluate measurements to the standards (ISO 230-2, "
@@ -30,22 +31,22 @@ def _print_json(obj: Any) -> None:
 
 
 def _iso_tables(res: Any, title: str) -> None:
-    t = Table(title=f"{title} (ISO 230-2:{res.edition})")
+    t = Table(title=escape(f"{title} (ISO 230-2:{res.edition})"))
     t.add_column("parameter")
-    t.add_column("value [um]", justify="right")
+    t.add_column(escape("value [um]"), justify="right")
     for k, label in _AXIS_LABELS.items():
         t.add_row(label, f"{getattr(res, k):.3f}")
-    console.print(t)
+    print_table(console, t)
     tt = Table(title=escape("per target [um]; n↑ n↓: runs that reached the target"))
-    for c in ("target [mm]", "n↑", "n↓", "x̄↑", "x̄↓", "x̄", "s↑", "s↓", "B_i", "R↑", "R↓",
-              "R_i"):
-        tt.add_column(c, justify="right")
+    for c in ("target [mm]", "n↑", "n↓", "x̄↑ [um]", "x̄↓ [um]", "x̄ [um]", "s↑ [um]",
+              "s↓ [um]", "B_i [um]", "R↑ [um]", "R↓ [um]", "R_i [um]"):
+        tt.add_column(escape(c), justify="right")
     for row in res.targets.rows():
         tt.add_row(f"{row['target_mm']:.3f}", str(row["n_up"]), str(row["n_down"]),
                    *["-" if row[k] is None else f"{row[k]:.3f}"
                      for k in ("mean_up", "mean_down", "mean", "s_up", "s_down", "B", "R_up",
                                "R_down", "R")])
-    console.print(tt)
+    print_table(console, tt)
     if not res.complete:
         console.print(f"[yellow]incomplete:[/] {len(res.missing)} missed reading(s); each "
                       "target is evaluated over the runs that reached it", highlight=False)
@@ -60,7 +61,7 @@ def iso230_2_cmd(
     file: Path = typer.Argument(..., help="CSV: target_mm,run,direction,deviation_um or a "
                                 "session measurement CSV of a linear test."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
-    edition: str = typer.Option("2014", help="ISO 230-2 edition: 2014, 2006, 1997, 1988."),
+    edition: str = typer.Option(D.EDITION, help="ISO 230-2 edition: 2014, 2006, 1997, 1988."),
 ) -> None:
     """Positioning accuracy and repeatability of one axis (ISO 230-2)."""
     from volcal.standards.iso230_2 import evaluate
@@ -110,12 +111,12 @@ def vdi3441_cmd(
     if as_json:
         _print_json(res.to_dict())
         return
-    t = Table(title=f"{file} (VDI/DGQ 3441)")
+    t = Table(title=escape(f"{file} (VDI/DGQ 3441)"))
     t.add_column("parameter")
-    t.add_column("value [um]", justify="right")
+    t.add_column(escape("value [um]"), justify="right")
     for k in ("P", "Pa", "Ps", "Ps_mean", "U", "U_mean"):
         t.add_row(k, f"{getattr(res, k):.3f}")
-    console.print(t)
+    print_table(console, t)
 
 
 @evaluate_app.command("iso230-6")
@@ -142,16 +143,16 @@ def iso230_6_cmd(
                      "complete": not incomplete, "incomplete": incomplete,
                      "unmeasured": [m.id for m in s.unmeasured if m.kind == "diagonal"]})
         return
-    t = Table(title=f"{session}: ISO 230-6 diagonal displacement")
+    t = Table(title=escape(f"{session}: ISO 230-6 diagonal displacement"))
     for c in ("id", "diagonal", "length [mm]", "points", "E_D [um]", "max |dev| [um]",
               "R [um]"):
-        t.add_column(c, justify="right")
+        t.add_column(escape(c), justify="right")
     for r in res:
         rr = "" if r.iso230_2 is None else f"{r.iso230_2.R:.3f}"
         pts = f"{r.points_measured}/{r.points_planned}" + ("" if r.complete else " incomplete")
         t.add_row(r.id, (r.plane + " " if r.plane else "") + r.diagonal, f"{r.length_mm:.1f}",
                   pts, f"{r.E_D:.3f}", f"{r.max_abs_um:.3f}", rr)
-    console.print(t)
+    print_table(console, t)
     for r in res:
         if not r.complete:
             console.print(f"[yellow]incomplete:[/] {escape(r.note())}", highlight=False)
@@ -166,7 +167,7 @@ def iso230_6_cmd(
 def session_cmd(
     session: Path = typer.Argument(..., help="Session folder."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
-    edition: str = typer.Option("2014", help="ISO 230-2 edition."),
+    edition: str = typer.Option(D.EDITION, help="ISO 230-2 edition."),
     tolerance_um: str | None = typer.Option(
         None, help="Tolerance for a pass/fail verdict [um]: X=10,Y=10,Z=8 (ISO 230-2 "
         "accuracy A per axis), a number (largest volumetric error of --model) or both "
@@ -211,13 +212,14 @@ def session_cmd(
             out["verdict"] = [v.to_dict() for v in verdict]
         _print_json(out)
         return
-    t = Table(title=f"{session}: ISO 230-2:{edition} [um]")
-    for c in ("id", "axis", "runs", "A", "E", "M", "R", "B", "B_mean"):
-        t.add_column(c, justify="right")
+    t = Table(title=escape(f"{session}: ISO 230-2:{edition} [um]"))
+    for c in ("id", "axis", "runs", "A [um]", "E [um]", "M [um]", "R [um]", "B [um]",
+              "B_mean [um]"):
+        t.add_column(escape(c), justify="right")
     for k, r in results.items():
         t.add_row(k, axis_of[k], _runs_cell(r), *[f"{getattr(r, p):.3f}" for p in
                                                   ("A", "E", "M", "R", "B", "B_mean")])
-    console.print(t)
+    print_table(console, t)
     for k, r in results.items():
         for n in r.notes:
             console.print(f"[yellow]{k}[/] {escape(n)}", highlight=False)
@@ -296,9 +298,9 @@ def _verdicts(tol: tuple[Any, Any, Any], s: Any, edition: str) -> Any:
 
 
 def _print_verdict(verdict: Any, has_model: bool) -> None:
-    t = Table(title="tolerance verdict [um]")
-    for c in ("quantity", "tolerance", "before", "", "after", ""):
-        t.add_column(c, justify="right")
+    t = Table(title=escape("tolerance verdict [um]"))
+    for c in ("quantity", "tolerance [um]", "before [um]", "", "after [um]", ""):
+        t.add_column(escape(c), justify="right")
 
     def cell(v: Any) -> str:
         return "-" if v is None else f"{v:.3f}"
@@ -309,7 +311,7 @@ def _print_verdict(verdict: Any, has_model: bool) -> None:
     for v in verdict:
         t.add_row(escape(v.quantity), f"{v.tolerance_um:g}", cell(v.before_um), word(v.before),
                   cell(v.after_um), word(v.after))
-    console.print(t)
+    print_table(console, t)
     if not any(v.after_um is not None for v in verdict):
         console.print("no verdict after compensation: give --model MODEL.json and "
                       "--compensation FOLDER" if not has_model else
@@ -335,12 +337,12 @@ def volumetric_cmd(
     if as_json:
         _print_json(out)
         return
-    t = Table(title=f"{errors}: volumetric indices [um]")
+    t = Table(title=escape(f"{errors}: volumetric indices [um]"))
     t.add_column("index")
-    t.add_column("value [um]", justify="right")
+    t.add_column(escape("value [um]"), justify="right")
     for k in ("E_VX", "E_VY", "E_VZ", "E_VXYZ", "E_VXYZ_range", "ELx", "ELy", "ELz", "ELv"):
         t.add_row(k, f"{out[k]:.3f}")
-    console.print(t)
+    print_table(console, t)
 
 
 def register(app: typer.Typer) -> None:

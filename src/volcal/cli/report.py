@@ -8,6 +8,7 @@ import typer
 from rich.console import Console
 from rich.markup import escape
 
+from volcal import defaults as D
 from volcal.cli._common import print_session_notes
 
 console = Console(soft_wrap=True)  # no line breaks inside paths
@@ -25,7 +26,7 @@ def report_cmd(
                                              "back from the files, give the 'after'. Tables "
                                              "written for another machine are refused "
                                              "(--force to use them)."),
-    edition: str = typer.Option("2014", help="ISO 230-2 edition of the positioning tables."),
+    edition: str = typer.Option(D.EDITION, help="ISO 230-2 edition of the positioning tables."),
     title: str | None = typer.Option(None, help="Report title (default from the machine name)."),
     force: bool = typer.Option(False, "--force", help="Use --model even if it was identified "
                                "from another session (name, chain, travel or readings differ), "

@@ -55,13 +55,16 @@ References
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from volcal.errors import VolcalInputError
 from volcal.standards.runs import GroupedRuns, MissingReading, group_runs, target_statistics
+
+if TYPE_CHECKING:
+    import pandas
 
 __all__ = ["EDITIONS", "Iso2302Result", "TargetStatistics", "check_test_cycle", "evaluate",
            "evaluate_grouped", "incomplete_notes"]
@@ -214,6 +217,30 @@ class Iso2302Result:
         d["missing"] = [m.to_dict() for m in self.missing]
         d["notes"] = list(self.notes)
         return d
+
+    def to_rows(self) -> list[dict[str, Any]]:
+        """The per-target table, one row per target, units in the column names.
+
+        Returns
+        -------
+        list of dict
+            ``target_mm`` [mm], ``mean_up_um`` ... ``R_um`` [um]
+            (:func:`volcal.io.frames.iso230_2_rows`).
+        """
+        from volcal.io.frames import iso230_2_rows
+
+        return iso230_2_rows(self)
+
+    def to_dataframe(self) -> pandas.DataFrame:
+        """:meth:`to_rows` as a pandas DataFrame (needs pandas).
+
+        Returns
+        -------
+        pandas.DataFrame
+        """
+        from volcal.io.frames import to_dataframe
+
+        return to_dataframe(self.to_rows(), "Iso2302Result")
 
 
 def check_test_cycle(targets_mm: NDArray[np.float64], n_up: int, n_down: int) -> list[str]:

@@ -36,12 +36,15 @@ References
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from volcal.errors import VolcalInputError
 from volcal.standards.iso230_2 import Iso2302Result, evaluate
+
+if TYPE_CHECKING:
+    import pandas
 
 __all__ = ["DiagonalResult", "elv", "evaluate_diagonal", "largest_e_d"]
 
@@ -113,6 +116,30 @@ class DiagonalResult:
         if self.iso230_2 is not None:
             d["iso230_2"] = self.iso230_2.to_dict()
         return d
+
+    def to_rows(self) -> list[dict[str, Any]]:
+        """The diagonal as a one-row table (:func:`volcal.io.frames.diagonal_row`).
+
+        Returns
+        -------
+        list of dict
+            ``id``, ``diagonal``, ``plane``, ``length_mm`` [mm], ``E_D_um``,
+            ``max_abs_um``, ``R_um`` [um].
+        """
+        from volcal.io.frames import diagonal_row
+
+        return [diagonal_row(self)]
+
+    def to_dataframe(self) -> pandas.DataFrame:
+        """:meth:`to_rows` as a pandas DataFrame (needs pandas).
+
+        Returns
+        -------
+        pandas.DataFrame
+        """
+        from volcal.io.frames import to_dataframe
+
+        return to_dataframe(self.to_rows(), "DiagonalResult")
 
 
 def largest_e_d(results: Any) -> DiagonalResult | None:

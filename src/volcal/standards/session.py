@@ -17,9 +17,12 @@ it is the same quantity, and :attr:`SessionEvaluation.elv_source` says which dat
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from volcal.standards.iso230_6 import elv as _elv
+
+if TYPE_CHECKING:
+    import pandas
 
 __all__ = ["SessionEvaluation", "evaluate_session"]
 
@@ -75,6 +78,40 @@ class SessionEvaluation:
                 "elv": self.elv, "elv_source": self.elv_source,
                 "skipped": list(self.skipped), "incomplete": self.incomplete,
                 "unmeasured": list(self.unmeasured)}
+
+    def to_rows(self, table: str = "iso230-2") -> list[dict[str, Any]]:
+        """One table of the evaluation, one row per measurement.
+
+        Parameters
+        ----------
+        table : str
+            ``'iso230-2'`` (linear tests: ``id``, ``axis``, ``A_um`` ... ``B_mean_um``
+            [um]) or ``'iso230-6'`` (diagonals: ``id``, ``diagonal``, ``length_mm``,
+            ``E_D_um`` ...); see :func:`volcal.io.frames.session_rows`.
+
+        Returns
+        -------
+        list of dict
+        """
+        from volcal.io.frames import session_rows
+
+        return session_rows(self, table)
+
+    def to_dataframe(self, table: str = "iso230-2") -> pandas.DataFrame:
+        """:meth:`to_rows` as a pandas DataFrame (needs pandas).
+
+        Parameters
+        ----------
+        table : str
+            ``'iso230-2'`` or ``'iso230-6'``.
+
+        Returns
+        -------
+        pandas.DataFrame
+        """
+        from volcal.io.frames import to_dataframe
+
+        return to_dataframe(self.to_rows(table), "SessionEvaluation")
 
     def __repr__(self) -> str:
         """Short one-line description."""

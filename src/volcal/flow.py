@@ -634,8 +634,13 @@ class Calibration:
                                    max_increment, squareness,
                                    A.vector_mm(tool_offset, "tool_offset"), fanuc_series,
                                    linuxcnc_type)
+        from volcal.session.identity import MachineIdentity
+
         result = self._need_result()
-        files = write_compensation(result.errors, fmt, folder, opts, "model")
+        # the manifest names this session's machine (serial, make...), so that the tables
+        # are refused on another machine (docs/compensation.md)
+        files = write_compensation(result.errors, fmt, folder, opts, "model",
+                                   machine=MachineIdentity.of(self.session))
         self.compensation = Path(folder)
         return files
 

@@ -103,11 +103,11 @@ def _add(folder: Path, tests: str, steps: int, runs: int, step_orders: str, tool
          step_target: str, iso_spacing: bool, overrun_mm: float, abbe_offset_mm: float,
          grid: str, stations: str, tool_offsets: str) -> None:
     """``volcal plan --add``: plan the tests on the session's machine and append them."""
-    from volcal.plan.extend import add_tests
+    from volcal.plan.extend import add_tests, require_session
     from volcal.plan.planner import plan_session
     from volcal.session.format import read_session
 
-    s = read_session(folder, require_deviation=False)
+    s = read_session(require_session(folder), require_deviation=False)
     planned = plan_session(s.travel, s.chain, steps,
                            [t.strip() for t in tests.split(",") if t.strip()], runs,
                            [o.strip() for o in step_orders.split(",") if o.strip()],

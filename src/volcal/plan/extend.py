@@ -24,7 +24,7 @@ from volcal.io.tomlfmt import dumps as toml_dumps
 from volcal.session.format import Measurement, Session, read_session
 
 __all__ = ["AddResult", "ExistingSession", "add_tests", "existing_session", "fresh_id",
-           "refusal", "replace_session"]
+           "refusal", "replace_session", "require_session"]
 
 
 @dataclass
@@ -243,10 +243,7 @@ def add_tests(folder: str | Path, planned: Session) -> AddResult:
         No session in ``folder``, an invalid session, a chain or travel differing from
         the plan's.
     """
-    folder = Path(folder)
-    if not (folder / "session.toml").is_file():
-        raise VolcalInputError("--add needs an existing session folder (with session.toml); "
-                               "write a new one with `volcal plan -o FOLDER`", folder)
+    folder = require_session(folder)
     s = read_session(folder, require_deviation=False)
     if planned.chain != s.chain or not (planned.travel == s.travel).all():
         raise VolcalInputError("the tests to add are planned for another chain or travel than "
@@ -271,6 +268,30 @@ def add_tests(folder: str | Path, planned: Session) -> AddResult:
         if ids[:len(every)] != [m.id for m in every] or len(ids) != len(every) + len(added):
             raise RuntimeError("session.toml did not read back with the added tests")
     return AddResult(folder, added, renamed, len(every))
+
+
+def require_session(folder: str | Path) -> Path:
+    """``folder``, checked to hold a ``session.toml`` (the folder of ``volcal plan --add``).
+
+    Parameters
+    ----------
+    folder : str or Path
+        The folder given to ``--add``.
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    VolcalInputError
+        No ``session.toml`` there.
+    """
+    folder = Path(folder)
+    if not (folder / "session.toml").is_file():
+        raise VolcalInputError("--add needs an existing session folder (with session.toml); "
+                               "write a new one with `volcal plan -o FOLDER`", folder)
+    return folder
 
 
 def _appended_toml(toml_path: Path, s: Session, added: list[Measurement]) -> str:

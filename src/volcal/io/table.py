@@ -215,6 +215,9 @@ class Table:
     written : dict of str to str
         The header as written of each column read (differs from the name when matched
         loosely, e.g. ``'Error (µm)'`` for ``'error'``).
+    preamble : list of (int, list of str)
+        The records before the header line (physical line, fields), when a preamble is
+        allowed (``header_within > 1``): a vendor's header block.
     """
 
     path: Path | None
@@ -227,6 +230,7 @@ class Table:
     delimiter: str = ","
     header_row: int = 1
     written: dict[str, str] = field(default_factory=dict)
+    preamble: list[tuple[int, list[str]]] = field(default_factory=list)
 
     def __len__(self) -> int:
         """Number of data rows."""
@@ -671,7 +675,7 @@ def parse_table(text: str, spec: TableSpec, path: str | Path | None = None) -> T
         cols[name] = np.array(v, dtype=dtype)
     return Table(p, header, cols, np.array([r for r, _ in data], dtype=np.int64), extra,
                  {k: np.array(v, dtype=bool) for k, v in marks.items()}, groups, delim,
-                 header_row, {name: header[j] for name, j in idx.items()})
+                 header_row, {name: header[j] for name, j in idx.items()}, recs[:h])
 
 
 def columns_present(table: Table, names: Iterable[str]) -> list[str]:

@@ -211,13 +211,13 @@ def parse_header_date(text: str) -> tuple[str, str]:
         Not a date, or ambiguous (``05/11/2026``: day/month or month/day).
     """
     t = text.strip()
-    m = re.match(r"^(\d{4})[-/.](\d{1,2})[-/.](\d{1,2})\b", t)
+    m = re.match(r"^(\d{4})[-/.](\d{1,2})[-/.](\d{1,2})(?!\d)", t)
     if m:
         return _iso(int(m.group(1)), int(m.group(2)), int(m.group(3))), ""
-    m = re.match(r"^(\d{1,2})\.(\d{1,2})\.(\d{4})\b", t)
+    m = re.match(r"^(\d{1,2})\.(\d{1,2})\.(\d{4})(?!\d)", t)
     if m:
         return _iso(int(m.group(3)), int(m.group(2)), int(m.group(1))), "day.month.year"
-    m = re.match(r"^(\d{1,2})[/-](\d{1,2})[/-](\d{4})\b", t)
+    m = re.match(r"^(\d{1,2})[/-](\d{1,2})[/-](\d{4})(?!\d)", t)
     if m:
         a, b, y = int(m.group(1)), int(m.group(2)), int(m.group(3))
         if a > 12 >= b:

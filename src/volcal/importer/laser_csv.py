@@ -353,7 +353,7 @@ def _read_header_block(t: Table, mapping: dict[str, str], out: LaserTable, path:
     columns = tuple(k for k in ENVIRONMENT_FIELDS if k in mapping and t.has(mapping[k]))
     named = {k: v for k, v in mapping.items() if k in HEADER_KEYS and k not in columns}
     out.header, out.header_notes = read_header(t.preamble, named, path, skip=columns)
-    if t.preamble and not out.header:
+    if t.preamble and not out.header and not out.header_notes:
         first, last = t.preamble[0][0], t.preamble[-1][0]
         out.header_notes.append(
             f"line{'s' if last > first else ''} {first}{f'-{last}' if last > first else ''} "

@@ -103,20 +103,15 @@ def _add(folder: Path, tests: str, steps: int, runs: int, step_orders: str, tool
          step_target: str, iso_spacing: bool, overrun_mm: float, abbe_offset_mm: float,
          grid: str, stations: str, tool_offsets: str) -> None:
     """``volcal plan --add``: plan the tests on the session's machine and append them."""
-    from volcal.plan.extend import add_tests, require_session
-    from volcal.plan.planner import plan_session
-    from volcal.session.format import read_session
+    from volcal.plan.extend import add_planned_tests
 
-    s = read_session(require_session(folder), require_deviation=False)
-    planned = plan_session(s.travel, s.chain, steps,
-                           [t.strip() for t in tests.split(",") if t.strip()], runs,
-                           [o.strip() for o in step_orders.split(",") if o.strip()],
-                           parse_vector(tool_offset, "--tool-offset"), s.name,
-                           step_target=step_target, iso_spacing=iso_spacing,
-                           linear_margin_mm=overrun_mm, abbe_tool_offset_mm=abbe_offset_mm,
-                           multilateration=_multilateration_options(grid, stations,
-                                                                    tool_offsets))
-    r = add_tests(folder, planned)
+    r = add_planned_tests(folder, [t.strip() for t in tests.split(",") if t.strip()], steps,
+                          runs, [o.strip() for o in step_orders.split(",") if o.strip()],
+                          parse_vector(tool_offset, "--tool-offset"), step_target,
+                          iso_spacing=iso_spacing, linear_margin_mm=overrun_mm,
+                          abbe_tool_offset_mm=abbe_offset_mm,
+                          multilateration=_multilateration_options(grid, stations,
+                                                                   tool_offsets))
     n = sum(m.n for m in r.added)
     ids = ", ".join(m.id for m in r.added)
     console.print(f"added {len(r.added)} measurements, {n} readings to {folder} (now "

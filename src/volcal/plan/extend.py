@@ -14,17 +14,20 @@ from __future__ import annotations
 import shlex
 import shutil
 import tomllib
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
+
+from numpy.typing import ArrayLike
 
 from volcal.errors import VolcalInputError
 from volcal.io.atomic import atomic_dir
 from volcal.io.tomlfmt import dumps as toml_dumps
 from volcal.session.format import Measurement, Session, read_session
 
-__all__ = ["AddResult", "ExistingSession", "add_tests", "existing_session", "fresh_id",
-           "refusal", "replace_session", "require_session"]
+__all__ = ["AddResult", "ExistingSession", "add_planned_tests", "add_tests", "existing_session",
+           "fresh_id", "refusal", "replace_session", "require_session"]
 
 
 @dataclass
@@ -268,6 +271,39 @@ def add_tests(folder: str | Path, planned: Session) -> AddResult:
         if ids[:len(every)] != [m.id for m in every] or len(ids) != len(every) + len(added):
             raise RuntimeError("session.toml did not read back with the added tests")
     return AddResult(folder, added, renamed, len(every))
+
+
+def add_planned_tests(folder: str | Path, tests: Sequence[str], steps: int = 10, runs: int = 5,
+                      step_orders: Sequence[str] = ("xyz",),
+                      tool_offset: ArrayLike = (0.0, 0.0, 0.0),
+                      step_target: str = "flat_mirror", **options: Any) -> AddResult:
+    """``volcal plan --add``: plan ``tests`` on the session's machine and append them.
+
+    Parameters
+    ----------
+    folder : str or Path
+        An existing session folder.
+    tests : sequence of str
+        Test names of :func:`volcal.plan.planner.plan_session` (``'diagonal'``,
+        ``'linear:x'``...).
+    steps, runs, step_orders, tool_offset, step_target
+        As for :func:`~volcal.plan.planner.plan_session` (the same defaults as
+        ``volcal plan``); ``tool_offset`` [mm].
+    **options
+        Further keywords of :func:`~volcal.plan.planner.plan_session`
+        (``iso_spacing``, ``linear_margin_mm``, ``abbe_tool_offset_mm``,
+        ``multilateration``).
+
+    Returns
+    -------
+    AddResult
+    """
+    from volcal.plan.planner import plan_session
+
+    s = read_session(require_session(folder), require_deviation=False)
+    planned = plan_session(s.travel, s.chain, steps, list(tests), runs, list(step_orders),
+                           tool_offset, s.name, step_target=step_target, **options)
+    return add_tests(folder, planned)
 
 
 def require_session(folder: str | Path) -> Path:

@@ -15,10 +15,10 @@ console = Console(soft_wrap=True)  # no line breaks inside paths
 
 
 def plan(
-    travel: str = typer.Option("0:800,0:600,0:500", help="Travel limits x,y,z as min:max [mm] "
-                               "(with --add: the session's)."),
-    chain: str = typer.Option("XYFZ", help="Kinematic chain from workpiece to tool, F = frame "
-                              "(with --add: the session's)."),
+    travel: str = typer.Option("0:800,0:600,0:500", help="Travel limits x,y,z as min:max "
+                               "[mm]. With --add: the session's."),
+    chain: str = typer.Option("XYFZ", help="Kinematic chain from workpiece to tool, F = frame. "
+                              "With --add: the session's."),
     steps: int = typer.Option(10, help="Increments per test."),
     tests: str = typer.Option("step-diagonal,diagonal,linear",
                               help="Comma-separated: step-diagonal, diagonal, linear, "
@@ -27,7 +27,7 @@ def plan(
     runs: int = typer.Option(5, help="Bidirectional runs per linear test (ISO 230-2)."),
     step_orders: str = typer.Option("xyz", help="Axis orders of the step diagonals, e.g. xyz,yxz."),
     tool_offset: str = typer.Option("0,0,0", help="Target point on the tool x,y,z [mm]."),
-    name: str = typer.Option("VMC-1", help="Machine name (with --add: the session's)."),
+    name: str = typer.Option("VMC-1", help="Machine name. With --add: the session's."),
     iso_spacing: bool = typer.Option(True, help="Unequally spaced linear-test targets "
                                      "(ISO 230-2:2014, 5.2); --no-iso-spacing for the "
                                      "equally spaced step grid."),

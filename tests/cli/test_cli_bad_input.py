@@ -692,6 +692,22 @@ CASES: list[Case] = [
          ("diag.csv", "row 1", "column 'Error'", "mapped column 'Error' not in the header "
           "line, which holds the other mapped columns ('Pos'; header: 'Pos (mm),Dev (um)')"),
          None),
+        ("header-label-typo", ["{d}/laser.csv", "--map", LASER_MAP + ",operator=Operater",
+                               "--axis", "X", "--session", "{d}/S", "--id", "lx9"],
+         ("laser.csv", "row 3", "column 'Operater'", "--map operator=Operater: no column "
+          "'Operater' in the table's header line and no such field in the header lines above "
+          "it (closest: 'Operator'); header lines: lines 1-2"),
+         edit("laser.csv", lambda t: "Operator: A. Technician\nDate: 2026-11-20\n" + t)),
+        ("header-pressure-unit", ["{d}/laser.csv", "--map", LASER_MAP + ",air_pressure_pa=Baro",
+                                  "--axis", "X", "--session", "{d}/S", "--id", "lx9"],
+         ("laser.csv", "row 1", "column 'Baro'", "--map air_pressure_pa=Baro: cannot read "
+          "'14.7 psi': unknown pressure unit 'psi': expected Pa, hPa, mbar, kPa, mmHg or inHg"),
+         edit("laser.csv", lambda t: "Baro: 14.7 psi\n" + t)),
+        ("header-date-ambiguous", ["{d}/laser.csv", "--map", LASER_MAP + ",date=Date",
+                                   "--axis", "X", "--session", "{d}/S", "--id", "lx9"],
+         ("laser.csv", "row 1", "column 'Date'", "--map date=Date: cannot read '05/11/2026': "
+          "'05/11/2026' is ambiguous (day/month or month/day): write it as YYYY-MM-DD"),
+         edit("laser.csv", lambda t: "Date: 05/11/2026\n" + t)),
         ("planned-typo-column", ["{d}/diag.csv", "--map", "target=Pos,deviation=Deviaton",
                                  "--session", "{d}/P", "--measurement", "diag-ppp"],
          ("diag.csv", "row 3", "column 'Deviaton'", "mapped column 'Deviaton' (closest: "

@@ -79,9 +79,18 @@ def test_mapped_labels_and_a_mistyped_one(tmp_path):
     with pytest.raises(VolcalInputError) as e:
         read_laser_csv(f, bad)
     assert str(e.value) == (
-        f"{f}, row 1, column 'T Luftt': --map air_temperature_c=T Luftt: no column of the table "
-        "and no field 'T Luftt' in the header lines above it (closest: 'T Luft [°C]'); header "
-        "lines: lines 1-6")
+        f"{f}, row 7, column 'T Luftt': --map air_temperature_c=T Luftt: no column 'T Luftt' in "
+        "the table's header line and no such field in the header lines above it (closest: "
+        "'T Luft [°C]'); header lines: lines 1-6")
+    # a mistyped column of the table: the closest name is the column
+    g = tmp_path / "y.csv"
+    g.write_text("Pos,Err,AirT\n0,0,20.0\n100,1,20.2\n")
+    with pytest.raises(VolcalInputError) as e:
+        read_laser_csv(g, parse_mapping("target=Pos,deviation=Err,air_temperature_c=AirTT"))
+    assert str(e.value) == (
+        f"{g}, row 1, column 'AirTT': --map air_temperature_c=AirTT: no column 'AirTT' in the "
+        "table's header line and no such field in the header lines above it (closest: 'AirT'); "
+        "header lines: none")
 
 
 def test_environment_columns_still_read_per_reading(tmp_path):

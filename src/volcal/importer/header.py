@@ -262,7 +262,8 @@ def _convert(key: str, text: str, unit: str) -> tuple[str | float, str]:
 
 
 def read_header(records: list[tuple[int, list[str]]], mapped: dict[str, str],
-                path: str | Path | None = None, skip: tuple[str, ...] = ()
+                path: str | Path | None = None, skip: tuple[str, ...] = (),
+                columns: tuple[str, ...] = (), header_row: int | None = None
                 ) -> tuple[list[HeaderField], list[str]]:
     """Read the date, operator and environment from the lines above the table.
 
@@ -277,6 +278,11 @@ def read_header(records: list[tuple[int, list[str]]], mapped: dict[str, str],
         The export, for messages.
     skip : tuple of str
         Keys not to look for by default label (read from table columns instead).
+    columns : tuple of str
+        The table's header names (candidates of the closest name of a mapped label
+        found nowhere).
+    header_row : int, optional
+        Line of the table's header (where the error of a label found nowhere points).
 
     Returns
     -------
@@ -303,18 +309,18 @@ def read_header(records: list[tuple[int, list[str]]], mapped: dict[str, str],
     for key, label in mapped.items():
         hits = [e for e in entries if _loose(e[1]) == _loose(label)]
         if not hits:
-            labels = [e[1] for e in entries]
-            close = difflib.get_close_matches(_loose(label), [_loose(x) for x in labels], n=1,
+            names = [e[1].strip() for e in entries] + [c for c in columns if c.strip()]
+            close = difflib.get_close_matches(_loose(label), [_loose(x) for x in names], n=1,
                                               cutoff=0.6)
             hint = ""
             if close:
-                hint = f" (closest: {labels[[_loose(x) for x in labels].index(close[0])]!r})"
-            where = (f"lines {records[0][0]}-{records[-1][0]}" if records else
-                     "(there are none)")
-            raise VolcalInputError(f"--map {key}={label}: no column of the table and no field "
-                                   f"{label!r} in the header lines above it{hint}; header "
-                                   f"lines: {where}", path, records[0][0] if records else None,
-                                   label)
+                hint = f" (closest: {names[[_loose(x) for x in names].index(close[0])]!r})"
+            where = (f"lines {records[0][0]}-{records[-1][0]}" if records else "none")
+            raise VolcalInputError(f"--map {key}={label}: no column {label!r} in the table's "
+                                   f"header line and no such field in the header lines above "
+                                   f"it{hint}; header lines: {where}", path,
+                                   header_row if header_row is not None else
+                                   (records[0][0] if records else None), label)
         line, lab, text = hits[0]
         try:
             value, how = _convert(key, text, _bracket_unit(lab))

@@ -352,7 +352,9 @@ def _read_header_block(t: Table, mapping: dict[str, str], out: LaserTable, path:
     """Date, operator and environment from the lines above the table (or say none)."""
     columns = tuple(k for k in ENVIRONMENT_FIELDS if k in mapping and t.has(mapping[k]))
     named = {k: v for k, v in mapping.items() if k in HEADER_KEYS and k not in columns}
-    out.header, out.header_notes = read_header(t.preamble, named, path, skip=columns)
+    out.header, out.header_notes = read_header(t.preamble, named, path, skip=columns,
+                                               columns=tuple(t.header),
+                                               header_row=t.header_row)
     if t.preamble and not out.header and not out.header_notes:
         first, last = t.preamble[0][0], t.preamble[-1][0]
         out.header_notes.append(

@@ -125,32 +125,6 @@ def test_plan_add_simulate_identify_round_trip(tmp_path):
     assert 0.15 < sigma < 0.3, sigma
 
 
-def test_advise_prints_the_command_that_adds_what_it_evaluated(tmp_path):
-    s = tmp_path / "A"
-    _plan(s)
-    r = volcal("advise", s)
-    assert r.returncode == 0, r.stderr
-    lines = [ln[2:] for ln in r.stdout.splitlines() if ln.startswith("- ")]
-    best = next(ln for ln in lines if ln.startswith("Best extra measurement: "))
-    cmd = next(ln for ln in lines if ln.startswith("To add it: "))[len("To add it: "):]
-    assert best == ("Best extra measurement: the 4 step diagonals again with a retroreflector: "
-                    "volumetric ambiguity 0.84 -> 0.03 um RMS.")
-    assert cmd == (f"volcal plan --add {s} --tests step-diagonal --steps 7 --step-target "
-                   "retroreflector")
-    argv = shlex.split(cmd)
-    assert argv[:2] == ["volcal", "plan"]
-    r = volcal(*argv[1:])
-    assert r.returncode == 0, r.stderr
-    added = read_session(s, require_deviation=False).measurements[17:]
-    want = next(a for a in candidate_additions(np.array([[0, 400], [0, 300], [0, 200.0]]))
-                if a.label == "the 4 step diagonals again with a retroreflector")
-    planned = want.plan([[0, 400], [0, 300], [0, 200]], "XYFZ", 7)
-    assert [m.id for m in added] == [f"{m.id}-2" for m in planned]
-    for a, m in zip(added, planned, strict=True):
-        assert a.target == "retroreflector" == m.target
-        np.testing.assert_allclose(a.positions, m.positions, atol=1e-6)  # CSV: 6 decimals
-
-
 @pytest.mark.parametrize("test,ids", [
     ("linear:y", ["linear-y1", "linear-y2", "linear-y3"]),
     ("face-diagonal:yz", ["face-yz-pp", "face-yz-np"]),
@@ -162,3 +136,36 @@ def test_one_axis_or_plane(tmp_path, test, ids):
                "-o", s)
     assert r.returncode == 0, r.stderr
     assert [m.id for m in read_session(s, require_deviation=False).measurements] == ids
+
+
+def test_advise_on_the_gantry_of_issue_20_prints_the_command_that_adds_it(tmp_path):
+    """The finding: "advise recommends the 4 body diagonals with a tool offset of 150 mm in Z
+    but no command can add them" (1200 x 800 x 600 mm gantry, FXYZ; 6 increments to keep the
+    test short). The printed command adds exactly the tests advise evaluated."""
+    g = tmp_path / "G"
+    r = volcal("plan", "--travel", "0:1200,0:800,0:600", "--chain", "FXYZ", "--steps", "6",
+               "--runs", "2", "-o", g)
+    assert r.returncode == 0, r.stderr
+    r = volcal("advise", g)
+    assert r.returncode == 0, r.stderr
+    lines = [ln[2:] for ln in r.stdout.splitlines() if ln.startswith("- ")]
+    best = next(ln for ln in lines if ln.startswith("Best extra measurement: "))
+    assert best.startswith("Best extra measurement: the 4 body diagonals with a tool offset of "
+                           "150 mm in Z: volumetric ambiguity ")
+    cmd = next(ln for ln in lines if ln.startswith("To add it: "))[len("To add it: "):]
+    assert cmd == f"volcal plan --add {g} --tests diagonal --tool-offset 0,0,150 --steps 13"
+    argv = shlex.split(cmd)
+    assert argv[:2] == ["volcal", "plan"]
+    r = volcal(*argv[1:])
+    assert r.returncode == 0, r.stderr
+    added = read_session(g, require_deviation=False).measurements[17:]
+    assert [m.id for m in added] == ["diag-ppp-2", "diag-npp-2", "diag-pnp-2", "diag-ppn-2"]
+    travel = np.array([[0, 1200], [0, 800], [0, 600.0]])
+    want = next(a for a in candidate_additions(travel)
+                if a.label == "the 4 body diagonals with a tool offset of 150 mm in Z")
+    planned = want.plan(travel, "FXYZ", 13)
+    assert len(added) == len(planned) == 4
+    for a, m in zip(added, planned, strict=True):
+        assert a.n == m.n == 14 and a.kind == m.kind == "diagonal"
+        np.testing.assert_array_equal(a.tool_offset, [0, 0, 150])
+        np.testing.assert_allclose(a.positions, m.positions, atol=1e-6)  # CSV: 6 decimals

@@ -76,8 +76,6 @@ class Addition:
         list of str
         """
         out = ["--tests", ",".join(self.tests)]
-        if steps != DEFAULT_STEPS:
-            out += ["--steps", str(steps)]
         off = self.options.get("tool_offset")
         if off is not None and np.any(np.asarray(off) != 0):
             out += ["--tool-offset", ",".join(f"{float(v):g}" for v in off)]
@@ -85,6 +83,8 @@ class Addition:
             out += ["--step-orders", ",".join(self.options["step_orders"])]
         if "step_target" in self.options:
             out += ["--step-target", self.options["step_target"]]
+        if steps != DEFAULT_STEPS:
+            out += ["--steps", str(steps)]
         return out
 
     def command(self, folder: str | Path, steps: int) -> str:

@@ -329,8 +329,10 @@ def sessions_cases(cmd: list[str], out: list[str] | None = None,
              rename_column("S/linear-z1.csv", "x_mm", "x_in")),
         Case(f"{name}:one-row", [*cmd, "{d}/S", *o], ("diag-ppn.csv",),
              keep_lines("S/diag-ppn.csv", 2)),
-        Case(f"{name}:semicolons", [*cmd, "{d}/S", *o], ("diag-pnp.csv", "row 1"),
-             semicolons("S/diag-pnp.csv")),
+        Case(f"{name}:typo-column", [*cmd, "{d}/S", *o],
+             ("diag-pnp.csv", "row 1", "column 'deviation_um'",
+              "missing required column 'deviation_um' (closest: 'deviaton_um')"),
+             rename_column("S/diag-pnp.csv", "deviation_um", "deviaton_um")),
         Case(f"{name}:binary-csv", [*cmd, "{d}/S", *o], ("linear-x3.csv",),
              put("S/linear-x3.csv", bytes(range(256)) * 4)),
         Case(f"{name}:ragged-row", [*cmd, "{d}/S", *o], ("diag-ppp.csv", "row 3"),
@@ -414,7 +416,28 @@ CASES: list[Case] = [
     Case("plan:output-is-file", ["plan", "-o", "{d}/points.csv"], ("points.csv",)),
     Case("plan:output-under-file", ["plan", "-o", "{d}/points.csv/S"], ("points.csv",)),
     Case("plan:output-under-a-file", ["plan", "-o", "{d}/S/session.toml/S"], ("session.toml",)),
-    Case("plan:output-measured-session", ["plan", "-o", "{d}/S"], ("S",)),
+    Case("plan:output-measured-session", ["plan", "-o", "{d}/S"],
+         ("{d}/S: holds a volcal session (17 measurements, 17 with readings): `volcal plan` "
+          "does not replace it. Give --replace to replace it (its session.toml and measurement "
+          "CSVs are moved to backup/<UTC time>/), or add tests to it with `volcal plan --add "
+          "{d}/S --tests ...`; nothing was changed",)),
+    Case("plan:output-planned-session", ["plan", "-o", "{d}/P"],
+         ("{d}/P: holds a volcal session (17 measurements, 0 with readings): `volcal plan` "
+          "does not replace it. Give --replace",)),
+    Case("plan:output-other-folder", ["plan", "-o", "{d}/COMP"],
+         ("COMP: exists and is not a volcal session folder; choose a new or empty folder",)),
+    Case("plan:add-no-session", ["plan", "--add", "{d}/EMPTY", "--tests", "diagonal"],
+         ("EMPTY: --add needs an existing session folder (with session.toml)",)),
+    Case("plan:add-and-output", ["plan", "--add", "{d}/P", "-o", "{d}/N"],
+         ("give -o/--output FOLDER (a new session) or --add FOLDER (tests added to an existing "
+          "session), not both",)),
+    Case("plan:neither-add-nor-output", ["plan"], ("give -o/--output FOLDER",)),
+    Case("plan:add-replace", ["plan", "--add", "{d}/P", "--replace"],
+         ("--replace belongs to -o (a new session); --add never replaces anything",)),
+    Case("plan:add-unknown-axis", ["plan", "--add", "{d}/P", "--tests", "linear:w"],
+         ("unknown test 'linear:w': expected one of linear:x, linear:y, linear:z",)),
+    Case("plan:add-broken-session", ["plan", "--add", "{d}/S", "--tests", "diagonal"],
+         ("diag-npp.csv", "row 3", "column 'y_mm'"), set_cell("S/diag-npp.csv", 3, "y_mm", "ten")),
     # ---- simulate ----
     *sessions_cases(["simulate"], needs_measured=False, full=True),
     Case("simulate:noise-negative", ["simulate", "{d}/P", "--noise-um", "-1"], ("--noise-um",)),
@@ -654,8 +677,9 @@ CASES: list[Case] = [
          set_cell("wide.csv", 4, "Run 2 (um)", "12500")),
         ("wide-unknown-column", ["{d}/wide.csv", "--map", "target=Target (mm),deviation=Pass*",
                                  "--axis", "X", "--session", "{d}/S", "--id", "lx9"],
-         ("wide.csv", "row 1", "column 'Pass*'", "no header line with the mapped columns "
-          "(missing 'Pass*'"), None),
+         ("wide.csv", "row 1", "column 'Pass*'", "mapped column 'Pass*' not in the header "
+          "line, which holds the other mapped columns ('Target (mm)'; header: 'Target (mm),Run "
+          "1 (um),Run 2 (um)')"), None),
         ("wide-run-column-without-number", ["{d}/wide.csv", "--map", WIDE_MAP, "--axis", "X",
                                             "--session", "{d}/S", "--id", "lx9"],
          ("wide.csv", "row 1", "column 'Run mean (um)'", "names no run number"),
@@ -677,7 +701,32 @@ CASES: list[Case] = [
          set_cell("diag.csv", 4, "Dev (um)", "-25000")),
         ("planned-unknown-column", ["{d}/diag.csv", "--map", "target=Pos,deviation=Error",
                                     "--session", "{d}/P", "--measurement", "diag-ppp"],
-         ("diag.csv", "row 1", "column 'Error'", "missing 'Error'"), None),
+         ("diag.csv", "row 1", "column 'Error'", "mapped column 'Error' not in the header "
+          "line, which holds the other mapped columns ('Pos'; header: 'Pos (mm),Dev (um)')"),
+         None),
+        ("header-label-typo", ["{d}/laser.csv", "--map", LASER_MAP + ",operator=Operater",
+                               "--axis", "X", "--session", "{d}/S", "--id", "lx9"],
+         ("laser.csv", "row 3", "column 'Operater'", "--map operator=Operater: no column "
+          "'Operater' in the table's header line and no such field in the header lines above "
+          "it (closest: 'Operator'); header lines: lines 1-2"),
+         edit("laser.csv", lambda t: "Operator: A. Technician\nDate: 2026-11-20\n" + t)),
+        ("header-pressure-unit", ["{d}/laser.csv", "--map", LASER_MAP + ",air_pressure_pa=Baro",
+                                  "--axis", "X", "--session", "{d}/S", "--id", "lx9"],
+         ("laser.csv", "row 1", "column 'Baro'", "--map air_pressure_pa=Baro: cannot read "
+          "'14.7 psi': unknown pressure unit 'psi': expected Pa, hPa, mbar, kPa, mmHg or inHg"),
+         edit("laser.csv", lambda t: "Baro: 14.7 psi\n" + t)),
+        ("header-date-ambiguous", ["{d}/laser.csv", "--map", LASER_MAP + ",date=Date",
+                                   "--axis", "X", "--session", "{d}/S", "--id", "lx9"],
+         ("laser.csv", "row 1", "column 'Date'", "--map date=Date: cannot read '05/11/2026': "
+          "'05/11/2026' is ambiguous (day/month or month/day): write it as YYYY-MM-DD"),
+         edit("laser.csv", lambda t: "Date: 05/11/2026\n" + t)),
+        ("planned-typo-column", ["{d}/diag.csv", "--map", "target=Pos,deviation=Deviaton",
+                                 "--session", "{d}/P", "--measurement", "diag-ppp"],
+         ("diag.csv", "row 3", "column 'Deviaton'", "mapped column 'Deviaton' (closest: "
+          "'Deviation (um)') not in the header line, which holds the other mapped columns "
+          "('Pos'; header: 'Pos (mm),Deviation (um)')"),
+         chain_of(rename_column("diag.csv", "Dev (um)", "Deviation (um)"),
+                  edit("diag.csv", lambda t: "Laser XL export\nDate: 2026-11-20\n" + t))),
         ("planned-unknown-measurement", ["{d}/diag.csv", "--map", "target=Pos,deviation=Dev",
                                          "--session", "{d}/P", "--measurement", "diag-xyz"],
          ("session.toml", "--measurement 'diag-xyz': no such measurement"), None),
@@ -832,8 +881,10 @@ CASES: list[Case] = [
         ("missed-all-but-one-run", "S/linear-y1.csv", [],
          ("linear-y1.csv", "column 'run'", "only 1 run(s) in direction '+'"),
          missed_where("S/linear-y1.csv", "run", "2")),
-        ("semicolons", "S/linear-y1.csv", [], ("linear-y1.csv", "row 1"),
-         semicolons("S/linear-y1.csv")),
+        ("typo-column", "S/linear-y1.csv", [],
+         ("linear-y1.csv", "row 1", "column 'deviation_um'",
+          "missing required column 'deviation_um' (closest: 'deviaton_um')"),
+         rename_column("S/linear-y1.csv", "deviation_um", "deviaton_um")),
         ("not-linear", "S/diag-ppp.csv", [], ("diag-ppp.csv",), None),
         ("no-runs", "S/linear-y1.csv", [], ("linear-y1.csv",),
          chain_of(drop_column("S/linear-y1.csv", "run"),

@@ -128,11 +128,11 @@ def test_run_and_direction_from_the_header(header, expect):
      "or a column that is not the laser's reading?", 3, "Run 2 (um)"),
     # the pattern matches nothing: an unknown column
     ("Target (mm),Pass 1 (um),Pass 2 (um)\n0,0,0\n100,1.2,1.1\n", "target=Target,deviation=Run*",
-     "no header line with the mapped columns (missing 'Run*'; first line: "
-     "'Target (mm),Pass 1 (um),Pass 2 (um)')", 1, "Run*"),
+     "mapped column 'Run*' not in the header line, which holds the other mapped columns "
+     "('Target'; header: 'Target (mm),Pass 1 (um),Pass 2 (um)')", 1, "Run*"),
     ("Target (mm),Run 1 (um),Run 2 (um)\n0,0,0\n100,1.2,1.1\n", "target=Pos,deviation=Run*",
-     "no header line with the mapped columns (missing 'Pos'; first line: "
-     "'Target (mm),Run 1 (um),Run 2 (um)')", 1, "Pos"),
+     "mapped column 'Pos' not in the header line, which holds the other mapped columns "
+     "('Run*'; header: 'Target (mm),Run 1 (um),Run 2 (um)')", 1, "Pos"),
     ("Target (mm),Run 1 (um),Run mean (um)\n0,0,0\n100,1.2,1.1\n",
      "target=Target,deviation=Run*",
      "column matches 'Run*' but names no run number (expected e.g. 'Run 1', 'Run 1 +', "

@@ -152,9 +152,14 @@ def test_plan_into_a_planned_folder_keeps_other_files(planned, tmp_path):
     shutil.copytree(planned, P)
     (P / "notes.txt").write_text("keep me")
     r = volcal("plan", "--travel", TRAVEL, "--steps", "3", "--tests", "diagonal", "-o", P)
+    assert r.returncode == 2 and "--replace" in r.stderr  # issue 20: never silently
+    r = volcal("plan", "--travel", TRAVEL, "--steps", "3", "--tests", "diagonal", "-o", P,
+               "--replace")
     assert r.returncode == 0, r.stderr
     assert (P / "notes.txt").read_text() == "keep me"
     assert len(read_session(P, require_deviation=False).measurements) == 4
+    (b,) = (P / "backup").iterdir()  # the old plan, moved aside
+    assert (b / "session.toml").read_bytes() == (planned / "session.toml").read_bytes()
     # ... and never replaces a session with readings
     assert volcal("simulate", P).returncode == 0
     before = snapshot(P)

@@ -37,6 +37,13 @@ headers (Run 1, Run 1 +, Run 1 -, 1 up, 1 down, R1 Fwd, R1 Rev ...);
 * per-step step diagonal, one row per step: --map "target=Pos,deviation=dX|dY|dZ"
 (the readings after each single-axis move, in the plan's axis order) with
 --measurement.
+
+The header block above the table (Date, Operator, Air temperature, Air pressure,
+Humidity, Material temperature) goes to [calibration] date/operator and the
+measurement's environment table; labels other than these are named with --map
+date=..,operator=..,air_temperature_c=..,air_pressure_pa=..,humidity_pct=..,
+material_temperature_c=.. (a label of the header block, or a column of the table).
+One line per field read is printed.
 """
 
 
@@ -45,7 +52,9 @@ def import_(
     map: Annotated[str, typer.Option(
         "--map", help="Columns: target=..,deviation=.. or reading=.., optional run=.., "
         "direction=.., time=.., air_temperature_c=.. ...; deviation=Run* (a pattern): a "
-        "wide table, one column per run; deviation=A|B|C: a per-step step-diagonal table.")],
+        "wide table, one column per run; deviation=A|B|C: a per-step step-diagonal table. "
+        "Header block: date=.., operator=.., air_temperature_c=.., air_pressure_pa=.., "
+        "humidity_pct=.., material_temperature_c=.. name its labels.")],
     session: Annotated[Path, typer.Option(help="Session folder (created if missing).")],
     axis: Annotated[str | None, typer.Option(
         help="Measured axis X, Y or Z of a new linear measurement.")] = None,
@@ -98,6 +107,10 @@ def import_(
         what = f"{r.measurement.id} ({axis.upper()})"
     for note in r.notes:
         console.print(f"[cyan]units/notes:[/] {escape(note)}", highlight=False)
+    for line in r.header:
+        console.print(f"[cyan]header:[/] {escape(line)}", highlight=False)
+    for note in r.header_notes:
+        console.print(f"[yellow]header:[/] {escape(note)}", highlight=False)
     where = "created session" if r.created else "added to"
     console.print(f"{r.measurement.n} readings of {what} -> {where} {r.session}")
     for w in _imported_warnings(r.session, r.measurement.id):

@@ -15,28 +15,20 @@ from volcal.errors import VolcalInputError
 console = Console(soft_wrap=True)  # no line breaks inside paths
 
 
-def _unmeasured_session(folder: Path) -> bool:
-    """True for a planned session without any reading (safe to plan again)."""
-    from volcal.session.format import read_session
-
-    try:
-        s = read_session(folder, require_deviation=False)
-    except VolcalInputError:
-        return False
-    return all(m.deviation is None for m in s.measurements)
-
-
 def plan(
-    travel: str = typer.Option("0:800,0:600,0:500", help="Travel limits x,y,z as min:max [mm]."),
-    chain: str = typer.Option("XYFZ", help="Kinematic chain from workpiece to tool, F = frame."),
+    travel: str = typer.Option("0:800,0:600,0:500", help="Travel limits x,y,z as min:max "
+                               "[mm]. With --add: the session's."),
+    chain: str = typer.Option("XYFZ", help="Kinematic chain from workpiece to tool, F = frame. "
+                              "With --add: the session's."),
     steps: int = typer.Option(10, help="Increments per test."),
     tests: str = typer.Option("step-diagonal,diagonal,linear",
                               help="Comma-separated: step-diagonal, diagonal, linear, "
-                              "face-diagonal, face-step-diagonal, multilateration."),
+                              "face-diagonal, face-step-diagonal, multilateration; one axis or "
+                              "plane: linear:x, face-diagonal:xy, face-step-diagonal:yz."),
     runs: int = typer.Option(5, help="Bidirectional runs per linear test (ISO 230-2)."),
     step_orders: str = typer.Option("xyz", help="Axis orders of the step diagonals, e.g. xyz,yxz."),
     tool_offset: str = typer.Option("0,0,0", help="Target point on the tool x,y,z [mm]."),
-    name: str = typer.Option("VMC-1", help="Machine name."),
+    name: str = typer.Option("VMC-1", help="Machine name. With --add: the session's."),
     iso_spacing: bool = typer.Option(True, help="Unequally spaced linear-test targets "
                                      "(ISO 230-2:2014, 5.2); --no-iso-spacing for the "
                                      "equally spaced step grid."),
@@ -52,14 +44,43 @@ def plan(
                                  "(3-8), or pivots 'x,y,z;x,y,z;...' [mm]."),
     tool_offsets: str = typer.Option("0,0,-100;100,100,-100", help="Multilateration: "
                                      "reflector offsets on the tool 'x,y,z;x,y,z' [mm]."),
-    output: Path = typer.Option(..., "-o", "--output", help="Session folder to write."),
+    output: Path | None = typer.Option(None, "-o", "--output", help="Session folder to write "
+                                       "(a new or empty folder; an existing session only "
+                                       "with --replace)."),
+    add: Path | None = typer.Option(None, "--add", help="Existing session folder: append the "
+                                    "tests with fresh ids (its travel, chain and name are "
+                                    "used; its measurements and readings are untouched)."),
+    replace: bool = typer.Option(False, "--replace", help="With -o: replace an existing "
+                                 "session; its session.toml, measurement CSVs and truth/ are "
+                                 "moved to OUTPUT/backup/<UTC time>/."),
 ) -> None:
-    """Write a session skeleton: the commanded poses of every test, deviations empty."""
+    """Write a session skeleton: the commanded poses of every test, deviations empty.
+
+    Never replaces an existing session unless --replace is given (the old files are then
+    kept in backup/<time>/); --add appends tests to an existing session instead.
+    """
     from volcal.io.paths import check_output_folder
+    from volcal.plan.extend import existing_session, refusal, replace_session
     from volcal.plan.planner import plan_session
     from volcal.session.format import write_session
 
-    check_output_folder(output, "planned session", _unmeasured_session)
+    if (output is None) == (add is None):
+        raise VolcalInputError("give -o/--output FOLDER (a new session) or --add FOLDER (tests "
+                               "added to an existing session)" + (", not both" if output
+                                                                 else ""))
+    if add is not None:
+        if replace:
+            raise VolcalInputError("--replace belongs to -o (a new session); --add never "
+                                   "replaces anything")
+        _add(add, tests, steps, runs, step_orders, tool_offset, step_target, iso_spacing,
+             overrun_mm, abbe_offset_mm, grid, stations, tool_offsets)
+        return
+    assert output is not None
+    old = existing_session(output) if output.is_dir() else None
+    if old is None:
+        check_output_folder(output, "session")
+    elif not replace:
+        raise refusal(old, str(output))
     s = plan_session(parse_travel(travel), chain, steps,
                      [t.strip() for t in tests.split(",") if t.strip()], runs,
                      [o.strip() for o in step_orders.split(",") if o.strip()],
@@ -68,9 +89,37 @@ def plan(
                      iso_spacing=iso_spacing, linear_margin_mm=overrun_mm,
                      abbe_tool_offset_mm=abbe_offset_mm,
                      multilateration=_multilateration_options(grid, stations, tool_offsets))
-    write_session(s, output, keep_existing=True)  # a re-plan keeps the folder's other files
     n = sum(m.n for m in s.measurements)
+    if old is None:
+        write_session(s, output, keep_existing=True)
+    else:
+        rel = replace_session(s, output, old)
+        console.print(f"replaced the session in {output}; the old session.toml and "
+                      f"{len(old.files)} measurement files are kept in {output / rel}/",
+                      highlight=False)
     console.print(f"planned {len(s.measurements)} measurements, {n} readings -> {output}")
+
+
+def _add(folder: Path, tests: str, steps: int, runs: int, step_orders: str, tool_offset: str,
+         step_target: str, iso_spacing: bool, overrun_mm: float, abbe_offset_mm: float,
+         grid: str, stations: str, tool_offsets: str) -> None:
+    """``volcal plan --add``: plan the tests on the session's machine and append them."""
+    from volcal.plan.extend import add_planned_tests
+
+    r = add_planned_tests(folder, [t.strip() for t in tests.split(",") if t.strip()], steps,
+                          runs, [o.strip() for o in step_orders.split(",") if o.strip()],
+                          parse_vector(tool_offset, "--tool-offset"), step_target,
+                          iso_spacing=iso_spacing, linear_margin_mm=overrun_mm,
+                          abbe_tool_offset_mm=abbe_offset_mm,
+                          multilateration=_multilateration_options(grid, stations,
+                                                                   tool_offsets))
+    n = sum(m.n for m in r.added)
+    ids = ", ".join(m.id for m in r.added)
+    console.print(f"added {len(r.added)} measurements, {n} readings to {folder} (now "
+                  f"{r.n_before + len(r.added)}): {ids}", highlight=False)
+    if r.renamed:
+        console.print("ids already in the session were not reused: "
+                      + ", ".join(f"{a} -> {b}" for a, b in r.renamed.items()), highlight=False)
 
 
 def simulate(

@@ -21,7 +21,6 @@ from volcal.identify.record import session_identity
 from volcal.identify.result import IdentificationResult
 from volcal.identify.solver import DEFAULT_SCALES, Solution, solve_bayes, solve_min_norm
 from volcal.model.names import ROLL_NAMES
-from volcal.plan.geometry import diagonal_test, linear_test, step_diagonal_test
 from volcal.session.format import Measurement, Session
 
 __all__ = ["IdentifyOptions", "advise", "default_outlier_threshold", "identify",
@@ -173,6 +172,10 @@ def _drift_notes(session: Session, o: IdentifyOptions) -> list[str]:
 def candidate_designs(session: Session, nodes, known) -> dict[str, Design]:
     """Extra measurements to try for the identifiability report.
 
+    The candidates are :func:`volcal.plan.additions.candidate_additions`, planned as
+    ``volcal plan --add`` would plan them (so the command ``volcal advise`` prints adds
+    exactly the tests it evaluated).
+
     Parameters
     ----------
     session : Session
@@ -185,39 +188,64 @@ def candidate_designs(session: Session, nodes, known) -> dict[str, Design]:
     Returns
     -------
     dict of str to Design
+        Label -> design of the candidate's tests alone.
     """
+    from volcal.plan.additions import candidate_additions
+
     t = session.travel
-    steps = max(2, min(20, min(len(n) for n in nodes) - 1))
-    cands: dict[str, list[Measurement]] = {}
-
-    def meas(mid, kind, target, g, offset=(0, 0, 0)):
-        return Measurement(mid, kind, target, g.positions, np.zeros(g.positions.shape[0]),
-                           g.beam_direction, offset, f"{mid}.csv", {}, {})
-
-    for k, a in enumerate("XYZ"):
-        cands[f"a linear measurement of {a} at the reference line"] = [
-            meas(f"c-lin-{a}", "linear", "retroreflector", linear_test(k, t, steps, t[:, 0]))]
-    cands["the 4 step diagonals again with a retroreflector"] = [
-        meas(f"c-sr-{c}", "step_diagonal", "retroreflector", step_diagonal_test(c, t, steps))
-        for c in ("ppp", "npp", "pnp", "ppn")]
-    cands["the 4 step diagonals in axis order zyx"] = [
-        meas(f"c-zyx-{c}", "step_diagonal", "flat_mirror", step_diagonal_test(c, t, steps, "zyx"))
-        for c in ("ppp", "npp", "pnp", "ppn")]
-    off = np.array([0.0, 0.0, 0.25 * (t[2, 1] - t[2, 0])])
-    cands[f"the 4 body diagonals with a tool offset of {off[2]:g} mm in Z"] = [
-        meas(f"c-do-{c}", "diagonal", "retroreflector", diagonal_test(c, t, steps), off)
-        for c in ("ppp", "npp", "pnp", "ppn")]
-    for plane in ("xy", "yz", "xz"):
-        cands[f"the 2 face diagonals in {plane.upper()}"] = [
-            meas(f"c-f-{plane}-{c}", "diagonal", "retroreflector",
-                 diagonal_test(c, t, steps, plane=plane, at_mm=t["xyz".index(
-                     ({"x", "y", "z"} - set(plane)).pop()), 1]))
-            for c in ("pp", "np")]
+    steps = candidate_steps(nodes)
     out = {}
-    for label, ms in cands.items():
-        s = Session(session.name, session.chain, t, ms)
-        out[label] = build_design(s, nodes, known)
+    for add in candidate_additions(t):
+        ms = [Measurement(f"c-{m.id}", m.kind, m.target, m.positions, np.zeros(m.n),
+                          m.beam_direction, m.tool_offset, f"c-{m.file}", m.columns, m.meta)
+              for m in add.plan(t, session.chain, steps)]
+        out[add.label] = build_design(Session(session.name, session.chain, t, ms), nodes, known)
     return out
+
+
+def candidate_steps(nodes) -> int:
+    """Increments per test of the candidate measurements (from the analysis nodes).
+
+    Parameters
+    ----------
+    nodes : list of 3 arrays
+        Nodes of the analysis grid.
+
+    Returns
+    -------
+    int
+        Between 2 and 20.
+    """
+    return max(2, min(20, min(len(n) for n in nodes) - 1))
+
+
+def add_command(report, session: Session, steps: int) -> str | None:
+    """The ``volcal plan --add`` command of the report's best extra measurement.
+
+    Parameters
+    ----------
+    report : IdentifiabilityReport
+        With its suggestions (``'<label>: volumetric ambiguity ...'``).
+    session : Session
+        The session (its ``path`` names the folder in the command).
+    steps : int
+        Increments per test of the candidates (:func:`candidate_steps`).
+
+    Returns
+    -------
+    str or None
+        ``volcal plan --add S --tests diagonal --tool-offset 0,0,150``; None without a
+        suggestion.
+    """
+    from volcal.plan.additions import candidate_additions
+
+    if not report.suggestions:
+        return None
+    best = report.suggestions[0]
+    for add in candidate_additions(session.travel):
+        if best.startswith(add.label + ":"):
+            return add.command(session.path if session.path is not None else "SESSION", steps)
+    return None
 
 
 def advise(session: Session, options: IdentifyOptions | None = None):
@@ -255,6 +283,9 @@ def advise(session: Session, options: IdentifyOptions | None = None):
     prior = PriorStructure.build(design.layout, design.free, kappa).with_trend(TREND_CENTRE_UM)
     cands = candidate_designs(planned, nodes_a, known) if o.suggest else None
     report = analyse(design, prior, DEFAULT_SCALES.copy(), o.squareness_std_urad, cands)
+    command = add_command(report, session, candidate_steps(nodes_a)) if o.suggest else None
+    if command is not None:
+        report.messages.append(f"To add it: {command}")
     report.messages.insert(0, "Before measuring: the figures assume a typical machining centre "
                               "(prior scales: positioning 10 um with a linear trend of "
                               f"{TREND_CENTRE_UM:g} um over the travel, straightness 5 um, "

@@ -29,6 +29,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from volcal.errors import VolcalInputError
+from volcal.importer.header import (
+    CALIBRATION_FIELDS,
+    ENVIRONMENT_FIELDS,
+    HEADER_KEYS,
+    HeaderField,
+    read_header,
+)
 from volcal.importer.units import TO_MM, unit_from_header, unit_name, unsupported_unit
 from volcal.importer.wide import DIRECTION_WORDS, run_columns, to_long
 from volcal.io.atomic import write_text
@@ -47,8 +54,10 @@ from volcal.session.format import (
 
 KEYS: tuple[str, ...] = ("target", "deviation", "reading", "run", "direction", "time",
                          *[c for c in OPTIONAL_COLUMNS if c not in ("run", "direction",
-                                                                     "time_s", "status")])
-"""Mapping keys: what a column holds."""
+                                                                     "time_s", "status")],
+                         *CALIBRATION_FIELDS)
+"""Mapping keys: what a column holds; ``date``, ``operator`` and the environment keys may
+name a field of the header block above the table instead (:mod:`volcal.importer.header`)."""
 
 _DIRECTIONS = {**DIRECTION_WORDS, "1": "+", "-1": "-", "+1": "+"}
 MAX_BYTES = 50_000_000
@@ -119,7 +128,7 @@ def parse_mapping(text: str) -> dict[str, str]:
         raise VolcalInputError("--map needs exactly one of deviation=<column> or "
                                "reading=<column>")
     layout = layout_of(out)
-    extra = [k for k in out if k not in ("target", "deviation", "reading")]
+    extra = [k for k in out if k not in ("target", "deviation", "reading", *HEADER_KEYS)]
     if layout != "long" and extra:
         what = ("a wide table (the pattern names one column per run; run and direction "
                 "come from the column names)" if layout == "wide" else
@@ -164,6 +173,18 @@ class LaserTable:
     reading_mm: NDArray[np.float64] | None = None
     steps: int = 0
     inferred: tuple[str, ...] = ()
+    header: list[HeaderField] = field(default_factory=list)
+    header_notes: list[str] = field(default_factory=list)
+
+    @property
+    def environment(self) -> dict[str, float]:
+        """The environment read from the header block (``air_temperature_c``...)."""
+        return {f.key: float(f.value) for f in self.header if f.key in ENVIRONMENT_FIELDS}
+
+    @property
+    def calibration(self) -> dict[str, str]:
+        """``date`` and ``operator`` read from the header block."""
+        return {f.key: str(f.value) for f in self.header if f.key in CALIBRATION_FIELDS}
 
     def error(self, message: str, i: int, path: str | Path) -> VolcalInputError:
         """An error located at reading ``i`` (its file row and column).
@@ -266,7 +287,10 @@ def laser_spec(mapping: dict[str, str]) -> TableSpec:
             cols.append(Column(col, kind="int", parse=_parse_run))
         elif key == "direction":
             cols.append(Column(col, kind="str", parse=_parse_direction))
-        elif key not in ("target", "deviation", "reading"):
+        elif key in ENVIRONMENT_FIELDS:
+            if layout == "long":  # a column, else a field of the header block
+                cols.append(Column(col, required=False))
+        elif key not in ("target", "deviation", "reading", *CALIBRATION_FIELDS):
             cols.append(Column(col))
     return TableSpec(tuple(cols), min_rows=0, delimiters=",;\t", sniff=True,
                      decimal_comma=True, header_within=200, loose_names=True,
@@ -313,13 +337,30 @@ def read_laser_csv(path: str | Path, mapping: dict[str, str], units: str = "auto
     target = t[mapping["target"]] * TO_MM[tu]
     layout = layout_of(mapping)
     if layout == "steps":
-        return _read_steps(t, mapping, target, tu, units, deviation_units, notes, path)
-    if layout == "wide":
+        out = _read_steps(t, mapping, target, tu, units, deviation_units, notes, path)
+    elif layout == "wide":
         out = _read_wide(t, mapping, target, tu, units, deviation_units, notes, path)
     else:
         out = _read_long(t, mapping, target, tu, units, deviation_units, notes, path)
-    _check_duplicates(out, path, mapping["target"])
+    if layout != "steps":
+        _check_duplicates(out, path, mapping["target"])
+    _read_header_block(t, mapping, out, path)
     return out
+
+
+def _read_header_block(t: Table, mapping: dict[str, str], out: LaserTable, path: Path) -> None:
+    """Date, operator and environment from the lines above the table (or say none)."""
+    columns = tuple(k for k in ENVIRONMENT_FIELDS if k in mapping and t.has(mapping[k]))
+    named = {k: v for k, v in mapping.items() if k in HEADER_KEYS and k not in columns}
+    out.header, out.header_notes = read_header(t.preamble, named, path, skip=columns,
+                                               columns=tuple(t.header),
+                                               header_row=t.header_row)
+    if t.preamble and not out.header and not out.header_notes:
+        first, last = t.preamble[0][0], t.preamble[-1][0]
+        out.header_notes.append(
+            f"line{'s' if last > first else ''} {first}{f'-{last}' if last > first else ''} "
+            "above the table: no date, operator or environment recognised (name them with "
+            "--map date=<label>,operator=<label>,air_temperature_c=<label>,...)")
 
 
 def _value_unit(t: Table, key: str, col: str, tu: str, units: str, deviation_units: str,
@@ -349,8 +390,8 @@ def _read_long(t: Table, mapping: dict[str, str], target: NDArray[np.float64], t
     dev, reading = _values(key, t[col].astype(float), du, target)
     cols: dict[str, NDArray[Any]] = {}
     for k, c in mapping.items():
-        if k in ("target", "deviation", "reading"):
-            continue
+        if k in ("target", "deviation", "reading") or (k in HEADER_KEYS and not t.has(c)):
+            continue  # header keys without a column: fields of the header block
         name = "time_s" if k == "time" else k
         cols[name] = (np.array(t[c], dtype=int) if k == "run" else
                       np.array(t[c], dtype=str) if k == "direction" else t[c].astype(float))
@@ -457,12 +498,42 @@ def _infer_runs(direction: NDArray[np.str_]) -> NDArray[np.int_]:
 
 @dataclass
 class ImportResult:
-    """What ``import_csv`` did: the measurement, the session folder, notes for the user."""
+    """What ``import_csv`` did: the measurement, the session folder, notes for the user.
+
+    ``header`` holds one line per field read from the export's header block (date,
+    operator, environment: where it went), ``header_notes`` what was not read there.
+    """
 
     measurement: Measurement
     session: Path
     created: bool
     notes: list[str]
+    header: list[str] = field(default_factory=list)
+    header_notes: list[str] = field(default_factory=list)
+
+
+def header_meta(table: LaserTable, meta: dict[str, Any]) -> dict[str, Any]:
+    """``meta`` with the header block's environment merged into its ``environment`` table.
+
+    Parameters
+    ----------
+    table : LaserTable
+        As read (its ``header`` fields).
+    meta : dict
+        The measurement's metadata (a planned measurement's, or a new one's).
+
+    Returns
+    -------
+    dict
+        A copy; ``environment`` gains ``air_temperature_c``, ``air_pressure_pa``,
+        ``humidity_pct``, ``material_temperature_c`` as read (the header's values
+        replace earlier ones of the same key).
+    """
+    out = dict(meta)
+    env = table.environment
+    if env:
+        out["environment"] = {**dict(out.get("environment") or {}), **env}
+    return out
 
 
 def check_plausible(table: LaserTable, path: str | Path) -> None:
@@ -572,22 +643,25 @@ def import_csv(path: str | Path, mapping: dict[str, str], axis: str, line_mm, se
     beam[k] = 1.0
     meta: dict[str, Any] = {"axis": ax, "line_mm": [float(v) for v in line],
                             "notes": f"imported from {Path(path).name}",
-                            "import": import_record(path, mapping, table.notes)}
+                            "import": import_record(path, mapping, table.notes, table)}
     m = Measurement(mid, "linear", target, pos, table.deviation_um, beam,
-                    np.asarray(tool_offset, dtype=float), f"{mid}.csv", table.columns, meta)
+                    np.asarray(tool_offset, dtype=float), f"{mid}.csv", table.columns,
+                    header_meta(table, meta))
     folder = Path(session)
     notes = list(table.notes)
+    said = [f.describe() for f in table.header]
     if not (folder / "session.toml").is_file():
-        _new_session(folder, m, travel, chain, name, notes, Path(path))
-        return ImportResult(m, folder, True, notes)
+        _new_session(folder, m, travel, chain, name, notes, Path(path), table.calibration)
+        return ImportResult(m, folder, True, notes, said, list(table.header_notes))
     s = read_session(folder, require_deviation=False)
     _check_travel(m, s.travel, notes, Path(path))
-    write_measurement(folder, m, replace, notes)
-    return ImportResult(m, folder, False, notes)
+    hnotes = list(table.header_notes)
+    write_measurement(folder, m, replace, notes, table.calibration, hnotes)
+    return ImportResult(m, folder, False, notes, said, hnotes)
 
 
-def import_record(path: str | Path, mapping: dict[str, str], notes: list[str]
-                  ) -> dict[str, Any]:
+def import_record(path: str | Path, mapping: dict[str, str], notes: list[str],
+                  table: LaserTable | None = None) -> dict[str, Any]:
     """The ``import`` table written into the measurement's entry of ``session.toml``.
 
     Parameters
@@ -598,16 +672,25 @@ def import_record(path: str | Path, mapping: dict[str, str], notes: list[str]
         Column mapping.
     notes : list of str
         What was detected (units, layout, inferences).
+    table : LaserTable, optional
+        The export as read: its header block's date and operator are recorded as
+        ``date`` and ``operator`` (the measurement's own, whatever ``[calibration]``
+        says).
 
     Returns
     -------
     dict
     """
-    return {"source": Path(path).name, "mapping": mapping, "units": "; ".join(notes)}
+    out: dict[str, Any] = {"source": Path(path).name, "mapping": mapping,
+                           "units": "; ".join(notes)}
+    if table is not None:
+        out.update(table.calibration)
+    return out
 
 
 def _new_session(folder: Path, m: Measurement, travel, chain: str, name: str,
-                 notes: list[str], source: Path) -> None:
+                 notes: list[str], source: Path, calibration: dict[str, str] | None = None
+                 ) -> None:
     if folder.exists() and (not folder.is_dir() or any(folder.iterdir())):
         raise VolcalInputError("not a session folder (no session.toml) and not empty", folder)
     if travel is None:
@@ -616,15 +699,19 @@ def _new_session(folder: Path, m: Measurement, travel, chain: str, name: str,
     travel = np.asarray(travel, dtype=float).reshape(3, 2)
     if not np.all(np.isfinite(travel)) or np.any(travel[:, 1] <= travel[:, 0]):
         raise VolcalInputError("--travel: every axis needs finite min < max [mm]")
-    s = Session(name, chain, travel, [m])
+    s = Session(name, chain, travel, [m], calibration=dict(calibration or {}))
     _check_travel(m, s.travel, notes, source)
     write_session(s, folder)
 
 
-def write_measurement(folder: Path, m: Measurement, replace: bool, notes: list[str]) -> None:
+def write_measurement(folder: Path, m: Measurement, replace: bool, notes: list[str],
+                      calibration: dict[str, str] | None = None,
+                      header_notes: list[str] | None = None) -> None:
     """Add or replace one measurement of a session: its CSV first, then ``session.toml``.
 
-    Readings that are replaced are first copied into ``backup/<time>/``.
+    Readings that are replaced are first copied into ``backup/<time>/``. The date and
+    operator of an export's header block fill ``[calibration]`` keys the session does
+    not have yet; a different value already there is kept (and said).
 
     Parameters
     ----------
@@ -636,6 +723,10 @@ def write_measurement(folder: Path, m: Measurement, replace: bool, notes: list[s
         Replace a measurement with the same id (else that is an error).
     notes : list of str
         Where the backup made is reported.
+    calibration : dict of str to str, optional
+        ``date`` (ISO 8601) and ``operator`` read from the export's header block.
+    header_notes : list of str, optional
+        Where a header value that was not taken over is reported (default ``notes``).
 
     Raises
     ------
@@ -669,8 +760,36 @@ def write_measurement(folder: Path, m: Measurement, replace: bool, notes: list[s
     else:
         entries.append(entry)
     doc["measurements"] = entries
+    _merge_calibration(doc, calibration or {}, notes if header_notes is None else header_notes)
     write_text(folder / m.file, m.to_csv())
     write_text(toml_path, toml_dumps(doc))
+
+
+def _merge_calibration(doc: dict[str, Any], found: dict[str, str], notes: list[str]) -> None:
+    """Fill ``[calibration]`` keys the document lacks; say where the header differs."""
+    from volcal.session.identity import as_date, parse_date
+
+    if not found:
+        return
+    cal = doc.get("calibration")
+    if not isinstance(cal, dict):
+        cal = {}
+    for k, v in found.items():
+        if k not in cal:
+            cal[k] = v
+            continue
+        old = str(parse_date(cal[k])) if k == "date" else str(cal[k])
+        same = as_date(old) == as_date(v) if k == "date" else old == v
+        if not same:
+            notes.append(f"calibration.{k}: the session says {old!r}, this export's header "
+                         f"{v!r}; the session's is kept (the export's is recorded in the "
+                         "measurement's import table)")
+    doc["calibration"] = cal
+    order = ["format", "machine", "calibration"]  # the documented order of the tables
+    rest = {k: doc[k] for k in doc if k not in order}
+    head = {k: doc[k] for k in order if k in doc}
+    doc.clear()
+    doc.update({**head, **rest})
 
 
 def _has_readings(folder: Path, files: list[str]) -> bool:

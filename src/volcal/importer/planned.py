@@ -25,6 +25,7 @@ from volcal.importer.laser_csv import (
     LaserTable,
     check_id,
     check_plausible,
+    header_meta,
     import_record,
     read_laser_csv,
     write_measurement,
@@ -191,7 +192,9 @@ def import_planned(path: str | Path, mapping: dict[str, str], session: str | Pat
     t = read_laser_csv(path, mapping, units, deviation_units)
     notes = list(t.notes)
     if t.steps:
+        head = (t.header, t.header_notes)
         t = _flatten_steps(t, m, path, notes)
+        t.header, t.header_notes = head
     if t.deviation_um.size != m.n:
         extra = t.deviation_um.size > m.n
         raise VolcalInputError(f"{t.deviation_um.size} readings in the file, but {mid!r} is "
@@ -209,8 +212,9 @@ def import_planned(path: str | Path, mapping: dict[str, str], session: str | Pat
     cols = _columns(t, m, path)
     unused = [c for c in t.inferred if c not in m.columns]
     notes[:] = [n for n in notes if not (unused and "inferred from" in n)]
-    meta = {**m.meta, "import": import_record(path, mapping, notes)}
+    meta = header_meta(t, {**m.meta, "import": import_record(path, mapping, notes, t)})
     new = Measurement(m.id, m.kind, m.target, m.positions, dev, m.beam_direction,
                       m.tool_offset, m.file, cols, meta)
-    write_measurement(folder, new, True, notes)
-    return ImportResult(new, folder, False, notes)
+    hnotes = list(t.header_notes)
+    write_measurement(folder, new, True, notes, t.calibration, hnotes)
+    return ImportResult(new, folder, False, notes, [f.describe() for f in t.header], hnotes)

@@ -18,6 +18,7 @@ Examples
 from __future__ import annotations
 
 import csv
+import difflib
 import fnmatch
 import io
 import math
@@ -214,6 +215,9 @@ class Table:
     written : dict of str to str
         The header as written of each column read (differs from the name when matched
         loosely, e.g. ``'Error (µm)'`` for ``'error'``).
+    preamble : list of (int, list of str)
+        The records before the header line (physical line, fields), when a preamble is
+        allowed (``header_within > 1``): a vendor's header block.
     """
 
     path: Path | None
@@ -226,6 +230,7 @@ class Table:
     delimiter: str = ","
     header_row: int = 1
     written: dict[str, str] = field(default_factory=dict)
+    preamble: list[tuple[int, list[str]]] = field(default_factory=list)
 
     def __len__(self) -> int:
         """Number of data rows."""
@@ -425,19 +430,65 @@ def _has_required(header: list[str], spec: TableSpec) -> bool:
 
 def _locate_header(recs: list[tuple[int, list[str]]], spec: TableSpec, path: Path | None
                    ) -> int:
-    """Index of the header record (0 unless a preamble is allowed and present)."""
+    """Index of the header record (0 unless a preamble is allowed and present).
+
+    When no record holds every required column, the record holding the most of them is
+    taken as the header the user meant: the error names its line, the columns missing
+    from it and, for each, the closest name it holds (a typo in one mapped name is
+    reported as that one name, not as every column missing).
+    """
     if spec.header_within <= 1:
         return 0
+    required = [c for c in spec.columns if c.required]
+    best, best_n = 0, 0
     for i, (_, rec) in enumerate(recs[: spec.header_within]):
-        if _has_required([h.strip() for h in rec], spec):
+        hdr = [h.strip() for h in rec]
+        if _has_required(hdr, spec):
             return i
-    first = [h.strip() for h in recs[0][1]]
-    missing = [c.pattern or c.name for c in spec.columns if c.required
-               and not _has_required(first, TableSpec((c,), loose_names=spec.loose_names))]
-    shown = ",".join(first)[:120]
-    raise VolcalInputError(f"no header line with the mapped columns (missing "
-                           f"{', '.join(repr(m) for m in missing)}; first line: {shown!r})",
-                           path, recs[0][0], missing[0] if missing else None)
+        n = sum(_has_required(hdr, TableSpec((c,), loose_names=spec.loose_names))
+                for c in required)
+        if n > best_n:
+            best, best_n = i, n
+    line = [h.strip() for h in recs[best][1]]
+    missing = [c for c in required
+               if not _has_required(line, TableSpec((c,), loose_names=spec.loose_names))]
+    names = [c.pattern or c.name for c in missing]
+    shown = ",".join(line)[:120]
+    if best_n == 0:
+        raise VolcalInputError(f"no header line with the mapped columns (missing "
+                               f"{', '.join(repr(m) for m in names)}; first line: {shown!r})",
+                               path, recs[0][0], names[0] if names else None)
+    found = [c.pattern or c.name for c in required if c not in missing]
+    hints = [f"{n!r}{_closest_hint(n, line)}" for n in names]
+    s = "s" if len(names) > 1 else ""
+    raise VolcalInputError(f"mapped column{s} {', '.join(hints)} not in the header line, which "
+                           f"holds the other mapped columns ({', '.join(map(repr, found))}; "
+                           f"header: {shown!r})", path, recs[best][0], names[0])
+
+
+def closest_name(name: str, header: list[str]) -> str | None:
+    """The header name closest to ``name`` (:mod:`difflib`, compared without case/unit).
+
+    Parameters
+    ----------
+    name : str
+        A column name that was not found.
+    header : list of str
+        The names the header holds.
+
+    Returns
+    -------
+    str or None
+        The closest name as written, or None when none is similar (ratio < 0.6).
+    """
+    loose = {_loose(h): h for h in header if h.strip()}
+    hit = difflib.get_close_matches(_loose(name), list(loose), n=1, cutoff=0.6)
+    return loose[hit[0]] if hit else None
+
+
+def _closest_hint(name: str, header: list[str]) -> str:
+    c = closest_name(name, header)
+    return f" (closest: {c!r})" if c is not None else ""
 
 
 def _missing_column(header: list[str], c: Column, known: set[str], path: Path | None,
@@ -453,8 +504,9 @@ def _missing_column(header: list[str], c: Column, known: set[str], path: Path | 
     shown = ",".join(header).replace("\r", " ").replace("\n", " ")
     if len(shown) > 120:
         shown = shown[:117] + "..."
-    return VolcalInputError(f"missing required column '{c.name}' (header: {shown})", path, row,
-                            c.name)
+    unknown = [h for h in header if h not in known]
+    return VolcalInputError(f"missing required column '{c.name}'{_closest_hint(c.name, unknown)} "
+                            f"(header: {shown})", path, row, c.name)
 
 
 def _named_columns(header: list[str], spec: TableSpec, path: Path | None, row: int
@@ -623,7 +675,7 @@ def parse_table(text: str, spec: TableSpec, path: str | Path | None = None) -> T
         cols[name] = np.array(v, dtype=dtype)
     return Table(p, header, cols, np.array([r for r, _ in data], dtype=np.int64), extra,
                  {k: np.array(v, dtype=bool) for k, v in marks.items()}, groups, delim,
-                 header_row, {name: header[j] for name, j in idx.items()})
+                 header_row, {name: header[j] for name, j in idx.items()}, recs[:h])
 
 
 def columns_present(table: Table, names: Iterable[str]) -> list[str]:

@@ -36,8 +36,16 @@ TEST_NAMES: tuple[str, ...] = (
     "step-diagonal", "diagonal", "linear", "face-diagonal", "face-step-diagonal",
     "multilateration",
 )
+QUALIFIED: dict[str, tuple[str, ...]] = {
+    "linear": ("x", "y", "z"),
+    "face-diagonal": FACE_PLANES,
+    "face-step-diagonal": FACE_PLANES,
+}
+"""Tests that may be narrowed to one axis or plane: ``linear:x`` (the 3 lines of X),
+``face-diagonal:xy``, ``face-step-diagonal:yz``."""
 
-__all__ = ["DEFAULT_OVERRUN_MM", "TEST_NAMES", "abbe_lines", "plan_session"]
+__all__ = ["DEFAULT_OVERRUN_MM", "QUALIFIED", "TEST_NAMES", "abbe_lines", "plan_session",
+           "split_test"]
 
 DEFAULT_OVERRUN_MM = 5.0
 """Room left at both ends of every linear test for the ISO 230-2 overrun [mm]; equal to
@@ -121,7 +129,9 @@ def plan_session(travel: ArrayLike, chain: str = "XYFZ", steps: int = 10,
         Increments per test.
     tests : sequence of str
         Any of ``step-diagonal``, ``diagonal``, ``linear``, ``face-diagonal``,
-        ``face-step-diagonal``.
+        ``face-step-diagonal``, ``multilateration``; ``linear:x`` (one axis),
+        ``face-diagonal:xy``, ``face-step-diagonal:xy`` (one plane) narrow a test
+        (:data:`QUALIFIED`).
     runs : int
         Bidirectional runs of each linear test (ISO 230-2 asks for 5).
     step_orders : sequence of str
@@ -161,18 +171,59 @@ def plan_session(travel: ArrayLike, chain: str = "XYFZ", steps: int = 10,
               multilateration or {})
     meas: list[Measurement] = []
     for test in tests:
-        meas += _BUILDERS[test](c)
+        base, only = split_test(test)
+        meas += _BUILDERS[base](c, only)
     return Session(name, chain, t, meas)
+
+
+def split_test(test: str) -> tuple[str, str | None]:
+    """Split a test name into the test and its axis or plane (``'linear:x'``).
+
+    Parameters
+    ----------
+    test : str
+        A name of :data:`TEST_NAMES`, optionally ``:axis`` or ``:plane``.
+
+    Returns
+    -------
+    base : str
+        The test.
+    only : str or None
+        The axis (``'x'``) or plane (``'xy'``), lower case; None for all.
+
+    Raises
+    ------
+    VolcalInputError
+        Unknown test, or a qualifier the test does not take.
+    """
+    base, sep, only = test.strip().partition(":")
+    if base not in TEST_NAMES:
+        raise VolcalInputError(f"unknown test(s) {test}: expected any of "
+                               f"{', '.join(TEST_NAMES)} ({_qualified_help()})")
+    if not sep:
+        return base, None
+    valid = QUALIFIED.get(base, ())
+    if only.strip().lower() not in valid:
+        what = (f"one of {', '.join(f'{base}:{v}' for v in valid)}" if valid
+                else f"'{base}' without ':'")
+        raise VolcalInputError(f"unknown test {test!r}: expected {what}")
+    return base, only.strip().lower()
+
+
+def _qualified_help() -> str:
+    return "linear:x|y|z, face-diagonal:xy|yz|xz, face-step-diagonal:xy|yz|xz for one axis or plane"
 
 
 def _check_options(tests: Sequence[str], steps: int, runs: int, step_target: str,
                    linear_margin_mm: float, abbe_tool_offset_mm: float) -> None:
-    unknown = [x for x in tests if x not in TEST_NAMES]
     if not tests:
         raise VolcalInputError(f"--tests: no test given; expected any of {', '.join(TEST_NAMES)}")
+    unknown = [x for x in tests if x.partition(":")[0] not in TEST_NAMES]
     if unknown:
         raise VolcalInputError(f"unknown test(s) {', '.join(unknown)}: expected any of "
-                               f"{', '.join(TEST_NAMES)}")
+                               f"{', '.join(TEST_NAMES)} ({_qualified_help()})")
+    for x in tests:
+        split_test(x)
     if steps < 1 or steps > 10000:
         raise VolcalInputError("steps must be between 1 and 10000")
     if runs < 1:
@@ -205,7 +256,7 @@ class _Plan:
     multilateration: dict
 
 
-def _step_diagonals(c: _Plan) -> list[Measurement]:
+def _step_diagonals(c: _Plan, only: str | None = None) -> list[Measurement]:
     out = []
     for order in c.step_orders:
         suffix = "" if order == "xyz" else f"-{order}"
@@ -217,36 +268,36 @@ def _step_diagonals(c: _Plan) -> list[Measurement]:
     return out
 
 
-def _diagonals(c: _Plan) -> list[Measurement]:
+def _diagonals(c: _Plan, only: str | None = None) -> list[Measurement]:
     return [_measurement(f"diag-{code}", "diagonal", "retroreflector",
                          diagonal_test(code, c.t, c.steps), c.off,
                          f"body diagonal {code} (ISO 230-6), retroreflector")
             for code in BODY_DIAGONALS]
 
 
-def _face_diagonals(c: _Plan) -> list[Measurement]:
+def _face_diagonals(c: _Plan, only: str | None = None) -> list[Measurement]:
     return [_measurement(f"face-{plane}-{code}", "diagonal", "retroreflector",
                          diagonal_test(code, c.t, c.steps, plane=plane), c.off,
                          f"face diagonal {code} in {plane.upper()}")
-            for plane in FACE_PLANES for code in FACE_DIAGONALS]
+            for plane in FACE_PLANES if only in (None, plane) for code in FACE_DIAGONALS]
 
 
-def _face_step_diagonals(c: _Plan) -> list[Measurement]:
+def _face_step_diagonals(c: _Plan, only: str | None = None) -> list[Measurement]:
     return [_measurement(f"fstep-{plane}-{code}", "step_diagonal", c.step_target,
                          step_diagonal_test(code, c.t, c.steps, plane, plane=plane), c.off,
                          f"face step diagonal {code} in {plane.upper()}")
-            for plane in FACE_PLANES for code in FACE_DIAGONALS]
+            for plane in FACE_PLANES if only in (None, plane) for code in FACE_DIAGONALS]
 
 
-def _multilateration(c: _Plan) -> list[Measurement]:
+def _multilateration(c: _Plan, only: str | None = None) -> list[Measurement]:
     from volcal.plan.multilateration import multilateration_tests
 
     return list(multilateration_tests(c.t, **c.multilateration))
 
 
-def _linear(c: _Plan) -> list[Measurement]:
+def _linear(c: _Plan, only: str | None = None) -> list[Measurement]:
     out = []
-    for k in range(3):
+    for k in (range(3) if only is None else ["xyz".index(only)]):
         lines = abbe_lines(k, c.t, c.chain, c.abbe_tool_offset_mm)
         lo, hi = c.t[k, 0] + c.linear_margin_mm, c.t[k, 1] - c.linear_margin_mm
         if hi <= lo:

@@ -493,6 +493,12 @@ DEVIATION_ABS_MAX_UM = 10_000.0
 POSITION_ABS_MAX_MM = 1.0e6
 """Largest plausible |position| [mm] (1 km): a guard against absurd values such as 1e308."""
 
+SPREADSHEET: dict[str, Any] = {"delimiters": ",;\t", "decimal_comma": True}
+"""Options of the session CSV readers shared with the laser-export reader
+(:func:`volcal.importer.laser_csv.laser_spec`): the header line decides the delimiter
+(``,``, ``;`` or tab) and with ``;`` or tab a decimal comma is read (a CSV saved by a
+European spreadsheet: ``0;0;0;1,25``)."""
+
 MEASUREMENT_TABLE = TableSpec(
     columns=(
         Column("x_mm", abs_max=POSITION_ABS_MAX_MM), Column("y_mm", abs_max=POSITION_ABS_MAX_MM),
@@ -507,6 +513,7 @@ MEASUREMENT_TABLE = TableSpec(
     min_rows=MIN_ROWS,
     min_rows_message="need at least {min} readings, found {n}",
     what="measurement file",
+    **SPREADSHEET,
 )
 """Columns of a measurement CSV (``docs/formats.md``)."""
 
@@ -522,6 +529,7 @@ MULTILATERATION_TABLE = TableSpec(
     min_rows=MIN_ROWS,
     min_rows_message="need at least {min} readings, found {n}",
     what="multilateration file",
+    **SPREADSHEET,
 )
 """Columns of a multilateration CSV: ``length_mm`` instead of ``deviation_um``."""
 

@@ -165,7 +165,10 @@ SHARED: dict[str, tuple[list[tuple[Callable[[], Any], dict[str, str | None]]],
          "travel": "required in Python (a machine's travel is never guessed), below",
          "grid": "multilateration={'grid': ...}, compared below",
          "stations": "multilateration={'n_stations': ...}, compared below",
-         "tool_offsets": "multilateration={'tool_offsets': ...}, compared below"}),
+         "tool_offsets": "multilateration={'tool_offsets': ...}, compared below",
+         "add": "volcal.plan.extend.add_planned_tests(folder, ...) (appends to a session)",
+         "replace": "Calibration.save(folder) refuses to replace; "
+                    "volcal.plan.extend.replace_session"}),
     "identify": (
         [(_identify_options, {"measurements": "measurement_ids"})],
         {"session": "the Calibration's session", "output": "result.to_json(path)",
@@ -186,7 +189,9 @@ SHARED: dict[str, tuple[list[tuple[Callable[[], Any], dict[str, str | None]]],
         {"session": "the Calibration's session", "as_json": "SessionEvaluation.to_dict()",
          "tolerance_um": "Calibration.verdict(tolerance_um, compensation), compared below",
          "model": "Calibration.load_model(path)",
-         "compensation": "Calibration.verdict(tolerance_um, compensation), below"}),
+         "compensation": "Calibration.verdict(tolerance_um, compensation), below",
+         "force": "Calibration.verdict(..., force=True) and Calibration.load_model(path, "
+                  "force=True)"}),
     "import": (
         [(lambda: Calibration.import_, {}),
          # the library's positional arguments (axis, id, line_mm...) have no default
@@ -249,6 +254,7 @@ def test_verdict_defaults_equal_evaluate_session():
     assert py["tolerance_um"] == REQUIRED  # a verdict needs a tolerance
     assert cli["compensation"] is None is py["compensation"]
     assert norm(cli["edition"]) == norm(py["edition"])
+    assert cli["force"] is False is py["force"]
 
 
 def test_compensation_defaults_are_safe():

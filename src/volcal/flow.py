@@ -518,8 +518,8 @@ class Calibration:
 
     @A.checked
     def verdict(self, tolerance_um: float | str | Mapping[str, float],
-                compensation: str | Path | None = None, edition: str = D.EDITION
-                ) -> list[Verdict]:
+                compensation: str | Path | None = None, edition: str = D.EDITION,
+                force: bool = False) -> list[Verdict]:
         """Pass/fail against a tolerance, before and after compensation.
 
         Like ``volcal evaluate session --tolerance-um ... [--model] [--compensation]``:
@@ -535,6 +535,8 @@ class Calibration:
             Folder written by :meth:`compensate` from this model: the verdict after.
         edition : str
             ISO 230-2 edition.
+        force : bool
+            Use tables whose manifest names another machine (as ``--force``).
 
         Returns
         -------
@@ -552,10 +554,19 @@ class Calibration:
                 raise VolcalInputError("Calibration.verdict: compensation= needs the model "
                                        "the tables were written from: identify() or "
                                        "load_model() first")
-            from volcal.report.carried import table_set_from_manifest
-            from volcal.report.pipeline import read_manifest
+            import warnings as _w
 
-            tables = table_set_from_manifest(read_manifest(compensation), compensation)
+            from volcal.compensate.manifest import check_manifest, errors_digest, read_manifest
+            from volcal.compensate.readback import read_written_tables
+            from volcal.session.identity import MachineIdentity
+
+            manifest = read_manifest(compensation)
+            for w in check_manifest(manifest, compensation, MachineIdentity.of(self.session),
+                                    errors_digest(self.result.errors), force,
+                                    "this calibration's model"):
+                _w.warn(w, UserWarning, stacklevel=3)
+            # the "after" from the tables as written, read back (not resampled from the model)
+            tables = read_written_tables(compensation, manifest, self.session.travel)
         errors = None if self.result is None else self.result.errors
         return verdicts(tol, self.session, errors, tables, str(edition))
 

@@ -310,19 +310,53 @@ def test_decision_rules_simple_and_guarded():
         conformity_verdict(1.0, 2.0, "strict")
 
 
-def test_a_budget_when_given_is_shown_and_the_id_is_stable(cert):
-    budget = {"linear-x1": {"quantity": "A", "u_c_um": 0.61, "k": 2.0, "U_um": 1.22,
-                            "contributors": [
-                                {"name": "laser wavelength", "u_um": 0.02, "share": 0.001},
-                                {"name": "material temperature", "u_um": 0.58,
-                                 "share": 0.904}]}}
-    doc = build_certificate(cert.found, budgets=budget, issued="2026-11-25")
+class _Unc:
+    """The shape volcal.uncertainty gives per ISO 230-2 evaluation (``to_dict``)."""
+
+    def __init__(self, U):
+        self.U = U
+
+    def to_dict(self):
+        return {**{f"U_{k}": self.U for k in ("A", "E", "M", "R", "B")}, "k": 2.05,
+                "uncertainty": {"budget": {
+                    "measurand": "mean bidirectional positional deviation at 380 mm",
+                    "u_um": self.U / 2.05, "dof": 40.0, "k": 2.05, "U_um": self.U,
+                    "components": [
+                        {"label": "material temperature", "u": 0.6, "share": 0.9},
+                        {"label": "laser wavelength", "u": 0.01, "share": 0.001}]}}}
+
+
+def test_uncertainty_and_a_guarded_rule_when_given(cert):
+    from volcal.standards.tolerance import Tolerance
+
+    a = _iso230_2_A(cert.root / "found")
+    worst = {ax: max(v for k, v in a.items() if cert.found.get(k).axis == "XYZ".index(ax))
+             for ax in "XYZ"}
+    U = 1.5
+    # X: within T but not by U (conditional); Y: T - U above the value (pass); Z: fail
+    tol = Tolerance(None, {"X": worst["X"] + 1.0, "Y": worst["Y"] + 2.0,
+                           "Z": worst["Z"] - 0.5})
+    doc = build_certificate(cert.found, tolerance=tol, decision_rule="guarded",
+                            uncertainties={k: _Unc(U) for k in a}, issued="2026-11-25")
     jsonschema.validate(doc, schema(), cls=jsonschema.Draft202012Validator)
     assert doc["uncertainty"]["given"] and doc["issued"] == "2026-11-25"
-    tables = [b for s in layout(doc) for b in s.blocks if b.kind == "table"]
-    t = next(b for b in tables if b.title.startswith("Uncertainty budget, linear-x1"))
-    assert t.columns == ["name", "u_um", "share"] and t.rows[1][0] == "material temperature"
-    assert "k = 2.000" in t.title and "U_um = 1.220" in t.title
+    assert "no measurement-uncertainty budget given" not in doc["warnings"]
+    verdict = {r["quantity"][0]: r for r in doc["conformity"]["statements"]}
+    assert [verdict[x]["verdict"] for x in "XYZ"] == ["conditional", "pass", "fail"]
+    assert all(verdict[x]["U_um"] == U for x in "XYZ")
+    pos = doc["results"]["as_found"]["positioning"][0]
+    assert pos["U_um"]["A"] == U and pos["k"] == 2.05
+    blocks = [b for s in layout(doc) for b in s.blocks if b.kind == "table"]
+    res = next(b for b in blocks if b.title.startswith("positioning"))
+    assert "U(A)" in res.columns and res.rows[0][res.columns.index("U(A)")] == "1.50"
+    bud = next(b for b in blocks if b.title.startswith("Uncertainty budget, linear-x1"))
+    assert bud.columns == ["label", "u", "share"] and bud.rows[0][0] == "material temperature"
+    assert "k = 2.050" in bud.title and "U_um = 1.500" in bud.title
+    # without them: the certificate says no budget was given
+    assert not cert.doc["uncertainty"]["given"]
+
+
+def test_the_report_id_is_stable_and_a_given_one_wins(cert):
     # the same readings give the same id; a given [calibration] report_id wins
     assert report_id(cert.found)[0] == report_id(read_session(cert.root / "found"))[0]
     assert report_id(cert.found)[0] != report_id(cert.left)[0]

@@ -438,9 +438,6 @@ def _U(result: Any, key: str) -> float | None:
     """An expanded uncertainty ``U_<key>`` carried by a result (attribute or dict key)."""
     name = f"U_{key}"
     v = result.get(name) if isinstance(result, dict) else getattr(result, name, None)
-    if v is None:
-        d = _as_dict(result)
-        v = d.get(name) if isinstance(d, dict) else None
     try:
         return None if v is None or not math.isfinite(float(v)) else float(v)
     except (TypeError, ValueError):
@@ -458,10 +455,12 @@ def _as_dict(x: Any) -> Any:
 # --------------------------------------------------------------------------- results
 
 
-def _positioning(ev: Any) -> list[dict[str, Any]]:
+def _positioning(ev: Any, unc: dict[str, Any]) -> list[dict[str, Any]]:
     out = []
     for mid, r in ev.iso230_2.items():
-        d = _as_dict(r)
+        d = {**_as_dict(r), **{k: v for k in dir(r) if k.startswith("U_")
+                               and isinstance(v := getattr(r, k, None), int | float)},
+             **_as_dict(unc.get(mid, {}))}
         row: dict[str, Any] = {"measurement": mid, "axis": ev.axis.get(mid, "?"),
                                "edition": d.get("edition", getattr(r, "edition", None)),
                                "complete": bool(d.get("complete", True)),
@@ -469,7 +468,7 @@ def _positioning(ev: Any) -> list[dict[str, Any]]:
                                "n_runs_down": d.get("n_runs_down"),
                                "targets": len(d.get("targets", []))}
         row["values_um"] = {k: float(d[k]) for k in _POSITIONING_KEYS if k in d}
-        U = {k: u for k in _POSITIONING_KEYS if (u := _U(r, k)) is not None}
+        U = {k: u for k in _POSITIONING_KEYS if (u := _U(d, k)) is not None}
         row["U_um"] = U or None
         if U and d.get("k") is not None:
             row["k"] = float(d["k"])
@@ -477,20 +476,24 @@ def _positioning(ev: Any) -> list[dict[str, Any]]:
     return out
 
 
-def _diagonals(ev: Any) -> list[dict[str, Any]]:
+def _diagonals(ev: Any, unc: dict[str, Any]) -> list[dict[str, Any]]:
     out = []
     for mid, r in ev.iso230_6.items():
-        d = _as_dict(r)
+        d = {**_as_dict(r), **{k: v for k in dir(r) if k.startswith("U_")
+                               and isinstance(v := getattr(r, k, None), int | float)},
+             **_as_dict(unc.get(mid, {}))}
         row = {"measurement": mid, "diagonal": d.get("diagonal"),
                "length_mm": float(d["length_mm"]), "E_D_um": float(d["E_D"]),
                "complete": bool(d.get("complete", True)),
                "points": f"{d.get('points_measured')} of {d.get('points_planned')}",
-               "U_E_D_um": _U(r, "E_D")}
+               "U_E_D_um": _U(d, "E_D")}
         out.append(row)
     return out
 
 
-def _results(session: Any, ev: Any, with_model: bool) -> dict[str, Any]:
+def _results(session: Any, ev: Any, with_model: bool, unc: dict[str, Any] | None = None
+             ) -> dict[str, Any]:
+    unc = unc or {}
     vol = None
     if ev.volumetric is not None:
         v = _as_dict(ev.volumetric)
@@ -503,7 +506,7 @@ def _results(session: Any, ev: Any, with_model: bool) -> dict[str, Any]:
             "readings": sum(m.n for m in session.measurements),
             "readings_sha256": readings_sha256(session),
             "simulated": (session.provenance or {}).get("readings") == "simulated",
-            "positioning": _positioning(ev), "diagonals": _diagonals(ev),
+            "positioning": _positioning(ev, unc), "diagonals": _diagonals(ev, unc),
             "volumetric": vol if with_model else None,
             "elv": ev.elv, "elv_source": ev.elv_source or None,
             "skipped": dict(ev.skipped)}
@@ -541,18 +544,22 @@ def _conformity(tolerance: Any, results: dict[str, dict[str, Any]], rule: str,
     for state, res in results.items():
         if res is None:
             continue
-        for axis, T in tolerance.axis_um.items():
-            tests = [r for r in res["positioning"] if r["axis"] == axis]
+        limits = [(axis, "A", T) for axis, T in tolerance.axis_um.items()]
+        limits += [(axis, key, T) for axis, d in (getattr(tolerance, "parameters", None)
+                                                  or {}).items() for key, T in d.items()]
+        for axis, key, T in limits:
+            tests = [r for r in res["positioning"] if r["axis"] == axis
+                     and key in r["values_um"]]
             if not tests:
-                rows.append({"state": state, "quantity": f"{axis}: ISO 230-2 A",
+                rows.append({"state": state, "quantity": f"{axis}: ISO 230-2 {key}",
                              "tolerance_um": T, "value_um": None, "U_um": None,
                              "verdict": None, "note": f"no linear test of {axis}"})
                 continue
-            worst = max(tests, key=lambda r: r["values_um"]["A"])
-            U = (worst["U_um"] or {}).get("A")
-            value = worst["values_um"]["A"]
+            worst = max(tests, key=lambda r: r["values_um"][key])
+            U = (worst["U_um"] or {}).get(key)
+            value = worst["values_um"][key]
             verdict, note = conformity_verdict(value, T, rule, U, guard_band_um)
-            rows.append({"state": state, "quantity": f"{axis}: ISO 230-2 A "
+            rows.append({"state": state, "quantity": f"{axis}: ISO 230-2 {key} "
                          f"(largest of {len(tests)} tests, {worst['measurement']})",
                          "tolerance_um": T, "value_um": value, "U_um": U,
                          "verdict": verdict, "note": note})
@@ -639,8 +646,11 @@ def _methods(found: dict[str, Any], left: dict[str, Any] | None, sessions: dict[
 
 def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
                       tables: str | Path | None = None, tolerance: Any = None,
-                      decision_rule: str = "simple", guard_band_um: float | None = None,
-                      budgets: dict[str, Any] | None = None, edition: str = "2014",
+                      decision_rule: str | None = None, guard_band_um: float | None = None,
+                      budgets: dict[str, Any] | None = None,
+                      uncertainties: dict[str, Any] | None = None,
+                      as_left_uncertainties: dict[str, Any] | None = None,
+                      edition: str = "2014",
                       issued: str | None = None, generator: str | None = None,
                       technical_report: str | None = "report.pdf") -> dict[str, Any]:
     """Build the certificate document (``volcal-certificate/1``) of a calibration.
@@ -662,14 +672,22 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
     tolerance : Tolerance, optional
         Per-axis ISO 230-2 ``A`` and/or volumetric tolerance [um] of the statement of
         conformity.
-    decision_rule : {'simple', 'guarded'}
-        Decision rule of the statement of conformity (:func:`conformity_verdict`).
+    decision_rule : {'simple', 'guarded'}, optional
+        Decision rule of the statement of conformity (:func:`conformity_verdict`);
+        default the tolerance's ``rule`` attribute when it has one, else ``simple``.
     guard_band_um : float, optional
-        Guard band of the guarded rule [um] (default U).
+        Guard band of the guarded rule [um] (default the tolerance's
+        ``guard_band_um``, else U).
     budgets : dict, optional
-        Uncertainty budget per measurement id (a dict or an object with ``to_dict()``),
-        shown as the budget tables; expanded uncertainties are read from ``U_*`` keys of
-        the results.
+        Uncertainty budget per measurement id (a dict or an object with ``to_dict()``:
+        ``measurand``, ``u_um``, ``dof``, ``k``, ``U_um`` and a list of ``components``
+        or ``contributors``), printed as the budget tables.
+    uncertainties, as_left_uncertainties : dict, optional
+        Per measurement id of the as-found (as-left) session, an object with
+        ``to_dict()`` (or a dict) holding ``U_<key>`` of the ISO 230-2 parameters (or
+        ``U_E_D`` of a diagonal), ``k`` and optionally ``uncertainty.budget`` (its
+        budget table). ``U_*`` attributes or keys of the results themselves are read as
+        well.
     edition : str
         ISO 230-2 edition of the evaluation.
     issued : str, optional
@@ -719,10 +737,21 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
             generator = "volcal"
 
     ev = evaluate_session(session, result, edition)
-    found = _results(session, ev, result is not None)
+    found = _results(session, ev, result is not None, uncertainties)
     left = None
     if as_left is not None:
-        left = _results(as_left, evaluate_session(as_left, None, edition), False)
+        left = _results(as_left, evaluate_session(as_left, None, edition), False,
+                        as_left_uncertainties)
+    if decision_rule is None:
+        decision_rule = getattr(tolerance, "rule", None) or "simple"
+    if guard_band_um is None:
+        guard_band_um = getattr(tolerance, "guard_band_um", None)
+    budgets = dict(budgets or {})
+    for state, unc in (("as-found", uncertainties), ("as-left", as_left_uncertainties)):
+        for mid, u in (unc or {}).items():
+            b = (_as_dict(u).get("uncertainty") or {}).get("budget")
+            if isinstance(b, dict):
+                budgets.setdefault(mid if state == "as-found" else f"{mid} (as-left)", b)
 
     vol_before = None
     if tolerance is not None and tolerance.volumetric_um is not None and result is not None:

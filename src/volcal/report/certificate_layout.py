@@ -310,7 +310,8 @@ def _budget_blocks(mid: str, b: dict[str, Any]) -> list[Block]:
     contrib = b.get("contributors") or b.get("components") or []
     out = []
     head = ", ".join(f"{k} = {_n(b[k], 3) if isinstance(b[k], float) else b[k]}"
-                     for k in ("quantity", "u_c_um", "nu_eff", "k", "U_um") if k in b)
+                     for k in ("measurand", "quantity", "u_um", "u_c_um", "dof", "nu_eff", "k",
+                               "U_um") if b.get(k) is not None)
     if contrib and isinstance(contrib, list) and isinstance(contrib[0], dict):
         cols: list[str] = []
         for c in contrib:

@@ -118,7 +118,18 @@ def _measurement_date(session: Any) -> str | None:
 
 
 def readings_sha256(session: Any) -> str:
-    """SHA-256 of the session's readings (:func:`volcal.session.provenance.readings_digest`)."""
+    """SHA-256 of the session's readings (:func:`volcal.session.provenance.readings_digest`).
+
+    Parameters
+    ----------
+    session : Session
+        The session.
+
+    Returns
+    -------
+    str
+        64 hex digits.
+    """
     from volcal.session.provenance import readings_digest
 
     return readings_digest(session)
@@ -217,7 +228,19 @@ def equipment_status(sessions: dict[str, Any]) -> list[dict[str, Any]]:
 
 
 def describe_item(e: dict[str, Any], due: bool = True) -> str:
-    """One line naming an equipment item: role, make model, serial, certificate (, due)."""
+    """One line naming an equipment item: role, make model, serial, certificate (, due).
+
+    Parameters
+    ----------
+    e : dict
+        An ``[[equipment]]`` entry.
+    due : bool
+        Append the due date.
+
+    Returns
+    -------
+    str
+    """
     name = " ".join(str(e[k]) for k in ("make", "model") if e.get(k))
     parts = [e.get("role", "?") + (f" {name}" if name else "")]
     if e.get("serial"):

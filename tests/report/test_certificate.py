@@ -180,6 +180,15 @@ def test_every_page_carries_the_report_id_and_page_n_of_m(cert):
         assert flat.count(rid) >= 2, i  # header and footer
 
 
+def test_the_technical_report_names_the_certificate_on_every_page(cert):
+    text = subprocess.run(["pdftotext", str(cert.out / "report.pdf"), "-"],
+                          capture_output=True, text=True, check=True).stdout
+    pages = [p for p in text.split("\f") if p.strip()]
+    assert len(pages) > 3
+    for i, page in enumerate(pages, start=1):
+        assert cert.doc["report_id"] in page, i
+
+
 def test_the_json_validates_against_its_schema(cert):
     sch = schema()
     jsonschema.Draft202012Validator.check_schema(sch)

@@ -84,6 +84,9 @@ def report_cmd(
         for w in doc["warnings"]:
             if w.startswith("EXPIRED"):
                 console.print(f"[yellow]warning[/] certificate: {w}", highlight=False)
+        if title is None:  # the technical report names its certificate on every page
+            title = (f"Calibration report: {s.name}, technical report to certificate "
+                     f"{doc['report_id']}")
 
         def extra(tmp: Path) -> None:
             written.append(write_certificate(doc, tmp))

@@ -197,6 +197,9 @@ def layout(doc: dict[str, Any]) -> list[CertSection]:
         else:
             s.blocks.append(Block("flag", text="The compensation tables loaded between the "
                                   "two measurements are not named (--tables)."))
+        if not pair["pairs"]:
+            s.blocks.append(Block("flag", text="No evaluated measurement id is common to the "
+                                  "as-found and the as-left session: nothing to pair."))
         s.blocks.append(Block("table", title="Measured as-found and as-left [µm]",
                               columns=["measurement", "axis", "quantity", "as-found",
                                        "as-left", "change"],

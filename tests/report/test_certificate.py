@@ -99,6 +99,8 @@ def cert(tmp_path_factory):
     from volcal.compensate.formats import CompensationOptions, write_compensation
     from volcal.identify import identify
 
+    if not (shutil.which("pdftotext") and shutil.which("pdfinfo")):
+        pytest.skip("poppler-utils is not installed (make browser-deps installs it)")
     root = tmp_path_factory.mktemp("certificate")
     found = random_machine(TRAVEL, "XYFZ", seed=5, n_nodes=21)
     values = [v.copy() for v in found.values]

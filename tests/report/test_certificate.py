@@ -376,3 +376,14 @@ def test_the_report_id_is_stable_and_a_given_one_wins(cert):
         assert report_id(cert.found) == ("MSG-2026-0042", "calibration.report_id")
     finally:
         del cert.found.calibration["report_id"]
+
+
+def test_an_as_left_session_of_another_machine_is_refused(cert, tmp_path):
+    other = tmp_path / "other"
+    shutil.copytree(cert.root / "left", other)
+    toml = other / "session.toml"
+    toml.write_text(toml.read_text(encoding="utf-8").replace('serial = "42-1187"',
+                                                             'serial = "42-9999"'),
+                    encoding="utf-8")
+    with pytest.raises(VolcalInputError, match="two machines.*42-1187.*42-9999"):
+        build_certificate(cert.found, as_left=read_session(other))

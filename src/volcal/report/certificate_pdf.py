@@ -10,6 +10,7 @@ and copied (``pdftotext`` reads it back).
 
 from __future__ import annotations
 
+import re
 import textwrap
 from pathlib import Path
 from typing import Any
@@ -22,6 +23,7 @@ __all__ = ["write_certificate_pdf"]
 _W, _H = 8.27, 11.69  # A4 portrait [inch]
 _LEFT, _RIGHT, _TOP, _BOTTOM = 0.09, 0.91, 0.93, 0.07
 _CHAR = 0.56  # average DejaVu Sans character width [em]
+_NUMBER = re.compile(r"^[-+−]?\d[\d.,]*$|^–$")
 
 
 def _chars(width_frac: float, size: float) -> int:
@@ -78,7 +80,8 @@ class _Pages:
         size = 7.5 if len(b.columns) <= 7 else 6.5
         cells = [b.columns, *b.rows]
         ncol = len(b.columns)
-        natural = [max(len(r[j]) for r in cells) + 2 for j in range(ncol)]
+        natural = [max([int(1.15 * len(b.columns[j]) + 1)]  # the header is bold
+                       + [len(r[j]) for r in b.rows]) + 2 for j in range(ncol)]
         least = [max(len(w) for r in cells for w in (r[j].split() or [""])) + 2
                  for j in range(ncol)]
         room = int(_chars(_RIGHT - _LEFT, size) / 1.1)  # digits and capitals are wider
@@ -94,6 +97,9 @@ class _Pages:
             xs.append(xs[-1] + (_RIGHT - _LEFT) * w / sum(widths))
         lh = self.line_h(size)
 
+        numeric = [bool(b.rows) and all(_NUMBER.match(r[j]) for r in b.rows)
+                   for j in range(ncol)]
+
         def wrap(row: list[str]) -> list[list[str]]:
             return [textwrap.wrap(c, max(3, w - 2), break_long_words=False,
                                   break_on_hyphens=False) or [""]
@@ -107,9 +113,13 @@ class _Pages:
             if bold or flag:
                 self.fig.patches.append(_rect(self.y + 0.15 * lh, h,
                                               "#fde2e1" if flag else "#e9eff6", self.fig))
-            for x, lines in zip(xs, wrap(row), strict=True):
+            for j, (x, lines) in enumerate(zip(xs, wrap(row), strict=True)):
+                right = numeric[j]
+                if right:  # numbers right-aligned in their column, as in the report
+                    x = x + (_RIGHT - _LEFT) * (widths[j] - 1.5) / sum(widths)
                 for i, ln in enumerate(lines):
                     self.fig.text(x, self.y - i * lh, ln, fontsize=size, va="top",
+                                  ha="right" if right else "left",
                                   weight="bold" if bold else "normal",
                                   color="#9b1c1c" if flag else "black")
             self.y -= h

@@ -35,6 +35,20 @@ def report_cmd(
         None, help="Tolerance for a pass/fail verdict before and after compensation [um]: "
         "a number (largest volumetric error), X=10,Y=10,Z=8 (ISO 230-2 accuracy A per "
         "axis) or both (X=10,Y=10,Z=8,V=15)."),
+    certificate: bool = typer.Option(False, "--certificate", help="Also write the calibration "
+                                     "certificate (certificate.pdf, .html, .json); automatic "
+                                     "when session.toml has [calibration] keys or "
+                                     "[[equipment]]."),
+    as_left: Path | None = typer.Option(None, "--as-left", help="Session measured after the "
+                                        "compensation tables were loaded: the certificate "
+                                        "pairs its measured results with SESSION's "
+                                        "(as-found)."),
+    tables: Path | None = typer.Option(None, "--tables", help="Compensation folder loaded "
+                                       "between SESSION and --as-left, named on the "
+                                       "certificate by its manifest (not applied)."),
+    strict: bool = typer.Option(False, "--strict", help="Refuse to issue a certificate with "
+                                "equipment whose calibration was due before the date of "
+                                "measurement."),
 ) -> None:
     """Write the calibration report of a session as self-contained HTML and as PDF."""
     from volcal.io.paths import check_output_folder
@@ -54,6 +68,12 @@ def report_cmd(
 
         check_manifest(read_manifest(compensation), compensation, MachineIdentity.of(s),
                        None, force)
+
+    s2 = None
+    if as_left is not None:
+        s2 = read_session(as_left)
+        print_session_notes(s2)
+    cert = _certificate_wanted(s, s2, tables, certificate, strict)
     if model is not None:
         from volcal.identify.modelfile import check_model_session, load_model
 
@@ -65,17 +85,70 @@ def report_cmd(
 
         with console.status("identifying the machine's errors..."):
             result = identify(s)
+    written: list = []
+    extra = None
+    if cert:
+        from volcal.report.certificate import build_certificate
+        from volcal.report.certificate_files import write_certificate
+
+        doc = build_certificate(s, result, as_left=s2, tables=tables, tolerance=tol,
+                                edition=edition)
+        for w in doc["warnings"]:
+            if w.startswith("EXPIRED"):
+                console.print(f"[yellow]warning[/] certificate: {w}", highlight=False)
+        if title is None:  # the technical report names its certificate on every page
+            title = (f"Calibration report: {s.name}, technical report to certificate "
+                     f"{doc['report_id']}")
+
+        def extra(tmp: Path) -> None:
+            written.append(write_certificate(doc, tmp))
+
     with console.status("evaluating and writing the report..."):
         inputs = collect_inputs(s, result, edition=edition, compensation=compensation,
                                 tolerance=tol, force=force,
                                 model_label=("the model identified now" if model is None
                                              else str(model)))
-        files = write_report(build_report(inputs, title), output)
+        files = write_report(build_report(inputs, title), output, extra)
     if inputs.compensation is not None:
         for w in inputs.compensation.warnings:
             console.print(f"[yellow]warning[/] {escape(w)}", highlight=False)
     console.print(f"report: {files.html} and {files.pdf} ({files.pdf_pages} pages, "
                   f"{len(files.figures)} figures)", soft_wrap=True)
+    if written:
+        c = written[0]
+        console.print(f"certificate {doc['report_id']}: {output / c.pdf.name} "
+                      f"({c.pdf_pages} pages), {output / c.json.name}", soft_wrap=True)
+
+
+def _certificate_wanted(s, s2, tables: Path | None, certificate: bool, strict: bool) -> bool:
+    """Whether a certificate is issued; ``--strict`` refusals come before any work."""
+    from volcal.errors import VolcalInputError
+    from volcal.report.certificate import certificate_applies, refuse_expired
+
+    cert = certificate or certificate_applies(s) or s2 is not None
+    if tables is not None and s2 is None:
+        raise VolcalInputError("--tables names the compensation loaded between the as-found "
+                               "and the as-left measurement: give --as-left SESSION2 too")
+    if not cert:
+        if strict:
+            raise VolcalInputError("--strict applies to the certificate: the session has no "
+                                   "[calibration] keys or [[equipment]] (or give --certificate)")
+        return False
+    sessions = {"as_found": s} if s2 is None else {"as_found": s, "as_left": s2}
+    if strict:
+        refuse_expired(sessions)
+    if tables is not None:
+        from volcal.report.certificate import tables_of
+
+        tables_of(tables, s)  # a damaged manifest or another machine's tables: refused now
+    if s2 is not None:
+        from volcal.session.identity import same_machine
+
+        same, why = same_machine(s.identity, s2.identity)
+        if not same:
+            raise VolcalInputError(f"--as-left: the sessions are of two machines ({why})",
+                                   s2.path)
+    return True
 
 
 def register(app: typer.Typer) -> None:

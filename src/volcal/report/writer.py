@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -39,7 +40,8 @@ class ReportFiles:
     pdf_pages: int
 
 
-def write_report(report: Report, folder: str | Path) -> ReportFiles:
+def write_report(report: Report, folder: str | Path,
+                 extra: Callable[[Path], None] | None = None) -> ReportFiles:
     """Render the report to HTML and PDF and write the folder atomically.
 
     The folder is built in a temporary sibling and moved into place when complete, so a
@@ -51,6 +53,9 @@ def write_report(report: Report, folder: str | Path) -> ReportFiles:
         The document.
     folder : str or Path
         Output folder (replaced if it exists).
+    extra : callable, optional
+        Called with the temporary folder to add more files in the same atomic
+        replacement (the certificate: :func:`volcal.report.certificate_files.write_certificate`).
 
     Returns
     -------
@@ -66,5 +71,7 @@ def write_report(report: Report, folder: str | Path) -> ReportFiles:
             name = f"{i:02d}-{f.name}.png"
             (tmp / "figures" / name).write_bytes(png_bytes(f.figure))
             names.append(name)
+        if extra is not None:
+            extra(tmp)
     return ReportFiles(folder, folder / "report.html", folder / "report.pdf",
                        [folder / "figures" / n for n in names], pages)

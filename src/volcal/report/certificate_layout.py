@@ -1,0 +1,329 @@
+"""The certificate document as printed: sections of paragraphs, fields, tables and flags.
+
+One view of the ``volcal-certificate/1`` document (:mod:`volcal.report.certificate`),
+shared by the PDF (:mod:`volcal.report.certificate_pdf`) and the HTML
+(:mod:`volcal.report.certificate_html`) renderers, so both print the same words.
+Deviations and uncertainties are printed in µm, lengths in mm, angles in µrad.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+__all__ = ["Block", "CertSection", "layout"]
+
+_UNIT = "µm"
+_KEYS = {"A": "A", "A_up": "A↑", "A_down": "A↓", "E": "E", "E_up": "E↑", "E_down": "E↓",
+         "M": "M", "R": "R", "R_up": "R↑", "R_down": "R↓", "B": "B", "B_mean": "mean B"}
+_SHOWN = ("A", "E", "M", "R", "B", "B_mean")
+
+
+@dataclass
+class Block:
+    """One printed block.
+
+    Attributes
+    ----------
+    kind : str
+        ``'p'`` paragraph, ``'fields'`` label-value lines, ``'table'``, ``'flag'`` (a
+        highlighted warning), ``'note'`` (small print).
+    text : str
+        Paragraph, flag or note text.
+    fields : list of (str, str)
+        Label and value (``kind == 'fields'``).
+    title : str
+        Table title.
+    columns : list of str
+        Table header.
+    rows : list of list of str
+        Table cells.
+    flagged : list of int
+        Rows to highlight (e.g. expired equipment).
+    """
+
+    kind: str
+    text: str = ""
+    fields: list[tuple[str, str]] = field(default_factory=list)
+    title: str = ""
+    columns: list[str] = field(default_factory=list)
+    rows: list[list[str]] = field(default_factory=list)
+    flagged: list[int] = field(default_factory=list)
+
+
+@dataclass
+class CertSection:
+    """A numbered section of the certificate."""
+
+    title: str
+    blocks: list[Block] = field(default_factory=list)
+
+
+def _n(v: Any, digits: int = 2) -> str:
+    if v is None:
+        return "–"
+    if isinstance(v, int | float):
+        return f"{v:.{digits}f}"
+    return str(v)
+
+
+def _or(v: Any, missing: str = "not stated") -> str:
+    return missing if v in (None, "") else str(v)
+
+
+def _state(s: str) -> str:
+    return s.replace("_", "-")
+
+
+def layout(doc: dict[str, Any]) -> list[CertSection]:
+    """The printed sections of a certificate document.
+
+    Parameters
+    ----------
+    doc : dict
+        A ``volcal-certificate/1`` document.
+
+    Returns
+    -------
+    list of CertSection
+        In order: laboratory and customer, item calibrated, dates, method, environment,
+        equipment, results, as-found / as-left (when given), measurement uncertainty,
+        statement of conformity (when a tolerance is given), remarks.
+    """
+    out: list[CertSection] = []
+    lab, cust, item = doc["laboratory"], doc["customer"], doc["item"]
+
+    s = CertSection("Laboratory and customer")
+    s.blocks.append(Block("fields", fields=[
+        ("Calibration laboratory", _or(lab.get("name"))),
+        ("Laboratory address", _or(lab.get("address"))),
+        ("Customer", _or(cust.get("name"))),
+        ("Customer address", _or(cust.get("address"))),
+        ("Certificate number (report id)", doc["report_id"])]))
+    out.append(s)
+
+    s = CertSection("Item calibrated")
+    travel = item.get("travel_mm") or []
+    s.blocks.append(Block("fields", fields=[
+        ("Machine", item.get("name", "")),
+        ("Make", _or(item.get("make"))), ("Model", _or(item.get("model"))),
+        ("Serial number", _or(item.get("serial"))), ("Control", _or(item.get("control"))),
+        ("Location", _or(item.get("location"))),
+        ("Kinematic chain", item.get("chain", "")),
+        ("Travel X, Y, Z [mm]", ", ".join(f"{a:g} to {b:g}" for a, b in travel))]))
+    out.append(s)
+
+    d = doc["dates"]
+    s = CertSection("Dates")
+    f = [("Date of measurement (as-found)", _or(d.get("as_found")))]
+    if doc["results"].get("as_left") is not None:
+        f.append(("Date of measurement (as-left)", _or(d.get("as_left"))))
+    f.append(("Date of issue", d["issued"]))
+    s.blocks.append(Block("fields", fields=f))
+    out.append(s)
+
+    s = CertSection("Method")
+    s.blocks.append(Block("table", columns=["method", "reference", "what", "applied to"],
+                          rows=[[m["id"], m["reference"], m["title"],
+                                 _applied(m["measurements"])]
+                                for m in doc["methods"]]))
+    s.blocks.append(Block("p", text="Deviations are referred to 20 °C (ISO 1). Positions "
+                          "in mm; deviations, their parameters and uncertainties in µm."))
+    out.append(s)
+
+    s = CertSection("Environment as measured")
+    rows = []
+    for state, env in doc["environment"].items():
+        if env is None:
+            continue
+        if not env["recorded"]:
+            rows.append([_state(state), "(all)", "not recorded", "", "", ""])
+        for e in env["measurements"]:
+            rows.append([_state(state), e["measurement"],
+                         *[_range(e.get(k), dig) for k, dig in
+                           (("air_temperature_c", 2), ("air_pressure_pa", 0),
+                            ("humidity_pct", 1), ("material_temperature_c", 2))]])
+    s.blocks.append(Block("table", columns=["state", "measurement", "air temperature [°C]",
+                                            "air pressure [Pa]", "humidity [%]",
+                                            "material temperature [°C]"], rows=rows))
+    out.append(s)
+
+    s = CertSection("Measuring equipment")
+    eq = doc["equipment"]
+    if eq:
+        s.blocks.append(Block("table", columns=["role", "make and model", "serial",
+                                                "certificate", "calibrated", "due", "status"],
+                              rows=[[e.get("role", ""), " ".join(str(e[k]) for k in
+                                                                  ("make", "model")
+                                                                  if e.get(k)),
+                                     _or(e.get("serial"), "–"), _or(e.get("certificate"), "–"),
+                                     _or(e.get("calibrated"), "–"), _or(e.get("due"), "–"),
+                                     ("EXPIRED (due before " + ", ".join(e["expired_on"]) + ")")
+                                     if e["expired"] else "valid"]
+                                    for e in eq],
+                              flagged=[i for i, e in enumerate(eq) if e["expired"]]))
+        for e in eq:
+            if e["expired"]:
+                s.blocks.append(Block("flag", text=f"Expired: {e.get('role')} serial "
+                                      f"{_or(e.get('serial'), '–')} was due for calibration "
+                                      f"on {e.get('due')}, before the measurement "
+                                      f"({', '.join(e['expired_on'])})."))
+    else:
+        s.blocks.append(Block("flag", text="No measuring equipment listed."))
+    out.append(s)
+
+    s = CertSection("Results")
+    for state in ("as_found", "as_left"):
+        res = doc["results"].get(state)
+        if res is None:
+            continue
+        s.blocks.extend(_result_blocks(state, res, doc["results"].get("as_left") is not None))
+    out.append(s)
+
+    pair = doc.get("as_found_as_left")
+    if pair is not None:
+        s = CertSection("As-found and as-left")
+        s.blocks.append(Block("p", text=pair["statement"]))
+        t = pair.get("tables")
+        if t is not None:
+            s.blocks.append(Block("fields", fields=[
+                ("Compensation tables loaded", t["folder"]),
+                ("Manifest", f"{t['manifest']} (sha256 {t['manifest_sha256'][:16]})"),
+                ("Controller format", _or(t.get("controller_format"))),
+                ("From model", _or(t.get("model")) + (f" (sha256 {t['model_sha256'][:16]})"
+                                                      if t.get("model_sha256") else "")),
+                ("Tables carry", ", ".join(t.get("carries", [])) or "–"),
+                ("Files", ", ".join(t.get("files", [])) or "–")]))
+        else:
+            s.blocks.append(Block("flag", text="The compensation tables loaded between the "
+                                  "two measurements are not named (--tables)."))
+        if not pair["pairs"]:
+            s.blocks.append(Block("flag", text="No evaluated measurement id is common to the "
+                                  "as-found and the as-left session: nothing to pair."))
+        s.blocks.append(Block("table", title="Measured as-found and as-left [µm]",
+                              columns=["measurement", "axis", "quantity", "as-found",
+                                       "as-left", "change"],
+                              rows=[[p["measurement"], str(p["axis"]), _KEYS.get(
+                                  p["quantity"], p["quantity"]), _n(p["as_found_um"]),
+                                     _n(p["as_left_um"]),
+                                     _n(p["as_left_um"] - p["as_found_um"])]
+                                    for p in pair["pairs"]]))
+        out.append(s)
+
+    u = doc["uncertainty"]
+    s = CertSection("Measurement uncertainty")
+    s.blocks.append(Block("p", text=u["statement"]))
+    for mid, b in (u.get("budgets") or {}).items():
+        s.blocks.extend(_budget_blocks(mid, b))
+    out.append(s)
+
+    c = doc.get("conformity")
+    if c is not None:
+        s = CertSection("Statement of conformity")
+        s.blocks.append(Block("fields", fields=[
+            ("Specification (tolerance)", f"{c['tolerance']} µm"),
+            ("Decision rule", f"{c['decision_rule']}: {c['rule']}")
+            ] + ([("Guard band", f"{c['guard_band_um']:g} µm")]
+                 if c.get("guard_band_um") is not None else [])))
+        s.blocks.append(Block("table", columns=["state", "quantity", "tolerance [µm]",
+                                                "value [µm]", "U [µm]", "verdict", "note"],
+                              rows=[[_state(r["state"]), r["quantity"], _n(r["tolerance_um"]),
+                                     _n(r["value_um"]), _n(r["U_um"]),
+                                     r["verdict"] or "not stated", r.get("note") or ""]
+                                    for r in c["statements"]],
+                              flagged=[i for i, r in enumerate(c["statements"])
+                                       if r["verdict"] == "fail"]))
+        out.append(s)
+
+    s = CertSection("Remarks")
+    for w in doc["warnings"]:
+        s.blocks.append(Block("flag" if w.startswith("EXPIRED") else "p", text=w))
+    if doc.get("technical_report"):
+        s.blocks.append(Block("p", text=f"The technical report {doc['technical_report']} "
+                              "issued with this certificate gives the per-target tables, the "
+                              "identified error functions and the figures."))
+    s.blocks.append(Block("p", text="This certificate shall not be reproduced except in "
+                          "full without the written approval of the laboratory. The results "
+                          "relate only to the item calibrated, in the state and the "
+                          "environment stated."))
+    out.append(s)
+    return out
+
+
+def _applied(ids: list[str]) -> str:
+    if not ids:
+        return "identified model"
+    return ", ".join(ids)
+
+
+def _range(st: dict[str, Any] | None, digits: int) -> str:
+    if st is None:
+        return "–"
+    if abs(st["max"] - st["min"]) < 0.5 * 10.0 ** -digits:
+        return f"{st['mean']:.{digits}f}"
+    return f"{st['min']:.{digits}f} to {st['max']:.{digits}f}"
+
+
+def _result_blocks(state: str, res: dict[str, Any], paired: bool) -> list[Block]:
+    head = f"{_state(state)}: " if paired else ""
+    out = [Block("p", text=f"{head}session {res['session']}, measured {_or(res['date'])}, "
+                 f"{res['readings']} readings (sha256 {res['readings_sha256'][:16]})"
+                 + (", simulated" if res["simulated"] else "") + ".")]
+    pos = res["positioning"]
+    if pos:
+        with_u = any(r["U_um"] for r in pos)
+        cols = ["measurement", "axis"] + [f"{_KEYS[k]}" for k in _SHOWN]
+        if with_u:
+            cols += [f"U({_KEYS[k]})" for k in ("A", "E", "R", "B")] + ["k"]
+        rows = []
+        for r in pos:
+            row = [r["measurement"] + ("" if r["complete"] else " (incomplete)"), r["axis"]]
+            row += [_n(r["values_um"].get(k)) for k in _SHOWN]
+            if with_u:
+                U = r["U_um"] or {}
+                row += [_n(U.get(k)) for k in ("A", "E", "R", "B")] + [_n(r.get("k"), 2)]
+            rows.append(row)
+        ed = sorted({str(r["edition"]) for r in pos if r.get("edition")})
+        out.append(Block("table", title=f"{head}positioning, ISO 230-2:{'/'.join(ed)} [µm]",
+                         columns=cols, rows=rows))
+    dia = res["diagonals"]
+    if dia:
+        with_u = any(r["U_E_D_um"] is not None for r in dia)
+        out.append(Block("table", title=f"{head}diagonal displacement, ISO 230-6 [µm]",
+                         columns=["measurement", "diagonal", "length [mm]", "points", "E_D"]
+                         + (["U(E_D)"] if with_u else []),
+                         rows=[[r["measurement"], str(r["diagonal"]), _n(r["length_mm"], 1),
+                                r["points"], _n(r["E_D_um"])]
+                               + ([_n(r["U_E_D_um"])] if with_u else []) for r in dia]))
+    vol = res.get("volumetric")
+    if vol:
+        out.append(Block("table", title=f"{head}volumetric indices, ISO 230-1, from the "
+                         "identified model [µm]",
+                         columns=["E_VX", "E_VY", "E_VZ", "E_VXYZ", "E_VXYZ range", "grid"],
+                         rows=[[_n(vol.get("E_VX")), _n(vol.get("E_VY")), _n(vol.get("E_VZ")),
+                                _n(vol.get("E_VXYZ")), _n(vol.get("E_VXYZ_range")),
+                                f"{vol.get('n')}³ points"]]))
+    if res.get("skipped"):
+        out.append(Block("note", text="Not evaluated: " + "; ".join(
+            f"{k} ({v})" for k, v in res["skipped"].items())))
+    return out
+
+
+def _budget_blocks(mid: str, b: dict[str, Any]) -> list[Block]:
+    contrib = b.get("contributors") or b.get("components") or []
+    out = []
+    head = ", ".join(f"{k} = {_n(b[k], 3) if isinstance(b[k], float) else b[k]}"
+                     for k in ("measurand", "quantity", "u_um", "u_c_um", "dof", "nu_eff", "k",
+                               "U_um") if b.get(k) is not None)
+    if contrib and isinstance(contrib, list) and isinstance(contrib[0], dict):
+        cols: list[str] = []
+        for c in contrib:
+            cols += [k for k in c if k not in cols]
+        out.append(Block("table", title=f"Uncertainty budget, {mid}" + (f" ({head})"
+                                                                         if head else ""),
+                         columns=cols, rows=[[_n(c.get(k), 4) if isinstance(c.get(k), float)
+                                              else _or(c.get(k), "–") for k in cols]
+                                             for c in contrib]))
+    elif head:
+        out.append(Block("p", text=f"Uncertainty budget, {mid}: {head}"))
+    return out

@@ -29,22 +29,79 @@ def _print_json(obj: Any) -> None:
     typer.echo(json.dumps(obj, indent=2))
 
 
-def _iso_tables(res: Any, title: str) -> None:
+def _iso_tables(res: Any, title: str, unc: Any = None) -> None:
     t = Table(title=f"{title} (ISO 230-2:{res.edition})")
     t.add_column("parameter")
     t.add_column("value [um]", justify="right")
+    if unc is not None:
+        t.add_column("U [um]", justify="right")
+        t.add_column("k", justify="right")
     for k, label in _AXIS_LABELS.items():
-        t.add_row(label, f"{getattr(res, k):.3f}")
+        row = [label, f"{getattr(res, k):.3f}"]
+        if unc is not None:
+            e = unc.parameters[k]
+            row += [f"{e.U:.3f}", f"{e.k:.2f}"]
+        t.add_row(*row)
     console.print(t)
     tt = Table(title="per target [um]")
-    for c in ("target [mm]", "x̄↑", "x̄↓", "x̄", "s↑", "s↓", "B_i", "R↑", "R↓", "R_i"):
+    cols = ["target [mm]", "x̄↑", "x̄↓", "x̄", "s↑", "s↓", "B_i", "R↑", "R↓", "R_i"]
+    if unc is not None:
+        cols.append("U(x̄)")
+    for c in cols:
         tt.add_column(c, justify="right")
-    for row in res.targets.rows():
-        tt.add_row(*[f"{row[k]:.3f}" for k in ("target_mm", "mean_up", "mean_down", "mean",
-                                               "s_up", "s_down", "B", "R_up", "R_down", "R")])
+    for i, row in enumerate(res.targets.rows()):
+        cells = [f"{row[k]:.3f}" for k in ("target_mm", "mean_up", "mean_down", "mean",
+                                            "s_up", "s_down", "B", "R_up", "R_down", "R")]
+        if unc is not None:
+            cells.append(f"{unc.targets[i].U:.3f}")
+        tt.add_row(*cells)
     console.print(tt)
     for w in res.warnings:
         console.print(f"[yellow]warning:[/] {escape(w)}", highlight=False)
+
+
+def _budget_table(unc: Any, corrections: dict[str, Any]) -> None:
+    r = unc.reading
+    t = Table(title=f"uncertainty budget: mean deviation at {unc.length_mm:g} mm from the "
+              f"datum ({unc.datum_mm:g} mm)")
+    for c in ("contributor", "distribution", "u(x)", "unit", "c", "u_i [um]", "dof",
+              "share"):
+        t.add_column(c, justify="right")
+    for c in r.components:
+        t.add_row(escape(c.label), c.distribution,
+                  "" if c.u_input is None else f"{c.u_input:.3g}", escape(c.unit),
+                  "" if c.sensitivity is None else f"{c.sensitivity:.4g}", f"{c.u:.4f}",
+                  "inf" if c.dof == float("inf") else f"{c.dof:g}", f"{100 * c.share:.1f} %")
+    dof = "inf" if r.dof == float("inf") else f"{r.dof:.1f}"
+    t.add_row("combined", "", "", "", "", f"{r.u:.4f}", dof, "100 %")
+    console.print(t)
+    console.print(f"U = k u = {r.k:.3f} × {r.u:.4f} = {r.U:.4f} um (95 % coverage, k from "
+                  f"the effective degrees of freedom {dof})", highlight=False)
+    console.print(f"note: {escape(corrections['text'])}", highlight=False)
+    for n in unc.notes:
+        console.print(f"note: {escape(n)}", highlight=False)
+
+
+def _iso_decisions(res: Any, unc: Any, tolerance_um: str, rule: str,
+                   guard_band_um: float | None) -> dict[str, Any]:
+    """Decisions of every toleranced parameter; the combined verdict and the rule."""
+    from volcal.errors import VolcalInputError
+    from volcal.standards.decision import RULE_TEXT, combine, decide
+    from volcal.standards.tolerance import parse_parameter_tolerance
+
+    tols = parse_parameter_tolerance(tolerance_um)
+    if rule == "guarded" and unc is None and guard_band_um is None:
+        raise VolcalInputError("--decision-rule guarded needs the expanded uncertainty "
+                               "(--budget FILE) or a guard band (--guard-band-um W)",
+                               column="--decision-rule")
+    ds = []
+    for k, tol in tols.items():
+        v = abs(float(getattr(res, k)))
+        d = decide(v, tol, rule, None if unc is None else unc.parameters[k].U, guard_band_um)
+        ds.append({"parameter": k, **d.to_dict(),
+                   "U_um": None if unc is None else unc.parameters[k].U})
+    return {"verdict": combine([d["verdict"] for d in ds]), "verdicts": ds,
+            "decision_rule": {"name": rule, "text": RULE_TEXT[rule]}}
 
 
 @evaluate_app.command("iso230-2")
@@ -53,20 +110,85 @@ def iso230_2_cmd(
                                 "session measurement CSV of a linear test."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
     edition: str = typer.Option("2014", help="ISO 230-2 edition: 2014, 2006, 1997, 1988."),
+    budget: Path | None = typer.Option(None, help="Uncertainty budget (TOML, `volcal budget "
+                                       "--template`): U of every parameter and target, "
+                                       "readings referred to 20 C with [material]."),
+    tolerance_um: str | None = typer.Option(
+        None, help="Tolerance [um]: a number (on the accuracy A) or A=..,E=..,R=.. per "
+        "ISO 230-2 parameter; prints a verdict."),
+    decision_rule: str = typer.Option("simple", help="simple (pass when value <= T) or "
+                                      "guarded (pass at or below T - w, conditional up to "
+                                      "T; w = U or --guard-band-um)."),
+    guard_band_um: float | None = typer.Option(None, help="Guard band w of the guarded "
+                                               "rule [um] (default: U of the parameter)."),
 ) -> None:
     """Positioning accuracy and repeatability of one axis (ISO 230-2)."""
+    from volcal.standards.decision import check_rule
     from volcal.standards.iso230_2 import evaluate
     from volcal.standards.positioning_data import read_positioning_csv
 
+    rule = check_rule(decision_rule)
+    if guard_band_um is not None and rule != "guarded":
+        from volcal.errors import VolcalInputError
+
+        raise VolcalInputError("--guard-band-um applies to --decision-rule guarded",
+                               column="--guard-band-um")
+    b = None
+    if budget is not None:
+        from volcal.uncertainty.budget import read_budget
+
+        b = read_budget(budget)
     d = read_positioning_csv(file)
-    res = evaluate(d.targets_mm, d.run, d.direction, d.deviation_um, edition, file=d.file,
-                   rows=d.rows)
+    unc = corrections = None
+    if b is not None:
+        from volcal.standards.iso230_2_uncertainty import evaluate_with_budget
+
+        res, unc, corrections = evaluate_with_budget(d, b, edition)
+    else:
+        res = evaluate(d.targets_mm, d.run, d.direction, d.deviation_um, edition,
+                       file=d.file, rows=d.rows)
+    dec = None if tolerance_um is None else _iso_decisions(res, unc, tolerance_um, rule,
+                                                           guard_band_um)
     if as_json:
         out = res.to_dict()
         out["file"] = str(file)
+        if unc is not None:
+            ud = unc.to_dict()
+            for i, row in enumerate(out["targets"]):
+                e = unc.targets[i]
+                row.update({"U_um": e.U, "u_um": e.u, "k": e.k,
+                            "dof": None if e.dof == float("inf") else e.dof})
+            out.update(ud)
+            out["budget_file"] = str(budget)
+            out["corrections"] = corrections
+        if dec is not None:
+            out.update(dec)
         _print_json(out)
-    else:
-        _iso_tables(res, str(file))
+        return
+    _iso_tables(res, str(file), unc)
+    if unc is not None:
+        _budget_table(unc, corrections)
+    if dec is not None:
+        _print_iso_decisions(dec)
+
+
+def _print_iso_decisions(dec: dict[str, Any]) -> None:
+    colour = {"pass": "green", "fail": "red", "conditional": "yellow"}
+    t = Table(title=f"verdict, decision rule: {dec['decision_rule']['name']}")
+    for c in ("parameter", "value [um]", "tolerance [um]", "U [um]", "T - w [um]",
+              "verdict"):
+        t.add_column(c, justify="right")
+    for d in dec["verdicts"]:
+        t.add_row(d["parameter"], f"{d['value_um']:.3f}", f"{d['tolerance_um']:g}",
+                  "-" if d["U_um"] is None else f"{d['U_um']:.3f}",
+                  f"{d['acceptance_limit_um']:.3f}",
+                  f"[{colour[d['verdict']]}]{d['verdict']}[/]")
+    console.print(t)
+    console.print(f"verdict: {dec['verdict']} (decision rule: "
+                  f"{escape(dec['decision_rule']['text'])})", highlight=False)
+    for d in dec["verdicts"]:
+        if d["note"]:
+            console.print(f"note ({d['parameter']}): {escape(d['note'])}", highlight=False)
 
 
 @evaluate_app.command("vdi3441")

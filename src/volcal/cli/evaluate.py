@@ -257,6 +257,14 @@ def session_cmd(
     compensation: Path | None = typer.Option(None, help="Folder written by `volcal "
                                              "compensate` from --model: the verdict after "
                                              "applying exactly what its tables carry."),
+    decision_rule: str = typer.Option("simple", help="simple (pass when value <= T) or "
+                                      "guarded (pass at or below T - w, conditional up to "
+                                      "T; w = U from --budget, or --guard-band-um)."),
+    guard_band_um: float | None = typer.Option(None, help="Guard band w of the guarded "
+                                               "rule [um]."),
+    budget: Path | None = typer.Option(None, help="Uncertainty budget (TOML): U of the "
+                                       "toleranced ISO 230-2 parameters (readings referred "
+                                       "to 20 C with [material])."),
 ) -> None:
     """ISO 230-2 for every linear measurement with runs and directions; ELv (seed 002)."""
     from volcal.errors import VolcalInputError
@@ -264,6 +272,7 @@ def session_cmd(
     from volcal.standards.session import evaluate_session
 
     tol = _tolerance_inputs(tolerance_um, model, compensation)
+    tol = (_acceptance(tol[0], decision_rule, guard_band_um, budget), tol[1], tol[2])
     s = read_session(session)
     print_session_notes(s)
     ev = evaluate_session(s, edition=edition)
@@ -303,6 +312,31 @@ def session_cmd(
         _print_verdict(verdict, tol[1] is not None)
 
 
+def _acceptance(tol: Any, decision_rule: str, guard_band_um: float | None,
+                budget: Path | None) -> Any:
+    """The tolerance with its decision rule, guard band and budget (checked)."""
+    from dataclasses import replace
+
+    from volcal.errors import VolcalInputError
+    from volcal.standards.decision import check_rule
+
+    rule = check_rule(decision_rule)
+    if guard_band_um is not None and rule != "guarded":
+        raise VolcalInputError("--guard-band-um applies to --decision-rule guarded",
+                               column="--guard-band-um")
+    if tol is None:
+        if rule != "simple" or budget is not None:
+            raise VolcalInputError("--decision-rule and --budget judge a tolerance: give "
+                                   "--tolerance-um too")
+        return None
+    b = None
+    if budget is not None:
+        from volcal.uncertainty.budget import read_budget
+
+        b = read_budget(budget)
+    return replace(tol, rule=rule, guard_band_um=guard_band_um, budget=b)
+
+
 def _tolerance_inputs(tolerance_um: str | None, model: Path | None,
                       compensation: Path | None) -> tuple[Any, Any, Any]:
     """Parse the tolerance and read the model and the tables' manifest (or None)."""
@@ -340,20 +374,40 @@ def _verdicts(tol: tuple[Any, Any, Any], s: Any, edition: str) -> Any:
 
 
 def _print_verdict(verdict: Any, has_model: bool) -> None:
-    t = Table(title="tolerance verdict [um]")
-    for c in ("quantity", "tolerance", "before", "", "after", ""):
+    from volcal.standards.decision import RULE_TEXT
+
+    rule = verdict[0].rule if verdict else "simple"
+    guarded = rule == "guarded"
+    t = Table(title=f"tolerance verdict [um], decision rule: {rule}")
+    cols = ["quantity", "tolerance", "before", "", "after", ""]
+    if guarded:
+        cols[3:3] = ["U / w"]
+        cols.append("U / w")
+    for c in cols:
         t.add_column(c, justify="right")
 
     def cell(v: Any) -> str:
         return "-" if v is None else f"{v:.3f}"
 
     def word(w: str) -> str:
-        return {"pass": "[green]pass[/]", "FAIL": "[red]FAIL[/]"}.get(w, w)
+        return {"pass": "[green]pass[/]", "fail": "[red]fail[/]",
+                "conditional": "[yellow]conditional[/]"}.get(w, w)
 
     for v in verdict:
-        t.add_row(escape(v.quantity), f"{v.tolerance_um:g}", cell(v.before_um), word(v.before),
-                  cell(v.after_um), word(v.after))
+        row = [escape(v.quantity), f"{v.tolerance_um:g}", cell(v.before_um), word(v.before),
+               cell(v.after_um), word(v.after)]
+        if guarded:
+            w = v.guard_band_um
+            row[3:3] = [cell(w if w is not None else v.U_before_um)]
+            row.append(cell(w if w is not None else v.U_after_um))
+        t.add_row(*row)
     console.print(t)
+    console.print(f"decision rule: {escape(RULE_TEXT[rule])}", highlight=False)
+    for v in verdict:
+        for d in (v.decision(v.before_um, v.U_before_um), v.decision(v.after_um, v.U_after_um)):
+            if d is not None and d.note:
+                console.print(f"note ({escape(v.quantity)}): {escape(d.note)}",
+                              highlight=False)
     if not any(v.after_um is not None for v in verdict):
         console.print("no verdict after compensation: give --model MODEL.json and "
                       "--compensation FOLDER" if not has_model else

@@ -29,9 +29,17 @@ def report_cmd(
     tolerance_um: str | None = typer.Option(
         None, help="Tolerance for a pass/fail verdict before and after compensation [um]: "
         "a number (largest volumetric error), X=10,Y=10,Z=8 (ISO 230-2 accuracy A per "
-        "axis) or both (X=10,Y=10,Z=8,V=15)."),
+        "axis) or both (X=10,Y=10,Z=8,V=15); X.E=.. for another ISO 230-2 parameter."),
+    decision_rule: str = typer.Option("simple", help="simple (pass when value <= T) or "
+                                      "guarded (pass at or below T - w, conditional up to "
+                                      "T; w = U from --budget, or --guard-band-um)."),
+    guard_band_um: float | None = typer.Option(None, help="Guard band w of the guarded "
+                                               "rule [um]."),
+    budget: Path | None = typer.Option(None, help="Uncertainty budget (TOML): U of the "
+                                       "toleranced ISO 230-2 parameters."),
 ) -> None:
     """Write the calibration report of a session as self-contained HTML and as PDF."""
+    from volcal.cli.evaluate import _acceptance
     from volcal.io.paths import check_output_folder
     from volcal.report.pipeline import collect_inputs
     from volcal.report.sections import build_report
@@ -40,6 +48,7 @@ def report_cmd(
     from volcal.standards.tolerance import parse_tolerance
 
     tol = None if tolerance_um is None else parse_tolerance(tolerance_um)
+    tol = _acceptance(tol, decision_rule, guard_band_um, budget)
     check_output_folder(output, "report", lambda p: (p / "report.html").is_file())
     s = read_session(session)
     print_session_notes(s)

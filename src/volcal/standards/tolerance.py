@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 from volcal.errors import VolcalInputError
 from volcal.standards.decision import Decision, decide
@@ -99,11 +100,22 @@ class Tolerance:
         ISO 230-2 accuracy ``A`` per axis (``'X'``, ``'Y'``, ``'Z'``) [um].
     parameters : dict of str to dict of str to float
         Other ISO 230-2 parameters per axis, ``{'X': {'E': 6.0}}`` [um].
+    rule : str
+        Decision rule, ``'simple'`` (default) or ``'guarded'``
+        (:mod:`volcal.standards.decision`).
+    guard_band_um : float or None
+        Guard band of the guarded rule [um] (default: the expanded uncertainty U).
+    budget : Budget or None
+        Uncertainty budget (:mod:`volcal.uncertainty.budget`) giving U of the ISO 230-2
+        parameters.
     """
 
     volumetric_um: float | None = None
     axis_um: dict[str, float] = field(default_factory=dict)
     parameters: dict[str, dict[str, float]] = field(default_factory=dict)
+    rule: str = "simple"
+    guard_band_um: float | None = None
+    budget: Any = None
 
     def text(self) -> str:
         """The tolerance as written on the command line."""

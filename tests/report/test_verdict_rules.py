@@ -1,0 +1,49 @@
+"""`evaluate session` and the report's verdict with a named decision rule and X.E=.."""
+
+import json
+
+import pytest
+from test_compensation_residual import A, _cli, _linear_session
+
+from volcal.session.format import write_session
+
+A_X = A * (795**2 - 5**2) + 2.0     # hand-worked ISO 230-2 A of the session (65.2 um)
+
+
+@pytest.fixture(scope="module")
+def session(tmp_path_factory):
+    p = tmp_path_factory.mktemp("s") / "s"
+    s, _ = _linear_session(2.0)
+    write_session(s, p)
+    return p
+
+
+def test_guarded_rule_and_other_parameters(session, tmp_path):
+    r = _cli("evaluate", "session", str(session), "--json", "--tolerance-um",
+             "X=70,X.B=2.5", "--decision-rule", "guarded", "--guard-band-um", "6")
+    assert r.returncode == 0, r.stderr
+    a, b = json.loads(r.stdout)["verdict"]
+    assert a["quantity"].startswith("X: ISO 230-2 A") and a["before_um"] == pytest.approx(A_X)
+    assert a["before"] == "conditional" and a["rule"] == "guarded" and a["after"] is None
+    assert b["quantity"].startswith("X: ISO 230-2 B") and b["before_um"] == pytest.approx(2.0)
+    assert b["before"] == "conditional"      # 2 > 2.5 - 6: no pass possible
+    assert "no pass is possible" in b["notes"][0]
+    r = _cli("evaluate", "session", str(session), "--tolerance-um", "X=70")
+    assert r.returncode == 0 and "decision rule: simple" in r.stdout
+    # guarded with a budget: U of A from it (noise-free readings: the systematic terms)
+    budget = tmp_path / "b.toml"
+    assert _cli("budget", "--template", "-o", str(budget)).returncode == 0
+    r = _cli("evaluate", "session", str(session), "--json", "--tolerance-um", "X=70",
+             "--decision-rule", "guarded", "--budget", str(budget))
+    assert r.returncode == 0, r.stderr
+    (v,) = json.loads(r.stdout)["verdict"]
+    assert 0 < v["U_before_um"] < 5 and v["before"] == ("pass" if A_X <= 70 - v["U_before_um"]
+                                                        else "conditional")
+    r = _cli("evaluate", "session", str(session), "--tolerance-um", "X=70",
+             "--decision-rule", "guarded")
+    assert r.returncode == 2 and "--budget" in r.stderr and "Traceback" not in r.stderr
+
+
+def test_guarded_rule_needs_a_tolerance(session):
+    r = _cli("evaluate", "session", str(session), "--decision-rule", "guarded")
+    assert r.returncode == 2 and "--tolerance-um" in r.stderr

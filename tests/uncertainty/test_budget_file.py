@@ -71,3 +71,14 @@ def test_unknown_section_and_bad_toml(tmp_path):
     assert exc.value.file == str(f)
     with pytest.raises(VolcalInputError, match="no such budget file"):
         read_budget(tmp_path / "none.toml")
+
+
+def test_gtc_is_loaded_only_when_used():
+    import subprocess
+    import sys
+
+    code = ("import sys, volcal, volcal.cli, volcal.uncertainty.budget, "
+            "volcal.standards.tolerance, volcal.standards.decision; "
+            "print(any(m.split('.')[0] == 'GTC' for m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert out.returncode == 0 and out.stdout.strip() == "False", out.stderr

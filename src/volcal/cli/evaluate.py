@@ -217,29 +217,62 @@ def vdi3441_cmd(
 def iso230_6_cmd(
     session: Path = typer.Argument(..., help="Session folder."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
+    budget: Path | None = typer.Option(None, help="Uncertainty budget (TOML): U of E_D "
+                                       "(and of the ISO 230-2 parameters of bidirectional "
+                                       "diagonals), readings referred to 20 C first."),
 ) -> None:
     """Diagonal displacement tests of a session (ISO 230-6), each diagonal."""
     from volcal.errors import VolcalInputError
     from volcal.session.format import read_session
     from volcal.standards.iso230_6 import evaluate_diagonal
 
+    b = None
+    if budget is not None:
+        from volcal.uncertainty.budget import read_budget
+
+        b = read_budget(budget)
     s = read_session(session)
     print_session_notes(s)
-    res = [evaluate_diagonal(m) for m in s.measurements if m.kind == "diagonal"]
-    if not res:
+    diags = [m for m in s.measurements if m.kind == "diagonal"]
+    if not diags:
         raise VolcalInputError("no diagonal measurements in the session", session)
+    if b is None:
+        res = [evaluate_diagonal(m) for m in diags]
+        unc: list[Any] = [None] * len(res)
+    else:
+        from volcal.standards.iso230_6_uncertainty import evaluate_diagonal_with_budget
+
+        pairs = [evaluate_diagonal_with_budget(m, b) for m in diags]
+        res, unc = [p[0] for p in pairs], [p[1] for p in pairs]
     if as_json:
-        _print_json({"diagonals": [r.to_dict() for r in res],
-                     "max_E_D": max(r.E_D for r in res)})
+        out_d = []
+        for r, u in zip(res, unc, strict=True):
+            d = r.to_dict()
+            if u is not None:
+                d.update(u.to_dict())
+                if u.iso230_2 is not None:
+                    d["iso230_2"].update({k: v for k, v in u.iso230_2.to_dict().items()
+                                          if k.startswith("U_") or k == "k"})
+            out_d.append(d)
+        _print_json({"diagonals": out_d, "max_E_D": max(r.E_D for r in res)})
         return
     t = Table(title=f"{session}: ISO 230-6 diagonal displacement")
-    for c in ("id", "diagonal", "length [mm]", "E_D [um]", "max |dev| [um]", "R [um]"):
+    cols = ["id", "diagonal", "length [mm]", "E_D [um]", "max |dev| [um]", "R [um]"]
+    if b is not None:
+        cols.insert(4, "U(E_D) [um]")
+    for c in cols:
         t.add_column(c, justify="right")
-    for r in res:
+    for r, u in zip(res, unc, strict=True):
         rr = "" if r.iso230_2 is None else f"{r.iso230_2.R:.3f}"
-        t.add_row(r.id, (r.plane + " " if r.plane else "") + r.diagonal, f"{r.length_mm:.1f}",
-                  f"{r.E_D:.3f}", f"{r.max_abs_um:.3f}", rr)
+        row = [r.id, (r.plane + " " if r.plane else "") + r.diagonal, f"{r.length_mm:.1f}",
+               f"{r.E_D:.3f}", f"{r.max_abs_um:.3f}", rr]
+        if u is not None:
+            row.insert(4, f"{u.E_D.U:.3f}")
+        t.add_row(*row)
     console.print(t)
+    notes = sorted({n for u in unc if u is not None for n in u.notes})
+    for n in notes:
+        console.print(f"note: {escape(n)}", highlight=False)
 
 
 @evaluate_app.command("session")

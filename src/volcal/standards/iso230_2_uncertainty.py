@@ -155,14 +155,21 @@ def iso230_2_uncertainty(res: Any, budget: Budget, datum_mm: float | None = None
     nu, nd = _n(t.n_up, m), _n(t.n_down, m)
     L = t.target_mm - datum
 
+    notes: list[str] = []
+
     def mean(label: str, x: float, s: float, n: float) -> Any:
-        return prop.input(f"repeatability ({label})", x, s / math.sqrt(n),
-                          max(n - 1.0, 1.0), unit="um")
+        if not (math.isfinite(s) and n >= 2):
+            notes.append(f"a target with {n:g} run(s) in direction {label}: no "
+                         "repeatability term there (a standard deviation needs two runs)")
+            return prop.input(f"repeatability ({label})", x, 0.0)
+        return prop.input(f"repeatability ({label})", x, s / math.sqrt(n), n - 1.0,
+                          unit="um")
 
     def sdev(label: str, s: float, n: float) -> Any:
+        if not (math.isfinite(s) and n >= 2):
+            return prop.input(f"standard deviation s ({label})", 0.0, 0.0)
         return prop.input(f"standard deviation s ({label})", s,
-                          s / math.sqrt(2.0 * max(n - 1.0, 1.0)), max(n - 1.0, 1.0),
-                          unit="um")
+                          s / math.sqrt(2.0 * (n - 1.0)), n - 1.0, unit="um")
 
     mu, md, su, sd = [], [], [], []
     for i in range(m):
@@ -201,7 +208,7 @@ def iso230_2_uncertainty(res: Any, budget: Budget, datum_mm: float | None = None
     params = {k: prop.estimate(expr[k]) for k in AXIS_KEYS}
     targets = [prop.estimate(v) for v in mid]
     far = int(np.argmax(np.abs(L)))
-    notes = list(budget.notes)
+    notes = list(budget.notes) + sorted(set(notes))
     notes.append(f"datum (laser zeroed) at {datum:g} mm"
                  + ("" if budget.values.get("setup.datum_mm") is not None
                     else " (the lowest target; set [setup] datum_mm otherwise)"))

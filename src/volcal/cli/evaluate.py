@@ -100,7 +100,7 @@ def _iso_decisions(res: Any, unc: Any, tolerance_um: str, rule: str,
         d = decide(v, tol, rule, None if unc is None else unc.parameters[k].U, guard_band_um)
         ds.append({"parameter": k, **d.to_dict(),
                    "U_um": None if unc is None else unc.parameters[k].U})
-    return {"verdict": combine([d["verdict"] for d in ds]), "verdicts": ds,
+    return {"verdict": combine([d["verdict"] for d in ds]), "verdicts": ds, "rule": rule,
             "decision_rule": {"name": rule, "text": RULE_TEXT[rule]}}
 
 
@@ -320,7 +320,11 @@ def session_cmd(
                                                 for k, v in results.items()},
                                "ELv": elv_val, "skipped": skipped}
         if verdict is not None:
+            from volcal.standards.decision import RULE_TEXT
+
             out["verdict"] = [v.to_dict() for v in verdict]
+            rule = tol[0].rule
+            out["decision_rule"] = {"name": rule, "text": RULE_TEXT[rule]}
         _print_json(out)
         return
     t = Table(title=f"{session}: ISO 230-2:{edition} [um]")

@@ -1,13 +1,31 @@
 """`evaluate session` and the report's verdict with a named decision rule and X.E=.."""
 
 import json
+import sys
+from types import SimpleNamespace
 
 import pytest
-from test_compensation_residual import A, _cli, _linear_session
+from test_compensation_residual import A, _linear_session
 
+from volcal.cli import main
 from volcal.session.format import write_session
 
 A_X = A * (795**2 - 5**2) + 2.0     # hand-worked ISO 230-2 A of the session (65.2 um)
+
+
+@pytest.fixture
+def _cli(monkeypatch, capsys):
+    """Run the CLI in-process (a subprocess costs seconds on the shared box)."""
+    def run(*args):
+        monkeypatch.setattr(sys, "argv", ["volcal", *args])
+        code = 0
+        try:
+            main()
+        except SystemExit as exc:
+            code = exc.code or 0
+        out = capsys.readouterr()
+        return SimpleNamespace(returncode=code, stdout=out.out, stderr=out.err)
+    return run
 
 
 @pytest.fixture(scope="module")
@@ -18,7 +36,7 @@ def session(tmp_path_factory):
     return p
 
 
-def test_guarded_rule_and_other_parameters(session, tmp_path):
+def test_guarded_rule_and_other_parameters(session, tmp_path, _cli):
     r = _cli("evaluate", "session", str(session), "--json", "--tolerance-um",
              "X=70,X.B=2.5", "--decision-rule", "guarded", "--guard-band-um", "6")
     assert r.returncode == 0, r.stderr
@@ -44,6 +62,6 @@ def test_guarded_rule_and_other_parameters(session, tmp_path):
     assert r.returncode == 2 and "--budget" in r.stderr and "Traceback" not in r.stderr
 
 
-def test_guarded_rule_needs_a_tolerance(session):
+def test_guarded_rule_needs_a_tolerance(session, _cli):
     r = _cli("evaluate", "session", str(session), "--decision-rule", "guarded")
     assert r.returncode == 2 and "--tolerance-um" in r.stderr

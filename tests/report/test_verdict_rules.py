@@ -65,3 +65,19 @@ def test_guarded_rule_and_other_parameters(session, tmp_path, _cli):
 def test_guarded_rule_needs_a_tolerance(session, _cli):
     r = _cli("evaluate", "session", str(session), "--decision-rule", "guarded")
     assert r.returncode == 2 and "--tolerance-um" in r.stderr
+
+
+def test_session_budget_gives_U_of_every_linear_test(session, tmp_path, _cli):
+    budget = tmp_path / "b.toml"
+    assert _cli("budget", "--template", "-o", str(budget)).returncode == 0
+    r = _cli("evaluate", "session", str(session), "--json", "--budget", str(budget))
+    assert r.returncode == 0, r.stderr
+    d = json.loads(r.stdout)
+    (m,) = d["measurements"].values()
+    assert m["A"] == pytest.approx(A_X, abs=0.01)
+    # noise-free readings: U of R is zero, U of A and E from the systematic terms only,
+    # k = 2; the extremes are at most 790 mm apart and the template's systematic u is
+    # 0.72 um per metre (docs/uncertainty.md), so U(E) < 2 x 0.79 x 0.8 um
+    assert m["U_R"] < 1e-9 and m["k"] == pytest.approx(2.0)
+    assert 0 < m["U_E"] < 2 * 0.79 * 0.8 and all(t["U_um"] >= 0 for t in m["targets"])
+    assert "referred to 20 °C" in d["corrections"]

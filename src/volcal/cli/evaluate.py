@@ -295,9 +295,10 @@ def session_cmd(
                                       "T; w = U from --budget, or --guard-band-um)."),
     guard_band_um: float | None = typer.Option(None, help="Guard band w of the guarded "
                                                "rule [um]."),
-    budget: Path | None = typer.Option(None, help="Uncertainty budget (TOML): U of the "
-                                       "toleranced ISO 230-2 parameters (readings referred "
-                                       "to 20 C with [material])."),
+    budget: Path | None = typer.Option(None, help="Uncertainty budget (TOML): U of every "
+                                       "ISO 230-2 parameter of every linear test, readings "
+                                       "referred to 20 C with [material]; the guard band "
+                                       "of the guarded rule."),
 ) -> None:
     """ISO 230-2 for every linear measurement with runs and directions; ELv (seed 002)."""
     from volcal.errors import VolcalInputError
@@ -315,10 +316,31 @@ def session_cmd(
         raise VolcalInputError("no linear measurement with run and direction columns", session)
     elv_val = None if ev.elv is None else ev.elv["ELv"]
     verdict = _verdicts(tol, s, edition)
+    uncs: dict[str, Any] = {}
+    corr_text = ""
+    if budget is not None:
+        from volcal.standards.iso230_2_uncertainty import evaluate_with_budget
+        from volcal.standards.positioning_data import from_measurement
+        from volcal.uncertainty.budget import read_budget
+
+        b = tol[0].budget if tol[0] is not None else read_budget(budget)
+        by_id = {m.id: m for m in s.measurements}
+        for k in list(results):
+            res, uncs[k], corr = evaluate_with_budget(from_measurement(by_id[k], s.path), b,
+                                                      edition)
+            results[k] = res
+            corr_text = corr["text"].split("; correction at")[0]
     if as_json:
         out: dict[str, Any] = {"measurements": {k: {"axis": axis_of[k], **v.to_dict()}
                                                 for k, v in results.items()},
                                "ELv": elv_val, "skipped": skipped}
+        for k, u in uncs.items():
+            entry = out["measurements"][k]
+            entry.update(u.to_dict())
+            for i, row in enumerate(entry["targets"]):
+                row["U_um"] = u.targets[i].U
+        if uncs:
+            out["corrections"] = corr_text
         if verdict is not None:
             from volcal.standards.decision import RULE_TEXT
 
@@ -328,12 +350,21 @@ def session_cmd(
         _print_json(out)
         return
     t = Table(title=f"{session}: ISO 230-2:{edition} [um]")
-    for c in ("id", "axis", "A", "E", "M", "R", "B", "B_mean"):
+    cols = ["id", "axis", "A", "E", "M", "R", "B", "B_mean"]
+    if uncs:
+        cols += ["U(A)", "U(E)", "U(R)"]
+    for c in cols:
         t.add_column(c, justify="right")
     for k, r in results.items():
-        t.add_row(k, axis_of[k], *[f"{getattr(r, p):.3f}" for p in
-                                   ("A", "E", "M", "R", "B", "B_mean")])
+        row = [k, axis_of[k], *[f"{getattr(r, p):.3f}" for p in
+                                ("A", "E", "M", "R", "B", "B_mean")]]
+        if uncs:
+            row += [f"{uncs[k].parameters[p].U:.3f}" for p in ("A", "E", "R")]
+        t.add_row(*row)
     console.print(t)
+    if corr_text:
+        console.print(f"note: {escape(corr_text)}; U at 95 % (k from the effective degrees "
+                      "of freedom)", highlight=False)
     if elv_val is not None:
         console.print(f"ELv (seed 002: RSS of the positioning ranges M of the first line of "
                       f"each axis) = {elv_val:.3f} um")
@@ -362,9 +393,9 @@ def _acceptance(tol: Any, decision_rule: str, guard_band_um: float | None,
         raise VolcalInputError("--guard-band-um applies to --decision-rule guarded",
                                column="--guard-band-um")
     if tol is None:
-        if rule != "simple" or budget is not None:
-            raise VolcalInputError("--decision-rule and --budget judge a tolerance: give "
-                                   "--tolerance-um too")
+        if rule != "simple":
+            raise VolcalInputError("--decision-rule judges a tolerance: give --tolerance-um "
+                                   "too")
         return None
     b = None
     if budget is not None:

@@ -81,3 +81,25 @@ def test_session_budget_gives_U_of_every_linear_test(session, tmp_path, _cli):
     assert m["U_R"] < 1e-9 and m["k"] == pytest.approx(2.0)
     assert 0 < m["U_E"] < 2 * 0.79 * 0.8 and all(t["U_um"] >= 0 for t in m["targets"])
     assert "referred to 20 °C" in d["corrections"]
+
+
+def test_report_section_names_the_rule_and_the_guard_band(tmp_path):
+    from dataclasses import replace
+
+    from test_compensation_residual import TRAVEL, _exx_model, _summary
+
+    from volcal.report.sections import ReportInputs, compensation_section
+    from volcal.session.format import Session
+    from volcal.standards.tolerance import parse_tolerance
+
+    s, _ = _linear_session(2.0)
+    tol = replace(parse_tolerance("X=70"), rule="guarded", guard_band_um=10.0)
+    c = _summary(_exx_model(reversal_x=2.0), "csv", tmp_path, 25.0, tolerance=tol, session=s)
+    sec = compensation_section(ReportInputs(Session("m", "XYFZ", TRAVEL, []), compensation=c))
+    t = sec.tables[-1]
+    assert t.title == "Tolerance verdict (decision rule: guarded)"
+    assert t.columns[3] == "w before [µm]" and "guarded acceptance" in t.note
+    # A = 65.2 um before: between T - w = 60 and T = 70 -> conditional; after the pitch
+    # table A is a few um -> pass
+    assert t.rows[0][4] == "conditional" and t.rows[0][7] == "pass"
+    assert any("conformity not proven" in w for w in sec.warnings)

@@ -448,9 +448,17 @@ def compensation_section(inp: ReportInputs) -> Section | None:
         rule = c.verdicts[0].rule
         rows = [[v.quantity, fmt(v.tolerance_um), fmt(v.before_um), v.before,
                  fmt(v.after_um), v.after] for v in c.verdicts]
+        head = ["quantity", "tolerance [µm]", "before [µm]", "verdict before",
+                "after [µm]", "verdict after"]
+        if rule == "guarded":  # the guard band w (U, or --guard-band-um) of each value
+            for row, v in zip(rows, c.verdicts, strict=True):
+                gb = v.guard_band_um
+                row.insert(3, fmt(gb if gb is not None else v.U_before_um))
+                row.insert(6, fmt(gb if gb is not None else v.U_after_um))
+            head.insert(3, "w before [µm]")
+            head.insert(6, "w after [µm]")
         sec.tables.append(Table(
-            ["quantity", "tolerance [µm]", "before [µm]", "verdict before",
-             "after [µm]", "verdict after"], rows,
+            head, rows,
             f"Tolerance verdict (decision rule: {rule})",
             f"Decision rule: {RULE_TEXT[rule]}. Volumetric: largest |e| of the model; per "
             "axis: the "

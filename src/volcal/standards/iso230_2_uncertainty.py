@@ -152,7 +152,9 @@ def iso230_2_uncertainty(res: Any, budget: Budget, datum_mm: float | None = None
     prop = Propagator()
     laser = LaserModel(budget, prop)
     ke = EDITIONS[res.edition]
-    nu, nd = _n(t.n_up, m), _n(t.n_down, m)
+    # runs that reached each target (incomplete tests: fewer than the runs of the test)
+    nu = _n(t.n_up if getattr(t, "n_up_target", None) is None else t.n_up_target, m)
+    nd = _n(t.n_down if getattr(t, "n_down_target", None) is None else t.n_down_target, m)
     L = t.target_mm - datum
 
     notes: list[str] = []
@@ -243,8 +245,10 @@ def evaluate_with_budget(d: Any, budget: Budget, edition: str = "2014"
     datum = datum_of(d.targets_mm, budget)
     length = np.asarray(d.targets_mm, dtype=float) - datum
     corr = expected_correction_um(length, d.deviation_um, budget)
+    kw = d.evaluate_kwargs() if hasattr(d, "evaluate_kwargs") else {"file": d.file,
+                                                                     "rows": d.rows}
     res = evaluate(d.targets_mm, d.run, d.direction, np.asarray(d.deviation_um) + corr,
-                   edition, file=d.file, rows=d.rows)
+                   edition, **kw)
     unc = iso230_2_uncertainty(res, budget, datum)
     v = budget.values
     referred = bool(v["material.referred_to_20c"])

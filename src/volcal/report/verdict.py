@@ -142,7 +142,8 @@ def _evaluate(d: Any, deviation: Any, edition: str, budget: Any) -> tuple[Any, A
     from volcal.standards.iso230_2 import evaluate
 
     if budget is None:
-        return evaluate(d.targets_mm, d.run, d.direction, deviation, edition), None
+        kw = d.evaluate_kwargs() if hasattr(d, "evaluate_kwargs") else {}
+        return evaluate(d.targets_mm, d.run, d.direction, deviation, edition, **kw), None
     from volcal.standards.iso230_2_uncertainty import evaluate_with_budget
 
     res, unc, _ = evaluate_with_budget(replace(d, deviation_um=np.asarray(deviation)),

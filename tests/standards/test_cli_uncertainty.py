@@ -26,6 +26,9 @@ def test_template_to_file_never_overwrites(tmp_path, monkeypatch, capsys):
     assert f.read_text(encoding="utf-8") == TEMPLATE
     code, _, err = run_cli(monkeypatch, capsys, "budget", "--template", "-o", str(f))
     assert code == 2 and "overwrite" in err
+    g = tmp_path / "c.toml"                     # `budget --template FILE` writes FILE too
+    assert run_cli(monkeypatch, capsys, "budget", "--template", str(g))[0] == 0
+    assert g.read_text(encoding="utf-8") == TEMPLATE
     code, out, _ = run_cli(monkeypatch, capsys, "budget", str(f), "--length-mm", "500")
     assert code == 0 and "U = 2.00 u" in out
 

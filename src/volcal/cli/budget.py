@@ -8,12 +8,13 @@ import typer
 
 
 def budget_cmd(
-    file: Path | None = typer.Argument(None, help="Budget file (TOML) to check and show."),
+    file: Path | None = typer.Argument(None, help="Budget file (TOML) to check and show; "
+                                       "with --template, the file to write."),
     template: bool = typer.Option(False, "--template", help="Write the documented template "
                                   "(typical data-sheet defaults, stated as such)."),
     output: Path | None = typer.Option(None, "-o", "--output", help="With --template: "
                                        "write to this file (refuses to overwrite) instead "
-                                       "of printing."),
+                                       "of printing (same as giving FILE)."),
     length_mm: float = typer.Option(1000.0, help="With FILE: length from the datum of the "
                                     "budget shown [mm]."),
 ) -> None:
@@ -23,8 +24,9 @@ def budget_cmd(
     if template:
         from volcal.uncertainty.budget import template_text
 
-        if file is not None:
-            raise VolcalInputError("--template takes no FILE: use -o FILE to write it")
+        if file is not None and output is not None and file != output:
+            raise VolcalInputError("--template writes one file: give FILE or -o FILE")
+        output = output if output is not None else file
         if output is None:
             typer.echo(template_text(), nl=False)
             return

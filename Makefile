@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: all install test lint demo bench study clean browser-deps linuxcnc-deps
+.PHONY: all install test lint demo bench study clean browser-deps linuxcnc-deps postgres-deps
 
 all: test
 
@@ -35,7 +35,16 @@ linuxcnc-deps:
 	  DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends \
 	    linuxcnc-uspace || echo "linuxcnc-uspace not available: the rs274 tests will skip"; fi
 
-test: $(STAMP) browser-deps linuxcnc-deps
+# PostgreSQL server for the history tests (Debian package postgresql, run as root). The
+# test fixtures start a throw-away cluster as the unprivileged 'postgres' user the
+# package creates (PostgreSQL refuses to run as root); they skip with the reason only
+# where the package cannot be installed.
+postgres-deps:
+	@if ls /usr/lib/postgresql/*/bin/initdb >/dev/null 2>&1; then :; else \
+	  apt-get update -q && DEBIAN_FRONTEND=noninteractive apt-get install -y -q \
+	    --no-install-recommends postgresql || echo "postgresql not available: the PostgreSQL history tests will skip"; fi
+
+test: $(STAMP) browser-deps linuxcnc-deps postgres-deps
 	$(BIN)/python -m pytest
 
 lint: $(STAMP)

@@ -16,7 +16,7 @@ def _blocks() -> list[str]:
 
 def test_walkthrough_runs_and_writes_every_output(tmp_path):
     blocks = _blocks()
-    assert len(blocks) == 2
+    assert len(blocks) == 4  # flow, measured session, advise/program/import, tables
     assert len([ln for ln in blocks[0].splitlines() if ln.strip()]) <= 13
     script = "\n".join(blocks) + "\n"
     r = subprocess.run([sys.executable, "-c", script], cwd=tmp_path, capture_output=True,
@@ -26,9 +26,24 @@ def test_walkthrough_runs_and_writes_every_output(tmp_path):
     assert "model of VMC-400 (chain XYFZ, travel 0..400 x 0..300 x 0..200 mm)" in r.stdout
     assert re.search(r"ELv = \d+\.\d\d um \(measured\)", r.stdout)
     for f in ("session/session.toml", "session/truth/machine.csv", "model.json",
-              "compensation/volcal-compensation.toml", "report/report.html",
-              "report/report.pdf"):
+              "compensation/volcal-compensation.toml", "compensation/FANUC_PITCH.TXT",
+              "report/report.html", "report/report.pdf", "imported/session.toml"):
         assert (tmp_path / f).is_file(), f
+    import tomllib
+
+    man = tomllib.loads((tmp_path / "compensation/volcal-compensation.toml").read_text())
+    assert man["sign"] == "correction"  # Fanuc's own sign, never a silent "error"
+    html = (tmp_path / "report/report.html").read_text(encoding="utf-8")
+    assert "Compensation tables for the &#39;fanuc&#39; format were written" in html
+    assert "Tolerance verdict" in html  # tolerance_um=15 reached the report
+    # 4 body diagonals and 3 lines per axis, one program each
+    assert len(list((tmp_path / "programs").glob("*.ngc"))) == 4 + 9
+    assert "[0.  1.2 1.9 0.4]" in r.stdout  # the imported readings [um]
+    assert "mm (detected from the header)" in r.stdout
+    assert re.search(r"function\s+axis\s+position_mm\s+value\s+u\s+unit", r.stdout)
+    assert re.search(r"\d\s+EXX\s+X\s+0\.0\s+0\.0+\s+0\.0+\s+um", r.stdout)
+    assert re.search(r"id\s+axis\s+A_um\s+R_um\s+B_um", r.stdout)
+    assert "'target_mm':" in r.stdout and "'mean_up_um':" in r.stdout
 
 
 def test_import_volcal_is_light():

@@ -30,6 +30,7 @@ _LAZY = {
     "load_model": "volcal.identify",
     "IdentificationResult": "volcal.identify",
     "read_session": "volcal.session.format",
+    "History": "volcal.history.api",
 }
 
 __all__ = ["VolcalInputError", "__version__", *sorted(_LAZY)]

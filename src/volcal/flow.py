@@ -1,10 +1,14 @@
 """The calibration flow as a small library object.
 
-:class:`Calibration` chains plan -> simulate (or measure) -> identify -> evaluate ->
-compensate -> report on one session, each step one method, so that the whole flow is a
-few lines of Python (``docs/python.md``). The command line and the demo call the same
-functions. Heavy modules (the estimator, matplotlib) are imported only by the steps
-that need them.
+:class:`Calibration` chains plan -> advise -> program -> simulate (or measure, or
+import) -> identify -> evaluate -> compensate -> report on one session, each step one
+method, so that the whole flow is a few lines of Python (``docs/python.md``). The
+command line and the demo call the same functions, and the defaults of both come from
+:mod:`volcal.defaults` (``tests/test_defaults_parity.py`` compares them). Heavy modules
+(the estimator, matplotlib) are imported only by the steps that need them.
+
+Every mistake in a call (an unknown keyword, a value of the wrong shape or kind) is a
+:class:`~volcal.errors.VolcalInputError` naming the valid choices, as on the command line.
 
 Examples
 --------
@@ -16,14 +20,30 @@ Examples
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import warnings
+from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
+import numpy as np
 from numpy.typing import ArrayLike
 
-__all__ = ["Calibration"]
+from volcal import defaults as D
+from volcal import flowargs as A
+from volcal.errors import VolcalInputError
 
+if TYPE_CHECKING:
+    from volcal.identify import IdentifyOptions
+    from volcal.identify.identifiability import IdentifiabilityReport
+    from volcal.identify.result import IdentificationResult
+    from volcal.importer.laser_csv import ImportResult
+    from volcal.model.errorfunctions import MachineErrors
+    from volcal.report.verdict import Verdict
+    from volcal.report.writer import ReportFiles
+    from volcal.session.format import Session
+    from volcal.standards.session import SessionEvaluation
+
+__all__ = ["Calibration"]
 
 class Calibration:
     """One calibration: a session, its model and its evaluation.
@@ -40,21 +60,24 @@ class Calibration:
     session : Session
     truth : MachineErrors or None
     result : IdentificationResult or None
-        Set by :meth:`identify`.
+        Set by :meth:`identify` (or :meth:`load_model`).
     evaluation : SessionEvaluation or None
         Set by :meth:`evaluate`.
     compensation : Path or None
         Folder written by :meth:`compensate`.
+    imported : ImportResult or None
+        What :meth:`import_` read (notes on units and columns).
     """
 
-    def __init__(self, session: Any, truth: Any = None) -> None:
+    def __init__(self, session: Session, truth: MachineErrors | None = None) -> None:
         self.session = session
         self.truth = truth
-        self.result: Any = None
-        self.evaluation: Any = None
+        self.result: IdentificationResult | None = None
+        self.evaluation: SessionEvaluation | None = None
         self.compensation: Path | None = None
-        self._setups: Any = None
-        self._sim: Any = None
+        self.imported: ImportResult | None = None
+        self._setups: object = None
+        self._sim: object = None
 
     def __repr__(self) -> str:
         """Short description."""
@@ -65,27 +88,50 @@ class Calibration:
 
     # ------------------------------------------------------------------ build
     @classmethod
-    def plan(cls, travel: ArrayLike, chain: str = "XYFZ", steps: int = 10,
-             tests: Sequence[str] = ("step-diagonal", "diagonal", "linear"), runs: int = 5,
-             name: str = "VMC-1", **options: Any) -> Calibration:
-        """Plan the tests of a machine (no readings yet).
+    @A.checked
+    def plan(cls, travel: ArrayLike | str, chain: str = D.CHAIN, steps: int = D.PLAN_STEPS,
+             tests: str | Sequence[str] = D.PLAN_TESTS, runs: int = D.PLAN_RUNS,
+             name: str = D.PLAN_NAME, step_orders: str | Sequence[str] = ("xyz",),
+             tool_offset: ArrayLike | str = (0.0, 0.0, 0.0),
+             iso_spacing: bool = True, step_target: str = "flat_mirror",
+             overrun_mm: float = D.PROG_OVERRUN_MM, abbe_offset_mm: float = 150.0,
+             multilateration: Mapping[str, ArrayLike | float] | None = None) -> Calibration:
+        """Plan the tests of a machine (no readings yet), like ``volcal plan``.
 
         Parameters
         ----------
-        travel : array_like, shape (3, 2)
-            Travel limits [mm].
+        travel : array_like, shape (3, 2), or str
+            Travel limits [mm]: ``[[0, 800], [0, 600], [0, 500]]`` or
+            ``'0:800,0:600,0:500'``.
         chain : str
             Kinematic chain code (``'XYFZ'``...).
         steps : int
             Increments per test.
-        tests : sequence of str
-            ``'step-diagonal'``, ``'diagonal'``, ``'linear'``, ``'face-diagonal'``...
+        tests : sequence of str, or str
+            ``'step-diagonal'``, ``'diagonal'``, ``'linear'``, ``'face-diagonal'``,
+            ``'face-step-diagonal'``, ``'multilateration'``.
         runs : int
             Bidirectional runs per linear test (ISO 230-2).
         name : str
             Machine name.
-        **options
-            Other keywords of :func:`volcal.plan.planner.plan_session`.
+        step_orders : sequence of str, or str
+            Axis orders of the step diagonals (``'xyz'``, ``'yxz'``...).
+        tool_offset : array_like, shape (3,), or str
+            Target point on the tool [mm].
+        iso_spacing : bool
+            Unequally spaced linear-test targets (ISO 230-2:2014, 5.2).
+        step_target : str
+            ``'flat_mirror'``, ``'retroreflector'`` or ``'retroreflector_mirror'``.
+        overrun_mm : float
+            Linear-test targets kept this far inside the travel [mm].
+        abbe_offset_mm : float
+            Target offset from the spindle of the Abbe lines [mm].
+        multilateration : dict, optional
+            ``grid``, ``n_stations`` or ``stations`` [mm], ``tool_offsets`` [mm],
+            ``station_u_mm`` of a multilateration plan
+            (:func:`volcal.plan.multilateration.multilateration_tests`); the keys not
+            given take the command line's defaults (``--grid 9,7,6 --stations 4
+            --tool-offsets '0,0,-100;100,100,-100'``).
 
         Returns
         -------
@@ -93,10 +139,28 @@ class Calibration:
         """
         from volcal.plan.planner import plan_session
 
-        return cls(plan_session(travel, chain, steps, tuple(tests), runs, name=name,
-                                **options))
+        t = A.travel_mm(travel)
+        for key, v in (("steps", steps), ("runs", runs)):
+            if isinstance(v, bool) or not isinstance(v, int | np.integer):
+                raise VolcalInputError(f"Calibration.plan: {key}={v!r}: expected a whole "
+                                       "number")
+        ml: dict[str, ArrayLike | float] = {"grid": D.ML_GRID, "n_stations": D.ML_STATIONS,
+                                 "tool_offsets": D.ML_TOOL_OFFSETS_MM}
+        valid = ("grid", "n_stations", "stations", "tool_offsets", "station_u_mm")
+        for key in multilateration or {}:
+            if key not in valid:
+                raise A.unknown_option("Calibration.plan multilateration", key, valid)
+        ml.update(multilateration or {})
+        return cls(plan_session(t, chain, steps, tuple(A.name_list(tests, "tests")), runs,
+                                A.name_list(step_orders, "step_orders"),
+                                A.vector_mm(tool_offset, "tool_offset"), name,
+                                step_target=step_target, iso_spacing=iso_spacing,
+                                linear_margin_mm=overrun_mm,
+                                abbe_tool_offset_mm=abbe_offset_mm,
+                                multilateration=ml))
 
     @classmethod
+    @A.checked
     def open(cls, folder: str | Path) -> Calibration:
         """Open a session folder (``session.toml`` and its CSVs).
 
@@ -112,12 +176,158 @@ class Calibration:
         from volcal.report.pipeline import read_truth
         from volcal.session.format import read_session
 
-        s = read_session(folder)
+        try:  # measured: notes, missed captures and plausibility warnings as in the CLI
+            s = read_session(folder)
+        except VolcalInputError as exc:
+            if not exc.message.startswith("no readings yet"):
+                raise
+            s = read_session(folder, require_deviation=False)  # planned, no reading yet
         return cls(s, read_truth(s))
 
+    @classmethod
+    @A.checked
+    def import_(cls, csv_file: str | Path, map: str | Mapping[str, str],
+                session: str | Path, axis: str | None = None, id: str | None = None,
+                measurement: str | None = None, line_mm: ArrayLike | str = (0.0, 0.0, 0.0),
+                units: str = D.IMPORT_UNITS, deviation_units: str = D.IMPORT_DEVIATION_UNITS,
+                optics: str = D.IMPORT_OPTICS, tool_offset: ArrayLike | str = (0.0, 0.0, 0.0),
+                travel: ArrayLike | str | None = None, chain: str = D.IMPORT_CHAIN,
+                name: str = D.IMPORT_NAME, replace: bool = False) -> Calibration:
+        """Add a laser's CSV export to a session folder, like ``volcal import``.
+
+        Either a new linear measurement (``axis`` and ``id``; the session is created
+        with ``travel`` if it does not exist) or the readings of a planned measurement
+        (``measurement``). The folder is written atomically, then opened.
+
+        Parameters
+        ----------
+        csv_file : str or Path
+            The laser's export.
+        map : str or dict
+            Column mapping, ``'target=Pos,deviation=Error'`` or ``{'target': 'Pos',
+            'deviation': 'Error'}`` (keys of ``volcal import --map``, docs/formats.md).
+        session : str or Path
+            Session folder.
+        axis : str, optional
+            Measured axis ``'X'``, ``'Y'`` or ``'Z'`` of a new linear measurement.
+        id : str, optional
+            Id of the new measurement.
+        measurement : str, optional
+            Id of a planned measurement to fill.
+        line_mm : array_like, shape (3,), or str
+            Machine position of the line [mm].
+        units, deviation_units : str
+            Units of the target/reading and deviation columns (``'auto'``: the header).
+        optics : str
+            ``'retroreflector'`` or ``'flat_mirror'``.
+        tool_offset : array_like, shape (3,), or str
+            Target on the tool [mm].
+        travel : array_like, shape (3, 2), or str, optional
+            Travel of a NEW session [mm].
+        chain, name : str
+            Chain and machine name of a new session.
+        replace : bool
+            Replace a measurement with this id (or the readings of ``measurement``).
+
+        Returns
+        -------
+        Calibration
+            The session as written; :attr:`imported` holds the notes of the import.
+        """
+        from volcal.importer.laser_csv import import_csv, parse_mapping
+
+        text = map if isinstance(map, str) else ",".join(f"{k}={v}" for k, v in map.items())
+        mapping = parse_mapping(text)
+        if measurement is not None:
+            if axis is not None or id is not None:
+                raise VolcalInputError("Calibration.import_: measurement= fills a planned "
+                                       "measurement: leave out axis= and id=")
+            from volcal.importer.planned import import_planned
+
+            r = import_planned(csv_file, mapping, session, measurement, units,
+                               deviation_units, replace)
+        else:
+            if axis is None or id is None:
+                raise VolcalInputError("Calibration.import_: give axis= and id= (a new "
+                                       "linear measurement) or measurement= (a planned one)")
+            r = import_csv(csv_file, mapping, axis, A.vector_mm(line_mm, "line_mm"), session,
+                           id, units, deviation_units, optics,
+                           A.vector_mm(tool_offset, "tool_offset"),
+                           None if travel is None else A.travel_mm(travel), chain, name,
+                           replace)
+        cal = cls.open(r.session)
+        cal.imported = r
+        return cal
+
     # ------------------------------------------------------------------ steps
-    def simulate(self, machine: Any = None, seed: int = 0, noise_um: float = 0.5,
-                 mirror_misalignment_urad: float = 20.0) -> Calibration:
+    @A.checked
+    def advise(self, roll: str = D.ROLL, **options: object) -> IdentifiabilityReport:
+        """Before measuring: what the planned tests will and will not determine.
+
+        Like ``volcal advise``; the readings are not used.
+
+        Parameters
+        ----------
+        roll : str
+            ``'estimate'`` or ``'zero'`` (the rolls EAX, EBY, ECZ fixed to zero).
+        **options
+            Other fields of :class:`volcal.identify.IdentifyOptions` (``known``...).
+
+        Returns
+        -------
+        IdentifiabilityReport
+            ``.messages`` in plain words, ``.suggestions``, ``.ambiguity_um`` [um].
+        """
+        from volcal.identify import advise
+
+        return advise(self._planned(), self._identify_options("advise", roll=roll, **options))
+
+    @A.checked
+    def program(self, folder: str | Path, dialect: str, dwell_s: float = D.PROG_DWELL_S,
+                feed: float = D.PROG_FEED, overrun_mm: float = D.PROG_OVERRUN_MM,
+                decimals: int = D.PROG_DECIMALS, safe_z_mm: float = D.PROG_SAFE_Z_MM,
+                first_number: int = D.PROG_FIRST_NUMBER) -> tuple[Path, list[str]]:
+        """Write one measuring part program per measurement, like ``volcal program``.
+
+        Parameters
+        ----------
+        folder : str or Path
+            Folder for the programs (written atomically).
+        dialect : str
+            ``'fanuc'``, ``'linuxcnc'``, ``'siemens'`` or ``'heidenhain'``.
+        dwell_s : float
+            Dwell at each reading pose [s].
+        feed : float
+            Feed of every move [mm/min].
+        overrun_mm : float
+            ISO 230-2 overrun before reversals [mm].
+        decimals : int
+            Decimals of the coordinates [mm].
+        safe_z_mm : float
+            Z of the first retract in machine coordinates [mm].
+        first_number : int
+            Fanuc program number (O word) of the first program.
+
+        Returns
+        -------
+        folder : Path
+            The program folder.
+        notes : list of str
+            What the user should know (the command line prints them as notes).
+        """
+        from volcal.program.steps import ProgramOptions
+        from volcal.program.writer import write_programs
+
+        opts = ProgramOptions(dwell_s=dwell_s, feed=feed, overrun_mm=overrun_mm,
+                              decimals=decimals, safe_z_mm=safe_z_mm)
+        return write_programs(self._planned(), dialect, folder, opts, first_number)
+
+    @A.checked
+    def simulate(self, machine: MachineErrors | None = None, seed: int = D.SIM_SEED,
+                 noise_um: float = D.SIM_NOISE_UM,
+                 mirror_misalignment_urad: float = D.SIM_MIRROR_URAD,
+                 drift_um_per_h: float = D.SIM_DRIFT_UM_PER_H,
+                 reversal_um: float = D.SIM_REVERSAL_UM) -> Calibration:
         """Fill the readings from a virtual machine (in memory; :meth:`save` writes them).
 
         Parameters
@@ -129,7 +339,12 @@ class Calibration:
         noise_um : float
             Reading noise, standard deviation [um].
         mirror_misalignment_urad : float
-            Set-up misalignment of the optics, standard deviation [urad].
+            Set-up misalignment of the optics, standard deviation [urad]
+            (``--mirror-urad``).
+        drift_um_per_h : float
+            Linear drift of the readings [um/h].
+        reversal_um : float
+            Largest reversal of a random machine's axes [um] (not used with ``machine``).
 
         Returns
         -------
@@ -137,19 +352,42 @@ class Calibration:
             ``self``, for chaining.
         """
         from volcal.measure.simulate import SimulationOptions, simulate_session
-        from volcal.measure.virtual import random_machine
+        from volcal.measure.virtual import ErrorRanges, random_machine
+        from volcal.model.errorfunctions import MachineErrors
+        from volcal.session.provenance import simulated_provenance
 
+        for key, v in (("noise_um", noise_um), ("mirror_misalignment_urad",
+                                                mirror_misalignment_urad),
+                       ("reversal_um", reversal_um)):
+            if not (isinstance(v, int | float) and np.isfinite(v) and v >= 0):
+                raise VolcalInputError(f"Calibration.simulate: {key}={v!r}: expected a "
+                                       "finite number >= 0")
+        if not (isinstance(seed, int | np.integer) and seed >= 0):
+            raise VolcalInputError(f"Calibration.simulate: seed={seed!r}: expected a whole "
+                                   "number >= 0")
         s = self.session
         if machine is None:
-            machine = random_machine(s.travel, s.chain, seed, name=f"virtual {s.name}")
+            machine = random_machine(s.travel, s.chain, seed,
+                                     ranges=ErrorRanges(reversal_um=(0.0, reversal_um)),
+                                     name=f"virtual {s.name}")
+        elif not isinstance(machine, MachineErrors):
+            raise VolcalInputError(f"Calibration.simulate: machine= is a "
+                                   f"{type(machine).__name__}: expected MachineErrors "
+                                   "(volcal.session.errortable.read_error_table) or None")
         self._sim = SimulationOptions(noise_um=noise_um,
                                       mirror_misalignment_urad=mirror_misalignment_urad,
-                                      seed=seed)
+                                      drift_um_per_h=drift_um_per_h, seed=seed)
         self._setups = simulate_session(s, machine, self._sim)
+        s.provenance = simulated_provenance(
+            s, seed=int(seed), noise_um=float(noise_um),
+            mirror_urad=float(mirror_misalignment_urad), drift_um_per_h=float(drift_um_per_h),
+            machine=f"random (seed {seed})" if machine.name == f"virtual {s.name}"
+            else str(machine.name))
         self.truth = machine
         self.result = self.evaluation = None
         return self
 
+    @A.checked
     def save(self, folder: str | Path) -> Calibration:
         """Write the session folder (with ``truth/`` after :meth:`simulate`), then read it back.
 
@@ -162,40 +400,79 @@ class Calibration:
         -------
         Calibration
             ``self``, now tied to the written folder.
-        """
-        from volcal.session.format import read_session, write_session
 
+        Raises
+        ------
+        VolcalInputError
+            ``folder`` is a file or a folder of another kind, or a session folder whose
+            measured readings (not written by a simulation) differ from this session's:
+            measured data are never overwritten. The other files of an existing session
+            folder are kept, as by the command line.
+        """
+        from copy import copy
+
+        from volcal.io.paths import check_output_folder
+        from volcal.session.format import write_session
+
+        folder = Path(folder)
+        check_output_folder(folder, "session", lambda p: (p / "session.toml").is_file())
+        full = self.session
+        if full.unmeasured:  # measurements without readings yet are written too
+            full = copy(full)
+            full.measurements = [*full.measurements, *full.unmeasured]
+            full.unmeasured = []
+        if (folder / "session.toml").is_file():
+            self._check_not_measured(folder, full)
         extra = None
         if self._setups is not None:
             from volcal.measure.simulate import truth_files
 
             extra = truth_files(self.truth, self._setups, self._sim)
-        path = write_session(self.session, folder, extra)
-        has = any(m.deviation is not None for m in self.session.measurements)
-        self.session = read_session(path, require_deviation=has)
+        path = write_session(full, folder, extra, keep_existing=True)
+        self.session = Calibration.open(path).session
         return self
 
-    def identify(self, **options: Any) -> Any:
-        """Identify the 21 errors with uncertainties.
+    @staticmethod
+    def _check_not_measured(folder: Path, new: Session) -> None:
+        """Refuse to replace measured readings of an existing session folder."""
+        from volcal.session.format import read_session
+        from volcal.session.provenance import measured_ids, readings_digest
+
+        old = read_session(folder, require_deviation=False)
+        measured = measured_ids(old)
+        if measured and readings_digest(old) != readings_digest(new):
+            shown = ", ".join(measured[:6]) + (f" and {len(measured) - 6} more"
+                                               if len(measured) > 6 else "")
+            raise VolcalInputError(f"Calibration.save: holds measured readings ({shown}) "
+                                   "that this session would replace; nothing was changed. "
+                                   "Save to another folder", folder / "session.toml")
+
+    @A.checked
+    def identify(self, **options: object) -> IdentificationResult:
+        """Identify the 21 errors with uncertainties, like ``volcal identify``.
 
         Parameters
         ----------
         **options
             Fields of :class:`volcal.identify.IdentifyOptions` (``prior``, ``noise_um``
-            [um], ``roll``, ``known``...).
+            [um], ``roll``, ``known``, ``drift``, ``max_nodes``, ``robust``...); the
+            command line's ``measurements`` is ``measurement_ids``. ``known`` may be the
+            path of a CSV of errors measured separately (as ``--known``), with
+            ``known_u`` [um or urad] to use them as priors.
 
         Returns
         -------
         IdentificationResult
             Also kept as :attr:`result`; it carries the session's identity.
         """
-        from volcal.identify import IdentifyOptions, identify
+        from volcal.identify import identify
 
-        self.result = identify(self.session, IdentifyOptions(**options))
+        self.result = identify(self.session, self._identify_options("identify", **options))
         self.evaluation = None
         return self.result
 
-    def load_model(self, path: str | Path, force: bool = False) -> Any:
+    @A.checked
+    def load_model(self, path: str | Path, force: bool = False) -> IdentificationResult:
         """Use a model file identified earlier from this session.
 
         Parameters
@@ -216,58 +493,162 @@ class Calibration:
         self.result = model
         return model
 
-    def evaluate(self, edition: str = "2014") -> Any:
+    @A.checked
+    def evaluate(self, edition: str = D.EDITION) -> SessionEvaluation:
         """Evaluate to ISO 230-2, ISO 230-6 and the volumetric indices (with the model).
 
         Parameters
         ----------
         edition : str
-            ISO 230-2 edition.
+            ISO 230-2 edition (``'2014'``, ``'2006'``, ``'1997'``, ``'1988'``).
 
         Returns
         -------
         SessionEvaluation
-            Also kept as :attr:`evaluation`.
+            Also kept as :attr:`evaluation`; ``to_rows(table)`` / ``to_dataframe(table)``.
         """
+        from volcal.standards.iso230_2 import EDITIONS
         from volcal.standards.session import evaluate_session
 
-        self.evaluation = evaluate_session(self.session, self.result, edition)
+        if str(edition) not in EDITIONS:
+            raise VolcalInputError(f"Calibration.evaluate: edition {edition!r}: expected one "
+                                   f"of {A.names(list(EDITIONS))}")
+        self.evaluation = evaluate_session(self.session, self.result, str(edition))
         return self.evaluation
 
-    def compensate(self, folder: str | Path, format: str = "grid", sign: str = "error",
-                   spacing: float = 50.0, **options: Any) -> list[str]:
+    @A.checked
+    def verdict(self, tolerance_um: float | str | Mapping[str, float],
+                compensation: str | Path | None = None, edition: str = D.EDITION
+                ) -> list[Verdict]:
+        """Pass/fail against a tolerance, before and after compensation.
+
+        Like ``volcal evaluate session --tolerance-um ... [--model] [--compensation]``:
+        the model is this calibration's (:meth:`identify` or :meth:`load_model`).
+
+        Parameters
+        ----------
+        tolerance_um : float, str or dict
+            A number (largest volumetric error of the model), ``{'X': 10, 'Y': 10,
+            'Z': 8}`` or ``'X=10,Y=10,Z=8'`` (ISO 230-2 accuracy A per axis), or both
+            (``V`` key) [um].
+        compensation : str or Path, optional
+            Folder written by :meth:`compensate` from this model: the verdict after.
+        edition : str
+            ISO 230-2 edition.
+
+        Returns
+        -------
+        list of Verdict
+            ``quantity``, ``tolerance_um``, ``before_um``, ``before``, ``after_um``,
+            ``after`` (``'pass'``, ``'FAIL'`` or ``'-'``).
+        """
+        from volcal.report.verdict import verdicts
+        from volcal.standards.tolerance import parse_tolerance
+
+        tol = parse_tolerance(A.tolerance_text(tolerance_um))
+        tables = None
+        if compensation is not None:
+            if self.result is None:
+                raise VolcalInputError("Calibration.verdict: compensation= needs the model "
+                                       "the tables were written from: identify() or "
+                                       "load_model() first")
+            from volcal.report.carried import table_set_from_manifest
+            from volcal.report.pipeline import read_manifest
+
+            tables = table_set_from_manifest(read_manifest(compensation), compensation)
+        errors = None if self.result is None else self.result.errors
+        return verdicts(tol, self.session, errors, tables, str(edition))
+
+    @A.checked
+    def compensate(self, folder: str | Path, format: str, sign: str | None = D.COMP_SIGN,
+                   spacing: float = D.COMP_SPACING_MM, max_points: int | None = None,
+                   reference_mm: ArrayLike | str | None = None,
+                   unit_um: float = D.COMP_UNIT_UM, magnification: int = D.COMP_MAGNIFICATION,
+                   max_increment: int = D.COMP_MAX_INCREMENT,
+                   fanuc_series: str = D.COMP_FANUC_SERIES,
+                   linuxcnc_type: int = D.COMP_LINUXCNC_TYPE,
+                   squareness: bool = D.COMP_SQUARENESS,
+                   tool_offset: ArrayLike | str = (0.0, 0.0, 0.0)) -> list[str]:
         """Write controller compensation tables of the identified model.
+
+        Like ``volcal compensate``: the format is always named, and the tables are
+        written in the controller's own sign unless ``sign`` overrides it (with a
+        warning: a table in the wrong sign doubles the machine's error).
 
         Parameters
         ----------
         folder : str or Path
             Output folder.
         format : str
-            ``'fanuc'``, ``'siemens'``, ``'heidenhain'``, ``'csv'``, ``'isg'``, ``'grid'``.
-        sign : str
-            ``'error'`` (actual - commanded) or ``'correction'`` (= -error).
+            ``'fanuc'``, ``'siemens'``, ``'heidenhain'``, ``'linuxcnc'``, ``'csv'``,
+            ``'isg'``, ``'grid'``.
+        sign : str, optional
+            Override: ``'error'`` (actual - commanded) or ``'correction'`` (= -error).
+            Default: the controller's convention (Fanuc, LinuxCNC: correction).
         spacing : float
             Distance between compensation points [mm].
-        **options
-            Other fields of :class:`volcal.compensate.formats.CompensationOptions`.
+        max_points : int, optional
+            Controller's point limit.
+        reference_mm : array_like, shape (3,), or str, optional
+            Fanuc reference position [mm] (default: start of travel).
+        unit_um : float
+            Fanuc detection unit [um].
+        magnification : int
+            Fanuc magnification (3623).
+        max_increment : int
+            Fanuc largest value per point.
+        fanuc_series : str
+            ``'30i'`` or ``'16i'``.
+        linuxcnc_type : int
+            LinuxCNC ``COMP_FILE_TYPE``, 1 (trims) or 0.
+        squareness : bool
+            Siemens CEC: add squareness terms.
+        tool_offset : array_like, shape (3,), or str
+            3-D grid: target on the tool [mm].
 
         Returns
         -------
         list of str
             Files written.
         """
-        from volcal.compensate.formats import CompensationOptions, write_compensation
+        from volcal.compensate.formats import (
+            FORMAT_INFO,
+            CompensationOptions,
+            write_compensation,
+        )
+        from volcal.compensate.tables import sign_factor
+
+        fmt = str(format).lower()
+        if fmt not in FORMAT_INFO:
+            raise VolcalInputError(f"Calibration.compensate: unknown format {format!r}: "
+                                   f"expected one of {A.names(list(FORMAT_INFO))}")
+        info = FORMAT_INFO[fmt]
+        if sign is not None:
+            sign_factor(sign)
+            if sign != info.sign:
+                warnings.warn(f"sign={sign!r} overrides the {fmt} convention '{info.sign}' "
+                              f"({info.sign_source}); a table in the wrong sign doubles the "
+                              "error", UserWarning, stacklevel=3)
+        ref = None if reference_mm is None else A.vector_mm(reference_mm, "reference_mm")
+        opts = CompensationOptions(sign, spacing, max_points, ref, unit_um, magnification,
+                                   max_increment, squareness,
+                                   A.vector_mm(tool_offset, "tool_offset"), fanuc_series,
+                                   linuxcnc_type)
+        from volcal.session.identity import MachineIdentity
 
         result = self._need_result()
-        files = write_compensation(result.errors, format.lower(), folder,
-                                   CompensationOptions(sign, spacing=spacing, **options),
-                                   "model")
+        # the manifest names this session's machine (serial, make...), so that the tables
+        # are refused on another machine (docs/compensation.md)
+        files = write_compensation(result.errors, fmt, folder, opts, "model",
+                                   machine=MachineIdentity.of(self.session))
         self.compensation = Path(folder)
         return files
 
-    def report(self, folder: str | Path, title: str | None = None, edition: str = "2014"
-               ) -> Any:
-        """Write the HTML and PDF report.
+    @A.checked
+    def report(self, folder: str | Path, title: str | None = None, edition: str = D.EDITION,
+               tolerance_um: float | str | Mapping[str, float] | None = None,
+               compensation: str | Path | None = None) -> ReportFiles:
+        """Write the HTML and PDF report, like ``volcal report``.
 
         Parameters
         ----------
@@ -277,20 +658,93 @@ class Calibration:
             Report title.
         edition : str
             ISO 230-2 edition.
+        tolerance_um : float, str or dict, optional
+            Tolerance for a pass/fail verdict before and after compensation [um]: a
+            number (largest volumetric error), ``{'X': 10, 'Y': 10, 'Z': 8}`` or
+            ``'X=10,Y=10,Z=8'`` (ISO 230-2 accuracy A per axis), or both (``V`` key).
+        compensation : str or Path, optional
+            Folder written by :meth:`compensate` (or ``volcal compensate``) from the same
+            model, summarised in the report; none by default, as on the command line.
 
         Returns
         -------
         ReportFiles
+            ``.html``, ``.pdf``, ``.figures``, ``.pdf_pages``.
         """
         from volcal.report.pipeline import collect_inputs
         from volcal.report.sections import build_report
         from volcal.report.writer import write_report
+        from volcal.standards.tolerance import parse_tolerance
 
+        tol = None if tolerance_um is None else parse_tolerance(A.tolerance_text(tolerance_um))
+        if compensation is not None and not Path(compensation).is_dir():
+            raise VolcalInputError("Calibration.report: compensation= is not a folder written "
+                                   "by compensate", compensation)
         inputs = collect_inputs(self.session, self._need_result(), self.truth, edition,
-                                self.compensation)
+                                compensation, tolerance=tol)
         return write_report(build_report(inputs, title), folder)
 
-    def _need_result(self) -> Any:
+    # ------------------------------------------------------------------ helpers
+    def _identify_options(self, where: str, **options: object) -> IdentifyOptions:
+        """IdentifyOptions from keywords, every key checked (the CLI's names accepted)."""
+        from dataclasses import fields
+
+        from volcal.identify import IdentifyOptions
+
+        where = f"Calibration.{where}"
+        valid = [f.name for f in fields(IdentifyOptions)]
+        opts = dict(options)
+        if "measurements" in opts:  # the command line's name
+            opts["measurement_ids"] = opts.pop("measurements")
+        known_u = opts.pop("known_u", None)
+        for key in opts:
+            if key not in valid:
+                raise A.unknown_option(where, key, [*valid, "known_u"])
+        A.check_kinds(where, opts, {f.name: f.default for f in fields(IdentifyOptions)})
+        for key, v in (("noise_um", opts.get("noise_um")), ("known_u", known_u)):
+            if v is not None and not (isinstance(v, int | float) and np.isfinite(v) and v > 0):
+                raise VolcalInputError(f"{where}: {key}={v!r}: expected a positive number "
+                                       "[um] (as --noise-um, --known-u)")
+        if not 3 <= int(opts.get("max_nodes", 41)) <= 2001:  # type: ignore[call-overload]
+            raise VolcalInputError(f"{where}: max_nodes={opts['max_nodes']}: expected 3..2001 "
+                                   "(as --max-nodes)")
+        ids = opts.get("measurement_ids")
+        if ids is not None:
+            opts["measurement_ids"] = A.name_list(ids, "measurement_ids")  # type: ignore
+        known = opts.get("known")
+        if isinstance(known, str | Path):
+            from volcal.session.errortable import read_known_functions
+
+            opts["known"] = {n: (p, v) if known_u is None else (p, v, known_u)
+                             for n, (p, v) in read_known_functions(known).items()}
+        elif known_u is not None:
+            raise VolcalInputError(f"{where}: known_u needs known= (the path of the error "
+                                   "table it applies to)")
+        elif known is not None:
+            opts["known"] = A.known_functions(known, where)
+        try:
+            return IdentifyOptions(**opts)  # type: ignore[arg-type]
+        except TypeError as exc:
+            raise VolcalInputError(f"{where}: {exc}; valid options: {A.names(valid)}") from None
+
+    def _planned(self) -> Session:
+        """The session with every measurement, those without readings yet included."""
+        from copy import copy
+
+        s = self.session
+        if not s.unmeasured:
+            return s
+        if s.path is not None:  # the planned order of the folder
+            from volcal.session.format import read_session
+
+            return read_session(s.path, require_deviation=False)
+        out = copy(s)
+        out.measurements = [*s.measurements, *s.unmeasured]
+        out.unmeasured = []
+        return out
+
+    def _need_result(self) -> IdentificationResult:
         if self.result is None:
             self.identify()
+        assert self.result is not None
         return self.result

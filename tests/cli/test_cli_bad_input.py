@@ -254,6 +254,18 @@ def add_column(rel: str, name: str, value: str) -> Mutation:
     return edit(rel, fn)
 
 
+def missed_where(rel: str, col: str, value: str) -> Mutation:
+    """Mark ``missed`` every deviation of the rows whose ``col`` equals ``value``."""
+    def fn(text: str) -> str:
+        rows = [ln.split(",") for ln in text.splitlines()]
+        j, k = rows[0].index("deviation_um"), rows[0].index(col)
+        for r in rows[1:]:
+            if r[k] == value:
+                r[j] = "missed"
+        return "\n".join(",".join(r) for r in rows) + "\n"
+    return edit(rel, fn)
+
+
 def clear_deviations(rel: str) -> Mutation:
     """Empty the deviation column (a planned, unmeasured measurement)."""
     def fn(text: str) -> str:
@@ -710,6 +722,18 @@ CASES: list[Case] = [
          ("points.csv",)),
     Case("report:compensation-empty", ["report", "{d}/S", "--model", "{d}/MODEL.json",
                                        "--compensation", "{d}/EMPTY", "-o", "{d}/R"], ("EMPTY",)),
+    # COMP was written from ERRORS.csv, the truth of "virtual VMC-1", without --session:
+    # another machine's name than the session's "VMC-1" (issue 20, item 4)
+    Case("report:compensation-other-machine", ["report", "{d}/S", "--model", "{d}/MODEL.json",
+                                               "--compensation", "{d}/COMP", "-o", "{d}/R"],
+         ("COMP/volcal-compensation.toml", "column 'machine'",
+          "written for another machine, virtual VMC-1", "name 'virtual VMC-1' is not 'VMC-1'",
+          "--force")),
+    Case("report:compensation-table-missing", ["report", "{d}/S", "--model", "{d}/MODEL.json",
+                                               "--compensation", "{d}/COMP", "--force", "-o",
+                                               "{d}/R"],
+         ("COMP", "table file pitch.csv named in the manifest is missing"),
+         remove("COMP/pitch.csv")),
     Case("report:edition-unknown", ["report", "{d}/S", "--model", "{d}/MODEL.json",
                                     "--edition", "1999", "-o", "{d}/R"], ("1999",)),
     Case("report:output-is-file", ["report", "{d}/S", "--model", "{d}/MODEL.json",
@@ -777,6 +801,8 @@ CASES: list[Case] = [
     Case("classic-step-diagonal:output-under-file", ["classic", "step-diagonal", "{d}/S",
                                                      "-o", "{d}/points.csv/T.csv"],
          ("points.csv",)),
+    Case("classic-step-diagonal:output-stdout", ["classic", "step-diagonal", "{d}/S",
+                                                 "-o", "-"], ("-o -", "writes two files")),
     *sessions_cases(["classic", "diagonals"]),
     Case("classic-diagonals:no-diagonals", ["classic", "diagonals", "{d}/L"], ("L",)),
     # ---- evaluate ----
@@ -798,8 +824,14 @@ CASES: list[Case] = [
         ("bad-direction", "S/linear-y1.csv", [], ("linear-y1.csv", "row 2", "direction"),
          set_cell("S/linear-y1.csv", 2, "direction", "up!")),
         ("one-row", "S/linear-y1.csv", [], ("linear-y1.csv",), keep_lines("S/linear-y1.csv", 2)),
-        ("duplicate-row", "S/linear-y1.csv", [], ("linear-y1.csv", "row 4"),
+        ("duplicate-row", "S/linear-y1.csv", [], ("linear-y1.csv", "row 4", "column 'y_mm'"),
          duplicate_line("S/linear-y1.csv", 3)),
+        ("missed-every-minus", "S/linear-y1.csv", [],
+         ("linear-y1.csv", "column 'direction'", "no readings in direction '-'"),
+         missed_where("S/linear-y1.csv", "direction", "-")),
+        ("missed-all-but-one-run", "S/linear-y1.csv", [],
+         ("linear-y1.csv", "column 'run'", "only 1 run(s) in direction '+'"),
+         missed_where("S/linear-y1.csv", "run", "2")),
         ("semicolons", "S/linear-y1.csv", [], ("linear-y1.csv", "row 1"),
          semicolons("S/linear-y1.csv")),
         ("not-linear", "S/diag-ppp.csv", [], ("diag-ppp.csv",), None),
@@ -816,6 +848,16 @@ CASES: list[Case] = [
     Case("evaluate-session:edition-unknown", ["evaluate", "session", "{d}/S", "--edition", "1"],
          ("1",)),
     Case("evaluate-session:no-linear", ["evaluate", "session", "{d}/D"], ("D",)),
+    Case("evaluate-session:compensation-other-machine",
+         ["evaluate", "session", "{d}/S", "--tolerance-um", "X=10", "--model", "{d}/ERRORS.csv",
+          "--compensation", "{d}/COMP"],
+         ("COMP/volcal-compensation.toml", "column 'machine'",
+          "written for another machine, virtual VMC-1", "--force")),
+    Case("evaluate-session:compensation-table-damaged",
+         ["evaluate", "session", "{d}/S", "--tolerance-um", "X=10", "--model", "{d}/ERRORS.csv",
+          "--compensation", "{d}/COMP", "--force"],
+         ("pitch.csv", "row 3", "column 'error_um'"), set_cell("COMP/pitch.csv", 3, "error_um",
+                                                              "x")),
     *[Case(f"evaluate-volumetric:{k}", ["evaluate", "volumetric", f"{{d}}/{f}", *a], e, m)
       for k, f, a, e, m in [
         ("missing", "NOPE.csv", [], ("NOPE.csv",), None),
@@ -923,6 +965,8 @@ PARTIAL_COMMANDS = [
     ["identify", "{d}/S", "-o", "{d}/M3.json"],
     ["evaluate", "session", "{d}/S", "--json"],
     ["evaluate", "iso230-6", "{d}/S"],
+    ["evaluate", "session", "{d}/S"],
+    ["report", "{d}/S", "-o", "{d}/R"],
     ["classic", "abbe-session", "{d}/S"],
     ["classic", "step-diagonal", "{d}/S"],
     ["classic", "diagonals", "{d}/S"],
@@ -938,6 +982,7 @@ def test_partial_session(args: list[str], base: Path, tmp_path: Path) -> None:
     for f in ("linear-x2", "diag-ppp", "step-npp"):
         clear_deviations(f"S/{f}.csv")(d)
     set_cell("S/diag-npp.csv", 3, "deviation_um", "missed")(d)
+    set_cell("S/linear-y1.csv", 5, "deviation_um", "missed")(d)  # run 1, '+': 1 of 2 runs left
     r = volcal(*[a.format(d=d) for a in args], cwd=d)
     assert r.returncode == 0, r.stdout + r.stderr
     assert "Traceback" not in r.stdout + r.stderr
@@ -945,6 +990,17 @@ def test_partial_session(args: list[str], base: Path, tmp_path: Path) -> None:
     assert "note: no readings yet: step-npp, diag-ppp, linear-x2 (working on the 14 measured)" \
         in err
     assert f"note: {d}/S/diag-npp.csv: missed capture skipped (row 3)" in err
+    assert f"note: {d}/S/linear-y1.csv: missed capture skipped (row 5)" in err
+    if args[:2] == ["evaluate", "session"] and "--json" in args:
+        import json
+
+        y1 = json.loads(r.stdout)["measurements"]["linear-y1"]
+        assert y1["complete"] is False and len(y1["missing"]) == 1
+        assert sorted(t["n"] for t in y1["targets"]) == [1] + [2] * (len(y1["targets"]) - 1)
+    if args[0] == "report":
+        html = (d / "R" / "report.html").read_text()
+        assert "Missed readings" in html and "n = 1 of 2 runs" in html
+        assert "step-npp, diag-ppp, linear-x2" in html  # the planned tests not measured
     if args[0] == "evaluate" and "--json" in args:
         import json
 

@@ -132,7 +132,7 @@ def _linear_session(reversal):
     dev = A * x**2 + np.where(g.direction == "+", 0.5, -0.5) * reversal
     m = Measurement("lx", "linear", "retroreflector", g.positions, dev, g.beam_direction,
                     columns={"run": g.run, "direction": g.direction}, meta={"axis": "X"})
-    return Session("m", "XYFZ", TRAVEL, [m]), x
+    return Session("exx", "XYFZ", TRAVEL, [m]), x  # the machine of _exx_model
 
 
 def test_iso230_2_verdict_before_and_after_by_hand(tmp_path):
@@ -155,21 +155,32 @@ def test_iso230_2_verdict_before_and_after_by_hand(tmp_path):
 
 
 def test_bidirectional_tables_take_the_reversal_off_too(tmp_path):
+    """LinuxCNC tables written with the measured reversal B (forward = EXX + B/2, reverse =
+    EXX - B/2), read back from X.comp: each approach gets its own column, so only the
+    chord error of the 25 mm table is left in A (the tables used to be modelled, not
+    read; the hand-written manifest of this test named an X.comp that did not exist)."""
+    from volcal.compensate.bidirectional import DirectionalErrors
+
     b = 2.0
     s, _ = _linear_session(b)
     e = _exx_model(reversal_x=b)
+    t = np.array([5.0, 103.0, 207.0, 298.0, 401.0, 512.0, 597.0, 703.0, 795.0])
+    rev = DirectionalErrors([t, None, None], [np.full(t.size, b), None, None], "lx")
     folder = tmp_path / "lcnc"
-    folder.mkdir()
-    (folder / "volcal-compensation.toml").write_text(
-        'format = "volcal-compensation/1"\ncontroller_format = "linuxcnc"\n'
-        'carries = ["EXX", "EYY", "EZZ"]\nspacing_mm = 25.0\nresolution_um = 0.001\n'
-        'sign = "correction"\nbidirectional = true\nfiles = ["X.comp"]\n')
+    write_compensation(e, "linuxcnc", folder,
+                       CompensationOptions(None, 25.0, directional=rev), "m.json")
     c = compensation_summary(_result(e), TRAVEL, folder=folder, n=11,
                              tolerance=Tolerance(None, {"X": 1.0}), session=s)
-    t = np.array([5.0, 103.0, 207.0, 298.0, 401.0, 512.0, 597.0, 703.0, 795.0])
+    assert c.written.reverse is not None and c.tables.bidirectional
     x0 = 25.0 * np.floor(t / 25.0)
     chord = -A * (t - x0) * (x0 + 25.0 - t)
     assert c.verdicts[0].after_um == pytest.approx(chord.max() - chord.min(), abs=0.002)
+    # the same tables without the reverse column leave the reversal B in A
+    one = tmp_path / "one"
+    write_compensation(e, "linuxcnc", one, CompensationOptions(None, 25.0), "m.json")
+    c1 = compensation_summary(_result(e), TRAVEL, folder=one, n=11,
+                              tolerance=Tolerance(None, {"X": 1.0}), session=s)
+    assert c1.verdicts[0].after_um == pytest.approx(chord.max() - chord.min() + b, abs=0.002)
 
 
 @pytest.mark.parametrize("text,vol,axes", [("15", 15.0, {}),

@@ -68,4 +68,6 @@ def test_demo_writes_a_report_with_at_least_five_figures(tmp_path):
     assert (out / "model.json").is_file() and (out / "session" / "truth" / "machine.csv").is_file()
     assert "Positioning (ISO 230-2)" in html and "Volumetric error" in html
     assert "Compensation" in html and (out / "compensation" / "volcal-compensation.toml").is_file()
+    # the tables the demo wrote are summarised (Calibration.report(compensation=...))
+    assert "Compensation tables for the &#39;grid&#39; format were written" in html
     assert Path(out / "session" / "session.toml").is_file()

@@ -22,7 +22,7 @@ def test_report_content_from_the_analysis(identified, small_session):
     rep = build_report(inp)
     ids = [x.id for x in rep.sections]
     assert ids == ["machine", "measurements", "iso230-2", "iso230-6", "identification",
-                   "identifiability", "volumetric", "compensation"]
+                   "identifiability", "volumetric", "compensation", "references"]
     # ISO 230-2 table: one row per linear test, values are the standard module's
     t = _section(rep, "iso230-2").tables[0]
     assert len(t.rows) == 9
@@ -70,7 +70,8 @@ def test_without_model_only_measured_sections(small_session):
     from volcal.session.format import read_session
 
     rep = build_report(ReportInputs(read_session(small_session)))
-    assert [x.id for x in rep.sections] == ["machine", "measurements", "iso230-2"]
+    assert [x.id for x in rep.sections] == ["machine", "measurements", "iso230-2",
+                                            "references"]
 
 
 def test_compensation_summary_against_the_truth(identified, tmp_path):

@@ -220,8 +220,8 @@ def soons_from_measurements(measurements: Sequence[Measurement]) -> SoonsCombina
     Raises
     ------
     VolcalInputError
-        If one of the four diagonals is missing, measured twice, or the four do not span
-        the same box.
+        If one of the four diagonals is missing, measured twice, misses its end point (a
+        missed capture), or the four do not span the same box.
     """
     ends: dict[str, float] = {}
     span = None
@@ -231,6 +231,12 @@ def soons_from_measurements(measurements: Sequence[Measurement]) -> SoonsCombina
         if m.deviation is None:
             raise VolcalInputError("diagonal has no deviations", m.file, None, "deviation_um")
         code, sense = body_diagonal_code(m)
+        late = [r for r in m.missed if m.rows is None or r["row"] > int(np.max(m.rows))]
+        if late:
+            raise VolcalInputError(
+                f"body diagonal {code} ({m.id}) misses its end point (row {late[-1]['row']}, "
+                "a missed capture): the combinations need the end deviation of complete "
+                "diagonals", m.file, late[-1]["row"], "deviation_um")
         if code in ends:
             raise VolcalInputError(f"body diagonal {code} appears twice", m.file)
         ends[code] = sense * float(m.deviation[-1] - m.deviation[0])

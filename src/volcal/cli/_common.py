@@ -2,9 +2,18 @@
 
 from __future__ import annotations
 
+import sys
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from volcal.errors import VolcalInputError
+
+if TYPE_CHECKING:
+    from pathlib import Path
+
+    from rich.console import Console
+    from rich.table import Table
 
 
 def parse_travel(text: str) -> np.ndarray:
@@ -53,3 +62,91 @@ def print_session_notes(session: object) -> None:
         err.print(f"[cyan]note:[/] {escape(n)}", highlight=False)
     for w in getattr(session, "warnings", []):
         err.print(f"[yellow]warning:[/] {escape(w)}", highlight=False)
+
+
+
+def print_table(console: Console, table: Table) -> None:
+    """Print a Rich table without cutting a cell: full numbers, also when redirected.
+
+    Every column folds instead of ending in ``…``; when stdout is not a terminal (a file,
+    a pipe) the table is printed as wide as its widest row, so no number is wrapped or
+    cut (``-0.0…``) by the 80 columns Rich assumes there.
+
+    Parameters
+    ----------
+    console : rich.console.Console
+        The command's console (stdout).
+    table : rich.table.Table
+        The table; its headers carry the units (``A [um]``).
+    """
+    from rich.measure import Measurement
+
+    for c in table.columns:
+        c.overflow = "fold"
+        c.no_wrap = not console.is_terminal
+    if console.is_terminal:
+        console.print(table)
+        return
+    width = Measurement.get(console, console.options.update(width=10_000), table).maximum
+    saved = console.width
+    console.width = max(width, saved)  # print() never goes wider than the console
+    try:
+        console.print(table, soft_wrap=False)
+    finally:
+        console.width = saved
+
+
+STDOUT = "-"
+"""``-o -``: the single output file goes to standard output."""
+
+
+def is_stdout(path: object) -> bool:
+    """True when an output option is ``-`` (standard output).
+
+    Parameters
+    ----------
+    path : str, Path or None
+        The value of ``-o/--output``.
+
+    Returns
+    -------
+    bool
+    """
+    return path is not None and str(path) == STDOUT
+
+
+def write_output(path: Path, text: str) -> None:
+    """Write a command's single output file atomically, or to standard output for ``-``.
+
+    Parameters
+    ----------
+    path : Path
+        ``-o`` value; ``-`` writes ``text`` to stdout (the command's messages then go
+        to stderr, so the output stays clean for a pipe).
+    text : str
+        The whole file.
+    """
+    if is_stdout(path):
+        sys.stdout.write(text)
+        sys.stdout.flush()
+        return
+    from volcal.io.atomic import write_text
+
+    write_text(path, text)
+
+
+def message_console(output: object) -> Console:
+    """The console for a command's messages: stderr when its output goes to stdout.
+
+    Parameters
+    ----------
+    output : str, Path or None
+        The value of ``-o/--output``.
+
+    Returns
+    -------
+    rich.console.Console
+    """
+    from rich.console import Console
+
+    return Console(stderr=is_stdout(output), soft_wrap=True)

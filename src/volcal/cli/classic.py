@@ -10,7 +10,13 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from volcal.cli._common import print_session_notes
+from volcal.cli._common import (
+    is_stdout,
+    message_console,
+    print_session_notes,
+    print_table,
+    write_output,
+)
 from volcal.errors import VolcalInputError
 
 console = Console(soft_wrap=True)  # no line breaks inside paths
@@ -50,7 +56,7 @@ def _print_solution(axis: int, targets, pos, rot, title: str) -> None:
         tab.add_column(escape(h), justify="right")
     for q, p, (u, v) in zip(targets, pos, rot, strict=True):
         tab.add_row(f"{q:g}", f"{p:.3f}", f"{u:.2f}", f"{v:.2f}")
-    console.print(tab)
+    print_table(console, tab)
 
 
 def abbe(
@@ -61,15 +67,15 @@ def abbe(
         "the two other axes in alphabetical order (X: y,z; Y: x,z; Z: x,y). Default: "
         "from the files' positions and --chain."),
     chain: str | None = typer.Option(None, help="Chain code, needed without --offsets."),
-    output: Path | None = typer.Option(None, "-o", "--output", help="CSV to write."),
+    output: Path | None = typer.Option(None, "-o", "--output", help="CSV to write; - writes "
+                                       "it to standard output."),
 ) -> None:
     """Positioning and the two tilts (pitch, yaw) from lines at different Abbe offsets."""
     from volcal.classic.abbe import abbe_lines
     from volcal.classic.lines import abbe_csv, lever_offsets, lines_from_files
-    from volcal.io.atomic import write_text
 
     k = _axis(axis)
-    if output is not None:
+    if output is not None and not is_stdout(output):
         from volcal.io.paths import check_output_file
 
         check_output_file(output)
@@ -90,8 +96,10 @@ def abbe(
     except ValueError as exc:
         raise VolcalInputError(str(exc)) from None
     if output is not None:
-        write_text(output, abbe_csv(k, targets, pos, rot))
-        console.print(f"{len(files)} lines of {'XYZ'[k]} -> {output}")
+        write_output(output, abbe_csv(k, targets, pos, rot))
+        message_console(output).print(f"{len(files)} lines of {'XYZ'[k]} -> "
+                                      + ("standard output" if is_stdout(output)
+                                         else str(output)), highlight=False)
     else:
         _print_solution(k, targets, pos, rot, f"Abbe lines of {'XYZ'[k]}")
 
@@ -138,6 +146,9 @@ def step_diagonal(
     from volcal.session.errortable import write_error_table
     from volcal.session.format import read_session
 
+    if is_stdout(output):
+        raise VolcalInputError("-o -: step-diagonal writes two files (ERRORS.csv and "
+                               "ERRORS.toml); give a file name")
     if output is not None:
         from volcal.io.paths import check_output_file
 
@@ -171,12 +182,14 @@ def diagonals(
     if not checks:
         raise VolcalInputError("the session has no diagonal measurements", session)
     tab = Table(title="Diagonal quick check")
-    for h in ("diagonal", "length [mm]", "max |dev| [um]", "range [um]", "end [um]"):
+    for h in ("diagonal", "length [mm]", "points", "max |dev| [um]", "range [um]", "end [um]"):
         tab.add_column(escape(h), justify="right")
     for c in checks:
-        tab.add_row(c.id, f"{c.length_mm:.1f}", f"{c.max_abs_um:.2f}", f"{c.range_um:.2f}",
-                    f"{c.end_um:.2f}")
-    console.print(tab)
+        m = s.get(c.id)
+        pts = f"{m.n}/{m.n_planned}" + ("" if m.n == m.n_planned else " incomplete")
+        tab.add_row(c.id, f"{c.length_mm:.1f}", pts, f"{c.max_abs_um:.2f}",
+                    f"{c.range_um:.2f}", f"{c.end_um:.2f}")
+    print_table(console, tab)
     try:
         r = soons_from_measurements(s.measurements)
     except VolcalInputError as exc:

@@ -11,7 +11,8 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from volcal.cli._common import print_session_notes
+from volcal import defaults as D
+from volcal.cli._common import print_session_notes, print_table
 
 console = Console(soft_wrap=True)  # no line breaks inside paths
 evaluate_app = typer.Typer(help="Evaluate measurements to the standards (ISO 230-2, "
@@ -30,11 +31,11 @@ def _print_json(obj: Any) -> None:
 
 
 def _iso_tables(res: Any, title: str, unc: Any = None) -> None:
-    t = Table(title=f"{title} (ISO 230-2:{res.edition})")
+    t = Table(title=escape(f"{title} (ISO 230-2:{res.edition})"))
     t.add_column("parameter")
-    t.add_column("value [um]", justify="right")
+    t.add_column(escape("value [um]"), justify="right")
     if unc is not None:
-        t.add_column("U [um]", justify="right")
+        t.add_column(escape("U [um]"), justify="right")
         t.add_column("k", justify="right")
     for k, label in _AXIS_LABELS.items():
         row = [label, f"{getattr(res, k):.3f}"]
@@ -42,20 +43,28 @@ def _iso_tables(res: Any, title: str, unc: Any = None) -> None:
             e = unc.parameters[k]
             row += [f"{e.U:.3f}", f"{e.k:.2f}"]
         t.add_row(*row)
-    console.print(t)
-    tt = Table(title="per target [um]")
-    cols = ["target [mm]", "x̄↑", "x̄↓", "x̄", "s↑", "s↓", "B_i", "R↑", "R↓", "R_i"]
+    print_table(console, t)
+    tt = Table(title=escape("per target [um]; n↑ n↓: runs that reached the target"))
+    cols = ["target [mm]", "n↑", "n↓", "x̄↑ [um]", "x̄↓ [um]", "x̄ [um]", "s↑ [um]",
+            "s↓ [um]", "B_i [um]", "R↑ [um]", "R↓ [um]", "R_i [um]"]
     if unc is not None:
-        cols.append("U(x̄)")
+        cols.append("U(x̄) [um]")
     for c in cols:
-        tt.add_column(c, justify="right")
+        tt.add_column(escape(c), justify="right")
     for i, row in enumerate(res.targets.rows()):
-        cells = [f"{row[k]:.3f}" for k in ("target_mm", "mean_up", "mean_down", "mean",
-                                            "s_up", "s_down", "B", "R_up", "R_down", "R")]
+        cells = [f"{row['target_mm']:.3f}", str(row["n_up"]), str(row["n_down"]),
+                 *["-" if row[k] is None else f"{row[k]:.3f}"
+                   for k in ("mean_up", "mean_down", "mean", "s_up", "s_down", "B", "R_up",
+                             "R_down", "R")]]
         if unc is not None:
             cells.append(f"{unc.targets[i].U:.3f}")
         tt.add_row(*cells)
-    console.print(tt)
+    print_table(console, tt)
+    if not res.complete:
+        console.print(f"[yellow]incomplete:[/] {len(res.missing)} missed reading(s); each "
+                      "target is evaluated over the runs that reached it", highlight=False)
+    for n in res.notes:
+        console.print(f"[yellow]note:[/] {escape(n)}", highlight=False)
     for w in res.warnings:
         console.print(f"[yellow]warning:[/] {escape(w)}", highlight=False)
 
@@ -109,7 +118,7 @@ def iso230_2_cmd(
     file: Path = typer.Argument(..., help="CSV: target_mm,run,direction,deviation_um or a "
                                 "session measurement CSV of a linear test."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
-    edition: str = typer.Option("2014", help="ISO 230-2 edition: 2014, 2006, 1997, 1988."),
+    edition: str = typer.Option(D.EDITION, help="ISO 230-2 edition: 2014, 2006, 1997, 1988."),
     budget: Path | None = typer.Option(None, help="Uncertainty budget (TOML, `volcal budget "
                                        "--template`): U of every parameter and target, "
                                        "readings referred to 20 C with [material]."),
@@ -146,12 +155,14 @@ def iso230_2_cmd(
         res, unc, corrections = evaluate_with_budget(d, b, edition)
     else:
         res = evaluate(d.targets_mm, d.run, d.direction, d.deviation_um, edition,
-                       file=d.file, rows=d.rows)
+                       **d.evaluate_kwargs())
+    plaus = _file_notes(d)
     dec = None if tolerance_um is None else _iso_decisions(res, unc, tolerance_um, rule,
                                                            guard_band_um)
     if as_json:
         out = res.to_dict()
         out["file"] = str(file)
+        out["plausibility"] = plaus
         if unc is not None:
             ud = unc.to_dict()
             for i, row in enumerate(out["targets"]):
@@ -191,6 +202,22 @@ def _print_iso_decisions(dec: dict[str, Any]) -> None:
             console.print(f"note ({d['parameter']}): {escape(d['note'])}", highlight=False)
 
 
+def _file_notes(d: Any) -> list[str]:
+    """Print a positioning file's reader notes and plausibility warnings on stderr.
+
+    Returns the warnings (for the JSON output).
+    """
+    from volcal.session.plausibility import positioning_warnings
+
+    err = Console(stderr=True, soft_wrap=True)
+    for n in d.notes:
+        err.print(f"[cyan]note:[/] {escape(n)}", highlight=False)
+    warnings = positioning_warnings(d)
+    for w in warnings:
+        err.print(f"[yellow]warning:[/] {escape(w)}", highlight=False)
+    return warnings
+
+
 @evaluate_app.command("vdi3441")
 def vdi3441_cmd(
     file: Path = typer.Argument(..., help="Same CSV layouts as iso230-2."),
@@ -201,16 +228,17 @@ def vdi3441_cmd(
     from volcal.standards.vdi3441 import evaluate
 
     d = read_positioning_csv(file)
-    res = evaluate(d.targets_mm, d.run, d.direction, d.deviation_um, file=d.file, rows=d.rows)
+    res = evaluate(d.targets_mm, d.run, d.direction, d.deviation_um, **d.evaluate_kwargs())
+    _file_notes(d)
     if as_json:
         _print_json(res.to_dict())
         return
-    t = Table(title=f"{file} (VDI/DGQ 3441)")
+    t = Table(title=escape(f"{file} (VDI/DGQ 3441)"))
     t.add_column("parameter")
-    t.add_column("value [um]", justify="right")
+    t.add_column(escape("value [um]"), justify="right")
     for k in ("P", "Pa", "Ps", "Ps_mean", "U", "U_mean"):
         t.add_row(k, f"{getattr(res, k):.3f}")
-    console.print(t)
+    print_table(console, t)
 
 
 @evaluate_app.command("iso230-6")
@@ -224,7 +252,7 @@ def iso230_6_cmd(
     """Diagonal displacement tests of a session (ISO 230-6), each diagonal."""
     from volcal.errors import VolcalInputError
     from volcal.session.format import read_session
-    from volcal.standards.iso230_6 import evaluate_diagonal
+    from volcal.standards.iso230_6 import evaluate_diagonal, largest_e_d
 
     b = None
     if budget is not None:
@@ -244,6 +272,8 @@ def iso230_6_cmd(
 
         pairs = [evaluate_diagonal_with_budget(m, b) for m in diags]
         res, unc = [p[0] for p in pairs], [p[1] for p in pairs]
+    worst = largest_e_d(res)
+    incomplete = [r.id for r in res if not r.complete]
     if as_json:
         out_d = []
         for r, u in zip(res, unc, strict=True):
@@ -254,22 +284,36 @@ def iso230_6_cmd(
                     d["iso230_2"].update({k: v for k, v in u.iso230_2.to_dict().items()
                                           if k.startswith("U_") or k == "k"})
             out_d.append(d)
-        _print_json({"diagonals": out_d, "max_E_D": max(r.E_D for r in res)})
+        _print_json({"diagonals": out_d,
+                     "max_E_D": None if worst is None else worst.E_D,
+                     "max_E_D_id": None if worst is None else worst.id,
+                     "complete": not incomplete, "incomplete": incomplete,
+                     "unmeasured": [m.id for m in s.unmeasured if m.kind == "diagonal"]})
         return
-    t = Table(title=f"{session}: ISO 230-6 diagonal displacement")
-    cols = ["id", "diagonal", "length [mm]", "E_D [um]", "max |dev| [um]", "R [um]"]
+    t = Table(title=escape(f"{session}: ISO 230-6 diagonal displacement"))
+    cols = ["id", "diagonal", "length [mm]", "points", "E_D [um]", "max |dev| [um]",
+            "R [um]"]
     if b is not None:
-        cols.insert(4, "U(E_D) [um]")
+        cols.insert(5, "U(E_D) [um]")
     for c in cols:
-        t.add_column(c, justify="right")
+        t.add_column(escape(c), justify="right")
     for r, u in zip(res, unc, strict=True):
         rr = "" if r.iso230_2 is None else f"{r.iso230_2.R:.3f}"
+        pts = f"{r.points_measured}/{r.points_planned}" + ("" if r.complete else " incomplete")
         row = [r.id, (r.plane + " " if r.plane else "") + r.diagonal, f"{r.length_mm:.1f}",
-               f"{r.E_D:.3f}", f"{r.max_abs_um:.3f}", rr]
+               pts, f"{r.E_D:.3f}", f"{r.max_abs_um:.3f}", rr]
         if u is not None:
-            row.insert(4, f"{u.E_D.U:.3f}")
+            row.insert(5, f"{u.E_D.U:.3f}")
         t.add_row(*row)
-    console.print(t)
+    print_table(console, t)
+    for r in res:
+        if not r.complete:
+            console.print(f"[yellow]incomplete:[/] {escape(r.note())}", highlight=False)
+    if worst is not None:
+        console.print(f"largest E_D of the complete diagonals: {worst.E_D:.3f} um "
+                      f"({worst.id})", highlight=False)
+    else:
+        console.print("largest E_D: none (no complete diagonal)", highlight=False)
     notes = sorted({n for u in unc if u is not None for n in u.notes})
     for n in notes:
         console.print(f"note: {escape(n)}", highlight=False)
@@ -279,7 +323,7 @@ def iso230_6_cmd(
 def session_cmd(
     session: Path = typer.Argument(..., help="Session folder."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
-    edition: str = typer.Option("2014", help="ISO 230-2 edition."),
+    edition: str = typer.Option(D.EDITION, help="ISO 230-2 edition."),
     tolerance_um: str | None = typer.Option(
         None, help="Tolerance for a pass/fail verdict [um]: X=10,Y=10,Z=8 (ISO 230-2 "
         "accuracy A per axis), a number (largest volumetric error of --model) or both "
@@ -288,8 +332,12 @@ def session_cmd(
                                       "a volumetric tolerance and for the verdict after "
                                       "compensation."),
     compensation: Path | None = typer.Option(None, help="Folder written by `volcal "
-                                             "compensate` from --model: the verdict after "
-                                             "applying exactly what its tables carry."),
+                                             "compensate` for this machine: the verdict after "
+                                             "its tables, read back from the files. Tables "
+                                             "written for another machine are refused "
+                                             "(--force to use them)."),
+    force: bool = typer.Option(False, "--force", help="Use --compensation tables written "
+                               "for another machine (a warning instead of an error)."),
     decision_rule: str = typer.Option("simple", help="simple (pass when value <= T) or "
                                       "guarded (pass at or below T - w, conditional up to "
                                       "T; w = U from --budget, or --guard-band-um)."),
@@ -309,9 +357,12 @@ def session_cmd(
     tol = (_acceptance(tol[0], decision_rule, guard_band_um, budget), tol[1], tol[2])
     s = read_session(session)
     print_session_notes(s)
+    if compensation is not None:
+        tol = (tol[0], tol[1], _written_tables(compensation, s, tol[1], model, force))
     ev = evaluate_session(s, edition=edition)
     results, axis_of = ev.iso230_2, ev.axis
-    skipped = [k for k, why in ev.skipped.items() if why == "no run/direction columns"]
+    why_skipped = {k: why for k, why in ev.skipped.items() if why != "no readings yet"}
+    skipped = list(why_skipped)
     if not results:
         raise VolcalInputError("no linear measurement with run and direction columns", session)
     elv_val = None if ev.elv is None else ev.elv["ELv"]
@@ -333,7 +384,10 @@ def session_cmd(
     if as_json:
         out: dict[str, Any] = {"measurements": {k: {"axis": axis_of[k], **v.to_dict()}
                                                 for k, v in results.items()},
-                               "ELv": elv_val, "skipped": skipped}
+                               "ELv": elv_val, "skipped": skipped,
+                               "skipped_reasons": why_skipped,
+                               "incomplete": [k for k, v in results.items() if not v.complete],
+                               "unmeasured": list(ev.unmeasured)}
         for k, u in uncs.items():
             entry = out["measurements"][k]
             entry.update(u.to_dict())
@@ -349,22 +403,29 @@ def session_cmd(
             out["decision_rule"] = {"name": rule, "text": RULE_TEXT[rule]}
         _print_json(out)
         return
-    t = Table(title=f"{session}: ISO 230-2:{edition} [um]")
-    cols = ["id", "axis", "A", "E", "M", "R", "B", "B_mean"]
+    t = Table(title=escape(f"{session}: ISO 230-2:{edition} [um]"))
+    cols = ["id", "axis", "runs", "A [um]", "E [um]", "M [um]", "R [um]", "B [um]",
+            "B_mean [um]"]
     if uncs:
-        cols += ["U(A)", "U(E)", "U(R)"]
+        cols += ["U(A) [um]", "U(E) [um]", "U(R) [um]"]
     for c in cols:
-        t.add_column(c, justify="right")
+        t.add_column(escape(c), justify="right")
     for k, r in results.items():
-        row = [k, axis_of[k], *[f"{getattr(r, p):.3f}" for p in
-                                ("A", "E", "M", "R", "B", "B_mean")]]
+        row = [k, axis_of[k], _runs_cell(r), *[f"{getattr(r, p):.3f}" for p in
+                                               ("A", "E", "M", "R", "B", "B_mean")]]
         if uncs:
             row += [f"{uncs[k].parameters[p].U:.3f}" for p in ("A", "E", "R")]
         t.add_row(*row)
-    console.print(t)
+    print_table(console, t)
     if corr_text:
         console.print(f"note: {escape(corr_text)}; U at 95 % (k from the effective degrees "
                       "of freedom)", highlight=False)
+    for k, r in results.items():
+        for n in r.notes:
+            console.print(f"[yellow]{k}[/] {escape(n)}", highlight=False)
+    if ev.unmeasured:
+        console.print(f"[yellow]not measured[/] (planned, no readings): "
+                      f"{', '.join(ev.unmeasured)}", highlight=False)
     if elv_val is not None:
         console.print(f"ELv (seed 002: RSS of the positioning ranges M of the first line of "
                       f"each axis) = {elv_val:.3f} um")
@@ -374,8 +435,8 @@ def session_cmd(
             grouped.setdefault(w, []).append(k)
     for w, ids in grouped.items():
         console.print(f"[yellow]warning[/] ({', '.join(ids)}): {escape(w)}", highlight=False)
-    for k in skipped:
-        console.print(f"[yellow]skipped[/] {k}: no run/direction columns")
+    for k, why in why_skipped.items():
+        console.print(f"[yellow]skipped[/] {k}: {escape(why)}", highlight=False)
     if verdict is not None:
         _print_verdict(verdict, tol[1] is not None)
 
@@ -405,6 +466,15 @@ def _acceptance(tol: Any, decision_rule: str, guard_band_um: float | None,
     return replace(tol, rule=rule, guard_band_um=guard_band_um, budget=b)
 
 
+def _runs_cell(r: Any) -> str:
+    """Runs of a linear test: ``5``, or ``4-5 incomplete`` (fewest runs at a target)."""
+    nu, nd = r.targets.counts()
+    full = max(r.targets.n_up, r.targets.n_down)
+    if r.complete:
+        return str(full)
+    return f"{int(min(nu.min(), nd.min()))}-{full} incomplete"
+
+
 def _tolerance_inputs(tolerance_um: str | None, model: Path | None,
                       compensation: Path | None) -> tuple[Any, Any, Any]:
     """Parse the tolerance and read the model and the tables' manifest (or None)."""
@@ -425,12 +495,23 @@ def _tolerance_inputs(tolerance_um: str | None, model: Path | None,
         from volcal.compensate.source import load_errors
 
         errors = load_errors(model)
-    if compensation is not None:
-        from volcal.report.carried import table_set_from_manifest
-        from volcal.report.pipeline import read_manifest
-
-        tables = table_set_from_manifest(read_manifest(compensation), compensation)
     return tol, errors, tables
+
+
+def _written_tables(folder: Path, s: Any, errors: Any, model: Path | None, force: bool
+                    ) -> Any:
+    """Check the tables' manifest against the session and the model; read them back."""
+    from volcal.compensate.manifest import check_manifest, errors_digest, read_manifest
+    from volcal.compensate.readback import read_written_tables
+    from volcal.session.identity import MachineIdentity
+
+    manifest = read_manifest(folder)
+    err = Console(stderr=True, soft_wrap=True)  # stdout may be --json
+    for w in check_manifest(manifest, folder, MachineIdentity.of(s),
+                            None if errors is None else errors_digest(errors), force,
+                            str(model) if model is not None else "the model in use"):
+        err.print(f"[yellow]warning[/] {escape(w)}", highlight=False)
+    return read_written_tables(folder, manifest, s.travel)
 
 
 def _verdicts(tol: tuple[Any, Any, Any], s: Any, edition: str) -> Any:
@@ -446,13 +527,13 @@ def _print_verdict(verdict: Any, has_model: bool) -> None:
 
     rule = verdict[0].rule if verdict else "simple"
     guarded = rule == "guarded"
-    t = Table(title=f"tolerance verdict [um], decision rule: {rule}")
-    cols = ["quantity", "tolerance", "before", "", "after", ""]
+    t = Table(title=escape(f"tolerance verdict [um], decision rule: {rule}"))
+    cols = ["quantity", "tolerance [um]", "before [um]", "", "after [um]", ""]
     if guarded:
-        cols[3:3] = ["U / w"]
-        cols.append("U / w")
+        cols[3:3] = ["U / w [um]"]
+        cols.append("U / w [um]")
     for c in cols:
-        t.add_column(c, justify="right")
+        t.add_column(escape(c), justify="right")
 
     def cell(v: Any) -> str:
         return "-" if v is None else f"{v:.3f}"
@@ -469,7 +550,7 @@ def _print_verdict(verdict: Any, has_model: bool) -> None:
             row[3:3] = [cell(w if w is not None else v.U_before_um)]
             row.append(cell(w if w is not None else v.U_after_um))
         t.add_row(*row)
-    console.print(t)
+    print_table(console, t)
     console.print(f"decision rule: {escape(RULE_TEXT[rule])}", highlight=False)
     for v in verdict:
         for d in (v.decision(v.before_um, v.U_before_um), v.decision(v.after_um, v.U_after_um)):
@@ -501,12 +582,12 @@ def volumetric_cmd(
     if as_json:
         _print_json(out)
         return
-    t = Table(title=f"{errors}: volumetric indices [um]")
+    t = Table(title=escape(f"{errors}: volumetric indices [um]"))
     t.add_column("index")
-    t.add_column("value [um]", justify="right")
+    t.add_column(escape("value [um]"), justify="right")
     for k in ("E_VX", "E_VY", "E_VZ", "E_VXYZ", "E_VXYZ_range", "ELx", "ELy", "ELz", "ELv"):
         t.add_row(k, f"{out[k]:.3f}")
-    console.print(t)
+    print_table(console, t)
 
 
 def register(app: typer.Typer) -> None:

@@ -10,7 +10,14 @@ import numpy as np
 import typer
 from rich.console import Console
 
-from volcal.cli._common import parse_vector, print_session_notes
+from volcal import defaults as D
+from volcal.cli._common import (
+    is_stdout,
+    message_console,
+    parse_vector,
+    print_session_notes,
+    write_output,
+)
 from volcal.errors import VolcalInputError
 
 console = Console(soft_wrap=True)  # no line breaks inside paths
@@ -18,11 +25,12 @@ console = Console(soft_wrap=True)  # no line breaks inside paths
 
 def identify_cmd(
     session: Path = typer.Argument(..., help="Measured session folder."),
-    output: Path = typer.Option(..., "-o", "--output", help="Model file to write (MODEL.json)."),
+    output: Path = typer.Option(..., "-o", "--output", help="Model file to write (MODEL.json); "
+                                "- writes it to standard output."),
     prior: str = typer.Option("smooth", help="smooth (Bayesian, default) or none (min-norm LS)."),
     noise_um: float | None = typer.Option(None, help="Stated repeatability [um] (default: "
                                           "estimated)."),
-    roll: str = typer.Option("estimate", help="estimate, or zero (the rolls EAX, EBY, ECZ "
+    roll: str = typer.Option(D.ROLL, help="estimate, or zero (the rolls EAX, EBY, ECZ "
                              "fixed to zero)."),
     known: Path | None = typer.Option(None, help="CSV of errors measured separately "
                                       "(axis,position_mm and any of EX_um..EC_urad, only "
@@ -49,7 +57,9 @@ def identify_cmd(
     from volcal.io.paths import check_output_file
     from volcal.session.format import read_session
 
-    check_output_file(output)
+    console = message_console(output)  # stderr when the model goes to stdout
+    if not is_stdout(output):
+        check_output_file(output)
     if noise_um is not None and not (np.isfinite(noise_um) and noise_um > 0):
         raise VolcalInputError(f"--noise-um {noise_um}: expected a positive repeatability [um]")
     if known_u is not None and known is None:
@@ -103,7 +113,12 @@ def identify_cmd(
             from volcal.identify.systematic import attach_systematic
 
             attach_systematic(res, b, str(budget))
-    res.to_json(output)
+    if is_stdout(output):
+        import json
+
+        write_output(output, json.dumps(res.to_dict(), indent=1, allow_nan=False) + "\n")
+    else:
+        res.to_json(output)
     f = res.fit
     console.print(f"{f['n_readings']} readings, {f['n_parameters']} parameters, "
                   f"residual {f['sigma_residual_um']:.3f} um ({f['method']})")
@@ -120,7 +135,8 @@ def identify_cmd(
                       f"and prior {un.max():.3f} um, systematic (budget: "
                       f"{len(res.sys_labels)} inputs) {us.max():.3f} um, both "
                       f"{ut.max():.3f} um", highlight=False)
-    console.print(f"model -> {output}")
+    console.print("model -> " + ("standard output" if is_stdout(output) else str(output)),
+                  highlight=False)
 
 
 def _points_spec():
@@ -143,7 +159,8 @@ def _read_points(path: Path) -> np.ndarray:
 def predict_cmd(
     model: Path = typer.Argument(..., help="Model file (MODEL.json)."),
     points: Path = typer.Option(..., help="CSV with x_mm,y_mm,z_mm."),
-    output: Path = typer.Option(..., "-o", "--output", help="CSV to write."),
+    output: Path = typer.Option(..., "-o", "--output", help="CSV to write; - writes it to "
+                                "standard output."),
     tool_offset: str = typer.Option("0,0,0", help="Tool offset x,y,z [mm]."),
     session: Path | None = typer.Option(None, help="Session folder the model should belong "
                                         "to: refused if name, chain, travel or readings "
@@ -154,10 +171,11 @@ def predict_cmd(
     """Predict the volumetric error and its uncertainty at points."""
     from volcal.identify import load_model
     from volcal.identify.modelfile import check_model_file_session
-    from volcal.io.atomic import write_text
     from volcal.io.paths import check_output_file
 
-    check_output_file(output)
+    console = message_console(output)  # stderr when the CSV goes to stdout
+    if not is_stdout(output):
+        check_output_file(output)
     m = load_model(model)
     for d in check_model_file_session(model, session, force):
         console.print(f"[yellow]warning[/] --force: {d}", highlight=False)
@@ -176,13 +194,14 @@ def predict_cmd(
     for i in range(q.shape[0]):
         w.writerow([f"{v:.6g}" for v in q[i]] + [f"{v:.4f}" for v in e[i]]
                    + [f"{v:.4f}" for v in u[i]])
-    write_text(output, buf.getvalue())
-    console.print(f"{q.shape[0]} points -> {output}")
+    write_output(output, buf.getvalue())
+    console.print(f"{q.shape[0]} points -> "
+                  + ("standard output" if is_stdout(output) else str(output)), highlight=False)
 
 
 def advise_cmd(
     session: Path = typer.Argument(..., help="Planned (or measured) session folder."),
-    roll: str = typer.Option("estimate", help="estimate, or zero (the rolls EAX, EBY, ECZ "
+    roll: str = typer.Option(D.ROLL, help="estimate, or zero (the rolls EAX, EBY, ECZ "
                              "fixed to zero)."),
 ) -> None:
     """Before measuring: what the planned tests will and will not determine."""

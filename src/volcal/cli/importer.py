@@ -100,6 +100,20 @@ def import_(
         console.print(f"[cyan]units/notes:[/] {escape(note)}", highlight=False)
     where = "created session" if r.created else "added to"
     console.print(f"{r.measurement.n} readings of {what} -> {where} {r.session}")
+    for w in _imported_warnings(r.session, r.measurement.id):
+        console.print(f"[yellow]warning:[/] {escape(w)}", highlight=False)
+
+
+def _imported_warnings(session: Path, mid: str) -> list[str]:
+    """Plausibility warnings of the imported measurement, read back with its session."""
+    from volcal.errors import VolcalInputError
+    from volcal.session.format import read_session
+
+    try:
+        s = read_session(session)
+    except VolcalInputError:  # the import itself is done; the session's other tests speak later
+        return []
+    return [w for w in s.warnings if w.startswith(f"{mid}:")]
 
 
 def register(app: typer.Typer) -> None:

@@ -8,6 +8,7 @@ import numpy as np
 import typer
 from rich.console import Console
 
+from volcal import defaults as D
 from volcal.cli._common import parse_travel, parse_vector
 from volcal.errors import VolcalInputError
 
@@ -74,12 +75,16 @@ def plan(
 
 def simulate(
     session: Path = typer.Argument(..., help="Session folder (planned or measured)."),
-    seed: int = typer.Option(0, min=0, help="Seed of the virtual machine and of the noise."),
-    noise_um: float = typer.Option(0.5, help="Repeatability noise per reading [um]."),
-    mirror_urad: float = typer.Option(20.0, help="Residual mirror misalignment [urad]."),
-    drift_um_per_h: float = typer.Option(0.0, help="Linear drift of the readings [um/h]."),
+    seed: int = typer.Option(D.SIM_SEED, min=0, help="Seed of the virtual machine and of the "
+                            "noise."),
+    noise_um: float = typer.Option(D.SIM_NOISE_UM, help="Repeatability noise per reading [um]."),
+    mirror_urad: float = typer.Option(D.SIM_MIRROR_URAD,
+                                      help="Residual mirror misalignment [urad]."),
+    drift_um_per_h: float = typer.Option(D.SIM_DRIFT_UM_PER_H,
+                                         help="Linear drift of the readings [um/h]."),
     machine: Path | None = typer.Option(None, help="Error table ERRORS.csv (default: random)."),
-    reversal_um: float = typer.Option(0.0, help="Max reversal of a random machine's axes [um]."),
+    reversal_um: float = typer.Option(D.SIM_REVERSAL_UM,
+                                      help="Max reversal of a random machine's axes [um]."),
     overwrite: bool = typer.Option(False, "--overwrite", help="Replace readings that "
                                    "`volcal simulate` did not write (measured ones); a backup "
                                    "of the replaced files is kept in SESSION/backup/<time>/."),

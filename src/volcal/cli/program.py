@@ -9,6 +9,8 @@ import typer
 from rich.console import Console
 from rich.markup import escape
 
+from volcal import defaults as D
+
 console = Console(soft_wrap=True)  # no line breaks inside paths
 
 
@@ -17,15 +19,20 @@ def program(
     dialect: Annotated[str, typer.Option(
         help="Controller dialect: fanuc, linuxcnc, siemens or heidenhain.")],
     output: Annotated[Path, typer.Option("-o", "--output", help="Folder for the programs.")],
-    dwell_s: Annotated[float, typer.Option(help="Dwell at each reading pose [s].")] = 4.0,
-    feed: Annotated[float, typer.Option(help="Feed of every move [mm/min] (max 10000).")] = 2000.0,
+    dwell_s: Annotated[float, typer.Option(help="Dwell at each reading pose [s].")
+        ] = D.PROG_DWELL_S,
+    feed: Annotated[float, typer.Option(help="Feed of every move [mm/min] (max 10000).")
+                     ] = D.PROG_FEED,
     overrun_mm: Annotated[float, typer.Option(help="ISO 230-2 overrun before reversals [mm].")
-                          ] = 5.0,
-    decimals: Annotated[int, typer.Option(help="Decimals of the coordinates [mm].")] = 3,
+                          ] = D.PROG_OVERRUN_MM,
+    decimals: Annotated[int, typer.Option(help="Decimals of the coordinates [mm].")
+        ] = D.PROG_DECIMALS,
     safe_z_mm: Annotated[float, typer.Option(
-        help="Z of the first retract in machine coordinates (G53/SUPA/M91) [mm].")] = 0.0,
+        help="Z of the first retract in machine coordinates (G53/SUPA/M91) [mm].")
+            ] = D.PROG_SAFE_Z_MM,
     first_number: Annotated[int, typer.Option(
-        min=1, max=9999, help="Fanuc program number (O word) of the first.")] = 1000,
+        min=1, max=9999, help="Fanuc program number (O word) of the first.")
+    ] = D.PROG_FIRST_NUMBER,
 ) -> None:
     """Write one part program per measurement: planned poses in order, a dwell at each."""
     from volcal.io.paths import check_output_folder

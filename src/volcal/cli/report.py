@@ -6,7 +6,9 @@ from pathlib import Path
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 
+from volcal import defaults as D
 from volcal.cli._common import print_session_notes
 
 console = Console(soft_wrap=True)  # no line breaks inside paths
@@ -20,12 +22,15 @@ def report_cmd(
     output: Path = typer.Option(..., "-o", "--output", help="Report folder to write "
                                 "(report.html, report.pdf, figures/)."),
     compensation: Path | None = typer.Option(None, help="Folder written by `volcal "
-                                             "compensate` from the same model, summarised "
-                                             "in the report."),
-    edition: str = typer.Option("2014", help="ISO 230-2 edition of the positioning tables."),
+                                             "compensate` for this machine: its tables, read "
+                                             "back from the files, give the 'after'. Tables "
+                                             "written for another machine are refused "
+                                             "(--force to use them)."),
+    edition: str = typer.Option(D.EDITION, help="ISO 230-2 edition of the positioning tables."),
     title: str | None = typer.Option(None, help="Report title (default from the machine name)."),
     force: bool = typer.Option(False, "--force", help="Use --model even if it was identified "
-                               "from another session (name, chain, travel or readings differ)."),
+                               "from another session (name, chain, travel or readings differ), "
+                               "and --compensation tables written for another machine."),
     tolerance_um: str | None = typer.Option(
         None, help="Tolerance for a pass/fail verdict before and after compensation [um]: "
         "a number (largest volumetric error), X=10,Y=10,Z=8 (ISO 230-2 accuracy A per "
@@ -52,6 +57,12 @@ def report_cmd(
     check_output_folder(output, "report", lambda p: (p / "report.html").is_file())
     s = read_session(session)
     print_session_notes(s)
+    if compensation is not None:  # refuse another machine's tables before any work
+        from volcal.compensate.manifest import check_manifest, read_manifest
+        from volcal.session.identity import MachineIdentity
+
+        check_manifest(read_manifest(compensation), compensation, MachineIdentity.of(s),
+                       None, force)
     if model is not None:
         from volcal.identify.modelfile import check_model_session, load_model
 
@@ -64,10 +75,14 @@ def report_cmd(
         with console.status("identifying the machine's errors..."):
             result = identify(s)
     with console.status("evaluating and writing the report..."):
-        files = write_report(build_report(collect_inputs(s, result, edition=edition,
-                                                          compensation=compensation,
-                                                          tolerance=tol), title),
-                             output)
+        inputs = collect_inputs(s, result, edition=edition, compensation=compensation,
+                                tolerance=tol, force=force,
+                                model_label=("the model identified now" if model is None
+                                             else str(model)))
+        files = write_report(build_report(inputs, title), output)
+    if inputs.compensation is not None:
+        for w in inputs.compensation.warnings:
+            console.print(f"[yellow]warning[/] {escape(w)}", highlight=False)
     console.print(f"report: {files.html} and {files.pdf} ({files.pdf_pages} pages, "
                   f"{len(files.figures)} figures)", soft_wrap=True)
 

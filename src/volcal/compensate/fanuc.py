@@ -201,7 +201,9 @@ def fanuc_files(errors: MachineErrors, spacing: float, sign: str, reference_mm,
         plines.append(_fmt_param(3605, ["00000001"] * 3, series))
     plines += [_fmt_param(n, vals, series) for n, vals in params.items()] + ["%"]
     dlines = ["%"] + [_fmt_data(n, v, series) for n, v in data] + ["%"]
-    note = _notes(sign, series, res, notes, bidir, directional)
+    from volcal.compensate.reference import reference_line_notes
+
+    note = _notes(sign, series, res, notes + reference_line_notes(errors), bidir, directional)
     return {PARAM_FILE: "\n".join(plines) + "\n", PITCH_FILE: "\n".join(dlines) + "\n",
             NOTES_FILE: note}
 

@@ -14,6 +14,7 @@ from volcal.compensate.bidirectional import DirectionalErrors
 from volcal.compensate.generic import generic_files
 from volcal.compensate.heidenhain import heidenhain_files
 from volcal.compensate.linuxcnc import linuxcnc_files
+from volcal.compensate.manifest import MANIFEST, errors_digest, identity_of_errors
 from volcal.compensate.siemens import siemens_files
 from volcal.compensate.tables import sign_factor
 from volcal.compensate.volumetric import ISG_DEFAULT_SIGN, ISG_SIGN_SOURCE, grid_files, isg_files
@@ -22,8 +23,10 @@ from volcal.io.atomic import atomic_dir
 from volcal.io.tomlfmt import dumps as toml_dumps
 from volcal.model.errorfunctions import MachineErrors
 from volcal.model.names import COMPONENT_NAMES, SQUARENESS_NAMES
+from volcal.session.identity import MachineIdentity
 
-MANIFEST = "volcal-compensation.toml"
+MANIFEST_FORMAT = "volcal-compensation/2"
+"""Format of the manifest: ``/2`` adds ``[machine]`` (identity) and ``model_sha256``."""
 
 PITCH = ("EXX", "EYY", "EZZ")
 STRAIGHTNESS = ("EYX", "EZX", "EXY", "EZY", "EXZ", "EYZ")
@@ -174,7 +177,8 @@ FORMATS: dict[str, Callable[[MachineErrors, CompensationOptions, str], dict[str,
 
 
 def write_compensation(errors: MachineErrors, fmt: str, folder: str | Path,
-                       options: CompensationOptions, source: str = "") -> list[str]:
+                       options: CompensationOptions, source: str = "",
+                       machine: MachineIdentity | None = None) -> list[str]:
     """Write the compensation files of one format into a folder, atomically.
 
     Parameters
@@ -190,6 +194,11 @@ def write_compensation(errors: MachineErrors, fmt: str, folder: str | Path,
         Sign (default: the controller's convention), spacing, limits.
     source : str
         Name of the model file, recorded in the manifest.
+    machine : MachineIdentity, optional
+        The machine the tables are for (:mod:`volcal.session.identity`), recorded as the
+        manifest's ``[machine]`` table; default what the model says of itself (name,
+        chain, travel). ``model_sha256`` records the digest of ``errors``
+        (:func:`volcal.compensate.manifest.errors_digest`).
 
     Returns
     -------
@@ -212,15 +221,24 @@ def write_compensation(errors: MachineErrors, fmt: str, folder: str | Path,
                   else info.resolution_um)
     bidir = bool(info.bidirectional and options.directional is not None
                  and any(options.directional.has(k) for k in range(3)))
-    manifest = {"format": "volcal-compensation/1", "controller_format": fmt,
+    if machine is None:
+        machine = identity_of_errors(errors)
+    manifest = {"format": MANIFEST_FORMAT, "controller_format": fmt,
                 "sign": sign, "sign_default": info.sign, "sign_source": info.sign_source,
                 "spacing_mm": options.spacing, "resolution_um": resolution,
                 "carries": carries, "bidirectional": bidir,
                 # Fanuc outputs a point's value once the axis passes it; the others
                 # interpolate linearly between points (see docs/compensation.md)
                 "interpolation": "step" if fmt == "fanuc" else "linear",
-                "model": source, "machine": errors.name, "chain": errors.chain_obj.code,
-                "files": sorted(files)}
+                "model": source, "model_sha256": errors_digest(errors),
+                "chain": errors.chain_obj.code, "files": sorted(files)}
+    if fmt == "fanuc":  # what the Fanuc files do not hold, needed to read them back
+        ref = errors.travel[:, 0] if options.reference_mm is None else options.reference_mm
+        manifest["fanuc_reference_mm"] = [float(v) for v in ref]
+        manifest["fanuc_unit_um"] = options.unit_um
+    if fmt == "linuxcnc":
+        manifest["linuxcnc_type"] = options.linuxcnc_type
+    manifest["machine"] = machine.to_dict()
     with atomic_dir(folder) as tmp:
         for name, text in files.items():
             (tmp / name).write_text(text, encoding="utf-8", newline="\n")

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from volcal.compensate.reference import reference_line_notes
 from volcal.compensate.tables import AxisTable, axis_grid, pitch_table
 from volcal.errors import VolcalInputError
 from volcal.io.table import Column, TableSpec, read_table
@@ -19,12 +20,14 @@ from volcal.model.errorfunctions import MachineErrors
 from volcal.model.names import AXES
 
 CSV_FILE = "pitch.csv"
+NOTES_FILE = "pitch_notes.txt"
+"""Notes beside ``pitch.csv``: the reference line of each table and its Abbe terms."""
 RESOLUTION_UM = 0.001
 
 
 def generic_files(errors: MachineErrors, spacing: float, sign: str,
                   max_points: int | None = None) -> dict[str, str]:
-    """The pitch tables of X, Y, Z as one CSV file.
+    """The pitch tables of X, Y, Z as one CSV file, with a notes file beside it.
 
     Parameters
     ----------
@@ -49,7 +52,11 @@ def generic_files(errors: MachineErrors, spacing: float, sign: str,
         t = pitch_table(errors, k, p, sign, RESOLUTION_UM)
         for n, (pos, v) in enumerate(zip(p, t.values, strict=True)):
             w.writerow([AXES[k], n, f"{pos:.6f}", f"{v:.3f}"])
-    return {CSV_FILE: buf.getvalue()}
+    notes = ["volcal: generic pitch tables (pitch.csv): axis, point, position [mm], "
+             f"{sign} [um] (the column name states the sign).",
+             "Not corrected: straightness, squareness and angular (Abbe) errors.",
+             *reference_line_notes(errors)]
+    return {CSV_FILE: buf.getvalue(), NOTES_FILE: "\n".join(notes) + "\n"}
 
 
 def _axis(text: str) -> str:

@@ -35,12 +35,15 @@ from pathlib import Path
 
 import numpy as np
 
+from volcal.compensate.reference import reference_line_notes
 from volcal.compensate.tables import AxisTable, axis_grid, pitch_table, sign_factor
 from volcal.errors import VolcalInputError
 from volcal.model.errorfunctions import MachineErrors
 from volcal.model.names import AXES
 
 CMA_FILE = "VOLCAL.CMA"
+NOTES_FILE = "HEIDENHAIN_NOTES.TXT"
+"""Notes beside the tables (the ``.COM`` tables have no comment lines)."""
 RESOLUTION_UM = 0.1  # 4 decimals in mm
 DEFAULT_SIGN = "error"
 SIGN_SOURCE = ("HEIDENHAIN TNC 407/415/425 technical manual, nonlinear axis error "
@@ -65,7 +68,7 @@ def _row(cells: list[str], widths: list[int]) -> str:
 
 def heidenhain_files(errors: MachineErrors, spacing: float, sign: str = DEFAULT_SIGN,
                      max_points: int | None = None, directional=None) -> dict[str, str]:
-    """``X.COM``, ``Y.COM``, ``Z.COM`` (positioning errors) and ``VOLCAL.CMA``.
+    """``X.COM``, ``Y.COM``, ``Z.COM`` (positioning errors), ``VOLCAL.CMA`` and notes.
 
     Parameters
     ----------
@@ -114,6 +117,11 @@ def heidenhain_files(errors: MachineErrors, spacing: float, sign: str = DEFAULT_
     cma = [f"BEGIN {CMA_FILE}", _row(["NR", "ACTIVE", "X", "Y", "Z"], cw),
            _row(["0", "*", "X.COM", "Y.COM", "Z.COM"], cw), "[END]"]
     files[CMA_FILE] = "\n".join(cma) + "\n"
+    files[NOTES_FILE] = "\n".join([
+        "volcal: HEIDENHAIN nonlinear axis error compensation (.COM tables, VOLCAL.CMA)",
+        f"sign: {sign} (HEIDENHAIN convention: {DEFAULT_SIGN}; source: {SIGN_SOURCE})",
+        "Not corrected: straightness, squareness and angular (Abbe) errors.",
+        *reference_line_notes(errors)]) + "\n"
     return files
 
 

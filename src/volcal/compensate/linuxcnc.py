@@ -34,6 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
+from volcal.compensate.reference import reference_line_notes
 from volcal.compensate.tables import AxisTable, axis_grid, sign_factor
 from volcal.errors import VolcalInputError
 from volcal.model.errorfunctions import MachineErrors
@@ -131,6 +132,8 @@ def _readme(errors: MachineErrors, spacing: float, sign: str, comp_type: int,
         "Restart LinuxCNC to load. Check one point where the trim is large: the deviation "
         "must shrink, not double.",
         "Not corrected: straightness, squareness and angular (Abbe) errors.",
+        "",
+        *reference_line_notes(errors),
     ]
     return "\n".join(lines) + "\n"
 

@@ -44,6 +44,7 @@ from pathlib import Path
 
 import numpy as np
 
+from volcal.compensate.reference import reference_line_notes
 from volcal.compensate.tables import AxisTable, axis_grid, cross_table, pitch_table
 from volcal.errors import VolcalInputError
 from volcal.model.errorfunctions import MachineErrors
@@ -95,7 +96,7 @@ def siemens_files(errors: MachineErrors, spacing: float, sign: str = DEFAULT_SIG
            "; activate: MD32700 $MA_ENC_COMP_ENABLE[0,AXi]=1 after running this program, "
            "MD38000 $MA_MM_ENC_COMP_MAX_POINTS >= points, NCK reset",
            "; AX1..AX3 = X, Y, Z: rename to your machine axes; tables are zero at the start "
-           "of travel"]
+           "of travel", *("; " + n for n in reference_line_notes(errors))]
     cec = ["%_N_NC_CEC_INI", "CHANDATA(1)",
            f"; volcal: straightness (and squareness) tables, sign = {sign}{warn}, values in mm",
            f"; sign source: {SIGN_SOURCE}",

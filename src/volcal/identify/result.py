@@ -21,7 +21,7 @@ import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -33,6 +33,9 @@ from volcal.model.errorfunctions import MachineErrors
 from volcal.model.kinematics import pose_jacobian
 from volcal.model.names import AXES, COMPONENTS, SQUARENESS_NAMES
 from volcal.model.parameters import ParameterLayout
+
+if TYPE_CHECKING:
+    import pandas
 
 MODEL_FORMAT = "volcal-model/2"
 MODEL_FORMATS_READ = ("volcal-model/1", "volcal-model/2")
@@ -167,7 +170,8 @@ class IdentificationResult:
         return self.layout.pack(self.errors)
 
     def predict(self, q: ArrayLike, tool_offset: ArrayLike | None = None, chunk: int = 20000,
-                rigid_removed: bool = False, systematic: bool = True):
+                rigid_removed: bool = False, systematic: bool = True
+                ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Volumetric error and its standard uncertainty at points.
 
         Parameters
@@ -192,8 +196,20 @@ class IdentificationResult:
             Actual minus commanded tool point position, machine axes [um].
         u : ndarray, shape (m, 3)
             Standard uncertainties [um].
+
+        Raises
+        ------
+        VolcalInputError
+            ``q`` is not numbers of shape (m, 3) (or one point of shape (3,)).
         """
-        q = np.asarray(q, dtype=float).reshape(-1, 3)
+        try:
+            q = np.asarray(q, dtype=float)
+        except (TypeError, ValueError):
+            q = np.full((1, 2), np.nan)
+        if q.size == 0 or q.size % 3 or (q.ndim > 1 and q.shape[-1] != 3) or q.ndim > 2:
+            raise VolcalInputError(f"predict: an array of shape {q.shape}: expected points x, "
+                                   "y, z [mm], shape (m, 3)")
+        q = q.reshape(-1, 3)
         theta = self.theta
         factor = self._factor(systematic)
         order = self.errors.chain_obj.order
@@ -247,6 +263,32 @@ class IdentificationResult:
             ok = p >= 0
             L[ok] += ww[ok, None] * factor[p[ok]]
         return np.linalg.norm(L, axis=1)
+
+    # ------------------------------------------------------------------ tables
+    def to_rows(self) -> list[dict[str, Any]]:
+        """The identified functions as a table, one row per function and node.
+
+        Returns
+        -------
+        list of dict
+            ``function`` (``'EXX'``...), ``axis``, ``position_mm`` [mm] (NaN for the
+            squareness errors), ``value`` and ``u`` (standard uncertainty) in ``unit``
+            (``'um'`` or ``'urad'``); see :func:`volcal.io.frames.identified_rows`.
+        """
+        from volcal.io.frames import identified_rows
+
+        return identified_rows(self)
+
+    def to_dataframe(self) -> pandas.DataFrame:
+        """:meth:`to_rows` as a pandas DataFrame (needs pandas).
+
+        Returns
+        -------
+        pandas.DataFrame
+        """
+        from volcal.io.frames import to_dataframe
+
+        return to_dataframe(self.to_rows(), "IdentificationResult")
 
     # ------------------------------------------------------------------ file
     def to_dict(self) -> dict[str, Any]:

@@ -80,8 +80,12 @@ def check_output_folder(path: str | Path, what: str,
     ------
     VolcalInputError
         The nearest existing folder above it is a file or read-only; ``path`` is a file;
-        or ``path`` is a non-empty folder of another kind.
+        or ``path`` is a non-empty folder of another kind; ``path`` is ``-`` (standard
+        output, for single files only).
     """
+    if str(path) == "-":  # the command line's "standard output": not for a folder
+        raise VolcalInputError(f"-o -: the {what} is a folder of files, which cannot go to "
+                               "standard output; give a folder name")
     path = Path(path)
     _check_parent(path)
     if path.exists() and not path.is_dir():

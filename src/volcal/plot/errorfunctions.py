@@ -21,6 +21,14 @@ __all__ = ["COVERAGE_FACTOR", "error_functions_plot"]
 COVERAGE_FACTOR = 2.0
 """Coverage factor ``k`` of the drawn uncertainty bands (GUM 6.2)."""
 
+FIGURE_SIZE = (11.0, 7.0)
+"""Size of the figure [inch]: the free area of an A4 landscape page, so that the report
+prints it at this size and its smallest labels (:data:`FONT_SIZES`) at their point size."""
+
+FONT_SIZES = {"title": 7.5, "label": 7.0, "tick": 6.5, "legend": 6.5, "suptitle": 10.0}
+"""Font sizes of the 21 panels [pt]; the smallest, 6.5 pt, is above the 6 pt a printed
+label needs to be read."""
+
 
 def error_functions_plot(errors: MachineErrors,
                          std: Sequence[NDArray[np.float64]] | None = None,
@@ -55,7 +63,8 @@ def error_functions_plot(errors: MachineErrors,
     ----------
     ISO 230-1:2012, 3.4 (names of the component errors). JCGM 100:2008 (GUM), 6.
     """
-    fig = fig or new_figure(15.0, 7.0)
+    fs = FONT_SIZES
+    fig = fig or new_figure(*FIGURE_SIZE)
     gs = fig.add_gridspec(3, 7)
     for a in range(3):
         q = errors.nodes[a]
@@ -74,15 +83,12 @@ def error_functions_plot(errors: MachineErrors,
                 qt = np.union1d(truth.nodes[a], q)
                 qt = qt[(qt >= q[0]) & (qt <= q[-1])]
                 ax.plot(qt, truth.function(name, qt), gid=f"{name} truth", **TRUTH_STYLE)
-            ax.set_title(f"{name} [{e.unit_symbol}]\n{e.label}", fontsize="small")
-            ax.tick_params(labelsize="x-small")
+            ax.set_title(f"{name} [{e.unit_symbol}]\n{e.label}", fontsize=fs["title"])
+            ax.tick_params(labelsize=fs["tick"])
             ax.grid(True, alpha=0.3)
-            if a == 2:
-                ax.set_xlabel(f"{AXES[a]} [mm]", fontsize="small")
-            else:
-                ax.set_xlabel(f"{AXES[a]} [mm]", fontsize="x-small")
+            ax.set_xlabel(f"{AXES[a]} [mm]", fontsize=fs["label"])
             if a == 0 and c == 0:
-                ax.legend(fontsize="x-small")
+                ax.legend(fontsize=fs["legend"])
     ax = fig.add_subplot(gs[:, 6])
     x = np.arange(3)
     yerr = None if squareness_std is None else k * np.asarray(squareness_std)
@@ -91,10 +97,11 @@ def error_functions_plot(errors: MachineErrors,
     if truth is not None:
         ax.plot(x, truth.squareness, linestyle="none", marker="_", markersize=18,
                 markeredgewidth=2, color="black", gid="squareness truth", label="truth")
-        ax.legend(fontsize="x-small")
+        ax.legend(fontsize=fs["legend"])
     ax.set_xticks(x, [f"{n}\n{info(n).axis} to {info(n).reference}" for n in SQUARENESS_NAMES])
+    ax.tick_params(labelsize=fs["tick"])
     ax.axhline(0.0, color="0.6", linewidth=0.6)
-    ax.set_title("squareness [µrad]", fontsize="medium")
+    ax.set_title("squareness [µrad]", fontsize=fs["title"])
     ax.grid(True, axis="y", alpha=0.3)
-    fig.suptitle(f"{errors.name}: error functions (band ± {k:g} u)")
+    fig.suptitle(f"{errors.name}: error functions (band ± {k:g} u)", fontsize=fs["suptitle"])
     return fig

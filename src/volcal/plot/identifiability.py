@@ -56,18 +56,22 @@ def function_uncertainty(std: Sequence[NDArray[np.float64]],
     return out
 
 
-def _bars(ax, names: list[str], values: list[float], unit: str, color: str) -> None:
+NOT_DETERMINED_STYLE = {"hatch": "//", "facecolor": "0.85", "edgecolor": "0.3"}
+"""Style of the bar of an error function the tests do not determine (the legend's "n/i")."""
+
+
+def _bars(ax, names: list[str], values: list[float], unit: str, color: str,
+          undetermined: set[str]) -> None:
     v = np.array(values, dtype=float)
     finite = np.isfinite(v) & (v > 0)
     top = float(v[finite].max()) * 3.0 if np.any(finite) else 1.0
     heights = np.where(finite, v, top)
     bars = ax.bar(np.arange(len(names)), heights, color=color, alpha=0.8, gid=f"u {unit}")
-    for b, ok in zip(bars, finite, strict=True):
-        if not ok:
-            b.set_hatch("//")
-            b.set_facecolor("0.85")
+    for b, ok, name in zip(bars, finite, names, strict=True):
+        if not ok or name in undetermined:
+            b.set(**NOT_DETERMINED_STYLE, alpha=1.0, gid=f"{name} not determined")
             ax.annotate("n/i", (b.get_x() + b.get_width() / 2, b.get_height()),
-                        ha="center", va="bottom", fontsize="x-small")
+                        ha="center", va="bottom", fontsize=7)
     ax.set_yscale("log")
     ax.set_xticks(np.arange(len(names)), names, rotation=90, fontsize="small")
     ax.set_ylabel(f"max standard uncertainty [{unit}]")
@@ -76,6 +80,9 @@ def _bars(ax, names: list[str], values: list[float], unit: str, color: str) -> N
 
 FRACTION_LIMITS = (0.5, 0.95)
 """Determined fractions below the first are 'not determined', below the second 'weak'."""
+
+FRACTION_COLORS = ("tab:red", "tab:orange", "tab:green")
+"""Colours of the determined fraction: not determined, weak, determined."""
 
 
 def identifiability_plot(std: Sequence[NDArray[np.float64]],
@@ -101,23 +108,36 @@ def identifiability_plot(std: Sequence[NDArray[np.float64]],
     Returns
     -------
     matplotlib.figure.Figure
+        The uncertainty bars of the functions the data do not determine (no finite
+        uncertainty, or a determined fraction below ``FRACTION_LIMITS[0]``) are hatched
+        grey and marked "n/i", as the legend says; the fraction bars are coloured by
+        :data:`FRACTION_COLORS` with their legend.
     """
+    from matplotlib.patches import Patch
+
     u = function_uncertainty(std, squareness_std)
+    undetermined = {n for n, f in (determined_fraction or {}).items()
+                    if f < FRACTION_LIMITS[0]}
     ncol = 2 + (singular_values is not None) + (determined_fraction is not None)
-    fig = fig or new_figure(4.2 * ncol, 4.2)
-    axs = fig.subplots(1, ncol, squeeze=False)[0]
+    fig = fig or new_figure(min(11.0, 3.0 * ncol), 6.0)
+    gs = fig.add_gridspec(2, ncol, height_ratios=[1.0, 0.04])
+    axs = [fig.add_subplot(gs[0, j]) for j in range(ncol)]
+    key = fig.add_subplot(gs[1, :])  # a row of its own for the legend, inside the layout
+    key.axis("off")
     lin = [n for n in u if info(n).unit == "um"]
     ang = [n for n in u if n not in lin]
-    _bars(axs[0], lin, [u[n] for n in lin], "µm", "tab:blue")
+    _bars(axs[0], lin, [u[n] for n in lin], "µm", "tab:blue", undetermined)
     axs[0].set_title("translations")
-    _bars(axs[1], ang, [u[n] for n in ang], "µrad", "tab:green")
+    _bars(axs[1], ang, [u[n] for n in ang], "µrad", "tab:green", undetermined)
     axs[1].set_title("rotations and squareness")
+    handles = [Patch(**NOT_DETERMINED_STYLE, label="n/i: not determined by the data")]
     col = 2
     if determined_fraction is not None:
         names = list(determined_fraction)
         f = np.array([determined_fraction[n] for n in names], dtype=float)
-        colors = np.where(f < FRACTION_LIMITS[0], "tab:red",
-                          np.where(f < FRACTION_LIMITS[1], "tab:orange", "tab:green"))
+        colors = np.where(f < FRACTION_LIMITS[0], FRACTION_COLORS[0],
+                          np.where(f < FRACTION_LIMITS[1], FRACTION_COLORS[1],
+                                   FRACTION_COLORS[2]))
         ax = axs[col]
         ax.barh(np.arange(len(names)), 100.0 * f, color=colors, gid="determined")
         ax.set_yticks(np.arange(len(names)), names, fontsize="small")
@@ -127,6 +147,10 @@ def identifiability_plot(std: Sequence[NDArray[np.float64]],
             ax.axvline(100 * lim, color="0.4", linewidth=0.6, linestyle=":")
         ax.set_xlabel("prior uncertainty removed [%]")
         ax.set_title("determined by the data")
+        lo, hi = (f"{100 * x:g} %" for x in FRACTION_LIMITS)
+        handles += [Patch(color=FRACTION_COLORS[0], label=f"removed < {lo}: not determined"),
+                    Patch(color=FRACTION_COLORS[1], label=f"{lo} to {hi}: weak"),
+                    Patch(color=FRACTION_COLORS[2], label=f"≥ {hi}: determined")]
         col += 1
     if singular_values is not None:
         sv = np.sort(np.abs(np.asarray(singular_values, dtype=float)))[::-1]
@@ -138,5 +162,7 @@ def identifiability_plot(std: Sequence[NDArray[np.float64]],
         ax.set_ylabel("σ_i / σ_1")
         ax.set_title("singular values")
         ax.grid(True, which="both", alpha=0.3)
+    key.legend(handles=handles, loc="center", ncol=len(handles), fontsize="small",
+               frameon=False)
     fig.suptitle("identifiability: what the tests determine")
     return fig

@@ -124,7 +124,8 @@ def volumetric_map_plot(vmap: VolumetricMap, title: str | None = None,
             ax.set_ylabel("Y [mm]")
     assert quiv is not None
     key = 10.0 ** np.floor(np.log10(peak)) if peak > 0 else 1.0
-    axs[-1].quiverkey(quiv, 0.85, 1.02, key, f"{key:g} µm", labelpos="W", coordinates="axes")
+    axs[-1].quiverkey(quiv, 0.97, 1.03, key, f"{key:g} µm", labelpos="W", coordinates="axes",
+                      fontproperties={"size": 8})
     fig.colorbar(quiv, ax=list(axs), label="|e| [µm]", shrink=0.9)
     fig.suptitle(title or f"volumetric error, arrows (e_x, e_y) x {mag * 1000:.0f}, "
                  f"colour |e|; max |e| = {vmax:.1f} µm")

@@ -7,13 +7,20 @@ into them; an ISG list or a 3-D grid carries the whole volumetric error. Each ta
 values at a uniform spacing, rounded to its resolution, which the controller interpolates
 linearly (or holds stepwise between points, Fanuc's classic pitch compensation).
 
-:func:`applied_correction` builds a model of exactly what the tables make the controller
-do, the **table model** (the carried components, sampled at the table's points, rounded
-and interpolated as the controller does; every other component zero), and returns its
-volumetric error: the part of the machine's error the tables remove. The error left is
-``volumetric_error(model) - applied_correction``: for each carried component the model
-minus the table as the controller interpolates it, for every other component the model
-itself (the first-order volumetric error is linear in the components).
+:func:`applied_correction` builds a model of what tables written from a model would make
+the controller do, the **table model** (the carried components, sampled at the table's
+points, rounded and interpolated as the controller does; every other component zero),
+and returns its volumetric error: the part of the machine's error the tables remove. The
+error left is ``volumetric_error(model) - applied_correction``: for each carried
+component the model minus the table as the controller interpolates it, for every other
+component the model itself (the first-order volumetric error is linear in the
+components).
+
+The report's and the verdict's "after" no longer use it: they read the tables as
+written back from their files (:mod:`volcal.compensate.readback`), so a stale, edited or
+foreign table shows; the table model remains the independent cross-check of the readers
+(``tests/compensate/test_manifest_identity.py``) and says what a folder carries
+(:func:`describe`).
 
 The manifest ``volcal-compensation.toml`` says what a folder carries (keys ``carries``,
 ``resolution_um``, ``spacing_mm``, ``sign``, ``bidirectional``, ``interpolation``); when

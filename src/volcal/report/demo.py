@@ -113,7 +113,7 @@ def run_demo(folder: str | Path, seed: int = 7,
 
     on_step("writing compensation tables")
     comp_dir = folder / "compensation"
-    files = cal.compensate(comp_dir, "grid", "error", spacing=50.0)
+    files = cal.compensate(comp_dir, format="grid", spacing=50.0)  # grid's sign: error
     lines.append(f"compensate: 3-D error grid ({', '.join(files)}) -> {comp_dir}")
     on_done()
 
@@ -130,7 +130,7 @@ def run_demo(folder: str | Path, seed: int = 7,
     on_done()
 
     on_step("writing the HTML and PDF report")
-    files = cal.report(folder / "report")
+    files = cal.report(folder / "report", compensation=comp_dir)
     lines.append(f"report: {files.pdf_pages} PDF pages, {len(files.figures)} figures")
     on_done()
     return DemoOutput(folder, session_dir, model, comp_dir, files, lines)

@@ -9,9 +9,10 @@ from matplotlib.figure import Figure
 
 __all__ = ["png_bytes", "png_data_uri"]
 
-PNG_DPI = 150
-"""Resolution of the PNG images [dots per inch], the same in the HTML (shown at the page
-width), the PDF and the figures folder, so that each figure is drawn once."""
+PNG_DPI = 200
+"""Resolution of the PNG images [dots per inch], the same in the HTML and the figures
+folder, so that each figure is drawn once for both (the PDF draws them as vectors). At least
+200 dpi, so that a figure printed from the HTML at its natural size stays sharp."""
 
 
 def png_bytes(fig: Figure, dpi: int = PNG_DPI) -> bytes:

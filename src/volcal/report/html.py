@@ -14,6 +14,7 @@ import jinja2
 
 from volcal.report.document import FigureItem, Report
 from volcal.report.figures import png_data_uri
+from volcal.report.wording import customer_report
 
 __all__ = ["render_html"]
 
@@ -42,13 +43,15 @@ def render_html(report: Report) -> str:
     Parameters
     ----------
     report : Report
-        The document.
+        The document; its text is shown as :func:`volcal.report.wording.customer_text`
+        spells it.
 
     Returns
     -------
     str
         A complete HTML5 document with embedded figures.
     """
+    report = customer_report(report)
     number = 0
     sections = []
     for s in report.sections:

@@ -6,38 +6,156 @@ system binaries); a calibration report must be writable on a locked-down shop-fl
 Text and tables are laid out on A4 portrait pages with a simple flow layout; each figure
 gets an A4 landscape page with its caption. The content is the same document as the HTML
 report.
+
+What the customer reads is never cut: paragraphs and table cells are wrapped at word
+boundaries, measured with the font that draws them (a word wider than its column is broken
+between characters), and a table row grows to hold its longest cell. Figures are drawn as
+vector graphics at the size they are printed (the figure is laid out again on the page,
+its fonts kept at their point sizes, so a label set in 6.5 pt prints at 6.5 pt); the few
+parts matplotlib rasterizes (colour bars) are embedded at :data:`RASTER_DPI`.
 """
 
 from __future__ import annotations
 
-import io
 import re
-import textwrap
 from pathlib import Path
 
-import matplotlib.image as mpimg
+from matplotlib.backends.backend_agg import RendererAgg
 from matplotlib.backends.backend_pdf import PdfPages
+from matplotlib.figure import Figure
+from matplotlib.font_manager import FontProperties
+from matplotlib.layout_engine import ConstrainedLayoutEngine
+from matplotlib.patches import Rectangle
 
 from volcal.plot._figure import new_figure
 from volcal.report.document import Report, Table
-from volcal.report.figures import png_bytes
+from volcal.report.wording import customer_report
 
-__all__ = ["write_pdf"]
+__all__ = ["RASTER_DPI", "write_pdf"]
 
 A4_PORTRAIT = (8.27, 11.69)
 A4_LANDSCAPE = (11.69, 8.27)
+RASTER_DPI = 300
+"""Resolution of the rasterized parts of the figures (colour bars) [dots per inch]."""
+
+_PT = 72.0  # points per inch
 _TOP, _BOTTOM, _LEFT = 0.95, 0.06, 0.07
 _LINE = 0.0165  # height of a 10 pt text line, fraction of an A4 portrait page
-_ROW = 0.0175  # height of a table row
-_WRAP = 100  # characters per text line
-
+_TEXT_WIDTH_PT = (1 - 2 * _LEFT) * A4_PORTRAIT[0] * _PT  # width of the text column [pt]
+_TABLE_SIZES = (8.0, 7.0, 6.5)  # font sizes tried for a table until its words fit [pt]
+_PAD_X, _PAD_Y = 3.0, 2.0  # cell padding [pt]
+_LINESPACING = 1.2  # matplotlib's default, in units of the font's line height
+_FIG_MARGIN = 0.45  # margin of a figure page [inch]
 
 _NUMBER = re.compile(r"^[-+−]?(\d[\d.,]*|∞|-)$|^\(.*\)$")
-_MAX_CELL = 48  # characters of a table cell on paper; longer text is shortened
 
 
-def _clip(text: str) -> str:
-    return text if len(text) <= _MAX_CELL else text[:_MAX_CELL - 1] + "…"
+class _Measure:
+    """Width of a text line in the font that draws it [pt] (Agg's metrics, 10x oversampled)."""
+
+    def __init__(self) -> None:
+        self._renderer = RendererAgg(10, 10, 10 * _PT)
+        self._props: dict[tuple[float, str], FontProperties] = {}
+        self._cache: dict[tuple[str, float, str], float] = {}
+
+    def _prop(self, size: float, weight: str) -> FontProperties:
+        return self._props.setdefault((size, weight), FontProperties(size=size, weight=weight))
+
+    def width(self, text: str, size: float, weight: str = "normal") -> float:
+        key = (text, size, weight)
+        if key not in self._cache:
+            w, _, _ = self._renderer.get_text_width_height_descent(
+                text, self._prop(size, weight), ismath=False)
+            self._cache[key] = w / 10.0 + 0.5  # half a point of slack for rounding
+        return self._cache[key]
+
+    def line_metrics(self, size: float) -> tuple[float, float]:
+        """Pitch of the lines of a multi-line text and height of one line [pt].
+
+        As matplotlib lays text out (``Text._get_layout``): each line ``h - d`` times the
+        line spacing plus the descent ``d`` below the previous one, ``h`` the height of
+        ``'lp'``.
+        """
+        _, h, d = self._renderer.get_text_width_height_descent("lp", self._prop(size, "normal"),
+                                                               ismath=False)
+        return (_LINESPACING * (h - d) + d) / 10.0, h / 10.0
+
+    def wrap(self, text: str, width: float, size: float, weight: str = "normal") -> list[str]:
+        """Break ``text`` into lines no wider than ``width`` [pt], at spaces where possible.
+
+        Every character of ``text`` other than the spaces at the breaks is kept: a word
+        wider than the line is broken between characters, never shortened.
+        """
+        lines: list[str] = []
+        for para in text.split("\n"):
+            line = ""
+            for word in para.split():
+                cand = f"{line} {word}" if line else word
+                if self.width(cand, size, weight) <= width:
+                    line = cand
+                    continue
+                if line:
+                    lines.append(line)
+                line = ""
+                while self.width(word, size, weight) > width and len(word) > 1:
+                    k = len(word) - 1
+                    while k > 1 and self.width(word[:k], size, weight) > width:
+                        k -= 1
+                    lines.append(word[:k])
+                    word = word[k:]
+                line = word
+            lines.append(line)
+        return lines or [""]
+
+
+def _weight(i: int) -> str:
+    """Font weight of row ``i`` of a table's cells (row 0 is the header)."""
+    return "bold" if i == 0 else "normal"
+
+
+def _unbreakable(m: _Measure, text: str, size: float, weight: str) -> float:
+    """Width of the widest piece of a cell that must stay on one line [pt].
+
+    A number or a vector of numbers counts whole, any other text by its longest word.
+    """
+    if _NUMBER.match(text):
+        return m.width(text, size, weight)
+    return max([m.width(w, size, weight) for w in text.split()] or [0.0])
+
+
+def _column_widths(m: _Measure, cells: list[list[str]], size: float, total: float,
+                   force: bool = False) -> list[float] | None:
+    """Column widths [pt] filling ``total``, each at least as wide as its longest word.
+
+    When the longest words of the columns do not fit side by side at this size: None, or
+    with ``force`` the narrow columns keep their words whole and the columns with the
+    widest words share the rest in proportion to their text (their words are then broken
+    between characters).
+    """
+    ncol = len(cells[0])
+    natural = [max(m.width(r[j], size, _weight(i)) for i, r in enumerate(cells)) + 2 * _PAD_X
+               for j in range(ncol)]
+    word = [max(_unbreakable(m, r[j], size, _weight(i)) for i, r in enumerate(cells))
+            + 2 * _PAD_X for j in range(ncol)]
+    if sum(natural) <= total:
+        return [n * total / sum(natural) for n in natural]
+    if sum(word) > total:
+        if not force:
+            return None
+        widths = list(word)
+        left = total
+        order = sorted(range(ncol), key=lambda j: word[j])
+        for k, j in enumerate(order):
+            if word[j] > left / (ncol - k):  # this and the wider ones share what is left
+                rest = order[k:]
+                for i in rest:
+                    widths[i] = left * natural[i] / sum(natural[r] for r in rest)
+                break
+            left -= word[j]
+        return widths
+    slack = [n - w for n, w in zip(natural, word, strict=True)]
+    extra = total - sum(word)
+    return [w + extra * s / sum(slack) for w, s in zip(word, slack, strict=True)]
 
 
 class _Flow:
@@ -47,8 +165,9 @@ class _Flow:
         self.pdf = pdf
         self.report = report
         self.page = 0
-        self.fig = None
+        self.fig: Figure | None = None
         self.y = _TOP
+        self.measure = _Measure()
 
     def new_page(self) -> None:
         self.flush()
@@ -60,7 +179,7 @@ class _Flow:
         if self.fig is not None:
             self.page += 1
             self.fig.text(0.5, 0.025, f"{self.report.title}  ·  page {self.page}", ha="center",
-                          fontsize=7, color="0.4")
+                          fontsize=7, color="0.4", parse_math=False)
             self.pdf.savefig(self.fig)
             self.fig = None
 
@@ -69,65 +188,145 @@ class _Flow:
             self.new_page()
 
     def text(self, s: str, size: float = 9.5, weight: str = "normal", color: str = "black",
-             indent: float = 0.0, wrap: int = _WRAP) -> None:
-        for line in textwrap.wrap(s, wrap) or [""]:
+             indent: float = 0.0) -> None:
+        width = _TEXT_WIDTH_PT - indent * A4_PORTRAIT[0] * _PT
+        for line in self.measure.wrap(s, width, size):
             self.need(_LINE * size / 9.5)
             assert self.fig is not None
             self.fig.text(_LEFT + indent, self.y, line, fontsize=size, weight=weight,
-                          color=color, va="top")
+                          color=color, va="top", parse_math=False)
             self.y -= _LINE * size / 9.5
 
     def gap(self, lines: float = 0.6) -> None:
         self.y -= _LINE * lines
 
     def table(self, t: Table) -> None:
-        per_page = int((_TOP - _BOTTOM) / _ROW) - 3
-        chunks = [t.rows[i:i + per_page] for i in range(0, len(t.rows), per_page)] or [[]]
-        for i, rows in enumerate(chunks):
-            h = _ROW * (len(rows) + 1)
-            self.need(h + 2 * _LINE)
-            if t.title:
-                self.text(t.title + (" (continued)" if i else ""), weight="bold", size=9)
-            assert self.fig is not None
-            ax = self.fig.add_axes((_LEFT, self.y - h, 1 - 2 * _LEFT, h))
-            ax.axis("off")
-            cells = [[_clip(c) for c in r] for r in rows] or [[""] * len(t.columns)]
-            chars = [max([len(t.columns[j]) * 0.8] + [len(r[j]) for r in cells]) + 2
-                     for j in range(len(t.columns))]
-            tab = ax.table(cellText=cells, colLabels=t.columns, bbox=(0, 0, 1, 1),
-                           colLoc="center", colWidths=[c / sum(chars) for c in chars])
-            tab.auto_set_font_size(False)
-            tab.set_fontsize(6.5 if sum(chars) > 110 else 8)
-            for (r, c), cell in tab.get_celld().items():
-                cell.set_linewidth(0.3)
-                if r == 0:
-                    cell.set_facecolor("#eef3f8")
-                else:
-                    cell.set_text_props(ha="right" if _NUMBER.match(cells[r - 1][c])
-                                        else "left")
-            self.y -= h + 0.5 * _LINE
+        """Draw a table over the text width, cells wrapped, rows split across pages."""
+        m = self.measure
+        cells = [list(t.columns)] + [list(r) for r in t.rows]
+        widths = None
+        for size in _TABLE_SIZES:
+            widths = _column_widths(m, cells, size, _TEXT_WIDTH_PT,
+                                    force=size == _TABLE_SIZES[-1])
+            if widths is not None:
+                break
+        assert widths is not None
+        pitch, one = m.line_metrics(size)
+        page_h = A4_PORTRAIT[1] * _PT
+
+        def lay(row: list[str], weight: str = "normal") -> tuple[list[list[str]], float]:
+            lines = [m.wrap(c, w - 2 * _PAD_X, size, weight)
+                     for c, w in zip(row, widths, strict=True)]
+            return lines, (max(map(len, lines)) - 1) * pitch + one + 2 * _PAD_Y + 1.0
+
+        header, header_h = lay(cells[0], "bold")
+        title_h = _LINE * 9 / 9.5
+        first = True
+        for row in cells[1:] or [[""] * len(t.columns)]:
+            lines, h = lay(row)
+            h_frac = h / page_h
+            if first or self.y - h_frac < _BOTTOM:
+                self.need((header_h + h) / page_h + title_h + _LINE)
+                if t.title:
+                    self.text(t.title + ("" if first else " (continued)"), weight="bold",
+                              size=9)
+                self._row(header, widths, header_h / page_h, size, head=True)
+                first = False
+            self._row(lines, widths, h_frac, size)
+        self.y -= 0.5 * _LINE
         if t.note:
             self.text(t.note, size=8, color="0.3")
         self.gap()
 
+    def _row(self, lines: list[list[str]], widths: list[float], h: float, size: float,
+             head: bool = False) -> None:
+        assert self.fig is not None
+        page_w = A4_PORTRAIT[0] * _PT
+        page_h = A4_PORTRAIT[1] * _PT
+        x = _LEFT
+        for cell, w in zip(lines, widths, strict=True):
+            wf = w / page_w
+            self.fig.add_artist(Rectangle((x, self.y - h), wf, h, transform=self.fig.transFigure,
+                                          facecolor="#eef3f8" if head else "none",
+                                          edgecolor="0.6", linewidth=0.3))
+            text = "\n".join(cell)
+            right = not head and bool(_NUMBER.match(text))
+            self.fig.text(x + (wf - _PAD_X / page_w if right else _PAD_X / page_w),
+                          self.y - _PAD_Y / page_h, text, fontsize=size, va="top",
+                          ha="right" if right else "left", linespacing=_LINESPACING,
+                          multialignment="right" if right else "left",
+                          weight="bold" if head else "normal", parse_math=False)
+            x += wf
+        self.y -= h
 
-    def figure_page(self, png: bytes, caption: str, number: int) -> None:
+    def figure_page(self, fig: Figure, caption: str, number: int) -> None:
         self.flush()
         self.page += 1
-        _figure_page(self.pdf, png, caption, number,
-                     f"{self.report.title}  ·  page {self.page}")
+        _figure_page(self.pdf, fig, caption, number,
+                     f"{self.report.title}  ·  page {self.page}", self.measure)
 
 
-def _figure_page(pdf: PdfPages, png: bytes, caption: str, number: int, footer: str) -> None:
-    fig = new_figure(*A4_LANDSCAPE)
-    fig.set_layout_engine(None)
-    ax = fig.add_axes((0.03, 0.1, 0.94, 0.86))
-    ax.imshow(mpimg.imread(io.BytesIO(png), format="png"), interpolation="antialiased")
-    ax.axis("off")
-    fig.text(0.05, 0.06, "\n".join(textwrap.wrap(f"Figure {number}: {caption}", 150)),
-             fontsize=9, va="top")
-    fig.text(0.5, 0.02, footer, ha="center", fontsize=7, color="0.4")
-    pdf.savefig(fig)
+def _figure_page(pdf: PdfPages, fig: Figure, caption: str, number: int, footer: str,
+                 measure: _Measure) -> None:
+    """Print a figure on an A4 landscape page as vector graphics, its caption below.
+
+    The figure is laid out again in the page's free area (its aspect ratio kept, its fonts
+    at their point sizes) and restored afterwards, so the PNG of the HTML report and the
+    figures folder is unchanged.
+    """
+    pw, ph = A4_LANDSCAPE
+    size = 9.0
+    lines = measure.wrap(f"Figure {number}: {caption}", (pw - 2 * _FIG_MARGIN) * _PT, size)
+    pitch, _ = measure.line_metrics(size)
+    band = (len(lines) * pitch + 24.0) / _PT  # caption and footer [in]
+    sup = getattr(fig, "_suptitle", None)  # placed by hand at the top of the free area
+    sup_h = 0.0
+    if sup is not None and sup.get_visible() and sup.get_text():
+        sup_h = (sup.get_text().count("\n") + 1) * measure.line_metrics(sup.get_fontsize())[0]
+        sup_h = (sup_h + 6.0) / _PT
+    top = ph - _FIG_MARGIN - sup_h  # top of the figure's axes area [in]
+    avail_w, avail_h = pw - 2 * _FIG_MARGIN, top - band - 0.1
+    w, h = fig.get_size_inches()
+    scale = min(avail_w / w, avail_h / h)
+    fw, fh = w * scale, h * scale
+    rect = ((pw - fw) / 2 / pw, (top - fh) / ph, fw / pw, fh / ph)
+    engine = fig.get_layout_engine()
+    if not isinstance(engine, ConstrainedLayoutEngine):
+        engine = None  # a figure without constrained layout is scaled as a whole
+    old_size, old_rect = fig.get_size_inches().copy(), engine.get()["rect"] if engine else None
+    old_pos = [(ax, ax.get_position(original=True)) for ax in fig.axes] if not engine else []
+    old_sup = ((sup.get_position(), getattr(sup, "_autopos", False), sup.get_in_layout())
+               if sup_h else None)
+    fig.set_size_inches(pw, ph, forward=False)
+    if engine is not None:
+        engine.set(rect=rect)
+    else:
+        for ax, p in old_pos:
+            ax.set_position((rect[0] + p.x0 * rect[2], rect[1] + p.y0 * rect[3],
+                             p.width * rect[2], p.height * rect[3]))
+    if old_sup is not None:
+        sup.set_position((0.5, (ph - _FIG_MARGIN) / ph))
+        sup._autopos = False
+        sup.set_in_layout(False)
+    y = (top - fh - 0.1) / ph
+    added = [fig.text(_FIG_MARGIN / pw, y, "\n".join(lines), fontsize=size, va="top",
+                      linespacing=_LINESPACING, parse_math=False),
+             fig.text(0.5, 0.02, footer, ha="center", fontsize=7, color="0.4",
+                      parse_math=False)]
+    try:
+        pdf.savefig(fig, dpi=RASTER_DPI)
+    finally:
+        for a in added:
+            a.remove()
+        fig.set_size_inches(*old_size, forward=False)
+        if engine is not None:
+            engine.set(rect=old_rect)
+        for ax, p in old_pos:
+            ax.set_position(p)
+        if old_sup is not None:
+            sup.set_position(old_sup[0])
+            sup._autopos = old_sup[1]
+            sup.set_in_layout(old_sup[2])
 
 
 def write_pdf(report: Report, path: str | Path) -> int:
@@ -136,7 +335,8 @@ def write_pdf(report: Report, path: str | Path) -> int:
     Parameters
     ----------
     report : Report
-        The document.
+        The document; its text is printed as :func:`volcal.report.wording.customer_text`
+        spells it.
     path : str or Path
         Output file.
 
@@ -145,11 +345,12 @@ def write_pdf(report: Report, path: str | Path) -> int:
     int
         Number of pages written.
     """
+    report = customer_report(report)
     number = 0
     with PdfPages(path, metadata={"Title": report.title, "Creator": report.generator}) as pdf:
         flow = _Flow(pdf, report)
         flow.new_page()
-        flow.text(report.title, size=18, weight="bold", wrap=60)
+        flow.text(report.title, size=18, weight="bold")
         flow.text(f"Created {report.created} by {report.generator}", size=8.5, color="0.35")
         flow.gap(1.0)
         for k, s in enumerate(report.sections, start=1):
@@ -171,7 +372,7 @@ def write_pdf(report: Report, path: str | Path) -> int:
                 flow.flush()
                 for f in s.figures:
                     number += 1
-                    flow.figure_page(png_bytes(f.figure), f.caption, number)
+                    flow.figure_page(f.figure, f.caption, number)
         flow.flush()
         pages = flow.page
     return pages

@@ -8,13 +8,13 @@ when the session has one.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from volcal.errors import VolcalInputError
+from volcal.compensate.manifest import read_manifest
 from volcal.model.errorfunctions import MachineErrors
 from volcal.report.sections import ReportInputs
 from volcal.session.errortable import read_error_table
@@ -35,13 +35,15 @@ class CompensationSummary:
     manifest : dict
         The folder's manifest: controller format, sign, spacing, files, what it carries.
     tables : TableSet or None
-        What the tables carry and how the controller applies them (None without a folder).
+        What the tables carry and how the controller applies them, from the manifest
+        (None without a folder).
     model_max_um, model_rms_um : float
         Largest and RMS length of the modelled volumetric error over the work zone [um].
     left_max_um, left_rms_um : float or None
-        Largest and RMS length of the modelled volumetric error left after applying
-        exactly what the tables carry, at their spacing and resolution [um]; None
-        without tables.
+        Largest and RMS length of the modelled volumetric error left after applying the
+        tables as written (read back from their files, applied with the controller's
+        interpolation rule: :mod:`volcal.compensate.readback`) [um]; None without
+        tables.
     residual_u2_max_um : float
         Largest expanded uncertainty (k = 2) of the modelled volumetric error [um]: the
         estimation error no table can remove, at 95 %.
@@ -57,6 +59,11 @@ class CompensationSummary:
         Tolerance verdicts before and after (empty without a tolerance).
     n : int
         Grid points per axis of the evaluation.
+    warnings : list of str
+        What the manifest check found (another model of the same machine, a manifest
+        without identity, another machine used with ``force``).
+    written : WrittenTables or None
+        The tables read back from their files.
     """
 
     folder: Path | None
@@ -73,38 +80,8 @@ class CompensationSummary:
     truth_residual_rms_um: float | None
     verdicts: list[Any]
     n: int
-
-
-def read_manifest(folder: str | Path) -> dict[str, Any]:
-    """Read ``volcal-compensation.toml`` of a compensation folder.
-
-    Parameters
-    ----------
-    folder : str or Path
-        Folder written by ``volcal compensate``.
-
-    Returns
-    -------
-    dict
-
-    Raises
-    ------
-    VolcalInputError
-        No manifest, or not valid TOML.
-    """
-    import tomllib
-
-    from volcal.compensate.formats import MANIFEST
-
-    folder = Path(folder)
-    path = folder / MANIFEST
-    if not path.is_file():
-        raise VolcalInputError(f"no {MANIFEST} here (is it a volcal compensation folder?)",
-                               folder)
-    try:
-        return tomllib.loads(path.read_text(encoding="utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise VolcalInputError(f"invalid TOML: {exc}", path) from None
+    warnings: list[str] = field(default_factory=list)
+    written: Any = None
 
 
 def _norms(v: np.ndarray) -> tuple[float, float]:
@@ -115,7 +92,8 @@ def _norms(v: np.ndarray) -> tuple[float, float]:
 def compensation_summary(result: Any, travel: Any, truth: MachineErrors | None = None,
                          folder: str | Path | None = None, n: int = 11,
                          tolerance: Any = None, session: Session | None = None,
-                         edition: str = "2014") -> CompensationSummary:
+                         edition: str = "2014", force: bool = False,
+                         model_label: str = "the model in use") -> CompensationSummary:
     """Summarise the compensation of a model: the files written and the error they leave.
 
     Parameters
@@ -129,7 +107,8 @@ def compensation_summary(result: Any, travel: Any, truth: MachineErrors | None =
         Simulated truth.
     folder : str or Path, optional
         Compensation folder written by ``volcal compensate`` (its manifest says what the
-        tables carry, see :func:`volcal.report.carried.table_set_from_manifest`).
+        tables carry, see :func:`volcal.report.carried.table_set_from_manifest`; the
+        tables themselves are read back, :func:`volcal.compensate.readback.read_written_tables`).
     n : int
         Grid points per axis.
     tolerance : Tolerance, optional
@@ -139,6 +118,11 @@ def compensation_summary(result: Any, travel: Any, truth: MachineErrors | None =
         Measured session (its linear tests give the per-axis ISO 230-2 verdict).
     edition : str
         ISO 230-2 edition of the per-axis verdict.
+    force : bool
+        With ``session``: use tables written for another machine (a warning) instead of
+        refusing them (:func:`volcal.compensate.manifest.check_manifest`).
+    model_label : str
+        How warnings name the model in use.
 
     Returns
     -------
@@ -147,24 +131,35 @@ def compensation_summary(result: Any, travel: Any, truth: MachineErrors | None =
     Raises
     ------
     VolcalInputError
-        If ``folder`` has no readable ``volcal-compensation.toml``.
+        If ``folder`` has no readable ``volcal-compensation.toml``, a table file is
+        missing or damaged, or (with ``session``) the tables were written for another
+        machine and ``force`` is false.
     """
+    from volcal.compensate.readback import read_written_tables
     from volcal.model.kinematics import volumetric_error
-    from volcal.report.carried import applied_correction, table_set_from_manifest
+    from volcal.report.carried import table_set_from_manifest
     from volcal.report.verdict import verdicts, work_zone_grid
 
     manifest: dict[str, Any] = {}
-    tables = None
+    tables = written = None
+    warnings: list[str] = []
     if folder is not None:
         manifest = read_manifest(folder)
+        if session is not None:
+            from volcal.compensate.manifest import check_manifest, errors_digest
+            from volcal.session.identity import MachineIdentity
+
+            warnings = check_manifest(manifest, folder, MachineIdentity.of(session),
+                                      errors_digest(result.errors), force, model_label)
         tables = table_set_from_manifest(manifest, folder)
+        written = read_written_tables(folder, manifest, travel)
     q = work_zone_grid(travel, n)
     e, u = result.predict(q)
     model_max, model_rms = _norms(e)
     left_max = left_rms = None
     corr = None
-    if tables is not None:
-        corr = applied_correction(result.errors, tables, q)
+    if written is not None:
+        corr = written.correction(q)
         left_max, left_rms = _norms(volumetric_error(result.errors, q) - corr)
     tmax = tmodel = tres = trms = None
     if truth is not None:
@@ -173,12 +168,12 @@ def compensation_summary(result: Any, travel: Any, truth: MachineErrors | None =
         tmodel = _norms(et - e)[0]
         if corr is not None:
             tres, trms = _norms(et - corr)
-    vs = [] if tolerance is None else verdicts(tolerance, session, result.errors, tables,
+    vs = [] if tolerance is None else verdicts(tolerance, session, result.errors, written,
                                                 edition, n)
     return CompensationSummary(None if folder is None else Path(folder), manifest, tables,
                                model_max, model_rms, left_max, left_rms,
                                float(2.0 * np.linalg.norm(u, axis=1).max()), tmax, tmodel,
-                               tres, trms, vs, n)
+                               tres, trms, vs, n, warnings, written)
 
 
 def read_truth(session: Session) -> MachineErrors | None:
@@ -201,7 +196,8 @@ def read_truth(session: Session) -> MachineErrors | None:
 
 def collect_inputs(session: Session, result: Any = None, truth: MachineErrors | None = None,
                    edition: str = "2014", compensation: str | Path | None = None,
-                   tolerance: Any = None) -> ReportInputs:
+                   tolerance: Any = None, force: bool = False,
+                   model_label: str = "the model in use") -> ReportInputs:
     """Evaluate the session and its model for the report.
 
     Parameters
@@ -219,6 +215,10 @@ def collect_inputs(session: Session, result: Any = None, truth: MachineErrors | 
     tolerance : Tolerance, optional
         Tolerances for the pass/fail verdict of the compensation section (volumetric
         and/or per-axis ISO 230-2 ``A``).
+    force : bool
+        Use compensation tables written for another machine (with a warning).
+    model_label : str
+        How warnings name the model in use.
 
     Returns
     -------
@@ -232,6 +232,7 @@ def collect_inputs(session: Session, result: Any = None, truth: MachineErrors | 
     comp = None
     if result is not None:
         comp = compensation_summary(result, session.travel, truth, compensation,
-                                    tolerance=tolerance, session=session, edition=edition)
+                                    tolerance=tolerance, session=session, edition=edition,
+                                    force=force, model_label=model_label)
     return ReportInputs(session, result, truth, ev.iso230_2 or None, ev.iso230_6 or None,
                         ev.volumetric, comp, elv=ev.elv)

@@ -184,14 +184,22 @@ def diagonal_section(inp: ReportInputs) -> Section | None:
         "the diagonal while all axes move together. E_D is the range of the deviations along "
         "the diagonal; it sums the effects of positioning, straightness, squareness and some "
         "angular errors, so it is a quick volumetric check but cannot tell them apart.")
+    from volcal.standards.iso230_6 import largest_e_d
+
     rows = []
     for mid, r in inp.iso230_6.items():
         code = (f"{r.plane} " if getattr(r, "plane", None) else "") + str(r.diagonal)
-        rows.append([mid, code, fmt(r.length_mm, 1), fmt(r.E_D), fmt(r.max_abs_um)])
-    worst = max(inp.iso230_6.values(), key=lambda r: r.E_D)
-    sec.tables.append(Table(["measurement", "diagonal", "length [mm]", "E_D [µm]",
+        pts = f"{r.points_measured} of {r.points_planned}" + (
+            "" if r.complete else " (incomplete)")
+        rows.append([mid, code, fmt(r.length_mm, 1), pts, fmt(r.E_D), fmt(r.max_abs_um)])
+        if not r.complete:
+            sec.warnings.append(r.note())
+    worst = largest_e_d(inp.iso230_6.values())
+    sec.tables.append(Table(["measurement", "diagonal", "length [mm]", "points", "E_D [µm]",
                              "max |deviation| [µm]"], rows, "Diagonal displacement errors",
-                            f"Largest E_D: {worst.E_D:.2f} µm ({worst.id})."))
+                            "No complete diagonal: no largest E_D." if worst is None else
+                            f"Largest E_D of the complete diagonals: {worst.E_D:.2f} µm "
+                            f"({worst.id})."))
     return sec
 
 
@@ -236,7 +244,7 @@ def identification_section(inp: ReportInputs) -> Section | None:
     sigma = getattr(r, "sigma_um", None)
     sec.paragraphs.append(
         "All readings of all tests were fitted at once with the first-order kinematic model "
-        "(Soons, seed 004) and the set-up tilts of every measurement as nuisance parameters. "
+        "(Soons 2005) and the set-up tilts of every measurement as nuisance parameters. "
         "Uncertainties are standard uncertainties (k = 1) in the tables; the bands in the "
         "figures are ± 2 u." + (f" Estimated reading noise σ = {sigma:.2f} µm." if sigma
                                 else ""))
@@ -324,9 +332,10 @@ def identifiability_section(inp: ReportInputs) -> Section | None:
         sec.figures.append(FigureItem(
             identifiability_plot(std, getattr(r, "squareness_std", None),
                                  _field(rep, "singular_values", None), frac),
-            "Largest standard uncertainty of each error function (hatched n/i: not "
-            "determined) and the share of its prior uncertainty the data remove (red: below "
-            "50 %, orange: below 95 %).", "identifiability"))
+            "Largest standard uncertainty of each error function (hatched grey and marked "
+            "n/i: not determined by the data) and the share of its prior uncertainty the "
+            "data remove (red: below 50 %, not determined; orange: 50 to 95 %, weak; green: "
+            "95 % or more, determined).", "identifiability"))
     return sec
 
 
@@ -370,7 +379,7 @@ def volumetric_section(inp: ReportInputs) -> Section | None:
     if elv:
         sec.tables.append(Table(
             ["quantity", "value [µm]"], [[k, fmt(v)] for k, v in elv.items()],
-            "ELv (seed 002): root sum of squares of the positioning ranges of the three axes",
+            "ELv (Wang, Optodyne): root sum of squares of the positioning ranges of the three axes",
             "ELv ignores straightness, squareness and angular errors; compare it with "
             "E_VXYZ."))
     sec.figures.append(FigureItem(
@@ -399,6 +408,7 @@ def compensation_section(inp: ReportInputs) -> Section | None:
     if c is None:
         return None
     sec = Section("compensation", "Compensation")
+    sec.warnings.extend(getattr(c, "warnings", []))
     cells = f"{c.n}³ points of the work zone"
     if c.folder is None or c.tables is None:
         sec.paragraphs.append(
@@ -424,11 +434,12 @@ def compensation_section(inp: ReportInputs) -> Section | None:
             "else (the components not listed, and the estimation error of the model) "
             "stays.")
         sec.paragraphs.append(
-            "The error left is computed from the model: its volumetric error with every "
-            "carried component replaced by the model minus the table as the controller "
-            "interpolates it (table points, rounding, interpolation rule), assuming the "
-            f"tables are loaded with the sign the controller expects (written: "
-            f"'{t.sign}').")
+            "The error left is the model's volumetric error minus what the tables remove: "
+            "the tables as written, read back from their files with the format's reader "
+            "and applied with the controller's interpolation rule (table points, "
+            "rounding, linear or stepwise between points), assuming they are loaded with "
+            f"the sign the controller expects (written: '{t.sign}'). A table edited "
+            "after it was written, or written from another model, shows here as it is.")
         rows = [["modelled volumetric error, largest |e|", fmt(c.model_max_um),
                  fmt(c.left_max_um)],
                 ["modelled volumetric error, RMS", fmt(c.model_rms_um), fmt(c.left_rms_um)]]
@@ -489,13 +500,17 @@ def build_report(inp: ReportInputs, title: str | None = None) -> Report:
     Report
     """
     from volcal import __version__
+    from volcal.report.completeness import completeness_section
     from volcal.report.multilateration import multilateration_section
+    from volcal.report.wording import references_section
 
-    builders = [machine_section, measurements_section, positioning_section,
+    builders = [machine_section, measurements_section, completeness_section,
+                positioning_section,
                 diagonal_section, multilateration_section, identification_section,
                 identifiability_section, volumetric_section, compensation_section]
     sections = [s for s in (b(inp) for b in builders) if s is not None]
     sections.extend(inp.extra_sections)
+    sections.append(references_section())
     return Report(title or f"Calibration report: {inp.session.name}", sections,
                   generator=f"volcal {__version__}")
 
@@ -533,6 +548,8 @@ def positioning_section(inp: ReportInputs) -> Section | None:
             for w in getattr(res, "warnings", []) or []:
                 same.setdefault(str(w), []).append(mid)
         sec.warnings.extend(f"{', '.join(ids)}: {w}" for w, ids in same.items())
+        sec.warnings.extend(f"{mid}: {n}" for mid, res in inp.iso230_2.items()
+                            for n in getattr(res, "notes", []) or [])
         edition = next(iter(inp.iso230_2.values())).edition
         sec.tables.append(Table(
             ["measurement", "axis", "A [µm]", "A↑ [µm]", "A↓ [µm]", "E [µm]", "M [µm]",

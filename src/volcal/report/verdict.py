@@ -1,13 +1,13 @@
 """Pass/fail verdict of a tolerance before and after compensation.
 
 * Volumetric tolerance: before = the largest length of the model's volumetric error over
-  a grid of the work zone; after = the largest length of what the tables leave
-  (:mod:`volcal.report.carried`).
+  a grid of the work zone; after = the largest length of what the tables, as written,
+  leave (:mod:`volcal.compensate.readback`).
 * Per-axis ISO 230-2 tolerance: before = the accuracy ``A`` of every measured linear test
   of the axis (the largest); after = ``A`` of the same readings with the correction the
-  tables apply at each pose, projected on the beam, taken off (one table per direction
-  also takes off the model's reversal). Repeatability and whatever the tables do not
-  carry stay in ``A``.
+  tables apply at each pose (read back from the files, the controller's sign and
+  interpolation; bidirectional tables per approach direction), projected on the beam,
+  taken off. Repeatability and whatever the tables do not carry stay in ``A``.
 """
 
 from __future__ import annotations
@@ -20,7 +20,6 @@ from numpy.typing import NDArray
 from volcal.model.errorfunctions import MachineErrors
 from volcal.model.kinematics import volumetric_error
 from volcal.model.names import AXES
-from volcal.report.carried import TableSet, applied_correction
 from volcal.session.format import Session
 from volcal.standards.tolerance import Tolerance, Verdict
 from volcal.standards.volumetric import work_zone_grid
@@ -28,36 +27,29 @@ from volcal.standards.volumetric import work_zone_grid
 __all__ = ["compensated_deviation", "verdicts", "work_zone_grid"]
 
 
-def compensated_deviation(m: Any, errors: MachineErrors, tables: TableSet
-                          ) -> NDArray[np.float64]:
+def compensated_deviation(m: Any, tables: Any) -> NDArray[np.float64]:
     """Readings of a test as they would be with the tables active [um].
 
     Parameters
     ----------
     m : Measurement
         A measured test (deviations along its beam).
-    errors : MachineErrors
-        The model the tables were written from.
-    tables : TableSet
-        What the tables carry.
+    tables : WrittenTables
+        The tables as written (:func:`volcal.compensate.readback.read_written_tables`).
 
     Returns
     -------
     ndarray, shape (n,)
-        ``deviation - correction . beam`` at every reading [um]; with one table per
-        approach direction the model's reversal is taken off too (``+B/2`` for ``+``
-        approaches, ``-B/2`` for ``-``).
+        ``deviation - correction . beam`` at every reading [um], the correction being
+        what the tables remove at the reading's commanded position (per approach
+        direction for bidirectional tables). A constant along the test (a table not zero
+        at the test's first reading) is kept: ISO 230-2 ``A`` does not see it.
     """
-    c = applied_correction(errors, tables, m.positions, m.tool_offset) @ m.beam_direction
-    if tables.bidirectional and m.kind == "linear" and "direction" in m.columns:
-        k = m.axis
-        half = 0.5 * float(errors.reversal[k])
-        c = c + np.where(np.asarray(m.columns["direction"]) == "+", half, -half)
-    return np.asarray(m.deviation, dtype=float) - c
+    return tables.deviation_after(m)
 
 
 def verdicts(tolerance: Tolerance, session: Session | None, errors: MachineErrors | None,
-             tables: TableSet | None, edition: str = "2014", n: int = 11) -> list[Verdict]:
+             tables: Any, edition: str = "2014", n: int = 11) -> list[Verdict]:
     """The verdict of every tolerance given, before and (with tables) after.
 
     Parameters
@@ -70,9 +62,10 @@ def verdicts(tolerance: Tolerance, session: Session | None, errors: MachineError
     session : Session, optional
         Measured session (its linear tests give the ISO 230-2 parameters).
     errors : MachineErrors, optional
-        Identified model (needed for the volumetric tolerance and for any "after").
-    tables : TableSet, optional
-        Compensation tables written from ``errors``; without them there is no "after".
+        Identified model (needed for the volumetric tolerance).
+    tables : WrittenTables, optional
+        Compensation tables as written (read back from their folder); without them
+        there is no "after".
     edition : str
         ISO 230-2 edition.
     n : int
@@ -102,8 +95,7 @@ def verdicts(tolerance: Tolerance, session: Session | None, errors: MachineError
         e = volumetric_error(errors, q)
         after = None
         if tables is not None:
-            after = float(np.linalg.norm(e - applied_correction(errors, tables, q),
-                                         axis=1).max())
+            after = float(np.linalg.norm(e - tables.correction(q), axis=1).max())
         out.append(Verdict(f"volumetric |e|, largest of {n}³ points",
                            tolerance.volumetric_um, float(np.linalg.norm(e, axis=1).max()),
                            after, rule, guard_band_um=guard_band_um))
@@ -124,9 +116,9 @@ def verdicts(tolerance: Tolerance, session: Session | None, errors: MachineError
         for m in tests:
             d = from_measurement(m, session.path if session is not None else None)
             before.append(_evaluate(d, d.deviation_um, edition, budget))
-            if tables is not None and errors is not None:
-                after_v.append(_evaluate(d, compensated_deviation(m, errors, tables),
-                                         edition, budget))
+            if tables is not None:
+                after_v.append(_evaluate(d, compensated_deviation(m, tables), edition,
+                                         budget))
         for param, tol in tols.items():
             vb, ub = _largest(before, param)
             va, ua = _largest(after_v, param)

@@ -24,6 +24,12 @@ from volcal.io.atomic import atomic_dir, write_text
 from volcal.io.table import Column, TableSpec, read_table
 from volcal.io.tomlfmt import dumps as toml_dumps
 from volcal.model.chain import parse_chain
+from volcal.session.identity import (
+    MachineIdentity,
+    read_calibration,
+    read_equipment,
+    read_machine_identity,
+)
 
 SESSION_FORMAT = "volcal-session/1"
 KINDS: tuple[str, ...] = ("linear", "diagonal", "step_diagonal", "multilateration")
@@ -46,6 +52,10 @@ OPTIONAL_COLUMNS: dict[str, str] = {
     "status": "text",
 }
 MIN_ROWS = 2
+MISSED_META = "_missed"
+"""Key of ``Measurement.meta`` listing the missed captures skipped by the reader: one dict
+per row with ``row`` (in the CSV, header = row 1), ``position_mm`` [x, y, z] and, when the
+file has them, ``run`` and ``direction``. Working state (never written back)."""
 
 __all__ = [
     "KINDS",
@@ -86,7 +96,9 @@ class Measurement:
         Optional columns (``run``, ``direction``, ``time_s``, environment columns).
     meta : dict
         Optional metadata: ``axis``, ``axis_order``, ``diagonal``, ``plane``, ``notes``,
-        ``environment`` (table), ``readings`` (``'deviation'`` or ``'raw'``)...
+        ``environment`` (table), ``readings`` (``'deviation'`` or ``'raw'``)...; keys
+        starting with ``_`` are working state never written, e.g. ``_missed`` (the missed
+        captures the reader skipped, :data:`MISSED_META`).
     rows : ndarray of int, shape (n,), optional
         Row of each reading in its CSV file (header = row 1), for messages; missed
         captures leave gaps.
@@ -141,6 +153,16 @@ class Measurement:
     def n(self) -> int:
         """Number of readings."""
         return self.positions.shape[0]
+
+    @property
+    def missed(self) -> list[dict[str, Any]]:
+        """Missed captures skipped by the reader (row, position_mm, run, direction)."""
+        return list(self.meta.get(MISSED_META, []))
+
+    @property
+    def n_planned(self) -> int:
+        """Planned readings: the readings plus the missed captures."""
+        return self.n + len(self.missed)
 
     @property
     def run(self) -> NDArray[np.int64] | None:
@@ -291,6 +313,12 @@ class Session:
     provenance : dict
         The ``[provenance]`` table: who wrote the readings (``readings = "simulated"``,
         seed, date, digest of the readings; ``docs/formats.md``).
+    calibration : dict
+        The ``[calibration]`` table (date of measurement, operator, customer,
+        laboratory; :mod:`volcal.session.identity`).
+    equipment : list of dict
+        The ``[[equipment]]`` entries (role, make, model, serial, certificate,
+        calibrated, due).
 
     Raises
     ------
@@ -309,6 +337,8 @@ class Session:
     notes: list[str] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
     provenance: dict[str, Any] = field(default_factory=dict)
+    calibration: dict[str, Any] = field(default_factory=dict)
+    equipment: list[dict[str, Any]] = field(default_factory=list)
 
     def __post_init__(self) -> None:
         """Validate chain, travel and measurements."""
@@ -323,6 +353,11 @@ class Session:
             if m.id in seen:
                 raise VolcalInputError(f"duplicate measurement id {m.id!r}")
             seen.add(m.id)
+
+    @property
+    def identity(self) -> MachineIdentity:
+        """The machine's identity (:class:`volcal.session.identity.MachineIdentity`)."""
+        return MachineIdentity.of(self)
 
     @property
     def unmeasured_ids(self) -> list[str]:
@@ -358,6 +393,10 @@ class Session:
         machine["travel_mm"] = {a: [float(v) for v in self.travel[i]] for i, a in enumerate("xyz")}
         every = [*self.measurements, *self.unmeasured]  # set-aside ones kept, at the end
         doc: dict[str, Any] = {"format": SESSION_FORMAT, "machine": machine}
+        if self.calibration:
+            doc["calibration"] = dict(self.calibration)
+        if self.equipment:
+            doc["equipment"] = [dict(e) for e in self.equipment]
         if self.provenance:
             doc["provenance"] = dict(self.provenance)
         doc["measurements"] = [m.to_toml() for m in every]
@@ -524,6 +563,20 @@ def _missed_note(file: str | Path, rows: NDArray[np.int64], missed: NDArray[np.b
     return f"{file}: missed capture{s} skipped (row{s} {r})"
 
 
+def _missed_records(r: _Rows) -> list[dict[str, Any]]:
+    """The missed captures of a file: row, commanded position and run/direction if given."""
+    out = []
+    for i in np.flatnonzero(r.missed):
+        rec: dict[str, Any] = {"row": int(r.rows[i]),
+                               "position_mm": [float(v) for v in r.positions[i]]}
+        if "run" in r.columns:
+            rec["run"] = int(r.columns["run"][i])
+        if "direction" in r.columns:
+            rec["direction"] = str(r.columns["direction"][i])
+        out.append(rec)
+    return out
+
+
 def _drop_missed(r: _Rows, file: str | Path, notes: list[str] | None) -> _Rows:
     if r.deviation is None or not r.missed.any():
         return r
@@ -640,7 +693,8 @@ def read_session(folder: str | Path, require_deviation: bool = True) -> Session:
     if unmeasured:
         notes.insert(0, f"no readings yet: {', '.join(m.id for m in unmeasured)} "
                      f"(working on the {len(meas)} measured)")
-    s = Session(name, chain, travel, meas, meta, folder, unmeasured, notes, [], provenance)
+    s = Session(name, chain, travel, meas, meta, folder, unmeasured, notes, [], provenance,
+                read_calibration(doc, toml_path), read_equipment(doc, toml_path))
     if require_deviation:
         from volcal.session.plausibility import plausibility_warnings
 
@@ -688,6 +742,7 @@ def _read_machine(doc: dict[str, Any], toml_path: Path
         raise _err(exc.message, toml_path, None, "machine.chain") from None
     travel = _read_travel(machine.get("travel_mm"), toml_path)
     meta = {k: v for k, v in machine.items() if k not in ("name", "chain", "travel_mm")}
+    meta.update(read_machine_identity(machine, toml_path))  # identity keys validated, as text
     provenance = doc.get("provenance", {})
     if not isinstance(provenance, dict):
         raise _err("[provenance] must be a table", toml_path, None, "provenance")
@@ -795,6 +850,8 @@ def _read_entry(e: Any, i: int, folder: Path, toml_path: Path, seen: set[str],
     check_travel(r.positions, r.rows, travel, csv_path)
     check_geometry(kind, r.positions, r.rows, meta, csv_path, n if "beam_direction" in e else None)
     if require_deviation:
+        if r.deviation is not None and r.missed.any():
+            meta[MISSED_META] = _missed_records(r)
         r = _drop_missed(r, csv_path, notes)
     return Measurement(mid, kind, target, r.positions, r.deviation, n, offset, file, r.columns,
                        meta, r.rows)

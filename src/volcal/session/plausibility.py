@@ -4,11 +4,21 @@ Readings that are possible but unlikely give a warning naming the measurement (p
 by the commands, recorded in the identification's notes); absurd values are refused by
 the reader itself (``docs/formats.md``, "Plausibility"). The checks:
 
-* **scale** (mm entered as um): a measurement's robust spread per metre of travel (the
-  5th to 95th percentile range of its deviations divided by its length) is compared
-  with the median of the session's measurements of the same kind (all measurements
-  when fewer than 3 share its kind); more than :data:`SCALE_RATIO` times the median
-  (the median floored at :data:`SCALE_FLOOR_UM_PER_M`) is flagged;
+* **scale** (um entered as nm, or mm entered as um): a measurement's robust spread per
+  metre of travel (the 5th to 95th percentile range of its deviations divided by its
+  length) is compared with the median of the session's measurements of the same kind
+  (all measurements when fewer than 3 share its kind); more than :data:`SCALE_RATIO`
+  times the median (the median floored at :data:`SCALE_FLOOR_UM_PER_M`) is flagged as
+  too large, less than the median over :data:`SCALE_RATIO` (the median at least
+  :data:`SCALE_FLOOR_UM_PER_M`) as too small;
+* **floors and ceiling** that need no other test (:func:`reading_warnings`), on a line,
+  diagonal or step diagonal longer than :data:`FLOOR_MIN_LENGTH_MM`: a 2 s repeatability
+  (the largest over the targets and directions of a linear test with runs) below
+  :data:`REPEATABILITY_FLOOR_UM` (no interferometer in air reads that; exactly repeated
+  readings, and a session whose ``[provenance]`` declares a simulation with
+  ``noise_um`` below the floor, are exempt); a range of the deviations below
+  :data:`RANGE_FLOOR_UM_PER_M` or above :data:`RANGE_CEILING_UM_PER_M` per metre of
+  length;
 * **sign** of a whole linear test: with at least 3 linear tests of one axis on the same
   targets, a test whose mean deviation per target ``c`` is much closer to minus each of
   the others than to it (``|c + o| < SIGN_RATIO |c - o|``), while the others agree with
@@ -29,8 +39,10 @@ from numpy.typing import NDArray
 if TYPE_CHECKING:
     from volcal.session.format import Measurement, Session
 
-__all__ = ["FIRST_READING_UM", "SCALE_FLOOR_UM_PER_M", "SCALE_RATIO", "SIGN_RATIO",
-           "plausibility_warnings"]
+__all__ = ["FIRST_READING_UM", "FLOOR_MIN_LENGTH_MM", "RANGE_CEILING_UM_PER_M",
+           "RANGE_FLOOR_UM_PER_M", "REPEATABILITY_FLOOR_UM", "SCALE_FLOOR_UM_PER_M",
+           "SCALE_RATIO", "SIGN_RATIO", "plausibility_warnings", "positioning_warnings",
+           "reading_warnings"]
 
 SCALE_RATIO = 30.0
 """A spread this many times the session's median is flagged [-]."""
@@ -42,6 +54,19 @@ SIGN_MIN_UM = 2.0
 """Smallest RMS of the per-target means for the sign check to speak [um]."""
 FIRST_READING_UM = 1.0
 """A first reading beyond this and beyond 20 % of the test's range is flagged [um]."""
+FLOOR_MIN_LENGTH_MM = 100.0
+"""The floors and the ceiling speak on tests longer than this [mm]."""
+REPEATABILITY_FLOOR_UM = 0.02
+"""A 2 s repeatability below this (20 nm) on a line longer than 100 mm is not an
+interferometer in air (air turbulence alone gives more) [um]."""
+RANGE_FLOOR_UM_PER_M = 0.1
+"""A range of the deviations below this per metre of length is below what any machine
+shows (its positioning error and the air's refractive index over that length) [um/m]."""
+RANGE_CEILING_UM_PER_M = 1000.0
+"""A range above this (1 mm per metre) is no calibrated machine axis: readings in nm, or
+mm x 1000? [um/m]."""
+EXACT_UM = 1e-9
+"""Readings repeating to within this are exact repeats (a noise-free simulation) [um]."""
 
 
 def _length_mm(m: Measurement) -> float:
@@ -64,11 +89,144 @@ def _scale(ms: list[Measurement]) -> list[str]:
             continue
         med = max(float(np.median([dens[o.id] for o in group])), SCALE_FLOOR_UM_PER_M)
         ratio = dens[m.id] / med
+        raw = float(np.median([dens[o.id] for o in group]))
+        kind = m.kind.replace("_", " ")
         if ratio > SCALE_RATIO:
             out.append(f"{m.id}: deviations ~{ratio:.0f}x larger than the session's other "
-                       f"{m.kind.replace('_', ' ')} tests ({dens[m.id]:.3g} um/m against a "
+                       f"{kind} tests ({dens[m.id]:.3g} um/m against a "
                        f"median of {med:.3g} um/m): mm entered as um in {m.file}?")
+        elif raw >= SCALE_FLOOR_UM_PER_M and dens[m.id] * SCALE_RATIO < raw:
+            small = raw / max(dens[m.id], 1e-12)
+            out.append(f"{m.id}: deviations ~{small:.0f}x smaller than the session's other "
+                       f"{kind} tests ({dens[m.id]:.3g} um/m against a median of "
+                       f"{raw:.3g} um/m): readings 1000x too small (mm typed into "
+                       f"deviation_um) in {m.file}?")
     return out
+
+
+def _repeatability_2s(targets: NDArray[np.float64], deviation: NDArray[np.float64],
+                      run: NDArray | None, direction: NDArray | None) -> float | None:
+    """Largest 2 s over the (target, direction) groups read by two runs or more [um]."""
+    if run is None or direction is None:
+        return None
+    key = np.round(np.asarray(targets, dtype=float), 3)
+    worst = None
+    for sign in np.unique(np.asarray(direction).astype(str)):
+        sel = np.asarray(direction).astype(str) == sign
+        for t in np.unique(key[sel]):
+            v = deviation[sel & (key == t)]
+            if v.size >= 2:
+                s2 = 2.0 * float(np.std(v, ddof=1))
+                worst = s2 if worst is None else max(worst, s2)
+    return worst
+
+
+def reading_warnings(label: str, file: str, length_mm: float, deviation: NDArray[np.float64],
+                     targets: NDArray[np.float64] | None = None, run: NDArray | None = None,
+                     direction: NDArray | None = None) -> list[str]:
+    """Floors and ceiling of one test's readings, needing no other test.
+
+    Parameters
+    ----------
+    label : str
+        Measurement id (or file name) starting each message.
+    file : str
+        File of the readings, named in the messages.
+    length_mm : float
+        Length of the test [mm].
+    deviation : ndarray, shape (n,)
+        Deviations [um].
+    targets : ndarray, shape (n,), optional
+        Target of each reading along the line [mm] (for the repeatability).
+    run, direction : ndarray, optional
+        Run and direction of each reading (for the repeatability).
+
+    Returns
+    -------
+    list of str
+        At most one warning, the first that fires of: repeatability floor, range floor,
+        range ceiling (empty below :data:`FLOOR_MIN_LENGTH_MM`).
+    """
+    dev = np.asarray(deviation, dtype=float)
+    dev = dev[np.isfinite(dev)]
+    if length_mm <= FLOOR_MIN_LENGTH_MM or dev.size < 2:
+        return []
+    out = []
+    per_m = float(np.ptp(dev)) / length_mm * 1000.0
+    if targets is not None:
+        r2 = _repeatability_2s(np.asarray(targets)[np.isfinite(deviation)], dev,
+                               None if run is None else np.asarray(run)[np.isfinite(deviation)],
+                               None if direction is None
+                               else np.asarray(direction)[np.isfinite(deviation)])
+        if r2 is not None and EXACT_UM < r2 < REPEATABILITY_FLOOR_UM:
+            out.append(f"{label}: 2s repeatability {r2 * 1000:.3g} nm on a {length_mm:.0f} mm "
+                       f"line, below the {REPEATABILITY_FLOOR_UM * 1000:g} nm no "
+                       f"interferometer in air reads: readings 1000x too small (mm typed "
+                       f"into deviation_um) in {file}?")
+    if out:
+        return out
+    if per_m < RANGE_FLOOR_UM_PER_M:
+        out.append(f"{label}: the deviations span {np.ptp(dev):.3g} um over {length_mm:.0f} mm "
+                   f"({per_m:.3g} um/m), below the {RANGE_FLOOR_UM_PER_M:g} um/m any machine "
+                   f"shows: readings 1000x too small (mm typed into deviation_um) in {file}?")
+    elif per_m > RANGE_CEILING_UM_PER_M:
+        out.append(f"{label}: the deviations span {np.ptp(dev):.4g} um over {length_mm:.0f} "
+                   f"mm ({per_m:.4g} um/m), above the {RANGE_CEILING_UM_PER_M:g} um/m of any "
+                   f"calibrated machine axis: readings 1000x too large (nm read as um) in "
+                   f"{file}?")
+    return out
+
+
+def noise_free_simulation(provenance: dict) -> bool:
+    """Whether ``[provenance]`` declares a simulation with less noise than the floor.
+
+    Such readings are exact by design: the repeatability floor does not apply.
+
+    Parameters
+    ----------
+    provenance : dict
+        The session's ``[provenance]`` table (``readings``, ``noise_um`` [um]).
+
+    Returns
+    -------
+    bool
+    """
+    if provenance.get("readings") != "simulated":
+        return False
+    try:
+        return float(provenance.get("noise_um", 1.0)) < REPEATABILITY_FLOOR_UM
+    except (TypeError, ValueError):
+        return False
+
+
+def _floors(m: Measurement, exact: bool = False) -> list[str]:
+    if m.kind not in ("linear", "diagonal", "step_diagonal"):
+        return []
+    targets = m.positions[:, m.axis] if m.kind == "linear" and not exact else None
+    return reading_warnings(m.id, m.file, _length_mm(m), m.deviation, targets, m.run,
+                            m.direction)
+
+
+def positioning_warnings(data: object) -> list[str]:
+    """Floors and ceiling of one positioning file (``volcal evaluate iso230-2 FILE``).
+
+    Parameters
+    ----------
+    data : PositioningData
+        Readings of :func:`volcal.standards.positioning_data.read_positioning_csv`.
+
+    Returns
+    -------
+    list of str
+        Warnings starting with the file's name.
+    """
+    from pathlib import Path
+
+    t = np.asarray(data.targets_mm, dtype=float)  # type: ignore[attr-defined]
+    name = Path(data.file).name  # type: ignore[attr-defined]
+    return reading_warnings(name, name, float(np.ptp(t)) if t.size else 0.0,
+                            data.deviation_um, t, data.run,  # type: ignore[attr-defined]
+                            data.direction)  # type: ignore[attr-defined]
 
 
 def _per_target(m: Measurement) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -143,6 +301,8 @@ def plausibility_warnings(session: Session) -> list[str]:
     ms = [m for m in session.measurements if m.deviation is not None
           and np.all(np.isfinite(m.deviation)) and m.n >= 2]
     out = _scale(ms) + _sign(ms)
+    scaled = {w.split(":", 1)[0] for w in out}  # one warning per cause: floors say the same
+    exact = noise_free_simulation(getattr(session, "provenance", {}) or {})
     for m in ms:
-        out += _order(m)
+        out += _order(m) + ([] if m.id in scaled else _floors(m, exact))
     return out

@@ -31,6 +31,14 @@ which does not change these parameters. ``edition='1988'`` applies the 3 s cover
 the same formulas; the 1988 edition itself did not define E and M, which are then
 reported with the later definitions.
 
+Incomplete runs (missed captures): with ``allow_incomplete=True`` a run that did not
+reach a target is left out of that target only; each target is evaluated over the ``n_i``
+runs that reached it (``xbar_i`` over ``n_i`` readings, ``s_i`` with ``n_i - 1`` in the
+denominator). A target reached by fewer than two runs in a direction has no ``s_i`` and is
+left out of the parameters that need it (R, A) but kept in those that do not (E, M, B).
+The result is marked incomplete (:attr:`Iso2302Result.complete`) and its notes name every
+missed run, target and direction.
+
 Test cycle (ISO 230-2:2014 clause 5): at least five target positions per metre of travel
 and at least five overall, chosen with unequal spacing so that periodic errors (lead
 screw pitch, scale period) are not sampled at one phase only; five runs in each
@@ -47,16 +55,19 @@ References
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from volcal.errors import VolcalInputError
-from volcal.standards.runs import GroupedRuns, group_runs
+from volcal.standards.runs import GroupedRuns, MissingReading, group_runs, target_statistics
+
+if TYPE_CHECKING:
+    import pandas
 
 __all__ = ["EDITIONS", "Iso2302Result", "TargetStatistics", "check_test_cycle", "evaluate",
-           "evaluate_grouped"]
+           "evaluate_grouped", "incomplete_notes"]
 
 EDITIONS: dict[str, float] = {"1988": 3.0, "1997": 2.0, "2006": 2.0, "2014": 2.0}
 AXIS_KEYS: tuple[str, ...] = ("A", "A_up", "A_down", "E", "E_up", "E_down", "M", "R", "R_up",
@@ -83,6 +94,9 @@ class TargetStatistics:
         Unidirectional and bidirectional repeatability of positioning [um].
     n_up, n_down : int
         Number of runs in each direction.
+    n_up_target, n_down_target : ndarray of int, shape (m,), optional
+        Runs that reached each target in each direction (fewer than ``n_up``/``n_down``
+        where a capture was missed); None means every run reached every target.
     """
 
     target_mm: NDArray[np.float64]
@@ -97,12 +111,40 @@ class TargetStatistics:
     R: NDArray[np.float64]
     n_up: int
     n_down: int
+    n_up_target: NDArray[np.int64] | None = None
+    n_down_target: NDArray[np.int64] | None = None
 
-    def rows(self) -> list[dict[str, float]]:
-        """Return the table as a list of dicts, one per target (JSON friendly)."""
+    def counts(self) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+        """Runs that reached each target, up and down (arrays of shape (m,))."""
+        m = self.target_mm.size
+        up = (np.full(m, self.n_up) if self.n_up_target is None
+              else np.asarray(self.n_up_target))
+        down = (np.full(m, self.n_down) if self.n_down_target is None
+                else np.asarray(self.n_down_target))
+        return up.astype(int), down.astype(int)
+
+    def rows(self) -> list[dict[str, Any]]:
+        """Return the table as a list of dicts, one per target (JSON friendly).
+
+        Each row holds the statistics [um] (None where a target has too few runs), the
+        target [mm], ``n_up`` and ``n_down`` (runs that reached the target in each
+        direction) and ``n`` (the smaller of the two).
+        """
         keys = ("target_mm", "mean_up", "mean_down", "mean", "s_up", "s_down", "B", "R_up",
                 "R_down", "R")
-        return [{k: float(getattr(self, k)[i]) for k in keys} for i in range(self.target_mm.size)]
+        nu, nd = self.counts()
+        out = []
+        for i in range(self.target_mm.size):
+            row: dict[str, Any] = {k: _num(getattr(self, k)[i]) for k in keys}
+            row.update(n_up=int(nu[i]), n_down=int(nd[i]), n=int(min(nu[i], nd[i])))
+            out.append(row)
+        return out
+
+
+def _num(v: float) -> float | None:
+    """A float, or None for NaN (JSON has no NaN)."""
+    v = float(v)
+    return v if np.isfinite(v) else None
 
 
 @dataclass
@@ -129,6 +171,11 @@ class Iso2302Result:
         Edition of ISO 230-2 whose definitions were applied.
     warnings : list of str
         Test-cycle deviations from the standard (too few runs, targets, spacing...).
+    missing : list of MissingReading
+        Missed (target, run, direction) cells; empty for a complete test.
+    notes : list of str
+        What the incompleteness does: each missed run and target, and the targets left
+        out of R and A for want of two runs.
     """
 
     A: float
@@ -146,16 +193,54 @@ class Iso2302Result:
     targets: TargetStatistics
     edition: str = "2014"
     warnings: list[str] = field(default_factory=list)
+    missing: list[MissingReading] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def complete(self) -> bool:
+        """True when every run reached every target in both directions."""
+        return not self.missing
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-friendly dict: the axis parameters [um], ``targets`` table, edition, warnings."""
+        """Return a JSON-friendly dict of the parameters [um] and the per-target table.
+
+        Also the edition, warnings, ``complete``, ``missing`` readings and ``notes``; each
+        row of ``targets`` holds its ``n`` (runs that reached the target).
+        """
         d: dict[str, Any] = {k: float(getattr(self, k)) for k in AXIS_KEYS}
         d["targets"] = self.targets.rows()
         d["n_runs_up"] = self.targets.n_up
         d["n_runs_down"] = self.targets.n_down
         d["edition"] = self.edition
         d["warnings"] = list(self.warnings)
+        d["complete"] = self.complete
+        d["missing"] = [m.to_dict() for m in self.missing]
+        d["notes"] = list(self.notes)
         return d
+
+    def to_rows(self) -> list[dict[str, Any]]:
+        """The per-target table, one row per target, units in the column names.
+
+        Returns
+        -------
+        list of dict
+            ``target_mm`` [mm], ``mean_up_um`` ... ``R_um`` [um]
+            (:func:`volcal.io.frames.iso230_2_rows`).
+        """
+        from volcal.io.frames import iso230_2_rows
+
+        return iso230_2_rows(self)
+
+    def to_dataframe(self) -> pandas.DataFrame:
+        """:meth:`to_rows` as a pandas DataFrame (needs pandas).
+
+        Returns
+        -------
+        pandas.DataFrame
+        """
+        from volcal.io.frames import to_dataframe
+
+        return to_dataframe(self.to_rows(), "Iso2302Result")
 
 
 def check_test_cycle(targets_mm: NDArray[np.float64], n_up: int, n_down: int) -> list[str]:
@@ -194,7 +279,8 @@ def check_test_cycle(targets_mm: NDArray[np.float64], n_up: int, n_down: int) ->
     return w
 
 
-def evaluate_grouped(g: GroupedRuns, edition: str = "2014") -> Iso2302Result:
+def evaluate_grouped(g: GroupedRuns, edition: str = "2014", file: str | None = None
+                     ) -> Iso2302Result:
     """ISO 230-2 parameters from runs already grouped by :func:`group_runs`.
 
     Parameters
@@ -203,6 +289,8 @@ def evaluate_grouped(g: GroupedRuns, edition: str = "2014") -> Iso2302Result:
         Deviations by target and run [um].
     edition : str
         ``'2014'`` (default), ``'2006'``, ``'1997'`` or ``'1988'``.
+    file : str, optional
+        Source file named in error messages.
 
     Returns
     -------
@@ -213,32 +301,78 @@ def evaluate_grouped(g: GroupedRuns, edition: str = "2014") -> Iso2302Result:
         raise VolcalInputError(f"unknown ISO 230-2 edition {edition!r}: expected one of "
                                f"{', '.join(EDITIONS)}", column="edition")
     k = EDITIONS[edition]
-    mu, md = g.up.mean(axis=1), g.down.mean(axis=1)
-    su, sd = g.up.std(axis=1, ddof=1), g.down.std(axis=1, ddof=1)
+    mu, su, nu = target_statistics(g.up)
+    md, sd, nd = target_statistics(g.down)
+    for sign, n in (("+", nu), ("-", nd)):
+        if not np.any(n >= 2):
+            raise VolcalInputError(f"no target reached by two runs in direction '{sign}': "
+                                   "no repeatability can be estimated", file, None, "run")
     b = mu - md
+    if not np.any(np.isfinite(b)):
+        raise VolcalInputError("no target reached in both directions: no reversal value",
+                               file, None, "direction")
     ru, rd = 2 * k * su, 2 * k * sd
-    r = np.maximum.reduce([k * su + k * sd + np.abs(b), ru, rd])
+    r = np.maximum.reduce([k * su + k * sd + np.abs(b), ru, rd])  # NaN: too few runs
     mean = (mu + md) / 2
     both = np.concatenate([mu, md])
+    complete = g.complete
     table = TargetStatistics(g.targets, mu, md, mean, su, sd, b, ru, rd, r,
-                             g.up.shape[1], g.down.shape[1])
-    a_up = float(np.max(mu + k * su) - np.min(mu - k * su))
-    a_down = float(np.max(md + k * sd) - np.min(md - k * sd))
-    a = float(max(np.max(mu + k * su), np.max(md + k * sd))
-              - min(np.min(mu - k * su), np.min(md - k * sd)))
+                             g.up.shape[1], g.down.shape[1],
+                             None if complete else nu, None if complete else nd)
+    hi_u, lo_u = np.nanmax(mu + k * su), np.nanmin(mu - k * su)
+    hi_d, lo_d = np.nanmax(md + k * sd), np.nanmin(md - k * sd)
     return Iso2302Result(
-        A=a, A_up=a_up, A_down=a_down,
-        E=float(np.ptp(both)), E_up=float(np.ptp(mu)), E_down=float(np.ptp(md)),
-        M=float(np.ptp(mean)),
-        R=float(np.max(r)), R_up=float(np.max(ru)), R_down=float(np.max(rd)),
-        B=float(np.max(np.abs(b))), B_mean=float(np.mean(b)),
+        A=float(max(hi_u, hi_d) - min(lo_u, lo_d)), A_up=float(hi_u - lo_u),
+        A_down=float(hi_d - lo_d),
+        E=_ptp(both), E_up=_ptp(mu), E_down=_ptp(md), M=_ptp(mean),
+        R=float(np.nanmax(r)), R_up=float(np.nanmax(ru)), R_down=float(np.nanmax(rd)),
+        B=float(np.nanmax(np.abs(b))), B_mean=float(np.nanmean(b)),
         targets=table, edition=edition,
-        warnings=check_test_cycle(g.targets, g.up.shape[1], g.down.shape[1]))
+        warnings=check_test_cycle(g.targets, g.up.shape[1], g.down.shape[1]),
+        missing=list(g.missing), notes=incomplete_notes(g, nu, nd))
+
+
+def _ptp(a: NDArray[np.float64]) -> float:
+    """Range of the finite values."""
+    return float(np.nanmax(a) - np.nanmin(a))
+
+
+def incomplete_notes(g: GroupedRuns, n_up: NDArray[np.int64], n_down: NDArray[np.int64]
+                     ) -> list[str]:
+    """Plain-word notes on an incomplete test: each missed reading and what it changes.
+
+    Parameters
+    ----------
+    g : GroupedRuns
+        The grouped runs (``missing`` lists the missed cells).
+    n_up, n_down : ndarray of int, shape (m,)
+        Runs that reached each target in each direction.
+
+    Returns
+    -------
+    list of str
+        Empty for a complete test.
+    """
+    if g.complete:
+        return []
+    out = []
+    for miss in g.missing:
+        i = int(np.argmin(np.abs(g.targets - miss.target_mm)))
+        n = (n_up if miss.direction == "+" else n_down)[i]
+        total = g.up.shape[1] if miss.direction == "+" else g.down.shape[1]
+        out.append(f"incomplete: {miss} (missed capture); that target is evaluated over the "
+                   f"{n} of {total} runs that reached it")
+    for sign, n in (("+", n_up), ("-", n_down)):
+        for i in np.flatnonzero(n < 2):
+            out.append(f"target {g.targets[i]:g} mm reached by {n[i]} run(s) in direction "
+                       f"'{sign}': no standard deviation there, left out of R and A")
+    return out
 
 
 def evaluate(targets_mm: ArrayLike, run: ArrayLike, direction: ArrayLike,
              deviation_um: ArrayLike, edition: str = "2014", *, file: str | None = None,
-             rows: ArrayLike | None = None) -> Iso2302Result:
+             rows: ArrayLike | None = None, allow_incomplete: bool = False,
+             target_column: str = "target_mm") -> Iso2302Result:
     """Evaluate a bidirectional positioning test of one axis to ISO 230-2.
 
     Parameters
@@ -257,6 +391,11 @@ def evaluate(targets_mm: ArrayLike, run: ArrayLike, direction: ArrayLike,
         Source file named in error messages.
     rows : array_like of int, optional
         Row of each reading in ``file``.
+    allow_incomplete : bool
+        Evaluate runs that missed targets (missed captures) per target over the runs that
+        reached it, marking the result incomplete; False (default): refuse them.
+    target_column : str
+        Name of the target column in ``file``, for error messages.
 
     Returns
     -------
@@ -268,7 +407,7 @@ def evaluate(targets_mm: ArrayLike, run: ArrayLike, direction: ArrayLike,
     ------
     VolcalInputError
         Missing direction, fewer than two runs a direction, NaN, duplicate readings,
-        incomplete runs.
+        incomplete runs (unless ``allow_incomplete``).
 
     Examples
     --------
@@ -278,6 +417,7 @@ def evaluate(targets_mm: ArrayLike, run: ArrayLike, direction: ArrayLike,
     >>> res.B, res.E
     (1.0, 3.0)
     """
-    g = group_runs(targets_mm, run, direction, deviation_um, file=file, rows=rows)
-    return evaluate_grouped(g, edition)
+    g = group_runs(targets_mm, run, direction, deviation_um, file=file, rows=rows,
+                   allow_incomplete=allow_incomplete, target_column=target_column)
+    return evaluate_grouped(g, edition, file)
 

@@ -7,12 +7,14 @@ Two CSV layouts are accepted:
   (the target is the coordinate of the moving axis, the one with the largest range).
 
 Every problem raises :class:`~volcal.errors.VolcalInputError` naming the file, row
-(header = row 1) and column.
+(header = row 1) and column. A ``deviation_um`` cell reading ``missed`` (a missed
+capture, in either layout) is skipped with a note; the evaluation then reports the run
+that missed the target (``allow_incomplete=True`` of the evaluations).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -47,6 +49,11 @@ class PositioningData:
         Source file.
     axis : str or None
         Moving axis, when known.
+    target_column : str
+        Column of ``file`` holding the targets (``target_mm``, or ``x_mm``... in a
+        session measurement CSV), named in error messages.
+    notes : list of str
+        What the reader skipped (missed captures, with their rows).
     """
 
     targets_mm: NDArray[np.float64]
@@ -56,12 +63,22 @@ class PositioningData:
     rows: NDArray[np.int64]
     file: str
     axis: str | None = None
+    target_column: str = "target_mm"
+    notes: list[str] = field(default_factory=list)
+
+    def evaluate_kwargs(self) -> dict[str, Any]:
+        """Keyword arguments of the evaluations for these readings.
+
+        File, rows, target column, and incomplete runs allowed.
+        """
+        return {"file": self.file, "rows": self.rows, "allow_incomplete": True,
+                "target_column": self.target_column}
 
 
 POSITIONING_TABLE = TableSpec(
     columns=(Column("target_mm", abs_max=1e6), Column("run", kind="int", min=0),
              Column("direction", kind="choice", choices=("+", "-")),
-             Column("deviation_um", abs_max=10_000.0)),
+             Column("deviation_um", abs_max=10_000.0, markers=("missed",))),
     min_rows=1, min_rows_message="no readings below the header", what="positioning file")
 """Columns of the ``target_mm,run,direction,deviation_um`` layout."""
 
@@ -89,21 +106,33 @@ def read_positioning_csv(path: str | Path) -> PositioningData:
     if any(h.strip() in ("x_mm", "y_mm", "z_mm") for h in first.split(",")):
         return _read_measurement_layout(path, [h.strip() for h in first.split(",")])
     t = parse_table(text, POSITIONING_TABLE, path)
-    return PositioningData(t["target_mm"], t["run"], t["direction"], t["deviation_um"],
-                           t.rows, str(path))
+    keep = ~t.marked["deviation_um"]
+    notes = []
+    if not keep.all():
+        from volcal.session.format import _missed_note
+
+        notes.append(_missed_note(path, t.rows, ~keep))
+    return PositioningData(t["target_mm"][keep], t["run"][keep], t["direction"][keep],
+                           t["deviation_um"][keep], t.rows[keep], str(path), notes=notes)
 
 
 def _read_measurement_layout(path: Path, header: list[str]) -> PositioningData:
-    from volcal.session.format import read_measurement_csv
-
     for c in ("run", "direction"):
         if c not in header:
             raise VolcalInputError(f"missing column '{c}': ISO 230-2 needs the run and the "
                                    "approach direction of every reading", path, 1, c)
-    pos, dev, cols = read_measurement_csv(path)
-    axis = int(np.argmax(np.ptp(pos, axis=0)))
-    return PositioningData(pos[:, axis].copy(), cols["run"], cols["direction"], dev,
-                           np.arange(2, pos.shape[0] + 2), str(path), "XYZ"[axis])
+    from volcal.session.format import _drop_missed, _read_rows
+
+    notes: list[str] = []
+    r = _read_rows(path)
+    if r.deviation is None:
+        raise VolcalInputError("no readings yet: the deviation_um column is empty "
+                               "(planned, not measured)", path, None, "deviation_um")
+    r = _drop_missed(r, path, notes)
+    axis = int(np.argmax(np.ptp(r.positions, axis=0)))
+    return PositioningData(r.positions[:, axis].copy(), r.columns["run"],
+                           r.columns["direction"], r.deviation, r.rows, str(path), "XYZ"[axis],
+                           f"{'xyz'[axis]}_mm", notes)
 
 
 def from_measurement(meas: Any, folder: str | Path | None = None) -> PositioningData:
@@ -141,4 +170,4 @@ def from_measurement(meas: Any, folder: str | Path | None = None) -> Positioning
     return PositioningData(meas.positions[:, axis].copy(), np.asarray(meas.columns["run"]),
                            np.asarray(meas.columns["direction"]), np.asarray(meas.deviation),
                            np.arange(2, meas.n + 2) if getattr(meas, "rows", None) is None
-                           else np.asarray(meas.rows), file, "XYZ"[axis])
+                           else np.asarray(meas.rows), file, "XYZ"[axis], f"{'xyz'[axis]}_mm")

@@ -2,24 +2,54 @@
 
 Shared by the ISO 230-2 and VDI/DGQ 3441 evaluations: the readings of a linear
 positioning test are checked (finite values, directions ``+``/``-``, no duplicate
-(target, run, direction), every run visits every target in both directions, at least two
-runs each way) and arranged as two arrays ``up[i, j]`` and ``down[i, j]`` (target i,
-run j).
+(target, run, direction), at least two runs each way) and arranged as two arrays
+``up[i, j]`` and ``down[i, j]`` (target i, run j). A run that did not reach a target
+(a missed capture) leaves NaN in its cell: refused by default, listed in
+:attr:`GroupedRuns.missing` with ``allow_incomplete=True``; :func:`target_statistics`
+then evaluates each target over the runs that reached it.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from volcal.errors import VolcalInputError
 
-__all__ = ["GroupedRuns", "group_runs"]
+__all__ = ["GroupedRuns", "MissingReading", "group_runs", "target_statistics"]
 
 #: Targets closer than this are the same target [mm].
 TARGET_TOLERANCE_MM = 1e-4
+
+
+@dataclass(frozen=True)
+class MissingReading:
+    """A (target, run, direction) cell of a positioning test without a reading.
+
+    Attributes
+    ----------
+    run : int
+        Run number.
+    target_mm : float
+        Target position [mm].
+    direction : str
+        ``'+'`` or ``'-'``.
+    """
+
+    run: int
+    target_mm: float
+    direction: str
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON-friendly dict (``run``, ``target_mm``, ``direction``)."""
+        return {"run": self.run, "target_mm": self.target_mm, "direction": self.direction}
+
+    def __str__(self) -> str:
+        """``run 2 has no reading at target 570.944 mm in direction '+'``."""
+        return (f"run {self.run} has no reading at target {self.target_mm:g} mm in "
+                f"direction '{self.direction}'")
 
 
 @dataclass
@@ -36,6 +66,8 @@ class GroupedRuns:
         Deviations approached in the negative direction [um].
     runs_up, runs_down : ndarray of int
         Run numbers of the columns.
+    missing : list of MissingReading
+        Cells without a reading (NaN in ``up``/``down``); empty for a complete test.
     """
 
     targets: NDArray[np.float64]
@@ -43,6 +75,12 @@ class GroupedRuns:
     down: NDArray[np.float64]
     runs_up: NDArray[np.int64]
     runs_down: NDArray[np.int64]
+    missing: list[MissingReading] = field(default_factory=list)
+
+    @property
+    def complete(self) -> bool:
+        """True when every run reached every target in both directions."""
+        return not self.missing
 
 
 def _row(rows: NDArray[np.int64] | None, i: int) -> int | None:
@@ -51,7 +89,9 @@ def _row(rows: NDArray[np.int64] | None, i: int) -> int | None:
 
 def group_runs(targets_mm: ArrayLike, run: ArrayLike, direction: ArrayLike,
                deviation_um: ArrayLike, file: str | None = None,
-               rows: ArrayLike | None = None, min_runs: int = 2) -> GroupedRuns:
+               rows: ArrayLike | None = None, min_runs: int = 2, *,
+               allow_incomplete: bool = False, target_column: str = "target_mm"
+               ) -> GroupedRuns:
     """Check and arrange bidirectional positioning readings.
 
     Parameters
@@ -70,6 +110,12 @@ def group_runs(targets_mm: ArrayLike, run: ArrayLike, direction: ArrayLike,
         Row number (in ``file``) of each reading, for error messages.
     min_runs : int
         Fewest runs accepted in each direction (2: a standard deviation needs two).
+    allow_incomplete : bool
+        Accept runs that miss targets (missed captures): their cells are NaN and listed
+        in :attr:`GroupedRuns.missing`. False (default): refused, naming the first.
+    target_column : str
+        Name of the target column in ``file`` for error messages (``'x_mm'`` in a
+        session measurement CSV of an X line).
 
     Returns
     -------
@@ -80,17 +126,53 @@ def group_runs(targets_mm: ArrayLike, run: ArrayLike, direction: ArrayLike,
     VolcalInputError
         Naming file, row and column of the first problem.
     """
-    t, ri, s, d, rw = _checked(targets_mm, run, direction, deviation_um, file, rows)
+    t, ri, s, d, rw = _checked(targets_mm, run, direction, deviation_um, file, rows,
+                               target_column)
     tid, targets = _cluster(t)
     if targets.size < 2:
         raise VolcalInputError("a positioning test needs at least two target positions", file,
-                               None, "target_mm")
-    out = {sign: _grid(sign, tid, targets, ri, s, d, rw, file, min_runs) for sign in "+-"}
-    return GroupedRuns(targets, out["+"][0], out["-"][0], out["+"][1], out["-"][1])
+                               None, target_column)
+    out = {sign: _grid(sign, tid, targets, ri, s, d, rw, file, min_runs, allow_incomplete,
+                       target_column) for sign in "+-"}
+    return GroupedRuns(targets, out["+"][0], out["-"][0], out["+"][1], out["-"][1],
+                       out["+"][2] + out["-"][2])
+
+
+def target_statistics(grid: NDArray[np.float64]
+                      ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]:
+    """Mean, sample standard deviation and number of runs of each target (row).
+
+    Missed cells (NaN) are left out: target i is evaluated over the ``n_i`` runs that
+    reached it, ``s_i = sqrt(sum_j (x_ij - xbar_i)^2 / (n_i - 1))`` (ISO 230-2:2014,
+    3.3.8 with ``n`` the number of runs at that target).
+
+    Parameters
+    ----------
+    grid : ndarray, shape (m, n)
+        Deviations, target x run, NaN where a run has no reading [um].
+
+    Returns
+    -------
+    mean : ndarray, shape (m,)
+        Mean deviation [um]; NaN where no run reached the target.
+    s : ndarray, shape (m,)
+        Sample standard deviation [um]; NaN where fewer than 2 runs reached it.
+    n : ndarray of int, shape (m,)
+        Runs that reached each target.
+    """
+    ok = np.isfinite(grid)
+    n = ok.sum(axis=1)
+    x = np.where(ok, grid, 0.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = np.where(n > 0, x.sum(axis=1) / np.maximum(n, 1), np.nan)
+        r2 = np.where(ok, (grid - mean[:, None]) ** 2, 0.0).sum(axis=1)
+        s = np.where(n >= 2, np.sqrt(r2 / np.maximum(n - 1, 1)), np.nan)
+    return mean, s, n
 
 
 def _checked(targets_mm: ArrayLike, run: ArrayLike, direction: ArrayLike,
-             deviation_um: ArrayLike, file: str | None, rows: ArrayLike | None):
+             deviation_um: ArrayLike, file: str | None, rows: ArrayLike | None,
+             target_column: str = "target_mm"):
     """The inputs as arrays (targets, whole runs, directions, deviations, rows), checked."""
     t = np.asarray(targets_mm, dtype=float).reshape(-1)
     d = np.asarray(deviation_um, dtype=float).reshape(-1)
@@ -104,7 +186,7 @@ def _checked(targets_mm: ArrayLike, run: ArrayLike, direction: ArrayLike,
                                    name)
     if n == 0:
         raise VolcalInputError("no readings", file)
-    for name, a in (("target_mm", t), ("deviation_um", d)):
+    for name, a in ((target_column, t), ("deviation_um", d)):
         bad = np.flatnonzero(~np.isfinite(a))
         if bad.size:
             raise VolcalInputError(f"not a finite number: {a[bad[0]]!r}", file,
@@ -139,9 +221,10 @@ def _cluster(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _grid(sign: str, tid: np.ndarray, targets: np.ndarray, ri: np.ndarray, s: np.ndarray,
-          d: np.ndarray, rw: np.ndarray | None, file: str | None, min_runs: int
-          ) -> tuple[np.ndarray, np.ndarray]:
-    """Deviations of one direction as (targets x runs), and the run numbers."""
+          d: np.ndarray, rw: np.ndarray | None, file: str | None, min_runs: int,
+          allow_incomplete: bool = False, target_column: str = "target_mm"
+          ) -> tuple[np.ndarray, np.ndarray, list[MissingReading]]:
+    """Deviations of one direction as (targets x runs), the run numbers, the missed cells."""
     sel = np.flatnonzero(s == sign)
     if sel.size == 0:
         raise VolcalInputError(f"no readings in direction '{sign}': ISO 230-2 needs "
@@ -160,13 +243,14 @@ def _grid(sign: str, tid: np.ndarray, targets: np.ndarray, ri: np.ndarray, s: np
             raise VolcalInputError(
                 f"duplicate reading: target {targets[i]:g} mm, run {ri[k]}, direction "
                 f"'{sign}' already given" + ("" if rw is None else f" in row {rw[seen[i, j]]}"),
-                file, _row(rw, k), "target_mm")
+                file, _row(rw, k), target_column)
         seen[i, j] = k
         grid[i, j] = d[k]
-    miss = np.argwhere(seen < 0)
-    if miss.size:
-        i, j = miss[0]
+    miss = [MissingReading(int(runs[j]), float(targets[i]), sign)
+            for i, j in np.argwhere(seen < 0)]
+    if miss and not allow_incomplete:
         raise VolcalInputError(
-            f"missing reading: run {runs[j]} has no target {targets[i]:g} mm in direction "
-            f"'{sign}' (every run must visit every target)", file, None, "target_mm")
-    return grid, runs
+            f"missing reading: {miss[0]} (every run must visit every target; "
+            "allow_incomplete=True evaluates each target over the runs that reached it)",
+            file, None, target_column)
+    return grid, runs, miss

@@ -17,9 +17,12 @@ it is the same quantity, and :attr:`SessionEvaluation.elv_source` says which dat
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from volcal.standards.iso230_6 import elv as _elv
+
+if TYPE_CHECKING:
+    import pandas
 
 __all__ = ["SessionEvaluation", "evaluate_session"]
 
@@ -46,6 +49,8 @@ class SessionEvaluation:
         (ranges of EXX, EYY, EZZ) or ``''``.
     skipped : dict of str to str
         Measurements not evaluated, with the reason.
+    unmeasured : list of str
+        Planned measurements without readings (``Session.unmeasured``).
     """
 
     iso230_2: dict[str, Any] = field(default_factory=dict)
@@ -55,6 +60,13 @@ class SessionEvaluation:
     elv: dict[str, float] | None = None
     elv_source: str = ""
     skipped: dict[str, str] = field(default_factory=dict)
+    unmeasured: list[str] = field(default_factory=list)
+
+    @property
+    def incomplete(self) -> list[str]:
+        """Ids of the evaluated tests with missed readings (linear and diagonal)."""
+        return [k for k, v in [*self.iso230_2.items(), *self.iso230_6.items()]
+                if not getattr(v, "complete", True)]
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dictionary (values [um])."""
@@ -64,7 +76,42 @@ class SessionEvaluation:
                 "volumetric": None if self.volumetric is None else self.volumetric.to_dict(),
                 "ELv": None if self.elv is None else self.elv["ELv"],
                 "elv": self.elv, "elv_source": self.elv_source,
-                "skipped": list(self.skipped)}
+                "skipped": list(self.skipped), "incomplete": self.incomplete,
+                "unmeasured": list(self.unmeasured)}
+
+    def to_rows(self, table: str = "iso230-2") -> list[dict[str, Any]]:
+        """One table of the evaluation, one row per measurement.
+
+        Parameters
+        ----------
+        table : str
+            ``'iso230-2'`` (linear tests: ``id``, ``axis``, ``A_um`` ... ``B_mean_um``
+            [um]) or ``'iso230-6'`` (diagonals: ``id``, ``diagonal``, ``length_mm``,
+            ``E_D_um`` ...); see :func:`volcal.io.frames.session_rows`.
+
+        Returns
+        -------
+        list of dict
+        """
+        from volcal.io.frames import session_rows
+
+        return session_rows(self, table)
+
+    def to_dataframe(self, table: str = "iso230-2") -> pandas.DataFrame:
+        """:meth:`to_rows` as a pandas DataFrame (needs pandas).
+
+        Parameters
+        ----------
+        table : str
+            ``'iso230-2'`` or ``'iso230-6'``.
+
+        Returns
+        -------
+        pandas.DataFrame
+        """
+        from volcal.io.frames import to_dataframe
+
+        return to_dataframe(self.to_rows(table), "SessionEvaluation")
 
     def __repr__(self) -> str:
         """Short one-line description."""
@@ -106,6 +153,12 @@ def evaluate_session(session: Any, result: Any = None, edition: str = "2014"
 
     Notes
     -----
+    A linear test with missed captures is evaluated per target over the runs that reached
+    it and marked incomplete (``complete``, ``missing``, ``notes`` of its result); an
+    incomplete diagonal is marked likewise (:mod:`volcal.standards.iso230_6`). A test with
+    too few captures left for any evaluation (e.g. one run in a direction) is listed in
+    ``skipped`` with the reason, and the others are evaluated.
+
     ELv = sqrt(ELx^2 + ELy^2 + ELz^2), ELx = max Dx(x) - min Dx(x) (seed 002); see the
     module docstring for the measured and model sources.
 
@@ -115,11 +168,12 @@ def evaluate_session(session: Any, result: Any = None, edition: str = "2014"
     ISO 230-6:2002, diagonal displacement tests. ISO 230-1:2012, Annex (volumetric
     indices). Seed 002 (ELv).
     """
+    from volcal.errors import VolcalInputError
     from volcal.standards.iso230_2 import evaluate
     from volcal.standards.iso230_6 import evaluate_diagonal
     from volcal.standards.positioning_data import from_measurement
 
-    ev = SessionEvaluation()
+    ev = SessionEvaluation(unmeasured=[m.id for m in getattr(session, "unmeasured", [])])
     for m in session.measurements:
         if m.deviation is None:
             ev.skipped[m.id] = "no readings yet"
@@ -129,11 +183,22 @@ def evaluate_session(session: Any, result: Any = None, edition: str = "2014"
                 ev.skipped[m.id] = "no run/direction columns"
                 continue
             d = from_measurement(m, session.path)
-            ev.iso230_2[m.id] = evaluate(d.targets_mm, d.run, d.direction, d.deviation_um,
-                                         edition, file=d.file, rows=d.rows)
+            try:
+                ev.iso230_2[m.id] = evaluate(d.targets_mm, d.run, d.direction,
+                                             d.deviation_um, edition, **d.evaluate_kwargs())
+            except VolcalInputError as exc:
+                if not m.meta.get("_missed"):
+                    raise
+                ev.skipped[m.id] = f"too many missed captures: {exc.message}"
+                continue
             ev.axis[m.id] = d.axis or "?"
         elif m.kind == "diagonal":
-            ev.iso230_6[m.id] = evaluate_diagonal(m, edition)
+            try:
+                ev.iso230_6[m.id] = evaluate_diagonal(m, edition)
+            except VolcalInputError as exc:
+                if not m.meta.get("_missed"):
+                    raise
+                ev.skipped[m.id] = f"too many missed captures: {exc.message}"
     first: dict[str, float] = {}
     for mid, r in ev.iso230_2.items():
         first.setdefault(ev.axis[mid], float(r.M))

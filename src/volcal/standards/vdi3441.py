@@ -32,13 +32,13 @@ References
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from volcal.standards.runs import group_runs
+from volcal.standards.runs import group_runs, target_statistics
 
 __all__ = ["Vdi3441Result", "evaluate"]
 
@@ -61,6 +61,9 @@ class Vdi3441Result:
         Targets [mm].
     mean, U_j, Ps_j : ndarray
         Per-target mean position deviation, reversal span and scatter [um].
+    missing : list of MissingReading
+        Missed (target, run, direction) cells: each target is then evaluated over the runs
+        that reached it (as in :mod:`volcal.standards.iso230_2`); empty when complete.
     """
 
     P: float
@@ -73,20 +76,34 @@ class Vdi3441Result:
     mean: NDArray[np.float64]
     U_j: NDArray[np.float64]
     Ps_j: NDArray[np.float64]
+    missing: list[Any] = field(default_factory=list)
+
+    @property
+    def complete(self) -> bool:
+        """True when every run reached every target in both directions."""
+        return not self.missing
 
     def to_dict(self) -> dict[str, Any]:
         """Return a JSON-friendly dict of the parameters and the per-target table."""
         d: dict[str, Any] = {k: float(getattr(self, k))
                              for k in ("P", "Pa", "Ps", "Ps_mean", "U", "U_mean")}
-        d["targets"] = [{"target_mm": float(t), "mean": float(m), "U": float(u), "Ps": float(p)}
+        d["targets"] = [{"target_mm": float(t), "mean": _num(m), "U": _num(u), "Ps": _num(p)}
                         for t, m, u, p in zip(self.target_mm, self.mean, self.U_j, self.Ps_j,
                                               strict=True)]
+        d["complete"] = self.complete
+        d["missing"] = [m.to_dict() for m in self.missing]
         return d
+
+
+def _num(v: float) -> float | None:
+    v = float(v)
+    return v if np.isfinite(v) else None
 
 
 def evaluate(targets_mm: ArrayLike, run: ArrayLike, direction: ArrayLike,
              deviation_um: ArrayLike, *, file: str | None = None,
-             rows: ArrayLike | None = None) -> Vdi3441Result:
+             rows: ArrayLike | None = None, allow_incomplete: bool = False,
+             target_column: str = "target_mm") -> Vdi3441Result:
     """Evaluate a bidirectional positioning test to VDI/DGQ 3441.
 
     Parameters
@@ -103,20 +120,32 @@ def evaluate(targets_mm: ArrayLike, run: ArrayLike, direction: ArrayLike,
         Source file for error messages.
     rows : array_like of int, optional
         Row of each reading in ``file``.
+    allow_incomplete : bool
+        Evaluate runs that missed targets per target over the runs that reached it
+        (targets with fewer than two runs each way are left out of P and Ps).
+    target_column : str
+        Name of the target column in ``file``, for error messages.
 
     Returns
     -------
     Vdi3441Result
     """
-    g = group_runs(targets_mm, run, direction, deviation_um, file=file, rows=rows)
-    mu, md = g.up.mean(axis=1), g.down.mean(axis=1)
-    sbar = (g.up.std(axis=1, ddof=1) + g.down.std(axis=1, ddof=1)) / 2
+    from volcal.errors import VolcalInputError
+
+    g = group_runs(targets_mm, run, direction, deviation_um, file=file, rows=rows,
+                   allow_incomplete=allow_incomplete, target_column=target_column)
+    mu, su, _ = target_statistics(g.up)
+    md, sd, _ = target_statistics(g.down)
+    sbar = (su + sd) / 2
     u = np.abs(mu - md)
     ps = 6 * sbar
     mean = (mu + md) / 2
     half = (u + ps) / 2
-    return Vdi3441Result(P=float(np.max(mean + half) - np.min(mean - half)),
-                         Pa=float(np.ptp(mean)), Ps=float(np.max(ps)),
-                         Ps_mean=float(np.mean(ps)), U=float(np.max(u)),
-                         U_mean=float(np.mean(u)), target_mm=g.targets, mean=mean, U_j=u,
-                         Ps_j=ps)
+    if not np.any(np.isfinite(half)):
+        raise VolcalInputError("no target reached by two runs in each direction", file, None,
+                               "run")
+    return Vdi3441Result(P=float(np.nanmax(mean + half) - np.nanmin(mean - half)),
+                         Pa=float(np.nanmax(mean) - np.nanmin(mean)), Ps=float(np.nanmax(ps)),
+                         Ps_mean=float(np.nanmean(ps)), U=float(np.nanmax(u)),
+                         U_mean=float(np.nanmean(u)), target_mm=g.targets, mean=mean, U_j=u,
+                         Ps_j=ps, missing=list(g.missing))

@@ -1,0 +1,300 @@
+"""``volcal history``: every machine and calibration kept; trends and change tests.
+
+The store is chosen by ``--db`` (a URL or an SQLite file), else the ``VOLCAL_DB``
+environment variable, else the default file (``docs/history.md``). Nothing of the
+history (SQLAlchemy, Alembic, pandas) is imported by any other command.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+history_app = typer.Typer(help="Calibration history: add, list, show, trend, compare, due, "
+                          "fleet, export, verify (SQLite by default, PostgreSQL by URL).",
+                          no_args_is_help=True)
+
+DbOption = Annotated[str | None, typer.Option(
+    "--db", help="Store: URL (postgresql://..., sqlite:///FILE) or SQLite file; default "
+    "$VOLCAL_DB, else ~/.local/share/volcal/history.sqlite.")]
+
+
+def _open(db: str | None):
+    from volcal.history.api import History
+
+    return History(db)
+
+
+def _err(text: str) -> None:
+    from rich.console import Console
+    from rich.markup import escape
+
+    Console(stderr=True, soft_wrap=True).print(escape(text), highlight=False)
+
+
+@history_app.command("add")
+def add_cmd(
+    session: Annotated[Path, typer.Argument(help="Session folder with readings.")],
+    model: Annotated[Path, typer.Option("--model", help="Model file identified from it.")],
+    as_left_of: Annotated[str | None, typer.Option(
+        "--as-left-of", help="Id of the as-found calibration (this one measured after "
+        "loading compensation tables).")] = None,
+    supersedes: Annotated[str | None, typer.Option(
+        help="Id of a calibration this one corrects (the old one is kept, marked).")] = None,
+    machine: Annotated[str | None, typer.Option(
+        help="Machine record id or name, when the session's identity is ambiguous.")] = None,
+    force: Annotated[bool, typer.Option(help="Accept a model of other readings.")] = False,
+    db: DbOption = None,
+) -> None:
+    """Store a calibration; prints the new record's id alone on standard output."""
+    with _open(db) as h:
+        rec = h.add(session, model, as_left_of, supersedes, machine, force)
+        for n in rec.payload.get("notes", []):
+            _err(f"note: {n}")
+        for w in rec.payload.get("warnings", []):
+            _err(f"warning: {w}")
+        typer.echo(rec.id)
+
+
+@history_app.command("add-etalon")
+def add_etalon_cmd(
+    file: Annotated[Path, typer.Argument(help="Etalon exchange file (Vendor variant).")],
+    session: Annotated[Path, typer.Option(help="Session folder naming the machine "
+                                          "([machine]) and the date ([calibration]).")],
+    date: Annotated[str | None, typer.Option(help="Date of measurement (ISO 8601).")] = None,
+    machine: Annotated[str | None, typer.Option(help="Machine record id or name.")] = None,
+    db: DbOption = None,
+) -> None:
+    """Store another system's result (Etalon exchange file); prints the record id."""
+    with _open(db) as h:
+        rec = h.add_etalon(file, session, date, machine)
+        if rec.payload.get("not_mapped"):
+            _err("note: blocks kept in the stored file but not mapped to volcal's 21 errors: "
+                 + ", ".join(rec.payload["not_mapped"]))
+        typer.echo(rec.id)
+
+
+@history_app.command("export-etalon")
+def export_etalon_cmd(
+    record: Annotated[str, typer.Argument(help="Calibration record id.")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="Exchange file to write.")],
+    db: DbOption = None,
+) -> None:
+    """Write a calibration's identified functions as an Etalon exchange file."""
+    from volcal.errors import VolcalInputError
+    from volcal.history.compare import load_record_model
+    from volcal.history.etalon import write_etalon
+
+    with _open(db) as h:
+        r = h.show(record)
+        model = load_record_model(h.store, r.id)
+    if model is None:
+        raise VolcalInputError(f"{r.id} has no volcal model to export")
+    write_etalon(model.errors, output, f"volcal history {r.id} ({r.machine_name}, {r.date})")
+    typer.echo(str(output))
+
+
+@history_app.command("list")
+def list_cmd(
+    as_json: Annotated[bool, typer.Option("--json", help="JSON array of records.")] = False,
+    db: DbOption = None,
+) -> None:
+    """Every record, oldest first; superseded records are marked."""
+    with _open(db) as h:
+        recs = h.list()
+    if as_json:
+        typer.echo(json.dumps([{"id": r.id, "kind": r.kind, "machine": r.machine_name,
+                                "machine_id": r.machine_id or (r.id if r.kind == "machine"
+                                                               else None),
+                                "date": r.date, "created": r.created,
+                                "supersedes": r.supersedes, "superseded_by": r.superseded_by,
+                                "superseded": r.superseded_by is not None,
+                                "as_left_of": r.as_left_of, "hash": r.hash}
+                               for r in recs], indent=1))
+        return
+    typer.echo("id\tkind\tmachine\tdate of measurement\tnote")
+    for r in recs:
+        note = []
+        if r.superseded_by:
+            note.append(f"superseded by {r.superseded_by}")
+        if r.supersedes:
+            note.append(f"corrects {r.supersedes}")
+        if r.as_left_of:
+            note.append(f"as-left of {r.as_left_of}")
+        typer.echo(f"{r.id}\t{r.kind}\t{r.machine_name}\t{r.date or '-'}\t{'; '.join(note)}")
+
+
+@history_app.command("show")
+def show_cmd(
+    record: Annotated[str, typer.Argument(help="Record id.")],
+    as_json: Annotated[bool, typer.Option("--json", help="JSON.")] = False,
+    db: DbOption = None,
+) -> None:
+    """A record (the newest correction of it), its results and files."""
+    with _open(db) as h:
+        r = h.show(record)
+    if as_json:
+        typer.echo(json.dumps(r.to_dict(), indent=1, default=str))
+        return
+    typer.echo(f"{r.id} ({r.kind}) of {r.machine_name}, measured {r.date or '-'}, "
+               f"stored {r.created}")
+    if r.id != record:
+        typer.echo(f"(the newest correction of {record})")
+    cal = r.payload.get("calibration") or {}
+    for k in ("operator", "customer", "laboratory"):
+        if k in cal:
+            typer.echo(f"{k}: {cal[k]}")
+    for e in r.equipment:
+        typer.echo("equipment: " + ", ".join(f"{k} {v}" for k, v in e.items()))
+    if r.results:
+        typer.echo("result\tvalue\tU (k=2)\tunit")
+        for name, v in r.results.items():
+            val = "-" if v["value"] is None else f"{v['value']:.4f}"
+            u = "-" if v["U"] is None else f"{v['U']:.4f}"
+            typer.echo(f"{name}\t{val}\t{u}\t{v['unit']}")
+    for f in r.files:
+        typer.echo(f"file {f['role']}: {f['name']} sha256 {f['sha256'][:16]}...")
+    typer.echo(f"hash {r.hash}")
+
+
+@history_app.command("trend")
+def trend_cmd(
+    machine: Annotated[str, typer.Argument(help="Machine name or record id.")],
+    parameter: Annotated[str, typer.Option(
+        help="Result name (X.A, linear-x1.R, V.E_VXYZ, EC0Y ...) or function at a "
+        "position (EXX@400).")],
+    plot: Annotated[Path | None, typer.Option(help="Also write a figure (.png, .svg, "
+                                              ".pdf) with the U bands.")] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="JSON rows.")] = False,
+    db: DbOption = None,
+) -> None:
+    """One parameter over the calibrations of a machine, with its U (k = 2)."""
+    from volcal.history.trend import plot_trend, trend
+
+    with _open(db) as h:
+        rows = trend(h, machine, parameter)
+    if as_json:
+        typer.echo(json.dumps(rows, indent=1))
+    else:
+        unit = next((r["unit"] for r in rows if r["unit"]), "")
+        typer.echo(f"id\tdate\t{parameter} [{unit}]\tU (k=2) [{unit}]")
+        for r in rows:
+            v = "-" if r["value"] is None else f"{r['value']:.4f}"
+            u = "-" if r["U"] is None else f"{r['U']:.4f}"
+            typer.echo(f"{r['id']}\t{r['date']}\t{v}\t{u}")
+    if plot is not None:
+        plot_trend(rows, parameter, machine, plot)
+        _err(f"figure: {plot}")
+
+
+@history_app.command("compare")
+def compare_cmd(
+    first: Annotated[str, typer.Argument(help="Earlier calibration id.")],
+    second: Annotated[str, typer.Argument(help="Later calibration id.")],
+    level: Annotated[float, typer.Option(
+        help="Family-wise false-alarm level of the function tests.")] = 0.05,
+    as_json: Annotated[bool, typer.Option("--json", help="JSON array of entries.")] = False,
+    db: DbOption = None,
+) -> None:
+    """Has the machine changed? Each result and identified function against its U."""
+    from volcal.history.compare import compare
+
+    with _open(db) as h:
+        entries = compare(h.store, first, second, level)
+    if as_json:
+        typer.echo(json.dumps([e.to_dict() for e in entries], indent=1))
+        return
+    typer.echo("name\tdifference\tU (k=2)\tunit\tchanged\ttest")
+    for e in entries:
+        ch = "-" if e.changed is None else ("CHANGED" if e.changed else "no")
+        u = "-" if e.U is None else f"{e.U:.4f}"
+        extra = e.reason or (f"chi2 {e.statistic:.1f} > {e.threshold:.1f}" if e.changed
+                             else (f"chi2 {e.statistic:.1f} <= {e.threshold:.1f}"
+                                   if e.statistic is not None else ""))
+        typer.echo(f"{e.name}\t{e.difference:+.4f}\t{u}\t{e.unit}\t{ch}\t{e.test} {extra}")
+    n = sum(1 for e in entries if e.changed)
+    typer.echo(f"{n} of {sum(1 for e in entries if e.changed is not None)} decided entries "
+               f"changed (functions: family-wise level {level:g})")
+
+
+@history_app.command("interval")
+def interval_cmd(
+    machine: Annotated[str, typer.Argument(help="Machine name or record id.")],
+    days: Annotated[int, typer.Argument(min=1, help="Calibration interval [days].")],
+    db: DbOption = None,
+) -> None:
+    """Set a machine's calibration interval (appends a record)."""
+    from volcal.history.store import NewRecord
+
+    with _open(db) as h:
+        mid = h.machine_id(machine)
+        rec = h.store.append(NewRecord("interval", {"interval_days": days}, machine_id=mid))
+    typer.echo(rec.id)
+
+
+@history_app.command("due")
+def due_cmd(
+    as_json: Annotated[bool, typer.Option("--json", help="JSON rows.")] = False,
+    db: DbOption = None,
+) -> None:
+    """Next calibration date per machine and test, overdue first."""
+    from volcal.history.due import due
+
+    with _open(db) as h:
+        rows = due(h)
+    if as_json:
+        typer.echo(json.dumps(rows, indent=1))
+        return
+    typer.echo("machine\ttest\tlast\tnext due\tinterval [days]\tstatus")
+    for r in rows:
+        st = f"OVERDUE by {r['overdue_days']} days" if r["overdue_days"] else "ok"
+        typer.echo(f"{r['machine']}\t{r['test']}\t{r['last'] or '-'}\t{r['next']}\t"
+                   f"{r['interval_days']}\t{st}")
+
+
+@history_app.command("fleet")
+def fleet_cmd(
+    output: Annotated[Path, typer.Option("-o", "--output", help="HTML file.")] = Path(
+        "fleet.html"),
+    db: DbOption = None,
+) -> None:
+    """One HTML page: every machine, its last calibration, E_VXYZ, trend, due date."""
+    from volcal.history.fleet import write_fleet
+
+    with _open(db) as h:
+        path = write_fleet(h, output)
+    typer.echo(str(path))
+
+
+@history_app.command("export")
+def export_cmd(
+    output: Annotated[Path, typer.Option("-o", "--output", help="Folder for the Parquet "
+                                         "files.")],
+    db: DbOption = None,
+) -> None:
+    """Every table as Parquet files (readable by DuckDB or pandas)."""
+    from volcal.history.export import export_parquet
+
+    with _open(db) as h:
+        for p in export_parquet(h, output):
+            typer.echo(str(p))
+
+
+@history_app.command("verify")
+def verify_cmd(db: DbOption = None) -> None:
+    """Check the hash chain; exit status 0 only when it is intact. Prints the head hash."""
+    with _open(db) as h:
+        ok, first, head, n, why = h.verify()
+    if ok:
+        typer.echo(f"chain intact: {n} records; head {head}")
+        return
+    typer.echo(f"chain BROKEN at {first}: {why}; last good head {head}")
+    raise typer.Exit(1)
+
+
+def register(app: typer.Typer) -> None:
+    """Add the ``history`` command group."""
+    app.add_typer(history_app, name="history")

@@ -1,0 +1,68 @@
+"""The hash chain of a history store: each record carries the hash of its predecessor.
+
+The hash of a record is the sha256 of its predecessor's hash and the canonical JSON
+(sorted keys, no spaces) of the record's fields and of its children (files by their
+sha256, results, equipment). Changing, inserting or deleting a row anywhere breaks the
+chain at that record; deleting the *latest* record shows only against a head hash kept
+elsewhere, which ``volcal history verify`` prints for that purpose.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from typing import Any
+
+GENESIS = "0" * 64
+_RECORD_FIELDS = ("seq", "id", "kind", "machine_id", "date", "created", "supersedes",
+                  "as_left_of", "report_id", "payload")
+
+
+def _num(v: Any) -> Any:
+    if isinstance(v, float):
+        return None if not math.isfinite(v) else float(f"{v:.12g}")
+    return v
+
+
+def canonical(obj: Any) -> str:
+    """Canonical JSON: sorted keys, no spaces, floats to 12 significant digits.
+
+    Parameters
+    ----------
+    obj : Any
+        JSON-ready object.
+    """
+    return json.dumps(obj, sort_keys=True, separators=(",", ":"), ensure_ascii=False,
+                      default=str)
+
+
+def record_hash(prev_hash: str, record: dict[str, Any], files: list[dict[str, Any]],
+                results: list[dict[str, Any]], equipment: list[dict[str, Any]]) -> str:
+    """The hash of one record.
+
+    Parameters
+    ----------
+    prev_hash : str
+        Hash of the predecessor (:data:`GENESIS` for the first record).
+    record : dict
+        The row of ``records`` (the keys of ``_RECORD_FIELDS``).
+    files, results, equipment : list of dict
+        The record's children: ``role, name, sha256``; ``name, value, U, unit``; the
+        equipment columns.
+
+    Returns
+    -------
+    str
+        64 hex digits.
+    """
+    body = {
+        "record": {k: record.get(k) for k in _RECORD_FIELDS},
+        "files": sorted([f["role"], f["name"], f["sha256"]] for f in files),
+        "results": sorted([r["name"], _num(r["value"]), _num(r["U"]), r["unit"]]
+                          for r in results),
+        "equipment": sorted(([int(e["position"])] + [e.get(k) for k in
+                             ("role", "make", "model", "serial", "certificate",
+                              "calibrated", "due")]) for e in equipment),
+    }
+    return hashlib.sha256((prev_hash + "\n" + canonical(body)).encode()).hexdigest()

@@ -1,0 +1,321 @@
+"""The change test between two calibrations of one machine.
+
+Two kinds of entries (``docs/history.md``):
+
+* **Results with an uncertainty** (ISO 230-2 parameters, diagonal results, volumetric
+  indices): ``difference = later - earlier``, ``U`` the expanded uncertainty of the
+  difference, ``sqrt(U1^2 + U2^2)`` (the two calibrations' uncertainties taken as
+  independent; terms common to both, such as one laser's wavelength error, would cancel
+  in the difference, so this errs on the side of "not changed"); ``changed`` when
+  ``|difference| > U``; ``None`` when either has no U.
+* **Identified functions and squareness** (from the two model files): one joint test
+  per function over its nodes, ``chi2 = d^T C^+ d`` with ``C = C1 + C2`` the sum of the
+  two posterior covariances and ``rank(C)`` degrees of freedom, against the
+  ``1 - level/m`` quantile of the chi-square distribution, ``m`` the number of functions
+  tested (Bonferroni: the family-wise false-alarm rate over all functions is at most
+  ``level``). ``difference`` is the largest node difference, ``U`` twice its standard
+  uncertainty there. ``changed`` is ``None`` where either calibration leaves the
+  function undetermined (less than half of its prior variance removed by the data).
+
+Both models must be in one gauge (the same chain; volcal's gauge is fixed by the design
+kind, not by the data); functions on other nodes are compared at the earlier model's
+nodes inside the common travel, by the models' own linear interpolation.
+
+References
+----------
+.. [1] JCGM 100:2008 (GUM), 5.1 (combined uncertainty of a difference).
+.. [2] Bonferroni, C. E. (1936), family-wise error rate of m tests at level alpha/m.
+"""
+
+from __future__ import annotations
+
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from volcal.errors import VolcalInputError
+
+#: Determined fraction below which a function counts as undetermined.
+UNDETERMINED_BELOW = 0.5
+
+
+@dataclass
+class Entry:
+    """One entry of the change test.
+
+    Attributes
+    ----------
+    name : str
+        Parameter (``X.A``, ``linear-x1.R``, ``V.E_VXYZ``) or function (``EXX``, ``EC0Y``).
+    difference : float
+        Later minus earlier [um or urad] (for a function: at its node of largest change).
+    U : float or None
+        Expanded uncertainty of the difference (k = 2) [um or urad].
+    changed : bool or None
+        The test's decision; ``None`` when it cannot be made.
+    unit : str
+        ``um`` or ``urad``.
+    test : str
+        ``|d| > U`` or ``chi-square``.
+    statistic, threshold : float or None
+        The chi-square statistic and its critical value (functions).
+    dof : int or None
+        Degrees of freedom of the chi-square test.
+    position_mm : float or None
+        Node of the largest difference (functions).
+    reason : str
+        Why ``changed`` is ``None``.
+    """
+
+    name: str
+    difference: float
+    U: float | None
+    changed: bool | None
+    unit: str
+    test: str
+    statistic: float | None = None
+    threshold: float | None = None
+    dof: int | None = None
+    position_mm: float | None = None
+    reason: str = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dict."""
+        return {k: getattr(self, k) for k in ("name", "difference", "U", "changed", "unit",
+                                              "test", "statistic", "threshold", "dof",
+                                              "position_mm", "reason")}
+
+
+def load_record_model(store: Any, rid: str) -> Any:
+    """The model file of a calibration record, loaded from the store's copy.
+
+    Parameters
+    ----------
+    store : Store
+        The history.
+    rid : str
+        Calibration record id.
+    """
+    from volcal.identify.modelfile import load_model
+
+    rec = store.record(rid)
+    names = [f for f in rec.files if f["role"] in ("model", "model-part")]
+    if not any(f["role"] == "model" for f in names):
+        return None
+    with tempfile.TemporaryDirectory(prefix="volcal-history-") as tmp:
+        main = None
+        for f in names:
+            p = Path(tmp) / f["name"]
+            p.write_bytes(store.file(rid, f["role"], f["name"]))
+            if f["role"] == "model":
+                main = p
+        return load_model(main)
+
+
+def prior_precision(model: Any) -> Any:
+    """Prior precision of a model's free parameters, rebuilt from its hyperparameters.
+
+    ``None`` when the model file does not record them (then the posterior covariance
+    is used as it is).
+
+    Parameters
+    ----------
+    model : IdentificationResult
+        A model whose fit records its hyperparameters.
+    """
+    from volcal.identify.prior import PriorStructure
+
+    hyp = model.fit.hyperparameters or {}
+    keys = ("positioning_um", "straightness_um", "roll_urad", "tilt_urad", "kappa")
+    if not all(isinstance(hyp.get(k), int | float) for k in keys):
+        return None
+    prior = PriorStructure.build(model.layout, model.free, float(hyp["kappa"]))
+    prior = prior.with_trend(hyp.get("positioning_trend_um") or 0.0)
+    scales = np.array([hyp[k] for k in keys[:4]], dtype=float)
+    n = int(model.free.size)
+    return prior.precision(scales, 100.0, n, np.zeros(0))
+
+
+def noise_covariance(model: Any) -> np.ndarray:
+    """Covariance of the estimate of a *given* machine: ``C - C Q C`` [free x free].
+
+    The posterior covariance ``C`` of a Bayesian estimate holds the prior's spread of
+    machines (``C Q C``) besides the spread of the readings and set-ups. Two
+    calibrations of one machine with one prior share that part: the spread of their
+    difference is that of the readings and set-ups alone, ``C - C Q C`` each
+    (Rasmussen & Williams 2006, 2.2; the set-up tilts stay random: they differ from one
+    set-up to the next).
+
+    Parameters
+    ----------
+    model : IdentificationResult
+        A model with its covariance factor and hyperparameters.
+    """
+    L = np.asarray(model.cov_factor)
+    C = L @ L.T
+    Q = prior_precision(model)
+    if Q is None:
+        return C
+    QC = np.asarray(Q @ C)  # sparse prior precision times dense C
+    Cn = C - QC.T @ C
+    return (Cn + Cn.T) / 2  # negative eigenvalues (rounding) are dropped by the test
+
+
+def _full_cov(model: Any, idx: np.ndarray, cov: np.ndarray | None = None) -> np.ndarray:
+    """Covariance of the layout parameters ``idx`` (gauge zeros: 0).
+
+    ``cov`` is a covariance of the free parameters; default the posterior's.
+    """
+    pos = -np.ones(model.layout.size, dtype=np.intp)
+    pos[model.free] = np.arange(model.free.size)
+    p = pos[idx]
+    ok = p >= 0
+    if cov is None:
+        L = np.zeros((idx.size, model.cov_factor.shape[1]))
+        L[ok] = np.asarray(model.cov_factor)[p[ok]]
+        return L @ L.T
+    out = np.zeros((idx.size, idx.size))
+    out[np.ix_(ok, ok)] = cov[np.ix_(p[ok], p[ok])]
+    return out
+
+
+def _interp_matrix(nodes: np.ndarray, q: np.ndarray) -> np.ndarray:
+    from volcal.model.errorfunctions import interp_weights
+
+    i0, i1, w = interp_weights(nodes, q)
+    P = np.zeros((q.size, nodes.size))
+    P[np.arange(q.size), i0] += 1 - w
+    P[np.arange(q.size), i1] += w
+    return P
+
+
+def _determined(model: Any, name: str) -> float | None:
+    rep = model.report
+    frac = rep.get("determined_fraction") if isinstance(rep, dict) else \
+        getattr(rep, "determined_fraction", None)
+    if not frac:
+        return None
+    v = frac.get(name)
+    return None if v is None else float(v)
+
+
+def _function_entries(m1: Any, m2: Any, level: float, common_prior: bool = True
+                      ) -> list[Entry]:
+    from scipy.stats import chi2
+
+    from volcal.model.names import COMPONENT_NAMES, SQUARENESS_NAMES
+
+    if str(m1.errors.chain) != str(m2.errors.chain):
+        raise VolcalInputError(f"the two models have other chains ({m1.errors.chain}, "
+                               f"{m2.errors.chain}): not one machine")
+    tests: list[tuple[str, np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]] = []
+    th1, th2 = m1.theta, m2.theta
+    c1 = noise_covariance(m1) if common_prior else None
+    c2 = noise_covariance(m2) if common_prior else None
+    for k in range(3):
+        n1, n2 = m1.layout.nodes[k], m2.layout.nodes[k]
+        lo, hi = max(n1[0], n2[0]), min(n1[-1], n2[-1])
+        q = n1[(n1 >= lo - 1e-9) & (n1 <= hi + 1e-9)]
+        P1, P2 = _interp_matrix(n1, q), _interp_matrix(n2, q)
+        for c in range(6):
+            i1, i2 = m1.layout.indices(k, c), m2.layout.indices(k, c)
+            d = P2 @ th2[i2] - P1 @ th1[i1]
+            C = P1 @ _full_cov(m1, i1, c1) @ P1.T + P2 @ _full_cov(m2, i2, c2) @ P2.T
+            tests.append((COMPONENT_NAMES[6 * k + c], d, C, q, None))
+    s1, s2 = m1.layout.squareness_indices(), m2.layout.squareness_indices()
+    for j, name in enumerate(SQUARENESS_NAMES):
+        d = np.array([th2[s2[j]] - th1[s1[j]]])
+        C = _full_cov(m1, s1[j:j + 1], c1) + _full_cov(m2, s2[j:j + 1], c2)
+        tests.append((name, d, C, np.array([np.nan]), None))
+    m = len(tests)
+    out = []
+    for name, d, C, q, _ in tests:
+        unit = "um" if name[1] in "XYZ" and name not in SQUARENESS_NAMES else "urad"
+        i = int(np.argmax(np.abs(d)))
+        u = float(np.sqrt(max(C[i, i], 0.0)))
+        pos = None if np.isnan(q[i]) else float(q[i])
+        e = Entry(name, float(d[i]), 2.0 * u, None, unit, "chi-square", position_mm=pos)
+        fr = [_determined(mm, name) for mm in (m1, m2)]
+        if any(f is not None and f < UNDETERMINED_BELOW for f in fr):
+            e.reason = "undetermined by " + " and ".join(
+                w for w, f in zip(("the earlier", "the later"), fr, strict=True)
+                if f is not None and f < UNDETERMINED_BELOW) + " calibration"
+            out.append(e)
+            continue
+        w, V = np.linalg.eigh((C + C.T) / 2)
+        keep = w > max(w.max(), 0.0) * 1e-10
+        r = int(keep.sum())
+        if r == 0:
+            e.reason = "fixed by the gauge in both calibrations"
+            out.append(e)
+            continue
+        z = V[:, keep].T @ d
+        stat = float(np.sum(z**2 / w[keep]))
+        thr = float(chi2.ppf(1.0 - level / m, r))
+        e.statistic, e.threshold, e.dof = stat, thr, r
+        e.changed = bool(stat > thr)
+        out.append(e)
+    return out
+
+
+def _result_entries(r1: Any, r2: Any, models: bool) -> list[Entry]:
+    from volcal.model.names import SQUARENESS_NAMES
+
+    out = []
+    for name in sorted(set(r1.results) & set(r2.results)):
+        if models and name in SQUARENESS_NAMES:
+            continue  # tested with the functions, from the two models' covariances
+        a, b = r1.results[name], r2.results[name]
+        if a["value"] is None or b["value"] is None:
+            continue
+        d = float(b["value"]) - float(a["value"])
+        if a["U"] is None or b["U"] is None:
+            out.append(Entry(name, d, None, None, a["unit"], "|d| > U",
+                             reason="no uncertainty stored for "
+                             + ("either" if a["U"] is None and b["U"] is None else
+                                "the earlier" if a["U"] is None else "the later")))
+            continue
+        U = float(np.hypot(a["U"], b["U"]))
+        out.append(Entry(name, d, U, bool(abs(d) > U), a["unit"], "|d| > U"))
+    return out
+
+
+def compare(store: Any, id1: str, id2: str, level: float = 0.05) -> list[Entry]:
+    """The change test between two calibration records.
+
+    Parameters
+    ----------
+    store : Store
+        The history.
+    id1, id2 : str
+        Earlier and later calibration (the newest correction of each is used).
+    level : float
+        Family-wise false-alarm level of the function tests (default 5 %).
+
+    Returns
+    -------
+    list of Entry
+
+    Raises
+    ------
+    VolcalInputError
+        Not calibrations, or of two machines.
+    """
+    if not 0.0 < level < 1.0:
+        raise VolcalInputError(f"--level {level}: expected a fraction between 0 and 1")
+    r1, r2 = store.current(id1), store.current(id2)
+    for r in (r1, r2):
+        if r.kind != "calibration":
+            raise VolcalInputError(f"{r.id} is a {r.kind} record, not a calibration")
+    if r1.machine_id != r2.machine_id:
+        raise VolcalInputError(f"{r1.id} and {r2.id} are calibrations of two machines "
+                               f"({r1.machine_name}, {r2.machine_name})")
+    m1, m2 = load_record_model(store, r1.id), load_record_model(store, r2.id)
+    both = m1 is not None and m2 is not None
+    out = _result_entries(r1, r2, both)
+    if both:
+        out.extend(_function_entries(m1, m2, level))
+    return out

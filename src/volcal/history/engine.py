@@ -1,0 +1,182 @@
+"""Open a history store: engine, schema at the head revision, clear errors.
+
+SQLite and PostgreSQL are driven through the same code; the differences are here:
+inserts are serialised by ``BEGIN IMMEDIATE`` on SQLite and by a transaction-level
+advisory lock on PostgreSQL, so that concurrent writers never fork the chain.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from volcal.errors import VolcalInputError
+
+#: Key of the PostgreSQL advisory lock taken by every insert (``pg_advisory_xact_lock``).
+ADVISORY_LOCK_KEY = 0x766F6C63  # "volc"
+HEAD = "0002"
+
+
+def _alembic_config(connection):
+    from alembic.config import Config
+
+    cfg = Config()
+    cfg.set_main_option("script_location", str(Path(__file__).with_name("migrations")))
+    cfg.attributes["connection"] = connection
+    return cfg
+
+
+def make_engine(url: str):
+    """A SQLAlchemy engine for ``url`` with volcal's locking and time-outs.
+
+    Parameters
+    ----------
+    url : str
+        SQLAlchemy URL (:func:`volcal.history.url.resolve_url`).
+
+    Returns
+    -------
+    sqlalchemy.engine.Engine
+
+    Raises
+    ------
+    VolcalInputError
+        A malformed URL, an unknown database kind, a missing driver, a folder that
+        cannot be created.
+    """
+    from sqlalchemy import create_engine, event
+    from sqlalchemy.exc import ArgumentError, NoSuchModuleError
+    from sqlalchemy.pool import NullPool
+
+    from volcal.history.url import describe
+
+    try:
+        if url.startswith("sqlite"):
+            path = url.split(":///", 1)[1] if ":///" in url else ""
+            if path and path != ":memory:":
+                try:
+                    Path(path).parent.mkdir(parents=True, exist_ok=True)
+                except OSError as exc:
+                    raise VolcalInputError(f"cannot create the folder of the history "
+                                           f"database ({exc.strerror})", path) from None
+            engine = create_engine(url, poolclass=NullPool, connect_args={"timeout": 60})
+
+            @event.listens_for(engine, "connect")
+            def _connect(dbapi_conn, _rec):  # take transactions out of pysqlite's hands
+                dbapi_conn.isolation_level = None
+                dbapi_conn.execute("PRAGMA foreign_keys = ON")
+
+            @event.listens_for(engine, "begin")
+            def _begin(conn):  # writers: one at a time, from the first statement
+                write = conn.get_execution_options().get("volcal_write", False)
+                conn.exec_driver_sql("BEGIN IMMEDIATE" if write else "BEGIN")
+
+            return engine
+        if url.startswith("postgresql"):
+            return create_engine(url, poolclass=NullPool)
+    except (ArgumentError, NoSuchModuleError) as exc:
+        raise VolcalInputError(f"cannot use the history database {describe(url)}: {exc}") \
+            from None
+    raise VolcalInputError(f"history database {describe(url)}: expected a file path, "
+                           "sqlite:///FILE or postgresql://USER@HOST/DB")
+
+
+def lock(conn) -> None:
+    """Serialise writers inside the current transaction (PostgreSQL advisory lock).
+
+    On SQLite the transaction itself is the lock (``BEGIN IMMEDIATE``).
+
+    Parameters
+    ----------
+    conn : Connection
+        A connection inside a transaction.
+    """
+    if conn.dialect.name == "postgresql":
+        from sqlalchemy import text
+
+        conn.execute(text("SELECT pg_advisory_xact_lock(:k)"), {"k": ADVISORY_LOCK_KEY})
+
+
+def open_engine(url: str, upgrade: bool = True):
+    """An engine whose database is a volcal history at the head revision.
+
+    An empty database is given the schema; an older volcal schema is upgraded (Alembic);
+    anything else is refused.
+
+    Parameters
+    ----------
+    url : str
+        SQLAlchemy URL.
+    upgrade : bool
+        Create or upgrade the schema (``False``: refuse a database not at the head).
+
+    Returns
+    -------
+    sqlalchemy.engine.Engine
+
+    Raises
+    ------
+    VolcalInputError
+        Not a database (a corrupted or foreign file), a database of another program, a
+        newer volcal schema, a server that cannot be reached.
+    """
+    from sqlalchemy import inspect, text
+    from sqlalchemy.exc import DatabaseError, OperationalError
+
+    from volcal.history.url import describe
+
+    engine = make_engine(url)
+    where = describe(url)
+    try:
+        with writer(engine) as conn:
+            lock(conn)
+            names = set(inspect(conn).get_table_names())
+            version = None
+            if "alembic_version" in names:
+                version = conn.execute(text("SELECT version_num FROM alembic_version")).scalar()
+            conn.commit()
+    except (DatabaseError, OperationalError) as exc:
+        msg = str(exc.orig) if getattr(exc, "orig", None) is not None else str(exc)
+        raise VolcalInputError(f"not a usable history database ({msg.splitlines()[0]})",
+                               where) from None
+    others = names - {"alembic_version", "records", "files", "results", "equipment"}
+    if names and (version is None or others):
+        raise VolcalInputError("this database holds tables of another program "
+                               f"({', '.join(sorted(names))[:200]}), not a volcal history",
+                               where)
+    if version not in (None, "0001", HEAD):
+        raise VolcalInputError(f"history schema revision {version!r} is unknown to this "
+                               f"volcal (head {HEAD}): a newer volcal wrote it", where)
+    if version != HEAD:
+        if not upgrade:
+            raise VolcalInputError(f"history schema at revision {version}, not {HEAD}", where)
+        migrate(engine)
+    return engine
+
+
+def writer(engine):
+    """A connection whose transactions take the writers' lock (use as a context manager).
+
+    Parameters
+    ----------
+    engine : Engine
+        The store's engine.
+    """
+    return engine.connect().execution_options(volcal_write=True)
+
+
+def migrate(engine, revision: str = "head") -> None:
+    """Upgrade the schema to ``revision`` (Alembic), under the writers' lock.
+
+    Parameters
+    ----------
+    engine : Engine
+        The store's engine.
+    revision : str
+        Target revision (``head``, ``0001``, ...).
+    """
+    from alembic import command
+
+    with writer(engine) as conn:
+        lock(conn)
+        command.upgrade(_alembic_config(conn), revision)
+        conn.commit()

@@ -1,0 +1,103 @@
+"""``volcal history fleet``: one HTML page with every machine of the history.
+
+Per machine: identity, last calibration (date, id), the largest volumetric error
+E_VXYZ with its U, a small trend of E_VXYZ over its calibrations (inline SVG), the next
+due date (overdue in red).
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import html
+from pathlib import Path
+from typing import Any
+
+
+def _sparkline(values: list[float], width: int = 120, height: int = 28) -> str:
+    if not values:
+        return ""
+    lo, hi = min(values), max(values)
+    span = hi - lo or 1.0
+    n = len(values)
+    pts = [(4 + (width - 8) * (i / (n - 1) if n > 1 else 0.5),
+            height - 4 - (height - 8) * (v - lo) / span) for i, v in enumerate(values)]
+    path = " ".join(f"{x:.1f},{y:.1f}" for x, y in pts)
+    dots = "".join(f'<circle cx="{x:.1f}" cy="{y:.1f}" r="2"/>' for x, y in pts)
+    return (f'<svg width="{width}" height="{height}" role="img" '
+            f'aria-label="E_VXYZ trend"><polyline fill="none" stroke="#246" '
+            f'points="{path}"/>{dots}</svg>')
+
+
+def fleet_html(history: Any, today: _dt.date | None = None) -> str:
+    """The page's HTML text.
+
+    Parameters
+    ----------
+    history : History
+        The store.
+    today : date, optional
+        Reference date of the due column (default today).
+    """
+    from volcal.history.due import due
+    from volcal.history.machines import current_machines
+
+    today = today or _dt.date.today()
+    records = history.store.records()
+    due_rows = due(history, today)
+    rows = []
+    for mach in current_machines(records):
+        cals = [r for r in records if r.kind == "calibration" and r.machine_id == mach.id
+                and r.superseded_by is None]
+        ident = mach.payload.get("machine", {})
+        who = " ".join(str(ident[k]) for k in ("make", "model") if ident.get(k))
+        serial = ident.get("serial", "")
+        ev = [r.results.get("V.E_VXYZ", {}).get("value") for r in cals]
+        ev = [v for v in ev if v is not None]
+        last = cals[-1] if cals else None
+        evx = last.results.get("V.E_VXYZ") if last else None
+        nxt = min((d["next"] for d in due_rows if d["machine_id"] == mach.id), default="")
+        overdue = bool(nxt) and nxt < today.isoformat()
+        ev_text = "-"
+        if evx and evx["value"] is not None:
+            ev_text = f"{evx['value']:.2f}" + ("" if evx["U"] is None else f" ± {evx['U']:.2f}")
+        rows.append(
+            "<tr>"
+            f"<td>{html.escape(mach.machine_name)}</td><td>{html.escape(who)}</td>"
+            f"<td>{html.escape(str(serial))}</td>"
+            f"<td>{html.escape(last.date[:10] if last and last.date else '-')}"
+            f"{' (' + html.escape(last.id) + ')' if last else ''}</td>"
+            f"<td>{ev_text}</td>"
+            f"<td>{_sparkline(ev)}</td>"
+            f"<td class=\"{'overdue' if overdue else ''}\">{html.escape(nxt)}"
+            f"{' overdue' if overdue else ''}</td></tr>")
+    return f"""<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><title>volcal fleet</title>
+<style>body{{font-family:sans-serif;margin:2em}}table{{border-collapse:collapse}}
+td,th{{border:1px solid #bbb;padding:4px 8px;text-align:left}}.overdue{{color:#b00;
+font-weight:bold}}</style></head><body>
+<h1>Machines of the calibration history</h1>
+<p>{len(rows)} machines; {html.escape(history.store.where)}; {today.isoformat()}.
+E<sub>VXYZ</sub>: largest volumetric error of the identified model over the work zone
+[µm] (ISO 230-1), with U (k = 2) where stored.</p>
+<table><thead><tr><th>machine</th><th>make, model</th><th>serial</th>
+<th>last calibration</th><th>E<sub>VXYZ</sub> [µm]</th><th>trend of E<sub>VXYZ</sub></th>
+<th>next due</th></tr></thead><tbody>
+{chr(10).join(rows)}
+</tbody></table></body></html>
+"""
+
+
+def write_fleet(history: Any, path: str | Path) -> Path:
+    """Write the fleet page atomically.
+
+    Parameters
+    ----------
+    history : History
+        The store.
+    path : str or Path
+        HTML file to write.
+    """
+    from volcal.io.atomic import write_text
+
+    write_text(path, fleet_html(history))
+    return Path(path)

@@ -1,0 +1,179 @@
+"""A calibration record from a session folder and its model: files, results, machine.
+
+What is stored: every file of the session folder (``session.toml``, the measurement
+CSVs; ``backup/`` and ``truth/`` are left out) with its sha256, the model file and the
+files beside it that share its stem (a binary covariance part), and the results with
+their expanded uncertainty where volcal has one: ISO 230-2 parameters of every linear
+test (``<id>.<key>``, and ``<axis>.<key>`` for the first test of each axis), ISO 230-6
+results, the volumetric indices of the model (``V.<key>``) and the squareness errors
+(``EC0Y``...; U = 2 u from the model's covariance).
+"""
+
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+from typing import Any
+
+from volcal.history.store import NewRecord
+
+ISO230_2_KEYS = ("A", "A_up", "A_down", "E", "E_up", "E_down", "M", "R", "R_up", "R_down",
+                 "B", "B_mean")
+SKIP_DIRS = ("backup", "truth")
+
+
+def session_files(folder: Path) -> list[tuple[str, str, bytes]]:
+    """Every file of a session folder (``backup/``, ``truth/`` and hidden files left out).
+
+    Parameters
+    ----------
+    folder : Path
+        The session folder.
+    """
+    out = []
+    for p in sorted(folder.rglob("*")):
+        rel = p.relative_to(folder)
+        if not p.is_file() or rel.parts[0] in SKIP_DIRS or rel.parts[0].startswith("."):
+            continue
+        out.append(("session", rel.as_posix(), p.read_bytes()))
+    return out
+
+
+def model_files(model: Path) -> list[tuple[str, str, bytes]]:
+    """The model file and the files beside it that share its stem (its binary part).
+
+    Parameters
+    ----------
+    model : Path
+        The model file.
+    """
+    out = [("model", model.name, model.read_bytes())]
+    for p in sorted(model.parent.glob(model.stem + ".*")):
+        if p != model and p.is_file() and p.suffix != ".json":
+            out.append(("model-part", p.name, p.read_bytes()))
+    return out
+
+
+def _num(v: Any) -> float | None:
+    try:
+        f = float(v)
+    except (TypeError, ValueError):
+        return None
+    return f if f == f else None
+
+
+def results_of(session: Any, model: Any) -> list[tuple[str, float | None, float | None, str]]:
+    """Named results with U (None where volcal has none) of a session and its model.
+
+    Parameters
+    ----------
+    session : Session
+        The session with readings.
+    model : IdentificationResult or None
+        Its model.
+    """
+    from volcal.standards.session import evaluate_session
+
+    ev = evaluate_session(session, model)
+    rows: list[tuple[str, float | None, float | None, str]] = []
+    seen_axes: set[str] = set()
+    for mid, res in ev.iso230_2.items():
+        d = res.to_dict()
+        axis = ev.axis[mid].upper()
+        for key in ISO230_2_KEYS:
+            if key not in d:
+                continue
+            value, u = _num(d[key]), _num(d.get(f"U_{key}"))
+            rows.append((f"{mid}.{key}", value, u, "um"))
+            if axis not in seen_axes:
+                rows.append((f"{axis}.{key}", value, u, "um"))
+        seen_axes.add(axis)
+    for mid, res in ev.iso230_6.items():
+        d = res.to_dict() if hasattr(res, "to_dict") else {}
+        for key, value in d.items():
+            if isinstance(value, int | float) and not isinstance(value, bool):
+                rows.append((f"{mid}.{key}", _num(value), _num(d.get(f"U_{key}")), "um"))
+    if ev.volumetric is not None:
+        v = ev.volumetric.to_dict()
+        for key in ("E_VX", "E_VY", "E_VZ", "E_VXYZ", "E_VXYZ_range"):
+            rows.append((f"V.{key}", _num(v[key]), _num(v.get(f"U_{key}")), "um"))
+    if model is not None:
+        from volcal.model.names import SQUARENESS_NAMES
+
+        for i, name in enumerate(SQUARENESS_NAMES):
+            rows.append((name, float(model.errors.squareness[i]),
+                         2.0 * float(model.squareness_std[i]), "urad"))
+    # one row per name: the first wins (an axis name repeats a test's row)
+    uniq: dict[str, tuple] = {}
+    for r in rows:
+        uniq.setdefault(r[0], r)
+    return list(uniq.values())
+
+
+def calibration_record(session_folder: str | Path, model_path: str | Path,
+                       as_left_of: str | None = None, supersedes: str | None = None,
+                       force: bool = False) -> tuple[NewRecord, Any]:
+    """The record of one calibration, ready for :meth:`Store.append`.
+
+    Parameters
+    ----------
+    session_folder : str or Path
+        The session (with readings).
+    model_path : str or Path
+        The model identified from it (checked against the session's readings).
+    as_left_of : str, optional
+        Id of the as-found calibration this one was measured after (tables loaded).
+    supersedes : str, optional
+        Id of the calibration record this one corrects.
+    force : bool
+        Accept a model identified from other readings.
+
+    Returns
+    -------
+    record : NewRecord
+    session : Session
+    """
+    from volcal.identify.modelfile import check_model_session, load_model
+    from volcal.session.format import read_session
+
+    folder = Path(session_folder)
+    session = read_session(folder)
+    model_path = Path(model_path)
+    model = load_model(model_path)
+    check_model_session(model, session, force=force)
+    ident = session.identity.to_dict()
+    files = session_files(session.path or folder) + model_files(model_path)
+    digest = hashlib.sha256()
+    for _, name, content in files:
+        if _ == "session":
+            digest.update(name.encode() + b"\0" + hashlib.sha256(content).digest())
+    date, notes = session.calibration.get("date"), []
+    if date is None:  # not given: the simulation's date, else the newest reading file's
+        from volcal.session.identity import parse_date
+
+        prov = session.provenance.get("date")
+        if prov is not None:
+            date, src = parse_date(prov), "the simulation's date ([provenance] date)"
+        else:
+            import datetime as _dt
+
+            newest = max((folder / m.file).stat().st_mtime for m in session.measurements)
+            date = _dt.datetime.fromtimestamp(newest, _dt.UTC).date().isoformat()
+            src = "the date of the newest measurement file"
+        notes.append(f"no [calibration] date in the session: dated {date}, {src}")
+    payload = {
+        "machine": ident,
+        "calibration": session.calibration,
+        "session_sha256": digest.hexdigest(),
+        "measurements": [m.id for m in session.measurements],
+        "unmeasured": session.unmeasured_ids,
+        "warnings": list(session.warnings),
+        "model": {"format": model.format, "file": model_path.name,
+                  "sigma_um": model.fit.sigma_um, "n_readings": model.fit.n_readings},
+        "k": 2.0,
+        "notes": notes,
+    }
+    rec = NewRecord("calibration", payload, date=date, as_left_of=as_left_of,
+                    supersedes=supersedes, files=files, results=results_of(session, model),
+                    equipment=list(session.equipment))
+    return rec, session

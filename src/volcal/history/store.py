@@ -1,0 +1,380 @@
+"""The history store: append-only records in one hash chain, SQLite or PostgreSQL.
+
+Nothing is updated or deleted: a correction is a new record that supersedes an older
+one. Every insert takes the writers' lock (:func:`volcal.history.engine.lock`), reads
+the head of the chain, and appends in one transaction: an interrupted or failed ``add``
+leaves nothing behind.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import hashlib
+import json
+from dataclasses import dataclass, field
+from typing import Any
+
+from volcal.errors import VolcalInputError
+from volcal.history.chain import GENESIS, canonical, record_hash
+
+KIND_PREFIX = {"machine": "M", "calibration": "C", "interval": "I"}
+
+
+@dataclass
+class Record:
+    """One record of the history, as read back.
+
+    Attributes
+    ----------
+    seq : int
+        Position in the chain (1-based).
+    id : str
+        Record id (``M000001`` machine, ``C000002`` calibration, ``I...`` interval).
+    kind : str
+        ``machine``, ``calibration`` or ``interval``.
+    machine_id : str or None
+        The machine record a calibration or interval belongs to.
+    date : str or None
+        Date of measurement (ISO 8601) of a calibration.
+    created : str
+        UTC time the record was appended.
+    supersedes : str or None
+        Id of the record this one corrects.
+    as_left_of : str or None
+        The as-found calibration this as-left one pairs with.
+    payload : dict
+        The record's content (identity, calibration keys, evaluation, model summary).
+    prev_hash, hash : str
+        The chain.
+    report_id : str or None
+        The certificate's report id, where one was stored.
+    results : dict of str to dict
+        ``name -> {value, U, unit}``.
+    files : list of dict
+        ``role, name, sha256`` (content through :meth:`Store.file`).
+    equipment : list of dict
+        The calibration's equipment.
+    superseded_by : str or None
+        Set by :meth:`Store.records`: the newest record that supersedes this one.
+    """
+
+    seq: int
+    id: str
+    kind: str
+    machine_id: str | None
+    date: str | None
+    created: str
+    supersedes: str | None
+    as_left_of: str | None
+    payload: dict[str, Any]
+    prev_hash: str
+    hash: str
+    report_id: str | None = None
+    results: dict[str, dict[str, Any]] = field(default_factory=dict)
+    files: list[dict[str, Any]] = field(default_factory=list)
+    equipment: list[dict[str, Any]] = field(default_factory=list)
+    superseded_by: str | None = None
+
+    @property
+    def machine_name(self) -> str:
+        """Name of the machine (from the payload's identity)."""
+        ident = self.payload.get("machine") or {}
+        return str(ident.get("name", ""))
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dict (``list --json`` and ``show --json``)."""
+        return {"id": self.id, "kind": self.kind, "machine": self.machine_name,
+                "machine_id": self.machine_id, "date": self.date, "created": self.created,
+                "supersedes": self.supersedes, "superseded_by": self.superseded_by,
+                "as_left_of": self.as_left_of, "report_id": self.report_id,
+                "hash": self.hash, "payload": self.payload,
+                "results": self.results, "files": self.files, "equipment": self.equipment}
+
+
+@dataclass
+class NewRecord:
+    """What :meth:`Store.append` writes: a record and its children."""
+
+    kind: str
+    payload: dict[str, Any]
+    machine_id: str | None = None
+    date: str | None = None
+    supersedes: str | None = None
+    as_left_of: str | None = None
+    report_id: str | None = None
+    files: list[tuple[str, str, bytes]] = field(default_factory=list)  # role, name, content
+    results: list[tuple[str, float | None, float | None, str]] = field(default_factory=list)
+    equipment: list[dict[str, Any]] = field(default_factory=list)
+
+
+class Store:
+    """A calibration history in a SQL database.
+
+    Parameters
+    ----------
+    url : str, optional
+        ``--db`` value (URL or SQLite file); default :func:`volcal.history.url.resolve_url`.
+    """
+
+    def __init__(self, url: str | None = None) -> None:
+        from volcal.history.engine import open_engine
+        from volcal.history.url import describe, resolve_url
+
+        self.url = resolve_url(url)
+        self.where = describe(self.url)
+        self.engine = open_engine(self.url)
+
+    def close(self) -> None:
+        """Release the database connections."""
+        self.engine.dispose()
+
+    # ---------------------------------------------------------------- writing
+    def append(self, rec: NewRecord, check=None) -> Record:
+        """Append one record to the chain, atomically and serialised with other writers.
+
+        Parameters
+        ----------
+        rec : NewRecord
+            The record.
+        check : callable, optional
+            ``check(conn)`` run under the lock before the insert (e.g. machine matching);
+            may return a :class:`NewRecord` to append first (a new machine), whose id
+            becomes ``rec.machine_id``, or a machine id (str) to set.
+
+        Returns
+        -------
+        Record
+            As stored.
+        """
+        from sqlalchemy import select
+
+        from volcal.history import schema as t
+        from volcal.history.engine import lock, writer
+
+        with writer(self.engine) as conn, conn.begin():
+            lock(conn)
+            extra = check(conn) if check is not None else None
+            if isinstance(extra, NewRecord):
+                rec.machine_id = self._insert(conn, extra)
+            elif isinstance(extra, str):
+                rec.machine_id = extra
+            for ref in (rec.supersedes, rec.as_left_of, rec.machine_id):
+                if ref is not None and conn.execute(
+                        select(t.records.c.seq).where(t.records.c.id == ref)).first() is None:
+                    raise VolcalInputError(f"no record {ref!r} in the history {self.where}")
+            rid = self._insert(conn, rec)
+        return self.record(rid)
+
+    def _insert(self, conn, rec: NewRecord) -> str:
+        """Insert one record and its children at the head of the chain (under the lock)."""
+        from sqlalchemy import insert, select
+
+        from volcal.history import schema as t
+
+        head = conn.execute(select(t.records.c.seq, t.records.c.hash)
+                            .order_by(t.records.c.seq.desc()).limit(1)).first()
+        seq = 1 if head is None else int(head.seq) + 1
+        prev = GENESIS if head is None else head.hash
+        row = {"seq": seq, "id": f"{KIND_PREFIX[rec.kind]}{seq:06d}", "kind": rec.kind,
+               "machine_id": rec.machine_id, "date": rec.date,
+               "created": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
+               "supersedes": rec.supersedes, "as_left_of": rec.as_left_of,
+               "report_id": rec.report_id, "payload": canonical(rec.payload),
+               "prev_hash": prev}
+        files = [{"record_seq": seq, "role": r, "name": n,
+                  "sha256": hashlib.sha256(c).hexdigest(), "content": c}
+                 for r, n, c in rec.files]
+        results = [{"record_seq": seq, "name": n, "value": v, "U": u, "unit": unit}
+                   for n, v, u, unit in rec.results]
+        equipment = [{"record_seq": seq, "position": i,
+                      **{k: e.get(k) for k in ("role", "make", "model", "serial",
+                                                "certificate", "calibrated", "due")}}
+                     for i, e in enumerate(rec.equipment)]
+        row["hash"] = record_hash(prev, row, files, results, equipment)
+        conn.execute(insert(t.records).values(**row))
+        if files:
+            conn.execute(insert(t.files), files)
+        if results:
+            conn.execute(insert(t.results), results)
+        if equipment:
+            conn.execute(insert(t.equipment), equipment)
+        return row["id"]
+
+    # ---------------------------------------------------------------- reading
+    def _rows(self, where=None, conn=None) -> list[Record]:
+        if conn is None:
+            with self.engine.connect() as c:
+                return self._rows(where, c)
+        return self._read(where, conn)
+
+    def _read(self, where, conn) -> list[Record]:
+        from sqlalchemy import select
+
+        from volcal.history import schema as t
+
+        q = select(t.records).order_by(t.records.c.seq)
+        if where is not None:
+            q = q.where(where)
+        rows = conn.execute(q).mappings().all()
+        seqs = [r["seq"] for r in rows]
+        res: dict[int, dict] = {s: {} for s in seqs}
+        fil: dict[int, list] = {s: [] for s in seqs}
+        eqp: dict[int, list] = {s: [] for s in seqs}
+        if seqs:
+            for r in conn.execute(select(t.results).where(
+                    t.results.c.record_seq.in_(seqs))).mappings():
+                res[r["record_seq"]][r["name"]] = {"value": r["value"], "U": r["U"],
+                                                   "unit": r["unit"]}
+            for r in conn.execute(select(t.files.c.record_seq, t.files.c.role,
+                                         t.files.c.name, t.files.c.sha256).where(
+                    t.files.c.record_seq.in_(seqs))).mappings():
+                fil[r["record_seq"]].append({"role": r["role"], "name": r["name"],
+                                             "sha256": r["sha256"]})
+            for r in conn.execute(select(t.equipment).where(
+                    t.equipment.c.record_seq.in_(seqs)).order_by(
+                    t.equipment.c.position)).mappings():
+                eqp[r["record_seq"]].append({k: v for k, v in r.items()
+                                             if k not in ("record_seq", "position")
+                                             and v is not None})
+        out = []
+        for r in rows:
+            try:
+                payload = json.loads(r["payload"])
+            except json.JSONDecodeError:
+                payload = {"unreadable": True}
+            out.append(Record(r["seq"], r["id"], r["kind"], r["machine_id"], r["date"],
+                              r["created"], r["supersedes"], r["as_left_of"], payload,
+                              r["prev_hash"], r["hash"], r["report_id"], res[r["seq"]],
+                              fil[r["seq"]], eqp[r["seq"]]))
+        return out
+
+    def records(self, kind: str | None = None, conn=None) -> list[Record]:
+        """Every record in chain order, ``superseded_by`` set.
+
+        Parameters
+        ----------
+        kind : str, optional
+            Only records of this kind.
+        conn : Connection, optional
+            Read inside this transaction (a writer's, under its lock).
+        """
+        from volcal.history import schema as t
+
+        allr = self._rows(None if kind is None else t.records.c.kind == kind, conn)
+        every = {r.id: r for r in allr}
+        for r in allr:
+            if r.supersedes in every:
+                every[r.supersedes].superseded_by = r.id
+        # a chain of corrections: the newest wins for every older one
+        for r in allr:
+            nxt = r.superseded_by
+            while nxt is not None and every.get(nxt) is not None \
+                    and every[nxt].superseded_by is not None:
+                nxt = every[nxt].superseded_by
+            r.superseded_by = nxt
+        return allr
+
+    def record(self, rid: str) -> Record:
+        """One record by id (as stored, superseded or not).
+
+        Parameters
+        ----------
+        rid : str
+            Record id.
+
+        Raises
+        ------
+        VolcalInputError
+            No such record.
+        """
+        from volcal.history import schema as t
+
+        rows = self._rows(t.records.c.id == rid)
+        if not rows:
+            raise VolcalInputError(f"no record {rid!r} in the history {self.where}")
+        return rows[0]
+
+    def current(self, rid: str) -> Record:
+        """The newest record superseding ``rid`` (``rid`` itself when none does).
+
+        Parameters
+        ----------
+        rid : str
+            Record id.
+        """
+        every = {r.id: r for r in self.records()}
+        if rid not in every:
+            raise VolcalInputError(f"no record {rid!r} in the history {self.where}")
+        r = every[rid]
+        return every[r.superseded_by] if r.superseded_by else r
+
+    def file(self, rid: str, role: str, name: str | None = None) -> bytes:
+        """The stored content of a record's file (the first of ``role`` if no name).
+
+        Parameters
+        ----------
+        rid : str
+            Record id.
+        role : str
+            File role (``session``, ``model``, ``model-part``, ``etalon``).
+        name : str, optional
+            File name.
+        """
+        from sqlalchemy import select
+
+        from volcal.history import schema as t
+
+        rec = self.record(rid)
+        q = select(t.files.c.content).where(t.files.c.record_seq == rec.seq,
+                                            t.files.c.role == role)
+        if name is not None:
+            q = q.where(t.files.c.name == name)
+        with self.engine.connect() as conn:
+            row = conn.execute(q.order_by(t.files.c.name)).first()
+        if row is None:
+            raise VolcalInputError(f"record {rid} has no {role} file")
+        return bytes(row[0])
+
+    # ---------------------------------------------------------------- verify
+    def verify(self) -> tuple[bool, str | None, str, int, str]:
+        """Recompute the chain.
+
+        Returns
+        -------
+        ok : bool
+            Every record's hash and link and every file's digest agree.
+        first_broken : str or None
+            Id (or sequence number) of the first record that does not.
+        head : str
+            Hash of the last record (:data:`GENESIS` when empty).
+        n : int
+            Records checked.
+        why : str
+            What is wrong with the first broken record.
+        """
+        from sqlalchemy import select
+
+        from volcal.history import schema as t
+
+        with self.engine.connect() as conn:
+            rows = conn.execute(select(t.records).order_by(t.records.c.seq)).mappings().all()
+            prev = GENESIS
+            for i, r in enumerate(rows, start=1):
+                files = [dict(f) for f in conn.execute(select(t.files).where(
+                    t.files.c.record_seq == r["seq"])).mappings()]
+                results = [dict(x) for x in conn.execute(select(t.results).where(
+                    t.results.c.record_seq == r["seq"])).mappings()]
+                equipment = [dict(x) for x in conn.execute(select(t.equipment).where(
+                    t.equipment.c.record_seq == r["seq"])).mappings()]
+                label = f"{r['id']} (record {r['seq']})"
+                if r["seq"] != i:
+                    return False, label, prev, i, f"record {i} is missing"
+                if r["prev_hash"] != prev:
+                    return False, label, prev, i, "its link to the previous record is broken"
+                for f in files:
+                    if hashlib.sha256(bytes(f["content"])).hexdigest() != f["sha256"]:
+                        return False, label, prev, i, f"file {f['name']} was altered"
+                if record_hash(prev, dict(r), files, results, equipment) != r["hash"]:
+                    return False, label, prev, i, "its content does not match its hash"
+                prev = r["hash"]
+        return True, None, prev, len(rows), ""

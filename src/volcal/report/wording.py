@@ -1,0 +1,132 @@
+"""Customer wording of the report: one unit spelling, full citations instead of internal names.
+
+The report is the document a customer gets. Text reaches it from many modules (the
+identification's messages, the standards' warnings, the console's wording), some of which
+write units in ASCII (``um``, ``urad``) or name the project's source documents by their
+internal seed numbers. Both renderers pass every string of the document through
+:func:`customer_text`, so the HTML and the PDF spell the units ``µm`` and ``µrad``
+(SI prefix micro, U+00B5 as ISO 80000-1 typesetting allows) and cite the sources by author
+and year, listed in full in the References section (:func:`references_section`).
+Identifiers such as the CSV column ``deviation_um`` are left as they are.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+
+from volcal.report.document import FigureItem, Report, Section, Table
+
+__all__ = ["REFERENCES", "SOURCE_NAMES", "customer_report", "customer_text",
+           "references_section"]
+
+REFERENCES: tuple[str, ...] = (
+    "ISO 230-1:2012, Test code for machine tools - Part 1: Geometric accuracy of machines "
+    "operating under no-load or quasi-static conditions (ISO, Geneva).",
+    "ISO 230-2:2014, Test code for machine tools - Part 2: Determination of accuracy and "
+    "repeatability of positioning of numerically controlled axes (ISO, Geneva).",
+    "ISO 230-6:2002, Test code for machine tools - Part 6: Determination of positioning "
+    "accuracy on body and face diagonals (Diagonal displacement tests) (ISO, Geneva).",
+    "ASME B5.54-2005, Methods for performance evaluation of computer numerically controlled "
+    "machining centers (ASME, New York).",
+    "JCGM 100:2008, Evaluation of measurement data - Guide to the expression of uncertainty "
+    "in measurement (GUM).",
+    "C. Wang, G. Liotto, \"A theoretical analysis of 4 body diagonal displacement "
+    "measurement and sequential step diagonal measurement\", Proceedings of the 6th "
+    "LAMDAMAP Conference, Huddersfield, 2003, pp. 463-471.",
+    "Optodyne, Inc., application note \"Pitch and yaw angular error measurement using a "
+    "MCV-500 laser calibration system\" (pitch and yaw from three linear measurements at "
+    "different Abbe offsets).",
+    "C. Wang, Optodyne, Inc., body diagonal displacement errors as a quick volumetric check "
+    "and the definitions of volumetric error (ELv, the root sum of squares of the three "
+    "axes' positioning ranges).",
+    "J. A. Soons, \"Analysis of the step-diagonal test\", National Institute of Standards "
+    "and Technology (NIST), Proceedings of LAMDAMAP 2005.",
+)
+"""Full citations of the standards and papers the report's methods and wording rest on."""
+
+SOURCE_NAMES: dict[str, str] = {
+    "000": "Wang & Liotto 2003",
+    "001": "Optodyne application note",
+    "002": "Wang, Optodyne",
+    "004": "Soons 2005",
+}
+"""Author-year name of each source document the code's comments call by number."""
+
+_UM = re.compile(r"(?<![A-Za-z_µ])um(?![A-Za-z_0-9])")
+_URAD = re.compile(r"(?<![A-Za-z_µ])urad(?![A-Za-z_0-9])")
+_SEED = re.compile(r"\b[Ss]eeds? (00\d)(?:\s*/\s*(00\d))?('s)?")
+
+
+def _seed(m: re.Match[str]) -> str:
+    names = [SOURCE_NAMES.get(n, "see References") for n in m.groups()[:2] if n]
+    return " and ".join(names) + (m.group(3) or "")
+
+
+def customer_text(text: str) -> str:
+    """Spell units and cite sources as the customer's document does.
+
+    Parameters
+    ----------
+    text : str
+        Any text of the report (paragraph, warning, table cell, caption).
+
+    Returns
+    -------
+    str
+        ``um`` -> ``µm``, ``urad`` -> ``µrad`` where they stand as units (not inside
+        identifiers such as ``deviation_um``), and ``seed 00N`` -> the source's author and
+        year (:data:`SOURCE_NAMES`).
+
+    Examples
+    --------
+    >>> customer_text("ambiguity 1.15 -> 0.03 um RMS; EAX 13.1 urad (seed 004)")
+    'ambiguity 1.15 -> 0.03 µm RMS; EAX 13.1 µrad (Soons 2005)'
+    """
+    text = _UM.sub("µm", text)
+    text = _URAD.sub("µrad", text)
+    return _SEED.sub(_seed, text)
+
+
+def _table(t: Table) -> Table:
+    return Table([customer_text(c) for c in t.columns],
+                 [[customer_text(c) for c in r] for r in t.rows],
+                 customer_text(t.title), customer_text(t.note))
+
+
+def _section(s: Section) -> Section:
+    return dataclasses.replace(
+        s, title=customer_text(s.title),
+        paragraphs=[customer_text(p) for p in s.paragraphs],
+        warnings=[customer_text(w) for w in s.warnings],
+        tables=[_table(t) for t in s.tables],
+        figures=[FigureItem(f.figure, customer_text(f.caption), f.name) for f in s.figures])
+
+
+def customer_report(report: Report) -> Report:
+    """A copy of the report with every text passed through :func:`customer_text`.
+
+    Parameters
+    ----------
+    report : Report
+        The document (not changed; the figures are shared, not copied).
+
+    Returns
+    -------
+    Report
+    """
+    return dataclasses.replace(report, title=customer_text(report.title),
+                               sections=[_section(s) for s in report.sections])
+
+
+def references_section() -> Section:
+    """The References section: full citations of the standards and papers.
+
+    Returns
+    -------
+    Section
+        One numbered paragraph per entry of :data:`REFERENCES`.
+    """
+    sec = Section("references", "References")
+    sec.paragraphs.extend(f"[{i}] {r}" for i, r in enumerate(REFERENCES, start=1))
+    return sec

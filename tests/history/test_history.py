@@ -1,0 +1,318 @@
+"""The calibration history on SQLite and PostgreSQL: records, chain, change test, CLI."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from volcal.errors import VolcalInputError
+
+RUN = [sys.executable, "-c", "from volcal.cli import main; main()"]
+TRAVEL = [[0, 800], [0, 600], [0, 500]]
+IDENT = ('make = "Hermle"\nmodel = "C 42"\nserial = "42-1187"\ncontrol = "TNC 640"\n')
+
+
+def _calibrate(folder: Path, machine, seed: int, date: str) -> tuple[Path, Path]:
+    from volcal.flow import Calibration
+
+    c = Calibration.plan(TRAVEL, steps=10)
+    c.simulate(machine=machine, seed=seed)
+    c.save(folder)
+    toml = folder / "session.toml"
+    text = toml.read_text().replace("[machine]\n", "[machine]\n" + IDENT, 1)
+    text += (f'\n[calibration]\ndate = {date}\noperator = "A. Technician"\n'
+             '\n[[equipment]]\nrole = "laser"\nserial = "L-1"\ncalibrated = 2025-12-01\n'
+             'due = 2026-12-01\n')
+    toml.write_text(text)
+    c.identify().to_json(folder / "model.json")
+    return folder, folder / "model.json"
+
+
+@pytest.fixture(scope="module")
+def calibrations(tmp_path_factory):
+    """Four calibrations of one machine: two unchanged, X scale +10 um/m, EC0Y +20 urad."""
+    from volcal.measure.virtual import random_machine
+
+    tmp = tmp_path_factory.mktemp("cal")
+    base = random_machine(TRAVEL, "XYFZ", seed=7)
+    scale = base.copy()
+    scale.values[0][:, 0] += 0.010 * scale.nodes[0]          # +10 um/m on X
+    square = base.copy()
+    square.squareness[0] += 20.0                               # EC0Y +20 urad
+    return {name: _calibrate(tmp / name, m, seed, date) for name, m, seed, date in [
+        ("a", base, 1, "2026-01-10"), ("b", base, 2, "2026-07-10"),
+        ("scale", scale, 3, "2026-08-10"), ("square", square, 4, "2026-09-10")]}
+
+
+def test_add_list_show_verify(store_url, calibrations):
+    from volcal.history.api import History
+
+    with History(store_url) as h:
+        a = h.add(*calibrations["a"])
+        b = h.add(*calibrations["b"])
+        recs = h.list()
+        assert [r.kind for r in recs] == ["machine", "calibration", "calibration"]
+        assert a.machine_id == b.machine_id == recs[0].id   # matched by serial
+        assert a.date == "2026-01-10" and b.date == "2026-07-10"
+        assert a.payload["calibration"]["operator"] == "A. Technician"
+        assert a.equipment[0]["serial"] == "L-1"
+        assert {f["name"] for f in a.files} >= {"session.toml", "model.json"}
+        # a stored result is the evaluation's number
+        assert a.results["X.A"]["unit"] == "um" and a.results["X.A"]["value"] > 0
+        ok, first, head, n, _ = h.verify()
+        assert ok and first is None and n == 3 and head == recs[-1].hash
+        # a correction supersedes: show gives the newest, list marks the old one
+        c = h.add(*calibrations["b"], supersedes=b.id)
+        assert h.show(b.id).id == c.id
+        assert {r.id: r.superseded_by for r in h.list()}[b.id] == c.id
+
+
+def test_altered_row_breaks_chain(store_url, calibrations):
+    from sqlalchemy import text
+
+    from volcal.history.api import History
+
+    with History(store_url) as h:
+        h.add(*calibrations["a"])
+        b = h.add(*calibrations["b"])
+        head = h.verify()[2]
+        with h.store.engine.begin() as conn:  # behind volcal's back
+            conn.execute(text("UPDATE results SET value = value + 1 WHERE name = 'X.A' "
+                              "AND record_seq = :s"), {"s": b.seq})
+        ok, first, _, _, why = h.verify()
+        assert not ok and first == f"{b.id} (record {b.seq})"
+        assert why == "its content does not match its hash"
+        with h.store.engine.begin() as conn:
+            conn.execute(text("UPDATE results SET value = value - 1 WHERE name = 'X.A' "
+                              "AND record_seq = :s"), {"s": b.seq})
+            for tbl in ("results", "files", "equipment"):
+                conn.execute(text(f"DELETE FROM {tbl} WHERE record_seq = :s"), {"s": b.seq})
+            conn.execute(text("DELETE FROM records WHERE seq = :s"), {"s": b.seq})
+        ok, _, head2, n, _ = h.verify()
+        # a deleted latest record shows only against the head kept elsewhere
+        assert ok and n == 2 and head2 != head
+
+
+def test_change_test_honest(store_url, calibrations):
+    """Unchanged: nothing flagged; X scale +10 um/m: EXX only; EC0Y +20 urad: EC0Y only.
+
+    The statistics do not depend on the backend: on PostgreSQL one pair is compared (the
+    same entries as on SQLite, from the same stored bytes); on SQLite all three.
+    """
+    from volcal.history.api import History
+
+    pg = store_url.startswith("postgresql")
+    with History(store_url) as h:
+        ids = {k: h.add(*v).id for k, v in calibrations.items() if not pg or k in "a scale"}
+        sc = h.compare(ids["a"], ids["scale"]).set_index("name")
+        flagged = [n for n, v in sc.changed.items() if v is True]
+        assert flagged == ["EXX"]
+        assert sc.loc["EXX", "difference"] == pytest.approx(8.0, abs=0.6)  # 10 um/m x 800 mm
+        if pg:
+            return
+        same = h.compare(ids["a"], ids["b"])
+        funcs = same[same.test == "chi-square"]
+        assert len(funcs) == 21
+        assert not funcs.changed.fillna(False).any()
+        # an undetermined roll is not decided
+        assert funcs.set_index("name").loc["EAX", "changed"] is None
+        sq = h.compare(ids["a"], ids["square"]).set_index("name")
+        assert [n for n, v in sq.changed.items() if v is True] == ["EC0Y"]
+        assert sq.loc["EC0Y", "difference"] == pytest.approx(20.0, abs=sq.loc["EC0Y", "U"])
+
+
+def test_concurrent_writers_lose_nothing(store_url, calibrations):
+    """Four processes add at once: one machine record, four calibrations, chain intact."""
+    from volcal.history.api import History
+
+    env = {**os.environ, "VOLCAL_DB": store_url}
+    folder, model = calibrations["a"]
+    procs = [subprocess.Popen([*RUN, "history", "add",
+                               str(folder), "--model", str(model)], env=env,
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+             for _ in range(4)]
+    outs = [p.communicate(timeout=120) for p in procs]
+    assert all(p.returncode == 0 for p in procs), [o[1] for o in outs]
+    ids = sorted(o[0].strip() for o in outs)
+    with History(store_url) as h:
+        recs = h.list()
+        assert [r.kind for r in recs].count("machine") == 1
+        assert sorted(r.id for r in recs if r.kind == "calibration") == ids
+        assert h.verify()[0]
+
+
+def test_failed_add_leaves_nothing(store_url, calibrations, monkeypatch):
+    from volcal.history import store as st
+    from volcal.history.api import History
+
+    with History(store_url) as h:
+        h.add(*calibrations["a"])
+        n = len(h.list())
+        real = st.Store._insert
+
+        def boom(self, conn, rec):
+            real(self, conn, rec)
+            raise OSError("disk full")  # after the rows went in: the transaction must undo
+
+        monkeypatch.setattr(st.Store, "_insert", boom)
+        with pytest.raises(OSError):
+            h.add(*calibrations["b"])
+        monkeypatch.undo()
+        assert len(h.list()) == n and h.verify()[0]
+        with pytest.raises(VolcalInputError, match="model file not found"):
+            h.add(calibrations["b"][0], calibrations["b"][0] / "nope.json")
+        assert len(h.list()) == n
+
+
+def test_migration_from_first_revision(tmp_path):
+    """A store of revision 0001 with a record upgrades to 0002 and keeps its chain."""
+    from sqlalchemy import text
+
+    from volcal.history.api import History
+    from volcal.history.chain import GENESIS, record_hash
+    from volcal.history.engine import make_engine, migrate
+
+    url = f"sqlite:///{tmp_path / 'old.sqlite'}"
+    eng = make_engine(url)
+    migrate(eng, "0001")
+    row = {"seq": 1, "id": "M000001", "kind": "machine", "machine_id": None, "date": None,
+           "created": "2025-01-01T00:00:00+00:00", "supersedes": None, "as_left_of": None,
+           "payload": json.dumps({"machine": {"name": "old", "chain": "XYFZ",
+                                              "travel_mm": TRAVEL}}),
+           "prev_hash": GENESIS}
+    row["hash"] = record_hash(GENESIS, {**row, "report_id": None}, [], [], [])
+    with eng.begin() as conn:
+        conn.execute(text("INSERT INTO records (seq, id, kind, machine_id, date, created, "
+                          "supersedes, as_left_of, payload, prev_hash, hash) VALUES (:seq, :id, "
+                          ":kind, :machine_id, :date, :created, :supersedes, :as_left_of, "
+                          ":payload, :prev_hash, :hash)"), row)
+    eng.dispose()
+    with History(url) as h:
+        assert [r.id for r in h.list()] == ["M000001"]
+        assert h.verify()[0]
+        with h.store.engine.connect() as conn:
+            assert conn.execute(text("SELECT version_num FROM alembic_version")).scalar() == "0002"
+
+
+def test_schema_matches_migrations(tmp_path):
+    """The table objects of volcal.history.schema are what the migrations build."""
+    from sqlalchemy import inspect
+
+    from volcal.history import schema
+    from volcal.history.api import History
+
+    with History(str(tmp_path / "h.sqlite")) as h:
+        insp = inspect(h.store.engine)
+        for name in schema.TABLES:
+            cols = {c["name"] for c in insp.get_columns(name)}
+            assert cols == {c.name for c in schema.metadata.tables[name].columns}, name
+
+
+@pytest.mark.parametrize("content, message", [
+    (b"this is not a database, just text " * 100, "not a usable history database"),
+    ("foreign", "holds tables of another program"),
+])
+def test_corrupted_or_foreign_database(tmp_path, content, message):
+    import sqlite3
+
+    from volcal.history.api import History
+
+    p = tmp_path / "x.sqlite"
+    if content == "foreign":
+        with sqlite3.connect(p) as c:
+            c.execute("CREATE TABLE invoices (id INTEGER)")
+    else:
+        p.write_bytes(content)
+    with pytest.raises(VolcalInputError, match=message) as exc:
+        History(str(p))
+    assert str(p) in str(exc.value)
+
+
+def _volcal(*args: str, env: dict | None = None) -> subprocess.CompletedProcess:
+    return subprocess.run([*RUN, *args],
+                          capture_output=True, text=True, env=env, timeout=300)
+
+
+def test_cli_round_trip(tmp_path, calibrations):
+    env_db = tmp_path / "env.sqlite"
+    opt_db = tmp_path / "opt.sqlite"
+    env = {**os.environ, "VOLCAL_DB": str(env_db)}
+    folder, model = calibrations["a"]
+    r = _volcal("history", "add", str(folder), "--model", str(model), env=env)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout == "C000002\n"                       # the id alone
+    r = _volcal("history", "add", str(calibrations["b"][0]), "--model",
+                str(calibrations["b"][1]), "--db", str(opt_db), env=env)
+    assert r.returncode == 0 and r.stdout == "C000002\n"
+    assert env_db.is_file() and opt_db.is_file()          # --db won over VOLCAL_DB
+    _volcal("history", "add", str(calibrations["scale"][0]), "--model",
+            str(calibrations["scale"][1]), env=env)
+    lst = json.loads(_volcal("history", "list", "--json", env=env).stdout)
+    cal = [x for x in lst if x["kind"] == "calibration"]
+    assert [(x["id"], x["machine"], x["date"]) for x in cal] == [
+        ("C000002", "VMC-1", "2026-01-10"), ("C000003", "VMC-1", "2026-08-10")]
+    cmp = json.loads(_volcal("history", "compare", "C000002", "C000003", "--json",
+                             env=env).stdout)
+    assert {"name", "difference", "U", "changed"} <= set(cmp[0])
+    assert [e["name"] for e in cmp if e["changed"]] == ["EXX"]
+    tr = _volcal("history", "trend", "VMC-1", "--parameter", "EXX@800", "--json", env=env)
+    vals = [x["value"] for x in json.loads(tr.stdout)]
+    assert vals[1] - vals[0] == pytest.approx(8.0, abs=0.6)
+    assert _volcal("history", "verify", env=env).returncode == 0
+    due = _volcal("history", "due", "--json", env=env)
+    rows = json.loads(due.stdout)
+    assert {r["test"] for r in rows} == {"linear", "diagonal", "step_diagonal"}
+    assert all(r["next"] == "2027-08-10" for r in rows)
+    page = tmp_path / "fleet.html"
+    assert _volcal("history", "fleet", "-o", str(page), env=env).returncode == 0
+    assert "VMC-1" in page.read_text() and "42-1187" in page.read_text()
+    out = tmp_path / "parquet"
+    assert _volcal("history", "export", "-o", str(out), env=env).returncode == 0
+    import pandas as pd
+
+    res = pd.read_parquet(out / "calibrations.parquet")
+    assert set(res.id) == {"C000002", "C000003"}
+    assert np.isfinite(res.set_index(["id", "parameter"]).loc[("C000002", "X.A"), "value"])
+
+
+def test_history_not_loaded_by_core():
+    code = ("import sys, volcal, volcal.cli; "
+            "print([m for m in ('sqlalchemy', 'alembic', 'psycopg', 'pandas') "
+            "if m in sys.modules])")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert r.stdout.strip() == "[]", r.stdout + r.stderr
+
+
+def test_unknown_trend_parameter_lists_valid(tmp_path, calibrations):
+    from volcal.history.api import History
+
+    with History(str(tmp_path / "h.sqlite")) as h:
+        h.add(*calibrations["a"])
+        with pytest.raises(VolcalInputError, match=r"--parameter 'X.Q' is no stored result "
+                           r"of VMC-1; valid: .*X\.A.*EXX@400"):
+            h.trend("VMC-1", "X.Q")
+
+
+def test_etalon_record_into_history(tmp_path, calibrations):
+    """Another system's result joins the machine's history; without a covariance the
+    change test leaves it undecided."""
+    from volcal.history.api import History
+    from volcal.history.compare import load_record_model
+    from volcal.history.etalon import write_etalon
+
+    folder, model = calibrations["a"]
+    with History(str(tmp_path / "h.sqlite")) as h:
+        a = h.add(folder, model)
+        m = load_record_model(h.store, a.id)
+        f = write_etalon(m.errors, tmp_path / "trac.txt")
+        e = h.add_etalon(f, folder, date="2026-03-01")
+        assert e.machine_id == a.machine_id and e.date == "2026-03-01"
+        assert e.results["EC0Y"]["value"] == pytest.approx(m.errors.squareness[0], abs=1e-6)
+        entry = h.compare(a.id, e.id).set_index("name").loc["EC0Y"]
+        assert entry["changed"] is None and "no uncertainty" in entry["reason"]

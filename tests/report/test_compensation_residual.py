@@ -145,7 +145,7 @@ def test_iso230_2_verdict_before_and_after_by_hand(tmp_path):
     # before: A = the spread of a x^2 + B/2 over the targets (no scatter):
     # a (795^2 - 5^2) + B = 63.2 + 2 = 65.2 um
     assert ax.before_um == pytest.approx(A * (795**2 - 5**2) + b)
-    assert ax.before == "FAIL" and vol.before == "FAIL" and vol.before_um == pytest.approx(64)
+    assert ax.before == "fail" and vol.before == "fail" and vol.before_um == pytest.approx(64)
     # after a unidirectional pitch table (25 mm, linear): chord errors at the targets plus B
     t = np.array([5.0, 103.0, 207.0, 298.0, 401.0, 512.0, 597.0, 703.0, 795.0])
     x0 = 25.0 * np.floor(t / 25.0)
@@ -200,7 +200,7 @@ def test_parse_tolerance_refuses(text):
 
 def test_verdict_words():
     assert Verdict("q", 5.0, 5.0, 5.01).before == "pass"
-    assert Verdict("q", 5.0, 5.0, 5.01).after == "FAIL"
+    assert Verdict("q", 5.0, 5.0, 5.01).after == "fail"
     assert Verdict("q", 5.0, None).after == "-"
 
 
@@ -231,8 +231,8 @@ def test_evaluate_session_verdict_cli(tmp_path):
     assert r.returncode == 0, r.stderr
     vol, ax = json.loads(r.stdout)["verdict"]
     assert ax["before_um"] == pytest.approx(A * (795**2 - 5**2) + b, abs=1e-6)
-    assert (ax["before"], ax["after"], vol["before"], vol["after"]) == ("FAIL", "pass",
-                                                                        "FAIL", "pass")
+    assert (ax["before"], ax["after"], vol["before"], vol["after"]) == ("fail", "pass",
+                                                                        "fail", "pass")
     r = _cli("evaluate", "session", str(tmp_path / "s"), "--tolerance-um", "X=70")
     assert r.returncode == 0 and "pass" in r.stdout and "--compensation" in r.stdout
     # a volumetric tolerance needs the model; tables need the model they came from

@@ -28,7 +28,7 @@ app = typer.Typer(
 )
 err_console = Console(stderr=True, soft_wrap=True)
 
-_ORDER = ["plan", "program", "simulate", "classic", "identify", "evaluate", "env",
+_ORDER = ["plan", "program", "simulate", "classic", "identify", "evaluate", "budget", "env",
           "compensate", "importer", "report", "demo"]
 
 

@@ -30,22 +30,35 @@ def _print_json(obj: Any) -> None:
     typer.echo(json.dumps(obj, indent=2))
 
 
-def _iso_tables(res: Any, title: str) -> None:
+def _iso_tables(res: Any, title: str, unc: Any = None) -> None:
     t = Table(title=escape(f"{title} (ISO 230-2:{res.edition})"))
     t.add_column("parameter")
     t.add_column(escape("value [um]"), justify="right")
+    if unc is not None:
+        t.add_column(escape("U [um]"), justify="right")
+        t.add_column("k", justify="right")
     for k, label in _AXIS_LABELS.items():
-        t.add_row(label, f"{getattr(res, k):.3f}")
+        row = [label, f"{getattr(res, k):.3f}"]
+        if unc is not None:
+            e = unc.parameters[k]
+            row += [f"{e.U:.3f}", f"{e.k:.2f}"]
+        t.add_row(*row)
     print_table(console, t)
     tt = Table(title=escape("per target [um]; n↑ n↓: runs that reached the target"))
-    for c in ("target [mm]", "n↑", "n↓", "x̄↑ [um]", "x̄↓ [um]", "x̄ [um]", "s↑ [um]",
-              "s↓ [um]", "B_i [um]", "R↑ [um]", "R↓ [um]", "R_i [um]"):
+    cols = ["target [mm]", "n↑", "n↓", "x̄↑ [um]", "x̄↓ [um]", "x̄ [um]", "s↑ [um]",
+            "s↓ [um]", "B_i [um]", "R↑ [um]", "R↓ [um]", "R_i [um]"]
+    if unc is not None:
+        cols.append("U(x̄) [um]")
+    for c in cols:
         tt.add_column(escape(c), justify="right")
-    for row in res.targets.rows():
-        tt.add_row(f"{row['target_mm']:.3f}", str(row["n_up"]), str(row["n_down"]),
-                   *["-" if row[k] is None else f"{row[k]:.3f}"
-                     for k in ("mean_up", "mean_down", "mean", "s_up", "s_down", "B", "R_up",
-                               "R_down", "R")])
+    for i, row in enumerate(res.targets.rows()):
+        cells = [f"{row['target_mm']:.3f}", str(row["n_up"]), str(row["n_down"]),
+                 *["-" if row[k] is None else f"{row[k]:.3f}"
+                   for k in ("mean_up", "mean_down", "mean", "s_up", "s_down", "B", "R_up",
+                             "R_down", "R")]]
+        if unc is not None:
+            cells.append(f"{unc.targets[i].U:.3f}")
+        tt.add_row(*cells)
     print_table(console, tt)
     if not res.complete:
         console.print(f"[yellow]incomplete:[/] {len(res.missing)} missed reading(s); each "
@@ -56,28 +69,137 @@ def _iso_tables(res: Any, title: str) -> None:
         console.print(f"[yellow]warning:[/] {escape(w)}", highlight=False)
 
 
+def _budget_table(unc: Any, corrections: dict[str, Any]) -> None:
+    r = unc.reading
+    t = Table(title=f"uncertainty budget: mean deviation at {unc.length_mm:g} mm from the "
+              f"datum ({unc.datum_mm:g} mm)")
+    for c in ("contributor", "distribution", "u(x)", "unit", "c", "u_i [um]", "dof",
+              "share"):
+        t.add_column(c, justify="right")
+    for c in r.components:
+        t.add_row(escape(c.label), c.distribution,
+                  "" if c.u_input is None else f"{c.u_input:.3g}", escape(c.unit),
+                  "" if c.sensitivity is None else f"{c.sensitivity:.4g}", f"{c.u:.4f}",
+                  "inf" if c.dof == float("inf") else f"{c.dof:g}", f"{100 * c.share:.1f} %")
+    dof = "inf" if r.dof == float("inf") else f"{r.dof:.1f}"
+    t.add_row("combined", "", "", "", "", f"{r.u:.4f}", dof, "100 %")
+    console.print(t)
+    console.print(f"U = k u = {r.k:.3f} × {r.u:.4f} = {r.U:.4f} um (95 % coverage, k from "
+                  f"the effective degrees of freedom {dof})", highlight=False)
+    console.print(f"note: {escape(corrections['text'])}", highlight=False)
+    for n in unc.notes:
+        console.print(f"note: {escape(n)}", highlight=False)
+
+
+def _iso_decisions(res: Any, unc: Any, tolerance_um: str, rule: str,
+                   guard_band_um: float | None) -> dict[str, Any]:
+    """Decisions of every toleranced parameter; the combined verdict and the rule."""
+    from volcal.errors import VolcalInputError
+    from volcal.standards.decision import RULE_TEXT, combine, decide
+    from volcal.standards.tolerance import parse_parameter_tolerance
+
+    tols = parse_parameter_tolerance(tolerance_um)
+    if rule == "guarded" and unc is None and guard_band_um is None:
+        raise VolcalInputError("--decision-rule guarded needs the expanded uncertainty "
+                               "(--budget FILE) or a guard band (--guard-band-um W)",
+                               column="--decision-rule")
+    ds = []
+    for k, tol in tols.items():
+        v = abs(float(getattr(res, k)))
+        d = decide(v, tol, rule, None if unc is None else unc.parameters[k].U, guard_band_um)
+        ds.append({"parameter": k, **d.to_dict(),
+                   "U_um": None if unc is None else unc.parameters[k].U})
+    return {"verdict": combine([d["verdict"] for d in ds]), "verdicts": ds, "rule": rule,
+            "decision_rule": {"name": rule, "text": RULE_TEXT[rule]}}
+
+
 @evaluate_app.command("iso230-2")
 def iso230_2_cmd(
     file: Path = typer.Argument(..., help="CSV: target_mm,run,direction,deviation_um or a "
                                 "session measurement CSV of a linear test."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
     edition: str = typer.Option(D.EDITION, help="ISO 230-2 edition: 2014, 2006, 1997, 1988."),
+    budget: Path | None = typer.Option(None, help="Uncertainty budget (TOML, `volcal budget "
+                                       "--template`): U of every parameter and target, "
+                                       "readings referred to 20 C with [material]."),
+    tolerance_um: str | None = typer.Option(
+        None, help="Tolerance [um]: a number (on the accuracy A) or A=..,E=..,R=.. per "
+        "ISO 230-2 parameter; prints a verdict."),
+    decision_rule: str = typer.Option("simple", help="simple (pass when value <= T) or "
+                                      "guarded (pass at or below T - w, conditional up to "
+                                      "T; w = U or --guard-band-um)."),
+    guard_band_um: float | None = typer.Option(None, help="Guard band w of the guarded "
+                                               "rule [um] (default: U of the parameter)."),
 ) -> None:
     """Positioning accuracy and repeatability of one axis (ISO 230-2)."""
+    from volcal.standards.decision import check_rule
     from volcal.standards.iso230_2 import evaluate
     from volcal.standards.positioning_data import read_positioning_csv
 
+    rule = check_rule(decision_rule)
+    if guard_band_um is not None and rule != "guarded":
+        from volcal.errors import VolcalInputError
+
+        raise VolcalInputError("--guard-band-um applies to --decision-rule guarded",
+                               column="--guard-band-um")
+    b = None
+    if budget is not None:
+        from volcal.uncertainty.budget import read_budget
+
+        b = read_budget(budget)
     d = read_positioning_csv(file)
-    res = evaluate(d.targets_mm, d.run, d.direction, d.deviation_um, edition,
-                   **d.evaluate_kwargs())
+    unc = corrections = None
+    if b is not None:
+        from volcal.standards.iso230_2_uncertainty import evaluate_with_budget
+
+        res, unc, corrections = evaluate_with_budget(d, b, edition)
+    else:
+        res = evaluate(d.targets_mm, d.run, d.direction, d.deviation_um, edition,
+                       **d.evaluate_kwargs())
     plaus = _file_notes(d)
+    dec = None if tolerance_um is None else _iso_decisions(res, unc, tolerance_um, rule,
+                                                           guard_band_um)
     if as_json:
         out = res.to_dict()
         out["file"] = str(file)
         out["plausibility"] = plaus
+        if unc is not None:
+            ud = unc.to_dict()
+            for i, row in enumerate(out["targets"]):
+                e = unc.targets[i]
+                row.update({"U_um": e.U, "u_um": e.u, "k": e.k,
+                            "dof": None if e.dof == float("inf") else e.dof})
+            out.update(ud)
+            out["budget_file"] = str(budget)
+            out["corrections"] = corrections
+        if dec is not None:
+            out.update(dec)
         _print_json(out)
-    else:
-        _iso_tables(res, str(file))
+        return
+    _iso_tables(res, str(file), unc)
+    if unc is not None:
+        _budget_table(unc, corrections)
+    if dec is not None:
+        _print_iso_decisions(dec)
+
+
+def _print_iso_decisions(dec: dict[str, Any]) -> None:
+    colour = {"pass": "green", "fail": "red", "conditional": "yellow"}
+    t = Table(title=f"verdict, decision rule: {dec['decision_rule']['name']}")
+    for c in ("parameter", "value [um]", "tolerance [um]", "U [um]", "T - w [um]",
+              "verdict"):
+        t.add_column(c, justify="right")
+    for d in dec["verdicts"]:
+        t.add_row(d["parameter"], f"{d['value_um']:.3f}", f"{d['tolerance_um']:g}",
+                  "-" if d["U_um"] is None else f"{d['U_um']:.3f}",
+                  f"{d['acceptance_limit_um']:.3f}",
+                  f"[{colour[d['verdict']]}]{d['verdict']}[/]")
+    console.print(t)
+    console.print(f"verdict: {dec['verdict']} (decision rule: "
+                  f"{escape(dec['decision_rule']['text'])})", highlight=False)
+    for d in dec["verdicts"]:
+        if d["note"]:
+            console.print(f"note ({d['parameter']}): {escape(d['note'])}", highlight=False)
 
 
 def _file_notes(d: Any) -> list[str]:
@@ -123,35 +245,66 @@ def vdi3441_cmd(
 def iso230_6_cmd(
     session: Path = typer.Argument(..., help="Session folder."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
+    budget: Path | None = typer.Option(None, help="Uncertainty budget (TOML): U of E_D "
+                                       "(and of the ISO 230-2 parameters of bidirectional "
+                                       "diagonals), readings referred to 20 C first."),
 ) -> None:
     """Diagonal displacement tests of a session (ISO 230-6), each diagonal."""
     from volcal.errors import VolcalInputError
     from volcal.session.format import read_session
     from volcal.standards.iso230_6 import evaluate_diagonal, largest_e_d
 
+    b = None
+    if budget is not None:
+        from volcal.uncertainty.budget import read_budget
+
+        b = read_budget(budget)
     s = read_session(session)
     print_session_notes(s)
-    res = [evaluate_diagonal(m) for m in s.measurements if m.kind == "diagonal"]
-    if not res:
+    diags = [m for m in s.measurements if m.kind == "diagonal"]
+    if not diags:
         raise VolcalInputError("no diagonal measurements in the session", session)
+    if b is None:
+        res = [evaluate_diagonal(m) for m in diags]
+        unc: list[Any] = [None] * len(res)
+    else:
+        from volcal.standards.iso230_6_uncertainty import evaluate_diagonal_with_budget
+
+        pairs = [evaluate_diagonal_with_budget(m, b) for m in diags]
+        res, unc = [p[0] for p in pairs], [p[1] for p in pairs]
     worst = largest_e_d(res)
     incomplete = [r.id for r in res if not r.complete]
     if as_json:
-        _print_json({"diagonals": [r.to_dict() for r in res],
+        out_d = []
+        for r, u in zip(res, unc, strict=True):
+            d = r.to_dict()
+            if u is not None:
+                d.update(u.to_dict())
+                if u.iso230_2 is not None:
+                    d["iso230_2"].update({k: v for k, v in u.iso230_2.to_dict().items()
+                                          if k.startswith("U_") or k == "k"})
+            out_d.append(d)
+        _print_json({"diagonals": out_d,
                      "max_E_D": None if worst is None else worst.E_D,
                      "max_E_D_id": None if worst is None else worst.id,
                      "complete": not incomplete, "incomplete": incomplete,
                      "unmeasured": [m.id for m in s.unmeasured if m.kind == "diagonal"]})
         return
     t = Table(title=escape(f"{session}: ISO 230-6 diagonal displacement"))
-    for c in ("id", "diagonal", "length [mm]", "points", "E_D [um]", "max |dev| [um]",
-              "R [um]"):
+    cols = ["id", "diagonal", "length [mm]", "points", "E_D [um]", "max |dev| [um]",
+            "R [um]"]
+    if b is not None:
+        cols.insert(5, "U(E_D) [um]")
+    for c in cols:
         t.add_column(escape(c), justify="right")
-    for r in res:
+    for r, u in zip(res, unc, strict=True):
         rr = "" if r.iso230_2 is None else f"{r.iso230_2.R:.3f}"
         pts = f"{r.points_measured}/{r.points_planned}" + ("" if r.complete else " incomplete")
-        t.add_row(r.id, (r.plane + " " if r.plane else "") + r.diagonal, f"{r.length_mm:.1f}",
-                  pts, f"{r.E_D:.3f}", f"{r.max_abs_um:.3f}", rr)
+        row = [r.id, (r.plane + " " if r.plane else "") + r.diagonal, f"{r.length_mm:.1f}",
+               pts, f"{r.E_D:.3f}", f"{r.max_abs_um:.3f}", rr]
+        if u is not None:
+            row.insert(5, f"{u.E_D.U:.3f}")
+        t.add_row(*row)
     print_table(console, t)
     for r in res:
         if not r.complete:
@@ -161,6 +314,9 @@ def iso230_6_cmd(
                       f"({worst.id})", highlight=False)
     else:
         console.print("largest E_D: none (no complete diagonal)", highlight=False)
+    notes = sorted({n for u in unc if u is not None for n in u.notes})
+    for n in notes:
+        console.print(f"note: {escape(n)}", highlight=False)
 
 
 @evaluate_app.command("session")
@@ -182,6 +338,15 @@ def session_cmd(
                                              "(--force to use them)."),
     force: bool = typer.Option(False, "--force", help="Use --compensation tables written "
                                "for another machine (a warning instead of an error)."),
+    decision_rule: str = typer.Option("simple", help="simple (pass when value <= T) or "
+                                      "guarded (pass at or below T - w, conditional up to "
+                                      "T; w = U from --budget, or --guard-band-um)."),
+    guard_band_um: float | None = typer.Option(None, help="Guard band w of the guarded "
+                                               "rule [um]."),
+    budget: Path | None = typer.Option(None, help="Uncertainty budget (TOML): U of every "
+                                       "ISO 230-2 parameter of every linear test, readings "
+                                       "referred to 20 C with [material]; the guard band "
+                                       "of the guarded rule."),
 ) -> None:
     """ISO 230-2 for every linear measurement with runs and directions; ELv (seed 002)."""
     from volcal.errors import VolcalInputError
@@ -189,6 +354,7 @@ def session_cmd(
     from volcal.standards.session import evaluate_session
 
     tol = _tolerance_inputs(tolerance_um, model, compensation)
+    tol = (_acceptance(tol[0], decision_rule, guard_band_um, budget), tol[1], tol[2])
     s = read_session(session)
     print_session_notes(s)
     if compensation is not None:
@@ -201,6 +367,20 @@ def session_cmd(
         raise VolcalInputError("no linear measurement with run and direction columns", session)
     elv_val = None if ev.elv is None else ev.elv["ELv"]
     verdict = _verdicts(tol, s, edition)
+    uncs: dict[str, Any] = {}
+    corr_text = ""
+    if budget is not None:
+        from volcal.standards.iso230_2_uncertainty import evaluate_with_budget
+        from volcal.standards.positioning_data import from_measurement
+        from volcal.uncertainty.budget import read_budget
+
+        b = tol[0].budget if tol[0] is not None else read_budget(budget)
+        by_id = {m.id: m for m in s.measurements}
+        for k in list(results):
+            res, uncs[k], corr = evaluate_with_budget(from_measurement(by_id[k], s.path), b,
+                                                      edition)
+            results[k] = res
+            corr_text = corr["text"].split("; correction at")[0]
     if as_json:
         out: dict[str, Any] = {"measurements": {k: {"axis": axis_of[k], **v.to_dict()}
                                                 for k, v in results.items()},
@@ -208,18 +388,38 @@ def session_cmd(
                                "skipped_reasons": why_skipped,
                                "incomplete": [k for k, v in results.items() if not v.complete],
                                "unmeasured": list(ev.unmeasured)}
+        for k, u in uncs.items():
+            entry = out["measurements"][k]
+            entry.update(u.to_dict())
+            for i, row in enumerate(entry["targets"]):
+                row["U_um"] = u.targets[i].U
+        if uncs:
+            out["corrections"] = corr_text
         if verdict is not None:
+            from volcal.standards.decision import RULE_TEXT
+
             out["verdict"] = [v.to_dict() for v in verdict]
+            rule = tol[0].rule
+            out["decision_rule"] = {"name": rule, "text": RULE_TEXT[rule]}
         _print_json(out)
         return
     t = Table(title=escape(f"{session}: ISO 230-2:{edition} [um]"))
-    for c in ("id", "axis", "runs", "A [um]", "E [um]", "M [um]", "R [um]", "B [um]",
-              "B_mean [um]"):
+    cols = ["id", "axis", "runs", "A [um]", "E [um]", "M [um]", "R [um]", "B [um]",
+            "B_mean [um]"]
+    if uncs:
+        cols += ["U(A) [um]", "U(E) [um]", "U(R) [um]"]
+    for c in cols:
         t.add_column(escape(c), justify="right")
     for k, r in results.items():
-        t.add_row(k, axis_of[k], _runs_cell(r), *[f"{getattr(r, p):.3f}" for p in
-                                                  ("A", "E", "M", "R", "B", "B_mean")])
+        row = [k, axis_of[k], _runs_cell(r), *[f"{getattr(r, p):.3f}" for p in
+                                               ("A", "E", "M", "R", "B", "B_mean")]]
+        if uncs:
+            row += [f"{uncs[k].parameters[p].U:.3f}" for p in ("A", "E", "R")]
+        t.add_row(*row)
     print_table(console, t)
+    if corr_text:
+        console.print(f"note: {escape(corr_text)}; U at 95 % (k from the effective degrees "
+                      "of freedom)", highlight=False)
     for k, r in results.items():
         for n in r.notes:
             console.print(f"[yellow]{k}[/] {escape(n)}", highlight=False)
@@ -239,6 +439,31 @@ def session_cmd(
         console.print(f"[yellow]skipped[/] {k}: {escape(why)}", highlight=False)
     if verdict is not None:
         _print_verdict(verdict, tol[1] is not None)
+
+
+def _acceptance(tol: Any, decision_rule: str, guard_band_um: float | None,
+                budget: Path | None) -> Any:
+    """The tolerance with its decision rule, guard band and budget (checked)."""
+    from dataclasses import replace
+
+    from volcal.errors import VolcalInputError
+    from volcal.standards.decision import check_rule
+
+    rule = check_rule(decision_rule)
+    if guard_band_um is not None and rule != "guarded":
+        raise VolcalInputError("--guard-band-um applies to --decision-rule guarded",
+                               column="--guard-band-um")
+    if tol is None:
+        if rule != "simple":
+            raise VolcalInputError("--decision-rule judges a tolerance: give --tolerance-um "
+                                   "too")
+        return None
+    b = None
+    if budget is not None:
+        from volcal.uncertainty.budget import read_budget
+
+        b = read_budget(budget)
+    return replace(tol, rule=rule, guard_band_um=guard_band_um, budget=b)
 
 
 def _runs_cell(r: Any) -> str:
@@ -298,20 +523,40 @@ def _verdicts(tol: tuple[Any, Any, Any], s: Any, edition: str) -> Any:
 
 
 def _print_verdict(verdict: Any, has_model: bool) -> None:
-    t = Table(title=escape("tolerance verdict [um]"))
-    for c in ("quantity", "tolerance [um]", "before [um]", "", "after [um]", ""):
+    from volcal.standards.decision import RULE_TEXT
+
+    rule = verdict[0].rule if verdict else "simple"
+    guarded = rule == "guarded"
+    t = Table(title=escape(f"tolerance verdict [um], decision rule: {rule}"))
+    cols = ["quantity", "tolerance [um]", "before [um]", "", "after [um]", ""]
+    if guarded:
+        cols[3:3] = ["U / w [um]"]
+        cols.append("U / w [um]")
+    for c in cols:
         t.add_column(escape(c), justify="right")
 
     def cell(v: Any) -> str:
         return "-" if v is None else f"{v:.3f}"
 
     def word(w: str) -> str:
-        return {"pass": "[green]pass[/]", "FAIL": "[red]FAIL[/]"}.get(w, w)
+        return {"pass": "[green]pass[/]", "fail": "[red]fail[/]",
+                "conditional": "[yellow]conditional[/]"}.get(w, w)
 
     for v in verdict:
-        t.add_row(escape(v.quantity), f"{v.tolerance_um:g}", cell(v.before_um), word(v.before),
-                  cell(v.after_um), word(v.after))
+        row = [escape(v.quantity), f"{v.tolerance_um:g}", cell(v.before_um), word(v.before),
+               cell(v.after_um), word(v.after)]
+        if guarded:
+            w = v.guard_band_um
+            row[3:3] = [cell(w if w is not None else v.U_before_um)]
+            row.append(cell(w if w is not None else v.U_after_um))
+        t.add_row(*row)
     print_table(console, t)
+    console.print(f"decision rule: {escape(RULE_TEXT[rule])}", highlight=False)
+    for v in verdict:
+        for d in (v.decision(v.before_um, v.U_before_um), v.decision(v.after_um, v.U_after_um)):
+            if d is not None and d.note:
+                console.print(f"note ({escape(v.quantity)}): {escape(d.note)}",
+                              highlight=False)
     if not any(v.after_um is not None for v in verdict):
         console.print("no verdict after compensation: give --model MODEL.json and "
                       "--compensation FOLDER" if not has_model else

@@ -47,6 +47,10 @@ def identify_cmd(
                                   "size; the parameter count stops growing there)."),
     robust: bool = typer.Option(False, help="Down-weight the readings the outlier check "
                                 "flags (weight 1/z^2) and fit again; they stay listed."),
+    budget: Path | None = typer.Option(None, help="Uncertainty budget (TOML, `volcal budget "
+                                       "--template`): its systematic inputs (wavelength, "
+                                       "air per set-up, material per axis) propagated "
+                                       "through the fit, kept apart in the model file."),
 ) -> None:
     """Identify the machine's errors from the session; write MODEL.json."""
     from volcal.identify import IdentifyOptions, identify
@@ -66,6 +70,11 @@ def identify_cmd(
                                              if m.strip()]
     if ids is not None and not ids:
         raise VolcalInputError(f"--measurements {measurements!r}: no measurement id given")
+    b = None
+    if budget is not None:
+        from volcal.uncertainty.budget import read_budget
+
+        b = read_budget(budget)
     s = read_session(session)
     print_session_notes(s)
     if ids is not None:
@@ -100,6 +109,10 @@ def identify_cmd(
                 "note": "noise part only (readings redrawn, same hyperparameters); the "
                         "analytic uncertainty adds the prior part",
             }
+        if b is not None:
+            from volcal.identify.systematic import attach_systematic
+
+            attach_systematic(res, b, str(budget))
     if is_stdout(output):
         import json
 
@@ -111,6 +124,17 @@ def identify_cmd(
                   f"residual {f['sigma_residual_um']:.3f} um ({f['method']})")
     for msg in res.report.messages:
         console.print(f"- {msg}", highlight=False, markup=False)
+    if b is not None:
+        from volcal.identify.identifiability import grid_points
+
+        q = grid_points(res.design)
+        un = res.predict(q, systematic=False)[1]
+        ut = res.predict(q)[1]
+        us = np.sqrt(np.maximum(ut**2 - un**2, 0.0))
+        console.print(f"volumetric error uncertainty over the measured grid, largest u: noise "
+                      f"and prior {un.max():.3f} um, systematic (budget: "
+                      f"{len(res.sys_labels)} inputs) {us.max():.3f} um, both "
+                      f"{ut.max():.3f} um", highlight=False)
     console.print("model -> " + ("standard output" if is_stdout(output) else str(output)),
                   highlight=False)
 

@@ -137,6 +137,10 @@ def simulate(
     overwrite: bool = typer.Option(False, "--overwrite", help="Replace readings that "
                                    "`volcal simulate` did not write (measured ones); a backup "
                                    "of the replaced files is kept in SESSION/backup/<time>/."),
+    budget: Path | None = typer.Option(None, help="Uncertainty budget (TOML): draw its "
+                                       "systematic errors (wavelength, air per set-up, "
+                                       "material per axis) and apply them to the readings; "
+                                       "the draw is kept in SESSION/truth/systematic.toml."),
 ) -> None:
     """Fill the deviations from a virtual machine; keep its truth in SESSION/truth/.
 
@@ -151,6 +155,11 @@ def simulate(
 
     if not (np.isfinite(reversal_um) and reversal_um >= 0):
         raise VolcalInputError(f"--reversal-um {reversal_um}: expected a finite value >= 0")
+    b = None
+    if budget is not None:
+        from volcal.uncertainty.budget import read_budget
+
+        b = read_budget(budget)
     s = read_session(session, require_deviation=False)
     measured = measured_ids(s)
     if measured and not overwrite:
@@ -178,6 +187,15 @@ def simulate(
     opts = SimulationOptions(noise_um=noise_um, mirror_misalignment_urad=mirror_urad,
                              drift_um_per_h=drift_um_per_h, seed=seed)
     setups = simulate_session(s, vm, opts)
+    truth = truth_files(vm, setups, opts)
+    if b is not None:
+        from volcal.io.tomlfmt import dumps as toml_dumps
+        from volcal.measure.systematic import apply_systematic, draw_systematic
+
+        draw = draw_systematic(s, b, np.random.default_rng([seed, 17]))
+        apply_systematic(s, draw)
+        truth["truth/systematic.toml"] = toml_dumps({"format": "volcal-systematic/1",
+                                                     "budget": str(budget), **draw.to_dict()})
     from volcal.session.provenance import simulated_provenance
 
     s.provenance = simulated_provenance(
@@ -185,12 +203,14 @@ def simulate(
         drift_um_per_h=float(drift_um_per_h),
         machine=str(machine) if machine is not None else f"random (seed {seed})")
     backup = backup_name(session) if measured else None
-    write_session(s, session, truth_files(vm, setups, opts), keep_existing=True, backup=backup)
+    write_session(s, session, truth, keep_existing=True, backup=backup)
     if backup is not None:
         console.print(f"replaced the readings of {len(measured)} measurements; the old files "
                       f"are kept in {Path(session) / backup}/", highlight=False)
     console.print(f"simulated {len(s.measurements)} measurements on '{vm.name}' "
-                  f"(noise {noise_um} um, mirror {mirror_urad} urad); truth in {session}/truth/")
+                  f"(noise {noise_um} um, mirror {mirror_urad} urad"
+                  + (f", systematic errors drawn from {budget}" if b is not None else "")
+                  + f"); truth in {session}/truth/")
 
 
 def _multilateration_options(grid: str, stations: str, tool_offsets: str) -> dict:

@@ -34,7 +34,7 @@ def report_cmd(
     tolerance_um: str | None = typer.Option(
         None, help="Tolerance for a pass/fail verdict before and after compensation [um]: "
         "a number (largest volumetric error), X=10,Y=10,Z=8 (ISO 230-2 accuracy A per "
-        "axis) or both (X=10,Y=10,Z=8,V=15)."),
+        "axis) or both (X=10,Y=10,Z=8,V=15); X.E=.. for another ISO 230-2 parameter."),
     certificate: bool = typer.Option(False, "--certificate", help="Also write the calibration "
                                      "certificate (certificate.pdf, .html, .json); automatic "
                                      "when session.toml has [calibration] keys or "
@@ -49,8 +49,16 @@ def report_cmd(
     strict: bool = typer.Option(False, "--strict", help="Refuse to issue a certificate with "
                                 "equipment whose calibration was due before the date of "
                                 "measurement."),
+    decision_rule: str = typer.Option("simple", help="simple (pass when value <= T) or "
+                                      "guarded (pass at or below T - w, conditional up to "
+                                      "T; w = U from --budget, or --guard-band-um)."),
+    guard_band_um: float | None = typer.Option(None, help="Guard band w of the guarded "
+                                               "rule [um]."),
+    budget: Path | None = typer.Option(None, help="Uncertainty budget (TOML): U of the "
+                                       "toleranced ISO 230-2 parameters."),
 ) -> None:
     """Write the calibration report of a session as self-contained HTML and as PDF."""
+    from volcal.cli.evaluate import _acceptance
     from volcal.io.paths import check_output_folder
     from volcal.report.pipeline import collect_inputs
     from volcal.report.sections import build_report
@@ -59,6 +67,7 @@ def report_cmd(
     from volcal.standards.tolerance import parse_tolerance
 
     tol = None if tolerance_um is None else parse_tolerance(tolerance_um)
+    tol = _acceptance(tol, decision_rule, guard_band_um, budget)
     check_output_folder(output, "report", lambda p: (p / "report.html").is_file())
     s = read_session(session)
     print_session_notes(s)
@@ -91,7 +100,12 @@ def report_cmd(
         from volcal.report.certificate import build_certificate
         from volcal.report.certificate_files import write_certificate
 
+        uncs = als = None
+        if budget is not None:  # U of every linear test of both sessions (docs/uncertainty.md)
+            uncs = _uncertainties(s, tol, budget, edition)
+            als = None if s2 is None else _uncertainties(s2, tol, budget, edition)
         doc = build_certificate(s, result, as_left=s2, tables=tables, tolerance=tol,
+                                uncertainties=uncs, as_left_uncertainties=als,
                                 edition=edition)
         for w in doc["warnings"]:
             if w.startswith("EXPIRED"):
@@ -118,6 +132,22 @@ def report_cmd(
         c = written[0]
         console.print(f"certificate {doc['report_id']}: {output / c.pdf.name} "
                       f"({c.pdf_pages} pages), {output / c.json.name}", soft_wrap=True)
+
+
+def _uncertainties(s, tol, budget: Path, edition: str) -> dict:
+    """ISO 230-2 uncertainty of every evaluable linear test of a session, by id."""
+    from volcal.standards.iso230_2_uncertainty import evaluate_with_budget
+    from volcal.standards.positioning_data import from_measurement
+    from volcal.standards.session import evaluate_session
+    from volcal.uncertainty.budget import read_budget
+
+    b = tol.budget if tol is not None and getattr(tol, "budget", None) is not None \
+        else read_budget(budget)
+    by_id = {m.id: m for m in s.measurements}
+    out = {}
+    for k in evaluate_session(s, edition=edition).iso230_2:
+        _, out[k], _ = evaluate_with_budget(from_measurement(by_id[k], s.path), b, edition)
+    return out
 
 
 def _certificate_wanted(s, s2, tables: Path | None, certificate: bool, strict: bool) -> bool:

@@ -10,6 +10,7 @@ Schema ``volcal-model/2`` (``docs/identification.md``); ``volcal-model/1`` files
                          "EAX_urad": [...], "u_EAX_urad": [...], ...}, "Y": ..., "Z": ...},
      "squareness_urad": {"EC0Y": v, ...}, "u_squareness_urad": {...},
      "covariance": {"free_index": [...], "factor": [[...], ...]},
+     "systematic": {"inputs": [...], "factor": [[...], ...], "budget": "..."},  (optional)
      "identifiability": {...}, "fit": {...}, "nuisances": {...}, "outliers": [...],
      "readings": {"<measurement id>": {"fitted_um": [...], "residual_um": [...]}}}
 """
@@ -80,6 +81,14 @@ class IdentificationResult:
         travel, hash of the readings); ``None`` for models of format ``volcal-model/1``.
     format : str
         Model format the result was read from (or will be written as).
+    sys_factor : ndarray, shape (len(free), k) or None
+        Covariance factor of the systematic inputs of an uncertainty budget, propagated
+        through the fit's linear gain (:mod:`volcal.identify.systematic`); kept apart from
+        the noise factor ``cov_factor``. ``predict`` and ``function_std`` combine both.
+    sys_labels : list of str
+        Input of each column of ``sys_factor``.
+    sys_source : str
+        The budget file the systematic part came from.
     """
 
     name: str
@@ -99,6 +108,15 @@ class IdentificationResult:
     solution: Any = field(default=None, repr=False)
     session: SessionIdentity | None = None
     format: str = MODEL_FORMAT
+    sys_factor: NDArray[np.float64] | None = None
+    sys_labels: list[str] = field(default_factory=list)
+    sys_source: str = ""
+
+    def _factor(self, systematic: bool = True) -> NDArray[np.float64]:
+        """Covariance factor: noise, with the systematic columns appended if any."""
+        if not systematic or self.sys_factor is None or self.sys_factor.shape[1] == 0:
+            return self.cov_factor
+        return np.hstack([np.asarray(self.cov_factor), self.sys_factor])
 
     def __post_init__(self) -> None:
         """Convert an untyped fit dictionary into a :class:`FitRecord`."""
@@ -152,7 +170,7 @@ class IdentificationResult:
         return self.layout.pack(self.errors)
 
     def predict(self, q: ArrayLike, tool_offset: ArrayLike | None = None, chunk: int = 20000,
-                rigid_removed: bool = False
+                rigid_removed: bool = False, systematic: bool = True
                 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Volumetric error and its standard uncertainty at points.
 
@@ -169,6 +187,8 @@ class IdentificationResult:
             and from its uncertainty (ISO 230-1 volumetric comparisons; relative laser
             readings cannot see a rigid motion of the work zone). Dense in ``3m``: for at
             most a few thousand points.
+        systematic : bool
+            Include the systematic part (``sys_factor``) when there is one (default).
 
         Returns
         -------
@@ -191,6 +211,7 @@ class IdentificationResult:
                                    "y, z [mm], shape (m, 3)")
         q = q.reshape(-1, 3)
         theta = self.theta
+        factor = self._factor(systematic)
         order = self.errors.chain_obj.order
         if rigid_removed:
             from volcal.identify.identifiability import rigid_projector
@@ -198,18 +219,19 @@ class IdentificationResult:
             Je, _ = pose_jacobian(order, self.layout.nodes, q, tool_offset)
             R = rigid_projector(q)
             e = (R @ (Je @ theta)).reshape(-1, 3)
-            GL = R @ np.asarray(Je[:, self.free] @ self.cov_factor)
+            GL = R @ np.asarray(Je[:, self.free] @ factor)
             return e, np.sqrt(np.sum(GL**2, axis=1)).reshape(-1, 3)
         es, us = [], []
         for i in range(0, q.shape[0], chunk):
             qq = q[i:i + chunk]
             Je, _ = pose_jacobian(order, self.layout.nodes, qq, tool_offset)
             es.append((Je @ theta).reshape(-1, 3))
-            GL = Je[:, self.free] @ self.cov_factor
+            GL = Je[:, self.free] @ factor
             us.append(np.sqrt(np.sum(np.asarray(GL) ** 2, axis=1)).reshape(-1, 3))
         return np.concatenate(es), np.concatenate(us)
 
-    def function_std(self, name: str, q: ArrayLike) -> NDArray[np.float64]:
+    def function_std(self, name: str, q: ArrayLike, systematic: bool = True
+                     ) -> NDArray[np.float64]:
         """Standard uncertainty of one named function at positions [um or urad].
 
         Parameters
@@ -218,7 +240,10 @@ class IdentificationResult:
             ISO name (``'EXX'``...) or squareness name.
         q : array_like
             Positions of that axis [mm].
+        systematic : bool
+            Include the systematic part (``sys_factor``) when there is one (default).
         """
+        factor = self._factor(systematic)
         from volcal.model.errorfunctions import interp_weights
         from volcal.model.names import COMPONENT_NAMES
 
@@ -228,15 +253,15 @@ class IdentificationResult:
         pos[self.free] = np.arange(self.free.size)
         if name in SQUARENESS_NAMES:
             i = pos[self.layout.squareness_indices()[SQUARENESS_NAMES.index(name)]]
-            return np.full(q.shape, 0.0 if i < 0 else float(np.linalg.norm(self.cov_factor[i])))
+            return np.full(q.shape, 0.0 if i < 0 else float(np.linalg.norm(factor[i])))
         k, c = divmod(COMPONENT_NAMES.index(name), 6)
         idx = self.layout.indices(k, c)
         i0, i1, w = interp_weights(self.layout.nodes[k], q)
-        L = np.zeros((q.size, self.cov_factor.shape[1]))
+        L = np.zeros((q.size, factor.shape[1]))
         for ii, ww in ((i0, 1 - w), (i1, w)):
             p = pos[idx[ii]]
             ok = p >= 0
-            L[ok] += ww[ok, None] * self.cov_factor[p[ok]]
+            L[ok] += ww[ok, None] * factor[p[ok]]
         return np.linalg.norm(L, axis=1)
 
     # ------------------------------------------------------------------ tables
@@ -277,7 +302,7 @@ class IdentificationResult:
                 d["u_" + nm] = _r(self.std[k][:, c])
             funcs[AXES[k]] = d
         rep = self.report.to_dict() if hasattr(self.report, "to_dict") else self.report
-        return {
+        out = {
             "format": MODEL_FORMAT,
             "name": self.name,
             "session": None if self.session is None else self.session.to_dict(),
@@ -296,6 +321,10 @@ class IdentificationResult:
                                "residual_um": _r(self.residuals[mid])}
                          for mid in self.fitted if mid in self.residuals},
         }
+        if self.sys_factor is not None:
+            out["systematic"] = {"inputs": list(self.sys_labels), "budget": self.sys_source,
+                                 "factor": [_r(row) for row in self.sys_factor]}
+        return out
 
     def to_json(self, path: str | Path) -> Path:
         """Write the model file atomically.
@@ -376,9 +405,20 @@ class IdentificationResult:
         if not isinstance(outliers, list):
             raise VolcalInputError("invalid 'outliers' section (expected a list)", source,
                                    None, "outliers")
+        sys_f, sys_l, sys_src = None, [], ""
+        if doc.get("systematic") is not None:
+            try:
+                sd = doc["systematic"]
+                sys_l = [str(x) for x in sd["inputs"]]
+                sys_f = np.array(sd["factor"], dtype=float).reshape(free.size, len(sys_l))
+                sys_src = str(sd.get("budget", ""))
+            except (KeyError, TypeError, ValueError):
+                raise VolcalInputError("invalid 'systematic' section", source, None,
+                                       "systematic") from None
         return cls(doc.get("name", "model"), errors, layout, free, fac, std, usq,
                    doc.get("identifiability", {}), fit, resid, fitted,
-                   nuisances=nuis, outliers=outliers, session=ident, format=str(fmt))
+                   nuisances=nuis, outliers=outliers, session=ident, format=str(fmt),
+                   sys_factor=sys_f, sys_labels=sys_l, sys_source=sys_src)
 
 
 def _f(v: float) -> float | None:

@@ -454,17 +454,34 @@ def compensation_section(inp: ReportInputs) -> Section | None:
             f"Over {cells}. The model itself is uncertain by up to "
             f"{fmt(c.residual_u2_max_um)} µm (2u, k = 2): no table removes that."))
     if c.verdicts:
+        from volcal.standards.decision import RULE_TEXT
+
+        rule = c.verdicts[0].rule
         rows = [[v.quantity, fmt(v.tolerance_um), fmt(v.before_um), v.before,
                  fmt(v.after_um), v.after] for v in c.verdicts]
+        head = ["quantity", "tolerance [µm]", "before [µm]", "verdict before",
+                "after [µm]", "verdict after"]
+        if rule == "guarded":  # the guard band w (U, or --guard-band-um) of each value
+            for row, v in zip(rows, c.verdicts, strict=True):
+                gb = v.guard_band_um
+                row.insert(3, fmt(gb if gb is not None else v.U_before_um))
+                row.insert(6, fmt(gb if gb is not None else v.U_after_um))
+            head.insert(3, "w before [µm]")
+            head.insert(6, "w after [µm]")
         sec.tables.append(Table(
-            ["quantity", "tolerance [µm]", "before [µm]", "verdict before",
-             "after [µm]", "verdict after"], rows, "Tolerance verdict",
-            "pass: value ≤ tolerance. Volumetric: largest |e| of the model; per axis: the "
-            "ISO 230-2 accuracy A of the measured linear tests, after = the same readings "
+            head, rows,
+            f"Tolerance verdict (decision rule: {rule})",
+            f"Decision rule: {RULE_TEXT[rule]}. Volumetric: largest |e| of the model; per "
+            "axis: the "
+            "ISO 230-2 parameter named (the accuracy A by default) of the measured linear "
+            "tests, after = the same readings "
             "with the tables' correction taken off. '-': no compensation tables given."))
         failed = [v.quantity for v in c.verdicts
-                  if "FAIL" in (v.before, v.after) and v.after != "pass"]
+                  if "fail" in (v.before, v.after) and v.after != "pass"]
         sec.warnings.extend(f"out of tolerance: {q}" for q in failed)
+        sec.warnings.extend(f"conformity not proven ({rule} rule): {v.quantity}"
+                            for v in c.verdicts if v.quantity not in failed
+                            and "conditional" in (v.before, v.after) and v.after != "pass")
     return sec
 
 

@@ -55,9 +55,12 @@ def verdicts(tolerance: Tolerance, session: Session | None, errors: MachineError
     Parameters
     ----------
     tolerance : Tolerance
-        Volumetric and/or per-axis tolerances [um].
+        Volumetric and/or per-axis tolerances [um] (``A`` per axis, other ISO 230-2
+        parameters in ``tolerance.parameters``), the decision rule and guard band; with
+        ``tolerance.budget`` (:func:`volcal.uncertainty.budget.read_budget`) the readings
+        are referred to 20 degC with it and U of the per-axis parameters is computed.
     session : Session, optional
-        Measured session (its linear tests give ISO 230-2 ``A``).
+        Measured session (its linear tests give the ISO 230-2 parameters).
     errors : MachineErrors, optional
         Identified model (needed for the volumetric tolerance).
     tables : WrittenTables, optional
@@ -73,14 +76,21 @@ def verdicts(tolerance: Tolerance, session: Session | None, errors: MachineError
     list of Verdict
     """
     from volcal.errors import VolcalInputError
-    from volcal.standards.iso230_2 import evaluate
+    from volcal.standards.decision import check_rule
     from volcal.standards.positioning_data import from_measurement
 
+    rule = check_rule(tolerance.rule)
+    guard_band_um, budget = tolerance.guard_band_um, tolerance.budget
     out: list[Verdict] = []
     if tolerance.volumetric_um is not None:
         if errors is None:
             raise VolcalInputError("a volumetric tolerance needs the identified model "
                                    "(--model MODEL.json)")
+        if rule == "guarded" and guard_band_um is None:
+            raise VolcalInputError("--decision-rule guarded on the volumetric tolerance (V) "
+                                   "needs --guard-band-um W (the model's systematic "
+                                   "uncertainty is not propagated yet)",
+                                   column="--guard-band-um")
         q = work_zone_grid(errors.travel, n)
         e = volumetric_error(errors, q)
         after = None
@@ -88,23 +98,56 @@ def verdicts(tolerance: Tolerance, session: Session | None, errors: MachineError
             after = float(np.linalg.norm(e - tables.correction(q), axis=1).max())
         out.append(Verdict(f"volumetric |e|, largest of {n}³ points",
                            tolerance.volumetric_um, float(np.linalg.norm(e, axis=1).max()),
-                           after))
-    for axis, tol in tolerance.axis_um.items():
+                           after, rule, guard_band_um=guard_band_um))
+    axes = [a for a in AXES if a in tolerance.axis_um or a in tolerance.parameters]
+    for axis in axes:
         k = AXES.index(axis)
-        before: list[float] = []
-        after_v: list[float] = []
+        tols = {"A": tolerance.axis_um[axis]} if axis in tolerance.axis_um else {}
+        tols.update(tolerance.parameters.get(axis, {}))
         tests = [] if session is None else [
             m for m in session.measurements if m.kind == "linear" and m.axis == k
             and m.deviation is not None and "run" in m.columns and "direction" in m.columns]
+        if rule == "guarded" and guard_band_um is None and budget is None and tests:
+            raise VolcalInputError("--decision-rule guarded needs the expanded uncertainty "
+                                   "(--budget FILE) or a guard band (--guard-band-um W)",
+                                   column="--decision-rule")
+        before: list[tuple[Any, Any]] = []
+        after_v: list[tuple[Any, Any]] = []
         for m in tests:
             d = from_measurement(m, session.path if session is not None else None)
-            before.append(evaluate(d.targets_mm, d.run, d.direction, d.deviation_um,
-                                   edition, **d.evaluate_kwargs()).A)
+            before.append(_evaluate(d, d.deviation_um, edition, budget))
             if tables is not None:
-                after_v.append(evaluate(d.targets_mm, d.run, d.direction,
-                                        compensated_deviation(m, tables), edition,
-                                        **d.evaluate_kwargs()).A)
-        out.append(Verdict(f"{axis}: ISO 230-2 A ({len(tests)} tests)",
-                           tol, max(before) if before else None,
-                           max(after_v) if after_v else None))
+                after_v.append(_evaluate(d, compensated_deviation(m, tables), edition,
+                                         budget))
+        for param, tol in tols.items():
+            vb, ub = _largest(before, param)
+            va, ua = _largest(after_v, param)
+            out.append(Verdict(f"{axis}: ISO 230-2 {param} ({len(tests)} tests)", tol, vb, va,
+                               rule, ub, ua, guard_band_um))
     return out
+
+
+def _evaluate(d: Any, deviation: Any, edition: str, budget: Any) -> tuple[Any, Any]:
+    """ISO 230-2 of one test's readings, with its uncertainty when a budget is given."""
+    from dataclasses import replace
+
+    from volcal.standards.iso230_2 import evaluate
+
+    if budget is None:
+        kw = d.evaluate_kwargs() if hasattr(d, "evaluate_kwargs") else {}
+        return evaluate(d.targets_mm, d.run, d.direction, deviation, edition, **kw), None
+    from volcal.standards.iso230_2_uncertainty import evaluate_with_budget
+
+    res, unc, _ = evaluate_with_budget(replace(d, deviation_um=np.asarray(deviation)),
+                                       budget, edition)
+    return res, unc
+
+
+def _largest(results: list[tuple[Any, Any]], param: str) -> tuple[float | None, float | None]:
+    """The largest value of a parameter over the tests, and its U (None: no test)."""
+    if not results:
+        return None, None
+    vals = [abs(float(getattr(r, param))) for r, _ in results]
+    i = int(np.argmax(vals))
+    unc = results[i][1]
+    return vals[i], None if unc is None else unc.parameters[param].U

@@ -1,0 +1,171 @@
+"""Systematic contributors of the budget carried into the identified model.
+
+The identification's own uncertainty is the noise and prior part. The systematic inputs of
+the laser budget (:mod:`volcal.uncertainty`) are not re-estimated as nuisances under the
+evidence-tuned prior: they are propagated after the fit through the estimator's linear
+gain. For a systematic input with standard uncertainty ``u`` that changes the readings by
+``dy`` per unit, the estimate changes by ``dx = H^-1 A^T W dy / sigma^2`` (``H`` the
+posterior precision, ``W`` the robust weights): one column ``dx u`` of a covariance factor
+per input, kept apart from the noise factor.
+
+Inputs (one column each):
+
+* ``laser wavelength``: common to all measurements, ``dy = L u_rel`` with ``L`` the
+  distance of the reading from the measurement's first reading along the beam;
+* ``air, <measurement id>``: per set-up, the air sensors' relative uncertainty
+  ``u_rel = |grad n . u| / n`` (temperature, pressure and humidity combined);
+* ``material, <axis>``: per axis, ``u_rel = sqrt((alpha u_t)^2 + ((t - 20) u_alpha)^2 +
+  (u_alpha u_t)^2)`` on the displacement component along that axis, projected on the beam.
+
+The cosine and dead-path terms vary from reading to reading and are left to the noise;
+multilateration readings (tracking interferometer) are not included.
+
+References
+----------
+.. [1] JCGM 100:2008 (GUM), 5.2 (correlated input quantities: a common systematic input).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from volcal.errors import VolcalInputError
+from volcal.model.names import AXES
+
+__all__ = ["LENGTH_KINDS", "attach_systematic", "systematic_factor", "systematic_inputs"]
+
+#: Measurement kinds whose readings are lengths along the beam.
+LENGTH_KINDS: tuple[str, ...] = ("linear", "diagonal", "step_diagonal")
+
+
+def systematic_inputs(design: Any, budget: Any) -> list[tuple[str, NDArray[np.float64]]]:
+    """The reading changes of each systematic input at one standard uncertainty.
+
+    Parameters
+    ----------
+    design : Design
+        The identification's observation system (rows of every measurement).
+    budget : Budget
+        The uncertainty budget (:func:`volcal.uncertainty.budget.read_budget`).
+
+    Returns
+    -------
+    list of (str, ndarray)
+        Label and ``dy`` [um] for every row of ``design.A`` (zero outside the readings of
+        length measurements); inputs with zero uncertainty are left out.
+    """
+    from volcal.uncertainty.sensitivity import air_sensitivity
+
+    v, i = budget.values, budget.inputs
+    a = air_sensitivity(v["air.temperature_c"], v["air.pressure_pa"], v["air.humidity_pct"],
+                        v["laser.wavelength_nm"], v["air.formula"], v["air.co2_ppm"])
+    u_wl = i["laser.u_wavelength_ppm"].u * 1e-6
+    u_air = math.hypot(a.dn_dt * i["air.u_temperature_k"].u, a.dn_dp * i["air.u_pressure_pa"].u,
+                       a.dn_dh * i["air.u_humidity_pct"].u) / a.n
+    alpha, ua = v["material.expansion_ppm_per_k"], i["material.u_expansion_ppm_per_k"].u
+    ut, dt = i["material.u_temperature_k"].u, v["material.temperature_c"] - 20.0
+    u_mat = math.sqrt((alpha * ut) ** 2 + (dt * ua) ** 2 + (ua * ut) ** 2) * 1e-6
+    n_rows = design.A.shape[0]
+    wl = np.zeros(n_rows)
+    mat = np.zeros((3, n_rows))
+    out: list[tuple[str, NDArray[np.float64]]] = []
+    for m in design.measurements:
+        if m.kind not in LENGTH_KINDS:
+            continue
+        rows = design.rows[m.id]
+        disp = np.asarray(m.positions, dtype=float) - np.asarray(m.positions[0], dtype=float)
+        beam = np.asarray(m.beam_direction, dtype=float)
+        L = disp @ beam * 1e3                                   # [um]
+        wl[rows] = L * u_wl
+        for k in range(3):
+            mat[k, rows] = disp[:, k] * beam[k] * 1e3 * u_mat
+        if u_air > 0:
+            col = np.zeros(n_rows)
+            col[rows] = L * u_air
+            out.append((f"air, {m.id}", col))
+    if u_wl > 0:
+        out.insert(0, ("laser wavelength", wl))
+    if u_mat > 0:
+        out.extend((f"material, {AXES[k]}", mat[k]) for k in range(3) if np.any(mat[k]))
+    return out
+
+
+def systematic_factor(design: Any, solution: Any, budget: Any
+                      ) -> tuple[NDArray[np.float64], list[str]]:
+    """Covariance factor of the estimated parameters from the systematic inputs.
+
+    Parameters
+    ----------
+    design : Design
+        Observation system of the fit.
+    solution : Solution
+        The fit (its ``solve`` applies the inverse posterior precision, or its dense
+        ``covariance``), with ``sigma_um``.
+    budget : Budget
+        The uncertainty budget.
+
+    Returns
+    -------
+    factor : ndarray, shape (n_free, k)
+        ``dx u`` of each input for the free parameters [um, urad]; ``factor factor^T`` is
+        the systematic covariance.
+    labels : list of str
+        Input of each column.
+
+    Raises
+    ------
+    VolcalInputError
+        When the fit keeps neither a solver nor a covariance (very large designs).
+    """
+    inputs = systematic_inputs(design, budget)
+    nf = design.n_free
+    if not inputs:
+        return np.zeros((nf, 0)), []
+    w = np.ones(design.A.shape[0]) if design.row_scale is None else np.asarray(
+        design.row_scale, dtype=float)
+    if design.row_scale is not None and design.row_scale.size < design.A.shape[0]:
+        w = np.concatenate([w, np.ones(design.A.shape[0] - w.size)])
+    rhs = np.stack([design.A.T @ (w * dy) for _, dy in inputs], axis=1) / solution.sigma_um**2
+    if getattr(solution, "solve", None) is not None:
+        dx = np.stack([solution.solve(rhs[:, j]) for j in range(rhs.shape[1])], axis=1)
+    elif getattr(solution, "covariance", None) is not None:
+        dx = solution.covariance @ rhs
+    else:
+        raise VolcalInputError("this fit keeps neither its solver nor its covariance: the "
+                               "systematic part cannot be propagated")
+    return np.asarray(dx[:nf]), [lab for lab, _ in inputs]
+
+
+def attach_systematic(result: Any, budget: Any, source: str = "") -> Any:
+    """Give an identification result the systematic part of a budget.
+
+    Parameters
+    ----------
+    result : IdentificationResult
+        A fresh result of :func:`volcal.identify.identify` (with its design and solution).
+    budget : Budget
+        The uncertainty budget.
+    source : str
+        Name of the budget file, recorded in the model file.
+
+    Returns
+    -------
+    IdentificationResult
+        The same object, with ``sys_factor``, ``sys_labels`` and ``sys_source`` set.
+
+    Raises
+    ------
+    VolcalInputError
+        A result read from a model file (no design): identify the session again.
+    """
+    if getattr(result, "design", None) is None or getattr(result, "solution", None) is None:
+        raise VolcalInputError("the systematic part is propagated through the fit: identify "
+                               "the session with --budget (a model file has no design)")
+    result.sys_factor, result.sys_labels = systematic_factor(result.design, result.solution,
+                                                             budget)
+    result.sys_source = str(source)
+    return result

@@ -1,0 +1,126 @@
+"""Systematic errors of a simulated laser measurement, drawn from an uncertainty budget.
+
+So that the honesty of the reported uncertainty can be tested, ``volcal simulate
+--budget`` draws, once per simulation, the errors the budget describes and applies them
+to the readings as scale errors of the length readings (``linear``, ``diagonal``,
+``step_diagonal``):
+
+* the laser's vacuum wavelength: one relative error ``e_lambda`` for all measurements;
+* the air sensors: per measurement (set-up), errors ``dt, dp, dRH`` of the sensors give
+  the relative error ``-(dn/dt dt + dn/dp dp + dn/dRH dRH) / n`` of the compensation;
+* the material: per machine axis, errors of the scale temperature ``dt_m`` and of the
+  expansion coefficient ``dalpha`` give ``-(alpha dt_m + (t_m - 20) dalpha + dalpha dt_m)``
+  on the displacement component along that axis.
+
+A reading at displacement ``d`` from the measurement's first reading along the beam ``n``
+gains ``(e_lambda + e_air) (d . n) + sum_k e_k d_k n_k`` [um for d in um]. Each input is
+drawn from its distribution with its standard uncertainty.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from volcal.model.names import AXES
+
+__all__ = ["SystematicDraw", "apply_systematic", "draw_systematic"]
+
+LENGTH_KINDS = ("linear", "diagonal", "step_diagonal")
+
+
+@dataclass
+class SystematicDraw:
+    """Drawn systematic errors (relative, [-]).
+
+    Attributes
+    ----------
+    wavelength : float
+        Relative error of the vacuum wavelength.
+    air : dict of str to float
+        Relative compensation error per measurement id.
+    material : dict of str to float
+        Relative scale error per axis (``'X'``, ``'Y'``, ``'Z'``).
+    """
+
+    wavelength: float = 0.0
+    air: dict[str, float] = field(default_factory=dict)
+    material: dict[str, float] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        """TOML-friendly dict in ppm."""
+        return {"wavelength_ppm": self.wavelength * 1e6,
+                "air_ppm": {k: v * 1e6 for k, v in self.air.items()},
+                "material_ppm": {k: v * 1e6 for k, v in self.material.items()}}
+
+
+def _draw(rng: np.random.Generator, inp: Any) -> float:
+    u = inp.u
+    if u == 0:
+        return 0.0
+    if inp.distribution == "rectangular":
+        return float(rng.uniform(-math.sqrt(3) * u, math.sqrt(3) * u))
+    if inp.distribution == "triangular":
+        return float(rng.triangular(-math.sqrt(6) * u, 0.0, math.sqrt(6) * u))
+    if inp.distribution == "arcsine":
+        return float(math.sqrt(2) * u * math.sin(rng.uniform(0, 2 * math.pi)))
+    return float(rng.normal(0.0, u))
+
+
+def draw_systematic(session: Any, budget: Any, rng: np.random.Generator) -> SystematicDraw:
+    """Draw the systematic errors of one simulated calibration.
+
+    Parameters
+    ----------
+    session : Session
+        The session (one air draw per length measurement).
+    budget : Budget
+        The uncertainty budget (:mod:`volcal.uncertainty.budget`).
+    rng : numpy.random.Generator
+        Random source.
+
+    Returns
+    -------
+    SystematicDraw
+    """
+    from volcal.uncertainty.sensitivity import air_sensitivity
+
+    v, i = budget.values, budget.inputs
+    a = air_sensitivity(v["air.temperature_c"], v["air.pressure_pa"], v["air.humidity_pct"],
+                        v["laser.wavelength_nm"], v["air.formula"], v["air.co2_ppm"])
+    out = SystematicDraw(_draw(rng, i["laser.u_wavelength_ppm"]) * 1e-6)
+    for m in session.measurements:
+        if m.kind in LENGTH_KINDS:
+            out.air[m.id] = -(a.dn_dt * _draw(rng, i["air.u_temperature_k"])
+                              + a.dn_dp * _draw(rng, i["air.u_pressure_pa"])
+                              + a.dn_dh * _draw(rng, i["air.u_humidity_pct"])) / a.n
+    alpha, dt20 = v["material.expansion_ppm_per_k"], v["material.temperature_c"] - 20.0
+    for k in AXES:
+        dt = _draw(rng, i["material.u_temperature_k"])
+        da = _draw(rng, i["material.u_expansion_ppm_per_k"])
+        out.material[k] = -(alpha * dt + dt20 * da + da * dt) * 1e-6
+    return out
+
+
+def apply_systematic(session: Any, draw: SystematicDraw) -> None:
+    """Add the drawn systematic errors to the session's deviations, in place.
+
+    Parameters
+    ----------
+    session : Session
+        Session with simulated deviations [um].
+    draw : SystematicDraw
+        The errors.
+    """
+    for m in session.measurements:
+        if m.kind not in LENGTH_KINDS or m.deviation is None:
+            continue
+        d = (np.asarray(m.positions, dtype=float) - np.asarray(m.positions[0], dtype=float))
+        n = np.asarray(m.beam_direction, dtype=float)
+        change = (draw.wavelength + draw.air.get(m.id, 0.0)) * (d @ n)
+        for k, ax in enumerate(AXES):
+            change = change + draw.material[ax] * d[:, k] * n[k]
+        m.deviation = np.asarray(m.deviation, dtype=float) + change * 1e3

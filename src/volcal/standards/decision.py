@@ -1,0 +1,198 @@
+"""Decision rules for a statement of conformity with a tolerance.
+
+ISO/IEC 17025:2017 7.8.6 asks for the decision rule of every statement of conformity.
+Two rules, named as ILAC-G8:09/2019 names them, for an upper tolerance ``T`` on a
+value ``y`` with expanded uncertainty ``U`` (95 %):
+
+``simple``
+    Simple acceptance (ILAC-G8 4.2.1, "shared risk"): ``pass`` when ``y <= T``,
+    otherwise ``fail``; never ``conditional``. The risk of a wrong ``pass`` reaches
+    50 % for a value at the limit.
+``guarded``
+    Guarded acceptance (ILAC-G8 4.2.2; ISO 14253-1:2017 8.2, acceptance zone reduced by
+    the guard band ``w``, by default ``w = U``): ``pass`` at or below ``T - w``,
+    ``conditional`` above ``T - w`` up to ``T``, ``fail`` above ``T``. With ``w = U``
+    the risk of a wrong ``pass`` is below 2.5 %. When ``w >= T`` no value can pass;
+    the decision says so.
+
+References
+----------
+.. [1] ILAC-G8:09/2019, Guidelines on decision rules and statements of conformity.
+.. [2] ISO 14253-1:2017, Geometrical product specifications (GPS) - Inspection by
+   measurement of workpieces and measuring equipment - Part 1: Decision rules for
+   verifying conformity or nonconformity with specifications.
+.. [3] ISO/IEC 17025:2017, 7.8.6 (reporting statements of conformity).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from volcal.errors import VolcalInputError
+
+__all__ = ["RULES", "RULE_TEXT", "VERDICTS", "Decision", "check_rule", "combine", "decide"]
+
+RULES: tuple[str, ...] = ("simple", "guarded")
+VERDICTS: tuple[str, ...] = ("pass", "fail", "conditional")
+
+#: One line per rule, for outputs that name the rule.
+RULE_TEXT: dict[str, str] = {
+    "simple": "simple acceptance (ILAC-G8:09/2019 4.2.1): pass when the value is at most "
+              "the tolerance, otherwise fail",
+    "guarded": "guarded acceptance (ILAC-G8:09/2019 4.2.2, ISO 14253-1:2017): pass at or "
+               "below T - w, conditional between T - w and T, fail above T; guard band w",
+}
+
+
+def check_rule(rule: str, option: str = "--decision-rule") -> str:
+    """Validate a rule name.
+
+    Parameters
+    ----------
+    rule : str
+        ``'simple'`` or ``'guarded'`` (case-insensitive).
+    option : str
+        Name used in the error.
+
+    Returns
+    -------
+    str
+        The rule, lower case.
+
+    Raises
+    ------
+    VolcalInputError
+        Unknown rule.
+    """
+    r = str(rule).strip().lower()
+    if r not in RULES:
+        raise VolcalInputError(f"{option} {rule!r}: expected one of {', '.join(RULES)}",
+                               column=option)
+    return r
+
+
+@dataclass(frozen=True)
+class Decision:
+    """The outcome of a decision rule.
+
+    Attributes
+    ----------
+    verdict : str
+        ``'pass'``, ``'fail'`` or ``'conditional'``.
+    rule : str
+        ``'simple'`` or ``'guarded'``.
+    value : float
+        The value [um].
+    tolerance : float
+        The tolerance T [um].
+    guard_band : float
+        Guard band w [um] (0 for the simple rule).
+    acceptance_limit : float
+        ``T - w`` [um].
+    note : str
+        Why, when it is not obvious (``U >= T``: no pass possible).
+    """
+
+    verdict: str
+    rule: str
+    value: float
+    tolerance: float
+    guard_band: float
+    acceptance_limit: float
+    note: str = ""
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON-friendly dict."""
+        return {"verdict": self.verdict, "rule": self.rule, "value_um": self.value,
+                "tolerance_um": self.tolerance, "guard_band_um": self.guard_band,
+                "acceptance_limit_um": self.acceptance_limit, "note": self.note}
+
+
+def decide(value: float, tolerance: float, rule: str = "simple", U: float | None = None,
+           guard_band: float | None = None) -> Decision:
+    """Apply a decision rule to a value with an upper tolerance.
+
+    Parameters
+    ----------
+    value : float
+        The measured value [um] (a parameter such as the accuracy A).
+    tolerance : float
+        Upper limit T [um].
+    rule : str
+        ``'simple'`` (default) or ``'guarded'``.
+    U : float, optional
+        Expanded uncertainty of ``value`` [um]: the guard band of the guarded rule
+        unless ``guard_band`` is given.
+    guard_band : float, optional
+        Guard band w [um], overriding ``U``.
+
+    Returns
+    -------
+    Decision
+
+    Raises
+    ------
+    VolcalInputError
+        Unknown rule; a guarded rule with neither ``U`` nor ``guard_band``; a negative
+        or non-finite guard band.
+
+    Examples
+    --------
+    >>> decide(9.0, 10.0).verdict
+    'pass'
+    >>> decide(9.0, 10.0, "guarded", U=2.0).verdict
+    'conditional'
+    """
+    rule = check_rule(rule)
+    v, t = float(value), float(tolerance)
+    if rule == "simple":
+        return Decision("pass" if v <= t else "fail", rule, v, t, 0.0, t)
+    if guard_band is not None:
+        w = float(guard_band)
+        src = "--guard-band-um"
+    elif U is not None:
+        w = float(U)
+        src = "U"
+    else:
+        raise VolcalInputError("the guarded decision rule needs the expanded uncertainty "
+                               "(--budget FILE) or a guard band (--guard-band-um W)",
+                               column="--decision-rule")
+    if not math.isfinite(w) or w < 0:
+        raise VolcalInputError(f"guard band {w!r} must be a finite number >= 0 um",
+                               column="--guard-band-um")
+    limit = t - w
+    note = ""
+    if w >= t:
+        note = (f"no pass is possible: the guard band w = {w:.3g} um ({src}) is not "
+                f"smaller than the tolerance T = {t:g} um")
+    if v > t:
+        verdict = "fail"
+    elif v <= limit and w < t:
+        verdict = "pass"
+    else:
+        verdict = "conditional"
+        if not note:
+            note = (f"value within T but above T - w = {limit:.3g} um: conformity not "
+                    "proven at 95 %")
+    return Decision(verdict, rule, v, t, w, limit, note)
+
+
+def combine(verdicts: list[str]) -> str:
+    """One verdict for several: any ``fail``, else any ``conditional``, else ``pass``.
+
+    Parameters
+    ----------
+    verdicts : list of str
+        Verdicts (``'-'`` entries, no value, are ignored).
+
+    Returns
+    -------
+    str
+    """
+    vs = [v for v in verdicts if v in VERDICTS]
+    if "fail" in vs:
+        return "fail"
+    if "conditional" in vs:
+        return "conditional"
+    return "pass"

@@ -1,0 +1,396 @@
+"""The uncertainty budget file (TOML): reader, validator and template.
+
+Every ``u_*`` key is a *standard* uncertainty (one standard deviation), never a
+half-width or an expanded uncertainty. Each may carry its degrees of freedom
+(``<key>_dof``, default infinite) and the distribution it was evaluated from
+(``<key>_distribution``: ``normal`` (default), ``rectangular``, ``triangular``,
+``arcsine``); the distribution is recorded in the budget and used by Monte Carlo checks,
+the propagation itself needs only the standard uncertainty.
+
+=========================  ==========================================================
+``[laser]``
+u_wavelength_ppm           vacuum wavelength of the laser [ppm]
+wavelength_nm              vacuum wavelength [nm] (default 632.9912, HeNe)
+``[air]``
+temperature_c              air temperature at the test [degC] (operating point)
+pressure_pa                air pressure [Pa] (operating point)
+humidity_pct               relative humidity [%] (operating point)
+u_temperature_k            air temperature sensor [K]
+u_pressure_pa              pressure sensor [Pa]
+u_humidity_pct             humidity sensor [%RH]
+change_temperature_k       standard uncertainty of the air's change during the test
+change_pressure_pa         (dead-path error) [K], [Pa], [%RH]; when absent, the
+change_humidity_pct        sensor's ``u`` (the change is not known better)
+formula                    ``ciddor`` (default) or ``edlen``: sensitivities of n
+co2_ppm                    CO2 mole fraction [umol/mol] (default 450)
+``[material]``
+temperature_c              temperature of the machine scale [degC]
+u_temperature_k            material temperature sensor [K]
+expansion_ppm_per_k        expansion coefficient of the scale [ppm/K]
+u_expansion_ppm_per_k      its standard uncertainty [ppm/K]
+referred_to_20c            ``true`` when the readings are already referred to 20 degC
+                           (the laser applied the material correction with these
+                           values); ``false`` (default): volcal corrects them
+``[setup]``
+u_misalignment_urad        beam misalignment angle [urad] (cosine error)
+dead_path_mm               laser to the reflector's datum position [mm]
+datum_mm                   target where the laser was zeroed [mm] (default: the
+                           first, lowest, target)
+=========================  ==========================================================
+
+Every problem raises :class:`~volcal.errors.VolcalInputError` naming the file and the
+key (``section.key``) and the valid choices; the reader writes nothing.
+
+References
+----------
+.. [1] JCGM 100:2008 (GUM), 4.3 (type B evaluation), 6.3 (coverage factor).
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from volcal.environment.refractive import FORMULAS, HENE_VACUUM_WAVELENGTH_NM
+from volcal.errors import VolcalInputError
+
+__all__ = ["DISTRIBUTIONS", "Budget", "Input", "parse_budget", "read_budget",
+           "template_text"]
+
+DISTRIBUTIONS: tuple[str, ...] = ("normal", "rectangular", "triangular", "arcsine")
+
+_REQUIRED = object()
+
+
+@dataclass(frozen=True)
+class _Key:
+    kind: str          # 'value', 'u', 'bool', 'choice'
+    default: Any       # _REQUIRED, None (optional) or a value
+    unit: str
+    lo: float = -math.inf
+    hi: float = math.inf
+    hint: str = ""
+
+
+#: Keys of every section: kind, default, unit, range of validity.
+SCHEMA: dict[str, dict[str, _Key]] = {
+    "laser": {
+        "u_wavelength_ppm": _Key("u", _REQUIRED, "ppm", hi=100.0),
+        "wavelength_nm": _Key("value", HENE_VACUUM_WAVELENGTH_NM, "nm", 300.0, 1700.0),
+    },
+    "air": {
+        "temperature_c": _Key("value", _REQUIRED, "degC", -40.0, 100.0,
+                              "degrees Celsius, not kelvin"),
+        "pressure_pa": _Key("value", _REQUIRED, "Pa", 10e3, 140e3,
+                            "pascal: 101325, not 1013.25 hPa or 101.3 kPa"),
+        "humidity_pct": _Key("value", _REQUIRED, "%", 0.0, 100.0,
+                             "percent: 50, not 0.5"),
+        "u_temperature_k": _Key("u", _REQUIRED, "K", hi=20.0),
+        "u_pressure_pa": _Key("u", _REQUIRED, "Pa", hi=20e3),
+        "u_humidity_pct": _Key("u", _REQUIRED, "%", hi=100.0),
+        "change_temperature_k": _Key("u", None, "K", hi=20.0),
+        "change_pressure_pa": _Key("u", None, "Pa", hi=20e3),
+        "change_humidity_pct": _Key("u", None, "%", hi=100.0),
+        "formula": _Key("choice", "ciddor", ""),
+        "co2_ppm": _Key("value", 450.0, "umol/mol", 0.0, 2000.0),
+    },
+    "material": {
+        "temperature_c": _Key("value", _REQUIRED, "degC", -40.0, 100.0,
+                              "degrees Celsius, not kelvin"),
+        "u_temperature_k": _Key("u", _REQUIRED, "K", hi=20.0),
+        "expansion_ppm_per_k": _Key("value", _REQUIRED, "ppm/K", -5.0, 50.0,
+                                    "ppm/K: 11.5 for steel, not 1.15e-5"),
+        "u_expansion_ppm_per_k": _Key("u", _REQUIRED, "ppm/K", hi=50.0),
+        "referred_to_20c": _Key("bool", False, ""),
+    },
+    "setup": {
+        "u_misalignment_urad": _Key("u", _REQUIRED, "urad", hi=50e3),
+        "dead_path_mm": _Key("value", _REQUIRED, "mm", 0.0, 100e3),
+        "datum_mm": _Key("value", None, "mm", -1e6, 1e6),
+    },
+}
+
+
+@dataclass(frozen=True)
+class Input:
+    """A standard uncertainty with its degrees of freedom and distribution.
+
+    Attributes
+    ----------
+    u : float
+        Standard uncertainty, in the unit of its key.
+    dof : float
+        Degrees of freedom (``inf`` for a type B evaluation known exactly).
+    distribution : str
+        One of :data:`DISTRIBUTIONS`.
+    """
+
+    u: float
+    dof: float = math.inf
+    distribution: str = "normal"
+
+
+@dataclass
+class Budget:
+    """A validated budget file.
+
+    Attributes
+    ----------
+    values : dict of str to float, bool or str
+        Operating point and settings, by ``section.key`` (e.g. ``'air.temperature_c'``).
+    inputs : dict of str to Input
+        Standard uncertainties by ``section.key`` (e.g. ``'air.u_temperature_k'``).
+    file : str or None
+        Source file, for messages.
+    notes : list of str
+        Defaults taken (keys absent from the file), for the output.
+    """
+
+    values: dict[str, Any]
+    inputs: dict[str, Input]
+    file: str | None = None
+    notes: list[str] = field(default_factory=list)
+
+    def __getitem__(self, key: str) -> Any:
+        """``budget['air.temperature_c']`` (a value) or ``budget['air.u_temperature_k']``."""
+        if key in self.inputs:
+            return self.inputs[key]
+        return self.values[key]
+
+
+def _number(v: Any, where: str, file: str | None, k: _Key) -> float:
+    if isinstance(v, bool) or not isinstance(v, int | float):
+        raise VolcalInputError(f"expected a number [{k.unit}], got {v!r}", file, None, where)
+    x = float(v)
+    if not math.isfinite(x):
+        raise VolcalInputError(f"must be a finite number [{k.unit}], got {v!r}", file, None,
+                               where)
+    return x
+
+
+def _range_error(x: float, where: str, file: str | None, k: _Key) -> VolcalInputError:
+    msg = f"{x:g} {k.unit} is outside [{k.lo:g}, {k.hi:g}] {k.unit}"
+    if where.endswith("pressure_pa") and 10.0 <= x < 10e3:
+        msg += " (hPa or kPa? give pascal: 101325)"
+    elif where.endswith("temperature_c") and x > 200.0:
+        msg += " (kelvin? give degrees Celsius: 20)"
+    elif k.hint:
+        msg += f" ({k.hint})"
+    return VolcalInputError(msg, file, None, where)
+
+
+def parse_budget(doc: dict[str, Any], file: str | Path | None = None) -> Budget:
+    """Validate a budget document (the parsed TOML).
+
+    Parameters
+    ----------
+    doc : dict
+        Sections ``laser``, ``air``, ``material``, ``setup`` (see the module docstring).
+    file : str or Path, optional
+        Source file named in errors.
+
+    Returns
+    -------
+    Budget
+
+    Raises
+    ------
+    VolcalInputError
+        Unknown section or key, missing required key (the operating point included), a
+        negative or non-finite ``u``, a value outside its range (e.g. pressure in hPa),
+        an unknown distribution or formula; naming the file and ``section.key``.
+    """
+    f = None if file is None else str(file)
+    unknown = [s for s in doc if s not in SCHEMA]
+    if unknown:
+        raise VolcalInputError(f"unknown section [{unknown[0]}]: expected "
+                               f"{', '.join(f'[{s}]' for s in SCHEMA)}", f, None, unknown[0])
+    values: dict[str, Any] = {}
+    inputs: dict[str, Input] = {}
+    notes: list[str] = []
+    for sec, keys in SCHEMA.items():
+        table = doc.get(sec, {})
+        if not isinstance(table, dict):
+            raise VolcalInputError("expected a table", f, None, sec)
+        allowed = set(keys)
+        allowed |= {f"{k}_{s}" for k, spec in keys.items() if spec.kind == "u"
+                    for s in ("dof", "distribution")}
+        for k in table:
+            if k not in allowed:
+                raise VolcalInputError(
+                    f"unknown key (units?): [{sec}] takes {', '.join(keys)} (and "
+                    "<u key>_dof, <u key>_distribution)", f, None, f"{sec}.{k}")
+        for k, spec in keys.items():
+            where = f"{sec}.{k}"
+            if k not in table:
+                if spec.default is _REQUIRED:
+                    what = ("the operating point" if spec.kind == "value" else
+                            "a standard uncertainty (0 if negligible)")
+                    raise VolcalInputError(f"missing key: {what} [{spec.unit}] is required",
+                                           f, None, where)
+                if spec.default is not None:
+                    values[where] = spec.default
+                continue
+            v = table[k]
+            if spec.kind == "bool":
+                if not isinstance(v, bool):
+                    raise VolcalInputError(f"expected true or false, got {v!r}", f, None,
+                                           where)
+                values[where] = v
+            elif spec.kind == "choice":
+                if v not in FORMULAS:
+                    raise VolcalInputError(f"expected one of {', '.join(FORMULAS)}, got "
+                                           f"{v!r}", f, None, where)
+                values[where] = v
+            else:
+                x = _number(v, where, f, spec)
+                if spec.kind == "u" and x < 0:
+                    raise VolcalInputError(f"a standard uncertainty cannot be negative: {x:g}",
+                                           f, None, where)
+                if not spec.lo <= x <= spec.hi:
+                    raise _range_error(x, where, f, spec)
+                if spec.kind == "u":
+                    inputs[where] = Input(x, _dof(table, k, sec, f), _dist(table, k, sec, f))
+                else:
+                    values[where] = x
+    if values["material.temperature_c"] != 20.0 and values["material.referred_to_20c"]:
+        notes.append("readings already referred to 20 °C ([material] referred_to_20c = "
+                     "true): only the uncertainty of that correction is added")
+    for k in ("temperature_k", "pressure_pa", "humidity_pct"):
+        if f"air.change_{k}" not in inputs:
+            inputs[f"air.change_{k}"] = inputs[f"air.u_{k}"]
+            if values["setup.dead_path_mm"] > 0:
+                notes.append(f"[air] change_{k} not given: the air's change during the test "
+                             f"(dead path) taken as u_{k}")
+    return Budget(values, inputs, f, notes)
+
+
+def _dof(table: dict[str, Any], k: str, sec: str, f: str | None) -> float:
+    key = f"{k}_dof"
+    if key not in table:
+        return math.inf
+    v = table[key]
+    if v == "inf":
+        return math.inf
+    if isinstance(v, bool) or not isinstance(v, int | float) or not v >= 1:
+        raise VolcalInputError(f"degrees of freedom must be a number >= 1 or \"inf\", got "
+                               f"{v!r}", f, None, f"{sec}.{key}")
+    return float(v)
+
+
+def _dist(table: dict[str, Any], k: str, sec: str, f: str | None) -> str:
+    key = f"{k}_distribution"
+    v = table.get(key, "normal")
+    if v not in DISTRIBUTIONS:
+        raise VolcalInputError(f"expected one of {', '.join(DISTRIBUTIONS)}, got {v!r}", f,
+                               None, f"{sec}.{key}")
+    return str(v)
+
+
+def read_budget(path: str | Path) -> Budget:
+    """Read and validate a budget file.
+
+    Parameters
+    ----------
+    path : str or Path
+        TOML file (see :func:`template_text`).
+
+    Returns
+    -------
+    Budget
+
+    Raises
+    ------
+    VolcalInputError
+        Missing or unreadable file, invalid TOML, or any problem of :func:`parse_budget`.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise VolcalInputError("no such budget file", path) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise VolcalInputError(f"cannot read the budget file: {exc}", path) from None
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise VolcalInputError(f"invalid TOML: {exc}", path) from None
+    return parse_budget(doc, path)
+
+
+#: The template written by ``volcal budget --template``.
+TEMPLATE = """\
+# volcal uncertainty budget of a laser positioning measurement (docs/uncertainty.md).
+#
+# Every u_* is a STANDARD uncertainty (one standard deviation) in the unit of its key.
+# A data-sheet accuracy "+-a" of a rectangular distribution is u = a / sqrt(3).
+# Each u_* may carry <key>_dof = 10 (degrees of freedom, default "inf") and
+# <key>_distribution = "normal" | "rectangular" | "triangular" | "arcsine".
+#
+# DEFAULTS BELOW ARE TYPICAL DATA-SHEET VALUES, NOT YOUR INSTRUMENT'S: replace them by
+# the figures of your laser's and sensors' calibration certificates.
+
+[laser]
+# Typical data sheet: laser frequency (vacuum wavelength) accuracy +-0.05 ppm,
+# rectangular -> u = 0.05 / sqrt(3).
+u_wavelength_ppm = 0.029
+u_wavelength_ppm_distribution = "rectangular"
+wavelength_nm = 632.9912
+
+[air]
+# Operating point: the air during the test (sensitivities of the refractive index).
+temperature_c = 20.0
+pressure_pa = 101325.0
+humidity_pct = 50.0
+# Typical environment unit data sheet: air temperature +-0.2 K, pressure +-100 Pa
+# (1 hPa), humidity +-6 %RH, all rectangular.
+u_temperature_k = 0.12
+u_temperature_k_distribution = "rectangular"
+u_pressure_pa = 58.0
+u_pressure_pa_distribution = "rectangular"
+u_humidity_pct = 3.5
+u_humidity_pct_distribution = "rectangular"
+# The air's change during the test acts on the dead path only. Without these keys it is
+# taken as the sensors' u above. Standard uncertainties [K], [Pa], [%RH]:
+# change_temperature_k = 0.3
+# change_pressure_pa = 100.0
+# change_humidity_pct = 3.0
+formula = "ciddor"
+
+[material]
+# Temperature of the machine scale during the test and its expansion coefficient.
+# Readings not yet referred to 20 degC are corrected by volcal with these values
+# (L / (1 + alpha (t - 20))); set referred_to_20c = true when the laser software has
+# already applied that correction with the same values.
+temperature_c = 20.0
+# Typical material sensor data sheet: +-0.1 K, rectangular.
+u_temperature_k = 0.06
+u_temperature_k_distribution = "rectangular"
+# Steel (typical handbook value, ISO/TR 16015); coefficient known to +-1 ppm/K.
+expansion_ppm_per_k = 11.5
+u_expansion_ppm_per_k = 0.58
+u_expansion_ppm_per_k_distribution = "rectangular"
+referred_to_20c = false
+
+[setup]
+# Beam misalignment to the axis (cosine error, a one-sided bias): typical of a beam
+# aligned by eye on the target over 1 m, 0.1 mm -> 100 urad.
+u_misalignment_urad = 100.0
+# Distance from the laser to the reflector at the datum (where the reading was zeroed).
+dead_path_mm = 0.0
+# datum_mm = 0.0   # target where the laser was zeroed (default: the lowest target)
+"""
+
+
+def template_text() -> str:
+    """The documented budget template (``volcal budget --template``).
+
+    Returns
+    -------
+    str
+        TOML text with typical data-sheet defaults, stated as such.
+    """
+    return TEMPLATE

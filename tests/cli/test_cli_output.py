@@ -134,7 +134,7 @@ def test_classic_abbe_to_standard_output_and_two_files_refused(session, tmp_path
 @pytest.mark.parametrize("args, what", [
     (["program", "{S}", "--dialect", "fanuc", "-o", "-"], "the program is a folder"),
     (["compensate", "{M}", "--format", "fanuc", "-o", "-"], "the compensation is a folder"),
-    (["plan", "-o", "-"], "the planned session is a folder"),
+    (["plan", "-o", "-"], "the session is a folder"),
 ])
 def test_folder_outputs_refuse_standard_output(session, tmp_path, monkeypatch, args, what):
     monkeypatch.chdir(tmp_path)

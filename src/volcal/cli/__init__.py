@@ -14,6 +14,7 @@ from __future__ import annotations
 import importlib
 import pkgutil
 import sys
+import warnings
 from difflib import get_close_matches
 from typing import Any
 
@@ -54,8 +55,14 @@ COMMANDS: dict[str, tuple[str, str]] = {
 
 
 def version() -> str:
-    """The installed version of volcal (the package metadata; ``volcal.__version__`` if
-    the package is not installed)."""
+    """The installed version of volcal.
+
+    Returns
+    -------
+    str
+        ``importlib.metadata.version("volcal")``; ``volcal.__version__`` when the package
+        is not installed.
+    """
     from importlib.metadata import PackageNotFoundError
     from importlib.metadata import version as _version
 
@@ -176,8 +183,23 @@ def _err_console() -> Any:
     return Console(stderr=True, soft_wrap=True)
 
 
+def _show_warning(message: Any, category: type[Warning], filename: str, lineno: int,
+                  file: Any = None, line: str | None = None) -> None:
+    """Print volcal's own warnings as one plain line on stderr (others as Python does)."""
+    if category.__module__.startswith("volcal"):
+        from rich.markup import escape
+
+        _err_console().print(f"[yellow]warning:[/] {escape(str(message))}", highlight=False)
+    else:
+        _python_showwarning(message, category, filename, lineno, file, line)
+
+
+_python_showwarning = warnings.showwarning
+
+
 def main() -> None:
     """Entry point of the ``volcal`` console script."""
+    warnings.showwarning = _show_warning
     try:
         app()  # standalone mode: usage errors are reported by typer with exit code 2
     except VolcalInputError as exc:

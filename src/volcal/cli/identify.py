@@ -90,13 +90,15 @@ def identify_cmd(
                 "note": "noise part only (readings redrawn, same hyperparameters); the "
                         "analytic uncertainty adds the prior part",
             }
-    res.to_json(output)
+    res.to_json(output)  # MODEL.npz (covariance, readings) first, then MODEL.json
     f = res.fit
     console.print(f"{f['n_readings']} readings, {f['n_parameters']} parameters, "
                   f"residual {f['sigma_residual_um']:.3f} um ({f['method']})")
     for msg in res.report.messages:
         console.print(f"- {msg}", highlight=False, markup=False)
-    console.print(f"model -> {output}")
+    from volcal.identify.modelfile import binary_path
+
+    console.print(f"model -> {output} (+ {binary_path(output).name})")
 
 
 def _points_spec():
@@ -135,6 +137,7 @@ def predict_cmd(
 
     check_output_file(output)
     m = load_model(model)
+    m.require_uncertainty("volcal predict (its columns ux_um, uy_um, uz_um)", model)
     for d in check_model_file_session(model, session, force):
         console.print(f"[yellow]warning[/] --force: {d}", highlight=False)
     q = _read_points(points)

@@ -1,22 +1,28 @@
-"""The identified model: error functions with uncertainties, predictions, JSON file.
+"""The identified model: error functions with uncertainties, predictions, model file.
 
-Schema ``volcal-model/2`` (``docs/identification.md``); ``volcal-model/1`` files (no
-``session`` identity, untyped ``fit``) still load::
+The model file (``docs/formats.md``, "Model file") is written and read by
+:mod:`volcal.identify.modelfile`: format ``volcal-model/3`` is a small readable JSON
+(this module's :meth:`IdentificationResult.to_dict`) and a binary sidecar ``.npz`` with the
+large arrays (the covariance factor, the fitted values and residuals of every reading),
+bound to the JSON by its sha256. ``volcal-model/2`` and ``/1`` files (the factor as JSON
+text; ``/1`` without ``session`` identity and with an untyped ``fit``) still load::
 
-    {"format": "volcal-model/2", "name", "chain", "travel_mm": [[x0,x1],[y0,y1],[z0,z1]],
+    {"format": "volcal-model/3", "name", "chain", "travel_mm": [[x0,x1],[y0,y1],[z0,z1]],
      "session": {"name", "chain", "travel_mm", "readings_sha256", "n_readings",
                  "measurements"},
      "functions": {"X": {"position_mm": [...], "EXX_um": [...], "u_EXX_um": [...], ...,
                          "EAX_urad": [...], "u_EAX_urad": [...], ...}, "Y": ..., "Z": ...},
      "squareness_urad": {"EC0Y": v, ...}, "u_squareness_urad": {...},
-     "covariance": {"free_index": [...], "factor": [[...], ...]},
+     "covariance": {"free_index": [...], "parts": {"noise": "noise_factor"}},
      "identifiability": {...}, "fit": {...}, "nuisances": {...}, "outliers": [...],
-     "readings": {"<measurement id>": {"fitted_um": [...], "residual_um": [...]}}}
+     "readings": {"arrays": ["fitted_um", "residual_um"],
+                  "measurements": {"<measurement id>": [first, count], ...}},
+     "arrays": {"file": "MODEL.npz", "sha256", "bytes",
+                "members": {"noise_factor": {"shape": [n, r], "dtype": "<f8"}, ...}}}
 """
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -27,14 +33,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from volcal.errors import VolcalInputError
 from volcal.identify.record import Convergence, FitRecord, SessionIdentity
-from volcal.io.atomic import write_text
-from volcal.model.errorfunctions import MachineErrors
-from volcal.model.kinematics import pose_jacobian
+from volcal.model.errorfunctions import MachineErrors, interp_weights
+from volcal.model.kinematics import UM, URAD, pose_jacobian, volumetric_error
 from volcal.model.names import AXES, COMPONENTS, SQUARENESS_NAMES
 from volcal.model.parameters import ParameterLayout
 
-MODEL_FORMAT = "volcal-model/2"
-MODEL_FORMATS_READ = ("volcal-model/1", "volcal-model/2")
+MODEL_FORMAT = "volcal-model/3"
+MODEL_FORMATS_READ = ("volcal-model/1", "volcal-model/2", "volcal-model/3")
 """Model formats :meth:`IdentificationResult.from_dict` reads."""
 UNITS = ("um", "um", "um", "urad", "urad", "urad")
 
@@ -54,8 +59,11 @@ class IdentificationResult:
         Parameter layout of ``errors``.
     free : ndarray of int
         Layout indices of the estimated parameters (the others are gauge zeros or known).
-    cov_factor : ndarray, shape (len(free), r)
-        Factor ``L`` of the posterior covariance of the estimated parameters, ``L L^T``.
+    cov_factor : ndarray, shape (len(free), r), or None
+        Factor ``L`` of the posterior covariance of the estimated parameters, ``L L^T``
+        (the sum of the covariance parts, :attr:`covariance_parts`, side by side).
+        ``None`` for a model file whose binary part is missing or does not match: see
+        :attr:`uncertainty_missing`.
     std : list of 3 ndarray, shape (n_k, 6)
         Standard uncertainty of each node value [um, urad].
     squareness_std : ndarray, shape (3,)
@@ -77,13 +85,22 @@ class IdentificationResult:
         travel, hash of the readings); ``None`` for models of format ``volcal-model/1``.
     format : str
         Model format the result was read from (or will be written as).
+    covariance_parts : dict of str to ndarray
+        The covariance factor by part (``"noise"``: the posterior of the reading noise and
+        the prior; later issues add e.g. ``"systematic"``); the covariance is the sum of
+        ``F F^T`` over the parts. Empty means the single part ``"noise"`` = ``cov_factor``.
+    uncertainty_missing : str or None
+        Why the model has no uncertainty (its binary part missing or not matching), or
+        ``None``. :meth:`predict`, :meth:`function_std` and
+        :meth:`require_uncertainty` then raise :class:`~volcal.errors.VolcalInputError`
+        with this reason.
     """
 
     name: str
     errors: MachineErrors
     layout: ParameterLayout
     free: NDArray[np.intp]
-    cov_factor: NDArray[np.float64]
+    cov_factor: NDArray[np.float64] | None
     std: list[NDArray[np.float64]]
     squareness_std: NDArray[np.float64]
     report: Any
@@ -96,6 +113,9 @@ class IdentificationResult:
     solution: Any = field(default=None, repr=False)
     session: SessionIdentity | None = None
     format: str = MODEL_FORMAT
+    covariance_parts: dict[str, NDArray[np.float64]] = field(default_factory=dict,
+                                                             repr=False)
+    uncertainty_missing: str | None = None
 
     def __post_init__(self) -> None:
         """Convert an untyped fit dictionary into a :class:`FitRecord`."""
@@ -148,6 +168,32 @@ class IdentificationResult:
         """Full parameter vector of the estimate."""
         return self.layout.pack(self.errors)
 
+    @property
+    def has_uncertainty(self) -> bool:
+        """True when the covariance factor is there (see :attr:`uncertainty_missing`)."""
+        return self.cov_factor is not None
+
+    def require_uncertainty(self, what: str = "this", source: str | Path | None = None
+                            ) -> None:
+        """Refuse a model without its uncertainty.
+
+        Parameters
+        ----------
+        what : str
+            What needs the uncertainty, named in the message (``"predict"``, ``"the
+            report's uncertainty bands"``).
+        source : str or Path, optional
+            Model file named in the message.
+
+        Raises
+        ------
+        VolcalInputError
+            If the model has no covariance factor (:attr:`uncertainty_missing` says why).
+        """
+        if self.cov_factor is None:
+            why = self.uncertainty_missing or "the model carries no covariance"
+            raise VolcalInputError(f"{what} needs the model's uncertainty, and {why}", source)
+
     def predict(self, q: ArrayLike, tool_offset: ArrayLike | None = None, chunk: int = 20000,
                 rigid_removed: bool = False):
         """Volumetric error and its standard uncertainty at points.
@@ -159,7 +205,8 @@ class IdentificationResult:
         tool_offset : array_like, shape (3,), optional
             Tool offset [mm].
         chunk : int
-            Points per block (memory bound).
+            Points per block at most (memory bound; smaller blocks are taken when the
+            covariance factor is wide).
         rigid_removed : bool
             Remove the best-fit rigid-body motion over the points ``q`` from the error field
             and from its uncertainty (ISO 230-1 volumetric comparisons; relative laser
@@ -172,26 +219,74 @@ class IdentificationResult:
             Actual minus commanded tool point position, machine axes [um].
         u : ndarray, shape (m, 3)
             Standard uncertainties [um].
+
+        Raises
+        ------
+        VolcalInputError
+            If the model has no uncertainty (:attr:`uncertainty_missing`).
         """
+        self.require_uncertainty("predict")
         q = np.asarray(q, dtype=float).reshape(-1, 3)
-        theta = self.theta
-        order = self.errors.chain_obj.order
         if rigid_removed:
             from volcal.identify.identifiability import rigid_projector
 
+            theta = self.theta
+            order = self.errors.chain_obj.order
             Je, _ = pose_jacobian(order, self.layout.nodes, q, tool_offset)
             R = rigid_projector(q)
             e = (R @ (Je @ theta)).reshape(-1, 3)
             GL = R @ np.asarray(Je[:, self.free] @ self.cov_factor)
             return e, np.sqrt(np.sum(GL**2, axis=1)).reshape(-1, 3)
-        es, us = [], []
-        for i in range(0, q.shape[0], chunk):
-            qq = q[i:i + chunk]
-            Je, _ = pose_jacobian(order, self.layout.nodes, qq, tool_offset)
-            es.append((Je @ theta).reshape(-1, 3))
-            GL = Je[:, self.free] @ self.cov_factor
-            us.append(np.sqrt(np.sum(np.asarray(GL) ** 2, axis=1)).reshape(-1, 3))
-        return np.concatenate(es), np.concatenate(us)
+        t = np.zeros(3) if tool_offset is None else np.asarray(tool_offset, dtype=float)
+        t = np.broadcast_to(t, q.shape) if t.ndim == 1 else t.reshape(-1, 3)
+        e = volumetric_error(self.errors, q, t)
+        L = self._full_factor()
+        step = max(1, min(int(chunk), 4_000_000 // (6 * max(L.shape[1], 1))))
+        u = np.empty_like(e)
+        for i in range(0, q.shape[0], step):
+            G = self._error_factor(L, q[i:i + step], t[i:i + step])
+            u[i:i + step] = np.sqrt(np.einsum("mcr,mcr->mc", G, G))
+        return e, u
+
+    def _full_factor(self) -> NDArray[np.float64]:
+        """The covariance factor on every layout parameter (zero rows where not free)."""
+        assert self.cov_factor is not None
+        L = np.zeros((self.layout.size, self.cov_factor.shape[1]))
+        L[self.free] = self.cov_factor
+        return L
+
+    def _error_factor(self, L: NDArray[np.float64], q: NDArray[np.float64],
+                      t: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Factor of the volumetric error's covariance at points, shape (m, 3, r) [um].
+
+        The first-order volumetric error (:func:`volcal.model.kinematics.first_order_pose`)
+        is linear in the node values; applied to the columns of the parameters' factor
+        ``L`` instead of their values it gives ``J L`` without forming the Jacobian ``J``
+        (numpy only: ``volcal predict`` does not import scipy).
+        """
+        m, r = q.shape[0], L.shape[1]
+        starts = self.layout.starts
+        order = self.errors.chain_obj.order
+        s = URAD / UM
+        G = np.zeros((m, 3, r))
+        for i, k in enumerate(order):
+            block = L[starts[k]:starts[k + 1]].reshape(-1, 6, r)
+            if block.shape[0] == 1:
+                comp = np.broadcast_to(block[0], (m, 6, r))
+            else:
+                i0, i1, w = interp_weights(self.layout.nodes[k], q[:, k])
+                comp = block[i0] * (1.0 - w)[:, None, None] + block[i1] * w[:, None, None]
+            down = order[i + 1:]
+            lev = [(t[:, a] + q[:, a] if a in down else t[:, a])[:, None] * s
+                   for a in range(3)]
+            ea, eb, ec = comp[:, 3], comp[:, 4], comp[:, 5]
+            G[:, 0] += comp[:, 0] + eb * lev[2] - ec * lev[1]
+            G[:, 1] += comp[:, 1] + ec * lev[0] - ea * lev[2]
+            G[:, 2] += comp[:, 2] + ea * lev[1] - eb * lev[0]
+        c0y, b0z, a0z = L[self.layout.squareness_indices()]
+        G[:, 0] += (-q[:, 1, None] * c0y + q[:, 2, None] * b0z) * s
+        G[:, 1] += (-q[:, 2, None] * a0z) * s
+        return G
 
     def function_std(self, name: str, q: ArrayLike) -> NDArray[np.float64]:
         """Standard uncertainty of one named function at positions [um or urad].
@@ -203,9 +298,10 @@ class IdentificationResult:
         q : array_like
             Positions of that axis [mm].
         """
-        from volcal.model.errorfunctions import interp_weights
         from volcal.model.names import COMPONENT_NAMES
 
+        self.require_uncertainty(f"the uncertainty of {name}")
+        assert self.cov_factor is not None
         name = name.upper()
         q = np.asarray(q, dtype=float).reshape(-1)
         pos = -np.ones(self.layout.size, dtype=np.intp)
@@ -224,8 +320,62 @@ class IdentificationResult:
         return np.linalg.norm(L, axis=1)
 
     # ------------------------------------------------------------------ file
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready dictionary (schema ``volcal-model/2``)."""
+    def binary_arrays(self) -> tuple[dict[str, NDArray[np.float64]], dict[str, list[int]]]:
+        """The arrays of the model file's binary part and the readings' index.
+
+        Returns
+        -------
+        arrays : dict of str to ndarray
+            ``<part>_factor`` for each covariance part (``noise_factor``: shape
+            (len(free), r)), ``fitted_um`` and ``residual_um``: the readings of every
+            measurement one after another [um].
+        index : dict of str to [first, count]
+            Where each measurement's readings are in ``fitted_um`` and ``residual_um``.
+
+        Raises
+        ------
+        VolcalInputError
+            If the model has no covariance (loaded without its binary part).
+        """
+        self.require_uncertainty("writing the model file")
+        parts = self.covariance_parts or {"noise": self.cov_factor}
+        arrays: dict[str, NDArray[np.float64]] = {
+            f"{name}_factor": np.ascontiguousarray(f, dtype=np.float64)
+            for name, f in parts.items()}
+        index: dict[str, list[int]] = {}
+        fitted, resid = [], []
+        first = 0
+        for mid in self.fitted:
+            if mid not in self.residuals:
+                continue
+            n = int(np.asarray(self.fitted[mid]).size)
+            index[mid] = [first, n]
+            fitted.append(np.asarray(self.fitted[mid], dtype=np.float64).reshape(-1))
+            resid.append(np.asarray(self.residuals[mid], dtype=np.float64).reshape(-1))
+            first += n
+        arrays["fitted_um"] = np.concatenate(fitted) if fitted else np.zeros(0)
+        arrays["residual_um"] = np.concatenate(resid) if resid else np.zeros(0)
+        return arrays, index
+
+    def to_dict(self, arrays: dict[str, Any] | None = None,
+                readings: dict[str, list[int]] | None = None) -> dict[str, Any]:
+        """The JSON part of the model file (schema ``volcal-model/3``).
+
+        Parameters
+        ----------
+        arrays : dict, optional
+            The ``arrays`` block naming the binary part (file, sha256, bytes, members),
+            as :func:`volcal.identify.modelfile.write_model` makes it; left out if None
+            (a dictionary without it loads without uncertainty).
+        readings : dict of str to [first, count], optional
+            Index of the readings in the binary part (:meth:`binary_arrays`).
+
+        Returns
+        -------
+        dict
+            JSON-ready: positions [mm], translations [um], rotations and squareness
+            [urad], rounded to 7 significant digits.
+        """
         funcs = {}
         for k in range(3):
             d: dict[str, Any] = {"position_mm": _r(self.layout.nodes[k])}
@@ -235,7 +385,8 @@ class IdentificationResult:
                 d["u_" + nm] = _r(self.std[k][:, c])
             funcs[AXES[k]] = d
         rep = self.report.to_dict() if hasattr(self.report, "to_dict") else self.report
-        return {
+        parts = self.covariance_parts or {"noise": None}
+        doc: dict[str, Any] = {
             "format": MODEL_FORMAT,
             "name": self.name,
             "session": None if self.session is None else self.session.to_dict(),
@@ -245,40 +396,57 @@ class IdentificationResult:
             "squareness_urad": dict(zip(SQUARENESS_NAMES, _r(self.errors.squareness), strict=True)),
             "u_squareness_urad": dict(zip(SQUARENESS_NAMES, _r(self.squareness_std), strict=True)),
             "covariance": {"free_index": [int(i) for i in self.free],
-                           "factor": [_r(row) for row in self.cov_factor]},
+                           "parts": {name: f"{name}_factor" for name in parts}},
             "identifiability": rep,
             "fit": self.fit.to_dict(),
             "nuisances": {k: {"value": _f(v[0]), "u": _f(v[1])} for k, v in self.nuisances.items()},
             "outliers": self.outliers,
-            "readings": {mid: {"fitted_um": _r(self.fitted[mid]),
-                               "residual_um": _r(self.residuals[mid])}
-                         for mid in self.fitted if mid in self.residuals},
+            "readings": {"arrays": ["fitted_um", "residual_um"],
+                         "measurements": dict(readings or {})},
         }
+        if arrays is not None:
+            doc["arrays"] = arrays
+        return doc
 
     def to_json(self, path: str | Path) -> Path:
-        """Write the model file atomically.
+        """Write the model file atomically: ``MODEL.npz`` first, then ``MODEL.json``.
 
         Parameters
         ----------
         path : str or Path
-            Output file (``MODEL.json``).
+            Output file (``MODEL.json``); the binary part is written beside it with the
+            suffix ``.npz`` (:func:`volcal.identify.modelfile.write_model`).
+
+        Returns
+        -------
+        Path
+            The JSON file.
         """
-        path = Path(path)
-        write_text(path, json.dumps(self.to_dict(), indent=1, allow_nan=False) + "\n")
-        return path
+        from volcal.identify.modelfile import write_model
+
+        return write_model(self, path)
 
     @classmethod
-    def from_dict(cls, doc: dict[str, Any], source: str = "model") -> IdentificationResult:
-        """Rebuild a result from its JSON dictionary (no residuals or design).
+    def from_dict(cls, doc: dict[str, Any], source: str = "model",
+                  arrays: dict[str, NDArray[np.float64]] | None = None,
+                  missing: str | None = None) -> IdentificationResult:
+        """Rebuild a result from its JSON dictionary (no design).
 
         Parameters
         ----------
         doc : dict
-            Parsed model file as written by :meth:`to_dict` (format ``volcal-model/2``,
-            or the older ``volcal-model/1``): positions [mm], translations [um], rotations
-            and squareness [urad].
+            Parsed model file as written by :meth:`to_dict` (format ``volcal-model/3``,
+            or the older ``volcal-model/2`` and ``/1`` with the factor in the JSON):
+            positions [mm], translations [um], rotations and squareness [urad].
         source : str
             Name of the file the dictionary came from, used in error messages.
+        arrays : dict of str to ndarray, optional
+            Format 3: the arrays of the binary part, checked against its digest
+            (:func:`volcal.identify.modelfile.load_model`). Without them the result has no
+            uncertainty, no fitted values and no residuals.
+        missing : str, optional
+            Format 3 without ``arrays``: why they are missing (kept as
+            :attr:`uncertainty_missing`).
 
         Returns
         -------
@@ -304,7 +472,13 @@ class IdentificationResult:
             errors = MachineErrors(doc["chain"], nodes, values, sq, name=doc.get("name", "model"))
             layout = ParameterLayout(tuple(nodes))
             free = np.array(doc["covariance"]["free_index"], dtype=np.intp)
-            fac = np.array(doc["covariance"]["factor"], dtype=float).reshape(free.size, -1)
+            if fmt == MODEL_FORMAT:
+                part_names = dict(doc["covariance"]["parts"])
+                if not part_names or not all(isinstance(v, str) for v in part_names.values()):
+                    raise ValueError("covariance.parts: expected part names -> array names")
+            else:
+                part_names = {}
+                fac = np.array(doc["covariance"]["factor"], dtype=float).reshape(free.size, -1)
         except VolcalInputError:
             raise
         except (KeyError, TypeError, ValueError, IndexError) as exc:
@@ -316,12 +490,39 @@ class IdentificationResult:
             raise VolcalInputError("invalid 'nuisances' section", source, None,
                                    "nuisances") from None
         readings = doc.get("readings", {})
+        fitted: dict[str, NDArray[np.float64]] = {}
+        resid: dict[str, NDArray[np.float64]] = {}
+        parts: dict[str, NDArray[np.float64]] = {}
         try:
-            fitted = {k: np.array(v["fitted_um"], dtype=float) for k, v in readings.items()}
-            resid = {k: np.array(v["residual_um"], dtype=float) for k, v in readings.items()}
+            if fmt != MODEL_FORMAT:
+                fitted = {k: np.array(v["fitted_um"], dtype=float) for k, v in readings.items()}
+                resid = {k: np.array(v["residual_um"], dtype=float) for k, v in readings.items()}
+            elif arrays is not None:
+                fa, ra = arrays["fitted_um"], arrays["residual_um"]
+                for mid, (first, count) in readings["measurements"].items():
+                    if first < 0 or count < 0 or first + count > fa.size:
+                        raise ValueError(f"{mid}: [{first}, {count}] outside the arrays")
+                    fitted[mid] = fa[first:first + count]
+                    resid[mid] = ra[first:first + count]
         except (KeyError, TypeError, ValueError, AttributeError):
             raise VolcalInputError("invalid 'readings' section", source, None,
                                    "readings") from None
+        if fmt == MODEL_FORMAT:
+            fac = None
+            if arrays is not None:
+                for name, member in part_names.items():
+                    f = arrays.get(member)
+                    if f is None or f.ndim != 2 or f.shape[0] != free.size:
+                        raise VolcalInputError(
+                            f"covariance part {name!r}: array {member!r} missing or not of "
+                            f"{free.size} rows", source, None, "covariance")
+                    parts[name] = f
+                fac = (next(iter(parts.values())) if len(parts) == 1
+                       else np.hstack(list(parts.values())))
+            else:
+                missing = missing or "the model carries no binary part"
+                std = [np.full_like(s, np.nan) for s in std]
+                usq = np.full_like(usq, np.nan)
         fit_doc = doc.get("fit", {})
         if not isinstance(fit_doc, dict):
             raise VolcalInputError("invalid 'fit' section (expected a table)", source, None,
@@ -329,6 +530,8 @@ class IdentificationResult:
         fit = FitRecord.from_dict(fit_doc, source)
         if fit.sigma_um is None:
             fit.notes.append("the model file gives no reading noise (fit.sigma_um)")
+        if fac is None:
+            fit.notes.append(f"no uncertainty: {missing}")
         ident = SessionIdentity.from_dict(doc.get("session"), source)
         outliers = doc.get("outliers", [])
         if not isinstance(outliers, list):
@@ -336,7 +539,9 @@ class IdentificationResult:
                                    None, "outliers")
         return cls(doc.get("name", "model"), errors, layout, free, fac, std, usq,
                    doc.get("identifiability", {}), fit, resid, fitted,
-                   nuisances=nuis, outliers=outliers, session=ident, format=str(fmt))
+                   nuisances=nuis, outliers=outliers, session=ident, format=str(fmt),
+                   covariance_parts=parts,
+                   uncertainty_missing=None if fac is not None else missing)
 
 
 def _f(v: float) -> float | None:

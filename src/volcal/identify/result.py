@@ -241,11 +241,14 @@ class IdentificationResult:
         t = np.broadcast_to(t, q.shape) if t.ndim == 1 else t.reshape(-1, 3)
         e = volumetric_error(self.errors, q, t)
         L = self._full_factor()
-        step = max(1, min(int(chunk), 4_000_000 // (6 * max(L.shape[1], 1))))
+        step = max(1, min(int(chunk), 2_000_000 // max(L.shape[1], 1)))
         u = np.empty_like(e)
         for i in range(0, q.shape[0], step):
-            G = self._error_factor(L, q[i:i + step], t[i:i + step])
-            u[i:i + step] = np.sqrt(np.einsum("mcr,mcr->mc", G, G))
+            for c, terms in enumerate(self._error_rows(q[i:i + step], t[i:i + step])):
+                G = np.zeros((terms[0][1].size, L.shape[1]))
+                for cols, vals in terms:
+                    G += vals[:, None] * L[cols]
+                u[i:i + step, c] = np.sqrt(np.einsum("mr,mr->m", G, G))
         return e, u
 
     def _full_factor(self) -> NDArray[np.float64]:
@@ -255,38 +258,38 @@ class IdentificationResult:
         L[self.free] = self.cov_factor
         return L
 
-    def _error_factor(self, L: NDArray[np.float64], q: NDArray[np.float64],
-                      t: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Factor of the volumetric error's covariance at points, shape (m, 3, r) [um].
+    def _error_rows(self, q: NDArray[np.float64], t: NDArray[np.float64]
+                    ) -> list[list[tuple[NDArray[np.intp], NDArray[np.float64]]]]:
+        """The first-order Jacobian of the volumetric error, row by row, as (column, value).
 
-        The first-order volumetric error (:func:`volcal.model.kinematics.first_order_pose`)
-        is linear in the node values; applied to the columns of the parameters' factor
-        ``L`` instead of their values it gives ``J L`` without forming the Jacobian ``J``
-        (numpy only: ``volcal predict`` does not import scipy).
+        For each error component x, y, z: a list of ``(cols, vals)`` pairs, each one entry
+        per point, whose sum over the list is that component's row of the Jacobian
+        :func:`volcal.model.kinematics.pose_jacobian` (2 nodes x (1 translation + 2
+        rotations) per axis, plus the squareness): ``J L`` is then a sum of scaled rows of
+        the factor ``L``, without scipy (``volcal predict`` does not import it) and without
+        forming ``J``.
         """
-        m, r = q.shape[0], L.shape[1]
+        m = q.shape[0]
         starts = self.layout.starts
         order = self.errors.chain_obj.order
         s = URAD / UM
-        G = np.zeros((m, 3, r))
+        rows: list[list[tuple[NDArray[np.intp], NDArray[np.float64]]]] = [[], [], []]
         for i, k in enumerate(order):
-            block = L[starts[k]:starts[k + 1]].reshape(-1, 6, r)
-            if block.shape[0] == 1:
-                comp = np.broadcast_to(block[0], (m, 6, r))
-            else:
-                i0, i1, w = interp_weights(self.layout.nodes[k], q[:, k])
-                comp = block[i0] * (1.0 - w)[:, None, None] + block[i1] * w[:, None, None]
             down = order[i + 1:]
-            lev = [(t[:, a] + q[:, a] if a in down else t[:, a])[:, None] * s
-                   for a in range(3)]
-            ea, eb, ec = comp[:, 3], comp[:, 4], comp[:, 5]
-            G[:, 0] += comp[:, 0] + eb * lev[2] - ec * lev[1]
-            G[:, 1] += comp[:, 1] + ec * lev[0] - ea * lev[2]
-            G[:, 2] += comp[:, 2] + ea * lev[1] - eb * lev[0]
-        c0y, b0z, a0z = L[self.layout.squareness_indices()]
-        G[:, 0] += (-q[:, 1, None] * c0y + q[:, 2, None] * b0z) * s
-        G[:, 1] += (-q[:, 2, None] * a0z) * s
-        return G
+            lev = [(t[:, a] + q[:, a] if a in down else t[:, a]) * s for a in range(3)]
+            i0, i1, w = interp_weights(self.layout.nodes[k], q[:, k])
+            for idx, wt in ((i0, 1.0 - w), (i1, w)):
+                b = starts[k] + 6 * idx
+                for c in range(3):
+                    rows[c].append((b + c, wt))
+                # eps x L: e_x += eb L_z - ec L_y, e_y += ec L_x - ea L_z, e_z += ea L_y - eb L_x
+                rows[0] += [(b + 4, wt * lev[2]), (b + 5, -wt * lev[1])]
+                rows[1] += [(b + 5, wt * lev[0]), (b + 3, -wt * lev[2])]
+                rows[2] += [(b + 3, wt * lev[1]), (b + 4, -wt * lev[0])]
+        sq = self.layout.squareness_indices()
+        rows[0] += [(np.full(m, sq[0]), -q[:, 1] * s), (np.full(m, sq[1]), q[:, 2] * s)]
+        rows[1] += [(np.full(m, sq[2]), -q[:, 2] * s)]
+        return rows
 
     def function_std(self, name: str, q: ArrayLike) -> NDArray[np.float64]:
         """Standard uncertainty of one named function at positions [um or urad].

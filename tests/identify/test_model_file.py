@@ -226,3 +226,15 @@ def test_cli_without_the_binary_part(session_and_model, tmp_path):
     e, u = m.predict([[150.0, 100.0, 50.0]])
     np.testing.assert_allclose([float(v) for v in rows[2].split(",")[3:]],
                                np.concatenate([e[0], u[0]]), atol=6e-5)
+
+
+def test_identify_refuses_outputs_it_cannot_write_before_working(session_and_model, tmp_path):
+    root = session_and_model
+    (tmp_path / "m.npz").mkdir()  # where the binary part would go
+    out = volcal("identify", root / "S", "-o", tmp_path / "m.json")
+    assert out.returncode == 2 and "Traceback" not in out.stderr
+    assert "m.npz: is a folder" in " ".join(out.stderr.split())
+    assert not (tmp_path / "m.json").exists()
+    out = volcal("identify", root / "S", "-o", tmp_path / "x.npz")
+    assert out.returncode == 2
+    assert ".npz is the name of its binary part" in " ".join(out.stderr.split())

@@ -42,10 +42,12 @@ def identify_cmd(
 ) -> None:
     """Identify the machine's errors from the session; write MODEL.json."""
     from volcal.identify import IdentifyOptions, identify
+    from volcal.identify.modelfile import binary_path
     from volcal.io.paths import check_output_file
     from volcal.session.format import read_session
 
     check_output_file(output)
+    check_output_file(binary_path(output))  # MODEL.npz, written beside it
     if noise_um is not None and not (np.isfinite(noise_um) and noise_um > 0):
         raise VolcalInputError(f"--noise-um {noise_um}: expected a positive repeatability [um]")
     if known_u is not None and known is None:
@@ -96,8 +98,6 @@ def identify_cmd(
                   f"residual {f['sigma_residual_um']:.3f} um ({f['method']})")
     for msg in res.report.messages:
         console.print(f"- {msg}", highlight=False, markup=False)
-    from volcal.identify.modelfile import binary_path
-
     console.print(f"model -> {output} (+ {binary_path(output).name})")
 
 

@@ -341,7 +341,9 @@ class IdentificationResult:
             If the model has no covariance (loaded without its binary part).
         """
         self.require_uncertainty("writing the model file")
-        parts = self.covariance_parts or {"noise": self.cov_factor}
+        parts = dict(self.covariance_parts) or {"noise": self.cov_factor}
+        if len(parts) == 1:  # one part: the factor itself (it may have been replaced)
+            parts = {next(iter(parts)): self.cov_factor}
         arrays: dict[str, NDArray[np.float64]] = {
             f"{name}_factor": np.ascontiguousarray(f, dtype=np.float64)
             for name, f in parts.items()}

@@ -167,10 +167,15 @@ def _read_binary(path: Path, doc: dict[str, Any]) -> tuple[dict[str, np.ndarray]
             arrays = {k: npz[k] for k in npz.files}
     except (ValueError, OSError, zipfile.BadZipFile, EOFError) as exc:
         return None, f"its binary part {bin_path} cannot be read ({exc})"
-    for k, meta in dict(block.get("members", {})).items():
+    members = block.get("members", {})
+    if not isinstance(members, dict):
+        return None, "the JSON's 'arrays.members' is not a table"
+    for k, meta in members.items():
         a = arrays.get(k)
-        if a is None or list(a.shape) != list(meta.get("shape", [])):
-            return None, f"its binary part {bin_path} lacks the array {k!r} the JSON names"
+        shape = meta.get("shape") if isinstance(meta, dict) else None
+        if a is None or not isinstance(shape, list) or list(a.shape) != shape:
+            return None, (f"its binary part {bin_path} lacks the array {k!r} of the shape "
+                          "the JSON names")
     return arrays, ""
 
 

@@ -153,6 +153,16 @@ def test_missing_or_foreign_binary_part_loads_without_uncertainty(v3, damage, re
         m.to_json(v3.parent / "copy.json")
 
 
+def test_a_json_that_names_no_binary_part_loads_without_uncertainty(v3):
+    doc = json.loads(v3.read_text())
+    del doc["arrays"]
+    v3.write_text(json.dumps(doc))
+    with pytest.warns(ModelFileWarning, match="names no binary part"):
+        m = load_model(v3)
+    assert not m.has_uncertainty
+    assert "names no binary part" in m.summary()
+
+
 def test_the_binary_part_is_written_first_and_both_atomically(v2, v3, monkeypatch):
     import volcal.io.atomic as atomic
 

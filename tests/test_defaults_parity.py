@@ -27,7 +27,9 @@ REQUIRED = "<required>"
 
 
 def _cli_callback(path: str) -> Callable[..., Any]:
-    from volcal.cli import app
+    from volcal.cli import full_app
+
+    app = full_app()  # volcal.cli.app registers its commands lazily
 
     parts = path.split()
     if len(parts) == 1:

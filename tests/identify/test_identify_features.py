@@ -117,7 +117,7 @@ def test_model_file_round_trip(noisy, tmp_path):
     np.testing.assert_allclose(e2, e1, atol=1e-4)
     np.testing.assert_allclose(u2, u1, rtol=1e-4, atol=1e-5)
     doc = json.loads(path.read_text())
-    assert doc["format"] == "volcal-model/2" and doc["chain"] == "XYFZ"
+    assert doc["format"] == "volcal-model/3" and doc["chain"] == "XYFZ"
     assert {"EXX_um", "u_EXX_um", "EAX_urad"} <= set(doc["functions"]["X"])
     assert doc["identifiability"]["messages"] == r.report.messages
     for mid, fit in r.fitted.items():  # per-reading fit kept for the report's plots

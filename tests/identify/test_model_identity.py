@@ -65,7 +65,7 @@ def test_fresh_and_loaded_have_one_shape(small):
     root, s, r = small
     loaded = load_model(root / "model.json")
     assert isinstance(r.fit, FitRecord) and isinstance(loaded.fit, FitRecord)
-    assert loaded.format == MODEL_FORMAT == "volcal-model/2"
+    assert loaded.format == MODEL_FORMAT == "volcal-model/3"
     assert loaded.session == r.session == session_identity(s)
     assert loaded.session.name == "MILL-A" and loaded.session.chain == "XYFZ"
     assert loaded.fit.n_readings == r.fit.n_readings == sum(m.deviation.size

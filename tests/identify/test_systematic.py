@@ -72,13 +72,20 @@ def test_model_file_keeps_the_parts_apart(fitted, tmp_path):
     assert r.sys_labels[0] == "laser wavelength" and "material, X" in r.sys_labels
     assert sum(lab.startswith("air, ") for lab in r.sys_labels) == len(
         [m for m in r.design.measurements])
-    loaded = IdentificationResult.from_dict(r.to_dict())
-    assert loaded.sys_labels == r.sys_labels and loaded.sys_source == "b.toml"
+    from volcal.identify.modelfile import load_model
+
     q = np.array([[800.0, 600.0, 500.0], [400.0, 300.0, 250.0]])
     _, ut = r.predict(q)
     _, un = r.predict(q, systematic=False)
-    _, ul = loaded.predict(q)
-    assert ul == pytest.approx(ut, rel=1e-5)
+    # the model file (JSON + MODEL.npz with noise_factor and systematic_factor) and the
+    # single-file format 2 of `identify -o -`
+    for loaded in (load_model(r.to_json(tmp_path / "m.json")),
+                   IdentificationResult.from_dict(r.to_single_file_dict())):
+        assert loaded.sys_labels == r.sys_labels and loaded.sys_source == "b.toml"
+        _, ul = loaded.predict(q)
+        assert ul == pytest.approx(ut, rel=1e-5)
+    with np.load(tmp_path / "m.npz") as z:
+        assert z["systematic_factor"].shape == (r.free.size, len(r.sys_labels))
     assert np.all(ut >= un) and np.any(ut > un * 1.001)
     # without a budget the model file has no systematic section and nothing changes
     r.sys_factor = None

@@ -54,12 +54,14 @@ def identify_cmd(
 ) -> None:
     """Identify the machine's errors from the session; write MODEL.json."""
     from volcal.identify import IdentifyOptions, identify
+    from volcal.identify.modelfile import binary_path
     from volcal.io.paths import check_output_file
     from volcal.session.format import read_session
 
     console = message_console(output)  # stderr when the model goes to stdout
     if not is_stdout(output):
         check_output_file(output)
+        check_output_file(binary_path(output))  # MODEL.npz, written beside it
     if noise_um is not None and not (np.isfinite(noise_um) and noise_um > 0):
         raise VolcalInputError(f"--noise-um {noise_um}: expected a positive repeatability [um]")
     if known_u is not None and known is None:
@@ -113,12 +115,13 @@ def identify_cmd(
             from volcal.identify.systematic import attach_systematic
 
             attach_systematic(res, b, str(budget))
-    if is_stdout(output):
+    if is_stdout(output):  # one file on standard output: format 2, everything as text
         import json
 
-        write_output(output, json.dumps(res.to_dict(), indent=1, allow_nan=False) + "\n")
+        write_output(output, json.dumps(res.to_single_file_dict(), indent=1,
+                                        allow_nan=False) + "\n")
     else:
-        res.to_json(output)
+        res.to_json(output)  # MODEL.npz (covariance, readings) first, then MODEL.json
     f = res.fit
     console.print(f"{f['n_readings']} readings, {f['n_parameters']} parameters, "
                   f"residual {f['sigma_residual_um']:.3f} um ({f['method']})")
@@ -135,7 +138,8 @@ def identify_cmd(
                       f"and prior {un.max():.3f} um, systematic (budget: "
                       f"{len(res.sys_labels)} inputs) {us.max():.3f} um, both "
                       f"{ut.max():.3f} um", highlight=False)
-    console.print("model -> " + ("standard output" if is_stdout(output) else str(output)),
+    console.print("model -> " + ("standard output" if is_stdout(output)
+                                 else f"{output} (+ {binary_path(output).name})"),
                   highlight=False)
 
 
@@ -177,6 +181,7 @@ def predict_cmd(
     if not is_stdout(output):
         check_output_file(output)
     m = load_model(model)
+    m.require_uncertainty("volcal predict (its columns ux_um, uy_um, uz_um)", model)
     for d in check_model_file_session(model, session, force):
         console.print(f"[yellow]warning[/] --force: {d}", highlight=False)
     q = _read_points(points)

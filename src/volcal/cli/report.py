@@ -87,6 +87,8 @@ def report_cmd(
         from volcal.identify.modelfile import check_model_session, load_model
 
         result = load_model(model)
+        result.require_uncertainty("the report (the uncertainty bands of the error functions "
+                                   "and of the volumetric error)", model)
         for d in check_model_session(result, s, force, model):
             console.print(f"[yellow]warning[/] --force: {d}", highlight=False)
     else:

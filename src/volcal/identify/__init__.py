@@ -2,18 +2,37 @@
 
 ``identify(session)`` returns an :class:`IdentificationResult` with the error functions,
 their uncertainties, an identifiability report in plain words and fit statistics.
+The names are imported on first use (PEP 562): ``load_model`` does not import the
+estimator (scipy), so reading a model file stays fast.
 """
 
-from volcal.identify.api import IdentifyOptions, advise, identify, monte_carlo
-from volcal.identify.modelfile import load_model, load_model_errors
-from volcal.identify.result import IdentificationResult
+from __future__ import annotations
 
-__all__ = [
-    "IdentificationResult",
-    "IdentifyOptions",
-    "advise",
-    "identify",
-    "load_model",
-    "load_model_errors",
-    "monte_carlo",
-]
+from importlib import import_module
+from typing import Any
+
+_LAZY = {
+    "IdentificationResult": "volcal.identify.result",
+    "IdentifyOptions": "volcal.identify.api",
+    "advise": "volcal.identify.api",
+    "identify": "volcal.identify.api",
+    "load_model": "volcal.identify.modelfile",
+    "load_model_errors": "volcal.identify.modelfile",
+    "monte_carlo": "volcal.identify.api",
+}
+
+__all__ = sorted(_LAZY)
+
+
+def __getattr__(name: str) -> Any:
+    """Import the public names on first use (PEP 562)."""
+    if name in _LAZY:
+        value = getattr(import_module(_LAZY[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'volcal.identify' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    """Public names, including the lazily imported ones."""
+    return sorted(set(globals()) | set(_LAZY))

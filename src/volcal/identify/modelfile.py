@@ -1,25 +1,182 @@
-"""Model files: read them (``volcal-model/2`` or ``/1``); check a model's session.
+"""Model files: write and read them (``volcal-model/3``, ``/2``, ``/1``); check a model's session.
 
-Written by ``volcal identify``.
+Format 3 (``docs/formats.md``, "Model file") is two files side by side:
+
+* ``MODEL.json``: everything a person reads (functions and their standard uncertainties
+  at the nodes, squareness, fit, identifiability, nuisances, outliers, the session's
+  identity), a few hundred kB at most whatever the number of readings;
+* ``MODEL.npz``: the large arrays, an uncompressed numpy ``.npz`` (a zip of ``.npy``
+  members, fixed time stamps: the same model gives the same bytes): the covariance factor
+  by part (``noise_factor``; the uncertainty issue adds ``systematic_factor``), the fitted
+  value and the residual of every reading (``fitted_um``, ``residual_um``).
+
+The JSON names the ``.npz`` (file name, in the JSON's folder) and its sha256. Writing is
+atomic for both: the ``.npz`` first, then the JSON that records its digest, so a reader
+never pairs a JSON with a binary part it was not written with. A JSON whose binary part
+is missing or does not match its digest loads without uncertainty, with the reason
+(:attr:`~volcal.identify.result.IdentificationResult.uncertainty_missing`, a
+:class:`ModelFileWarning`); what needs the uncertainty then refuses it.
 """
 
 from __future__ import annotations
 
+import hashlib
+import io
 import json
+import warnings
+import zipfile
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from volcal.errors import VolcalInputError
-from volcal.identify.result import IdentificationResult
+from volcal.identify.result import MODEL_FORMAT, IdentificationResult
 from volcal.model.errorfunctions import MachineErrors
 
 if TYPE_CHECKING:
     from volcal.session.format import Session
 
-__all__ = ["check_model_session", "load_model", "load_model_errors",
-           "model_session_differences"]
+__all__ = ["ModelFileWarning", "binary_path", "check_model_session", "load_model",
+           "load_model_errors", "model_session_differences", "write_model"]
+
+BINARY_SUFFIX = ".npz"
+_ZIP_TIME = (1980, 1, 1, 0, 0, 0)  # fixed member time stamps: the same arrays, the same bytes
+
+
+class ModelFileWarning(UserWarning):
+    """A model file loaded with less than it should have (its binary part missing)."""
+
+
+def binary_path(path: str | Path) -> Path:
+    """The binary part written beside a model JSON: ``MODEL.json`` -> ``MODEL.npz``.
+
+    Parameters
+    ----------
+    path : str or Path
+        The model's JSON file.
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    VolcalInputError
+        If ``path`` itself ends in ``.npz``.
+    """
+    path = Path(path)
+    if path.suffix.lower() == BINARY_SUFFIX:
+        raise VolcalInputError(f"a model file is written as JSON (e.g. MODEL.json); "
+                               f"{BINARY_SUFFIX} is the name of its binary part", path)
+    return path.with_suffix(BINARY_SUFFIX)
+
+
+def _npz_bytes(arrays: dict[str, np.ndarray]) -> bytes:
+    """An uncompressed ``.npz`` of the arrays, byte for byte the same for the same arrays."""
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w", compression=zipfile.ZIP_STORED) as zf:
+        for name, a in arrays.items():
+            info = zipfile.ZipInfo(f"{name}.npy", date_time=_ZIP_TIME)
+            info.compress_type = zipfile.ZIP_STORED
+            member = io.BytesIO()
+            np.lib.format.write_array(member, np.ascontiguousarray(a), allow_pickle=False)
+            zf.writestr(info, member.getvalue())
+    return buf.getvalue()
+
+
+def _json_text(obj: Any, indent: int = 0) -> str:
+    """JSON with one key per line, but a list or table of plain values on one line.
+
+    Readable, and fast: the one-line parts go through the C encoder (``json.dumps`` with
+    an ``indent`` falls back to the pure-Python encoder, 0.8 s for a format-2 model).
+    """
+    if isinstance(obj, dict) and any(isinstance(v, dict | list) for v in obj.values()):
+        pad = " " * (indent + 1)
+        items = [f"{pad}{json.dumps(str(k))}: {_json_text(v, indent + 1)}"
+                 for k, v in obj.items()]
+        return "{\n" + ",\n".join(items) + "\n" + " " * indent + "}"
+    if isinstance(obj, list) and any(isinstance(v, dict | list) for v in obj):
+        pad = " " * (indent + 1)
+        items = [pad + _json_text(v, indent + 1) for v in obj]
+        return "[\n" + ",\n".join(items) + "\n" + " " * indent + "]"
+    return json.dumps(obj, allow_nan=False, ensure_ascii=False)
+
+
+def write_model(result: IdentificationResult, path: str | Path) -> Path:
+    """Write a model file (format ``volcal-model/3``): ``MODEL.npz``, then ``MODEL.json``.
+
+    Parameters
+    ----------
+    result : IdentificationResult
+        A fresh identification (or a model loaded with its uncertainty).
+    path : str or Path
+        The JSON file; the binary part goes beside it (:func:`binary_path`).
+
+    Returns
+    -------
+    Path
+        The JSON file.
+
+    Raises
+    ------
+    VolcalInputError
+        If the model has no uncertainty (loaded without its binary part) or the name ends
+        in ``.npz``.
+    """
+    from volcal.io.atomic import write_bytes, write_text
+
+    path = Path(path)
+    bin_path = binary_path(path)
+    arrays, index = result.binary_arrays()
+    data = _npz_bytes(arrays)
+    block = {"file": bin_path.name, "sha256": hashlib.sha256(data).hexdigest(),
+             "bytes": len(data),
+             "members": {k: {"shape": list(a.shape), "dtype": a.dtype.str}
+                         for k, a in arrays.items()}}
+    doc = result.to_dict(block, index)
+    try:
+        text = _json_text(doc) + "\n"
+    except ValueError as exc:  # NaN or infinity somewhere: not valid JSON
+        raise VolcalInputError(f"the model holds a value JSON cannot store ({exc})",
+                               path) from None
+    write_bytes(bin_path, data)  # the binary part first: the JSON names its digest
+    write_text(path, text)
+    return path
+
+
+def _read_binary(path: Path, doc: dict[str, Any]) -> tuple[dict[str, np.ndarray] | None, str]:
+    """The arrays of a format-3 model's binary part, or None and why not."""
+    block = doc.get("arrays")
+    if not isinstance(block, dict) or not isinstance(block.get("file"), str) \
+            or not isinstance(block.get("sha256"), str):
+        return None, "the JSON names no binary part ('arrays' with 'file' and 'sha256')"
+    name = Path(block["file"]).name  # in the JSON's folder, never elsewhere
+    bin_path = path.parent / name
+    if not bin_path.is_file():
+        return None, (f"its binary part {bin_path} is missing (copy it beside {path.name}, "
+                      "or identify again)")
+    data = bin_path.read_bytes()
+    digest = hashlib.sha256(data).hexdigest()
+    if digest != block["sha256"]:
+        return None, (f"its binary part {bin_path} does not match it (sha256 "
+                      f"{digest[:12]}..., the JSON records {block['sha256'][:12]}...: written "
+                      "by another identification; identify again)")
+    try:
+        with np.load(io.BytesIO(data), allow_pickle=False) as npz:
+            arrays = {k: npz[k] for k in npz.files}
+    except (ValueError, OSError, zipfile.BadZipFile, EOFError) as exc:
+        return None, f"its binary part {bin_path} cannot be read ({exc})"
+    members = block.get("members", {})
+    if not isinstance(members, dict):
+        return None, "the JSON's 'arrays.members' is not a table"
+    for k, meta in members.items():
+        a = arrays.get(k)
+        shape = meta.get("shape") if isinstance(meta, dict) else None
+        if a is None or not isinstance(shape, list) or list(a.shape) != shape:
+            return None, (f"its binary part {bin_path} lacks the array {k!r} of the shape "
+                          "the JSON names")
+    return arrays, ""
 
 
 def load_model(path: str | Path) -> IdentificationResult:
@@ -28,12 +185,16 @@ def load_model(path: str | Path) -> IdentificationResult:
     Parameters
     ----------
     path : str or Path
-        ``MODEL.json``.
+        ``MODEL.json`` (format 3 reads ``MODEL.npz`` beside it; formats 2 and 1 are one
+        JSON file).
 
     Returns
     -------
     IdentificationResult
-        With ``predict`` and ``function_std`` available (no residuals).
+        With ``predict`` and ``function_std`` available (fitted values and residuals too in
+        format 3). A format-3 JSON whose binary part is missing or does not match loads
+        without uncertainty: ``uncertainty_missing`` says why, a
+        :class:`ModelFileWarning` is issued, and ``predict`` refuses.
 
     Raises
     ------
@@ -43,13 +204,23 @@ def load_model(path: str | Path) -> IdentificationResult:
     path = Path(path)
     if not path.is_file():
         raise VolcalInputError("model file not found", path)
+    if path.suffix.lower() == BINARY_SUFFIX:
+        raise VolcalInputError(f"this is the binary part of a model; give the model's JSON "
+                               f"({path.with_suffix('.json').name})", path)
     try:
         doc = json.loads(path.read_text(encoding="utf-8"))
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise VolcalInputError(f"invalid JSON: {exc}", path) from None
     if not isinstance(doc, dict):
         raise VolcalInputError("not a volcal model file", path)
-    return IdentificationResult.from_dict(doc, str(path))
+    if doc.get("format") != MODEL_FORMAT:
+        return IdentificationResult.from_dict(doc, str(path))
+    arrays, why = _read_binary(path, doc)
+    result = IdentificationResult.from_dict(doc, str(path), arrays, why or None)
+    if arrays is None:
+        warnings.warn(f"{path}: loaded without uncertainty: {why}", ModelFileWarning,
+                      stacklevel=2)
+    return result
 
 
 def load_model_errors(path: str | Path) -> MachineErrors:

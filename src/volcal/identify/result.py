@@ -1,23 +1,32 @@
-"""The identified model: error functions with uncertainties, predictions, JSON file.
+"""The identified model: error functions with uncertainties, predictions, model file.
 
-Schema ``volcal-model/2`` (``docs/identification.md``); ``volcal-model/1`` files (no
-``session`` identity, untyped ``fit``) still load::
+The model file (``docs/formats.md``, "Model file") is written and read by
+:mod:`volcal.identify.modelfile`: format ``volcal-model/3`` is a small readable JSON
+(this module's :meth:`IdentificationResult.to_dict`) and a binary sidecar ``.npz`` with the
+large arrays (the covariance factor, the fitted values and residuals of every reading),
+bound to the JSON by its sha256. ``volcal-model/2`` and ``/1`` files (the factor as JSON
+text, and the systematic part's as ``systematic.factor``; ``/1`` without ``session``
+identity and with an untyped ``fit``) still load. ``volcal identify -o -`` writes format
+2 (one file: all standard output can carry). Format 3::
 
-    {"format": "volcal-model/2", "name", "chain", "travel_mm": [[x0,x1],[y0,y1],[z0,z1]],
+    {"format": "volcal-model/3", "name", "chain", "travel_mm": [[x0,x1],[y0,y1],[z0,z1]],
      "session": {"name", "chain", "travel_mm", "readings_sha256", "n_readings",
                  "measurements"},
      "functions": {"X": {"position_mm": [...], "EXX_um": [...], "u_EXX_um": [...], ...,
                          "EAX_urad": [...], "u_EAX_urad": [...], ...}, "Y": ..., "Z": ...},
      "squareness_urad": {"EC0Y": v, ...}, "u_squareness_urad": {...},
-     "covariance": {"free_index": [...], "factor": [[...], ...]},
-     "systematic": {"inputs": [...], "factor": [[...], ...], "budget": "..."},  (optional)
+     "covariance": {"free_index": [...], "parts": {"noise": "noise_factor",
+                                                    "systematic": "systematic_factor"}},
+     "systematic": {"inputs": [...], "budget": "..."},  (with a budget only)
      "identifiability": {...}, "fit": {...}, "nuisances": {...}, "outliers": [...],
-     "readings": {"<measurement id>": {"fitted_um": [...], "residual_um": [...]}}}
+     "readings": {"arrays": ["fitted_um", "residual_um"],
+                  "measurements": {"<measurement id>": [first, count], ...}},
+     "arrays": {"file": "MODEL.npz", "sha256", "bytes",
+                "members": {"noise_factor": {"shape": [n, r], "dtype": "<f8"}, ...}}}
 """
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -28,17 +37,16 @@ from numpy.typing import ArrayLike, NDArray
 
 from volcal.errors import VolcalInputError
 from volcal.identify.record import Convergence, FitRecord, SessionIdentity
-from volcal.io.atomic import write_text
-from volcal.model.errorfunctions import MachineErrors
-from volcal.model.kinematics import pose_jacobian
+from volcal.model.errorfunctions import MachineErrors, interp_weights
+from volcal.model.kinematics import UM, URAD, pose_jacobian, volumetric_error
 from volcal.model.names import AXES, COMPONENTS, SQUARENESS_NAMES
 from volcal.model.parameters import ParameterLayout
 
 if TYPE_CHECKING:
     import pandas
 
-MODEL_FORMAT = "volcal-model/2"
-MODEL_FORMATS_READ = ("volcal-model/1", "volcal-model/2")
+MODEL_FORMAT = "volcal-model/3"
+MODEL_FORMATS_READ = ("volcal-model/1", "volcal-model/2", "volcal-model/3")
 """Model formats :meth:`IdentificationResult.from_dict` reads."""
 UNITS = ("um", "um", "um", "urad", "urad", "urad")
 
@@ -58,8 +66,10 @@ class IdentificationResult:
         Parameter layout of ``errors``.
     free : ndarray of int
         Layout indices of the estimated parameters (the others are gauge zeros or known).
-    cov_factor : ndarray, shape (len(free), r)
-        Factor ``L`` of the posterior covariance of the estimated parameters, ``L L^T``.
+    cov_factor : ndarray, shape (len(free), r), or None
+        Factor ``L`` of the posterior covariance of the estimated parameters, ``L L^T``
+        (reading noise and prior: the ``noise`` part). ``None`` for a model file whose
+        binary part is missing or does not match: see :attr:`uncertainty_missing`.
     std : list of 3 ndarray, shape (n_k, 6)
         Standard uncertainty of each node value [um, urad].
     squareness_std : ndarray, shape (3,)
@@ -89,13 +99,18 @@ class IdentificationResult:
         Input of each column of ``sys_factor``.
     sys_source : str
         The budget file the systematic part came from.
+    uncertainty_missing : str or None
+        Why the model has no uncertainty (its binary part missing or not matching), or
+        ``None``. :meth:`predict`, :meth:`function_std` and
+        :meth:`require_uncertainty` then raise :class:`~volcal.errors.VolcalInputError`
+        with this reason.
     """
 
     name: str
     errors: MachineErrors
     layout: ParameterLayout
     free: NDArray[np.intp]
-    cov_factor: NDArray[np.float64]
+    cov_factor: NDArray[np.float64] | None
     std: list[NDArray[np.float64]]
     squareness_std: NDArray[np.float64]
     report: Any
@@ -111,9 +126,12 @@ class IdentificationResult:
     sys_factor: NDArray[np.float64] | None = None
     sys_labels: list[str] = field(default_factory=list)
     sys_source: str = ""
+    uncertainty_missing: str | None = None
 
-    def _factor(self, systematic: bool = True) -> NDArray[np.float64]:
+    def _factor(self, systematic: bool = True) -> NDArray[np.float64] | None:
         """Covariance factor: noise, with the systematic columns appended if any."""
+        if self.cov_factor is None:
+            return None
         if not systematic or self.sys_factor is None or self.sys_factor.shape[1] == 0:
             return self.cov_factor
         return np.hstack([np.asarray(self.cov_factor), self.sys_factor])
@@ -169,6 +187,32 @@ class IdentificationResult:
         """Full parameter vector of the estimate."""
         return self.layout.pack(self.errors)
 
+    @property
+    def has_uncertainty(self) -> bool:
+        """True when the covariance factor is there (see :attr:`uncertainty_missing`)."""
+        return self.cov_factor is not None
+
+    def require_uncertainty(self, what: str = "this", source: str | Path | None = None
+                            ) -> None:
+        """Refuse a model without its uncertainty.
+
+        Parameters
+        ----------
+        what : str
+            What needs the uncertainty, named in the message (``"predict"``, ``"the
+            report's uncertainty bands"``).
+        source : str or Path, optional
+            Model file named in the message.
+
+        Raises
+        ------
+        VolcalInputError
+            If the model has no covariance factor (:attr:`uncertainty_missing` says why).
+        """
+        if self.cov_factor is None:
+            why = self.uncertainty_missing or "the model carries no covariance"
+            raise VolcalInputError(f"{what} needs the model's uncertainty, and {why}", source)
+
     def predict(self, q: ArrayLike, tool_offset: ArrayLike | None = None, chunk: int = 20000,
                 rigid_removed: bool = False, systematic: bool = True
                 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -181,7 +225,8 @@ class IdentificationResult:
         tool_offset : array_like, shape (3,), optional
             Tool offset [mm].
         chunk : int
-            Points per block (memory bound).
+            Points per block at most (memory bound; smaller blocks are taken when the
+            covariance factor is wide).
         rigid_removed : bool
             Remove the best-fit rigid-body motion over the points ``q`` from the error field
             and from its uncertainty (ISO 230-1 volumetric comparisons; relative laser
@@ -200,8 +245,10 @@ class IdentificationResult:
         Raises
         ------
         VolcalInputError
-            ``q`` is not numbers of shape (m, 3) (or one point of shape (3,)).
+            ``q`` is not numbers of shape (m, 3) (or one point of shape (3,)), or the
+            model has no uncertainty (:attr:`uncertainty_missing`).
         """
+        self.require_uncertainty("predict")
         try:
             q = np.asarray(q, dtype=float)
         except (TypeError, ValueError):
@@ -210,25 +257,70 @@ class IdentificationResult:
             raise VolcalInputError(f"predict: an array of shape {q.shape}: expected points x, "
                                    "y, z [mm], shape (m, 3)")
         q = q.reshape(-1, 3)
-        theta = self.theta
         factor = self._factor(systematic)
-        order = self.errors.chain_obj.order
+        assert factor is not None
         if rigid_removed:
             from volcal.identify.identifiability import rigid_projector
 
+            theta = self.theta
+            order = self.errors.chain_obj.order
             Je, _ = pose_jacobian(order, self.layout.nodes, q, tool_offset)
             R = rigid_projector(q)
             e = (R @ (Je @ theta)).reshape(-1, 3)
             GL = R @ np.asarray(Je[:, self.free] @ factor)
             return e, np.sqrt(np.sum(GL**2, axis=1)).reshape(-1, 3)
-        es, us = [], []
-        for i in range(0, q.shape[0], chunk):
-            qq = q[i:i + chunk]
-            Je, _ = pose_jacobian(order, self.layout.nodes, qq, tool_offset)
-            es.append((Je @ theta).reshape(-1, 3))
-            GL = Je[:, self.free] @ factor
-            us.append(np.sqrt(np.sum(np.asarray(GL) ** 2, axis=1)).reshape(-1, 3))
-        return np.concatenate(es), np.concatenate(us)
+        t = np.zeros(3) if tool_offset is None else np.asarray(tool_offset, dtype=float)
+        t = np.broadcast_to(t, q.shape) if t.ndim == 1 else t.reshape(-1, 3)
+        e = volumetric_error(self.errors, q, t)
+        L = self._full_factor(factor)
+        step = max(1, min(int(chunk), 2_000_000 // max(L.shape[1], 1)))
+        u = np.empty_like(e)
+        for i in range(0, q.shape[0], step):
+            for c, terms in enumerate(self._error_rows(q[i:i + step], t[i:i + step])):
+                G = np.zeros((terms[0][1].size, L.shape[1]))
+                for cols, vals in terms:
+                    G += vals[:, None] * L[cols]
+                u[i:i + step, c] = np.sqrt(np.einsum("mr,mr->m", G, G))
+        return e, u
+
+    def _full_factor(self, factor: NDArray[np.float64]) -> NDArray[np.float64]:
+        """A covariance factor on every layout parameter (zero rows where not free)."""
+        L = np.zeros((self.layout.size, factor.shape[1]))
+        L[self.free] = factor
+        return L
+
+    def _error_rows(self, q: NDArray[np.float64], t: NDArray[np.float64]
+                    ) -> list[list[tuple[NDArray[np.intp], NDArray[np.float64]]]]:
+        """The first-order Jacobian of the volumetric error, row by row, as (column, value).
+
+        For each error component x, y, z: a list of ``(cols, vals)`` pairs, each one entry
+        per point, whose sum over the list is that component's row of the Jacobian
+        :func:`volcal.model.kinematics.pose_jacobian` (2 nodes x (1 translation + 2
+        rotations) per axis, plus the squareness): ``J L`` is then a sum of scaled rows of
+        the factor ``L``, without scipy (``volcal predict`` does not import it) and without
+        forming ``J``.
+        """
+        m = q.shape[0]
+        starts = self.layout.starts
+        order = self.errors.chain_obj.order
+        s = URAD / UM
+        rows: list[list[tuple[NDArray[np.intp], NDArray[np.float64]]]] = [[], [], []]
+        for i, k in enumerate(order):
+            down = order[i + 1:]
+            lev = [(t[:, a] + q[:, a] if a in down else t[:, a]) * s for a in range(3)]
+            i0, i1, w = interp_weights(self.layout.nodes[k], q[:, k])
+            for idx, wt in ((i0, 1.0 - w), (i1, w)):
+                b = starts[k] + 6 * idx
+                for c in range(3):
+                    rows[c].append((b + c, wt))
+                # eps x L: e_x += eb L_z - ec L_y, e_y += ec L_x - ea L_z, e_z += ea L_y - eb L_x
+                rows[0] += [(b + 4, wt * lev[2]), (b + 5, -wt * lev[1])]
+                rows[1] += [(b + 5, wt * lev[0]), (b + 3, -wt * lev[2])]
+                rows[2] += [(b + 3, wt * lev[1]), (b + 4, -wt * lev[0])]
+        sq = self.layout.squareness_indices()
+        rows[0] += [(np.full(m, sq[0]), -q[:, 1] * s), (np.full(m, sq[1]), q[:, 2] * s)]
+        rows[1] += [(np.full(m, sq[2]), -q[:, 2] * s)]
+        return rows
 
     def function_std(self, name: str, q: ArrayLike, systematic: bool = True
                      ) -> NDArray[np.float64]:
@@ -243,9 +335,11 @@ class IdentificationResult:
         systematic : bool
             Include the systematic part (``sys_factor``) when there is one (default).
         """
-        factor = self._factor(systematic)
-        from volcal.model.errorfunctions import interp_weights
         from volcal.model.names import COMPONENT_NAMES
+
+        self.require_uncertainty(f"the uncertainty of {name}")
+        factor = self._factor(systematic)
+        assert factor is not None
 
         name = name.upper()
         q = np.asarray(q, dtype=float).reshape(-1)
@@ -291,8 +385,68 @@ class IdentificationResult:
         return to_dataframe(self.to_rows(), "IdentificationResult")
 
     # ------------------------------------------------------------------ file
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready dictionary (schema ``volcal-model/2``)."""
+    def binary_arrays(self) -> tuple[dict[str, NDArray[np.float64]], dict[str, list[int]]]:
+        """The arrays of the model file's binary part and the readings' index.
+
+        Returns
+        -------
+        arrays : dict of str to ndarray
+            ``<part>_factor`` for each covariance part (``noise_factor``: shape
+            (len(free), r)), ``fitted_um`` and ``residual_um``: the readings of every
+            measurement one after another [um].
+        index : dict of str to [first, count]
+            Where each measurement's readings are in ``fitted_um`` and ``residual_um``.
+
+        Raises
+        ------
+        VolcalInputError
+            If the model has no covariance (loaded without its binary part).
+        """
+        self.require_uncertainty("writing the model file")
+        arrays: dict[str, NDArray[np.float64]] = {
+            f"{name}_factor": np.ascontiguousarray(f, dtype=np.float64)
+            for name, f in self._parts().items()}
+        index: dict[str, list[int]] = {}
+        fitted, resid = [], []
+        first = 0
+        for mid in self.fitted:
+            if mid not in self.residuals:
+                continue
+            n = int(np.asarray(self.fitted[mid]).size)
+            index[mid] = [first, n]
+            fitted.append(np.asarray(self.fitted[mid], dtype=np.float64).reshape(-1))
+            resid.append(np.asarray(self.residuals[mid], dtype=np.float64).reshape(-1))
+            first += n
+        arrays["fitted_um"] = np.concatenate(fitted) if fitted else np.zeros(0)
+        arrays["residual_um"] = np.concatenate(resid) if resid else np.zeros(0)
+        return arrays, index
+
+    def _parts(self) -> dict[str, NDArray[np.float64]]:
+        """The covariance factor by part: ``noise``, and ``systematic`` with a budget."""
+        parts = {"noise": self.cov_factor}
+        if self.sys_factor is not None:
+            parts["systematic"] = self.sys_factor
+        return parts
+
+    def to_dict(self, arrays: dict[str, Any] | None = None,
+                readings: dict[str, list[int]] | None = None) -> dict[str, Any]:
+        """The JSON part of the model file (schema ``volcal-model/3``).
+
+        Parameters
+        ----------
+        arrays : dict, optional
+            The ``arrays`` block naming the binary part (file, sha256, bytes, members),
+            as :func:`volcal.identify.modelfile.write_model` makes it; left out if None
+            (a dictionary without it loads without uncertainty).
+        readings : dict of str to [first, count], optional
+            Index of the readings in the binary part (:meth:`binary_arrays`).
+
+        Returns
+        -------
+        dict
+            JSON-ready: positions [mm], translations [um], rotations and squareness
+            [urad], rounded to 7 significant digits.
+        """
         funcs = {}
         for k in range(3):
             d: dict[str, Any] = {"position_mm": _r(self.layout.nodes[k])}
@@ -302,7 +456,7 @@ class IdentificationResult:
                 d["u_" + nm] = _r(self.std[k][:, c])
             funcs[AXES[k]] = d
         rep = self.report.to_dict() if hasattr(self.report, "to_dict") else self.report
-        out = {
+        doc: dict[str, Any] = {
             "format": MODEL_FORMAT,
             "name": self.name,
             "session": None if self.session is None else self.session.to_dict(),
@@ -312,44 +466,84 @@ class IdentificationResult:
             "squareness_urad": dict(zip(SQUARENESS_NAMES, _r(self.errors.squareness), strict=True)),
             "u_squareness_urad": dict(zip(SQUARENESS_NAMES, _r(self.squareness_std), strict=True)),
             "covariance": {"free_index": [int(i) for i in self.free],
-                           "factor": [_r(row) for row in self.cov_factor]},
+                           "parts": {name: f"{name}_factor" for name in self._parts()}},
             "identifiability": rep,
             "fit": self.fit.to_dict(),
             "nuisances": {k: {"value": _f(v[0]), "u": _f(v[1])} for k, v in self.nuisances.items()},
             "outliers": self.outliers,
-            "readings": {mid: {"fitted_um": _r(self.fitted[mid]),
-                               "residual_um": _r(self.residuals[mid])}
-                         for mid in self.fitted if mid in self.residuals},
+            "readings": {"arrays": ["fitted_um", "residual_um"],
+                         "measurements": dict(readings or {})},
         }
+        if self.sys_factor is not None:  # the labels here, the factor in the binary part
+            doc["systematic"] = {"inputs": list(self.sys_labels), "budget": self.sys_source}
+        if arrays is not None:
+            doc["arrays"] = arrays
+        return doc
+
+    def to_single_file_dict(self) -> dict[str, Any]:
+        """The whole model as one JSON document (format ``volcal-model/2``).
+
+        For ``volcal identify -o -``: standard output carries one file, so the factors
+        and the readings go in as text (slow for large models; the files of
+        :meth:`to_json` are the normal form).
+
+        Returns
+        -------
+        dict
+            JSON-ready, schema ``volcal-model/2``.
+        """
+        self.require_uncertainty("writing the model")
+        assert self.cov_factor is not None
+        doc = self.to_dict()
+        doc["format"] = "volcal-model/2"
+        doc["covariance"] = {"free_index": [int(i) for i in self.free],
+                             "factor": [_r(row) for row in self.cov_factor]}
+        doc["readings"] = {mid: {"fitted_um": _r(self.fitted[mid]),
+                                 "residual_um": _r(self.residuals[mid])}
+                           for mid in self.fitted if mid in self.residuals}
         if self.sys_factor is not None:
-            out["systematic"] = {"inputs": list(self.sys_labels), "budget": self.sys_source,
-                                 "factor": [_r(row) for row in self.sys_factor]}
-        return out
+            doc["systematic"]["factor"] = [_r(row) for row in self.sys_factor]
+        return doc
 
     def to_json(self, path: str | Path) -> Path:
-        """Write the model file atomically.
+        """Write the model file atomically: ``MODEL.npz`` first, then ``MODEL.json``.
 
         Parameters
         ----------
         path : str or Path
-            Output file (``MODEL.json``).
+            Output file (``MODEL.json``); the binary part is written beside it with the
+            suffix ``.npz`` (:func:`volcal.identify.modelfile.write_model`).
+
+        Returns
+        -------
+        Path
+            The JSON file.
         """
-        path = Path(path)
-        write_text(path, json.dumps(self.to_dict(), indent=1, allow_nan=False) + "\n")
-        return path
+        from volcal.identify.modelfile import write_model
+
+        return write_model(self, path)
 
     @classmethod
-    def from_dict(cls, doc: dict[str, Any], source: str = "model") -> IdentificationResult:
-        """Rebuild a result from its JSON dictionary (no residuals or design).
+    def from_dict(cls, doc: dict[str, Any], source: str = "model",
+                  arrays: dict[str, NDArray[np.float64]] | None = None,
+                  missing: str | None = None) -> IdentificationResult:
+        """Rebuild a result from its JSON dictionary (no design).
 
         Parameters
         ----------
         doc : dict
-            Parsed model file as written by :meth:`to_dict` (format ``volcal-model/2``,
-            or the older ``volcal-model/1``): positions [mm], translations [um], rotations
-            and squareness [urad].
+            Parsed model file as written by :meth:`to_dict` (format ``volcal-model/3``,
+            or the older ``volcal-model/2`` and ``/1`` with the factor in the JSON):
+            positions [mm], translations [um], rotations and squareness [urad].
         source : str
             Name of the file the dictionary came from, used in error messages.
+        arrays : dict of str to ndarray, optional
+            Format 3: the arrays of the binary part, checked against its digest
+            (:func:`volcal.identify.modelfile.load_model`). Without them the result has no
+            uncertainty, no fitted values and no residuals.
+        missing : str, optional
+            Format 3 without ``arrays``: why they are missing (kept as
+            :attr:`uncertainty_missing`).
 
         Returns
         -------
@@ -375,7 +569,13 @@ class IdentificationResult:
             errors = MachineErrors(doc["chain"], nodes, values, sq, name=doc.get("name", "model"))
             layout = ParameterLayout(tuple(nodes))
             free = np.array(doc["covariance"]["free_index"], dtype=np.intp)
-            fac = np.array(doc["covariance"]["factor"], dtype=float).reshape(free.size, -1)
+            if fmt == MODEL_FORMAT:
+                part_names = dict(doc["covariance"]["parts"])
+                if not part_names or not all(isinstance(v, str) for v in part_names.values()):
+                    raise ValueError("covariance.parts: expected part names -> array names")
+            else:
+                part_names = {}
+                fac = np.array(doc["covariance"]["factor"], dtype=float).reshape(free.size, -1)
         except VolcalInputError:
             raise
         except (KeyError, TypeError, ValueError, IndexError) as exc:
@@ -387,12 +587,59 @@ class IdentificationResult:
             raise VolcalInputError("invalid 'nuisances' section", source, None,
                                    "nuisances") from None
         readings = doc.get("readings", {})
+        fitted: dict[str, NDArray[np.float64]] = {}
+        resid: dict[str, NDArray[np.float64]] = {}
+        parts: dict[str, NDArray[np.float64]] = {}
         try:
-            fitted = {k: np.array(v["fitted_um"], dtype=float) for k, v in readings.items()}
-            resid = {k: np.array(v["residual_um"], dtype=float) for k, v in readings.items()}
+            if fmt != MODEL_FORMAT:
+                fitted = {k: np.array(v["fitted_um"], dtype=float) for k, v in readings.items()}
+                resid = {k: np.array(v["residual_um"], dtype=float) for k, v in readings.items()}
+            elif arrays is not None:
+                fa, ra = arrays["fitted_um"], arrays["residual_um"]
+                for mid, (first, count) in readings["measurements"].items():
+                    if first < 0 or count < 0 or first + count > fa.size:
+                        raise ValueError(f"{mid}: [{first}, {count}] outside the arrays")
+                    fitted[mid] = fa[first:first + count]
+                    resid[mid] = ra[first:first + count]
         except (KeyError, TypeError, ValueError, AttributeError):
             raise VolcalInputError("invalid 'readings' section", source, None,
                                    "readings") from None
+        sys_f, sys_l, sys_src = None, [], ""
+        if doc.get("systematic") is not None:
+            try:
+                sd = doc["systematic"]
+                sys_l = [str(x) for x in sd["inputs"]]
+                sys_src = str(sd.get("budget", ""))
+                if fmt != MODEL_FORMAT:
+                    sys_f = np.array(sd["factor"], dtype=float).reshape(free.size, len(sys_l))
+            except (KeyError, TypeError, ValueError):
+                raise VolcalInputError("invalid 'systematic' section", source, None,
+                                       "systematic") from None
+        if fmt == MODEL_FORMAT:
+            fac = None
+            if arrays is not None:
+                for name, member in part_names.items():
+                    f = arrays.get(member)
+                    if f is None or f.ndim != 2 or f.shape[0] != free.size:
+                        raise VolcalInputError(
+                            f"covariance part {name!r}: array {member!r} missing or not of "
+                            f"{free.size} rows", source, None, "covariance")
+                    parts[name] = f
+                if "noise" not in parts:
+                    raise VolcalInputError("covariance: no 'noise' part", source, None,
+                                           "covariance")
+                sys_f = parts.pop("systematic", None)
+                if sys_f is not None and sys_f.shape[1] != len(sys_l):
+                    raise VolcalInputError(f"systematic: {len(sys_l)} inputs named, the "
+                                           f"factor has {sys_f.shape[1]} columns", source,
+                                           None, "systematic")
+                # the noise part, and any part this version does not know, side by side
+                noise = parts.pop("noise")
+                fac = np.hstack([noise, *parts.values()]) if parts else noise
+            else:
+                missing = missing or "the model carries no binary part"
+                std = [np.full_like(s, np.nan) for s in std]
+                usq = np.full_like(usq, np.nan)
         fit_doc = doc.get("fit", {})
         if not isinstance(fit_doc, dict):
             raise VolcalInputError("invalid 'fit' section (expected a table)", source, None,
@@ -400,25 +647,18 @@ class IdentificationResult:
         fit = FitRecord.from_dict(fit_doc, source)
         if fit.sigma_um is None:
             fit.notes.append("the model file gives no reading noise (fit.sigma_um)")
+        if fac is None:
+            fit.notes.append(f"no uncertainty: {missing}")
         ident = SessionIdentity.from_dict(doc.get("session"), source)
         outliers = doc.get("outliers", [])
         if not isinstance(outliers, list):
             raise VolcalInputError("invalid 'outliers' section (expected a list)", source,
                                    None, "outliers")
-        sys_f, sys_l, sys_src = None, [], ""
-        if doc.get("systematic") is not None:
-            try:
-                sd = doc["systematic"]
-                sys_l = [str(x) for x in sd["inputs"]]
-                sys_f = np.array(sd["factor"], dtype=float).reshape(free.size, len(sys_l))
-                sys_src = str(sd.get("budget", ""))
-            except (KeyError, TypeError, ValueError):
-                raise VolcalInputError("invalid 'systematic' section", source, None,
-                                       "systematic") from None
         return cls(doc.get("name", "model"), errors, layout, free, fac, std, usq,
                    doc.get("identifiability", {}), fit, resid, fitted,
                    nuisances=nuis, outliers=outliers, session=ident, format=str(fmt),
-                   sys_factor=sys_f, sys_labels=sys_l, sys_source=sys_src)
+                   sys_factor=sys_f, sys_labels=sys_l, sys_source=sys_src,
+                   uncertainty_missing=None if fac is not None else missing)
 
 
 def _f(v: float) -> float | None:

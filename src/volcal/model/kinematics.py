@@ -26,7 +26,6 @@ the step-diagonal test", Lamdamap 2005 (seed 004); ISO 230-1:2012, annex A.
 from __future__ import annotations
 
 import numpy as np
-import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
 from volcal.model.errorfunctions import MachineErrors, interp_weights
@@ -294,6 +293,8 @@ def pose_jacobian(chain_order, nodes: list[NDArray[np.float64]], q: ArrayLike,
     Jo : scipy.sparse.csr_matrix, shape (3m, P)
         Orientation error rows [urad].
     """
+    import scipy.sparse as sp  # here, not at the top: predicting from a model needs no scipy
+
     q = _points(q)
     m = q.shape[0]
     t = np.array(_offsets(tool_offset, m))

@@ -7,10 +7,14 @@ import sys
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
+import history_fixtures as _fx
 import numpy as np
 import pytest
 
 from volcal.errors import VolcalInputError
+
+# pytest fixtures shared by the history tests (see history_fixtures.py)
+history_two = _fx.history_two
 
 NS = {"q": "http://qifstandards.org/xsd/qif3"}
 TRAVEL = [[0, 800], [0, 600], [0, 500]]
@@ -153,28 +157,13 @@ def test_validates_against_qif3_xsd(tmp_path, machine):
 
 
 @pytest.fixture(scope="module")
-def stored(tmp_path_factory):
-    """One stored calibration (SQLite) of a simulated machine."""
-    from volcal.flow import Calibration
-    from volcal.history.api import History
-    from volcal.measure.virtual import random_machine
-
-    tmp = tmp_path_factory.mktemp("qifcal")
-    c = Calibration.plan(TRAVEL, steps=10)
-    c.simulate(machine=random_machine(TRAVEL, "XYFZ", seed=7), seed=1)
-    c.save(tmp / "s")
-    toml = tmp / "s" / "session.toml"
-    toml.write_text(toml.read_text().replace(
-        "[machine]\n", '[machine]\nmake = "Hermle"\nserial = "42-1187"\n', 1)
-        + '\n[calibration]\ndate = 2026-01-10\n')
-    c.identify().to_json(tmp / "s" / "model.json")
+def stored(history_two):
+    """One stored calibration (SQLite) of a simulated machine: db, id, model, folder."""
     from volcal.identify.modelfile import load_model
 
-    model = load_model(tmp / "s" / "model.json")   # as stored (rounded as the file holds it)
-    db = str(tmp / "h.sqlite")
-    with History(db) as h:
-        rid = h.add(tmp / "s", tmp / "s" / "model.json").id
-    return db, rid, model, tmp
+    a = history_two["a"]
+    # the model as stored (rounded as the file holds it)
+    return history_two["db"], history_two["id"], load_model(a / "model.json"), a
 
 
 def test_cli_export_record(stored, tmp_path):
@@ -218,7 +207,7 @@ def test_cli_model_file_validated(stored, tmp_path):
     _, _, model, tmp = stored
     xsd = _schema()
     out = tmp_path / "m.qif"
-    r = subprocess.run([*RUN, "history", "export-qif", "--model", str(tmp / "s" / "model.json"),
+    r = subprocess.run([*RUN, "history", "export-qif", "--model", str(tmp / "model.json"),
                         "-o", str(out), "--xsd", str(xsd)], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     assert "validates against" in r.stderr

@@ -49,6 +49,10 @@ def report_cmd(
     strict: bool = typer.Option(False, "--strict", help="Refuse to issue a certificate with "
                                 "equipment whose calibration was due before the date of "
                                 "measurement."),
+    history: str | None = typer.Option(None, "--history", help="Calibration history (URL or "
+                                       "SQLite file, as `volcal history --db`): add a section "
+                                       "with the machine's previous calibration and the "
+                                       "change since then."),
 ) -> None:
     """Write the calibration report of a session as self-contained HTML and as PDF."""
     from volcal.io.paths import check_output_folder
@@ -59,6 +63,10 @@ def report_cmd(
     from volcal.standards.tolerance import parse_tolerance
 
     tol = None if tolerance_um is None else parse_tolerance(tolerance_um)
+    if history is not None:
+        from volcal.report.previous import check_history
+
+        check_history(history)
     check_output_folder(output, "report", lambda p: (p / "report.html").is_file())
     s = read_session(session)
     print_session_notes(s)
@@ -108,6 +116,10 @@ def report_cmd(
                                 tolerance=tol, force=force,
                                 model_label=("the model identified now" if model is None
                                              else str(model)))
+        if history is not None:  # the history (SQLAlchemy) is loaded only here
+            from volcal.report.previous import previous_section
+
+            inputs.extra_sections.append(previous_section(inputs, history))
         files = write_report(build_report(inputs, title), output, extra)
     if inputs.compensation is not None:
         for w in inputs.compensation.warnings:

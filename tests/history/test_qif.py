@@ -184,6 +184,14 @@ def test_cli_export_record(stored, tmp_path):
     assert dev.find(".//q:CalibrationDate", NS).text == "2026-01-10T00:00:00Z"
     assert dev.find(".//q:ExpirationDate", NS).text == "2027-01-10T00:00:00Z"  # 365 days
     assert float(dev.find("q:Size/q:XAxisLength", NS).text) == 800.0
+    # one record, one document: exported again, the file is the same byte for byte
+    from typer.testing import CliRunner
+
+    from volcal.cli import app
+
+    again = tmp_path / "again.qif"
+    res = CliRunner().invoke(app, ["history", "export-qif", rid, "-o", str(again), "--db", db])
+    assert res.exit_code == 0 and again.read_bytes() == out.read_bytes()
 
 
 def test_cli_bad_record_id(stored, tmp_path):

@@ -140,7 +140,11 @@ def export_qif_cmd(
                           model=ident.get("model"), serial=ident.get("serial"),
                           travel_mm=ident.get("travel_mm"), location=ident.get("location"),
                           date=r.date, due=due_date(r.date, days))
-        write_qif(m.errors, output, info, f"volcal history {r.id}")
+        import uuid
+
+        # one record, one document id: exporting it again gives the same QPId
+        qpid = str(uuid.uuid5(uuid.NAMESPACE_URL, f"volcal-history:{r.hash}"))
+        write_qif(m.errors, output, info, f"volcal history {r.id}", qpid)
     schema = find_xsd([xsd] if xsd is not None else None)
     if xsd is not None and schema is None:
         raise VolcalInputError(f"--xsd {xsd}: no QIFDocument.xsd there")

@@ -237,7 +237,7 @@ def qif_tree(errors: Any, machine: QifMachine | None = None, source: str = "volc
 
 
 def write_qif(errors: Any, path: str | Path, machine: QifMachine | None = None,
-              source: str = "volcal") -> Path:
+              source: str = "volcal", qpid: str | None = None) -> Path:
     """Write a machine's errors as a QIF 3 document, atomically.
 
     Parameters
@@ -250,6 +250,8 @@ def write_qif(errors: Any, path: str | Path, machine: QifMachine | None = None,
         Name, identity keys, travel and dates.
     source : str
         Named in the document (program and record).
+    qpid : str, optional
+        The document's QPId (a UUID); a new random one by default.
 
     Returns
     -------
@@ -257,7 +259,7 @@ def write_qif(errors: Any, path: str | Path, machine: QifMachine | None = None,
     """
     from volcal.io.atomic import write_bytes
 
-    tree = qif_tree(errors, machine, source)
+    tree = qif_tree(errors, machine, source, qpid)
     data = ET.tostring(tree.getroot(), encoding="utf-8", xml_declaration=True)
     write_bytes(path, data + b"\n")
     return Path(path)

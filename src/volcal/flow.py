@@ -658,7 +658,8 @@ class Calibration:
     @A.checked
     def report(self, folder: str | Path, title: str | None = None, edition: str = D.EDITION,
                tolerance_um: float | str | Mapping[str, float] | None = None,
-               compensation: str | Path | None = None) -> ReportFiles:
+               compensation: str | Path | None = None,
+               history: str | None = None) -> ReportFiles:
         """Write the HTML and PDF report, like ``volcal report``.
 
         Parameters
@@ -676,6 +677,11 @@ class Calibration:
         compensation : str or Path, optional
             Folder written by :meth:`compensate` (or ``volcal compensate``) from the same
             model, summarised in the report; none by default, as on the command line.
+        history : str, optional
+            Calibration history (URL or SQLite file, as ``volcal history --db``): adds
+            the section "Previous calibration" (the machine's previous stored calibration
+            and the change test against this one, ``docs/history.md``), as
+            ``volcal report --history``.
 
         Returns
         -------
@@ -691,8 +697,16 @@ class Calibration:
         if compensation is not None and not Path(compensation).is_dir():
             raise VolcalInputError("Calibration.report: compensation= is not a folder written "
                                    "by compensate", compensation)
+        if history is not None:
+            from volcal.report.previous import check_history
+
+            check_history(history)
         inputs = collect_inputs(self.session, self._need_result(), self.truth, edition,
                                 compensation, tolerance=tol)
+        if history is not None:  # the history (SQLAlchemy) is loaded only here
+            from volcal.report.previous import previous_section
+
+            inputs.extra_sections.append(previous_section(inputs, history))
         return write_report(build_report(inputs, title), folder)
 
     # ------------------------------------------------------------------ helpers

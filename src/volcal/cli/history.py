@@ -97,6 +97,66 @@ def export_etalon_cmd(
     typer.echo(str(output))
 
 
+@history_app.command("export-qif")
+def export_qif_cmd(
+    record: Annotated[str | None, typer.Argument(
+        help="Calibration record id (or give --model).")] = None,
+    output: Annotated[Path, typer.Option("-o", "--output", help="QIF file to write.")] = ...,
+    model: Annotated[Path | None, typer.Option(
+        "--model", help="Write this model file instead of a record (no store needed).")] = None,
+    xsd: Annotated[Path | None, typer.Option(
+        "--xsd", help="Validate the written file against this QIFDocument.xsd (or a folder "
+        "holding QIFApplications/); default $VOLCAL_QIF_XSD when set.")] = None,
+    db: DbOption = None,
+) -> None:
+    """Write a calibration's 21 errors as a QIF 3 document (Cartesian CMM FPS test)."""
+    from volcal.errors import VolcalInputError
+    from volcal.history.qif import QifMachine, due_date, find_xsd, validate_qif, write_qif
+
+    if (record is None) == (model is None):
+        raise VolcalInputError("give a calibration record id or --model FILE (one of them)")
+    if model is not None:
+        from volcal.identify.modelfile import load_model
+
+        m = load_model(model)
+        travel = [(float(n[0]), float(n[-1])) for n in m.errors.nodes]
+        write_qif(m.errors, output, QifMachine(name=m.errors.name, travel_mm=travel),
+                  f"volcal model {model.name}")
+    else:
+        from volcal.history.compare import load_record_model
+        from volcal.history.due import machine_interval
+
+        with _open(db) as h:
+            r = h.show(record)
+            if r.kind != "calibration":
+                raise VolcalInputError(f"{r.id} is a {r.kind} record, not a calibration "
+                                       "(volcal history list)")
+            m = load_record_model(h.store, r.id)
+            days = machine_interval(h.store.records(), r.machine_id)
+        if m is None:
+            raise VolcalInputError(f"{r.id} has no volcal model to export")
+        ident = r.payload.get("machine", {})
+        info = QifMachine(name=r.machine_name, make=ident.get("make"),
+                          model=ident.get("model"), serial=ident.get("serial"),
+                          travel_mm=ident.get("travel_mm"), location=ident.get("location"),
+                          date=r.date, due=due_date(r.date, days))
+        import uuid
+
+        # one record, one document id: exporting it again gives the same QPId
+        qpid = str(uuid.uuid5(uuid.NAMESPACE_URL, f"volcal-history:{r.hash}"))
+        write_qif(m.errors, output, info, f"volcal history {r.id}", qpid)
+    schema = find_xsd([xsd] if xsd is not None else None)
+    if xsd is not None and schema is None:
+        raise VolcalInputError(f"--xsd {xsd}: no QIFDocument.xsd there")
+    if schema is not None:
+        problems = validate_qif(output, schema)
+        if problems:
+            raise VolcalInputError("the written file does not validate against "
+                                   f"{schema}: " + "; ".join(problems[:5]), output)
+        _err(f"validates against {schema}")
+    typer.echo(str(output))
+
+
 @history_app.command("list")
 def list_cmd(
     as_json: Annotated[bool, typer.Option("--json", help="JSON array of records.")] = False,

@@ -56,6 +56,10 @@ def report_cmd(
                                                "rule [um]."),
     budget: Path | None = typer.Option(None, help="Uncertainty budget (TOML): U of the "
                                        "toleranced ISO 230-2 parameters."),
+    history: str | None = typer.Option(None, "--history", help="Calibration history (URL or "
+                                       "SQLite file, as `volcal history --db`): add a section "
+                                       "with the machine's previous calibration and the "
+                                       "change since then."),
 ) -> None:
     """Write the calibration report of a session as self-contained HTML and as PDF."""
     from volcal.cli.evaluate import _acceptance
@@ -68,6 +72,10 @@ def report_cmd(
 
     tol = None if tolerance_um is None else parse_tolerance(tolerance_um)
     tol = _acceptance(tol, decision_rule, guard_band_um, budget)
+    if history is not None:
+        from volcal.report.previous import check_history
+
+        check_history(history)
     check_output_folder(output, "report", lambda p: (p / "report.html").is_file())
     s = read_session(session)
     print_session_notes(s)
@@ -124,6 +132,10 @@ def report_cmd(
                                 tolerance=tol, force=force,
                                 model_label=("the model identified now" if model is None
                                              else str(model)))
+        if history is not None:  # the history (SQLAlchemy) is loaded only here
+            from volcal.report.previous import previous_section
+
+            inputs.extra_sections.append(previous_section(inputs, history))
         files = write_report(build_report(inputs, title), output, extra)
     if inputs.compensation is not None:
         for w in inputs.compensation.warnings:

@@ -319,3 +319,113 @@ def compare(store: Any, id1: str, id2: str, level: float = 0.05) -> list[Entry]:
     if both:
         out.extend(_function_entries(m1, m2, level))
     return out
+
+
+@dataclass
+class _Results:
+    """Results of a calibration not (yet) stored, shaped as a record's ``results``."""
+
+    results: dict[str, dict[str, Any]]
+
+
+def session_digest(session: Any) -> str:
+    """The hash a calibration record keeps of its session's files (``session_sha256``).
+
+    Parameters
+    ----------
+    session : Session
+        A session read from its folder.
+    """
+    import hashlib
+
+    from volcal.history.record import session_files
+
+    digest = hashlib.sha256()
+    for role, name, content in session_files(Path(session.path)):
+        if role == "session":
+            digest.update(name.encode() + b"\0" + hashlib.sha256(content).digest())
+    return digest.hexdigest()
+
+
+def previous_calibration(store: Any, session: Any) -> Any:
+    """The stored calibration of the session's machine that precedes the session.
+
+    The machine is matched as ``history add`` matches it (serial, else name, chain and
+    travel); among its current (not superseded) calibrations, the record of this very
+    session (same files) is left out, and the newest one measured on or before the
+    session's date (``[calibration] date``, else ``[provenance] date``; any date when it
+    has none) is returned.
+
+    Parameters
+    ----------
+    store : Store
+        The history.
+    session : Session
+        The calibration being reported (read from its folder).
+
+    Returns
+    -------
+    Record or None
+        ``None`` when the machine or an earlier calibration is not in the history.
+
+    Raises
+    ------
+    VolcalInputError
+        The session matches several machines of the history.
+    """
+    from volcal.history.machines import match
+    from volcal.session.identity import parse_date
+
+    recs = store.records()
+    machine = match(recs, session.identity)
+    if machine is None:
+        return None
+    own = session_digest(session) if session.path is not None else None
+    when = session.calibration.get("date") or session.provenance.get("date")
+    day = None if when is None else str(parse_date(when))[:10]
+    cands = [r for r in recs if r.kind == "calibration" and r.machine_id == machine.id
+             and r.superseded_by is None and r.payload.get("session_sha256") != own
+             and (day is None or r.date is None or str(r.date)[:10] <= day)]
+    return max(cands, key=lambda r: (str(r.date or ""), r.id)) if cands else None
+
+
+def compare_with_model(store: Any, earlier: str, session: Any, model: Any,
+                       level: float = 0.05) -> list[Entry]:
+    """The change test between a stored calibration and one not stored (yet).
+
+    As :func:`compare`, with the later calibration given by its session and model
+    instead of a record id: its results are computed as ``history add`` would store
+    them (:func:`volcal.history.record.results_of`).
+
+    Parameters
+    ----------
+    store : Store
+        The history.
+    earlier : str
+        Id of the earlier calibration record.
+    session : Session
+        The later calibration's session (with readings).
+    model : IdentificationResult or None
+        Its model; ``None`` compares the results only.
+    level : float
+        Family-wise false-alarm level of the function tests (default 5 %).
+
+    Returns
+    -------
+    list of Entry
+    """
+    from volcal.history.record import results_of
+
+    if not 0.0 < level < 1.0:
+        raise VolcalInputError(f"--level {level}: expected a fraction between 0 and 1")
+    r1 = store.current(earlier)
+    if r1.kind != "calibration":
+        raise VolcalInputError(f"{r1.id} is a {r1.kind} record, not a calibration")
+    r2 = _Results({n: {"value": v, "U": u, "unit": unit}
+                   for n, v, u, unit in results_of(session, model)})
+    m1 = load_record_model(store, r1.id)
+    both = m1 is not None and model is not None
+    out = _result_entries(r1, r2, both)
+    if both:
+        out.extend(_function_entries(m1, model, level))
+    return out

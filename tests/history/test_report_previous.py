@@ -1,0 +1,99 @@
+"""The report's "Previous calibration" section (volcal report S --history DB)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import history_fixtures as _fx
+import pytest
+
+from volcal.errors import VolcalInputError
+
+# pytest fixtures shared by the history tests (see history_fixtures.py)
+history_two = _fx.history_two
+
+
+def test_previous_section_flags_the_x_scale(history_two):
+    """B (X scale +10 um/m) against stored A: EXX changed, about 8 um at x = 800 mm.
+
+    The history is read from the store; B's model is not stored.
+    """
+    from volcal.identify.modelfile import load_model
+    from volcal.report.document import Report
+    from volcal.report.html import render_html
+    from volcal.report.pipeline import collect_inputs
+    from volcal.report.previous import previous_section
+    from volcal.session.format import read_session
+
+    b = history_two["b"]
+    s = read_session(b)
+    inp = collect_inputs(s, load_model(b / "model.json"))
+    sec = previous_section(inp, history_two["db"])
+    assert sec.id == "previous"
+    assert history_two["id"] in sec.paragraphs[0] and "2026-01-10" in sec.paragraphs[0]
+    # the only function flagged is EXX; its largest difference is the scale change at
+    # the end of the travel (10 um/m * 800 mm = 8 um, within the identification's U)
+    flagged = sec.tables[0]
+    assert [r[0] for r in flagged.rows] == ["EXX"]
+    d, U = float(flagged.rows[0][1]), float(flagged.rows[0][2])
+    assert abs(d - 8.0) < max(U, 1.0) and flagged.rows[0][4] == "800"
+    assert sec.warnings and sec.warnings[0].startswith(f"changed since {history_two['id']}")
+    # results: B's evaluation minus A's stored value, per axis (ISO 230-2 A, E, M, R, B)
+    from volcal.history.api import History
+    from volcal.standards.session import evaluate_session
+
+    res = {r[0]: r for r in sec.tables[1].rows}
+    assert {"X.A", "Y.E", "Z.R", "V.E_VXYZ"} <= set(res)
+    assert not any(n.endswith(("_up", "_down", "length_mm")) for n in res)
+    ev = evaluate_session(s, inp.result)
+    first_x = next(m for m, ax in ev.axis.items() if ax.upper() == "X")
+    with History(history_two["db"]) as h:
+        a_xa = h.show(history_two["id"]).results["X.A"]["value"]
+    assert float(res["X.A"][1]) == pytest.approx(ev.iso230_2[first_x].A - a_xa, abs=0.006)
+    # rendered by the report's HTML renderer (the section alone: the figures of the whole
+    # report would take seconds)
+    html = render_html(Report("t", [sec]))
+    assert 'id="previous"' in html and "Previous calibration" in html
+    assert "<td>EXX</td>" in html.replace(" ", "")
+
+
+def test_history_is_loaded_only_with_the_option(history_two, tmp_path):
+    """The report command imports volcal.history only when --history is given."""
+    code = ("import sys\nfrom volcal.report import pipeline, sections\n"
+            "import volcal.cli.report\n"
+            "assert not [m for m in sys.modules if m.startswith(('volcal.history', "
+            "'sqlalchemy'))], sorted(m for m in sys.modules if 'history' in m)\n")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+
+
+def test_missing_history_file_is_a_user_error(history_two, tmp_path):
+    from volcal.report.previous import previous_section
+    from volcal.report.sections import ReportInputs
+    from volcal.session.format import read_session
+
+    inp = ReportInputs(read_session(history_two["b"]))
+    with pytest.raises(VolcalInputError, match="no such history file"):
+        previous_section(inp, str(tmp_path / "none.sqlite"))
+
+
+def test_no_earlier_calibration(history_two):
+    """A stored only: its own report finds no earlier calibration (its record is itself)."""
+    from volcal.report.previous import previous_section
+    from volcal.report.sections import ReportInputs
+    from volcal.session.format import read_session
+
+    inp = ReportInputs(read_session(history_two["a"]))
+    sec = previous_section(inp, history_two["db"])
+    assert "no earlier calibration" in sec.paragraphs[0] and not sec.tables
+
+
+def test_cli_missing_history_refused_before_work(history_two, tmp_path):
+    b = history_two["b"]
+    r = subprocess.run([sys.executable, "-c", "from volcal.cli import main; main()", "report",
+                        str(b), "--model", str(b / "model.json"), "-o", str(tmp_path / "r"),
+                        "--history", str(tmp_path / "none.sqlite")],
+                       capture_output=True, text=True)
+    assert r.returncode == 2 and "no such history file" in r.stderr
+    assert not (tmp_path / "r").exists()

@@ -176,7 +176,7 @@ def test_hand_edited_table_changes_the_after(gantry, tmp_path, monkeypatch, caps
         return json.loads(out)["verdict"][0]
 
     v = verdict()
-    assert v["before_um"] > 7.5 and v["before"] == "FAIL"  # the worst Y line: y1 or y2
+    assert v["before_um"] > 7.5 and v["before"] == "fail"  # the worst Y line: y1 or y2
     assert v["after_um"] > 7.5  # y3 after the table (the Abbe line, see test_line_check)
     lines = (c / "pitch.csv").read_text().splitlines()
     edited = [ln if not ln.startswith("Y,") else ",".join(ln.split(",")[:3] + ["0.000"])

@@ -128,23 +128,44 @@ def test_change_test_honest(store_url, calibrations):
 
 
 def test_concurrent_writers_lose_nothing(store_url, calibrations):
-    """Four processes add at once: one machine record, four calibrations, chain intact."""
+    """Six writers add at once, each with its own connection (engine), started together:
+    one machine record, six calibrations, chain intact.
+
+    Threads rather than processes (the database sees six independent connections either
+    way; processes would spend their time importing volcal): the serialisation under
+    test is the database's (BEGIN IMMEDIATE, pg_advisory_xact_lock).
+    """
+    import threading
+
     from volcal.history.api import History
 
-    env = {**os.environ, "VOLCAL_DB": store_url}
     folder, model = calibrations["a"]
-    procs = [subprocess.Popen([*RUN, "history", "add",
-                               str(folder), "--model", str(model)], env=env,
-                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-             for _ in range(4)]
-    outs = [p.communicate(timeout=120) for p in procs]
-    assert all(p.returncode == 0 for p in procs), [o[1] for o in outs]
-    ids = sorted(o[0].strip() for o in outs)
+    n = 6
+    histories = [History(store_url) for _ in range(n)]
+    start = threading.Barrier(n)
+    ids: list[str] = []
+    errors: list[BaseException] = []
+
+    def write(h):
+        try:
+            start.wait()
+            ids.append(h.add(folder, model).id)
+        except BaseException as exc:  # noqa: BLE001 - reported by the assertion below
+            errors.append(exc)
+
+    threads = [threading.Thread(target=write, args=(h,)) for h in histories]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(timeout=120)
+    for h in histories:
+        h.close()
+    assert not errors, errors
     with History(store_url) as h:
         recs = h.list()
         assert [r.kind for r in recs].count("machine") == 1
-        assert sorted(r.id for r in recs if r.kind == "calibration") == ids
-        assert h.verify()[0]
+        assert sorted(r.id for r in recs if r.kind == "calibration") == sorted(ids)
+        assert len(ids) == n and h.verify()[0]
 
 
 def test_failed_add_leaves_nothing(store_url, calibrations, monkeypatch):

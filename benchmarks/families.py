@@ -115,6 +115,9 @@ TRAVELS = {"full": ((0.0, 800.0), (0.0, 600.0), (0.0, 500.0)),
 """The seeds' full test set on the 800 x 600 x 500 machine and on the long machine."""
 TESTS = ("step-diagonal", "diagonal", "linear")
 ROLLS = (3, 10, 17)
+CACHE: Path | None = None
+"""Directory where the limit's prior (mean and covariance per family, design and chain) is
+kept between runs (``--cache``); None: computed every time."""
 """``6 * axis + component`` of EAX, EBY, ECZ."""
 
 
@@ -182,13 +185,17 @@ def _poly(rng: np.random.Generator, lo: float, span: float, degrees: tuple[int, 
     """Random Legendre polynomial on ``[lo, lo + span]`` with peak to valley ``ptp``.
 
     Degree drawn in ``degrees`` (inclusive); coefficients N(0, 1/j) for j >= 1 (higher
-    orders smaller) and a constant of the same size (the function is free at both ends).
+    orders smaller), scaled to the peak to valley, plus a constant uniform in
+    ``+-ptp / 2`` (the function is free at both ends, its offset of the same size as its
+    variation).
     """
     deg = int(rng.integers(degrees[0], degrees[1] + 1))
-    coef = rng.normal(size=deg + 1) / np.maximum(np.arange(deg + 1), 1)
+    coef = np.zeros(deg + 1)
+    coef[1:] = rng.normal(size=deg) / np.arange(1, deg + 1)
     s = np.linspace(-1, 1, 201)
     p = np.ptp(legendre.legval(s, coef))
     coef = coef * (ptp / p if p > 0 else 0.0)
+    coef[0] = rng.uniform(-0.5, 0.5) * ptp
     return lambda x: legendre.legval(2 * (np.asarray(x) - lo) / span - 1, coef)
 
 
@@ -502,13 +509,23 @@ def build_limit(family: Family, travel, chain: str, session, n_draws: int = N_DR
         m.deviation = np.zeros(m.n)
     nodes = choose_nodes(s, refine=IdentifyOptions().refine, max_nodes=IdentifyOptions().max_nodes)
     design = build_design(s, nodes)
-    rng = np.random.default_rng(seed)
-    X = np.empty((n_draws, design.n_free))
-    for i in range(n_draws):
-        am = family.draw(rng, travel, chain)
-        X[i] = design.layout.pack(gauge_map(am.tabulate(nodes)))[design.free]
-    mean = X.mean(0)
-    S = np.cov(X, rowvar=False)
+    key = (f"{family.name}-{chain}-{'x'.join(f'{v:g}' for v in np.ravel(travel))}-"
+           f"{'x'.join(str(len(n)) for n in nodes)}-{n_draws}-{seed}")
+    path = CACHE / f"prior-{key}.npz" if CACHE is not None else None
+    if path is not None and path.exists():
+        with np.load(path) as z:
+            mean, S = z["mean"], z["cov"]
+    else:
+        rng = np.random.default_rng(seed)
+        X = np.empty((n_draws, design.n_free))
+        for i in range(n_draws):
+            am = family.draw(rng, travel, chain)
+            X[i] = design.layout.pack(gauge_map(am.tabulate(nodes)))[design.free]
+        mean = X.mean(0)
+        S = np.cov(X, rowvar=False)
+        if path is not None:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            np.savez(path, mean=mean, cov=S)
     nf = design.n_free
     A = design.A.toarray()
     Af, An = A[:, :nf], A[:, nf:]
@@ -788,10 +805,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--grid", type=int, default=9)
     p.add_argument("--draws", type=int, default=N_DRAWS)
     p.add_argument("--no-limit", action="store_true")
+    p.add_argument("--cache", type=Path, help="keep the limits' priors in this directory")
     p.add_argument("--quiet", action="store_true")
     p.add_argument("--markdown", action="store_true")
     p.add_argument("--json", type=Path)
     a = p.parse_args(argv)
+    global CACHE
+    CACHE = a.cache
     fams = list(FAMILIES) if a.family == "all" else a.family.split(",")
     designs = list(TRAVELS) if a.design == "all" else [a.design]
     summaries, everything = [], []

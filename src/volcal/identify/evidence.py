@@ -95,8 +95,9 @@ class _Evidence:
 
         Without trend ``Q = P / a^2`` (``P = C / kappa^2 + W``, or its difference form,
         :meth:`PriorStructure.unit_block`): ``dQ/dlog a = -2 Q``, ``dQ/dlog kappa = -2 K``
-        with ``K = C / (kappa^2 a^2)`` (difference form: ``T' C_full T / (kappa^2 a^2)``). With the trend ``Q = S^-1``,
-        ``S = a^2 P^-1 + t^2 s s'``, ``w = Q s``: ``dQ/dlog a = -2 Q + 2 t^2 w w'``,
+        with ``K = C / (kappa^2 a^2)`` (difference form: ``T' C_full T / (kappa^2 a^2)``).
+        With the trend ``Q = S^-1``, ``S = a^2 P^-1 + t^2 s s'``, ``w = Q s``:
+        ``dQ/dlog a = -2 Q + 2 t^2 w w'``,
         ``dQ/dlog t = -2 t^2 w w'``, ``dQ/dlog kappa = -2 (I - t^2 w s') K (I - t^2 s w')``.
         """
         _, _, _, g, f = self.prior.blocks[b]

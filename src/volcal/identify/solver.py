@@ -88,19 +88,22 @@ the mean-square amplitude of a function whose scale varies by a factor exp(w) = 
 its group's, gives 0.927 there and 0.97-0.98 on the other designs. Multiplying every
 function's scale by 1.3 instead over-covered the Abbe lines (0.998)."""
 ROLL_SPREAD = 0.0
-"""Spread of the rolls' factor over the tilts' scale (one standard deviation, as a log
-factor), centred on :data:`ROLL_FACTOR`, estimated by the evidence when > 0. 0 (default):
+"""Spread of each roll's factor over the tilts' scale (one standard deviation, as a log
+factor; one factor per roll), centred on :data:`ROLL_FACTOR`, estimated by the evidence
+when > 0. 0 (default):
 the fixed factor :data:`ROLL_FACTOR`. Machines without roll exist (issue 19, family ``b``
 of benchmarks/families.py): there the rolls keep a prior of 1.5 times the tilts' scale
 and the volumetric residual is a median 1.8x that of the best linear estimator knowing
 the family (1.13x with ``roll='zero'``). Measured on 6 machines of that family: 1.10x
 with a free roll scale, 1.17x with a spread of log 3; but on the study's designs
 (tests/identify/test_study_designs.py) a free roll scale collapsed on one machine of the
-full set (its 95 % intervals covered 0.38 of the grid), a spread of log 3 (log 2) left
-the Abbe lines + body diagonals at a pooled coverage of 0.85 (0.87) and the roll
-coverage below 0.90: where one roll is not seen (ECZ there), the evidence lowers the
-shared factor from the rolls it sees, and the unseen roll is then held too tightly. Kept
-as a switch; a user who knows the machine has no roll says so (``roll='zero'``)."""
+full set (its 95 % intervals covered 0.38 of the grid), one factor shared by the three
+rolls with a spread of log 3 (log 2) left the Abbe lines + body diagonals at a pooled
+coverage of 0.85 (0.87) and the roll coverage below 0.90 (the unseen ECZ took the factor
+of the rolls the design sees), and one factor per roll with a spread of log 3 still
+0.884, roll coverage 0.865 and 0.887 on two designs: the readings hardly inform a roll's
+scale, and what the evidence takes from it is then held too tightly. Kept as a switch;
+a user who knows the machine has no roll says so (``roll='zero'``)."""
 KAPPA_FACTOR_SPREAD = 0.0
 """Spread of each group's curvature scale around the common one (0: one curvature scale
 for all groups). Measured with a factor 3 on the study's designs (8 machines): pooled
@@ -417,7 +420,8 @@ def _hyper_map() -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.f
     groups = list(FREE_GROUPS)
     per_axis = sorted(PER_AXIS_SPREAD)
     roll_col = ROLL_SPREAD > 0 and 2 not in groups
-    m = len(groups) + 3 * len(per_axis) + int(roll_col)
+    n_roll = 3 if roll_col else 0  # one factor per roll: an unseen roll keeps its prior
+    m = len(groups) + 3 * len(per_axis) + n_roll
     M = np.zeros((18, m))
     for k in range(3):
         for c in range(6):
@@ -426,13 +430,13 @@ def _hyper_map() -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.f
             M[6 * k + c, groups.index(base)] = 1.0
             if g in PER_AXIS_SPREAD:
                 M[6 * k + c, len(groups) + 3 * per_axis.index(g) + k] = 1.0
-            if g == 2 and roll_col:  # the rolls' factor over the tilts
-                M[6 * k + c, m - 1] = 1.0
+            if g == 2 and roll_col:  # the roll's factor over the tilts
+                M[6 * k + c, m - 3 + k] = 1.0
     centre = np.concatenate([HYPER_CENTRE[groups], np.zeros(3 * len(per_axis)),
-                             [np.log(ROLL_FACTOR)] * int(roll_col)])
+                             [np.log(ROLL_FACTOR)] * n_roll])
     spread = np.concatenate([np.full(len(groups), HYPER_SPREAD),
                              np.repeat([PER_AXIS_SPREAD[g] for g in per_axis], 3),
-                             [ROLL_SPREAD] * int(roll_col)])
+                             [ROLL_SPREAD] * n_roll])
     return M, centre, spread
 
 

@@ -809,7 +809,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--quiet", action="store_true")
     p.add_argument("--markdown", action="store_true")
     p.add_argument("--json", type=Path)
+    p.add_argument("--from-json", type=Path,
+                   help="summarise the machines saved by an earlier --json run (no new runs)")
     a = p.parse_args(argv)
+    if a.from_json:
+        saved = json.loads(a.from_json.read_text())["machines"]
+        groups = dict.fromkeys((m["design"], m["family"]) for m in saved)
+        summaries = [summarise([FamilyResult(m["family"], m["design"], Case(**m["case"]),
+                                             m["truth_rms_um"], m["bayes"], m["min_norm"],
+                                             m["limit_rms_um"])
+                                for m in saved if (m["design"], m["family"]) == g])
+                     for g in groups]
+        print(_markdown(summaries) if a.markdown else json.dumps(summaries, indent=1))
+        return 0
     global CACHE
     CACHE = a.cache
     fams = list(FAMILIES) if a.family == "all" else a.family.split(",")

@@ -36,7 +36,7 @@ error (thermal expansion of scale or screw, pitch of the screw: 11.5 um/m/K on s
 plus smaller periodic and local errors, so the trend gets its own scale instead of the
 amplitude of the wiggles (ISO 230-2 reports and compensates the slope separately)."""
 
-BOUNDARY = "conditional"
+BOUNDARY = "difference"
 """How a function's prior meets the gauge zeros (``docs/identification.md``, section 3).
 
 ``'conditional'`` (default): the smoothness prior conditioned on the zeros (the
@@ -140,18 +140,19 @@ def unit_parts(nodes: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray
 
 
 def _boundary_map(s: NDArray[np.float64], sel: NDArray[np.bool_], C: NDArray[np.float64],
-                  W: NDArray[np.float64]):
+                  W: NDArray[np.float64], mode: str = "difference"):
     """``(D, C, W)`` of the difference prior of one function, or None.
 
     ``D`` maps the values at all nodes to the free ones in the gauge: ``f_i - f_0`` when
     only the first node is held, ``f_i - f_0 - s_i (f_n - f_0)`` when the last one is held
-    too (straightness); None for any other pattern (the conditional prior is used).
+    too (straightness; with ``mode='start'`` the conditional prior is kept there); None
+    for any other pattern and for ``mode='conditional'`` (the conditional prior is used).
     """
     n = s.size
-    if n < 2 or sel[0]:
+    if mode == "conditional" or n < 2 or sel[0]:
         return None
     first_only = np.all(sel[1:])
-    both = n > 2 and not sel[-1] and np.all(sel[1:-1])
+    both = n > 2 and not sel[-1] and np.all(sel[1:-1]) and mode == "difference"
     if not (first_only or both):
         return None
     D = np.eye(n)[sel]
@@ -253,7 +254,7 @@ class PriorStructure:
                 blocks.append((pos_in_free[idx][sel], C[np.ix_(sel, sel)], W[np.ix_(sel, sel)],
                                function_group(k, c), 6 * k + c))
                 coords.append(s[sel])
-                maps.append(_boundary_map(s, sel, C, W) if BOUNDARY == "difference" else None)
+                maps.append(_boundary_map(s, sel, C, W, BOUNDARY))
         sq = pos_in_free[layout.squareness_indices()]
         return cls(blocks, sq[sq >= 0], int(free.size), kappa, coords, maps=maps)
 

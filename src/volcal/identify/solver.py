@@ -44,7 +44,7 @@ __all__ = ["Solution", "solve_bayes", "solve_min_norm"]
 DEFAULT_SCALES = np.array([10.0, 5.0, 15.0, 15.0])
 """Typical amplitude scales of machining centres: positioning [um], straightness [um],
 roll [urad], tilts [urad]."""
-HYPER_CENTRE = np.log([*DEFAULT_SCALES, 6.0])
+HYPER_CENTRE = np.log([DEFAULT_SCALES[0], 2.0, *DEFAULT_SCALES[2:], 6.0])
 """Centre of the hyperprior: the amplitude scales above and the curvature scale; it
 only matters for groups the data do not inform (there it holds the scale)."""
 HYPER_SPREAD = np.log(30.0)

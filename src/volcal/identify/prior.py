@@ -39,18 +39,25 @@ amplitude of the wiggles (ISO 230-2 reports and compensates the slope separately
 BOUNDARY = "difference"
 """How a function's prior meets the gauge zeros (``docs/identification.md``, section 3).
 
-``'conditional'`` (default): the smoothness prior conditioned on the zeros (the
-sub-matrix of the precision). ``'difference'``: the prior of the gauge-fixed function is
-the law of ``f(s) - f(0)`` (positioning, rolls, tilts) or of ``f(s) - f(0) - s (f(1) -
-f(0))`` (straightness: the end-point line removed) for ``f`` drawn from the smoothness
-prior on all the nodes, i.e. the gauge moves a constant (and a straightness' slope) into
-other parameters instead of making the function small there; its variance at the far end
-of travel is twice the conditional one. Measured (issue 19, benchmarks/README.md): on the
-study's Abbe lines alone the 95 % intervals then cover 0.9995 of the grid (0.981
-conditional: the undetermined rolls and straightness keep the larger prior), and on the
-families of benchmarks/families.py the last nodes were already inside their 2u band as
-often as the interior ones with the conditional prior (full set: 0.93-0.97 against
-0.93-0.94, except the cyclic family); kept as a switch."""
+``'difference'`` (default): the prior of the gauge-fixed function is the law of ``f(s) -
+f(0)`` (positioning, rolls, tilts) or of ``f(s) - f(0) - s (f(1) - f(0))`` (straightness:
+the end-point line removed) for ``f`` drawn from the smoothness prior on all the nodes:
+the gauge moves a constant (and a straightness' slope) into other parameters, it does not
+make the machine's function small at the start of travel. ``'conditional'`` (volcal <=
+issue 10): the prior conditioned on the zeros (the sub-matrix of the precision), whose
+variance at the far end of travel is half that of ``f(1) - f(0)``. ``'start'``: the
+difference form where only the start is held, the conditional one for straightness.
+
+Measured (issue 19, benchmarks/README.md, 20 machines per family, seeds' full test set):
+the residual over the best linear estimator knowing the family, median, went from 1.13
+to 1.03 (volcal's own machines), 1.23 to 1.16 (polynomial machines with roll), 1.21 to
+1.15 (guideway joint); on tests/identify/test_study_designs.py the long machine from
+0.378 to 0.284 of minimum-norm least squares (median), step diagonals alone from 1.004
+to 0.960 (max). With the straightness hyperprior centre of 5 um the Abbe lines alone,
+which see no straightness, covered 0.9995 (the unseen straightness kept twice the prior
+variance in the middle): the centre is 2 um with this form
+(:data:`volcal.identify.solver.HYPER_CENTRE`). ``'start'`` broke the step diagonals'
+ratio to least squares (one machine above 1.01)."""
 
 __all__ = ["BOUNDARY", "GROUPS", "TREND_FUNCTIONS", "PriorStructure", "function_group",
            "function_scales", "unit_parts", "unit_precision"]

@@ -46,7 +46,12 @@ DEFAULT_SCALES = np.array([10.0, 5.0, 15.0, 15.0])
 roll [urad], tilts [urad]."""
 HYPER_CENTRE = np.log([DEFAULT_SCALES[0], 2.0, *DEFAULT_SCALES[2:], 6.0])
 """Centre of the hyperprior: the amplitude scales above and the curvature scale; it
-only matters for groups the data do not inform (there it holds the scale)."""
+only matters for groups the data do not inform (there it holds the scale). The
+straightness centre is 2 um, not 5: with the difference form of the prior at the gauge
+zeros (:data:`volcal.identify.prior.BOUNDARY`) a straightness with the end-point line
+removed has about twice the prior variance in the middle of its travel than the
+conditioned one, and an unseen straightness (Abbe lines alone) then covered 0.9995 of
+the study's grid (2.5 um: 0.991; 2 um: 0.974, the issue-10 figure was 0.981)."""
 HYPER_SPREAD = np.log(30.0)
 """Spread of the log-normal hyperprior (one standard deviation, as a factor of 30): weak,
 it only holds scales the data do not inform."""

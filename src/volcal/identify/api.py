@@ -254,13 +254,11 @@ def advise(session: Session, options: IdentifyOptions | None = None):
     kappa = float(np.exp(HYPER_CENTRE[-1]))
     prior = PriorStructure.build(design.layout, design.free, kappa).with_trend(TREND_CENTRE_UM)
     cands = candidate_designs(planned, nodes_a, known) if o.suggest else None
-    typical = np.exp(HYPER_CENTRE[:4])  # the hyperprior's centre: a typical machining centre
-    report = analyse(design, prior, typical, o.squareness_std_urad, cands)
+    report = analyse(design, prior, DEFAULT_SCALES.copy(), o.squareness_std_urad, cands)
     report.messages.insert(0, "Before measuring: the figures assume a typical machining centre "
-                              f"(prior scales: positioning {typical[0]:g} um with a linear "
-                              f"trend of {TREND_CENTRE_UM:g} um over the travel, straightness "
-                              f"{typical[1]:g} um about its end-point line, roll and tilts "
-                              f"{typical[3]:g} urad); the measured data will refine them.")
+                              "(prior scales: positioning 10 um with a linear trend of "
+                              f"{TREND_CENTRE_UM:g} um over the travel, straightness 5 um, "
+                              "roll and tilts 15 urad); the measured data will refine them.")
     if any(m.kind == "multilateration" for m in session.measurements):
         from volcal.identify import multilateration as _ml
 

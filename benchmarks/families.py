@@ -80,20 +80,18 @@ import scipy.linalg as sla
 from numpy.polynomial import legendre
 from numpy.typing import NDArray
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from volcal.identify import IdentifyOptions, identify  # noqa: E402
-from volcal.identify.design import build_design, choose_nodes  # noqa: E402
-from volcal.measure.simulate import SimulationOptions, simulate_session  # noqa: E402
-from volcal.measure.virtual import random_machine  # noqa: E402
-from volcal.model.chain import parse_chain  # noqa: E402
-from volcal.model.errorfunctions import MachineErrors  # noqa: E402
-from volcal.model.kinematics import pose_jacobian, volumetric_error  # noqa: E402
-from volcal.model.names import COMPONENT_NAMES  # noqa: E402
-from volcal.model.parameters import ParameterLayout  # noqa: E402
-from volcal.model.rigid import remove_rigid_body  # noqa: E402
-from volcal.plan.planner import plan_session  # noqa: E402
-from volcal.standards.volumetric import work_zone_grid  # noqa: E402
+from volcal.identify import IdentifyOptions, identify
+from volcal.identify.design import build_design, choose_nodes
+from volcal.measure.simulate import SimulationOptions, simulate_session
+from volcal.measure.virtual import random_machine
+from volcal.model.chain import parse_chain
+from volcal.model.errorfunctions import MachineErrors
+from volcal.model.kinematics import pose_jacobian, volumetric_error
+from volcal.model.names import COMPONENT_NAMES
+from volcal.model.parameters import ParameterLayout
+from volcal.model.rigid import remove_rigid_body
+from volcal.plan.planner import plan_session
+from volcal.standards.volumetric import work_zone_grid
 
 __all__ = ["FAMILIES", "AnalyticMachine", "Family", "FamilyResult", "Limit", "gauge_map",
            "run_family", "summarise"]

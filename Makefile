@@ -67,6 +67,7 @@ study: $(STAMP)
 	$(BIN)/python benchmarks/study.py --design all --machines 10 --markdown --quiet
 	$(BIN)/python benchmarks/study.py --drift --design all --machines 10 --markdown --quiet
 	$(BIN)/python benchmarks/study.py --false-alarms 60 --runs 2 --design all
+	$(BIN)/python benchmarks/families.py --machines 20 --markdown --quiet
 
 clean:
 	rm -rf $(VENV) demo-output .pytest_cache .ruff_cache

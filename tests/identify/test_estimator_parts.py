@@ -203,24 +203,54 @@ def test_evidence_gradient_in_every_hyperparameter(small):
     assert all(abs(grad[f]) > 1e-6 for f in TREND_FUNCTIONS)
 
 
-def test_trend_prior_is_the_covariance_of_wiggles_plus_a_slope(small):
+@pytest.mark.parametrize("boundary", ["conditional", "difference"])
+def test_trend_prior_is_the_covariance_of_wiggles_plus_a_slope(small, boundary, monkeypatch):
     """A positioning block's precision with the trend is the inverse of
-    ``a^2 (C / kappa^2 + W)^-1 + t^2 s s'`` (dense inverse), and the prior's log
-    determinant the sum of the blocks'."""
-    _, design, prior = small
-    p = prior.with_trend(15.0).with_kappa(5.0)
+    ``a^2 P^-1 + t^2 s s'`` (dense inverse), and the prior's log determinant the sum of the
+    blocks'. ``P`` is the smoothness precision conditioned on the gauge zero (``C / kappa^2
+    + W`` on the free nodes, ``BOUNDARY = 'conditional'``) or, by default, the precision of
+    the differences ``f_i - f_0`` of a function drawn on all the nodes (``(D (C_full /
+    kappa^2 + W_full)^-1 D')^-1``; for a straightness the end-point line is removed)."""
+    import volcal.identify.prior as prior_mod
+
+    _, design, _ = small
+    monkeypatch.setattr(prior_mod, "BOUNDARY", boundary)
+    p = PriorStructure.build(design.layout, design.free, 6.0).with_trend(15.0).with_kappa(5.0)
     fs = np.full(18, 4.0)
+    nodes = design.layout.nodes[0]
+    Cf, Wf = prior_mod.unit_parts(nodes)
+    n = nodes.size
+    sfull = (nodes - nodes[0]) / np.ptp(nodes)
+
+    def base_cov(b):
+        _, C, W, _, f = p.blocks[b]
+        if boundary == "conditional":
+            return np.linalg.inv(C / 25.0 + W)
+        D = np.eye(n)[1:]
+        D[:, 0] = -1.0
+        if f in (1, 2):  # a straightness of X: the end-point line removed
+            D = np.eye(n)[1:-1]
+            D[:, 0] -= 1.0 - sfull[1:-1]
+            D[:, -1] -= sfull[1:-1]
+        return D @ np.linalg.inv(Cf / 25.0 + Wf) @ D.T
+
     b = next(i for i, blk in enumerate(p.blocks) if blk[4] == 0)  # EXX
-    _, C, W, _, _ = p.blocks[b]
     s = p.coords[b]
-    cov = 16.0 * np.linalg.inv(C / 25.0 + W) + 225.0 * np.outer(s, s)
-    np.testing.assert_allclose(p.block_precision(b, fs), np.linalg.inv(cov), rtol=1e-9,
-                               atol=1e-12 * np.abs(np.linalg.inv(cov)).max())
+    cov = 16.0 * base_cov(b) + 225.0 * np.outer(s, s)
+    np.testing.assert_allclose(p.block_precision(b, fs), np.linalg.inv(cov), rtol=1e-8,
+                               atol=1e-10 * np.abs(np.linalg.inv(cov)).max())
     assert s[-1] == pytest.approx(1.0) and np.all(np.diff(s) > 0)
-    # the other blocks keep the banded smoothness precision
+    # the other blocks keep the smoothness prior without trend
     c = next(i for i, blk in enumerate(p.blocks) if blk[4] == 1)  # EYX
-    _, C1, W1, _, _ = p.blocks[c]
-    np.testing.assert_allclose(p.block_precision(c, fs), (C1 / 25.0 + W1) / 16.0)
+    want = np.linalg.inv(16.0 * base_cov(c))
+    np.testing.assert_allclose(p.block_precision(c, fs), want, rtol=1e-8,
+                               atol=1e-10 * np.abs(want).max())
+    if boundary == "conditional":  # banded
+        _, C1, W1, _, _ = p.blocks[c]
+        np.testing.assert_allclose(p.block_precision(c, fs), (C1 / 25.0 + W1) / 16.0)
+    else:  # the far end is as free as f(1) - f(0): twice the variance of f(1) alone
+        v = np.diag(base_cov(b))
+        assert v[-1] > 1.5 * np.diag(np.linalg.inv(p.blocks[b][1] / 25.0 + p.blocks[b][2]))[-1]
     total = sum(np.linalg.slogdet(p.block_precision(i, fs))[1] for i in range(len(p.blocks)))
     expect = total - 2 * p.squareness.size * np.log(100.0)
     assert p.logdet(fs, 100.0, np.zeros(0)) == pytest.approx(expect, rel=1e-12)

@@ -83,8 +83,9 @@ RATIO_XFAIL: dict[str, str] = {}
 """Ratio checks not met. Step diagonals alone were 1.34x (median, up to 2.54x) worse than
 minimum-norm least squares until the set-up tilts got a prior of their own (scale chosen
 by the evidence), the beam alignment to the actual motion was modelled and the positioning
-errors got a linear trend of their own (volcal.identify.solver): now 0.83 (median, max
-1.004, inside the 1 % slack) on machines 0-7."""
+errors got a linear trend of their own (volcal.identify.solver): 0.83 (median, max
+1.004, inside the 1 % slack) on machines 0-7; 0.78 (max 0.96) since the prior's difference
+form at the gauge zeros (issue 19, volcal.identify.prior.BOUNDARY)."""
 COVERAGE_XFAIL: dict[str, str] = {}
 """Coverage checks not met. Step diagonals alone covered 0.875 pooled (0.50 on machine 6:
 the positioning slope / mirror tilt confound was not in the uncertainty); now 0.95."""

@@ -93,13 +93,15 @@ class _Evidence:
     def _block_derivatives(self, b: int, fscales, Qb):
         """``[(gradient index, dQ_b / dlog hyperparameter)]`` of block ``b``.
 
-        Without trend ``Q = P / a^2`` (``P = C / kappa^2 + W``): ``dQ/dlog a = -2 Q``,
-        ``dQ/dlog kappa = -2 K`` with ``K = C / (kappa^2 a^2)``. With the trend ``Q = S^-1``,
-        ``S = a^2 P^-1 + t^2 s s'``, ``w = Q s``: ``dQ/dlog a = -2 Q + 2 t^2 w w'``,
+        Without trend ``Q = P / a^2`` (``P = C / kappa^2 + W``, or its difference form,
+        :meth:`PriorStructure.unit_block`): ``dQ/dlog a = -2 Q``, ``dQ/dlog kappa = -2 K``
+        with ``K = C / (kappa^2 a^2)`` (difference form: ``T' C_full T / (kappa^2 a^2)``).
+        With the trend ``Q = S^-1``, ``S = a^2 P^-1 + t^2 s s'``, ``w = Q s``:
+        ``dQ/dlog a = -2 Q + 2 t^2 w w'``,
         ``dQ/dlog t = -2 t^2 w w'``, ``dQ/dlog kappa = -2 (I - t^2 w s') K (I - t^2 s w')``.
         """
-        _, Cb, _, g, f = self.prior.blocks[b]
-        K = Cb / (self.prior.block_kappa(b) ** 2 * fscales[f] ** 2)
+        _, _, _, g, f = self.prior.blocks[b]
+        K = self.prior.unit_block(b)[1] / fscales[f] ** 2
         gk = 22 + g  # the group's curvature factor
         if not self.prior.has_trend(b):
             return [(f, -2.0 * Qb), (18, -2.0 * K), (gk, -2.0 * K)]

@@ -36,8 +36,31 @@ error (thermal expansion of scale or screw, pitch of the screw: 11.5 um/m/K on s
 plus smaller periodic and local errors, so the trend gets its own scale instead of the
 amplitude of the wiggles (ISO 230-2 reports and compensates the slope separately)."""
 
-__all__ = ["GROUPS", "TREND_FUNCTIONS", "PriorStructure", "function_group", "function_scales",
-           "unit_parts", "unit_precision"]
+BOUNDARY = "difference"
+"""How a function's prior meets the gauge zeros (``docs/identification.md``, section 3).
+
+``'difference'`` (default): the prior of the gauge-fixed function is the law of ``f(s) -
+f(0)`` (positioning, rolls, tilts) or of ``f(s) - f(0) - s (f(1) - f(0))`` (straightness:
+the end-point line removed) for ``f`` drawn from the smoothness prior on all the nodes:
+the gauge moves a constant (and a straightness' slope) into other parameters, it does not
+make the machine's function small at the start of travel. ``'conditional'`` (volcal <=
+issue 10): the prior conditioned on the zeros (the sub-matrix of the precision), whose
+variance at the far end of travel is half that of ``f(1) - f(0)``. ``'start'``: the
+difference form where only the start is held, the conditional one for straightness.
+
+Measured (issue 19, benchmarks/README.md, 20 machines per family, seeds' full test set):
+the residual over the best linear estimator knowing the family, median, went from 1.13
+to 1.03 (volcal's own machines), 1.23 to 1.16 (polynomial machines with roll), 1.21 to
+1.15 (guideway joint); on tests/identify/test_study_designs.py the long machine from
+0.378 to 0.284 of minimum-norm least squares (median), step diagonals alone from 1.004
+to 0.960 (max). With the straightness hyperprior centre of 5 um the Abbe lines alone,
+which see no straightness, covered 0.9995 (the unseen straightness kept twice the prior
+variance in the middle): the centre is 2 um with this form
+(:data:`volcal.identify.solver.HYPER_CENTRE`). ``'start'`` broke the step diagonals'
+ratio to least squares (one machine above 1.01)."""
+
+__all__ = ["BOUNDARY", "GROUPS", "TREND_FUNCTIONS", "PriorStructure", "function_group",
+           "function_scales", "unit_parts", "unit_precision"]
 
 
 def function_group(axis: int, component: int) -> int:
@@ -123,6 +146,31 @@ def unit_parts(nodes: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray
     return C, np.diag(w)
 
 
+def _boundary_map(s: NDArray[np.float64], sel: NDArray[np.bool_], C: NDArray[np.float64],
+                  W: NDArray[np.float64], mode: str = "difference"):
+    """``(D, C, W)`` of the difference prior of one function, or None.
+
+    ``D`` maps the values at all nodes to the free ones in the gauge: ``f_i - f_0`` when
+    only the first node is held, ``f_i - f_0 - s_i (f_n - f_0)`` when the last one is held
+    too (straightness; with ``mode='start'`` the conditional prior is kept there); None
+    for any other pattern and for ``mode='conditional'`` (the conditional prior is used).
+    """
+    n = s.size
+    if mode == "conditional" or n < 2 or sel[0]:
+        return None
+    first_only = np.all(sel[1:])
+    both = n > 2 and not sel[-1] and np.all(sel[1:-1]) and mode == "difference"
+    if not (first_only or both):
+        return None
+    D = np.eye(n)[sel]
+    if first_only:
+        D[:, 0] -= 1.0
+    else:
+        D[:, 0] -= 1.0 - s[sel]
+        D[:, -1] -= s[sel]
+    return D, C, W
+
+
 def unit_precision(nodes: NDArray[np.float64], kappa: float) -> NDArray[np.float64]:
     """Prior precision of one function on its nodes for unit amplitude scale.
 
@@ -165,6 +213,12 @@ class PriorStructure:
         Prior standard deviation of the linear trend of the functions of
         :data:`TREND_FUNCTIONS` at the end of travel [um]; 0: no separate trend. With it
         the block covariance is ``a^2 (C / kappa^2 + W)^-1 + trend^2 s s'``.
+    maps : list
+        Per block, None (the prior conditioned on the gauge zeros: ``C``, ``W`` are the
+        free nodes' sub-matrices) or ``(D, C_full, W_full)`` with :data:`BOUNDARY`
+        ``'difference'``: the block covariance is ``a^2 D (C_full / kappa^2 +
+        W_full)^-1 D'``, ``D`` mapping all the function's nodes to the gauge-fixed free
+        ones (``f_i - f_0``, or the end-point line removed for a straightness).
     """
 
     blocks: list[tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.float64], int, int]]
@@ -174,6 +228,8 @@ class PriorStructure:
     coords: list[NDArray[np.float64]] = field(default_factory=list)
     trend_um: float = 0.0
     kappa_factor: tuple[float, ...] = (1.0, 1.0, 1.0, 1.0)
+    maps: list = field(default_factory=list)
+    _unit: dict = field(default_factory=dict, repr=False, compare=False)
 
     @classmethod
     def build(cls, layout: ParameterLayout, free: NDArray[np.intp], kappa: float = 40.0
@@ -191,11 +247,12 @@ class PriorStructure:
         """
         pos_in_free = -np.ones(layout.size, dtype=np.intp)
         pos_in_free[free] = np.arange(free.size)
-        blocks, coords = [], []
+        blocks, coords, maps = [], [], []
         for k in range(3):
             C, W = unit_parts(layout.nodes[k])
             x = np.asarray(layout.nodes[k], dtype=float)
             span = x[-1] - x[0] if x.size > 1 else 1.0
+            s = (x - x[0]) / span
             for c in range(6):
                 idx = layout.indices(k, c)
                 sel = pos_in_free[idx] >= 0
@@ -203,9 +260,10 @@ class PriorStructure:
                     continue
                 blocks.append((pos_in_free[idx][sel], C[np.ix_(sel, sel)], W[np.ix_(sel, sel)],
                                function_group(k, c), 6 * k + c))
-                coords.append(((x - x[0]) / span)[sel])
+                coords.append(s[sel])
+                maps.append(_boundary_map(s, sel, C, W, BOUNDARY))
         sq = pos_in_free[layout.squareness_indices()]
-        return cls(blocks, sq[sq >= 0], int(free.size), kappa, coords)
+        return cls(blocks, sq[sq >= 0], int(free.size), kappa, coords, maps=maps)
 
     def with_kappa(self, kappa: float) -> PriorStructure:
         """The same prior with another curvature scale.
@@ -280,6 +338,46 @@ class PriorStructure:
         """
         return self.trend_um > 0 and self.blocks[b][4] in TREND_FUNCTIONS
 
+    def unit_block(self, b: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Block ``b``'s precision for a unit amplitude scale and its curvature derivative.
+
+        Parameters
+        ----------
+        b : int
+            Block index.
+
+        Returns
+        -------
+        P : ndarray
+            Precision of the block's free nodes for ``a = 1``, without the trend.
+        K : ndarray
+            ``-dP / dlog kappa / 2``: ``C / kappa^2`` when conditioned on the gauge zeros,
+            ``T' (C_full / kappa^2) T`` with ``T = P_full^-1 D' P`` for the difference
+            prior (:data:`BOUNDARY`).
+        """
+        kb = self.block_kappa(b)
+        key = (b, kb)
+        hit = self._unit.get(key)
+        if hit is not None:
+            return hit
+        _, C, W, _, _ = self.blocks[b]
+        mp = self.maps[b] if b < len(self.maps) else None
+        if mp is None:
+            out = (C / kb**2 + W, C / kb**2)
+        else:
+            D, Cf, Wf = mp
+            Pf = Cf / kb**2 + Wf
+            T = np.linalg.solve(Pf, D.T)  # P_full^-1 D'
+            P = np.linalg.inv(D @ T)
+            P = (P + P.T) / 2
+            T = T @ P
+            K = T.T @ (Cf / kb**2) @ T
+            out = (P, (K + K.T) / 2)
+        if len(self._unit) > 256:
+            self._unit.clear()
+        self._unit[key] = out
+        return out
+
     def block_precision(self, b: int, fscales: NDArray[np.float64]) -> NDArray[np.float64]:
         """Prior precision of block ``b`` (dense, its free nodes).
 
@@ -293,11 +391,13 @@ class PriorStructure:
         Returns
         -------
         ndarray
-            ``(C / kappa^2 + W) / a^2``, or with the trend the inverse of
-            ``a^2 (C / kappa^2 + W)^-1 + trend^2 s s'`` (Sherman-Morrison).
+            ``(C / kappa^2 + W) / a^2`` (``BOUNDARY = 'conditional'``) or ``(D (C_full /
+            kappa^2 + W_full)^-1 D')^-1 / a^2`` (``'difference'``, :attr:`maps`), or with
+            the trend the inverse of that covariance plus ``trend^2 s s'``
+            (Sherman-Morrison).
         """
-        _, C, W, _, f = self.blocks[b]
-        Q0 = (C / self.block_kappa(b) ** 2 + W) / fscales[f] ** 2
+        f = self.blocks[b][4]
+        Q0 = self.unit_block(b)[0] / fscales[f] ** 2
         if not self.has_trend(b):
             return Q0
         u = Q0 @ self.coords[b]

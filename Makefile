@@ -51,8 +51,11 @@ postgres-deps:
 	  apt-get update -q && DEBIAN_FRONTEND=noninteractive apt-get install -y -q \
 	    --no-install-recommends postgresql || echo "postgresql not available: the PostgreSQL history tests will skip"; fi
 
+# Two workers (pytest-xdist), one per core of the 2-core box; a test file stays on one
+# worker (--dist loadfile), so module fixtures (rendered reports, identified sessions, the
+# PostgreSQL cluster per worker) are built once.
 test: $(STAMP) bytecode browser-deps linuxcnc-deps postgres-deps
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest -n 2 --dist loadfile
 
 lint: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks

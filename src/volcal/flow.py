@@ -341,7 +341,7 @@ class Calibration:
                  noise_um: float = D.SIM_NOISE_UM,
                  mirror_misalignment_urad: float = D.SIM_MIRROR_URAD,
                  drift_um_per_h: float = D.SIM_DRIFT_UM_PER_H,
-                 reversal_um: float = D.SIM_REVERSAL_UM,
+                 reversal_um: float = D.SIM_REVERSAL_UM, *,
                  budget: str | Path | Budget | None = None) -> Calibration:
         """Fill the readings from a virtual machine (in memory; :meth:`save` writes them).
 
@@ -483,7 +483,7 @@ class Calibration:
                                    "Save to another folder", folder / "session.toml")
 
     @A.checked
-    def identify(self, budget: str | Path | Budget | None = None,
+    def identify(self, *, budget: str | Path | Budget | None = None,
                  **options: object) -> IdentificationResult:
         """Identify the 21 errors with uncertainties, like ``volcal identify``.
 
@@ -541,7 +541,7 @@ class Calibration:
         return model
 
     @A.checked
-    def evaluate(self, edition: str = D.EDITION,
+    def evaluate(self, edition: str = D.EDITION, *,
                  budget: str | Path | Budget | None = None) -> SessionEvaluation:
         """Evaluate to ISO 230-2, ISO 230-6 and the volumetric indices (with the model).
 
@@ -585,7 +585,7 @@ class Calibration:
     @A.checked
     def verdict(self, tolerance_um: float | str | Mapping[str, float],
                 compensation: str | Path | None = None, edition: str = D.EDITION,
-                force: bool = False, decision_rule: str = D.DECISION_RULE,
+                force: bool = False, *, decision_rule: str = D.DECISION_RULE,
                 guard_band_um: float | None = None,
                 budget: str | Path | Budget | None = None) -> list[Verdict]:
         """Pass/fail against a tolerance, before and after compensation.
@@ -742,7 +742,7 @@ class Calibration:
     @A.checked
     def report(self, folder: str | Path, title: str | None = None, edition: str = D.EDITION,
                tolerance_um: float | str | Mapping[str, float] | None = None,
-               compensation: str | Path | None = None, force: bool = False,
+               compensation: str | Path | None = None, *, force: bool = False,
                certificate: bool = False, as_left: str | Path | Calibration | None = None,
                tables: str | Path | None = None, strict: bool = False,
                decision_rule: str = D.DECISION_RULE, guard_band_um: float | None = None,

@@ -252,6 +252,31 @@ def test_as_found_as_left_certificate_equals_the_clis(sessions, tmp_path, monkey
     assert py2 == py
 
 
+def test_report_refuses_another_machines_tables_unless_forced(sessions, tmp_path,
+                                                              fast_report):
+    """report(compensation=..., force=True) as `volcal report --compensation --force`."""
+    import warnings
+
+    from volcal.errors import VolcalInputError
+
+    other = Calibration.plan(TRAVEL, steps=3, runs=2, tests=["linear"], name="OTHER-500")
+    other.simulate(seed=1).identify()
+    other.compensate(tmp_path / "t", format="csv")
+    cal = Calibration.open(sessions.root / "py")
+    cal.identify()
+    with pytest.raises(VolcalInputError) as e:
+        cal.report(tmp_path / "r", compensation=tmp_path / "t")
+    assert "OTHER-500" in str(e.value) and "force=True" in str(e.value)
+    assert "--force" not in str(e.value)  # Python's keyword, not the CLI's option
+    assert not (tmp_path / "r").exists()
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        files = cal.report(tmp_path / "r", compensation=tmp_path / "t", force=True)
+    assert files.html.is_file()
+    (warned,) = [str(x.message) for x in w if "OTHER-500" in str(x.message)]
+    assert warned.startswith("force=True: the compensation tables")
+
+
 def _close(a, b, where):
     """Equal JSON, numbers to 1e-6 relative (model.json holds 9 significant digits)."""
     if isinstance(a, dict):

@@ -647,7 +647,7 @@ class Calibration:
             for w in check_manifest(manifest, compensation, MachineIdentity.of(self.session),
                                     errors_digest(self.result.errors), force,
                                     "this calibration's model"):
-                _w.warn(w, UserWarning, stacklevel=3)
+                _w.warn(A.python_text(w), UserWarning, stacklevel=3)
             # the "after" from the tables as written, read back (not resampled from the model)
             tables = read_written_tables(compensation, manifest, self.session.travel)
         errors = None if self.result is None else self.result.errors
@@ -856,7 +856,7 @@ class Calibration:
         files = write_report(build_report(inputs, title), folder, extra)
         if inputs.compensation is not None:
             for w in inputs.compensation.warnings:
-                warnings.warn(w, UserWarning, stacklevel=3)
+                warnings.warn(A.python_text(w), UserWarning, stacklevel=3)
         self.certificate = None
         if written:
             from volcal.report.certificate_files import CertificateFiles

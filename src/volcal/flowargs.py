@@ -28,7 +28,8 @@ if TYPE_CHECKING:
     from volcal.uncertainty.budget import Budget
 
 __all__ = ["acceptance", "budget_file", "checked", "known_functions", "names", "name_list",
-           "python_names", "tolerance_text", "travel_mm", "unknown_option", "vector_mm"]
+           "python_names", "python_text", "tolerance_text", "travel_mm", "unknown_option",
+           "vector_mm"]
 
 F = TypeVar("F", bound=Callable[..., object])
 
@@ -377,6 +378,24 @@ _CLI_SPELLING: tuple[tuple[str, str], ...] = (
 )
 
 
+def python_text(text: str) -> str:
+    """A library message or warning with the command line's options as Python keywords.
+
+    Parameters
+    ----------
+    text : str
+        E.g. ``'--force: the compensation tables ... were written for another machine'``.
+
+    Returns
+    -------
+    str
+        E.g. ``'force=True: the compensation tables ...'``.
+    """
+    for cli, py in _CLI_SPELLING:
+        text = text.replace(cli, py)
+    return text
+
+
 @contextmanager
 def python_names(where: str) -> Iterator[None]:
     """Re-raise a library's :class:`VolcalInputError` with the Python keywords.
@@ -396,8 +415,6 @@ def python_names(where: str) -> Iterator[None]:
         msg, column = exc.message, exc.column
         if not any(cli in msg or cli == column for cli, _ in _CLI_SPELLING):
             raise
-        for cli, py in _CLI_SPELLING:
-            msg = msg.replace(cli, py)
-            if column == cli:
-                column = py
-        raise VolcalInputError(f"{where}: {msg}", exc.file, exc.row, column) from None
+        column = dict(_CLI_SPELLING).get(column, column) if column else column
+        raise VolcalInputError(f"{where}: {python_text(msg)}", exc.file, exc.row,
+                               column) from None

@@ -814,9 +814,12 @@ class Calibration:
                                    "compensate", compensation)
         s = self.session
         s2 = None
-        if as_left is not None:
-            s2 = as_left.session if isinstance(as_left, Calibration) else \
-                Calibration.open(as_left).session
+        if isinstance(as_left, Calibration):
+            s2 = as_left.session
+        elif as_left is not None:  # measured, as --as-left (a planned session is refused)
+            from volcal.session.format import read_session
+
+            s2 = read_session(as_left)
         with A.python_names(where):
             cert = self._certificate_wanted(s2, tables, certificate, strict)
         result = self._need_result()
@@ -831,11 +834,11 @@ class Calibration:
             if budget is not None:  # U of every linear test of both sessions, as the CLI
                 from types import SimpleNamespace
 
-                b = SimpleNamespace(budget=A.budget_file(budget, where)[0] if tol is None
-                                    else tol.budget)  # read once, passed as the CLI's tol
-                uncs = _uncertainties(s, b, Path(str(budget)), edition)
-                als = None if s2 is None else _uncertainties(s2, b, Path(str(budget)),
-                                                             edition)
+                bud, label = (tol.budget, "") if tol is not None else \
+                    A.budget_file(budget, where)
+                held = SimpleNamespace(budget=bud)  # read once; held as the CLI's tol holds it
+                uncs = _uncertainties(s, held, Path(label), edition)
+                als = None if s2 is None else _uncertainties(s2, held, Path(label), edition)
             with A.python_names(where):
                 doc = build_certificate(s, result, as_left=s2, tables=tables, tolerance=tol,
                                         uncertainties=uncs, as_left_uncertainties=als,

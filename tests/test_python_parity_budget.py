@@ -285,6 +285,32 @@ def test_report_refuses_another_machines_tables_unless_forced(sessions, tmp_path
     assert warned.startswith("force=True: the compensation tables")
 
 
+def test_a_folder_of_other_files_is_never_replaced(sessions, tmp_path):
+    """report, compensate and program refuse a non-empty folder they did not write, as
+    `volcal report/compensate/program -o` do (atomic replacement would delete its files);
+    their own earlier output is replaced."""
+    from volcal.errors import VolcalInputError
+
+    cal = Calibration.open(sessions.root / "py")
+    cal.identify()
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "thesis.txt").write_text("precious", "utf-8")
+    for what, call in (("report", lambda: cal.report(mine)),
+                       ("compensation", lambda: cal.compensate(mine, format="csv")),
+                       ("program", lambda: cal.program(mine, "linuxcnc"))):
+        with pytest.raises(VolcalInputError) as e:
+            call()
+        assert str(e.value) == (f"{mine}: exists and is not a volcal {what} folder; choose "
+                                "a new or empty folder")
+    assert [p.name for p in mine.iterdir()] == ["thesis.txt"]
+    assert (mine / "thesis.txt").read_text("utf-8") == "precious"
+    files = cal.compensate(tmp_path / "c", format="csv")
+    assert cal.compensate(tmp_path / "c", format="csv") == files  # its own: replaced
+    folder, _ = cal.program(tmp_path / "p", "linuxcnc")
+    assert cal.program(tmp_path / "p", "linuxcnc")[0] == folder
+
+
 def _close(a, b, where):
     """Equal JSON, numbers to 1e-6 relative (model.json holds 9 significant digits)."""
     if isinstance(a, dict):

@@ -329,9 +329,12 @@ class Calibration:
         notes : list of str
             What the user should know (the command line prints them as notes).
         """
+        from volcal.io.paths import check_output_folder
         from volcal.program.steps import ProgramOptions
-        from volcal.program.writer import write_programs
+        from volcal.program.writer import INDEX_FILE, write_programs
 
+        # as `volcal program`: only a new, empty or earlier program folder is replaced
+        check_output_folder(folder, "program", lambda p: (p / INDEX_FILE).is_file())
         opts = ProgramOptions(dwell_s=dwell_s, feed=feed, overrun_mm=overrun_mm,
                               decimals=decimals, safe_z_mm=safe_z_mm)
         return write_programs(self._planned(), dialect, folder, opts, first_number)
@@ -724,6 +727,11 @@ class Calibration:
                 warnings.warn(f"sign={sign!r} overrides the {fmt} convention '{info.sign}' "
                               f"({info.sign_source}); a table in the wrong sign doubles the "
                               "error", UserWarning, stacklevel=3)
+        from volcal.compensate.manifest import MANIFEST
+        from volcal.io.paths import check_output_folder
+
+        # as `volcal compensate`: only a new, empty or earlier compensation folder is replaced
+        check_output_folder(folder, "compensation", lambda p: (p / MANIFEST).is_file())
         ref = None if reference_mm is None else A.vector_mm(reference_mm, "reference_mm")
         opts = CompensationOptions(sign, spacing, max_points, ref, unit_um, magnification,
                                    max_increment, squareness,
@@ -807,6 +815,7 @@ class Calibration:
             Equipment overdue for calibration (without ``strict``), compensation tables
             of another machine used with ``force``.
         """
+        from volcal.io.paths import check_output_folder
         from volcal.report.pipeline import collect_inputs
         from volcal.report.sections import build_report
         from volcal.report.writer import write_report
@@ -815,6 +824,8 @@ class Calibration:
         where = "Calibration.report"
         tol = None if tolerance_um is None else parse_tolerance(A.tolerance_text(tolerance_um))
         tol = A.acceptance(where, tol, decision_rule, guard_band_um, budget)
+        # as `volcal report`: only a new, empty or earlier report folder is replaced
+        check_output_folder(folder, "report", lambda p: (p / "report.html").is_file())
         if compensation is not None and not Path(compensation).is_dir():
             raise VolcalInputError(f"{where}: compensation= is not a folder written by "
                                    "compensate", compensation)

@@ -175,6 +175,8 @@ SHARED: dict[str, tuple[list[tuple[Callable[[], Any], dict[str, str | None]]],
         [(_identify_options, {"measurements": "measurement_ids"})],
         {"session": "the Calibration's session", "output": "result.to_json(path)",
          "known_u": "Calibration.identify(known=path, known_u=...)",
+         "budget": "Calibration.identify(budget=...), not an IdentifyOptions field "
+                   "(attach_systematic after the fit), compared below",
          "monte_carlo": "volcal.identify.monte_carlo(result, q, n)"}),
     "advise": ([(lambda: Calibration.advise, {}), (_identify_options, {})],
                {"session": "the Calibration's session"}),
@@ -184,8 +186,7 @@ SHARED: dict[str, tuple[list[tuple[Callable[[], Any], dict[str, str | None]]],
         {"session": "the Calibration's session"}),
     "report": (
         [(lambda: Calibration.report, {"output": "folder"})],
-        {"session": "the Calibration's session", "model": "Calibration.load_model(path)",
-         "force": "Calibration.load_model(path, force=True)"}),
+        {"session": "the Calibration's session", "model": "Calibration.load_model(path)"}),
     "evaluate session": (
         [(lambda: Calibration.evaluate, {}), (_evaluate_session, {})],
         {"session": "the Calibration's session", "as_json": "SessionEvaluation.to_dict()",
@@ -193,7 +194,10 @@ SHARED: dict[str, tuple[list[tuple[Callable[[], Any], dict[str, str | None]]],
          "model": "Calibration.load_model(path)",
          "compensation": "Calibration.verdict(tolerance_um, compensation), below",
          "force": "Calibration.verdict(..., force=True) and Calibration.load_model(path, "
-                  "force=True)"}),
+                  "force=True)",
+         "decision_rule": "Calibration.verdict(tolerance_um, decision_rule=...): a rule "
+                          "judges a tolerance, compared below",
+         "guard_band_um": "Calibration.verdict(tolerance_um, guard_band_um=...), below"}),
     "import": (
         [(lambda: Calibration.import_, {}),
          # the library's positional arguments (axis, id, line_mm...) have no default
@@ -257,6 +261,17 @@ def test_verdict_defaults_equal_evaluate_session():
     assert cli["compensation"] is None is py["compensation"]
     assert norm(cli["edition"]) == norm(py["edition"])
     assert cli["force"] is False is py["force"]
+    assert cli["decision_rule"] == py["decision_rule"] == D.DECISION_RULE == "simple"
+    assert cli["guard_band_um"] is None is py["guard_band_um"]
+    assert cli["budget"] is None is py["budget"]
+    # the other commands that judge a tolerance take the same rule by default
+    assert cli_defaults("report")["decision_rule"] == D.DECISION_RULE
+    assert cli_defaults("evaluate iso230-2")["decision_rule"] == D.DECISION_RULE
+
+
+def test_identify_budget_default_equals_the_cli():
+    assert cli_defaults("identify")["budget"] is None
+    assert py_defaults(Calibration.identify)["budget"] is None
 
 
 def test_compensation_defaults_are_safe():
@@ -293,8 +308,9 @@ def _typing_names() -> dict[str, Any]:
     from volcal.report.writer import ReportFiles
     from volcal.session.format import Session
     from volcal.standards.session import SessionEvaluation
+    from volcal.uncertainty.budget import Budget
 
-    return {"IdentifiabilityReport": IdentifiabilityReport,
+    return {"Budget": Budget, "IdentifiabilityReport": IdentifiabilityReport,
             "IdentificationResult": IdentificationResult, "ImportResult": ImportResult,
             "MachineErrors": MachineErrors, "ReportFiles": ReportFiles, "Session": Session,
             "SessionEvaluation": SessionEvaluation, "Verdict": Verdict}

@@ -16,7 +16,7 @@ def _blocks() -> list[str]:
 
 def test_walkthrough_runs_and_writes_every_output(tmp_path):
     blocks = _blocks()
-    assert len(blocks) == 4  # flow, measured session, advise/program/import, tables
+    assert len(blocks) == 5  # flow, measured session, advise/program/import, budget, tables
     assert len([ln for ln in blocks[0].splitlines() if ln.strip()]) <= 13
     script = "\n".join(blocks) + "\n"
     r = subprocess.run([sys.executable, "-c", script], cwd=tmp_path, capture_output=True,
@@ -27,7 +27,8 @@ def test_walkthrough_runs_and_writes_every_output(tmp_path):
     assert re.search(r"ELv = \d+\.\d\d um \(measured\)", r.stdout)
     for f in ("session/session.toml", "session/truth/machine.csv", "model.json",
               "compensation/volcal-compensation.toml", "compensation/FANUC_PITCH.TXT",
-              "report/report.html", "report/report.pdf", "imported/session.toml"):
+              "report/report.html", "report/report.pdf", "imported/session.toml",
+              "report/certificate.json", "report/certificate.pdf", "budget.toml"):
         assert (tmp_path / f).is_file(), f
     import tomllib
 
@@ -44,6 +45,17 @@ def test_walkthrough_runs_and_writes_every_output(tmp_path):
     assert re.search(r"\d\s+EXX\s+X\s+0\.0\s+0\.0+\s+0\.0+\s+um", r.stdout)
     assert re.search(r"id\s+axis\s+A_um\s+R_um\s+B_um", r.stdout)
     assert "'target_mm':" in r.stdout and "'mean_up_um':" in r.stdout
+    # the budget block: U of A, and a guarded verdict per axis with its U
+    u_a = float(re.search(r"U\(A\) linear-x1 = (\d+\.\d\d) um", r.stdout).group(1))
+    assert 0 < u_a < 10
+    guarded = re.findall(r"([XYZ]): ISO 230-2 A \(.*?\) (pass|conditional|fail) U = "
+                         r"(\d+\.\d\d) um", r.stdout)
+    assert [g[0] for g in guarded] == ["X", "Y", "Z"] and all(float(g[2]) > 0
+                                                              for g in guarded)
+    import json
+
+    cert = json.loads((tmp_path / "report/certificate.json").read_text(encoding="utf-8"))
+    assert cert["format"] == "volcal-certificate/1" and cert["item"]["name"] == "VMC-400"
 
 
 def test_import_volcal_is_light():

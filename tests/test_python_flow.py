@@ -110,6 +110,28 @@ BAD_CALLS = [
      "spacing='20': expected a finite number"),
     (lambda c: c.simulate(drift_um_per_h=float("inf")), "drift_um_per_h=inf"),
     (lambda c: Calibration.plan(TRAVEL, iso_spacing="no"), "expected True or False"),
+    # decision rules, guard band, budget, certificate (the CLI's options, Python's names)
+    (lambda c: c.verdict("X=10", decision_rule="guardd"),
+     "decision_rule='guardd': expected one of simple, guarded"),
+    (lambda c: c.verdict("X=10", guard_band_um=1),
+     "guard_band_um applies to decision_rule='guarded' (valid rules: simple, guarded)"),
+    (lambda c: c.verdict("X=10", decision_rule="guarded", guard_band_um=-1),
+     "guard_band_um=-1: expected a finite number >= 0 [um]"),
+    (lambda c: c.verdict("X=10", decision_rule="guarded"),
+     "Calibration.verdict: decision_rule='guarded' needs the expanded uncertainty "
+     "(budget=FILE) or a guard band (guard_band_um=W)"),
+    (lambda c: c.verdict("V=10", decision_rule="guarded"),
+     "Calibration.verdict: decision_rule='guarded' on the volumetric tolerance (V) needs"),
+    (lambda c: c.report("r", decision_rule="guarded"),
+     "decision_rule='guarded' judges a tolerance: give tolerance_um too"),
+    (lambda c: c.evaluate(budget="no-budget.toml"), "no-budget.toml: no such budget file"),
+    (lambda c: c.identify(budget=3), "budget=3: expected the path of a budget file"),
+    (lambda c: c.identify(budgte="b.toml"), "did you mean 'budget'?"),
+    (lambda c: c.simulate(budget="no-budget.toml"), "no such budget file"),
+    (lambda c: c.report("r", tables="t"), "tables= names the compensation loaded between "
+     "the as-found and the as-left measurement: give as_left= (the second session) too"),
+    (lambda c: c.report("r", strict=True), "strict=True applies to the certificate"),
+    (lambda c: c.report("r", as_left="no-such-folder"), "session folder not found"),
 ]
 
 
@@ -136,7 +158,7 @@ def test_unknown_keyword_lists_every_valid_option(cal):
     assert str(e.value) == (
         "Calibration.simulate: unknown option 'noise' (did you mean 'noise_um'?); valid "
         "options: machine, seed, noise_um, mirror_misalignment_urad, drift_um_per_h, "
-        "reversal_um")
+        "reversal_um, budget")
 
 
 def test_identified_functions_as_a_table(cal):

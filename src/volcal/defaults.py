@@ -52,6 +52,9 @@ ROLL = "estimate"
 # -- evaluate / report ----------------------------------------------------------------------
 EDITION = "2014"
 """ISO 230-2 edition."""
+DECISION_RULE = "simple"
+"""Decision rule of a tolerance verdict: ``'simple'`` (pass when the value is at most the
+tolerance) or ``'guarded'`` (:mod:`volcal.standards.decision`, ILAC-G8:09/2019)."""
 
 # -- compensate (volcal compensate, Calibration.compensate) --------------------------------
 COMP_SIGN: str | None = None

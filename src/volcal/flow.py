@@ -37,11 +37,15 @@ if TYPE_CHECKING:
     from volcal.identify.identifiability import IdentifiabilityReport
     from volcal.identify.result import IdentificationResult
     from volcal.importer.laser_csv import ImportResult
+    from volcal.measure.systematic import SystematicDraw
     from volcal.model.errorfunctions import MachineErrors
+    from volcal.report.certificate_files import CertificateFiles
     from volcal.report.verdict import Verdict
     from volcal.report.writer import ReportFiles
     from volcal.session.format import Session
+    from volcal.standards.iso230_2_uncertainty import Iso2302Uncertainty
     from volcal.standards.session import SessionEvaluation
+    from volcal.uncertainty.budget import Budget
 
 __all__ = ["Calibration"]
 
@@ -67,6 +71,13 @@ class Calibration:
         Folder written by :meth:`compensate`.
     imported : ImportResult or None
         What :meth:`import_` read (notes on units and columns).
+    uncertainties : dict of str to Iso2302Uncertainty, or None
+        Set by :meth:`evaluate` with a ``budget``: per linear test, the expanded
+        uncertainty ``U`` [um] of every ISO 230-2 parameter (``.parameters['A'].U``) and
+        target (``.targets[i].U``), as ``volcal evaluate session --budget``.
+    certificate : CertificateFiles or None
+        Set by :meth:`report` when it issues a certificate: ``.pdf``, ``.html``,
+        ``.json`` in the report folder, ``.pdf_pages``.
     """
 
     def __init__(self, session: Session, truth: MachineErrors | None = None) -> None:
@@ -76,8 +87,11 @@ class Calibration:
         self.evaluation: SessionEvaluation | None = None
         self.compensation: Path | None = None
         self.imported: ImportResult | None = None
+        self.uncertainties: dict[str, Iso2302Uncertainty] | None = None
+        self.certificate: CertificateFiles | None = None
         self._setups: object = None
         self._sim: object = None
+        self._systematic: tuple[SystematicDraw, str] | None = None
 
     def __repr__(self) -> str:
         """Short description."""
@@ -315,9 +329,12 @@ class Calibration:
         notes : list of str
             What the user should know (the command line prints them as notes).
         """
+        from volcal.io.paths import check_output_folder
         from volcal.program.steps import ProgramOptions
-        from volcal.program.writer import write_programs
+        from volcal.program.writer import INDEX_FILE, write_programs
 
+        # as `volcal program`: only a new, empty or earlier program folder is replaced
+        check_output_folder(folder, "program", lambda p: (p / INDEX_FILE).is_file())
         opts = ProgramOptions(dwell_s=dwell_s, feed=feed, overrun_mm=overrun_mm,
                               decimals=decimals, safe_z_mm=safe_z_mm)
         return write_programs(self._planned(), dialect, folder, opts, first_number)
@@ -327,7 +344,8 @@ class Calibration:
                  noise_um: float = D.SIM_NOISE_UM,
                  mirror_misalignment_urad: float = D.SIM_MIRROR_URAD,
                  drift_um_per_h: float = D.SIM_DRIFT_UM_PER_H,
-                 reversal_um: float = D.SIM_REVERSAL_UM) -> Calibration:
+                 reversal_um: float = D.SIM_REVERSAL_UM, *,
+                 budget: str | Path | Budget | None = None) -> Calibration:
         """Fill the readings from a virtual machine (in memory; :meth:`save` writes them).
 
         Parameters
@@ -345,6 +363,12 @@ class Calibration:
             Linear drift of the readings [um/h].
         reversal_um : float
             Largest reversal of a random machine's axes [um] (not used with ``machine``).
+        budget : str, Path or Budget, optional
+            Uncertainty budget (``volcal budget --template``): its systematic errors
+            (wavelength, air sensors per measurement, material per axis) are drawn once
+            from their distributions (seeded by ``seed``) and applied to the readings, as
+            ``volcal simulate --budget``; :meth:`save` records the draw in
+            ``truth/systematic.toml`` (:mod:`volcal.measure.systematic`).
 
         Returns
         -------
@@ -365,6 +389,7 @@ class Calibration:
         if not (isinstance(seed, int | np.integer) and seed >= 0):
             raise VolcalInputError(f"Calibration.simulate: seed={seed!r}: expected a whole "
                                    "number >= 0")
+        b = None if budget is None else A.budget_file(budget, "Calibration.simulate")
         s = self.session
         if machine is None:
             machine = random_machine(s.travel, s.chain, seed,
@@ -378,6 +403,13 @@ class Calibration:
                                       mirror_misalignment_urad=mirror_misalignment_urad,
                                       drift_um_per_h=drift_um_per_h, seed=seed)
         self._setups = simulate_session(s, machine, self._sim)
+        self._systematic = None
+        if b is not None:  # as `volcal simulate --budget`: one draw, the CLI's random stream
+            from volcal.measure.systematic import apply_systematic, draw_systematic
+
+            draw = draw_systematic(s, b[0], np.random.default_rng([int(seed), 17]))
+            apply_systematic(s, draw)
+            self._systematic = (draw, b[1])
         s.provenance = simulated_provenance(
             s, seed=int(seed), noise_um=float(noise_um),
             mirror_urad=float(mirror_misalignment_urad), drift_um_per_h=float(drift_um_per_h),
@@ -428,6 +460,12 @@ class Calibration:
             from volcal.measure.simulate import truth_files
 
             extra = truth_files(self.truth, self._setups, self._sim)
+            if self._systematic is not None:
+                from volcal.io.tomlfmt import dumps as toml_dumps
+
+                draw, label = self._systematic
+                extra["truth/systematic.toml"] = toml_dumps({
+                    "format": "volcal-systematic/1", "budget": label, **draw.to_dict()})
         path = write_session(full, folder, extra, keep_existing=True)
         self.session = Calibration.open(path).session
         return self
@@ -448,11 +486,17 @@ class Calibration:
                                    "Save to another folder", folder / "session.toml")
 
     @A.checked
-    def identify(self, **options: object) -> IdentificationResult:
+    def identify(self, *, budget: str | Path | Budget | None = None,
+                 **options: object) -> IdentificationResult:
         """Identify the 21 errors with uncertainties, like ``volcal identify``.
 
         Parameters
         ----------
+        budget : str, Path or Budget, optional
+            Uncertainty budget (as ``--budget``): its systematic inputs (wavelength, air
+            per set-up, material per axis) propagated through the fit and kept apart
+            (:func:`volcal.identify.systematic.attach_systematic`);
+            ``result.predict(q, systematic=False)`` gives the noise and prior part only.
         **options
             Fields of :class:`volcal.identify.IdentifyOptions` (``prior``, ``noise_um``
             [um], ``roll``, ``known``, ``drift``, ``max_nodes``, ``robust``...); the
@@ -467,7 +511,13 @@ class Calibration:
         """
         from volcal.identify import identify
 
-        self.result = identify(self.session, self._identify_options("identify", **options))
+        b = None if budget is None else A.budget_file(budget, "Calibration.identify")
+        result = identify(self.session, self._identify_options("identify", **options))
+        if b is not None:
+            from volcal.identify.systematic import attach_systematic
+
+            attach_systematic(result, b[0], b[1])
+        self.result = result
         self.evaluation = None
         return self.result
 
@@ -494,13 +544,20 @@ class Calibration:
         return model
 
     @A.checked
-    def evaluate(self, edition: str = D.EDITION) -> SessionEvaluation:
+    def evaluate(self, edition: str = D.EDITION, *,
+                 budget: str | Path | Budget | None = None) -> SessionEvaluation:
         """Evaluate to ISO 230-2, ISO 230-6 and the volumetric indices (with the model).
 
         Parameters
         ----------
         edition : str
             ISO 230-2 edition (``'2014'``, ``'2006'``, ``'1997'``, ``'1988'``).
+        budget : str, Path or Budget, optional
+            Uncertainty budget (as ``volcal evaluate session --budget``): every linear
+            test's readings are referred to 20 degC with its ``[material]`` and evaluated
+            with the expanded uncertainty U of every ISO 230-2 parameter and target
+            (:func:`volcal.standards.iso230_2_uncertainty.evaluate_with_budget`), kept
+            in :attr:`uncertainties`.
 
         Returns
         -------
@@ -513,13 +570,27 @@ class Calibration:
         if str(edition) not in EDITIONS:
             raise VolcalInputError(f"Calibration.evaluate: edition {edition!r}: expected one "
                                    f"of {A.names(list(EDITIONS))}")
-        self.evaluation = evaluate_session(self.session, self.result, str(edition))
+        b = None if budget is None else A.budget_file(budget, "Calibration.evaluate")[0]
+        ev = evaluate_session(self.session, self.result, str(edition))
+        self.uncertainties = None
+        if b is not None:
+            from volcal.standards.iso230_2_uncertainty import evaluate_with_budget
+            from volcal.standards.positioning_data import from_measurement
+
+            self.uncertainties = {}
+            for k in list(ev.iso230_2):
+                d = from_measurement(self.session.get(k), self.session.path)
+                ev.iso230_2[k], self.uncertainties[k], _ = evaluate_with_budget(
+                    d, b, str(edition))
+        self.evaluation = ev
         return self.evaluation
 
     @A.checked
     def verdict(self, tolerance_um: float | str | Mapping[str, float],
                 compensation: str | Path | None = None, edition: str = D.EDITION,
-                force: bool = False) -> list[Verdict]:
+                force: bool = False, *, decision_rule: str = D.DECISION_RULE,
+                guard_band_um: float | None = None,
+                budget: str | Path | Budget | None = None) -> list[Verdict]:
         """Pass/fail against a tolerance, before and after compensation.
 
         Like ``volcal evaluate session --tolerance-um ... [--model] [--compensation]``:
@@ -537,17 +608,32 @@ class Calibration:
             ISO 230-2 edition.
         force : bool
             Use tables whose manifest names another machine (as ``--force``).
+        decision_rule : str
+            ``'simple'`` (pass when the value is at most the tolerance) or ``'guarded'``
+            (pass at or below T - w, conditional up to T, fail above; ILAC-G8:09/2019,
+            ISO 14253-1), as ``--decision-rule``.
+        guard_band_um : float, optional
+            Guard band w of the guarded rule [um] (default: U of each parameter, from
+            ``budget``); as ``--guard-band-um``.
+        budget : str, Path or Budget, optional
+            Uncertainty budget (as ``--budget``): the readings referred to 20 degC and U
+            of the toleranced ISO 230-2 parameters, the guard band of the guarded rule.
 
         Returns
         -------
         list of Verdict
             ``quantity``, ``tolerance_um``, ``before_um``, ``before``, ``after_um``,
-            ``after`` (``'pass'``, ``'FAIL'`` or ``'-'``).
+            ``after`` (``'pass'``, ``'FAIL'``, ``'conditional'`` or ``'-'``), ``rule``,
+            ``U_before_um``, ``U_after_um``; ``to_dict()`` is an entry of ``volcal
+            evaluate session --json``'s ``verdict``.
         """
         from volcal.report.verdict import verdicts
         from volcal.standards.tolerance import parse_tolerance
 
-        tol = parse_tolerance(A.tolerance_text(tolerance_um))
+        where = "Calibration.verdict"
+        tol = A.acceptance(where, parse_tolerance(A.tolerance_text(tolerance_um)),
+                           decision_rule, guard_band_um, budget)
+        assert tol is not None
         tables = None
         if compensation is not None:
             if self.result is None:
@@ -564,11 +650,12 @@ class Calibration:
             for w in check_manifest(manifest, compensation, MachineIdentity.of(self.session),
                                     errors_digest(self.result.errors), force,
                                     "this calibration's model"):
-                _w.warn(w, UserWarning, stacklevel=3)
+                _w.warn(A.python_text(w), UserWarning, stacklevel=3)
             # the "after" from the tables as written, read back (not resampled from the model)
             tables = read_written_tables(compensation, manifest, self.session.travel)
         errors = None if self.result is None else self.result.errors
-        return verdicts(tol, self.session, errors, tables, str(edition))
+        with A.python_names(where):
+            return verdicts(tol, self.session, errors, tables, str(edition))
 
     @A.checked
     def compensate(self, folder: str | Path, format: str, sign: str | None = D.COMP_SIGN,
@@ -640,6 +727,11 @@ class Calibration:
                 warnings.warn(f"sign={sign!r} overrides the {fmt} convention '{info.sign}' "
                               f"({info.sign_source}); a table in the wrong sign doubles the "
                               "error", UserWarning, stacklevel=3)
+        from volcal.compensate.manifest import MANIFEST
+        from volcal.io.paths import check_output_folder
+
+        # as `volcal compensate`: only a new, empty or earlier compensation folder is replaced
+        check_output_folder(folder, "compensation", lambda p: (p / MANIFEST).is_file())
         ref = None if reference_mm is None else A.vector_mm(reference_mm, "reference_mm")
         opts = CompensationOptions(sign, spacing, max_points, ref, unit_um, magnification,
                                    max_increment, squareness,
@@ -658,9 +750,13 @@ class Calibration:
     @A.checked
     def report(self, folder: str | Path, title: str | None = None, edition: str = D.EDITION,
                tolerance_um: float | str | Mapping[str, float] | None = None,
-               compensation: str | Path | None = None,
-               history: str | None = None) -> ReportFiles:
-        """Write the HTML and PDF report, like ``volcal report``.
+               compensation: str | Path | None = None, history: str | None = None, *,
+               force: bool = False,
+               certificate: bool = False, as_left: str | Path | Calibration | None = None,
+               tables: str | Path | None = None, strict: bool = False,
+               decision_rule: str = D.DECISION_RULE, guard_band_um: float | None = None,
+               budget: str | Path | Budget | None = None) -> ReportFiles:
+        """Write the HTML and PDF report (and the certificate), like ``volcal report``.
 
         Parameters
         ----------
@@ -682,34 +778,161 @@ class Calibration:
             the section "Previous calibration" (the machine's previous stored calibration
             and the change test against this one, ``docs/history.md``), as
             ``volcal report --history``.
+        force : bool
+            Use ``compensation`` tables written for another machine (a warning instead of
+            an error), as ``--force``.
+        certificate : bool
+            Also write the calibration certificate (``certificate.pdf``, ``.html``,
+            ``.json``, kept in :attr:`certificate`); automatic when session.toml has
+            ``[calibration]`` keys or ``[[equipment]]``, or with ``as_left``.
+        as_left : str, Path or Calibration, optional
+            Session measured after the compensation tables were loaded (its folder or its
+            Calibration): the certificate pairs its results with this session's
+            (as-found). It must be the same machine.
+        tables : str or Path, optional
+            Compensation folder loaded between this session and ``as_left``, named on the
+            certificate by its manifest (not applied).
+        strict : bool
+            Refuse to issue a certificate with equipment whose calibration was due before
+            the date of measurement.
+        decision_rule : str
+            ``'simple'`` or ``'guarded'``, of the tolerance verdict and the certificate's
+            statement of conformity (see :meth:`verdict`).
+        guard_band_um : float, optional
+            Guard band w of the guarded rule [um].
+        budget : str, Path or Budget, optional
+            Uncertainty budget: U of the toleranced ISO 230-2 parameters, and of every
+            linear test on the certificate.
 
         Returns
         -------
         ReportFiles
             ``.html``, ``.pdf``, ``.figures``, ``.pdf_pages``.
+
+        Warns
+        -----
+        UserWarning
+            Equipment overdue for calibration (without ``strict``), compensation tables
+            of another machine used with ``force``.
         """
+        from volcal.io.paths import check_output_folder
         from volcal.report.pipeline import collect_inputs
         from volcal.report.sections import build_report
         from volcal.report.writer import write_report
         from volcal.standards.tolerance import parse_tolerance
 
+        where = "Calibration.report"
         tol = None if tolerance_um is None else parse_tolerance(A.tolerance_text(tolerance_um))
+        tol = A.acceptance(where, tol, decision_rule, guard_band_um, budget)
+        # as `volcal report`: only a new, empty or earlier report folder is replaced
+        check_output_folder(folder, "report", lambda p: (p / "report.html").is_file())
         if compensation is not None and not Path(compensation).is_dir():
-            raise VolcalInputError("Calibration.report: compensation= is not a folder written "
-                                   "by compensate", compensation)
+            raise VolcalInputError(f"{where}: compensation= is not a folder written by "
+                                   "compensate", compensation)
         if history is not None:
             from volcal.report.previous import check_history
 
             check_history(history)
-        inputs = collect_inputs(self.session, self._need_result(), self.truth, edition,
-                                compensation, tolerance=tol)
+        s = self.session
+        s2 = None
+        if isinstance(as_left, Calibration):
+            s2 = as_left.session
+        elif as_left is not None:  # measured, as --as-left (a planned session is refused)
+            from volcal.session.format import read_session
+
+            s2 = read_session(as_left)
+        with A.python_names(where):
+            cert = self._certificate_wanted(s2, tables, certificate, strict)
+        result = self._need_result()
+        extra = None
+        written: list[CertificateFiles] = []
+        if cert:
+            from volcal.cli.report import _uncertainties
+            from volcal.report.certificate import build_certificate
+            from volcal.report.certificate_files import write_certificate
+
+            uncs = als = None
+            if budget is not None:  # U of every linear test of both sessions, as the CLI
+                from types import SimpleNamespace
+
+                bud, label = (tol.budget, "") if tol is not None else \
+                    A.budget_file(budget, where)
+                held = SimpleNamespace(budget=bud)  # read once; held as the CLI's tol holds it
+                uncs = _uncertainties(s, held, Path(label), edition)
+                als = None if s2 is None else _uncertainties(s2, held, Path(label), edition)
+            with A.python_names(where):
+                doc = build_certificate(s, result, as_left=s2, tables=tables, tolerance=tol,
+                                        uncertainties=uncs, as_left_uncertainties=als,
+                                        edition=edition)
+            for w in doc["warnings"]:
+                if w.startswith("EXPIRED"):
+                    warnings.warn(f"certificate: {w}", UserWarning, stacklevel=3)
+            if title is None:  # the technical report names its certificate on every page
+                title = (f"Calibration report: {s.name}, technical report to certificate "
+                         f"{doc['report_id']}")
+
+            def extra(tmp: Path) -> None:
+                written.append(write_certificate(doc, tmp))
+
+        with A.python_names(where):
+            inputs = collect_inputs(s, result, self.truth, edition, compensation,
+                                    tolerance=tol, force=force)
         if history is not None:  # the history (SQLAlchemy) is loaded only here
             from volcal.report.previous import previous_section
 
             inputs.extra_sections.append(previous_section(inputs, history))
-        return write_report(build_report(inputs, title), folder)
+        files = write_report(build_report(inputs, title), folder, extra)
+        if inputs.compensation is not None:
+            for w in inputs.compensation.warnings:
+                warnings.warn(A.python_text(w), UserWarning, stacklevel=3)
+        self.certificate = None
+        if written:
+            from volcal.report.certificate_files import CertificateFiles
+
+            c, out = written[0], Path(folder)
+            self.certificate = CertificateFiles(out / c.pdf.name, out / c.html.name,
+                                                out / c.json.name, c.pdf_pages)
+        return files
 
     # ------------------------------------------------------------------ helpers
+    def _certificate_wanted(self, as_left: Session | None, tables: str | Path | None,
+                            certificate: bool, strict: bool) -> bool:
+        """Whether :meth:`report` issues a certificate; refusals before any work.
+
+        The checks of ``volcal report`` (``volcal.cli.report._certificate_wanted``), with
+        the keywords named.
+        """
+        from volcal.report.certificate import certificate_applies, refuse_expired
+
+        where = "Calibration.report"
+        s = self.session
+        cert = certificate or certificate_applies(s) or as_left is not None
+        if tables is not None and as_left is None:
+            raise VolcalInputError(f"{where}: tables= names the compensation loaded between "
+                                   "the as-found and the as-left measurement: give "
+                                   "as_left= (the second session) too")
+        if not cert:
+            if strict:
+                raise VolcalInputError(f"{where}: strict=True applies to the certificate: the "
+                                       "session has no [calibration] keys or [[equipment]] "
+                                       "(or give certificate=True)")
+            return False
+        sessions = {"as_found": s} if as_left is None else {"as_found": s, "as_left": as_left}
+        if strict:
+            refuse_expired(sessions)
+        if tables is not None:
+            from volcal.report.certificate import tables_of
+
+            tables_of(tables, s)  # a damaged manifest or another machine's tables: refused
+        if as_left is not None:
+            from volcal.session.identity import same_machine
+
+            same, why = same_machine(s.identity, as_left.identity)
+            if not same:
+                raise VolcalInputError(f"{where}: as_left= is another machine than this "
+                                       f"session ({why})", as_left.path)
+        return True
+
     def _identify_options(self, where: str, **options: object) -> IdentifyOptions:
         """IdentifyOptions from keywords, every key checked (the CLI's names accepted)."""
         from dataclasses import fields
@@ -724,7 +947,8 @@ class Calibration:
         known_u = opts.pop("known_u", None)
         for key in opts:
             if key not in valid:
-                raise A.unknown_option(where, key, [*valid, "known_u"])
+                extra = ["known_u", "budget"] if where.endswith("identify") else ["known_u"]
+                raise A.unknown_option(where, key, [*valid, *extra])
         A.check_kinds(where, opts, {f.name: f.default for f in fields(IdentifyOptions)})
         for key, v in (("noise_um", opts.get("noise_um")), ("known_u", known_u)):
             if v is not None and not (isinstance(v, int | float) and np.isfinite(v) and v > 0):

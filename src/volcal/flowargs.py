@@ -11,16 +11,25 @@ from __future__ import annotations
 import difflib
 import functools
 import inspect
-from collections.abc import Callable, Mapping, Sequence
-from typing import TypeVar
+import math
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
+from dataclasses import replace
+from pathlib import Path
+from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from volcal.errors import VolcalInputError
 
-__all__ = ["checked", "known_functions", "names", "name_list", "tolerance_text", "travel_mm",
-           "unknown_option", "vector_mm"]
+if TYPE_CHECKING:
+    from volcal.standards.tolerance import Tolerance
+    from volcal.uncertainty.budget import Budget
+
+__all__ = ["acceptance", "budget_file", "checked", "known_functions", "names", "name_list",
+           "python_names", "python_text", "tolerance_text", "travel_mm", "unknown_option",
+           "vector_mm"]
 
 F = TypeVar("F", bound=Callable[..., object])
 
@@ -268,3 +277,144 @@ def check_kinds(where: str, values: Mapping[str, object],
             if isinstance(v, bool) or not isinstance(v, int | float | np.number) or \
                     not np.isfinite(v):
                 raise VolcalInputError(f"{where}: {key}={v!r}: expected a finite number")
+
+
+def budget_file(budget: str | Path | Budget, where: str) -> tuple[Budget, str]:
+    """An uncertainty budget and the name recorded for it (the ``--budget`` option).
+
+    Parameters
+    ----------
+    budget : str, Path or Budget
+        The budget file (TOML, ``volcal budget --template``), read and checked by
+        :func:`volcal.uncertainty.budget.read_budget`, or a budget already read
+        (:func:`volcal.uncertainty.budget.parse_budget`).
+    where : str
+        The method, for the message.
+
+    Returns
+    -------
+    budget : Budget
+    label : str
+        The file as given (recorded in the model file and in ``truth/systematic.toml``,
+        as by the command line), or the budget's own ``file``.
+    """
+    from volcal.uncertainty.budget import Budget, read_budget
+
+    if isinstance(budget, Budget):
+        return budget, budget.file or "budget"
+    if not isinstance(budget, str | Path):
+        raise VolcalInputError(f"{where}: budget={budget!r}: expected the path of a budget "
+                               "file (TOML, `volcal budget --template`) or a Budget")
+    return read_budget(budget), str(budget)
+
+
+def acceptance(where: str, tolerance: Tolerance | None, decision_rule: str,
+               guard_band_um: float | None, budget: str | Path | Budget | None
+               ) -> Tolerance | None:
+    """The tolerance with its decision rule, guard band and budget, checked.
+
+    The Python spelling of the command line's ``--decision-rule``, ``--guard-band-um``
+    and ``--budget`` (``volcal.cli.evaluate._acceptance``): the same checks, with the
+    keywords named in the messages.
+
+    Parameters
+    ----------
+    where : str
+        The method, for the messages.
+    tolerance : Tolerance or None
+        :func:`volcal.standards.tolerance.parse_tolerance` of ``tolerance_um``.
+    decision_rule : str
+        ``'simple'`` or ``'guarded'`` (:data:`volcal.standards.decision.RULES`).
+    guard_band_um : float or None
+        Guard band w of the guarded rule [um] (default: U of each parameter).
+    budget : str, Path, Budget or None
+        Uncertainty budget: U of the ISO 230-2 parameters, the guarded rule's guard band.
+
+    Returns
+    -------
+    Tolerance or None
+        None without a tolerance (then the rule must be ``'simple'``).
+    """
+    from volcal.standards.decision import RULES, check_rule
+
+    if not isinstance(decision_rule, str) or decision_rule.strip().lower() not in RULES:
+        raise VolcalInputError(f"{where}: decision_rule={decision_rule!r}: expected one of "
+                               f"{names(RULES)}")
+    rule = check_rule(decision_rule)
+    if guard_band_um is not None:
+        if isinstance(guard_band_um, bool) or not isinstance(guard_band_um, int | float) \
+                or not math.isfinite(guard_band_um) or guard_band_um < 0:
+            raise VolcalInputError(f"{where}: guard_band_um={guard_band_um!r}: expected a "
+                                   "finite number >= 0 [um]")
+        if rule != "guarded":
+            raise VolcalInputError(f"{where}: guard_band_um applies to "
+                                   "decision_rule='guarded' (valid rules: "
+                                   f"{names(RULES)})")
+    if tolerance is None:
+        if rule != "simple":
+            raise VolcalInputError(f"{where}: decision_rule={rule!r} judges a tolerance: "
+                                   "give tolerance_um too")
+        return None
+    b = None if budget is None else budget_file(budget, where)[0]
+    return replace(tolerance, rule=rule, guard_band_um=None if guard_band_um is None
+                   else float(guard_band_um), budget=b)
+
+
+#: The command line's option spellings in the library's messages, and their keywords.
+_CLI_SPELLING: tuple[tuple[str, str], ...] = (
+    ("--decision-rule guarded", "decision_rule='guarded'"),
+    ("--decision-rule", "decision_rule"),
+    ("--guard-band-um W", "guard_band_um=W"),
+    ("--guard-band-um", "guard_band_um"),
+    ("--budget FILE", "budget=FILE"),
+    ("--budget", "budget"),
+    ("--tolerance-um", "tolerance_um"),
+    ("--model MODEL.json", "the model (identify() or load_model())"),
+    ("--compensation", "compensation"),
+    ("--as-left", "as_left"),
+    ("--tables", "tables"),
+    ("--strict", "strict"),
+    ("--force", "force=True"),
+)
+
+
+def python_text(text: str) -> str:
+    """A library message or warning with the command line's options as Python keywords.
+
+    Parameters
+    ----------
+    text : str
+        E.g. ``'--force: the compensation tables ... were written for another machine'``.
+
+    Returns
+    -------
+    str
+        E.g. ``'force=True: the compensation tables ...'``.
+    """
+    for cli, py in _CLI_SPELLING:
+        text = text.replace(cli, py)
+    return text
+
+
+@contextmanager
+def python_names(where: str) -> Iterator[None]:
+    """Re-raise a library's :class:`VolcalInputError` with the Python keywords.
+
+    The library names the command line's options in some messages (``--budget FILE``);
+    inside this context they become the keywords of the method (``budget=FILE``), and
+    the message starts with the method's name.
+
+    Parameters
+    ----------
+    where : str
+        The method (``'Calibration.verdict'``).
+    """
+    try:
+        yield
+    except VolcalInputError as exc:
+        msg, column = exc.message, exc.column
+        if not any(cli in msg or cli == column for cli, _ in _CLI_SPELLING):
+            raise
+        column = dict(_CLI_SPELLING).get(column, column) if column else column
+        raise VolcalInputError(f"{where}: {python_text(msg)}", exc.file, exc.row,
+                               column) from None

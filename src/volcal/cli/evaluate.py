@@ -125,7 +125,7 @@ def iso230_2_cmd(
     tolerance_um: str | None = typer.Option(
         None, help="Tolerance [um]: a number (on the accuracy A) or A=..,E=..,R=.. per "
         "ISO 230-2 parameter; prints a verdict."),
-    decision_rule: str = typer.Option("simple", help="simple (pass when value <= T) or "
+    decision_rule: str = typer.Option(D.DECISION_RULE, help="simple (pass when value <= T) or "
                                       "guarded (pass at or below T - w, conditional up to "
                                       "T; w = U or --guard-band-um)."),
     guard_band_um: float | None = typer.Option(None, help="Guard band w of the guarded "
@@ -338,7 +338,7 @@ def session_cmd(
                                              "(--force to use them)."),
     force: bool = typer.Option(False, "--force", help="Use --compensation tables written "
                                "for another machine (a warning instead of an error)."),
-    decision_rule: str = typer.Option("simple", help="simple (pass when value <= T) or "
+    decision_rule: str = typer.Option(D.DECISION_RULE, help="simple (pass when value <= T) or "
                                       "guarded (pass at or below T - w, conditional up to "
                                       "T; w = U from --budget, or --guard-band-um)."),
     guard_band_um: float | None = typer.Option(None, help="Guard band w of the guarded "

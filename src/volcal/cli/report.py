@@ -49,7 +49,7 @@ def report_cmd(
     strict: bool = typer.Option(False, "--strict", help="Refuse to issue a certificate with "
                                 "equipment whose calibration was due before the date of "
                                 "measurement."),
-    decision_rule: str = typer.Option("simple", help="simple (pass when value <= T) or "
+    decision_rule: str = typer.Option(D.DECISION_RULE, help="simple (pass when value <= T) or "
                                       "guarded (pass at or below T - w, conditional up to "
                                       "T; w = U from --budget, or --guard-band-um)."),
     guard_band_um: float | None = typer.Option(None, help="Guard band w of the guarded "

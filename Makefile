@@ -67,6 +67,7 @@ bench: $(STAMP) bytecode
 	$(BIN)/python benchmarks/run.py
 
 study: $(STAMP)
+	$(BIN)/python benchmarks/history_study.py --machines 10
 	$(BIN)/python benchmarks/study.py --design all --machines 10 --markdown --quiet
 	$(BIN)/python benchmarks/study.py --drift --design all --machines 10 --markdown --quiet
 	$(BIN)/python benchmarks/study.py --false-alarms 60 --runs 2 --design all

@@ -12,8 +12,8 @@ Two kinds of entries (``docs/history.md``):
   per function over its nodes, ``chi2 = d^T C^+ d`` with ``C = C1 + C2`` the sum of the
   two posterior covariances and ``rank(C)`` degrees of freedom, against the
   ``1 - level/m`` quantile of the chi-square distribution, ``m`` the number of functions
-  tested (Bonferroni: the family-wise false-alarm rate over all functions is at most
-  ``level``). ``difference`` is the largest node difference, ``U`` twice its standard
+  tested, i.e. determined by both calibrations (Bonferroni: the family-wise false-alarm
+  rate over the functions tested is at most ``level``). ``difference`` is the largest node difference, ``U`` twice its standard
   uncertainty there. ``changed`` is ``None`` where either calibration leaves the
   function undetermined (less than half of its prior variance removed by the data).
 
@@ -230,7 +230,11 @@ def _function_entries(m1: Any, m2: Any, level: float, common_prior: bool = True
         d = np.array([th2[s2[j]] - th1[s1[j]]])
         C = _full_cov(m1, s1[j:j + 1], c1) + _full_cov(m2, s2[j:j + 1], c2)
         tests.append((name, d, C, np.array([np.nan]), None))
-    m = len(tests)
+    # the family: the functions both calibrations determine (Bonferroni over the tests made)
+    decided = [t for t in tests if not any(
+        f is not None and f < UNDETERMINED_BELOW for f in (_determined(m1, t[0]),
+                                                           _determined(m2, t[0])))]
+    m = max(1, len(decided))
     out = []
     for name, d, C, q, _ in tests:
         unit = "um" if name[1] in "XYZ" and name not in SQUARENESS_NAMES else "urad"

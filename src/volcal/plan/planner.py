@@ -34,7 +34,7 @@ from volcal.session.format import Measurement, Session
 
 TEST_NAMES: tuple[str, ...] = (
     "step-diagonal", "diagonal", "linear", "face-diagonal", "face-step-diagonal",
-    "multilateration",
+    "multilateration", "direct",
 )
 
 __all__ = ["DEFAULT_OVERRUN_MM", "TEST_NAMES", "abbe_lines", "plan_session"]
@@ -267,7 +267,21 @@ def _linear(c: _Plan) -> list[Measurement]:
     return out
 
 
-_BUILDERS = {"step-diagonal": _step_diagonals, "diagonal": _diagonals,
+def _direct(c: _Plan) -> list[Measurement]:
+    from volcal.plan.optics import direct_tests
+
+    targets = []
+    for k in range(3):
+        lo, hi = c.t[k, 0] + c.linear_margin_mm, c.t[k, 1] - c.linear_margin_mm
+        if hi <= lo:
+            raise VolcalInputError(f"linear margin {c.linear_margin_mm:g} mm leaves no "
+                                   f"travel on {AXES[k]}")
+        targets.append(iso_targets(lo, hi, c.steps, seed=k) if c.iso_spacing
+                       else np.linspace(lo, hi, c.steps + 1))
+    return direct_tests(c.t, targets, c.runs, c.off, roll_offset_mm=c.abbe_tool_offset_mm)
+
+
+_BUILDERS = {"step-diagonal": _step_diagonals, "direct": _direct, "diagonal": _diagonals,
              "face-diagonal": _face_diagonals, "face-step-diagonal": _face_step_diagonals,
              "multilateration": _multilateration, "linear": _linear}
 """Test name -> the function planning its measurements."""

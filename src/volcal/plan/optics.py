@@ -1,0 +1,100 @@
+"""The direct test set: each error motion of each axis along one line, with direct optics.
+
+What a service engineer's case measures (Renishaw XL-80/XM-60, Keysight 5530, API XD):
+per axis one linear line, two straightness lines, pitch and yaw with angular optics, the
+roll with a differential level on a horizontal axis and, on the vertical axis, by its
+straightness at two tool offsets against one reference optic; the squareness of each
+pair of axes by an optical square (the two straightness lines of the pair in one
+reference group). ``docs/formats.md``, "Direct optics"; ISO 230-1:2012, 3.4 and 10.3.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from volcal.model.names import AXES
+from volcal.plan.geometry import linear_test
+from volcal.session.format import Measurement
+
+__all__ = ["direct_tests"]
+
+
+def _line(k: int, targets: NDArray[np.float64], base: NDArray[np.float64], runs: int):
+    g = linear_test(k, np.array([[0, 1]] * 3, dtype=float), 1, base, runs=runs,
+                    bidirectional=True, targets_mm=targets)
+    return g
+
+
+def direct_tests(travel: NDArray[np.float64], targets: list[NDArray[np.float64]], runs: int,
+                 offset: NDArray[np.float64], vertical: int = 2,
+                 roll_offset_mm: float = 150.0) -> list[Measurement]:
+    """Plan the direct test set (deviations empty).
+
+    Parameters
+    ----------
+    travel : ndarray, shape (3, 2)
+        Travel limits [mm]; every line runs at the start of the other axes' travel.
+    targets : list of 3 arrays
+        Targets of each axis [mm].
+    runs : int
+        Bidirectional runs of each line.
+    offset : ndarray, shape (3,)
+        Tool offset of the sensing optics [mm].
+    vertical : int
+        The vertical axis (its roll is read by two straightness lines).
+    roll_offset_mm : float
+        Tool offset between the vertical axis' two straightness lines [mm].
+
+    Returns
+    -------
+    list of Measurement
+        ``lin-<a>``, ``str-<a><d>`` (reference group ``<plane>`` with the line of the other
+        axis: the optical square of that pair), ``ang-<a><r>`` (angular optics), ``lev-<a><r>``
+        (level, roll of a horizontal axis) and ``str-<v><d>-roll`` (vertical axis at the
+        roll offset, in the group of ``str-<v><d>``).
+    """
+    base = travel[:, 0].copy()
+    out: list[Measurement] = []
+
+    def add(mid, kind, target, k, meta, toff, notes):
+        g = _line(k, targets[k], base, runs)
+        cols = {"run": g.run, "direction": g.direction} if kind == "linear" else {
+            "run": g.run, "direction": g.direction}
+        m = dict(meta, notes=notes)
+        out.append(Measurement(mid, kind, target, g.positions, None, g.beam_direction,
+                               np.asarray(toff, dtype=float), f"{mid}.csv", cols, m))
+
+    for k in range(3):
+        a = AXES[k].lower()
+        add(f"lin-{a}", "linear", "retroreflector", k, {"axis": AXES[k]}, offset,
+            f"linear {AXES[k]} (laser, linear optics), {runs} bidirectional runs")
+        for j in (j for j in range(3) if j != k):
+            d = AXES[j].lower()
+            plane = "".join(sorted(a + d))
+            add(f"str-{a}{d}", "straightness", "straightness_optics", k,
+                {"axis": a, "error_direction": d, "reference": plane}, offset,
+                f"straightness of {AXES[k]} along {AXES[j]} (E{AXES[j]}{AXES[k]}); reference "
+                f"optic {plane.upper()} shared with the other axis of the plane through the "
+                "optical square")
+        for r in range(3):
+            rot = "ABC"[r]
+            if r != k:
+                add(f"ang-{a}{rot.lower()}", "angular", "angular_optics", k,
+                    {"axis": a, "rotation": rot.lower()}, offset,
+                    f"E{rot}{AXES[k]} with angular optics")
+            elif k != vertical:
+                add(f"lev-{a}{rot.lower()}", "angular", "level", k,
+                    {"axis": a, "rotation": rot.lower()}, offset,
+                    f"roll E{rot}{AXES[k]} with a differential electronic level")
+    # the vertical axis' roll: its straightness at a second tool offset, one reference
+    v = vertical
+    j, h = [i for i in range(3) if i != v]  # read along j, offset along h
+    toff = np.asarray(offset, dtype=float).copy()
+    toff[h] += roll_offset_mm
+    a, d = AXES[v].lower(), AXES[j].lower()
+    add(f"str-{a}{d}-roll", "straightness", "straightness_optics", v,
+        {"axis": a, "error_direction": d, "reference": "".join(sorted(a + d))}, toff,
+        f"straightness of {AXES[v]} along {AXES[j]} at a tool offset of {roll_offset_mm:g} mm "
+        f"in {AXES[h]}, the reference optic of str-{a}{d} not moved: roll E{'ABC'[v]}{AXES[v]}")
+    return out

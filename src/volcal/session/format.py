@@ -845,7 +845,10 @@ def _entry_keys(e: Any, where: str, folder: Path, toml_path: Path, seen: set[str
 
     for okind, otargets in OPTIC_TARGETS.items():
         if target in otargets and kind != okind:
-            raise _err(f"target {target!r} belongs to kind {okind!r}, not {kind!r}",
+            valid = OPTIC_TARGETS.get(kind, [t for t in TARGETS
+                                             if not any(t in v for v in OPTIC_TARGETS.values())])
+            raise _err(f"target {target!r} belongs to kind {okind!r}, not {kind!r}: a {kind} "
+                       f"measurement needs target = one of {', '.join(valid)}",
                        toml_path, None, f"{where}.target")
     return mid, kind, target, file, csv_path
 

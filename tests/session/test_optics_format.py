@@ -204,3 +204,17 @@ def test_bad_references_table_is_refused(tmp_path):
     with pytest.raises(VolcalInputError, match="u_square_urad must be") as exc:
         read_session(tmp_path)
     assert exc.value.column == "references.xy.u_square_urad"
+
+
+def test_angles_in_the_wrong_unit_are_flagged(tmp_path):
+    """mrad (or mm/m) read as urad: the angular test's spread far above the session's other
+    angular tests; the message speaks of angles, not lengths."""
+    s = plan_session(TRAVEL, "XYFZ", 10, ("direct",), runs=1)
+    simulate_session(s, machine("XYFZ", seed=3), SimulationOptions(seed=1))
+    write_session(s, tmp_path / "ok")
+    assert read_session(tmp_path / "ok").warnings == []
+    s.get("ang-xb").deviation = s.get("ang-xb").deviation * 300
+    write_session(s, tmp_path / "bad")
+    w = read_session(tmp_path / "bad").warnings
+    assert len(w) == 1 and w[0].startswith("ang-xb: deviations ~")
+    assert "urad/m" in w[0] and "mrad (or mm/m) entered as urad in ang-xb.csv?" in w[0]

@@ -109,3 +109,17 @@ def test_direct_set_on_a_gantry(chain):
     r, rms = _fit(direct_session(chain), truth, 3)
     assert rms < 1.0, rms
     assert np.mean(_roll_hits(r, truth)) >= 0.85
+
+
+def test_advise_ranks_direct_optics():
+    """On the seeds' plan the rolls are the ambiguity; a level on X is ranked and named."""
+    import re
+
+    from volcal.identify.api import advise
+
+    rep = advise(seeds_session("XYFZ", runs=1))
+    optic = [s for s in rep.suggestions if s.startswith("direct optics: a level on X")]
+    assert optic, rep.suggestions
+    base, after = (float(v) for v in re.findall(r"ambiguity ([\d.]+) -> ([\d.]+)", optic[0])[0])
+    assert after < 0.5 * base
+    assert any(m.startswith("Best direct optic: a level on X (roll EAX") for m in rep.messages)

@@ -213,6 +213,10 @@ def candidate_designs(session: Session, nodes, known) -> dict[str, Design]:
                  diagonal_test(c, t, steps, plane=plane, at_mm=t["xyz".index(
                      ({"x", "y", "z"} - set(plane)).pop()), 1]))
             for c in ("pp", "np")]
+    from volcal.plan.optics import optic_candidates  # direct optics (issue 16)
+    from volcal.session.optics import vertical_axis
+
+    cands.update(optic_candidates(t, steps, vertical_axis(session.meta)))
     out = {}
     for label, ms in cands.items():
         s = Session(session.name, session.chain, t, ms)

@@ -387,4 +387,12 @@ def _suggest(rep: IdentifiabilityReport, scale, thr, candidates, N, GN, NQN) -> 
             rep.suggestions.append(f"{label}: volumetric ambiguity {base:.2f} -> {rms:.2f} um RMS")
     if rep.suggestions:
         rep.messages.append("Best extra measurement: " + rep.suggestions[0] + ".")
+    from volcal.plan.optics import OPTIC_LABEL  # the best direct optic, also when not top 3
+
+    optic = [(r, lb) for r, lb in scores if lb.startswith(OPTIC_LABEL)]
+    if optic and optic[0][0] < 0.9 * base and optic[0] not in scores[:3]:
+        rms, label = optic[0]
+        rep.suggestions.append(f"{label}: volumetric ambiguity {base:.2f} -> {rms:.2f} um RMS")
+        rep.messages.append(f"Best direct optic: {label[len(OPTIC_LABEL):]}: volumetric "
+                            f"ambiguity {base:.2f} -> {rms:.2f} um RMS.")
 

@@ -17,7 +17,11 @@ from volcal.model.names import AXES
 from volcal.plan.geometry import linear_test
 from volcal.session.format import Measurement
 
-__all__ = ["direct_tests"]
+__all__ = ["OPTIC_LABEL", "direct_tests", "optic_candidates"]
+
+OPTIC_LABEL = "direct optics: "
+"""Start of the label of a direct-optics candidate (the identifiability report names the
+best of them even when other extra measurements rank higher)."""
 
 
 def _line(k: int, targets: NDArray[np.float64], base: NDArray[np.float64], runs: int):
@@ -97,4 +101,52 @@ def direct_tests(travel: NDArray[np.float64], targets: list[NDArray[np.float64]]
         {"axis": a, "error_direction": d, "reference": "".join(sorted(a + d))}, toff,
         f"straightness of {AXES[v]} along {AXES[j]} at a tool offset of {roll_offset_mm:g} mm "
         f"in {AXES[h]}, the reference optic of str-{a}{d} not moved: roll E{'ABC'[v]}{AXES[v]}")
+    return out
+
+
+def optic_candidates(travel: NDArray[np.float64], steps: int, vertical: int = 2,
+                     roll_offset_mm: float = 150.0) -> dict[str, list[Measurement]]:
+    """Direct optics to rank among the extra measurements (``advise``, identify's report).
+
+    Parameters
+    ----------
+    travel : ndarray, shape (3, 2)
+        Travel limits [mm].
+    steps : int
+        Increments per line.
+    vertical : int
+        The vertical axis (no level about it).
+    roll_offset_mm : float
+        Tool offset between the vertical axis' two straightness lines [mm].
+
+    Returns
+    -------
+    dict of str to list of Measurement
+        Label -> planned measurements (zero readings): a level on each horizontal axis
+        (its roll), the vertical axis' straightness at two tool offsets in one reference
+        group (its roll).
+    """
+    t = np.asarray(travel, dtype=float)
+    targets = [np.linspace(t[k, 0], t[k, 1], steps + 1) for k in range(3)]
+    every = direct_tests(t, targets, 1, np.zeros(3), vertical, roll_offset_mm)
+    by_id = {m.id: m for m in every}
+    out: dict[str, list[Measurement]] = {}
+    for k in range(3):
+        if k == vertical:
+            continue
+        m = by_id[f"lev-{'xyz'[k]}{'abc'[k]}"]
+        out[f"{OPTIC_LABEL}a level on {AXES[k]} (roll E{'ABC'[k]}{AXES[k]}; `plan --tests direct` "
+            f"line {m.id})"] = [m]
+    v = vertical
+    j = [i for i in range(3) if i != v][0]
+    a, d = AXES[v].lower(), AXES[j].lower()
+    pair = [by_id[f"str-{a}{d}"], by_id[f"str-{a}{d}-roll"]]
+    for m in pair:
+        m.meta["reference"] = f"{a}-roll"
+    out[f"{OPTIC_LABEL}the straightness of {AXES[v]} along {AXES[j]} at two tool offsets "
+        f"{roll_offset_mm:g} mm apart against one reference (roll E{'ABC'[v]}{AXES[v]})"] = pair
+    for ms in out.values():
+        for m in ms:
+            m.deviation = np.zeros(m.n)
+            m.columns = {}
     return out

@@ -125,3 +125,50 @@ def test_advise_ranks_direct_optics():
     assert any(m.startswith(("Best direct optic: a level on X (roll EAX",
                              "Best extra measurement: direct optics: a level on X (roll EAX"))
                for m in rep.messages), rep.messages
+
+
+def _cli(monkeypatch, capsys, *args):
+    import sys
+
+    from volcal.cli import main
+
+    monkeypatch.setattr(sys, "argv", ["volcal", *args])
+    code = 0
+    try:
+        main()
+    except SystemExit as exc:
+        code = exc.code or 0
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def test_cli_identify_and_predict_on_a_session_written_by_hand(tmp_path, monkeypatch, capsys):
+    """The issue's format as another tool writes it (letters upper case, a square's
+    certificate in [references.NAME]): `volcal identify` and `volcal predict`."""
+    import re
+
+    from volcal.session.format import write_session
+
+    truth = random_machine(TRAVEL, "XYFZ", seed=720)
+    s = direct_session()
+    simulate_session(s, truth, SimulationOptions(seed=9))
+    folder = write_session(s, tmp_path / "S")
+    toml = (folder / "session.toml").read_text()
+    toml = re.sub(r'^(axis|error_direction|rotation) = "([a-z])"',
+                  lambda m: f'{m.group(1)} = "{m.group(2).upper()}"', toml, flags=re.M)
+    assert 'error_direction = "Y"' in toml and 'rotation = "B"' in toml
+    toml = toml.replace("[[measurements]]", "[references.xy]\nsquare_deviation_urad = 0.0\n"
+                        "u_square_urad = 2.5\n\n[[measurements]]", 1)
+    (folder / "session.toml").write_text(toml)
+    code, out, err = _cli(monkeypatch, capsys, "identify", str(folder), "-o",
+                          str(tmp_path / "m.json"))
+    assert code == 0, err
+    assert "angular" in out and "straightness" in out
+    pts = tmp_path / "p.csv"
+    pts.write_text("x_mm,y_mm,z_mm\n0,0,0\n400,300,250\n800,600,500\n")
+    code, _, err = _cli(monkeypatch, capsys, "predict", str(tmp_path / "m.json"), "--points",
+                        str(pts), "-o", str(tmp_path / "o.csv"))
+    assert code == 0, err
+    rows = np.loadtxt(tmp_path / "o.csv", delimiter=",", skiprows=1)
+    et = volumetric_error(truth, rows[:, :3])
+    assert np.all(np.abs(rows[:, 3:6] - et) < 4 * rows[:, 6:9] + 0.2), (rows, et)

@@ -172,3 +172,20 @@ def test_cli_identify_and_predict_on_a_session_written_by_hand(tmp_path, monkeyp
     rows = np.loadtxt(tmp_path / "o.csv", delimiter=",", skiprows=1)
     et = volumetric_error(truth, rows[:, :3])
     assert np.all(np.abs(rows[:, 3:6] - et) < 4 * rows[:, 6:9] + 0.2), (rows, et)
+
+
+def test_optic_residuals_are_in_the_readings_unit():
+    """Level rows weigh 0.5 (1 urad noise against 0.5 um): their residuals come back in
+    urad, with the spread of the simulated 1 urad noise (not halved); fitted + residual =
+    reading."""
+    truth = random_machine(TRAVEL, "XYFZ", seed=721)
+    s = plan_session(TRAVEL, "XYFZ", 10, ("direct",), runs=3, iso_spacing=False,
+                     linear_margin_mm=0.0)
+    simulate_session(s, truth, SimulationOptions(seed=4))
+    r = identify(s, IdentifyOptions(suggest=False))
+    lev = np.concatenate([r.residuals[k] for k in ("lev-xa", "lev-yb")])
+    ang = np.concatenate([r.residuals[k] for k in r.residuals if k.startswith("ang-")])
+    assert 0.6 < np.std(lev) < 1.2, np.std(lev)  # 1 urad noise, a few dof taken by the fit
+    assert 0.1 < np.std(ang) < 0.25, np.std(ang)  # 0.2 urad
+    m = s.get("lev-xa")
+    np.testing.assert_allclose(r.fitted["lev-xa"] + r.residuals["lev-xa"], m.deviation)

@@ -532,8 +532,13 @@ def _result(session: Session, design: Design, sol: Solution, report, o: Identify
     residuals, fitted = {}, {}
     for m in design.measurements:
         sl = design.rows[m.id]
-        residuals[m.id] = resid_all[sl]
-        fitted[m.id] = m.deviation - resid_all[sl]
+        r = resid_all[sl]
+        if m.kind in ("straightness", "angular"):  # weighted rows: back to the readings' unit
+            from volcal.measure.optics import row_weight
+
+            r = r / row_weight(m)
+        residuals[m.id] = r
+        fitted[m.id] = m.deviation - r
     z = _standardised(design, sol, resid_all, cov)
     thr = o.outlier_threshold
     if thr is None:

@@ -9,8 +9,8 @@ lines through their common name) and, for a line read through an optical square,
 square's deviation from 90 degrees (``reference:<name>:square``, with the prior of its
 certificate). An optic's rows are weighted by
 :func:`volcal.measure.optics.row_weight`, so that the estimator's one noise scale
-(a displacement reading's, [um]) fits angles [urad] read with another noise; its
-residuals are then in those weighted units.
+(a displacement reading's, [um]) fits angles [urad] read with another noise; the
+result's residuals are divided back into the readings' unit.
 """
 
 from __future__ import annotations

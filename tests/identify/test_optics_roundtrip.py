@@ -68,6 +68,9 @@ def test_classic_direct_set_determines_all_21_errors():
         assert rms < 0.15 * truth_rms, (seed, rms, truth_rms)
         det = r.report.determined_fraction
         assert all(det[n] > 1 - 1e-9 for n in COMPONENT_NAMES), det
+        # the squareness by the optical squares, to their certificate's 2.5 urad
+        assert all(det[n] > 0.95 for n in SQUARENESS_NAMES), det
+        assert r.report.ambiguity_rms_um < 0.3, r.report.ambiguity_rms_um
         hits.append(_roll_hits(r, truth))
         for j, name in enumerate(SQUARENESS_NAMES):
             u = float(r.function_std(name, [0.0])[0])

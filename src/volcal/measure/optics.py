@@ -104,7 +104,13 @@ def optic_direction(meas: Measurement) -> NDArray[np.float64]:
     """
     key = "error_direction" if meas.kind == "straightness" else "rotation"
     letters = "xyz" if meas.kind == "straightness" else "abc"
-    return np.eye(3)[letters.index(str(meas.meta[key]).lower())]
+    v = meas.meta.get(key)
+    if not (isinstance(v, str) and len(v) == 1 and v.lower() in letters):
+        from volcal.errors import VolcalInputError
+
+        raise VolcalInputError(f"measurement {meas.id!r}: {meas.kind} needs {key} = one of "
+                               f"{', '.join(letters)}, got {v!r}", meas.file or None, None, key)
+    return np.eye(3)[letters.index(v.lower())]
 
 
 def optic_offsets(meas: Measurement) -> NDArray[np.float64]:

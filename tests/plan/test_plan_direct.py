@@ -5,6 +5,7 @@ from __future__ import annotations
 import sys
 
 import numpy as np
+import pytest
 
 from volcal.plan.planner import plan_session
 from volcal.program import ProgramOptions, build_steps
@@ -83,3 +84,21 @@ def test_cli_plan_direct(tmp_path, monkeypatch, capsys):
         assert not exc.code, capsys.readouterr().err
     assert (out / "lev-xa.csv").read_text().startswith("x_mm,y_mm,z_mm,angle_urad")
     assert (out / "str-zx-roll.csv").read_text().startswith("x_mm,y_mm,z_mm,deviation_um")
+
+
+def test_parts_of_the_direct_set():
+    from volcal.errors import VolcalInputError
+    from volcal.plan.planner import _direct, _Plan  # the builder plan --tests direct:x uses
+
+    s = plan_session(TRAVEL, "XYFZ", 4, ("direct",), runs=1)
+    c = _Plan(TRAVEL, "XYFZ", 4, 1, ("xyz",), np.zeros(3), "flat_mirror", 150.0, True, 5.0, {})
+    xs = _direct(c, "x")
+    assert {m.id for m in xs} == {"lin-x", "str-xy", "str-xz", "lev-xa", "ang-xb", "ang-xc"}
+    assert [m.id for m in _direct(c, "level-y")] == ["lev-yb"]
+    pair = _direct(c, "roll-z")
+    assert [m.id for m in pair] == ["str-zx", "str-zx-roll"]
+    assert {m.meta["reference"] for m in pair} == {"z-roll"}
+    for bad in ("level-z", "w"):
+        with pytest.raises(VolcalInputError, match="direct:"):
+            _direct(c, bad)
+    assert len(s.measurements) == 18

@@ -17,7 +17,13 @@ from volcal.model.names import AXES
 from volcal.plan.geometry import linear_test
 from volcal.session.format import Measurement
 
-__all__ = ["OPTIC_LABEL", "direct_tests", "optic_candidates"]
+__all__ = ["DIRECT_SELECTORS", "OPTIC_LABEL", "direct_tests", "optic_candidates",
+           "select_direct"]
+
+DIRECT_SELECTORS: tuple[str, ...] = ("x", "y", "z", "level-x", "level-y", "level-z",
+                                     "roll-x", "roll-y", "roll-z")
+"""Parts of the direct set (``plan --tests direct:x``): the lines of one axis, the level
+on one (horizontal) axis, or the vertical axis' straightness pair that reads its roll."""
 
 OPTIC_LABEL = "direct optics: "
 """Start of the label of a direct-optics candidate (the identifiability report names the
@@ -101,6 +107,52 @@ def direct_tests(travel: NDArray[np.float64], targets: list[NDArray[np.float64]]
         {"axis": a, "error_direction": d, "reference": "".join(sorted(a + d))}, toff,
         f"straightness of {AXES[v]} along {AXES[j]} at a tool offset of {roll_offset_mm:g} mm "
         f"in {AXES[h]}, the reference optic of str-{a}{d} not moved: roll E{'ABC'[v]}{AXES[v]}")
+    return out
+
+
+def select_direct(measurements: list[Measurement], only: str) -> list[Measurement]:
+    """A part of the direct set (:data:`DIRECT_SELECTORS`).
+
+    Parameters
+    ----------
+    measurements : list of Measurement
+        The direct set (:func:`direct_tests`).
+    only : str
+        ``'x'`` (every line of X), ``'level-x'`` (the level on X), ``'roll-z'`` (Z's
+        straightness at the two tool offsets, in one reference group of their own).
+
+    Returns
+    -------
+    list of Measurement
+
+    Raises
+    ------
+    VolcalInputError
+        An unknown selector, or one the plan has no line for (a level on the vertical axis).
+    """
+    from volcal.errors import VolcalInputError
+
+    o = only.strip().lower()
+    if o not in DIRECT_SELECTORS:
+        raise VolcalInputError(f"unknown test 'direct:{only}': expected one of "
+                               f"{', '.join('direct:' + s for s in DIRECT_SELECTORS)}")
+    if o in ("x", "y", "z"):
+        return [m for m in measurements if str(m.meta.get("axis", "")).lower() == o]
+    kind, a = o.split("-")
+    if kind == "level":
+        out = [m for m in measurements if m.target == "level" and m.meta["axis"] == a]
+    else:
+        out = [m for m in measurements if m.kind == "straightness" and m.meta["axis"] == a
+               and m.id.endswith("-roll")]
+        if out:
+            first = next(m for m in measurements if m.id == out[0].id[:-len("-roll")])
+            out = [first, *out]
+            for m in out:
+                m.meta["reference"] = f"{a}-roll"
+    if not out:
+        raise VolcalInputError(f"'direct:{only}': no such line in the direct set (a level reads "
+                               "the roll of a horizontal axis; the straightness pair, that of "
+                               "the vertical axis)")
     return out
 
 

@@ -267,8 +267,8 @@ def _linear(c: _Plan) -> list[Measurement]:
     return out
 
 
-def _direct(c: _Plan) -> list[Measurement]:
-    from volcal.plan.optics import direct_tests
+def _direct(c: _Plan, only: str | None = None) -> list[Measurement]:
+    from volcal.plan.optics import direct_tests, select_direct
 
     targets = []
     for k in range(3):
@@ -278,7 +278,8 @@ def _direct(c: _Plan) -> list[Measurement]:
                                    f"travel on {AXES[k]}")
         targets.append(iso_targets(lo, hi, c.steps, seed=k) if c.iso_spacing
                        else np.linspace(lo, hi, c.steps + 1))
-    return direct_tests(c.t, targets, c.runs, c.off, roll_offset_mm=c.abbe_tool_offset_mm)
+    ms = direct_tests(c.t, targets, c.runs, c.off, roll_offset_mm=c.abbe_tool_offset_mm)
+    return ms if only is None else select_direct(ms, only)
 
 
 _BUILDERS = {"step-diagonal": _step_diagonals, "direct": _direct, "diagonal": _diagonals,

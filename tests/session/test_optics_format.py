@@ -218,3 +218,12 @@ def test_angles_in_the_wrong_unit_are_flagged(tmp_path):
     w = read_session(tmp_path / "bad").warnings
     assert len(w) == 1 and w[0].startswith("ang-xb: deviations ~")
     assert "urad/m" in w[0] and "mrad (or mm/m) entered as urad in ang-xb.csv?" in w[0]
+
+
+def test_target_defaults_to_the_kinds_usual_optic(tmp_path):
+    _write(tmp_path, STR_XY.replace('target = "straightness_optics"\n', "")
+           + ANG_XB.replace('target = "angular_optics"\n', ""),
+           {"str-xy.csv": X_LINE.format(col="deviation_um"),
+            "ang-xb.csv": X_LINE.format(col="angle_urad")})
+    a, b = read_session(tmp_path).measurements
+    assert (a.target, b.target) == ("straightness_optics", "angular_optics")

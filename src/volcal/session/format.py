@@ -829,7 +829,9 @@ def _entry_keys(e: Any, where: str, folder: Path, toml_path: Path, seen: set[str
         raise _err(f"duplicate measurement id {mid!r}", toml_path, None, f"{where}.id")
     seen.add(mid)
     kind = check_choice(e.get("kind"), KINDS, "kind", "", toml_path, f"{where}.kind")
-    target = check_choice(e.get("target", "retroreflector"), TARGETS, "target", "", toml_path,
+    default = {"straightness": "straightness_optics", "angular": "angular_optics"}.get(
+        kind, "retroreflector")  # the direct optics' usual optic when target is left out
+    target = check_choice(e.get("target", default), TARGETS, "target", "", toml_path,
                           f"{where}.target")
     file = e.get("file")
     if not isinstance(file, str) or not file:

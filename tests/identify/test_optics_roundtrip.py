@@ -192,3 +192,24 @@ def test_optic_residuals_are_in_the_readings_unit():
     assert 0.1 < np.std(ang) < 0.25, np.std(ang)  # 0.2 urad
     m = s.get("lev-xa")
     np.testing.assert_allclose(r.fitted["lev-xa"] + r.residuals["lev-xa"], m.deviation)
+
+
+def test_report_says_what_each_optic_reads():
+    from identify_helpers import assert_labels_match_table
+
+    from volcal.identify.optics import optics_notes
+    from volcal.session.optics import annotate_references
+
+    s = direct_session()
+    annotate_references(s.measurements, {"xy": {"square_deviation_urad": 1.5,
+                                                "u_square_urad": 0.5}})
+    notes = optics_notes(s.measurements)
+    text = " ".join(notes)
+    assert "lev-xa EAX by level" in text and "ang-xb EBX by angular optics" in text
+    assert "str-zx-roll EXZ" in text
+    assert ("Reference group 'xz' reads the roll ECZ (roll of Z) from 2 parallel lines at "
+            "different tool offsets and EB0Z through the optical square") in text
+    assert "Reference group 'xy' reads EC0Y through the optical square, to its certificate " \
+           "(1.5 +- 0.5 urad)" in text
+    assert assert_labels_match_table(text) == 1  # ECZ (roll of Z): the table's meaning
+    assert optics_notes(seeds_session("XYFZ", runs=1).measurements) == []

@@ -263,6 +263,10 @@ def advise(session: Session, options: IdentifyOptions | None = None):
                               "(prior scales: positioning 10 um with a linear trend of "
                               f"{TREND_CENTRE_UM:g} um over the travel, straightness 5 um, "
                               "roll and tilts 15 urad); the measured data will refine them.")
+    if any(m.kind in ("straightness", "angular") for m in design.measurements):
+        from volcal.identify.optics import optics_notes  # what each direct optic adds
+
+        report.messages.extend(optics_notes(design.measurements))
     if any(m.kind == "multilateration" for m in session.measurements):
         from volcal.identify import multilateration as _ml
 
@@ -425,6 +429,10 @@ def _identify_weighted(session: Session, o: IdentifyOptions,
     if known:
         report.messages.append("Known errors given by the user (held fixed, or priors with "
                                "their uncertainty): " + ", ".join(design.fixed_names) + ".")
+    if any(m.kind in ("straightness", "angular") for m in design.measurements):
+        from volcal.identify.optics import optics_notes  # what each direct optic adds
+
+        report.messages.extend(optics_notes(design.measurements))
     return _result(session, design, sol, report, o)
 
 

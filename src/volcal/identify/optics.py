@@ -24,7 +24,7 @@ from volcal.measure.optics import optic_jacobian, reference_columns, row_weight
 from volcal.session.format import Measurement
 from volcal.session.optics import REFERENCE_META
 
-__all__ = ["OPTIC_NUISANCES", "row_block", "square_priors"]
+__all__ = ["OPTIC_NUISANCES", "optics_notes", "row_block", "square_priors"]
 
 OPTIC_NUISANCES: dict[str, float] = {"slope": 1e-10, "rot_x": 1e-10, "rot_y": 1e-10,
                                      "rot_z": 1e-10, "square": 1e-10}
@@ -96,3 +96,63 @@ def square_priors(m: Measurement) -> dict[str, tuple[float, float]]:
         return {}
     return {f"reference:{ref['name']}:square": (float(ref["square_deviation_urad"]),
                                                  float(ref["u_square_urad"]))}
+
+
+def optics_notes(measurements) -> list[str]:
+    """What each direct optic of a session reads, in plain words (identifiability report).
+
+    Parameters
+    ----------
+    measurements : list of Measurement
+        The session's measurements (other kinds are ignored).
+
+    Returns
+    -------
+    list of str
+        Empty without direct optics; else one line naming the error each angular line and
+        single straightness line reads, and one per reference group: the roll it reads
+        from parallel lines at different tool offsets, the squareness it reads through an
+        optical square (to the square's certificate).
+    """
+    from volcal.model.names import info
+
+    angles, lines, groups = [], [], {}
+    for m in measurements:
+        if m.kind == "angular":
+            a = str(m.meta.get("axis", "?")).upper()
+            angles.append(f"{m.id} E{str(m.meta.get('rotation', '?')).upper()}{a} by "
+                          f"{m.target.replace('_', ' ')}")
+        elif m.kind == "straightness":
+            ref = m.meta.get(REFERENCE_META)
+            if ref:
+                groups.setdefault(ref["name"], []).append(m)
+            a = str(m.meta.get("axis", "?")).upper()
+            lines.append(f"{m.id} E{str(m.meta.get('error_direction', '?')).upper()}{a}")
+    if not (angles or lines):
+        return []
+    out = []
+    if angles:
+        out.append("Direct optics, angles: " + ", ".join(angles) + ".")
+    if lines:
+        out.append("Direct optics, straightness (the shape of each function; a line's slope "
+                   "goes to its reference optic): " + ", ".join(lines) + ".")
+    sq = {frozenset("XY"): "EC0Y", frozenset("XZ"): "EB0Z", frozenset("YZ"): "EA0Z"}
+    for name, ms in groups.items():
+        said = []
+        by_axis: dict[str, list] = {}
+        for m in ms:
+            by_axis.setdefault(str(m.meta["axis"]).upper(), []).append(m)
+        for a, lines in by_axis.items():
+            offs = {tuple(np.round(m.tool_offset, 6)) for m in lines}
+            if len(offs) > 1:
+                roll = f"E{'ABC'['XYZ'.index(a)]}{a}"
+                said.append(f"the roll {roll} ({info(roll).label}) from {len(lines)} parallel "
+                            "lines at different tool offsets")
+        if len(by_axis) == 2:
+            nm = sq[frozenset(by_axis)]
+            ref = ms[0].meta[REFERENCE_META]
+            said.append(f"{nm} through the optical square, to its certificate "
+                        f"({ref['square_deviation_urad']:g} +- {ref['u_square_urad']:g} urad)")
+        if said:
+            out.append(f"Reference group {name!r} reads " + " and ".join(said) + ".")
+    return out

@@ -139,15 +139,6 @@ def simulate(
                       f"are kept in {Path(session) / backup}/", highlight=False)
     console.print(f"simulated {len(s.measurements)} measurements on '{vm.name}' "
                   f"(noise {noise_um} um, mirror {mirror_urad} urad); truth in {session}/truth/")
-    if any(m.kind in ("straightness", "angular") for m in s.measurements):
-        from volcal.measure.optics import NOMINAL_NOISE
-
-        f, n = float(noise_um) / 0.5, NOMINAL_NOISE
-        console.print(f"direct optics: noise straightness {n['straightness_optics'] * f:g}"
-                      f" um + 1 %, angular optics {n['angular_optics'] * f:g} urad, "
-                      f"level {n['level'] * f:g} urad, roll optics "
-                      f"{n['roll_optics'] * f:g} urad; reference slopes 50 urad, "
-                      "sensitive directions 1 mrad off (docs/formats.md)", highlight=False)
 
 
 def _multilateration_options(grid: str, stations: str, tool_offsets: str) -> dict:

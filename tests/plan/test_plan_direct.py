@@ -102,3 +102,18 @@ def test_parts_of_the_direct_set():
         with pytest.raises(VolcalInputError, match="direct:"):
             _direct(c, bad)
     assert len(s.measurements) == 18
+
+
+def test_optic_additions_plan_what_the_candidates_are():
+    from volcal.plan.optics import optic_additions, optic_candidates
+    from volcal.plan.planner import _direct, _Plan
+
+    c = _Plan(TRAVEL, "XYFZ", 4, 1, ("xyz",), np.zeros(3), "flat_mirror", 150.0, False, 0.0, {})
+    cands = optic_candidates(TRAVEL, 4)
+    adds = optic_additions()
+    assert [lb for lb, _ in adds] == list(cands)
+    for (label, (test,)), ms in zip(adds, cands.values(), strict=True):
+        planned = _direct(c, test.split(":")[1])
+        assert [m.id for m in planned] == [m.id for m in ms], label
+        for a, b in zip(planned, ms, strict=True):
+            np.testing.assert_allclose(a.positions[: b.n], b.positions)

@@ -17,8 +17,8 @@ from volcal.model.names import AXES
 from volcal.plan.geometry import linear_test
 from volcal.session.format import Measurement
 
-__all__ = ["DIRECT_SELECTORS", "OPTIC_LABEL", "direct_tests", "optic_candidates",
-           "select_direct"]
+__all__ = ["DIRECT_SELECTORS", "OPTIC_LABEL", "direct_tests", "optic_additions",
+           "optic_candidates", "select_direct"]
 
 DIRECT_SELECTORS: tuple[str, ...] = ("x", "y", "z", "level-x", "level-y", "level-z",
                                      "roll-x", "roll-y", "roll-z")
@@ -202,3 +202,27 @@ def optic_candidates(travel: NDArray[np.float64], steps: int, vertical: int = 2,
             m.deviation = np.zeros(m.n)
             m.columns = {}
     return out
+
+
+def optic_additions(vertical: int = 2, roll_offset_mm: float = 150.0
+                    ) -> list[tuple[str, tuple[str, ...]]]:
+    """The candidates of :func:`optic_candidates` as ``plan --tests`` parts.
+
+    Parameters
+    ----------
+    vertical : int
+        The vertical axis.
+    roll_offset_mm : float
+        Tool offset between the vertical axis' two straightness lines [mm].
+
+    Returns
+    -------
+    list of (label, tests)
+        The same labels as :func:`optic_candidates`, each with its ``--tests`` value
+        (``('direct:level-x',)``, ``('direct:roll-z',)``).
+    """
+    labels = list(optic_candidates(np.array([[0.0, 1.0]] * 3), 1, vertical,
+                                   roll_offset_mm))
+    tests = [f"direct:level-{'xyz'[k]}" for k in range(3) if k != vertical]
+    tests.append(f"direct:roll-{'xyz'[vertical]}")
+    return [(lb, (t,)) for lb, t in zip(labels, tests, strict=True)]

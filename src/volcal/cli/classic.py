@@ -208,6 +208,19 @@ classic_app.command("step-diagonal")(step_diagonal)
 classic_app.command("diagonals")(diagonals)
 
 
+def optics(
+    session: Path = typer.Argument(..., help="Measured session folder."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
+) -> None:
+    """Each direct optic's own evaluation, no model (same as ``volcal evaluate optics``)."""
+    from volcal.cli.evaluate import optics_cmd
+
+    optics_cmd(session, as_json)
+
+
+classic_app.command("optics")(optics)
+
+
 def register(app: typer.Typer) -> None:
     """Add ``volcal classic`` to the app."""
     app.add_typer(classic_app, name="classic")

@@ -1,4 +1,4 @@
-"""``volcal evaluate``: ISO 230-2, VDI/DGQ 3441, ISO 230-6 and volumetric indices."""
+"""``volcal evaluate``: ISO 230-2, VDI/DGQ 3441, ISO 230-6, volumetric indices, optics."""
 
 from __future__ import annotations
 
@@ -588,6 +588,55 @@ def volumetric_cmd(
     for k in ("E_VX", "E_VY", "E_VZ", "E_VXYZ", "E_VXYZ_range", "ELx", "ELy", "ELz", "ELv"):
         t.add_row(k, f"{out[k]:.3f}")
     print_table(console, t)
+
+
+@evaluate_app.command("optics")
+def optics_cmd(
+    session: Path = typer.Argument(..., help="Session folder."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
+) -> None:
+    """ISO 230-1 of the direct optics: straightness, angular deviation, optical squares.
+
+    Straightness about the end-point and the least-squares lines, the range of each
+    angular line, the squareness of each optical-square pair.
+    """
+    from volcal.errors import VolcalInputError
+    from volcal.session.format import read_session
+    from volcal.standards.optics import evaluate_optics
+
+    s = read_session(session)
+    print_session_notes(s)
+    ev = evaluate_optics(s)
+    if not (ev["straightness"] or ev["angular"]):
+        raise VolcalInputError("no straightness or angular measurement with readings", session)
+    if as_json:
+        _print_json(ev)
+        return
+    t = Table(title=escape(f"{session}: straightness (ISO 230-1) [um], slope [urad]"))
+    for c in ("id", "axis", "along", "end-point", "least-squares", "LS slope"):
+        t.add_column(c, justify="right")
+    for k, r in ev["straightness"].items():
+        t.add_row(k, r["axis"].upper(), r["error_direction"].upper(),
+                  f"{r['end_point']['straightness_um']:.3f}",
+                  f"{r['least_squares']['straightness_um']:.3f}",
+                  f"{r['least_squares']['slope_urad']:.2f}")
+    if ev["straightness"]:
+        console.print(t)
+    t = Table(title=escape(f"{session}: angular deviation (ISO 230-1) [urad]"))
+    for c in ("id", "axis", "about", "optic", "range"):
+        t.add_column(c, justify="right")
+    for k, r in ev["angular"].items():
+        t.add_row(k, r["axis"].upper(), r["rotation"].upper(), r["target"].replace("_", " "),
+                  f"{r['angular_deviation_urad']:.2f}")
+    if ev["angular"]:
+        console.print(t)
+    for r in ev["squareness"]:
+        nm = r["name"]
+        console.print(f"squareness {r['axes'].upper()} (optical square {r['reference']!r}, "
+                      f"{' + '.join(r['lines'])}, square {r['square_deviation_urad']:g} urad): "
+                      f"{nm} = {r['least_squares'][nm]:.2f} urad from the least-squares "
+                      f"lines (ISO 230-1), {r['end_point'][nm]:.2f} urad from the end-point "
+                      "lines (the identified model's reference)", highlight=False)
 
 
 def register(app: typer.Typer) -> None:

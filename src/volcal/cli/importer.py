@@ -20,8 +20,11 @@ Two ways:
 * a new linear measurement: --axis X --id linear-x9 [--line-mm x,y,z] (the session is
 created with --travel if it does not exist);
 
-* the readings of a planned measurement (linear, diagonal, step diagonal; from
-``volcal plan``): --measurement diag-ppp. The file must hold one reading per planned
+* the readings of a planned measurement (linear, diagonal, step diagonal, straightness,
+angular; from ``volcal plan``): --measurement diag-ppp. Angle readings in urad, arcsec,
+mm/m, um/m, mrad or deg (header or --deviation-units); --sign - for optics that read the
+workpiece side relative to the tool side; --slope-removed when the vendor took the slope
+out of a straightness. The file must hold one reading per planned
 pose, in the planned order; its targets (distance from the first pose along the beam)
 are checked against the plan.
 
@@ -68,7 +71,8 @@ def import_(
     units: Annotated[str, typer.Option(
         help="Unit of target/reading columns: mm, um, in or auto (header, else mm).")] = "auto",
     deviation_units: Annotated[str, typer.Option(
-        help="Unit of the deviation columns: um, nm, mm, in, uin or auto.")] = "auto",
+        help="Unit of the deviation columns: um, nm, mm, in, uin or auto; angles: urad, "
+        "arcsec, mm/m, um/m, mrad, deg.")] = "auto",
     optics: Annotated[str, typer.Option(help="retroreflector or flat_mirror.")
                       ] = "retroreflector",
     tool_offset: Annotated[str, typer.Option(help="Target on the tool x,y,z [mm].")] = "0,0,0",
@@ -78,6 +82,12 @@ def import_(
     name: Annotated[str, typer.Option(help="Machine name of a new session.")] = "machine",
     replace: Annotated[bool, typer.Option(help="Replace a measurement with this id (or the "
                                                 "readings of --measurement).")] = False,
+    sign: Annotated[str, typer.Option(
+        help="Direct optics: + (the export reads the tool side relative to the workpiece "
+        "side, volcal's sign) or - (the workpiece side relative to the tool side).")] = "+",
+    slope_removed: Annotated[bool, typer.Option(
+        help="Straightness: the instrument took the slope out (recorded; not allowed in a "
+        "reference group).")] = False,
 ) -> None:
     """Add a measurement from a laser CSV export to a session (see HELP)."""
     from volcal.errors import VolcalInputError
@@ -89,10 +99,11 @@ def import_(
         if axis is not None or id is not None:
             raise VolcalInputError("--measurement fills a planned measurement: leave out "
                                    "--axis and --id")
+        from volcal.importer.optics import parse_sign
         from volcal.importer.planned import import_planned
 
         r = import_planned(csv_file, mapping, session, measurement, units, deviation_units,
-                           replace)
+                           replace, parse_sign(sign), slope_removed)
         what = f"{r.measurement.kind} {r.measurement.id}"
     else:
         if axis is None or id is None:

@@ -23,8 +23,10 @@ def plan(
     steps: int = typer.Option(10, help="Increments per test."),
     tests: str = typer.Option("step-diagonal,diagonal,linear",
                               help="Comma-separated: step-diagonal, diagonal, linear, "
-                              "face-diagonal, face-step-diagonal, multilateration; one axis or "
-                              "plane: linear:x, face-diagonal:xy, face-step-diagonal:yz."),
+                              "face-diagonal, face-step-diagonal, multilateration, direct "
+                              "(direct optics: straightness, angular, level, optical squares; "
+                              "docs/formats.md); one axis or plane: linear:x, "
+                              "face-diagonal:xy, face-step-diagonal:yz."),
     runs: int = typer.Option(5, help="Bidirectional runs per linear test (ISO 230-2)."),
     step_orders: str = typer.Option("xyz", help="Axis orders of the step diagonals, e.g. xyz,yxz."),
     tool_offset: str = typer.Option("0,0,0", help="Target point on the tool x,y,z [mm]."),

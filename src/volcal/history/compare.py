@@ -13,8 +13,8 @@ Two kinds of entries (``docs/history.md``):
   two posterior covariances and ``rank(C)`` degrees of freedom, against the
   ``1 - level/m`` quantile of the chi-square distribution, ``m`` the number of functions
   tested, i.e. determined by both calibrations (Bonferroni: the family-wise false-alarm
-  rate over the functions tested is at most ``level``). ``difference`` is the largest node difference, ``U`` twice its standard
-  uncertainty there. ``changed`` is ``None`` where either calibration leaves the
+  rate over the functions tested is at most ``level``). ``difference`` is the largest
+  node difference, ``U`` twice its standard uncertainty there. ``changed`` is ``None`` where either calibration leaves the
   function undetermined (less than half of its prior variance removed by the data).
 
 Both models must be in one gauge (the same chain; volcal's gauge is fixed by the design

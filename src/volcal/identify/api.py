@@ -200,6 +200,11 @@ def candidate_designs(session: Session, nodes, known) -> dict[str, Design]:
                           m.beam_direction, m.tool_offset, f"c-{m.file}", m.columns, m.meta)
               for m in add.plan(t, session.chain, steps)]
         out[add.label] = build_design(Session(session.name, session.chain, t, ms), nodes, known)
+    from volcal.plan.optics import optic_candidates  # direct optics (issue 16)
+    from volcal.session.optics import vertical_axis
+
+    for label, ms in optic_candidates(t, steps, vertical_axis(session.meta)).items():
+        out[label] = build_design(Session(session.name, session.chain, t, ms), nodes, known)
     return out
 
 
@@ -290,6 +295,10 @@ def advise(session: Session, options: IdentifyOptions | None = None):
                               "(prior scales: positioning 10 um with a linear trend of "
                               f"{TREND_CENTRE_UM:g} um over the travel, straightness 5 um, "
                               "roll and tilts 15 urad); the measured data will refine them.")
+    if any(m.kind in ("straightness", "angular") for m in design.measurements):
+        from volcal.identify.optics import optics_notes  # what each direct optic adds
+
+        report.messages.extend(optics_notes(design.measurements))
     if any(m.kind == "multilateration" for m in session.measurements):
         from volcal.identify import multilateration as _ml
 
@@ -452,6 +461,10 @@ def _identify_weighted(session: Session, o: IdentifyOptions,
     if known:
         report.messages.append("Known errors given by the user (held fixed, or priors with "
                                "their uncertainty): " + ", ".join(design.fixed_names) + ".")
+    if any(m.kind in ("straightness", "angular") for m in design.measurements):
+        from volcal.identify.optics import optics_notes  # what each direct optic adds
+
+        report.messages.extend(optics_notes(design.measurements))
     return _result(session, design, sol, report, o)
 
 
@@ -559,8 +572,13 @@ def _result(session: Session, design: Design, sol: Solution, report, o: Identify
     residuals, fitted = {}, {}
     for m in design.measurements:
         sl = design.rows[m.id]
-        residuals[m.id] = resid_all[sl]
-        fitted[m.id] = m.deviation - resid_all[sl]
+        r = resid_all[sl]
+        if m.kind in ("straightness", "angular"):  # weighted rows: back to the readings' unit
+            from volcal.measure.optics import row_weight
+
+            r = r / row_weight(m)
+        residuals[m.id] = r
+        fitted[m.id] = m.deviation - r
     z = _standardised(design, sol, resid_all, cov)
     thr = o.outlier_threshold
     if thr is None:

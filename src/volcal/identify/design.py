@@ -30,7 +30,9 @@ from volcal.session.format import Measurement, Session
 
 __all__ = ["NUISANCE_PRIORS", "ROW_BLOCKS", "Design", "build_design", "choose_nodes"]
 
-ROW_BLOCKS: dict[str, str] = {"multilateration": "volcal.identify.multilateration:row_block"}
+ROW_BLOCKS: dict[str, str] = {"multilateration": "volcal.identify.multilateration:row_block",
+                               "straightness": "volcal.identify.optics:row_block",
+                               "angular": "volcal.identify.optics:row_block"}
 """Extension point: measurement kinds whose rows are not the laser readings of
 :func:`volcal.measure.readings.reading_jacobian`. Maps the kind to ``'module:function'``,
 ``function(chain_order, nodes, measurement, drift) -> (J, y, N, names)`` with ``J`` the
@@ -41,7 +43,8 @@ measurements)."""
 
 
 NUISANCE_PRIORS: dict[str, str] = {
-    "multilateration": "volcal.identify.multilateration:station_priors"}
+    "multilateration": "volcal.identify.multilateration:station_priors",
+    "straightness": "volcal.identify.optics:square_priors"}
 """Extension point: measurement kinds whose nuisances have an informative prior. Maps the
 kind to ``'module:function'``, ``function(measurement) -> {nuisance name: (mean, std)}``
 [um]: the design carries them as ``prior_mean`` and ``extra_precision`` (a measurement's
@@ -378,6 +381,9 @@ def build_design(session: Session, nodes: list[NDArray[np.float64]] | None = Non
         if m.deviation is None:
             raise VolcalInputError("measurement has no deviations (run it or simulate it first)",
                                    (session.path / m.file) if session.path else m.file)
+    from volcal.session.optics import annotate_references
+
+    annotate_references(session.measurements, session.references)  # direct optics' groups
     fixed = _gauge_mask(layout)
     fixed_values = np.zeros(layout.size)
     fixed_names = []

@@ -151,7 +151,9 @@ def information(design: Design, ata: NDArray[np.float64] | None = None) -> NDArr
     -------
     ndarray, shape (p_free, p_free)
         Symmetric information matrix of the free parameters for unit reading variance:
-        the Schur complement of the nuisance block of ``A^T A``.
+        the Schur complement of the nuisance block of ``A^T A`` (plus the nuisances'
+        own prior precision where the design has one, ``Design.extra_precision``: an
+        optical square's certificate, scaled to a 0.5 um reading noise).
     """
     nf = design.n_free
     if ata is not None:
@@ -163,6 +165,14 @@ def information(design: Design, ata: NDArray[np.float64] | None = None) -> NDArr
         C = (Af.T @ An).toarray()
         G = (An.T @ An).toarray()
     if G.shape[1]:
+        ex = design.extra_precision
+        if ex is not None and np.any(ex[nf:]):
+            # nuisances known from outside the readings (an optical square's certificate,
+            # a tracker station): their prior precision [1/unit^2] in units of the reading
+            # variance of a displacement reading (volcal.measure.optics.REFERENCE_NOISE_UM)
+            from volcal.measure.optics import REFERENCE_NOISE_UM
+
+            G = G + np.diag(ex[nf:] * REFERENCE_NOISE_UM**2)
         F = F - C @ np.linalg.pinv(G, hermitian=True) @ C.T
     return (F + F.T) / 2
 
@@ -387,4 +397,12 @@ def _suggest(rep: IdentifiabilityReport, scale, thr, candidates, N, GN, NQN) -> 
             rep.suggestions.append(f"{label}: volumetric ambiguity {base:.2f} -> {rms:.2f} um RMS")
     if rep.suggestions:
         rep.messages.append("Best extra measurement: " + rep.suggestions[0] + ".")
+    from volcal.plan.optics import OPTIC_LABEL  # the best direct optic, also when not top 3
+
+    optic = [(r, lb) for r, lb in scores if lb.startswith(OPTIC_LABEL)]
+    if optic and optic[0][0] < 0.9 * base and optic[0] not in scores[:3]:
+        rms, label = optic[0]
+        rep.suggestions.append(f"{label}: volumetric ambiguity {base:.2f} -> {rms:.2f} um RMS")
+        rep.messages.append(f"Best direct optic: {label[len(OPTIC_LABEL):]}: volumetric "
+                            f"ambiguity {base:.2f} -> {rms:.2f} um RMS.")
 

@@ -128,6 +128,22 @@ def _check_targets(t: LaserTable, m: Measurement, planned: NDArray[np.float64], 
     return offset
 
 
+def _header_of(path: Path, column: str) -> str:
+    """The header of ``column`` as written in the export (its unit included)."""
+    import re
+
+    from volcal.importer.laser_csv import _decode
+
+    want = column.strip().casefold()
+    for line in _decode(path).splitlines()[:200]:
+        for field in re.split(r"[,;\t]", line):
+            f = field.strip().strip('"')
+            name = re.sub(r"\s*[\(\[][^\)\]]*[\)\]]\s*$", "", f).strip().casefold()
+            if name == want:
+                return f
+    return column
+
+
 def _columns(t: LaserTable, m: Measurement, path: Path) -> dict[str, NDArray[Any]]:
     """The plan's optional columns, with what the file gives; run/direction must agree."""
     cols = dict(m.columns)
@@ -150,7 +166,8 @@ def _columns(t: LaserTable, m: Measurement, path: Path) -> dict[str, NDArray[Any
 
 def import_planned(path: str | Path, mapping: dict[str, str], session: str | Path, mid: str,
                    units: str = "auto", deviation_units: str = "auto",
-                   replace: bool = False) -> ImportResult:
+                   replace: bool = False, sign: float = 1.0,
+                   slope_removed: bool = False) -> ImportResult:
     """Fill a planned measurement of a session with the readings of a laser export.
 
     Parameters
@@ -168,6 +185,12 @@ def import_planned(path: str | Path, mapping: dict[str, str], session: str | Pat
         See :func:`~volcal.importer.laser_csv.read_laser_csv`.
     replace : bool
         Replace readings the measurement already has (they are kept in ``backup/``).
+    sign : float
+        +1, or -1 for a direct optic that reports the workpiece side relative to the tool
+        side (:mod:`volcal.importer.optics`).
+    slope_removed : bool
+        A straightness export whose slope the instrument took out (recorded in the
+        session; refused for a line of a reference group).
 
     Returns
     -------
@@ -189,7 +212,23 @@ def import_planned(path: str | Path, mapping: dict[str, str], session: str | Pat
     if m.deviation is not None and not replace:
         raise VolcalInputError(f"measurement {mid!r} has readings; give --replace to replace "
                                "them (the old ones are kept in backup/)", folder / "session.toml")
-    t = read_laser_csv(path, mapping, units, deviation_units)
+    angle = None
+    if m.kind == "angular":  # readings in an angle unit: converted to urad below
+        from volcal.importer.optics import angle_unit
+
+        t = read_laser_csv(path, mapping, units, "um")
+        head = mapping.get("deviation", "")
+        angle = angle_unit(deviation_units, _header_of(path, head))
+    else:
+        t = read_laser_csv(path, mapping, units, deviation_units)
+    if sign != 1.0 and m.kind not in ("straightness", "angular"):
+        raise VolcalInputError("--sign is for direct optics (straightness, angular)")
+    if slope_removed and m.kind != "straightness":
+        raise VolcalInputError("--slope-removed is for straightness measurements")
+    if slope_removed and m.meta.get("reference"):
+        raise VolcalInputError(f"{mid!r} belongs to the reference group "
+                               f"{m.meta['reference']!r}: slope-removed data cannot (the group "
+                               "relates the slopes)", folder / "session.toml")
     notes = list(t.notes)
     if t.steps:
         head = (t.header, t.header_notes)
@@ -207,12 +246,24 @@ def import_planned(path: str | Path, mapping: dict[str, str], session: str | Pat
     empty = np.flatnonzero(np.isnan(t.deviation_um))
     if empty.size:
         raise t.error("empty field: expected a number", int(empty[0]), path)
+    if angle is not None:
+        from volcal.importer.optics import ANGLE_TO_URAD
+
+        t.deviation_um = t.deviation_um * ANGLE_TO_URAD[angle]
+        notes[:] = [n for n in notes if not n.startswith("deviation column")]
+        notes.append(f"angle column {head!r}: {angle} -> urad")
+    if sign != 1.0:
+        t.deviation_um = -t.deviation_um + 0.0  # no -0
+        notes.append("sign reversed (--sign -): the export reads the workpiece side relative "
+                     "to the tool side")
     check_plausible(t, path)
     dev = t.deviation_um
     cols = _columns(t, m, path)
     unused = [c for c in t.inferred if c not in m.columns]
     notes[:] = [n for n in notes if not (unused and "inferred from" in n)]
     meta = header_meta(t, {**m.meta, "import": import_record(path, mapping, notes, t)})
+    if slope_removed:
+        meta["slope_removed"] = True
     new = Measurement(m.id, m.kind, m.target, m.positions, dev, m.beam_direction,
                       m.tool_offset, m.file, cols, meta)
     hnotes = list(t.header_notes)

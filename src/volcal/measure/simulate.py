@@ -101,7 +101,18 @@ def simulate_session(session: Session, machine: MachineErrors,
     rng = np.random.default_rng(o.seed)
     setups = {}
     stations: dict = {}
+    optics_shared: dict[str, float] = {}
+    if any(m.kind in ("straightness", "angular") for m in session.measurements):
+        from volcal.session.optics import annotate_references
+
+        annotate_references(session.measurements, session.references)
     for m in session.measurements:
+        if m.kind in ("straightness", "angular"):
+            from volcal.measure.optics_simulate import simulate_optic
+
+            setups[m.id] = simulate_optic(m, machine, rng, o.noise_um, o.dwell_s,
+                                          o.drift_um_per_h, o.reversal, optics_shared)
+            continue
         if m.kind == "multilateration":
             from volcal.measure.multilateration import simulate_tracker
 
@@ -167,7 +178,10 @@ def truth_files(machine: MachineErrors, setups: dict[str, SetupErrors],
         "setup": {mid: {"mirror_tilt_urad": [float(v) for v in s.mirror_tilt],
                         "beam_tilt_urad": [float(v) for v in s.beam_tilt],
                         **({"station_mm": [float(v) for v in s.station_mm]}
-                           if hasattr(s, "station_mm") else {})}
+                           if hasattr(s, "station_mm") else {}),
+                        **({"reference_urad": {k: float(v) for k, v in s.nuisances.items()},
+                            "direction_tilt_urad": [float(v) for v in s.direction_tilt]}
+                           if hasattr(s, "nuisances") else {})}
                   for mid, s in setups.items()},
     }
     return {

@@ -34,7 +34,7 @@ from volcal.session.format import Measurement, Session
 
 TEST_NAMES: tuple[str, ...] = (
     "step-diagonal", "diagonal", "linear", "face-diagonal", "face-step-diagonal",
-    "multilateration",
+    "multilateration", "direct",
 )
 QUALIFIED: dict[str, tuple[str, ...]] = {
     "linear": ("x", "y", "z"),
@@ -318,7 +318,22 @@ def _linear(c: _Plan, only: str | None = None) -> list[Measurement]:
     return out
 
 
-_BUILDERS = {"step-diagonal": _step_diagonals, "diagonal": _diagonals,
+def _direct(c: _Plan, only: str | None = None) -> list[Measurement]:
+    from volcal.plan.optics import direct_tests, select_direct
+
+    targets = []
+    for k in range(3):
+        lo, hi = c.t[k, 0] + c.linear_margin_mm, c.t[k, 1] - c.linear_margin_mm
+        if hi <= lo:
+            raise VolcalInputError(f"linear margin {c.linear_margin_mm:g} mm leaves no "
+                                   f"travel on {AXES[k]}")
+        targets.append(iso_targets(lo, hi, c.steps, seed=k) if c.iso_spacing
+                       else np.linspace(lo, hi, c.steps + 1))
+    ms = direct_tests(c.t, targets, c.runs, c.off, roll_offset_mm=c.abbe_tool_offset_mm)
+    return ms if only is None else select_direct(ms, only)
+
+
+_BUILDERS = {"step-diagonal": _step_diagonals, "direct": _direct, "diagonal": _diagonals,
              "face-diagonal": _face_diagonals, "face-step-diagonal": _face_step_diagonals,
              "multilateration": _multilateration, "linear": _linear}
 """Test name -> the function planning its measurements."""

@@ -140,6 +140,10 @@ def setup_comments(m: Measurement) -> list[str]:
     lines = [f"volcal measurement {m.id}: {m.kind.replace('_', ' ')} test, {m.n} readings",
              f"optics: {m.target.replace('_', ' ')} on the tool at offset [{t}] mm",
              f"beam direction (machine axes): [{b}]"]
+    if m.kind in ("straightness", "angular"):  # direct optics: which optic, how set up
+        from volcal.program.optics import optic_setup_lines
+
+        lines[1:3] = optic_setup_lines(m)
     for key in ("axis", "diagonal", "axis_order", "plane", "line_mm", "station_mm"):
         if key in m.meta:
             lines.append(f"{key}: {m.meta[key]}")

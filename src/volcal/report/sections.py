@@ -502,11 +502,13 @@ def build_report(inp: ReportInputs, title: str | None = None) -> Report:
     from volcal import __version__
     from volcal.report.completeness import completeness_section
     from volcal.report.multilateration import multilateration_section
+    from volcal.report.optics import optics_section
     from volcal.report.wording import references_section
 
     builders = [machine_section, measurements_section, completeness_section,
                 positioning_section,
-                diagonal_section, multilateration_section, identification_section,
+                diagonal_section, multilateration_section, optics_section,
+                identification_section,
                 identifiability_section, volumetric_section, compensation_section]
     sections = [s for s in (b(inp) for b in builders) if s is not None]
     sections.extend(inp.extra_sections)

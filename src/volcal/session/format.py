@@ -32,9 +32,11 @@ from volcal.session.identity import (
 )
 
 SESSION_FORMAT = "volcal-session/1"
-KINDS: tuple[str, ...] = ("linear", "diagonal", "step_diagonal", "multilateration")
+KINDS: tuple[str, ...] = ("linear", "diagonal", "step_diagonal", "multilateration",
+                          "straightness", "angular")
 """Measurement kinds (``kind`` in ``session.toml``); adding one here adds it everywhere."""
-TARGETS: tuple[str, ...] = ("flat_mirror", "retroreflector", "retroreflector_mirror", "cat_eye")
+TARGETS: tuple[str, ...] = ("flat_mirror", "retroreflector", "retroreflector_mirror", "cat_eye",
+                            "straightness_optics", "angular_optics", "level", "roll_optics")
 """Targets (``target`` in ``session.toml``); adding one here adds it everywhere."""
 MULTILATERATION_COLUMN = "length_mm"
 """Reading column of a multilateration CSV: change of the station-to-reflector distance."""
@@ -96,6 +98,8 @@ class Measurement:
         Optional columns (``run``, ``direction``, ``time_s``, environment columns).
     meta : dict
         Optional metadata: ``axis``, ``axis_order``, ``diagonal``, ``plane``, ``notes``,
+        the direct optics' ``error_direction``, ``rotation``, ``reference``,
+        ``sensor_position_mm``, ``slope_removed`` (:mod:`volcal.session.optics`),
         ``environment`` (table), ``readings`` (``'deviation'`` or ``'raw'``)...; keys
         starting with ``_`` are working state never written, e.g. ``_missed`` (the missed
         captures the reader skipped, :data:`MISSED_META`).
@@ -176,7 +180,12 @@ class Measurement:
 
     @property
     def axis(self) -> int | None:
-        """Measured axis index of a linear test (from metadata or the positions)."""
+        """Measured axis index of a linear test or direct optic (metadata or positions)."""
+        if self.kind in ("straightness", "angular"):
+            a = self.meta.get("axis")
+            if isinstance(a, str) and a.lower() in ("x", "y", "z"):
+                return "xyz".index(a.lower())
+            return int(np.argmax(np.ptp(self.positions, axis=0)))
         if self.kind != "linear":
             return None
         a = self.meta.get("axis")
@@ -194,8 +203,8 @@ class Measurement:
             "tool_offset_mm": [float(v) for v in self.tool_offset],
             "file": self.file,
         }
-        if self.kind == "multilateration":
-            del d["beam_direction"]  # not part of a tracker set-up (see docs/formats.md)
+        if self.kind in ("multilateration", "straightness", "angular"):
+            del d["beam_direction"]  # not part of these set-ups (see docs/formats.md)
         for k, v in self.meta.items():
             if not k.startswith("_"):  # "_" keys: working state, never written
                 d[k] = v
@@ -215,6 +224,8 @@ class Measurement:
             if values is not None:
                 values = length_from_deviation(values, self.positions, self.tool_offset,
                                                self.meta["station_mm"])
+        if self.kind == "angular":
+            header[3] = "angle_urad"
         w.writerow([*header, *extra])
         for i in range(self.n):
             row = [_fmt(v) for v in self.positions[i]]
@@ -319,6 +330,9 @@ class Session:
     equipment : list of dict
         The ``[[equipment]]`` entries (role, make, model, serial, certificate,
         calibrated, due).
+    references : dict of str to dict
+        The ``[references.NAME]`` tables of the direct optics (an optical square's
+        ``square_deviation_urad``, ``u_square_urad``; :mod:`volcal.session.optics`).
 
     Raises
     ------
@@ -339,6 +353,7 @@ class Session:
     provenance: dict[str, Any] = field(default_factory=dict)
     calibration: dict[str, Any] = field(default_factory=dict)
     equipment: list[dict[str, Any]] = field(default_factory=list)
+    references: dict[str, dict[str, Any]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         """Validate chain, travel and measurements."""
@@ -399,6 +414,8 @@ class Session:
             doc["equipment"] = [dict(e) for e in self.equipment]
         if self.provenance:
             doc["provenance"] = dict(self.provenance)
+        if self.references:
+            doc["references"] = {k: dict(v) for k, v in self.references.items()}
         doc["measurements"] = [m.to_toml() for m in every]
         return doc
 
@@ -517,6 +534,19 @@ MEASUREMENT_TABLE = TableSpec(
 )
 """Columns of a measurement CSV (``docs/formats.md``)."""
 
+ANGULAR_TABLE = TableSpec(
+    columns=(
+        Column("x_mm", abs_max=POSITION_ABS_MAX_MM), Column("y_mm", abs_max=POSITION_ABS_MAX_MM),
+        Column("z_mm", abs_max=POSITION_ABS_MAX_MM),
+        Column("angle_urad", empty=True, abs_max=DEVIATION_ABS_MAX_UM, markers=(MISSED,)),
+        *MEASUREMENT_TABLE.columns[4:],
+    ),
+    min_rows=MIN_ROWS,
+    min_rows_message="need at least {min} readings, found {n}",
+    what="angular measurement file",
+)
+"""Columns of an angular CSV: ``angle_urad`` [urad] instead of ``deviation_um``."""
+
 MULTILATERATION_TABLE = TableSpec(
     columns=(
         Column("x_mm"), Column("y_mm"), Column("z_mm"),
@@ -544,11 +574,12 @@ class _Rows:
     missed: NDArray[np.bool_]
 
 
-def _read_rows(path: str | Path) -> _Rows:
-    t = read_table(path, MEASUREMENT_TABLE)
+def _read_rows(path: str | Path, value_column: str = "deviation_um") -> _Rows:
+    spec = ANGULAR_TABLE if value_column == "angle_urad" else MEASUREMENT_TABLE
+    t = read_table(path, spec)
     pos = np.stack([t["x_mm"], t["y_mm"], t["z_mm"]], axis=1)
-    dev = t["deviation_um"]
-    missed = t.marked["deviation_um"].copy()
+    dev = t[value_column]
+    missed = t.marked[value_column].copy()
     if t.has("status"):
         missed |= t["status"] == MISSED
     empty = np.isnan(dev) & ~missed
@@ -557,10 +588,10 @@ def _read_rows(path: str | Path) -> _Rows:
         return _Rows(pos, None, cols, t.rows, missed)
     if empty.any():
         raise t.error(f"missing deviation: write the reading, or '{MISSED}' for a missed "
-                      "capture (docs/formats.md)", int(np.argmax(empty)), "deviation_um")
+                      "capture (docs/formats.md)", int(np.argmax(empty)), value_column)
     if missed[0]:
         raise t.error("the first row is the reference of the readings (deviation 0 by "
-                      "definition): it cannot be a missed capture", 0, "deviation_um")
+                      "definition): it cannot be a missed capture", 0, value_column)
     dev = np.where(missed, np.nan, dev)
     return _Rows(pos, dev, cols, t.rows, missed)
 
@@ -644,7 +675,7 @@ def read_measurement_csv(path: str | Path, require_deviation: bool = True,
             raise t.error("missing reading", int(np.argmax(missing)), value_column)
         out = {c: t[c] for c in OPTIONAL_COLUMNS if t.has(c)}
         return pos, dev, out
-    r = _read_rows(path)
+    r = _read_rows(path, value_column)
     if r.deviation is None:
         if require_deviation:
             raise VolcalInputError("no readings yet: the deviation_um column is empty "
@@ -685,10 +716,20 @@ def read_session(folder: str | Path, require_deviation: bool = True) -> Session:
     raw = doc.get("measurements", [])
     if not isinstance(raw, list) or not raw:
         raise _err("no [[measurements]] in the session", toml_path, None, "measurements")
+    from volcal.session.optics import (
+        annotate_references,
+        check_references,
+        read_references,
+        vertical_axis,
+    )
+
+    vertical = vertical_axis(meta, toml_path)
+    references = read_references(doc, toml_path)
     seen: set[str] = set()
     meas, unmeasured, notes = [], [], []
     for i, e in enumerate(raw):
-        m = _read_entry(e, i, folder, toml_path, seen, require_deviation, travel, notes)
+        m = _read_entry(e, i, folder, toml_path, seen, require_deviation, travel, notes,
+                        vertical)
         if m.meta.get("readings") == "raw" and m.deviation is not None:
             from volcal.environment.apply import compensate_measurement
 
@@ -701,8 +742,12 @@ def read_session(folder: str | Path, require_deviation: bool = True) -> Session:
     if unmeasured:
         notes.insert(0, f"no readings yet: {', '.join(m.id for m in unmeasured)} "
                      f"(working on the {len(meas)} measured)")
+    check_references([*meas, *unmeasured], references, toml_path,
+                     {e.get("id"): f"measurements[{i}]" for i, e in enumerate(raw)
+                      if isinstance(e, dict)})
+    annotate_references([*meas, *unmeasured], references)
     s = Session(name, chain, travel, meas, meta, folder, unmeasured, notes, [], provenance,
-                read_calibration(doc, toml_path), read_equipment(doc, toml_path))
+                read_calibration(doc, toml_path), read_equipment(doc, toml_path), references)
     if require_deviation:
         from volcal.session.plausibility import plausibility_warnings
 
@@ -792,7 +837,9 @@ def _entry_keys(e: Any, where: str, folder: Path, toml_path: Path, seen: set[str
         raise _err(f"duplicate measurement id {mid!r}", toml_path, None, f"{where}.id")
     seen.add(mid)
     kind = check_choice(e.get("kind"), KINDS, "kind", "", toml_path, f"{where}.kind")
-    target = check_choice(e.get("target", "retroreflector"), TARGETS, "target", "", toml_path,
+    default = {"straightness": "straightness_optics", "angular": "angular_optics"}.get(
+        kind, "retroreflector")  # the direct optics' usual optic when target is left out
+    target = check_choice(e.get("target", default), TARGETS, "target", "", toml_path,
                           f"{where}.target")
     file = e.get("file")
     if not isinstance(file, str) or not file:
@@ -804,6 +851,15 @@ def _entry_keys(e: Any, where: str, folder: Path, toml_path: Path, seen: set[str
     if target == "cat_eye" and kind != "multilateration":
         raise _err(f"target 'cat_eye' belongs to kind 'multilateration', not {kind!r}",
                    toml_path, None, f"{where}.target")
+    from volcal.session.optics import OPTIC_TARGETS
+
+    for okind, otargets in OPTIC_TARGETS.items():
+        if target in otargets and kind != okind:
+            valid = OPTIC_TARGETS.get(kind, [t for t in TARGETS
+                                             if not any(t in v for v in OPTIC_TARGETS.values())])
+            raise _err(f"target {target!r} belongs to kind {okind!r}, not {kind!r}: a {kind} "
+                       f"measurement needs target = one of {', '.join(valid)}",
+                       toml_path, None, f"{where}.target")
     return mid, kind, target, file, csv_path
 
 
@@ -841,7 +897,7 @@ def _check_meta(kind: str, meta: dict[str, Any], pos: NDArray[np.float64], file:
 
 def _read_entry(e: Any, i: int, folder: Path, toml_path: Path, seen: set[str],
                 require_deviation: bool, travel: NDArray[np.float64],
-                notes: list[str]) -> Measurement:
+                notes: list[str], vertical: int = 2) -> Measurement:
     from volcal.session.checks import check_geometry, check_travel
 
     where = f"measurements[{i}]"
@@ -850,6 +906,9 @@ def _read_entry(e: Any, i: int, folder: Path, toml_path: Path, seen: set[str],
     if kind == "multilateration":
         return _read_multilateration(e, where, mid, target, file, csv_path, offset, toml_path,
                                      require_deviation)
+    if kind in ("straightness", "angular"):
+        return _read_optic(e, where, mid, kind, target, file, csv_path, offset, toml_path,
+                           require_deviation, travel, notes, vertical)
     r = _read_rows(csv_path)
     n = _beam(e, r.positions, where, toml_path, csv_path)
     meta = {k: v for k, v in e.items()
@@ -857,6 +916,30 @@ def _read_entry(e: Any, i: int, folder: Path, toml_path: Path, seen: set[str],
     _check_meta(kind, meta, r.positions, file, where, toml_path)
     check_travel(r.positions, r.rows, travel, csv_path)
     check_geometry(kind, r.positions, r.rows, meta, csv_path, n if "beam_direction" in e else None)
+    if require_deviation:
+        if r.deviation is not None and r.missed.any():
+            meta[MISSED_META] = _missed_records(r)
+        r = _drop_missed(r, csv_path, notes)
+    return Measurement(mid, kind, target, r.positions, r.deviation, n, offset, file, r.columns,
+                       meta, r.rows)
+
+
+def _read_optic(e: dict, where: str, mid: str, kind: str, target: str, file: str,
+                csv_path: Path, offset: NDArray[np.float64], toml_path: Path,
+                require_deviation: bool, travel: NDArray[np.float64], notes: list[str],
+                vertical: int) -> Measurement:
+    """A direct-optics measurement (``straightness`` or ``angular``; ``volcal.session.optics``)."""
+    from volcal.session.checks import check_travel
+    from volcal.session.optics import ANGULAR_COLUMN, read_optic_keys
+
+    column = ANGULAR_COLUMN if kind == "angular" else "deviation_um"
+    r = _read_rows(csv_path, column)
+    check_travel(r.positions, r.rows, travel, csv_path)
+    meta = read_optic_keys(kind, target, e, r.positions, r.rows, where, toml_path, csv_path,
+                           vertical)
+    k = "xyz".index(meta["axis"])
+    n = np.eye(3)[k] * (1.0 if r.positions[:, k].max() - r.positions[0, k]
+                        >= r.positions[0, k] - r.positions[:, k].min() else -1.0)
     if require_deviation:
         if r.deviation is not None and r.missed.any():
             meta[MISSED_META] = _missed_records(r)

@@ -82,25 +82,29 @@ def _scale(ms: list[Measurement]) -> list[str]:
     out = []
     dens = {m.id: _spread_um_per_m(m) for m in ms}
     for m in ms:
+        ang = m.kind == "angular"  # urad, never compared with displacements
         group = [o for o in ms if o.kind == m.kind and o is not m]
         if len(group) < 2:
-            group = [o for o in ms if o is not m]
+            group = [o for o in ms if o is not m and (o.kind == "angular") == ang]
         if len(group) < 2:
             continue
         med = max(float(np.median([dens[o.id] for o in group])), SCALE_FLOOR_UM_PER_M)
         ratio = dens[m.id] / med
         raw = float(np.median([dens[o.id] for o in group]))
         kind = m.kind.replace("_", " ")
+        u = "urad/m" if ang else "um/m"
         if ratio > SCALE_RATIO:
+            hint = ("mrad (or mm/m) entered as urad" if ang else "mm entered as um")
             out.append(f"{m.id}: deviations ~{ratio:.0f}x larger than the session's other "
-                       f"{kind} tests ({dens[m.id]:.3g} um/m against a "
-                       f"median of {med:.3g} um/m): mm entered as um in {m.file}?")
+                       f"{kind} tests ({dens[m.id]:.3g} {u} against a "
+                       f"median of {med:.3g} {u}): {hint} in {m.file}?")
         elif raw >= SCALE_FLOOR_UM_PER_M and dens[m.id] * SCALE_RATIO < raw:
             small = raw / max(dens[m.id], 1e-12)
+            hint = ("readings 1000x too small (mrad typed into angle_urad)" if ang else
+                    "readings 1000x too small (mm typed into deviation_um)")
             out.append(f"{m.id}: deviations ~{small:.0f}x smaller than the session's other "
-                       f"{kind} tests ({dens[m.id]:.3g} um/m against a median of "
-                       f"{raw:.3g} um/m): readings 1000x too small (mm typed into "
-                       f"deviation_um) in {m.file}?")
+                       f"{kind} tests ({dens[m.id]:.3g} {u} against a median of "
+                       f"{raw:.3g} {u}): {hint} in {m.file}?")
     return out
 
 

@@ -9,14 +9,14 @@ Two kinds of entries (``docs/history.md``):
   in the difference, so this errs on the side of "not changed"); ``changed`` when
   ``|difference| > U``; ``None`` when either has no U.
 * **Identified functions and squareness** (from the two model files): one joint test
-  per function over its nodes, ``chi2 = d^T C^+ d`` with ``C = C1' + C2'`` the sum of
-  the two estimates' covariances given the machine (:func:`noise_covariance`) and
-  ``rank(C)`` degrees of freedom, against the ``1 - level/m`` quantile of the chi-square
-  distribution, ``m`` the number of functions tested, i.e. determined by both calibrations (Bonferroni: the family-wise false-alarm
-  rate over the functions tested is at most ``level``). ``difference`` is the largest
-  node difference, ``U`` twice its standard uncertainty there. ``changed`` is ``None``
-  where either calibration leaves the function undetermined (less than half of its
-  prior variance removed by the data).
+  per function over its nodes, ``chi2 = d^T C^+ d``, ``C = C1' + C2'`` the sum of the
+  two estimates' covariances given the machine (:func:`noise_covariance`), with
+  ``rank(C)`` degrees of freedom, against the ``1 - level/m`` quantile of the
+  chi-square distribution; ``m`` is the number of functions tested, those both
+  calibrations determine (Bonferroni: the family-wise false-alarm rate is at most
+  ``level``). ``difference`` is the largest node difference, ``U`` twice its standard
+  uncertainty there. ``changed`` is ``None`` where either calibration leaves the
+  function undetermined (less than half of its prior variance removed by the data).
 
 Both models must be in one gauge (the same chain; volcal's gauge is fixed by the design
 kind, not by the data); functions on other nodes are compared at the earlier model's

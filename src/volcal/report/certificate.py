@@ -45,6 +45,7 @@ from volcal.session.identity import (
     parse_date,
     same_machine,
 )
+from volcal.standards.decision import RULE_TEXT as _RULE_TEXT
 
 __all__ = ["CERTIFICATE_FORMAT", "END_MARK", "TITLE", "build_certificate",
            "certificate_applies", "conformity_verdict", "environment_of",
@@ -406,6 +407,11 @@ def conformity_verdict(value_um: float, tolerance_um: float, rule: str = "simple
                        ) -> tuple[str, str]:
     """Statement of conformity of one value with a decision rule.
 
+    The rules are :func:`volcal.standards.decision.decide`'s (one definition for
+    ``evaluate``, the report and the certificate); this wrapper only adds the
+    certificate's case of a guarded rule without any U or guard band, which is stated as
+    ``conditional`` (no pass can be proven) instead of refused.
+
     Parameters
     ----------
     value_um : float
@@ -428,33 +434,25 @@ def conformity_verdict(value_um: float, tolerance_um: float, rule: str = "simple
     verdict : str
         ``'pass'``, ``'fail'`` or ``'conditional'``.
     note : str
-        Why, when the rule could not give a pass (U >= T) or had no U.
+        Why, when the rule could not give a pass (w >= T, or no U) or the value lies in
+        the guard band.
     """
-    if rule not in ("simple", "guarded"):
+    from volcal.standards.decision import RULES, decide
+
+    if str(rule).strip().lower() not in RULES:
         raise VolcalInputError(f"unknown decision rule {rule!r}: expected simple or guarded")
-    if value_um > tolerance_um:
-        return "fail", ""
-    if rule == "simple":
-        return "pass", ""
-    w = guard_band_um if guard_band_um is not None else U_um
-    if w is None:
+    if str(rule).strip().lower() == "guarded" and U_um is None and guard_band_um is None:
+        if value_um > tolerance_um:
+            return "fail", ""
         return "conditional", ("guarded rule without an expanded uncertainty or guard "
                                "band: no pass can be stated")
-    if U_um is not None and U_um >= tolerance_um:
-        return "conditional", (f"U = {U_um:.3g} um is not below T = {tolerance_um:.3g} um: "
-                               "no pass is possible with this uncertainty")
-    return ("pass", "") if value_um <= tolerance_um - w else ("conditional", "")
+    d = decide(value_um, tolerance_um, rule, U_um, guard_band_um)
+    return d.verdict, d.note
 
 
-RULE_TEXT = {
-    "simple": "simple acceptance (ILAC-G8:09/2019, 4.2.1; shared risk): a value within its "
-              "tolerance passes, beyond it fails; the measurement uncertainty is not "
-              "subtracted, so at the limit the risk of a wrong pass is up to 50 %",
-    "guarded": "guarded acceptance (ISO 14253-1:2017; ILAC-G8:09/2019, 4.2.2) with guard "
-               "band w = U unless stated: pass at or below T - w, conditional between "
-               "T - w and T, fail above T",
-}
-"""The decision rules as stated on the certificate."""
+RULE_TEXT = _RULE_TEXT
+"""The decision rules as stated on the certificate: :data:`volcal.standards.decision.
+RULE_TEXT` (one wording for every output)."""
 
 
 def _U(result: Any, key: str) -> float | None:

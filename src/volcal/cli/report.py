@@ -54,8 +54,11 @@ def report_cmd(
                                       "T; w = U from --budget, or --guard-band-um)."),
     guard_band_um: float | None = typer.Option(None, help="Guard band w of the guarded "
                                                "rule [um]."),
-    budget: Path | None = typer.Option(None, help="Uncertainty budget (TOML): U of the "
-                                       "toleranced ISO 230-2 parameters."),
+    budget: Path | None = typer.Option(None, help="Uncertainty budget (TOML): readings "
+                                       "referred to 20 C with [material], U of every ISO "
+                                       "230-2 parameter and target (tables, ± U error bars "
+                                       "in the plots), the budget tables; the guard band of "
+                                       "the guarded rule; the certificate's U."),
 ) -> None:
     """Write the calibration report of a session as self-contained HTML and as PDF."""
     from volcal.cli.evaluate import _acceptance
@@ -68,6 +71,12 @@ def report_cmd(
 
     tol = None if tolerance_um is None else parse_tolerance(tolerance_um)
     tol = _acceptance(tol, decision_rule, guard_band_um, budget)
+    bud = None
+    if budget is not None:
+        from volcal.uncertainty.budget import read_budget
+
+        bud = tol.budget if tol is not None and getattr(tol, "budget", None) is not None \
+            else read_budget(budget)
     check_output_folder(output, "report", lambda p: (p / "report.html").is_file())
     s = read_session(session)
     print_session_notes(s)
@@ -121,7 +130,7 @@ def report_cmd(
         inputs = collect_inputs(s, result, edition=edition, compensation=compensation,
                                 tolerance=tol, force=force,
                                 model_label=("the model identified now" if model is None
-                                             else str(model)))
+                                             else str(model)), budget=bud)
         files = write_report(build_report(inputs, title), output, extra)
     if inputs.compensation is not None:
         for w in inputs.compensation.warnings:
@@ -134,8 +143,23 @@ def report_cmd(
                       f"({c.pdf_pages} pages), {output / c.json.name}", soft_wrap=True)
 
 
+class _Evaluated:
+    """A linear test evaluated with a budget: the corrected results and their U (one dict)."""
+
+    def __init__(self, res, unc) -> None:
+        self.res, self.unc = res, unc
+
+    def to_dict(self) -> dict:
+        """The parameters of the readings referred to 20 C, ``U_<key>``, ``k``, budget."""
+        return {**self.res.to_dict(), **self.unc.to_dict()}
+
+
 def _uncertainties(s, tol, budget: Path, edition: str) -> dict:
-    """ISO 230-2 uncertainty of every evaluable linear test of a session, by id."""
+    """ISO 230-2 of every evaluable linear test of a session with a budget, by id.
+
+    The values are those of the readings referred to 20 C by the budget (the ones the U
+    belong to), so that the certificate states them together.
+    """
     from volcal.standards.iso230_2_uncertainty import evaluate_with_budget
     from volcal.standards.positioning_data import from_measurement
     from volcal.standards.session import evaluate_session
@@ -146,7 +170,8 @@ def _uncertainties(s, tol, budget: Path, edition: str) -> dict:
     by_id = {m.id: m for m in s.measurements}
     out = {}
     for k in evaluate_session(s, edition=edition).iso230_2:
-        _, out[k], _ = evaluate_with_budget(from_measurement(by_id[k], s.path), b, edition)
+        res, unc, _ = evaluate_with_budget(from_measurement(by_id[k], s.path), b, edition)
+        out[k] = _Evaluated(res, unc)
     return out
 
 

@@ -197,7 +197,8 @@ def read_truth(session: Session) -> MachineErrors | None:
 def collect_inputs(session: Session, result: Any = None, truth: MachineErrors | None = None,
                    edition: str = "2014", compensation: str | Path | None = None,
                    tolerance: Any = None, force: bool = False,
-                   model_label: str = "the model in use") -> ReportInputs:
+                   model_label: str = "the model in use", budget: Any = None,
+                   model_uncertainty: bool = True) -> ReportInputs:
     """Evaluate the session and its model for the report.
 
     Parameters
@@ -219,6 +220,14 @@ def collect_inputs(session: Session, result: Any = None, truth: MachineErrors | 
         Use compensation tables written for another machine (with a warning).
     model_label : str
         How warnings name the model in use.
+    budget : Budget, optional
+        Uncertainty budget (:func:`volcal.uncertainty.budget.read_budget`): the linear
+        tests' readings are referred to 20 degC with it and every ISO 230-2 parameter and
+        target carries its U (:func:`volcal.standards.iso230_2_uncertainty.
+        evaluate_with_budget`).
+    model_uncertainty : bool
+        U of the model's volumetric indices, straightness and squareness
+        (:mod:`volcal.standards.model_uncertainty`, about a second).
 
     Returns
     -------
@@ -226,7 +235,19 @@ def collect_inputs(session: Session, result: Any = None, truth: MachineErrors | 
     """
     from volcal.standards.session import evaluate_session
 
-    ev = evaluate_session(session, result, edition)
+    ev = evaluate_session(session, result, edition,
+                          model_uncertainty=model_uncertainty and result is not None)
+    uncs: dict[str, Any] = {}
+    corr_text = ""
+    if budget is not None:
+        from volcal.standards.iso230_2_uncertainty import evaluate_with_budget
+        from volcal.standards.positioning_data import from_measurement
+
+        for mid in list(ev.iso230_2):
+            res, uncs[mid], corr = evaluate_with_budget(
+                from_measurement(session.get(mid), session.path), budget, edition)
+            ev.iso230_2[mid] = res
+            corr_text = corr["text"].split("; correction at")[0]
     if truth is None:
         truth = read_truth(session)
     comp = None
@@ -235,4 +256,5 @@ def collect_inputs(session: Session, result: Any = None, truth: MachineErrors | 
                                     tolerance=tolerance, session=session, edition=edition,
                                     force=force, model_label=model_label)
     return ReportInputs(session, result, truth, ev.iso230_2 or None, ev.iso230_6 or None,
-                        ev.volumetric, comp, elv=ev.elv)
+                        ev.volumetric, comp, elv=ev.elv, budget=budget,
+                        iso230_2_uncertainty=uncs or None, corrections=corr_text)

@@ -104,3 +104,23 @@ def test_function_parts_at_the_worst_node(model):
     assert exx["node_mm"] == pytest.approx(800.0)
     assert exx["u_sys"] == pytest.approx(0.8, abs=0.02)
     assert exx["u_total"] == pytest.approx(np.hypot(exx["u_noise"], exx["u_sys"]))
+
+
+def test_guarded_volumetric_verdict_takes_U_of_E_VXYZ(model):
+    """The volumetric tolerance V is checked on max |e| over the 11³ grid: E_VXYZ. Its U
+    (same draws, same seed) is the guard band of the guarded rule."""
+    from volcal.report.verdict import verdicts
+    from volcal.standards.decision import decide
+    from volcal.standards.tolerance import Tolerance
+
+    _, r, _, _ = model
+    mu = model_uncertainty(r)  # the default 400 draws, as the verdict
+    e = mu.volumetric["E_VXYZ"]
+    T = e.value + 0.5 * e.U  # inside T, not by U: conditional
+    v = verdicts(Tolerance(T, rule="guarded"), None, r.errors, None, model=r)[0]
+    assert v.before_um == pytest.approx(e.value, abs=1e-9)
+    assert v.U_before_um == pytest.approx(e.U, rel=1e-9)
+    assert v.before == decide(e.value, T, "guarded", U=e.U).verdict == "conditional"
+    v = verdicts(Tolerance(e.value + 1.5 * e.U, rule="guarded"), None, r.errors, None,
+                 model=r)[0]
+    assert v.before == "pass"

@@ -374,7 +374,7 @@ def session_cmd(
     if not results:
         raise VolcalInputError("no linear measurement with run and direction columns", session)
     elv_val = None if ev.elv is None else ev.elv["ELv"]
-    verdict = _verdicts(tol, s, edition)
+    verdict = _verdicts(tol, s, edition, mres)
     uncs: dict[str, Any] = {}
     corr_text = ""
     if budget is not None:
@@ -549,12 +549,12 @@ def _written_tables(folder: Path, s: Any, errors: Any, model: Path | None, force
     return read_written_tables(folder, manifest, s.travel)
 
 
-def _verdicts(tol: tuple[Any, Any, Any], s: Any, edition: str) -> Any:
+def _verdicts(tol: tuple[Any, Any, Any], s: Any, edition: str, model: Any = None) -> Any:
     if tol[0] is None:
         return None
     from volcal.report.verdict import verdicts
 
-    return verdicts(tol[0], s, tol[1], tol[2], edition)
+    return verdicts(tol[0], s, tol[1], tol[2], edition, model=model)
 
 
 def _print_verdict(verdict: Any, has_model: bool) -> None:

@@ -557,7 +557,8 @@ def _pairs(found: dict[str, Any], left: dict[str, Any]) -> list[dict[str, Any]]:
 
 
 def _conformity(tolerance: Any, results: dict[str, dict[str, Any]], rule: str,
-                guard_band_um: float | None, volumetric_before: float | None
+                guard_band_um: float | None,
+                volumetric_before: tuple[float, float | None] | None
                 ) -> dict[str, Any] | None:
     if tolerance is None:
         return None
@@ -586,17 +587,18 @@ def _conformity(tolerance: Any, results: dict[str, dict[str, Any]], rule: str,
                          "verdict": verdict, "note": note})
         if tolerance.volumetric_um is not None:
             T = tolerance.volumetric_um
-            value = volumetric_before if state == "as_found" else None
+            value, U = (volumetric_before if state == "as_found" and volumetric_before
+                        else (None, None))
             if value is None:
                 rows.append({"state": state, "quantity": "volumetric |e|",
                              "tolerance_um": T, "value_um": None, "U_um": None,
                              "verdict": None,
                              "note": "needs the identified model of this session"})
             else:
-                verdict, note = conformity_verdict(value, T, rule, None, guard_band_um)
+                verdict, note = conformity_verdict(value, T, rule, U, guard_band_um)
                 rows.append({"state": state, "quantity": "volumetric |e| (largest over "
                              "the work zone, identified model)", "tolerance_um": T,
-                             "value_um": value, "U_um": None, "verdict": verdict,
+                             "value_um": value, "U_um": U, "verdict": verdict,
                              "note": note})
     return {"decision_rule": rule, "rule": RULE_TEXT[rule], "guard_band_um": guard_band_um,
             "tolerance": tolerance.text(), "statements": rows}
@@ -777,10 +779,12 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
     vol_before = None
     if tolerance is not None and tolerance.volumetric_um is not None and result is not None:
         from volcal.report.verdict import verdicts
+        from volcal.standards.model_uncertainty import has_covariance
         from volcal.standards.tolerance import Tolerance
 
-        vol_before = verdicts(Tolerance(tolerance.volumetric_um), None, result.errors, None,
-                              edition)[0].before_um
+        v = verdicts(Tolerance(tolerance.volumetric_um), None, result.errors, None, edition,
+                     model=result if has_covariance(result) else None)[0]
+        vol_before = (v.before_um, v.U_before_um)
 
     ident = session.identity.to_dict()
     for k in MACHINE_KEYS:

@@ -139,6 +139,7 @@ def compensation_summary(result: Any, travel: Any, truth: MachineErrors | None =
     from volcal.model.kinematics import volumetric_error
     from volcal.report.carried import table_set_from_manifest
     from volcal.report.verdict import verdicts, work_zone_grid
+    from volcal.standards.model_uncertainty import has_covariance
 
     manifest: dict[str, Any] = {}
     tables = written = None
@@ -169,7 +170,8 @@ def compensation_summary(result: Any, travel: Any, truth: MachineErrors | None =
         if corr is not None:
             tres, trms = _norms(et - corr)
     vs = [] if tolerance is None else verdicts(tolerance, session, result.errors, written,
-                                                edition, n)
+                                                edition, n, model=result
+                                                if has_covariance(result) else None)
     return CompensationSummary(None if folder is None else Path(folder), manifest, tables,
                                model_max, model_rms, left_max, left_rms,
                                float(2.0 * np.linalg.norm(u, axis=1).max()), tmax, tmodel,
@@ -233,10 +235,11 @@ def collect_inputs(session: Session, result: Any = None, truth: MachineErrors | 
     -------
     ReportInputs
     """
+    from volcal.standards.model_uncertainty import has_covariance
     from volcal.standards.session import evaluate_session
 
     ev = evaluate_session(session, result, edition,
-                          model_uncertainty=model_uncertainty and result is not None)
+                          model_uncertainty=model_uncertainty and has_covariance(result))
     uncs: dict[str, Any] = {}
     corr_text = ""
     if budget is not None:

@@ -68,8 +68,12 @@ def uncertainty_section(inp: Any) -> Section | None:
     Section or None
         None when there is neither a budget nor a model.
     """
+    from volcal.standards.model_uncertainty import has_covariance
+
     uncs = getattr(inp, "iso230_2_uncertainty", None) or {}
     r = inp.result
+    if r is not None and not (has_covariance(r) and hasattr(r, "function_std")):
+        r = None  # a stand-in without the model's covariance: nothing to say about it
     if not uncs and r is None:
         return None
     sec = Section("uncertainty", "Measurement uncertainty")

@@ -48,7 +48,7 @@ from numpy.typing import ArrayLike, NDArray
 from volcal.model.names import AXES, COMPONENT_NAMES, SQUARENESS_NAMES
 
 __all__ = ["IndexUncertainty", "ModelUncertainty", "VOLUMETRIC_KEYS", "function_parts",
-           "model_uncertainty"]
+           "has_covariance", "largest_length", "model_uncertainty"]
 
 #: The volumetric indices that carry a U (``U_<key>``).
 VOLUMETRIC_KEYS: tuple[str, ...] = ("E_VX", "E_VY", "E_VZ", "E_VXYZ", "E_VXYZ_range")
@@ -151,6 +151,22 @@ class ModelUncertainty:
                 "squareness": {k: {**v.to_dict(), "unit": "urad"}
                                for k, v in self.squareness.items()},
                 "notes": list(self.notes)}
+
+
+def has_covariance(result: Any) -> bool:
+    """Whether a result carries what the U of its indices need (layout, free, factor).
+
+    Parameters
+    ----------
+    result : object
+        An identification result (or a stand-in without covariance).
+
+    Returns
+    -------
+    bool
+    """
+    return all(getattr(result, a, None) is not None for a in ("layout", "free",
+                                                                "cov_factor", "errors"))
 
 
 def _full_factor(result: Any, part: str) -> NDArray[np.float64]:
@@ -344,6 +360,57 @@ def _linear_volumetric(e0: NDArray[np.float64], Je: Any, g: NDArray[np.float64]
     else:
         out.append(0.0)
     return out
+
+
+def largest_length(result: Any, q: ArrayLike, correction: ArrayLike | None = None,
+                   draws: int = 400, seed: int = 0) -> IndexUncertainty:
+    """U of the largest length of the modelled volumetric error over points, ``max |e|``.
+
+    The volumetric tolerance of a verdict (``V``) is checked against this quantity,
+    before compensation and, with ``correction``, after (the error the tables leave).
+
+    Parameters
+    ----------
+    result : IdentificationResult
+        Identified model.
+    q : array_like, shape (m, 3)
+        Points [mm] (the work zone grid of the verdict).
+    correction : array_like, shape (m, 3), optional
+        What compensation tables remove at ``q`` [um]: the value is then
+        ``max |e - correction|`` (the tables are fixed numbers, the model is uncertain).
+    draws : int
+        Monte Carlo draws of the posterior (GUM Supplement 1, as :func:`model_uncertainty`).
+    seed : int
+        Seed of the draws.
+
+    Returns
+    -------
+    IndexUncertainty
+        ``value`` (of the model), ``u``, ``u_noise``, ``u_sys``, ``U = 2 u`` [um].
+    """
+    from volcal.model.kinematics import pose_jacobian
+
+    q = np.asarray(q, dtype=float).reshape(-1, 3)
+    rng = np.random.default_rng(seed)
+    gn, gs = _full_factor(result, "noise"), _full_factor(result, "sys")
+    has_sys = gs.shape[1] > 0
+    Je, _ = pose_jacobian(result.errors.chain_obj.order, result.layout.nodes, q, None)
+    e0 = (Je @ np.asarray(result.theta, dtype=float)).reshape(-1, 3)
+    if correction is not None:
+        e0 = e0 - np.asarray(correction, dtype=float).reshape(-1, 3)
+    En = np.asarray(Je @ (gn @ rng.standard_normal((gn.shape[1], draws))))
+    Es = (np.asarray(Je @ (gs @ rng.standard_normal((gs.shape[1], draws)))) if has_sys
+          else np.zeros_like(En))
+
+    def lmax(d: NDArray[np.float64]) -> NDArray[np.float64]:
+        return np.linalg.norm(e0[:, :, None] + d.reshape(-1, 3, draws), axis=1).max(axis=0)
+
+    value = float(np.linalg.norm(e0, axis=1).max())
+    k = int(np.argmax(np.linalg.norm(e0, axis=1)))
+    dirn = e0[k] / max(float(np.linalg.norm(e0[k])), 1e-300)
+    row = sum(dirn[c] * Je[3 * k + c] for c in range(3))
+    u_lin = float(np.linalg.norm(np.asarray(row @ np.hstack([gn, gs])).ravel()))
+    return _summary(value, lmax(En + Es), lmax(En), lmax(Es) if has_sys else None, u_lin)
 
 
 def function_parts(result: Any) -> list[dict[str, Any]]:

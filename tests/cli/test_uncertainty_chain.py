@@ -125,6 +125,10 @@ def test_budget_to_certificate(tmp_path, monkeypatch, capsys):
     assert st["value_um"] == pytest.approx(worst[0]) and st["U_um"] == pytest.approx(
         worst[1])
     assert st["verdict"] == v["before"] and cert["conformity"]["decision_rule"] == "guarded"
+    # the model's volumetric indices with the same U as evaluate session (same draws)
+    cv = cert["results"]["as_found"]["volumetric"]
+    for k in ("E_VX", "E_VY", "E_VZ", "E_VXYZ", "E_VXYZ_range"):
+        assert cv[k] == pytest.approx(vol[k]) and cv["U_um"][k] == pytest.approx(vol[f"U_{k}"])
     # the deviation plots got the mean of each target with its U (the evaluation's)
     for mid, (t, mean, U) in bars.items():
         m = ev["measurements"][mid]

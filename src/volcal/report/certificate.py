@@ -522,6 +522,11 @@ def _results(session: Any, ev: Any, with_model: bool, unc: dict[str, Any] | None
                if k in v}
         vol["n"] = int(v.get("n", 0))
         vol["source"] = "identified model (volcal identification)"
+        U = {k: float(v[f"U_{k}"]) for k in ("E_VX", "E_VY", "E_VZ", "E_VXYZ",
+                                              "E_VXYZ_range") if v.get(f"U_{k}") is not None}
+        if U:  # from the model's covariance (volcal.standards.model_uncertainty)
+            vol["U_um"] = U
+            vol["k"] = float(v.get("k_volumetric", 2.0))
     return {"session": session.name if session.path is None else Path(session.path).name,
             "date": _measurement_date(session),
             "readings": sum(m.n for m in session.measurements),
@@ -759,7 +764,10 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
         except PackageNotFoundError:  # pragma: no cover - source checkout
             generator = "volcal"
 
-    ev = evaluate_session(session, result, edition)
+    from volcal.standards.model_uncertainty import has_covariance
+
+    ev = evaluate_session(session, result, edition,
+                          model_uncertainty=result is not None and has_covariance(result))
     found = _results(session, ev, result is not None, uncertainties)
     left = None
     if as_left is not None:

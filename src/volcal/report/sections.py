@@ -386,8 +386,8 @@ def volumetric_section(inp: ReportInputs) -> Section | None:
         if mu is not None:
             keys = ("E_VX", "E_VY", "E_VZ", "E_VXYZ", "E_VXYZ_range")
             for row, k in zip(rows, keys, strict=True):
-                row[2:2] = [fmt(mu.volumetric[k].U)]
-            cols.insert(2, "U [µm]")
+                row.append(fmt(mu.volumetric[k].U))
+            cols.append("U [µm]")
             note += (" U (k = 2) from the model's covariance, noise"
                      + (" and systematic parts" if mu.systematic else " part only (no "
                         "budget in the model)")

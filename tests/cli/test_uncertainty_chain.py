@@ -120,6 +120,7 @@ def test_budget_to_certificate(tmp_path, monkeypatch, capsys):
     assert code == 0, err
     cert = json.loads((out / "certificate.json").read_text("utf-8"))
     assert cert["uncertainty"]["given"] and cert["uncertainty"]["budgets"]
+    assert "readings referred to 20 °C" in cert["uncertainty"]["statement"]
     st = cert["conformity"]["statements"][0]
     # the certificate states the value the U belongs to (readings referred to 20 C)
     assert st["value_um"] == pytest.approx(worst[0]) and st["U_um"] == pytest.approx(

@@ -146,12 +146,12 @@ def report_cmd(
 class _Evaluated:
     """A linear test evaluated with a budget: the corrected results and their U (one dict)."""
 
-    def __init__(self, res, unc) -> None:
-        self.res, self.unc = res, unc
+    def __init__(self, res, unc, corrections) -> None:
+        self.res, self.unc, self.corrections = res, unc, corrections
 
     def to_dict(self) -> dict:
-        """The parameters of the readings referred to 20 C, ``U_<key>``, ``k``, budget."""
-        return {**self.res.to_dict(), **self.unc.to_dict()}
+        """Parameters of the readings referred to 20 C, ``U_<key>``, ``k``, ``corrections``."""
+        return {**self.res.to_dict(), **self.unc.to_dict(), "corrections": self.corrections}
 
 
 def _uncertainties(s, tol, budget: Path, edition: str) -> dict:
@@ -170,8 +170,8 @@ def _uncertainties(s, tol, budget: Path, edition: str) -> dict:
     by_id = {m.id: m for m in s.measurements}
     out = {}
     for k in evaluate_session(s, edition=edition).iso230_2:
-        res, unc, _ = evaluate_with_budget(from_measurement(by_id[k], s.path), b, edition)
-        out[k] = _Evaluated(res, unc)
+        res, unc, corr = evaluate_with_budget(from_measurement(by_id[k], s.path), b, edition)
+        out[k] = _Evaluated(res, unc, corr)
     return out
 
 

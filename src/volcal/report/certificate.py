@@ -827,10 +827,15 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
     has_U = any(r["U_um"] for x in (found, left) if x for r in x["positioning"]) or any(
         r["U_E_D_um"] is not None for x in (found, left) if x for r in x["diagonals"])
     if budget or has_U:
+        corr = sorted({str(c["text"]).split("; correction at")[0]
+                       for x in (uncertainties, as_left_uncertainties) for u in (x or {}).values()
+                       if isinstance(c := _as_dict(u).get("corrections"), dict)
+                       and c.get("text")})
         unc = {"given": True, "statement": "The expanded uncertainties U are stated at a "
                "coverage probability of about 95 % (coverage factor k from the effective "
                "degrees of freedom, JCGM 100:2008 G.4); the budget tables list every "
-               "contributor.", "budgets": budget}
+               "contributor." + "".join(f" The results are those of the {c}." for c in corr),
+               "budgets": budget}
     else:
         unc = {"given": False, "statement": "No measurement-uncertainty budget given: the "
                "results are stated without their expanded uncertainty (ISO/IEC 17025:2017, "

@@ -109,12 +109,14 @@ def uncertainty_section(inp: Any) -> Section | None:
         sys_labels = list(getattr(r, "sys_labels", []) or [])
         has_sys = getattr(r, "sys_factor", None) is not None and len(sys_labels) > 0
         if has_sys:
+            from volcal.standards.model_uncertainty import describe_inputs
+
             src = getattr(r, "sys_source", "") or "the budget"
             sec.paragraphs.append(
                 "The identification's uncertainty has two parts, shown apart below: the "
                 "noise part (the fit's reading noise and prior) and the systematic part "
-                f"({len(sys_labels)} inputs of {src}: laser wavelength, air per set-up, "
-                "material per axis), propagated after the fit through its linear gain. "
+                f"({len(sys_labels)} inputs of {src}: {describe_inputs(sys_labels)}), "
+                "propagated after the fit through its linear gain. "
                 "Predictions, the compensation residual and the model's indices carry "
                 "both.")
         else:

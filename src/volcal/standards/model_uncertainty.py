@@ -48,7 +48,7 @@ from numpy.typing import ArrayLike, NDArray
 from volcal.model.names import AXES, COMPONENT_NAMES, SQUARENESS_NAMES
 
 __all__ = ["IndexUncertainty", "ModelUncertainty", "VOLUMETRIC_KEYS", "function_parts",
-           "has_covariance", "largest_length", "model_uncertainty"]
+           "describe_inputs", "has_covariance", "largest_length", "model_uncertainty"]
 
 #: The volumetric indices that carry a U (``U_<key>``).
 VOLUMETRIC_KEYS: tuple[str, ...] = ("E_VX", "E_VY", "E_VZ", "E_VXYZ", "E_VXYZ_range")
@@ -324,12 +324,36 @@ def model_uncertainty(result: Any, tool_offset: ArrayLike = (0.0, 0.0, 0.0), n: 
     notes = [f"volumetric indices and straightness: {draws} draws of the model's posterior "
              "(GUM Supplement 1), U = 2 u; squareness: linear, U = 2 u"]
     if has_sys:
-        notes.append("the model's systematic part (" + ", ".join(labels) + ") is included")
+        notes.append(f"the model's systematic part ({describe_inputs(labels)}) is included")
     else:
         notes.append("the model carries no systematic part: U is the identification's "
                      "noise and prior part only (identify with --budget to include the "
                      "laser, air and material inputs)")
     return ModelUncertainty(vol, straight, square, draws, has_sys, labels, notes)
+
+
+def describe_inputs(labels: list[str]) -> str:
+    """Systematic inputs in a few words: ``laser wavelength; air (17 set-ups); material X, Y, Z``.
+
+    Parameters
+    ----------
+    labels : list of str
+        Input labels of the systematic part (``'laser wavelength'``, ``'air, <id>'``,
+        ``'material, <axis>'``).
+
+    Returns
+    -------
+    str
+    """
+    air = [x for x in labels if x.startswith("air, ")]
+    mat = [x.split(", ", 1)[1] for x in labels if x.startswith("material, ")]
+    other = [x for x in labels if not x.startswith(("air, ", "material, "))]
+    parts = list(other)
+    if air:
+        parts.append(f"air ({len(air)} set-up{'s' if len(air) > 1 else ''})")
+    if mat:
+        parts.append("material " + ", ".join(mat))
+    return "; ".join(parts)
 
 
 def _linear_volumetric(e0: NDArray[np.float64], Je: Any, g: NDArray[np.float64]

@@ -39,6 +39,7 @@ References
 from __future__ import annotations
 
 import math
+import weakref
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -240,6 +241,34 @@ def model_uncertainty(result: Any, tool_offset: ArrayLike = (0.0, 0.0, 0.0), n: 
     Straightness is evaluated at 101 points over the axis travel (the functions are
     linear between their nodes), with the least-squares reference line (ISO 230-1).
     """
+    key = _cache_key(result, tool_offset, n, draws, seed)
+    hit = _CACHE.get(key[0])
+    if hit is not None and hit[0]() is result and hit[1] == key[1:]:
+        return hit[2]
+    out = _model_uncertainty(result, tool_offset, n, draws, seed)
+    if len(_CACHE) >= 4:
+        _CACHE.pop(next(iter(_CACHE)))
+    _CACHE[key[0]] = (weakref.ref(result), key[1:], out)
+    return out
+
+
+#: The last few evaluations, by result: the report, its certificate and the verdicts ask
+#: for the same model's U; the draws are seeded, so a repeat gives the same numbers.
+_CACHE: dict[int, tuple[Any, tuple[Any, ...], ModelUncertainty]] = {}
+
+
+def _cache_key(result: Any, tool_offset: ArrayLike, n: int, draws: int, seed: int
+               ) -> tuple[Any, ...]:
+    """Identity of an evaluation: the result object and its arrays, the options."""
+    arrays = (result.cov_factor, getattr(result, "sys_factor", None), result.free)
+    return (id(result), *(id(a) for a in arrays),
+            tuple(float(v) for v in np.asarray(tool_offset, dtype=float).ravel()),
+            int(n), int(draws), int(seed))
+
+
+def _model_uncertainty(result: Any, tool_offset: ArrayLike, n: int, draws: int, seed: int
+                       ) -> ModelUncertainty:
+    """:func:`model_uncertainty` without the cache."""
     from volcal.errors import VolcalInputError
     from volcal.model.errorfunctions import interp_weights
     from volcal.model.kinematics import pose_jacobian

@@ -126,6 +126,15 @@ def test_budget_to_certificate(tmp_path, monkeypatch, capsys):
     assert st["value_um"] == pytest.approx(worst[0]) and st["U_um"] == pytest.approx(
         worst[1])
     assert st["verdict"] == v["before"] and cert["conformity"]["decision_rule"] == "guarded"
+    # every diagonal's E_D with its U, of the readings referred to 20 C (ISO 230-6)
+    from volcal.standards.iso230_6_uncertainty import evaluate_diagonal_with_budget
+
+    diags = cert["results"]["as_found"]["diagonals"]
+    assert diags
+    for d in diags:
+        res, du = evaluate_diagonal_with_budget(sess.get(d["measurement"]), bud)
+        assert d["E_D_um"] == pytest.approx(res.E_D) and d["U_E_D_um"] == pytest.approx(
+            du.E_D.U)
     # the model's volumetric indices with the same U as evaluate session (same draws)
     cv = cert["results"]["as_found"]["volumetric"]
     for k in ("E_VX", "E_VY", "E_VZ", "E_VXYZ", "E_VXYZ_range"):
@@ -142,5 +151,5 @@ def test_budget_to_certificate(tmp_path, monkeypatch, capsys):
     text = subprocess.run(["pdftotext", "-layout", str(out / "report.pdf"), "-"],
                           capture_output=True, text=True, check=True).stdout
     for words in ("Expanded uncertainty of the ISO 230-2 parameters", "Measurement "
-                  "uncertainty", "u systematic", "U(x̄", "U [µm]"):
+                  "uncertainty", "u systematic", "U(x̄", "U [µm]", "U(E_D) [µm]"):
         assert words.replace("x̄", "x") in text.replace("x̄", "x"), words

@@ -151,11 +151,14 @@ class _Evaluated:
 
     def to_dict(self) -> dict:
         """Parameters of the readings referred to 20 C, ``U_<key>``, ``k``, ``corrections``."""
-        return {**self.res.to_dict(), **self.unc.to_dict(), "corrections": self.corrections}
+        out = {**self.res.to_dict(), **self.unc.to_dict()}
+        if self.corrections is not None:
+            out["corrections"] = self.corrections
+        return out
 
 
 def _uncertainties(s, tol, budget: Path, edition: str) -> dict:
-    """ISO 230-2 of every evaluable linear test of a session with a budget, by id.
+    """ISO 230-2 (ISO 230-6) of every linear test (diagonal) of a session with a budget.
 
     The values are those of the readings referred to 20 C by the budget (the ones the U
     belong to), so that the certificate states them together.
@@ -169,9 +172,16 @@ def _uncertainties(s, tol, budget: Path, edition: str) -> dict:
         else read_budget(budget)
     by_id = {m.id: m for m in s.measurements}
     out = {}
-    for k in evaluate_session(s, edition=edition).iso230_2:
+    ev = evaluate_session(s, edition=edition)
+    for k in ev.iso230_2:
         res, unc, corr = evaluate_with_budget(from_measurement(by_id[k], s.path), b, edition)
         out[k] = _Evaluated(res, unc, corr)
+    from volcal.standards.iso230_6_uncertainty import evaluate_diagonal_with_budget
+
+    for k in ev.iso230_6:
+        res, dunc = evaluate_diagonal_with_budget(by_id[k], b, edition)
+        if dunc is not None:
+            out[k] = _Evaluated(res, dunc, None)
     return out
 
 

@@ -226,7 +226,8 @@ def collect_inputs(session: Session, result: Any = None, truth: MachineErrors | 
         Uncertainty budget (:func:`volcal.uncertainty.budget.read_budget`): the linear
         tests' readings are referred to 20 degC with it and every ISO 230-2 parameter and
         target carries its U (:func:`volcal.standards.iso230_2_uncertainty.
-        evaluate_with_budget`).
+        evaluate_with_budget`); likewise every diagonal's E_D
+        (:func:`volcal.standards.iso230_6_uncertainty.evaluate_diagonal_with_budget`).
     model_uncertainty : bool
         U of the model's volumetric indices, straightness and squareness
         (:mod:`volcal.standards.model_uncertainty`, about a second).
@@ -241,6 +242,7 @@ def collect_inputs(session: Session, result: Any = None, truth: MachineErrors | 
     ev = evaluate_session(session, result, edition,
                           model_uncertainty=model_uncertainty and has_covariance(result))
     uncs: dict[str, Any] = {}
+    diag_uncs: dict[str, Any] = {}
     corr_text = ""
     if budget is not None:
         from volcal.standards.iso230_2_uncertainty import evaluate_with_budget
@@ -251,6 +253,12 @@ def collect_inputs(session: Session, result: Any = None, truth: MachineErrors | 
                 from_measurement(session.get(mid), session.path), budget, edition)
             ev.iso230_2[mid] = res
             corr_text = corr["text"].split("; correction at")[0]
+        from volcal.standards.iso230_6_uncertainty import evaluate_diagonal_with_budget
+
+        for mid in list(ev.iso230_6):
+            res, dunc = evaluate_diagonal_with_budget(session.get(mid), budget, edition)
+            if dunc is not None:
+                ev.iso230_6[mid], diag_uncs[mid] = res, dunc
     if truth is None:
         truth = read_truth(session)
     comp = None
@@ -260,4 +268,5 @@ def collect_inputs(session: Session, result: Any = None, truth: MachineErrors | 
                                     force=force, model_label=model_label)
     return ReportInputs(session, result, truth, ev.iso230_2 or None, ev.iso230_6 or None,
                         ev.volumetric, comp, elv=ev.elv, budget=budget,
-                        iso230_2_uncertainty=uncs or None, corrections=corr_text)
+                        iso230_2_uncertainty=uncs or None, corrections=corr_text,
+                        iso230_6_uncertainty=diag_uncs or None)

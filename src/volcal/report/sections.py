@@ -92,6 +92,8 @@ class ReportInputs:
         U of every ISO 230-2 parameter and target, by measurement id [um].
     corrections : str
         What the budget applied to the readings before evaluation (a sentence).
+    iso230_6_uncertainty : mapping of str to DiagonalUncertainty, optional
+        U of every diagonal's E_D, by measurement id [um].
     """
 
     session: Session
@@ -106,6 +108,7 @@ class ReportInputs:
     budget: Any = None
     iso230_2_uncertainty: Mapping[str, Any] | None = None
     corrections: str = ""
+    iso230_6_uncertainty: Mapping[str, Any] | None = None
 
 
 def machine_section(inp: ReportInputs) -> Section:
@@ -196,16 +199,24 @@ def diagonal_section(inp: ReportInputs) -> Section | None:
     from volcal.standards.iso230_6 import largest_e_d
 
     rows = []
+    duncs = getattr(inp, "iso230_6_uncertainty", None) or {}
     for mid, r in inp.iso230_6.items():
         code = (f"{r.plane} " if getattr(r, "plane", None) else "") + str(r.diagonal)
         pts = f"{r.points_measured} of {r.points_planned}" + (
             "" if r.complete else " (incomplete)")
         rows.append([mid, code, fmt(r.length_mm, 1), pts, fmt(r.E_D), fmt(r.max_abs_um)])
+        if duncs:
+            rows[-1].append(fmt(duncs[mid].E_D.U) if mid in duncs else "-")
         if not r.complete:
             sec.warnings.append(r.note())
+    if duncs:
+        sec.paragraphs.append(
+            "U(E_D): expanded uncertainty (95 %) of E_D from the uncertainty budget, the "
+            "readings referred to 20 °C first (docs/uncertainty.md, ISO 230-6 diagonals).")
     worst = largest_e_d(inp.iso230_6.values())
     sec.tables.append(Table(["measurement", "diagonal", "length [mm]", "points", "E_D [µm]",
-                             "max |deviation| [µm]"], rows, "Diagonal displacement errors",
+                             "max |deviation| [µm]"] + (["U(E_D) [µm]"] if duncs else []),
+                            rows, "Diagonal displacement errors",
                             "No complete diagonal: no largest E_D." if worst is None else
                             f"Largest E_D of the complete diagonals: {worst.E_D:.2f} µm "
                             f"({worst.id})."))

@@ -62,3 +62,15 @@ def test_no_deviation_is_an_error():
     m.deviation = None
     with pytest.raises(ValueError, match="no deviations"):
         linear_deviation_plot(m)
+
+
+def test_error_bars_of_the_targets_are_plus_minus_U():
+    fig = linear_deviation_plot(_linear(), uncertainty=([0, 100, 200], [-0.5, 1.25, 4.0],
+                                                        [0.2, 0.3, 0.5]))
+    ax = fig.axes[0]
+    bars = [c for c in ax.containers if c.get_label() == "x̄ ± U (95 %)"]
+    assert len(bars) == 1
+    segs = bars[0].lines[2][0].get_segments()  # one vertical segment per target
+    np.testing.assert_allclose([s[0][1] for s in segs], [-0.7, 0.95, 3.5])
+    np.testing.assert_allclose([s[1][1] for s in segs], [-0.3, 1.55, 4.5])
+    assert "x̄ ± U (95 %)" in [t.get_text() for t in ax.get_legend().get_texts()]

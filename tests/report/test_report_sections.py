@@ -22,7 +22,8 @@ def test_report_content_from_the_analysis(identified, small_session):
     rep = build_report(inp)
     ids = [x.id for x in rep.sections]
     assert ids == ["machine", "measurements", "iso230-2", "iso230-6", "identification",
-                   "identifiability", "volumetric", "compensation", "references"]
+                   "identifiability", "volumetric", "compensation", "uncertainty",
+                   "references"]
     # ISO 230-2 table: one row per linear test, values are the standard module's
     t = _section(rep, "iso230-2").tables[0]
     assert len(t.rows) == 9

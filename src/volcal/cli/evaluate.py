@@ -328,7 +328,10 @@ def session_cmd(
         None, help="Tolerance for a pass/fail verdict [um]: X=10,Y=10,Z=8 (ISO 230-2 "
         "accuracy A per axis), a number (largest volumetric error of --model) or both "
         "(X=10,Y=10,Z=8,V=15)."),
-    model: Path | None = typer.Option(None, help="Identified model (MODEL.json): needed for "
+    model: Path | None = typer.Option(None, help="Identified model (MODEL.json): the "
+                                      "ISO 230-1 volumetric indices, straightness and "
+                                      "squareness of the model with their U (from its "
+                                      "covariance, noise and systematic parts); needed for "
                                       "a volumetric tolerance and for the verdict after "
                                       "compensation."),
     compensation: Path | None = typer.Option(None, help="Folder written by `volcal "
@@ -359,14 +362,19 @@ def session_cmd(
     print_session_notes(s)
     if compensation is not None:
         tol = (tol[0], tol[1], _written_tables(compensation, s, tol[1], model, force))
-    ev = evaluate_session(s, edition=edition)
+    mres = None
+    if model is not None and model.suffix.lower() == ".json":
+        from volcal.identify.modelfile import load_model
+
+        mres = load_model(model)
+    ev = evaluate_session(s, mres, edition=edition, model_uncertainty=mres is not None)
     results, axis_of = ev.iso230_2, ev.axis
     why_skipped = {k: why for k, why in ev.skipped.items() if why != "no readings yet"}
     skipped = list(why_skipped)
     if not results:
         raise VolcalInputError("no linear measurement with run and direction columns", session)
     elv_val = None if ev.elv is None else ev.elv["ELv"]
-    verdict = _verdicts(tol, s, edition)
+    verdict = _verdicts(tol, s, edition, mres)
     uncs: dict[str, Any] = {}
     corr_text = ""
     if budget is not None:
@@ -388,6 +396,9 @@ def session_cmd(
                                "skipped_reasons": why_skipped,
                                "incomplete": [k for k, v in results.items() if not v.complete],
                                "unmeasured": list(ev.unmeasured)}
+        if ev.volumetric is not None:
+            out["volumetric"] = ev.volumetric.to_dict()
+            out.update(ev.model_indices or {})
         for k, u in uncs.items():
             entry = out["measurements"][k]
             entry.update(u.to_dict())
@@ -429,6 +440,8 @@ def session_cmd(
     if elv_val is not None:
         console.print(f"ELv (seed 002: RSS of the positioning ranges M of the first line of "
                       f"each axis) = {elv_val:.3f} um")
+    if ev.volumetric is not None:
+        _print_model_indices(ev)
     grouped: dict[str, list[str]] = {}
     for k, r in results.items():
         for w in r.warnings:
@@ -439,6 +452,28 @@ def session_cmd(
         console.print(f"[yellow]skipped[/] {k}: {escape(why)}", highlight=False)
     if verdict is not None:
         _print_verdict(verdict, tol[1] is not None)
+
+
+def _print_model_indices(ev: Any) -> None:
+    """The model's volumetric indices, straightness and squareness with U."""
+    v = ev.volumetric
+    u = v.uncertainty
+    t = Table(title="identified model: ISO 230-1 indices")
+    for c in ("index", "value", "U (k = 2)", "u noise", "u systematic", "unit"):
+        t.add_column(c, justify="right")
+    for k in ("E_VX", "E_VY", "E_VZ", "E_VXYZ", "E_VXYZ_range"):
+        e = u.volumetric[k]
+        t.add_row(k, f"{getattr(v, k):.3f}", f"{e.U:.3f}", f"{e.u_noise:.3f}",
+                  f"{e.u_sys:.3f}", "um")
+    for k, e in u.straightness.items():
+        t.add_row(f"straightness {k}", f"{e.value:.3f}", f"{e.U:.3f}", f"{e.u_noise:.3f}",
+                  f"{e.u_sys:.3f}", "um")
+    for k, e in u.squareness.items():
+        t.add_row(k, f"{e.value:.2f}", f"{e.U:.2f}", f"{e.u_noise:.2f}", f"{e.u_sys:.2f}",
+                  "urad")
+    print_table(console, t)
+    for n in u.notes:
+        console.print(f"note: {escape(n)}", highlight=False)
 
 
 def _acceptance(tol: Any, decision_rule: str, guard_band_um: float | None,
@@ -481,9 +516,9 @@ def _tolerance_inputs(tolerance_um: str | None, model: Path | None,
     from volcal.errors import VolcalInputError
 
     if tolerance_um is None:
-        if compensation is not None or model is not None:
-            raise VolcalInputError("--model and --compensation are used by the tolerance "
-                                   "verdict: give --tolerance-um too")
+        if compensation is not None:
+            raise VolcalInputError("--compensation is used by the tolerance verdict: give "
+                                   "--tolerance-um too")
         return None, None, None
     from volcal.standards.tolerance import parse_tolerance
 
@@ -514,12 +549,12 @@ def _written_tables(folder: Path, s: Any, errors: Any, model: Path | None, force
     return read_written_tables(folder, manifest, s.travel)
 
 
-def _verdicts(tol: tuple[Any, Any, Any], s: Any, edition: str) -> Any:
+def _verdicts(tol: tuple[Any, Any, Any], s: Any, edition: str, model: Any = None) -> Any:
     if tol[0] is None:
         return None
     from volcal.report.verdict import verdicts
 
-    return verdicts(tol[0], s, tol[1], tol[2], edition)
+    return verdicts(tol[0], s, tol[1], tol[2], edition, model=model)
 
 
 def _print_verdict(verdict: Any, has_model: bool) -> None:

@@ -54,8 +54,11 @@ def report_cmd(
                                       "T; w = U from --budget, or --guard-band-um)."),
     guard_band_um: float | None = typer.Option(None, help="Guard band w of the guarded "
                                                "rule [um]."),
-    budget: Path | None = typer.Option(None, help="Uncertainty budget (TOML): U of the "
-                                       "toleranced ISO 230-2 parameters."),
+    budget: Path | None = typer.Option(None, help="Uncertainty budget (TOML): readings "
+                                       "referred to 20 C with [material], U of every ISO "
+                                       "230-2 parameter and target (tables, ± U error bars "
+                                       "in the plots), the budget tables; the guard band of "
+                                       "the guarded rule; the certificate's U."),
     history: str | None = typer.Option(None, "--history", help="Calibration history (URL or "
                                        "SQLite file, as `volcal history --db`): add a section "
                                        "with the machine's previous calibration and the "
@@ -76,6 +79,12 @@ def report_cmd(
         from volcal.report.previous import check_history
 
         check_history(history)
+    bud = None
+    if budget is not None:
+        from volcal.uncertainty.budget import read_budget
+
+        bud = tol.budget if tol is not None and getattr(tol, "budget", None) is not None \
+            else read_budget(budget)
     check_output_folder(output, "report", lambda p: (p / "report.html").is_file())
     s = read_session(session)
     print_session_notes(s)
@@ -131,7 +140,7 @@ def report_cmd(
         inputs = collect_inputs(s, result, edition=edition, compensation=compensation,
                                 tolerance=tol, force=force,
                                 model_label=("the model identified now" if model is None
-                                             else str(model)))
+                                             else str(model)), budget=bud)
         if history is not None:  # the history (SQLAlchemy) is loaded only here
             from volcal.report.previous import previous_section
 
@@ -148,8 +157,26 @@ def report_cmd(
                       f"({c.pdf_pages} pages), {output / c.json.name}", soft_wrap=True)
 
 
+class _Evaluated:
+    """A linear test evaluated with a budget: the corrected results and their U (one dict)."""
+
+    def __init__(self, res, unc, corrections) -> None:
+        self.res, self.unc, self.corrections = res, unc, corrections
+
+    def to_dict(self) -> dict:
+        """Parameters of the readings referred to 20 C, ``U_<key>``, ``k``, ``corrections``."""
+        out = {**self.res.to_dict(), **self.unc.to_dict()}
+        if self.corrections is not None:
+            out["corrections"] = self.corrections
+        return out
+
+
 def _uncertainties(s, tol, budget: Path, edition: str) -> dict:
-    """ISO 230-2 uncertainty of every evaluable linear test of a session, by id."""
+    """ISO 230-2 (ISO 230-6) of every linear test (diagonal) of a session with a budget.
+
+    The values are those of the readings referred to 20 C by the budget (the ones the U
+    belong to), so that the certificate states them together.
+    """
     from volcal.standards.iso230_2_uncertainty import evaluate_with_budget
     from volcal.standards.positioning_data import from_measurement
     from volcal.standards.session import evaluate_session
@@ -159,8 +186,16 @@ def _uncertainties(s, tol, budget: Path, edition: str) -> dict:
         else read_budget(budget)
     by_id = {m.id: m for m in s.measurements}
     out = {}
-    for k in evaluate_session(s, edition=edition).iso230_2:
-        _, out[k], _ = evaluate_with_budget(from_measurement(by_id[k], s.path), b, edition)
+    ev = evaluate_session(s, edition=edition)
+    for k in ev.iso230_2:
+        res, unc, corr = evaluate_with_budget(from_measurement(by_id[k], s.path), b, edition)
+        out[k] = _Evaluated(res, unc, corr)
+    from volcal.standards.iso230_6_uncertainty import evaluate_diagonal_with_budget
+
+    for k in ev.iso230_6:
+        res, dunc = evaluate_diagonal_with_budget(by_id[k], b, edition)
+        if dunc is not None:
+            out[k] = _Evaluated(res, dunc, None)
     return out
 
 

@@ -9,6 +9,7 @@ the envelopes ``x̄_i ± 2 s_i`` bound the plot of the standard's Figure 1.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from matplotlib.figure import Figure
@@ -91,7 +92,8 @@ def direction_statistics(measurement: Measurement) -> dict[str, DirectionStatist
     return out
 
 
-def linear_deviation_plot(measurement: Measurement, fig: Figure | None = None) -> Figure:
+def linear_deviation_plot(measurement: Measurement, fig: Figure | None = None,
+                          uncertainty: tuple[Any, Any, Any] | None = None) -> Figure:
     """Deviation against target position, every run, with the mean ± 2s envelopes.
 
     Parameters
@@ -101,12 +103,17 @@ def linear_deviation_plot(measurement: Measurement, fig: Figure | None = None) -
         ``direction`` columns (bidirectional runs, ISO 230-2).
     fig : Figure, optional
         Figure to draw into; a new one by default.
+    uncertainty : tuple of 3 array_like, optional
+        ``(targets_mm, mean_um, U_um)``: the mean bidirectional deviation of each target
+        [um] and its expanded uncertainty [um] (an uncertainty budget,
+        :mod:`volcal.standards.iso230_2_uncertainty`), drawn as error bars ``± U``.
 
     Returns
     -------
     matplotlib.figure.Figure
         One axes: thin lines per run and direction, thick lines for the mean of each
-        direction and dashed lines for ``mean ± 2 s``.
+        direction and dashed lines for ``mean ± 2 s``; black error bars ``x̄ ± U`` when
+        ``uncertainty`` is given.
 
     References
     ----------
@@ -140,6 +147,10 @@ def linear_deviation_plot(measurement: Measurement, fig: Figure | None = None) -
                     gid=f"upper {d}", label=f"x̄ ± 2s {d}")
             ax.plot(st.targets, st.mean - 2 * st.std, color=c, linestyle="--", linewidth=1.0,
                     gid=f"lower {d}")
+    if uncertainty is not None:
+        t, mu, U = (np.asarray(v, dtype=float) for v in uncertainty)
+        ax.errorbar(t, mu, yerr=U, fmt="o", color="k", markersize=3, capsize=3,
+                    linewidth=1.0, gid="U", label="x̄ ± U (95 %)")
     ax.axhline(0.0, color="0.6", linewidth=0.6)
     ax.set_xlabel(f"target position {AXES[axis]} [mm]")
     ax.set_ylabel("positional deviation [µm]")

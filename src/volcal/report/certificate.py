@@ -45,6 +45,7 @@ from volcal.session.identity import (
     parse_date,
     same_machine,
 )
+from volcal.standards.decision import RULE_TEXT as _RULE_TEXT
 
 __all__ = ["CERTIFICATE_FORMAT", "END_MARK", "TITLE", "build_certificate",
            "certificate_applies", "conformity_verdict", "environment_of",
@@ -406,6 +407,11 @@ def conformity_verdict(value_um: float, tolerance_um: float, rule: str = "simple
                        ) -> tuple[str, str]:
     """Statement of conformity of one value with a decision rule.
 
+    The rules are :func:`volcal.standards.decision.decide`'s (one definition for
+    ``evaluate``, the report and the certificate); this wrapper only adds the
+    certificate's case of a guarded rule without any U or guard band, which is stated as
+    ``conditional`` (no pass can be proven) instead of refused.
+
     Parameters
     ----------
     value_um : float
@@ -428,33 +434,25 @@ def conformity_verdict(value_um: float, tolerance_um: float, rule: str = "simple
     verdict : str
         ``'pass'``, ``'fail'`` or ``'conditional'``.
     note : str
-        Why, when the rule could not give a pass (U >= T) or had no U.
+        Why, when the rule could not give a pass (w >= T, or no U) or the value lies in
+        the guard band.
     """
-    if rule not in ("simple", "guarded"):
+    from volcal.standards.decision import RULES, decide
+
+    if str(rule).strip().lower() not in RULES:
         raise VolcalInputError(f"unknown decision rule {rule!r}: expected simple or guarded")
-    if value_um > tolerance_um:
-        return "fail", ""
-    if rule == "simple":
-        return "pass", ""
-    w = guard_band_um if guard_band_um is not None else U_um
-    if w is None:
+    if str(rule).strip().lower() == "guarded" and U_um is None and guard_band_um is None:
+        if value_um > tolerance_um:
+            return "fail", ""
         return "conditional", ("guarded rule without an expanded uncertainty or guard "
                                "band: no pass can be stated")
-    if U_um is not None and U_um >= tolerance_um:
-        return "conditional", (f"U = {U_um:.3g} um is not below T = {tolerance_um:.3g} um: "
-                               "no pass is possible with this uncertainty")
-    return ("pass", "") if value_um <= tolerance_um - w else ("conditional", "")
+    d = decide(value_um, tolerance_um, rule, U_um, guard_band_um)
+    return d.verdict, d.note
 
 
-RULE_TEXT = {
-    "simple": "simple acceptance (ILAC-G8:09/2019, 4.2.1; shared risk): a value within its "
-              "tolerance passes, beyond it fails; the measurement uncertainty is not "
-              "subtracted, so at the limit the risk of a wrong pass is up to 50 %",
-    "guarded": "guarded acceptance (ISO 14253-1:2017; ILAC-G8:09/2019, 4.2.2) with guard "
-               "band w = U unless stated: pass at or below T - w, conditional between "
-               "T - w and T, fail above T",
-}
-"""The decision rules as stated on the certificate."""
+RULE_TEXT = _RULE_TEXT
+"""The decision rules as stated on the certificate: :data:`volcal.standards.decision.
+RULE_TEXT` (one wording for every output)."""
 
 
 def _U(result: Any, key: str) -> float | None:
@@ -524,6 +522,11 @@ def _results(session: Any, ev: Any, with_model: bool, unc: dict[str, Any] | None
                if k in v}
         vol["n"] = int(v.get("n", 0))
         vol["source"] = "identified model (volcal identification)"
+        U = {k: float(v[f"U_{k}"]) for k in ("E_VX", "E_VY", "E_VZ", "E_VXYZ",
+                                              "E_VXYZ_range") if v.get(f"U_{k}") is not None}
+        if U:  # from the model's covariance (volcal.standards.model_uncertainty)
+            vol["U_um"] = U
+            vol["k"] = float(v.get("k_volumetric", 2.0))
     return {"session": session.name if session.path is None else Path(session.path).name,
             "date": _measurement_date(session),
             "readings": sum(m.n for m in session.measurements),
@@ -559,7 +562,8 @@ def _pairs(found: dict[str, Any], left: dict[str, Any]) -> list[dict[str, Any]]:
 
 
 def _conformity(tolerance: Any, results: dict[str, dict[str, Any]], rule: str,
-                guard_band_um: float | None, volumetric_before: float | None
+                guard_band_um: float | None,
+                volumetric_before: tuple[float, float | None] | None
                 ) -> dict[str, Any] | None:
     if tolerance is None:
         return None
@@ -588,17 +592,18 @@ def _conformity(tolerance: Any, results: dict[str, dict[str, Any]], rule: str,
                          "verdict": verdict, "note": note})
         if tolerance.volumetric_um is not None:
             T = tolerance.volumetric_um
-            value = volumetric_before if state == "as_found" else None
+            value, U = (volumetric_before if state == "as_found" and volumetric_before
+                        else (None, None))
             if value is None:
                 rows.append({"state": state, "quantity": "volumetric |e|",
                              "tolerance_um": T, "value_um": None, "U_um": None,
                              "verdict": None,
                              "note": "needs the identified model of this session"})
             else:
-                verdict, note = conformity_verdict(value, T, rule, None, guard_band_um)
+                verdict, note = conformity_verdict(value, T, rule, U, guard_band_um)
                 rows.append({"state": state, "quantity": "volumetric |e| (largest over "
                              "the work zone, identified model)", "tolerance_um": T,
-                             "value_um": value, "U_um": None, "verdict": verdict,
+                             "value_um": value, "U_um": U, "verdict": verdict,
                              "note": note})
     return {"decision_rule": rule, "rule": RULE_TEXT[rule], "guard_band_um": guard_band_um,
             "tolerance": tolerance.text(), "statements": rows}
@@ -759,7 +764,10 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
         except PackageNotFoundError:  # pragma: no cover - source checkout
             generator = "volcal"
 
-    ev = evaluate_session(session, result, edition)
+    from volcal.standards.model_uncertainty import has_covariance
+
+    ev = evaluate_session(session, result, edition,
+                          model_uncertainty=result is not None and has_covariance(result))
     found = _results(session, ev, result is not None, uncertainties)
     left = None
     if as_left is not None:
@@ -779,10 +787,12 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
     vol_before = None
     if tolerance is not None and tolerance.volumetric_um is not None and result is not None:
         from volcal.report.verdict import verdicts
+        from volcal.standards.model_uncertainty import has_covariance
         from volcal.standards.tolerance import Tolerance
 
-        vol_before = verdicts(Tolerance(tolerance.volumetric_um), None, result.errors, None,
-                              edition)[0].before_um
+        v = verdicts(Tolerance(tolerance.volumetric_um), None, result.errors, None, edition,
+                     model=result if has_covariance(result) else None)[0]
+        vol_before = (v.before_um, v.U_before_um)
 
     ident = session.identity.to_dict()
     for k in MACHINE_KEYS:
@@ -817,10 +827,15 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
     has_U = any(r["U_um"] for x in (found, left) if x for r in x["positioning"]) or any(
         r["U_E_D_um"] is not None for x in (found, left) if x for r in x["diagonals"])
     if budget or has_U:
+        corr = sorted({str(c["text"]).split("; correction at")[0]
+                       for x in (uncertainties, as_left_uncertainties) for u in (x or {}).values()
+                       if isinstance(c := _as_dict(u).get("corrections"), dict)
+                       and c.get("text")})
         unc = {"given": True, "statement": "The expanded uncertainties U are stated at a "
                "coverage probability of about 95 % (coverage factor k from the effective "
                "degrees of freedom, JCGM 100:2008 G.4); the budget tables list every "
-               "contributor.", "budgets": budget}
+               "contributor." + "".join(f" The results are those of the {c}." for c in corr),
+               "budgets": budget}
     else:
         unc = {"given": False, "statement": "No measurement-uncertainty budget given: the "
                "results are stated without their expanded uncertainty (ISO/IEC 17025:2017, "

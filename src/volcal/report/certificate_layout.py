@@ -299,10 +299,15 @@ def _result_blocks(state: str, res: dict[str, Any], paired: bool) -> list[Block]
     if vol:
         out.append(Block("table", title=f"{head}volumetric indices, ISO 230-1, from the "
                          "identified model [µm]",
-                         columns=["E_VX", "E_VY", "E_VZ", "E_VXYZ", "E_VXYZ range", "grid"],
-                         rows=[[_n(vol.get("E_VX")), _n(vol.get("E_VY")), _n(vol.get("E_VZ")),
-                                _n(vol.get("E_VXYZ")), _n(vol.get("E_VXYZ_range")),
-                                f"{vol.get('n')}³ points"]]))
+                         columns=["", "E_VX", "E_VY", "E_VZ", "E_VXYZ", "E_VXYZ range",
+                                  "grid"],
+                         rows=[["value", _n(vol.get("E_VX")), _n(vol.get("E_VY")),
+                                _n(vol.get("E_VZ")), _n(vol.get("E_VXYZ")),
+                                _n(vol.get("E_VXYZ_range")), f"{vol.get('n')}³ points"]]
+                         + ([[f"U (k = {vol.get('k', 2.0):g})",
+                              *(_n(vol["U_um"].get(k)) for k in
+                                ("E_VX", "E_VY", "E_VZ", "E_VXYZ", "E_VXYZ_range")),
+                              "model covariance"]] if vol.get("U_um") else [])))
     if res.get("skipped"):
         out.append(Block("note", text="Not evaluated: " + "; ".join(
             f"{k} ({v})" for k, v in res["skipped"].items())))

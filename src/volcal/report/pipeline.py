@@ -139,6 +139,7 @@ def compensation_summary(result: Any, travel: Any, truth: MachineErrors | None =
     from volcal.model.kinematics import volumetric_error
     from volcal.report.carried import table_set_from_manifest
     from volcal.report.verdict import verdicts, work_zone_grid
+    from volcal.standards.model_uncertainty import has_covariance
 
     manifest: dict[str, Any] = {}
     tables = written = None
@@ -169,7 +170,8 @@ def compensation_summary(result: Any, travel: Any, truth: MachineErrors | None =
         if corr is not None:
             tres, trms = _norms(et - corr)
     vs = [] if tolerance is None else verdicts(tolerance, session, result.errors, written,
-                                                edition, n)
+                                                edition, n, model=result
+                                                if has_covariance(result) else None)
     return CompensationSummary(None if folder is None else Path(folder), manifest, tables,
                                model_max, model_rms, left_max, left_rms,
                                float(2.0 * np.linalg.norm(u, axis=1).max()), tmax, tmodel,
@@ -197,7 +199,8 @@ def read_truth(session: Session) -> MachineErrors | None:
 def collect_inputs(session: Session, result: Any = None, truth: MachineErrors | None = None,
                    edition: str = "2014", compensation: str | Path | None = None,
                    tolerance: Any = None, force: bool = False,
-                   model_label: str = "the model in use") -> ReportInputs:
+                   model_label: str = "the model in use", budget: Any = None,
+                   model_uncertainty: bool = True) -> ReportInputs:
     """Evaluate the session and its model for the report.
 
     Parameters
@@ -219,14 +222,43 @@ def collect_inputs(session: Session, result: Any = None, truth: MachineErrors | 
         Use compensation tables written for another machine (with a warning).
     model_label : str
         How warnings name the model in use.
+    budget : Budget, optional
+        Uncertainty budget (:func:`volcal.uncertainty.budget.read_budget`): the linear
+        tests' readings are referred to 20 degC with it and every ISO 230-2 parameter and
+        target carries its U (:func:`volcal.standards.iso230_2_uncertainty.
+        evaluate_with_budget`); likewise every diagonal's E_D
+        (:func:`volcal.standards.iso230_6_uncertainty.evaluate_diagonal_with_budget`).
+    model_uncertainty : bool
+        U of the model's volumetric indices, straightness and squareness
+        (:mod:`volcal.standards.model_uncertainty`, about a second).
 
     Returns
     -------
     ReportInputs
     """
+    from volcal.standards.model_uncertainty import has_covariance
     from volcal.standards.session import evaluate_session
 
-    ev = evaluate_session(session, result, edition)
+    ev = evaluate_session(session, result, edition,
+                          model_uncertainty=model_uncertainty and has_covariance(result))
+    uncs: dict[str, Any] = {}
+    diag_uncs: dict[str, Any] = {}
+    corr_text = ""
+    if budget is not None:
+        from volcal.standards.iso230_2_uncertainty import evaluate_with_budget
+        from volcal.standards.positioning_data import from_measurement
+
+        for mid in list(ev.iso230_2):
+            res, uncs[mid], corr = evaluate_with_budget(
+                from_measurement(session.get(mid), session.path), budget, edition)
+            ev.iso230_2[mid] = res
+            corr_text = corr["text"].split("; correction at")[0]
+        from volcal.standards.iso230_6_uncertainty import evaluate_diagonal_with_budget
+
+        for mid in list(ev.iso230_6):
+            res, dunc = evaluate_diagonal_with_budget(session.get(mid), budget, edition)
+            if dunc is not None:
+                ev.iso230_6[mid], diag_uncs[mid] = res, dunc
     if truth is None:
         truth = read_truth(session)
     comp = None
@@ -235,4 +267,6 @@ def collect_inputs(session: Session, result: Any = None, truth: MachineErrors | 
                                     tolerance=tolerance, session=session, edition=edition,
                                     force=force, model_label=model_label)
     return ReportInputs(session, result, truth, ev.iso230_2 or None, ev.iso230_6 or None,
-                        ev.volumetric, comp, elv=ev.elv)
+                        ev.volumetric, comp, elv=ev.elv, budget=budget,
+                        iso230_2_uncertainty=uncs or None, corrections=corr_text,
+                        iso230_6_uncertainty=diag_uncs or None)

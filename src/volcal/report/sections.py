@@ -86,6 +86,14 @@ class ReportInputs:
         Seed 002's ELx, ELy, ELz, ELv of the identified machine [um].
     extra_sections : list of Section
         Sections appended at the end (written by other modules).
+    budget : Budget, optional
+        The measurement-uncertainty budget the linear tests were evaluated with.
+    iso230_2_uncertainty : mapping of str to Iso2302Uncertainty, optional
+        U of every ISO 230-2 parameter and target, by measurement id [um].
+    corrections : str
+        What the budget applied to the readings before evaluation (a sentence).
+    iso230_6_uncertainty : mapping of str to DiagonalUncertainty, optional
+        U of every diagonal's E_D, by measurement id [um].
     """
 
     session: Session
@@ -97,6 +105,10 @@ class ReportInputs:
     compensation: Any = None
     elv: Mapping[str, float] | None = None
     extra_sections: list[Section] = field(default_factory=list)
+    budget: Any = None
+    iso230_2_uncertainty: Mapping[str, Any] | None = None
+    corrections: str = ""
+    iso230_6_uncertainty: Mapping[str, Any] | None = None
 
 
 def machine_section(inp: ReportInputs) -> Section:
@@ -187,16 +199,24 @@ def diagonal_section(inp: ReportInputs) -> Section | None:
     from volcal.standards.iso230_6 import largest_e_d
 
     rows = []
+    duncs = getattr(inp, "iso230_6_uncertainty", None) or {}
     for mid, r in inp.iso230_6.items():
         code = (f"{r.plane} " if getattr(r, "plane", None) else "") + str(r.diagonal)
         pts = f"{r.points_measured} of {r.points_planned}" + (
             "" if r.complete else " (incomplete)")
         rows.append([mid, code, fmt(r.length_mm, 1), pts, fmt(r.E_D), fmt(r.max_abs_um)])
+        if duncs:
+            rows[-1].append(fmt(duncs[mid].E_D.U) if mid in duncs else "-")
         if not r.complete:
             sec.warnings.append(r.note())
+    if duncs:
+        sec.paragraphs.append(
+            "U(E_D): expanded uncertainty (95 %) of E_D from the uncertainty budget, the "
+            "readings referred to 20 °C first (docs/uncertainty.md, ISO 230-6 diagonals).")
     worst = largest_e_d(inp.iso230_6.values())
     sec.tables.append(Table(["measurement", "diagonal", "length [mm]", "points", "E_D [µm]",
-                             "max |deviation| [µm]"], rows, "Diagonal displacement errors",
+                             "max |deviation| [µm]"] + (["U(E_D) [µm]"] if duncs else []),
+                            rows, "Diagonal displacement errors",
                             "No complete diagonal: no largest E_D." if worst is None else
                             f"Largest E_D of the complete diagonals: {worst.E_D:.2f} µm "
                             f"({worst.id})."))
@@ -364,17 +384,29 @@ def volumetric_section(inp: ReportInputs) -> Section | None:
         f"{vm.length.max():.1f} µm.")
     ind = inp.volumetric
     if ind is not None:
+        rows = [["E_VX", fmt(ind.E_VX), "range of the X component of the volumetric error"],
+                ["E_VY", fmt(ind.E_VY), "range of the Y component"],
+                ["E_VZ", fmt(ind.E_VZ), "range of the Z component"],
+                ["E_VXYZ", fmt(ind.E_VXYZ), "largest length of the volumetric error vector, "
+                 "at " + _vec(ind.worst_point_mm, 4) + " mm"],
+                ["E_VXYZ range", fmt(ind.E_VXYZ_range),
+                 "largest distance between two volumetric error vectors"]]
+        cols = ["index", "value [µm]", "meaning"]
+        note = f"Evaluated on a grid of {ind.n}³ points over the work zone."
+        mu = getattr(ind, "uncertainty", None)
+        if mu is not None:
+            keys = ("E_VX", "E_VY", "E_VZ", "E_VXYZ", "E_VXYZ_range")
+            for row, k in zip(rows, keys, strict=True):
+                row.append(fmt(mu.volumetric[k].U))
+            cols.append("U [µm]")
+            note += (" U (k = 2) from the model's covariance, noise"
+                     + (" and systematic parts" if mu.systematic else " part only (no "
+                        "budget in the model)")
+                     + f", by {mu.draws} draws of its posterior (GUM Supplement 1): see "
+                     "Measurement uncertainty.")
         sec.tables.append(Table(
-            ["index", "value [µm]", "meaning"],
-            [["E_VX", fmt(ind.E_VX), "range of the X component of the volumetric error"],
-             ["E_VY", fmt(ind.E_VY), "range of the Y component"],
-             ["E_VZ", fmt(ind.E_VZ), "range of the Z component"],
-             ["E_VXYZ", fmt(ind.E_VXYZ), "largest length of the volumetric error vector, at "
-              + _vec(ind.worst_point_mm, 4) + " mm"],
-             ["E_VXYZ range", fmt(ind.E_VXYZ_range),
-              "largest distance between two volumetric error vectors"]],
-            "Volumetric indices (ISO 230-1:2012, Annex) of the identified machine",
-            f"Evaluated on a grid of {ind.n}³ points over the work zone."))
+            cols, rows,
+            "Volumetric indices (ISO 230-1:2012, Annex) of the identified machine", note))
     elv = getattr(inp, "elv", None)
     if elv:
         sec.tables.append(Table(
@@ -503,13 +535,15 @@ def build_report(inp: ReportInputs, title: str | None = None) -> Report:
     from volcal.report.completeness import completeness_section
     from volcal.report.multilateration import multilateration_section
     from volcal.report.optics import optics_section
+    from volcal.report.uncertainty import uncertainty_section
     from volcal.report.wording import references_section
 
     builders = [machine_section, measurements_section, completeness_section,
                 positioning_section,
                 diagonal_section, multilateration_section, optics_section,
                 identification_section,
-                identifiability_section, volumetric_section, compensation_section]
+                identifiability_section, volumetric_section, compensation_section,
+                uncertainty_section]
     sections = [s for s in (b(inp) for b in builders) if s is not None]
     sections.extend(inp.extra_sections)
     sections.append(references_section())
@@ -560,13 +594,75 @@ def positioning_section(inp: ReportInputs) -> Section | None:
             "A accuracy, E systematic error, M range of the mean bidirectional deviation, "
             "R repeatability, B reversal value, B̄ mean reversal value; ↑/↓ one approach "
             "direction only."))
+    uncs = inp.iso230_2_uncertainty or {}
+    if inp.iso230_2 and uncs:
+        _positioning_uncertainty(sec, inp, uncs)
     seen: set[int | None] = set()
     for m in lin:
         if m.axis in seen:
             continue
         seen.add(m.axis)
+        u = uncs.get(m.id)
+        if u is None or inp.budget is None:
+            sec.figures.append(FigureItem(
+                linear_deviation_plot(m), f"{m.id}: positional deviation of every run with "
+                "the mean ± 2 s envelopes of each approach direction (ISO 230-2, Figure 1).",
+                f"{m.id}-deviation"))
+            continue
+        mc, bars = _corrected_with_bars(m, inp, u)
         sec.figures.append(FigureItem(
-            linear_deviation_plot(m), f"{m.id}: positional deviation of every run with the "
-            "mean ± 2 s envelopes of each approach direction (ISO 230-2, Figure 1).",
-            f"{m.id}-deviation"))
+            linear_deviation_plot(mc, uncertainty=bars), f"{m.id}: positional deviation of "
+            "every run (referred to 20 °C with the uncertainty budget) with the mean ± 2 s "
+            "envelopes of each approach direction (ISO 230-2, Figure 1) and the mean "
+            "bidirectional deviation of each target with its expanded uncertainty ± U "
+            "(95 %, error bars).", f"{m.id}-deviation"))
     return sec
+
+
+_U_KEYS = ("A", "E", "M", "R", "B", "B_mean")
+
+
+def _positioning_uncertainty(sec: Section, inp: ReportInputs, uncs: Mapping[str, Any]
+                             ) -> None:
+    """U of the ISO 230-2 parameters and of every target's mean (a budget was given)."""
+    rows = []
+    for mid in inp.iso230_2 or {}:
+        u = uncs.get(mid)
+        if u is None:
+            continue
+        rows.append([mid, *(fmt(u.parameters[k].U) for k in _U_KEYS),
+                     fmt(u.parameters["A"].k)])
+    sec.tables.append(Table(
+        ["measurement", *(f"U({k}) [µm]" for k in ("A", "E", "M", "R", "B", "B̄")), "k (A)"],
+        rows, "Expanded uncertainty of the ISO 230-2 parameters (95 %)",
+        "U = k u, k from the effective degrees of freedom (Welch-Satterthwaite); the "
+        "readings were referred to 20 °C with the uncertainty budget before evaluation"
+        + (f" ({inp.corrections})." if inp.corrections else ".")
+        + " The budget tables and the equations: docs/uncertainty.md."))
+    for mid, res in (inp.iso230_2 or {}).items():
+        u = uncs.get(mid)
+        if u is None:
+            continue
+        t = res.targets
+        trows = [[fmt(t.target_mm[i], 1), fmt(t.mean_up[i]), fmt(t.mean_down[i]),
+                  fmt(u.targets[i].value), fmt(u.targets[i].U), fmt(u.targets[i].k)]
+                 for i in range(t.target_mm.size)]
+        sec.tables.append(Table(
+            ["target [mm]", "x̄↑ [µm]", "x̄↓ [µm]", "x̄ [µm]", "U(x̄) [µm]", "k"], trows,
+            f"{mid}: mean deviation of each target with its expanded uncertainty"))
+
+
+def _corrected_with_bars(m: Any, inp: ReportInputs, u: Any) -> tuple[Any, Any]:
+    """The test's readings referred to 20 degC by the budget, and its ± U error bars."""
+    import copy
+
+    from volcal.standards.positioning_data import from_measurement
+    from volcal.uncertainty.laser import expected_correction_um
+
+    d = from_measurement(m, inp.session.path)
+    length = np.asarray(d.targets_mm, dtype=float) - u.datum_mm
+    mc = copy.copy(m)
+    mc.deviation = np.asarray(m.deviation, dtype=float) + expected_correction_um(
+        length, d.deviation_um, inp.budget)
+    t = (inp.iso230_2 or {})[m.id].targets
+    return mc, (t.target_mm, [e.value for e in u.targets], [e.U for e in u.targets])

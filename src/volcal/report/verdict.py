@@ -49,7 +49,8 @@ def compensated_deviation(m: Any, tables: Any) -> NDArray[np.float64]:
 
 
 def verdicts(tolerance: Tolerance, session: Session | None, errors: MachineErrors | None,
-             tables: Any, edition: str = "2014", n: int = 11) -> list[Verdict]:
+             tables: Any, edition: str = "2014", n: int = 11, model: Any = None
+             ) -> list[Verdict]:
     """The verdict of every tolerance given, before and (with tables) after.
 
     Parameters
@@ -70,6 +71,10 @@ def verdicts(tolerance: Tolerance, session: Session | None, errors: MachineError
         ISO 230-2 edition.
     n : int
         Grid points per axis of the volumetric evaluation.
+    model : IdentificationResult, optional
+        The identified model of ``errors`` with its covariance: U of the volumetric
+        values before and after (:func:`volcal.standards.model_uncertainty.
+        largest_length`, noise and systematic parts), the guard band of the guarded rule.
 
     Returns
     -------
@@ -86,19 +91,26 @@ def verdicts(tolerance: Tolerance, session: Session | None, errors: MachineError
         if errors is None:
             raise VolcalInputError("a volumetric tolerance needs the identified model "
                                    "(--model MODEL.json)")
-        if rule == "guarded" and guard_band_um is None:
+        if rule == "guarded" and guard_band_um is None and model is None:
             raise VolcalInputError("--decision-rule guarded on the volumetric tolerance (V) "
-                                   "needs --guard-band-um W (the model's systematic "
-                                   "uncertainty is not propagated yet)",
+                                   "needs the identified model's uncertainty (--model "
+                                   "MODEL.json) or --guard-band-um W",
                                    column="--guard-band-um")
         q = work_zone_grid(errors.travel, n)
         e = volumetric_error(errors, q)
-        after = None
-        if tables is not None:
-            after = float(np.linalg.norm(e - tables.correction(q), axis=1).max())
+        after = U_before = U_after = None
+        corr = None if tables is None else tables.correction(q)
+        if corr is not None:
+            after = float(np.linalg.norm(e - corr, axis=1).max())
+        if model is not None:
+            from volcal.standards.model_uncertainty import largest_length
+
+            U_before = largest_length(model, q).U
+            if corr is not None:
+                U_after = largest_length(model, q, corr).U
         out.append(Verdict(f"volumetric |e|, largest of {n}³ points",
                            tolerance.volumetric_um, float(np.linalg.norm(e, axis=1).max()),
-                           after, rule, guard_band_um=guard_band_um))
+                           after, rule, U_before, U_after, guard_band_um))
     axes = [a for a in AXES if a in tolerance.axis_um or a in tolerance.parameters]
     for axis in axes:
         k = AXES.index(axis)

@@ -38,10 +38,12 @@ VERDICTS: tuple[str, ...] = ("pass", "fail", "conditional")
 
 #: One line per rule, for outputs that name the rule.
 RULE_TEXT: dict[str, str] = {
-    "simple": "simple acceptance (ILAC-G8:09/2019 4.2.1): pass when the value is at most "
-              "the tolerance, otherwise fail",
+    "simple": "simple acceptance (ILAC-G8:09/2019 4.2.1; shared risk): pass when the value "
+              "is at most the tolerance, otherwise fail; the measurement uncertainty is not "
+              "subtracted, so at the limit the risk of a wrong pass is up to 50 %",
     "guarded": "guarded acceptance (ILAC-G8:09/2019 4.2.2, ISO 14253-1:2017): pass at or "
-               "below T - w, conditional between T - w and T, fail above T; guard band w",
+               "below T - w, conditional between T - w and T, fail above T; guard band "
+               "w = U (the expanded uncertainty) unless stated",
 }
 
 

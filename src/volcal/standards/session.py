@@ -63,6 +63,24 @@ class SessionEvaluation:
     unmeasured: list[str] = field(default_factory=list)
 
     @property
+    def model_indices(self) -> dict[str, Any] | None:
+        """Straightness [um] and squareness [urad] of the model with U, JSON-friendly.
+
+        ``{'straightness': {name: {'value_um', 'U_um', ...}}, 'squareness': {name:
+        {'value_urad', 'U_urad', ...}}}``; None without a model uncertainty.
+        """
+        u = getattr(self.volumetric, "uncertainty", None)
+        if u is None:
+            return None
+        return {"straightness": {k: {"value_um": v.value, "U_um": v.U, "u_um": v.u,
+                                     "u_noise_um": v.u_noise, "u_sys_um": v.u_sys,
+                                     "k": v.k, "reference": "least_squares"}
+                                 for k, v in u.straightness.items()},
+                "squareness": {k: {"value_urad": v.value, "U_urad": v.U, "u_urad": v.u,
+                                   "u_noise_urad": v.u_noise, "u_sys_urad": v.u_sys,
+                                   "k": v.k} for k, v in u.squareness.items()}}
+
+    @property
     def incomplete(self) -> list[str]:
         """Ids of the evaluated tests with missed readings (linear and diagonal)."""
         return [k for k, v in [*self.iso230_2.items(), *self.iso230_6.items()]
@@ -74,6 +92,7 @@ class SessionEvaluation:
                                  for k, v in self.iso230_2.items()},
                 "diagonals": {k: _plain(v) for k, v in self.iso230_6.items()},
                 "volumetric": None if self.volumetric is None else self.volumetric.to_dict(),
+                **({} if self.model_indices is None else self.model_indices),
                 "ELv": None if self.elv is None else self.elv["ELv"],
                 "elv": self.elv, "elv_source": self.elv_source,
                 "skipped": list(self.skipped), "incomplete": self.incomplete,
@@ -133,8 +152,8 @@ def _plain(v: Any) -> Any:
     return v
 
 
-def evaluate_session(session: Any, result: Any = None, edition: str = "2014"
-                     ) -> SessionEvaluation:
+def evaluate_session(session: Any, result: Any = None, edition: str = "2014",
+                     model_uncertainty: bool = False) -> SessionEvaluation:
     """Evaluate every test of a session to its standard (one definition of every index).
 
     Parameters
@@ -146,6 +165,11 @@ def evaluate_session(session: Any, result: Any = None, edition: str = "2014"
         measured lines do not cover the three axes.
     edition : str
         ISO 230-2 edition (``'2014'``, ``'2006'``, ``'1997'``).
+    model_uncertainty : bool
+        With ``result``: the expanded uncertainty of the volumetric indices (``U_E_VX``
+        ... in ``volumetric.to_dict()``), of the straightness and squareness of the model
+        (:attr:`SessionEvaluation.model_indices`) from the model's covariance, noise and
+        systematic parts (:mod:`volcal.standards.model_uncertainty`; about a second).
 
     Returns
     -------
@@ -210,6 +234,10 @@ def evaluate_session(session: Any, result: Any = None, edition: str = "2014"
         from volcal.standards.volumetric import elv_from_model, volumetric_indices
 
         ev.volumetric = volumetric_indices(result.errors)
+        if model_uncertainty:
+            from volcal.standards.model_uncertainty import model_uncertainty as _mu
+
+            ev.volumetric.uncertainty = _mu(result, n=ev.volumetric.n)
         if ev.elv is None:
             ev.elv = elv_from_model(result.errors)
             ev.elv_source = "model"

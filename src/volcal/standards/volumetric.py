@@ -41,7 +41,8 @@ from volcal.errors import VolcalInputError
 from volcal.model.kinematics import volumetric_error
 from volcal.standards.iso230_6 import elv
 
-__all__ = ["VolumetricIndices", "elv_from_model", "volumetric_indices", "work_zone_grid"]
+__all__ = ["VolumetricIndices", "elv_from_model", "vector_range", "vector_range_pair",
+           "volumetric_indices", "work_zone_grid"]
 
 
 @dataclass
@@ -69,11 +70,21 @@ class VolumetricIndices:
     E_VXYZ_range: float
     worst_point_mm: NDArray[np.float64]
     n: int
+    uncertainty: Any = None
 
     def to_dict(self) -> dict[str, Any]:
-        """Return a JSON-friendly dict."""
+        """Return a JSON-friendly dict.
+
+        With an ``uncertainty`` (:class:`volcal.standards.model_uncertainty.
+        ModelUncertainty`) the dict carries ``U_E_VX`` ... ``U_E_VXYZ_range`` [um],
+        ``k_volumetric`` and the details under ``uncertainty``.
+        """
         d = asdict(self)
+        d.pop("uncertainty", None)
         d["worst_point_mm"] = [float(v) for v in self.worst_point_mm]
+        if self.uncertainty is not None:
+            d.update(self.uncertainty.volumetric_keys())
+            d["uncertainty"] = self.uncertainty.to_dict()
         return d
 
 
@@ -125,23 +136,65 @@ def volumetric_indices(errors: Any, tool_offset: ArrayLike = (0.0, 0.0, 0.0),
     e = volumetric_error(errors, q, np.asarray(tool_offset, dtype=float))
     length = np.linalg.norm(e, axis=1)
     k = int(np.argmax(length))
-    # largest pairwise distance: it is attained between vertices of the convex hull
+    vrange = vector_range(e)
+    ptp = np.ptp(e, axis=0)
+    return VolumetricIndices(float(ptp[0]), float(ptp[1]), float(ptp[2]), float(length[k]),
+                             vrange, q[k], int(n))
+
+
+def _hull_points(e: NDArray[np.float64]) -> NDArray[np.intp]:
+    """Indices of the points that can attain the largest pairwise distance."""
     try:
         from scipy.spatial import ConvexHull, QhullError
 
         try:
-            pts = e[ConvexHull(e).vertices]
+            idx = np.asarray(ConvexHull(e).vertices, dtype=np.intp)
         except (QhullError, ValueError):
-            pts = e
+            idx = np.arange(e.shape[0])
     except ImportError:  # pragma: no cover - scipy is a dependency
-        pts = e
-    if pts.shape[0] > 4000:
-        pts = pts[np.argsort(-np.linalg.norm(pts - pts.mean(axis=0), axis=1))[:4000]]
-    diff = pts[:, None, :] - pts[None, :, :]
-    vrange = float(np.sqrt((diff**2).sum(axis=2)).max())
-    ptp = np.ptp(e, axis=0)
-    return VolumetricIndices(float(ptp[0]), float(ptp[1]), float(ptp[2]), float(length[k]),
-                             vrange, q[k], int(n))
+        idx = np.arange(e.shape[0])
+    if idx.size > 4000:
+        pts = e[idx]
+        idx = idx[np.argsort(-np.linalg.norm(pts - pts.mean(axis=0), axis=1))[:4000]]
+    return idx
+
+
+def vector_range_pair(e: ArrayLike) -> tuple[int, int]:
+    """The two points of the largest distance between two error vectors.
+
+    Parameters
+    ----------
+    e : array_like, shape (m, 3)
+        Error vectors [um].
+
+    Returns
+    -------
+    tuple of int
+        Their indices (it is attained between vertices of the convex hull).
+    """
+    e = np.asarray(e, dtype=float)
+    idx = _hull_points(e)
+    pts = e[idx]
+    d = np.sqrt(((pts[:, None, :] - pts[None, :, :]) ** 2).sum(axis=2))
+    i, j = np.unravel_index(int(np.argmax(d)), d.shape)
+    return int(idx[i]), int(idx[j])
+
+
+def vector_range(e: ArrayLike) -> float:
+    """Largest distance between two error vectors, ``max |e(q1) - e(q2)|`` [um].
+
+    Parameters
+    ----------
+    e : array_like, shape (m, 3)
+        Error vectors [um].
+
+    Returns
+    -------
+    float
+    """
+    e = np.asarray(e, dtype=float)
+    i, j = vector_range_pair(e)
+    return float(np.linalg.norm(e[i] - e[j]))
 
 
 def elv_from_model(errors: Any, n: int = 101) -> dict[str, float]:

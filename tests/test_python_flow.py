@@ -120,8 +120,6 @@ BAD_CALLS = [
     (lambda c: c.verdict("X=10", decision_rule="guarded"),
      "Calibration.verdict: decision_rule='guarded' needs the expanded uncertainty "
      "(budget=FILE) or a guard band (guard_band_um=W)"),
-    (lambda c: c.verdict("V=10", decision_rule="guarded"),
-     "Calibration.verdict: decision_rule='guarded' on the volumetric tolerance (V) needs"),
     (lambda c: c.report("r", decision_rule="guarded"),
      "decision_rule='guarded' judges a tolerance: give tolerance_um too"),
     (lambda c: c.evaluate(budget="no-budget.toml"), "no-budget.toml: no such budget file"),

@@ -206,7 +206,8 @@ class Calibration:
                 units: str = D.IMPORT_UNITS, deviation_units: str = D.IMPORT_DEVIATION_UNITS,
                 optics: str = D.IMPORT_OPTICS, tool_offset: ArrayLike | str = (0.0, 0.0, 0.0),
                 travel: ArrayLike | str | None = None, chain: str = D.IMPORT_CHAIN,
-                name: str = D.IMPORT_NAME, replace: bool = False) -> Calibration:
+                name: str = D.IMPORT_NAME, replace: bool = False, sign: str = "+",
+                slope_removed: bool = False) -> Calibration:
         """Add a laser's CSV export to a session folder, like ``volcal import``.
 
         Either a new linear measurement (``axis`` and ``id``; the session is created
@@ -242,6 +243,11 @@ class Calibration:
             Chain and machine name of a new session.
         replace : bool
             Replace a measurement with this id (or the readings of ``measurement``).
+        sign : str
+            Direct optics (``measurement``): ``'+'`` (the instrument reads the tool side
+            relative to the workpiece side, volcal's sign) or ``'-'`` (the other side).
+        slope_removed : bool
+            Direct optics: the vendor took the slope out of the straightness readings.
 
         Returns
         -------
@@ -256,10 +262,11 @@ class Calibration:
             if axis is not None or id is not None:
                 raise VolcalInputError("Calibration.import_: measurement= fills a planned "
                                        "measurement: leave out axis= and id=")
+            from volcal.importer.optics import parse_sign
             from volcal.importer.planned import import_planned
 
             r = import_planned(csv_file, mapping, session, measurement, units,
-                               deviation_units, replace)
+                               deviation_units, replace, parse_sign(sign), slope_removed)
         else:
             if axis is None or id is None:
                 raise VolcalInputError("Calibration.import_: give axis= and id= (a new "
@@ -571,7 +578,8 @@ class Calibration:
             raise VolcalInputError(f"Calibration.evaluate: edition {edition!r}: expected one "
                                    f"of {A.names(list(EDITIONS))}")
         b = None if budget is None else A.budget_file(budget, "Calibration.evaluate")[0]
-        ev = evaluate_session(self.session, self.result, str(edition))
+        ev = evaluate_session(self.session, self.result, str(edition),
+                              model_uncertainty=self.result is not None)
         self.uncertainties = None
         if b is not None:
             from volcal.standards.iso230_2_uncertainty import evaluate_with_budget
@@ -655,7 +663,8 @@ class Calibration:
             tables = read_written_tables(compensation, manifest, self.session.travel)
         errors = None if self.result is None else self.result.errors
         with A.python_names(where):
-            return verdicts(tol, self.session, errors, tables, str(edition))
+            return verdicts(tol, self.session, errors, tables, str(edition),
+                            model=self.result)
 
     @A.checked
     def compensate(self, folder: str | Path, format: str, sign: str | None = D.COMP_SIGN,
@@ -875,8 +884,12 @@ class Calibration:
                 written.append(write_certificate(doc, tmp))
 
         with A.python_names(where):
+            bud = None
+            if budget is not None:  # as `volcal report --budget`: corrected readings and U
+                bud = tol.budget if tol is not None and getattr(tol, "budget", None) \
+                    is not None else A.budget_file(budget, where)[0]
             inputs = collect_inputs(s, result, self.truth, edition, compensation,
-                                    tolerance=tol, force=force)
+                                    tolerance=tol, force=force, budget=bud)
         if history is not None:  # the history (SQLAlchemy) is loaded only here
             from volcal.report.previous import previous_section
 

@@ -133,8 +133,7 @@ def prior_precision(model: Any) -> Any:
     if not all(isinstance(hyp.get(k), int | float) for k in keys):
         return None
     prior = PriorStructure.build(model.layout, model.free, float(hyp["kappa"]))
-    prior = (prior.with_trend(hyp.get("positioning_trend_um") or 0.0)
-             .with_nugget(hyp.get("positioning_nugget_um") or 0.0))
+    prior = prior.with_trend(hyp.get("positioning_trend_um") or 0.0)
     scales = np.array([hyp[k] for k in keys[:4]], dtype=float)
     n = int(model.free.size)
     return prior.precision(scales, 100.0, n, np.zeros(0))

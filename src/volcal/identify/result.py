@@ -274,7 +274,8 @@ class IdentificationResult:
         e : ndarray, shape (m, 3)
             Actual minus commanded tool point position, machine axes [um].
         u : ndarray, shape (m, 3)
-            Standard uncertainties [um].
+            Standard uncertainties [um], with the short-wavelength part of the positioning
+            errors between their nodes (:meth:`nugget_variance`).
 
         Raises
         ------
@@ -371,6 +372,12 @@ class IdentificationResult:
             Positions of that axis [mm].
         systematic : bool
             Include the systematic part (``sys_factor``) when there is one (default).
+
+        Returns
+        -------
+        ndarray
+            Standard uncertainty at ``q``; for a positioning error (EXX, EYY, EZZ) with
+            its short-wavelength part between the nodes (:meth:`nugget_variance`).
         """
         from volcal.model.names import COMPONENT_NAMES
 

@@ -279,3 +279,11 @@ def test_nugget_is_a_hyperparameter_of_the_file_and_enters_u_between_nodes(v2, t
         extra[:, k] = 2 * 0.64 * w * (1 - w)
     np.testing.assert_allclose(u1**2, u0**2 + extra, rtol=1e-10, atol=1e-12)
     assert extra.max() > 0.2  # points between nodes: a real test
+    # with the rigid-body motion removed: the projector R applied to the independent
+    # short-wavelength values, diag(R diag(v) R') added
+    from volcal.identify.identifiability import rigid_projector
+
+    (_, r0), (_, r1) = v2.predict(q, rigid_removed=True), m.predict(q, rigid_removed=True)
+    R = rigid_projector(q)
+    np.testing.assert_allclose(r1.ravel()**2, r0.ravel()**2 + R**2 @ extra.ravel(),
+                               rtol=1e-10, atol=1e-12)

@@ -203,6 +203,46 @@ def test_evidence_gradient_in_every_hyperparameter(small):
     assert all(abs(grad[f]) > 1e-6 for f in TREND_FUNCTIONS)
 
 
+def test_evidence_gradient_with_the_nugget(small):
+    """With the short-wavelength (nugget) part of the positioning prior, the gradient in
+    every hyperparameter (function scales, kappa, sigma, tilts, trend and the nugget,
+    index 26) against central differences; the nugget block's precision is the inverse of
+    ``a^2 P^-1 + t^2 s s' + n^2 (I + 1 1')`` (difference form)."""
+    from volcal.identify.evidence import N_HYPER, _Evidence
+    from volcal.identify.prior import TREND_FUNCTIONS
+
+    _, design, prior = small
+    ev = _Evidence(design, prior.with_trend(12.0).with_nugget(0.7), 100.0)
+    rng = np.random.default_rng(6)
+    f0 = rng.uniform(3.0, 20.0, 18)
+    p0 = np.log(np.concatenate([f0, [7.0, 0.4, 30.0, 12.0, 0.7]]))
+
+    def f(p):
+        ev.set_tilt_std(float(np.exp(p[20])))
+        ev.prior = ev.prior.with_trend(float(np.exp(p[21]))).with_nugget(float(np.exp(p[22])))
+        return ev.neg2(np.exp(p[:18]), float(np.exp(p[19])), float(np.exp(p[18])))
+
+    val = f(p0)
+    val_g, grad = ev.neg2_grad_functions(np.exp(p0[:18]), float(np.exp(p0[19])),
+                                         float(np.exp(p0[18])))
+    assert grad.size == N_HYPER
+    assert val_g == pytest.approx(val, rel=1e-12)
+    h = 1e-5
+    fd = np.array([(f(p0 + h * e) - f(p0 - h * e)) / (2 * h) for e in np.eye(23)])
+    f(p0)
+    got = np.append(grad[:22], grad[26])
+    np.testing.assert_allclose(got, fd, rtol=1e-5, atol=1e-5 * np.abs(fd).max())
+    assert abs(grad[26]) > 1e-3
+    b = next(i for i, blk in enumerate(ev.prior.blocks) if blk[4] == TREND_FUNCTIONS[0])
+    fs = np.exp(p0[:18])
+    Pinv = np.linalg.inv(ev.prior.unit_block(b)[0])
+    s = ev.prior.coords[b]
+    n = s.size
+    S = fs[0] ** 2 * Pinv + 144.0 * np.outer(s, s) + 0.49 * (np.eye(n) + np.ones((n, n)))
+    np.testing.assert_allclose(ev.prior.block_precision(b, fs), np.linalg.inv(S),
+                               rtol=1e-8, atol=1e-12)
+
+
 @pytest.mark.parametrize("boundary", ["conditional", "difference"])
 def test_trend_prior_is_the_covariance_of_wiggles_plus_a_slope(small, boundary, monkeypatch):
     """A positioning block's precision with the trend is the inverse of

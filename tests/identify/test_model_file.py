@@ -248,3 +248,42 @@ def test_identify_refuses_outputs_it_cannot_write_before_working(session_and_mod
     out = volcal("identify", root / "S", "-o", tmp_path / "x.npz")
     assert out.returncode == 2
     assert ".npz is the name of its binary part" in " ".join(out.stderr.split())
+
+
+def test_nugget_is_a_hyperparameter_of_the_file_and_enters_u_between_nodes(v2, tmp_path):
+    """The short-wavelength (nugget) scale of the positioning prior is stored as
+    ``fit.hyperparameters.positioning_nugget_um`` (no layout change) and adds ``2 w (1 - w)
+    n^2`` to the variance of the positioning errors between their nodes (``w`` the
+    interpolation weight): zero at the nodes, ``n^2 / 2`` half way; ``predict`` carries it
+    into the volumetric error's component of that axis."""
+    import copy
+
+    m0 = copy.deepcopy(v2)
+    m0.fit.hyperparameters["positioning_nugget_um"] = 0.8
+    m = load_model(write_model(m0, tmp_path / "nugget.json"))
+    assert json.loads((tmp_path / "nugget.json").read_text())["fit"]["hyperparameters"][
+        "positioning_nugget_um"] == 0.8
+    x = m.layout.nodes[0]
+    mid = (x[1:] + x[:-1]) / 2
+    base = v2.function_std("EXX", mid)
+    np.testing.assert_allclose(m.function_std("EXX", mid), np.sqrt(base**2 + 0.32), rtol=1e-12)
+    np.testing.assert_allclose(m.function_std("EXX", x), v2.function_std("EXX", x), rtol=1e-12)
+    np.testing.assert_allclose(m.function_std("EYX", mid), v2.function_std("EYX", mid))
+    q = np.random.default_rng(2).uniform([0, 0, 0], [300, 200, 100], (60, 3))
+    (_, u0), (_, u1) = v2.predict(q), m.predict(q)
+    extra = np.zeros_like(u0)
+    for k in range(3):
+        nodes = m.layout.nodes[k]
+        i = np.clip(np.searchsorted(nodes, q[:, k]) - 1, 0, nodes.size - 2)
+        w = (q[:, k] - nodes[i]) / (nodes[i + 1] - nodes[i])
+        extra[:, k] = 2 * 0.64 * w * (1 - w)
+    np.testing.assert_allclose(u1**2, u0**2 + extra, rtol=1e-10, atol=1e-12)
+    assert extra.max() > 0.2  # points between nodes: a real test
+    # with the rigid-body motion removed: the projector R applied to the independent
+    # short-wavelength values, diag(R diag(v) R') added
+    from volcal.identify.identifiability import rigid_projector
+
+    (_, r0), (_, r1) = v2.predict(q, rigid_removed=True), m.predict(q, rigid_removed=True)
+    R = rigid_projector(q)
+    np.testing.assert_allclose(r1.ravel()**2, r0.ravel()**2 + R**2 @ extra.ravel(),
+                               rtol=1e-10, atol=1e-12)

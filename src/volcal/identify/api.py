@@ -427,7 +427,7 @@ def _identify_weighted(session: Session, o: IdentifyOptions,
             scales = sol_h.function_scales
             tilt_std = sol_h.tilt_std_urad
             prior = (prior.with_kappa(sol_h.kappa).with_trend(sol_h.trend_um)
-                     .with_kappa_factor(sol_h.kappa_factor))
+                     .with_kappa_factor(sol_h.kappa_factor).with_nugget(sol_h.nugget_um))
             hyper_noise = noise if noise is not None else sol_h.sigma_um
             sol = solve_bayes(design, prior, scales, hyper_noise, o.squareness_std_urad,
                               tilt_std=tilt_std)
@@ -448,7 +448,8 @@ def _identify_weighted(session: Session, o: IdentifyOptions,
                                                o.measurement_ids, o.tilts, weights=weights)
     kappa = sol.kappa if np.isfinite(sol.kappa) else o.kappa
     prior1 = (PriorStructure.build(design1.layout, design1.free, kappa)
-              .with_trend(sol.trend_um).with_kappa_factor(sol.kappa_factor))
+              .with_trend(sol.trend_um).with_kappa_factor(sol.kappa_factor)
+              .with_nugget(sol.nugget_um))
     scales = (sol.function_scales if sol.function_scales is not None
               else sol.scales if np.all(np.isfinite(sol.scales)) else DEFAULT_SCALES.copy())
     cands = candidate_designs(session, nodes_a, known) if o.suggest else None
@@ -610,6 +611,8 @@ def _result(session: Session, design: Design, sol: Solution, report, o: Identify
                          "roll_urad": _fin(sol.scales[2]), "tilt_urad": _fin(sol.scales[3]),
                          "kappa": _fin(sol.kappa),
                          "positioning_trend_um": _fin(sol.trend_um) if sol.trend_um else None,
+                         "positioning_nugget_um": (_fin(sol.nugget_um) if sol.nugget_um
+                                                   else None),
                          "setup_tilt_urad": (_fin(sol.tilt_std_urad)
                                              if sol.tilt_std_urad is not None else None)},
         "convergence": dict(sol.convergence),

@@ -18,7 +18,10 @@ from numpy.typing import NDArray
 from volcal.identify.design import Design
 from volcal.identify.prior import GROUPS, PriorStructure, function_group, function_scales
 
-__all__ = ["NUISANCE_PRECISION"]
+__all__ = ["NUISANCE_PRECISION", "N_HYPER"]
+
+N_HYPER = 27
+"""Entries of the gradient of :meth:`_Evidence.neg2_grad_functions`."""
 
 NUISANCE_PRECISION = {"offset": 1e-10, "tilt": 1e-8, "reversal": 1e-8, "drift": 1e-8,
                       "station_x": 1e-10, "station_y": 1e-10, "station_z": 1e-10}
@@ -99,10 +102,26 @@ class _Evidence:
         With the trend ``Q = S^-1``, ``S = a^2 P^-1 + t^2 s s'``, ``w = Q s``:
         ``dQ/dlog a = -2 Q + 2 t^2 w w'``,
         ``dQ/dlog t = -2 t^2 w w'``, ``dQ/dlog kappa = -2 (I - t^2 w s') K (I - t^2 s w')``.
+        With the short-wavelength part (:meth:`PriorStructure.has_nugget`) ``S = a^2 P^-1
+        + t^2 s s' + n^2 N`` and every derivative is ``dQ = -Q (dS/dlog h) Q``:
+        ``dS/dlog a = 2 a^2 P^-1``, ``dS/dlog t = 2 t^2 s s'``, ``dS/dlog n = 2 n^2 N``,
+        ``dS/dlog kappa = 2 a^2 P^-1 K_1 P^-1`` (``K_1`` the unit curvature part).
         """
         _, _, _, g, f = self.prior.blocks[b]
-        K = self.prior.unit_block(b)[1] / fscales[f] ** 2
         gk = 22 + g  # the group's curvature factor
+        if self.prior.has_nugget(b):
+            # covariance form: S = a^2 P^-1 + t^2 s s' + n^2 N, dQ = -Q dS Q
+            Pinv, K0, v, Nn = self.prior.block_covariance_parts(b, fscales)
+            a2, t2, n2 = fscales[f] ** 2, self.prior.trend_um**2, self.prior.nugget_um**2
+            QP = Qb @ Pinv
+            dk = -2.0 * a2 * QP @ K0 @ QP.T
+            out = [(f, -2.0 * a2 * QP @ Qb), (18, dk), (gk, dk),
+                   (26, -2.0 * n2 * Qb @ Nn @ Qb)]
+            if t2 > 0 and np.any(v):
+                w = Qb @ v
+                out.append((21, -2.0 * t2 * np.outer(w, w)))
+            return out
+        K = self.prior.unit_block(b)[1] / fscales[f] ** 2
         if not self.prior.has_trend(b):
             return [(f, -2.0 * Qb), (18, -2.0 * K), (gk, -2.0 * K)]
         t2 = self.prior.trend_um**2
@@ -177,8 +196,9 @@ class _Evidence:
                             ) -> tuple[float, NDArray[np.float64]]:
         """``neg2`` and its gradient in log of hyperparameters (function scales, kappa...).
 
-        The 26 entries: the 18 function scales, kappa, sigma, the tilts' scale, the trend
-        scale, then the curvature factor of each group of :data:`GROUPS`.
+        The 27 entries: the 18 function scales, kappa, sigma, the tilts' scale, the trend
+        scale, the curvature factor of each group of :data:`GROUPS`, then the
+        short-wavelength (nugget) scale of the positioning errors.
 
         With ``D = |y - A x|^2 / s^2 + x'Q x`` at the posterior mean ``x`` (stationary, so
         only explicit dependences count), ``Q`` block diagonal (one block ``Q_f`` per
@@ -198,11 +218,11 @@ class _Evidence:
         try:
             val, Q, cf, x, rr, qinv, blocks = self._value(scales, sigma, kappa)
         except (np.linalg.LinAlgError, sla.LinAlgError):
-            return 1e300, np.zeros(26)
+            return 1e300, np.zeros(N_HYPER)
         fs = function_scales(scales)
         Hinv = _inverse_from_cholesky(cf)
-        grad = np.zeros(26)
-        gamma = np.zeros(26)  # effective number of parameters each hyperparameter governs
+        grad = np.zeros(N_HYPER)
+        gamma = np.zeros(N_HYPER)  # effective number of parameters each hyperparameter governs
         tr_hq = float(np.diag(Hinv) @ self._diag)
         for bi, ((idx, *_), cb, (Qb, _)) in enumerate(
                 zip(self.prior.blocks, qinv, blocks, strict=True)):

@@ -229,6 +229,7 @@ class PriorStructure:
     trend_um: float = 0.0
     kappa_factor: tuple[float, ...] = (1.0, 1.0, 1.0, 1.0)
     maps: list = field(default_factory=list)
+    nugget_um: float = 0.0
     _unit: dict = field(default_factory=dict, repr=False, compare=False)
 
     @classmethod
@@ -294,6 +295,81 @@ class PriorStructure:
             A copy sharing the blocks.
         """
         return replace(self, trend_um=float(trend_um or 0.0))
+
+    def with_nugget(self, nugget_um: float | None) -> PriorStructure:
+        """The same prior with another short-wavelength (nugget) scale.
+
+        Parameters
+        ----------
+        nugget_um : float or None
+            New :attr:`nugget_um` [um]; None or 0: no nugget.
+
+        Returns
+        -------
+        PriorStructure
+            A copy sharing the blocks.
+        """
+        return replace(self, nugget_um=float(nugget_um or 0.0))
+
+    def has_nugget(self, b: int) -> bool:
+        """True when block ``b`` carries the short-wavelength part (:attr:`nugget_um`).
+
+        Parameters
+        ----------
+        b : int
+            Block index.
+
+        Returns
+        -------
+        bool
+        """
+        return self.nugget_um > 0 and self.blocks[b][4] in TREND_FUNCTIONS
+
+    def nugget_shape(self, b: int) -> NDArray[np.float64]:
+        """Covariance of block ``b``'s short-wavelength part for a unit nugget.
+
+        ``I + 1 1'`` in the difference form (:data:`BOUNDARY`: ``e_i - e_0``, the first
+        node held by the gauge), ``I`` when conditioned on the gauge zeros.
+
+        Parameters
+        ----------
+        b : int
+            Block index.
+
+        Returns
+        -------
+        ndarray, shape (n, n)
+        """
+        n = self.blocks[b][0].size
+        mp = self.maps[b] if b < len(self.maps) else None
+        return np.eye(n) + (np.ones((n, n)) if mp is not None else 0.0)
+
+    def block_covariance_parts(self, b: int, fscales: NDArray[np.float64]):
+        """Parts of the covariance of a nugget block: ``S = a^2 P^-1 + t^2 s s' + n^2 N``.
+
+        Parameters
+        ----------
+        b : int
+            Block index (with :meth:`has_nugget`).
+        fscales : ndarray, shape (18,)
+            Function scales.
+
+        Returns
+        -------
+        (Pinv, K, s, N)
+            Unit smooth covariance ``P^-1``, the curvature part ``K`` of
+            :meth:`unit_block`, the normalised positions ``s`` (zero when there is no trend)
+            and :meth:`nugget_shape`.
+        """
+        P, K = self.unit_block(b)
+        key = ("inv", b, self.block_kappa(b))
+        Pinv = self._unit.get(key)
+        if Pinv is None:
+            Pinv = np.linalg.inv(P)
+            Pinv = (Pinv + Pinv.T) / 2
+            self._unit[key] = Pinv
+        s = self.coords[b] if self.has_trend(b) else np.zeros(P.shape[0])
+        return Pinv, K, s, self.nugget_shape(b)
 
     def with_kappa_factor(self, factor) -> PriorStructure:
         """The same prior with other per-group curvature factors.
@@ -397,6 +473,12 @@ class PriorStructure:
             (Sherman-Morrison).
         """
         f = self.blocks[b][4]
+        if self.has_nugget(b):
+            Pinv, _, s, N = self.block_covariance_parts(b, fscales)
+            S = (fscales[f] ** 2 * Pinv + self.trend_um**2 * np.outer(s, s)
+                 + self.nugget_um**2 * N)
+            Q = np.linalg.inv(S)
+            return (Q + Q.T) / 2
         Q0 = self.unit_block(b)[0] / fscales[f] ** 2
         if not self.has_trend(b):
             return Q0

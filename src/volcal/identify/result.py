@@ -136,6 +136,40 @@ class IdentificationResult:
             return self.cov_factor
         return np.hstack([np.asarray(self.cov_factor), self.sys_factor])
 
+    def nugget_variance(self, k: int, x: ArrayLike) -> NDArray[np.float64]:
+        """Variance of the positioning error of axis ``k`` between its nodes [um^2].
+
+        The short-wavelength ("nugget") part of the positioning prior
+        (``fit.hyperparameters['positioning_nugget_um']``, ``n``; a lead screw's cyclic
+        error) is independent at every point: the node values carry it, and their linear
+        interpolation carries ``((1 - w)^2 + w^2) n^2`` of it at the weight ``w`` between
+        two nodes; the rest, ``2 w (1 - w) n^2``, is added to the predicted variance (zero
+        at the nodes, ``n^2 / 2`` half way). Zero without a nugget or where the function
+        is held (gauge, known).
+
+        Parameters
+        ----------
+        k : int
+            Axis (0, 1, 2 = X, Y, Z).
+        x : array_like
+            Positions of that axis [mm].
+
+        Returns
+        -------
+        ndarray
+            Variance [um^2], the shape of ``x``.
+        """
+        x = np.asarray(x, dtype=float)
+        n = self.fit.hyperparameters.get("positioning_nugget_um") if isinstance(
+            self.fit.hyperparameters, dict) else None
+        if not n or not np.isfinite(n):
+            return np.zeros(x.shape)
+        if not np.isin(self.layout.indices(k, k), self.free).any():
+            return np.zeros(x.shape)
+        _, _, w = interp_weights(self.layout.nodes[k], x.reshape(-1))
+        w = np.clip(w, 0.0, 1.0)
+        return (2.0 * float(n) ** 2 * w * (1.0 - w)).reshape(x.shape)
+
     def __post_init__(self) -> None:
         """Convert an untyped fit dictionary into a :class:`FitRecord`."""
         if not isinstance(self.fit, FitRecord):
@@ -240,7 +274,8 @@ class IdentificationResult:
         e : ndarray, shape (m, 3)
             Actual minus commanded tool point position, machine axes [um].
         u : ndarray, shape (m, 3)
-            Standard uncertainties [um].
+            Standard uncertainties [um], with the short-wavelength part of the positioning
+            errors between their nodes (:meth:`nugget_variance`).
 
         Raises
         ------
@@ -268,7 +303,9 @@ class IdentificationResult:
             R = rigid_projector(q)
             e = (R @ (Je @ theta)).reshape(-1, 3)
             GL = R @ np.asarray(Je[:, self.free] @ factor)
-            return e, np.sqrt(np.sum(GL**2, axis=1)).reshape(-1, 3)
+            v = np.stack([self.nugget_variance(k, q[:, k]) for k in range(3)], axis=1)
+            var = np.sum(GL**2, axis=1) + (R**2) @ v.ravel()
+            return e, np.sqrt(var).reshape(-1, 3)
         t = np.zeros(3) if tool_offset is None else np.asarray(tool_offset, dtype=float)
         t = np.broadcast_to(t, q.shape) if t.ndim == 1 else t.reshape(-1, 3)
         e = volumetric_error(self.errors, q, t)
@@ -280,7 +317,8 @@ class IdentificationResult:
                 G = np.zeros((terms[0][1].size, L.shape[1]))
                 for cols, vals in terms:
                     G += vals[:, None] * L[cols]
-                u[i:i + step, c] = np.sqrt(np.einsum("mr,mr->m", G, G))
+                u[i:i + step, c] = np.sqrt(np.einsum("mr,mr->m", G, G)
+                                           + self.nugget_variance(c, q[i:i + step, c]))
         return e, u
 
     def _full_factor(self, factor: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -334,6 +372,12 @@ class IdentificationResult:
             Positions of that axis [mm].
         systematic : bool
             Include the systematic part (``sys_factor``) when there is one (default).
+
+        Returns
+        -------
+        ndarray
+            Standard uncertainty at ``q``; for a positioning error (EXX, EYY, EZZ) with
+            its short-wavelength part between the nodes (:meth:`nugget_variance`).
         """
         from volcal.model.names import COMPONENT_NAMES
 
@@ -356,6 +400,8 @@ class IdentificationResult:
             p = pos[idx[ii]]
             ok = p >= 0
             L[ok] += ww[ok, None] * factor[p[ok]]
+        if c == k:  # positioning: its short-wavelength part between the nodes
+            return np.sqrt(np.sum(L**2, axis=1) + self.nugget_variance(k, q))
         return np.linalg.norm(L, axis=1)
 
     # ------------------------------------------------------------------ tables

@@ -27,6 +27,7 @@ from scipy.optimize import minimize
 
 from volcal.identify.design import Design
 from volcal.identify.evidence import (  # noqa: F401  (re-exported for tests and callers)
+    N_HYPER,
     NUISANCE_PRECISION,
     _Evidence,
     _inverse_from_cholesky,
@@ -121,6 +122,16 @@ tilts for the same readings and the evidence can collapse it: with a factor 30 o
 machine of the study (20 machines) got a trend scale of 2.4 um for slopes of 8-10 um and
 its 95 % intervals covered 0.57 of the grid; with a factor 3 the 20 machines cover 0.935
 pooled (0.919 before), worst 0.68, and the other designs do not change."""
+NUGGET = True
+"""Estimate a short-wavelength ("nugget") part of the positioning errors' prior
+(:attr:`volcal.identify.prior.PriorStructure.nugget_um`): independent at every point, what
+a lead screw's cyclic error (period 5-20 mm, shorter than the node spacing) is to an
+estimator on nodes. Its scale is chosen by the evidence with the others and enters the
+predicted uncertainty between the nodes (:meth:`IdentificationResult.predict`)."""
+NUGGET_CENTRE_UM = 0.2
+"""Centre of the nugget scale's hyperprior [um RMS]: a ground screw's cyclic error."""
+NUGGET_SPREAD = np.log(10.0)
+"""Spread of the nugget scale's hyperprior (a factor 10)."""
 PER_AXIS_SPREAD: dict[int, float] = {}
 """Groups whose scale may differ per axis, with the spread (one standard deviation, as a
 log factor) of each axis' scale around the group's. Empty: measured on the study's step
@@ -173,6 +184,9 @@ class Solution:
     kappa_factor : tuple of 4 float
         Curvature scale of each prior group relative to ``kappa``
         (:attr:`volcal.identify.prior.PriorStructure.kappa_factor`).
+    nugget_um : float
+        Short-wavelength part of the positioning errors [um]
+        (:attr:`volcal.identify.prior.PriorStructure.nugget_um`; 0: none).
     convergence : dict or None
         Evidence optimiser record: ``optimiser``, ``iterations``, ``evaluations``,
         ``converged`` (bool), ``message``.
@@ -194,6 +208,7 @@ class Solution:
     tilt_std_urad: float | None = None
     trend_um: float = 0.0
     kappa_factor: tuple[float, ...] = (1.0, 1.0, 1.0, 1.0)
+    nugget_um: float = 0.0
 
 
 def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float64] | None = None,
@@ -246,6 +261,8 @@ def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float6
     free_trend = free_scales and any(f in TREND_FUNCTIONS for *_, f in prior.blocks)
     if free_trend:  # the positioning trend's scale
         extra.append((21, np.log(TREND_CENTRE_UM), (np.log(1e-2), np.log(1e4)), TREND_SPREAD))
+    if free_scales and NUGGET and any(f in TREND_FUNCTIONS for *_, f in prior.blocks):
+        extra.append((26, np.log(NUGGET_CENTRE_UM), (np.log(1e-4), np.log(1e2)), NUGGET_SPREAD))
     if free_scales and KAPPA_FACTOR_SPREAD > 0:  # a curvature factor per group
         extra.extend((22 + g, 0.0, (-np.log(1e2), np.log(1e2)), KAPPA_FACTOR_SPREAD)
                      for g in FREE_GROUPS)
@@ -270,6 +287,8 @@ def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float6
                     ev.set_tilt_std(float(np.exp(logs[18 + j])))
                 elif gi == 21:
                     ev.prior = ev.prior.with_trend(float(np.exp(logs[18 + j])))
+                elif gi == 26:
+                    ev.prior = ev.prior.with_nugget(float(np.exp(logs[18 + j])))
                 else:
                     factor[gi - 22] = np.exp(logs[18 + j])
             if 2 not in FREE_GROUPS:
@@ -407,7 +426,8 @@ def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float6
                     solve=lambda rhs: _polish(H, cf, rhs), kappa=kappa,
                     convergence=convergence, function_scales=f_opt, ata=ev.AtA,
                     tilt_std_urad=ev.tilt_std if ev.has_tilts else None,
-                    trend_um=ev.prior.trend_um, kappa_factor=ev.prior.kappa_factor)
+                    trend_um=ev.prior.trend_um, kappa_factor=ev.prior.kappa_factor,
+                    nugget_um=ev.prior.nugget_um)
 
 
 def _hyper_map() -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
@@ -469,7 +489,7 @@ def _preconditioner(ev: _Evidence, free_scales: bool, free_sigma: bool, M, extra
     bounds and back (52-66 evaluations on the seeds' set).
     """
     ev.neg2_grad_functions(*unpack(np.array(h0)))
-    g = ev.last_gamma if ev.last_gamma is not None else np.ones(26)
+    g = ev.last_gamma if ev.last_gamma is not None else np.ones(N_HYPER)
     c = []
     if free_scales:
         gs = np.append(g[:18], [g[gi] for gi, *_ in extra])

@@ -31,8 +31,8 @@ from numpy.typing import NDArray
 
 from volcal.errors import VolcalInputError
 
-__all__ = ["DATA_MARK", "HEADER_MARK", "Dwell", "RtxCapture", "dwell_readings", "find_dwells",
-           "read_rtx"]
+__all__ = ["DATA_MARK", "HEADER_MARK", "SPLIT_T", "Dwell", "RtxCapture", "dwell_readings",
+           "find_dwells", "read_rtx"]
 
 HEADER_MARK = b"HEADER::\r\n"
 """First bytes of every ``.rtx`` file."""
@@ -197,8 +197,26 @@ def _runs(mask: NDArray[np.bool_]) -> list[tuple[int, int]]:
                     strict=True))
 
 
+SPLIT_T = 8.0
+"""Least step between two parts of a still stretch, in standard errors of their mean
+difference, that splits it into two dwells (:func:`find_dwells` with ``n``)."""
+
+
+def _split(x: NDArray[np.float64], a: int, b: int, m: int, sigma: float) -> tuple[float, int]:
+    """Best split of ``x[a:b]`` into two parts of ``m`` samples or more: (t, index)."""
+    if b - a < 2 * m + 1:
+        return 0.0, a
+    c = np.concatenate([[0.0], np.cumsum(x[a:b])])
+    k = np.arange(m, b - a - m + 1)
+    left = c[k] / k
+    right = (c[-1] - c[k]) / (b - a - k)
+    t = np.abs(left - right) / (sigma * np.sqrt(1.0 / k + 1.0 / (b - a - k)))
+    i = int(np.argmax(t))
+    return float(t[i]), a + int(k[i])
+
+
 def find_dwells(samples: NDArray[np.float64], rate_hz: float, dwell_s: float,
-                trim: float = 0.1) -> list[Dwell]:
+                n: int | None = None, trim: float = 0.1) -> list[Dwell]:
     """The dwells of a capture: stretches where the signal is still.
 
     A window of a quarter of the dwell slides over the samples; the signal is still at
@@ -216,6 +234,11 @@ def find_dwells(samples: NDArray[np.float64], rate_hz: float, dwell_s: float,
         Sample rate [Hz].
     dwell_s : float
         The part program's dwell at each target [s] (``volcal program --dwell-s``).
+    n : int, optional
+        The dwells expected: while fewer are found, the still stretch with the largest
+        step between its two parts (at least :data:`SPLIT_T` standard errors) is split
+        there, a window's width on each side of the step left out (a move too small for the
+        window: two targets whose readings differ by about the noise).
     trim : float
         Share of each still stretch left out at both ends.
 
@@ -234,25 +257,29 @@ def find_dwells(samples: NDArray[np.float64], rate_hz: float, dwell_s: float,
                                    "number (beam lost?)")
         return []
     x0 = x - np.median(x)
-    sigma = max(_noise(x0), 1e-9 * max(float(np.ptp(x0)), 1e-12))
+    sigma = max(_noise(x0), 1e-10 * float(np.max(np.abs(x))), 1e-300)
     j = np.arange(w, dtype=float) - (w - 1) / 2.0
-    sjj = float(j @ j)
-    c1 = np.concatenate([[0.0], np.cumsum(x0)])
-    c2 = np.concatenate([[0.0], np.cumsum(x0 * x0)])
-    s1 = c1[w:] - c1[:-w]
-    s2 = c2[w:] - c2[:-w]
-    sj = np.convolve(x0, j, mode="valid")  # sum_k j_k x_{i+k}, j reversed = -j
-    slope = -sj / sjj
-    mean = s1 / w
-    resid = np.clip(s2 / w - mean * mean - slope * slope * sjj / w, 0.0, None)
+    slope = -np.convolve(x0, j, mode="valid") / float(j @ j)  # least-squares slope per window
     drift = np.abs(slope) * (w - 1)
-    still = (drift < 5.0 * sigma * np.sqrt(12.0 / w)) & (np.sqrt(resid) < 2.0 * sigma)
+    # scatter about the line from the second differences (no cancellation against a
+    # large reading, as a running variance of a linear capture at 800 mm would have)
+    d2 = np.concatenate([[0.0], x0[2:] - 2.0 * x0[1:-1] + x0[:-2], [0.0]])
+    c = np.concatenate([[0.0], np.cumsum(d2 * d2)])
+    scatter = np.sqrt((c[w:] - c[:-w]) / (6.0 * w))
+    still = (drift < 5.0 * sigma * np.sqrt(12.0 / w)) & (scatter < 2.0 * sigma)
     mask = np.zeros(x.size, dtype=bool)
     mask[(w - 1) // 2:(w - 1) // 2 + still.size] = still
+    runs = [(a, b) for a, b in _runs(mask) if b - a >= max(3, d // 4)]
+    while n is not None and len(runs) < n:  # dwells joined by a move the window missed
+        best = max(((_split(x0, a, b, max(3, d // 4), sigma), k)
+                    for k, (a, b) in enumerate(runs)), default=((0.0, 0), 0))
+        (t, c), k = best
+        if t < SPLIT_T:
+            break
+        a, b = runs[k]
+        runs[k:k + 1] = [(a, c - w), (c + w, b)]
     out = []
-    for a, b in _runs(mask):
-        if b - a < max(3, d // 4):
-            continue
+    for a, b in runs:
         cut = int(trim * (b - a))
         a2, b2 = a + cut, b - cut
         seg = x[a2:b2]
@@ -286,7 +313,7 @@ def dwell_readings(capture: RtxCapture, n: int, dwell_s: float, path: str | Path
         Another number of dwells than planned poses (their times are named).
     """
     try:
-        dwells = find_dwells(capture.samples, capture.rate_hz, dwell_s)
+        dwells = find_dwells(capture.samples, capture.rate_hz, dwell_s, n)
     except VolcalInputError as exc:
         raise VolcalInputError(exc.message, path) from None
     if len(dwells) != n:

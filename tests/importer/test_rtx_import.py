@@ -153,6 +153,13 @@ def test_straightness_and_angle_captures_import(tmp_path):
     r = import_rtx(f, s, "ang-xb", sign=-1.0, dwell_s=DWELL)
     _within_noise(r.measurement.deviation, ang_urad - ang_urad[0], 1.0)
     _within_noise(_measurement(s, "ang-xb").deviation, ang_urad - ang_urad[0], 1.0)
+    # the Python flow: Calibration.import_ of a capture in um
+    from volcal.flow import Calibration
+
+    z_um = rng.uniform(-3, 3, m.n)
+    f = write_rtx(tmp_path / "strz.rtx", capture(z_um, noise=0.2, seed=9))
+    Calibration.import_(f, session=s, measurement="str-xz", deviation_units="um", dwell_s=1.0)
+    _within_noise(_measurement(s, "str-xz").deviation, z_um - z_um[0], 0.2)
 
 
 def test_linear_capture_deviation_from_the_plan(tmp_path):

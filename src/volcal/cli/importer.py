@@ -58,7 +58,8 @@ samples of its dwell (docs/formats.md "Dynamic capture").
 def import_(
     csv_file: Annotated[Path, typer.Argument(metavar="FILE", help="The laser's CSV export, "
                                              "or a Renishaw dynamic capture (.rtx).")],
-    session: Annotated[Path, typer.Option(help="Session folder (created if missing).")],
+    session: Annotated[Path | None, typer.Option(
+        help="Session folder (created if missing); required.")] = None,
     map: Annotated[str | None, typer.Option(
         "--map", help="Columns (CSV exports; not for .rtx): target=..,deviation=.. or "
         "reading=.., optional run=.., "
@@ -105,6 +106,8 @@ def import_(
     from volcal.importer.laser_csv import import_csv, parse_mapping
     from volcal.io.paths import check_output_folder
 
+    if session is None:
+        raise VolcalInputError("give --session FOLDER (the session to add the readings to)")
     if _is_rtx(csv_file):
         _import_rtx(csv_file, map, session, measurement, axis, id, units, deviation_units,
                     replace, sign, slope_removed, dwell_s)

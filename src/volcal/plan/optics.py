@@ -188,7 +188,7 @@ def optic_candidates(travel: NDArray[np.float64], steps: int, vertical: int = 2,
             continue
         m = by_id[f"lev-{'xyz'[k]}{'abc'[k]}"]
         out[f"{OPTIC_LABEL}a level on {AXES[k]} determines E{'ABC'[k]}{AXES[k]} (roll of "
-            f"{AXES[k]}; line {m.id} of `plan --tests direct`)"] = [m]
+            f"{AXES[k]}), line {m.id} of `plan --tests direct`"] = [m]
     v = vertical
     j = [i for i in range(3) if i != v][0]
     a, d = AXES[v].lower(), AXES[j].lower()

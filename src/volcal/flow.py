@@ -200,14 +200,15 @@ class Calibration:
 
     @classmethod
     @A.checked
-    def import_(cls, csv_file: str | Path, map: str | Mapping[str, str],
-                session: str | Path, axis: str | None = None, id: str | None = None,
+    def import_(cls, csv_file: str | Path, map: str | Mapping[str, str] | None = None,
+                session: str | Path | None = None, axis: str | None = None,
+                id: str | None = None,
                 measurement: str | None = None, line_mm: ArrayLike | str = (0.0, 0.0, 0.0),
                 units: str = D.IMPORT_UNITS, deviation_units: str = D.IMPORT_DEVIATION_UNITS,
                 optics: str = D.IMPORT_OPTICS, tool_offset: ArrayLike | str = (0.0, 0.0, 0.0),
                 travel: ArrayLike | str | None = None, chain: str = D.IMPORT_CHAIN,
                 name: str = D.IMPORT_NAME, replace: bool = False, sign: str = "+",
-                slope_removed: bool = False) -> Calibration:
+                slope_removed: bool = False, dwell_s: float = 4.0) -> Calibration:
         """Add a laser's CSV export to a session folder, like ``volcal import``.
 
         Either a new linear measurement (``axis`` and ``id``; the session is created
@@ -220,9 +221,11 @@ class Calibration:
             The laser's export.
         map : str or dict
             Column mapping, ``'target=Pos,deviation=Error'`` or ``{'target': 'Pos',
-            'deviation': 'Error'}`` (keys of ``volcal import --map``, docs/formats.md).
+            'deviation': 'Error'}`` (keys of ``volcal import --map``, docs/formats.md);
+            required for a CSV export, not given for a Renishaw dynamic capture
+            (``.rtx``, :mod:`volcal.importer.rtx_import`).
         session : str or Path
-            Session folder.
+            Session folder (required).
         axis : str, optional
             Measured axis ``'X'``, ``'Y'`` or ``'Z'`` of a new linear measurement.
         id : str, optional
@@ -248,6 +251,8 @@ class Calibration:
             relative to the workpiece side, volcal's sign) or ``'-'`` (the other side).
         slope_removed : bool
             Direct optics: the vendor took the slope out of the straightness readings.
+        dwell_s : float
+            ``.rtx``: the part program's dwell at each target [s].
 
         Returns
         -------
@@ -256,6 +261,25 @@ class Calibration:
         """
         from volcal.importer.laser_csv import import_csv, parse_mapping
 
+        if session is None:
+            raise VolcalInputError("Calibration.import_: give session= (the session folder)")
+        if Path(csv_file).suffix.lower() == ".rtx":
+            from volcal.importer.rtx_import import import_rtx
+
+            if measurement is None or axis is not None or id is not None or map is not None:
+                raise VolcalInputError("Calibration.import_: a dynamic capture (.rtx) fills a "
+                                       "planned measurement: give measurement=, without map=, "
+                                       "axis= and id=", csv_file)
+            from volcal.importer.optics import parse_sign
+
+            r = import_rtx(csv_file, session, measurement, units, deviation_units, replace,
+                           parse_sign(sign), slope_removed, dwell_s=dwell_s)
+            cal = cls.open(r.session)
+            cal.imported = r
+            return cal
+        if map is None:
+            raise VolcalInputError("Calibration.import_: give map= (the export's columns)",
+                                   csv_file)
         text = map if isinstance(map, str) else ",".join(f"{k}={v}" for k, v in map.items())
         mapping = parse_mapping(text)
         if measurement is not None:

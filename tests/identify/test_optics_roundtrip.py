@@ -125,8 +125,9 @@ def test_advise_ranks_direct_optics():
     assert optic, rep.suggestions
     base, after = (float(v) for v in re.findall(r"ambiguity ([\d.]+) -> ([\d.]+)", optic[0])[0])
     assert after < 0.5 * base
-    assert any(m.startswith(("Best direct optic: a level on X (roll EAX",
-                             "Best extra measurement: direct optics: a level on X (roll EAX"))
+    assert any(m.startswith(("Best direct optic: a level on X determines EAX",
+                             "Best extra measurement: direct optics: a level on X determines "
+                             "EAX"))
                for m in rep.messages), rep.messages
 
 

@@ -47,18 +47,26 @@ measurement's environment table; labels other than these are named with --map
 date=..,operator=..,air_temperature_c=..,air_pressure_pa=..,humidity_pct=..,
 material_temperature_c=.. (a label of the header block, or a column of the table).
 One line per field read is printed.
+
+A Renishaw dynamic capture (FILE.rtx, one quantity sampled at a fixed rate) fills a
+planned measurement without --map: --measurement ID [--dwell-s 4] [--units mm]
+[--deviation-units mrad] [--sign -]; the reading at each planned pose is the mean of the
+samples of its dwell (docs/formats.md "Dynamic capture").
 """
 
 
 def import_(
-    csv_file: Annotated[Path, typer.Argument(metavar="CSV", help="The laser's CSV export.")],
-    map: Annotated[str, typer.Option(
-        "--map", help="Columns: target=..,deviation=.. or reading=.., optional run=.., "
+    csv_file: Annotated[Path, typer.Argument(metavar="FILE", help="The laser's CSV export, "
+                                             "or a Renishaw dynamic capture (.rtx).")],
+    session: Annotated[Path | None, typer.Option(
+        help="Session folder (created if missing); required.")] = None,
+    map: Annotated[str | None, typer.Option(
+        "--map", help="Columns (CSV exports; not for .rtx): target=..,deviation=.. or "
+        "reading=.., optional run=.., "
         "direction=.., time=.., air_temperature_c=.. ...; deviation=Run* (a pattern): a "
         "wide table, one column per run; deviation=A|B|C: a per-step step-diagonal table. "
         "Header block: date=.., operator=.., air_temperature_c=.., air_pressure_pa=.., "
-        "humidity_pct=.., material_temperature_c=.. name its labels.")],
-    session: Annotated[Path, typer.Option(help="Session folder (created if missing).")],
+        "humidity_pct=.., material_temperature_c=.. name its labels.")] = None,
     axis: Annotated[str | None, typer.Option(
         help="Measured axis X, Y or Z of a new linear measurement.")] = None,
     id: Annotated[str | None, typer.Option("--id", help="Id of a new measurement.")] = None,
@@ -88,12 +96,25 @@ def import_(
     slope_removed: Annotated[bool, typer.Option(
         help="Straightness: the instrument took the slope out (recorded; not allowed in a "
         "reference group).")] = False,
+    dwell_s: Annotated[float, typer.Option(
+        help="Renishaw dynamic capture (.rtx): the part program's dwell at each target [s] "
+        "(volcal program --dwell-s); the reading at each pose is the mean of its dwell.")
+                       ] = 4.0,
 ) -> None:
     """Add a measurement from a laser CSV export to a session (see HELP)."""
     from volcal.errors import VolcalInputError
     from volcal.importer.laser_csv import import_csv, parse_mapping
     from volcal.io.paths import check_output_folder
 
+    if session is None:
+        raise VolcalInputError("give --session FOLDER (the session to add the readings to)")
+    if _is_rtx(csv_file):
+        _import_rtx(csv_file, map, session, measurement, axis, id, units, deviation_units,
+                    replace, sign, slope_removed, dwell_s)
+        return
+    if map is None:
+        raise VolcalInputError("--map is needed for a CSV export: name its columns, e.g. "
+                               "--map target=Position,deviation=Error", csv_file)
     mapping = parse_mapping(map)
     if measurement is not None:
         if axis is not None or id is not None:
@@ -116,6 +137,10 @@ def import_(
                        parse_vector(tool_offset, "--tool-offset"),
                        None if travel is None else parse_travel(travel), chain, name, replace)
         what = f"{r.measurement.id} ({axis.upper()})"
+    _print_result(r, what)
+
+
+def _print_result(r, what: str) -> None:
     for note in r.notes:
         console.print(f"[cyan]units/notes:[/] {escape(note)}", highlight=False)
     for line in r.header:
@@ -126,6 +151,37 @@ def import_(
     console.print(f"{r.measurement.n} readings of {what} -> {where} {r.session}")
     for w in _imported_warnings(r.session, r.measurement.id):
         console.print(f"[yellow]warning:[/] {escape(w)}", highlight=False)
+
+
+def _is_rtx(path: Path) -> bool:
+    """A Renishaw dynamic capture: ``.rtx`` suffix, or a file starting with ``HEADER::``."""
+    if path.suffix.lower() == ".rtx":
+        return True
+    try:
+        with path.open("rb") as f:
+            return f.read(10) == b"HEADER::\r\n"
+    except OSError:
+        return False
+
+
+def _import_rtx(path: Path, map: str | None, session: Path, measurement: str | None,
+                axis: str | None, id: str | None, units: str, deviation_units: str,
+                replace: bool, sign: str, slope_removed: bool, dwell_s: float) -> None:
+    """``volcal import FILE.rtx --measurement ID``: the dwell means of a dynamic capture."""
+    from volcal.errors import VolcalInputError
+    from volcal.importer.optics import parse_sign
+    from volcal.importer.rtx_import import import_rtx
+
+    if measurement is None or axis is not None or id is not None:
+        raise VolcalInputError("a dynamic capture (.rtx) fills a planned measurement: give "
+                               "--measurement ID (from volcal plan), without --axis and --id",
+                               path)
+    if map is not None:
+        raise VolcalInputError("--map names CSV columns; a dynamic capture (.rtx) has one "
+                               "quantity: leave it out", path)
+    r = import_rtx(path, session, measurement, units, deviation_units, replace,
+                   parse_sign(sign), slope_removed, dwell_s)
+    _print_result(r, f"{r.measurement.kind} {r.measurement.id}")
 
 
 def _imported_warnings(session: Path, mid: str) -> list[str]:

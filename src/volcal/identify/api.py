@@ -191,20 +191,17 @@ def candidate_designs(session: Session, nodes, known) -> dict[str, Design]:
         Label -> design of the candidate's tests alone.
     """
     from volcal.plan.additions import candidate_additions
+    from volcal.session.optics import vertical_axis
 
     t = session.travel
     steps = candidate_steps(nodes)
+    vertical = vertical_axis(session.meta)
     out = {}
-    for add in candidate_additions(t):
+    for add in candidate_additions(t, vertical):
         ms = [Measurement(f"c-{m.id}", m.kind, m.target, m.positions, np.zeros(m.n),
                           m.beam_direction, m.tool_offset, f"c-{m.file}", m.columns, m.meta)
-              for m in add.plan(t, session.chain, steps)]
+              for m in add.plan(t, session.chain, steps, vertical)]
         out[add.label] = build_design(Session(session.name, session.chain, t, ms), nodes, known)
-    from volcal.plan.optics import optic_candidates  # direct optics (issue 16)
-    from volcal.session.optics import vertical_axis
-
-    for label, ms in optic_candidates(t, steps, vertical_axis(session.meta)).items():
-        out[label] = build_design(Session(session.name, session.chain, t, ms), nodes, known)
     return out
 
 
@@ -242,15 +239,47 @@ def add_command(report, session: Session, steps: int) -> str | None:
         ``volcal plan --add S --tests diagonal --tool-offset 0,0,150``; None without a
         suggestion.
     """
-    from volcal.plan.additions import candidate_additions
+    return suggestion_command(report.suggestions[0], session, steps) if report.suggestions \
+        else None
 
-    if not report.suggestions:
-        return None
-    best = report.suggestions[0]
-    for add in candidate_additions(session.travel):
-        if best.startswith(add.label + ":"):
+
+def suggestion_command(suggestion: str, session: Session, steps: int) -> str | None:
+    """The ``volcal plan --add`` command that adds the tests of one suggestion.
+
+    Parameters
+    ----------
+    suggestion : str
+        A suggestion of the report (``'<label>: volumetric ambiguity ...'``).
+    session : Session
+        The session (its ``path`` names the folder in the command; its ``[machine]
+        vertical_axis`` the direct optics).
+    steps : int
+        Increments per test of the candidates (:func:`candidate_steps`).
+
+    Returns
+    -------
+    str or None
+        ``volcal plan --add S --tests direct:level-x --steps 13``; None when no candidate
+        has the suggestion's label.
+    """
+    from volcal.plan.additions import candidate_additions
+    from volcal.session.optics import vertical_axis
+
+    for add in candidate_additions(session.travel, vertical_axis(session.meta)):
+        if suggestion.startswith(add.label + ":"):
             return add.command(session.path if session.path is not None else "SESSION", steps)
     return None
+
+
+def _optic_command(report, session: Session, steps: int) -> list[str]:
+    """``To add the direct optic: volcal plan --add ...`` when the best optic is not the best."""
+    from volcal.plan.optics import OPTIC_LABEL
+
+    optic = [sg for sg in report.suggestions[1:] if sg.startswith(OPTIC_LABEL)]
+    if not optic or report.suggestions[0].startswith(OPTIC_LABEL):
+        return []
+    command = suggestion_command(optic[0], session, steps)
+    return [] if command is None else [f"To add the direct optic: {command}"]
 
 
 def advise(session: Session, options: IdentifyOptions | None = None):
@@ -291,6 +320,8 @@ def advise(session: Session, options: IdentifyOptions | None = None):
     command = add_command(report, session, candidate_steps(nodes_a)) if o.suggest else None
     if command is not None:
         report.messages.append(f"To add it: {command}")
+    if o.suggest:
+        report.messages.extend(_optic_command(report, session, candidate_steps(nodes_a)))
     report.messages.insert(0, "Before measuring: the figures assume a typical machining centre "
                               "(prior scales: positioning 10 um with a linear trend of "
                               f"{TREND_CENTRE_UM:g} um over the travel, straightness 5 um, "

@@ -43,7 +43,8 @@ class Addition:
     tests: tuple[str, ...]
     options: dict[str, Any] = field(default_factory=dict)
 
-    def plan(self, travel: ArrayLike, chain: str, steps: int) -> list[Measurement]:
+    def plan(self, travel: ArrayLike, chain: str, steps: int,
+             vertical_axis: int = 2) -> list[Measurement]:
         """The planned measurements of this candidate (deviations empty).
 
         Parameters
@@ -54,6 +55,9 @@ class Addition:
             Chain code.
         steps : int
             Increments per test.
+        vertical_axis : int
+            The machine's vertical axis (0, 1, 2), for direct optics (``volcal plan --add``
+            takes it from the session's ``[machine] vertical_axis``).
 
         Returns
         -------
@@ -61,7 +65,8 @@ class Addition:
         """
         from volcal.plan.planner import plan_session
 
-        return plan_session(travel, chain, steps, self.tests, **self.options).measurements
+        return plan_session(travel, chain, steps, self.tests, vertical_axis=vertical_axis,
+                            **self.options).measurements
 
     def arguments(self, steps: int) -> list[str]:
         """The ``volcal plan --add`` options after the folder.
@@ -105,21 +110,28 @@ class Addition:
         return shlex.join(["volcal", "plan", "--add", str(folder), *self.arguments(steps)])
 
 
-def candidate_additions(travel: ArrayLike) -> list[Addition]:
+def candidate_additions(travel: ArrayLike, vertical_axis: int = 2) -> list[Addition]:
     """The candidate extra measurements of the identifiability report.
 
     Parameters
     ----------
     travel : array_like, shape (3, 2)
         Travel [mm]: the body diagonals' tool offset is a quarter of the Z travel.
+    vertical_axis : int
+        The machine's vertical axis (0, 1, 2): the direct optics read the roll of each
+        other axis with a level, its own by its straightness at two tool offsets.
 
     Returns
     -------
     list of Addition
         The 3 linear lines of each axis, the step diagonals with a retroreflector, in
         axis order zyx, the body diagonals with a tool offset in Z, and the face
-        diagonals of each plane.
+        diagonals of each plane, and the direct optics that read a roll
+        (:func:`volcal.plan.optics.optic_additions`: ``--tests direct:level-x``,
+        ``direct:roll-z``).
     """
+    from volcal.plan.optics import optic_additions
+
     t = np.asarray(travel, dtype=float).reshape(3, 2)
     out = [Addition(f"the 3 linear lines of {a.upper()} (reference line and 2 Abbe offsets)",
                     (f"linear:{a}",)) for a in "xyz"]
@@ -132,4 +144,5 @@ def candidate_additions(travel: ArrayLike) -> list[Addition]:
                         ("diagonal",), {"tool_offset": (0.0, 0.0, dz)}))
     out += [Addition(f"the 2 face diagonals in {p.upper()}", (f"face-diagonal:{p}",))
             for p in ("xy", "yz", "xz")]
+    out += [Addition(label, tests) for label, tests in optic_additions(vertical_axis)]
     return out

@@ -255,13 +255,17 @@ def add_tests(folder: str | Path, planned: Session) -> AddResult:
     taken = {m.id for m in every} | {m.file.removesuffix(".csv") for m in every}
     renamed: dict[str, str] = {}
     added: list[Measurement] = []
+    refs = _fresh_references(planned.measurements, every)
     for m in planned.measurements:
         mid = fresh_id(m.id, taken, folder)
         taken.add(mid)
         if mid != m.id:
             renamed[m.id] = mid
+        meta = dict(m.meta)
+        if "reference" in meta:
+            meta["reference"] = refs[meta["reference"]]
         added.append(Measurement(mid, m.kind, m.target, m.positions, None, m.beam_direction,
-                                 m.tool_offset, f"{mid}.csv", m.columns, m.meta))
+                                 m.tool_offset, f"{mid}.csv", m.columns, meta))
     text = _appended_toml(folder / "session.toml", s, added)
     with atomic_dir(folder) as tmp:
         shutil.copytree(folder, tmp, symlinks=True, dirs_exist_ok=True)
@@ -271,6 +275,28 @@ def add_tests(folder: str | Path, planned: Session) -> AddResult:
         if ids[:len(every)] != [m.id for m in every] or len(ids) != len(every) + len(added):
             raise RuntimeError("session.toml did not read back with the added tests")
     return AddResult(folder, added, renamed, len(every))
+
+
+def _fresh_references(planned: list[Measurement], every: list[Measurement]) -> dict[str, str]:
+    """Planned reference group -> a name no measurement of the session uses.
+
+    A reference group is one reference optic not moved between its lines: the added
+    lines were read in a set-up of their own, never in a group of the session's
+    (``z-roll`` becomes ``z-roll-2`` when the session has a ``z-roll`` group).
+    """
+    taken = {str(m.meta["reference"]) for m in every if m.meta.get("reference") is not None}
+    out: dict[str, str] = {}
+    for m in planned:
+        ref = m.meta.get("reference")
+        if ref is None or ref in out:
+            continue
+        k, name = 1, str(ref)
+        while name in taken:
+            k += 1
+            name = f"{ref}-{k}"
+        taken.add(name)
+        out[ref] = name
+    return out
 
 
 def add_planned_tests(folder: str | Path, tests: Sequence[str], steps: int = 10, runs: int = 5,
@@ -285,7 +311,8 @@ def add_planned_tests(folder: str | Path, tests: Sequence[str], steps: int = 10,
         An existing session folder.
     tests : sequence of str
         Test names of :func:`volcal.plan.planner.plan_session` (``'diagonal'``,
-        ``'linear:x'``...).
+        ``'linear:x'``, ``'direct:level-x'``...; direct optics on the session's
+        ``[machine] vertical_axis``).
     steps, runs, step_orders, tool_offset, step_target
         As for :func:`~volcal.plan.planner.plan_session` (the same defaults as
         ``volcal plan``); ``tool_offset`` [mm].
@@ -299,10 +326,12 @@ def add_planned_tests(folder: str | Path, tests: Sequence[str], steps: int = 10,
     AddResult
     """
     from volcal.plan.planner import plan_session
+    from volcal.session.optics import vertical_axis
 
     s = read_session(require_session(folder), require_deviation=False)
     planned = plan_session(s.travel, s.chain, steps, list(tests), runs, list(step_orders),
-                           tool_offset, s.name, step_target=step_target, **options)
+                           tool_offset, s.name, step_target=step_target,
+                           vertical_axis=vertical_axis(s.meta), **options)
     return add_tests(folder, planned)
 
 

@@ -187,8 +187,8 @@ def optic_candidates(travel: NDArray[np.float64], steps: int, vertical: int = 2,
         if k == vertical:
             continue
         m = by_id[f"lev-{'xyz'[k]}{'abc'[k]}"]
-        out[f"{OPTIC_LABEL}a level on {AXES[k]} (roll E{'ABC'[k]}{AXES[k]}; `plan --tests direct` "
-            f"line {m.id})"] = [m]
+        out[f"{OPTIC_LABEL}a level on {AXES[k]} determines E{'ABC'[k]}{AXES[k]} (roll of "
+            f"{AXES[k]}), line {m.id} of `plan --tests direct`"] = [m]
     v = vertical
     j = [i for i in range(3) if i != v][0]
     a, d = AXES[v].lower(), AXES[j].lower()
@@ -196,7 +196,8 @@ def optic_candidates(travel: NDArray[np.float64], steps: int, vertical: int = 2,
     for m in pair:
         m.meta["reference"] = f"{a}-roll"
     out[f"{OPTIC_LABEL}the straightness of {AXES[v]} along {AXES[j]} at two tool offsets "
-        f"{roll_offset_mm:g} mm apart against one reference (roll E{'ABC'[v]}{AXES[v]})"] = pair
+        f"{roll_offset_mm:g} mm apart against one reference determines E{'ABC'[v]}{AXES[v]} "
+        f"(roll of {AXES[v]})"] = pair
     for ms in out.values():
         for m in ms:
             m.deviation = np.zeros(m.n)

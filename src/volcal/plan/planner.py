@@ -30,6 +30,7 @@ from volcal.plan.geometry import (
     linear_test,
     step_diagonal_test,
 )
+from volcal.plan.optics import DIRECT_SELECTORS
 from volcal.session.format import Measurement, Session
 
 TEST_NAMES: tuple[str, ...] = (
@@ -40,9 +41,12 @@ QUALIFIED: dict[str, tuple[str, ...]] = {
     "linear": ("x", "y", "z"),
     "face-diagonal": FACE_PLANES,
     "face-step-diagonal": FACE_PLANES,
+    "direct": DIRECT_SELECTORS,
 }
 """Tests that may be narrowed to one axis or plane: ``linear:x`` (the 3 lines of X),
-``face-diagonal:xy``, ``face-step-diagonal:yz``."""
+``face-diagonal:xy``, ``face-step-diagonal:yz``; ``direct:x`` (the direct optics of X),
+``direct:level-x`` (a level on X), ``direct:roll-z`` (Z's straightness at two tool
+offsets in one reference group)."""
 
 __all__ = ["DEFAULT_OVERRUN_MM", "QUALIFIED", "TEST_NAMES", "abbe_lines", "plan_session",
            "split_test"]
@@ -116,7 +120,7 @@ def plan_session(travel: ArrayLike, chain: str = "XYFZ", steps: int = 10,
                  tool_offset: ArrayLike = (0.0, 0.0, 0.0), name: str = "VMC-1",
                  step_target: str = "flat_mirror", abbe_tool_offset_mm: float = 150.0,
                  iso_spacing: bool = True, linear_margin_mm: float = DEFAULT_OVERRUN_MM,
-                 multilateration: dict | None = None) -> Session:
+                 multilateration: dict | None = None, vertical_axis: int = 2) -> Session:
     """Plan a session skeleton (commanded poses, deviations empty).
 
     Parameters
@@ -158,6 +162,10 @@ def plan_session(travel: ArrayLike, chain: str = "XYFZ", steps: int = 10,
         Keyword arguments of :func:`volcal.plan.multilateration.multilateration_tests`
         (``grid``, ``stations``, ``tool_offsets``, ``station_u_mm``) for the test
         ``multilateration`` (tracking interferometer); default its layout.
+    vertical_axis : int
+        The machine's vertical axis (0, 1, 2) for the test ``direct``: no level about it;
+        its roll is read by its straightness at two tool offsets (``[machine]
+        vertical_axis``; ``volcal plan --add`` takes the session's).
 
     Returns
     -------
@@ -168,7 +176,7 @@ def plan_session(travel: ArrayLike, chain: str = "XYFZ", steps: int = 10,
     _check_options(tests, steps, runs, step_target, linear_margin_mm, abbe_tool_offset_mm)
     c = _Plan(t, chain, steps, runs, tuple(step_orders), np.asarray(tool_offset, dtype=float),
               step_target, abbe_tool_offset_mm, iso_spacing, linear_margin_mm,
-              multilateration or {})
+              multilateration or {}, int(vertical_axis))
     meas: list[Measurement] = []
     for test in tests:
         base, only = split_test(test)
@@ -211,7 +219,9 @@ def split_test(test: str) -> tuple[str, str | None]:
 
 
 def _qualified_help() -> str:
-    return "linear:x|y|z, face-diagonal:xy|yz|xz, face-step-diagonal:xy|yz|xz for one axis or plane"
+    return ("linear:x|y|z, face-diagonal:xy|yz|xz, face-step-diagonal:xy|yz|xz for one axis or "
+            "plane, direct:x|y|z|level-x|level-y|roll-z (one axis' optics, a level, the "
+            "vertical axis' roll pair)")
 
 
 def _check_options(tests: Sequence[str], steps: int, runs: int, step_target: str,
@@ -254,6 +264,7 @@ class _Plan:
     iso_spacing: bool
     linear_margin_mm: float
     multilateration: dict
+    vertical: int = 2
 
 
 def _step_diagonals(c: _Plan, only: str | None = None) -> list[Measurement]:
@@ -329,7 +340,8 @@ def _direct(c: _Plan, only: str | None = None) -> list[Measurement]:
                                    f"travel on {AXES[k]}")
         targets.append(iso_targets(lo, hi, c.steps, seed=k) if c.iso_spacing
                        else np.linspace(lo, hi, c.steps + 1))
-    ms = direct_tests(c.t, targets, c.runs, c.off, roll_offset_mm=c.abbe_tool_offset_mm)
+    ms = direct_tests(c.t, targets, c.runs, c.off, c.vertical,
+                      roll_offset_mm=c.abbe_tool_offset_mm)
     return ms if only is None else select_direct(ms, only)
 
 

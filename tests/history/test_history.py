@@ -128,8 +128,9 @@ def test_change_test_honest(store_url, calibrations):
 
 
 def test_concurrent_writers_lose_nothing(store_url, calibrations):
-    """Six writers add at once, each with its own connection (engine), started together:
-    one machine record, six calibrations, chain intact.
+    """Six writers open a NEW store and add at once, each with its own connection
+    (engine), started together: the schema created once, one machine record, six
+    calibrations, chain intact.
 
     Threads rather than processes (the database sees six independent connections either
     way; processes would spend their time importing volcal): the serialisation under
@@ -141,25 +142,23 @@ def test_concurrent_writers_lose_nothing(store_url, calibrations):
 
     folder, model = calibrations["a"]
     n = 6
-    histories = [History(store_url) for _ in range(n)]
     start = threading.Barrier(n)
     ids: list[str] = []
     errors: list[BaseException] = []
 
-    def write(h):
+    def write():
         try:
             start.wait()
-            ids.append(h.add(folder, model).id)
+            with History(store_url) as h:  # opening a new store creates its schema
+                ids.append(h.add(folder, model).id)
         except BaseException as exc:  # noqa: BLE001 - reported by the assertion below
             errors.append(exc)
 
-    threads = [threading.Thread(target=write, args=(h,)) for h in histories]
+    threads = [threading.Thread(target=write) for _ in range(n)]
     for t in threads:
         t.start()
     for t in threads:
         t.join(timeout=120)
-    for h in histories:
-        h.close()
     assert not errors, errors
     with History(store_url) as h:
         recs = h.list()

@@ -7,6 +7,7 @@ advisory lock on PostgreSQL, so that concurrent writers never fork the chain.
 
 from __future__ import annotations
 
+import threading
 from pathlib import Path
 
 from volcal.errors import VolcalInputError
@@ -14,6 +15,9 @@ from volcal.errors import VolcalInputError
 #: Key of the PostgreSQL advisory lock taken by every insert (``pg_advisory_xact_lock``).
 ADVISORY_LOCK_KEY = 0x766F6C63  # "volc"
 HEAD = "0002"
+#: Alembic keeps its migration context in module globals: one migration at a time per
+#: process (threads opening stores at once); across processes the database lock serialises.
+_ALEMBIC_LOCK = threading.Lock()
 
 
 def _alembic_config(connection):
@@ -127,17 +131,30 @@ def open_engine(url: str, upgrade: bool = True):
     engine = make_engine(url)
     where = describe(url)
     try:
+        # one transaction under the writers' lock: look, then create or upgrade the
+        # schema, so that writers opening a new store at once never both create it
         with writer(engine) as conn:
             lock(conn)
             names = set(inspect(conn).get_table_names())
             version = None
             if "alembic_version" in names:
                 version = conn.execute(text("SELECT version_num FROM alembic_version")).scalar()
+            _check_schema(names, version, upgrade, where)
+            if version != HEAD:
+                from alembic import command
+
+                with _ALEMBIC_LOCK:  # alembic's migration context is process-global
+                    command.upgrade(_alembic_config(conn), "head")
             conn.commit()
     except (DatabaseError, OperationalError) as exc:
         msg = str(exc.orig) if getattr(exc, "orig", None) is not None else str(exc)
         raise VolcalInputError(f"not a usable history database ({msg.splitlines()[0]})",
                                where) from None
+    return engine
+
+
+def _check_schema(names: set[str], version: str | None, upgrade: bool, where: str) -> None:
+    """Refuse a database of another program, a newer schema, or an old one without upgrade."""
     others = names - {"alembic_version", "records", "files", "results", "equipment"}
     if names and (version is None or others):
         raise VolcalInputError("this database holds tables of another program "
@@ -146,11 +163,8 @@ def open_engine(url: str, upgrade: bool = True):
     if version not in (None, "0001", HEAD):
         raise VolcalInputError(f"history schema revision {version!r} is unknown to this "
                                f"volcal (head {HEAD}): a newer volcal wrote it", where)
-    if version != HEAD:
-        if not upgrade:
-            raise VolcalInputError(f"history schema at revision {version}, not {HEAD}", where)
-        migrate(engine)
-    return engine
+    if version != HEAD and not upgrade:
+        raise VolcalInputError(f"history schema at revision {version}, not {HEAD}", where)
 
 
 def writer(engine):
@@ -178,5 +192,6 @@ def migrate(engine, revision: str = "head") -> None:
 
     with writer(engine) as conn:
         lock(conn)
-        command.upgrade(_alembic_config(conn), revision)
+        with _ALEMBIC_LOCK:
+            command.upgrade(_alembic_config(conn), revision)
         conn.commit()

@@ -874,25 +874,23 @@ class Calibration:
             from volcal.session.format import read_session
 
             s2 = read_session(as_left)
-        with A.python_names(where):
-            cert = self._certificate_wanted(s2, tables, certificate, strict)
+        from volcal.report.certificate_inputs import certificate_wanted
+
+        with A.python_names(where):  # the command line's checks, the keywords named
+            cert = certificate_wanted(s, s2, tables, certificate, strict)
         result = self._need_result()
         extra = None
         written: list[CertificateFiles] = []
         if cert:
-            from volcal.cli.report import _uncertainties
             from volcal.report.certificate import build_certificate
             from volcal.report.certificate_files import write_certificate
+            from volcal.report.certificate_inputs import session_uncertainties
 
             uncs = als = None
             if budget is not None:  # U of every linear test of both sessions, as the CLI
-                from types import SimpleNamespace
-
-                bud, label = (tol.budget, "") if tol is not None else \
-                    A.budget_file(budget, where)
-                held = SimpleNamespace(budget=bud)  # read once; held as the CLI's tol holds it
-                uncs = _uncertainties(s, held, Path(label), edition)
-                als = None if s2 is None else _uncertainties(s2, held, Path(label), edition)
+                bud = tol.budget if tol is not None else A.budget_file(budget, where)[0]
+                uncs = session_uncertainties(s, bud, edition)
+                als = None if s2 is None else session_uncertainties(s2, bud, edition)
             with A.python_names(where):
                 doc = build_certificate(s, result, as_left=s2, tables=tables, tolerance=tol,
                                         uncertainties=uncs, as_left_uncertainties=als,
@@ -932,44 +930,6 @@ class Calibration:
         return files
 
     # ------------------------------------------------------------------ helpers
-    def _certificate_wanted(self, as_left: Session | None, tables: str | Path | None,
-                            certificate: bool, strict: bool) -> bool:
-        """Whether :meth:`report` issues a certificate; refusals before any work.
-
-        The checks of ``volcal report`` (``volcal.cli.report._certificate_wanted``), with
-        the keywords named.
-        """
-        from volcal.report.certificate import certificate_applies, refuse_expired
-
-        where = "Calibration.report"
-        s = self.session
-        cert = certificate or certificate_applies(s) or as_left is not None
-        if tables is not None and as_left is None:
-            raise VolcalInputError(f"{where}: tables= names the compensation loaded between "
-                                   "the as-found and the as-left measurement: give "
-                                   "as_left= (the second session) too")
-        if not cert:
-            if strict:
-                raise VolcalInputError(f"{where}: strict=True applies to the certificate: the "
-                                       "session has no [calibration] keys or [[equipment]] "
-                                       "(or give certificate=True)")
-            return False
-        sessions = {"as_found": s} if as_left is None else {"as_found": s, "as_left": as_left}
-        if strict:
-            refuse_expired(sessions)
-        if tables is not None:
-            from volcal.report.certificate import tables_of
-
-            tables_of(tables, s)  # a damaged manifest or another machine's tables: refused
-        if as_left is not None:
-            from volcal.session.identity import same_machine
-
-            same, why = same_machine(s.identity, as_left.identity)
-            if not same:
-                raise VolcalInputError(f"{where}: as_left= is another machine than this "
-                                       f"session ({why})", as_left.path)
-        return True
-
     def _identify_options(self, where: str, **options: object) -> IdentifyOptions:
         """IdentifyOptions from keywords, every key checked (the CLI's names accepted)."""
         from dataclasses import fields

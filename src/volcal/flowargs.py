@@ -362,6 +362,11 @@ def acceptance(where: str, tolerance: Tolerance | None, decision_rule: str,
 
 #: The command line's option spellings in the library's messages, and their keywords.
 _CLI_SPELLING: tuple[tuple[str, str], ...] = (
+    ("--tables names", "tables= names"),
+    ("give --as-left SESSION2 too", "give as_left= (the second session) too"),
+    ("--strict applies", "strict=True applies"),
+    ("(or give --certificate)", "(or give certificate=True)"),
+    ("--as-left: the sessions", "as_left=: the sessions"),
     ("--decision-rule guarded", "decision_rule='guarded'"),
     ("--decision-rule", "decision_rule"),
     ("--guard-band-um W", "guard_band_um=W"),

@@ -99,7 +99,9 @@ def report_cmd(
     if as_left is not None:
         s2 = read_session(as_left)
         print_session_notes(s2)
-    cert = _certificate_wanted(s, s2, tables, certificate, strict)
+    from volcal.report.certificate_inputs import certificate_wanted
+
+    cert = certificate_wanted(s, s2, tables, certificate, strict)
     if model is not None:
         from volcal.identify.modelfile import check_model_session, load_model
 
@@ -121,8 +123,13 @@ def report_cmd(
 
         uncs = als = None
         if budget is not None:  # U of every linear test of both sessions (docs/uncertainty.md)
-            uncs = _uncertainties(s, tol, budget, edition)
-            als = None if s2 is None else _uncertainties(s2, tol, budget, edition)
+            from volcal.report.certificate_inputs import session_uncertainties
+            from volcal.uncertainty.budget import read_budget
+
+            b = tol.budget if tol is not None and getattr(tol, "budget", None) is not None \
+                else read_budget(budget)
+            uncs = session_uncertainties(s, b, edition)
+            als = None if s2 is None else session_uncertainties(s2, b, edition)
         doc = build_certificate(s, result, as_left=s2, tables=tables, tolerance=tol,
                                 uncertainties=uncs, as_left_uncertainties=als,
                                 edition=edition)
@@ -155,79 +162,6 @@ def report_cmd(
         c = written[0]
         console.print(f"certificate {doc['report_id']}: {output / c.pdf.name} "
                       f"({c.pdf_pages} pages), {output / c.json.name}", soft_wrap=True)
-
-
-class _Evaluated:
-    """A linear test evaluated with a budget: the corrected results and their U (one dict)."""
-
-    def __init__(self, res, unc, corrections) -> None:
-        self.res, self.unc, self.corrections = res, unc, corrections
-
-    def to_dict(self) -> dict:
-        """Parameters of the readings referred to 20 C, ``U_<key>``, ``k``, ``corrections``."""
-        out = {**self.res.to_dict(), **self.unc.to_dict()}
-        if self.corrections is not None:
-            out["corrections"] = self.corrections
-        return out
-
-
-def _uncertainties(s, tol, budget: Path, edition: str) -> dict:
-    """ISO 230-2 (ISO 230-6) of every linear test (diagonal) of a session with a budget.
-
-    The values are those of the readings referred to 20 C by the budget (the ones the U
-    belong to), so that the certificate states them together.
-    """
-    from volcal.standards.iso230_2_uncertainty import evaluate_with_budget
-    from volcal.standards.positioning_data import from_measurement
-    from volcal.standards.session import evaluate_session
-    from volcal.uncertainty.budget import read_budget
-
-    b = tol.budget if tol is not None and getattr(tol, "budget", None) is not None \
-        else read_budget(budget)
-    by_id = {m.id: m for m in s.measurements}
-    out = {}
-    ev = evaluate_session(s, edition=edition)
-    for k in ev.iso230_2:
-        res, unc, corr = evaluate_with_budget(from_measurement(by_id[k], s.path), b, edition)
-        out[k] = _Evaluated(res, unc, corr)
-    from volcal.standards.iso230_6_uncertainty import evaluate_diagonal_with_budget
-
-    for k in ev.iso230_6:
-        res, dunc = evaluate_diagonal_with_budget(by_id[k], b, edition)
-        if dunc is not None:
-            out[k] = _Evaluated(res, dunc, None)
-    return out
-
-
-def _certificate_wanted(s, s2, tables: Path | None, certificate: bool, strict: bool) -> bool:
-    """Whether a certificate is issued; ``--strict`` refusals come before any work."""
-    from volcal.errors import VolcalInputError
-    from volcal.report.certificate import certificate_applies, refuse_expired
-
-    cert = certificate or certificate_applies(s) or s2 is not None
-    if tables is not None and s2 is None:
-        raise VolcalInputError("--tables names the compensation loaded between the as-found "
-                               "and the as-left measurement: give --as-left SESSION2 too")
-    if not cert:
-        if strict:
-            raise VolcalInputError("--strict applies to the certificate: the session has no "
-                                   "[calibration] keys or [[equipment]] (or give --certificate)")
-        return False
-    sessions = {"as_found": s} if s2 is None else {"as_found": s, "as_left": s2}
-    if strict:
-        refuse_expired(sessions)
-    if tables is not None:
-        from volcal.report.certificate import tables_of
-
-        tables_of(tables, s)  # a damaged manifest or another machine's tables: refused now
-    if s2 is not None:
-        from volcal.session.identity import same_machine
-
-        same, why = same_machine(s.identity, s2.identity)
-        if not same:
-            raise VolcalInputError(f"--as-left: the sessions are of two machines ({why})",
-                                   s2.path)
-    return True
 
 
 def register(app: typer.Typer) -> None:

@@ -126,7 +126,7 @@ class WrittenTables:
         """
         q = np.asarray(points, dtype=float).reshape(-1, 3)
         if self.grid_axes is not None and self.grid_values is not None:
-            return sign_factor(self.volumetric_sign) * _trilinear(self.grid_axes,
+            return sign_factor(self.volumetric_sign) * trilinear(self.grid_axes,
                                                                    self.grid_values, q)
         if self.volumetric is not None:
             from volcal.model.kinematics import volumetric_error
@@ -163,9 +163,23 @@ class WrittenTables:
         return np.asarray(m.deviation, dtype=float) - c
 
 
-def _trilinear(axes: list[NDArray[np.float64]], values: NDArray[np.float64],
+def trilinear(axes: list[NDArray[np.float64]], values: NDArray[np.float64],
                q: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Trilinear interpolation of grid vectors, held constant outside the grid."""
+    """Trilinear interpolation of grid vectors, held constant outside the grid.
+
+    Parameters
+    ----------
+    axes : list of 3 ndarray
+        Grid positions along X, Y, Z [mm], increasing.
+    values : ndarray, shape (nx, ny, nz, c)
+        Grid vectors.
+    q : ndarray, shape (m, 3)
+        Query points [mm].
+
+    Returns
+    -------
+    ndarray, shape (m, c)
+    """
     from volcal.model.errorfunctions import interp_weights
 
     i0, i1, w = zip(*(interp_weights(a, q[:, k]) for k, a in enumerate(axes)), strict=True)

@@ -62,20 +62,10 @@ class History:
         Record
             The calibration record (its ``id``).
         """
-        from volcal.history.machines import machine_payload, match
         from volcal.history.record import calibration_record
 
         rec, session_obj = calibration_record(session, model, as_left_of, supersedes, force)
-        ident = session_obj.identity
-        store = self.store
-
-        def _machine(conn: Any) -> Any:
-            # under the writers' lock: two writers of a new machine never make two records
-            found = match(store.records(conn=conn), ident, machine)
-            return found.id if found is not None else NewRecord("machine",
-                                                                machine_payload(ident))
-
-        return store.append(rec, check=_machine)
+        return self.store.append(rec, check=self._machine_of(session_obj.identity, machine))
 
     def add_etalon(self, path: str | Path, session: str | Path, date: str | None = None,
                    machine: str | None = None) -> Record:
@@ -101,7 +91,6 @@ class History:
         """
         from volcal.errors import VolcalInputError
         from volcal.history.etalon import read_etalon
-        from volcal.history.machines import machine_payload, match
         from volcal.session.format import read_session
         from volcal.session.identity import parse_date
 
@@ -121,14 +110,32 @@ class History:
         results = [(n, v, None, "urad") for n, v in sorted(data.squareness.items())]
         rec = NewRecord("calibration", payload, date=when, results=results,
                         files=[("etalon", path.name, path.read_bytes())])
+        return self.store.append(rec, check=self._machine_of(ident, machine))
+
+    def _machine_of(self, ident: Any, machine: str | None) -> Any:
+        """The check :meth:`Store.append` runs under the writers' lock.
+
+        It returns the id of the machine record the identity matches, or a new machine
+        record to append first (two writers of a new machine never make two records). Only
+        machine records are read.
+
+        Parameters
+        ----------
+        ident : MachineIdentity
+            The session's machine.
+        machine : str, optional
+            Machine record id or name chosen by the user.
+        """
+        from volcal.history.machines import machine_payload, match
+
         store = self.store
 
-        def _machine(conn: Any) -> Any:
-            found = match(store.records(conn=conn), ident, machine)
+        def check(conn: Any) -> Any:
+            found = match(store.records("machine", conn=conn), ident, machine)
             return found.id if found is not None else NewRecord("machine",
                                                                 machine_payload(ident))
 
-        return store.append(rec, check=_machine)
+        return check
 
     # ----------------------------------------------------------------- read
     def list(self) -> list[Record]:

@@ -268,24 +268,6 @@ def table_model(errors: MachineErrors, tables: TableSet) -> MachineErrors:
     return MachineErrors(errors.chain_obj, nodes, values, sq, rev, name="tables")
 
 
-def _trilinear(axes: list[NDArray[np.float64]], values: NDArray[np.float64],
-               q: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Trilinear interpolation of grid values (held constant outside the grid)."""
-    from volcal.model.errorfunctions import interp_weights
-
-    i0, i1, w = zip(*(interp_weights(a, q[:, k]) for k, a in enumerate(axes)), strict=True)
-    out = np.zeros((q.shape[0], values.shape[-1]))
-    for cx in (0, 1):
-        for cy in (0, 1):
-            for cz in (0, 1):
-                wt = ((w[0] if cx else 1 - w[0]) * (w[1] if cy else 1 - w[1])
-                      * (w[2] if cz else 1 - w[2]))
-                idx = ((i1[0] if cx else i0[0]), (i1[1] if cy else i0[1]),
-                       (i1[2] if cz else i0[2]))
-                out += wt[:, None] * values[idx]
-    return out
-
-
 def applied_correction(errors: MachineErrors, tables: TableSet, points: ArrayLike,
                        tool_offset: ArrayLike | None = None) -> NDArray[np.float64]:
     """The error the tables remove at the given points [um] (error sign).
@@ -316,8 +298,10 @@ def applied_correction(errors: MachineErrors, tables: TableSet, points: ArrayLik
         if g.shape[0] > 2_000_000:
             raise VolcalInputError(f"a 3-D grid of {g.shape[0]} points at "
                                    f"{tables.spacing_mm:g} mm is too large to evaluate")
+        from volcal.compensate.readback import trilinear
+
         v = _quantize(volumetric_error(errors, g, tool_offset), tables.resolution_um)
-        return _trilinear(axes, v.reshape(*(a.size for a in axes), 3), q)
+        return trilinear(axes, v.reshape(*(a.size for a in axes), 3), q)
     return volumetric_error(table_model(errors, tables), q, tool_offset)
 
 

@@ -1,0 +1,131 @@
+"""What a certificate needs before it is built: whether one is issued, and the U of each test.
+
+One definition for ``volcal report`` and :meth:`volcal.Calibration.report` (the messages
+name the command line's options; the Python API re-words them with
+:func:`volcal.flowargs.python_names`).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from volcal.errors import VolcalInputError
+
+
+class EvaluatedWithBudget:
+    """A test evaluated with a budget: the corrected results and their U (one dict).
+
+    Parameters
+    ----------
+    res : Iso2302Result or DiagonalResult
+        Results of the readings referred to 20 C by the budget.
+    unc : object with ``to_dict()``
+        Their uncertainties (``U_<key>``, ``k``).
+    corrections : dict or None
+        What the budget corrected (ISO 230-2 tests).
+    """
+
+    def __init__(self, res: Any, unc: Any, corrections: Any) -> None:
+        self.res, self.unc, self.corrections = res, unc, corrections
+
+    def to_dict(self) -> dict:
+        """Parameters of the readings referred to 20 C, ``U_<key>``, ``k``, ``corrections``."""
+        out = {**self.res.to_dict(), **self.unc.to_dict()}
+        if self.corrections is not None:
+            out["corrections"] = self.corrections
+        return out
+
+
+def session_uncertainties(session: Any, budget: Any, edition: str) -> dict[str, Any]:
+    """ISO 230-2 (ISO 230-6) of every linear test (diagonal) of a session with a budget.
+
+    The values are those of the readings referred to 20 C by the budget (the ones the U
+    belong to), so that the certificate states them together.
+
+    Parameters
+    ----------
+    session : Session
+        The session with readings.
+    budget : Budget
+        The uncertainty budget (:func:`volcal.uncertainty.budget.read_budget`).
+    edition : str
+        ISO 230-2 edition.
+
+    Returns
+    -------
+    dict of str to EvaluatedWithBudget
+        By measurement id.
+    """
+    from volcal.standards.iso230_2_uncertainty import evaluate_with_budget
+    from volcal.standards.iso230_6_uncertainty import evaluate_diagonal_with_budget
+    from volcal.standards.positioning_data import from_measurement
+    from volcal.standards.session import evaluate_session
+
+    by_id = {m.id: m for m in session.measurements}
+    out: dict[str, Any] = {}
+    ev = evaluate_session(session, edition=edition)
+    for k in ev.iso230_2:
+        res, unc, corr = evaluate_with_budget(from_measurement(by_id[k], session.path), budget,
+                                              edition)
+        out[k] = EvaluatedWithBudget(res, unc, corr)
+    for k in ev.iso230_6:
+        res, dunc = evaluate_diagonal_with_budget(by_id[k], budget, edition)
+        if dunc is not None:
+            out[k] = EvaluatedWithBudget(res, dunc, None)
+    return out
+
+
+def certificate_wanted(s: Any, s2: Any, tables: str | Path | None, certificate: bool,
+                       strict: bool) -> bool:
+    """Whether a certificate is issued; the refusals come before any work.
+
+    Parameters
+    ----------
+    s : Session
+        The as-found session.
+    s2 : Session or None
+        The as-left session (``--as-left``).
+    tables : str or Path, optional
+        Compensation folder loaded in between (``--tables``).
+    certificate : bool
+        Asked for explicitly (``--certificate``).
+    strict : bool
+        Refuse expired equipment (``--strict``).
+
+    Returns
+    -------
+    bool
+
+    Raises
+    ------
+    VolcalInputError
+        ``--tables`` without ``--as-left``, ``--strict`` without a certificate, expired
+        equipment with ``--strict``, damaged or foreign tables, two machines.
+    """
+    from volcal.report.certificate import certificate_applies, refuse_expired
+
+    cert = certificate or certificate_applies(s) or s2 is not None
+    if tables is not None and s2 is None:
+        raise VolcalInputError("--tables names the compensation loaded between the as-found "
+                               "and the as-left measurement: give --as-left SESSION2 too")
+    if not cert:
+        if strict:
+            raise VolcalInputError("--strict applies to the certificate: the session has no "
+                                   "[calibration] keys or [[equipment]] (or give --certificate)")
+        return False
+    sessions = {"as_found": s} if s2 is None else {"as_found": s, "as_left": s2}
+    if strict:
+        refuse_expired(sessions)
+    if tables is not None:
+        from volcal.report.certificate import tables_of
+
+        tables_of(tables, s)  # a damaged manifest or another machine's tables: refused now
+    if s2 is not None:
+        from volcal.session.identity import same_machine
+
+        same, why = same_machine(s.identity, s2.identity)
+        if not same:
+            raise VolcalInputError(f"--as-left: the sessions are of two machines ({why})",
+                                   s2.path)
+    return True

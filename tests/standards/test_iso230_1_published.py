@@ -42,7 +42,7 @@ its printed ``Y_slope`` rows (e.g. axis 2, X = 0.05 m: -1.2 - (-1.42) = +0.22). 
 text layer of the 21-7 table reads "-3.6" in the end-point row of axis 2; the manual's
 own rule gives arctan(-18.44e-6) x 3600 = -3.80 arcsec, and its printed squareness
 -5.5 = -3.8 - 1.7 needs -3.8, so -3.8 is asserted. The least-squares line of axis 1 is on
-page 21-5, whose text was not readable: its slope is the one printed on 21-7 (7.65); its
+page 21-5, which could not be retrieved: its slope is the one printed on 21-7 (7.65); its
 straightness (range of the residuals) is hand-computed below, with the computation.
 
 The straightness deviation of ISO 230-1 is the range of the residuals about the
@@ -170,7 +170,7 @@ def test_least_squares_line_of_axis_2_matches_the_printed_sums():
 
 
 def test_least_squares_straightness_of_axis_1_by_hand():
-    """Page 21-5 was not readable; the slope 7.65 is printed on 21-7, the rest by hand.
+    """Page 21-5 could not be retrieved; the slope 7.65 is printed on 21-7, the rest by hand.
 
     Sums: n = 10, sum X = 4.5 m, sum Y = 33.5 um, sum X^2 = 2.85 m^2, sum XY = 21.39 um m.
     m1 = (4.5 x 33.5 - 10 x 21.39) / (4.5^2 - 10 x 2.85) = -63.15 / -8.25 = 7.654545 um/m;

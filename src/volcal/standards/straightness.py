@@ -22,6 +22,10 @@ References
 ----------
 .. [1] ISO 230-1:2012, Test code for machine tools - Part 1: Geometric accuracy of machines
    operating under no-load or quasi-static conditions (straightness, squareness).
+.. [2] Hewlett-Packard, Model 5528A Laser Measurement System User's Guide, Section 21
+   "Straightness and Squareness Considerations" (1987): a worked example of the
+   end-point and least-squares fits and of the squareness of two lines; volcal
+   reproduces its numbers (``tests/standards/test_iso230_1_published.py``).
 """
 
 from __future__ import annotations

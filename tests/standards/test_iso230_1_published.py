@@ -247,7 +247,8 @@ file = "str-yx.csv"
     (folder / "str-xy.csv").write_text("x_mm,y_mm,z_mm,deviation_um\n" + "\n".join(rows)
                                        + "\n", encoding="utf-8")
     # the manual's axis 2 with its sign changed (module docstring, "Convention mapping")
-    rows = [f"0,{x * 1e3:g},0,{-(y - Y2_UM[0]):.1f}" for x, y in zip(X2_M, Y2_UM, strict=True)]
+    rows = [f"0,{x * 1e3:g},0,{0.0 - (y - Y2_UM[0]):.1f}"
+            for x, y in zip(X2_M, Y2_UM, strict=True)]
     (folder / "str-yx.csv").write_text("x_mm,y_mm,z_mm,deviation_um\n" + "\n".join(rows)
                                        + "\n", encoding="utf-8")
 

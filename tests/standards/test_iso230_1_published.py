@@ -38,7 +38,8 @@ Its published results (printed precision):
 
 Transcription notes (the scan's text layer drops and invents minus signs). Every
 ``Y_true`` above was checked against the manual's own definition ``Y_LMS - Y_slope`` with
-its printed ``Y_slope`` rows (e.g. axis 2, X = 0.05 m: -1.2 - (-1.42) = +0.22). The
+its printed ``Y_slope`` rows (e.g. axis 2, X = 0.05 m: -1.2 - (-1.42) = +0.22); the
+intercept's sign likewise (axis 2, X = 0: Y_true = -0.5 - b = 0.09, so b = -0.591). The
 text layer of the 21-7 table reads "-3.6" in the end-point row of axis 2; the manual's
 own rule gives arctan(-18.44e-6) x 3600 = -3.80 arcsec, and its printed squareness
 -5.5 = -3.8 - 1.7 needs -3.8, so -3.8 is asserted. The least-squares line of axis 1 is on
@@ -86,7 +87,7 @@ from volcal.standards.straightness import (
     straightness,
 )
 
-# --- the manual's data (HP 5528A User's Guide, 21-2, 21-3, 21-4, 21-6) ---------------------
+# --- the manual's data (HP 5528A User's Guide, 21-3, 21-4, 21-6) ---------------------------
 X1_M = np.round(np.arange(10) * 0.1, 10)
 Y1_UM = np.array([-0.3, 0.9, 1.5, 2.5, 2.9, 3.6, 4.2, 5.1, 5.9, 7.2])
 X2_M = np.round(np.arange(10) * 0.05, 10)

@@ -349,3 +349,57 @@ def test_coarsened_design_equals_the_design_built_on_the_coarse_nodes():
     np.testing.assert_array_equal(got.y, d_c.y)
     x = np.linspace(0.0, 800.0, 5)
     assert coarsen(build_design(s, fine, {"EXX": (x, 0.01 * x)}), coarse) is None
+
+
+def test_roll_scale_evidence_in_closed_form_equals_the_evidence(small, monkeypatch):
+    """:func:`volcal.identify.solver._roll_marginal_factors` (the switch
+    ``ROLL_MARGINAL_SPREAD``) writes the evidence of a rescaled roll from one posterior:
+    ``l(rho) = -1/2 sum log(1 + rho^2 k) + 1/2 sum rho^2 b^2 / (1 + rho^2 k)``. Checked
+    against the full evidence ``-2 log p(y)`` recomputed with the roll's scale multiplied
+    by rho (differences between rho values; constants cancel), and the factor it returns
+    against a brute-force quadrature of the same hyperprior with the full evidence."""
+    import volcal.identify.evidence as evidence
+    from volcal.identify import solver
+
+    _, design, prior = small
+    monkeypatch.setattr(evidence, "NUISANCE_PRECISION",
+                        {k: 1e-2 for k in evidence.NUISANCE_PRECISION})
+    ev = evidence._Evidence(design, prior, 100.0)
+    from volcal.identify.prior import function_scales
+
+    fs = function_scales(np.array([8.0, 4.0, 12.0, 20.0]))
+    sigma = 0.4
+    _, _, _, x, cov = solver._final_solve(ev, design, fs, sigma, True)
+    f = 3  # EAX
+    b = next(i for i, blk in enumerate(prior.blocks) if blk[4] == f)
+    idx = prior.blocks[b][0]
+    Lp = np.linalg.cholesky(prior.unit_block(b)[0])
+    u = Lp.T @ x[idx] / fs[f]
+    Su = Lp.T @ cov[np.ix_(idx, idx)] @ Lp / fs[f] ** 2
+    sv, V = np.linalg.eigh((Su + Su.T) / 2)
+    k = 1.0 / sv - 1.0
+    b2 = (V.T @ u / sv) ** 2
+
+    def closed(rho):
+        q = 1.0 + rho**2 * k
+        return -0.5 * np.sum(np.log(q)) + 0.5 * np.sum(rho**2 * b2 / q)
+
+    def full(rho):
+        g = fs.copy()
+        g[f] *= rho
+        return -0.5 * ev.neg2(g, sigma)
+
+    rhos = [0.1, 0.5, 2.0, 5.0]
+    got = [closed(r) - closed(1.0) for r in rhos]
+    want = [full(r) - full(1.0) for r in rhos]
+    np.testing.assert_allclose(got, want, rtol=1e-6, atol=1e-6)
+    # the factor: sqrt(E[rho^2 | y]) under log rho ~ N(-w^2, w^2), by the full evidence
+    w = np.log(3.0)
+    t = np.linspace(-4.0, 4.0, 61)
+    rho = np.exp(-w**2 + w * t)
+    lp = np.array([full(r) for r in rho]) - 0.5 * t**2
+    p = np.exp(lp - lp.max())
+    want_rho = float(np.sqrt(np.sum(p * rho**2) / np.sum(p)))
+    got_rho = solver._roll_marginal_factors(prior, fs, x, cov, w, tol=0.0)[f]
+    assert got_rho == pytest.approx(want_rho, rel=1e-6)
+    assert abs(want_rho - 1.0) > 0.02  # the readings inform this roll: a real check

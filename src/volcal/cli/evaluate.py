@@ -682,7 +682,7 @@ def optics_cmd(
                   f"{ls['straightness_um']:.3f}", *_u(ls, "U_straightness_um", ".3f"),
                   f"{ls['slope_urad']:.2f}", *_u(ls, "U_slope_urad", ".2f"))
     if ev["straightness"]:
-        console.print(t)
+        print_table(console, t)
     t = Table(title=escape(f"{session}: angular deviation (ISO 230-1) [urad]"))
     for c in ("id", "axis", "about", "optic", "range", *(["U"] if b is not None else [])):
         t.add_column(c, justify="right")
@@ -691,7 +691,7 @@ def optics_cmd(
                   f"{r['angular_deviation_urad']:.2f}",
                   *_u(r, "U_angular_deviation_urad", ".2f"))
     if ev["angular"]:
-        console.print(t)
+        print_table(console, t)
     for r in ev["squareness"]:
         nm = r["name"]
         ls, ep = r["least_squares"], r["end_point"]

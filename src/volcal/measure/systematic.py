@@ -73,7 +73,19 @@ class SystematicDraw:
         return out
 
     def optic_scale(self, meas: Any) -> float:
-        """The drawn scale error of a direct-optics measurement [-] (0 when none)."""
+        """The drawn scale error of a direct-optics measurement.
+
+        Parameters
+        ----------
+        meas : Measurement
+            A straightness or angular measurement.
+
+        Returns
+        -------
+        float
+            Relative scale error [-]: the line's own (by id) or its optic's (by target),
+            0 when none was drawn.
+        """
         return self.optics.get(meas.id, self.optics.get(meas.target, 0.0))
 
 

@@ -138,6 +138,11 @@ def identify_cmd(
                       f"and prior {un.max():.3f} um, systematic (budget: "
                       f"{len(res.sys_labels)} inputs) {us.max():.3f} um, both "
                       f"{ut.max():.3f} um", highlight=False)
+        if (any(k.endswith("_scale_pct") for k in b.defaulted)
+                and any(lab.startswith("optics scale") for lab in res.sys_labels)):
+            console.print("note: no [optics] scale keys in the budget file: the direct optics' "
+                          "scale errors are the data-sheet defaults (volcal budget --template)",
+                          highlight=False, markup=False)
     console.print("model -> " + ("standard output" if is_stdout(output)
                                  else f"{output} (+ {binary_path(output).name})"),
                   highlight=False)

@@ -89,3 +89,23 @@ def test_optics_not_a_table(tmp_path):
     with pytest.raises(VolcalInputError, match="expected a table") as exc:
         parse_budget(doc, "b.toml")
     assert exc.value.column == "optics"
+
+
+def test_budget_command_shows_the_optics(tmp_path, monkeypatch, capsys):
+    import sys
+
+    from volcal.cli import main
+
+    f = tmp_path / "old.toml"
+    f.write_text(TEMPLATE.split("[optics]")[0] + "[optics]\nu_level_scale_pct = 2.0\n",
+                 "utf-8")
+    monkeypatch.setattr(sys, "argv", ["volcal", "budget", str(f)])
+    try:
+        main()
+    except SystemExit as exc:
+        assert not exc.code
+    out = capsys.readouterr().out
+    level = next(line for line in out.splitlines() if "level" in line and "%" not in line)
+    assert "2" in level and "budget file" in level
+    angular = next(line for line in out.splitlines() if "angular optics" in line)
+    assert "0.115" in angular and "data-sheet default" in angular

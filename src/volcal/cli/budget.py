@@ -79,7 +79,9 @@ def _show(file: Path, length_mm: float) -> None:
         t.add_row(target.replace("_", " "), f"{b.inputs[ks].u:.3g}",
                   f"{b.inputs[kr].u:.3g} {unit}", b.inputs[ks].distribution,
                   "data-sheet default" if ks in b.defaulted else "budget file")
-    console.print(t)
+    from volcal.cli._common import print_table
+
+    print_table(console, t)
     for n in b.notes:
         console.print(f"note: {escape(n)}", highlight=False)
 

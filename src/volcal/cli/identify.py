@@ -49,7 +49,8 @@ def identify_cmd(
                                 "flags (weight 1/z^2) and fit again; they stay listed."),
     budget: Path | None = typer.Option(None, help="Uncertainty budget (TOML, `volcal budget "
                                        "--template`): its systematic inputs (wavelength, "
-                                       "air per set-up, material per axis) propagated "
+                                       "air per set-up, material per axis, the scale "
+                                       "of each direct optic) propagated "
                                        "through the fit, kept apart in the model file."),
 ) -> None:
     """Identify the machine's errors from the session; write MODEL.json."""

@@ -60,14 +60,23 @@ _UNIT = {"straightness_optics": "um", "angular_optics": "urad", "level": "urad",
 
 
 class _Lines:
-    """The uncertain true readings of each line (shared scale inputs per optic)."""
+    """Uncertain linear functions of a line's true readings (shared scale per optic).
+
+    A result ``c . t`` of a line's true readings ``t = y (1 - g) - e`` is
+    ``c . y - (c . y) g - c . e``; the readings' part ``c . e`` of independent readings of
+    one standard uncertainty ``u_e`` and ``nu`` degrees of freedom enters as one input of
+    sensitivity ``|c|`` and Welch-Satterthwaite degrees of freedom
+    ``nu (sum c_i^2)^2 / sum c_i^4``: the same u and effective degrees of freedom as one
+    input per reading, at a cost linear in the number of readings (a dynamic capture has
+    thousands). Two results of one line never enter one squareness together, so their
+    readings' parts may be separate inputs.
+    """
 
     def __init__(self, budget: Budget, prop: Propagator) -> None:
         self.b = budget
         self.prop = prop
         self.per_line = budget.values.get("optics.scale_correlation") == "measurement"
         self.scales: dict[str, Any] = {}
-        self.cache: dict[str, list[Any]] = {}
 
     def scale(self, m: Measurement) -> Any:
         key = m.id if self.per_line else m.target
@@ -79,48 +88,49 @@ class _Lines:
                                                unit="-")
         return self.scales[key]
 
-    def readings(self, m: Measurement) -> list[Any]:
-        if m.id not in self.cache:
-            g = self.scale(m)
+    def combine(self, m: Measurement, c: np.ndarray) -> Any:
+        """``c . t`` as an uncertain number [the readings' unit times c's]."""
+        v = float(c @ np.asarray(m.deviation, dtype=float))
+        out = v - v * self.scale(m)
+        c2 = float(c @ c)
+        if c2 > 0:
             inp = self.b.inputs[OPTIC_KEYS[m.target][1]]
-            y = np.asarray(m.deviation, dtype=float)
-            self.cache[m.id] = [
-                float(v) - float(v) * g + self.prop.input(
-                    f"reading, {m.id}", 0.0, inp.u, inp.dof, inp.distribution,
-                    unit=_UNIT[m.target])
-                for v in y]
-        return self.cache[m.id]
-
-
-def _reference_line(s: np.ndarray, t: list[Any], reference: str) -> tuple[Any, Any, float]:
-    """Slope [um/mm] and value at ``s0`` of the reference line, as uncertain numbers."""
-    if reference == "least_squares":
-        s0 = float(np.mean(s))
-        w = (s - s0) / float(np.sum((s - s0) ** 2))
-        slope = sum(float(wi) * ti for wi, ti in zip(w, t, strict=True))
-        level = sum(t) / len(t)
-        return slope, level, s0
-    i0, i1 = int(np.argmin(s)), int(np.argmax(s))
-    return (t[i1] - t[i0]) / float(s[i1] - s[i0]), t[i0], float(s[i0])
+            dof = inp.dof * c2**2 / float(np.sum(c**4)) if math.isfinite(inp.dof) else math.inf
+            out = out + math.sqrt(c2) * self.prop.input(
+                f"reading, {m.id}", 0.0, inp.u, dof, inp.distribution, unit=_UNIT[m.target])
+        return out
 
 
 def _straightness(lines: _Lines, m: Measurement) -> dict[str, tuple[Any, Any]]:
     """Uncertain straightness [um] and slope [urad] for each reference line."""
+    from volcal.standards.straightness import straightness
+
     s = m.positions[:, m.axis]
-    t = lines.readings(m)
+    y = np.asarray(m.deviation, dtype=float)
+    n = s.size
     out = {}
     for ref in ("end_point", "least_squares"):
-        slope, level, s0 = _reference_line(s, t, ref)
-        r = [ti - level - slope * float(si - s0) for ti, si in zip(t, s, strict=True)]
-        x = np.array([float(v.x) if hasattr(v, "x") else float(v) for v in r])
-        out[ref] = (r[int(np.argmax(x))] - r[int(np.argmin(x))], slope * 1e3)
+        if ref == "least_squares":
+            w = (s - s.mean()) / float(np.sum((s - s.mean()) ** 2))   # slope [um/mm per um]
+        else:
+            i0, i1 = int(np.argmin(s)), int(np.argmax(s))
+            w = np.zeros(n)
+            w[i1], w[i0] = 1.0 / (s[i1] - s[i0]), -1.0 / (s[i1] - s[i0])
+        r = straightness(s, y, ref).residuals_um
+        a, b = int(np.argmax(r)), int(np.argmin(r))
+        c = -(s[a] - s[b]) * w  # r_a - r_b: the reference line's level cancels
+        c[a] += 1.0
+        c[b] -= 1.0
+        out[ref] = (lines.combine(m, c), lines.combine(m, w * 1e3))
     return out
 
 
 def _angular(lines: _Lines, m: Measurement) -> Any:
-    t = lines.readings(m)
     x = np.asarray(m.deviation, dtype=float)
-    return t[int(np.argmax(x))] - t[int(np.argmin(x))]
+    c = np.zeros(x.size)
+    c[int(np.argmax(x))] += 1.0
+    c[int(np.argmin(x))] -= 1.0
+    return lines.combine(m, c)
 
 
 def _dict(e: Estimate) -> dict[str, Any]:

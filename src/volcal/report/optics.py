@@ -84,7 +84,7 @@ def optics_section(inp) -> Section | None:
     if b is not None:
         sec.paragraphs.append(
             "U: expanded uncertainty (k = 2, 95 %) of each result from the budget's "
-            "[optics] section (each optic's scale error, common to every line read with "
-            "it, and one reading's uncertainty) and the optical squares' certificates; "
+            "[optics] section (each optic's scale error and one reading's uncertainty) "
+            "and the optical squares' certificates; "
             + "; ".join(ev["uncertainty"]["notes"][1:]) + ".")
     return sec

@@ -396,7 +396,8 @@ class Calibration:
             Largest reversal of a random machine's axes [um] (not used with ``machine``).
         budget : str, Path or Budget, optional
             Uncertainty budget (``volcal budget --template``): its systematic errors
-            (wavelength, air sensors per measurement, material per axis) are drawn once
+            (wavelength, air sensors per measurement, material per axis, the scale of
+            each direct optic) are drawn once
             from their distributions (seeded by ``seed``) and applied to the readings, as
             ``volcal simulate --budget``; :meth:`save` records the draw in
             ``truth/systematic.toml`` (:mod:`volcal.measure.systematic`).
@@ -525,7 +526,8 @@ class Calibration:
         ----------
         budget : str, Path or Budget, optional
             Uncertainty budget (as ``--budget``): its systematic inputs (wavelength, air
-            per set-up, material per axis) propagated through the fit and kept apart
+            per set-up, material per axis, the scale of each direct optic) propagated
+            through the fit and kept apart
             (:func:`volcal.identify.systematic.attach_systematic`);
             ``result.predict(q, systematic=False)`` gives the noise and prior part only.
         **options

@@ -47,3 +47,35 @@ def test_drawn_errors_are_applied_and_recorded(tmp_path, monkeypatch, capsys):
     # material at 23 C with u(t) 0.06 K and u(alpha) 0.58 ppm/K: a few ppm at most
     assert all(abs(v) < 10 for v in t["material_ppm"].values())
     assert np.any(np.abs(list(t["material_ppm"].values())) > 0.01)
+
+
+def test_direct_optics_scale_errors_are_drawn_applied_and_recorded(tmp_path, monkeypatch,
+                                                                   capsys):
+    """A direct set simulated twice with the same seed, once with a budget whose optics'
+    scale errors are 2 %: every straightness and angular line is the other's times
+    (1 + g) with g of its optic (target) in truth/systematic.toml, one per optic; the
+    length readings carry only the laser's terms (checked above)."""
+    b = tmp_path / "b.toml"
+    b.write_text(TEMPLATE.replace("u_straightness_scale_pct = 0.29",
+                                  "u_straightness_scale_pct = 2.0")
+                 .replace("u_angular_scale_pct = 0.12", "u_angular_scale_pct = 2.0")
+                 .replace("u_level_scale_pct = 0.58", "u_level_scale_pct = 2.0"), "utf-8")
+    for name in ("a", "b"):
+        assert run(monkeypatch, capsys, "plan", "-o", str(tmp_path / name), "--tests",
+                   "direct", "--steps", "4")[0] == 0
+    assert run(monkeypatch, capsys, "simulate", str(tmp_path / "a"), "--seed", "5")[0] == 0
+    code, _, err = run(monkeypatch, capsys, "simulate", str(tmp_path / "b"), "--seed", "5",
+                       "--budget", str(b))
+    assert code == 0, err
+    t = tomllib.loads((tmp_path / "b" / "truth" / "systematic.toml").read_text("utf-8"))
+    g = t["optics_scale_pct"]
+    assert set(g) == {"straightness_optics", "angular_optics", "level"}
+    assert all(0 < abs(v) < 2.0 * 3**0.5 for v in g.values())  # rectangular, a = 2 sqrt(3)
+    sa, sb = read_session(tmp_path / "a"), read_session(tmp_path / "b")
+    n = 0
+    for ma, mb in zip(sa.measurements, sb.measurements, strict=True):
+        if ma.kind in ("straightness", "angular"):
+            assert mb.deviation == pytest.approx(ma.deviation * (1 + g[ma.target] / 100),
+                                                 abs=2e-3)
+            n += 1
+    assert n == 15

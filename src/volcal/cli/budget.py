@@ -68,6 +68,20 @@ def _show(file: Path, length_mm: float) -> None:
                   f"{100 * c.share:.1f} %")
     console.print(t)
     console.print(f"u = {e.u:.4f} um, U = {e.k:.2f} u = {e.U:.4f} um (95 %)", highlight=False)
+    from volcal.uncertainty.budget import OPTIC_KEYS
+
+    t = Table(title=escape(f"{file}: direct optics ([optics]; one scale error per "
+                           f"{b.values['optics.scale_correlation']})"))
+    for c in ("optic", "u scale [%]", "u one reading", "distribution", "source"):
+        t.add_column(c, justify="right")
+    for target, (ks, kr) in OPTIC_KEYS.items():
+        unit = "um" if target == "straightness_optics" else "urad"
+        t.add_row(target.replace("_", " "), f"{b.inputs[ks].u:.3g}",
+                  f"{b.inputs[kr].u:.3g} {unit}", b.inputs[ks].distribution,
+                  "data-sheet default" if ks in b.defaulted else "budget file")
+    from volcal.cli._common import print_table
+
+    print_table(console, t)
     for n in b.notes:
         console.print(f"note: {escape(n)}", highlight=False)
 

@@ -629,49 +629,82 @@ def volumetric_cmd(
 def optics_cmd(
     session: Path = typer.Argument(..., help="Session folder."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
+    budget: Path | None = typer.Option(None, help="Uncertainty budget (TOML, `volcal budget "
+                                       "--template`): expanded uncertainty (k = 2) of every "
+                                       "straightness, angular deviation and squareness from "
+                                       "its [optics] section (data-sheet defaults when "
+                                       "absent) and the optical squares' certificates."),
 ) -> None:
     """ISO 230-1 of the direct optics: straightness, angular deviation, optical squares.
 
     Straightness about the end-point and the least-squares lines, the range of each
-    angular line, the squareness of each optical-square pair.
+    angular line, the squareness of each optical-square pair; with --budget, U of each.
     """
     from volcal.errors import VolcalInputError
     from volcal.session.format import read_session
     from volcal.standards.optics import evaluate_optics
 
+    b = None
+    if budget is not None:
+        from volcal.uncertainty.budget import read_budget
+
+        b = read_budget(budget)
     s = read_session(session)
     print_session_notes(s)
     ev = evaluate_optics(s)
     if not (ev["straightness"] or ev["angular"]):
         raise VolcalInputError("no straightness or angular measurement with readings", session)
+    if b is not None:
+        from volcal.standards.optics_uncertainty import add_optics_uncertainty, optics_uncertainty
+
+        add_optics_uncertainty(ev, optics_uncertainty(s, b, ev))
+        ev["budget_file"] = str(budget)
     if as_json:
         _print_json(ev)
         return
-    t = Table(title=escape(f"{session}: straightness (ISO 230-1) [um], slope [urad]"))
-    for c in ("id", "axis", "along", "end-point", "least-squares", "LS slope"):
+
+    def _u(r: dict[str, Any], key: str, fmt: str) -> list[str]:
+        return [] if b is None else [format(r[key], fmt)]
+
+    t = Table(title=escape(f"{session}: straightness (ISO 230-1) [um], slope [urad]"
+                           + (", U (k = 2)" if b is not None else "")))
+    cols = ["id", "axis", "along", "end-point", "least-squares", "LS slope"]
+    if b is not None:
+        cols[4:4] = ["U end-point"]
+        cols[6:6] = ["U least-squares"]
+        cols.append("U slope")
+    for c in cols:
         t.add_column(c, justify="right")
     for k, r in ev["straightness"].items():
+        ep, ls = r["end_point"], r["least_squares"]
         t.add_row(k, r["axis"].upper(), r["error_direction"].upper(),
-                  f"{r['end_point']['straightness_um']:.3f}",
-                  f"{r['least_squares']['straightness_um']:.3f}",
-                  f"{r['least_squares']['slope_urad']:.2f}")
+                  f"{ep['straightness_um']:.3f}", *_u(ep, "U_straightness_um", ".3f"),
+                  f"{ls['straightness_um']:.3f}", *_u(ls, "U_straightness_um", ".3f"),
+                  f"{ls['slope_urad']:.2f}", *_u(ls, "U_slope_urad", ".2f"))
     if ev["straightness"]:
-        console.print(t)
+        print_table(console, t)
     t = Table(title=escape(f"{session}: angular deviation (ISO 230-1) [urad]"))
-    for c in ("id", "axis", "about", "optic", "range"):
+    for c in ("id", "axis", "about", "optic", "range", *(["U"] if b is not None else [])):
         t.add_column(c, justify="right")
     for k, r in ev["angular"].items():
         t.add_row(k, r["axis"].upper(), r["rotation"].upper(), r["target"].replace("_", " "),
-                  f"{r['angular_deviation_urad']:.2f}")
+                  f"{r['angular_deviation_urad']:.2f}",
+                  *_u(r, "U_angular_deviation_urad", ".2f"))
     if ev["angular"]:
-        console.print(t)
+        print_table(console, t)
     for r in ev["squareness"]:
         nm = r["name"]
+        ls, ep = r["least_squares"], r["end_point"]
+        pm = (lambda e, nm=nm: f" +- {e['U_' + nm]:.2f}") if b is not None else (
+            lambda e: "")
         console.print(f"squareness {r['axes'].upper()} (optical square {r['reference']!r}, "
                       f"{' + '.join(r['lines'])}, square {r['square_deviation_urad']:g} urad): "
-                      f"{nm} = {r['least_squares'][nm]:.2f} urad from the least-squares "
-                      f"lines (ISO 230-1), {r['end_point'][nm]:.2f} urad from the end-point "
+                      f"{nm} = {ls[nm]:.2f}{pm(ls)} urad from the least-squares "
+                      f"lines (ISO 230-1), {ep[nm]:.2f}{pm(ep)} urad from the end-point "
                       "lines (the identified model's reference)", highlight=False)
+    if b is not None:
+        for n in ev["uncertainty"]["notes"]:
+            console.print(f"note: {escape(n)}", highlight=False)
 
 
 def register(app: typer.Typer) -> None:

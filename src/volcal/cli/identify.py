@@ -49,7 +49,8 @@ def identify_cmd(
                                 "flags (weight 1/z^2) and fit again; they stay listed."),
     budget: Path | None = typer.Option(None, help="Uncertainty budget (TOML, `volcal budget "
                                        "--template`): its systematic inputs (wavelength, "
-                                       "air per set-up, material per axis) propagated "
+                                       "air per set-up, material per axis, the scale "
+                                       "of each direct optic) propagated "
                                        "through the fit, kept apart in the model file."),
 ) -> None:
     """Identify the machine's errors from the session; write MODEL.json."""
@@ -138,6 +139,11 @@ def identify_cmd(
                       f"and prior {un.max():.3f} um, systematic (budget: "
                       f"{len(res.sys_labels)} inputs) {us.max():.3f} um, both "
                       f"{ut.max():.3f} um", highlight=False)
+        if (any(k.endswith("_scale_pct") for k in b.defaulted)
+                and any(lab.startswith("optics scale") for lab in res.sys_labels)):
+            console.print("note: no [optics] scale keys in the budget file: the direct optics' "
+                          "scale errors are the data-sheet defaults (volcal budget --template)",
+                          highlight=False, markup=False)
     console.print("model -> " + ("standard output" if is_stdout(output)
                                  else f"{output} (+ {binary_path(output).name})"),
                   highlight=False)

@@ -141,7 +141,8 @@ def simulate(
                                    "of the replaced files is kept in SESSION/backup/<time>/."),
     budget: Path | None = typer.Option(None, help="Uncertainty budget (TOML): draw its "
                                        "systematic errors (wavelength, air per set-up, "
-                                       "material per axis) and apply them to the readings; "
+                                       "material per axis, the scale of each direct "
+                                       "optic) and apply them to the readings; "
                                        "the draw is kept in SESSION/truth/systematic.toml."),
 ) -> None:
     """Fill the deviations from a virtual machine; keep its truth in SESSION/truth/.

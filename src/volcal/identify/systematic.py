@@ -17,8 +17,21 @@ Inputs (one column each):
 * ``material, <axis>``: per axis, ``u_rel = sqrt((alpha u_t)^2 + ((t - 20) u_alpha)^2 +
   (u_alpha u_t)^2)`` on the displacement component along that axis, projected on the beam.
 
-The cosine and dead-path terms vary from reading to reading and are left to the noise;
-multilateration readings (tracking interferometer) are not included.
+* ``optics scale, <target>``: direct optics (``straightness``, ``angular``), the scale
+  (calibration) error of the optic, ``dy = y u_rel`` with ``y`` the line's readings and
+  ``u_rel`` the ``[optics] u_<kind>_scale_pct`` of its target: one column per optic
+  (target), common to every line read with it (``[optics] scale_correlation =
+  "instrument"``, the default: one kit in the case, and in an optical-square group the
+  same interferometer and reflector read both lines), or one per line
+  (``optics scale, <measurement id>`` with ``"measurement"``). The part of ``y u_rel`` that
+  is the reference optic's slope or rotation goes to those nuisances, as a scale error of
+  the set-up does.
+
+The cosine and dead-path terms, and the optics' per-reading terms (``[optics]
+u_straightness_um`` ...), vary from reading to reading and are left to the noise; the
+optical square's certificate (``[references.NAME] u_square_urad``) is already a prior of
+the fit (its u is in the noise and prior part, not counted again here); multilateration
+readings (tracking interferometer) are not included.
 
 References
 ----------
@@ -36,10 +49,51 @@ from numpy.typing import NDArray
 from volcal.errors import VolcalInputError
 from volcal.model.names import AXES
 
-__all__ = ["LENGTH_KINDS", "attach_systematic", "systematic_factor", "systematic_inputs"]
+__all__ = ["LENGTH_KINDS", "OPTIC_KINDS", "attach_systematic", "optic_scale_inputs",
+           "systematic_factor", "systematic_inputs"]
 
 #: Measurement kinds whose readings are lengths along the beam.
 LENGTH_KINDS: tuple[str, ...] = ("linear", "diagonal", "step_diagonal")
+#: Direct-optics kinds (a scale error of the optic: one column per optic or per line).
+OPTIC_KINDS: tuple[str, ...] = ("straightness", "angular")
+
+
+def optic_scale_inputs(design: Any, budget: Any) -> list[tuple[str, NDArray[np.float64]]]:
+    """The reading changes of the optics' scale errors at one standard uncertainty.
+
+    Parameters
+    ----------
+    design : Design
+        The identification's observation system.
+    budget : Budget
+        The uncertainty budget (its ``[optics]`` section, or its defaults).
+
+    Returns
+    -------
+    list of (str, ndarray)
+        ``('optics scale, <target>', dy)`` per optic (``scale_correlation = "instrument"``)
+        or ``('optics scale, <id>', dy)`` per line (``"measurement"``); ``dy`` in the
+        design's weighted rows (the optic's reading [um or urad] times its
+        :func:`volcal.measure.optics.row_weight`), zero elsewhere; zero uncertainties left
+        out.
+    """
+    from volcal.measure.optics import row_weight
+    from volcal.uncertainty.budget import OPTIC_KEYS
+
+    per_line = budget.values.get("optics.scale_correlation", "instrument") == "measurement"
+    n_rows = design.A.shape[0]
+    cols: dict[str, NDArray[np.float64]] = {}
+    for m in design.measurements:
+        if m.kind not in OPTIC_KINDS or m.deviation is None or m.target not in OPTIC_KEYS:
+            continue
+        inp = budget.inputs.get(OPTIC_KEYS[m.target][0])
+        if inp is None or inp.u == 0:
+            continue
+        key = f"optics scale, {m.id if per_line else m.target}"
+        col = cols.setdefault(key, np.zeros(n_rows))
+        col[design.rows[m.id]] = (np.asarray(m.deviation, dtype=float) * row_weight(m)
+                                  * inp.u * 1e-2)
+    return [(k, c) for k, c in cols.items() if np.any(c)]
 
 
 def systematic_inputs(design: Any, budget: Any) -> list[tuple[str, NDArray[np.float64]]]:
@@ -56,7 +110,8 @@ def systematic_inputs(design: Any, budget: Any) -> list[tuple[str, NDArray[np.fl
     -------
     list of (str, ndarray)
         Label and ``dy`` [um] for every row of ``design.A`` (zero outside the readings of
-        length measurements); inputs with zero uncertainty are left out.
+        length measurements), then the optics' scale errors
+        (:func:`optic_scale_inputs`); inputs with zero uncertainty are left out.
     """
     from volcal.uncertainty.sensitivity import air_sensitivity
 
@@ -91,7 +146,7 @@ def systematic_inputs(design: Any, budget: Any) -> list[tuple[str, NDArray[np.fl
         out.insert(0, ("laser wavelength", wl))
     if u_mat > 0:
         out.extend((f"material, {AXES[k]}", mat[k]) for k in range(3) if np.any(mat[k]))
-    return out
+    return out + optic_scale_inputs(design, budget)
 
 
 def systematic_factor(design: Any, solution: Any, budget: Any

@@ -15,6 +15,14 @@ to the readings as scale errors of the length readings (``linear``, ``diagonal``
 A reading at displacement ``d`` from the measurement's first reading along the beam ``n``
 gains ``(e_lambda + e_air) (d . n) + sum_k e_k d_k n_k`` [um for d in um]. Each input is
 drawn from its distribution with its standard uncertainty.
+
+Direct optics (``straightness``, ``angular``): a scale error ``g`` of the optic, drawn
+from ``[optics] u_<kind>_scale_pct`` once per optic (target: ``straightness_optics``,
+``angular_optics``, ``level``, ``roll_optics``) and shared by every line read with it, or
+once per line with ``scale_correlation = "measurement"``; the readings become
+``y (1 + g)`` (the reference optic's slope included, as a real optic scales all it reads).
+These draws come after the laser's, so that a session without optics draws what it drew
+before.
 """
 
 from __future__ import annotations
@@ -30,6 +38,7 @@ from volcal.model.names import AXES
 __all__ = ["SystematicDraw", "apply_systematic", "draw_systematic"]
 
 LENGTH_KINDS = ("linear", "diagonal", "step_diagonal")
+OPTIC_KINDS = ("straightness", "angular")
 
 
 @dataclass
@@ -44,17 +53,40 @@ class SystematicDraw:
         Relative compensation error per measurement id.
     material : dict of str to float
         Relative scale error per axis (``'X'``, ``'Y'``, ``'Z'``).
+    optics : dict of str to float
+        Relative scale error per direct optic (by target) or per line (by measurement id,
+        ``scale_correlation = "measurement"``).
     """
 
     wavelength: float = 0.0
     air: dict[str, float] = field(default_factory=dict)
     material: dict[str, float] = field(default_factory=dict)
+    optics: dict[str, float] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
-        """TOML-friendly dict in ppm."""
-        return {"wavelength_ppm": self.wavelength * 1e6,
-                "air_ppm": {k: v * 1e6 for k, v in self.air.items()},
-                "material_ppm": {k: v * 1e6 for k, v in self.material.items()}}
+        """TOML-friendly dict in ppm (the optics' scale errors in percent)."""
+        out = {"wavelength_ppm": self.wavelength * 1e6,
+               "air_ppm": {k: v * 1e6 for k, v in self.air.items()},
+               "material_ppm": {k: v * 1e6 for k, v in self.material.items()}}
+        if self.optics:
+            out["optics_scale_pct"] = {k: v * 1e2 for k, v in self.optics.items()}
+        return out
+
+    def optic_scale(self, meas: Any) -> float:
+        """The drawn scale error of a direct-optics measurement.
+
+        Parameters
+        ----------
+        meas : Measurement
+            A straightness or angular measurement.
+
+        Returns
+        -------
+        float
+            Relative scale error [-]: the line's own (by id) or its optic's (by target),
+            0 when none was drawn.
+        """
+        return self.optics.get(meas.id, self.optics.get(meas.target, 0.0))
 
 
 def _draw(rng: np.random.Generator, inp: Any) -> float:
@@ -76,7 +108,8 @@ def draw_systematic(session: Any, budget: Any, rng: np.random.Generator) -> Syst
     Parameters
     ----------
     session : Session
-        The session (one air draw per length measurement).
+        The session (one air draw per length measurement, one scale draw per direct optic
+        or per direct-optics line).
     budget : Budget
         The uncertainty budget (:mod:`volcal.uncertainty.budget`).
     rng : numpy.random.Generator
@@ -102,6 +135,15 @@ def draw_systematic(session: Any, budget: Any, rng: np.random.Generator) -> Syst
         dt = _draw(rng, i["material.u_temperature_k"])
         da = _draw(rng, i["material.u_expansion_ppm_per_k"])
         out.material[k] = -(alpha * dt + dt20 * da + da * dt) * 1e-6
+    from volcal.uncertainty.budget import OPTIC_KEYS
+
+    per_line = v.get("optics.scale_correlation", "instrument") == "measurement"
+    for m in session.measurements:
+        if m.kind in OPTIC_KINDS and m.target in OPTIC_KEYS:
+            key = m.id if per_line else m.target
+            inp = i.get(OPTIC_KEYS[m.target][0])
+            if key not in out.optics and inp is not None:
+                out.optics[key] = _draw(rng, inp) * 1e-2
     return out
 
 
@@ -113,9 +155,12 @@ def apply_systematic(session: Any, draw: SystematicDraw) -> None:
     session : Session
         Session with simulated deviations [um].
     draw : SystematicDraw
-        The errors.
+        The errors (the direct optics' readings scaled by ``1 + g``).
     """
     for m in session.measurements:
+        if m.kind in OPTIC_KINDS and m.deviation is not None:
+            m.deviation = np.asarray(m.deviation, dtype=float) * (1.0 + draw.optic_scale(m))
+            continue
         if m.kind not in LENGTH_KINDS or m.deviation is None:
             continue
         d = (np.asarray(m.positions, dtype=float) - np.asarray(m.positions[0], dtype=float))

@@ -28,6 +28,17 @@ def optics_section(inp) -> Section | None:
     ev = evaluate_optics(inp.session)
     if not (ev["straightness"] or ev["angular"]):
         return None
+    b = getattr(inp, "budget", None)
+    if b is not None:  # as `volcal evaluate optics --budget`: U beside each result
+        from volcal.standards.optics_uncertainty import add_optics_uncertainty, optics_uncertainty
+
+        add_optics_uncertainty(ev, optics_uncertainty(inp.session, b, ev))
+
+    def u(r, key, nd):
+        return [fmt(r[key], nd)] if b is not None else []
+
+    def uh(head):
+        return [head] if b is not None else []
     sec = Section("optics", "Direct optics (ISO 230-1)")
     sec.paragraphs.append(
         "Each optic evaluated on its own, without a model: the straightness about the "
@@ -45,22 +56,35 @@ def optics_section(inp) -> Section | None:
     if ev["straightness"]:
         rows = [[k, r["axis"].upper(), r["error_direction"].upper(), fmt(r["length_mm"], 1),
                  fmt(r["end_point"]["straightness_um"], 3),
-                 fmt(r["least_squares"]["straightness_um"], 3), rms(k)]
+                 *u(r["end_point"], "U_straightness_um", 3),
+                 fmt(r["least_squares"]["straightness_um"], 3),
+                 *u(r["least_squares"], "U_straightness_um", 3), rms(k)]
                 for k, r in ev["straightness"].items()]
         sec.tables.append(Table(["measurement", "axis", "along", "length [mm]",
-                                 "end-point [µm]", "least squares [µm]",
-                                 "model residual RMS [µm]"], rows, "Straightness"))
+                                 "end-point [µm]", *uh("U [µm]"), "least squares [µm]",
+                                 *uh("U [µm]"), "model residual RMS [µm]"], rows,
+                                "Straightness"))
     if ev["angular"]:
         rows = [[k, r["axis"].upper(), r["rotation"].upper(), r["target"].replace("_", " "),
-                 fmt(r["angular_deviation_urad"], 2), rms(k)] for k, r in ev["angular"].items()]
+                 fmt(r["angular_deviation_urad"], 2), *u(r, "U_angular_deviation_urad", 2),
+                 rms(k)] for k, r in ev["angular"].items()]
         sec.tables.append(Table(["measurement", "axis", "about", "optic", "range [µrad]",
-                                 "model residual RMS [µrad]"], rows, "Angular deviation"))
+                                 *uh("U [µrad]"), "model residual RMS [µrad]"], rows,
+                                "Angular deviation"))
     if ev["squareness"]:
         rows = [[r["name"], r["reference"], " + ".join(r["lines"]),
                  fmt(r["square_deviation_urad"], 2), fmt(r["least_squares"][r["name"]], 2),
-                 fmt(r["end_point"][r["name"]], 2)] for r in ev["squareness"]]
+                 *u(r["least_squares"], f"U_{r['name']}", 2),
+                 fmt(r["end_point"][r["name"]], 2),
+                 *u(r["end_point"], f"U_{r['name']}", 2)] for r in ev["squareness"]]
         sec.tables.append(Table(["squareness", "reference group", "lines",
                                  "square deviation [µrad]", "least-squares lines [µrad]",
-                                 "end-point lines [µrad]"], rows,
-                                "Squareness by optical square"))
+                                 *uh("U [µrad]"), "end-point lines [µrad]", *uh("U [µrad]")],
+                                rows, "Squareness by optical square"))
+    if b is not None:
+        sec.paragraphs.append(
+            "U: expanded uncertainty (k = 2, 95 %) of each result from the budget's "
+            "[optics] section (each optic's scale error and one reading's uncertainty) "
+            "and the optical squares' certificates; "
+            + "; ".join(ev["uncertainty"]["notes"][1:]) + ".")
     return sec

@@ -36,6 +36,18 @@ u_misalignment_urad        beam misalignment angle [urad] (cosine error)
 dead_path_mm               laser to the reflector's datum position [mm]
 datum_mm                   target where the laser was zeroed [mm] (default: the
                            first, lowest, target)
+``[optics]``               optional (direct optics; every key has a data-sheet default)
+u_straightness_scale_pct   scale (calibration) error of the straightness optics [%]
+u_angular_scale_pct        scale error of the angular optics [%]
+u_level_scale_pct          scale error of the differential electronic level [%]
+u_roll_scale_pct           scale error of a 6-DOF system's roll channel [%]
+u_straightness_um          one straightness reading [um] (independent per reading)
+u_angular_urad             one angular-optics reading [urad] (independent per reading)
+u_level_urad               one level reading [urad] (independent per reading)
+u_roll_urad                one roll-optics reading [urad] (independent per reading)
+scale_correlation          ``instrument`` (default): one scale error per optic (target),
+                           common to every line read with it; ``measurement``: one per
+                           line (each line read with another optic of that kind)
 =========================  ==========================================================
 
 Every problem raises :class:`~volcal.errors.VolcalInputError` naming the file and the
@@ -57,7 +69,7 @@ from typing import Any
 from volcal.environment.refractive import FORMULAS, HENE_VACUUM_WAVELENGTH_NM
 from volcal.errors import VolcalInputError
 
-__all__ = ["DISTRIBUTIONS", "Budget", "Input", "parse_budget", "read_budget",
+__all__ = ["DISTRIBUTIONS", "OPTIC_KEYS", "Budget", "Input", "parse_budget", "read_budget",
            "template_text"]
 
 DISTRIBUTIONS: tuple[str, ...] = ("normal", "rectangular", "triangular", "arcsine")
@@ -73,6 +85,8 @@ class _Key:
     lo: float = -math.inf
     hi: float = math.inf
     hint: str = ""
+    choices: tuple[str, ...] = FORMULAS
+    distribution: str = "normal"  # of a defaulted u (a data sheet's +-a: rectangular)
 
 
 #: Keys of every section: kind, default, unit, range of validity.
@@ -111,6 +125,44 @@ SCHEMA: dict[str, dict[str, _Key]] = {
         "dead_path_mm": _Key("value", _REQUIRED, "mm", 0.0, 100e3),
         "datum_mm": _Key("value", None, "mm", -1e6, 1e6),
     },
+    "optics": {
+        "u_straightness_scale_pct": _Key("u", 0.5 / math.sqrt(3), "%", hi=20.0,
+                                         hint="percent: 0.29, not 0.0029",
+                                         distribution="rectangular"),
+        "u_angular_scale_pct": _Key("u", 0.2 / math.sqrt(3), "%", hi=20.0,
+                                    hint="percent: 0.12, not 0.0012",
+                                    distribution="rectangular"),
+        "u_level_scale_pct": _Key("u", 1.0 / math.sqrt(3), "%", hi=20.0,
+                                  hint="percent: 0.58, not 0.0058",
+                                  distribution="rectangular"),
+        "u_roll_scale_pct": _Key("u", 1.0 / math.sqrt(3), "%", hi=20.0,
+                                 hint="percent: 0.58, not 0.0058",
+                                 distribution="rectangular"),
+        "u_straightness_um": _Key("u", 0.5 / math.sqrt(3), "um", hi=100.0,
+                                  hint="micrometres: 0.29, not 0.00029 mm",
+                                  distribution="rectangular"),
+        "u_angular_urad": _Key("u", 0.5 / math.sqrt(3), "urad", hi=1000.0,
+                               hint="microradians: 1 arcsec = 4.85 urad",
+                               distribution="rectangular"),
+        "u_level_urad": _Key("u", 1.0 / math.sqrt(3), "urad", hi=1000.0,
+                             hint="microradians: 1 um/m = 1 urad",
+                             distribution="rectangular"),
+        "u_roll_urad": _Key("u", 1.0 / math.sqrt(3), "urad", hi=1000.0,
+                            hint="microradians", distribution="rectangular"),
+        "scale_correlation": _Key("choice", "instrument", "",
+                                  choices=("instrument", "measurement")),
+    },
+}
+
+#: Sections whose every key has a default: the section may be absent from the file.
+OPTIONAL_SECTIONS: tuple[str, ...] = ("optics",)
+
+#: ``[optics]`` keys of each direct-optics target: (scale [%], one reading [um or urad]).
+OPTIC_KEYS: dict[str, tuple[str, str]] = {
+    "straightness_optics": ("optics.u_straightness_scale_pct", "optics.u_straightness_um"),
+    "angular_optics": ("optics.u_angular_scale_pct", "optics.u_angular_urad"),
+    "level": ("optics.u_level_scale_pct", "optics.u_level_urad"),
+    "roll_optics": ("optics.u_roll_scale_pct", "optics.u_roll_urad"),
 }
 
 
@@ -147,12 +199,17 @@ class Budget:
         Source file, for messages.
     notes : list of str
         Defaults taken (keys absent from the file), for the output.
+    defaulted : list of str
+        ``[optics]`` keys absent from the file, taken from the data-sheet defaults (said
+        by the outputs that use them, not in ``notes``: a laser-only evaluation does not
+        use them).
     """
 
     values: dict[str, Any]
     inputs: dict[str, Input]
     file: str | None = None
     notes: list[str] = field(default_factory=list)
+    defaulted: list[str] = field(default_factory=list)
 
     def __getitem__(self, key: str) -> Any:
         """``budget['air.temperature_c']`` (a value) or ``budget['air.u_temperature_k']``."""
@@ -188,7 +245,8 @@ def parse_budget(doc: dict[str, Any], file: str | Path | None = None) -> Budget:
     Parameters
     ----------
     doc : dict
-        Sections ``laser``, ``air``, ``material``, ``setup`` (see the module docstring).
+        Sections ``laser``, ``air``, ``material``, ``setup`` and the optional ``optics``
+        (see the module docstring).
     file : str or Path, optional
         Source file named in errors.
 
@@ -211,6 +269,7 @@ def parse_budget(doc: dict[str, Any], file: str | Path | None = None) -> Budget:
     values: dict[str, Any] = {}
     inputs: dict[str, Input] = {}
     notes: list[str] = []
+    defaulted: list[str] = []
     for sec, keys in SCHEMA.items():
         table = doc.get(sec, {})
         if not isinstance(table, dict):
@@ -231,8 +290,12 @@ def parse_budget(doc: dict[str, Any], file: str | Path | None = None) -> Budget:
                             "a standard uncertainty (0 if negligible)")
                     raise VolcalInputError(f"missing key: {what} [{spec.unit}] is required",
                                            f, None, where)
-                if spec.default is not None:
+                if spec.default is not None and spec.kind == "u":
+                    inputs[where] = Input(float(spec.default), math.inf, spec.distribution)
+                elif spec.default is not None:
                     values[where] = spec.default
+                if sec in OPTIONAL_SECTIONS:
+                    defaulted.append(where)
                 continue
             v = table[k]
             if spec.kind == "bool":
@@ -241,8 +304,8 @@ def parse_budget(doc: dict[str, Any], file: str | Path | None = None) -> Budget:
                                            where)
                 values[where] = v
             elif spec.kind == "choice":
-                if v not in FORMULAS:
-                    raise VolcalInputError(f"expected one of {', '.join(FORMULAS)}, got "
+                if v not in spec.choices:
+                    raise VolcalInputError(f"expected one of {', '.join(spec.choices)}, got "
                                            f"{v!r}", f, None, where)
                 values[where] = v
             else:
@@ -265,7 +328,7 @@ def parse_budget(doc: dict[str, Any], file: str | Path | None = None) -> Budget:
             if values["setup.dead_path_mm"] > 0:
                 notes.append(f"[air] change_{k} not given: the air's change during the test "
                              f"(dead path) taken as u_{k}")
-    return Budget(values, inputs, f, notes)
+    return Budget(values, inputs, f, notes, defaulted)
 
 
 def _dof(table: dict[str, Any], k: str, sec: str, f: str | None) -> float:
@@ -382,6 +445,39 @@ u_misalignment_urad = 100.0
 # Distance from the laser to the reflector at the datum (where the reading was zeroed).
 dead_path_mm = 0.0
 # datum_mm = 0.0   # target where the laser was zeroed (default: the lowest target)
+
+[optics]
+# Direct optics (straightness, angular, level, roll); optional: without this section
+# these data-sheet defaults are used, and the outputs that use them say so.
+# Scale (calibration) error of each optic, a percentage of the reading, and the
+# uncertainty of one reading (resolution, non-linearity, air: independent per reading).
+# Renishaw XL-80 data sheet, short-range straightness optics: +-0.5 % of the reading
+# +-0.5 um (+-0.15 M^2 um, M the travel in metres), rectangular:
+u_straightness_scale_pct = 0.29
+u_straightness_scale_pct_distribution = "rectangular"
+u_straightness_um = 0.29
+u_straightness_um_distribution = "rectangular"
+# Renishaw XL-80 data sheet, angular optics: +-0.2 % of the reading +-0.5 urad
+# (+-0.1 M urad), rectangular:
+u_angular_scale_pct = 0.12
+u_angular_scale_pct_distribution = "rectangular"
+u_angular_urad = 0.29
+u_angular_urad_distribution = "rectangular"
+# Differential electronic level and a 6-DOF roll channel: +-1 % of the reading
+# +-1 urad, rectangular (an assumption: replace it by your level's certificate).
+u_level_scale_pct = 0.58
+u_level_scale_pct_distribution = "rectangular"
+u_level_urad = 0.58
+u_level_urad_distribution = "rectangular"
+u_roll_scale_pct = 0.58
+u_roll_scale_pct_distribution = "rectangular"
+u_roll_urad = 0.58
+u_roll_urad_distribution = "rectangular"
+# "instrument": one scale error per optic, common to every line read with it (one kit
+# in the case); "measurement": one per line (lines read with different optics).
+scale_correlation = "instrument"
+# The optical square's deviation from 90 degrees and its u are the session's
+# [references.NAME] square_deviation_urad / u_square_urad (its certificate), not here.
 """
 
 

@@ -451,13 +451,14 @@ dead_path_mm = 0.0
 # these data-sheet defaults are used, and the outputs that use them say so.
 # Scale (calibration) error of each optic, a percentage of the reading, and the
 # uncertainty of one reading (resolution, non-linearity, air: independent per reading).
-# Renishaw XL-80 data sheet, short-range straightness optics: +-0.5 % of the reading
+# Renishaw XL-80 specification as commonly quoted (not checked against the data
+# sheet here; docs/uncertainty.md), short-range straightness optics: +-0.5 % of the reading
 # +-0.5 um (+-0.15 M^2 um, M the travel in metres), rectangular:
 u_straightness_scale_pct = 0.29
 u_straightness_scale_pct_distribution = "rectangular"
 u_straightness_um = 0.29
 u_straightness_um_distribution = "rectangular"
-# Renishaw XL-80 data sheet, angular optics: +-0.2 % of the reading +-0.5 urad
+# Renishaw XL-80 specification as quoted, angular optics: +-0.2 % of the reading +-0.5 urad
 # (+-0.1 M urad), rectangular:
 u_angular_scale_pct = 0.12
 u_angular_scale_pct_distribution = "rectangular"

@@ -888,15 +888,15 @@ class Calibration:
             from volcal.report.certificate_files import write_certificate
             from volcal.report.certificate_inputs import session_uncertainties
 
-            uncs = als = None
+            uncs = als = ob = None
             if budget is not None:  # U of every linear test of both sessions, as the CLI
-                bud = tol.budget if tol is not None else A.budget_file(budget, where)[0]
+                bud = ob = tol.budget if tol is not None else A.budget_file(budget, where)[0]
                 uncs = session_uncertainties(s, bud, edition)
                 als = None if s2 is None else session_uncertainties(s2, bud, edition)
             with A.python_names(where):
                 doc = build_certificate(s, result, as_left=s2, tables=tables, tolerance=tol,
                                         uncertainties=uncs, as_left_uncertainties=als,
-                                        edition=edition)
+                                        optics_budget=ob, edition=edition)
             for w in doc["warnings"]:
                 if w.startswith("EXPIRED"):
                     warnings.warn(f"certificate: {w}", UserWarning, stacklevel=3)

@@ -804,7 +804,9 @@ class Calibration:
         tolerance_um : float, str or dict, optional
             Tolerance for a pass/fail verdict before and after compensation [um]: a
             number (largest volumetric error), ``{'X': 10, 'Y': 10, 'Z': 8}`` or
-            ``'X=10,Y=10,Z=8'`` (ISO 230-2 accuracy A per axis), or both (``V`` key).
+            ``'X=10,Y=10,Z=8'`` (ISO 230-2 accuracy A per axis), or both (``V`` key);
+            the certificate also judges ``X.straightness_um`` [um] and
+            ``EC0Y.squareness_urad`` [urad] limits of the direct optics.
         compensation : str or Path, optional
             Folder written by :meth:`compensate` (or ``volcal compensate``) from the same
             model, summarised in the report; none by default, as on the command line.
@@ -837,7 +839,7 @@ class Calibration:
             Guard band w of the guarded rule [um].
         budget : str, Path or Budget, optional
             Uncertainty budget: U of the toleranced ISO 230-2 parameters, and of every
-            linear test on the certificate.
+            linear test and every direct optic's result on the certificate.
 
         Returns
         -------

@@ -310,3 +310,32 @@ def test_tolerance_keys_of_the_direct_optics():
                        ("X.straightness_um=1,X.straightness_um=2", "given twice")):
         with pytest.raises(VolcalInputError, match=words):
             parse_tolerance(bad)
+
+
+def test_report_budget_reaches_the_certificate(tmp_path, monkeypatch, capsys):
+    """`volcal report --certificate --budget B`: the hand lines' U on certificate.json
+    (the budget file with straightness 0.5 %, 0.3 um; the template's level, 0.58 % and
+    0.58 urad: U = 2 sqrt((6.5 x 0.0058)^2 + 2 x 0.58^2))."""
+    from volcal.cli import main
+
+    write_session(_hand(), tmp_path / "s")
+    (tmp_path / "b.toml").write_text(TEMPLATE.replace(
+        "u_straightness_scale_pct = 0.29", "u_straightness_scale_pct = 0.5").replace(
+        "u_straightness_um = 0.29", "u_straightness_um = 0.3"), "utf-8")
+    monkeypatch.setattr(sys, "argv", ["volcal", "report", str(tmp_path / "s"), "--certificate",
+                                      "--budget", str(tmp_path / "b.toml"), "--tolerance-um",
+                                      "X.straightness_um=2", "--decision-rule", "guarded",
+                                      "-o", str(tmp_path / "out")])
+    try:
+        main()
+    except SystemExit as exc:
+        assert not exc.code, capsys.readouterr().err
+    doc = json.loads((tmp_path / "out" / "certificate.json").read_text("utf-8"))
+    _valid(doc)
+    opt = doc["results"]["as_found"]["direct_optics"]
+    assert opt["straightness"][0]["U_um"] == pytest.approx(2 * math.sqrt(0.162081))
+    assert opt["angular"][0]["U_urad"] == pytest.approx(
+        2 * math.sqrt((6.5 * 0.0058) ** 2 + 2 * 0.58**2), rel=1e-9)
+    assert doc["uncertainty"]["given"] and "str-xy" in doc["uncertainty"]["budgets"]
+    row = doc["conformity"]["statements"][0]
+    assert (row["value_um"], row["verdict"]) == (pytest.approx(1.8), "conditional")

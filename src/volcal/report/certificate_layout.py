@@ -384,8 +384,7 @@ def _optics_blocks(head: str, opt: dict[str, Any] | None) -> list[Block]:
                                 _REF.get(r["reference_line"], ref),
                                 _n(r["square_deviation_urad"]), _n(r["u_square_urad"]),
                                 _n(r["value_urad"]), *u(r, "U_urad")] for r in sq]))
-    text = (f"Direct optics: each optic evaluated on its own (ISO 230-1), {opt['reference']}; "
-            "the square deviation (certificate of the optical square) is corrected for.")
+    text = f"Direct optics: each optic evaluated on its own (ISO 230-1), {opt['reference']}."
     if not with_u:
         text += (" The expanded uncertainties of the direct optics' results were not "
                  "evaluated (no uncertainty budget given).")

@@ -224,8 +224,9 @@ def optics_conformity(tolerance: Any, results: dict[str, Any], rule: str,
             verdict, note = conformity_verdict(w["straightness_um"], T, rule, w["U_um"],
                                                guard_band_um)
             um.append({"state": state, "quantity": f"{axis}: straightness, least-squares "
-                       f"line (largest of {len(lines)} lines, {w['measurement']}, along "
-                       f"{w['error_direction']})", "tolerance_um": T,
+                       f"line ({w['measurement']}, along {w['error_direction']}"
+                       + (f"; largest of {len(lines)} lines" if len(lines) > 1 else "")
+                       + ")", "tolerance_um": T,
                        "value_um": w["straightness_um"], "U_um": w["U_um"],
                        "verdict": verdict, "note": note})
         for name, T in sq_lim.items():

@@ -804,7 +804,9 @@ class Calibration:
         tolerance_um : float, str or dict, optional
             Tolerance for a pass/fail verdict before and after compensation [um]: a
             number (largest volumetric error), ``{'X': 10, 'Y': 10, 'Z': 8}`` or
-            ``'X=10,Y=10,Z=8'`` (ISO 230-2 accuracy A per axis), or both (``V`` key).
+            ``'X=10,Y=10,Z=8'`` (ISO 230-2 accuracy A per axis), or both (``V`` key);
+            the certificate also judges ``X.straightness_um`` [um] and
+            ``EC0Y.squareness_urad`` [urad] limits of the direct optics.
         compensation : str or Path, optional
             Folder written by :meth:`compensate` (or ``volcal compensate``) from the same
             model, summarised in the report; none by default, as on the command line.
@@ -837,7 +839,7 @@ class Calibration:
             Guard band w of the guarded rule [um].
         budget : str, Path or Budget, optional
             Uncertainty budget: U of the toleranced ISO 230-2 parameters, and of every
-            linear test on the certificate.
+            linear test and every direct optic's result on the certificate.
 
         Returns
         -------
@@ -888,15 +890,15 @@ class Calibration:
             from volcal.report.certificate_files import write_certificate
             from volcal.report.certificate_inputs import session_uncertainties
 
-            uncs = als = None
+            uncs = als = ob = None
             if budget is not None:  # U of every linear test of both sessions, as the CLI
-                bud = tol.budget if tol is not None else A.budget_file(budget, where)[0]
+                bud = ob = tol.budget if tol is not None else A.budget_file(budget, where)[0]
                 uncs = session_uncertainties(s, bud, edition)
                 als = None if s2 is None else session_uncertainties(s2, bud, edition)
             with A.python_names(where):
                 doc = build_certificate(s, result, as_left=s2, tables=tables, tolerance=tol,
                                         uncertainties=uncs, as_left_uncertainties=als,
-                                        edition=edition)
+                                        optics_budget=ob, edition=edition)
             for w in doc["warnings"]:
                 if w.startswith("EXPIRED"):
                     warnings.warn(f"certificate: {w}", UserWarning, stacklevel=3)

@@ -121,7 +121,7 @@ def report_cmd(
         from volcal.report.certificate import build_certificate
         from volcal.report.certificate_files import write_certificate
 
-        uncs = als = None
+        uncs = als = b = None
         if budget is not None:  # U of every linear test of both sessions (docs/uncertainty.md)
             from volcal.report.certificate_inputs import session_uncertainties
             from volcal.uncertainty.budget import read_budget
@@ -132,7 +132,7 @@ def report_cmd(
             als = None if s2 is None else session_uncertainties(s2, b, edition)
         doc = build_certificate(s, result, as_left=s2, tables=tables, tolerance=tol,
                                 uncertainties=uncs, as_left_uncertainties=als,
-                                edition=edition)
+                                optics_budget=b, edition=edition)
         for w in doc["warnings"]:
             if w.startswith("EXPIRED"):
                 console.print(f"[yellow]warning[/] certificate: {w}", highlight=False)

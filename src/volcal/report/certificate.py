@@ -13,7 +13,9 @@ Where the fields come from:
 * identity: ``[machine]``, ``[calibration]``, ``[[equipment]]`` of ``session.toml``
   (:mod:`volcal.session.identity`);
 * results: :func:`volcal.standards.session.evaluate_session` (ISO 230-2 per linear test,
-  ISO 230-6 per diagonal, ISO 230-1 volumetric indices of the identified model);
+  ISO 230-6 per diagonal, ISO 230-1 volumetric indices of the identified model) and the
+  direct optics' own ISO 230-1 evaluation (:mod:`volcal.report.certificate_optics`:
+  straightness, angular deviation, squareness by optical square);
 * measurement uncertainty: ``U_*`` keys (or attributes) of the results and per-measurement
   ``budget`` objects, when an uncertainty budget was evaluated; otherwise the certificate
   says that none was given;
@@ -80,6 +82,11 @@ METHODS: dict[str, dict[str, str]] = {
     "ISO 230-1": {"title": "Test code for machine tools, part 1: geometric accuracy of "
                   "machines operating under no-load or quasi-static conditions "
                   "(volumetric indices, annex)", "reference": "ISO 230-1"},
+    "ISO 230-1 direct optics": {
+        "title": "Test code for machine tools, part 1: geometric accuracy of machines "
+        "operating under no-load or quasi-static conditions (straightness about the "
+        "least-squares reference line, angular deviation, squareness by optical square; "
+        "each optic evaluated on its own)", "reference": "ISO 230-1"},
     "volcal identification": {
         "title": "Identification of the 21 rigid-body error functions and squareness "
         "errors of the machine from all laser readings (Bayesian least squares on the "
@@ -512,8 +519,10 @@ def _diagonals(ev: Any, unc: dict[str, Any]) -> list[dict[str, Any]]:
     return out
 
 
-def _results(session: Any, ev: Any, with_model: bool, unc: dict[str, Any] | None = None
-             ) -> dict[str, Any]:
+def _results(session: Any, ev: Any, with_model: bool, unc: dict[str, Any] | None = None,
+             optics_budget: Any = None) -> dict[str, Any]:
+    from volcal.report.certificate_optics import direct_optics
+
     unc = unc or {}
     vol = None
     if ev.volumetric is not None:
@@ -535,7 +544,8 @@ def _results(session: Any, ev: Any, with_model: bool, unc: dict[str, Any] | None
             "positioning": _positioning(ev, unc), "diagonals": _diagonals(ev, unc),
             "volumetric": vol if with_model else None,
             "elv": ev.elv, "elv_source": ev.elv_source or None,
-            "skipped": dict(ev.skipped)}
+            "skipped": dict(ev.skipped),
+            "direct_optics": direct_optics(session, optics_budget)}
 
 
 def _pairs(found: dict[str, Any], left: dict[str, Any]) -> list[dict[str, Any]]:
@@ -605,8 +615,14 @@ def _conformity(tolerance: Any, results: dict[str, dict[str, Any]], rule: str,
                              "the work zone, identified model)", "tolerance_um": T,
                              "value_um": value, "U_um": U, "verdict": verdict,
                              "note": note})
-    return {"decision_rule": rule, "rule": RULE_TEXT[rule], "guard_band_um": guard_band_um,
-            "tolerance": tolerance.text(), "statements": rows}
+    from volcal.report.certificate_optics import optics_conformity
+
+    um, urad = optics_conformity(tolerance, results, rule, guard_band_um)
+    out = {"decision_rule": rule, "rule": RULE_TEXT[rule], "guard_band_um": guard_band_um,
+           "tolerance": tolerance.text(), "statements": rows + um}
+    if urad:
+        out["statements_urad"] = urad
+    return out
 
 
 def _budgets(budgets: dict[str, Any] | None) -> dict[str, Any] | None:
@@ -657,6 +673,12 @@ def _methods(found: dict[str, Any], left: dict[str, Any] | None, sessions: dict[
         out.append({"id": "ISO 230-6", **METHODS["ISO 230-6"], "edition": "2002",
                     "measurements": dia})
         out[-1]["reference"] = "ISO 230-6:2002"
+    opt = sorted({r["measurement"] for x in res for k in ("straightness", "angular")
+                  for r in (x.get("direct_optics") or {}).get(k, [])})
+    if opt:
+        out.append({"id": "ISO 230-1 direct optics", **METHODS["ISO 230-1 direct optics"],
+                    "edition": "2012", "measurements": opt})
+        out[-1]["reference"] = "ISO 230-1:2012"
     if with_model:
         out.append({"id": "volcal identification", **METHODS["volcal identification"],
                     "edition": None,
@@ -678,6 +700,7 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
                       budgets: dict[str, Any] | None = None,
                       uncertainties: dict[str, Any] | None = None,
                       as_left_uncertainties: dict[str, Any] | None = None,
+                      optics_budget: Any = None,
                       edition: str = "2014",
                       issued: str | None = None, generator: str | None = None,
                       technical_report: str | None = "report.pdf") -> dict[str, Any]:
@@ -699,7 +722,9 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
         (:func:`tables_of`), never applied.
     tolerance : Tolerance, optional
         Per-axis ISO 230-2 ``A`` and/or volumetric tolerance [um] of the statement of
-        conformity.
+        conformity; its ``straightness_um`` [um] and ``squareness_urad`` [urad] limits,
+        when given, are judged against the direct optics (``conformity.statements`` and
+        ``conformity.statements_urad``).
     decision_rule : {'simple', 'guarded'}, optional
         Decision rule of the statement of conformity (:func:`conformity_verdict`);
         default the tolerance's ``rule`` attribute when it has one, else ``simple``.
@@ -716,6 +741,12 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
         ``U_E_D`` of a diagonal), ``k`` and optionally ``uncertainty.budget`` (its
         budget table). ``U_*`` attributes or keys of the results themselves are read as
         well.
+    optics_budget : Budget, optional
+        Uncertainty budget of the direct optics (``volcal report --budget``; its
+        ``[optics]`` section, data-sheet defaults when absent): U and k of every
+        straightness, angular deviation and squareness in ``results.*.direct_optics``
+        (:func:`volcal.report.certificate_optics.direct_optics`), as ``volcal evaluate
+        optics --budget``. Without it those U are null.
     edition : str
         ISO 230-2 edition of the evaluation.
     issued : str, optional
@@ -768,11 +799,11 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
 
     ev = evaluate_session(session, result, edition,
                           model_uncertainty=result is not None and has_covariance(result))
-    found = _results(session, ev, result is not None, uncertainties)
+    found = _results(session, ev, result is not None, uncertainties, optics_budget)
     left = None
     if as_left is not None:
         left = _results(as_left, evaluate_session(as_left, None, edition), False,
-                        as_left_uncertainties)
+                        as_left_uncertainties, optics_budget)
     if decision_rule is None:
         decision_rule = getattr(tolerance, "rule", None) or "simple"
     if guard_band_um is None:
@@ -823,9 +854,17 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
             warnings.append(f"the {state.replace('_', '-')} readings are simulated "
                             "(volcal simulate), not measured")
 
+    from volcal.report.certificate_optics import optics_budgets
+
+    for x, suffix in ((found, ""), (left, " (as-left)")):
+        if x and x["direct_optics"]:
+            for k, b in optics_budgets(x["direct_optics"], suffix).items():
+                budgets.setdefault(k, b)
+            x["direct_optics"].pop("_budgets", None)
     budget = _budgets(budgets)
     has_U = any(r["U_um"] for x in (found, left) if x for r in x["positioning"]) or any(
-        r["U_E_D_um"] is not None for x in (found, left) if x for r in x["diagonals"])
+        r["U_E_D_um"] is not None for x in (found, left) if x for r in x["diagonals"]) or any(
+        (x["direct_optics"] or {}).get("uncertainty_evaluated") for x in (found, left) if x)
     if budget or has_U:
         corr = sorted({str(c["text"]).split("; correction at")[0]
                        for x in (uncertainties, as_left_uncertainties) for u in (x or {}).values()
@@ -841,6 +880,8 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
                "results are stated without their expanded uncertainty (ISO/IEC 17025:2017, "
                "7.8.4.1 requires it on a calibration certificate).", "budgets": None}
         warnings.append("no measurement-uncertainty budget given")
+
+    from volcal.report.certificate_optics import optics_pairs
 
     results = {"as_found": found, "as_left": left}
     tab = None if tables is None else tables_of(tables, session)
@@ -865,6 +906,7 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
         "results": results,
         "as_found_as_left": None if left is None else {
             "tables": tab, "pairs": _pairs(found, left),
+            "direct_optics_pairs": optics_pairs(found["direct_optics"], left["direct_optics"]),
             "statement": "As-found: measured before adjustment. As-left: measured after "
                          "the compensation tables below were loaded into the control. Both "
                          "are measured results; the tables are named, not applied again."},

@@ -17,6 +17,8 @@ _UNIT = "µm"
 _KEYS = {"A": "A", "A_up": "A↑", "A_down": "A↓", "E": "E", "E_up": "E↑", "E_down": "E↓",
          "M": "M", "R": "R", "R_up": "R↑", "R_down": "R↓", "B": "B", "B_mean": "mean B"}
 _SHOWN = ("A", "E", "M", "R", "B", "B_mean")
+_UNITS = {"um": "µm", "urad": "µrad"}
+_REF = {"least_squares": "least squares", "end_point": "end points"}
 
 
 @dataclass
@@ -128,7 +130,11 @@ def layout(doc: dict[str, Any]) -> list[CertSection]:
                                  _applied(m["measurements"])]
                                 for m in doc["methods"]]))
     s.blocks.append(Block("p", text="Deviations are referred to 20 °C (ISO 1). Positions "
-                          "in mm; deviations, their parameters and uncertainties in µm."))
+                          "in mm; deviations, their parameters and uncertainties in µm."
+                          + (" Angles (angular deviations, squareness) and their "
+                             "uncertainties in µrad." if any(
+                                 (r or {}).get("direct_optics") for r in
+                                 doc["results"].values()) else "")))
     out.append(s)
 
     s = CertSection("Environment as measured")
@@ -197,7 +203,8 @@ def layout(doc: dict[str, Any]) -> list[CertSection]:
         else:
             s.blocks.append(Block("flag", text="The compensation tables loaded between the "
                                   "two measurements are not named (--tables)."))
-        if not pair["pairs"]:
+        opt_pairs = pair.get("direct_optics_pairs") or []
+        if not pair["pairs"] and not opt_pairs:
             s.blocks.append(Block("flag", text="No evaluated measurement id is common to the "
                                   "as-found and the as-left session: nothing to pair."))
         s.blocks.append(Block("table", title="Measured as-found and as-left [µm]",
@@ -208,6 +215,15 @@ def layout(doc: dict[str, Any]) -> list[CertSection]:
                                      _n(p["as_left_um"]),
                                      _n(p["as_left_um"] - p["as_found_um"])]
                                     for p in pair["pairs"]]))
+        if opt_pairs:
+            s.blocks.append(Block("table", title="Direct optics (ISO 230-1) measured as-found "
+                                  "and as-left", columns=["measurement", "axis", "quantity",
+                                                          "unit", "as-found", "as-left",
+                                                          "change"],
+                                  rows=[[p["measurement"], p["axis"], p["quantity"],
+                                         _UNITS[p["unit"]], _n(p["as_found"]),
+                                         _n(p["as_left"]), _n(p["as_left"] - p["as_found"])]
+                                        for p in opt_pairs]))
         out.append(s)
 
     u = doc["uncertainty"]
@@ -221,7 +237,8 @@ def layout(doc: dict[str, Any]) -> list[CertSection]:
     if c is not None:
         s = CertSection("Statement of conformity")
         s.blocks.append(Block("fields", fields=[
-            ("Specification (tolerance)", f"{c['tolerance']} µm"),
+            ("Specification (tolerance)", f"{c['tolerance']} µm" if not c.get(
+                "statements_urad") else f"{c['tolerance']} (µm; squareness_urad in µrad)"),
             ("Decision rule", f"{c['decision_rule']}: {c['rule']}")
             ] + ([("Guard band", f"{c['guard_band_um']:g} µm")]
                  if c.get("guard_band_um") is not None else [])))
@@ -233,6 +250,17 @@ def layout(doc: dict[str, Any]) -> list[CertSection]:
                                     for r in c["statements"]],
                               flagged=[i for i, r in enumerate(c["statements"])
                                        if r["verdict"] == "fail"]))
+        ang = c.get("statements_urad") or []
+        if ang:
+            s.blocks.append(Block("table", title="Squareness by optical square [µrad]",
+                                  columns=["state", "quantity", "tolerance [µrad]",
+                                           "value [µrad]", "U [µrad]", "verdict", "note"],
+                                  rows=[[_state(r["state"]), r["quantity"],
+                                         _n(r["tolerance_urad"]), _n(r["value_urad"]),
+                                         _n(r["U_urad"]), r["verdict"] or "not stated",
+                                         r.get("note") or ""] for r in ang],
+                                  flagged=[i for i, r in enumerate(ang)
+                                           if r["verdict"] == "fail"]))
         out.append(s)
 
     s = CertSection("Remarks")
@@ -308,9 +336,59 @@ def _result_blocks(state: str, res: dict[str, Any], paired: bool) -> list[Block]
                               *(_n(vol["U_um"].get(k)) for k in
                                 ("E_VX", "E_VY", "E_VZ", "E_VXYZ", "E_VXYZ_range")),
                               "model covariance"]] if vol.get("U_um") else [])))
+    out.extend(_optics_blocks(head, res.get("direct_optics")))
     if res.get("skipped"):
         out.append(Block("note", text="Not evaluated: " + "; ".join(
             f"{k} ({v})" for k, v in res["skipped"].items())))
+    return out
+
+
+def _optics_blocks(head: str, opt: dict[str, Any] | None) -> list[Block]:
+    """The direct optics' tables (ISO 230-1): straightness [µm], angular, squareness [µrad]."""
+    if not opt:
+        return []
+    with_u = bool(opt.get("uncertainty_evaluated"))
+    ref = _REF.get(opt["reference_line"], opt["reference_line"])
+    uk = ["U", "k"] if with_u else []
+
+    def u(r: dict[str, Any], key: str) -> list[str]:
+        return [_n(r.get(key)), _n(r.get("k"), 2)] if with_u else []
+
+    out = []
+    st = opt["straightness"]
+    if st:
+        out.append(Block("table", title=f"{head}straightness, ISO 230-1 [µm]",
+                         columns=["measurement", "axis", "error direction", "reference line",
+                                  "length [mm]", "straightness", *uk],
+                         rows=[[r["measurement"] + (" (slope removed)" if r.get("note")
+                                                    else ""), r["axis"],
+                                r["error_direction"], _REF.get(r["reference_line"], ref),
+                                _n(r["length_mm"], 1), _n(r["straightness_um"]),
+                                *u(r, "U_um")] for r in st]))
+    an = opt["angular"]
+    if an:
+        out.append(Block("table", title=f"{head}angular deviation, ISO 230-1 [µrad]",
+                         columns=["measurement", "axis", "rotation", "optic",
+                                  "angular deviation (range)", "min", "max", *uk],
+                         rows=[[r["measurement"], r["axis"], r["rotation"],
+                                r["target"].replace("_", " "),
+                                _n(r["angular_deviation_urad"]), _n(r["min_urad"]),
+                                _n(r["max_urad"]), *u(r, "U_urad")] for r in an]))
+    sq = opt["squareness"]
+    if sq:
+        out.append(Block("table", title=f"{head}squareness by optical square, ISO 230-1 "
+                         "[µrad]",
+                         columns=["squareness", "optical square", "lines", "reference line",
+                                  "square deviation", "u(square)", "value", *uk],
+                         rows=[[r["name"], r["reference"], " + ".join(r["lines"]),
+                                _REF.get(r["reference_line"], ref),
+                                _n(r["square_deviation_urad"]), _n(r["u_square_urad"]),
+                                _n(r["value_urad"]), *u(r, "U_urad")] for r in sq]))
+    text = f"Direct optics: each optic evaluated on its own (ISO 230-1), {opt['reference']}."
+    if not with_u:
+        text += (" The expanded uncertainties of the direct optics' results were not "
+                 "evaluated (no uncertainty budget given).")
+    out.append(Block("note", text=text))
     return out
 
 
@@ -318,8 +396,8 @@ def _budget_blocks(mid: str, b: dict[str, Any]) -> list[Block]:
     contrib = b.get("contributors") or b.get("components") or []
     out = []
     head = ", ".join(f"{k} = {_n(b[k], 3) if isinstance(b[k], float) else b[k]}"
-                     for k in ("measurand", "quantity", "u_um", "u_c_um", "dof", "nu_eff", "k",
-                               "U_um") if b.get(k) is not None)
+                     for k in ("measurand", "quantity", "u_um", "u_urad", "u_c_um", "dof",
+                               "nu_eff", "k", "U_um", "U_urad") if b.get(k) is not None)
     if contrib and isinstance(contrib, list) and isinstance(contrib[0], dict):
         cols: list[str] = []
         for c in contrib:

@@ -9,7 +9,12 @@ A tolerance is given on the command line as ``--tolerance-um``:
   3.23; the acceptance figure of most machine specifications);
 * both, ``--tolerance-um X=10,Y=10,Z=8,V=15`` (``V`` = volumetric);
 * another ISO 230-2 parameter of an axis, ``X.E=6,X.R=4`` (any key of the ISO 230-2
-  JSON: ``A, A_up, A_down, E, E_up, E_down, M, R, R_up, R_down, B, B_mean``).
+  JSON: ``A, A_up, A_down, E, E_up, E_down, M, R, R_up, R_down, B, B_mean``);
+* the direct optics' limits, stated on the calibration certificate
+  (``docs/certificate.md``): ``X.straightness_um=4`` (ISO 230-1 straightness of every
+  straightness line moving along X, either error direction, least-squares reference
+  line [um]) and ``EC0Y.squareness_urad=20`` (the magnitude of a squareness measured
+  with an optical square, EC0Y, EB0Z or EA0Z [urad]).
 
 ``volcal evaluate iso230-2`` (one axis) takes ``--tolerance-um 10`` (on ``A``) or
 ``A=10,E=6,R=4`` (:func:`parse_parameter_tolerance`).
@@ -27,8 +32,13 @@ from typing import Any
 from volcal.errors import VolcalInputError
 from volcal.standards.decision import Decision, decide
 
-__all__ = ["PARAMETER_KEYS", "Tolerance", "Verdict", "parse_parameter_tolerance",
-           "parse_tolerance"]
+__all__ = ["OPTICS_KEYS", "PARAMETER_KEYS", "SQUARENESS_NAMES", "Tolerance", "Verdict",
+           "parse_parameter_tolerance", "parse_tolerance"]
+
+#: The direct optics' keys: ``<axis>.straightness_um``, ``<name>.squareness_urad``.
+OPTICS_KEYS: tuple[str, str] = ("straightness_um", "squareness_urad")
+#: The squareness names an optical square gives (``volcal.model.names``).
+SQUARENESS_NAMES: tuple[str, ...] = ("EC0Y", "EB0Z", "EA0Z")
 
 #: ISO 230-2 parameters a tolerance can apply to (the keys of its JSON).
 PARAMETER_KEYS: tuple[str, ...] = ("A", "A_up", "A_down", "E", "E_up", "E_down", "M", "R",
@@ -108,6 +118,12 @@ class Tolerance:
     budget : Budget or None
         Uncertainty budget (:mod:`volcal.uncertainty.budget`) giving U of the ISO 230-2
         parameters.
+    straightness_um : dict of str to float
+        ISO 230-1 straightness per moving axis (``X.straightness_um=4``) [um]; stated on
+        the certificate.
+    squareness_urad : dict of str to float
+        Magnitude of a squareness by optical square per name (``EC0Y.squareness_urad=20``)
+        [urad]; stated on the certificate.
     """
 
     volumetric_um: float | None = None
@@ -116,11 +132,15 @@ class Tolerance:
     rule: str = "simple"
     guard_band_um: float | None = None
     budget: Any = None
+    straightness_um: dict[str, float] = field(default_factory=dict)
+    squareness_urad: dict[str, float] = field(default_factory=dict)
 
     def text(self) -> str:
         """The tolerance as written on the command line."""
         parts = [f"{a}={v:g}" for a, v in self.axis_um.items()]
         parts += [f"{a}.{k}={v:g}" for a, d in self.parameters.items() for k, v in d.items()]
+        parts += [f"{a}.{OPTICS_KEYS[0]}={v:g}" for a, v in self.straightness_um.items()]
+        parts += [f"{n}.{OPTICS_KEYS[1]}={v:g}" for n, v in self.squareness_urad.items()]
         if self.volumetric_um is not None:
             parts.append(f"V={self.volumetric_um:g}" if parts else f"{self.volumetric_um:g}")
         return ",".join(parts)
@@ -128,6 +148,10 @@ class Tolerance:
 
 def parse_tolerance(text: str) -> Tolerance:
     """Read ``--tolerance-um``: ``15``, ``X=10,Y=10,Z=8``, ``X=10,Y=10,Z=8,V=15``, ``X.E=6``.
+
+    ``X.straightness_um=4`` and ``EC0Y.squareness_urad=20`` add the direct optics' limits
+    (the certificate's statements; ``volcal evaluate session`` and the report's verdict
+    do not use them).
 
     Parameters
     ----------
@@ -150,7 +174,7 @@ def parse_tolerance(text: str) -> Tolerance:
             v = float("nan")
         if not math.isfinite(v) or v <= 0:
             raise VolcalInputError(f"--tolerance-um {text!r}: {what} {s!r} is not a positive "
-                                   "number of um")
+                                   "number of " + ("urad" if what.endswith("urad") else "um"))
         return v
 
     text = str(text).strip()
@@ -158,10 +182,25 @@ def parse_tolerance(text: str) -> Tolerance:
         return Tolerance(num(text, "value"))
     axis: dict[str, float] = {}
     params: dict[str, dict[str, float]] = {}
+    optics: tuple[dict[str, float], dict[str, float]] = ({}, {})
     vol = None
     for part in (p.strip() for p in text.split(",")):
         key, eq, val = part.partition("=")
         key = key.strip()
+        name, _, par = key.partition(".")
+        if eq and par.strip().lower() in OPTICS_KEYS:
+            which = OPTICS_KEYS.index(par.strip().lower())
+            name = name.strip().upper()
+            valid = ("X", "Y", "Z") if which == 0 else SQUARENESS_NAMES
+            if name not in valid:
+                raise VolcalInputError(f"--tolerance-um {text!r}: {key!r}: "
+                                       f"{OPTICS_KEYS[which]} applies to "
+                                       f"{', '.join(valid)}, found {name!r}")
+            if name in optics[which]:
+                raise VolcalInputError(f"--tolerance-um {text!r}: {name}."
+                                       f"{OPTICS_KEYS[which]} given twice")
+            optics[which][name] = num(val.strip(), f"{name}.{OPTICS_KEYS[which]}")
+            continue
         if eq and "." in key and key.split(".")[0].strip().upper() in ("X", "Y", "Z"):
             ax, _, par = key.partition(".")
             ax = ax.strip().upper()
@@ -177,8 +216,9 @@ def parse_tolerance(text: str) -> Tolerance:
         if not eq or key not in ("X", "Y", "Z", "V"):
             raise VolcalInputError(f"--tolerance-um {text!r}: expected X=..,Y=..,Z=.. (ISO "
                                    "230-2 accuracy A per axis), X.E=.. (another ISO 230-2 "
-                                   "parameter) and/or V=.. (volumetric), "
-                                   f"found {part!r}")
+                                   "parameter), X.straightness_um=.., "
+                                   "EC0Y.squareness_urad=.. (direct optics) and/or V=.. "
+                                   f"(volumetric), found {part!r}")
         if key in axis or (key == "V" and vol is not None):
             raise VolcalInputError(f"--tolerance-um {text!r}: {key} given twice")
         if key == "V":
@@ -186,7 +226,9 @@ def parse_tolerance(text: str) -> Tolerance:
         else:
             axis[key] = num(val.strip(), key)
     return Tolerance(vol, dict(sorted(axis.items())),
-                     {a: params[a] for a in sorted(params)})
+                     {a: params[a] for a in sorted(params)},
+                     straightness_um=dict(sorted(optics[0].items())),
+                     squareness_urad=optics[1])
 
 
 @dataclass(frozen=True)

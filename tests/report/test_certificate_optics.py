@@ -339,3 +339,35 @@ def test_report_budget_reaches_the_certificate(tmp_path, monkeypatch, capsys):
     assert doc["uncertainty"]["given"] and "str-xy" in doc["uncertainty"]["budgets"]
     row = doc["conformity"]["statements"][0]
     assert (row["value_um"], row["verdict"]) == (pytest.approx(1.8), "conditional")
+
+
+def test_evaluate_optics_states_the_same_verdicts(tmp_path):
+    """`volcal evaluate optics --tolerance-um ... --decision-rule guarded --budget B`
+    judges the hand lines as the certificate does (:func:`test_conformity_by_hand`: the
+    straightness 1.8 um, U 0.805, against 2 um is conditional, |EC0Y| 17 urad, U 6.28,
+    against 15 urad fails); ISO 230-2 limits alone are refused with the command that
+    judges them, and `evaluate session` says where the optics' limits are judged."""
+    write_session(_hand(), tmp_path / "s")
+    doc = tomllib.loads(TEMPLATE)
+    doc["optics"] = {"u_straightness_scale_pct": 0.5, "u_straightness_um": 0.3,
+                     "u_level_scale_pct": 1.0, "u_level_urad": 0.5}
+    import tomli_w
+
+    (tmp_path / "b.toml").write_text(tomli_w.dumps(doc), encoding="utf-8")
+    p = subprocess.run([*VOLCAL, "evaluate", "optics", str(tmp_path / "s"), "--budget",
+                        str(tmp_path / "b.toml"), "--tolerance-um",
+                        "X.straightness_um=2,EC0Y.squareness_urad=15",
+                        "--decision-rule", "guarded", "--json"],
+                       capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr
+    conf = json.loads(p.stdout)["conformity"]
+    st, sq = conf["statements"]
+    assert st["value_um"] == pytest.approx(1.8) and st["verdict"] == "conditional"
+    assert st["U_um"] == pytest.approx(2 * math.sqrt(0.162081))
+    assert sq["value_urad"] == pytest.approx(17.0) and sq["verdict"] == "fail"
+    assert conf["decision_rule"] == "guarded"
+    p = subprocess.run([*VOLCAL, "evaluate", "optics", str(tmp_path / "s"),
+                        "--tolerance-um", "X=10"], capture_output=True, text=True,
+                       timeout=300)
+    assert p.returncode == 2 and "volcal evaluate session" in p.stderr
+    assert "Traceback" not in p.stderr

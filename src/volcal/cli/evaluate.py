@@ -353,12 +353,15 @@ def session_cmd(
 ) -> None:
     """ISO 230-2 for every linear measurement with runs and directions; ELv (seed 002)."""
     from volcal.errors import VolcalInputError
-    from volcal.session.format import read_session
     from volcal.standards.session import evaluate_session
 
     tol = _tolerance_inputs(tolerance_um, model, compensation)
     tol = (_acceptance(tol[0], decision_rule, guard_band_um, budget), tol[1], tol[2])
-    s = read_session(session)
+    if tol[0] is not None and (tol[0].straightness_um or tol[0].squareness_urad):
+        Console(stderr=True, soft_wrap=True).print(
+            "note: the straightness_um / squareness_urad limits are the direct optics': "
+            "judged by `volcal evaluate optics SESSION --tolerance-um ...` and on the "
+            "certificate, not here", highlight=False)
     print_session_notes(s)
     if compensation is not None:
         tol = (tol[0], tol[1], _written_tables(compensation, s, tol[1], model, force))
@@ -634,16 +637,42 @@ def optics_cmd(
                                        "straightness, angular deviation and squareness from "
                                        "its [optics] section (data-sheet defaults when "
                                        "absent) and the optical squares' certificates."),
+    tolerance_um: str | None = typer.Option(
+        None, help="Limits for a verdict: X.straightness_um=4 (the largest ISO 230-1 "
+        "straightness, least-squares line, of the lines moving along X) and "
+        "EC0Y.squareness_urad=20 (the magnitude of a squareness by optical square), "
+        "comma-separated."),
+    decision_rule: str = typer.Option(D.DECISION_RULE, help="simple (pass when value <= T) or "
+                                      "guarded (pass at or below T - w, conditional up to "
+                                      "T; w = U from --budget, or --guard-band-um for the "
+                                      "straightness)."),
+    guard_band_um: float | None = typer.Option(None, help="Guard band w of the guarded "
+                                               "rule for the straightness [um] (a "
+                                               "squareness takes its own U)."),
 ) -> None:
     """ISO 230-1 of the direct optics: straightness, angular deviation, optical squares.
 
     Straightness about the end-point and the least-squares lines, the range of each
-    angular line, the squareness of each optical-square pair; with --budget, U of each.
+    angular line, the squareness of each optical-square pair; with --budget, U of each;
+    with --tolerance-um, a verdict per limit under the decision rule (the certificate's
+    statements, volcal.report.certificate_optics).
     """
     from volcal.errors import VolcalInputError
     from volcal.session.format import read_session
     from volcal.standards.optics import evaluate_optics
 
+    tol = None
+    if tolerance_um is not None:
+        from volcal.standards.tolerance import parse_tolerance
+
+        tol = parse_tolerance(tolerance_um)
+        if not (tol.straightness_um or tol.squareness_urad):
+            raise VolcalInputError(
+                f"--tolerance-um {tolerance_um!r} holds no direct-optics limit: give "
+                "<axis>.straightness_um=... or <EC0Y|EB0Z|EA0Z>.squareness_urad=... (ISO 230-2 "
+                "and volumetric limits are judged by `volcal evaluate session`)")
+    if decision_rule not in ("simple", "guarded"):
+        raise VolcalInputError(f"--decision-rule must be simple or guarded, got {decision_rule!r}")
     b = None
     if budget is not None:
         from volcal.uncertainty.budget import read_budget
@@ -659,6 +688,16 @@ def optics_cmd(
 
         add_optics_uncertainty(ev, optics_uncertainty(s, b, ev))
         ev["budget_file"] = str(budget)
+    if tol is not None:
+        from volcal.report.certificate_optics import direct_optics, optics_conformity
+        from volcal.standards.decision import RULE_TEXT
+
+        um, urad = optics_conformity(tol, {"as_found": {"direct_optics": direct_optics(s, b)}},
+                                     decision_rule, guard_band_um)
+        ev["conformity"] = {"decision_rule": decision_rule, "rule": RULE_TEXT[decision_rule],
+                            "guard_band_um": guard_band_um,
+                            "statements": [{k: v for k, v in r.items() if k != "state"}
+                                           for r in um + urad]}
     if as_json:
         _print_json(ev)
         return
@@ -705,6 +744,29 @@ def optics_cmd(
     if b is not None:
         for n in ev["uncertainty"]["notes"]:
             console.print(f"note: {escape(n)}", highlight=False)
+    if "conformity" in ev:
+        _print_optics_conformity(ev["conformity"])
+
+
+def _print_optics_conformity(conf: dict[str, Any]) -> None:
+    """The verdict table of `evaluate optics --tolerance-um`."""
+    t = Table(title=escape(f"tolerance verdict, decision rule: {conf['decision_rule']}"))
+    for c in ("quantity", "unit", "tolerance", "value", "U", "verdict"):
+        t.add_column(c, justify="right")
+    words = {"pass": "[green]pass[/]", "fail": "[red]fail[/]",
+             "conditional": "[yellow]conditional[/]"}
+    for r in conf["statements"]:
+        unit = "um" if "tolerance_um" in r else "urad"
+        val, U = r[f"value_{unit}"], r[f"U_{unit}"]
+        t.add_row(escape(r["quantity"]), unit, f"{r[f'tolerance_{unit}']:g}",
+                  "-" if val is None else f"{val:.3f}", "-" if U is None else f"{U:.3f}",
+                  words.get(r["verdict"], "-" if r["verdict"] is None else r["verdict"]))
+    print_table(console, t)
+    console.print(f"decision rule: {escape(conf['rule'])}", highlight=False)
+    for r in conf["statements"]:
+        if r.get("note"):
+            console.print(f"note ({escape(r['quantity'])}): {escape(r['note'])}",
+                          highlight=False)
 
 
 def register(app: typer.Typer) -> None:

@@ -353,6 +353,7 @@ def session_cmd(
 ) -> None:
     """ISO 230-2 for every linear measurement with runs and directions; ELv (seed 002)."""
     from volcal.errors import VolcalInputError
+    from volcal.session.format import read_session
     from volcal.standards.session import evaluate_session
 
     tol = _tolerance_inputs(tolerance_um, model, compensation)
@@ -362,6 +363,7 @@ def session_cmd(
             "note: the straightness_um / squareness_urad limits are the direct optics': "
             "judged by `volcal evaluate optics SESSION --tolerance-um ...` and on the "
             "certificate, not here", highlight=False)
+    s = read_session(session)
     print_session_notes(s)
     if compensation is not None:
         tol = (tol[0], tol[1], _written_tables(compensation, s, tol[1], model, force))
@@ -453,7 +455,7 @@ def session_cmd(
         console.print(f"[yellow]warning[/] ({', '.join(ids)}): {escape(w)}", highlight=False)
     for k, why in why_skipped.items():
         console.print(f"[yellow]skipped[/] {k}: {escape(why)}", highlight=False)
-    if verdict is not None:
+    if verdict:
         _print_verdict(verdict, tol[1] is not None)
 
 

@@ -403,3 +403,39 @@ def test_roll_scale_evidence_in_closed_form_equals_the_evidence(small, monkeypat
     got_rho = solver._roll_marginal_factors(prior, fs, x, cov, w, tol=0.0)[f]
     assert got_rho == pytest.approx(want_rho, rel=1e-6)
     assert abs(want_rho - 1.0) > 0.02  # the readings inform this roll: a real check
+
+
+def test_roll_presence_bayes_factor_equals_the_evidence(small, monkeypatch):
+    """:func:`volcal.identify.solver._roll_presence_factors` (the switch
+    ``ROLL_ABSENT_PROBABILITY``): the log Bayes factor of "rolls at rho_s times their
+    scale" over "no roll" from the three rolls' whitened information equals the difference
+    of the full evidence with the three roll scales multiplied by rho_s and by 1e-6, and
+    the factor is ``sqrt(P(roll | y)) rho_s``."""
+    import volcal.identify.evidence as evidence
+    from volcal.identify import solver
+    from volcal.identify.prior import function_scales
+
+    _, design, prior = small
+    monkeypatch.setattr(evidence, "NUISANCE_PRECISION",
+                        {k: 1e-2 for k in evidence.NUISANCE_PRECISION})
+    ev = evidence._Evidence(design, prior, 100.0)
+    fs = function_scales(np.array([8.0, 4.0, 12.0, 20.0]))
+    sigma = 0.4
+    _, _, _, x, cov = solver._final_solve(ev, design, fs, sigma, True)
+
+    def full(r):
+        g = fs.copy()
+        g[list(solver.ROLL_FUNCTIONS)] *= r
+        return -0.5 * ev.neg2(g, sigma)
+
+    p = 0.3
+    rs = 1.0 / np.sqrt(1.0 - p)
+    L = full(rs) - full(1e-6)
+    p_roll = (1 - p) * np.exp(L) / ((1 - p) * np.exp(L) + p)
+    got = solver._roll_presence_factors(prior, fs, x, cov, p, tol=0.0)
+    assert set(got) == set(solver.ROLL_FUNCTIONS)
+    assert got[3] == pytest.approx(np.sqrt(p_roll) * rs, rel=1e-6)
+    k, b2 = solver._roll_whitened(prior, fs, x, cov)
+    q = 1.0 + rs**2 * k
+    assert float(-0.5 * np.sum(np.log(q)) + 0.5 * np.sum(rs**2 * b2 / q)) == pytest.approx(
+        L, rel=1e-6, abs=1e-6)

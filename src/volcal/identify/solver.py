@@ -126,6 +126,29 @@ one or two such directions is a chi-square with one or two degrees of freedom, a
 hyperprior that lets it fall far enough for machines without roll shrinks the *unseen*
 directions of machines with roll with it. The family without roll is then served by
 ``roll='zero'`` (1.10x) or by a level (direct optics, issue 16), not by the evidence."""
+ROLL_ABSENT_PROBABILITY = 0.0
+"""Prior probability that the machine has no roll errors at all (0: off). With ``p > 0``
+the three rolls share one indicator: absent (scale 0) with probability ``p``, present
+with probability ``1 - p`` at ``1 / sqrt(1 - p)`` times :data:`ROLL_FACTOR`'s scale (so
+that a design that does not see the rolls keeps exactly today's prior variance); after the
+fit the rolls' prior variance becomes its posterior mean given the readings
+(:func:`_roll_presence_factors`). Measured on benchmarks/families.py and
+benchmarks/study.py (2026-11-24, 20 machines per family, 8 of volcal's own): with
+``p = 0.2`` and the "roll" hypothesis at today's scale (:data:`ROLL_PRESENT_FACTOR` 1) the
+family without roll came to a median 1.19x the limit on the full set (1.81 off) and 1.07x
+on the long machine (1.65), the others at a 1.02, c 1.20, e 1.18, f 1.20 (off: 1.02,
+1.18, 1.18, 1.17) with pooled coverage 0.93-0.97; but on volcal's own machines, which all
+have rolls, the rolls were judged absent often enough that the full set's coverage fell
+from 0.981 to 0.915 (one machine 0.44), Abbe lines + body diagonals' from 0.930 to 0.892
+and the step diagonals' roll coverage from 0.97 to 0.89 (tests/identify/
+test_study_designs.py asks 0.90). With the "roll" hypothesis normalised (``1 / sqrt(1 -
+p)``, p 0.5 / 0.2) the families with roll lost accuracy instead (c 1.36 / 1.24, f 1.31 /
+1.22). Off: the seeds' designs inform the rolls too weakly to tell a machine without roll
+from one with small rolls, which is the user's to state (``roll='zero'``)."""
+ROLL_PRESENT_FACTOR: float | None = None
+"""Scale factor of the "roll" hypothesis of :data:`ROLL_ABSENT_PROBABILITY` over the
+current roll scale; None: ``1 / sqrt(1 - p)`` (a design that does not see the rolls keeps
+today's prior variance)."""
 KAPPA_FACTOR_SPREAD = 0.0
 """Spread of each group's curvature scale around the common one (0: one curvature scale
 for all groups). Measured with a factor 3 on the study's designs (8 machines): pooled
@@ -421,12 +444,16 @@ def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float6
     if kappa != ev.prior.kappa:
         ev.prior = ev.prior.with_kappa(kappa)
     H, Q, cf, x, cov = _final_solve(ev, design, f_opt, sigma, covariance)
-    if free_scales and ROLL_MARGINAL_SPREAD > 0 and cov is not None and not ROLL_SPREAD > 0:
-        rho = _roll_marginal_factors(ev.prior, f_opt, x, cov, ROLL_MARGINAL_SPREAD)
-        if rho:
-            for f, r in rho.items():
-                f_opt[f] *= r
-            H, Q, cf, x, cov = _final_solve(ev, design, f_opt, sigma, covariance)
+    rho: dict[int, float] = {}
+    if free_scales and cov is not None and not ROLL_SPREAD > 0:
+        if ROLL_ABSENT_PROBABILITY > 0:
+            rho = _roll_presence_factors(ev.prior, f_opt, x, cov, ROLL_ABSENT_PROBABILITY)
+        elif ROLL_MARGINAL_SPREAD > 0:
+            rho = _roll_marginal_factors(ev.prior, f_opt, x, cov, ROLL_MARGINAL_SPREAD)
+    if rho:
+        for f, r in rho.items():
+            f_opt[f] *= r
+        H, Q, cf, x, cov = _final_solve(ev, design, f_opt, sigma, covariance)
     r = design.y - design.A @ x
     if design.prior_mean is not None and np.any(design.prior_mean):
         x = x + design.prior_mean
@@ -602,6 +629,69 @@ def _roll_marginal_factors(prior: PriorStructure, fscales, x, cov, spread: float
         if abs(r - 1.0) > tol:
             out[f] = r
     return out
+
+
+def _roll_whitened(prior: PriorStructure, fscales, x, cov):
+    """The rolls' data information in coordinates whitened by their prior.
+
+    Returns ``(k, b2)``: the eigenvalues ``k_i = 1/s_i - 1`` of the data's precision and
+    the squared projections ``b_i^2`` (:func:`_roll_marginal_factors`), over the three
+    rolls' free nodes together; None when the design has no roll block.
+    """
+    idx_all, W = [], []
+    for b, (idx, *_rest, f) in enumerate(prior.blocks):
+        if f not in ROLL_FUNCTIONS or prior.has_trend(b) or prior.has_nugget(b):
+            continue
+        try:
+            Lp = np.linalg.cholesky(prior.unit_block(b)[0])
+        except np.linalg.LinAlgError:
+            return None
+        idx_all.append(idx)
+        W.append(Lp.T / float(fscales[f]))
+    if not idx_all:
+        return None
+    idx = np.concatenate(idx_all)
+    T = sla.block_diag(*W)
+    u = T @ x[idx]
+    Su = T @ cov[np.ix_(idx, idx)] @ T.T
+    sv, V = np.linalg.eigh((Su + Su.T) / 2)
+    sv = np.clip(sv, 1e-12, 1.0)
+    return 1.0 / sv - 1.0, (V.T @ u / sv) ** 2
+
+
+def _roll_presence_factors(prior: PriorStructure, fscales, x, cov, p_absent: float,
+                           tol: float = 0.02) -> dict[int, float]:
+    """The rolls' prior scale factor averaged over "no roll" and "roll" given the readings.
+
+    Two hypotheses for the machine: no roll errors (scale 0, prior probability ``p``), or
+    rolls at ``rho_s = 1 / sqrt(1 - p)`` times the current scale. With the three rolls'
+    data information in whitened coordinates (:func:`_roll_whitened`) the log Bayes factor
+    of "roll" over "no roll" is ``L = -1/2 sum log(1 + rho_s^2 k_i) + 1/2 sum rho_s^2 b_i^2
+    / (1 + rho_s^2 k_i)`` and the returned factor ``sqrt(P(roll | y)) rho_s`` (the
+    posterior mean of the variance; ``E[rho^2] = 1`` a priori). References: Mitchell and
+    Beauchamp (1988), spike-and-slab priors; Hoeting et al. (1999), Bayesian model
+    averaging.
+
+    Returns
+    -------
+    dict of int to float
+        Roll function index -> factor (empty when within ``tol`` of 1 or no roll block).
+    """
+    kb = _roll_whitened(prior, fscales, x, cov)
+    if kb is None:
+        return {}
+    k, b2 = kb
+    r2 = 1.0 / (1.0 - p_absent) if ROLL_PRESENT_FACTOR is None else ROLL_PRESENT_FACTOR**2
+    q = 1.0 + r2 * k
+    L = float(-0.5 * np.sum(np.log(q)) + 0.5 * np.sum(r2 * b2 / q))
+    # P(roll | y) = (1 - p) e^L / ((1 - p) e^L + p), written to avoid overflow
+    z = np.log(p_absent) - np.log1p(-p_absent) - L
+    p_roll = float(np.exp(-np.logaddexp(0.0, z)))
+    r = float(np.sqrt(p_roll * r2))
+    if abs(r - 1.0) <= tol:
+        return {}
+    return {f: r for f in ROLL_FUNCTIONS
+            if any(blk[4] == f for blk in prior.blocks)}
 
 
 def _final_factor(ev: _Evidence, fscales, sigma: float):

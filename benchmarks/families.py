@@ -507,8 +507,11 @@ def build_limit(family: Family, travel, chain: str, session, n_draws: int = N_DR
         m.deviation = np.zeros(m.n)
     nodes = choose_nodes(s, refine=IdentifyOptions().refine, max_nodes=IdentifyOptions().max_nodes)
     design = build_design(s, nodes)
+    import hashlib
+
+    where = hashlib.sha256(np.concatenate(nodes).round(6).tobytes()).hexdigest()[:10]
     key = (f"{family.name}-{chain}-{'x'.join(f'{v:g}' for v in np.ravel(travel))}-"
-           f"{'x'.join(str(len(n)) for n in nodes)}-{n_draws}-{seed}")
+           f"{'x'.join(str(len(n)) for n in nodes)}-{where}-{n_draws}-{seed}")
     path = CACHE / f"prior-{key}.npz" if CACHE is not None else None
     if path is not None and path.exists():
         with np.load(path) as z:

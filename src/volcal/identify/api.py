@@ -13,8 +13,15 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+import volcal.identify.design as _design
 from volcal.errors import VolcalInputError
-from volcal.identify.design import Design, build_design, choose_nodes, coarsen
+from volcal.identify.design import (
+    Design,
+    build_design,
+    choose_nodes,
+    coarsen,
+    visited_positions,
+)
 from volcal.identify.identifiability import analyse
 from volcal.identify.prior import PriorStructure
 from volcal.identify.record import session_identity
@@ -442,8 +449,13 @@ def _identify_weighted(session: Session, o: IdentifyOptions,
         prior = PriorStructure.build(design.layout, design.free, o.kappa)
         scales = None if o.scales is None else np.array(o.scales)
         tilt_std = None
-        nodes_h = choose_nodes(session, refine=o.refine,
-                               max_nodes=min(o.max_nodes, HYPER_MAX_NODES))
+        # the hyperparameters' grid keeps the visited positions when the fine one does
+        # (design.NODES_AT_READINGS): a coarse uniform grid would put its nodes between
+        # the readings and the evidence would judge the prior on a misplaced grid
+        n_h = HYPER_MAX_NODES
+        if _design.NODES_AT_READINGS:
+            n_h = max([n_h, *(m for m in visited_positions(session) if m <= o.max_nodes)])
+        nodes_h = choose_nodes(session, refine=o.refine, max_nodes=min(o.max_nodes, n_h))
         if scales is None and any(len(a) != len(b) for a, b in zip(nodes_h, nodes, strict=True)):
             # hyperparameters are properties of the functions, not of the grid: choose them
             # on a coarser grid (fast), then solve on the fine one, re-estimating the noise

@@ -62,6 +62,61 @@ def _row_block(kind: str):
     return _loaded(ROW_BLOCKS[kind])
 
 
+NODES_AT_READINGS = True
+"""When the refined grid would exceed ``max_nodes`` but the visited positions fit, keep
+every visited position as a node and spend the rest of the budget on the longest
+intervals (:func:`_fill_intervals`), instead of a uniform grid whose nodes fall between
+the readings. On the seeds' full set at 10 increments the linear tests (ISO 230-2
+spacing) and the diagonals (uniform) visit about 22 positions per axis: with the uniform
+41-node grid the linear tests read between nodes, and a ball screw's cyclic error, which
+the readings see at their own positions, could only be reproduced by interpolation
+(issue 19, family d of benchmarks/families.py; benchmarks/README.md)."""
+
+
+def visited_positions(session: Session) -> list[int]:
+    """Number of distinct visited positions per axis, the travel's ends included.
+
+    Parameters
+    ----------
+    session : Session
+        The session.
+
+    Returns
+    -------
+    list of 3 int
+    """
+    return [choose_nodes(session, refine=1, max_nodes=10**9)[k].size for k in range(3)]
+
+
+def _fill_intervals(v: NDArray[np.float64], n: int) -> NDArray[np.float64]:
+    """``v`` (sorted, at most ``n`` values) with nodes added in its longest intervals.
+
+    The ``n - v.size`` added nodes go one at a time to the interval whose parts would
+    otherwise be longest, each interval split evenly.
+
+    Parameters
+    ----------
+    v : ndarray
+        Sorted node positions [mm].
+    n : int
+        Number of nodes wanted.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+    """
+    gaps = np.diff(v)
+    parts = np.ones(gaps.size, dtype=int)
+    for _ in range(n - v.size):
+        parts[int(np.argmax(gaps / parts))] += 1
+    out = [v[:1]]
+    for a, g, m in zip(v[:-1], gaps, parts, strict=True):
+        out.append(a + g * np.arange(1, m + 1) / m)
+    w = np.concatenate(out)
+    w[np.cumsum(np.concatenate([[0], parts]))] = v  # the visited positions exactly
+    return w
+
+
 def choose_nodes(session: Session, refine: int = 2, max_nodes: int = 201
                  ) -> list[NDArray[np.float64]]:
     """Node positions per axis: the visited positions and travel ends, refined.
@@ -96,7 +151,8 @@ def choose_nodes(session: Session, refine: int = 2, max_nodes: int = 201
                 keep.append(x)
         v = np.array(keep)
         if (v.size - 1) * max(refine, 1) + 1 > max_nodes:
-            v = np.linspace(lo, hi, max_nodes)
+            v = (_fill_intervals(v, max_nodes) if NODES_AT_READINGS and v.size <= max_nodes
+                 else np.linspace(lo, hi, max_nodes))
         elif refine > 1:
             t = np.arange(1, refine + 1) / refine  # each interval split into refine parts
             inner = v[:-1, None] + (v[1:] - v[:-1])[:, None] * t

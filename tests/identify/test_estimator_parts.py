@@ -439,3 +439,41 @@ def test_roll_presence_bayes_factor_equals_the_evidence(small, monkeypatch):
     q = 1.0 + rs**2 * k
     assert float(-0.5 * np.sum(np.log(q)) + 0.5 * np.sum(rs**2 * b2 / q)) == pytest.approx(
         L, rel=1e-6, abs=1e-6)
+
+
+def test_every_reading_sits_on_a_node_when_the_visited_positions_fit(monkeypatch):
+    """The seeds' full set at 10 increments (ISO 230-2 spacing on the lines, uniform on
+    the diagonals) visits about 22 positions per axis: refined by 2 that exceeds 41 nodes,
+    and the grid used to fall back to 41 uniform nodes between which the lines read. Now
+    every visited position is a node, the other nodes split the longest intervals, and
+    the hyperparameters' grid holds the visited positions too."""
+    from volcal.identify import api
+    from volcal.identify.design import _fill_intervals, visited_positions
+    from volcal.plan.planner import plan_session
+
+    s = plan_session(TRAVEL, "XYFZ", 10, ("step-diagonal", "diagonal", "linear"), runs=1)
+    nodes = choose_nodes(s, refine=2, max_nodes=41)
+    visited = choose_nodes(s, refine=1, max_nodes=10**9)
+    assert [v.size for v in visited] == visited_positions(s)
+    for k in range(3):
+        assert 2 * visited[k].size - 1 > 41 >= visited[k].size  # the case in question
+        assert nodes[k].size == 41
+        assert np.all(np.isin(np.round(visited[k], 6), np.round(nodes[k], 6))), k
+        assert np.all(np.diff(nodes[k]) > 0)
+    # the longest intervals are split first, evenly
+    w = _fill_intervals(np.array([0.0, 10.0, 100.0]), 6)
+    np.testing.assert_allclose(w, [0.0, 10.0, 32.5, 55.0, 77.5, 100.0])
+    # the hyperparameters' grid: the visited positions (more than HYPER_MAX_NODES)
+    exact_fill(s, random_machine(TRAVEL, "XYFZ", seed=3), seed=4)
+    grids = []
+
+    def spy(design, *a, **k):
+        grids.append([np.asarray(n) for n in design.layout.nodes])
+        return solve_bayes(design, *a, **k)
+
+    monkeypatch.setattr(api, "solve_bayes", spy)
+    identify(s, IdentifyOptions(suggest=False))
+    hyper = grids[0]  # the first solve chooses the hyperparameters
+    for k in range(3):
+        np.testing.assert_allclose(hyper[k], visited[k])
+    assert api.HYPER_MAX_NODES < min(v.size for v in visited)

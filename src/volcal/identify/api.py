@@ -39,6 +39,15 @@ hyperparameters describe the functions, not the grid: a coarse grid is enough an
 each evidence evaluation cheap)."""
 
 ANALYSIS_MAX_NODES = 41
+
+NO_ROLL_NOTE_FACTOR = 100.0
+"""Bayes factor in favour of "no roll errors" over rolls of the prior's size
+(:func:`volcal.identify.solver.roll_log_bayes_factor`) above which `identify` says that
+the readings look like a machine without roll. Measured on benchmarks/families.py (seeds'
+full set, 20 machines per family, 2026-11-24): the log factor was -2.0 to -10.8 on the
+family without roll (one machine +4.9) and -3.5 to +220 on the four families with roll,
+where 2 of 80 machines were below 0; at 100 (log 4.6) the note names 9 of 20 machines
+without roll and none of 80 with (long machine: 16 of 20 and none of 60)."""
 """Nodes per axis of the identifiability analysis (a design property: coarse is enough)."""
 
 
@@ -673,6 +682,15 @@ def _result(session: Session, design: Design, sol: Solution, report, o: Identify
             + ", ".join(f"{n} {u:.1f} urad" for n, u in zip(ROLL_NAMES, roll_u, strict=True))
             + f"; near the prior scale ({sol.scales[2]:.0f} urad) means not measured by these "
             "tests, whatever share the design could determine without noise.")
+        lbf = sol.roll_log_bayes_factor
+        if lbf is not None and -lbf > np.log(NO_ROLL_NOTE_FACTOR):
+            report.messages.append(
+                f"The readings favour a machine without roll errors by a factor of "
+                f"{np.exp(min(-lbf, 700.0)):.3g} over rolls of the prior's size (Bayes factor; "
+                "the rolls are kept, as the prior allows them). If this machine is known to "
+                "have no roll, identify with --roll zero (Python: roll='zero'), which leaves "
+                "the other functions better determined; a level on each horizontal axis "
+                "measures the rolls instead (volcal advise).")
     return IdentificationResult(session.name, errors, design.layout, design.free, factor, std,
                                 sq_std, report, fit, residuals, fitted, nuis, outliers,
                                 design=design, solution=sol,

@@ -248,6 +248,7 @@ class Solution:
     trend_um: float = 0.0
     kappa_factor: tuple[float, ...] = (1.0, 1.0, 1.0, 1.0)
     nugget_um: float = 0.0
+    roll_log_bayes_factor: float | None = None
 
 
 def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float64] | None = None,
@@ -454,6 +455,7 @@ def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float6
         for f, r in rho.items():
             f_opt[f] *= r
         H, Q, cf, x, cov = _final_solve(ev, design, f_opt, sigma, covariance)
+    roll_lbf = None if cov is None else roll_log_bayes_factor(ev.prior, f_opt, x, cov)
     r = design.y - design.A @ x
     if design.prior_mean is not None and np.any(design.prior_mean):
         x = x + design.prior_mean
@@ -468,7 +470,7 @@ def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float6
                     convergence=convergence, function_scales=f_opt, ata=ev.AtA,
                     tilt_std_urad=ev.tilt_std if ev.has_tilts else None,
                     trend_um=ev.prior.trend_um, kappa_factor=ev.prior.kappa_factor,
-                    nugget_um=ev.prior.nugget_um)
+                    nugget_um=ev.prior.nugget_um, roll_log_bayes_factor=roll_lbf)
 
 
 def _hyper_map() -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
@@ -657,6 +659,35 @@ def _roll_whitened(prior: PriorStructure, fscales, x, cov):
     sv, V = np.linalg.eigh((Su + Su.T) / 2)
     sv = np.clip(sv, 1e-12, 1.0)
     return 1.0 / sv - 1.0, (V.T @ u / sv) ** 2
+
+
+def roll_log_bayes_factor(prior: PriorStructure, fscales, x, cov) -> float | None:
+    """Log Bayes factor of the rolls at their prior scale over no roll at all.
+
+    ``L = -1/2 sum log(1 + k_i) + 1/2 sum b_i^2 / (1 + k_i)`` with the rolls' data
+    information in coordinates whitened by their prior (:func:`_roll_whitened`): the log of
+    ``p(y | rolls as the prior says) / p(y | no roll)`` (Kass and Raftery 1995). Negative:
+    the readings favour a machine without roll errors.
+
+    Parameters
+    ----------
+    prior : PriorStructure
+        Prior blocks.
+    fscales : ndarray, shape (18,)
+        Function scales of ``x`` and ``cov``.
+    x, cov : ndarray
+        Posterior mean (without the design's prior mean) and covariance.
+
+    Returns
+    -------
+    float or None
+        None when the design has no roll block (``roll='zero'``).
+    """
+    kb = _roll_whitened(prior, fscales, x, cov)
+    if kb is None:
+        return None
+    k, b2 = kb
+    return float(-0.5 * np.sum(np.log1p(k)) + 0.5 * np.sum(b2 / (1.0 + k)))
 
 
 def _roll_presence_factors(prior: PriorStructure, fscales, x, cov, p_absent: float,

@@ -510,3 +510,30 @@ def test_identify_says_when_the_readings_look_like_a_machine_without_roll(seed):
     lbf, note = out["without"]
     assert -lbf > np.log(NO_ROLL_NOTE_FACTOR) and len(note) == 1, out["without"]
     assert "--roll zero" in note[0] and "level" in note[0]
+
+
+def test_projected_information_equals_the_projection_of_the_full_matrix(small):
+    """``projected_information(d, P) = P^T information(d) P`` (the identifiability
+    report's candidates, projected without forming the full matrix), on the seeds' design
+    and on a candidate with an optical square's certificate as nuisance precision."""
+    from volcal.identify.api import candidate_designs
+    from volcal.identify.identifiability import projected_information
+
+    from volcal.plan.planner import plan_session
+    from volcal.session.format import Session
+
+    s, design, _ = small
+    rng = np.random.default_rng(0)
+    cands = candidate_designs(s, design.layout.nodes, {})
+    direct = plan_session(TRAVEL, "XYFZ", 4, ("direct",), runs=1)
+    for m in direct.measurements:
+        m.deviation = np.zeros(m.n)  # the information does not depend on the readings
+    direct = Session("d", "XYFZ", TRAVEL, direct.measurements,
+                     references={"xy": {"square_deviation_urad": 1.0, "u_square_urad": 2.5}})
+    sq = build_design(direct, choose_nodes(direct, refine=1), {})
+    assert np.any(sq.extra_precision[sq.n_free:])  # the optical square's certificate
+    for d in [design, *list(cands.values())[:4], sq]:
+        P = rng.normal(size=(d.n_free, 7))
+        want = P.T @ information(d) @ P
+        np.testing.assert_allclose(projected_information(d, P), want, rtol=1e-9,
+                                   atol=1e-9 * np.abs(want).max())

@@ -177,6 +177,43 @@ def information(design: Design, ata: NDArray[np.float64] | None = None) -> NDArr
     return (F + F.T) / 2
 
 
+def projected_information(design: Design, P: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``P^T F P`` for the information ``F`` of :func:`information`, without forming ``F``.
+
+    With ``B = A_f P`` (sparse times a few columns) ``P^T F P = B^T B - (A_n^T B)^T G^+
+    (A_n^T B)``, ``G = A_n^T A_n`` (plus the nuisances' own precision): the candidate
+    designs of the identifiability report are projected on the null space of the main
+    design this way, a few dozen columns instead of the full parameter count.
+
+    Parameters
+    ----------
+    design : Design
+        Assembled observation system (free columns first, then nuisances).
+    P : ndarray, shape (p_free, m)
+        Directions in the free parameters.
+
+    Returns
+    -------
+    ndarray, shape (m, m)
+        Symmetric.
+    """
+    nf = design.n_free
+    A = design.A.tocsc()
+    Af, An = A[:, :nf], A[:, nf:]
+    B = Af @ P
+    out = B.T @ B
+    if An.shape[1]:
+        G = (An.T @ An).toarray()
+        ex = design.extra_precision
+        if ex is not None and np.any(ex[nf:]):
+            from volcal.measure.optics import REFERENCE_NOISE_UM
+
+            G = G + np.diag(ex[nf:] * REFERENCE_NOISE_UM**2)
+        CB = An.T @ B
+        out = out - CB.T @ np.linalg.pinv(G, hermitian=True) @ CB
+    return (out + out.T) / 2
+
+
 def grid_points(design: Design, per_axis: int = 5) -> NDArray[np.float64]:
     """Grid over the measured positions (subsampled to ``per_axis`` per axis) [mm].
 
@@ -385,8 +422,8 @@ def _suggest(rep: IdentifiabilityReport, scale, thr, candidates, N, GN, NQN) -> 
     for label, cd in candidates.items():
         if N.shape[1] == 0:
             break
-        Fc = information(cd) / np.outer(scale, scale)
-        wc, Vc = np.linalg.eigh(N.T @ Fc @ N)
+        # N^T (F_c / scale scale^T) N, projected without the full matrix
+        wc, Vc = np.linalg.eigh(projected_information(cd, N / scale[:, None]))
         Vn = Vc[:, wc < thr]  # what the candidate does not see either: N @ Vn
         var = _null_variance(GN, Vn, Vn.T @ NQN @ Vn)
         rms = float(np.sqrt(np.mean(np.clip(var, 0, None))))

@@ -518,7 +518,6 @@ def test_projected_information_equals_the_projection_of_the_full_matrix(small):
     and on a candidate with an optical square's certificate as nuisance precision."""
     from volcal.identify.api import candidate_designs
     from volcal.identify.identifiability import projected_information
-
     from volcal.plan.planner import plan_session
     from volcal.session.format import Session
 

@@ -371,3 +371,16 @@ def test_evaluate_optics_states_the_same_verdicts(tmp_path):
                        timeout=300)
     assert p.returncode == 2 and "volcal evaluate session" in p.stderr
     assert "Traceback" not in p.stderr
+
+
+def test_classic_optics_is_evaluate_optics(sim):
+    """`volcal classic optics` (each optic on its own, no model) prints what `volcal
+    evaluate optics --json` prints without a budget; it calls the same command function
+    and must pass every option (a new option once broke it with typer's defaults)."""
+    a = subprocess.run([*VOLCAL, "classic", "optics", str(sim.root / "s"), "--json"],
+                       capture_output=True, text=True, timeout=300)
+    b = subprocess.run([*VOLCAL, "evaluate", "optics", str(sim.root / "s"), "--json"],
+                       capture_output=True, text=True, timeout=300)
+    assert a.returncode == 0 and b.returncode == 0, a.stderr + b.stderr
+    assert json.loads(a.stdout) == json.loads(b.stdout)
+    assert json.loads(a.stdout)["straightness"]

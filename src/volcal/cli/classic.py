@@ -215,7 +215,9 @@ def optics(
     """Each direct optic's own evaluation, no model (same as ``volcal evaluate optics``)."""
     from volcal.cli.evaluate import optics_cmd
 
-    optics_cmd(session, as_json)
+    # called as a function: every option is passed (typer's defaults are OptionInfo objects)
+    optics_cmd(session, as_json, budget=None, tolerance_um=None, decision_rule="simple",
+               guard_band_um=None)
 
 
 classic_app.command("optics")(optics)

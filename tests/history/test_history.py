@@ -274,9 +274,12 @@ def test_cli_round_trip(tmp_path, calibrations):
     _volcal("history", "add", str(calibrations["scale"][0]), "--model",
             str(calibrations["scale"][1]), env=env)
     lst = json.loads(_volcal("history", "list", "--json", env=env).stdout)
-    cal = [x for x in lst if x["kind"] == "calibration"]
-    assert [(x["id"], x["machine"], x["date"]) for x in cal] == [
-        ("C000002", "VMC-1", "2026-01-10"), ("C000003", "VMC-1", "2026-08-10")]
+    # the calibrations, each with its date of measurement (the machine record: --all)
+    assert [(x["id"], x["machine"], x["date"], x["kind"]) for x in lst] == [
+        ("C000002", "VMC-1", "2026-01-10", "calibration"),
+        ("C000003", "VMC-1", "2026-08-10", "calibration")]
+    every = json.loads(_volcal("history", "list", "--json", "--all", env=env).stdout)
+    assert [x["kind"] for x in every] == ["machine", "calibration", "calibration"]
     cmp = json.loads(_volcal("history", "compare", "C000002", "C000003", "--json",
                              env=env).stdout)
     assert {"name", "difference", "U", "changed"} <= set(cmp[0])

@@ -160,11 +160,16 @@ def export_qif_cmd(
 @history_app.command("list")
 def list_cmd(
     as_json: Annotated[bool, typer.Option("--json", help="JSON array of records.")] = False,
+    all_records: Annotated[bool, typer.Option("--all", help="Every record: also the "
+                                              "machines and their intervals (no date of "
+                                              "measurement).")] = False,
     db: DbOption = None,
 ) -> None:
-    """Every record, oldest first; superseded records are marked."""
+    """The calibrations, oldest first, superseded ones marked (--all: every record)."""
     with _open(db) as h:
         recs = h.list()
+    if not all_records:  # the records with a date of measurement
+        recs = [r for r in recs if r.kind == "calibration"]
     if as_json:
         typer.echo(json.dumps([{"id": r.id, "kind": r.kind, "machine": r.machine_name,
                                 "machine_id": r.machine_id or (r.id if r.kind == "machine"

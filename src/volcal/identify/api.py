@@ -463,7 +463,8 @@ def _identify_weighted(session: Session, o: IdentifyOptions,
         # the readings and the evidence would judge the prior on a misplaced grid
         n_h = HYPER_MAX_NODES
         if _design.NODES_AT_READINGS:
-            n_h = max([n_h, *(m for m in visited_positions(session) if m <= o.max_nodes)])
+            n_h = max([n_h, *(m for m in visited_positions(session)
+                              if m <= _design.VISITED_NODES_FACTOR * o.max_nodes)])
         nodes_h = choose_nodes(session, refine=o.refine, max_nodes=min(o.max_nodes, n_h))
         if scales is None and any(len(a) != len(b) for a, b in zip(nodes_h, nodes, strict=True)):
             # hyperparameters are properties of the functions, not of the grid: choose them

@@ -605,27 +605,12 @@ def _roll_marginal_factors(prior: PriorStructure, fscales, x, cov, spread: float
     """
     out: dict[int, float] = {}
     t = np.linspace(-4.0, 4.0, 61)
-    log_rho = -spread**2 + spread * t
-    rho2 = np.exp(2.0 * log_rho)
-    log_hyper = -0.5 * t**2
-    for b, (idx, *_rest, f) in enumerate(prior.blocks):
-        if f not in ROLL_FUNCTIONS or prior.has_trend(b) or prior.has_nugget(b):
+    rho2 = np.exp(2.0 * (-spread**2 + spread * t))
+    for f in ROLL_FUNCTIONS:
+        kb = _roll_whitened(prior, fscales, x, cov, (f,))
+        if kb is None:
             continue
-        P = prior.unit_block(b)[0]
-        try:
-            Lp = np.linalg.cholesky(P)  # C = a^2 (Lp Lp')^-1: whitening u = Lp' x / a
-        except np.linalg.LinAlgError:
-            continue
-        a = float(fscales[f])
-        u = Lp.T @ x[idx] / a
-        Su = Lp.T @ cov[np.ix_(idx, idx)] @ Lp / a**2
-        sv, V = np.linalg.eigh((Su + Su.T) / 2)
-        sv = np.clip(sv, 1e-12, 1.0)
-        k = 1.0 / sv - 1.0
-        beta2 = (V.T @ u / sv) ** 2
-        q = 1.0 + rho2[:, None] * k[None, :]
-        loglik = -0.5 * np.sum(np.log(q), axis=1) + 0.5 * np.sum(rho2[:, None] * beta2 / q, axis=1)
-        lp = loglik + log_hyper
+        lp = _roll_log_likelihood(*kb, rho2) - 0.5 * t**2  # + the hyperprior
         w = np.exp(lp - lp.max())
         r = float(np.sqrt(np.sum(w * rho2) / np.sum(w)))
         if abs(r - 1.0) > tol:
@@ -633,16 +618,35 @@ def _roll_marginal_factors(prior: PriorStructure, fscales, x, cov, spread: float
     return out
 
 
-def _roll_whitened(prior: PriorStructure, fscales, x, cov):
+def _roll_log_likelihood(k: NDArray[np.float64], b2: NDArray[np.float64], rho2
+                         ) -> NDArray[np.float64]:
+    """``l(rho) = -1/2 sum log(1 + rho^2 k_i) + 1/2 sum rho^2 b_i^2 / (1 + rho^2 k_i)``.
+
+    The log evidence, up to a constant, of the rolls' prior scaled by ``rho`` (``rho^2``
+    a scalar or an array), from their whitened information (:func:`_roll_whitened`);
+    ``l(0) = 0`` (no roll).
+    """
+    r2 = np.atleast_1d(np.asarray(rho2, dtype=float))[:, None]
+    q = 1.0 + r2 * k[None, :]
+    out = -0.5 * np.sum(np.log(q), axis=1) + 0.5 * np.sum(r2 * b2[None, :] / q, axis=1)
+    return out if np.ndim(rho2) else out[0]
+
+
+def _roll_whitened(prior: PriorStructure, fscales, x, cov,
+                   functions: tuple[int, ...] = ROLL_FUNCTIONS):
     """The rolls' data information in coordinates whitened by their prior.
 
+    With ``C = a^2 (L L')^-1`` a roll's prior covariance, ``u = L' x / a`` has unit prior
+    covariance; ``S_u = V diag(s) V'`` is its posterior covariance.
+
     Returns ``(k, b2)``: the eigenvalues ``k_i = 1/s_i - 1`` of the data's precision and
-    the squared projections ``b_i^2`` (:func:`_roll_marginal_factors`), over the three
-    rolls' free nodes together; None when the design has no roll block.
+    the squared projections ``b_i^2 = ((V' u)_i / s_i)^2`` (:func:`_roll_marginal_factors`),
+    over the free nodes of ``functions`` (default the three rolls) together; None when the
+    design has none of them.
     """
     idx_all, W = [], []
     for b, (idx, *_rest, f) in enumerate(prior.blocks):
-        if f not in ROLL_FUNCTIONS or prior.has_trend(b) or prior.has_nugget(b):
+        if f not in functions or prior.has_trend(b) or prior.has_nugget(b):
             continue
         try:
             Lp = np.linalg.cholesky(prior.unit_block(b)[0])
@@ -684,10 +688,7 @@ def roll_log_bayes_factor(prior: PriorStructure, fscales, x, cov) -> float | Non
         None when the design has no roll block (``roll='zero'``).
     """
     kb = _roll_whitened(prior, fscales, x, cov)
-    if kb is None:
-        return None
-    k, b2 = kb
-    return float(-0.5 * np.sum(np.log1p(k)) + 0.5 * np.sum(b2 / (1.0 + k)))
+    return None if kb is None else float(_roll_log_likelihood(*kb, 1.0))
 
 
 def _roll_presence_factors(prior: PriorStructure, fscales, x, cov, p_absent: float,
@@ -711,10 +712,8 @@ def _roll_presence_factors(prior: PriorStructure, fscales, x, cov, p_absent: flo
     kb = _roll_whitened(prior, fscales, x, cov)
     if kb is None:
         return {}
-    k, b2 = kb
     r2 = 1.0 / (1.0 - p_absent) if ROLL_PRESENT_FACTOR is None else ROLL_PRESENT_FACTOR**2
-    q = 1.0 + r2 * k
-    L = float(-0.5 * np.sum(np.log(q)) + 0.5 * np.sum(r2 * b2 / q))
+    L = float(_roll_log_likelihood(*kb, r2))
     # P(roll | y) = (1 - p) e^L / ((1 - p) e^L + p), written to avoid overflow
     z = np.log(p_absent) - np.log1p(-p_absent) - L
     p_roll = float(np.exp(-np.logaddexp(0.0, z)))

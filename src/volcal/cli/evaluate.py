@@ -562,6 +562,12 @@ def _verdicts(tol: tuple[Any, Any, Any], s: Any, edition: str, model: Any = None
     return verdicts(tol[0], s, tol[1], tol[2], edition, model=model)
 
 
+def _verdict_word(w: str) -> str:
+    """A verdict coloured for the terminal (pass green, fail red, conditional yellow)."""
+    return {"pass": "[green]pass[/]", "fail": "[red]fail[/]",
+            "conditional": "[yellow]conditional[/]"}.get(w, w)
+
+
 def _print_verdict(verdict: Any, has_model: bool) -> None:
     from volcal.standards.decision import RULE_TEXT
 
@@ -578,13 +584,9 @@ def _print_verdict(verdict: Any, has_model: bool) -> None:
     def cell(v: Any) -> str:
         return "-" if v is None else f"{v:.3f}"
 
-    def word(w: str) -> str:
-        return {"pass": "[green]pass[/]", "fail": "[red]fail[/]",
-                "conditional": "[yellow]conditional[/]"}.get(w, w)
-
     for v in verdict:
-        row = [escape(v.quantity), f"{v.tolerance_um:g}", cell(v.before_um), word(v.before),
-               cell(v.after_um), word(v.after)]
+        row = [escape(v.quantity), f"{v.tolerance_um:g}", cell(v.before_um),
+               _verdict_word(v.before), cell(v.after_um), _verdict_word(v.after)]
         if guarded:
             w = v.guard_band_um
             row[3:3] = [cell(w if w is not None else v.U_before_um)]
@@ -673,8 +675,12 @@ def optics_cmd(
                 f"--tolerance-um {tolerance_um!r} holds no direct-optics limit: give "
                 "<axis>.straightness_um=... or <EC0Y|EB0Z|EA0Z>.squareness_urad=... (ISO 230-2 "
                 "and volumetric limits are judged by `volcal evaluate session`)")
-    if decision_rule not in ("simple", "guarded"):
-        raise VolcalInputError(f"--decision-rule must be simple or guarded, got {decision_rule!r}")
+    from volcal.standards.decision import check_rule
+
+    decision_rule = check_rule(decision_rule)
+    if guard_band_um is not None and decision_rule != "guarded":
+        raise VolcalInputError("--guard-band-um applies to --decision-rule guarded",
+                               column="--guard-band-um")
     b = None
     if budget is not None:
         from volcal.uncertainty.budget import read_budget
@@ -755,14 +761,12 @@ def _print_optics_conformity(conf: dict[str, Any]) -> None:
     t = Table(title=escape(f"tolerance verdict, decision rule: {conf['decision_rule']}"))
     for c in ("quantity", "unit", "tolerance", "value", "U", "verdict"):
         t.add_column(c, justify="right")
-    words = {"pass": "[green]pass[/]", "fail": "[red]fail[/]",
-             "conditional": "[yellow]conditional[/]"}
     for r in conf["statements"]:
         unit = "um" if "tolerance_um" in r else "urad"
         val, U = r[f"value_{unit}"], r[f"U_{unit}"]
         t.add_row(escape(r["quantity"]), unit, f"{r[f'tolerance_{unit}']:g}",
                   "-" if val is None else f"{val:.3f}", "-" if U is None else f"{U:.3f}",
-                  words.get(r["verdict"], "-" if r["verdict"] is None else r["verdict"]))
+                  "-" if r["verdict"] is None else _verdict_word(r["verdict"]))
     print_table(console, t)
     console.print(f"decision rule: {escape(conf['rule'])}", highlight=False)
     for r in conf["statements"]:

@@ -3,7 +3,11 @@ import their own conftest by name)."""
 
 from __future__ import annotations
 
+import importlib.util
 import re
+import sys
+from pathlib import Path
+from types import ModuleType
 
 import numpy as np
 
@@ -57,3 +61,19 @@ def assert_labels_match_table(text: str) -> int:
     for name, meaning in found:
         assert meaning == info(name).label, (name, meaning)
     return len(found)
+
+
+def load_benchmark(name: str) -> ModuleType:
+    """A module of benchmarks/ (``'study'``, ``'families'``), imported once per process as
+    ``volcal_<name>`` (registered before it runs: dataclasses look their module up by
+    name)."""
+    key = f"volcal_{name}"
+    if key in sys.modules:
+        return sys.modules[key]
+    path = Path(__file__).resolve().parents[2] / "benchmarks" / f"{name}.py"
+    spec = importlib.util.spec_from_file_location(key, path)
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules[key] = mod
+    assert spec.loader is not None
+    spec.loader.exec_module(mod)
+    return mod

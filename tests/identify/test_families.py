@@ -27,28 +27,12 @@ Runtime: about 10 s of CPU (8 Bayesian and 8 minimum-norm identifications).
 from __future__ import annotations
 
 import functools
-import importlib.util
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
+from identify_helpers import load_benchmark
 
-_FAMILIES = Path(__file__).resolve().parents[2] / "benchmarks" / "families.py"
-
-
-def _load():
-    if "volcal_families" in sys.modules:
-        return sys.modules["volcal_families"]
-    spec = importlib.util.spec_from_file_location("volcal_families", _FAMILIES)
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules["volcal_families"] = mod  # dataclasses look their module up by name
-    assert spec.loader is not None
-    spec.loader.exec_module(mod)
-    return mod
-
-
-families = _load()
+families = load_benchmark("families")
 
 N_MACHINES = 4
 STEPS, RUNS, GRID = 10, 2, 9

@@ -22,30 +22,14 @@ Bayesian and 80 minimum-norm identifications).
 from __future__ import annotations
 
 import functools
-import importlib.util
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
+from identify_helpers import load_benchmark
 
 from volcal.identify import IdentifyOptions, identify
 
-_STUDY = Path(__file__).resolve().parents[2] / "benchmarks" / "study.py"
-
-
-def _load_study():
-    if "volcal_study" in sys.modules:
-        return sys.modules["volcal_study"]
-    spec = importlib.util.spec_from_file_location("volcal_study", _STUDY)
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules["volcal_study"] = mod  # dataclasses look their module up by name
-    assert spec.loader is not None
-    spec.loader.exec_module(mod)
-    return mod
-
-
-study = _load_study()
+study = load_benchmark("study")
 
 N_MACHINES = 8
 STEPS, RUNS, GRID = 10, 2, 9

@@ -14,6 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 import volcal.identify.design as _design
+import volcal.identify.solver as solver
 from volcal.errors import VolcalInputError
 from volcal.identify.design import (
     Design,
@@ -670,6 +671,12 @@ def _result(session: Session, design: Design, sol: Solution, report, o: Identify
                                              if sol.tilt_std_urad is not None else None)},
         "convergence": dict(sol.convergence),
         "log_evidence": _fin(sol.log_evidence),
+        # the rolls' presence: Bayes factor and the two-model average (solver.ROLL_MIXTURE_*)
+        "roll_presence": ({"log_bayes_factor": _fin(sol.roll_log_bayes_factor),
+                           "probability": (None if sol.roll_probability is None
+                                           else float(sol.roll_probability)),
+                           "prior_probability_absent": float(solver.ROLL_MIXTURE_ABSENT)}
+                          if sol.roll_log_bayes_factor is not None else None),
         "measurements": [m.id for m in design.measurements],
         "known": sorted(design.fixed_names),
         "gauge": "every function zero at the start of travel; straightness also at the end",
@@ -685,10 +692,15 @@ def _result(session: Session, design: Design, sol: Solution, report, o: Identify
             "tests, whatever share the design could determine without noise.")
         lbf = sol.roll_log_bayes_factor
         if lbf is not None and -lbf > np.log(NO_ROLL_NOTE_FACTOR):
+            p_roll = sol.roll_probability
+            lean = ("the estimate is the average of the fits with and without rolls, "
+                    f"weighted {p_roll:.2g} / {1 - p_roll:.2g}, and keeps the uncertainty "
+                    "of rolls of the prior's size" if p_roll is not None else
+                    "the rolls are kept, as the prior allows them")
             report.messages.append(
                 f"The readings favour a machine without roll errors by a factor of "
                 f"{np.exp(min(-lbf, 700.0)):.3g} over rolls of the prior's size (Bayes factor; "
-                "the rolls are kept, as the prior allows them). If this machine is known to "
+                f"{lean}). If this machine is known to "
                 "have no roll, identify with --roll zero (Python: roll='zero'), which leaves "
                 "the other functions better determined; a level on each horizontal axis "
                 "measures the rolls instead (volcal advise).")

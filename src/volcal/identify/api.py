@@ -704,6 +704,15 @@ def _result(session: Session, design: Design, sol: Solution, report, o: Identify
                 "have no roll, identify with --roll zero (Python: roll='zero'), which leaves "
                 "the other functions better determined; a level on each horizontal axis "
                 "measures the rolls instead (volcal advise).")
+        elif sol.roll_probability is not None and sol.roll_probability < 0.99:
+            p_roll = sol.roll_probability
+            report.messages.append(
+                "The readings do not settle whether this machine has roll errors (Bayes "
+                f"factor {np.exp(np.clip(lbf, -700.0, 700.0)):.3g} for rolls of the prior's "
+                "size over none): the estimate is the average of the fits with and without "
+                f"rolls, weighted {p_roll:.2g} / {1 - p_roll:.2g}, with the uncertainty of "
+                "the fit with rolls. A level on each horizontal axis measures the rolls "
+                "(volcal advise).")
     return IdentificationResult(session.name, errors, design.layout, design.free, factor, std,
                                 sq_std, report, fit, residuals, fitted, nuis, outliers,
                                 design=design, solution=sol,

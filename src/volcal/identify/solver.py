@@ -262,7 +262,7 @@ class Solution:
         (:func:`roll_log_bayes_factor`); None without a roll block or covariance.
     roll_probability : float or None
         ``P(roll | y)`` of the two-model average (:data:`ROLL_MIXTURE_ABSENT`); None when
-        the average was not taken (off, rolls stated, or the readings settle it).
+        the average was not taken (off, no roll block, or rolls stated).
     """
 
     x: NDArray[np.float64]
@@ -498,7 +498,8 @@ def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float6
                               ROLL_MIXTURE_RHO0, design.extra_precision)
         if mixed is not None:
             x, cov, shrink, p_roll = mixed
-            solve = lambda rhs: shrink(_polish(H, cf, rhs))  # noqa: E731
+            if shrink is not None:
+                solve = lambda rhs: shrink(_polish(H, cf, rhs))  # noqa: E731
     r = design.y - design.A @ x
     if design.prior_mean is not None and np.any(design.prior_mean):
         x = x + design.prior_mean
@@ -808,8 +809,9 @@ def _roll_mixture(prior: PriorStructure, fscales, x, cov, log_bf: float, p_absen
     (x_m, C_m, shrink, P) or None
         ``shrink`` maps any estimate of the fit with rolls to the mixture's (the weights
         held fixed), for the linear propagation of systematic errors and Monte Carlo.
-        ``P`` is ``P(roll | y)``. None when the design has no roll block, the rolls are
-        stated, or ``P`` is within 1e-9 of 1.
+        ``P`` is ``P(roll | y)``; when it is within 1e-9 of 1, ``x`` and ``cov`` as
+        given and ``shrink`` None. None when the design has no roll block or the rolls
+        are stated.
     """
     idx, D = [], []
     for b, blk in enumerate(prior.blocks):
@@ -828,7 +830,7 @@ def _roll_mixture(prior: PriorStructure, fscales, x, cov, log_bf: float, p_absen
     p_roll = float(np.exp(-np.logaddexp(0.0, z)))
     q = 1.0 - p_roll
     if q < 1e-9:  # the readings settle it: the fit with rolls
-        return None
+        return x, cov, None, p_roll
     CRR = cov[np.ix_(R, R)]
     if rho0 > 0:
         CRR = CRR + sla.block_diag(*D) * rho0**2 / (1.0 - rho0**2)

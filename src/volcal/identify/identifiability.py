@@ -309,7 +309,18 @@ def analyse(design: Design, prior: PriorStructure, scales: NDArray[np.float64],
     scale = np.sqrt(np.diag(Qp))
     Fs = F / np.outer(scale, scale)
     Qs = Qp / np.outer(scale, scale)
-    N, thr = _null_basis(Fs)
+    # the null space is a property of the design: found on the information scaled by its
+    # own diagonal (Jacobi), not by the prior's, whose fitted scales moved a direction at
+    # 1e-9 of the largest eigenvalue across the threshold between a plan and its data
+    d = np.sqrt(np.clip(np.diag(F), 0.0, None))
+    d = np.where(d > 0, d, max(float(d.max()), 1.0))
+    N2, _ = _null_basis(F / np.outer(d, d))
+    N = np.linalg.qr((scale / d)[:, None] * N2)[0] if N2.shape[1] else N2
+    # the candidates' threshold on the prior-scaled information, as before
+    import scipy.linalg as sla
+
+    top = sla.eigh(Fs, eigvals_only=True, subset_by_index=[nf - 1, nf - 1])
+    thr = 1e-9 * max(float(top[0]), 1e-300)
     NQN = N.T @ Qs @ N  # the prior metric of the null space
     rank = nf - N.shape[1]  # the same null space the ambiguity is computed from
     var_inf = _null_variance(np.eye(nf), N, NQN) / scale**2
@@ -437,9 +448,13 @@ def _suggest(rep: IdentifiabilityReport, scale, thr, candidates, N, GN, NQN) -> 
     from volcal.plan.optics import OPTIC_LABEL  # the best direct optic, also when not top 3
 
     optic = [(r, lb) for r, lb in scores if lb.startswith(OPTIC_LABEL)]
-    if optic and optic[0][0] < 0.9 * base and optic[0] not in scores[:3]:
+    if optic and optic[0][0] < 0.9 * base and optic[0] != scores[0]:
+        # named whenever it is not the best extra measurement already (most users own a
+        # level before a second set of diagonal optics)
         rms, label = optic[0]
-        rep.suggestions.append(f"{label}: volumetric ambiguity {base:.2f} -> {rms:.2f} um RMS")
+        if optic[0] not in scores[:3]:
+            rep.suggestions.append(f"{label}: volumetric ambiguity {base:.2f} -> {rms:.2f} "
+                                   "um RMS")
         rep.messages.append(f"Best direct optic: {label[len(OPTIC_LABEL):]}: volumetric "
                             f"ambiguity {base:.2f} -> {rms:.2f} um RMS.")
 

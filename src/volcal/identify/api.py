@@ -320,7 +320,8 @@ def advise(session: Session, options: IdentifyOptions | None = None):
     """
     from copy import copy
 
-    from volcal.identify.solver import HYPER_CENTRE, TREND_CENTRE_UM
+    from volcal.identify.identifiability import _reference_prior
+    from volcal.identify.solver import TREND_CENTRE_UM
 
     o = options or IdentifyOptions()
     known = _known(o)
@@ -330,8 +331,7 @@ def advise(session: Session, options: IdentifyOptions | None = None):
         m.deviation = np.zeros(m.n)
     nodes_a = choose_nodes(planned, refine=1, max_nodes=min(o.max_nodes, ANALYSIS_MAX_NODES))
     design = build_design(planned, nodes_a, known, o.drift, o.measurement_ids, o.tilts)
-    kappa = float(np.exp(HYPER_CENTRE[-1]))
-    prior = PriorStructure.build(design.layout, design.free, kappa).with_trend(TREND_CENTRE_UM)
+    prior = _reference_prior(design)  # the hyperprior centres
     cands = candidate_designs(planned, nodes_a, known) if o.suggest else None
     report = analyse(design, prior, DEFAULT_SCALES.copy(), o.squareness_std_urad, cands)
     command = add_command(report, session, candidate_steps(nodes_a)) if o.suggest else None

@@ -275,6 +275,24 @@ def _null_basis(F: NDArray[np.float64], tol: float = 1e-9
     return V[:, w < thr], thr
 
 
+def _reference_scales() -> NDArray[np.float64]:
+    from volcal.identify.solver import DEFAULT_SCALES
+
+    return DEFAULT_SCALES.copy()
+
+
+def _reference_prior(design: Design) -> PriorStructure:
+    """The prior of :func:`volcal.identify.api.advise` (hyperprior centres) on ``design``.
+
+    The identifiability report finds its null space in this prior's scaling, so that a
+    plan and the identification of its data name the same undetermined combinations.
+    """
+    from volcal.identify.solver import HYPER_CENTRE, TREND_CENTRE_UM
+
+    return PriorStructure.build(design.layout, design.free,
+                                float(np.exp(HYPER_CENTRE[-1]))).with_trend(TREND_CENTRE_UM)
+
+
 def analyse(design: Design, prior: PriorStructure, scales: NDArray[np.float64],
             squareness_std: float, candidates: dict[str, Design] | None = None,
             tool_offset: NDArray[np.float64] | None = None,
@@ -309,14 +327,15 @@ def analyse(design: Design, prior: PriorStructure, scales: NDArray[np.float64],
     scale = np.sqrt(np.diag(Qp))
     Fs = F / np.outer(scale, scale)
     Qs = Qp / np.outer(scale, scale)
-    # the null space is a property of the design: found on the information scaled by its
-    # own diagonal (Jacobi), not by the prior's, whose fitted scales moved a direction at
-    # 1e-9 of the largest eigenvalue across the threshold between a plan and its data
-    d = np.sqrt(np.clip(np.diag(F), 0.0, None))
-    d = np.where(d > 0, d, max(float(d.max()), 1.0))
-    N2, _ = _null_basis(F / np.outer(d, d))
-    N = np.linalg.qr((scale / d)[:, None] * N2)[0] if N2.shape[1] else N2
-    # the candidates' threshold on the prior-scaled information, as before
+    # the null space is a property of the design: found on the information scaled by the
+    # prior's diagonal at the *reference* hyperparameters (those of advise before
+    # measuring), not the fitted ones, which moved a direction at 1e-9 of the largest
+    # eigenvalue across the threshold between a plan and its data (ranks 166 and 167)
+    ref = np.sqrt(np.diag(_reference_prior(design).precision(
+        _reference_scales(), squareness_std, nf, np.zeros(0)).toarray()))
+    N_ref, _ = _null_basis(F / np.outer(ref, ref))
+    N = np.linalg.qr((scale / ref)[:, None] * N_ref)[0] if N_ref.shape[1] else N_ref
+    # the candidates' threshold on the information in this prior's scaling
     import scipy.linalg as sla
 
     top = sla.eigh(Fs, eigvals_only=True, subset_by_index=[nf - 1, nf - 1])

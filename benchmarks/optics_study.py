@@ -100,6 +100,11 @@ def main() -> None:
               f"{np.median(ratio):.2f}, {ratio.max():.2f} | {cov:.3f} | "
               f"{u[0]:.1f}, {u[1]:.1f}, {u[2]:.1f} | {sq:.2f} | "
               f"{np.median([r['seconds'] for r in rs]):.2f} |")
+    for d in ("direct", "fused"):
+        ratio = np.array([r["rms"] for r in res[d]]) / base
+        print(f"\n{d}: at most 0.8x the seeds' residual on {int(np.sum(ratio <= 0.8))} of "
+              f"{ratio.size} machines (ratios above: "
+              f"{', '.join(f'{v:.2f}' for v in np.sort(ratio[ratio > 0.8]))})")
 
 
 if __name__ == "__main__":

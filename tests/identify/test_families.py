@@ -21,7 +21,7 @@ A goal the estimator does not meet carries an ``xfail`` mark with the measured n
 Measured on these machines: ratio to least squares at most 0.27 (b) and 0.70 (d);
 coverage 0.987 (b) and 0.925 (d; 0.880 before the short-wavelength part of the
 positioning prior, docs/identification.md section 3).
-Runtime: about 10 s of CPU (8 Bayesian and 8 minimum-norm identifications).
+Runtime: about 14 s of CPU (16 Bayesian and 8 minimum-norm identifications).
 """
 
 from __future__ import annotations
@@ -102,3 +102,27 @@ def test_gauge_map_changes_no_reading():
         diff = max(np.abs(a.deviation - b.deviation).max()
                    for a, b in zip(*(s.measurements for s in sessions), strict=True))
         assert diff < 0.02, (name, diff)
+
+
+@functools.cache
+def _rolls_kept(family: str):
+    """The same machines with the rolls always kept (the two-model average off)."""
+    from volcal.identify import solver
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(solver, "ROLL_MIXTURE_ABSENT", 0.0)
+        return families.run_family(family, "full", N_MACHINES, STEPS, RUNS, GRID, limit=False)
+
+
+def test_the_average_over_the_rolls_presence_serves_machines_with_and_without_roll():
+    """The default estimate averages the fits with and without rolls by the readings'
+    Bayes factor (``solver.ROLL_MIXTURE_ABSENT``). On family b (no roll) it is closer to
+    the truth on every machine than the fit with the rolls kept (measured 0.32-0.82 of
+    its residual); on family d, whose rolls the readings see, it is the fit with rolls
+    (the weight of "no roll" below 1e-8: the same numbers to 1e-6)."""
+    checks = (("b", lambda a, k: a < 0.9 * k), ("d", lambda a, k: abs(a - k) <= 1e-6 * k))
+    for family, check in checks:
+        avg = [r.bayes["rms_um"] for r in _results(family)]
+        kept = [r.bayes["rms_um"] for r in _rolls_kept(family)]
+        assert all(check(a, k) for a, k in zip(avg, kept, strict=True)), (family, avg, kept)
+

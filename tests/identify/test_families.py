@@ -18,9 +18,10 @@ with minimum-norm least squares. Checks (issue 19's goals):
   (``families.gauge_map``).
 
 A goal the estimator does not meet carries an ``xfail`` mark with the measured numbers.
-Measured on these machines: ratio to least squares at most 0.27 (b) and 0.70 (d);
-coverage 0.987 (b) and 0.925 (d; 0.880 before the short-wavelength part of the
-positioning prior, docs/identification.md section 3).
+Measured on these machines: ratio to least squares at most 0.23 (b) and 0.40 (d);
+coverage 0.989 (b) and 0.945 (d; 0.880 before the short-wavelength part of the
+positioning prior, docs/identification.md section 3; 0.925 before the nodes at the
+readings and the smoother rolls).
 Runtime: about 14 s of CPU (16 Bayesian and 8 minimum-norm identifications).
 """
 

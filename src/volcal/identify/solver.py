@@ -493,6 +493,7 @@ def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float6
     roll_lbf = None if cov is None else roll_log_bayes_factor(ev.prior, f_opt, x, cov)
     solve = lambda rhs: _polish(H, cf, rhs)  # noqa: E731
     p_roll = None
+    cov_fit = cov  # the linear fit's: its hat matrix gives the effective parameters
     if ROLL_MIXTURE_ABSENT > 0 and roll_lbf is not None:
         mixed = _roll_mixture(ev.prior, f_opt, x, cov, roll_lbf, ROLL_MIXTURE_ABSENT,
                               ROLL_MIXTURE_RHO0, design.extra_precision)
@@ -503,8 +504,8 @@ def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float6
     r = design.y - design.A @ x
     if design.prior_mean is not None and np.any(design.prior_mean):
         x = x + design.prior_mean
-    if cov is not None:
-        edf = float(np.sum(ev.AtA * cov.T) / sigma**2)
+    if cov_fit is not None:
+        edf = float(np.sum(ev.AtA * cov_fit.T) / sigma**2)
     else:
         edf = float(min(H.shape[0], ev.n))
     dof = max(ev.n - edf, 1.0)

@@ -584,7 +584,7 @@ def test_identify_says_when_the_readings_look_like_a_machine_without_roll(seed, 
     assert errors[0] < 0.9 * errors[1], errors  # seed 6: 0.67, seed 8: 0.85
 
 
-def test_identify_says_when_the_readings_leave_the_rolls_open(small, monkeypatch):
+def test_identify_says_when_the_readings_leave_the_rolls_open(small, monkeypatch, tmp_path):
     """Prior odds of no roll set so that the posterior weight of "roll" is one half: the
     report says the question is open with the weights, the model records them
     (``fit.roll_presence``), and the estimate lies halfway between the fit with rolls
@@ -605,6 +605,10 @@ def test_identify_says_when_the_readings_leave_the_rolls_open(small, monkeypatch
     assert rp["prior_probability_absent"] == pytest.approx(p)
     note = [t for t in half.report.messages if "do not settle" in t]
     assert len(note) == 1 and "weighted 0.5 / 0.5" in note[0], half.report.messages
+    from volcal.identify.modelfile import load_model, write_model
+
+    write_model(half, tmp_path / "m.json")  # the model file keeps them
+    assert load_model(tmp_path / "m.json").fit["roll_presence"] == pytest.approx(rp)
     monkeypatch.setattr(solver, "ROLL_MIXTURE_ABSENT", 1.0 - 1e-12)
     gone = identify(s, IdentifyOptions(suggest=False))  # P(roll) ~ 0: the fit without
     x = np.linspace(*TRAVEL[0], 7)

@@ -160,7 +160,9 @@ the family without roll (b) went from a median 1.83x the limit to 1.14x (long ma
 -> 1.21 (geometric means 1.156 -> 1.172, 1.147 -> 1.172), coverage unchanged (0.962);
 b's coverage 0.981 -> 0.989. Prior odds 0.1 / 0.3: b 1.20 / 1.16, c and f unchanged. A
 second model with small rolls (0.1-0.3 times the scale, :data:`ROLL_MIXTURE_RHO0`)
-instead of none: b 1.15-1.30, f 1.12-1.21."""
+instead of none: b 1.15-1.30, f 1.12-1.21. With the smoother rolls that followed
+(:data:`volcal.identify.prior.GROUP_KAPPA`): a 1.02, b 1.12, c 1.12, d 1.06, e 1.10, f
+1.18, coverage 0.944-0.991 (benchmarks/README.md)."""
 ROLL_MIXTURE_COVARIANCE = "roll"
 """Covariance of the two-model average: ``'roll'`` (default) that of the fit with rolls
 plus the shift of the mean, ``C + (1 - P)^2 d d'`` (the mean square error of the average

@@ -132,21 +132,11 @@ def iso230_2_cmd(
                                                "rule [um] (default: U of the parameter)."),
 ) -> None:
     """Positioning accuracy and repeatability of one axis (ISO 230-2)."""
-    from volcal.standards.decision import check_rule
     from volcal.standards.iso230_2 import evaluate
     from volcal.standards.positioning_data import read_positioning_csv
 
-    rule = check_rule(decision_rule)
-    if guard_band_um is not None and rule != "guarded":
-        from volcal.errors import VolcalInputError
-
-        raise VolcalInputError("--guard-band-um applies to --decision-rule guarded",
-                               column="--guard-band-um")
-    b = None
-    if budget is not None:
-        from volcal.uncertainty.budget import read_budget
-
-        b = read_budget(budget)
+    rule = _checked_rule(decision_rule, guard_band_um)
+    b = _budget_or_none(budget)
     d = read_positioning_csv(file)
     unc = corrections = None
     if b is not None:
@@ -254,11 +244,7 @@ def iso230_6_cmd(
     from volcal.session.format import read_session
     from volcal.standards.iso230_6 import evaluate_diagonal, largest_e_d
 
-    b = None
-    if budget is not None:
-        from volcal.uncertainty.budget import read_budget
-
-        b = read_budget(budget)
+    b = _budget_or_none(budget)
     s = read_session(session)
     print_session_notes(s)
     diags = [m for m in s.measurements if m.kind == "diagonal"]
@@ -385,9 +371,8 @@ def session_cmd(
     if budget is not None:
         from volcal.standards.iso230_2_uncertainty import evaluate_with_budget
         from volcal.standards.positioning_data import from_measurement
-        from volcal.uncertainty.budget import read_budget
 
-        b = tol[0].budget if tol[0] is not None else read_budget(budget)
+        b = tol[0].budget if tol[0] is not None else _budget_or_none(budget)
         by_id = {m.id: m for m in s.measurements}
         for k in list(results):
             res, uncs[k], corr = evaluate_with_budget(from_measurement(by_id[k], s.path), b,
@@ -481,11 +466,8 @@ def _print_model_indices(ev: Any) -> None:
         console.print(f"note: {escape(n)}", highlight=False)
 
 
-def _acceptance(tol: Any, decision_rule: str, guard_band_um: float | None,
-                budget: Path | None) -> Any:
-    """The tolerance with its decision rule, guard band and budget (checked)."""
-    from dataclasses import replace
-
+def _checked_rule(decision_rule: str, guard_band_um: float | None) -> str:
+    """The decision rule (checked), refusing a guard band without the guarded rule."""
     from volcal.errors import VolcalInputError
     from volcal.standards.decision import check_rule
 
@@ -493,17 +475,32 @@ def _acceptance(tol: Any, decision_rule: str, guard_band_um: float | None,
     if guard_band_um is not None and rule != "guarded":
         raise VolcalInputError("--guard-band-um applies to --decision-rule guarded",
                                column="--guard-band-um")
+    return rule
+
+
+def _budget_or_none(budget: Path | None) -> Any:
+    """The budget file read (:func:`volcal.uncertainty.budget.read_budget`), or None."""
+    if budget is None:
+        return None
+    from volcal.uncertainty.budget import read_budget
+
+    return read_budget(budget)
+
+
+def _acceptance(tol: Any, decision_rule: str, guard_band_um: float | None,
+                budget: Path | None) -> Any:
+    """The tolerance with its decision rule, guard band and budget (checked)."""
+    from dataclasses import replace
+
+    from volcal.errors import VolcalInputError
+
+    rule = _checked_rule(decision_rule, guard_band_um)
     if tol is None:
         if rule != "simple":
             raise VolcalInputError("--decision-rule judges a tolerance: give --tolerance-um "
                                    "too")
         return None
-    b = None
-    if budget is not None:
-        from volcal.uncertainty.budget import read_budget
-
-        b = read_budget(budget)
-    return replace(tol, rule=rule, guard_band_um=guard_band_um, budget=b)
+    return replace(tol, rule=rule, guard_band_um=guard_band_um, budget=_budget_or_none(budget))
 
 
 def _runs_cell(r: Any) -> str:
@@ -675,17 +672,8 @@ def optics_cmd(
                 f"--tolerance-um {tolerance_um!r} holds no direct-optics limit: give "
                 "<axis>.straightness_um=... or <EC0Y|EB0Z|EA0Z>.squareness_urad=... (ISO 230-2 "
                 "and volumetric limits are judged by `volcal evaluate session`)")
-    from volcal.standards.decision import check_rule
-
-    decision_rule = check_rule(decision_rule)
-    if guard_band_um is not None and decision_rule != "guarded":
-        raise VolcalInputError("--guard-band-um applies to --decision-rule guarded",
-                               column="--guard-band-um")
-    b = None
-    if budget is not None:
-        from volcal.uncertainty.budget import read_budget
-
-        b = read_budget(budget)
+    decision_rule = _checked_rule(decision_rule, guard_band_um)
+    b = _budget_or_none(budget)
     s = read_session(session)
     print_session_notes(s)
     ev = evaluate_optics(s)

@@ -29,6 +29,37 @@ def small():
     return s, design, PriorStructure.build(design.layout, design.free, 6.0)
 
 
+@pytest.fixture
+def rolls_rescaled(small, monkeypatch):
+    """The small design at fixed scales and noise, with proper nuisance priors (so that
+    the full evidence is well defined), and two functions of a factor ``r`` on the scales
+    of some functions (default the three rolls): ``fit(r)`` -> (estimate, covariance) and
+    ``log_evidence(r)``. Returns ``(design, prior, fscales, fit, log_evidence)``."""
+    import volcal.identify.evidence as evidence
+    from volcal.identify import solver
+    from volcal.identify.prior import function_scales
+
+    _, design, prior = small
+    monkeypatch.setattr(evidence, "NUISANCE_PRECISION",
+                        {k: 1e-2 for k in evidence.NUISANCE_PRECISION})
+    ev = evidence._Evidence(design, prior, 100.0)
+    fs = function_scales(np.array([8.0, 4.0, 12.0, 20.0]))
+    sigma = 0.4
+
+    def scaled(r, functions):
+        g = fs.copy()
+        g[list(functions)] *= r
+        return g
+
+    def fit(r=1.0, functions=solver.ROLL_FUNCTIONS):
+        return solver._final_solve(ev, design, scaled(r, functions), sigma, True)[3:]
+
+    def log_evidence(r, functions=solver.ROLL_FUNCTIONS):
+        return -0.5 * ev.neg2(scaled(r, functions), sigma)
+
+    return design, prior, fs, fit, log_evidence
+
+
 def test_posterior_covariance_is_the_dense_inverse_of_the_precision(small, monkeypatch):
     """The linear posterior (the two-model average over the rolls' presence off; that
     average is checked in :func:`test_roll_mixture_equals_the_fit_without_roll`)."""
@@ -356,25 +387,17 @@ def test_coarsened_design_equals_the_design_built_on_the_coarse_nodes():
     assert coarsen(build_design(s, fine, {"EXX": (x, 0.01 * x)}), coarse) is None
 
 
-def test_roll_scale_evidence_in_closed_form_equals_the_evidence(small, monkeypatch):
+def test_roll_scale_evidence_in_closed_form_equals_the_evidence(rolls_rescaled):
     """:func:`volcal.identify.solver._roll_marginal_factors` (the switch
     ``ROLL_MARGINAL_SPREAD``) writes the evidence of a rescaled roll from one posterior:
     ``l(rho) = -1/2 sum log(1 + rho^2 k) + 1/2 sum rho^2 b^2 / (1 + rho^2 k)``. Checked
     against the full evidence ``-2 log p(y)`` recomputed with the roll's scale multiplied
     by rho (differences between rho values; constants cancel), and the factor it returns
     against a brute-force quadrature of the same hyperprior with the full evidence."""
-    import volcal.identify.evidence as evidence
     from volcal.identify import solver
 
-    _, design, prior = small
-    monkeypatch.setattr(evidence, "NUISANCE_PRECISION",
-                        {k: 1e-2 for k in evidence.NUISANCE_PRECISION})
-    ev = evidence._Evidence(design, prior, 100.0)
-    from volcal.identify.prior import function_scales
-
-    fs = function_scales(np.array([8.0, 4.0, 12.0, 20.0]))
-    sigma = 0.4
-    _, _, _, x, cov = solver._final_solve(ev, design, fs, sigma, True)
+    _, prior, fs, fit, log_evidence = rolls_rescaled
+    x, cov = fit()
     f = 3  # EAX
     b = next(i for i, blk in enumerate(prior.blocks) if blk[4] == f)
     idx = prior.blocks[b][0]
@@ -390,9 +413,7 @@ def test_roll_scale_evidence_in_closed_form_equals_the_evidence(small, monkeypat
         return -0.5 * np.sum(np.log(q)) + 0.5 * np.sum(rho**2 * b2 / q)
 
     def full(rho):
-        g = fs.copy()
-        g[f] *= rho
-        return -0.5 * ev.neg2(g, sigma)
+        return log_evidence(rho, (f,))
 
     rhos = [0.1, 0.5, 2.0, 5.0]
     got = [closed(r) - closed(1.0) for r in rhos]
@@ -410,29 +431,16 @@ def test_roll_scale_evidence_in_closed_form_equals_the_evidence(small, monkeypat
     assert abs(want_rho - 1.0) > 0.02  # the readings inform this roll: a real check
 
 
-def test_roll_presence_bayes_factor_equals_the_evidence(small, monkeypatch):
+def test_roll_presence_bayes_factor_equals_the_evidence(rolls_rescaled):
     """:func:`volcal.identify.solver._roll_presence_factors` (the switch
     ``ROLL_ABSENT_PROBABILITY``): the log Bayes factor of "rolls at rho_s times their
     scale" over "no roll" from the three rolls' whitened information equals the difference
     of the full evidence with the three roll scales multiplied by rho_s and by 1e-6, and
     the factor is ``sqrt(P(roll | y)) rho_s``."""
-    import volcal.identify.evidence as evidence
     from volcal.identify import solver
-    from volcal.identify.prior import function_scales
 
-    _, design, prior = small
-    monkeypatch.setattr(evidence, "NUISANCE_PRECISION",
-                        {k: 1e-2 for k in evidence.NUISANCE_PRECISION})
-    ev = evidence._Evidence(design, prior, 100.0)
-    fs = function_scales(np.array([8.0, 4.0, 12.0, 20.0]))
-    sigma = 0.4
-    _, _, _, x, cov = solver._final_solve(ev, design, fs, sigma, True)
-
-    def full(r):
-        g = fs.copy()
-        g[list(solver.ROLL_FUNCTIONS)] *= r
-        return -0.5 * ev.neg2(g, sigma)
-
+    _, prior, fs, fit, full = rolls_rescaled
+    x, cov = fit()
     p = 0.3
     rs = 1.0 / np.sqrt(1.0 - p)
     L = full(rs) - full(1e-6)
@@ -447,32 +455,20 @@ def test_roll_presence_bayes_factor_equals_the_evidence(small, monkeypatch):
 
 
 @pytest.mark.parametrize("rho0", [0.0, 0.3])
-def test_roll_mixture_equals_the_fit_without_roll(small, monkeypatch, rho0):
+def test_roll_mixture_equals_the_fit_without_roll(rolls_rescaled, monkeypatch, rho0):
     """:func:`volcal.identify.solver._roll_mixture` (default, ``ROLL_MIXTURE_ABSENT``):
     the second model (the fit with rolls conditioned on no roll, or on rolls at ``rho0``
     times their scale) equals a full refit with the three roll scales multiplied by 1e-6
     (``rho0``); the weight is ``P(roll | y)`` from the full evidence's Bayes factor; the
     mean is ``P x + (1 - P) x0``; the covariance the fit's plus ``(1 - P)^2 d d'``
     (default) or the mixture's own ``P C + (1 - P) C0 + P (1 - P) d d'``."""
-    import volcal.identify.evidence as evidence
     from volcal.identify import solver
-    from volcal.identify.prior import function_scales
 
-    _, design, prior = small
-    monkeypatch.setattr(evidence, "NUISANCE_PRECISION",
-                        {k: 1e-2 for k in evidence.NUISANCE_PRECISION})
-    ev = evidence._Evidence(design, prior, 100.0)
-    fs = function_scales(np.array([8.0, 4.0, 12.0, 20.0]))
-    sigma = 0.4
-
-    def fit(r):
-        g = fs.copy()
-        g[list(solver.ROLL_FUNCTIONS)] *= r
-        _, _, _, x, cov = solver._final_solve(ev, design, g, sigma, True)
-        return x, cov, -0.5 * ev.neg2(g, sigma)
-
-    x, cov, l1 = fit(1.0)
-    x0, c0, l0 = fit(max(rho0, 1e-6))
+    _, prior, fs, fit, log_evidence = rolls_rescaled
+    x, cov = fit()
+    r0 = max(rho0, 1e-6)
+    x0, c0 = fit(r0)
+    l1, l0 = log_evidence(1.0), log_evidence(r0)
     p = 0.4
     L = l1 - l0
     P = (1 - p) * np.exp(L) / ((1 - p) * np.exp(L) + p)

@@ -4,6 +4,7 @@ import math
 import tomllib
 
 import pytest
+from budget_helpers import template_doc
 
 from volcal.errors import VolcalInputError
 from volcal.uncertainty.budget import TEMPLATE, parse_budget, read_budget
@@ -26,17 +27,6 @@ def test_template_is_valid_and_states_its_defaults(tmp_path):
     assert b.inputs["laser.u_wavelength_ppm"].dof == math.inf
 
 
-def _doc(**change):
-    doc = tomllib.loads(TEMPLATE)
-    for key, val in change.items():
-        sec, k = key.split("__")
-        if val is None:
-            del doc[sec][k]
-        else:
-            doc[sec][k] = val
-    return doc
-
-
 @pytest.mark.parametrize("change,key,words", [
     ({"air__pressure_hpa": 1013.0}, "air.pressure_hpa", "unknown key"),
     ({"air__pressure_pa": 1013.25}, "air.pressure_pa", "hPa"),
@@ -56,14 +46,14 @@ def _doc(**change):
 ])
 def test_bad_budget_names_file_and_key(change, key, words):
     with pytest.raises(VolcalInputError) as exc:
-        parse_budget(_doc(**change), "b.toml")
+        parse_budget(template_doc(**change), "b.toml")
     assert exc.value.file == "b.toml" and exc.value.column == key
     assert words in str(exc.value)
 
 
 def test_unknown_section_and_bad_toml(tmp_path):
     with pytest.raises(VolcalInputError, match="unknown section"):
-        parse_budget({**_doc(), "lasre": {}}, "b.toml")
+        parse_budget({**template_doc(), "lasre": {}}, "b.toml")
     f = tmp_path / "b.toml"
     f.write_text("[air\n", encoding="utf-8")
     with pytest.raises(VolcalInputError, match="invalid TOML") as exc:

@@ -4,20 +4,10 @@ import math
 import tomllib
 
 import pytest
+from budget_helpers import template_doc
 
 from volcal.errors import VolcalInputError
 from volcal.uncertainty.budget import OPTIC_KEYS, TEMPLATE, parse_budget, read_budget
-
-
-def _doc(**change):
-    doc = tomllib.loads(TEMPLATE)
-    for key, val in change.items():
-        sec, k = key.split("__")
-        if val is None:
-            del doc[sec][k]
-        else:
-            doc[sec][k] = val
-    return doc
 
 
 def test_template_states_the_data_sheet_figures():
@@ -41,10 +31,10 @@ def test_template_states_the_data_sheet_figures():
 def test_section_is_optional_with_the_same_defaults():
     """A budget written before the optics (no [optics]) reads as before, and its optics'
     inputs are the data-sheet figures, recorded as defaulted."""
-    doc = _doc()
+    doc = template_doc()
     del doc["optics"]
     b = parse_budget(doc, "old.toml")
-    full = parse_budget(_doc(), "t.toml")
+    full = parse_budget(template_doc(), "t.toml")
     for k in ("u_straightness_scale_pct", "u_angular_urad", "u_level_scale_pct"):
         assert b.inputs[f"optics.{k}"].u == pytest.approx(full.inputs[f"optics.{k}"].u,
                                                          abs=0.005)
@@ -73,7 +63,7 @@ def test_section_is_optional_with_the_same_defaults():
 ])
 def test_bad_optics_budget_names_file_and_key(change, key, words):
     with pytest.raises(VolcalInputError) as exc:
-        parse_budget(_doc(**change), "b.toml")
+        parse_budget(template_doc(**change), "b.toml")
     assert exc.value.file == "b.toml" and exc.value.column == key
     assert words in str(exc.value)
 
@@ -84,7 +74,7 @@ def test_optics_not_a_table(tmp_path):
     with pytest.raises(VolcalInputError, match="unknown key") as exc:
         read_budget(f)
     assert exc.value.file == str(f) and exc.value.column == "optics.u_level_pct"
-    doc = _doc()
+    doc = template_doc()
     doc["optics"] = 3
     with pytest.raises(VolcalInputError, match="expected a table") as exc:
         parse_budget(doc, "b.toml")

@@ -26,6 +26,7 @@ from types import SimpleNamespace
 import jsonschema
 import numpy as np
 import pytest
+from optics_helpers import hand_budget, hand_session
 
 from volcal.errors import VolcalInputError
 from volcal.measure.simulate import SimulationOptions, simulate_session
@@ -36,7 +37,7 @@ from volcal.report.certificate_files import schema, write_certificate
 from volcal.report.certificate_layout import layout
 from volcal.session.format import Session, read_session, write_session
 from volcal.standards.tolerance import Tolerance, parse_tolerance
-from volcal.uncertainty.budget import TEMPLATE, parse_budget, read_budget
+from volcal.uncertainty.budget import TEMPLATE, read_budget
 
 TRAVEL = np.array([[0.0, 800.0], [0.0, 600.0], [0.0, 500.0]])
 VOLCAL = [sys.executable, "-c", "from volcal.cli import main; main()"]
@@ -176,38 +177,13 @@ def test_the_straightness_statement_takes_the_axis_largest_line(sim):
                               "EC0Y.squareness_urad=200")
 
 
-def _hand(scale: float = 1.0) -> Session:
-    """str-xy 0, 2, 1, 3 um (x scale), str-yx 0, 1, 2, 3 um, level 0, -4, 2.5, 1 urad (x scale)
-    at 0, 100, 200, 300 mm; the optical square 'xy' deviates by 1 urad (certificate)."""
-    s = plan_session(TRAVEL, "XYFZ", 3, ("direct",), runs=1, iso_spacing=False,
-                     linear_margin_mm=0.0)
-    ms = [m for m in s.measurements if m.id in {"str-xy", "str-yx", "lev-xa"}]
-    for m in ms:
-        m.columns = {}
-        m.positions = m.positions[:4]
-        m.positions[:, m.axis] = [0.0, 100.0, 200.0, 300.0]
-    by = {m.id: m for m in ms}
-    by["str-xy"].deviation = scale * np.array([0.0, 2.0, 1.0, 3.0])
-    by["str-yx"].deviation = np.array([0.0, 1.0, 2.0, 3.0])
-    by["lev-xa"].deviation = scale * np.array([0.0, -4.0, 2.5, 1.0])
-    return Session("hand", "XYFZ", TRAVEL, ms,
-                   references={"xy": {"square_deviation_urad": 1.0, "u_square_urad": 2.5}})
-
-
-def _budget():
-    doc = tomllib.loads(TEMPLATE)
-    doc["optics"] = {"u_straightness_scale_pct": 0.5, "u_straightness_um": 0.3,
-                     "u_level_scale_pct": 1.0, "u_level_urad": 0.5}
-    return parse_budget(doc)
-
-
 def _verdicts(doc):
     c = doc["conformity"]
     return ({r["state"]: r["verdict"] for r in c["statements"]},
             {r["state"]: r["verdict"] for r in c["statements_urad"]})
 
 
-def test_conformity_by_hand():
+def test_conformity_byhand_session():
     """As found (str-xy 0, 2, 1, 3 um at 0, 100, 200, 300 mm): the least-squares line has
     slope 400 / 50000 = 0.008 um/mm (8 urad), residuals -0.3, 0.9, -0.9, 0.3: straightness
     1.8 um; its extremes at readings 1 and 2 give c = (-0.3, 0.9, -0.9, 0.3), |c|^2 = 1.8,
@@ -223,7 +199,7 @@ def test_conformity_by_hand():
     |EC0Y| against 25 urad: 17 <= 18.72 (pass), 13 (pass); against 15 urad: 17 > 15
     (fail), 13 > 8.72 (conditional). The simple rule with 1.5 um, 15 urad: fail, fail
     as found; pass, pass as left."""
-    found, left, b = _hand(), _hand(0.5), _budget()
+    found, left, b = hand_session(), hand_session(0.5), hand_budget()
     U_st = 2 * math.sqrt(0.162081)
     U_sq = 2 * math.sqrt(0.0081 + 3.6 + 6.25)
     doc = build_certificate(found, as_left=left, optics_budget=b, decision_rule="guarded",
@@ -275,7 +251,7 @@ def test_conformity_by_hand():
 
 
 def test_without_a_budget_u_is_null_and_said_so():
-    found = _hand()
+    found = hand_session()
     doc = build_certificate(found, decision_rule="guarded",
                             tolerance=parse_tolerance("X.straightness_um=2"))
     _valid(doc)
@@ -318,7 +294,7 @@ def test_report_budget_reaches_the_certificate(tmp_path, monkeypatch, capsys):
     0.58 urad: U = 2 sqrt((6.5 x 0.0058)^2 + 2 x 0.58^2))."""
     from volcal.cli import main
 
-    write_session(_hand(), tmp_path / "s")
+    write_session(hand_session(), tmp_path / "s")
     (tmp_path / "b.toml").write_text(TEMPLATE.replace(
         "u_straightness_scale_pct = 0.29", "u_straightness_scale_pct = 0.5").replace(
         "u_straightness_um = 0.29", "u_straightness_um = 0.3"), "utf-8")
@@ -347,7 +323,7 @@ def test_evaluate_optics_states_the_same_verdicts(tmp_path):
     straightness 1.8 um, U 0.805, against 2 um is conditional, |EC0Y| 17 urad, U 6.28,
     against 15 urad fails); ISO 230-2 limits alone are refused with the command that
     judges them, and `evaluate session` says where the optics' limits are judged."""
-    write_session(_hand(), tmp_path / "s")
+    write_session(hand_session(), tmp_path / "s")
     doc = tomllib.loads(TEMPLATE)
     doc["optics"] = {"u_straightness_scale_pct": 0.5, "u_straightness_um": 0.3,
                      "u_level_scale_pct": 1.0, "u_level_urad": 0.5}

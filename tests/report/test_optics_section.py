@@ -5,6 +5,7 @@ from __future__ import annotations
 from types import SimpleNamespace
 
 import numpy as np
+from optics_helpers import hand_budget, hand_session
 
 from volcal.plan.planner import plan_session
 from volcal.report.optics import optics_section
@@ -51,26 +52,8 @@ def test_section_with_a_budget_has_u_by_hand():
     EC0Y = -17, |EC0Y - delta| = 18: u^2 = (18 x 0.005)^2 + 0.09 (|w1|^2 + |w2|^2) + 2.5^2
     with w = (-3, -1, 1, 3) urad/um, |w|^2 = 20 per line -> 2 sqrt(0.0081 + 3.6 + 6.25)
     = 6.28 urad."""
-    import tomllib
-
-    from volcal.uncertainty.budget import TEMPLATE, parse_budget
-
-    s = plan_session(TRAVEL, "XYFZ", 3, ("direct",), runs=1, iso_spacing=False,
-                     linear_margin_mm=0.0)
-    ms = [m for m in s.measurements if m.id in {"str-xy", "str-yx", "lev-xa"}]
-    for m in ms:
-        m.columns = {}
-        m.positions = m.positions[:4]
-        m.positions[:, m.axis] = [0.0, 100.0, 200.0, 300.0]
-    by = {m.id: m for m in ms}
-    by["str-xy"].deviation = np.array([0.0, 2.0, 1.0, 3.0])
-    by["str-yx"].deviation = np.array([0.0, 1.0, 2.0, 3.0])
-    by["lev-xa"].deviation = np.array([0.0, -4.0, 2.5, 1.0])
-    sess = Session("m", "XYFZ", TRAVEL, ms, references={"xy": {"square_deviation_urad": 1.0}})
-    doc = tomllib.loads(TEMPLATE)
-    doc["optics"] = {"u_straightness_scale_pct": 0.5, "u_straightness_um": 0.3,
-                     "u_level_scale_pct": 1.0, "u_level_urad": 0.5}
-    sec = optics_section(ReportInputs(sess, None, budget=parse_budget(doc)))
+    sess = hand_session(name="m", u_square_urad=None)
+    sec = optics_section(ReportInputs(sess, None, budget=hand_budget()))
     st, ang, sq = sec.tables
     assert st.columns[4:8] == ["end-point [µm]", "U [µm]", "least squares [µm]", "U [µm]"]
     assert st.rows[0][4:8] == ["2.000", "0.895", "1.800", "0.805"]

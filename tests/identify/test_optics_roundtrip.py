@@ -21,6 +21,7 @@ from volcal.model.rigid import remove_rigid_body
 from volcal.plan.planner import plan_session
 from volcal.session.format import Session
 from volcal.session.optics import DEFAULT_U_SQUARE_URAD
+from volcal_cli_helpers import run_volcal
 
 ROLLS = ("EAX", "EBY", "ECZ")
 
@@ -131,21 +132,6 @@ def test_advise_ranks_direct_optics():
                for m in rep.messages), rep.messages
 
 
-def _cli(monkeypatch, capsys, *args):
-    import sys
-
-    from volcal.cli import main
-
-    monkeypatch.setattr(sys, "argv", ["volcal", *args])
-    code = 0
-    try:
-        main()
-    except SystemExit as exc:
-        code = exc.code or 0
-    out = capsys.readouterr()
-    return code, out.out, out.err
-
-
 def test_cli_identify_and_predict_on_a_session_written_by_hand(tmp_path, monkeypatch, capsys):
     """The issue's format as another tool writes it (letters upper case, a square's
     certificate in [references.NAME]): `volcal identify` and `volcal predict`."""
@@ -164,14 +150,14 @@ def test_cli_identify_and_predict_on_a_session_written_by_hand(tmp_path, monkeyp
     toml = toml.replace("[[measurements]]", "[references.xy]\nsquare_deviation_urad = 0.0\n"
                         "u_square_urad = 2.5\n\n[[measurements]]", 1)
     (folder / "session.toml").write_text(toml)
-    code, out, err = _cli(monkeypatch, capsys, "identify", str(folder), "-o",
-                          str(tmp_path / "m.json"))
+    code, out, err = run_volcal(monkeypatch, capsys, "identify", str(folder), "-o",
+                                str(tmp_path / "m.json"))
     assert code == 0, err
     assert "angular" in out and "straightness" in out
     pts = tmp_path / "p.csv"
     pts.write_text("x_mm,y_mm,z_mm\n0,0,0\n400,300,250\n800,600,500\n")
-    code, _, err = _cli(monkeypatch, capsys, "predict", str(tmp_path / "m.json"), "--points",
-                        str(pts), "-o", str(tmp_path / "o.csv"))
+    code, _, err = run_volcal(monkeypatch, capsys, "predict", str(tmp_path / "m.json"), "--points",
+                              str(pts), "-o", str(tmp_path / "o.csv"))
     assert code == 0, err
     rows = np.loadtxt(tmp_path / "o.csv", delimiter=",", skiprows=1)
     et = volumetric_error(truth, rows[:, :3])

@@ -1,24 +1,12 @@
 """``volcal evaluate`` and ``volcal env`` end to end, including bad files."""
 
 import json
-import sys
 
 import numpy as np
 import pytest
 from test_iso230_2 import EXPECTED, cycle
 
-from volcal.cli import main
-
-
-def run_cli(monkeypatch, capsys, *args):
-    monkeypatch.setattr(sys, "argv", ["volcal", *args])
-    code = 0
-    try:
-        main()
-    except SystemExit as exc:
-        code = exc.code or 0
-    out = capsys.readouterr()
-    return code, out.out, out.err
+from volcal_cli_helpers import run_volcal
 
 
 def write_cycle(path, header="target_mm,run,direction,deviation_um", mutate=None):
@@ -32,7 +20,7 @@ def write_cycle(path, header="target_mm,run,direction,deviation_um", mutate=None
 
 def test_iso230_2_json(tmp_path, monkeypatch, capsys):
     f = write_cycle(tmp_path / "x.csv")
-    code, out, _ = run_cli(monkeypatch, capsys, "evaluate", "iso230-2", str(f), "--json")
+    code, out, _ = run_volcal(monkeypatch, capsys, "evaluate", "iso230-2", str(f), "--json")
     assert code == 0
     d = json.loads(out)
     for k, v in EXPECTED.items():
@@ -45,10 +33,10 @@ def test_iso230_2_session_measurement_csv(tmp_path, monkeypatch, capsys):
     rows = [f"{a:g},250,100,{e:.6f},{b},{c}" for a, b, c, e in zip(t, r, d, v, strict=True)]
     f = tmp_path / "linear-x1.csv"
     f.write_text("x_mm,y_mm,z_mm,deviation_um,run,direction\n" + "\n".join(rows) + "\n")
-    code, out, _ = run_cli(monkeypatch, capsys, "evaluate", "iso230-2", str(f), "--json")
+    code, out, _ = run_volcal(monkeypatch, capsys, "evaluate", "iso230-2", str(f), "--json")
     assert code == 0
     assert json.loads(out)["R"] == pytest.approx(9.0)
-    code, out, _ = run_cli(monkeypatch, capsys, "evaluate", "iso230-2", str(f))
+    code, out, _ = run_volcal(monkeypatch, capsys, "evaluate", "iso230-2", str(f))
     assert code == 0 and "repeatability" in out
 
 
@@ -67,7 +55,7 @@ def test_bad_files_name_file_row_column(tmp_path, monkeypatch, capsys, header, m
                                         column):
     f = write_cycle(tmp_path / "bad.csv", header or "target_mm,run,direction,deviation_um",
                     mutate)
-    code, out, err = run_cli(monkeypatch, capsys, "evaluate", "iso230-2", str(f), "--json")
+    code, out, err = run_volcal(monkeypatch, capsys, "evaluate", "iso230-2", str(f), "--json")
     assert code == 2
     flat = " ".join(err.split())  # rich may wrap long messages
     assert "Traceback" not in err and out == ""
@@ -79,9 +67,9 @@ def test_bad_files_name_file_row_column(tmp_path, monkeypatch, capsys, header, m
 
 def test_session_and_iso230_6_and_vdi(tmp_path, monkeypatch, capsys):
     s = tmp_path / "s"
-    assert run_cli(monkeypatch, capsys, "plan", "-o", str(s), "--steps", "4")[0] == 0
-    assert run_cli(monkeypatch, capsys, "simulate", str(s))[0] == 0
-    code, out, _ = run_cli(monkeypatch, capsys, "evaluate", "session", str(s), "--json")
+    assert run_volcal(monkeypatch, capsys, "plan", "-o", str(s), "--steps", "4")[0] == 0
+    assert run_volcal(monkeypatch, capsys, "simulate", str(s))[0] == 0
+    code, out, _ = run_volcal(monkeypatch, capsys, "evaluate", "session", str(s), "--json")
     assert code == 0
     d = json.loads(out)
     ms = d["measurements"]
@@ -90,12 +78,12 @@ def test_session_and_iso230_6_and_vdi(tmp_path, monkeypatch, capsys):
     for v in ms.values():
         first.setdefault(v["axis"], v["M"])
     assert d["ELv"] == pytest.approx(np.sqrt(sum(x * x for x in first.values())))
-    code, out, _ = run_cli(monkeypatch, capsys, "evaluate", "iso230-6", str(s), "--json")
+    code, out, _ = run_volcal(monkeypatch, capsys, "evaluate", "iso230-6", str(s), "--json")
     assert code == 0
     diags = json.loads(out)["diagonals"]
     assert len(diags) == 4 and all(x["E_D"] > 0 for x in diags)
     f = write_cycle(tmp_path / "x.csv")
-    code, out, _ = run_cli(monkeypatch, capsys, "evaluate", "vdi3441", str(f), "--json")
+    code, out, _ = run_volcal(monkeypatch, capsys, "evaluate", "vdi3441", str(f), "--json")
     assert code == 0 and json.loads(out)["P"] == pytest.approx(15.75)
 
 
@@ -103,12 +91,12 @@ def test_env_refractive_index(monkeypatch, capsys):
     # NIST EMToolbox check values (Stone & Zimmerman, section VII table): 20 degC, 60 kPa,
     # 0 % RH, 633 nm: Ciddor 1.000160924, modified Edlen 1.000160920
     for formula, n in (("ciddor", 1.000160924), ("edlen", 1.000160920)):
-        code, out, _ = run_cli(monkeypatch, capsys, "env", "refractive-index",
-                               "--temperature-c", "20", "--pressure-pa", "60000",
-                               "--humidity-pct", "0", "--wavelength-nm", "633",
-                               "--formula", formula, "--co2-ppm", "450")
+        code, out, _ = run_volcal(monkeypatch, capsys, "env", "refractive-index",
+                                  "--temperature-c", "20", "--pressure-pa", "60000",
+                                  "--humidity-pct", "0", "--wavelength-nm", "633",
+                                  "--formula", formula, "--co2-ppm", "450")
         assert code == 0
         assert abs(float(out) - n) < 2e-8
-    code, _, err = run_cli(monkeypatch, capsys, "env", "refractive-index", "--temperature-c",
-                           "20", "--pressure-pa", "1013", "--humidity-pct", "50")
+    code, _, err = run_volcal(monkeypatch, capsys, "env", "refractive-index", "--temperature-c",
+                              "20", "--pressure-pa", "1013", "--humidity-pct", "50")
     assert code == 2 and "pressure_pa" in err

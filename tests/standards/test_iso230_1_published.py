@@ -76,7 +76,6 @@ from __future__ import annotations
 
 import json
 import math
-import sys
 
 import numpy as np
 import pytest
@@ -86,6 +85,7 @@ from volcal.standards.straightness import (
     squareness_from_slopes,
     straightness,
 )
+from volcal_cli_helpers import run_volcal
 
 # --- the manual's data (HP 5528A User's Guide, 21-3, 21-4, 21-6) ---------------------------
 X1_M = np.round(np.arange(10) * 0.1, 10)
@@ -254,18 +254,6 @@ file = "str-yx.csv"
                                        + "\n", encoding="utf-8")
 
 
-def _cli(monkeypatch, capsys, *args) -> tuple[int, str]:
-    from volcal.cli import main
-
-    monkeypatch.setattr(sys, "argv", ["volcal", *args])
-    code = 0
-    try:
-        main()
-    except SystemExit as exc:
-        code = exc.code or 0
-    return int(code), capsys.readouterr().out
-
-
 @pytest.mark.parametrize("square_arcsec", [0.0, 1.0])
 def test_cli_evaluate_optics_on_the_published_example(tmp_path, monkeypatch, capsys,
                                                       square_arcsec):
@@ -277,7 +265,7 @@ def test_cli_evaluate_optics_on_the_published_example(tmp_path, monkeypatch, cap
     -4.2 arcsec (this second case applies the published rule to a value of our own)."""
     folder = tmp_path / "hp5528a"
     _write_session(folder, square_arcsec * URAD_PER_ARCSEC)
-    code, out = _cli(monkeypatch, capsys, "evaluate", "optics", str(folder), "--json")
+    code, out, _ = run_volcal(monkeypatch, capsys, "evaluate", "optics", str(folder), "--json")
     assert code == 0, out
     ev = json.loads(out)
     for mid, axis in (("str-xy", 1), ("str-yx", 2)):
@@ -302,7 +290,7 @@ def test_cli_evaluate_optics_on_the_published_example(tmp_path, monkeypatch, cap
         assert sq[ref]["angle_minus_90_urad"] == sq[ref]["EC0Y"]  # EC0Y = S_xy
 
     # the table output names both figures
-    code, out = _cli(monkeypatch, capsys, "evaluate", "optics", str(folder))
+    code, out, _ = run_volcal(monkeypatch, capsys, "evaluate", "optics", str(folder))
     assert code == 0
     ep = ev["squareness"][0]["end_point"]["EC0Y"]
     ls = ev["squareness"][0]["least_squares"]["EC0Y"]

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import json
 import math
-import sys
 import tomllib
 
 import numpy as np
@@ -20,6 +19,7 @@ from volcal.session.format import Session, write_session
 from volcal.standards.optics import evaluate_optics
 from volcal.standards.optics_uncertainty import add_optics_uncertainty, optics_uncertainty
 from volcal.uncertainty.budget import TEMPLATE, parse_budget
+from volcal_cli_helpers import run_volcal
 
 TRAVEL = np.array([[0.0, 800.0], [0.0, 600.0], [0.0, 500.0]])
 
@@ -148,19 +148,6 @@ def test_defaults_are_said():
     assert "u_angular_urad" not in note  # no angular-optics line in this session
 
 
-def run(monkeypatch, capsys, *args):
-    from volcal.cli import main
-
-    monkeypatch.setattr(sys, "argv", ["volcal", *args])
-    try:
-        main()
-        code = 0
-    except SystemExit as exc:
-        code = exc.code or 0
-    out = capsys.readouterr()
-    return code, out.out, out.err
-
-
 def test_cli_evaluate_optics_budget(tmp_path, monkeypatch, capsys):
     write_session(_hand_session(), tmp_path / "s")
     doc = tomllib.loads(TEMPLATE)
@@ -168,8 +155,8 @@ def test_cli_evaluate_optics_budget(tmp_path, monkeypatch, capsys):
         "u_straightness_scale_pct = 0.29", "u_straightness_scale_pct = 0.5").replace(
         "u_straightness_um = 0.29", "u_straightness_um = 0.3"), "utf-8")
     assert doc["optics"]["u_straightness_um"] == 0.29
-    code, out, err = run(monkeypatch, capsys, "evaluate", "optics", str(tmp_path / "s"),
-                         "--budget", str(tmp_path / "b.toml"), "--json")
+    code, out, err = run_volcal(monkeypatch, capsys, "evaluate", "optics", str(tmp_path / "s"),
+                                "--budget", str(tmp_path / "b.toml"), "--json")
     assert code == 0, err
     d = json.loads(out)
     ep = d["straightness"]["str-xz"]["end_point"]
@@ -179,11 +166,12 @@ def test_cli_evaluate_optics_budget(tmp_path, monkeypatch, capsys):
     assert d["angular"]["lev-xa"]["U_angular_deviation_urad"] == pytest.approx(
         2 * math.sqrt((6.5 * 0.0058) ** 2 + 2 * 0.58**2), rel=1e-6)
     assert d["budget_file"] == str(tmp_path / "b.toml")
-    code, out, _ = run(monkeypatch, capsys, "evaluate", "optics", str(tmp_path / "s"),
-                       "--budget", str(tmp_path / "b.toml"))
+    code, out, _ = run_volcal(monkeypatch, capsys, "evaluate", "optics", str(tmp_path / "s"),
+                              "--budget", str(tmp_path / "b.toml"))
     assert code == 0 and "U end-point" in out and "0.895" in out
     # without --budget the output is unchanged: no U keys
-    code, out, _ = run(monkeypatch, capsys, "evaluate", "optics", str(tmp_path / "s"), "--json")
+    code, out, _ = run_volcal(monkeypatch, capsys, "evaluate", "optics", str(tmp_path / "s"),
+                              "--json")
     assert "U_straightness_um" not in out and "uncertainty" not in json.loads(out)
 
 
@@ -192,8 +180,8 @@ def test_cli_bad_optics_budget_names_file_and_key(tmp_path, monkeypatch, capsys)
     bad = tmp_path / "b.toml"
     bad.write_text(TEMPLATE.replace('scale_correlation = "instrument"',
                                     'scale_correlation = "kit"'), "utf-8")
-    code, out, err = run(monkeypatch, capsys, "evaluate", "optics", str(tmp_path / "s"),
-                         "--budget", str(bad), "--json")
+    code, out, err = run_volcal(monkeypatch, capsys, "evaluate", "optics", str(tmp_path / "s"),
+                                "--budget", str(bad), "--json")
     assert code == 2 and out == ""
     assert "optics.scale_correlation" in err and "measurement" in err and str(bad) in err
 

@@ -473,11 +473,13 @@ def _identify_weighted(session: Session, o: IdentifyOptions,
             design_h = coarsen(design, nodes_h) or build_design(
                 session, nodes_h, known, o.drift, o.measurement_ids, o.tilts, weights=weights)
             prior_h = PriorStructure.build(design_h.layout, design_h.free, o.kappa)
-            sol_h = solve_bayes(design_h, prior_h, None, noise, o.squareness_std_urad)
+            sol_h = solve_bayes(design_h, prior_h, None, noise, o.squareness_std_urad,
+                                roll_presence=False)
             if noise is None and _too_few_redundant(sol_h, design_h):
                 notes.append(_noise_note(sol_h, design_h))
                 noise = DEFAULT_REPEATABILITY_UM
-                sol_h = solve_bayes(design_h, prior_h, None, noise, o.squareness_std_urad)
+                sol_h = solve_bayes(design_h, prior_h, None, noise, o.squareness_std_urad,
+                                    roll_presence=False)
             scales = sol_h.function_scales
             tilt_std = sol_h.tilt_std_urad
             prior = (prior.with_kappa(sol_h.kappa).with_trend(sol_h.trend_um)

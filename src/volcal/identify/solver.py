@@ -290,7 +290,8 @@ class Solution:
 
 def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float64] | None = None,
                 noise_um: float | None = None, squareness_std: float = 100.0,
-                covariance: bool = True, tilt_std: float | None = None) -> Solution:
+                covariance: bool = True, tilt_std: float | None = None,
+                roll_presence: bool = True) -> Solution:
     """Bayesian least squares with evidence-optimised hyperparameters.
 
     Parameters
@@ -311,6 +312,10 @@ def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float6
     tilt_std : float, optional
         Prior standard deviation of the set-up tilts [urad]; default estimated with the
         scales (maximum evidence), or :data:`NUISANCE_PRECISION` when the scales are given.
+    roll_presence : bool
+        Weigh the rolls' presence (:func:`roll_log_bayes_factor`, the two-model average
+        of :data:`ROLL_MIXTURE_ABSENT`). False for a solve that only chooses the
+        hyperparameters, whose estimate is not kept.
 
     Returns
     -------
@@ -492,7 +497,8 @@ def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float6
         for f, r in rho.items():
             f_opt[f] *= r
         H, Q, cf, x, cov = _final_solve(ev, design, f_opt, sigma, covariance)
-    roll_lbf = None if cov is None else roll_log_bayes_factor(ev.prior, f_opt, x, cov)
+    roll_lbf = (roll_log_bayes_factor(ev.prior, f_opt, x, cov)
+                if cov is not None and roll_presence else None)
     solve = lambda rhs: _polish(H, cf, rhs)  # noqa: E731
     p_roll = None
     cov_fit = cov  # the linear fit's: its hat matrix gives the effective parameters

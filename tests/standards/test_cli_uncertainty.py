@@ -4,16 +4,17 @@ end to end, with the exact option and key names of the issue."""
 import json
 
 import pytest
-from test_cli_evaluate import run_cli, write_cycle
+from test_cli_evaluate import write_cycle
 from test_iso230_2 import EXPECTED
 
 from volcal.standards.iso230_2 import AXIS_KEYS
 from volcal.uncertainty.budget import TEMPLATE
+from volcal_cli_helpers import run_volcal
 
 
 @pytest.fixture
 def files(tmp_path, monkeypatch, capsys):
-    code, out, _ = run_cli(monkeypatch, capsys, "budget", "--template")
+    code, out, _ = run_volcal(monkeypatch, capsys, "budget", "--template")
     assert code == 0 and out == TEMPLATE
     b = tmp_path / "budget.toml"
     b.write_text(out, encoding="utf-8")
@@ -22,21 +23,21 @@ def files(tmp_path, monkeypatch, capsys):
 
 def test_template_to_file_never_overwrites(tmp_path, monkeypatch, capsys):
     f = tmp_path / "b.toml"
-    assert run_cli(monkeypatch, capsys, "budget", "--template", "-o", str(f))[0] == 0
+    assert run_volcal(monkeypatch, capsys, "budget", "--template", "-o", str(f))[0] == 0
     assert f.read_text(encoding="utf-8") == TEMPLATE
-    code, _, err = run_cli(monkeypatch, capsys, "budget", "--template", "-o", str(f))
+    code, _, err = run_volcal(monkeypatch, capsys, "budget", "--template", "-o", str(f))
     assert code == 2 and "overwrite" in err
     g = tmp_path / "c.toml"                     # `budget --template FILE` writes FILE too
-    assert run_cli(monkeypatch, capsys, "budget", "--template", str(g))[0] == 0
+    assert run_volcal(monkeypatch, capsys, "budget", "--template", str(g))[0] == 0
     assert g.read_text(encoding="utf-8") == TEMPLATE
-    code, out, _ = run_cli(monkeypatch, capsys, "budget", str(f), "--length-mm", "500")
+    code, out, _ = run_volcal(monkeypatch, capsys, "budget", str(f), "--length-mm", "500")
     assert code == 0 and "U = 2.00 u" in out
 
 
 def test_json_has_U_of_every_key_targets_and_k(files, monkeypatch, capsys):
     f, b = files
-    code, out, err = run_cli(monkeypatch, capsys, "evaluate", "iso230-2", str(f), "--budget",
-                             str(b), "--json")
+    code, out, err = run_volcal(monkeypatch, capsys, "evaluate", "iso230-2", str(f), "--budget",
+                                str(b), "--json")
     assert code == 0, err
     d = json.loads(out)
     for k in AXIS_KEYS:
@@ -62,8 +63,8 @@ def test_json_has_U_of_every_key_targets_and_k(files, monkeypatch, capsys):
 ])
 def test_verdict(files, monkeypatch, capsys, args, verdict):
     f, b = files
-    code, out, err = run_cli(monkeypatch, capsys, "evaluate", "iso230-2", str(f), "--budget",
-                             str(b), "--json", *args)
+    code, out, err = run_volcal(monkeypatch, capsys, "evaluate", "iso230-2", str(f), "--budget",
+                                str(b), "--json", *args)
     assert code == 0, err
     d = json.loads(out)
     assert d["verdict"] == verdict
@@ -76,12 +77,12 @@ def test_verdict(files, monkeypatch, capsys, args, verdict):
 
 def test_text_output_names_the_rule(files, monkeypatch, capsys):
     f, b = files
-    code, out, _ = run_cli(monkeypatch, capsys, "evaluate", "iso230-2", str(f), "--budget",
-                           str(b), "--tolerance-um", "14", "--decision-rule", "guarded")
+    code, out, _ = run_volcal(monkeypatch, capsys, "evaluate", "iso230-2", str(f), "--budget",
+                              str(b), "--tolerance-um", "14", "--decision-rule", "guarded")
     assert code == 0 and "decision rule: guarded" in out and "conditional" in out
     assert "uncertainty budget" in out and "referred to 20 °C" in out
-    code, out, _ = run_cli(monkeypatch, capsys, "evaluate", "iso230-2", str(f),
-                           "--tolerance-um", "14")
+    code, out, _ = run_volcal(monkeypatch, capsys, "evaluate", "iso230-2", str(f),
+                              "--tolerance-um", "14")
     assert code == 0 and "decision rule: simple" in out and "pass" in out
 
 
@@ -93,7 +94,7 @@ def test_text_output_names_the_rule(files, monkeypatch, capsys):
 ])
 def test_bad_options(files, monkeypatch, capsys, args, words):
     f, _ = files
-    code, out, err = run_cli(monkeypatch, capsys, "evaluate", "iso230-2", str(f), *args)
+    code, out, err = run_volcal(monkeypatch, capsys, "evaluate", "iso230-2", str(f), *args)
     assert code == 2 and words in err and "Traceback" not in err and out == ""
 
 
@@ -109,7 +110,7 @@ def test_bad_budget_file(files, monkeypatch, capsys, old, new, key):
     text = b.read_text(encoding="utf-8")
     assert old in text
     b.write_text(text.replace(old, new, 1), encoding="utf-8")
-    code, out, err = run_cli(monkeypatch, capsys, "evaluate", "iso230-2", str(f), "--budget",
-                             str(b), "--json")
+    code, out, err = run_volcal(monkeypatch, capsys, "evaluate", "iso230-2", str(f), "--budget",
+                                str(b), "--json")
     assert code == 2 and out == "" and "Traceback" not in err
     assert str(b) in err and f"'{key}'" in err

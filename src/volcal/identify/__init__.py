@@ -12,6 +12,7 @@ from importlib import import_module
 from typing import Any
 
 _LAZY = {
+    "EstimatorSettings": "volcal.identify.settings",
     "IdentificationResult": "volcal.identify.result",
     "IdentifyOptions": "volcal.identify.api",
     "advise": "volcal.identify.api",

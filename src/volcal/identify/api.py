@@ -13,8 +13,6 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-import volcal.identify.design as _design
-import volcal.identify.solver as solver
 from volcal.errors import VolcalInputError
 from volcal.identify.design import (
     Design,
@@ -27,30 +25,13 @@ from volcal.identify.identifiability import analyse
 from volcal.identify.prior import PriorStructure
 from volcal.identify.record import session_identity
 from volcal.identify.result import IdentificationResult
-from volcal.identify.solver import DEFAULT_SCALES, Solution, solve_bayes, solve_min_norm
+from volcal.identify.settings import EstimatorSettings
+from volcal.identify.solver import Solution, solve_bayes, solve_min_norm
 from volcal.model.names import ROLL_NAMES
 from volcal.session.format import Measurement, Session
 
 __all__ = ["IdentifyOptions", "advise", "default_outlier_threshold", "identify",
            "standardised_residuals"]
-
-HYPER_MAX_NODES = 21
-"""Nodes per axis of the grid on which the prior's hyperparameters are chosen (the
-hyperparameters describe the functions, not the grid: a coarse grid is enough and keeps
-each evidence evaluation cheap)."""
-
-ANALYSIS_MAX_NODES = 41
-
-NO_ROLL_NOTE_FACTOR = 100.0
-"""Bayes factor in favour of "no roll errors" over rolls of the prior's size
-(:func:`volcal.identify.solver.roll_log_bayes_factor`) above which `identify` says that
-the readings look like a machine without roll. Measured on benchmarks/families.py (seeds'
-full set, 20 machines per family, 2026-11-24): the log factor was -2.0 to -10.8 on the
-family without roll (one machine +4.9) and -3.5 to +220 on the four families with roll,
-where 2 of 80 machines were below 0; at 100 (log 4.6) the note names 9 of 20 machines
-without roll and none of 80 with (long machine: 16 of 20 and none of 60)."""
-"""Nodes per axis of the identifiability analysis (a design property: coarse is enough)."""
-
 
 @dataclass
 class IdentifyOptions:
@@ -99,7 +80,7 @@ class IdentifyOptions:
         Try candidate extra measurements for the report.
     robust : bool
         Down-weight the readings the outlier check flags and fit again (at most
-        :data:`ROBUST_ITERATIONS` times): a flagged reading's noise is taken as its
+        ``settings.robust_iterations`` times): a flagged reading's noise is taken as its
         standardised residual times the others' (weight ``1/z^2``), so it enters the fit
         at one standard deviation; the readings stay in the residuals and the outlier list
         with their weight.
@@ -109,6 +90,9 @@ class IdentifyOptions:
         threads cost more than they save on a 2-core box (1000 increments: 2.0 s against
         2.9 s with two threads, benchmarks/README.md), and the result does not depend on
         the machine's thread count.
+    settings : EstimatorSettings
+        The estimator's settings (hyperprior, the rolls' prior, node grids, numerical
+        limits); default volcal's (:class:`volcal.identify.settings.EstimatorSettings`).
     """
 
     prior: str = "smooth"
@@ -128,14 +112,7 @@ class IdentifyOptions:
     suggest: bool = True
     robust: bool = False
     blas_threads: int | None = 1
-
-
-ROBUST_ITERATIONS = 5
-"""Re-weighted fits of ``robust=True`` at most (the flagged set is usually stable after 2)."""
-
-
-DEFAULT_REPEATABILITY_UM = 0.5
-"""Repeatability assumed when the data cannot show their own noise [um]."""
+    settings: EstimatorSettings = field(default_factory=EstimatorSettings)
 
 
 def _too_few_redundant(sol: Solution, design: Design) -> bool:
@@ -143,10 +120,10 @@ def _too_few_redundant(sol: Solution, design: Design) -> bool:
     return sol.dof < max(10.0, 0.1 * design.y.size)
 
 
-def _noise_note(sol: Solution, design: Design) -> str:
+def _noise_note(sol: Solution, design: Design, repeatability_um: float) -> str:
     return (f"The readings have too little redundancy to show their own noise ({sol.dof:.0f} "
             f"residual degrees of freedom for {design.y.size} readings): a repeatability of "
-            f"{DEFAULT_REPEATABILITY_UM:g} um is assumed; state yours with --noise-um, or "
+            f"{repeatability_um:g} um is assumed; state yours with --noise-um, or "
             "repeat runs.")
 
 
@@ -321,28 +298,32 @@ def advise(session: Session, options: IdentifyOptions | None = None):
     from copy import copy
 
     from volcal.identify.identifiability import _reference_prior
-    from volcal.identify.solver import TREND_CENTRE_UM
 
     o = options or IdentifyOptions()
+    st = o.settings
     known = _known(o)
     planned = copy(session)
     planned.measurements = [copy(m) for m in session.measurements]
     for m in planned.measurements:
         m.deviation = np.zeros(m.n)
-    nodes_a = choose_nodes(planned, refine=1, max_nodes=min(o.max_nodes, ANALYSIS_MAX_NODES))
+    nodes_a = choose_nodes(planned, refine=1, max_nodes=min(o.max_nodes, st.analysis_max_nodes),
+                           settings=st)
     design = build_design(planned, nodes_a, known, o.drift, o.measurement_ids, o.tilts)
-    prior = _reference_prior(design)  # the hyperprior centres
+    prior = _reference_prior(design, st)  # the hyperprior centres
     cands = candidate_designs(planned, nodes_a, known) if o.suggest else None
-    report = analyse(design, prior, DEFAULT_SCALES.copy(), o.squareness_std_urad, cands)
+    report = analyse(design, prior, np.array(st.typical_scales), o.squareness_std_urad, cands,
+                     settings=st)
     command = add_command(report, session, candidate_steps(nodes_a)) if o.suggest else None
     if command is not None:
         report.messages.append(f"To add it: {command}")
     if o.suggest:
         report.messages.extend(_optic_command(report, session, candidate_steps(nodes_a)))
+    pos, straight, _, tilt = st.typical_scales
     report.messages.insert(0, "Before measuring: the figures assume a typical machining centre "
-                              "(prior scales: positioning 10 um with a linear trend of "
-                              f"{TREND_CENTRE_UM:g} um over the travel, straightness 5 um, "
-                              "roll and tilts 15 urad); the measured data will refine them.")
+                              f"(prior scales: positioning {pos:g} um with a linear trend of "
+                              f"{st.trend_centre_um:g} um over the travel, straightness "
+                              f"{straight:g} um, roll and tilts {tilt:g} urad); the measured "
+                              "data will refine them.")
     if any(m.kind in ("straightness", "angular") for m in design.measurements):
         from volcal.identify.optics import optics_notes  # what each direct optic adds
 
@@ -409,7 +390,7 @@ def _robust(session: Session, o: IdentifyOptions,
     """
     weights: dict[str, NDArray[np.float64]] = {}
     seen: list[set] = []
-    for _ in range(ROBUST_ITERATIONS):
+    for _ in range(o.settings.robust_iterations):
         flagged = {(f["measurement"], f["row"]) for f in result.outliers}
         if not flagged or flagged in seen:
             break
@@ -442,75 +423,9 @@ def _identify_weighted(session: Session, o: IdentifyOptions,
     notes: list[str] = []
     if o.drift:
         notes.extend(_drift_notes(session, o))
-    nodes1 = choose_nodes(session, refine=1, max_nodes=o.max_nodes)
-    noise = o.noise_um
-    if o.prior == "none":
-        design = build_design(session, nodes1, known, o.drift, o.measurement_ids, o.tilts,
-                           weights=weights)
-        sol = solve_min_norm(design, noise)
-        if noise is None and _too_few_redundant(sol, design):
-            notes.append(_noise_note(sol, design))
-            sol = solve_min_norm(design, DEFAULT_REPEATABILITY_UM)
-        prior = None
-    else:
-        nodes = choose_nodes(session, refine=o.refine, max_nodes=o.max_nodes)
-        design = build_design(session, nodes, known, o.drift, o.measurement_ids, o.tilts,
-                           weights=weights)
-        prior = PriorStructure.build(design.layout, design.free, o.kappa)
-        scales = None if o.scales is None else np.array(o.scales)
-        tilt_std = None
-        # the hyperparameters' grid keeps the visited positions when the fine one does
-        # (design.NODES_AT_READINGS): a coarse uniform grid would put its nodes between
-        # the readings and the evidence would judge the prior on a misplaced grid
-        n_h = HYPER_MAX_NODES
-        if _design.NODES_AT_READINGS:
-            n_h = max([n_h, *(m for m in visited_positions(session)
-                              if m <= _design.VISITED_NODES_FACTOR * o.max_nodes)])
-        nodes_h = choose_nodes(session, refine=o.refine, max_nodes=min(o.max_nodes, n_h))
-        if scales is None and any(len(a) != len(b) for a, b in zip(nodes_h, nodes, strict=True)):
-            # hyperparameters are properties of the functions, not of the grid: choose them
-            # on a coarser grid (fast), then solve on the fine one, re-estimating the noise
-            design_h = coarsen(design, nodes_h) or build_design(
-                session, nodes_h, known, o.drift, o.measurement_ids, o.tilts, weights=weights)
-            prior_h = PriorStructure.build(design_h.layout, design_h.free, o.kappa)
-            sol_h = solve_bayes(design_h, prior_h, None, noise, o.squareness_std_urad,
-                                roll_presence=False)
-            if noise is None and _too_few_redundant(sol_h, design_h):
-                notes.append(_noise_note(sol_h, design_h))
-                noise = DEFAULT_REPEATABILITY_UM
-                sol_h = solve_bayes(design_h, prior_h, None, noise, o.squareness_std_urad,
-                                    roll_presence=False)
-            scales = sol_h.function_scales
-            tilt_std = sol_h.tilt_std_urad
-            prior = (prior.with_kappa(sol_h.kappa).with_trend(sol_h.trend_um)
-                     .with_kappa_factor(sol_h.kappa_factor).with_nugget(sol_h.nugget_um))
-            hyper_noise = noise if noise is not None else sol_h.sigma_um
-            sol = solve_bayes(design, prior, scales, hyper_noise, o.squareness_std_urad,
-                              tilt_std=tilt_std)
-            sol.convergence = dict(sol_h.convergence, grid="hyperparameters on "
-                                   f"{'x'.join(str(len(n)) for n in nodes_h)} nodes")
-        else:
-            sol = solve_bayes(design, prior, scales, noise, o.squareness_std_urad)
-        if noise is None and _too_few_redundant(sol, design):
-            notes.append(_noise_note(sol, design))
-            noise = DEFAULT_REPEATABILITY_UM
-            sol = solve_bayes(design, prior, scales, noise, o.squareness_std_urad,
-                              tilt_std=tilt_std)
-    # identifiability on the measured positions
-    nodes_a = choose_nodes(session, refine=1, max_nodes=min(o.max_nodes, ANALYSIS_MAX_NODES))
-    same = all(len(a) == len(b) and np.array_equal(a, b)
-               for a, b in zip(nodes_a, design.layout.nodes, strict=True))
-    design1 = design if same else build_design(session, nodes_a, known, o.drift,
-                                               o.measurement_ids, o.tilts, weights=weights)
-    kappa = sol.kappa if np.isfinite(sol.kappa) else o.kappa
-    prior1 = (PriorStructure.build(design1.layout, design1.free, kappa)
-              .with_trend(sol.trend_um).with_kappa_factor(sol.kappa_factor)
-              .with_nugget(sol.nugget_um))
-    scales = (sol.function_scales if sol.function_scales is not None
-              else sol.scales if np.all(np.isfinite(sol.scales)) else DEFAULT_SCALES.copy())
-    cands = candidate_designs(session, nodes_a, known) if o.suggest else None
-    report = analyse(design1, prior1, scales, o.squareness_std_urad, cands,
-                     ata=sol.ata if design1 is design else None)
+    fit = _fit_min_norm if o.prior == "none" else _fit_smooth
+    design, sol = fit(session, o, known, weights, notes)
+    report = _identifiability(session, o, known, weights, design, sol)
     if o.prior == "none":
         report.messages.insert(0, "Minimum-norm least squares: combinations the data do not "
                                   "determine are set to zero and carry no uncertainty.")
@@ -523,6 +438,124 @@ def _identify_weighted(session: Session, o: IdentifyOptions,
 
         report.messages.extend(optics_notes(design.measurements))
     return _result(session, design, sol, report, o)
+
+
+def _fit_min_norm(session: Session, o: IdentifyOptions, known: dict, weights,
+                  notes: list[str]) -> tuple[Design, Solution]:
+    """Minimum-norm least squares on the visited positions (``prior='none'``).
+
+    Appends to ``notes`` when the noise cannot be estimated and the default repeatability
+    (:attr:`EstimatorSettings.default_repeatability_um`) is used instead.
+    """
+    st = o.settings
+    nodes1 = choose_nodes(session, refine=1, max_nodes=o.max_nodes, settings=st)
+    design = build_design(session, nodes1, known, o.drift, o.measurement_ids, o.tilts,
+                          weights=weights)
+    sol = solve_min_norm(design, o.noise_um)
+    if o.noise_um is None and _too_few_redundant(sol, design):
+        notes.append(_noise_note(sol, design, st.default_repeatability_um))
+        sol = solve_min_norm(design, st.default_repeatability_um)
+    return design, sol
+
+
+def _hyper_nodes(session: Session, o: IdentifyOptions) -> list[NDArray[np.float64]]:
+    """Nodes of the grid on which the hyperparameters are chosen.
+
+    :attr:`EstimatorSettings.hyper_max_nodes` per axis, or the visited positions when the
+    fine grid keeps them (:attr:`EstimatorSettings.nodes_at_readings`): a coarse uniform
+    grid would put its nodes between the readings and the evidence would judge the prior
+    on a misplaced grid.
+    """
+    st = o.settings
+    n_h = st.hyper_max_nodes
+    if st.nodes_at_readings:
+        n_h = max([n_h, *(m for m in visited_positions(session)
+                          if m <= st.visited_nodes_factor * o.max_nodes)])
+    return choose_nodes(session, refine=o.refine, max_nodes=min(o.max_nodes, n_h), settings=st)
+
+
+def _coarse_hyperparameters(session: Session, o: IdentifyOptions, known: dict, weights,
+                            design: Design, nodes_h, noise: float | None, notes: list[str]
+                            ) -> tuple[Solution, float | None]:
+    """The hyperparameters chosen on the coarser grid ``nodes_h`` (fast).
+
+    Hyperparameters are properties of the functions, not of the grid. Returns the coarse
+    solution and the noise [um] (the default repeatability when the readings cannot show
+    their own, with a note).
+    """
+    st = o.settings
+    design_h = coarsen(design, nodes_h) or build_design(
+        session, nodes_h, known, o.drift, o.measurement_ids, o.tilts, weights=weights)
+    prior_h = PriorStructure.build(design_h.layout, design_h.free, o.kappa, settings=st)
+    sol_h = solve_bayes(design_h, prior_h, None, noise, o.squareness_std_urad,
+                        roll_presence=False, settings=st)
+    if noise is None and _too_few_redundant(sol_h, design_h):
+        notes.append(_noise_note(sol_h, design_h, st.default_repeatability_um))
+        noise = st.default_repeatability_um
+        sol_h = solve_bayes(design_h, prior_h, None, noise, o.squareness_std_urad,
+                            roll_presence=False, settings=st)
+    return sol_h, noise
+
+
+def _fit_smooth(session: Session, o: IdentifyOptions, known: dict, weights,
+                notes: list[str]) -> tuple[Design, Solution]:
+    """The Bayesian fit (``prior='smooth'``) on the fine grid.
+
+    The hyperparameters are chosen on a coarser grid when it differs
+    (:func:`_coarse_hyperparameters`), then the fine grid is solved with them,
+    re-estimating the noise.
+    """
+    st = o.settings
+    noise = o.noise_um
+    nodes = choose_nodes(session, refine=o.refine, max_nodes=o.max_nodes, settings=st)
+    design = build_design(session, nodes, known, o.drift, o.measurement_ids, o.tilts,
+                          weights=weights)
+    prior = PriorStructure.build(design.layout, design.free, o.kappa, settings=st)
+    scales = None if o.scales is None else np.array(o.scales)
+    tilt_std = None
+    nodes_h = _hyper_nodes(session, o)
+    if scales is None and any(len(a) != len(b) for a, b in zip(nodes_h, nodes, strict=True)):
+        sol_h, noise = _coarse_hyperparameters(session, o, known, weights, design, nodes_h,
+                                               noise, notes)
+        scales = sol_h.function_scales
+        tilt_std = sol_h.tilt_std_urad
+        prior = (prior.with_kappa(sol_h.kappa).with_trend(sol_h.trend_um)
+                 .with_kappa_factor(sol_h.kappa_factor).with_nugget(sol_h.nugget_um))
+        hyper_noise = noise if noise is not None else sol_h.sigma_um
+        sol = solve_bayes(design, prior, scales, hyper_noise, o.squareness_std_urad,
+                          tilt_std=tilt_std, settings=st)
+        sol.convergence = dict(sol_h.convergence, grid="hyperparameters on "
+                               f"{'x'.join(str(len(n)) for n in nodes_h)} nodes")
+    else:
+        sol = solve_bayes(design, prior, scales, noise, o.squareness_std_urad, settings=st)
+    if noise is None and _too_few_redundant(sol, design):
+        notes.append(_noise_note(sol, design, st.default_repeatability_um))
+        noise = st.default_repeatability_um
+        sol = solve_bayes(design, prior, scales, noise, o.squareness_std_urad,
+                          tilt_std=tilt_std, settings=st)
+    return design, sol
+
+
+def _identifiability(session: Session, o: IdentifyOptions, known: dict, weights,
+                     design: Design, sol: Solution):
+    """The identifiability report on the measured positions, with the fit's prior."""
+    st = o.settings
+    nodes_a = choose_nodes(session, refine=1, max_nodes=min(o.max_nodes, st.analysis_max_nodes),
+                           settings=st)
+    same = all(len(a) == len(b) and np.array_equal(a, b)
+               for a, b in zip(nodes_a, design.layout.nodes, strict=True))
+    design1 = design if same else build_design(session, nodes_a, known, o.drift,
+                                               o.measurement_ids, o.tilts, weights=weights)
+    kappa = sol.kappa if np.isfinite(sol.kappa) else o.kappa
+    prior1 = (PriorStructure.build(design1.layout, design1.free, kappa, settings=st)
+              .with_trend(sol.trend_um).with_kappa_factor(sol.kappa_factor)
+              .with_nugget(sol.nugget_um))
+    scales = (sol.function_scales if sol.function_scales is not None
+              else sol.scales if np.all(np.isfinite(sol.scales))
+              else np.array(st.typical_scales))
+    cands = candidate_designs(session, nodes_a, known) if o.suggest else None
+    return analyse(design1, prior1, scales, o.squareness_std_urad, cands,
+                   ata=sol.ata if design1 is design else None, settings=st)
 
 
 def default_outlier_threshold(n: int) -> float:
@@ -673,11 +706,11 @@ def _result(session: Session, design: Design, sol: Solution, report, o: Identify
                                              if sol.tilt_std_urad is not None else None)},
         "convergence": dict(sol.convergence),
         "log_evidence": _fin(sol.log_evidence),
-        # the rolls' presence: Bayes factor and the two-model average (solver.ROLL_MIXTURE_*)
+        # the rolls' presence: Bayes factor and the two-model average (settings.roll_mixture_*)
         "roll_presence": ({"log_bayes_factor": _fin(sol.roll_log_bayes_factor),
                            "probability": (None if sol.roll_probability is None
                                            else float(sol.roll_probability)),
-                           "prior_probability_absent": float(solver.ROLL_MIXTURE_ABSENT)}
+                           "prior_probability_absent": float(o.settings.roll_mixture_absent)}
                           if sol.roll_log_bayes_factor is not None else None),
         "measurements": [m.id for m in design.measurements],
         "known": sorted(design.fixed_names),
@@ -693,7 +726,7 @@ def _result(session: Session, design: Design, sol: Solution, report, o: Identify
             + f"; near the prior scale ({sol.scales[2]:.0f} urad) means not measured by these "
             "tests, whatever share the design could determine without noise.")
         lbf = sol.roll_log_bayes_factor
-        if lbf is not None and -lbf > np.log(NO_ROLL_NOTE_FACTOR):
+        if lbf is not None and -lbf > np.log(o.settings.no_roll_note_factor):
             p_roll = sol.roll_probability
             lean = ("the estimate is the average of the fits with and without rolls, "
                     f"weighted {p_roll:.2g} / {1 - p_roll:.2g}, and keeps the uncertainty "

@@ -21,6 +21,7 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from volcal.errors import VolcalInputError
+from volcal.identify.settings import EstimatorSettings
 from volcal.measure.readings import perpendicular_basis, reading_jacobian, tilt_columns
 from volcal.model.chain import parse_chain
 from volcal.model.kinematics import UM, URAD, pose_jacobian
@@ -60,26 +61,6 @@ def _loaded(spec: str):
 
 def _row_block(kind: str):
     return _loaded(ROW_BLOCKS[kind])
-
-
-NODES_AT_READINGS = True
-"""When the refined grid would exceed ``max_nodes`` but the visited positions fit, keep
-every visited position as a node and spend the rest of the budget on the longest
-intervals (:func:`_fill_intervals`), instead of a uniform grid whose nodes fall between
-the readings. On the seeds' full set at 10 increments the linear tests (ISO 230-2
-spacing) and the diagonals (uniform) visit about 22 positions per axis: with the uniform
-41-node grid the linear tests read between nodes, and a ball screw's cyclic error, which
-the readings see at their own positions, could only be reproduced by interpolation
-(issue 19, family d of benchmarks/families.py; benchmarks/README.md)."""
-
-
-VISITED_NODES_FACTOR = 1.5
-"""With :data:`NODES_AT_READINGS`, the visited positions alone are the nodes when they
-number up to this factor times ``max_nodes`` (the seeds' full set at 20 increments visits
-42 positions per axis, one more than the default 41): on a uniform grid between the
-readings the cyclic family's coverage was 0.879 at 20 increments (10 machines; 0.953
-with the nodes at the readings) and minimum-norm least squares (``prior='none'``, whose
-nodes are the visited positions) returned 57-6300 um for 7-15 um machines."""
 
 
 def visited_positions(session: Session) -> list[int]:
@@ -126,8 +107,8 @@ def _fill_intervals(v: NDArray[np.float64], n: int) -> NDArray[np.float64]:
     return w
 
 
-def choose_nodes(session: Session, refine: int = 2, max_nodes: int = 201
-                 ) -> list[NDArray[np.float64]]:
+def choose_nodes(session: Session, refine: int = 2, max_nodes: int = 201,
+                 settings: EstimatorSettings | None = None) -> list[NDArray[np.float64]]:
     """Node positions per axis: the visited positions and travel ends, refined.
 
     Parameters
@@ -139,13 +120,19 @@ def choose_nodes(session: Session, refine: int = 2, max_nodes: int = 201
         the smoothness prior interpolates smoothly between readings.
     max_nodes : int
         Upper bound per axis of the refined grid; beyond it the visited positions
-        (:data:`NODES_AT_READINGS`, up to :data:`VISITED_NODES_FACTOR` times this), else a
-        uniform grid (keeps the problem size independent of the number of increments).
+        (:attr:`EstimatorSettings.nodes_at_readings`: filled up to ``max_nodes`` in the
+        longest intervals, or alone up to :attr:`EstimatorSettings.visited_nodes_factor`
+        times ``max_nodes``), else a uniform grid (keeps the problem size independent of
+        the number of increments).
+    settings : EstimatorSettings, optional
+        Default ``EstimatorSettings()``.
 
     Returns
     -------
     list of 3 ndarray
     """
+    st = settings if settings is not None else EstimatorSettings()
+    at_readings = st.nodes_at_readings
     out = []
     for k in range(3):
         vals = [session.travel[k]]
@@ -161,9 +148,9 @@ def choose_nodes(session: Session, refine: int = 2, max_nodes: int = 201
                 keep.append(x)
         v = np.array(keep)
         if (v.size - 1) * max(refine, 1) + 1 > max_nodes:
-            if NODES_AT_READINGS and v.size <= max_nodes:
+            if at_readings and v.size <= max_nodes:
                 v = _fill_intervals(v, max_nodes)
-            elif not (NODES_AT_READINGS and v.size <= VISITED_NODES_FACTOR * max_nodes):
+            elif not (at_readings and v.size <= st.visited_nodes_factor * max_nodes):
                 v = np.linspace(lo, hi, max_nodes)
             # else: the visited positions alone, a few more than max_nodes
         elif refine > 1:

@@ -30,6 +30,7 @@ from numpy.typing import NDArray
 
 from volcal.identify.design import Design
 from volcal.identify.prior import PriorStructure
+from volcal.identify.settings import EstimatorSettings
 from volcal.model.kinematics import pose_jacobian
 from volcal.model.names import COMPONENT_NAMES, ROLL_NAMES, SQUARENESS_NAMES, describe, kind
 
@@ -275,28 +276,29 @@ def _null_basis(F: NDArray[np.float64], tol: float = 1e-9
     return V[:, w < thr], thr
 
 
-def _reference_scales() -> NDArray[np.float64]:
-    from volcal.identify.solver import DEFAULT_SCALES
+def _reference_scales(settings: EstimatorSettings | None = None) -> NDArray[np.float64]:
+    """The typical machining centre's group scales (:attr:`EstimatorSettings.typical_scales`)."""
+    st = settings if settings is not None else EstimatorSettings()
+    return np.array(st.typical_scales)
 
-    return DEFAULT_SCALES.copy()
 
-
-def _reference_prior(design: Design) -> PriorStructure:
+def _reference_prior(design: Design, settings: EstimatorSettings | None = None
+                     ) -> PriorStructure:
     """The prior of :func:`volcal.identify.api.advise` (hyperprior centres) on ``design``.
 
     The identifiability report finds its null space in this prior's scaling, so that a
     plan and the identification of its data name the same undetermined combinations.
     """
-    from volcal.identify.solver import HYPER_CENTRE, TREND_CENTRE_UM
-
-    return PriorStructure.build(design.layout, design.free,
-                                float(np.exp(HYPER_CENTRE[-1]))).with_trend(TREND_CENTRE_UM)
+    st = settings if settings is not None else EstimatorSettings()
+    return PriorStructure.build(design.layout, design.free, st.kappa_centre,
+                                settings=st).with_trend(st.trend_centre_um)
 
 
 def analyse(design: Design, prior: PriorStructure, scales: NDArray[np.float64],
             squareness_std: float, candidates: dict[str, Design] | None = None,
             tool_offset: NDArray[np.float64] | None = None,
-            ata: NDArray[np.float64] | None = None) -> IdentifiabilityReport:
+            ata: NDArray[np.float64] | None = None,
+            settings: EstimatorSettings | None = None) -> IdentifiabilityReport:
     """Identifiability report of a design (nodes at the measured positions).
 
     Parameters
@@ -316,6 +318,9 @@ def analyse(design: Design, prior: PriorStructure, scales: NDArray[np.float64],
         Tool offset for the volumetric ambiguity [mm].
     ata : ndarray, optional
         ``A^T A`` of ``design`` if already formed (:func:`information`).
+    settings : EstimatorSettings, optional
+        The reference prior's settings (``typical_scales``, ``kappa_centre``,
+        ``trend_centre_um``); default ``EstimatorSettings()``.
 
     Returns
     -------
@@ -331,8 +336,8 @@ def analyse(design: Design, prior: PriorStructure, scales: NDArray[np.float64],
     # prior's diagonal at the *reference* hyperparameters (those of advise before
     # measuring), not the fitted ones, which moved a direction at 1e-9 of the largest
     # eigenvalue across the threshold between a plan and its data (ranks 166 and 167)
-    ref = np.sqrt(np.diag(_reference_prior(design).precision(
-        _reference_scales(), squareness_std, nf, np.zeros(0)).toarray()))
+    ref = np.sqrt(np.diag(_reference_prior(design, settings).precision(
+        _reference_scales(settings), squareness_std, nf, np.zeros(0)).toarray()))
     N_ref, _ = _null_basis(F / np.outer(ref, ref))
     N = np.linalg.qr((scale / ref)[:, None] * N_ref)[0] if N_ref.shape[1] else N_ref
     # the candidates' threshold on the information in this prior's scaling

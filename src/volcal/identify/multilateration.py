@@ -206,15 +206,17 @@ def _fast_step(session: Session, options) -> dict[str, NDArray[np.float64]]:
     from volcal.identify.api import _known
     from volcal.identify.design import build_design, choose_nodes
     from volcal.identify.prior import PriorStructure
-    from volcal.identify.solver import DEFAULT_SCALES, solve_bayes
+    from volcal.identify.solver import solve_bayes
 
-    nodes = choose_nodes(session, refine=1, max_nodes=min(options.max_nodes, 41))
+    st = options.settings
+    nodes = choose_nodes(session, refine=1, max_nodes=min(options.max_nodes, 41), settings=st)
     d = build_design(session, nodes, _known(options), options.drift, options.measurement_ids,
                      options.tilts)
-    prior = PriorStructure.build(d.layout, d.free, options.kappa)
-    scales = np.array(options.scales if options.scales is not None else DEFAULT_SCALES)
+    prior = PriorStructure.build(d.layout, d.free, options.kappa, settings=st)
+    scales = np.array(options.scales if options.scales is not None else st.typical_scales)
     noise = options.noise_um if options.noise_um is not None else 1.0
-    sol = solve_bayes(d, prior, scales, noise, options.squareness_std_urad, covariance=False)
+    sol = solve_bayes(d, prior, scales, noise, options.squareness_std_urad, covariance=False,
+                      settings=st)
     out: dict[str, list[float]] = {}
     for j, name in enumerate(d.nuisance_names):
         key, _, kind = name.rpartition(":")
@@ -360,17 +362,19 @@ def _figures(s: Session, options, noise_um: float, dwell_s: float, feed_mm_min: 
     from volcal.identify.api import _known
     from volcal.identify.design import build_design, choose_nodes
     from volcal.identify.prior import PriorStructure
-    from volcal.identify.solver import DEFAULT_SCALES, HYPER_CENTRE, solve_bayes
+    from volcal.identify.solver import solve_bayes
     from volcal.model.chain import parse_chain
     from volcal.model.kinematics import pose_jacobian
 
     for m in s.measurements:
         if m.deviation is None:
             m.deviation = np.zeros(m.n)
-    nodes = choose_nodes(s, refine=1, max_nodes=min(options.max_nodes, 41))
+    st = options.settings
+    nodes = choose_nodes(s, refine=1, max_nodes=min(options.max_nodes, 41), settings=st)
     d = build_design(s, nodes, _known(options), options.drift, None, options.tilts)
-    prior = PriorStructure.build(d.layout, d.free, float(np.exp(HYPER_CENTRE[-1])))
-    sol = solve_bayes(d, prior, DEFAULT_SCALES.copy(), noise_um, options.squareness_std_urad)
+    prior = PriorStructure.build(d.layout, d.free, st.kappa_centre, settings=st)
+    sol = solve_bayes(d, prior, np.array(st.typical_scales), noise_um,
+                      options.squareness_std_urad, settings=st)
     Je, _ = pose_jacobian(parse_chain(s.chain).order, d.layout.nodes, q)
     G = Je[:, d.free].toarray()
     cov = sol.covariance[: d.n_free, : d.n_free]

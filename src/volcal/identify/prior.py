@@ -23,7 +23,10 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
+from volcal.identify.settings import EstimatorSettings
 from volcal.model.parameters import ParameterLayout
+
+_DEFAULT = EstimatorSettings()
 
 GROUPS: tuple[str, ...] = ("positioning", "straightness", "roll", "tilt")
 """Prior amplitude groups: positioning [um], straightness [um], roll [urad] (EAX, EBY,
@@ -36,45 +39,7 @@ error (thermal expansion of scale or screw, pitch of the screw: 11.5 um/m/K on s
 plus smaller periodic and local errors, so the trend gets its own scale instead of the
 amplitude of the wiggles (ISO 230-2 reports and compensates the slope separately)."""
 
-GROUP_KAPPA: tuple[float, ...] = (1.0, 1.0, 0.6, 1.0)
-"""Fixed curvature factor of each group of :data:`GROUPS` over the evidence's ``kappa``:
-the rolls' curvature scale is 0.6 times the others' (a smoother roll). A roll comes from
-the twist of a pair of guideways along the travel, a long-wavelength error, and the seeds'
-full set sees it in one or two directions only, so that the rest of the function follows
-from its shape: with the tilts' curvature a roll seen at a few positions was free to bend
-between them. Measured (benchmarks/README.md, session 6; seeds' full set, 20 machines
-per family, ratio of the volumetric residual to the limit, median, factor 1 -> 0.6): a
-1.03 -> 1.02, b 1.14 -> 1.12, c 1.20 -> 1.12, d 1.04 -> 1.06, e 1.16 -> 1.10, f 1.21 ->
-1.18, coverage 0.944-0.991 (was 0.951-0.989). Smoother was better still on the families
-(0.5: c 1.09, f 1.17) but not on volcal's own machines, whose rolls are sums of sine
-modes: at 0.5 the diagonals of one clean session of tests/identify/test_outliers.py no
-longer fitted (two readings at |z| 4.4 and 5.0, against 3.2 at 1 and 3.85 at 0.6), and 0.3
-and 0.15 took the own family's coverage to 0.947 and 0.932."""
-
-BOUNDARY = "difference"
-"""How a function's prior meets the gauge zeros (``docs/identification.md``, section 3).
-
-``'difference'`` (default): the prior of the gauge-fixed function is the law of ``f(s) -
-f(0)`` (positioning, rolls, tilts) or of ``f(s) - f(0) - s (f(1) - f(0))`` (straightness:
-the end-point line removed) for ``f`` drawn from the smoothness prior on all the nodes:
-the gauge moves a constant (and a straightness' slope) into other parameters, it does not
-make the machine's function small at the start of travel. ``'conditional'`` (volcal <=
-issue 10): the prior conditioned on the zeros (the sub-matrix of the precision), whose
-variance at the far end of travel is half that of ``f(1) - f(0)``. ``'start'``: the
-difference form where only the start is held, the conditional one for straightness.
-
-Measured (issue 19, benchmarks/README.md, 20 machines per family, seeds' full test set):
-the residual over the best linear estimator knowing the family, median, went from 1.13
-to 1.03 (volcal's own machines), 1.23 to 1.16 (polynomial machines with roll), 1.21 to
-1.15 (guideway joint); on tests/identify/test_study_designs.py the long machine from
-0.378 to 0.284 of minimum-norm least squares (median), step diagonals alone from 1.004
-to 0.960 (max). With the straightness hyperprior centre of 5 um the Abbe lines alone,
-which see no straightness, covered 0.9995 (the unseen straightness kept twice the prior
-variance in the middle): the centre is 2 um with this form
-(:data:`volcal.identify.solver.HYPER_CENTRE`). ``'start'`` broke the step diagonals'
-ratio to least squares (one machine above 1.01)."""
-
-__all__ = ["BOUNDARY", "GROUPS", "TREND_FUNCTIONS", "PriorStructure", "function_group",
+__all__ = ["GROUPS", "TREND_FUNCTIONS", "PriorStructure", "function_group",
            "function_scales", "unit_parts", "unit_precision"]
 
 
@@ -230,10 +195,16 @@ class PriorStructure:
         the block covariance is ``a^2 (C / kappa^2 + W)^-1 + trend^2 s s'``.
     maps : list
         Per block, None (the prior conditioned on the gauge zeros: ``C``, ``W`` are the
-        free nodes' sub-matrices) or ``(D, C_full, W_full)`` with :data:`BOUNDARY`
-        ``'difference'``: the block covariance is ``a^2 D (C_full / kappa^2 +
-        W_full)^-1 D'``, ``D`` mapping all the function's nodes to the gauge-fixed free
-        ones (``f_i - f_0``, or the end-point line removed for a straightness).
+        free nodes' sub-matrices) or ``(D, C_full, W_full)`` with the boundary
+        ``'difference'`` (:attr:`EstimatorSettings.boundary`): the block covariance is
+        ``a^2 D (C_full / kappa^2 + W_full)^-1 D'``, ``D`` mapping all the function's
+        nodes to the gauge-fixed free ones (``f_i - f_0``, or the end-point line removed
+        for a straightness).
+    nugget_um : float
+        Short-wavelength part of the positioning errors [um]; 0: none.
+    group_kappa : tuple of 4 float
+        Fixed curvature factor of each group of :data:`GROUPS` over ``kappa``
+        (:attr:`EstimatorSettings.group_kappa`).
     """
 
     blocks: list[tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.float64], int, int]]
@@ -245,11 +216,12 @@ class PriorStructure:
     kappa_factor: tuple[float, ...] = (1.0, 1.0, 1.0, 1.0)
     maps: list = field(default_factory=list)
     nugget_um: float = 0.0
+    group_kappa: tuple[float, ...] = _DEFAULT.group_kappa
     _unit: dict = field(default_factory=dict, repr=False, compare=False)
 
     @classmethod
-    def build(cls, layout: ParameterLayout, free: NDArray[np.intp], kappa: float = 40.0
-              ) -> PriorStructure:
+    def build(cls, layout: ParameterLayout, free: NDArray[np.intp], kappa: float = 40.0,
+              settings: EstimatorSettings | None = None) -> PriorStructure:
         """Prior blocks for the free parameters of a layout.
 
         Parameters
@@ -260,7 +232,11 @@ class PriorStructure:
             Free parameter indices (into the layout).
         kappa : float
             Curvature scale (may be re-estimated, see :meth:`with_kappa`).
+        settings : EstimatorSettings, optional
+            Its ``boundary`` (how the prior meets the gauge zeros) and ``group_kappa``;
+            default ``EstimatorSettings()``.
         """
+        st = settings if settings is not None else _DEFAULT
         pos_in_free = -np.ones(layout.size, dtype=np.intp)
         pos_in_free[free] = np.arange(free.size)
         blocks, coords, maps = [], [], []
@@ -277,9 +253,10 @@ class PriorStructure:
                 blocks.append((pos_in_free[idx][sel], C[np.ix_(sel, sel)], W[np.ix_(sel, sel)],
                                function_group(k, c), 6 * k + c))
                 coords.append(s[sel])
-                maps.append(_boundary_map(s, sel, C, W, BOUNDARY))
+                maps.append(_boundary_map(s, sel, C, W, st.boundary))
         sq = pos_in_free[layout.squareness_indices()]
-        return cls(blocks, sq[sq >= 0], int(free.size), kappa, coords, maps=maps)
+        return cls(blocks, sq[sq >= 0], int(free.size), kappa, coords, maps=maps,
+                   group_kappa=tuple(st.group_kappa))
 
     def with_kappa(self, kappa: float) -> PriorStructure:
         """The same prior with another curvature scale.
@@ -343,7 +320,7 @@ class PriorStructure:
     def nugget_shape(self, b: int) -> NDArray[np.float64]:
         """Covariance of block ``b``'s short-wavelength part for a unit nugget.
 
-        ``I + 1 1'`` in the difference form (:data:`BOUNDARY`: ``e_i - e_0``, the first
+        ``I + 1 1'`` in the difference form (``e_i - e_0``, the first
         node held by the gauge), ``I`` when conditioned on the gauge zeros.
 
         Parameters
@@ -404,8 +381,8 @@ class PriorStructure:
     def block_kappa(self, b: int) -> float:
         """Curvature scale of block ``b``: ``kappa`` times its group's two factors.
 
-        :attr:`kappa_factor` (evidence-chosen, 1 by default) and :data:`GROUP_KAPPA`
-        (fixed).
+        :attr:`kappa_factor` (evidence-chosen, 1 by default) and :attr:`group_kappa`
+        (fixed, :attr:`EstimatorSettings.group_kappa`).
 
         Parameters
         ----------
@@ -417,7 +394,7 @@ class PriorStructure:
         float
         """
         g = self.blocks[b][3]
-        return self.kappa * self.kappa_factor[g] * GROUP_KAPPA[g]
+        return self.kappa * self.kappa_factor[g] * self.group_kappa[g]
 
     def has_trend(self, b: int) -> bool:
         """True when block ``b`` carries the separate linear trend.
@@ -448,7 +425,7 @@ class PriorStructure:
         K : ndarray
             ``-dP / dlog kappa / 2``: ``C / kappa^2`` when conditioned on the gauge zeros,
             ``T' (C_full / kappa^2) T`` with ``T = P_full^-1 D' P`` for the difference
-            prior (:data:`BOUNDARY`).
+            prior (:attr:`EstimatorSettings.boundary`).
         """
         kb = self.block_kappa(b)
         key = (b, kb)
@@ -486,7 +463,7 @@ class PriorStructure:
         Returns
         -------
         ndarray
-            ``(C / kappa^2 + W) / a^2`` (``BOUNDARY = 'conditional'``) or ``(D (C_full /
+            ``(C / kappa^2 + W) / a^2`` (boundary ``'conditional'``) or ``(D (C_full /
             kappa^2 + W_full)^-1 D')^-1 / a^2`` (``'difference'``, :attr:`maps`), or with
             the trend the inverse of that covariance plus ``trend^2 s s'``
             (Sherman-Morrison).

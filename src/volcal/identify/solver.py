@@ -11,8 +11,14 @@
   capped by ``IdentifyOptions.max_nodes``), so the cost does not grow with the number of
   readings. Small problems are solved by QR of the stacked system so that noise-free data
   are fitted to numerical precision; larger ones by Cholesky with iterative refinement.
+  The rolls, which the usual tests see only through lever arms, take the tilts' scale
+  times a fixed factor, and the estimate averages the fits with and without rolls by
+  their Bayes factor (Kass & Raftery 1995; Hoeting et al. 1999).
 * ``prior='none'``: minimum-norm least squares on the node values (the floor any
   estimator must beat), uncertainty ``s^2 (A^T A)^+``.
+
+Every tuning constant is a field of :class:`volcal.identify.settings.EstimatorSettings`;
+the measurements that chose them are in ``benchmarks/README.md``.
 """
 
 from __future__ import annotations
@@ -34,183 +40,24 @@ from volcal.identify.evidence import (  # noqa: F401  (re-exported for tests and
     _nuisance_precision,
 )
 from volcal.identify.prior import (
+    GROUPS,
     TREND_FUNCTIONS,
     PriorStructure,
     function_group,
     function_scales,
 )
+from volcal.identify.settings import EstimatorSettings
 
 __all__ = ["Solution", "solve_bayes", "solve_min_norm"]
 
-DEFAULT_SCALES = np.array([10.0, 5.0, 15.0, 15.0])
-"""Typical amplitude scales of machining centres: positioning [um], straightness [um],
-roll [urad], tilts [urad]."""
-HYPER_CENTRE = np.log([DEFAULT_SCALES[0], 2.0, *DEFAULT_SCALES[2:], 6.0])
-"""Centre of the hyperprior: the amplitude scales above and the curvature scale; it
-only matters for groups the data do not inform (there it holds the scale). The
-straightness centre is 2 um, not 5: with the difference form of the prior at the gauge
-zeros (:data:`volcal.identify.prior.BOUNDARY`) a straightness with the end-point line
-removed has about twice the prior variance in the middle of its travel than the
-conditioned one, and an unseen straightness (Abbe lines alone) then covered 0.9995 of
-the study's grid (2.5 um: 0.991; 2 um: 0.974, the issue-10 figure was 0.981)."""
-HYPER_SPREAD = np.log(30.0)
-"""Spread of the log-normal hyperprior (one standard deviation, as a factor of 30): weak,
-it only holds scales the data do not inform."""
 FREE_GROUPS: tuple[int, ...] = (0, 1, 3)
-"""Groups of :data:`volcal.identify.prior.GROUPS` with a scale of their own; the roll
-(group 2) takes the tilts' scale. Measured on the seeds' full test set (exact simulation,
-0.5 um noise, three chains): a free roll scale went to 3.7 urad on one machine and 18.8
-on another, and the 95 % intervals covered 0.65 and 1.00 of the grid (rigid-body motion
-removed); a roll shrunk towards the tilts by a factor 2 still gave 0.77 and 1.00; sharing
-the tilts' scale gives 0.94-0.98 on the same machines. Lines, diagonals and step
-diagonals see the rolls only through a few lever arms, too little for the evidence to
-set their scale."""
-EVIDENCE_TOL = 0.05
-"""The evidence optimiser stops when three iterations improve -2 log evidence by less than
-this (a likelihood ratio of 1.03 between hyperparameters: nothing the estimate shows)."""
-SIGMA_FIXED_POINT_STEPS = 2
-"""MacKay fixed-point updates of the noise before the quasi-Newton search."""
-TILT_CENTRE_URAD = 50.0
-"""Centre of the hyperprior of the set-up tilts' scale [urad] (beam and flat mirror
-aligned by eye and autoreflection). The tilts of a session's set-ups are independent
-draws of one unknown scale, which the evidence estimates from the step diagonals; this
-is what separates a positioning slope from a mirror tilt, weakly (Soons)."""
-TILT_SPREAD = np.log(2.0)
-"""Spread of the set-up tilts' hyperprior (a factor 2: 12-200 urad at 95 %). The data
-hardly inform this scale (a positioning slope or an angular error explains the same
-readings), and with the weak spread of the other scales the evidence drove it to 3-4 urad
-on machines set up 20 urad off, which made the slopes look determined: coverage 0.80 and
-1.6x the error of minimum-norm least squares on one machine of the study."""
-TREND_CENTRE_UM = 20.0
-"""Centre of the hyperprior of the positioning trend's scale [um at the end of travel]
-(:data:`volcal.identify.prior.TREND_FUNCTIONS`): 1 m of steel scale 2 K off 20 C."""
-ROLL_FACTOR = 1.5
-"""The rolls' prior scale over the tilts' (applied after the evidence, which cannot see
-the rolls). A roll the design hardly sees keeps its prior uncertainty, so that prior must
-cover the rolls of real machines, not the tilts of this one: with the tilts' scale the
-study's Abbe lines + body diagonals (8 machines, roll ECZ undetermined) covered 0.887 of
-the grid (one machine: ECZ 19 urad RMS against a prior of 7.8); a factor exp(w^2) = 1.5,
-the mean-square amplitude of a function whose scale varies by a factor exp(w) = 1.9 around
-its group's, gives 0.927 there and 0.97-0.98 on the other designs. Multiplying every
-function's scale by 1.3 instead over-covered the Abbe lines (0.998)."""
-ROLL_SPREAD = 0.0
-"""Spread of each roll's factor over the tilts' scale (one standard deviation, as a log
-factor; one factor per roll), centred on :data:`ROLL_FACTOR`, estimated by the evidence
-when > 0. 0 (default):
-the fixed factor :data:`ROLL_FACTOR`. Machines without roll exist (issue 19, family ``b``
-of benchmarks/families.py): there the rolls keep a prior of 1.5 times the tilts' scale
-and the volumetric residual is a median 1.8x that of the best linear estimator knowing
-the family (1.13x with ``roll='zero'``). Measured on 6 machines of that family: 1.10x
-with a free roll scale, 1.17x with a spread of log 3; but on the study's designs
-(tests/identify/test_study_designs.py) a free roll scale collapsed on one machine of the
-full set (its 95 % intervals covered 0.38 of the grid), one factor shared by the three
-rolls with a spread of log 3 (log 2) left the Abbe lines + body diagonals at a pooled
-coverage of 0.85 (0.87) and the roll coverage below 0.90 (the unseen ECZ took the factor
-of the rolls the design sees), and one factor per roll with a spread of log 3 still
-0.884, roll coverage 0.865 and 0.887 on two designs: the readings hardly inform a roll's
-scale, and what the evidence takes from it is then held too tightly. Kept as a switch;
-a user who knows the machine has no roll says so (``roll='zero'``)."""
-ROLL_MARGINAL_SPREAD = 0.0
-"""Spread (one standard deviation of the log) of each roll's scale factor around the fixed
-:data:`ROLL_FACTOR`, integrated out after the fit (:func:`_roll_marginal_factors`); 0
-(default): off. The hyperprior is log-normal with ``E[rho^2] = 1``, so a roll the readings
-do not inform keeps exactly the prior variance of :data:`ROLL_FACTOR`; where they do, the
-roll's prior variance becomes ``E[rho^2 | y]``. Measured on benchmarks/families.py (full
-set, 20 machines per family, 2026-11-24): with a spread of log 10 the family without roll
-(b) came to a median 1.13x the limit (1.81 with the fixed factor) but the families with
-roll lost their coverage (a 0.575, c 0.600, e 0.599, f 0.569 pooled, against 0.96); with
-log 3 b was at about 1.3x (6 machines) and a, c still covered only 0.845 and 0.801. The
-seeds' full set sees a roll in one or two directions of its 41 nodes (whitened data
-precision 123 and 9 on one machine of family a, the others below 4): a scale estimated from
-one or two such directions is a chi-square with one or two degrees of freedom, and any
-hyperprior that lets it fall far enough for machines without roll shrinks the *unseen*
-directions of machines with roll with it. The family without roll is then served by
-``roll='zero'`` (1.10x) or by a level (direct optics, issue 16), not by the evidence."""
-ROLL_ABSENT_PROBABILITY = 0.0
-"""Prior probability that the machine has no roll errors at all (0: off). With ``p > 0``
-the three rolls share one indicator: absent (scale 0) with probability ``p``, present
-with probability ``1 - p`` at ``1 / sqrt(1 - p)`` times :data:`ROLL_FACTOR`'s scale (so
-that a design that does not see the rolls keeps exactly today's prior variance); after the
-fit the rolls' prior variance becomes its posterior mean given the readings
-(:func:`_roll_presence_factors`). Measured on benchmarks/families.py and
-benchmarks/study.py (2026-11-24, 20 machines per family, 8 of volcal's own): with
-``p = 0.2`` and the "roll" hypothesis at today's scale (:data:`ROLL_PRESENT_FACTOR` 1) the
-family without roll came to a median 1.19x the limit on the full set (1.81 off) and 1.07x
-on the long machine (1.65), the others at a 1.02, c 1.20, e 1.18, f 1.20 (off: 1.02,
-1.18, 1.18, 1.17) with pooled coverage 0.93-0.97; but on volcal's own machines, which all
-have rolls, the rolls were judged absent often enough that the full set's coverage fell
-from 0.981 to 0.915 (one machine 0.44), Abbe lines + body diagonals' from 0.930 to 0.892
-and the step diagonals' roll coverage from 0.97 to 0.89 (tests/identify/
-test_study_designs.py asks 0.90). With the "roll" hypothesis normalised (``1 / sqrt(1 -
-p)``, p 0.5 / 0.2) the families with roll lost accuracy instead (c 1.36 / 1.24, f 1.31 /
-1.22). Off: the seeds' designs inform the rolls too weakly to tell a machine without roll
-from one with small rolls, which is the user's to state (``roll='zero'``)."""
-ROLL_MIXTURE_ABSENT = 0.5
-"""Prior probability of a machine without roll errors in the two-model average of the
-estimate (:func:`_roll_mixture`; 0: off, the rolls always at their prior scale). The
-estimate is the average of the fit with rolls and the same fit conditioned on no roll,
-weighted by their posterior probabilities (the Bayes factor of
-:func:`roll_log_bayes_factor`); its covariance is that of the fit with rolls plus the
-shift (:data:`ROLL_MIXTURE_COVARIANCE`), so that a machine whose rolls the design does not
-see keeps their full uncertainty. Equal prior odds (0.5): the readings decide. Measured on
-benchmarks/families.py (seeds' full set, 20 machines per family, 2026-11-24, session 6):
-the family without roll (b) went from a median 1.83x the limit to 1.14x (long machine
-1.65 -> 1.06x); the families with roll moved by one machine each, whose rolls of 6-25 urad
-(nearly linear) the readings did not see (log Bayes factor -3.5): c 1.16 -> 1.20, f 1.17
--> 1.21 (geometric means 1.156 -> 1.172, 1.147 -> 1.172), coverage unchanged (0.962);
-b's coverage 0.981 -> 0.989. Prior odds 0.1 / 0.3: b 1.20 / 1.16, c and f unchanged. A
-second model with small rolls (0.1-0.3 times the scale, :data:`ROLL_MIXTURE_RHO0`)
-instead of none: b 1.15-1.30, f 1.12-1.21. With the smoother rolls that followed
-(:data:`volcal.identify.prior.GROUP_KAPPA`): a 1.02, b 1.12, c 1.12, d 1.06, e 1.10, f
-1.18, coverage 0.944-0.991 (benchmarks/README.md)."""
-ROLL_MIXTURE_COVARIANCE = "roll"
-"""Covariance of the two-model average: ``'roll'`` (default) that of the fit with rolls
-plus the shift of the mean, ``C + (1 - P)^2 d d'`` (the mean square error of the average
-if the machine has the rolls the prior allows); ``'mixture'`` the mixture's own, ``P C +
-(1 - P) C0 + P (1 - P) d d'``. Measured (families, p 0.1-0.35): with the mixture's own
-one machine of family f whose rolls the readings did not see (log Bayes factor -3.5)
-covered 0.32 of the grid and f's pooled coverage fell from 0.963 to 0.923-0.930 (c 0.962
--> 0.939-0.956): the unseen directions of its rolls kept only ``P`` times their prior
-variance."""
-ROLL_MIXTURE_RHO0 = 0.0
-"""Scale factor of the rolls in the second model of :data:`ROLL_MIXTURE_ABSENT` (0: no
-roll)."""
-ROLL_PRESENT_FACTOR: float | None = None
-"""Scale factor of the "roll" hypothesis of :data:`ROLL_ABSENT_PROBABILITY` over the
-current roll scale; None: ``1 / sqrt(1 - p)`` (a design that does not see the rolls keeps
-today's prior variance)."""
-KAPPA_FACTOR_SPREAD = 0.0
-"""Spread of each group's curvature scale around the common one (0: one curvature scale
-for all groups). Measured with a factor 3 on the study's designs (8 machines): pooled
-coverage full 0.933, step 0.926, Abbe lines + body diagonals 0.875, long 0.922, against
-0.975, 0.974, 0.887, 0.945 with one curvature scale; kept as an extension point."""
-TREND_SPREAD = np.log(3.0)
-"""Spread of the trend scale's hyperprior (a factor 3: 2-180 um at 95 %, compensated to
-uncompensated machines). With step diagonals alone the trend competes with the set-up
-tilts for the same readings and the evidence can collapse it: with a factor 30 one
-machine of the study (20 machines) got a trend scale of 2.4 um for slopes of 8-10 um and
-its 95 % intervals covered 0.57 of the grid; with a factor 3 the 20 machines cover 0.935
-pooled (0.919 before), worst 0.68, and the other designs do not change."""
-NUGGET = True
-"""Estimate a short-wavelength ("nugget") part of the positioning errors' prior
-(:attr:`volcal.identify.prior.PriorStructure.nugget_um`): independent at every point, what
-a lead screw's cyclic error (period 5-20 mm, shorter than the node spacing) is to an
-estimator on nodes. Its scale is chosen by the evidence with the others and enters the
-predicted uncertainty between the nodes (:meth:`IdentificationResult.predict`)."""
-NUGGET_CENTRE_UM = 0.2
-"""Centre of the nugget scale's hyperprior [um RMS]: a ground screw's cyclic error."""
-NUGGET_SPREAD = np.log(10.0)
-"""Spread of the nugget scale's hyperprior (a factor 10)."""
-PER_AXIS_SPREAD: dict[int, float] = {}
-"""Groups whose scale may differ per axis, with the spread (one standard deviation, as a
-log factor) of each axis' scale around the group's. Empty: measured on the study's step
-diagonals (8 machines), a positioning scale per axis (spread a factor 3) gave a median
-ratio to minimum-norm least squares of 1.11 and a pooled coverage of 0.79 against 0.97
-and 0.87 with one scale (before the positioning trend of :data:`TREND_CENTRE_UM`), and
-0.88 / 0.92 against 0.86 / 0.94 with it; kept as an extension point."""
-DENSE_COVARIANCE_LIMIT = 6000
-DENSE_QR_LIMIT = 2000
-DENSE_QR_ENTRIES = 2_000_000  # 16 MB of float64 for the stacked matrix
+"""Groups of :data:`volcal.identify.prior.GROUPS` with a scale of their own in the
+evidence; the roll (group 2) takes the tilts' scale (lines, diagonals and step diagonals
+see the rolls only through a few lever arms, too little for the evidence to set their
+scale), times :attr:`EstimatorSettings.roll_factor`."""
+
+ROLL_FUNCTIONS: tuple[int, ...] = (3, 10, 17)
+"""Function indices ``6 * axis + component`` of the rolls EAX, EBY, ECZ."""
 
 
 @dataclass
@@ -263,8 +110,9 @@ class Solution:
         Log Bayes factor of rolls at their prior scale over no roll
         (:func:`roll_log_bayes_factor`); None without a roll block or covariance.
     roll_probability : float or None
-        ``P(roll | y)`` of the two-model average (:data:`ROLL_MIXTURE_ABSENT`); None when
-        the average was not taken (off, no roll block, or rolls stated).
+        ``P(roll | y)`` of the two-model average
+        (:attr:`EstimatorSettings.roll_mixture_absent`); None when the average was not
+        taken (off, no roll block, or rolls stated).
     """
 
     x: NDArray[np.float64]
@@ -291,8 +139,14 @@ class Solution:
 def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float64] | None = None,
                 noise_um: float | None = None, squareness_std: float = 100.0,
                 covariance: bool = True, tilt_std: float | None = None,
-                roll_presence: bool = True) -> Solution:
+                roll_presence: bool = True, settings: EstimatorSettings | None = None
+                ) -> Solution:
     """Bayesian least squares with evidence-optimised hyperparameters.
+
+    Four steps, each a function of its own: the hyperparameters of maximum evidence
+    (:class:`_HyperSearch`), the linear solve at them (:func:`_final_solve`), the rolls'
+    presence (:func:`_roll_presence`: Bayes factor and two-model average) and the fit
+    summary (:func:`_fit_summary`).
 
     Parameters
     ----------
@@ -302,7 +156,7 @@ def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float6
         Smoothness prior blocks.
     scales : ndarray, shape (4,) or (18,), optional
         Fixed amplitude scales of the groups or of each function
-        (:func:`volcal.identify.prior.function_scales`); default estimated.
+        (:func:`volcal.identify.prior.function_scales`) [um, urad]; default estimated.
     noise_um : float, optional
         Stated reading repeatability [um]; default estimated.
     squareness_std : float
@@ -314,210 +168,32 @@ def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float6
         scales (maximum evidence), or :data:`NUISANCE_PRECISION` when the scales are given.
     roll_presence : bool
         Weigh the rolls' presence (:func:`roll_log_bayes_factor`, the two-model average
-        of :data:`ROLL_MIXTURE_ABSENT`). False for a solve that only chooses the
-        hyperparameters, whose estimate is not kept.
+        of :attr:`EstimatorSettings.roll_mixture_absent`). False for a solve that only
+        chooses the hyperparameters, whose estimate is not kept.
+    settings : EstimatorSettings, optional
+        The estimator's settings; default ``EstimatorSettings()``.
 
     Returns
     -------
     Solution
     """
+    st = settings if settings is not None else EstimatorSettings()
     ev = _Evidence(design, prior, squareness_std)
-    free_scales = scales is None
-    free_sigma = noise_um is None
-    if scales is not None:
-        f_fixed = function_scales(scales)
-        s_groups = _group_scales(f_fixed)
-    sig0 = 0.5 if noise_um is None else float(noise_um)
-    y_scale = max(float(np.sqrt(ev.yty / max(ev.n, 1))), 1e-3)
-    sig_floor = 1e-7 * y_scale
-    k0 = prior.kappa
-    M, centre, spread = _hyper_map()
-    # scale-like hyperparameters beyond the 18 functions:
-    # (gradient index, hyperprior centre, bounds, hyperprior spread)
-    extra = []
-    free_tilt = free_scales and tilt_std is None and ev.has_tilts
-    if free_tilt:  # the set-up tilts' scale
-        extra.append((20, np.log(TILT_CENTRE_URAD), (np.log(1e-1), np.log(1e5)), TILT_SPREAD))
-    elif tilt_std is not None:
-        ev.set_tilt_std(tilt_std)
-    free_trend = free_scales and any(f in TREND_FUNCTIONS for *_, f in prior.blocks)
-    if free_trend:  # the positioning trend's scale
-        extra.append((21, np.log(TREND_CENTRE_UM), (np.log(1e-2), np.log(1e4)), TREND_SPREAD))
-    if free_scales and NUGGET and any(f in TREND_FUNCTIONS for *_, f in prior.blocks):
-        extra.append((26, np.log(NUGGET_CENTRE_UM), (np.log(1e-4), np.log(1e2)), NUGGET_SPREAD))
-    if free_scales and KAPPA_FACTOR_SPREAD > 0:  # a curvature factor per group
-        extra.extend((22 + g, 0.0, (-np.log(1e2), np.log(1e2)), KAPPA_FACTOR_SPREAD)
-                     for g in FREE_GROUPS)
-    m0 = M.shape[1]
-    for j, (_, c, _, sd) in enumerate(extra):
-        M = np.vstack([np.hstack([M, np.zeros((M.shape[0], 1))]),
-                       np.eye(1, m0 + j + 1, m0 + j)])
-        centre = np.append(centre, c)
-        spread = np.append(spread, sd)
-    ns = M.shape[1]
-
-    def unpack(h):
-        """Hyperparameter vector -> (function scales (18,), sigma, kappa); sets the tilts'."""
-        i = 0
-        fsc, sig, kap = (None, sig0, k0) if free_scales else (f_fixed, sig0, k0)
-        if free_scales:
-            logs = M @ h[:ns]
-            fsc = np.exp(logs[:18])
-            factor = np.ones(len(DEFAULT_SCALES))
-            for j, (gi, *_) in enumerate(extra):
-                if gi == 20:
-                    ev.set_tilt_std(float(np.exp(logs[18 + j])))
-                elif gi == 21:
-                    ev.prior = ev.prior.with_trend(float(np.exp(logs[18 + j])))
-                elif gi == 26:
-                    ev.prior = ev.prior.with_nugget(float(np.exp(logs[18 + j])))
-                else:
-                    factor[gi - 22] = np.exp(logs[18 + j])
-            if 2 not in FREE_GROUPS:
-                factor[2] = factor[3]  # the roll takes the tilts' curvature too
-            ev.prior = ev.prior.with_kappa_factor(factor)
-            kap = float(np.exp(h[ns]))
-            i = ns + 1
-        if free_sigma:
-            sig = float(np.exp(h[i]))
-        return fsc, sig, kap
-
-    h0 = []
-    bounds = []
-    if free_scales:
-        h0 += list(centre) + [np.log(k0)]
-        n_base = len(FREE_GROUPS)
-        bounds += ([(np.log(1e-2), np.log(1e4))] * n_base
-                   + [(-np.log(1e3), np.log(1e3))] * (ns - n_base - len(extra))
-                   + [bd for _, _, bd, _ in extra]
-                   + [(np.log(1.0), np.log(1e4))])
-    if free_sigma:
-        h0.append(np.log(sig0))
-        bounds.append((np.log(sig_floor), np.log(1e3)))
-    if h0:
-        def fun(h):
-            fsc, sig, kap = unpack(h)
-            val, g20 = ev.neg2_grad_functions(fsc, sig, kap)
-            grad = np.zeros(len(h))
-            i = 0
-            if free_scales:  # weak log-normal hyperprior: typical machines
-                z = (np.append(h[:ns], np.log(kap)) - np.append(centre, HYPER_CENTRE[-1])) \
-                    / np.append(spread, HYPER_SPREAD)
-                val += float(z @ z)
-                # a tied roll's curvature factor is the tilts' (gradient index 22 + group)
-                g_scales = np.append(g20[:18], [
-                    g20[gi] + (g20[24] if gi == 25 and 2 not in FREE_GROUPS else 0.0)
-                    for gi, *_ in extra])
-                grad[:ns] = M.T @ g_scales + 2.0 * z[:ns] / spread
-                grad[ns] = g20[18] + 2.0 * z[ns] / HYPER_SPREAD
-                i = ns + 1
-            if free_sigma:
-                grad[i] = g20[19]
-            return val, grad
-        # coarse start for sigma: scan a few decades, then MacKay's fixed point
-        # sigma^2 = |r|^2 / (n - gamma) (gamma: effective number of parameters), so that the
-        # quasi-Newton steps start near the optimum of the steepest direction
-        if free_sigma:
-            grid = np.log(np.geomspace(max(sig_floor, 1e-6), 10.0, 8))
-            vals = []
-            for g in grid:
-                h = np.array(h0)
-                h[-1] = g
-                vals.append(ev.neg2(*unpack(h)))
-            h0[-1] = grid[int(np.argmin(vals))]
-            for _ in range(SIGMA_FIXED_POINT_STEPS):
-                ev.neg2_grad_functions(*unpack(np.array(h0)))
-                if ev.last_fit is None:
-                    break
-                rr, gamma = ev.last_fit
-                s2 = rr / max(ev.n - gamma, 1.0)
-                h0[-1] = float(np.clip(0.5 * np.log(max(s2, 1e-300)), *bounds[-1]))
-        history: list[float] = []
-
-        def flat() -> bool:
-            # three iterations improving -2 log evidence by less than EVIDENCE_TOL change
-            # nothing a user sees (flat directions, e.g. a scale the data hardly inform,
-            # otherwise take dozens of tiny steps)
-            return len(history) > 3 and history[-4] - history[-1] < EVIDENCE_TOL
-
-        def stop_when_flat(intermediate_result):
-            history.append(float(intermediate_result.fun))
-            if flat():
-                raise StopIteration
-
-        w = _preconditioner(ev, free_scales, free_sigma, M, extra, spread, unpack, h0)
-
-        def fun_w(z):  # the search runs on h * w: curvatures of order one
-            val, grad = fun(z / w)
-            return val, grad / w
-
-        res = minimize(fun_w, np.array(h0) * w, method="L-BFGS-B", jac=True,
-                       bounds=[(lo * wi, hi * wi) for (lo, hi), wi in zip(bounds, w, strict=True)],
-                       callback=stop_when_flat,
-                       options={"maxiter": 200, "ftol": 1e-10, "gtol": 1e-2})
-        res.x = res.x / w
-        if flat():
-            res.success = True
-            res.message = (f"CONVERGENCE: -2 log evidence improved by less than {EVIDENCE_TOL:g} "
-                           "in 3 iterations")
-        name = "L-BFGS-B"
-        if not res.success:
-            # the quasi-Newton step can stall on a flat or kinked evidence surface: fall
-            # back to the derivative-free simplex from the best point found
-            res2 = minimize(lambda h: fun(h)[0], res.x, method="Nelder-Mead", bounds=bounds,
-                            options={"xatol": 5e-3, "fatol": 1e-3, "maxiter": 600})
-            if res2.fun <= res.fun:
-                res, name = res2, "L-BFGS-B, then Nelder-Mead"
-        h_opt = res.x
-        neg2 = float(res.fun)
-        convergence = {"optimiser": name, "converged": bool(res.success),
-                       "iterations": int(res.nit), "evaluations": int(ev.evaluations),
-                       "message": str(res.message)}
-    else:
-        h_opt = np.array([])
-        neg2 = ev.neg2(f_fixed, sig0)
-        convergence = {"optimiser": "none (hyperparameters given)", "converged": True,
-                       "iterations": 0, "evaluations": 1, "message": ""}
-    f_opt, sigma, kappa = unpack(h_opt)  # also sets the tilts' scale
-    if free_scales:
+    search = _HyperSearch(ev, scales, noise_um, tilt_std, st)
+    h_opt, neg2, convergence = search.run()
+    f_opt, sigma, kappa = search.unpack(h_opt)  # also sets the tilts' scale
+    if search.free_scales:
         f_opt = f_opt.copy()
-        if not ROLL_SPREAD > 0:  # a fixed factor (with a spread, the evidence sets it)
-            f_opt[[6 * k + 3 + k for k in range(3)]] *= ROLL_FACTOR  # EAX, EBY, ECZ
-    scales_opt = _group_scales(f_opt) if free_scales else s_groups
+        f_opt[list(ROLL_FUNCTIONS)] *= st.roll_factor  # the evidence cannot see the rolls
+        scales_opt = _group_scales(f_opt)
+    else:
+        scales_opt = search.s_groups
     if kappa != ev.prior.kappa:
         ev.prior = ev.prior.with_kappa(kappa)
-    H, Q, cf, x, cov = _final_solve(ev, design, f_opt, sigma, covariance)
-    rho: dict[int, float] = {}
-    if free_scales and cov is not None and not ROLL_SPREAD > 0:
-        if ROLL_ABSENT_PROBABILITY > 0:
-            rho = _roll_presence_factors(ev.prior, f_opt, x, cov, ROLL_ABSENT_PROBABILITY)
-        elif ROLL_MARGINAL_SPREAD > 0:
-            rho = _roll_marginal_factors(ev.prior, f_opt, x, cov, ROLL_MARGINAL_SPREAD)
-    if rho:
-        for f, r in rho.items():
-            f_opt[f] *= r
-        H, Q, cf, x, cov = _final_solve(ev, design, f_opt, sigma, covariance)
-    roll_lbf = (roll_log_bayes_factor(ev.prior, f_opt, x, cov)
-                if cov is not None and roll_presence else None)
-    solve = lambda rhs: _polish(H, cf, rhs)  # noqa: E731
-    p_roll = None
-    cov_fit = cov  # the linear fit's: its hat matrix gives the effective parameters
-    if ROLL_MIXTURE_ABSENT > 0 and roll_lbf is not None:
-        mixed = _roll_mixture(ev.prior, f_opt, x, cov, roll_lbf, ROLL_MIXTURE_ABSENT,
-                              ROLL_MIXTURE_RHO0, design.extra_precision)
-        if mixed is not None:
-            x, cov, shrink, p_roll = mixed
-            if shrink is not None:
-                solve = lambda rhs: shrink(_polish(H, cf, rhs))  # noqa: E731
-    r = design.y - design.A @ x
-    if design.prior_mean is not None and np.any(design.prior_mean):
-        x = x + design.prior_mean
-    if cov_fit is not None:
-        edf = float(np.sum(ev.AtA * cov_fit.T) / sigma**2)
-    else:
-        edf = float(min(H.shape[0], ev.n))
-    dof = max(ev.n - edf, 1.0)
-    s_res = float(np.sqrt(r @ r / dof))
+    H, _, cf, x_fit, cov_fit = _final_solve(ev, design, f_opt, sigma, covariance, st)
+    x, cov, solve, roll_lbf, p_roll = _roll_presence(ev.prior, design, f_opt, H, cf, x_fit,
+                                                     cov_fit, roll_presence, st)
+    x, dof, s_res = _fit_summary(ev, design, x, cov_fit, sigma)
     return Solution(x, cov, sigma, s_res, scales_opt, -0.5 * neg2, dof, "bayes",
                     solve=solve, kappa=kappa,
                     convergence=convergence, function_scales=f_opt, ata=ev.AtA,
@@ -527,45 +203,352 @@ def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float6
                     roll_probability=p_roll)
 
 
-def _hyper_map() -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """Log function scales as a linear map of the free scale hyperparameters.
+class _HyperSearch:
+    """The hyperparameters of :func:`solve_bayes` and their search for maximum evidence.
+
+    The search vector ``h`` holds, when the scales are free, the log scales of
+    :data:`FREE_GROUPS`, then the extra scale-like hyperparameters (set-up tilts,
+    positioning trend, short-wavelength nugget, where the design has them), then
+    ``log kappa``; and last ``log sigma`` when the noise is not stated. Each carries a
+    log-normal hyperprior (centres and spreads of :class:`EstimatorSettings`). The
+    objective is ``-2 log evidence`` (:meth:`_Evidence.neg2_grad_functions`) plus the
+    hyperprior's ``z'z``, with its exact gradient.
+
+    Parameters
+    ----------
+    ev : _Evidence
+        The evidence of the design (its prior is updated as the search moves).
+    scales : ndarray, shape (4,) or (18,), optional
+        Fixed scales [um, urad]; None: free.
+    noise_um : float, optional
+        Stated noise [um]; None: free.
+    tilt_std : float, optional
+        Fixed prior standard deviation of the set-up tilts [urad].
+    st : EstimatorSettings
+        The settings.
+    """
+
+    def __init__(self, ev: _Evidence, scales, noise_um: float | None, tilt_std: float | None,
+                 st: EstimatorSettings) -> None:
+        self.ev, self.st = ev, st
+        self.free_scales = scales is None
+        self.free_sigma = noise_um is None
+        self.f_fixed = None if scales is None else function_scales(scales)
+        self.s_groups = None if self.f_fixed is None else _group_scales(self.f_fixed)
+        self.sig0 = 0.5 if noise_um is None else float(noise_um)
+        y_scale = max(float(np.sqrt(ev.yty / max(ev.n, 1))), 1e-3)
+        self.sig_floor = 1e-7 * y_scale
+        self.k0 = ev.prior.kappa
+        centre = np.log([*st.hyper_centre, st.kappa_centre])
+        self.kappa_centre = centre[-1]
+        self.hyper_spread = np.log(st.hyper_spread)
+        self.extra = self._extra_scales(tilt_std)
+        self.M, self.centre, self.spread = self._hyper_map(centre[list(FREE_GROUPS)])
+        self.ns = self.M.shape[1]
+        self.h0, self.bounds = self._start()
+
+    def _extra_scales(self, tilt_std: float | None) -> list:
+        """``(gradient index, hyperprior centre, bounds, spread)`` of the extra scales.
+
+        The set-up tilts' scale (index 20) when the design has tilts, the positioning
+        trend's (21) and the nugget's (26) when it has positioning functions; a given
+        ``tilt_std`` is set on the evidence instead.
+        """
+        st, ev = self.st, self.ev
+        extra = []
+        if self.free_scales and tilt_std is None and ev.has_tilts:
+            extra.append((20, np.log(st.tilt_centre_urad), (np.log(1e-1), np.log(1e5)),
+                          np.log(st.tilt_spread)))
+        elif tilt_std is not None:
+            ev.set_tilt_std(tilt_std)
+        positioning = any(f in TREND_FUNCTIONS for *_, f in ev.prior.blocks)
+        if self.free_scales and positioning:
+            extra.append((21, np.log(st.trend_centre_um), (np.log(1e-2), np.log(1e4)),
+                          np.log(st.trend_spread)))
+        if self.free_scales and st.nugget and positioning:
+            extra.append((26, np.log(st.nugget_centre_um), (np.log(1e-4), np.log(1e2)),
+                          np.log(st.nugget_spread)))
+        return extra
+
+    def _hyper_map(self, group_centre: NDArray[np.float64]):
+        """Log function scales and extra scales as a linear map of the search vector.
+
+        Returns
+        -------
+        M : ndarray, shape (18 + e, 3 + e)
+            ``log a_f = (M h)_f`` for the 18 functions (a roll takes the tilts' column),
+            then one row and column per extra scale (:meth:`_extra_scales`).
+        centre, spread : ndarray, shape (3 + e,)
+            Log-normal hyperprior of each entry (centre, one standard deviation).
+        """
+        groups = list(FREE_GROUPS)
+        M = np.zeros((18, len(groups)))
+        for k in range(3):
+            for c in range(6):
+                g = function_group(k, c)
+                M[6 * k + c, groups.index(g if g in groups else 3)] = 1.0  # roll -> tilt
+        centre = np.asarray(group_centre, dtype=float)
+        spread = np.full(len(groups), self.hyper_spread)
+        m0 = M.shape[1]
+        for j, (_, c, _, sd) in enumerate(self.extra):
+            M = np.vstack([np.hstack([M, np.zeros((M.shape[0], 1))]),
+                           np.eye(1, m0 + j + 1, m0 + j)])
+            centre = np.append(centre, c)
+            spread = np.append(spread, sd)
+        return M, centre, spread
+
+    def _start(self) -> tuple[list, list]:
+        """Starting point (the hyperprior centres, ``kappa`` and ``sigma`` given) and bounds."""
+        h0: list = []
+        bounds: list = []
+        if self.free_scales:
+            h0 += list(self.centre) + [np.log(self.k0)]
+            bounds += ([(np.log(1e-2), np.log(1e4))] * len(FREE_GROUPS)
+                       + [bd for _, _, bd, _ in self.extra]
+                       + [(np.log(1.0), np.log(1e4))])
+        if self.free_sigma:
+            h0.append(np.log(self.sig0))
+            bounds.append((np.log(self.sig_floor), np.log(1e3)))
+        return h0, bounds
+
+    def unpack(self, h: NDArray[np.float64]):
+        """Search vector -> (function scales (18,), sigma [um], kappa).
+
+        Also sets the evidence's tilts', trend and nugget scales.
+        """
+        ev, ns = self.ev, self.ns
+        if not self.free_scales:
+            fsc, kap, i = self.f_fixed, self.k0, 0
+        else:
+            logs = self.M @ h[:ns]
+            fsc = np.exp(logs[:18])
+            for j, (gi, *_) in enumerate(self.extra):
+                v = float(np.exp(logs[18 + j]))
+                if gi == 20:
+                    ev.set_tilt_std(v)
+                elif gi == 21:
+                    ev.prior = ev.prior.with_trend(v)
+                else:
+                    ev.prior = ev.prior.with_nugget(v)
+            ev.prior = ev.prior.with_kappa_factor(np.ones(len(GROUPS)))  # one curvature scale
+            kap = float(np.exp(h[ns]))
+            i = ns + 1
+        sig = float(np.exp(h[i])) if self.free_sigma else self.sig0
+        return fsc, sig, kap
+
+    def objective(self, h: NDArray[np.float64]) -> tuple[float, NDArray[np.float64]]:
+        """``-2 log evidence`` plus the hyperprior's ``z'z``, and its gradient in ``h``."""
+        ns = self.ns
+        fsc, sig, kap = self.unpack(h)
+        val, g20 = self.ev.neg2_grad_functions(fsc, sig, kap)
+        grad = np.zeros(len(h))
+        i = 0
+        if self.free_scales:  # weak log-normal hyperprior: typical machines
+            z = ((np.append(h[:ns], np.log(kap)) - np.append(self.centre, self.kappa_centre))
+                 / np.append(self.spread, self.hyper_spread))
+            val += float(z @ z)
+            g_scales = np.append(g20[:18], [g20[gi] for gi, *_ in self.extra])
+            grad[:ns] = self.M.T @ g_scales + 2.0 * z[:ns] / self.spread
+            grad[ns] = g20[18] + 2.0 * z[ns] / self.hyper_spread
+            i = ns + 1
+        if self.free_sigma:
+            grad[i] = g20[19]
+        return val, grad
+
+    def run(self) -> tuple[NDArray[np.float64], float, dict]:
+        """The hyperparameters of maximum evidence.
+
+        Returns
+        -------
+        h : ndarray
+            Search vector at the optimum (empty when everything is given).
+        neg2 : float
+            Objective there.
+        convergence : dict
+            ``optimiser``, ``converged``, ``iterations``, ``evaluations``, ``message``.
+        """
+        if not self.h0:
+            neg2 = self.ev.neg2(self.f_fixed, self.sig0)
+            return np.array([]), neg2, {"optimiser": "none (hyperparameters given)",
+                                        "converged": True, "iterations": 0,
+                                        "evaluations": 1, "message": ""}
+        if self.free_sigma:
+            self._start_sigma()
+        return self._minimise()
+
+    def _start_sigma(self) -> None:
+        """Coarse start for sigma: scan a few decades, then MacKay's fixed point.
+
+        ``sigma^2 = |r|^2 / (n - gamma)`` (``gamma``: effective number of parameters), so
+        that the quasi-Newton steps start near the optimum of the steepest direction.
+        """
+        ev, h0 = self.ev, self.h0
+        grid = np.log(np.geomspace(max(self.sig_floor, 1e-6), 10.0, 8))
+        vals = []
+        for g in grid:
+            h = np.array(h0)
+            h[-1] = g
+            vals.append(ev.neg2(*self.unpack(h)))
+        h0[-1] = grid[int(np.argmin(vals))]
+        for _ in range(self.st.sigma_fixed_point_steps):
+            ev.neg2_grad_functions(*self.unpack(np.array(h0)))
+            if ev.last_fit is None:
+                break
+            rr, gamma = ev.last_fit
+            s2 = rr / max(ev.n - gamma, 1.0)
+            h0[-1] = float(np.clip(0.5 * np.log(max(s2, 1e-300)), *self.bounds[-1]))
+
+    def _minimise(self) -> tuple[NDArray[np.float64], float, dict]:
+        """L-BFGS-B on the preconditioned vector, stopped when the evidence is flat.
+
+        Three iterations improving ``-2 log evidence`` by less than
+        :attr:`EstimatorSettings.evidence_tol` change nothing a user sees (flat
+        directions, e.g. a scale the data hardly inform, otherwise take dozens of tiny
+        steps). When the quasi-Newton step stalls on a flat or kinked surface, the
+        derivative-free simplex continues from the best point found.
+        """
+        tol, bounds = self.st.evidence_tol, self.bounds
+        history: list[float] = []
+
+        def flat() -> bool:
+            return len(history) > 3 and history[-4] - history[-1] < tol
+
+        def stop_when_flat(intermediate_result):
+            history.append(float(intermediate_result.fun))
+            if flat():
+                raise StopIteration
+
+        w = self._preconditioner()
+
+        def fun_w(z):  # the search runs on h * w: curvatures of order one
+            val, grad = self.objective(z / w)
+            return val, grad / w
+
+        res = minimize(fun_w, np.array(self.h0) * w, method="L-BFGS-B", jac=True,
+                       bounds=[(lo * wi, hi * wi) for (lo, hi), wi in zip(bounds, w, strict=True)],
+                       callback=stop_when_flat,
+                       options={"maxiter": 200, "ftol": 1e-10, "gtol": 1e-2})
+        res.x = res.x / w
+        if flat():
+            res.success = True
+            res.message = (f"CONVERGENCE: -2 log evidence improved by less than {tol:g} "
+                           "in 3 iterations")
+        name = "L-BFGS-B"
+        if not res.success:
+            res2 = minimize(lambda h: self.objective(h)[0], res.x, method="Nelder-Mead",
+                            bounds=bounds,
+                            options={"xatol": 5e-3, "fatol": 1e-3, "maxiter": 600})
+            if res2.fun <= res.fun:
+                res, name = res2, "L-BFGS-B, then Nelder-Mead"
+        return res.x, float(res.fun), {"optimiser": name, "converged": bool(res.success),
+                                       "iterations": int(res.nit),
+                                       "evaluations": int(self.ev.evaluations),
+                                       "message": str(res.message)}
+
+    def _preconditioner(self) -> NDArray[np.float64]:
+        """Diagonal scaling of the search vector for the quasi-Newton search.
+
+        The curvature of ``-2 log evidence`` in the log of a scale is about twice the
+        effective number of parameters that scale governs (``gamma``: the data-determined
+        share of its functions, ``tr(Q^-1 dQ) - tr(H^-1 dQ)`` halved), plus the
+        hyperprior's ``2 / spread^2``; the noise governs ``n - gamma`` readings. Without
+        the scaling the first steps of L-BFGS-B, dominated by the noise (thousands of
+        readings) and the curvature, went to the bounds and back.
+        """
+        ev = self.ev
+        ev.neg2_grad_functions(*self.unpack(np.array(self.h0)))
+        g = ev.last_gamma if ev.last_gamma is not None else np.ones(N_HYPER)
+        c = []
+        if self.free_scales:
+            gs = np.append(g[:18], [g[gi] for gi, *_ in self.extra])
+            c += list((self.M**2).T @ (2.0 * np.abs(gs)) + 2.0 / self.spread**2)
+            c.append(2.0 * abs(g[18]) + 2.0 / self.hyper_spread**2)
+        if self.free_sigma:
+            c.append(2.0 * abs(g[19]))
+        return np.sqrt(np.maximum(np.array(c), 1.0))
+
+
+def _roll_presence(prior: PriorStructure, design: Design, fscales, H, cf, x, cov,
+                   weigh: bool, st: EstimatorSettings):
+    """The rolls' Bayes factor and the two-model average of the estimate.
+
+    Parameters
+    ----------
+    prior : PriorStructure
+        Prior blocks at the final hyperparameters.
+    design : Design
+        Observation system (its extra precision: rolls stated by the user are kept).
+    fscales : ndarray, shape (18,)
+        Function scales of the fit [um, urad].
+    H, cf : ndarray, tuple
+        Posterior precision and its Cholesky factor.
+    x, cov : ndarray
+        Estimate (without the design's prior mean) and covariance of the linear fit.
+    weigh : bool
+        Compute the Bayes factor and the average (False: the linear fit as it is).
+    st : EstimatorSettings
+        Its ``roll_mixture_absent`` and ``roll_mixture_covariance``.
 
     Returns
     -------
-    M : ndarray, shape (18, m)
-        ``log a_f = (M h)_f``: ``h`` holds the log scales of :data:`FREE_GROUPS` (the roll
-        takes the tilts'), then one log factor per axis of each group of
-        :data:`PER_AXIS_SPREAD`.
-    centre, spread : ndarray, shape (m,)
-        Log-normal hyperprior of each hyperparameter (centre, one standard deviation).
+    (x, cov, solve, log_bf, p_roll)
+        Estimate and covariance of the average (:func:`_roll_mixture`) or of the fit;
+        ``solve`` maps ``A'y / sigma^2`` to the estimate with the same weights (Monte
+        Carlo); the log Bayes factor (:func:`roll_log_bayes_factor`) and ``P(roll | y)``,
+        None where not computed.
     """
-    groups = list(FREE_GROUPS)
-    per_axis = sorted(PER_AXIS_SPREAD)
-    roll_col = ROLL_SPREAD > 0 and 2 not in groups
-    n_roll = 3 if roll_col else 0  # one factor per roll: an unseen roll keeps its prior
-    m = len(groups) + 3 * len(per_axis) + n_roll
-    M = np.zeros((18, m))
-    for k in range(3):
-        for c in range(6):
-            g = function_group(k, c)
-            base = g if g in groups else 3  # roll -> tilt
-            M[6 * k + c, groups.index(base)] = 1.0
-            if g in PER_AXIS_SPREAD:
-                M[6 * k + c, len(groups) + 3 * per_axis.index(g) + k] = 1.0
-            if g == 2 and roll_col:  # the roll's factor over the tilts
-                M[6 * k + c, m - 3 + k] = 1.0
-    centre = np.concatenate([HYPER_CENTRE[groups], np.zeros(3 * len(per_axis)),
-                             [np.log(ROLL_FACTOR)] * n_roll])
-    spread = np.concatenate([np.full(len(groups), HYPER_SPREAD),
-                             np.repeat([PER_AXIS_SPREAD[g] for g in per_axis], 3),
-                             [ROLL_SPREAD] * n_roll])
-    return M, centre, spread
+    log_bf = roll_log_bayes_factor(prior, fscales, x, cov) if cov is not None and weigh \
+        else None
+    solve = lambda rhs: _polish(H, cf, rhs)  # noqa: E731
+    p_roll = None
+    if st.roll_mixture_absent > 0 and log_bf is not None:
+        mixed = _roll_mixture(prior, fscales, x, cov, log_bf, st.roll_mixture_absent,
+                              design.extra_precision, st.roll_mixture_covariance)
+        if mixed is not None:
+            x, cov, shrink, p_roll = mixed
+            if shrink is not None:
+                solve = lambda rhs: shrink(_polish(H, cf, rhs))  # noqa: E731
+    return x, cov, solve, log_bf, p_roll
+
+
+def _fit_summary(ev: _Evidence, design: Design, x, cov_fit, sigma: float):
+    """The estimate with the design's prior mean, and the residual statistics.
+
+    Parameters
+    ----------
+    ev : _Evidence
+        The evidence (``A'A``, number of readings and unknowns).
+    design : Design
+        Observation system.
+    x : ndarray
+        Estimate without the prior mean [um, urad].
+    cov_fit : ndarray or None
+        Covariance of the linear fit (its hat matrix gives the effective number of
+        parameters ``tr(A'A C) / sigma^2``); None: all unknowns count.
+    sigma : float
+        Reading noise [um].
+
+    Returns
+    -------
+    (x, dof, s_res)
+        Estimate with the prior mean, residual degrees of freedom ``n - edf`` (at least
+        1) and the RMS residual over them [um].
+    """
+    r = design.y - design.A @ x
+    if design.prior_mean is not None and np.any(design.prior_mean):
+        x = x + design.prior_mean
+    if cov_fit is not None:
+        edf = float(np.sum(ev.AtA * cov_fit.T) / sigma**2)
+    else:
+        edf = float(min(ev.N, ev.n))
+    dof = max(ev.n - edf, 1.0)
+    return x, dof, float(np.sqrt(r @ r / dof))
 
 
 def _group_scales(fscales: NDArray[np.float64]) -> NDArray[np.float64]:
     """Geometric mean of the function scales of each group of :data:`GROUPS`."""
-    out = np.zeros(len(DEFAULT_SCALES))
-    n = np.zeros(len(DEFAULT_SCALES))
+    out = np.zeros(len(GROUPS))
+    n = np.zeros(len(GROUPS))
     for k in range(3):
         for c in range(6):
             g = function_group(k, c)
@@ -574,31 +557,25 @@ def _group_scales(fscales: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.exp(out / n)
 
 
-def _preconditioner(ev: _Evidence, free_scales: bool, free_sigma: bool, M, extra, spread,
-                    unpack, h0) -> NDArray[np.float64]:
-    """Diagonal scaling of the hyperparameters for the quasi-Newton search.
-
-    The curvature of ``-2 log evidence`` in the log of a scale is about twice the effective
-    number of parameters that scale governs (``gamma``: the data-determined share of its
-    functions, ``tr(Q^-1 dQ) - tr(H^-1 dQ)`` halved), plus the hyperprior's ``2 / spread^2``;
-    the noise governs ``n - gamma`` readings. Without the scaling the first steps of
-    L-BFGS-B, dominated by the noise (thousands of readings) and the curvature, went to the
-    bounds and back (52-66 evaluations on the seeds' set).
-    """
-    ev.neg2_grad_functions(*unpack(np.array(h0)))
-    g = ev.last_gamma if ev.last_gamma is not None else np.ones(N_HYPER)
-    c = []
-    if free_scales:
-        gs = np.append(g[:18], [g[gi] for gi, *_ in extra])
-        c += list((M**2).T @ (2.0 * np.abs(gs)) + 2.0 / spread**2)
-        c.append(2.0 * abs(g[18]) + 2.0 / HYPER_SPREAD**2)
-    if free_sigma:
-        c.append(2.0 * abs(g[19]))
-    return np.sqrt(np.maximum(np.array(c), 1.0))
-
-
-def _final_solve(ev: _Evidence, design: Design, fscales, sigma: float, covariance: bool):
+def _final_solve(ev: _Evidence, design: Design, fscales, sigma: float, covariance: bool,
+                 settings: EstimatorSettings | None = None):
     """Factor, estimate and (dense) posterior covariance at the final hyperparameters.
+
+    Parameters
+    ----------
+    ev : _Evidence
+        The evidence of the design.
+    design : Design
+        Observation system.
+    fscales : ndarray, shape (18,)
+        Function scales [um, urad].
+    sigma : float
+        Reading noise [um].
+    covariance : bool
+        Form the dense covariance on the Cholesky path.
+    settings : EstimatorSettings, optional
+        Its dense-solve limits (``dense_qr_limit``, ``dense_qr_entries``,
+        ``dense_covariance_limit``); default ``EstimatorSettings()``.
 
     Returns
     -------
@@ -606,70 +583,17 @@ def _final_solve(ev: _Evidence, design: Design, fscales, sigma: float, covarianc
         Posterior precision, prior precision, Cholesky factor of ``H``, estimate (without
         the design's prior mean) and covariance (None when too large or not wanted).
     """
+    st = settings if settings is not None else EstimatorSettings()
     H, Q, cf = _final_factor(ev, fscales, sigma)
     N = H.shape[0]
-    if N <= DENSE_QR_LIMIT and (ev.n + N) * N <= DENSE_QR_ENTRIES:
+    if N <= st.dense_qr_limit and (ev.n + N) * N <= st.dense_qr_entries:
         x, cov = _dense_qr(design, sp.csc_matrix(Q), sigma)
     else:
         x = _polish(H, cf, ev.Aty / sigma**2, steps=4)
         cov = None
-        if covariance and N <= DENSE_COVARIANCE_LIMIT:
+        if covariance and N <= st.dense_covariance_limit:
             cov = sla.cho_solve(cf, np.eye(N), check_finite=False)
     return H, Q, cf, x, cov
-
-
-ROLL_FUNCTIONS: tuple[int, ...] = (3, 10, 17)
-"""Function indices ``6 * axis + component`` of the rolls EAX, EBY, ECZ."""
-
-
-def _roll_marginal_factors(prior: PriorStructure, fscales, x, cov, spread: float,
-                           tol: float = 0.02) -> dict[int, float]:
-    """Each roll's prior scale factor, integrated over its hyperprior given the readings.
-
-    For a roll block with prior covariance ``C = a^2 P^-1`` and posterior mean ``m`` and
-    covariance ``S`` (all other unknowns integrated out), the readings' information on the
-    roll is Gaussian; in coordinates whitened by ``C`` with ``S_u = V diag(s) V'`` the
-    log evidence of the prior ``rho^2 C`` is, up to a constant,
-
-    ``l(rho) = -1/2 sum log(1 + rho^2 k_i) + 1/2 sum rho^2 b_i^2 / (1 + rho^2 k_i)``,
-
-    ``k_i = 1/s_i - 1`` (the data's precision), ``b_i = (V' L^-1 m)_i / s_i``. With the
-    hyperprior ``log rho ~ N(-w^2, w^2)`` (``E[rho^2] = 1``) the returned factor is
-    ``sqrt(E[rho^2 | y])`` on a grid of 61 points over +-4 w (MacKay 1992; Gelman et al.,
-    *Bayesian Data Analysis*, 3rd ed., 5.3: integrating a hierarchical scale out rather
-    than maximising over it).
-
-    Parameters
-    ----------
-    prior : PriorStructure
-        Prior blocks (the rolls carry no trend or nugget).
-    fscales : ndarray, shape (18,)
-        Function scales used for ``x`` and ``cov`` [um, urad].
-    x, cov : ndarray
-        Posterior mean (without the design's prior mean) and covariance.
-    spread : float
-        ``w``, the hyperprior's spread (log factor).
-    tol : float
-        Factors within this relative distance of 1 are left out.
-
-    Returns
-    -------
-    dict of int to float
-        Function index -> factor ``rho`` (only rolls estimated here).
-    """
-    out: dict[int, float] = {}
-    t = np.linspace(-4.0, 4.0, 61)
-    rho2 = np.exp(2.0 * (-spread**2 + spread * t))
-    for f in ROLL_FUNCTIONS:
-        kb = _roll_whitened(prior, fscales, x, cov, (f,))
-        if kb is None:
-            continue
-        lp = _roll_log_likelihood(*kb, rho2) - 0.5 * t**2  # + the hyperprior
-        w = np.exp(lp - lp.max())
-        r = float(np.sqrt(np.sum(w * rho2) / np.sum(w)))
-        if abs(r - 1.0) > tol:
-            out[f] = r
-    return out
 
 
 def _roll_log_likelihood(k: NDArray[np.float64], b2: NDArray[np.float64], rho2
@@ -694,7 +618,7 @@ def _roll_whitened(prior: PriorStructure, fscales, x, cov,
     covariance; ``S_u = V diag(s) V'`` is its posterior covariance.
 
     Returns ``(k, b2)``: the eigenvalues ``k_i = 1/s_i - 1`` of the data's precision and
-    the squared projections ``b_i^2 = ((V' u)_i / s_i)^2`` (:func:`_roll_marginal_factors`),
+    the squared projections ``b_i^2 = ((V' u)_i / s_i)^2`` (:func:`roll_log_bayes_factor`),
     over the free nodes of ``functions`` (default the three rolls) together; None when the
     design has none of them.
     """
@@ -745,53 +669,18 @@ def roll_log_bayes_factor(prior: PriorStructure, fscales, x, cov) -> float | Non
     return None if kb is None else float(_roll_log_likelihood(*kb, 1.0))
 
 
-def _roll_presence_factors(prior: PriorStructure, fscales, x, cov, p_absent: float,
-                           tol: float = 0.02) -> dict[int, float]:
-    """The rolls' prior scale factor averaged over "no roll" and "roll" given the readings.
-
-    Two hypotheses for the machine: no roll errors (scale 0, prior probability ``p``), or
-    rolls at ``rho_s = 1 / sqrt(1 - p)`` times the current scale. With the three rolls'
-    data information in whitened coordinates (:func:`_roll_whitened`) the log Bayes factor
-    of "roll" over "no roll" is ``L = -1/2 sum log(1 + rho_s^2 k_i) + 1/2 sum rho_s^2 b_i^2
-    / (1 + rho_s^2 k_i)`` and the returned factor ``sqrt(P(roll | y)) rho_s`` (the
-    posterior mean of the variance; ``E[rho^2] = 1`` a priori). References: Mitchell and
-    Beauchamp (1988), spike-and-slab priors; Hoeting et al. (1999), Bayesian model
-    averaging.
-
-    Returns
-    -------
-    dict of int to float
-        Roll function index -> factor (empty when within ``tol`` of 1 or no roll block).
-    """
-    kb = _roll_whitened(prior, fscales, x, cov)
-    if kb is None:
-        return {}
-    r2 = 1.0 / (1.0 - p_absent) if ROLL_PRESENT_FACTOR is None else ROLL_PRESENT_FACTOR**2
-    L = float(_roll_log_likelihood(*kb, r2))
-    # P(roll | y) = (1 - p) e^L / ((1 - p) e^L + p), written to avoid overflow
-    z = np.log(p_absent) - np.log1p(-p_absent) - L
-    p_roll = float(np.exp(-np.logaddexp(0.0, z)))
-    r = float(np.sqrt(p_roll * r2))
-    if abs(r - 1.0) <= tol:
-        return {}
-    return {f: r for f in ROLL_FUNCTIONS
-            if any(blk[4] == f for blk in prior.blocks)}
-
-
 def _roll_mixture(prior: PriorStructure, fscales, x, cov, log_bf: float, p_absent: float,
-                  rho0: float = 0.0, soft: NDArray[np.float64] | None = None):
+                  soft: NDArray[np.float64] | None = None, covariance: str = "roll"):
     """Average of the fit with rolls and the fit without, weighted by the readings.
 
     The fit without roll is the fit with rolls conditioned on zero roll at every free
     node (the rolls' prior is independent of the other unknowns, so conditioning the
     posterior equals refitting with the rolls removed): ``x0 = x - K x_R``, ``C0 = C -
-    K C_RR K'`` with ``K = C_:R C_RR^-1``. With ``rho0 > 0`` the second model has rolls
-    at ``rho0`` times the scale: the extra prior precision ``(1/rho0^2 - 1) Q_R`` is a
-    pseudo-reading ``x_R = 0`` and ``K = C_:R (C_RR + D)^-1``, ``D = rho0^2 / (1 -
-    rho0^2) Q_R^-1``. With ``P = P(roll | y)`` from the log Bayes factor ``log_bf`` and
+    K C_RR K'`` with ``K = C_:R C_RR^-1``. With ``P = P(roll | y)`` from the log Bayes
+    factor ``log_bf`` and
     the prior probability ``p_absent`` of no roll, the mixture's mean is ``x_m = x - (1 -
     P) d``, ``d = K x_R`` (Hoeting et al. 1999, Bayesian model averaging); its covariance
-    (:data:`ROLL_MIXTURE_COVARIANCE`) ``C + (1 - P)^2 d d'`` (default) or the mixture's
+    (``covariance``) ``C + (1 - P)^2 d d'`` (default) or the mixture's
     own ``C - (1 - P) K C_RR K' + P (1 - P) d d'``.
 
     Parameters
@@ -807,11 +696,12 @@ def _roll_mixture(prior: PriorStructure, fscales, x, cov, log_bf: float, p_absen
         :func:`roll_log_bayes_factor` of that fit.
     p_absent : float
         Prior probability of no roll.
-    rho0 : float
-        Roll scale factor of the second model (0: no roll).
     soft : ndarray, optional
         The design's extra precision of stated values: rolls stated by the user are left
         as they are.
+    covariance : str
+        ``'roll'`` (default) or ``'mixture'``
+        (:attr:`EstimatorSettings.roll_mixture_covariance`).
 
     Returns
     -------
@@ -832,17 +722,12 @@ def _roll_mixture(prior: PriorStructure, fscales, x, cov, log_bf: float, p_absen
     R = np.concatenate(idx)
     if soft is not None and np.any(soft[R]):  # the user stated the rolls to so much
         return None
-    if rho0 > 0:
-        kb = _roll_whitened(prior, fscales, x, cov)
-        log_bf = log_bf - float(_roll_log_likelihood(*kb, rho0**2))
     z = np.log(p_absent) - np.log1p(-p_absent) - log_bf
     p_roll = float(np.exp(-np.logaddexp(0.0, z)))
     q = 1.0 - p_roll
     if q < 1e-9:  # the readings settle it: the fit with rolls
         return x, cov, None, p_roll
     CRR = cov[np.ix_(R, R)]
-    if rho0 > 0:
-        CRR = CRR + sla.block_diag(*D) * rho0**2 / (1.0 - rho0**2)
     # C_RR^-1 in the rolls' prior scale (D): directions the readings pin to within 1e-12
     # of their prior variance are held at that floor (noise-free data)
     T = np.sqrt(np.diag(sla.block_diag(*D)))
@@ -851,7 +736,7 @@ def _roll_mixture(prior: PriorStructure, fscales, x, cov, log_bf: float, p_absen
     K = (cov[:, R] / T) @ (V / sv) @ V.T / T  # C_:R C_RR^-1
     d = K @ x[R]
     xm = x - q * d
-    if ROLL_MIXTURE_COVARIANCE == "roll":
+    if covariance == "roll":
         cm = cov + q * q * np.outer(d, d)
     else:
         cm = cov - q * (K @ cov[R, :]) + p_roll * q * np.outer(d, d)
@@ -939,7 +824,7 @@ def solve_min_norm(design: Design, noise_um: float | None = None) -> Solution:
     s_res = float(np.sqrt(r @ r / dof))
     sig = s_res if noise_um is None else float(noise_um)
     cov = (Vt[keep].T / s[keep] ** 2) @ Vt[keep] * sig**2
-    return Solution(x, cov, sig, s_res, np.full(len(DEFAULT_SCALES), np.nan), float("nan"),
+    return Solution(x, cov, sig, s_res, np.full(len(GROUPS), np.nan), float("nan"),
                     float(dof), "min-norm",
                     convergence={"optimiser": "SVD (no hyperparameters)", "converged": True,
                                  "iterations": 0, "evaluations": 0, "message": ""})

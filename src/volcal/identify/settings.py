@@ -1,0 +1,181 @@
+"""The estimator's settings: one frozen object, passed down from the identify options.
+
+Every tuning constant of the Bayesian estimator (hyperprior of the evidence, the rolls'
+prior, the node grids, the numerical limits) is a field of :class:`EstimatorSettings`.
+It is reached as ``IdentifyOptions(settings=...)`` (:class:`volcal.identify.IdentifyOptions`)
+and ``Calibration.identify(settings=...)``; the defaults are volcal's estimator. The
+measurements that chose each default are in ``benchmarks/README.md`` (section "The
+estimator's lab notebook").
+
+References
+----------
+MacKay, D. J. C. (1992). Bayesian interpolation. *Neural Computation* 4, 415-447.
+Rasmussen, C. E., Williams, C. K. I. (2006). *Gaussian Processes for Machine Learning*,
+ch. 5 (type-II maximum likelihood).
+Hoeting, J. A., Madigan, D., Raftery, A. E., Volinsky, C. T. (1999). Bayesian model
+averaging: a tutorial. *Statistical Science* 14, 382-417.
+Kass, R. E., Raftery, A. E. (1995). Bayes factors. *JASA* 90, 773-795.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+__all__ = ["EstimatorSettings"]
+
+
+@dataclass(frozen=True)
+class EstimatorSettings:
+    """Settings of the evidence-optimised Bayesian estimator (:mod:`volcal.identify.solver`).
+
+    Frozen: a result is computed with one set of settings; make another with
+    :func:`dataclasses.replace`.
+
+    Attributes
+    ----------
+    typical_scales : tuple of 4 float
+        Amplitude scales of a typical machining centre: positioning [um], straightness
+        [um], roll [urad], tilts [urad]. Used where nothing is measured yet
+        (``volcal advise``) and as the fallback of the identifiability analysis.
+    hyper_centre : tuple of 4 float
+        Centre of the log-normal hyperprior of the four group scales (same order and
+        units as ``typical_scales``); it only holds the scales the readings do not
+        inform. The straightness centre is 2 um (the difference form of the prior at the
+        gauge zeros, ``boundary``, doubles an unseen straightness' variance mid-travel).
+        The roll's entry is not used: the roll takes the tilts' scale times
+        ``roll_factor``.
+    kappa_centre : float
+        Centre of the hyperprior of the curvature scale ``kappa`` [1, per normalised
+        travel].
+    hyper_spread : float
+        Spread of the hyperprior of the group scales and of ``kappa`` (one standard
+        deviation, as a factor) [1].
+    tilt_centre_urad : float
+        Centre of the hyperprior of the set-up tilts' scale (beam and flat mirror aligned
+        by eye and autoreflection) [urad].
+    tilt_spread : float
+        Spread of the set-up tilts' hyperprior (a factor) [1].
+    trend_centre_um : float
+        Centre of the hyperprior of the positioning errors' linear trend at the end of
+        travel (1 m of steel scale 2 K off 20 C) [um].
+    trend_spread : float
+        Spread of the trend scale's hyperprior (a factor) [1].
+    nugget : bool
+        Estimate a short-wavelength ("nugget") part of the positioning errors' prior,
+        independent at every point (a lead screw's cyclic error shorter than the node
+        spacing).
+    nugget_centre_um : float
+        Centre of the nugget scale's hyperprior [um RMS].
+    nugget_spread : float
+        Spread of the nugget scale's hyperprior (a factor) [1].
+    roll_factor : float
+        The rolls' prior scale over the tilts' (applied after the evidence, which cannot
+        see the rolls): ``exp(w^2)`` for a function scale varying by ``exp(w) = 1.9``
+        around its group's [1].
+    roll_mixture_absent : float
+        Prior probability of a machine without roll errors in the two-model average of
+        the estimate (Bayes factor of :func:`volcal.identify.solver.roll_log_bayes_factor`,
+        Kass & Raftery 1995; model average, Hoeting et al. 1999); 0: no average [1].
+    roll_mixture_covariance : str
+        Covariance of that average: ``'roll'`` the fit with rolls' plus the shift of the
+        mean, ``C + (1 - P)^2 d d'`` (keeps the unseen rolls' full uncertainty);
+        ``'mixture'`` the mixture's own, ``P C + (1 - P) C0 + P (1 - P) d d'``.
+    group_kappa : tuple of 4 float
+        Fixed curvature factor of each prior group (positioning, straightness, roll,
+        tilt) over ``kappa`` [1]: 0.6 makes the rolls smoother (the twist of a pair of
+        guideways is a long-wavelength error).
+    boundary : str
+        How a function's prior meets the gauge zeros (``docs/identification.md``,
+        section 3): ``'difference'`` the law of ``f(s) - f(0)`` (straightness: the
+        end-point line removed) of a function drawn on all the nodes; ``'conditional'``
+        the prior conditioned on the zeros; ``'start'`` the difference form where only
+        the start is held.
+    evidence_tol : float
+        The evidence optimiser stops when three iterations improve ``-2 log evidence`` by
+        less than this [1].
+    sigma_fixed_point_steps : int
+        MacKay fixed-point updates of the noise before the quasi-Newton search.
+    dense_qr_limit : int
+        Unknowns up to which the final solve is a QR of the stacked system (noise-free
+        data fitted to numerical precision) ...
+    dense_qr_entries : int
+        ... when that stacked matrix has at most this many entries (2e6: 16 MB); beyond
+        either, Cholesky with iterative refinement.
+    dense_covariance_limit : int
+        Unknowns up to which the dense posterior covariance is formed on the Cholesky
+        path.
+    nodes_at_readings : bool
+        When the refined grid would exceed ``max_nodes`` but the visited positions fit,
+        keep every visited position as a node and spend the rest of the budget on the
+        longest intervals, instead of a uniform grid between the readings.
+    visited_nodes_factor : float
+        With ``nodes_at_readings``, the visited positions alone are the nodes when they
+        number up to this factor times ``max_nodes`` [1].
+    hyper_max_nodes : int
+        Nodes per axis of the grid on which the hyperparameters are chosen (at least the
+        visited positions with ``nodes_at_readings``).
+    analysis_max_nodes : int
+        Nodes per axis of the identifiability analysis.
+    robust_iterations : int
+        Re-weighted fits of ``IdentifyOptions.robust`` at most.
+    default_repeatability_um : float
+        Repeatability assumed when the readings have too little redundancy to show their
+        own noise [um].
+    no_roll_note_factor : float
+        Bayes factor in favour of "no roll errors" over rolls of the prior's size above
+        which `identify` says that the readings look like a machine without roll [1].
+    """
+
+    typical_scales: tuple[float, float, float, float] = (10.0, 5.0, 15.0, 15.0)
+    hyper_centre: tuple[float, float, float, float] = (10.0, 2.0, 15.0, 15.0)
+    kappa_centre: float = 6.0
+    hyper_spread: float = 30.0
+    tilt_centre_urad: float = 50.0
+    tilt_spread: float = 2.0
+    trend_centre_um: float = 20.0
+    trend_spread: float = 3.0
+    nugget: bool = True
+    nugget_centre_um: float = 0.2
+    nugget_spread: float = 10.0
+    roll_factor: float = 1.5
+    roll_mixture_absent: float = 0.5
+    roll_mixture_covariance: str = "roll"
+    group_kappa: tuple[float, float, float, float] = (1.0, 1.0, 0.6, 1.0)
+    boundary: str = "difference"
+    evidence_tol: float = 0.05
+    sigma_fixed_point_steps: int = 2
+    dense_qr_limit: int = 2000
+    dense_qr_entries: int = 2_000_000
+    dense_covariance_limit: int = 6000
+    nodes_at_readings: bool = True
+    visited_nodes_factor: float = 1.5
+    hyper_max_nodes: int = 21
+    analysis_max_nodes: int = 41
+    robust_iterations: int = 5
+    default_repeatability_um: float = 0.5
+    no_roll_note_factor: float = 100.0
+
+    def __post_init__(self) -> None:
+        from volcal.errors import VolcalInputError
+
+        if self.roll_mixture_covariance not in ("roll", "mixture"):
+            raise VolcalInputError("EstimatorSettings.roll_mixture_covariance must be 'roll' "
+                                   f"or 'mixture', got {self.roll_mixture_covariance!r}")
+        if self.boundary not in ("difference", "conditional", "start"):
+            raise VolcalInputError("EstimatorSettings.boundary must be 'difference', "
+                                   f"'conditional' or 'start', got {self.boundary!r}")
+        if not 0.0 <= self.roll_mixture_absent < 1.0:
+            raise VolcalInputError("EstimatorSettings.roll_mixture_absent must be in [0, 1), "
+                                   f"got {self.roll_mixture_absent!r}")
+        for name in ("typical_scales", "hyper_centre", "group_kappa"):
+            v = getattr(self, name)
+            if len(v) != 4 or not all(float(x) > 0 for x in v):
+                raise VolcalInputError(f"EstimatorSettings.{name} must be 4 positive numbers, "
+                                       f"got {v!r}")
+        for name in ("kappa_centre", "hyper_spread", "tilt_centre_urad", "tilt_spread",
+                     "trend_centre_um", "trend_spread", "nugget_centre_um", "nugget_spread",
+                     "roll_factor", "evidence_tol", "visited_nodes_factor",
+                     "default_repeatability_um", "no_roll_note_factor"):
+            if not float(getattr(self, name)) > 0:
+                raise VolcalInputError(f"EstimatorSettings.{name} must be positive, got "
+                                       f"{getattr(self, name)!r}")

@@ -108,16 +108,16 @@ def test_gauge_map_changes_no_reading():
 @functools.cache
 def _rolls_kept(family: str):
     """The same machines with the rolls always kept (the two-model average off)."""
-    from volcal.identify import solver
+    from volcal.identify import EstimatorSettings, IdentifyOptions
 
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(solver, "ROLL_MIXTURE_ABSENT", 0.0)
-        return families.run_family(family, "full", N_MACHINES, STEPS, RUNS, GRID, limit=False)
+    kept = IdentifyOptions(suggest=False, settings=EstimatorSettings(roll_mixture_absent=0.0))
+    return families.run_family(family, "full", N_MACHINES, STEPS, RUNS, GRID, limit=False,
+                               options=kept)
 
 
 def test_the_average_over_the_rolls_presence_serves_machines_with_and_without_roll():
     """The default estimate averages the fits with and without rolls by the readings'
-    Bayes factor (``solver.ROLL_MIXTURE_ABSENT``). On family b (no roll) it is closer to
+    Bayes factor (``EstimatorSettings.roll_mixture_absent``). On family b (no roll) it is closer to
     the truth on every machine than the fit with the rolls kept (measured 0.32-0.82 of
     its residual); on family d, whose rolls the readings see, it is the fit with rolls
     (the weight of "no roll" below 1e-8: the same numbers to 1e-6)."""

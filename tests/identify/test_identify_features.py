@@ -195,13 +195,13 @@ def test_unobserved_squareness_keeps_a_bounded_uncertainty():
     assert r.report.determined_fraction["EC0Y"] < 0.05
 
 
-def test_sparse_path_equals_dense_path(noisy, monkeypatch):
-    """Large problems take the sparse LU path; on a small one both paths agree."""
-    import volcal.identify.solver as solver
+def test_sparse_path_equals_dense_path(noisy):
+    """Large problems take the Cholesky path; on a small one both paths agree."""
+    from volcal.identify.settings import EstimatorSettings
 
     s, _, dense = noisy
-    monkeypatch.setattr(solver, "DENSE_QR_LIMIT", 0)
-    sparse = identify(s, IdentifyOptions(suggest=False))
+    sparse = identify(s, IdentifyOptions(suggest=False,
+                                         settings=EstimatorSettings(dense_qr_limit=0)))
     q = grid(choose_nodes(s, refine=1), stride=3)
     e1, u1 = dense.predict(q)
     e2, u2 = sparse.predict(q)

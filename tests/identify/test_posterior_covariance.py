@@ -33,26 +33,13 @@ from __future__ import annotations
 import functools
 
 import numpy as np
-import pytest
 
-from volcal.identify import IdentifyOptions, identify
+from volcal.identify import EstimatorSettings, IdentifyOptions, identify
 from volcal.plan.planner import plan_session
 
 TRAVEL = np.array([[0.0, 800.0], [0.0, 600.0], [0.0, 500.0]])
 SIGMA = 0.5
 LINES = ("linear-x1", "linear-y1", "linear-z1")  # reference lines through the travel origin
-
-
-@pytest.fixture(autouse=True, scope="module")
-def _linear_estimator():
-    """The default's average of the fits with and without rolls weighs them by the
-    readings (``solver.ROLL_MIXTURE_ABSENT``), which is not linear in the readings: it is
-    switched off here (its moments are checked against refits in test_estimator_parts)."""
-    from volcal.identify import solver
-
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(solver, "ROLL_MIXTURE_ABSENT", 0.0)
-        yield
 
 
 def _session():
@@ -76,8 +63,12 @@ def _rows(s):
 @functools.cache
 def _influence(prior: str):
     """Predictions for unit data on each positive reading (and the first) of each line."""
+    # the default's average of the fits with and without rolls weighs them by the
+    # readings (EstimatorSettings.roll_mixture_absent), which is not linear in the
+    # readings: it is switched off here (its moments are checked against refits in
+    # test_estimator_parts)
     opts = IdentifyOptions(prior=prior, scales=(10.0, 5.0, 15.0, 15.0), noise_um=SIGMA,
-                           suggest=False)
+                           suggest=False, settings=EstimatorSettings(roll_mixture_absent=0.0))
     s = _session()
     rows = _rows(s)
     q_read = np.array([s.get(mid).positions[i] for mid, i in rows])

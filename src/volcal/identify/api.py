@@ -114,6 +114,11 @@ class IdentifyOptions:
     blas_threads: int | None = 1
     settings: EstimatorSettings = field(default_factory=EstimatorSettings)
 
+    def __post_init__(self) -> None:
+        if not isinstance(self.settings, EstimatorSettings):
+            raise VolcalInputError("settings: expected a volcal.identify.EstimatorSettings, "
+                                   f"got {type(self.settings).__name__}")
+
 
 def _too_few_redundant(sol: Solution, design: Design) -> bool:
     """True when the residual degrees of freedom are too few to estimate the noise."""

@@ -185,9 +185,7 @@ def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float6
     if search.free_scales:
         f_opt = f_opt.copy()
         f_opt[list(ROLL_FUNCTIONS)] *= st.roll_factor  # the evidence cannot see the rolls
-        scales_opt = _group_scales(f_opt)
-    else:
-        scales_opt = search.s_groups
+    scales_opt = _group_scales(f_opt)
     if kappa != ev.prior.kappa:
         ev.prior = ev.prior.with_kappa(kappa)
     H, _, cf, x_fit, cov_fit = _final_solve(ev, design, f_opt, sigma, covariance, st)
@@ -234,7 +232,6 @@ class _HyperSearch:
         self.free_scales = scales is None
         self.free_sigma = noise_um is None
         self.f_fixed = None if scales is None else function_scales(scales)
-        self.s_groups = None if self.f_fixed is None else _group_scales(self.f_fixed)
         self.sig0 = 0.5 if noise_um is None else float(noise_um)
         y_scale = max(float(np.sqrt(ev.yty / max(ev.n, 1))), 1e-3)
         self.sig_floor = 1e-7 * y_scale
@@ -666,7 +663,10 @@ def roll_log_bayes_factor(prior: PriorStructure, fscales, x, cov) -> float | Non
         None when the design has no roll block (``roll='zero'``).
     """
     kb = _roll_whitened(prior, fscales, x, cov)
-    return None if kb is None else float(_roll_log_likelihood(*kb, 1.0))
+    if kb is None:
+        return None
+    k, b2 = kb
+    return float(_roll_log_likelihood(k, b2, 1.0))
 
 
 def _roll_mixture(prior: PriorStructure, fscales, x, cov, log_bf: float, p_absent: float,

@@ -724,39 +724,60 @@ def _result(session: Session, design: Design, sol: Solution, report, o: Identify
         "notes": [*session.notes, *(f"warning: {w}" for w in session.warnings)],
     }
     if sol.method == "bayes":
-        roll_u = [float(np.sqrt(np.mean(std[k][:, 3 + k] ** 2))) for k in range(3)]
-        report.messages.append(
-            "Rolls as measured (RMS standard uncertainty over the travel, noise included): "
-            + ", ".join(f"{n} {u:.1f} urad" for n, u in zip(ROLL_NAMES, roll_u, strict=True))
-            + f"; near the prior scale ({sol.scales[2]:.0f} urad) means not measured by these "
-            "tests, whatever share the design could determine without noise.")
-        lbf = sol.roll_log_bayes_factor
-        if lbf is not None and -lbf > np.log(o.settings.no_roll_note_factor):
-            p_roll = sol.roll_probability
-            lean = ("the estimate is the average of the fits with and without rolls, "
-                    f"weighted {p_roll:.2g} / {1 - p_roll:.2g}, and keeps the uncertainty "
-                    "of rolls of the prior's size" if p_roll is not None else
-                    "the rolls are kept, as the prior allows them")
-            report.messages.append(
-                f"The readings favour a machine without roll errors by a factor of "
-                f"{np.exp(min(-lbf, 700.0)):.3g} over rolls of the prior's size (Bayes factor; "
-                f"{lean}). If this machine is known to "
-                "have no roll, identify with --roll zero (Python: roll='zero'), which leaves "
-                "the other functions better determined; a level on each horizontal axis "
-                "measures the rolls instead (volcal advise).")
-        elif sol.roll_probability is not None and sol.roll_probability < 0.99:
-            p_roll = sol.roll_probability
-            report.messages.append(
-                "The readings do not settle whether this machine has roll errors (Bayes "
-                f"factor {np.exp(np.clip(lbf, -700.0, 700.0)):.3g} for rolls of the prior's "
-                "size over none): the estimate is the average of the fits with and without "
-                f"rolls, weighted {p_roll:.2g} / {1 - p_roll:.2g}, with the uncertainty of "
-                "the fit with rolls. A level on each horizontal axis measures the rolls "
-                "(volcal advise).")
+        report.messages.extend(_roll_messages(sol, std, o.settings))
     return IdentificationResult(session.name, errors, design.layout, design.free, factor, std,
                                 sq_std, report, fit, residuals, fitted, nuis, outliers,
                                 design=design, solution=sol,
                                 session=session_identity(session))
+
+
+def _roll_messages(sol: Solution, std, settings: EstimatorSettings) -> list[str]:
+    """What the report says about the rolls: their uncertainty and their presence.
+
+    Parameters
+    ----------
+    sol : Solution
+        The Bayesian solution (its scales, the rolls' Bayes factor and weight).
+    std : list of 3 ndarray
+        Standard uncertainty of every function at the nodes, per axis [um, urad].
+    settings : EstimatorSettings
+        Its ``no_roll_note_factor``.
+
+    Returns
+    -------
+    list of str
+    """
+    out: list[str] = []
+    roll_u = [float(np.sqrt(np.mean(std[k][:, 3 + k] ** 2))) for k in range(3)]
+    out.append(
+        "Rolls as measured (RMS standard uncertainty over the travel, noise included): "
+        + ", ".join(f"{n} {u:.1f} urad" for n, u in zip(ROLL_NAMES, roll_u, strict=True))
+        + f"; near the prior scale ({sol.scales[2]:.0f} urad) means not measured by these "
+        "tests, whatever share the design could determine without noise.")
+    lbf = sol.roll_log_bayes_factor
+    if lbf is not None and -lbf > np.log(settings.no_roll_note_factor):
+        p_roll = sol.roll_probability
+        lean = ("the estimate is the average of the fits with and without rolls, "
+                f"weighted {p_roll:.2g} / {1 - p_roll:.2g}, and keeps the uncertainty "
+                "of rolls of the prior's size" if p_roll is not None else
+                "the rolls are kept, as the prior allows them")
+        out.append(
+            f"The readings favour a machine without roll errors by a factor of "
+            f"{np.exp(min(-lbf, 700.0)):.3g} over rolls of the prior's size (Bayes factor; "
+            f"{lean}). If this machine is known to "
+            "have no roll, identify with --roll zero (Python: roll='zero'), which leaves "
+            "the other functions better determined; a level on each horizontal axis "
+            "measures the rolls instead (volcal advise).")
+    elif sol.roll_probability is not None and sol.roll_probability < 0.99:
+        p_roll = sol.roll_probability
+        out.append(
+            "The readings do not settle whether this machine has roll errors (Bayes "
+            f"factor {np.exp(np.clip(lbf, -700.0, 700.0)):.3g} for rolls of the prior's "
+            "size over none): the estimate is the average of the fits with and without "
+            f"rolls, weighted {p_roll:.2g} / {1 - p_roll:.2g}, with the uncertainty of "
+            "the fit with rolls. A level on each horizontal axis measures the rolls "
+            "(volcal advise).")
+    return out
 
 
 def _fin(v: float) -> float | None:

@@ -130,10 +130,10 @@ def test_cli_from_error_table(tmp_path):
     t = read_fanuc(tmp_path / "f", "correction")[0]
     exx = m.component(0, t.positions)[:, 0]
     assert np.max(np.abs(t.values - -(exx - exx[1]))) <= 0.5 + 1e-9  # -error, zero at ref
-    # an override is printed with what it overrides
+    # an override is printed with what it overrides: a caution, on standard error
     r = _cli("compensate", str(csv), "--format", "fanuc", "--sign", "error", "-o",
              str(tmp_path / "f2"))
-    assert r.returncode == 0 and "overrides the fanuc convention 'correction'" in r.stdout
+    assert r.returncode == 0 and "overrides the fanuc convention 'correction'" in r.stderr
     bad = tmp_path / "MODEL.json"
     bad.write_text("{not json")
     r = _cli("compensate", str(bad), "--format", "csv", "--sign", "error", "-o",

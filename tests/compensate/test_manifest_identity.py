@@ -341,4 +341,4 @@ def test_error_table_of_another_machine_with_session_is_refused(gantry, tmp_path
     code, out, err = _run(monkeypatch, capsys, *args, "--force", "-o", str(tmp_path / "c"))
     assert code == 0, err
     assert "warning --force: the error table is not of this session's machine" in " ".join(
-        out.split())
+        err.split())  # on standard error

@@ -53,12 +53,19 @@ def test_hash_is_a_hand_computed_sha256_of_canonical_lines():
     s.measurements = s.measurements[:1]
     m = s.measurements[0]
     m.deviation = np.arange(m.positions.shape[0], dtype=float) * 0.5
-    m.deviation[1] = np.nan  # unmeasured reading: left out
-    lines = "".join(f"{m.id},{i},{p[0]:.9g},{p[1]:.9g},{p[2]:.9g},{m.deviation[i]:.9g}\n"
-                    for i, p in enumerate(m.positions) if i != 1)
+    m.deviation[1] = np.nan  # unmeasured reading: left out, and not counted
+    kept = [i for i in range(m.positions.shape[0]) if i != 1]
+    lines = "".join(f"{m.id},{j},{m.positions[i][0]:.9g},{m.positions[i][1]:.9g},"
+                    f"{m.positions[i][2]:.9g},{m.deviation[i]:.9g}\n"
+                    for j, i in enumerate(kept))
     digest, n = readings_sha256(s)
     assert digest == hashlib.sha256(lines.encode()).hexdigest()
     assert n == m.positions.shape[0] - 1
+    # volcal before issue 25 numbered the readings by their index, the NaN's included
+    old = "".join(f"{m.id},{i},{p[0]:.9g},{p[1]:.9g},{p[2]:.9g},{m.deviation[i]:.9g}\n"
+                  for i, p in enumerate(m.positions) if i != 1)
+    assert readings_sha256(s, legacy=True)[0] == hashlib.sha256(old.encode()).hexdigest()
+    assert old != lines
 
 
 def test_fresh_and_loaded_have_one_shape(small):
@@ -118,7 +125,8 @@ def test_report_and_predict_refuse_a_foreign_model(small, tmp_path):
     out = volcal("predict", root / "model.json", "--points", pts, "-o", tmp_path / "e.csv",
                  "--session", foreign, "--force")
     assert out.returncode == 0, out.stderr
-    assert "warning" in out.stdout and (tmp_path / "e.csv").is_file()
+    assert "warning" in out.stderr and "warning" not in out.stdout  # stdout: results only
+    assert (tmp_path / "e.csv").is_file()
 
 
 def test_format_1_model_loads_with_defaults():

@@ -10,10 +10,11 @@ from rich.console import Console
 from rich.markup import escape
 
 from volcal import defaults as D
-from volcal.cli._common import parse_vector
+from volcal.cli._common import parse_vector, print_session_notes
 from volcal.errors import VolcalInputError
 
 console = Console(soft_wrap=True)  # no line breaks inside paths
+err_console = Console(stderr=True, soft_wrap=True)  # notes, warnings: standard error
 
 
 def compensate(
@@ -73,7 +74,7 @@ def compensate(
     if sign is not None:
         sign_factor(sign)
         if sign != info.sign:
-            console.print(escape(
+            err_console.print(escape(
                 f"note: --sign {sign} overrides the {fmt} convention '{info.sign}' "
                 f"({info.sign_source}); a table in the wrong sign doubles the error"))
     check_output_folder(output, "compensation", lambda p: (p / MANIFEST).is_file())
@@ -84,11 +85,15 @@ def compensate(
         from volcal.compensate.bidirectional import directional_from_session
         from volcal.session.format import read_session
 
-        sess = read_session(session, require_deviation=False)
+        # the readings as identify and evaluate read them: missed captures skipped
+        sess = read_session(session)
+        print_session_notes(sess)
         directional = directional_from_session(sess)
+        for line in directional.notes():
+            err_console.print(f"note: {escape(line)}", highlight=False)
         if not directional.source:
-            console.print("note: the session has no bidirectional linear test: forward = "
-                          "reverse")
+            err_console.print("note: the session has no bidirectional linear test: forward "
+                              "= reverse", highlight=False)
             directional = None
     opts = CompensationOptions(sign, spacing, max_points, ref, unit_um, magnification,
                                max_increment, squareness,
@@ -111,7 +116,7 @@ def _check_session(model: Path, session: Path, force: bool) -> None:
     from volcal.identify.modelfile import check_model_file_session
 
     for d in check_model_file_session(model, session, force):
-        console.print(f"[yellow]warning[/] --force: {d}", highlight=False)
+        err_console.print(f"[yellow]warning[/] --force: {d}", highlight=False)
 
 
 def _machine_identity(model: Path, errors: object, sess: object, force: bool) -> object:
@@ -134,7 +139,7 @@ def _machine_identity(model: Path, errors: object, sess: object, force: bool) ->
                     f"would be labelled {me.label()}")
             if not force:
                 raise VolcalInputError(text + "; give --force to write them anyway", model)
-            console.print(f"[yellow]warning[/] --force: {escape(text)}", highlight=False)
+            err_console.print(f"[yellow]warning[/] --force: {escape(text)}", highlight=False)
     return me
 
 
@@ -157,14 +162,15 @@ def _print_line_checks(sess: object, output: Path, errors: object) -> None:
         console.print(t)
     for c in checks:
         if c.worse:
-            console.print(f"[yellow]warning[/] {escape(c.warning())}", highlight=False)
+            err_console.print(f"[yellow]warning[/] {escape(c.warning())}", highlight=False)
     for why in skipped:
         console.print(f"note: not evaluated: {escape(why)}", highlight=False)
     before, after = volumetric_before_after(errors, written)
     text = (f"largest modelled volumetric error over 11³ points of the travel: {before:.2f} µm "
             f"before, {after:.2f} µm after these tables")
     if after > before:
-        console.print(f"[yellow]warning[/] {text}: the tables make it larger", highlight=False)
+        err_console.print(f"[yellow]warning[/] {text}: the tables make it larger",
+                          highlight=False)
     else:
         console.print(text, highlight=False)
 

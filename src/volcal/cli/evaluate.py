@@ -15,6 +15,7 @@ from volcal import defaults as D
 from volcal.cli._common import print_session_notes, print_table
 
 console = Console(soft_wrap=True)  # no line breaks inside paths
+err_console = Console(stderr=True, soft_wrap=True)  # warnings: standard error
 evaluate_app = typer.Typer(help="Evaluate measurements to the standards (ISO 230-2, "
                            "VDI/DGQ 3441, ISO 230-6, ISO 230-1 volumetric indices).",
                            no_args_is_help=True)
@@ -66,7 +67,7 @@ def _iso_tables(res: Any, title: str, unc: Any = None) -> None:
     for n in res.notes:
         console.print(f"[yellow]note:[/] {escape(n)}", highlight=False)
     for w in res.warnings:
-        console.print(f"[yellow]warning:[/] {escape(w)}", highlight=False)
+        err_console.print(f"[yellow]warning:[/] {escape(w)}", highlight=False)
 
 
 def _budget_table(unc: Any, corrections: dict[str, Any]) -> None:
@@ -437,7 +438,8 @@ def session_cmd(
         for w in r.warnings:
             grouped.setdefault(w, []).append(k)
     for w, ids in grouped.items():
-        console.print(f"[yellow]warning[/] ({', '.join(ids)}): {escape(w)}", highlight=False)
+        err_console.print(f"[yellow]warning[/] ({', '.join(ids)}): {escape(w)}",
+                          highlight=False)
     for k, why in why_skipped.items():
         console.print(f"[yellow]skipped[/] {k}: {escape(why)}", highlight=False)
     if verdict:

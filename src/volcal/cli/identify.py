@@ -21,6 +21,7 @@ from volcal.cli._common import (
 from volcal.errors import VolcalInputError
 
 console = Console(soft_wrap=True)  # no line breaks inside paths
+err_console = Console(stderr=True, soft_wrap=True)  # warnings: standard error
 
 
 def identify_cmd(
@@ -189,7 +190,7 @@ def predict_cmd(
     m = load_model(model)
     m.require_uncertainty("volcal predict (its columns ux_um, uy_um, uz_um)", model)
     for d in check_model_file_session(model, session, force):
-        console.print(f"[yellow]warning[/] --force: {d}", highlight=False)
+        err_console.print(f"[yellow]warning[/] --force: {d}", highlight=False)
     q = _read_points(points)
     travel = m.errors.travel
     for j, col in enumerate(("x_mm", "y_mm", "z_mm")):

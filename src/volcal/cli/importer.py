@@ -12,6 +12,7 @@ from rich.markup import escape
 from volcal.cli._common import parse_travel, parse_vector
 
 console = Console(soft_wrap=True)  # no line breaks inside paths
+err_console = Console(stderr=True, soft_wrap=True)  # warnings: standard error
 
 HELP = """Add a measurement from a laser CSV export to a session (atomically).
 
@@ -150,7 +151,7 @@ def _print_result(r, what: str) -> None:
     where = "created session" if r.created else "added to"
     console.print(f"{r.measurement.n} readings of {what} -> {where} {r.session}")
     for w in _imported_warnings(r.session, r.measurement.id):
-        console.print(f"[yellow]warning:[/] {escape(w)}", highlight=False)
+        err_console.print(f"[yellow]warning:[/] {escape(w)}", highlight=False)
 
 
 def _is_rtx(path: Path) -> bool:

@@ -12,6 +12,7 @@ from rich.markup import escape
 from volcal import defaults as D
 
 console = Console(soft_wrap=True)  # no line breaks inside paths
+err_console = Console(stderr=True, soft_wrap=True)  # warnings: standard error
 
 
 def program(
@@ -47,7 +48,7 @@ def program(
     s = read_session(session, require_deviation=False)
     folder, warnings = write_programs(s, dialect, output, opts, first_number)
     for w in warnings:
-        console.print(f"[yellow]note:[/] {escape(w)}", highlight=False)
+        err_console.print(f"[yellow]note:[/] {escape(w)}", highlight=False)
     console.print(f"wrote {len(s.measurements)} {dialect} programs -> {folder}")
 
 

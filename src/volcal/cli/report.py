@@ -12,6 +12,7 @@ from volcal import defaults as D
 from volcal.cli._common import print_session_notes
 
 console = Console(soft_wrap=True)  # no line breaks inside paths
+err_console = Console(stderr=True, soft_wrap=True)  # warnings: standard error
 
 
 def report_cmd(
@@ -109,7 +110,7 @@ def report_cmd(
         result.require_uncertainty("the report (the uncertainty bands of the error functions "
                                    "and of the volumetric error)", model)
         for d in check_model_session(result, s, force, model):
-            console.print(f"[yellow]warning[/] --force: {d}", highlight=False)
+            err_console.print(f"[yellow]warning[/] --force: {d}", highlight=False)
     else:
         from volcal.identify import identify
 
@@ -135,7 +136,7 @@ def report_cmd(
                                 optics_budget=b, edition=edition)
         for w in doc["warnings"]:
             if w.startswith("EXPIRED"):
-                console.print(f"[yellow]warning[/] certificate: {w}", highlight=False)
+                err_console.print(f"[yellow]warning[/] certificate: {w}", highlight=False)
         if title is None:  # the technical report names its certificate on every page
             title = (f"Calibration report: {s.name}, technical report to certificate "
                      f"{doc['report_id']}")
@@ -155,7 +156,7 @@ def report_cmd(
         files = write_report(build_report(inputs, title), output, extra)
     if inputs.compensation is not None:
         for w in inputs.compensation.warnings:
-            console.print(f"[yellow]warning[/] {escape(w)}", highlight=False)
+            err_console.print(f"[yellow]warning[/] {escape(w)}", highlight=False)
     console.print(f"report: {files.html} and {files.pdf} ({files.pdf_pages} pages, "
                   f"{len(files.figures)} figures)", soft_wrap=True)
     if written:

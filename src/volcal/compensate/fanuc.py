@@ -54,7 +54,7 @@ from pathlib import Path
 
 import numpy as np
 
-from volcal.compensate.tables import AxisTable, axis_grid, sign_factor
+from volcal.compensate.tables import AxisTable, axis_grid, require_finite, sign_factor
 from volcal.errors import VolcalInputError
 from volcal.model.errorfunctions import MachineErrors
 from volcal.model.names import AXES
@@ -166,6 +166,7 @@ def fanuc_files(errors: MachineErrors, spacing: float, sign: str, reference_mm,
         n_ref = first - (int(j[0]) + 1)
         numbers = n_ref + j[1:]
         for ti, e in enumerate(tables):
+            require_finite(e, p, f"Fanuc {AXES[k]}" + (" (negative direction)" if ti else ""))
             c = np.rint((e - fwd_ref) / res).astype(int)
             inc = np.diff(c)
             nums = numbers + ti * (numbers[-1] + 1 - numbers[0])
@@ -235,6 +236,8 @@ def _notes(sign: str, series: str, res: float, lines: list[str], bidir: bool,
     if bidir:
         out.insert(3, "bidirectional: 3605#0 = 1, negative-direction tables from 3626, "
                    f"reversal from {directional.source} (ISO 230-2).")
+    if directional is not None:
+        out[-2:-2] = directional.notes()
     return "\n".join(out) + "\n"
 
 

@@ -36,7 +36,13 @@ from pathlib import Path
 import numpy as np
 
 from volcal.compensate.reference import reference_line_notes
-from volcal.compensate.tables import AxisTable, axis_grid, pitch_table, sign_factor
+from volcal.compensate.tables import (
+    AxisTable,
+    axis_grid,
+    pitch_table,
+    require_finite,
+    sign_factor,
+)
 from volcal.errors import VolcalInputError
 from volcal.model.errorfunctions import MachineErrors
 from volcal.model.names import AXES
@@ -102,6 +108,7 @@ def heidenhain_files(errors: MachineErrors, spacing: float, sign: str = DEFAULT_
         half = directional.half_reversal(k, p) if directional is not None else 0.0 * p
         fwd = t.values + np.round(s * half / RESOLUTION_UM) * RESOLUTION_UM
         rev = t.values - np.round(s * half / RESOLUTION_UM) * RESOLUTION_UM
+        require_finite(np.column_stack([fwd, rev]), p, f"Heidenhain {a}.COM")
         if directional is None or not directional.has(k):
             # "if required" (MANUALplus 620 p. 716): without measured reversal the column is
             # left out, so the axis values apply in both directions
@@ -121,6 +128,10 @@ def heidenhain_files(errors: MachineErrors, spacing: float, sign: str = DEFAULT_
         "volcal: HEIDENHAIN nonlinear axis error compensation (.COM tables, VOLCAL.CMA)",
         f"sign: {sign} (HEIDENHAIN convention: {DEFAULT_SIGN}; source: {SIGN_SOURCE})",
         "Not corrected: straightness, squareness and angular (Abbe) errors.",
+        *([f"BACKLASH (negative direction) from the reversal measured in the session's "
+           f"ISO 230-2 tests ({directional.source or 'none'}); an axis without it has no "
+           "BACKLASH column (its values apply in both directions).", *directional.notes()]
+          if directional is not None else []),
         *reference_line_notes(errors)]) + "\n"
     return files
 

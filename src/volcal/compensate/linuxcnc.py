@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from volcal.compensate.reference import reference_line_notes
-from volcal.compensate.tables import AxisTable, axis_grid, sign_factor
+from volcal.compensate.tables import AxisTable, axis_grid, require_finite, sign_factor
 from volcal.errors import VolcalInputError
 from volcal.model.errorfunctions import MachineErrors
 from volcal.model.names import AXES
@@ -89,6 +89,7 @@ def linuxcnc_files(errors: MachineErrors, spacing: float, sign: str = DEFAULT_SI
         e = errors.component(k, p)[:, k]
         half = directional.half_reversal(k, p) if directional is not None else 0.0 * p
         fwd_um, rev_um = s * (e + half), s * (e - half)
+        require_finite(np.column_stack([fwd_um, rev_um]), p, f"LinuxCNC {AXES[k]}.comp")
         # the trim column holds the table in its sign (correction: -error)
         if comp_type == 1:
             lines = [f"{x:.6f} {tf / 1000.0:.6f} {tr / 1000.0:.6f}"
@@ -126,8 +127,9 @@ def _readme(errors: MachineErrors, spacing: float, sign: str, comp_type: int,
         + " mm (the model's coordinates: they must be the joint coordinates after homing).",
         f"Limits: at most {MAX_ENTRIES} entries per joint, strictly increasing nominal.",
         "Forward and reverse differ by the reversal measured in the session's ISO 230-2 "
-        "tests (" + directional.source + ")." if directional is not None else
+        "tests (" + (directional.source or "none") + ")." if directional is not None else
         "Forward = reverse: no bidirectional linear tests were given (--session).",
+        *(directional.notes() if directional is not None else []),
         "Do not set BACKLASH together with a bidirectional table (it would be applied twice).",
         "Restart LinuxCNC to load. Check one point where the trim is large: the deviation "
         "must shrink, not double.",

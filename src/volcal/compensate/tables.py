@@ -129,6 +129,50 @@ def axis_grid(lo: float, hi: float, spacing: float, anchor: float | None = None,
     return a + spacing * np.arange(j0, j1 + 1)
 
 
+def require_finite(values: NDArray[np.float64], positions: NDArray[np.float64] | None,
+                   what: str) -> NDArray[np.float64]:
+    """The last guard of every writer: refuse a table holding a value that is not a number.
+
+    A controller loads ``nan`` or ``inf`` as whatever its parser makes of it; no table is
+    written from a model that gives one (a damaged model file, an error table or a
+    :class:`~volcal.model.errorfunctions.MachineErrors` built with NaN).
+
+    Parameters
+    ----------
+    values : array_like
+        The table's values [um, or the unit of the table].
+    positions : array_like or None
+        Position of each value (first axis of ``values``) [mm], named in the message; a
+        2-D array (the points of a 3-D grid) names the point.
+    what : str
+        The table, named in the message (``"LinuxCNC X.comp, forward"``).
+
+    Returns
+    -------
+    ndarray
+        ``values``, unchanged.
+
+    Raises
+    ------
+    VolcalInputError
+        At the first value that is not a finite number.
+    """
+    v = np.asarray(values, dtype=float)
+    bad = np.flatnonzero(~np.isfinite(v).reshape(v.shape[0], -1).all(axis=1)) if v.ndim \
+        else np.flatnonzero(~np.isfinite(v.reshape(1)))
+    if bad.size:
+        i = int(bad[0])
+        at = ""
+        if positions is not None:
+            p = np.asarray(positions, dtype=float)
+            at = (f" at {p[i]:g} mm" if p.ndim == 1 else
+                  " at (" + ", ".join(f"{x:g}" for x in p[i]) + ") mm")
+        raise VolcalInputError(f"{what}: the model gives a value that is not a finite number"
+                               f"{at}; no table is written (is the model damaged? identify "
+                               "again)")
+    return values
+
+
 def quantize(values_um: NDArray[np.float64], resolution_um: float) -> NDArray[np.float64]:
     """Round values to a table resolution [um] (the nearest multiple).
 
@@ -170,6 +214,7 @@ def pitch_table(errors: MachineErrors, axis: int, positions: NDArray[np.float64]
     AxisTable
     """
     v = sign_factor(sign) * errors.component(axis, positions)[:, axis]
+    require_finite(v, positions, f"{'E' + AXES[axis] * 2} table")
     return AxisTable(axis, axis, positions, quantize(v, resolution_um), sign, resolution_um)
 
 
@@ -237,6 +282,7 @@ def cross_table(errors: MachineErrors, input_axis: int, output_axis: int,
     """
     v = sign_factor(sign) * cross_values(errors, input_axis, output_axis, positions,
                                          include_squareness)
+    require_finite(v, positions, f"E{AXES[output_axis]}{AXES[input_axis]} table")
     return AxisTable(input_axis, output_axis, positions, quantize(v, resolution_um), sign,
                      resolution_um)
 
@@ -272,4 +318,5 @@ def volumetric_grid(errors: MachineErrors, spacing: float, tool_offset=None,
         raise VolcalInputError(f"the 3-D grid would have {n} points (limit {max_points}); "
                                "use a larger --spacing")
     g = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
-    return axes, g, volumetric_error(errors, g, tool_offset)
+    e = volumetric_error(errors, g, tool_offset)
+    return axes, g, require_finite(e, g, "3-D grid")

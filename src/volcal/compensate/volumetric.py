@@ -31,7 +31,13 @@ from pathlib import Path
 
 import numpy as np
 
-from volcal.compensate.tables import axis_grid, quantize, sign_factor, volumetric_grid
+from volcal.compensate.tables import (
+    axis_grid,
+    quantize,
+    require_finite,
+    sign_factor,
+    volumetric_grid,
+)
 from volcal.errors import VolcalInputError
 from volcal.io.table import Column, TableSpec, read_table
 from volcal.model.errorfunctions import MachineErrors
@@ -83,11 +89,13 @@ def isg_files(errors: MachineErrors, spacing: float, sign: str = ISG_DEFAULT_SIG
              "(vol_comp[0].file_name), file_format[0] = ISG CSV, axis assignment X 1 Y 2 Z 3",
              "// position errors (squareness), constant"]
     lines.append(" ".join(f"{ISG_POSITION_NAMES[n]:<16}" for n in SQUARENESS_NAMES).strip())
-    sq = quantize(s * errors.squareness, RESOLUTION) * 1e-6
+    sq = quantize(s * require_finite(errors.squareness, None, "ISG squareness"),
+                  RESOLUTION) * 1e-6
     lines.append(" ".join(f"{x:<16.9e}" for x in sq).strip())
     for k in range(3):
         p = axis_grid(*errors.travel[k], spacing, max_points=max_points, what=AXES[k])
-        v = quantize(s * errors.component(k, p), RESOLUTION)
+        v = quantize(s * require_finite(errors.component(k, p), p, f"ISG {AXES[k]} axis"),
+                     RESOLUTION)
         v = v * np.array([1e-3, 1e-3, 1e-3, 1e-6, 1e-6, 1e-6])
         lines += ["#", f"// component errors of the {AXES[k]} axis",
                   " ".join([f"{AXES[k]:<12}", *(f"{c + AXES[k]:<16}" for c in COMPONENTS)]

@@ -140,6 +140,8 @@ def calibration_record(session_folder: str | Path, model_path: str | Path,
     session = read_session(folder)
     model_path = Path(model_path)
     model = load_model(model_path)
+    # a record keeps the model whole: its binary part too (the U of the stored results)
+    model.require_uncertainty("a calibration record", model_path)
     check_model_session(model, session, force=force)
     ident = session.identity.to_dict()
     files = session_files(session.path or folder) + model_files(model_path)

@@ -158,6 +158,11 @@ def _read_binary(path: Path, doc: dict[str, Any]) -> tuple[dict[str, np.ndarray]
                       "or identify again)")
     data = bin_path.read_bytes()
     digest = hashlib.sha256(data).hexdigest()
+    size = block.get("bytes")
+    if digest != block["sha256"] and isinstance(size, int) and len(data) != size:
+        return None, (f"its binary part {bin_path} is truncated or damaged ({len(data)} "
+                      f"bytes, the JSON records {size}: copy it again beside {path.name}, "
+                      "or identify again)")
     if digest != block["sha256"]:
         return None, (f"its binary part {bin_path} does not match it (sha256 "
                       f"{digest[:12]}..., the JSON records {block['sha256'][:12]}...: written "
@@ -176,7 +181,24 @@ def _read_binary(path: Path, doc: dict[str, Any]) -> tuple[dict[str, np.ndarray]
         if a is None or not isinstance(shape, list) or list(a.shape) != shape:
             return None, (f"its binary part {bin_path} lacks the array {k!r} of the shape "
                           "the JSON names")
+    for k, a in arrays.items():  # the digest matches: the values must still be numbers
+        if a.dtype.kind not in "fiu":
+            raise VolcalInputError(f"array {k!r} holds {a.dtype} values, not numbers",
+                                   bin_path, None, k)
+        bad = np.flatnonzero(~np.isfinite(a).reshape(-1))
+        if bad.size:
+            raise VolcalInputError(f"array {k!r} holds a value that is not a finite number "
+                                   f"(element {int(bad[0])}): the model file is damaged "
+                                   "(identify again)", bin_path, None, k)
     return arrays, ""
+
+
+def _binary_named(path: Path, doc: dict[str, Any]) -> Path | None:
+    """The binary part a format-3 JSON names (in its folder), or None if it names none."""
+    block = doc.get("arrays")
+    if isinstance(block, dict) and isinstance(block.get("file"), str):
+        return path.parent / Path(block["file"]).name
+    return None
 
 
 def load_model(path: str | Path) -> IdentificationResult:
@@ -199,7 +221,9 @@ def load_model(path: str | Path) -> IdentificationResult:
     Raises
     ------
     VolcalInputError
-        If the file is missing or not a valid model.
+        If the file is missing or not a valid model; a value that is not a finite
+        number, or not plausible (:func:`~volcal.identify.result.check_model_values`),
+        in the JSON or in its binary part (the message names the file and the key).
     """
     path = Path(path)
     if not path.is_file():
@@ -218,6 +242,7 @@ def load_model(path: str | Path) -> IdentificationResult:
     arrays, why = _read_binary(path, doc)
     result = IdentificationResult.from_dict(doc, str(path), arrays, why or None)
     if arrays is None:
+        result.uncertainty_file = str(_binary_named(path, doc) or path)
         warnings.warn(f"{path}: loaded without uncertainty: {why}", ModelFileWarning,
                       stacklevel=2)
     return result
@@ -253,9 +278,12 @@ def model_session_differences(model: IdentificationResult, session: Session) -> 
     list of str
         One plain phrase per difference (empty when they match). A model of format
         ``volcal-model/1`` carries no identity: only its name, chain and travel are
-        compared.
+        compared. The readings match when the model's hash is the session's
+        (:func:`~volcal.identify.record.readings_sha256`: the same whether the reader
+        dropped the missed captures or kept them as NaN), or the hash older volcal
+        versions wrote for a session holding NaN readings (``legacy=True``).
     """
-    from volcal.identify.record import session_identity
+    from volcal.identify.record import readings_sha256, session_identity
 
     now = session_identity(session)
     ident = model.session
@@ -273,7 +301,8 @@ def model_session_differences(model: IdentificationResult, session: Session) -> 
         fmt = " x ".join(f"{a:g}..{b:g}" for a, b in tr)
         fmt2 = " x ".join(f"{a:g}..{b:g}" for a, b in now.travel_mm)
         out.append(f"travel {fmt} mm (model) vs {fmt2} mm (session)")
-    if digest is not None and digest != now.readings_sha256:
+    if digest is not None and digest != now.readings_sha256 \
+            and digest != readings_sha256(session, legacy=True)[0]:
         out.append(f"readings: the model was identified from {ident.n_readings} readings "
                    f"(sha256 {digest[:12]}), the session has {now.n_readings} "
                    f"(sha256 {now.readings_sha256[:12]})")

@@ -223,18 +223,26 @@ class FitRecord:
         return cls(**kw, extra=d)
 
 
-def readings_sha256(session: Any) -> tuple[str, int]:
+def readings_sha256(session: Any, legacy: bool = False) -> tuple[str, int]:
     """SHA-256 of a session's readings in a canonical order.
 
     Each measured reading contributes one line ``id,i,x,y,z,deviation`` (positions [mm]
-    and deviation [um] as ``%.9g``), measurements sorted by id; unmeasured readings
-    (NaN) are left out. The hash is independent of CSV formatting, column order and
-    measurement order in ``session.toml``, and changes with any reading.
+    and deviation [um] as ``%.9g``), measurements sorted by id; ``i`` counts the
+    measurement's readings from 0. Unmeasured readings (NaN: a missed capture kept by a
+    reader that does not drop it) are left out and not counted, so a session gives the
+    same hash whether its missed captures were dropped (``read_session``) or kept as NaN
+    (``read_session(require_deviation=False)``). The hash is independent of CSV
+    formatting, column order and measurement order in ``session.toml``, and changes with
+    any reading.
 
     Parameters
     ----------
     session : Session
         The session.
+    legacy : bool
+        Number the readings by their index in the measurement, NaN included (what volcal
+        before 2026-11 wrote for a session holding NaN readings; the same hash for a
+        session without any). Only to recognise the models of those versions.
 
     Returns
     -------
@@ -252,8 +260,9 @@ def readings_sha256(session: Any) -> tuple[str, int]:
         dev = np.asarray(m.deviation, dtype=float).reshape(-1)
         ok = np.flatnonzero(np.isfinite(dev))
         rows = np.column_stack([pos[ok], dev[ok]]).tolist()
+        number = ok.tolist() if legacy else range(len(rows))
         line = m.id.replace("%", "%%") + ",%d,%.9g,%.9g,%.9g,%.9g\n"  # as f"{v:.9g}"
-        h.update("".join([line % (i, *r) for i, r in zip(ok.tolist(), rows,
+        h.update("".join([line % (i, *r) for i, r in zip(number, rows,
                                                           strict=True)]).encode())
         n += int(ok.size)
     return h.hexdigest(), n

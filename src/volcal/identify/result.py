@@ -49,6 +49,14 @@ MODEL_FORMAT = "volcal-model/3"
 MODEL_FORMATS_READ = ("volcal-model/1", "volcal-model/2", "volcal-model/3")
 """Model formats :meth:`IdentificationResult.from_dict` reads."""
 UNITS = ("um", "um", "um", "urad", "urad", "urad")
+MAX_TRANSLATION_UM = 10_000.0
+"""Largest plausible positioning or straightness error (and its u) in a model file [um]:
+10 mm, the bound of the readings' ``deviation_um`` column."""
+MAX_ROTATION_URAD = 10_000.0
+"""Largest plausible angular or squareness error (and its u) in a model file [urad]:
+10 mrad (0.57 degree)."""
+MAX_POSITION_MM = 1e6
+"""Largest plausible node position in a model file [mm] (1 km, as the readers' targets)."""
 
 __all__ = ["MODEL_FORMAT", "MODEL_FORMATS_READ", "Convergence", "FitRecord",
            "IdentificationResult", "SessionIdentity"]
@@ -104,6 +112,10 @@ class IdentificationResult:
         ``None``. :meth:`predict`, :meth:`function_std` and
         :meth:`require_uncertainty` then raise :class:`~volcal.errors.VolcalInputError`
         with this reason.
+    uncertainty_file : str or None
+        The file at fault when :attr:`uncertainty_missing` is set (the binary part
+        ``MODEL.npz``, or the JSON when it names none), named by
+        :meth:`require_uncertainty`.
     """
 
     name: str
@@ -127,6 +139,7 @@ class IdentificationResult:
     sys_labels: list[str] = field(default_factory=list)
     sys_source: str = ""
     uncertainty_missing: str | None = None
+    uncertainty_file: str | None = None
 
     def _factor(self, systematic: bool = True) -> NDArray[np.float64] | None:
         """Covariance factor: noise, with the systematic columns appended if any."""
@@ -236,7 +249,8 @@ class IdentificationResult:
             What needs the uncertainty, named in the message (``"predict"``, ``"the
             report's uncertainty bands"``).
         source : str or Path, optional
-            Model file named in the message.
+            Model file named in the message when the result does not know the file at
+            fault (:attr:`uncertainty_file`).
 
         Raises
         ------
@@ -245,7 +259,8 @@ class IdentificationResult:
         """
         if self.cov_factor is None:
             why = self.uncertainty_missing or "the model carries no covariance"
-            raise VolcalInputError(f"{what} needs the model's uncertainty, and {why}", source)
+            raise VolcalInputError(f"{what} needs the model's uncertainty, and {why}",
+                                   self.uncertainty_file or source)
 
     def predict(self, q: ArrayLike, tool_offset: ArrayLike | None = None, chunk: int = 20000,
                 rigid_removed: bool = False, systematic: bool = True
@@ -280,8 +295,9 @@ class IdentificationResult:
         Raises
         ------
         VolcalInputError
-            ``q`` is not numbers of shape (m, 3) (or one point of shape (3,)), or the
-            model has no uncertainty (:attr:`uncertainty_missing`).
+            ``q`` is not numbers of shape (m, 3) (or one point of shape (3,)), the
+            model has no uncertainty (:attr:`uncertainty_missing`), or a value at a point
+            is not a finite number (NaN or infinite points or model values).
         """
         self.require_uncertainty("predict")
         try:
@@ -305,7 +321,7 @@ class IdentificationResult:
             GL = R @ np.asarray(Je[:, self.free] @ factor)
             v = np.stack([self.nugget_variance(k, q[:, k]) for k in range(3)], axis=1)
             var = np.sum(GL**2, axis=1) + (R**2) @ v.ravel()
-            return e, np.sqrt(var).reshape(-1, 3)
+            return _finite_prediction(e, np.sqrt(var).reshape(-1, 3), q)
         t = np.zeros(3) if tool_offset is None else np.asarray(tool_offset, dtype=float)
         t = np.broadcast_to(t, q.shape) if t.ndim == 1 else t.reshape(-1, 3)
         e = volumetric_error(self.errors, q, t)
@@ -319,7 +335,7 @@ class IdentificationResult:
                     G += vals[:, None] * L[cols]
                 u[i:i + step, c] = np.sqrt(np.einsum("mr,mr->m", G, G)
                                            + self.nugget_variance(c, q[i:i + step, c]))
-        return e, u
+        return _finite_prediction(e, u, q)
 
     def _full_factor(self, factor: NDArray[np.float64]) -> NDArray[np.float64]:
         """A covariance factor on every layout parameter (zero rows where not free)."""
@@ -602,6 +618,10 @@ class IdentificationResult:
                                        + ", ".join(f'"{x}"' for x in MODEL_FORMATS_READ)
                                        + " (write the model again with `volcal identify`)",
                                        source, None, "format")
+            for key in ("chain", "name"):
+                if not isinstance(doc.get(key, ""), str):
+                    raise VolcalInputError(f"expected text, found {doc[key]!r}"[:200], source,
+                                           None, key)
             nodes, values, std = [], [], []
             for k in range(3):
                 f = doc["functions"][AXES[k]]
@@ -612,9 +632,10 @@ class IdentificationResult:
                                               dtype=float) for c in range(6)], 1))
             sq = np.array([doc["squareness_urad"][n] for n in SQUARENESS_NAMES], dtype=float)
             usq = np.array([doc["u_squareness_urad"][n] for n in SQUARENESS_NAMES], dtype=float)
+            check_model_values(nodes, values, std, sq, usq, source)
             errors = MachineErrors(doc["chain"], nodes, values, sq, name=doc.get("name", "model"))
             layout = ParameterLayout(tuple(nodes))
-            free = np.array(doc["covariance"]["free_index"], dtype=np.intp)
+            free = _free_index(doc["covariance"]["free_index"], layout.size, source)
             if fmt == MODEL_FORMAT:
                 part_names = dict(doc["covariance"]["parts"])
                 if not part_names or not all(isinstance(v, str) for v in part_names.values()):
@@ -624,7 +645,7 @@ class IdentificationResult:
                 fac = np.array(doc["covariance"]["factor"], dtype=float).reshape(free.size, -1)
         except VolcalInputError:
             raise
-        except (KeyError, TypeError, ValueError, IndexError) as exc:
+        except (KeyError, TypeError, ValueError, IndexError, OverflowError) as exc:
             raise VolcalInputError(f"not a valid volcal model file ({exc.__class__.__name__}: "
                                    f"{exc})", source) from None
         try:
@@ -705,6 +726,91 @@ class IdentificationResult:
                    nuisances=nuis, outliers=outliers, session=ident, format=str(fmt),
                    sys_factor=sys_f, sys_labels=sys_l, sys_source=sys_src,
                    uncertainty_missing=None if fac is not None else missing)
+
+
+def _free_index(value: Any, size: int, source: str) -> NDArray[np.intp]:
+    """``covariance.free_index``: distinct whole numbers within the layout of ``size``."""
+    ok = isinstance(value, list) and all(isinstance(v, int) and not isinstance(v, bool)
+                                         and 0 <= v < size for v in value)
+    if not ok or len(set(value)) != len(value):
+        raise VolcalInputError(f"expected distinct whole numbers from 0 to {size - 1} (the "
+                               "estimated parameters)", source, None, "covariance.free_index")
+    return np.array(value, dtype=np.intp)
+
+
+def _finite_prediction(e: NDArray[np.float64], u: NDArray[np.float64],
+                       q: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``(e, u)`` if every value is a finite number; else refuse, naming the first point."""
+    bad = np.flatnonzero(~(np.isfinite(e).all(axis=1) & np.isfinite(u).all(axis=1)))
+    if bad.size:
+        p = ", ".join(f"{v:g}" for v in q[int(bad[0])])
+        raise VolcalInputError(f"predict: the model gives a value that is not a finite number "
+                               f"at ({p}) mm (point {int(bad[0]) + 1}); nothing is written "
+                               "(is the model damaged? identify again)")
+    return e, u
+
+
+def _first_bad(a: NDArray[np.float64], bound: float, signed: bool = True) -> int | None:
+    """Index of the first value not finite, beyond ``bound``, or negative when unsigned."""
+    bad = ~np.isfinite(a) | (np.abs(np.where(np.isfinite(a), a, 0.0)) > bound)
+    if not signed:
+        bad |= a < 0
+    idx = np.flatnonzero(bad.reshape(-1))
+    return int(idx[0]) if idx.size else None
+
+
+def check_model_values(nodes: list[NDArray[np.float64]], values: list[NDArray[np.float64]],
+                       std: list[NDArray[np.float64]], squareness: NDArray[np.float64],
+                       squareness_std: NDArray[np.float64], source: str = "model") -> None:
+    """Refuse a model whose numbers are not finite or not plausible.
+
+    Positions within :data:`MAX_POSITION_MM`; translations (positioning, straightness)
+    and their standard uncertainties within :data:`MAX_TRANSLATION_UM`, rotations and
+    squareness within :data:`MAX_ROTATION_URAD`; uncertainties not negative.
+
+    Parameters
+    ----------
+    nodes : list of 3 ndarray
+        Node positions per axis [mm].
+    values, std : list of 3 ndarray, shape (n_k, 6)
+        Function values and their standard uncertainties at the nodes [um, urad].
+    squareness, squareness_std : ndarray, shape (3,)
+        EC0Y, EB0Z, EA0Z and their standard uncertainties [urad].
+    source : str
+        The model file, named in the message.
+
+    Raises
+    ------
+    VolcalInputError
+        Naming the file and the key (``functions.X.EXX_um[3]``) of the first bad value.
+    """
+    def refuse(key: str, v: float, what: str, unit: str, bound: float) -> None:
+        text = ("not a finite number" if not math.isfinite(v) else
+                f"{v:g} {unit} is negative" if v < 0 and what == "u" else
+                f"{v:g} {unit} is not a plausible {what} (at most {bound:g} {unit}; see "
+                "docs/formats.md, 'Model file')")
+        raise VolcalInputError(f"{text}: the model file is damaged (identify again)", source,
+                               None, key)
+
+    for k in range(3):
+        i = _first_bad(np.asarray(nodes[k], dtype=float), MAX_POSITION_MM)
+        if i is not None:
+            refuse(f"functions.{AXES[k]}.position_mm[{i}]", float(nodes[k][i]), "position",
+                   "mm", MAX_POSITION_MM)
+        for c in range(6):
+            unit, bound = UNITS[c], MAX_TRANSLATION_UM if c < 3 else MAX_ROTATION_URAD
+            name = f"{COMPONENTS[c]}{AXES[k]}_{unit}"
+            for arr, key, signed, what in ((values[k][:, c], name, True, "error"),
+                                           (std[k][:, c], "u_" + name, False, "u")):
+                i = _first_bad(np.asarray(arr, dtype=float), bound, signed)
+                if i is not None:
+                    refuse(f"functions.{AXES[k]}.{key}[{i}]", float(arr[i]), what, unit, bound)
+    for arr, key, signed, what in ((squareness, "squareness_urad", True, "error"),
+                                   (squareness_std, "u_squareness_urad", False, "u")):
+        i = _first_bad(np.asarray(arr, dtype=float), MAX_ROTATION_URAD, signed)
+        if i is not None:
+            refuse(f"{key}.{SQUARENESS_NAMES[i]}", float(arr[i]), what, "urad",
+                   MAX_ROTATION_URAD)
 
 
 def _f(v: float) -> float | None:

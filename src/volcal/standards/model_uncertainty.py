@@ -236,11 +236,20 @@ def model_uncertainty(result: Any, tool_offset: ArrayLike = (0.0, 0.0, 0.0), n: 
     -------
     ModelUncertainty
 
+    Raises
+    ------
+    VolcalInputError
+        The model has no uncertainty (a model file loaded without its binary part: the
+        message names that file and why).
+
     Notes
     -----
     Straightness is evaluated at 101 points over the axis travel (the functions are
     linear between their nodes), with the least-squares reference line (ISO 230-1).
     """
+    if hasattr(result, "require_uncertainty"):  # a model file without its binary part
+        result.require_uncertainty("evaluating the model's volumetric indices, straightness "
+                                   "and squareness with their U")
     key = _cache_key(result, tool_offset, n, draws, seed)
     hit = _CACHE.get(key[0])
     if hit is not None and hit[0]() is result and hit[1] == key[1:]:

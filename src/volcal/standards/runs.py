@@ -189,7 +189,7 @@ def _checked(targets_mm: ArrayLike, run: ArrayLike, direction: ArrayLike,
     for name, a in ((target_column, t), ("deviation_um", d)):
         bad = np.flatnonzero(~np.isfinite(a))
         if bad.size:
-            raise VolcalInputError(f"not a finite number: {a[bad[0]]!r}", file,
+            raise VolcalInputError(f"not a finite number: {float(a[bad[0]])}", file,
                                    _row(rw, bad[0]), name)
     for i, v in enumerate(s):
         if v not in ("+", "-"):

@@ -13,7 +13,7 @@ $(BIN)/python:
 	$(BIN)/python -m pip install --quiet --upgrade pip
 
 $(STAMP): $(BIN)/python pyproject.toml
-	$(BIN)/python -m pip install --quiet -e ".[test]"
+	$(BIN)/python -m pip install --quiet -e ".[test,history,dataframe,qif]"
 	touch $(STAMP)
 
 install: $(STAMP) bytecode
@@ -57,8 +57,11 @@ postgres-deps:
 test: $(STAMP) bytecode browser-deps linuxcnc-deps postgres-deps
 	$(BIN)/python -m pytest -n 2 --dist loadfile
 
+# ruff, then the import contracts of pyproject.toml (docs/architecture.md; make test runs
+# them too, tests/test_architecture.py)
 lint: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks
+	$(BIN)/lint-imports --no-cache
 
 demo: $(STAMP) bytecode
 	$(BIN)/volcal demo -o demo-output
@@ -74,4 +77,4 @@ study: $(STAMP)
 	$(BIN)/python benchmarks/families.py --machines 20 --markdown --quiet
 
 clean:
-	rm -rf $(VENV) demo-output .pytest_cache .ruff_cache
+	rm -rf $(VENV) demo-output .pytest_cache .ruff_cache .import_linter_cache

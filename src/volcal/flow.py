@@ -867,7 +867,7 @@ class Calibration:
             raise VolcalInputError(f"{where}: compensation= is not a folder written by "
                                    "compensate", compensation)
         if history is not None:
-            from volcal.report.previous import check_history
+            from volcal.history.previous import check_history
 
             check_history(history)
         s = self.session
@@ -917,7 +917,7 @@ class Calibration:
             inputs = collect_inputs(s, result, self.truth, edition, compensation,
                                     tolerance=tol, force=force, budget=bud)
         if history is not None:  # the history (SQLAlchemy) is loaded only here
-            from volcal.report.previous import previous_section
+            from volcal.history.previous import previous_section
 
             inputs.extra_sections.append(previous_section(inputs, history))
         files = write_report(build_report(inputs, title), folder, extra)

@@ -25,7 +25,7 @@ from volcal.compensate.manifest import check_manifest, errors_digest, read_manif
 from volcal.compensate.readback import read_written_tables
 from volcal.errors import VolcalInputError
 from volcal.measure.virtual import random_machine
-from volcal.report.demo import DEMO_TRAVEL
+from volcal.demo import DEMO_TRAVEL
 from volcal.session.errortable import write_error_table
 from volcal.session.format import read_session
 from volcal.session.identity import MachineIdentity

@@ -23,7 +23,7 @@ def test_previous_section_flags_the_x_scale(history_two):
     from volcal.report.document import Report
     from volcal.report.html import render_html
     from volcal.report.pipeline import collect_inputs
-    from volcal.report.previous import previous_section
+    from volcal.history.previous import previous_section
     from volcal.session.format import read_session
 
     b = history_two["b"]
@@ -69,7 +69,7 @@ def test_history_is_loaded_only_with_the_option(history_two, tmp_path):
 
 
 def test_missing_history_file_is_a_user_error(history_two, tmp_path):
-    from volcal.report.previous import previous_section
+    from volcal.history.previous import previous_section
     from volcal.report.sections import ReportInputs
     from volcal.session.format import read_session
 
@@ -80,7 +80,7 @@ def test_missing_history_file_is_a_user_error(history_two, tmp_path):
 
 def test_no_earlier_calibration(history_two):
     """A stored only: its own report finds no earlier calibration (its record is itself)."""
-    from volcal.report.previous import previous_section
+    from volcal.history.previous import previous_section
     from volcal.report.sections import ReportInputs
     from volcal.session.format import read_session
 

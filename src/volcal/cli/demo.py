@@ -21,7 +21,7 @@ def demo_cmd(
     check_output_folder(output, "demo", lambda p: (p / "session" / "session.toml").is_file())
     from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
-    from volcal.report.demo import DEMO_STEPS, run_demo
+    from volcal.demo import DEMO_STEPS, run_demo
 
     with Progress(SpinnerColumn(), TextColumn("{task.description:<40}"), BarColumn(),
                   TextColumn("{task.completed}/{task.total}"), TimeElapsedColumn(),

@@ -2,7 +2,8 @@
 
 The store is chosen by ``--db`` (a URL or an SQLite file), else the ``VOLCAL_DB``
 environment variable, else the default file (``docs/history.md``). Nothing of the
-history (SQLAlchemy, Alembic, pandas) is imported by any other command.
+history (SQLAlchemy, Alembic, pandas) is imported by any other command. Without the
+``history`` extra every subcommand says which extra to install (exit code 2).
 """
 
 from __future__ import annotations
@@ -16,6 +17,17 @@ import typer
 history_app = typer.Typer(help="Calibration history: add, list, show, trend, compare, due, "
                           "fleet, export, verify (SQLite by default, PostgreSQL by URL).",
                           no_args_is_help=True)
+
+
+
+@history_app.callback()
+def _needs_the_history_extra() -> None:
+    # before any subcommand (not for --help): a clear message, exit code 2, when the
+    # 'history' extra's libraries are not installed
+    from volcal.extras import require_extra
+
+    require_extra("history", "volcal history", ("sqlalchemy", "alembic", "pandas"))
+
 
 DbOption = Annotated[str | None, typer.Option(
     "--db", help="Store: URL (postgresql://..., sqlite:///FILE) or SQLite file; default "

@@ -77,7 +77,10 @@ def report_cmd(
     tol = None if tolerance_um is None else parse_tolerance(tolerance_um)
     tol = _acceptance(tol, decision_rule, guard_band_um, budget)
     if history is not None:
-        from volcal.report.previous import check_history
+        from volcal.extras import require_extra
+
+        require_extra("history", "volcal report --history", ("sqlalchemy", "alembic"))
+        from volcal.history.previous import check_history
 
         check_history(history)
     bud = None
@@ -150,7 +153,7 @@ def report_cmd(
                                 model_label=("the model identified now" if model is None
                                              else str(model)), budget=bud)
         if history is not None:  # the history (SQLAlchemy) is loaded only here
-            from volcal.report.previous import previous_section
+            from volcal.history.previous import previous_section
 
             inputs.extra_sections.append(previous_section(inputs, history))
         files = write_report(build_report(inputs, title), output, extra)

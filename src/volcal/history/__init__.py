@@ -2,9 +2,15 @@
 
 A layer on top of the core (``import volcal`` never loads it): SQLAlchemy 2 with
 Alembic migrations, SQLite by default, PostgreSQL by URL (psycopg 3). See
-``docs/history.md``.
+``docs/history.md``. Its libraries are the ``history`` extra
+(``pip install 'volcal[history]'``): without them importing this package raises
+:class:`~volcal.extras.MissingExtraError`, which names the extra.
 """
 
-from volcal.history.api import History
+from volcal.extras import require_extra
+
+require_extra("history", "volcal.history", ("sqlalchemy", "alembic", "pandas"))
+
+from volcal.history.api import History  # noqa: E402  (after the check of its libraries)
 
 __all__ = ["History"]

@@ -10,6 +10,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from volcal.extras import require_extra
+
 
 def export_parquet(history: Any, folder: str | Path) -> list[Path]:
     """Write the Parquet files; returns their paths.
@@ -21,6 +23,7 @@ def export_parquet(history: Any, folder: str | Path) -> list[Path]:
     folder : str or Path
         Output folder (replaced atomically).
     """
+    require_extra("history", "volcal history export", ("pandas", "pyarrow"))
     import pandas as pd
     from sqlalchemy import select
 

@@ -5,6 +5,8 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+from volcal.extras import require_extra
+
 ENV_VAR = "VOLCAL_DB"
 
 
@@ -42,6 +44,7 @@ def resolve_url(db: str | None = None) -> str:
         return f"sqlite:///{Path(value).expanduser().resolve()}"
     for plain in ("postgresql://", "postgres://"):
         if value.startswith(plain):
+            require_extra("history", "a PostgreSQL history", ("psycopg",))
             return "postgresql+psycopg://" + value[len(plain):]
     return value
 

@@ -19,6 +19,7 @@ from volcal.identify.design import (
     build_design,
     choose_nodes,
     coarsen,
+    known_functions,
     visited_positions,
 )
 from volcal.identify.identifiability import analyse
@@ -130,18 +131,6 @@ def _noise_note(sol: Solution, design: Design, repeatability_um: float) -> str:
             f"residual degrees of freedom for {design.y.size} readings): a repeatability of "
             f"{repeatability_um:g} um is assumed; state yours with --noise-um, or "
             "repeat runs.")
-
-
-def _known(opts: IdentifyOptions) -> dict:
-    known = dict(opts.known)
-    for n in opts.zero:
-        known.setdefault(n.upper(), (None, None))
-    if opts.roll == "zero":
-        for n in ROLL_NAMES:  # EAX, EBY, ECZ: each axis about its own direction
-            known.setdefault(n, (None, None))
-    elif opts.roll != "estimate":
-        raise VolcalInputError(f"roll must be 'estimate' or 'zero', got {opts.roll!r}")
-    return known
 
 
 def _drift_notes(session: Session, o: IdentifyOptions) -> list[str]:
@@ -306,7 +295,7 @@ def advise(session: Session, options: IdentifyOptions | None = None):
 
     o = options or IdentifyOptions()
     st = o.settings
-    known = _known(o)
+    known = known_functions(o)
     planned = copy(session)
     planned.measurements = [copy(m) for m in session.measurements]
     for m in planned.measurements:
@@ -422,7 +411,7 @@ def _identify_weighted(session: Session, o: IdentifyOptions,
                        weights: dict[str, NDArray[np.float64]] | None
                        ) -> IdentificationResult:
     """One fit with the given reading weights (None: all equal)."""
-    known = _known(o)
+    known = known_functions(o)
     if o.prior not in ("smooth", "none"):
         raise VolcalInputError(f"prior must be 'smooth' or 'none', got {o.prior!r}")
     notes: list[str] = []

@@ -15,6 +15,7 @@ offsets and squareness / tool orientation (``docs/identification.md``).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
@@ -25,7 +26,7 @@ from volcal.identify.settings import EstimatorSettings
 from volcal.measure.readings import perpendicular_basis, reading_jacobian, tilt_columns
 from volcal.model.chain import parse_chain
 from volcal.model.kinematics import UM, URAD, pose_jacobian
-from volcal.model.names import COMPONENT_NAMES
+from volcal.model.names import COMPONENT_NAMES, ROLL_NAMES
 from volcal.model.parameters import ParameterLayout
 from volcal.session.format import Measurement, Session
 
@@ -41,6 +42,36 @@ sparse rows on the full parameter layout, ``y`` the observations [um], ``N`` the
 columns (dense, one row per reading) and ``names`` their names. Nuisances with the same
 name in several measurements share one column (a tracker station seen by several
 measurements)."""
+
+
+def known_functions(options: Any) -> dict:
+    """The functions held known by the identify options: ``known``, ``zero`` and the rolls.
+
+    Parameters
+    ----------
+    options : IdentifyOptions
+        ``known`` (name -> (positions [mm], values [um or urad])), ``zero`` (names held at
+        zero) and ``roll`` (``'estimate'``, or ``'zero'``: EAX, EBY, ECZ held at zero).
+
+    Returns
+    -------
+    dict
+        Name -> (positions, values); ``(None, None)`` for a function held at zero.
+
+    Raises
+    ------
+    VolcalInputError
+        ``roll`` is neither ``'estimate'`` nor ``'zero'``.
+    """
+    known = dict(options.known)
+    for n in options.zero:
+        known.setdefault(n.upper(), (None, None))
+    if options.roll == "zero":
+        for n in ROLL_NAMES:  # EAX, EBY, ECZ: each axis about its own direction
+            known.setdefault(n, (None, None))
+    elif options.roll != "estimate":
+        raise VolcalInputError(f"roll must be 'estimate' or 'zero', got {options.roll!r}")
+    return known
 
 
 NUISANCE_PRIORS: dict[str, str] = {

@@ -203,15 +203,14 @@ def station_table(result, stations: dict[str, NDArray[np.float64]],
 
 def _fast_step(session: Session, options) -> dict[str, NDArray[np.float64]]:
     """Station updates [um] of one Bayesian solve with fixed hyperparameters, no covariance."""
-    from volcal.identify.api import _known
-    from volcal.identify.design import build_design, choose_nodes
+    from volcal.identify.design import build_design, choose_nodes, known_functions
     from volcal.identify.prior import PriorStructure
     from volcal.identify.solver import solve_bayes
 
     st = options.settings
     nodes = choose_nodes(session, refine=1, max_nodes=min(options.max_nodes, 41), settings=st)
-    d = build_design(session, nodes, _known(options), options.drift, options.measurement_ids,
-                     options.tilts)
+    d = build_design(session, nodes, known_functions(options), options.drift,
+                     options.measurement_ids, options.tilts)
     prior = PriorStructure.build(d.layout, d.free, options.kappa, settings=st)
     scales = np.array(options.scales if options.scales is not None else st.typical_scales)
     noise = options.noise_um if options.noise_um is not None else 1.0
@@ -359,8 +358,7 @@ def _variant(session: Session, stations, offsets, q) -> Session:
 
 def _figures(s: Session, options, noise_um: float, dwell_s: float, feed_mm_min: float,
              q: NDArray[np.float64]) -> dict:
-    from volcal.identify.api import _known
-    from volcal.identify.design import build_design, choose_nodes
+    from volcal.identify.design import build_design, choose_nodes, known_functions
     from volcal.identify.prior import PriorStructure
     from volcal.identify.solver import solve_bayes
     from volcal.model.chain import parse_chain
@@ -371,7 +369,7 @@ def _figures(s: Session, options, noise_um: float, dwell_s: float, feed_mm_min: 
             m.deviation = np.zeros(m.n)
     st = options.settings
     nodes = choose_nodes(s, refine=1, max_nodes=min(options.max_nodes, 41), settings=st)
-    d = build_design(s, nodes, _known(options), options.drift, None, options.tilts)
+    d = build_design(s, nodes, known_functions(options), options.drift, None, options.tilts)
     prior = PriorStructure.build(d.layout, d.free, st.kappa_centre, settings=st)
     sol = solve_bayes(d, prior, np.array(st.typical_scales), noise_um,
                       options.squareness_std_urad, settings=st)

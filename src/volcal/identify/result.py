@@ -574,14 +574,14 @@ class IdentificationResult:
         ----------
         path : str or Path
             Output file (``MODEL.json``); the binary part is written beside it with the
-            suffix ``.npz`` (:func:`volcal.identify.modelfile.write_model`).
+            suffix ``.npz`` (:func:`volcal.identify.modelwrite.write_model`).
 
         Returns
         -------
         Path
             The JSON file.
         """
-        from volcal.identify.modelfile import write_model
+        from volcal.identify.modelwrite import write_model
 
         return write_model(self, path)
 

@@ -48,6 +48,7 @@ from volcal.session.identity import (
     same_machine,
 )
 from volcal.standards.decision import RULE_TEXT as _RULE_TEXT
+from volcal.standards.decision import conformity_verdict
 
 __all__ = ["CERTIFICATE_FORMAT", "END_MARK", "TITLE", "build_certificate",
            "certificate_applies", "conformity_verdict", "environment_of",
@@ -407,54 +408,6 @@ def tables_of(folder: str | Path, session: Any) -> dict[str, Any]:
 
 
 # --------------------------------------------------------------------------- conformity
-
-
-def conformity_verdict(value_um: float, tolerance_um: float, rule: str = "simple",
-                       U_um: float | None = None, guard_band_um: float | None = None
-                       ) -> tuple[str, str]:
-    """Statement of conformity of one value with a decision rule.
-
-    The rules are :func:`volcal.standards.decision.decide`'s (one definition for
-    ``evaluate``, the report and the certificate); this wrapper only adds the
-    certificate's case of a guarded rule without any U or guard band, which is stated as
-    ``conditional`` (no pass can be proven) instead of refused.
-
-    Parameters
-    ----------
-    value_um : float
-        Measured value (an upper-limit quantity: A, E, R, |e|...) [um].
-    tolerance_um : float
-        Its tolerance T [um].
-    rule : {'simple', 'guarded'}
-        ``simple``: ILAC-G8:09/2019 simple acceptance (shared risk), pass when the value
-        is at most T; it never gives ``conditional``. ``guarded``: ISO 14253-1:2017 /
-        ILAC-G8 guarded acceptance with guard band w (``guard_band_um``, default the
-        expanded uncertainty U): ``pass`` at or below T - w, ``conditional`` between
-        T - w and T, ``fail`` above T.
-    U_um : float, optional
-        Expanded uncertainty of the value [um] (k stated with it).
-    guard_band_um : float, optional
-        Guard band w [um] of the guarded rule.
-
-    Returns
-    -------
-    verdict : str
-        ``'pass'``, ``'fail'`` or ``'conditional'``.
-    note : str
-        Why, when the rule could not give a pass (w >= T, or no U) or the value lies in
-        the guard band.
-    """
-    from volcal.standards.decision import RULES, decide
-
-    if str(rule).strip().lower() not in RULES:
-        raise VolcalInputError(f"unknown decision rule {rule!r}: expected simple or guarded")
-    if str(rule).strip().lower() == "guarded" and U_um is None and guard_band_um is None:
-        if value_um > tolerance_um:
-            return "fail", ""
-        return "conditional", ("guarded rule without an expanded uncertainty or guard "
-                               "band: no pass can be stated")
-    d = decide(value_um, tolerance_um, rule, U_um, guard_band_um)
-    return d.verdict, d.note
 
 
 RULE_TEXT = _RULE_TEXT

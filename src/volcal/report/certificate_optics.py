@@ -188,7 +188,7 @@ def optics_conformity(tolerance: Any, results: dict[str, Any], rule: str,
         ``{'as_found': ..., 'as_left': ...}`` of the certificate, each with its
         ``direct_optics`` (:func:`direct_optics`, or None).
     rule : {'simple', 'guarded'}
-        The decision rule (:func:`volcal.report.certificate.conformity_verdict`).
+        The decision rule (:func:`volcal.standards.decision.conformity_verdict`).
     guard_band_um : float or None
         Guard band [um]: applies to the straightness; the squareness (in urad) takes its
         own U as guard band.
@@ -203,7 +203,7 @@ def optics_conformity(tolerance: Any, results: dict[str, Any], rule: str,
         ``value_urad`` (the largest magnitude over the name's optical-square pairs),
         ``U_urad``, ``verdict``, ``note``.
     """
-    from volcal.report.certificate import conformity_verdict
+    from volcal.standards.decision import conformity_verdict
 
     st_lim = getattr(tolerance, "straightness_um", None) or {}
     sq_lim = getattr(tolerance, "squareness_urad", None) or {}

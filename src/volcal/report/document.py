@@ -6,12 +6,38 @@ the HTML and the PDF report always carry the same content.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 
 from matplotlib.figure import Figure
 
-__all__ = ["FigureItem", "Report", "Section", "Table"]
+__all__ = ["FigureItem", "Report", "Section", "Table", "fmt"]
+
+
+def fmt(v: float, digits: int = 2) -> str:
+    """Format a number for a table cell (fixed point, ``-`` for missing, ``∞``).
+
+    Parameters
+    ----------
+    v : float or None
+        The value, in the unit of its column; None or NaN means missing.
+    digits : int
+        Number of decimals.
+
+    Returns
+    -------
+    str
+        ``v`` with ``digits`` decimals, ``'-'`` when missing, ``'∞'`` when infinite.
+    """
+    if v is None:
+        return "-"
+    v = float(v)
+    if math.isnan(v):
+        return "-"
+    if math.isinf(v):
+        return "∞"
+    return f"{v:.{digits}f}"
 
 
 @dataclass

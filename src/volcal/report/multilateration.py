@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from volcal.report.document import FigureItem, Section, Table
+from volcal.report.document import FigureItem, Section, Table, fmt
 
 __all__ = ["multilateration_section"]
 
@@ -31,7 +31,6 @@ def multilateration_section(inp) -> Section | None:
     """
     from volcal.measure.multilateration import station_key, station_of
     from volcal.plot.multilateration import multilateration_layout_plot
-    from volcal.report.sections import fmt
 
     ms = [m for m in inp.session.measurements if m.kind == "multilateration"]
     if not ms:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from volcal.report.document import Section, Table
+from volcal.report.document import Section, Table, fmt
 
 __all__ = ["optics_section"]
 
@@ -22,7 +22,6 @@ def optics_section(inp) -> Section | None:
     Section or None
         None when the session has no measured straightness or angular measurement.
     """
-    from volcal.report.sections import fmt
     from volcal.standards.optics import evaluate_optics
 
     ev = evaluate_optics(inp.session)

@@ -26,35 +26,10 @@ from volcal.plot import (
     volumetric_map_plot,
 )
 from volcal.plot.identifiability import FRACTION_LIMITS
-from volcal.report.document import FigureItem, Report, Section, Table
+from volcal.report.document import FigureItem, Report, Section, Table, fmt
 from volcal.session.format import Session
 
 __all__ = ["ReportInputs", "build_report", "fmt"]
-
-
-def fmt(v: float, digits: int = 2) -> str:
-    """Format a number for a table cell (fixed point, ``-`` for missing, ``∞``).
-
-    Parameters
-    ----------
-    v : float or None
-        The value, in the unit of its column; None or NaN means missing.
-    digits : int
-        Number of decimals.
-
-    Returns
-    -------
-    str
-        ``v`` with ``digits`` decimals, ``'-'`` when missing, ``'∞'`` when infinite.
-    """
-    if v is None:
-        return "-"
-    v = float(v)
-    if np.isnan(v):
-        return "-"
-    if np.isinf(v):
-        return "∞"
-    return f"{v:.{digits}f}"
 
 
 def _vec(v: Any, digits: int = 3) -> str:

@@ -16,14 +16,12 @@ from __future__ import annotations
 
 from typing import Any
 
-from volcal.report.document import Section, Table
+from volcal.report.document import Section, Table, fmt
 
 __all__ = ["model_parts_table", "uncertainty_section"]
 
 
 def _f(v: float | None, digits: int = 3) -> str:
-    from volcal.report.sections import fmt
-
     return fmt(v, digits)
 
 

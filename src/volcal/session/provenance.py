@@ -13,11 +13,12 @@ import hashlib
 import shutil
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from volcal.session.format import Session
+if TYPE_CHECKING:  # annotations only: format imports this module (backup_session_files)
+    from volcal.session.format import Session
 
 __all__ = ["BACKUP_FOLDER", "backup_files", "backup_name", "backup_session_files", "measured_ids",
            "readings_digest", "simulated_provenance"]

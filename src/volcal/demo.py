@@ -1,5 +1,8 @@
 """The end-to-end demonstration: plan, simulate, identify, evaluate, compensate, report.
 
+The demo drives the facade (:class:`volcal.flow.Calibration`), so it lives beside it, on
+top of the rooms it calls (docs/architecture.md).
+
 A virtual machining centre (travel 800 x 600 x 500 mm, chain XYFZ: the table carries X
 and Y, the column carries Z) is measured with the seeds' full test set (4 step diagonals
 with a flat mirror, 4 body diagonals, 3 linear lines per axis with 5 bidirectional runs;
@@ -15,6 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
+from volcal.flow import Calibration
+from volcal.measure.virtual import ErrorRanges, random_machine
 from volcal.report.writer import ReportFiles
 
 __all__ = ["DEMO_STEPS", "DEMO_TRAVEL", "DemoOutput", "run_demo"]
@@ -79,9 +84,6 @@ def run_demo(folder: str | Path, seed: int = 7,
     -------
     DemoOutput
     """
-    from volcal.flow import Calibration
-    from volcal.measure.virtual import ErrorRanges, random_machine
-
     folder = Path(folder)
     lines: list[str] = []
     on_step("planning the seeds' full test set")

@@ -1,7 +1,9 @@
 """Report section "Previous calibration": the change since the machine's last calibration.
 
-Only with ``volcal report S --history DB``: this module is imported by the report command
-only then, and it imports the history (SQLAlchemy) only inside :func:`previous_section`.
+The history builds the section and hands it to the report (``ReportInputs.extra_sections``):
+the report never imports the history (docs/architecture.md). Only with
+``volcal report S --history DB`` or ``Calibration.report(history=...)``: the report command
+and the facade import this module (and with it SQLAlchemy) only then.
 The previous calibration is the newest stored calibration of the same machine measured
 before this session (:func:`volcal.history.compare.previous_calibration`); the change
 test is the history's (:func:`volcal.history.compare.compare_with_model`,
@@ -14,6 +16,10 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from volcal.errors import VolcalInputError
+from volcal.history.compare import compare_with_model, previous_calibration
+from volcal.history.store import Store
+from volcal.history.url import resolve_url
 from volcal.report.document import Section, Table
 
 #: ISO 230-2 parameters shown per axis (the directional ones and the per-test duplicates
@@ -50,9 +56,6 @@ def check_history(db: str) -> None:
     VolcalInputError
         The file does not exist (a report never creates a history).
     """
-    from volcal.errors import VolcalInputError
-    from volcal.history.url import resolve_url
-
     url = resolve_url(db)
     if url.startswith("sqlite:///") and not Path(url[len("sqlite:///"):]).is_file():
         raise VolcalInputError(f"--history {db}: no such history file (volcal history add "
@@ -82,9 +85,6 @@ def previous_section(inp: Any, db: str, level: float = 0.05) -> Section:
     VolcalInputError
         The store cannot be opened, or the session matches several machines.
     """
-    from volcal.history.compare import compare_with_model, previous_calibration
-    from volcal.history.store import Store
-
     check_history(db)
     sec = Section("previous", "Previous calibration")
     store = Store(db)

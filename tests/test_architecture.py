@@ -8,6 +8,7 @@ imported by the core.
 
 from __future__ import annotations
 
+import ast
 import subprocess
 import sys
 from pathlib import Path
@@ -41,3 +42,35 @@ def test_a_broken_contract_fails(tmp_path):
     r = _lint_imports(tmp_path / "pyproject.toml")
     assert r.returncode == 1, r.stdout + r.stderr
     assert "volcal.model is not allowed to import volcal.errors" in r.stdout
+
+
+def _global_matplotlib_state(path: Path) -> list[str]:
+    """Imports of pyplot and calls of matplotlib.use / pyplot.switch_backend in a file."""
+    out = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Import):
+            out += [a.name for a in node.names if a.name.startswith("matplotlib.pyplot")]
+        elif isinstance(node, ast.ImportFrom):
+            mod = node.module or ""
+            if mod.startswith("matplotlib.pyplot") or (
+                    mod == "matplotlib" and any(a.name == "pyplot" for a in node.names)):
+                out.append(f"from {mod} import ...")
+        elif isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) \
+                and node.func.attr in ("use", "switch_backend") \
+                and isinstance(node.func.value, ast.Name) \
+                and node.func.value.id in ("matplotlib", "mpl", "plt"):
+            out.append(f"{node.func.value.id}.{node.func.attr}()")
+    return out
+
+
+def test_no_module_touches_pyplot_or_the_backend(tmp_path):
+    """volcal draws on its own Agg canvases: the caller's pyplot and backend stay theirs."""
+    src = ROOT / "src" / "volcal"
+    found = {str(p.relative_to(src)): _global_matplotlib_state(p)
+             for p in sorted(src.rglob("*.py"))}
+    assert {k: v for k, v in found.items() if v} == {}
+    # the check finds what it looks for (history/trend.py did both until issue 25)
+    probe = tmp_path / "probe.py"
+    probe.write_text("def f():\n    import matplotlib\n\n    matplotlib.use('Agg')\n"
+                     "    import matplotlib.pyplot as plt\n", encoding="utf-8")
+    assert sorted(_global_matplotlib_state(probe)) == ["matplotlib.pyplot", "matplotlib.use()"]

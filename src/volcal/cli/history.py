@@ -249,7 +249,7 @@ def trend_cmd(
     db: DbOption = None,
 ) -> None:
     """One parameter over the calibrations of a machine, with its U (k = 2)."""
-    from volcal.history.trend import plot_trend, trend
+    from volcal.history.trend import trend
 
     with _open(db) as h:
         rows = trend(h, machine, parameter)
@@ -263,7 +263,9 @@ def trend_cmd(
             u = "-" if r["U"] is None else f"{r['U']:.4f}"
             typer.echo(f"{r['id']}\t{r['date']}\t{v}\t{u}")
     if plot is not None:
-        plot_trend(rows, parameter, machine, plot)
+        from volcal.plot.trend import write_trend_plot
+
+        write_trend_plot(rows, parameter, machine, plot)
         _err(f"figure: {plot}")
 
 

@@ -3,7 +3,8 @@
 Parameter names (``docs/history.md``): a stored result (``X.A`` for the first linear
 test of X, ``linear-x1.R``, ``diag-ppp.range`` ..., ``V.E_VXYZ`` for a volumetric index,
 ``EC0Y`` for a squareness) or an identified function at a position, ``EXX@400``
-(value and U = 2 u from the model's covariance at 400 mm of X).
+(value and U = 2 u from the model's covariance at 400 mm of X). The figure of a trend is
+:func:`volcal.plot.trend.trend_plot`'s.
 """
 
 from __future__ import annotations
@@ -72,42 +73,3 @@ def trend(history: Any, machine: str, parameter: str) -> list[dict[str, Any]]:
                      "U": None if v is None else v["U"],
                      "unit": "" if v is None else v["unit"]})
     return rows
-
-
-def plot_trend(rows: list[dict[str, Any]], parameter: str, machine: str, path: Any) -> None:
-    """Write the trend as a figure (value with its U as error bars), atomically.
-
-    Parameters
-    ----------
-    rows : list of dict
-        What :func:`trend` returns.
-    parameter : str
-        Parameter name (axis label).
-    machine : str
-        Machine (title).
-    path : str or Path
-        Figure file; the format from its suffix.
-    """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import datetime as _dt
-
-    import matplotlib.pyplot as plt
-
-    from volcal.io.atomic import atomic_path
-
-    pts = [r for r in rows if r["value"] is not None]
-    fig, ax = plt.subplots(figsize=(6.5, 3.2))
-    x = [_dt.date.fromisoformat(r["date"][:10]) for r in pts]
-    y = [r["value"] for r in pts]
-    e = [0.0 if r["U"] is None else r["U"] for r in pts]
-    ax.errorbar(x, y, yerr=e, marker="o", capsize=3)
-    unit = pts[0]["unit"].replace("um", "µm").replace("urad", "µrad") if pts else ""
-    ax.set_ylabel(f"{parameter} [{unit}]")
-    ax.set_title(f"{machine}: {parameter} (bars: U, k = 2)")
-    fig.autofmt_xdate()
-    fig.tight_layout()
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, format=str(path).rsplit(".", 1)[-1].lower())
-    plt.close(fig)

@@ -1,0 +1,91 @@
+"""The trend of one history parameter: its value at each calibration, with U as bars.
+
+The rows are :func:`volcal.history.trend.trend`'s (``id``, ``date``, ``value``, ``U``,
+``unit``); this module needs nothing of the history and, like every plot of volcal, never
+touches ``pyplot`` or the matplotlib backend of the caller (a new figure on an Agg canvas).
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from matplotlib.figure import Figure
+
+from volcal.errors import VolcalInputError
+from volcal.io.atomic import atomic_path
+from volcal.plot._figure import new_figure
+
+__all__ = ["trend_plot", "write_trend_plot"]
+
+
+def trend_plot(rows: Sequence[dict[str, Any]], parameter: str, machine: str) -> Figure:
+    """The trend as a figure: value with its expanded uncertainty U (k = 2) as error bars.
+
+    Parameters
+    ----------
+    rows : sequence of dict
+        ``date`` (ISO 8601, the first 10 characters are the day), ``value`` and ``U`` (in
+        ``unit``: ``'um'``, ``'urad'`` or ``''``); a row without a value is left out, one
+        without U has no bar.
+    parameter : str
+        Parameter name (the y label).
+    machine : str
+        Machine (the title).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        A new figure on an Agg canvas.
+    """
+    pts = [r for r in rows if r["value"] is not None]
+    fig = new_figure(6.5, 3.2)
+    ax = fig.add_subplot()
+    x = [_dt.date.fromisoformat(r["date"][:10]) for r in pts]
+    y = [r["value"] for r in pts]
+    e = [0.0 if r["U"] is None else r["U"] for r in pts]
+    ax.errorbar(x, y, yerr=e, marker="o", capsize=3)
+    unit = pts[0]["unit"].replace("um", "µm").replace("urad", "µrad") if pts else ""
+    ax.set_ylabel(f"{parameter} [{unit}]")
+    ax.set_title(f"{machine}: {parameter} (bars: U, k = 2)")
+    fig.autofmt_xdate()
+    return fig
+
+
+def write_trend_plot(rows: Sequence[dict[str, Any]], parameter: str, machine: str,
+                     path: str | Path) -> Path:
+    """Write :func:`trend_plot` to a file, atomically; the format from its suffix.
+
+    Parameters
+    ----------
+    rows : sequence of dict
+        See :func:`trend_plot`.
+    parameter : str
+        Parameter name.
+    machine : str
+        Machine.
+    path : str or Path
+        Figure file (``.png``, ``.svg``, ``.pdf``).
+
+    Returns
+    -------
+    Path
+        The file.
+
+    Raises
+    ------
+    VolcalInputError
+        The suffix names no format matplotlib writes (nothing is written).
+    """
+    path = Path(path)
+    fig = trend_plot(rows, parameter, machine)
+    fmt = path.suffix.lstrip(".").lower()
+    formats = fig.canvas.get_supported_filetypes()
+    if fmt not in formats:
+        raise VolcalInputError(f"the figure's format comes from its suffix: expected one of "
+                               f"{', '.join('.' + f for f in sorted(formats))}", path)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format=fmt)
+    return path

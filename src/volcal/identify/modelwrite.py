@@ -19,7 +19,6 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from volcal.errors import VolcalInputError
-from volcal.io.atomic import write_bytes, write_text
 
 if TYPE_CHECKING:
     from volcal.identify.result import IdentificationResult
@@ -106,6 +105,8 @@ def write_model(result: IdentificationResult, path: str | Path) -> Path:
         If the model has no uncertainty (loaded without its binary part) or the name ends
         in ``.npz``.
     """
+    from volcal.io.atomic import write_bytes, write_text  # looked up at each call
+
     path = Path(path)
     bin_path = binary_path(path)
     arrays, index = result.binary_arrays()

@@ -7,6 +7,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+from timing import scaled_timeout
+
 DOC = Path(__file__).resolve().parents[1] / "docs" / "python.md"
 
 
@@ -20,7 +22,7 @@ def test_walkthrough_runs_and_writes_every_output(tmp_path):
     assert len([ln for ln in blocks[0].splitlines() if ln.strip()]) <= 13
     script = "\n".join(blocks) + "\n"
     r = subprocess.run([sys.executable, "-c", script], cwd=tmp_path, capture_output=True,
-                       text=True, timeout=900)
+                       text=True, timeout=scaled_timeout(900))
     assert r.returncode == 0, r.stderr
     assert "Traceback" not in r.stderr
     assert "model of VMC-400 (chain XYFZ, travel 0..400 x 0..300 x 0..200 mm)" in r.stdout
@@ -63,5 +65,6 @@ def test_import_volcal_is_light():
             "assert 'volcal.identify' not in sys.modules; "
             "from volcal import Calibration, evaluate_session; "
             "assert 'matplotlib' not in sys.modules; print('ok')")
-    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                       timeout=scaled_timeout(60))
     assert r.returncode == 0 and r.stdout.strip() == "ok", r.stderr

@@ -25,6 +25,8 @@ from pathlib import Path
 
 import pytest
 
+from timing import scaled_timeout
+
 RUN = [sys.executable, "-c", "from volcal.cli import main; main()"]
 TRAVEL = "0:400,0:300,0:200"
 SUBPROCESS = os.environ.get("VOLCAL_TEST_SUBPROCESS") == "1"
@@ -68,7 +70,7 @@ def volcal(*args: object, cwd: Path | None = None) -> subprocess.CompletedProces
         return _in_process([str(a) for a in args], cwd)
     env = {**os.environ, "COLUMNS": "200", "NO_COLOR": "1", "TERM": "dumb"}
     return subprocess.run([*RUN, *map(str, args)], capture_output=True, text=True, cwd=cwd,
-                          timeout=300, env=env)
+                          timeout=scaled_timeout(300), env=env)
 
 
 # ---------------------------------------------------------------------------------------------

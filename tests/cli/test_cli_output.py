@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
+from timing import scaled_timeout
 from volcal import Calibration
 from volcal.cli import app
 
@@ -32,7 +33,7 @@ def session(tmp_path_factory):
 def _cli(*args, env=None):
     return subprocess.run([sys.executable, "-c", "from volcal.cli import main; main()",
                            *map(str, args)], capture_output=True, text=True, env=env,
-                          timeout=300)
+                          timeout=scaled_timeout(300))
 
 
 def _cells(out: str) -> list[list[str]]:

@@ -13,11 +13,14 @@ import sys
 
 import pytest
 
+from timing import scaled_timeout
+
 RUN = [sys.executable, "-c", "from volcal.cli import main; main()"]
 
 
 def _help(*args: str) -> str:
-    r = subprocess.run([*RUN, *args, "--help"], capture_output=True, text=True, timeout=120,
+    r = subprocess.run([*RUN, *args, "--help"], capture_output=True, text=True,
+                       timeout=scaled_timeout(120),
                        env={**os.environ, "COLUMNS": "200"})
     assert r.returncode == 0, r.stderr
     return " ".join(r.stdout.split())  # undo line wrapping
@@ -48,7 +51,7 @@ def test_error_message_keeps_its_brackets(tmp_path):
     the bracket, leaving 'session.toml , column ...'."""
     s = tmp_path / "S"
     r = subprocess.run([*RUN, "plan", "-o", str(s), "--tests", "linear", "--steps", "2",
-                        "--runs", "1"], capture_output=True, text=True, timeout=120)
+                        "--runs", "1"], capture_output=True, text=True, timeout=scaled_timeout(120))
     assert r.returncode == 0, r.stderr
     toml = (s / "session.toml").read_text()
     i = toml.index('id = "linear-x1"')
@@ -68,7 +71,7 @@ def test_error_message_keeps_its_brackets(tmp_path):
             out.append(",".join(v))
         f.write_text("\n".join(out) + "\n")
     r = subprocess.run([*RUN, "evaluate", "session", str(s)], capture_output=True, text=True,
-                       timeout=120, env={**os.environ, "COLUMNS": "400"})
+                       timeout=scaled_timeout(120), env={**os.environ, "COLUMNS": "400"})
     assert r.returncode == 2
     first = r.stderr.strip().splitlines()[0]
     assert "session.toml [linear-x1], column 'environment.air_pressure_hpa'" in first, first

@@ -9,13 +9,15 @@ import tomllib
 
 import numpy as np
 
+from timing import scaled_timeout
 from volcal.session.format import read_session
 
 RUN = [sys.executable, "-c", "from volcal.cli import main; main()"]
 
 
 def volcal(*args):
-    return subprocess.run([*RUN, *map(str, args)], capture_output=True, text=True, timeout=120)
+    return subprocess.run([*RUN, *map(str, args)], capture_output=True, text=True,
+                          timeout=scaled_timeout(120))
 
 
 def test_plan_simulate_identify_program(tmp_path):

@@ -8,6 +8,7 @@ import sys
 import numpy as np
 import pytest
 
+from timing import scaled_timeout
 from volcal.session.errortable import read_error_table, write_error_table
 from volcal.session.format import read_session
 
@@ -16,7 +17,7 @@ RUN = [sys.executable, "-c", "from volcal.cli import main; main()"]
 
 def volcal(*args, cwd=None):
     return subprocess.run([*RUN, *map(str, args)], capture_output=True, text=True, cwd=cwd,
-                          timeout=120)
+                          timeout=scaled_timeout(120))
 
 
 def _one_clean_error(r):

@@ -13,6 +13,8 @@ from pathlib import Path
 
 import pytest
 
+from timing import scaled_timeout
+
 # never loaded by a command that does not use them (plotting, templates, dataframes,
 # databases, the GUM library, the estimator's optimiser)
 HEAVY = ("matplotlib", "jinja2", "pandas", "sqlalchemy", "GTC", "scipy.optimize")
@@ -34,7 +36,7 @@ print(json.dumps({"rc": code, "modules": sorted(sys.modules)}))
 def loaded(*args: object) -> tuple[int, set[str], str]:
     """Run ``volcal ARGS`` in a fresh interpreter: exit code, modules loaded, stderr."""
     r = subprocess.run([sys.executable, "-c", PROBE, json.dumps([str(a) for a in args])],
-                       capture_output=True, text=True, timeout=180)
+                       capture_output=True, text=True, timeout=scaled_timeout(180))
     out = json.loads(r.stdout.strip().splitlines()[-1])
     return out["rc"], set(out["modules"]), r.stderr
 
@@ -47,7 +49,7 @@ def heavy(modules: set[str], names=HEAVY) -> list[str]:
 def test_import_volcal_is_light():
     r = subprocess.run([sys.executable, "-c",
                         "import json, sys, volcal; print(json.dumps(sorted(sys.modules)))"],
-                       capture_output=True, text=True, timeout=60)
+                       capture_output=True, text=True, timeout=scaled_timeout(60))
     mods = set(json.loads(r.stdout))
     assert heavy(mods, ("matplotlib", "pandas", "sqlalchemy", "GTC", "scipy", "numpy",
                         "typer", "rich")) == []
@@ -126,7 +128,7 @@ def test_help_lists_every_command_as_the_commands_themselves_say():
 
 def test_version_is_the_package_metadata():
     r = subprocess.run([sys.executable, "-c", "from volcal.cli import main; main()",
-                        "--version"], capture_output=True, text=True, timeout=60)
+                        "--version"], capture_output=True, text=True, timeout=scaled_timeout(60))
     assert r.returncode == 0, r.stderr
     want = importlib.metadata.version("volcal")
     assert r.stdout.strip() == f"volcal {want}"

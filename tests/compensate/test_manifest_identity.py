@@ -23,9 +23,9 @@ from volcal.cli import main
 from volcal.compensate import CompensationOptions, write_compensation
 from volcal.compensate.manifest import check_manifest, errors_digest, read_manifest
 from volcal.compensate.readback import read_written_tables
+from volcal.demo import DEMO_TRAVEL
 from volcal.errors import VolcalInputError
 from volcal.measure.virtual import random_machine
-from volcal.demo import DEMO_TRAVEL
 from volcal.session.errortable import write_error_table
 from volcal.session.format import read_session
 from volcal.session.identity import MachineIdentity

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from timing import scaled_timeout
 from volcal.errors import VolcalInputError
 
 RUN = [sys.executable, "-c", "from volcal.cli import main; main()"]
@@ -158,7 +159,7 @@ def test_concurrent_writers_lose_nothing(store_url, calibrations):
     for t in threads:
         t.start()
     for t in threads:
-        t.join(timeout=120)
+        t.join(timeout=scaled_timeout(120))
     assert not errors, errors
     with History(store_url) as h:
         recs = h.list()
@@ -256,7 +257,7 @@ def test_corrupted_or_foreign_database(tmp_path, content, message):
 
 def _volcal(*args: str, env: dict | None = None) -> subprocess.CompletedProcess:
     return subprocess.run([*RUN, *args],
-                          capture_output=True, text=True, env=env, timeout=300)
+                          capture_output=True, text=True, env=env, timeout=scaled_timeout(300))
 
 
 def test_cli_round_trip(tmp_path, calibrations):

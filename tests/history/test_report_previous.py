@@ -19,11 +19,11 @@ def test_previous_section_flags_the_x_scale(history_two):
 
     The history is read from the store; B's model is not stored.
     """
+    from volcal.history.previous import previous_section
     from volcal.identify.modelfile import load_model
     from volcal.report.document import Report
     from volcal.report.html import render_html
     from volcal.report.pipeline import collect_inputs
-    from volcal.history.previous import previous_section
     from volcal.session.format import read_session
 
     b = history_two["b"]

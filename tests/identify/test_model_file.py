@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from timing import scaled_timeout
 from volcal.errors import VolcalInputError
 from volcal.identify import load_model
 from volcal.identify.modelfile import ModelFileWarning, binary_path, write_model
@@ -30,7 +31,8 @@ UNITS = ("um", "um", "um", "urad", "urad", "urad")
 
 
 def volcal(*args):
-    return subprocess.run([*RUN, *map(str, args)], capture_output=True, text=True, timeout=180)
+    return subprocess.run([*RUN, *map(str, args)], capture_output=True, text=True,
+                          timeout=scaled_timeout(180))
 
 
 @pytest.fixture(scope="module")

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from timing import scaled_timeout
 from volcal.errors import VolcalInputError
 from volcal.identify import identify, load_model
 from volcal.identify.modelfile import check_model_session, model_session_differences
@@ -28,7 +29,8 @@ TRAVEL = np.array([[0.0, 300.0], [0.0, 200.0], [0.0, 100.0]])
 
 
 def volcal(*args):
-    return subprocess.run([*RUN, *map(str, args)], capture_output=True, text=True, timeout=180)
+    return subprocess.run([*RUN, *map(str, args)], capture_output=True, text=True,
+                          timeout=scaled_timeout(180))
 
 
 @pytest.fixture(scope="module")

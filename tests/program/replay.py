@@ -35,6 +35,8 @@ from pygcode import (
     Machine,
 )
 
+from timing import scaled_timeout
+
 EVENTS: list[str] = []
 
 RS274 = shutil.which("rs274")
@@ -114,7 +116,8 @@ def run_rs274(text: str, strip_fanuc: bool = False) -> list[tuple[str, list[floa
         (d / "p.ngc").write_text(text)
         r = subprocess.run([RS274, "-g", "-t", str(d / "tool.tbl"), "-v",
                             str(d / "rs274ngc.var"), str(d / "p.ngc"), str(d / "out.txt")],
-                           stdin=subprocess.DEVNULL, capture_output=True, text=True, timeout=120)
+                           stdin=subprocess.DEVNULL, capture_output=True, text=True,
+                           timeout=scaled_timeout(120))
         assert r.returncode == 0, f"rs274 refused the program: {r.stdout[-500:]}{r.stderr}"
         out = (d / "out.txt").read_text()
     cmds = []

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from timing import scaled_timeout
 from volcal.measure.simulate import SimulationOptions, simulate_session, truth_files
 from volcal.measure.virtual import random_machine
 from volcal.plan.planner import plan_session
@@ -83,6 +84,6 @@ def chromium(tmp_path):
 
     def run(args: list[str], timeout: float = 120.0):
         return subprocess.run([CHROMIUM, *CHROMIUM_FLAGS, f"--user-data-dir={profile}", *args],
-                              capture_output=True, text=True, timeout=timeout)
+                              capture_output=True, text=True, timeout=scaled_timeout(timeout))
 
     return run

@@ -23,6 +23,7 @@ import numpy as np
 import pytest
 import tomli_w
 
+from timing import scaled_timeout
 from volcal.errors import VolcalInputError
 from volcal.measure.simulate import SimulationOptions, simulate_session
 from volcal.measure.virtual import random_machine
@@ -49,7 +50,8 @@ N_ENV = 30  # the air temperature column cycles through 20.10, 20.11, ... 20.39 
 
 
 def _run(*args):
-    p = subprocess.run([*VOLCAL, *args], capture_output=True, text=True, timeout=600)
+    p = subprocess.run([*VOLCAL, *args], capture_output=True, text=True,
+                       timeout=scaled_timeout(600))
     p.stdout, p.stderr = " ".join(p.stdout.split()), " ".join(p.stderr.split())
     return p
 

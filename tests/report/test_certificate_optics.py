@@ -28,6 +28,7 @@ import numpy as np
 import pytest
 from optics_helpers import hand_budget, hand_session
 
+from timing import scaled_timeout
 from volcal.errors import VolcalInputError
 from volcal.measure.simulate import SimulationOptions, simulate_session
 from volcal.measure.virtual import random_machine
@@ -57,7 +58,7 @@ def sim(tmp_path_factory):
     (root / "b.toml").write_text(TEMPLATE, encoding="utf-8")
     p = subprocess.run([*VOLCAL, "evaluate", "optics", str(root / "s"), "--budget",
                         str(root / "b.toml"), "--json"], capture_output=True, text=True,
-                       timeout=300)
+                       timeout=scaled_timeout(300))
     assert p.returncode == 0, p.stderr
     s = read_session(root / "s")
     tol = parse_tolerance("X.straightness_um=40,Y.straightness_um=0.5,EC0Y.squareness_urad=200")
@@ -334,7 +335,7 @@ def test_evaluate_optics_states_the_same_verdicts(tmp_path):
                         str(tmp_path / "b.toml"), "--tolerance-um",
                         "X.straightness_um=2,EC0Y.squareness_urad=15",
                         "--decision-rule", "guarded", "--json"],
-                       capture_output=True, text=True, timeout=300)
+                       capture_output=True, text=True, timeout=scaled_timeout(300))
     assert p.returncode == 0, p.stderr
     conf = json.loads(p.stdout)["conformity"]
     st, sq = conf["statements"]
@@ -344,7 +345,7 @@ def test_evaluate_optics_states_the_same_verdicts(tmp_path):
     assert conf["decision_rule"] == "guarded"
     p = subprocess.run([*VOLCAL, "evaluate", "optics", str(tmp_path / "s"),
                         "--tolerance-um", "X=10"], capture_output=True, text=True,
-                       timeout=300)
+                       timeout=scaled_timeout(300))
     assert p.returncode == 2 and "volcal evaluate session" in p.stderr
     assert "Traceback" not in p.stderr
 
@@ -354,9 +355,9 @@ def test_classic_optics_is_evaluate_optics(sim):
     evaluate optics --json` prints without a budget; it calls the same command function
     and must pass every option (a new option once broke it with typer's defaults)."""
     a = subprocess.run([*VOLCAL, "classic", "optics", str(sim.root / "s"), "--json"],
-                       capture_output=True, text=True, timeout=300)
+                       capture_output=True, text=True, timeout=scaled_timeout(300))
     b = subprocess.run([*VOLCAL, "evaluate", "optics", str(sim.root / "s"), "--json"],
-                       capture_output=True, text=True, timeout=300)
+                       capture_output=True, text=True, timeout=scaled_timeout(300))
     assert a.returncode == 0 and b.returncode == 0, a.stderr + b.stderr
     assert json.loads(a.stdout) == json.loads(b.stdout)
     assert json.loads(a.stdout)["straightness"]

@@ -5,6 +5,8 @@ from pathlib import Path
 
 import report_fixtures as _fx
 
+from timing import scaled_timeout
+
 # pytest fixtures shared by the report tests (see report_fixtures.py)
 identified = _fx.identified
 small_session = _fx.small_session
@@ -13,7 +15,8 @@ VOLCAL = [sys.executable, "-c", "from volcal.cli import main; main()"]
 
 
 def _run(*args, cwd=None):
-    p = subprocess.run([*VOLCAL, *args], capture_output=True, text=True, cwd=cwd, timeout=600)
+    p = subprocess.run([*VOLCAL, *args], capture_output=True, text=True, cwd=cwd,
+                       timeout=scaled_timeout(600))
     # rich wraps long lines at the terminal width; compare words, not line breaks
     p.stdout, p.stderr = " ".join(p.stdout.split()), " ".join(p.stderr.split())
     return p

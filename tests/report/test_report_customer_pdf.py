@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 import report_fixtures as _fx
 
+from timing import scaled_timeout
 from volcal.report.document import Report, Section, Table
 from volcal.report.wording import REFERENCES, customer_report, customer_text
 
@@ -40,7 +41,7 @@ def _tool(path):
 
 def _pdftotext(pdf, *args):
     r = subprocess.run([_tool(PDFTOTEXT), *args, str(pdf), "-"], capture_output=True,
-                       text=True, timeout=60)
+                       text=True, timeout=scaled_timeout(60))
     assert r.returncode == 0, r.stderr
     return r.stdout
 
@@ -67,7 +68,7 @@ def raw_text(written_report):
 def images(written_report):
     """Rows of ``pdfimages -list``: (page, width, height, x-ppi, y-ppi)."""
     r = subprocess.run([_tool(PDFIMAGES), "-list", str(written_report[1].pdf)],
-                       capture_output=True, text=True, timeout=60)
+                       capture_output=True, text=True, timeout=scaled_timeout(60))
     assert r.returncode == 0, r.stderr
     rows = [ln.split() for ln in r.stdout.splitlines()[2:] if ln.strip()]
     return [(int(c[0]), int(c[3]), int(c[4]), float(c[12]), float(c[13])) for c in rows]

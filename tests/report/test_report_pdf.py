@@ -8,6 +8,8 @@ import numpy as np
 import pytest
 import report_fixtures as _fx
 
+from timing import scaled_timeout
+
 # pytest fixtures shared by the report tests (see report_fixtures.py)
 identified = _fx.identified
 small_session = _fx.small_session
@@ -20,7 +22,7 @@ def _pages(pdf, tmp_path, dpi=30):
     if PDFTOPPM is None:
         pytest.skip("pdftoppm is not installed (make browser-deps installs poppler-utils)")
     r = subprocess.run([PDFTOPPM, "-r", str(dpi), "-png", str(pdf), str(tmp_path / "p")],
-                       capture_output=True, text=True, timeout=120)
+                       capture_output=True, text=True, timeout=scaled_timeout(120))
     assert r.returncode == 0, r.stderr
     return [mpimg.imread(p) for p in sorted(tmp_path.glob("p-*.png"))]
 
@@ -52,7 +54,7 @@ def test_pdf_text_has_the_section_titles(written_report):
         pytest.skip("pdftotext is not installed (poppler-utils)")
     rep, files = written_report
     text = subprocess.run([pdftotext, "-layout", str(files.pdf), "-"], capture_output=True,
-                          text=True, timeout=60).stdout
+                          text=True, timeout=scaled_timeout(60)).stdout
     for i, s in enumerate(rep.sections, start=1):
         assert f"{i}. {s.title}" in text
     assert "ISO 230-2:2014 positioning parameters" in text

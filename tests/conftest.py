@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import settings
+from hypothesis import HealthCheck, settings
 
 from volcal.measure.virtual import random_machine
 from volcal.model.errorfunctions import MachineErrors
@@ -21,10 +21,13 @@ from volcal.session.format import Measurement
 
 # CI runs the property tests on a fixed set of examples (a failure is reproducible and does
 # not come and go between runs); HYPOTHESIS_PROFILE=explore draws new examples each run.
-settings.register_profile("ci", derandomize=True, deadline=None)
-settings.register_profile("explore", deadline=None)
+# No wall-time check either (a busy box must not fail a test): no deadline, and not the
+# health check that fails when generating the examples takes long.
+_NOT_TIMED = {"deadline": None, "suppress_health_check": [HealthCheck.too_slow]}
+settings.register_profile("ci", derandomize=True, **_NOT_TIMED)
+settings.register_profile("explore", **_NOT_TIMED)
 # the slow fuzz run of session files (tests/session/test_fuzz_sessions.py, README): new examples
-settings.register_profile("fuzz", deadline=None)
+settings.register_profile("fuzz", **_NOT_TIMED)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
 TRAVEL = np.array([[0.0, 800.0], [0.0, 600.0], [0.0, 500.0]])

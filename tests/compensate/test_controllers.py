@@ -263,7 +263,7 @@ def _tables(fmt, folder, sign):
 
 
 @settings(max_examples=12, deadline=None, derandomize=True,
-          suppress_health_check=[HealthCheck.function_scoped_fixture])
+          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 @given(seed=st.integers(0, 10_000), fmt=st.sampled_from(
     ["fanuc", "siemens", "heidenhain", "linuxcnc", "csv"]),
     sign=st.sampled_from(["error", "correction"]))

@@ -46,7 +46,7 @@ def _files(folder: Path) -> list[Path]:
 
 
 @settings(max_examples=150, deadline=None,
-          suppress_health_check=[HealthCheck.function_scoped_fixture])
+          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 @given(data=st.data())
 def test_random_corruption_gives_clean_error(good_session, data):
     tmp = Path(tempfile.mkdtemp())

@@ -132,7 +132,7 @@ def _check_accepted(folder: Path) -> None:
 
 
 @settings(deadline=None, max_examples=N_READ,
-          suppress_health_check=[HealthCheck.function_scoped_fixture])
+          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 @given(data=st.data())
 def test_fuzz_read_session(sessions, data):
     tmp = Path(tempfile.mkdtemp())
@@ -156,7 +156,7 @@ def _snapshot(folder: Path) -> dict[str, bytes]:
 
 
 @settings(deadline=None, max_examples=N_SIMULATE,
-          suppress_health_check=[HealthCheck.function_scoped_fixture])
+          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 @given(data=st.data())
 def test_fuzz_simulate_writes_all_or_nothing(sessions, data):
     """``volcal simulate`` on a mutated planned session: exit 0, or exit 2 with the folder

@@ -11,6 +11,7 @@ from volcal.plot.deviation import direction_statistics, linear_deviation_plot
 from volcal.plot.diagonal import diagonal_fit_plot
 from volcal.plot.errorfunctions import error_functions_plot
 from volcal.plot.identifiability import identifiability_plot
+from volcal.plot.trend import trend_plot
 from volcal.plot.volumetric import volumetric_map, volumetric_map_plot
 
 __all__ = [
@@ -19,6 +20,7 @@ __all__ = [
     "error_functions_plot",
     "identifiability_plot",
     "linear_deviation_plot",
+    "trend_plot",
     "volumetric_map",
     "volumetric_map_plot",
 ]

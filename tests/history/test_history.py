@@ -288,6 +288,17 @@ def test_cli_round_trip(tmp_path, calibrations):
     tr = _volcal("history", "trend", "VMC-1", "--parameter", "EXX@800", "--json", env=env)
     vals = [x["value"] for x in json.loads(tr.stdout)]
     assert vals[1] - vals[0] == pytest.approx(8.0, abs=0.6)
+    # the trend figure (volcal.plot.trend), written atomically; a format matplotlib does
+    # not write is refused before anything is written
+    fig = tmp_path / "trend.png"
+    tr = _volcal("history", "trend", "VMC-1", "--parameter", "X.A", "--plot", str(fig),
+                 env=env)
+    assert tr.returncode == 0 and f"figure: {fig}" in tr.stderr, tr.stderr
+    assert fig.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    tr = _volcal("history", "trend", "VMC-1", "--parameter", "X.A", "--plot",
+                 str(tmp_path / "trend.xyz"), env=env)
+    assert tr.returncode == 2 and "the figure's format comes from its suffix" in tr.stderr
+    assert not (tmp_path / "trend.xyz").exists()
     assert _volcal("history", "verify", env=env).returncode == 0
     due = _volcal("history", "due", "--json", env=env)
     rows = json.loads(due.stdout)

@@ -95,3 +95,14 @@ def test_report_history_names_its_extra(bare_session, tmp_path):
     assert r.returncode == 2, r.stderr
     assert "volcal report --history needs the 'history' extra" in r.stderr
     assert "Traceback" not in r.stderr and not (tmp_path / "r").exists()
+
+
+def test_python_history_names_its_extra():
+    code = (f"import sys\nfor m in {BLOCKED!r}:\n    sys.modules[m] = None\n"
+            "from volcal.extras import MissingExtraError\n"
+            "try:\n    from volcal import History\n"
+            "except MissingExtraError as exc:\n    print(exc)\n")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip() == ("volcal.history needs the 'history' extra: pip install "
+                                "'volcal[history]' (not installed: sqlalchemy, alembic, pandas)")

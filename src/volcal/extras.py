@@ -19,13 +19,17 @@ from collections.abc import Iterable
 
 from volcal.errors import VolcalInputError
 
-__all__ = ["EXTRAS", "MissingExtraError", "missing_modules", "require_extra"]
+__all__ = ["EXTRAS", "HISTORY_STORE", "MissingExtraError", "missing_modules", "require_extra"]
 
 EXTRAS: dict[str, tuple[str, ...]] = {
     "history": ("sqlalchemy", "alembic", "psycopg", "pandas", "pyarrow"),
     "dataframe": ("pandas",),
 }
 """Extra -> the top-level modules it installs (``pyproject.toml``, optional dependencies)."""
+
+HISTORY_STORE: tuple[str, ...] = ("sqlalchemy", "alembic", "pandas")
+"""The modules of the ``history`` extra every use of the store needs (psycopg only for
+PostgreSQL, pyarrow only for ``volcal history export``)."""
 
 
 class MissingExtraError(VolcalInputError):

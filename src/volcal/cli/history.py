@@ -19,14 +19,13 @@ history_app = typer.Typer(help="Calibration history: add, list, show, trend, com
                           no_args_is_help=True)
 
 
-
 @history_app.callback()
 def _needs_the_history_extra() -> None:
     # before any subcommand (not for --help): a clear message, exit code 2, when the
     # 'history' extra's libraries are not installed
-    from volcal.extras import require_extra
+    from volcal.extras import HISTORY_STORE, require_extra
 
-    require_extra("history", "volcal history", ("sqlalchemy", "alembic", "pandas"))
+    require_extra("history", "volcal history", HISTORY_STORE)
 
 
 DbOption = Annotated[str | None, typer.Option(

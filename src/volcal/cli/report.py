@@ -77,9 +77,9 @@ def report_cmd(
     tol = None if tolerance_um is None else parse_tolerance(tolerance_um)
     tol = _acceptance(tol, decision_rule, guard_band_um, budget)
     if history is not None:
-        from volcal.extras import require_extra
+        from volcal.extras import HISTORY_STORE, require_extra
 
-        require_extra("history", "volcal report --history", ("sqlalchemy", "alembic"))
+        require_extra("history", "volcal report --history", HISTORY_STORE)
         from volcal.history.previous import check_history
 
         check_history(history)

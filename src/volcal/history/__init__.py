@@ -7,9 +7,9 @@ Alembic migrations, SQLite by default, PostgreSQL by URL (psycopg 3). See
 :class:`~volcal.extras.MissingExtraError`, which names the extra.
 """
 
-from volcal.extras import require_extra
+from volcal.extras import HISTORY_STORE, require_extra
 
-require_extra("history", "volcal.history", ("sqlalchemy", "alembic", "pandas"))
+require_extra("history", "volcal.history", HISTORY_STORE)
 
 from volcal.history.api import History  # noqa: E402  (after the check of its libraries)
 

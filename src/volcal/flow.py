@@ -906,6 +906,15 @@ class Calibration:
         result = self._need_result()
         extra = None
         written: list[CertificateFiles] = []
+        if cert and budget is not None:  # the volumetric U with the systematic part
+            from volcal.report.certificate_inputs import certificate_model
+
+            b, b_name = A.budget_file(budget, where)
+            with A.python_names(where):
+                result = certificate_model(
+                    result, tol.budget if tol is not None and getattr(tol, "budget", None)
+                    is not None else b, b_name, None, s,
+                    f"Calibration.identify(budget={b_name!r})")
         if cert:
             from volcal.report.certificate import build_certificate
             from volcal.report.certificate_files import write_certificate

@@ -124,6 +124,10 @@ def report_cmd(
             result = identify(s)
     written: list = []
     extra = None
+    if cert and bud is not None:  # the certificate's volumetric U with the systematic part
+        from volcal.report.certificate_inputs import certificate_model
+
+        result = certificate_model(result, bud, budget, model, s)
     if cert:
         from volcal.report.certificate import build_certificate
         from volcal.report.certificate_files import write_certificate

@@ -24,7 +24,6 @@ import jsonschema
 import numpy as np
 import pytest
 import tomli_w
-from volcal_cli_helpers import run_volcal
 
 from volcal.errors import VolcalInputError
 from volcal.identify import identify
@@ -42,6 +41,7 @@ from volcal.report.certificate_inputs import (
 from volcal.session.format import read_session, write_session
 from volcal.standards.tolerance import parse_tolerance
 from volcal.uncertainty.budget import TEMPLATE, read_budget
+from volcal_cli_helpers import run_volcal
 
 TRAVEL = np.array([[0, 400], [0, 300], [0, 250]], float)
 

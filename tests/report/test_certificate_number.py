@@ -126,8 +126,24 @@ def test_the_number_is_the_digest_of_the_stated_content(cal):
     changed.update(report_id="X", issued="2030-01-01", generator="volcal 9")
     changed["dates"]["issued"] = "2030-01-01"
     assert content_sha256(changed) == doc["content_sha256"]
-    # the model is named by its digest: another model, another number
-    assert len(doc["results"]["as_found"]["volumetric"]["model_sha256"]) == 64
+    # the model's numbers enter through the model's digest (a model in memory and read
+    # back from its file: the same number); another model, another number
+    vol = doc["results"]["as_found"]["volumetric"]
+    assert len(vol["model_sha256"]) == 64
+    changed = copy.deepcopy(doc)
+    changed["results"]["as_found"]["volumetric"]["U_um"]["E_VX"] *= 1 + 1e-9
+    assert content_sha256(changed) == doc["content_sha256"]
+    changed["results"]["as_found"]["volumetric"]["model_sha256"] = "0" * 64
+    assert content_sha256(changed) != doc["content_sha256"]
+
+
+def test_a_model_file_and_the_same_model_in_memory_give_the_same_number(cal):
+    from volcal.identify.modelfile import load_model
+
+    s, r, _, root = cal
+    a = build_certificate(s, r, issued="2026-11-25")
+    b = build_certificate(s, load_model(root / "model.json"), issued="2026-11-25")
+    assert a["report_id"] == b["report_id"]
 
 
 def test_without_a_budget_the_volumetric_u_is_the_noise_part_and_the_verdict_qualified(cal):

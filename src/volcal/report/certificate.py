@@ -153,8 +153,12 @@ NOT_STATED = ("report_id", "report_id_source", "content_sha256", "issued", "gene
 """Top-level keys of the certificate left out of :func:`content_sha256`: the number
 itself, and when and by which program version it was written (``dates.issued`` too)."""
 
-_DIGITS = 6
+_DIGITS = 9
 """Significant digits of every number in :func:`content_sha256`."""
+
+_MODEL_NUMBERS = ("E_VX", "E_VY", "E_VZ", "E_VXYZ", "E_VXYZ_range", "U_um", "k")
+"""Keys of ``results.*.volumetric`` computed from the model: they enter
+:func:`content_sha256` through ``model_sha256`` (and ``systematic_included``)."""
 
 
 def _canonical(x: Any) -> Any:
@@ -168,16 +172,46 @@ def _canonical(x: Any) -> Any:
     return x
 
 
+def _stated(doc: dict[str, Any]) -> dict[str, Any]:
+    """What :func:`content_sha256` digests.
+
+    The document without :data:`NOT_STATED`, the model's numbers replaced by its digest.
+    """
+    import copy
+
+    body = copy.deepcopy({k: v for k, v in doc.items() if k not in NOT_STATED})
+    if isinstance(body.get("dates"), dict):
+        body["dates"].pop("issued", None)
+    for res in (body.get("results") or {}).values():
+        if not isinstance(res, dict):
+            continue
+        vol = res.get("volumetric")
+        if isinstance(vol, dict) and vol.get("model_sha256"):
+            for k in _MODEL_NUMBERS:
+                vol.pop(k, None)
+        if res.get("elv_source") == "model":
+            res.pop("elv", None)
+    for row in (body.get("conformity") or {}).get("statements") or []:
+        if str(row.get("quantity", "")).startswith("volumetric"):
+            row.pop("value_um", None)
+            row.pop("U_um", None)
+    return body
+
+
 def content_sha256(doc: dict[str, Any]) -> str:
     """SHA-256 of everything a certificate states (the source of its derived number).
 
     Every field of the document enters (identity, methods, environment, equipment,
-    results with the readings' digests and the model's, the uncertainty statement and
-    budget tables, the specification, decision rule and guard band of the statement of
-    conformity, the as-left results and the tables, the remarks) except
-    :data:`NOT_STATED` and ``dates.issued``; numbers with :data:`_DIGITS` significant
-    digits, so that a result recomputed on another computer (last-bit differences)
-    gives the same digest; canonical JSON (sorted keys, no spaces).
+    results with the readings' digests, the model's digest, the uncertainty statement
+    and budget tables, the specification, decision rule and guard band of the statement
+    of conformity, the as-left results and the tables, the remarks) except
+    :data:`NOT_STATED` and ``dates.issued``. The numbers computed from the identified
+    model (volumetric indices, their U, the volumetric statement's value and U, a
+    model's ELv) enter through what they are computed from: ``model_sha256`` (the model's
+    values at the 7 digits of its file) and ``systematic_included``, so that a model
+    in memory and the same model read back from its file give the same number. Other
+    numbers with :data:`_DIGITS` significant digits; canonical JSON (sorted keys, no
+    spaces).
 
     Parameters
     ----------
@@ -191,10 +225,7 @@ def content_sha256(doc: dict[str, Any]) -> str:
     """
     import json
 
-    body = {k: v for k, v in doc.items() if k not in NOT_STATED}
-    if isinstance(body.get("dates"), dict):
-        body["dates"] = {k: v for k, v in body["dates"].items() if k != "issued"}
-    text = json.dumps(_canonical(body), sort_keys=True, separators=(",", ":"),
+    text = json.dumps(_canonical(_stated(doc)), sort_keys=True, separators=(",", ":"),
                       ensure_ascii=False, allow_nan=False)
     return hashlib.sha256(text.encode("utf-8")).hexdigest()
 

@@ -331,7 +331,8 @@ class Calibration:
     def program(self, folder: str | Path, dialect: str, dwell_s: float = D.PROG_DWELL_S,
                 feed: float = D.PROG_FEED, overrun_mm: float = D.PROG_OVERRUN_MM,
                 decimals: int = D.PROG_DECIMALS, safe_z_mm: float = D.PROG_SAFE_Z_MM,
-                first_number: int = D.PROG_FIRST_NUMBER) -> tuple[Path, list[str]]:
+                first_number: int = D.PROG_FIRST_NUMBER, *,
+                replace: bool = False) -> tuple[Path, list[str]]:
         """Write one measuring part program per measurement, like ``volcal program``.
 
         Parameters
@@ -352,6 +353,9 @@ class Calibration:
             Z of the first retract in machine coordinates [mm].
         first_number : int
             Fanuc program number (O word) of the first program.
+        replace : bool
+            The folder holds files volcal did not write there: move them into its
+            ``backup/<UTC time>/`` instead of refusing, as ``--replace``.
 
         Returns
         -------
@@ -360,12 +364,15 @@ class Calibration:
         notes : list of str
             What the user should know (the command line prints them as notes).
         """
+        from volcal.io.folders import manifest_files
         from volcal.io.paths import check_output_folder
         from volcal.program.steps import ProgramOptions
         from volcal.program.writer import INDEX_FILE, write_programs
 
         # as `volcal program`: only a new, empty or earlier program folder is replaced
-        check_output_folder(folder, "program", lambda p: (p / INDEX_FILE).is_file())
+        check_output_folder(folder, "program", lambda p: (p / INDEX_FILE).is_file(),
+                            written=manifest_files(INDEX_FILE, "programs", "file"),
+                            replace=replace, option="replace=True")
         opts = ProgramOptions(dwell_s=dwell_s, feed=feed, overrun_mm=overrun_mm,
                               decimals=decimals, safe_z_mm=safe_z_mm)
         return write_programs(self._planned(), dialect, folder, opts, first_number)
@@ -701,7 +708,8 @@ class Calibration:
                    fanuc_series: str = D.COMP_FANUC_SERIES,
                    linuxcnc_type: int = D.COMP_LINUXCNC_TYPE,
                    squareness: bool = D.COMP_SQUARENESS,
-                   tool_offset: ArrayLike | str = (0.0, 0.0, 0.0)) -> list[str]:
+                   tool_offset: ArrayLike | str = (0.0, 0.0, 0.0), *,
+                   replace: bool = False) -> list[str]:
         """Write controller compensation tables of the identified model.
 
         Like ``volcal compensate``: the format is always named, and the tables are
@@ -738,6 +746,9 @@ class Calibration:
             Siemens CEC: add squareness terms.
         tool_offset : array_like, shape (3,), or str
             3-D grid: target on the tool [mm].
+        replace : bool
+            The folder holds files volcal did not write there: move them into its
+            ``backup/<UTC time>/`` instead of refusing, as ``--replace``.
 
         Returns
         -------
@@ -763,10 +774,13 @@ class Calibration:
                               f"({info.sign_source}); a table in the wrong sign doubles the "
                               "error", UserWarning, stacklevel=3)
         from volcal.compensate.manifest import MANIFEST
+        from volcal.io.folders import manifest_files
         from volcal.io.paths import check_output_folder
 
         # as `volcal compensate`: only a new, empty or earlier compensation folder is replaced
-        check_output_folder(folder, "compensation", lambda p: (p / MANIFEST).is_file())
+        check_output_folder(folder, "compensation", lambda p: (p / MANIFEST).is_file(),
+                            written=manifest_files(MANIFEST, "files"), replace=replace,
+                            option="replace=True")
         ref = None if reference_mm is None else A.vector_mm(reference_mm, "reference_mm")
         opts = CompensationOptions(sign, spacing, max_points, ref, unit_um, magnification,
                                    max_increment, squareness,
@@ -790,7 +804,8 @@ class Calibration:
                certificate: bool = False, as_left: str | Path | Calibration | None = None,
                tables: str | Path | None = None, strict: bool = False,
                decision_rule: str = D.DECISION_RULE, guard_band_um: float | None = None,
-               budget: str | Path | Budget | None = None) -> ReportFiles:
+               budget: str | Path | Budget | None = None,
+               replace: bool = False) -> ReportFiles:
         """Write the HTML and PDF report (and the certificate), like ``volcal report``.
 
         Parameters
@@ -839,7 +854,12 @@ class Calibration:
             Guard band w of the guarded rule [um].
         budget : str, Path or Budget, optional
             Uncertainty budget: U of the toleranced ISO 230-2 parameters, and of every
-            linear test and every direct optic's result on the certificate.
+            linear test and every direct optic's result on the certificate. With a
+            certificate, the model must carry the budget's systematic part
+            (:func:`volcal.report.certificate_inputs.certificate_model`).
+        replace : bool
+            The folder holds files volcal did not write there: move them into its
+            ``backup/<UTC time>/`` instead of refusing, as ``--replace``.
 
         Returns
         -------
@@ -855,14 +875,15 @@ class Calibration:
         from volcal.io.paths import check_output_folder
         from volcal.report.pipeline import collect_inputs
         from volcal.report.sections import build_report
-        from volcal.report.writer import write_report
+        from volcal.report.writer import write_report, written_files
         from volcal.standards.tolerance import parse_tolerance
 
         where = "Calibration.report"
         tol = None if tolerance_um is None else parse_tolerance(A.tolerance_text(tolerance_um))
         tol = A.acceptance(where, tol, decision_rule, guard_band_um, budget)
         # as `volcal report`: only a new, empty or earlier report folder is replaced
-        check_output_folder(folder, "report", lambda p: (p / "report.html").is_file())
+        check_output_folder(folder, "report", lambda p: (p / "report.html").is_file(),
+                            written=written_files, replace=replace, option="replace=True")
         if compensation is not None and not Path(compensation).is_dir():
             raise VolcalInputError(f"{where}: compensation= is not a folder written by "
                                    "compensate", compensation)
@@ -885,6 +906,15 @@ class Calibration:
         result = self._need_result()
         extra = None
         written: list[CertificateFiles] = []
+        if cert and budget is not None:  # the volumetric U with the systematic part
+            from volcal.report.certificate_inputs import certificate_model
+
+            b, b_name = A.budget_file(budget, where)
+            with A.python_names(where):
+                result = certificate_model(
+                    result, tol.budget if tol is not None and getattr(tol, "budget", None)
+                    is not None else b, b_name, None, s,
+                    f"Calibration.identify(budget={b_name!r})")
         if cert:
             from volcal.report.certificate import build_certificate
             from volcal.report.certificate_files import write_certificate

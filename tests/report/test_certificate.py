@@ -139,10 +139,33 @@ def cert(tmp_path_factory):
 def test_the_certificate_pdf_holds_every_required_field(cert):
     t, doc = cert.flat, cert.doc
     rid = doc["report_id"]
-    # the derived id: laboratory initials, date of measurement, readings digest
-    h = hashlib.sha256(readings_digest(cert.found).encode())
-    h.update(readings_digest(cert.left).encode())
+    # the derived id: laboratory initials, date of measurement, and the SHA-256 of all
+    # it states (canonical JSON, numbers to 9 significant digits; issue 25) but the
+    # number itself, the date of issue and the program's version; the model's numbers
+    # enter through its digest
+    def nine(x):
+        if isinstance(x, dict):
+            return {k: nine(v) for k, v in x.items()}
+        if isinstance(x, list):
+            return [nine(v) for v in x]
+        return float(f"{x:.9g}") if isinstance(x, float) else x
+
+    body = json.loads(json.dumps({k: v for k, v in doc.items() if k not in (
+        "report_id", "report_id_source", "content_sha256", "issued", "generator")}))
+    del body["dates"]["issued"]
+    vol = body["results"]["as_found"]["volumetric"]
+    assert len(vol["model_sha256"]) == 64
+    body["results"]["as_found"]["volumetric"] = {
+        k: v for k, v in vol.items() if not k.startswith(("E_V", "U_um", "k"))}
+    for row in body["conformity"]["statements"]:
+        if row["quantity"].startswith("volumetric"):
+            del row["value_um"], row["U_um"]
+    h = hashlib.sha256(json.dumps(nine(body), sort_keys=True, separators=(",", ":"),
+                                  ensure_ascii=False).encode())
+    assert doc["content_sha256"] == h.hexdigest()
     assert rid == f"MSG-20261123-{h.hexdigest()[:8].upper()}"
+    assert doc["results"]["as_found"]["readings_sha256"] == readings_digest(cert.found)
+    assert doc["results"]["as_left"]["readings_sha256"] == readings_digest(cert.left)
     for field in ["Calibration certificate", f"Certificate number {rid}",
                   "Metrology Service GmbH", "Messweg 1, 12345 Prüfstadt", "Shop Ltd",
                   "Hermle", "C 42", "42-1187", "Heidenhain TNC 640", "Hall 2, bay 4",

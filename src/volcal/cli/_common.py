@@ -64,6 +64,25 @@ def print_session_notes(session: object) -> None:
         err.print(f"[yellow]warning:[/] {escape(w)}", highlight=False)
 
 
+def note_moved(folder: object, rel: str) -> None:
+    """Say on stderr that ``--replace`` moved the user's files of ``folder`` into ``rel``.
+
+    Parameters
+    ----------
+    folder : str or Path
+        The output folder.
+    rel : str
+        The backup folder, relative to it (:func:`volcal.io.paths.prepare_output_folder`).
+    """
+    from pathlib import Path
+
+    from rich.console import Console
+    from rich.markup import escape
+
+    Console(stderr=True, soft_wrap=True).print(
+        f"[cyan]note:[/] --replace: the files volcal did not write in {escape(str(folder))} "
+        f"were moved to {escape(str(Path(str(folder)) / rel))}/", highlight=False)
+
 
 def print_table(console: Console, table: Table) -> None:
     """Print a Rich table without cutting a cell: full numbers, also when redirected.

@@ -10,7 +10,7 @@ from rich.console import Console
 from rich.markup import escape
 
 from volcal import defaults as D
-from volcal.cli._common import parse_vector, print_session_notes
+from volcal.cli._common import note_moved, parse_vector, print_session_notes
 from volcal.errors import VolcalInputError
 
 console = Console(soft_wrap=True)  # no line breaks inside paths
@@ -54,6 +54,10 @@ def compensate(
     ] = D.COMP_SQUARENESS,
     tool_offset: Annotated[str, typer.Option(help="3-D grid: target on the tool x,y,z [mm].")
                            ] = "0,0,0",
+    replace: Annotated[bool, typer.Option(
+        "--replace", help="The output folder holds files its manifest does not list (volcal "
+        "did not write them): move them into OUTPUT/backup/<UTC time>/ instead of "
+        "refusing.")] = False,
 ) -> None:
     """Write compensation tables of a model for a controller, resampled onto its grid."""
     from volcal.compensate.formats import (
@@ -64,7 +68,8 @@ def compensate(
     )
     from volcal.compensate.source import load_errors
     from volcal.compensate.tables import sign_factor
-    from volcal.io.paths import check_output_folder
+    from volcal.io.folders import manifest_files
+    from volcal.io.paths import prepare_output_folder
 
     fmt = format.lower()
     if fmt not in FORMAT_INFO:
@@ -77,7 +82,10 @@ def compensate(
             err_console.print(escape(
                 f"note: --sign {sign} overrides the {fmt} convention '{info.sign}' "
                 f"({info.sign_source}); a table in the wrong sign doubles the error"))
-    check_output_folder(output, "compensation", lambda p: (p / MANIFEST).is_file())
+    moved = prepare_output_folder(output, "compensation", lambda p: (p / MANIFEST).is_file(),
+                                  written=manifest_files(MANIFEST, "files"), replace=replace)
+    if moved is not None:
+        note_moved(output, moved)
     ref = None if reference_mm is None else tuple(parse_vector(reference_mm, "--reference-mm"))
     directional = None
     sess = None

@@ -352,10 +352,19 @@ def export_cmd(
     output: Annotated[Path, typer.Option("-o", "--output", help="Folder for the Parquet "
                                          "files.")],
     db: DbOption = None,
+    replace: Annotated[bool, typer.Option(
+        "--replace", help="The output folder holds files volcal did not write there: move "
+        "them into OUTPUT/backup/<UTC time>/ instead of refusing.")] = False,
 ) -> None:
     """Every table as Parquet files (readable by DuckDB or pandas)."""
-    from volcal.history.export import export_parquet
+    from volcal.cli._common import note_moved
+    from volcal.history.export import export_parquet, exported_files
+    from volcal.io.paths import prepare_output_folder
 
+    moved = prepare_output_folder(output, "history export", lambda p: bool(exported_files(p)),
+                                  written=exported_files, replace=replace)
+    if moved is not None:
+        note_moved(output, moved)
     with _open(db) as h:
         for p in export_parquet(h, output):
             typer.echo(str(p))

@@ -34,14 +34,24 @@ def program(
     first_number: Annotated[int, typer.Option(
         min=1, max=9999, help="Fanuc program number (O word) of the first.")
     ] = D.PROG_FIRST_NUMBER,
+    replace: Annotated[bool, typer.Option(
+        "--replace", help="The output folder holds files its index does not list (volcal "
+        "did not write them): move them into OUTPUT/backup/<UTC time>/ instead of "
+        "refusing.")] = False,
 ) -> None:
     """Write one part program per measurement: planned poses in order, a dwell at each."""
-    from volcal.io.paths import check_output_folder
+    from volcal.cli._common import note_moved
+    from volcal.io.folders import manifest_files
+    from volcal.io.paths import prepare_output_folder
     from volcal.program.steps import ProgramOptions
     from volcal.program.writer import INDEX_FILE, write_programs
     from volcal.session.format import read_session
 
-    check_output_folder(output, "program", lambda p: (p / INDEX_FILE).is_file())
+    moved = prepare_output_folder(output, "program", lambda p: (p / INDEX_FILE).is_file(),
+                                  written=manifest_files(INDEX_FILE, "programs", "file"),
+                                  replace=replace)
+    if moved is not None:
+        note_moved(output, moved)
     opts = ProgramOptions(dwell_s=dwell_s, feed=feed, overrun_mm=overrun_mm, decimals=decimals,
                           safe_z_mm=safe_z_mm)
     opts.check()

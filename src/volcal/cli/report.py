@@ -9,7 +9,7 @@ from rich.console import Console
 from rich.markup import escape
 
 from volcal import defaults as D
-from volcal.cli._common import print_session_notes
+from volcal.cli._common import note_moved, print_session_notes
 
 console = Console(soft_wrap=True)  # no line breaks inside paths
 err_console = Console(stderr=True, soft_wrap=True)  # warnings: standard error
@@ -64,13 +64,16 @@ def report_cmd(
                                        "SQLite file, as `volcal history --db`): add a section "
                                        "with the machine's previous calibration and the "
                                        "change since then."),
+    replace: bool = typer.Option(False, "--replace", help="The output folder holds files "
+                                 "volcal did not write there (a signed scan, notes): move "
+                                 "them into OUTPUT/backup/<UTC time>/ instead of refusing."),
 ) -> None:
     """Write the calibration report of a session as self-contained HTML and as PDF."""
     from volcal.cli.evaluate import _acceptance
-    from volcal.io.paths import check_output_folder
+    from volcal.io.paths import prepare_output_folder
     from volcal.report.pipeline import collect_inputs
     from volcal.report.sections import build_report
-    from volcal.report.writer import write_report
+    from volcal.report.writer import write_report, written_files
     from volcal.session.format import read_session
     from volcal.standards.tolerance import parse_tolerance
 
@@ -89,7 +92,10 @@ def report_cmd(
 
         bud = tol.budget if tol is not None and getattr(tol, "budget", None) is not None \
             else read_budget(budget)
-    check_output_folder(output, "report", lambda p: (p / "report.html").is_file())
+    moved = prepare_output_folder(output, "report", lambda p: (p / "report.html").is_file(),
+                                  written=written_files, replace=replace)
+    if moved is not None:
+        note_moved(output, moved)
     s = read_session(session)
     print_session_notes(s)
     if compensation is not None:  # refuse another machine's tables before any work
@@ -121,6 +127,10 @@ def report_cmd(
             result = identify(s)
     written: list = []
     extra = None
+    if cert and bud is not None:  # the certificate's volumetric U with the systematic part
+        from volcal.report.certificate_inputs import certificate_model
+
+        result = certificate_model(result, bud, budget, model, s)
     if cert:
         from volcal.report.certificate import build_certificate
         from volcal.report.certificate_files import write_certificate

@@ -13,6 +13,25 @@ from typing import Any
 from volcal.extras import require_extra
 
 
+def exported_files(folder: str | Path) -> list[str]:
+    """The Parquet files of an earlier export in ``folder`` (what volcal wrote there).
+
+    Parameters
+    ----------
+    folder : str or Path
+        A folder written by :func:`export_parquet`.
+
+    Returns
+    -------
+    list of str
+        ``records.parquet``... ``calibrations.parquet`` that exist there.
+    """
+    from volcal.history.schema import TABLES
+
+    return [f"{n}.parquet" for n in (*TABLES, "calibrations")
+            if (Path(folder) / f"{n}.parquet").is_file()]
+
+
 def export_parquet(history: Any, folder: str | Path) -> list[Path]:
     """Write the Parquet files; returns their paths.
 
@@ -21,7 +40,9 @@ def export_parquet(history: Any, folder: str | Path) -> list[Path]:
     history : History
         The store.
     folder : str or Path
-        Output folder (replaced atomically).
+        Output folder (replaced atomically; ``volcal history export`` first refuses a
+        folder holding other files than :func:`exported_files`, or moves them into
+        ``backup/<UTC time>/`` with ``--replace``).
     """
     require_extra("history", "volcal history export", ("pandas", "pyarrow"))
     import pandas as pd

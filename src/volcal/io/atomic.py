@@ -80,6 +80,20 @@ def write_bytes(path: str | Path, data: bytes) -> None:
             os.fsync(fh.fileno())
 
 
+def _carry_backup(old: Path, new: Path) -> None:
+    """Copy ``old/backup/`` into the new folder when the writer did not bring one.
+
+    What a ``--replace`` moved aside (:func:`volcal.io.folders.claim_folder`) and the
+    earlier backups of a folder survive its replacement; copied, not moved, so that a
+    failed replacement leaves the old folder whole.
+    """
+    from volcal.io.folders import BACKUP_FOLDER
+
+    src = old / BACKUP_FOLDER
+    if src.is_dir() and not (new / BACKUP_FOLDER).exists():
+        shutil.copytree(src, new / BACKUP_FOLDER, symlinks=True)
+
+
 @contextmanager
 def atomic_dir(path: str | Path, overwrite: bool = True) -> Iterator[Path]:
     """Build a folder in a temporary sibling and move it into place on success.
@@ -90,6 +104,8 @@ def atomic_dir(path: str | Path, overwrite: bool = True) -> Iterator[Path]:
         Final folder.
     overwrite : bool
         Replace an existing folder at ``path`` (it is kept until the new one is complete).
+        Its ``backup/`` sub-folder is carried into the new one when the writer did not
+        write one (the files a ``--replace`` moved aside are never deleted).
 
     Yields
     ------
@@ -107,6 +123,7 @@ def atomic_dir(path: str | Path, overwrite: bool = True) -> Iterator[Path]:
         if path.exists():
             if not overwrite:
                 raise FileExistsError(path)
+            _carry_backup(path, tmp)
             old = Path(tempfile.mkdtemp(prefix=f".{path.name}.old.", dir=path.parent))
             old.rmdir()
             os.replace(path, old)

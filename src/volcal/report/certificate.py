@@ -50,8 +50,8 @@ from volcal.session.identity import (
 from volcal.standards.decision import RULE_TEXT as _RULE_TEXT
 from volcal.standards.decision import conformity_verdict
 
-__all__ = ["CERTIFICATE_FORMAT", "END_MARK", "TITLE", "build_certificate",
-           "certificate_applies", "conformity_verdict", "environment_of",
+__all__ = ["CERTIFICATE_FORMAT", "END_MARK", "NOT_STATED", "TITLE", "build_certificate",
+           "certificate_applies", "conformity_verdict", "content_sha256", "environment_of",
            "equipment_status", "refuse_expired", "report_id", "tables_of"]
 
 CERTIFICATE_FORMAT = "volcal-certificate/1"
@@ -150,7 +150,89 @@ def _lab_code(laboratory: str | None) -> str:
     return code or "VOLCAL"
 
 
-def report_id(session: Any, as_left: Any = None, issued: str | None = None) -> tuple[str, str]:
+NOT_STATED = ("report_id", "report_id_source", "content_sha256", "issued", "generator")
+"""Top-level keys of the certificate left out of :func:`content_sha256`: the number
+itself, and when and by which program version it was written (``dates.issued`` too)."""
+
+_DIGITS = 9
+"""Significant digits of every number in :func:`content_sha256`."""
+
+_MODEL_NUMBERS = ("E_VX", "E_VY", "E_VZ", "E_VXYZ", "E_VXYZ_range", "U_um", "k")
+"""Keys of ``results.*.volumetric`` computed from the model: they enter
+:func:`content_sha256` through ``model_sha256`` (and ``systematic_included``)."""
+
+
+def _canonical(x: Any) -> Any:
+    """Numbers to :data:`_DIGITS` significant digits, for a digest of what is stated."""
+    if isinstance(x, dict):
+        return {str(k): _canonical(v) for k, v in x.items()}
+    if isinstance(x, list | tuple):
+        return [_canonical(v) for v in x]
+    if isinstance(x, float):
+        return float(f"{x:.{_DIGITS}g}")
+    return x
+
+
+def _stated(doc: dict[str, Any]) -> dict[str, Any]:
+    """What :func:`content_sha256` digests.
+
+    The document without :data:`NOT_STATED`, the model's numbers replaced by its digest.
+    """
+    import copy
+
+    body = copy.deepcopy({k: v for k, v in doc.items() if k not in NOT_STATED})
+    if isinstance(body.get("dates"), dict):
+        body["dates"].pop("issued", None)
+    for res in (body.get("results") or {}).values():
+        if not isinstance(res, dict):
+            continue
+        vol = res.get("volumetric")
+        if isinstance(vol, dict) and vol.get("model_sha256"):
+            for k in _MODEL_NUMBERS:
+                vol.pop(k, None)
+        if res.get("elv_source") == "model":
+            res.pop("elv", None)
+    for row in (body.get("conformity") or {}).get("statements") or []:
+        if str(row.get("quantity", "")).startswith("volumetric"):
+            row.pop("value_um", None)
+            row.pop("U_um", None)
+    return body
+
+
+def content_sha256(doc: dict[str, Any]) -> str:
+    """SHA-256 of everything a certificate states (the source of its derived number).
+
+    Every field of the document enters (identity, methods, environment, equipment,
+    results with the readings' digests, the model's digest, the uncertainty statement
+    and budget tables, the specification, decision rule and guard band of the statement
+    of conformity, the as-left results and the tables, the remarks) except
+    :data:`NOT_STATED` and ``dates.issued``. The numbers computed from the identified
+    model (volumetric indices, their U, the volumetric statement's value and U, a
+    model's ELv) enter through what they are computed from: ``model_sha256`` (the model's
+    values at the 7 digits of its file) and ``systematic_included``, so that a model
+    in memory and the same model read back from its file give the same number. Other
+    numbers with :data:`_DIGITS` significant digits; canonical JSON (sorted keys, no
+    spaces).
+
+    Parameters
+    ----------
+    doc : dict
+        A certificate (``volcal-certificate/1``), with or without its number.
+
+    Returns
+    -------
+    str
+        64 hex digits.
+    """
+    import json
+
+    text = json.dumps(_canonical(_stated(doc)), sort_keys=True, separators=(",", ":"),
+                      ensure_ascii=False, allow_nan=False)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def report_id(session: Any, as_left: Any = None, issued: str | None = None,
+              content: str | None = None) -> tuple[str, str]:
     """The unique identification of the certificate (ISO/IEC 17025:2017, 7.8.2.1 c).
 
     Parameters
@@ -161,14 +243,20 @@ def report_id(session: Any, as_left: Any = None, issued: str | None = None) -> t
         The as-left session.
     issued : str, optional
         Date of issue (ISO 8601), used when the session has no date of measurement.
+    content : str, optional
+        :func:`content_sha256` of the certificate (:func:`build_certificate` gives it):
+        the number's digits come from it. Without it, from the readings alone.
 
     Returns
     -------
     report_id : str
         ``[calibration] report_id`` when given; otherwise
         ``<laboratory initials>-<YYYYMMDD of measurement>-<8 hex digits>``, the digits
-        the start of the SHA-256 of the readings (as-found, then as-left): the same
-        readings give the same id, other readings another.
+        the start of ``content`` (everything the certificate states): the same content
+        gives the same number, a re-issue with other content (a budget, a tolerance,
+        another decision rule or model, an as-left session) another. Without
+        ``content``, the start of the SHA-256 of the readings' digests (as-found, then
+        as-left).
     source : str
         ``'calibration.report_id'`` or ``'derived'``.
     """
@@ -179,12 +267,16 @@ def report_id(session: Any, as_left: Any = None, issued: str | None = None) -> t
             raise VolcalInputError(f"expected text, got {given!r}",
                                    _toml(session), None, "calibration.report_id")
         return str(given).strip(), "calibration.report_id"
-    h = hashlib.sha256(readings_sha256(session).encode())
-    if as_left is not None:
-        h.update(readings_sha256(as_left).encode())
+    if content is not None:
+        digits = content[:8]
+    else:
+        h = hashlib.sha256(readings_sha256(session).encode())
+        if as_left is not None:
+            h.update(readings_sha256(as_left).encode())
+        digits = h.hexdigest()[:8]
     day = _measurement_date(session) or issued or _dt.date.today().isoformat()
     return (f"{_lab_code(cal.get('laboratory'))}-{as_date(day):%Y%m%d}-"
-            f"{h.hexdigest()[:8].upper()}", "derived")
+            f"{digits.upper()}", "derived")
 
 
 def _toml(session: Any) -> Path | None:
@@ -472,8 +564,26 @@ def _diagonals(ev: Any, unc: dict[str, Any]) -> list[dict[str, Any]]:
     return out
 
 
+def _systematic_statement(volumetric: Any) -> dict[str, Any]:
+    """Whether the volumetric U includes the model's systematic part.
+
+    In the words of ``volcal evaluate session --model``
+    (:func:`volcal.standards.model_uncertainty.model_uncertainty` notes).
+    """
+    u = getattr(volumetric, "uncertainty", None)
+    if u is None:
+        return {}
+    included = bool(getattr(u, "systematic", False))
+    notes = [n for n in getattr(u, "notes", []) if "systematic part" in n]
+    return {"systematic_included": included,
+            "uncertainty_note": notes[0] if notes else (
+                "the model's systematic part is included" if included else
+                "the model carries no systematic part: U is the identification's noise "
+                "and prior part only")}
+
+
 def _results(session: Any, ev: Any, with_model: bool, unc: dict[str, Any] | None = None,
-             optics_budget: Any = None) -> dict[str, Any]:
+             optics_budget: Any = None, model_digest: str | None = None) -> dict[str, Any]:
     from volcal.report.certificate_optics import direct_optics
 
     unc = unc or {}
@@ -489,6 +599,9 @@ def _results(session: Any, ev: Any, with_model: bool, unc: dict[str, Any] | None
         if U:  # from the model's covariance (volcal.standards.model_uncertainty)
             vol["U_um"] = U
             vol["k"] = float(v.get("k_volumetric", 2.0))
+            vol.update(_systematic_statement(ev.volumetric))
+        if model_digest is not None:
+            vol["model_sha256"] = model_digest
     return {"session": session.name if session.path is None else Path(session.path).name,
             "date": _measurement_date(session),
             "readings": sum(m.n for m in session.measurements),
@@ -522,6 +635,13 @@ def _pairs(found: dict[str, Any], left: dict[str, Any]) -> list[dict[str, Any]]:
                          "quantity": "E_D", "as_found_um": r["E_D_um"],
                          "as_left_um": o["E_D_um"]})
     return rows
+
+
+NO_SYSTEMATIC_VERDICT = ("qualified: its U is the identification's noise and prior part "
+                         "only (the model carries no systematic part: laser, air and "
+                         "material inputs not included; identify with --budget to include "
+                         "them)")
+"""Appended to the note of a volumetric statement whose U lacks the systematic part."""
 
 
 def _conformity(tolerance: Any, results: dict[str, dict[str, Any]], rule: str,
@@ -564,6 +684,9 @@ def _conformity(tolerance: Any, results: dict[str, dict[str, Any]], rule: str,
                              "note": "needs the identified model of this session"})
             else:
                 verdict, note = conformity_verdict(value, T, rule, U, guard_band_um)
+                vol = res.get("volumetric") or {}
+                if vol.get("systematic_included") is False:
+                    note = "; ".join(x for x in (note, NO_SYSTEMATIC_VERDICT) if x)
                 rows.append({"state": state, "quantity": "volumetric |e| (largest over "
                              "the work zone, identified model)", "tolerance_um": T,
                              "value_um": value, "U_um": U, "verdict": verdict,
@@ -739,7 +862,6 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
         issued = cal.get("issued")
     issued = parse_date(issued, _toml(session), "calibration.issued") if issued \
         else _dt.date.today().isoformat()
-    rid, rid_source = report_id(session, as_left, issued)
     if generator is None:
         from importlib.metadata import PackageNotFoundError, version
 
@@ -752,7 +874,13 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
 
     ev = evaluate_session(session, result, edition,
                           model_uncertainty=result is not None and has_covariance(result))
-    found = _results(session, ev, result is not None, uncertainties, optics_budget)
+    model_digest = None
+    if result is not None:
+        from volcal.compensate.manifest import errors_digest
+
+        model_digest = errors_digest(result.errors)
+    found = _results(session, ev, result is not None, uncertainties, optics_budget,
+                     model_digest)
     left = None
     if as_left is not None:
         left = _results(as_left, evaluate_session(as_left, None, edition), False,
@@ -844,8 +972,9 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
     doc: dict[str, Any] = {
         "format": CERTIFICATE_FORMAT,
         "title": TITLE,
-        "report_id": rid,
-        "report_id_source": rid_source,
+        "report_id": "",
+        "report_id_source": "derived",
+        "content_sha256": "",
         "issued": issued,
         "generator": generator,
         "laboratory": {"name": lab, "address": _text(cal, "laboratory_address", session)},
@@ -873,4 +1002,9 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
         "warnings": warnings,
         "end_mark": END_MARK,
     }
-    return _jsonable(doc)
+    doc = _jsonable(doc)
+    # the number comes last: from everything stated above (or [calibration] report_id)
+    doc["content_sha256"] = content_sha256(doc)
+    doc["report_id"], doc["report_id_source"] = report_id(session, as_left, issued,
+                                                          doc["content_sha256"])
+    return doc

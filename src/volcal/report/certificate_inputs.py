@@ -76,6 +76,85 @@ def session_uncertainties(session: Any, budget: Any, edition: str) -> dict[str, 
     return out
 
 
+def has_systematic(result: Any) -> bool:
+    """Whether an identified model carries the systematic part of a budget.
+
+    Parameters
+    ----------
+    result : IdentificationResult
+        A fresh result or one read from a model file.
+
+    Returns
+    -------
+    bool
+        True when it was identified with a budget (``volcal identify --budget``,
+        :func:`volcal.identify.systematic.attach_systematic`).
+    """
+    sf = getattr(result, "sys_factor", None)
+    return sf is not None and getattr(sf, "ndim", 0) == 2 and sf.shape[1] > 0
+
+
+def certificate_model(result: Any, budget: Any, budget_file: str | Path | None = None,
+                      model_file: str | Path | None = None, session: Any = None,
+                      identify_hint: str | None = None) -> Any:
+    """The model a certificate with a budget states: the budget's systematic part included.
+
+    A certificate with ``--budget`` states the volumetric indices' U; without the
+    budget's systematic inputs (laser wavelength, air per set-up, material per axis) that
+    U is the identification's noise and prior part only. A model identified here (it has
+    its design) is re-propagated: the systematic part is linear in the fit's gain, so
+    :func:`volcal.identify.systematic.attach_systematic` gives exactly what ``volcal
+    identify --budget`` gives (on a copy; the values are unchanged). A model read from a
+    file has no design and is refused.
+
+    Parameters
+    ----------
+    result : IdentificationResult or None
+        The model.
+    budget : Budget or None
+        The uncertainty budget of the certificate (None: ``result`` as it is).
+    budget_file : str or Path, optional
+        The budget's file, for the message and the model's record.
+    model_file : str or Path, optional
+        The model's file, for the message.
+    session : Session, optional
+        The session, for the message.
+    identify_hint : str, optional
+        How to identify with the budget (default ``volcal identify S --budget B -o M``).
+
+    Returns
+    -------
+    IdentificationResult or None
+        ``result`` when it carries a systematic part (or no budget is given), else a
+        copy with the budget's systematic part.
+
+    Raises
+    ------
+    VolcalInputError
+        A model read from a file, identified without a budget.
+    """
+    if budget is None or result is None or has_systematic(result):
+        return result
+    if getattr(result, "design", None) is not None and getattr(result, "solution", None) \
+            is not None:
+        from copy import copy
+
+        from volcal.identify.systematic import attach_systematic
+
+        return attach_systematic(copy(result), budget, "" if budget_file is None
+                                 else str(budget_file))
+    s = "SESSION" if session is None or getattr(session, "path", None) is None \
+        else str(session.path)
+    b = "BUDGET" if budget_file is None else str(budget_file)
+    m = "MODEL.json" if model_file is None else str(model_file)
+    hint = identify_hint or f"`volcal identify {s} --budget {b} -o {m}`"
+    raise VolcalInputError(
+        f"--budget: the model was identified without an uncertainty budget, so its "
+        "volumetric U would lack the systematic part (laser wavelength, air, material) "
+        f"on the certificate. Identify it with the budget: run {hint}, and give that "
+        "model", model_file)
+
+
 def certificate_wanted(s: Any, s2: Any, tables: str | Path | None, certificate: bool,
                        strict: bool) -> bool:
     """Whether a certificate is issued; the refusals come before any work.

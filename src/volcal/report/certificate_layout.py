@@ -336,6 +336,11 @@ def _result_blocks(state: str, res: dict[str, Any], paired: bool) -> list[Block]
                               *(_n(vol["U_um"].get(k)) for k in
                                 ("E_VX", "E_VY", "E_VZ", "E_VXYZ", "E_VXYZ_range")),
                               "model covariance"]] if vol.get("U_um") else [])))
+        if vol.get("uncertainty_note"):  # whether U includes the systematic part
+            out.append(Block("note", text="Volumetric U: " + vol["uncertainty_note"]
+                             + ("." if vol.get("systematic_included") else
+                                ". The statement of conformity on the volumetric error "
+                                "is qualified accordingly.")))
     out.extend(_optics_blocks(head, res.get("direct_optics")))
     if res.get("skipped"):
         out.append(Block("note", text="Not evaluated: " + "; ".join(

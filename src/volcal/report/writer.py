@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -12,7 +13,11 @@ from volcal.report.figures import png_bytes
 from volcal.report.html import render_html
 from volcal.report.pdf import write_pdf
 
-__all__ = ["ReportFiles", "write_report"]
+__all__ = ["REPORT_FILES", "ReportFiles", "write_report", "written_files"]
+
+REPORT_FILES = ("report.html", "report.pdf", "certificate.json", "certificate.html",
+                "certificate.pdf")
+"""The files a report folder holds besides ``figures/NN-<name>.png``."""
 
 
 @dataclass(frozen=True)
@@ -52,7 +57,9 @@ def write_report(report: Report, folder: str | Path,
     report : Report
         The document.
     folder : str or Path
-        Output folder (replaced if it exists).
+        Output folder (replaced if it exists; check it first with
+        :func:`volcal.io.paths.check_output_folder` and :func:`written_files`, which
+        refuses a folder holding other files).
     extra : callable, optional
         Called with the temporary folder to add more files in the same atomic
         replacement (the certificate: :func:`volcal.report.certificate_files.write_certificate`).
@@ -75,3 +82,27 @@ def write_report(report: Report, folder: str | Path,
             extra(tmp)
     return ReportFiles(folder, folder / "report.html", folder / "report.pdf",
                        [folder / "figures" / n for n in names], pages)
+
+
+def written_files(folder: str | Path) -> list[str]:
+    """The files of a report folder volcal wrote (:func:`volcal.io.folders.claim_folder`).
+
+    A report folder has no manifest: its files have fixed names (:data:`REPORT_FILES`)
+    and the figures are ``figures/NN-<name>.png`` (``docs/formats.md``).
+
+    Parameters
+    ----------
+    folder : str or Path
+        A report folder.
+
+    Returns
+    -------
+    list of str
+        Relative paths present in the folder that volcal writes.
+    """
+    folder = Path(folder)
+    out = [n for n in REPORT_FILES if (folder / n).is_file()]
+    if (folder / "figures").is_dir():
+        out += [f"figures/{p.name}" for p in (folder / "figures").iterdir()
+                if p.is_file() and re.fullmatch(r"\d{2,}-.+\.png", p.name)]
+    return out

@@ -17,14 +17,13 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from volcal.io.folders import BACKUP_FOLDER, backup_name  # one definition (volcal.io)
+
 if TYPE_CHECKING:  # annotations only: format imports this module (backup_session_files)
     from volcal.session.format import Session
 
 __all__ = ["BACKUP_FOLDER", "backup_files", "backup_name", "backup_session_files", "measured_ids",
            "readings_digest", "simulated_provenance"]
-
-BACKUP_FOLDER = "backup"
-"""Folder of a session where replaced files are kept, one sub-folder per replacement."""
 
 
 def readings_digest(session: Session) -> str:
@@ -95,27 +94,6 @@ def simulated_provenance(session: Session, **details: Any) -> dict[str, Any]:
     out.update(details)
     out["readings_sha256"] = readings_digest(session)
     return out
-
-
-def backup_name(folder: str | Path) -> str:
-    """A new backup sub-folder name, ``backup/<UTC time>``, not yet used in ``folder``.
-
-    Parameters
-    ----------
-    folder : str or Path
-        Session folder.
-
-    Returns
-    -------
-    str
-        Path relative to the session folder.
-    """
-    stamp = datetime.now(UTC).strftime("%Y%m%dT%H%M%SZ")
-    rel, k = f"{BACKUP_FOLDER}/{stamp}", 1
-    while (Path(folder) / rel).exists():
-        k += 1
-        rel = f"{BACKUP_FOLDER}/{stamp}-{k}"
-    return rel
 
 
 def backup_session_files(folder: Path, files: list[str], rel: str) -> list[str]:

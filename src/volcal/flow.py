@@ -594,8 +594,8 @@ class Calibration:
             ISO 230-2 edition (``'2014'``, ``'2006'``, ``'1997'``, ``'1988'``).
         budget : str, Path or Budget, optional
             Uncertainty budget (as ``volcal evaluate session --budget``): every linear
-            test's readings are referred to 20 degC with its ``[material]`` and evaluated
-            with the expanded uncertainty U of every ISO 230-2 parameter and target
+            test's readings are evaluated (the same values as without it) with the
+            expanded uncertainty U of every ISO 230-2 parameter and target
             (:func:`volcal.standards.iso230_2_uncertainty.evaluate_with_budget`), kept
             in :attr:`uncertainties`.
 
@@ -657,7 +657,7 @@ class Calibration:
             Guard band w of the guarded rule [um] (default: U of each parameter, from
             ``budget``); as ``--guard-band-um``.
         budget : str, Path or Budget, optional
-            Uncertainty budget (as ``--budget``): the readings referred to 20 degC and U
+            Uncertainty budget (as ``--budget``): U (never a changed value)
             of the toleranced ISO 230-2 parameters, the guard band of the guarded rule.
 
         Returns

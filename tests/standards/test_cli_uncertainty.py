@@ -45,7 +45,8 @@ def test_json_has_U_of_every_key_targets_and_k(files, monkeypatch, capsys):
         assert d[k] == pytest.approx(EXPECTED[k], abs=0.01), k   # template: t_m = 20 C
     assert all(t["U_um"] > 0 for t in d["targets"])
     assert d["k"] == d["uncertainty"]["parameters"]["A"]["k"] and d["k"] >= 2.0
-    assert "referred to 20 °C" in d["corrections"]["text"]
+    assert "no correction by the budget" in d["corrections"]["text"]
+    assert d["corrections"]["largest_correction_um"] == 0.0
     assert "verdict" not in d
 
 
@@ -80,7 +81,7 @@ def test_text_output_names_the_rule(files, monkeypatch, capsys):
     code, out, _ = run_volcal(monkeypatch, capsys, "evaluate", "iso230-2", str(f), "--budget",
                               str(b), "--tolerance-um", "14", "--decision-rule", "guarded")
     assert code == 0 and "decision rule: guarded" in out and "conditional" in out
-    assert "uncertainty budget" in out and "referred to 20 °C" in out
+    assert "uncertainty budget" in out and "no correction by the budget" in out
     code, out, _ = run_volcal(monkeypatch, capsys, "evaluate", "iso230-2", str(f),
                               "--tolerance-um", "14")
     assert code == 0 and "decision rule: simple" in out and "pass" in out

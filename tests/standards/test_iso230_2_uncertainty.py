@@ -19,7 +19,7 @@ from test_iso230_2 import MU_DN, MU_UP, S_DN, S_UP, TARGETS, cycle
 from volcal.standards.iso230_2 import evaluate
 from volcal.standards.iso230_2_uncertainty import evaluate_with_budget, iso230_2_uncertainty
 from volcal.standards.positioning_data import PositioningData
-from volcal.uncertainty.budget import TEMPLATE, parse_budget
+from volcal.uncertainty.budget import TEMPLATE, BudgetWarning, parse_budget
 
 P = math.erf(2 / math.sqrt(2))    # 95.45 %: k = 2 for infinite dof
 N = 5
@@ -131,16 +131,19 @@ def test_steel_two_kelvin_above_20_the_coefficient_dominates():
     res, u, corr = evaluate_with_budget(data, parse_budget(doc))
     share = {c.label: c.share for c in u.reading.components}
     assert 0.85 < share["expansion coefficient"] < 0.92
-    # the readings were referred to 20 degC: -L alpha (t - 20) / (1 + ...) at 1 m = -23 um
-    assert corr["material_applied"] and "referred to 20 °C" in corr["text"]
-    assert res.targets.mean[-1] - res.targets.mean[0] == pytest.approx(
-        -1e6 * 23e-6 / (1 + 23e-6) + 1e6 * (100e-6) ** 2 / 2, rel=1e-9)
-    # already referred (the laser did it): no correction, only its uncertainty
+    # the budget corrects no value (issue 25): the readings' parameters as without it
+    assert not corr["material_applied"] and corr["largest_correction_um"] == 0.0
+    assert "no correction by the budget" in corr["text"]
+    assert res.targets.mean == pytest.approx(np.zeros(5), abs=0.0)
+    plain = evaluate(data.targets_mm, data.run, data.direction, data.deviation_um,
+                     **data.evaluate_kwargs())
+    assert all(getattr(res, k) == getattr(plain, k) for k in ("A", "E", "M", "R", "B"))
+    # the retired [material] referred_to_20c: a warning, never a change of value or U
     doc["material"]["referred_to_20c"] = True
-    doc["setup"]["u_misalignment_urad"] = 0.0
-    res2, u2, corr2 = evaluate_with_budget(data, parse_budget(doc))
+    with pytest.warns(BudgetWarning, match="referred_to_20c = true is retired"):
+        res2, u2, corr2 = evaluate_with_budget(data, parse_budget(doc))
     assert not corr2["material_applied"] and res2.E == 0.0
-    assert u2.reading.U == pytest.approx(u.reading.U, rel=0.01)
+    assert u2.reading.U == u.reading.U
 
 
 def test_mu_values_follow_the_data():

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 from test_iso230_2_uncertainty import budget
 
+from volcal.environment.apply import refer_measurement
 from volcal.session.format import Measurement
 from volcal.standards.iso230_6_uncertainty import evaluate_diagonal_with_budget
 
@@ -27,11 +28,17 @@ def test_single_run_systematic_terms_by_the_difference_of_lengths():
     assert res.E_D == pytest.approx(4.0)
     assert u.E_D.U == pytest.approx(2 * 600 * 0.5e-3, rel=1e-9)       # k = 2
     assert any("no repeatability" in n for n in u.notes)
-    # material at 22 C, steel: the readings are referred to 20 C first
+    # a budget with the material at 22 C corrects nothing (issue 25): E_D as without it
     res2, _ = evaluate_diagonal_with_budget(diagonal(dev, s=s), budget(
         material__temperature_c=22.0))
+    assert res2.E_D == 4.0
+    # the session refers it: compensated readings, referred_to_20c = false, steel at 22 C
+    m = diagonal(dev, s=s)
+    m.meta.update(referred_to_20c=False,
+                  environment={"material_temperature_c": 22.0, "material": "steel"})
+    res3, _ = evaluate_diagonal_with_budget(refer_measurement(m), budget())
     meas = s + dev * 1e-3                # the measured length [mm], L / (1 + alpha dt)
-    assert res2.E_D == pytest.approx(np.ptp(dev - meas * 23e-3 / (1 + 23e-6)), abs=1e-9)
+    assert res3.E_D == pytest.approx(np.ptp(dev - meas * 23e-3 / (1 + 23e-6)), abs=1e-9)
 
 
 def test_bidirectional_diagonal_U_is_that_of_E():

@@ -4,9 +4,11 @@ second-order material term included.
 
 Exact model of one reading at L from the datum: the machine moves X; the laser counts the
 optical path X cos(theta) in the true air with the true wavelength; volcal divides by n of
-the *measured* air, refers to 20 degC with the *nominal* alpha and the *measured* material
-temperature, and adds the cosine expectation L u_theta^2 / 2. The error of the corrected
-reading against X referred to 20 degC with the true alpha and temperature is sampled.
+the *measured* air; the material is at its nominal 20 degC (nothing to refer, the scale's
+temperature and alpha uncertain). The cosine error is not corrected (the budget never
+changes a value): it is an uncorrected one-sided bias, and the linear u is its root mean
+square about zero. The error of the reading against X referred to 20 degC with the true
+alpha and temperature is sampled.
 """
 
 import numpy as np
@@ -14,7 +16,7 @@ import pytest
 
 from volcal.environment.refractive import refractive_index
 from volcal.uncertainty.budget import parse_budget
-from volcal.uncertainty.laser import LaserModel, expected_correction_um
+from volcal.uncertainty.laser import COSINE_RMS_FACTOR, LaserModel
 from volcal.uncertainty.propagation import Propagator
 
 DOC = {
@@ -52,9 +54,8 @@ def monte_carlo(budget, length_mm, n=200_000, seed=1):
     x20 = length_mm                                 # the measurand, referred to 20 degC
     x = x20 * (1 + a_true * (tm_true - 20))         # the actual travel at tm_true
     reading = x * np.cos(theta) * n_true / n_meas / (1 + dlam)
-    # volcal's corrections: to 20 degC with the nominal values, plus the cosine expectation
-    dev = (reading - x20) * 1e3
-    corrected = dev + expected_correction_um(x20, dev, budget)
+    # no correction by the budget: the reading's deviation as it is
+    corrected = (reading - x20) * 1e3
     return x20 * 1e3 - (x20 * 1e3 + corrected)      # correction still needed [um]
 
 
@@ -64,19 +65,23 @@ def test_linear_propagation_matches_monte_carlo():
     prop = Propagator()
     e = prop.estimate(LaserModel(b, prop).length_term(L))
     mc = monte_carlo(b, L)
-    # mean: the cosine bias (L u^2 / 2 = 0.5 um) is corrected; nothing systematic remains
-    assert abs(np.mean(mc) - e.value) < 0.01
-    assert np.std(mc) == pytest.approx(e.u, rel=0.02)
-    # GUM S1 7.9: the 95.45 % interval of the MC distribution vs +-U; the one-sided cosine
-    # term skews it, so the probability inside +-U is compared, not the end points
-    inside = np.mean(np.abs(mc - e.value) <= e.U)
-    assert 0.93 <= inside <= 0.97                   # 0.944 with this seed
+    # value: 0 (nothing corrected); the MC keeps the cosine bias, its mean is the
+    # correction still needed, L u^2 / 2 = 0.5 um (the reading is short by L theta^2 / 2)
+    assert e.value == 0.0
+    assert np.mean(mc) == pytest.approx(0.5, abs=0.01)
+    # the linear u is the root mean square of the error about zero (bias and spread)
+    assert np.sqrt(np.mean(mc**2)) == pytest.approx(e.u, rel=0.02)
+    # GUM S1 7.9: the probability of the MC errors inside +-U (one-sided cosine term: the
+    # probability, not the end points)
+    inside = np.mean(np.abs(mc) <= e.U)
+    assert 0.93 <= inside <= 0.98
     # the second-order material term and the cosine term are both needed: without them
     # the linear u is 20 % short of the Monte Carlo spread
     comp = {c.label: c.u for c in e.components}
-    assert comp["misalignment (cosine error)"] == pytest.approx(1e6 * 1e-6 / np.sqrt(2))
+    assert comp["misalignment (cosine error)"] == pytest.approx(1e6 * 1e-6 * COSINE_RMS_FACTOR)
+    assert COSINE_RMS_FACTOR == pytest.approx(np.sqrt(0.25 + 0.5))  # sqrt(b^2 + u_b^2)
     assert comp["expansion coefficient × material temperature (2nd order)"] == \
         pytest.approx(1e6 * 1e-6 * 0.5)
     first = np.sqrt(e.u**2 - comp["misalignment (cosine error)"]**2
                     - comp["expansion coefficient × material temperature (2nd order)"]**2)
-    assert first < 0.8 * np.std(mc)
+    assert first < 0.8 * np.sqrt(np.mean(mc**2))

@@ -121,8 +121,8 @@ def iso230_2_cmd(
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
     edition: str = typer.Option(D.EDITION, help="ISO 230-2 edition: 2014, 2006, 1997, 1988."),
     budget: Path | None = typer.Option(None, help="Uncertainty budget (TOML, `volcal budget "
-                                       "--template`): U of every parameter and target, "
-                                       "readings referred to 20 C with [material]."),
+                                       "--template`): U of every parameter and target "
+                                       "(the values are the readings' own)."),
     tolerance_um: str | None = typer.Option(
         None, help="Tolerance [um]: a number (on the accuracy A) or A=..,E=..,R=.. per "
         "ISO 230-2 parameter; prints a verdict."),
@@ -238,7 +238,7 @@ def iso230_6_cmd(
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
     budget: Path | None = typer.Option(None, help="Uncertainty budget (TOML): U of E_D "
                                        "(and of the ISO 230-2 parameters of bidirectional "
-                                       "diagonals), readings referred to 20 C first."),
+                                       "diagonals); values unchanged."),
 ) -> None:
     """Diagonal displacement tests of a session (ISO 230-6), each diagonal."""
     from volcal.errors import VolcalInputError
@@ -334,9 +334,8 @@ def session_cmd(
     guard_band_um: float | None = typer.Option(None, help="Guard band w of the guarded "
                                                "rule [um]."),
     budget: Path | None = typer.Option(None, help="Uncertainty budget (TOML): U of every "
-                                       "ISO 230-2 parameter of every linear test, readings "
-                                       "referred to 20 C with [material]; the guard band "
-                                       "of the guarded rule."),
+                                       "ISO 230-2 parameter of every linear test (values "
+                                       "unchanged); the guard band of the guarded rule."),
 ) -> None:
     """ISO 230-2 for every linear measurement with runs and directions; ELv (seed 002)."""
     from volcal.errors import VolcalInputError
@@ -390,6 +389,10 @@ def session_cmd(
         if ev.volumetric is not None:
             out["volumetric"] = ev.volumetric.to_dict()
             out.update(ev.model_indices or {})
+        from volcal.environment.apply import thermal_record
+
+        for k in results:  # how each test's readings were compensated and referred
+            out["measurements"][k]["thermal"] = thermal_record(s.get(k))
         for k, u in uncs.items():
             entry = out["measurements"][k]
             entry.update(u.to_dict())
@@ -419,6 +422,11 @@ def session_cmd(
             row += [f"{uncs[k].parameters[p].U:.3f}" for p in ("A", "E", "R")]
         t.add_row(*row)
     print_table(console, t)
+    from volcal.environment.apply import thermal_record
+
+    for k in results:
+        console.print(f"readings {k}: {escape(thermal_record(s.get(k))['text'])}",
+                      highlight=False)
     if corr_text:
         console.print(f"note: {escape(corr_text)}; U at 95 % (k from the effective degrees "
                       "of freedom)", highlight=False)

@@ -55,8 +55,7 @@ def report_cmd(
                                       "T; w = U from --budget, or --guard-band-um)."),
     guard_band_um: float | None = typer.Option(None, help="Guard band w of the guarded "
                                                "rule [um]."),
-    budget: Path | None = typer.Option(None, help="Uncertainty budget (TOML): readings "
-                                       "referred to 20 C with [material], U of every ISO "
+    budget: Path | None = typer.Option(None, help="Uncertainty budget (TOML): U of every ISO "
                                        "230-2 parameter and target (tables, ± U error bars "
                                        "in the plots), the budget tables; the guard band of "
                                        "the guarded rule; the certificate's U."),

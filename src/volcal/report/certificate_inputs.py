@@ -19,18 +19,18 @@ class EvaluatedWithBudget:
     Parameters
     ----------
     res : Iso2302Result or DiagonalResult
-        Results of the readings referred to 20 C by the budget.
+        Results of the readings (the same values as without a budget).
     unc : object with ``to_dict()``
         Their uncertainties (``U_<key>``, ``k``).
     corrections : dict or None
-        What the budget corrected (ISO 230-2 tests).
+        What the budget did (ISO 230-2 tests: nothing corrected, the readings' record).
     """
 
     def __init__(self, res: Any, unc: Any, corrections: Any) -> None:
         self.res, self.unc, self.corrections = res, unc, corrections
 
     def to_dict(self) -> dict:
-        """Parameters of the readings referred to 20 C, ``U_<key>``, ``k``, ``corrections``."""
+        """Parameters of the readings, ``U_<key>``, ``k``, ``corrections``."""
         out = {**self.res.to_dict(), **self.unc.to_dict()}
         if self.corrections is not None:
             out["corrections"] = self.corrections
@@ -40,8 +40,9 @@ class EvaluatedWithBudget:
 def session_uncertainties(session: Any, budget: Any, edition: str) -> dict[str, Any]:
     """ISO 230-2 (ISO 230-6) of every linear test (diagonal) of a session with a budget.
 
-    The values are those of the readings referred to 20 C by the budget (the ones the U
-    belong to), so that the certificate states them together.
+    The values are those of the readings as the session refers them to 20 C (the same as
+    without a budget: the budget gives the U only), each session at its own recorded
+    environment (an as-left session at its own material temperature).
 
     Parameters
     ----------

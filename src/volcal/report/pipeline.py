@@ -223,9 +223,9 @@ def collect_inputs(session: Session, result: Any = None, truth: MachineErrors | 
     model_label : str
         How warnings name the model in use.
     budget : Budget, optional
-        Uncertainty budget (:func:`volcal.uncertainty.budget.read_budget`): the linear
-        tests' readings are referred to 20 degC with it and every ISO 230-2 parameter and
-        target carries its U (:func:`volcal.standards.iso230_2_uncertainty.
+        Uncertainty budget (:func:`volcal.uncertainty.budget.read_budget`): every
+        ISO 230-2 parameter and target of the linear tests carries its U (the values are
+        those without it) (:func:`volcal.standards.iso230_2_uncertainty.
         evaluate_with_budget`); likewise every diagonal's E_D
         (:func:`volcal.standards.iso230_6_uncertainty.evaluate_diagonal_with_budget`).
     model_uncertainty : bool

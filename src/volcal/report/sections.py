@@ -147,7 +147,36 @@ def measurements_section(inp: ReportInputs) -> Section:
         "flat mirror on the tool, so the straightness errors enter the readings.")
     sec.tables.append(Table(["id", "kind", "target", "beam direction", "tool offset [mm]",
                              "readings", "runs", "notes"], rows, "Measurements"))
+    thermal = _thermal_rows(inp.session)
+    if thermal:
+        sec.tables.append(Table(["id", "compensated by", "referred to 20 °C by"], thermal,
+                                "How the readings were compensated and referred to 20 °C",
+                                "Referred once where the session is read, from its record "
+                                "(readings, referred_to_20c, environment: docs/formats.md); "
+                                "an uncertainty budget never changes a value."))
     return sec
+
+
+def _thermal_rows(session: Any) -> list[list[str]]:
+    """Per laser measurement: who compensated its readings and who referred them."""
+    from volcal.environment.apply import REFERRED_KINDS, thermal_record
+
+    rows = []
+    for m in session.measurements:
+        if m.kind not in (*REFERRED_KINDS, "multilateration"):
+            continue
+        r = thermal_record(m)
+        comp = ("volcal from raw readings" if r["compensated_by"] != "laser software"
+                else "the laser software")
+        if r["referred_by"] == "volcal":
+            ref = (f"volcal at t = {float(r['material_temperature_c']):g} °C "
+                   f"(alpha = {float(r['expansion_ppm_per_k']):g} ppm/K)")
+        elif r["referred_by"] == "laser software":
+            ref = "the laser software"
+        else:
+            ref = "not stated (readings taken as they are)"
+        rows.append([m.id, comp, ref])
+    return rows
 
 
 def diagonal_section(inp: ReportInputs) -> Section | None:
@@ -186,8 +215,9 @@ def diagonal_section(inp: ReportInputs) -> Section | None:
             sec.warnings.append(r.note())
     if duncs:
         sec.paragraphs.append(
-            "U(E_D): expanded uncertainty (95 %) of E_D from the uncertainty budget, the "
-            "readings referred to 20 °C first (docs/uncertainty.md, ISO 230-6 diagonals).")
+            "U(E_D): expanded uncertainty (95 %) of E_D from the uncertainty budget, of "
+            "the readings as the session refers them (docs/uncertainty.md, ISO 230-6 "
+            "diagonals).")
     worst = largest_e_d(inp.iso230_6.values())
     sec.tables.append(Table(["measurement", "diagonal", "length [mm]", "points", "E_D [µm]",
                              "max |deviation| [µm]"] + (["U(E_D) [µm]"] if duncs else []),
@@ -587,7 +617,7 @@ def positioning_section(inp: ReportInputs) -> Section | None:
         mc, bars = _corrected_with_bars(m, inp, u)
         sec.figures.append(FigureItem(
             linear_deviation_plot(mc, uncertainty=bars), f"{m.id}: positional deviation of "
-            "every run (referred to 20 °C with the uncertainty budget) with the mean ± 2 s "
+            "every run with the mean ± 2 s "
             "envelopes of each approach direction (ISO 230-2, Figure 1) and the mean "
             "bidirectional deviation of each target with its expanded uncertainty ± U "
             "(95 %, error bars).", f"{m.id}-deviation"))
@@ -611,7 +641,8 @@ def _positioning_uncertainty(sec: Section, inp: ReportInputs, uncs: Mapping[str,
         ["measurement", *(f"U({k}) [µm]" for k in ("A", "E", "M", "R", "B", "B̄")), "k (A)"],
         rows, "Expanded uncertainty of the ISO 230-2 parameters (95 %)",
         "U = k u, k from the effective degrees of freedom (Welch-Satterthwaite); the "
-        "readings were referred to 20 °C with the uncertainty budget before evaluation"
+        "budget gives uncertainties only: the values are those of the readings as the "
+        "session refers them (section Measurements)"
         + (f" ({inp.corrections})." if inp.corrections else ".")
         + " The budget tables and the equations: docs/uncertainty.md."))
     for mid, res in (inp.iso230_2 or {}).items():
@@ -628,16 +659,6 @@ def _positioning_uncertainty(sec: Section, inp: ReportInputs, uncs: Mapping[str,
 
 
 def _corrected_with_bars(m: Any, inp: ReportInputs, u: Any) -> tuple[Any, Any]:
-    """The test's readings referred to 20 degC by the budget, and its ± U error bars."""
-    import copy
-
-    from volcal.standards.positioning_data import from_measurement
-    from volcal.uncertainty.laser import expected_correction_um
-
-    d = from_measurement(m, inp.session.path)
-    length = np.asarray(d.targets_mm, dtype=float) - u.datum_mm
-    mc = copy.copy(m)
-    mc.deviation = np.asarray(m.deviation, dtype=float) + expected_correction_um(
-        length, d.deviation_um, inp.budget)
+    """The test's readings (as the session refers them) and its ± U error bars."""
     t = (inp.iso230_2 or {})[m.id].targets
-    return mc, (t.target_mm, [e.value for e in u.targets], [e.U for e in u.targets])
+    return m, (t.target_mm, [e.value for e in u.targets], [e.U for e in u.targets])

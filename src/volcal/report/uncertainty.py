@@ -83,7 +83,8 @@ def uncertainty_section(inp: Any) -> Section | None:
             "misalignment (cosine error, one-sided), dead path, and the repeatability and "
             "reversal of the readings. Expanded uncertainties U are stated at about 95 % "
             "(k from the effective degrees of freedom)."
-            + (f" Correction: {inp.corrections}." if getattr(inp, "corrections", "") else ""))
+            + (f" {inp.corrections[:1].upper()}{inp.corrections[1:]}."
+               if getattr(inp, "corrections", "") else ""))
         for mid, u in uncs.items():
             rd = u.reading
             rows = [[c.label, c.distribution, "" if c.u_input is None else f"{c.u_input:.3g}",

@@ -58,8 +58,8 @@ def verdicts(tolerance: Tolerance, session: Session | None, errors: MachineError
     tolerance : Tolerance
         Volumetric and/or per-axis tolerances [um] (``A`` per axis, other ISO 230-2
         parameters in ``tolerance.parameters``), the decision rule and guard band; with
-        ``tolerance.budget`` (:func:`volcal.uncertainty.budget.read_budget`) the readings
-        are referred to 20 degC with it and U of the per-axis parameters is computed.
+        ``tolerance.budget`` (:func:`volcal.uncertainty.budget.read_budget`) U of the
+        per-axis parameters is computed (their values are those without it).
     session : Session, optional
         Measured session (its linear tests give the ISO 230-2 parameters).
     errors : MachineErrors, optional

@@ -510,6 +510,23 @@ DEVIATION_ABS_MAX_UM = 10_000.0
 POSITION_ABS_MAX_MM = 1.0e6
 """Largest plausible |position| [mm] (1 km): a guard against absurd values such as 1e308."""
 
+def _check_environment_columns(t: Any) -> None:
+    """Refuse a per-reading environment value outside its range, naming row and column.
+
+    The ranges are those of the environment table
+    (:data:`volcal.environment.limits.ENVIRONMENT_LIMITS`).
+    """
+    from volcal.environment.limits import ENVIRONMENT_LIMITS, range_message
+
+    for name, lim in ENVIRONMENT_LIMITS.items():
+        if not t.has(name):
+            continue
+        v = np.asarray(t[name], dtype=float)
+        bad = np.flatnonzero(~((v >= lim.lo) & (v <= lim.hi)))
+        if bad.size:
+            raise t.error(range_message(float(v[bad[0]]), name, lim), int(bad[0]), name)
+
+
 SPREADSHEET: dict[str, Any] = {"delimiters": ",;\t", "decimal_comma": True}
 """Options of the session CSV readers shared with the laser-export reader
 (:func:`volcal.importer.laser_csv.laser_spec`): the header line decides the delimiter
@@ -577,6 +594,7 @@ class _Rows:
 def _read_rows(path: str | Path, value_column: str = "deviation_um") -> _Rows:
     spec = ANGULAR_TABLE if value_column == "angle_urad" else MEASUREMENT_TABLE
     t = read_table(path, spec)
+    _check_environment_columns(t)
     pos = np.stack([t["x_mm"], t["y_mm"], t["z_mm"]], axis=1)
     dev = t[value_column]
     missed = t.marked[value_column].copy()
@@ -666,6 +684,7 @@ def read_measurement_csv(path: str | Path, require_deviation: bool = True,
     """
     if value_column == MULTILATERATION_COLUMN:
         t = read_table(path, MULTILATERATION_TABLE)
+        _check_environment_columns(t)
         pos = np.stack([t["x_mm"], t["y_mm"], t["z_mm"]], axis=1)
         dev: NDArray[np.float64] | None = t[value_column]
         missing = np.isnan(dev)
@@ -730,10 +749,9 @@ def read_session(folder: str | Path, require_deviation: bool = True) -> Session:
     for i, e in enumerate(raw):
         m = _read_entry(e, i, folder, toml_path, seen, require_deviation, travel, notes,
                         vertical)
-        if m.meta.get("readings") == "raw" and m.deviation is not None:
-            from volcal.environment.apply import compensate_measurement
+        from volcal.environment.apply import prepare_readings
 
-            m = compensate_measurement(m, f"{toml_path} [{m.id}]")
+        m = prepare_readings(m, toml_path, f"measurements[{i}]")  # the one referral to 20 C
         (unmeasured if require_deviation and m.deviation is None else meas).append(m)
     if require_deviation and not meas:
         raise _err(f"no readings yet: the deviation_um column of all {len(unmeasured)} "

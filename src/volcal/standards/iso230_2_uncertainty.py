@@ -53,7 +53,8 @@ from volcal.uncertainty.budget import Budget
 from volcal.uncertainty.laser import LaserModel
 from volcal.uncertainty.propagation import Estimate, Propagator
 
-__all__ = ["Iso2302Uncertainty", "datum_of", "evaluate_with_budget", "iso230_2_uncertainty"]
+__all__ = ["Iso2302Uncertainty", "budget_for", "datum_of", "evaluate_with_budget",
+           "iso230_2_uncertainty"]
 
 
 @dataclass
@@ -135,8 +136,7 @@ def iso230_2_uncertainty(res: Any, budget: Budget, datum_mm: float | None = None
     Parameters
     ----------
     res : Iso2302Result
-        The evaluation (of readings already corrected, see
-        :func:`volcal.uncertainty.laser.expected_correction_um`).
+        The evaluation of the readings as the session records them.
     budget : Budget
         Instrument, environment and set-up uncertainties.
     datum_mm : float, optional
@@ -217,9 +217,55 @@ def iso230_2_uncertainty(res: Any, budget: Budget, datum_mm: float | None = None
     return Iso2302Uncertainty(params, targets, targets[far], datum, float(L[far]), notes)
 
 
+def budget_for(d: Any, budget: Budget) -> Budget:
+    """The budget at the operating point the readings record, cross-checked with them.
+
+    Parameters
+    ----------
+    d : PositioningData or Measurement
+        Readings; ``thermal`` (positioning data) or the measurement's record
+        (:func:`volcal.environment.apply.thermal_record`) when they come from a session.
+    budget : Budget
+        The budget.
+
+    Returns
+    -------
+    Budget
+        :meth:`Budget.at` the recorded operating point (the budget's values serve only
+        what the session does not record).
+
+    Warns
+    -----
+    BudgetWarning
+        The budget's retired ``[material] referred_to_20c`` disagrees with the record.
+    """
+    from volcal.uncertainty.budget import cross_check_referral
+
+    rec = _thermal_of(d)
+    what = (f"measurement {d.id!r}" if hasattr(d, "id")
+            else str(getattr(d, "file", "the readings")))
+    cross_check_referral(budget, None if rec is None else rec["referred_to_20c"], what)
+    return budget if rec is None else budget.at(rec["operating_point"])
+
+
+def _thermal_of(d: Any) -> dict[str, Any] | None:
+    """The thermal record of positioning data or of a session measurement (None: none)."""
+    if hasattr(d, "meta") and hasattr(d, "kind"):
+        from volcal.environment.apply import thermal_record
+
+        return thermal_record(d)
+    return getattr(d, "thermal", None)
+
+
 def evaluate_with_budget(d: Any, budget: Budget, edition: str = "2014"
                          ) -> tuple[Any, Iso2302Uncertainty, dict[str, Any]]:
-    """Correct a positioning test's readings, evaluate ISO 230-2 and its uncertainty.
+    """Evaluate a positioning test's readings (ISO 230-2) and their uncertainty.
+
+    The readings are evaluated as they are: referred to 20 degC (or not) as the session
+    records it, once, where the session is read
+    (:func:`volcal.environment.apply.prepare_readings`); the budget gives the
+    uncertainties only (its operating point serves the sensitivities where the session
+    records none), so every parameter has the same value with and without a budget.
 
     Parameters
     ----------
@@ -233,39 +279,39 @@ def evaluate_with_budget(d: Any, budget: Budget, edition: str = "2014"
     Returns
     -------
     res : Iso2302Result
-        Parameters of the corrected readings.
+        Parameters of the readings (the same as without a budget).
     unc : Iso2302Uncertainty
         Their uncertainty.
     corrections : dict
-        What was applied to the readings (JSON-friendly), with a sentence in ``'text'``.
+        What the readings are (JSON-friendly): nothing is applied by the budget
+        (``material_applied`` and ``cosine_expectation_applied`` false,
+        ``largest_correction_um`` 0); ``thermal``: how the readings were compensated and
+        referred; a sentence in ``'text'``.
     """
     from volcal.standards.iso230_2 import evaluate
-    from volcal.uncertainty.laser import expected_correction_um
 
-    datum = datum_of(d.targets_mm, budget)
+    b = budget_for(d, budget)
+    datum = datum_of(d.targets_mm, b)
     length = np.asarray(d.targets_mm, dtype=float) - datum
-    corr = expected_correction_um(length, d.deviation_um, budget)
     kw = d.evaluate_kwargs() if hasattr(d, "evaluate_kwargs") else {"file": d.file,
                                                                      "rows": d.rows}
-    res = evaluate(d.targets_mm, d.run, d.direction, np.asarray(d.deviation_um) + corr,
+    res = evaluate(d.targets_mm, d.run, d.direction, np.asarray(d.deviation_um, dtype=float),
                    edition, **kw)
-    unc = iso230_2_uncertainty(res, budget, datum)
-    v = budget.values
-    referred = bool(v["material.referred_to_20c"])
-    th = budget.inputs["setup.u_misalignment_urad"].u
+    unc = iso230_2_uncertainty(res, b, datum)
+    v = b.values
+    rec = _thermal_of(d)
+    th = b.inputs["setup.u_misalignment_urad"].u
     far = int(np.argmax(np.abs(length)))
-    if referred:
-        text = ("readings already referred to 20 °C ([material] referred_to_20c = true): "
-                "no material correction applied")
-    else:
-        text = (f"readings referred to 20 °C before evaluation: material at "
-                f"{v['material.temperature_c']:g} °C, alpha = "
-                f"{v['material.expansion_ppm_per_k']:g} ppm/K (L / (1 + alpha (t - 20)))")
-    text += (f"; cosine-error expectation L u_theta^2 / 2 added (u_theta = {th:g} urad); "
-             f"correction at {length[far]:g} mm from the datum: {corr[far]:+.4f} um")
-    corrections = {"material_applied": not referred,
+    text = ("no correction by the budget (it gives uncertainties only; the readings are "
+            "evaluated as the session refers them to 20 °C): its operating point serves the "
+            "sensitivities where the session records none; the cosine error (u_theta = "
+            f"{th:g} urad) is an uncorrected bias in U"
+            f"; correction at {length[far]:g} mm from the datum: {0.0:+.4f} um")
+    corrections = {"material_applied": False,
                    "material_temperature_c": v["material.temperature_c"],
                    "expansion_ppm_per_k": v["material.expansion_ppm_per_k"],
-                   "cosine_expectation_applied": th > 0, "datum_mm": datum,
-                   "largest_correction_um": float(corr[far]), "text": text}
+                   "cosine_expectation_applied": False, "datum_mm": datum,
+                   "largest_correction_um": 0.0, "text": text}
+    if rec is not None:
+        corrections["thermal"] = {k: rec[k] for k in rec if k != "operating_point"}
     return res, unc, corrections

@@ -11,13 +11,13 @@ with the distance from the start point as ``L`` (:mod:`volcal.uncertainty.laser`
   reading, plus the dead-path terms; one run gives no repeatability, and the output says
   so.
 
-The readings are referred to 20 degC with the budget's ``[material]`` first (one
-expansion coefficient for the machine along the diagonal).
+The readings are evaluated as the session records them (referred to 20 degC where it is
+read, :func:`volcal.environment.apply.prepare_readings`): the budget corrects no value,
+its ``[material]`` serves the sensitivities where the measurement records none.
 """
 
 from __future__ import annotations
 
-import copy
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -70,19 +70,19 @@ def evaluate_diagonal_with_budget(meas: Any, budget: Budget, edition: str = "201
     Returns
     -------
     result : DiagonalResult
-        Of the corrected readings.
+        Of the readings (the same as without a budget).
     unc : DiagonalUncertainty
     """
+    from volcal.standards.iso230_2_uncertainty import budget_for
     from volcal.standards.iso230_6 import evaluate_diagonal
-    from volcal.uncertainty.laser import LaserModel, expected_correction_um
+    from volcal.uncertainty.laser import LaserModel
     from volcal.uncertainty.propagation import Propagator
 
     if meas.deviation is None or meas.kind != "diagonal":
         return evaluate_diagonal(meas, edition), None  # raises the reader's error
+    budget = budget_for(meas, budget)  # the session's operating point; no value corrected
     s = (meas.positions - meas.positions[0]) @ meas.beam_direction
-    dev = np.asarray(meas.deviation, dtype=float)
-    m = copy.copy(meas)
-    m.deviation = dev + expected_correction_um(s, dev, budget)
+    m = meas
     res = evaluate_diagonal(m, edition)
     notes = list(budget.notes) + ["datum: the start point of the diagonal"]
     if res.iso230_2 is not None:

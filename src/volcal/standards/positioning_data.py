@@ -54,6 +54,10 @@ class PositioningData:
         session measurement CSV), named in error messages.
     notes : list of str
         What the reader skipped (missed captures, with their rows).
+    thermal : dict, optional
+        How the readings were compensated and referred to 20 degC, and the environment
+        the session records (:func:`volcal.environment.apply.thermal_record`); None for
+        a positioning CSV read alone.
     """
 
     targets_mm: NDArray[np.float64]
@@ -65,6 +69,7 @@ class PositioningData:
     axis: str | None = None
     target_column: str = "target_mm"
     notes: list[str] = field(default_factory=list)
+    thermal: dict[str, Any] | None = None
 
     def evaluate_kwargs(self) -> dict[str, Any]:
         """Keyword arguments of the evaluations for these readings.
@@ -148,7 +153,8 @@ def from_measurement(meas: Any, folder: str | Path | None = None) -> Positioning
     Returns
     -------
     PositioningData
-        Target = the measured axis' coordinate [mm].
+        Target = the measured axis' coordinate [mm]; ``thermal`` the measurement's
+        record of compensation and referral.
 
     Raises
     ------
@@ -166,8 +172,11 @@ def from_measurement(meas: Any, folder: str | Path | None = None) -> Positioning
         if c not in meas.columns:
             raise VolcalInputError(f"missing column '{c}': ISO 230-2 needs the run and the "
                                    "approach direction of every reading", file, 1, c)
+    from volcal.environment.apply import thermal_record
+
     axis = meas.axis
     return PositioningData(meas.positions[:, axis].copy(), np.asarray(meas.columns["run"]),
                            np.asarray(meas.columns["direction"]), np.asarray(meas.deviation),
                            np.arange(2, meas.n + 2) if getattr(meas, "rows", None) is None
-                           else np.asarray(meas.rows), file, "XYZ"[axis], f"{'xyz'[axis]}_mm")
+                           else np.asarray(meas.rows), file, "XYZ"[axis], f"{'xyz'[axis]}_mm",
+                           thermal=thermal_record(meas))

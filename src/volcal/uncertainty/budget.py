@@ -28,9 +28,10 @@ temperature_c              temperature of the machine scale [degC]
 u_temperature_k            material temperature sensor [K]
 expansion_ppm_per_k        expansion coefficient of the scale [ppm/K]
 u_expansion_ppm_per_k      its standard uncertainty [ppm/K]
-referred_to_20c            ``true`` when the readings are already referred to 20 degC
-                           (the laser applied the material correction with these
-                           values); ``false`` (default): volcal corrects them
+referred_to_20c            retired (read, never applied): whether the readings are
+                           referred to 20 degC is the measurement's ``referred_to_20c``
+                           in ``session.toml``; a value here is cross-checked against
+                           it with a warning (:func:`cross_check_referral`)
 ``[setup]``
 u_misalignment_urad        beam misalignment angle [urad] (cosine error)
 dead_path_mm               laser to the reflector's datum position [mm]
@@ -66,11 +67,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from volcal.environment.limits import ENVIRONMENT_LIMITS, Limit, range_message
 from volcal.environment.refractive import FORMULAS, HENE_VACUUM_WAVELENGTH_NM
 from volcal.errors import VolcalInputError
 
-__all__ = ["DISTRIBUTIONS", "OPTIC_KEYS", "Budget", "Input", "parse_budget", "read_budget",
-           "template_text"]
+__all__ = ["DISTRIBUTIONS", "OPERATING_KEYS", "OPTIC_KEYS", "Budget", "BudgetWarning", "Input",
+           "cross_check_referral", "parse_budget", "read_budget", "template_text"]
 
 DISTRIBUTIONS: tuple[str, ...] = ("normal", "rectangular", "triangular", "arcsine")
 
@@ -89,19 +91,22 @@ class _Key:
     distribution: str = "normal"  # of a defaulted u (a data sheet's +-a: rectangular)
 
 
+def _env(key: str, default: Any = _REQUIRED) -> _Key:
+    """An operating-point key with the range and hint of ``ENVIRONMENT_LIMITS[key]``."""
+    lim = ENVIRONMENT_LIMITS[key]
+    return _Key("value", default, lim.unit, lim.lo, lim.hi, lim.hint)
+
+
 #: Keys of every section: kind, default, unit, range of validity.
 SCHEMA: dict[str, dict[str, _Key]] = {
     "laser": {
         "u_wavelength_ppm": _Key("u", _REQUIRED, "ppm", hi=100.0),
-        "wavelength_nm": _Key("value", HENE_VACUUM_WAVELENGTH_NM, "nm", 300.0, 1700.0),
+        "wavelength_nm": _env("wavelength_nm", HENE_VACUUM_WAVELENGTH_NM),
     },
     "air": {
-        "temperature_c": _Key("value", _REQUIRED, "degC", -40.0, 100.0,
-                              "degrees Celsius, not kelvin"),
-        "pressure_pa": _Key("value", _REQUIRED, "Pa", 10e3, 140e3,
-                            "pascal: 101325, not 1013.25 hPa or 101.3 kPa"),
-        "humidity_pct": _Key("value", _REQUIRED, "%", 0.0, 100.0,
-                             "percent: 50, not 0.5"),
+        "temperature_c": _env("air_temperature_c"),
+        "pressure_pa": _env("air_pressure_pa"),
+        "humidity_pct": _env("humidity_pct"),
         "u_temperature_k": _Key("u", _REQUIRED, "K", hi=20.0),
         "u_pressure_pa": _Key("u", _REQUIRED, "Pa", hi=20e3),
         "u_humidity_pct": _Key("u", _REQUIRED, "%", hi=100.0),
@@ -109,16 +114,14 @@ SCHEMA: dict[str, dict[str, _Key]] = {
         "change_pressure_pa": _Key("u", None, "Pa", hi=20e3),
         "change_humidity_pct": _Key("u", None, "%", hi=100.0),
         "formula": _Key("choice", "ciddor", ""),
-        "co2_ppm": _Key("value", 450.0, "umol/mol", 0.0, 2000.0),
+        "co2_ppm": _env("co2_ppm", 450.0),
     },
     "material": {
-        "temperature_c": _Key("value", _REQUIRED, "degC", -40.0, 100.0,
-                              "degrees Celsius, not kelvin"),
+        "temperature_c": _env("material_temperature_c"),
         "u_temperature_k": _Key("u", _REQUIRED, "K", hi=20.0),
-        "expansion_ppm_per_k": _Key("value", _REQUIRED, "ppm/K", -5.0, 50.0,
-                                    "ppm/K: 11.5 for steel, not 1.15e-5"),
+        "expansion_ppm_per_k": _env("expansion_ppm_per_k"),
         "u_expansion_ppm_per_k": _Key("u", _REQUIRED, "ppm/K", hi=50.0),
-        "referred_to_20c": _Key("bool", False, ""),
+        "referred_to_20c": _Key("bool", None, ""),  # retired: cross-checked, never applied
     },
     "setup": {
         "u_misalignment_urad": _Key("u", _REQUIRED, "urad", hi=50e3),
@@ -217,6 +220,84 @@ class Budget:
             return self.inputs[key]
         return self.values[key]
 
+    def at(self, operating: dict[str, float] | None) -> Budget:
+        """The budget at the operating point a session records (the sensitivities only).
+
+        Parameters
+        ----------
+        operating : dict of str to float, optional
+            Values recorded by the measurement, by environment key (``air_temperature_c``
+            [degC], ``air_pressure_pa`` [Pa], ``humidity_pct`` [%], ``wavelength_nm``
+            [nm], ``co2_ppm`` [umol/mol], ``material_temperature_c`` [degC],
+            ``expansion_ppm_per_k`` [ppm/K]); keys absent keep the budget's value.
+
+        Returns
+        -------
+        Budget
+            A copy whose operating point is the recorded one where there is one (the
+            standard uncertainties are the budget's), with a note naming what the
+            session gave; ``self`` when nothing is recorded.
+        """
+        new = {OPERATING_KEYS[k]: float(v) for k, v in (operating or {}).items()
+               if k in OPERATING_KEYS and v is not None}
+        if not new:
+            return self
+        import dataclasses
+
+        taken = ", ".join(f"{k} = {v:g}" for k, v in new.items())
+        return dataclasses.replace(
+            self, values={**self.values, **new},
+            notes=[*self.notes, f"operating point from the session: {taken} (the budget's "
+                   "serve only what the session does not record)"])
+
+
+#: A measurement's environment key -> the budget's operating-point key it replaces.
+OPERATING_KEYS: dict[str, str] = {
+    "air_temperature_c": "air.temperature_c", "air_pressure_pa": "air.pressure_pa",
+    "humidity_pct": "air.humidity_pct", "wavelength_nm": "laser.wavelength_nm",
+    "co2_ppm": "air.co2_ppm", "material_temperature_c": "material.temperature_c",
+    "expansion_ppm_per_k": "material.expansion_ppm_per_k",
+}
+
+
+class BudgetWarning(UserWarning):
+    """A budget that disagrees with the session it is applied to (printed on stderr)."""
+
+
+def cross_check_referral(budget: Budget, referred: bool | None, what: str) -> None:
+    """Compare the budget's retired ``[material] referred_to_20c`` with the readings' record.
+
+    Parameters
+    ----------
+    budget : Budget
+        The budget (``values['material.referred_to_20c']`` present only when the file
+        states it).
+    referred : bool or None
+        Whether the readings are referred to 20 degC (by the laser software or by
+        volcal), None when nothing is recorded (a positioning CSV, a measurement
+        without ``referred_to_20c``).
+    what : str
+        The readings (``"measurement 'lin-x'"``, a file name), for the message.
+
+    Warns
+    -----
+    BudgetWarning
+        The budget states the key and it disagrees with the record, or nothing is
+        recorded: the budget's key is never applied.
+    """
+    stated = budget.values.get("material.referred_to_20c")
+    if stated is None or stated == referred:
+        return
+    import warnings
+
+    src = budget.file or "the budget"
+    rec = ("say nothing about it (taken as they are)" if referred is None else
+           "are referred to 20 °C" if referred else "are not referred to 20 °C")
+    warnings.warn(f"{src}: [material] referred_to_20c = {str(stated).lower()} is retired and "
+                  f"not applied: the readings of {what} {rec}; state referred_to_20c per "
+                  "measurement in session.toml (docs/uncertainty.md, migration)",
+                  BudgetWarning, stacklevel=3)
+
 
 def _number(v: Any, where: str, file: str | None, k: _Key) -> float:
     if isinstance(v, bool) or not isinstance(v, int | float):
@@ -229,14 +310,8 @@ def _number(v: Any, where: str, file: str | None, k: _Key) -> float:
 
 
 def _range_error(x: float, where: str, file: str | None, k: _Key) -> VolcalInputError:
-    msg = f"{x:g} {k.unit} is outside [{k.lo:g}, {k.hi:g}] {k.unit}"
-    if where.endswith("pressure_pa") and 10.0 <= x < 10e3:
-        msg += " (hPa or kPa? give pascal: 101325)"
-    elif where.endswith("temperature_c") and x > 200.0:
-        msg += " (kelvin? give degrees Celsius: 20)"
-    elif k.hint:
-        msg += f" ({k.hint})"
-    return VolcalInputError(msg, file, None, where)
+    return VolcalInputError(range_message(x, where, Limit(k.lo, k.hi, k.unit, k.hint)), file,
+                            None, where)
 
 
 def parse_budget(doc: dict[str, Any], file: str | Path | None = None) -> Budget:
@@ -319,9 +394,10 @@ def parse_budget(doc: dict[str, Any], file: str | Path | None = None) -> Budget:
                     inputs[where] = Input(x, _dof(table, k, sec, f), _dist(table, k, sec, f))
                 else:
                     values[where] = x
-    if values["material.temperature_c"] != 20.0 and values["material.referred_to_20c"]:
-        notes.append("readings already referred to 20 °C ([material] referred_to_20c = "
-                     "true): only the uncertainty of that correction is added")
+    if "material.referred_to_20c" in values:
+        notes.append("[material] referred_to_20c is retired: whether readings are referred "
+                     "to 20 °C is a key of each measurement (session.toml); the budget's is "
+                     "only cross-checked against it and never changes a value")
     for k in ("temperature_k", "pressure_pa", "humidity_pct"):
         if f"air.change_{k}" not in inputs:
             inputs[f"air.change_{k}"] = inputs[f"air.u_{k}"]
@@ -404,7 +480,8 @@ u_wavelength_ppm_distribution = "rectangular"
 wavelength_nm = 632.9912
 
 [air]
-# Operating point: the air during the test (sensitivities of the refractive index).
+# Operating point: the air during the test (sensitivities of the refractive index), used
+# where the measurement's environment records no air.
 temperature_c = 20.0
 pressure_pa = 101325.0
 humidity_pct = 50.0
@@ -424,10 +501,14 @@ u_humidity_pct_distribution = "rectangular"
 formula = "ciddor"
 
 [material]
-# Temperature of the machine scale during the test and its expansion coefficient.
-# Readings not yet referred to 20 degC are corrected by volcal with these values
-# (L / (1 + alpha (t - 20))); set referred_to_20c = true when the laser software has
-# already applied that correction with the same values.
+# Temperature of the machine scale during the test and its expansion coefficient:
+# the operating point of the material uncertainty's sensitivities, used only for a
+# measurement whose session records none (its environment's material_temperature_c,
+# material or expansion_ppm_per_k win). The budget never corrects a reading: whether the
+# readings are referred to 20 degC is the measurement's referred_to_20c in session.toml.
+# Migration: the key referred_to_20c of this section is retired; it is still read and
+# compared with the session (a warning when they disagree), never applied. Remove it and
+# state referred_to_20c per measurement instead (docs/uncertainty.md).
 temperature_c = 20.0
 # Typical material sensor data sheet: +-0.1 K, rectangular.
 u_temperature_k = 0.06
@@ -436,7 +517,6 @@ u_temperature_k_distribution = "rectangular"
 expansion_ppm_per_k = 11.5
 u_expansion_ppm_per_k = 0.58
 u_expansion_ppm_per_k_distribution = "rectangular"
-referred_to_20c = false
 
 [setup]
 # Beam misalignment to the axis (cosine error, a one-sided bias): typical of a beam

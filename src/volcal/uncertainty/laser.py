@@ -1,12 +1,17 @@
 """Contributors of a laser length reading: the measurement model of one set-up.
 
-A compensated laser deviation at signed distance ``L`` from the datum (where the reading
-was zeroed) is corrected to the measurand by::
+A laser deviation at signed distance ``L`` from the datum (where the reading was zeroed),
+compensated for the air and referred to 20 degC as the session records it (by the laser
+software, or by volcal on reading: :func:`volcal.environment.apply.prepare_readings`),
+differs from the measurand by::
 
     Delta(L) = L [ dlambda/lambda - (dn/dt dt + dn/dp dp + dn/dRH dRH) / n ]   (laser, air)
-             - L [ alpha (t_m - 20) ]  (material, ISO 1: applied as a correction)
+             - L [ alpha (t_m - 20) ]  (material, ISO 1: the referral's uncertainty)
              + L (1 - cos theta)       (cosine error, one-sided: L theta^2 / 2)
              + d0 Delta_n              (dead path: the air's change during the test)
+
+The budget never corrects a value: every term enters the uncertainty only, so that every
+parameter has the same value with and without a budget.
 
 * The wavelength, air and material inputs are **systematic**: one uncertain number per
   measurement, shared by every reading, so that their effect is proportional to ``L``
@@ -15,10 +20,12 @@ was zeroed) is corrected to the measurand by::
   ``L |t_m - 20| u(alpha)``, plus its second-order part ``L u(alpha) u(t_m)`` (GUM H.1),
   which does not vanish at ``t_m = 20 degC``.
 * The cosine error has zero first-order sensitivity to the misalignment ``theta`` (zero
-  mean, standard uncertainty ``u_theta``); it enters as a one-sided bias: the correction
-  ``L E[theta^2] / 2 = L u_theta^2 / 2`` with standard uncertainty
-  ``L u_theta^2 / sqrt(2)`` (for a normal ``theta``, ``theta^2 / u_theta^2`` is chi-square
-  with one degree of freedom: mean 1, variance 2).
+  mean, standard uncertainty ``u_theta``); it is a one-sided bias of expectation
+  ``L u_theta^2 / 2`` and standard deviation ``L u_theta^2 / sqrt(2)`` (for a normal
+  ``theta``, ``theta^2 / u_theta^2`` is chi-square with one degree of freedom: mean 1,
+  variance 2). It is not corrected: it enters the uncertainty as an uncorrected bias,
+  with the root mean square of the error about zero as its standard uncertainty,
+  ``sqrt(b^2 + u_b^2) = L sqrt(3) u_theta^2 / 2`` (GUM F.2.4.5; ``docs/uncertainty.md``).
 * The dead path ``d0`` (laser to the reflector at the datum) is not compensated for the
   change of the air after zeroing: ``d0 Delta_n`` with ``u(Delta_n)`` from the change of
   the air during the test (``[air] change_*``). It varies with time, so every use
@@ -37,45 +44,15 @@ from __future__ import annotations
 import math
 from typing import Any
 
-import numpy as np
-from numpy.typing import ArrayLike, NDArray
-
-from volcal.environment.materials import to_20c
 from volcal.uncertainty.budget import Budget
 from volcal.uncertainty.propagation import Propagator
 from volcal.uncertainty.sensitivity import AirSensitivity, air_sensitivity
 
-__all__ = ["LaserModel", "expected_correction_um"]
+__all__ = ["COSINE_RMS_FACTOR", "LaserModel"]
 
-
-def expected_correction_um(length_mm: ArrayLike, deviation_um: ArrayLike,
-                           budget: Budget) -> NDArray[np.float64]:
-    """Correction added to the readings before evaluation [um].
-
-    Parameters
-    ----------
-    length_mm : array_like
-        Signed distance of each reading from the datum [mm].
-    deviation_um : array_like
-        Readings (compensated for the air by the laser) [um].
-    budget : Budget
-        The budget: ``[material]`` (unless ``referred_to_20c``) and the misalignment.
-
-    Returns
-    -------
-    ndarray
-        Material correction to 20 degC (``L / (1 + alpha (t - 20)) - L`` on the measured
-        length, ISO 1) plus the expectation of the cosine error ``L u_theta^2 / 2`` [um].
-    """
-    L = np.asarray(length_mm, dtype=float)
-    d = np.asarray(deviation_um, dtype=float)
-    out = np.zeros(np.broadcast(L, d).shape)
-    if not budget.values["material.referred_to_20c"]:
-        meas = L + d * 1e-3
-        out += (to_20c(meas, budget.values["material.temperature_c"],
-                       budget.values["material.expansion_ppm_per_k"]) - meas) * 1e3
-    th = budget.inputs["setup.u_misalignment_urad"].u * 1e-6
-    return out + L * 1e3 * th**2 / 2.0
+COSINE_RMS_FACTOR = math.sqrt(3.0) / 2.0
+"""Root mean square of ``theta^2 / 2`` in units of ``u_theta^2`` for a normal ``theta``:
+``sqrt(E[theta^4]) / 2 = sqrt(3) u_theta^2 / 2``."""
 
 
 class LaserModel:
@@ -116,9 +93,9 @@ class LaserModel:
         self.material = mat - float(getattr(mat, "x", mat))  # the correction is applied
         th = i["setup.u_misalignment_urad"]
         u2 = (th.u * 1e-6) ** 2
-        cos_ = prop.bias("misalignment (cosine error)", u2 / 2.0, u2 / math.sqrt(2.0),
-                         th.dof, "chi-square (1)", "-")
-        self.cosine = cos_ - float(getattr(cos_, "x", cos_))  # its expectation is applied
+        # an uncorrected one-sided bias: zero-valued, u = its root mean square about zero
+        self.cosine = prop.input("misalignment (cosine error)", 0.0, COSINE_RMS_FACTOR * u2,
+                                 th.dof, "chi-square (1)", "-")
         d0 = v["setup.dead_path_mm"] * 1e3
         ct, cp, ch = (i[f"air.change_{k}"].u for k in
                       ("temperature_k", "pressure_pa", "humidity_pct"))

@@ -120,13 +120,13 @@ def test_budget_to_certificate(tmp_path, monkeypatch, capsys):
     assert code == 0, err
     cert = json.loads((out / "certificate.json").read_text("utf-8"))
     assert cert["uncertainty"]["given"] and cert["uncertainty"]["budgets"]
-    assert "readings referred to 20 °C" in cert["uncertainty"]["statement"]
+    assert "No correction by the budget" in cert["uncertainty"]["statement"]
     st = cert["conformity"]["statements"][0]
-    # the certificate states the value the U belongs to (readings referred to 20 C)
+    # the certificate states the value the U belongs to (the readings' own, issue 25)
     assert st["value_um"] == pytest.approx(worst[0]) and st["U_um"] == pytest.approx(
         worst[1])
     assert st["verdict"] == v["before"] and cert["conformity"]["decision_rule"] == "guarded"
-    # every diagonal's E_D with its U, of the readings referred to 20 C (ISO 230-6)
+    # every diagonal's E_D with its U (ISO 230-6)
     from volcal.standards.iso230_6_uncertainty import evaluate_diagonal_with_budget
 
     diags = cert["results"]["as_found"]["diagonals"]

@@ -80,7 +80,8 @@ def test_session_budget_gives_U_of_every_linear_test(session, tmp_path, _cli):
     # 0.72 um per metre (docs/uncertainty.md), so U(E) < 2 x 0.79 x 0.8 um
     assert m["U_R"] < 1e-9 and m["k"] == pytest.approx(2.0)
     assert 0 < m["U_E"] < 2 * 0.79 * 0.8 and all(t["U_um"] >= 0 for t in m["targets"])
-    assert "referred to 20 °C" in d["corrections"]
+    assert "no correction by the budget" in d["corrections"]
+    assert m["thermal"]["referred_by"] == "not stated"  # the session says nothing
 
 
 def test_report_section_names_the_rule_and_the_guard_band(tmp_path):

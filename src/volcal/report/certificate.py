@@ -409,7 +409,11 @@ def environment_of(session: Any) -> dict[str, Any]:
         ``measurements``: one entry per measurement with its recorded quantities, each
         ``{min, max, mean, n, source}`` (source ``'readings'`` for a CSV column,
         ``'environment table'`` for a single value), plus ``material`` /
-        ``expansion_ppm_per_k`` when stated; ``summary``: per quantity the range over
+        ``expansion_ppm_per_k`` when stated, and for laser length measurements
+        ``readings``: ``compensated_by`` (``'laser software'`` or ``'volcal (raw
+        readings)'``), ``referred_by`` (``'laser software'``, ``'volcal'``, ``'not
+        stated'``) with the ``material_temperature_c`` [degC] and
+        ``expansion_ppm_per_k`` [ppm/K] volcal applied; ``summary``: per quantity the range over
         the session; ``recorded``: whether anything was recorded.
     """
     rows = []
@@ -436,6 +440,13 @@ def environment_of(session: Any) -> dict[str, Any]:
         for k in ("material", "expansion_ppm_per_k"):
             if k in env:
                 entry[k] = env[k]
+        from volcal.environment.apply import REFERRED_KINDS, thermal_record
+
+        if m.kind in (*REFERRED_KINDS, "multilateration"):
+            rec = thermal_record(m)  # how the readings were compensated and referred
+            entry["readings"] = {k: rec[k] for k in ("compensated_by", "referred_by",
+                                                     "material_temperature_c",
+                                                     "expansion_ppm_per_k")}
         if len(entry) > 1:
             rows.append(entry)
     return {"recorded": bool(summary), "summary": summary, "measurements": rows}
@@ -954,7 +965,7 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
         unc = {"given": True, "statement": "The expanded uncertainties U are stated at a "
                "coverage probability of about 95 % (coverage factor k from the effective "
                "degrees of freedom, JCGM 100:2008 G.4); the budget tables list every "
-               "contributor." + "".join(f" The results are those of the {c}." for c in corr),
+               "contributor." + "".join(f" {c[:1].upper()}{c[1:]}." for c in corr),
                "budgets": budget}
     else:
         unc = {"given": False, "statement": "No measurement-uncertainty budget given: the "

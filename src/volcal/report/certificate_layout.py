@@ -129,7 +129,7 @@ def layout(doc: dict[str, Any]) -> list[CertSection]:
                           rows=[[m["id"], m["reference"], m["title"],
                                  _applied(m["measurements"])]
                                 for m in doc["methods"]]))
-    s.blocks.append(Block("p", text="Deviations are referred to 20 °C (ISO 1). Positions "
+    s.blocks.append(Block("p", text=_referral_sentence(doc) + " Positions "
                           "in mm; deviations, their parameters and uncertainties in µm."
                           + (" Angles (angular deviations, squareness) and their "
                              "uncertainties in µrad." if any(
@@ -152,6 +152,12 @@ def layout(doc: dict[str, Any]) -> list[CertSection]:
     s.blocks.append(Block("table", columns=["state", "measurement", "air temperature [°C]",
                                             "air pressure [Pa]", "humidity [%]",
                                             "material temperature [°C]"], rows=rows))
+    how = [[_state(state), e["measurement"], *_readings_cells(e["readings"])]
+           for state, env in doc["environment"].items() if env is not None
+           for e in env["measurements"] if e.get("readings")]
+    if how:
+        s.blocks.append(Block("table", columns=["state", "measurement", "compensated by",
+                                                "referred to 20 °C by"], rows=how))
     out.append(s)
 
     s = CertSection("Measuring equipment")
@@ -415,3 +421,29 @@ def _budget_blocks(mid: str, b: dict[str, Any]) -> list[Block]:
     elif head:
         out.append(Block("p", text=f"Uncertainty budget, {mid}: {head}"))
     return out
+
+
+def _readings_cells(r: dict[str, Any]) -> list[str]:
+    """Who compensated a measurement's readings, and who referred them to 20 °C."""
+    comp = ("volcal, from raw readings" if r["compensated_by"] != "laser software"
+            else "the laser software")
+    if r["referred_by"] == "volcal":
+        ref = (f"volcal at t = {float(r['material_temperature_c']):g} °C "
+               f"(α = {float(r['expansion_ppm_per_k']):g} ppm/K)")
+    elif r["referred_by"] == "laser software":
+        ref = "the laser software"
+    else:
+        ref = "not stated (readings as given)"
+    return [comp, ref]
+
+
+def _referral_sentence(doc: dict[str, Any]) -> str:
+    """"Deviations are referred to 20 °C (ISO 1)." where true, else which are not stated."""
+    unstated = sorted({e["measurement"] for env in doc["environment"].values()
+                       if env is not None for e in env["measurements"]
+                       if (e.get("readings") or {}).get("referred_by") == "not stated"})
+    if not unstated:
+        return "Deviations are referred to 20 °C (ISO 1)."
+    return ("Deviations are referred to 20 °C (ISO 1) where the section Environment as "
+            "measured says by whom; for " + ", ".join(unstated) + " the referral to "
+            "20 °C is not stated: their readings are taken as the laser software gave them.")

@@ -185,3 +185,34 @@ def test_planned_import_takes_the_header(tmp_path):
     got = ses.get("diag-ppp")
     assert got.meta["environment"] == {"air_pressure_pa": 101200.0}
     np.testing.assert_array_equal(got.deviation, [0.0, 0.5, 1.0, 1.5])
+
+
+@pytest.mark.parametrize("switch,referred", [("Off", False), ("On", True)])
+def test_the_material_compensation_field_sets_referred_to_20c(tmp_path, switch, referred):
+    """Issue 25: the export says whether its software referred the readings to 20 C."""
+    f = tmp_path / "x.csv"
+    f.write_text(HEADER + f"Material compensation:;{switch}\n"
+                 "Expansion coefficient:;11,5;ppm/°C\n" + TABLE, encoding="utf-8")
+    s = tmp_path / "S"
+    r = _cli("import", f, "--map", MAP, "--axis", "X", "--id", "lx", "--session", s,
+             "--travel", "0:400,0:300,0:200")
+    assert r.returncode == 0, r.output
+    said = [ln for ln in r.stdout.splitlines() if ln.startswith("header:")]
+    assert f"header: line 8 'Material compensation: {switch}' -> referred_to_20c = " \
+           f"{str(referred).lower()}" in " ".join(said)
+    assert "header: line 9 'Expansion coefficient: 11,5 ppm/°C' -> " \
+           "environment.expansion_ppm_per_k = 11.5" in said
+    doc = tomllib.loads((s / "session.toml").read_text())
+    (m,) = doc["measurements"]
+    assert m["referred_to_20c"] is referred
+    assert m["environment"]["expansion_ppm_per_k"] == 11.5
+    got = read_session(s).get("lx")
+    dev = [0.0, 1.2, 2.5, 3.1, 1.9, 0.4]
+    if referred:  # taken as they are
+        assert got.deviation == pytest.approx(dev, abs=1e-9)
+    else:  # referred by volcal at 20.5 C (68.9 F), steel 11.5 ppm/K: L / (1 + alpha dt)
+        c = [0.0, 100.0, 200.0, 200.0, 100.0, 0.0]
+        want = [((ci + di * 1e-3) / (1 + 11.5e-6 * 0.5) - ci) * 1e3
+                for ci, di in zip(c, dev, strict=True)]
+        assert got.deviation == pytest.approx(want, abs=1e-9)
+        assert got.meta["referral"]["material_temperature_c"] == pytest.approx(20.5)

@@ -7,9 +7,13 @@ their label (the defaults of :data:`LABELS`, or the label a ``--map`` key names)
 converts them into the session's keys: ``[calibration] date`` and ``operator``
 (:mod:`volcal.session.identity`) and the measurement's ``environment`` table
 (``air_temperature_c`` [degC], ``air_pressure_pa`` [Pa], ``humidity_pct`` [%],
-``material_temperature_c`` [degC]; ``docs/environment.md``). A field named by ``--map``
-must be found and must read; a field found by a default label that does not read (a
-``Date`` of ``n/a``) is reported and left out.
+``material_temperature_c`` [degC], ``expansion_ppm_per_k`` [ppm/K];
+``docs/environment.md``). ``Material compensation: On`` / ``Off`` (Renishaw's and
+Keysight's exports state whether the software applied the material correction) becomes
+the measurement's ``referred_to_20c`` (``docs/formats.md``): with ``Off`` and a material
+temperature, volcal refers the readings to 20 degC when the session is read. A field
+named by ``--map`` must be found and must read; a field found by a default label that
+does not read (a ``Date`` of ``n/a``) is reported and left out.
 """
 
 from __future__ import annotations
@@ -21,15 +25,19 @@ from pathlib import Path
 
 from volcal.errors import VolcalInputError
 
-__all__ = ["CALIBRATION_FIELDS", "ENVIRONMENT_FIELDS", "HEADER_KEYS", "LABELS", "HeaderField",
-           "read_header", "split_field"]
+__all__ = ["CALIBRATION_FIELDS", "ENVIRONMENT_FIELDS", "HEADER_KEYS", "LABELS",
+           "MEASUREMENT_FIELDS", "HeaderField", "read_header", "split_field"]
 
 CALIBRATION_FIELDS: tuple[str, ...] = ("date", "operator")
 """Header fields that go to ``[calibration]``."""
 ENVIRONMENT_FIELDS: tuple[str, ...] = ("air_temperature_c", "air_pressure_pa", "humidity_pct",
                                        "material_temperature_c")
 """Header fields that go to the measurement's ``environment`` table (also CSV columns)."""
-HEADER_KEYS: tuple[str, ...] = (*CALIBRATION_FIELDS, *ENVIRONMENT_FIELDS)
+MEASUREMENT_FIELDS: tuple[str, ...] = ("referred_to_20c", "expansion_ppm_per_k")
+"""Header fields read by their default labels only (never a column): whether the laser
+software applied the material correction (the measurement's ``referred_to_20c``) and the
+expansion coefficient it used (``environment.expansion_ppm_per_k`` [ppm/K])."""
+HEADER_KEYS: tuple[str, ...] = (*CALIBRATION_FIELDS, *ENVIRONMENT_FIELDS, *MEASUREMENT_FIELDS)
 
 LABELS: dict[str, tuple[str, ...]] = {
     "date": ("date", "test date", "date of test", "measurement date", "date of measurement",
@@ -45,6 +53,15 @@ LABELS: dict[str, tuple[str, ...]] = {
     "material_temperature_c": ("material temperature", "material temp", "material temp.",
                                "mat. temp", "mat temp", "machine temperature",
                                "workpiece temperature", "materialtemperatur"),
+    "referred_to_20c": ("material compensation", "material comp", "material comp.",
+                        "material temperature compensation", "material temp compensation",
+                        "material expansion compensation", "expansion compensation",
+                        "material normalization", "material normalisation",
+                        "materialkompensation", "werkstoffkompensation"),
+    "expansion_ppm_per_k": ("expansion coefficient", "material expansion coefficient",
+                            "expansion coeff", "expansion coeff.", "exp. coeff", "exp. coeff.",
+                            "coefficient of expansion", "thermal expansion coefficient",
+                            "material expansion", "ausdehnungskoeffizient"),
 }
 """Labels recognised without ``--map`` (compared without case, unit and ``:``)."""
 
@@ -53,6 +70,7 @@ RANGES: dict[str, tuple[float, float]] = {
     "material_temperature_c": (-40.0, 100.0),
     "air_pressure_pa": (10e3, 140e3),
     "humidity_pct": (0.0, 100.0),
+    "expansion_ppm_per_k": (-5.0, 50.0),
 }
 """Physically possible values (the validity of the refractive-index equations,
 ``volcal.environment.refractive``): outside, the field is refused."""
@@ -86,7 +104,7 @@ class HeaderField:
     """
 
     key: str
-    value: str | float
+    value: str | float | bool
     line: int
     label: str
     text: str
@@ -94,13 +112,19 @@ class HeaderField:
 
     @property
     def target(self) -> str:
-        """Where it goes: ``calibration.date`` or ``environment.air_temperature_c``."""
+        """Where it goes: ``calibration.date``, ``environment.air_temperature_c``...
+
+        The material compensation goes to the measurement's ``referred_to_20c``.
+        """
+        if self.key == "referred_to_20c":
+            return self.key
         return (f"calibration.{self.key}" if self.key in CALIBRATION_FIELDS
                 else f"environment.{self.key}")
 
     def describe(self) -> str:
         """One line for the user: ``line 3 'Air temperature: 20,4 °C' -> ...``."""
-        v = self.value if isinstance(self.value, str) else f"{self.value:.6g}"
+        v = (str(self.value).lower() if isinstance(self.value, bool) else self.value
+             if isinstance(self.value, str) else f"{self.value:.6g}")
         how = f" ({self.how})" if self.how else ""
         return f"line {self.line} '{self.label}: {self.text}' -> {self.target} = {v}{how}"
 
@@ -241,9 +265,42 @@ def _iso(y: int, mo: int, d: int) -> str:
     return _dt.date(y, mo, d).isoformat()  # ValueError for 31.02.2026
 
 
-def _convert(key: str, text: str, unit: str) -> tuple[str | float, str]:
+def _switch(text: str) -> tuple[bool, str]:
+    """A vendor's on/off word: whether the material compensation was applied."""
+    t = text.strip().strip('"').strip().casefold().rstrip(".")
+    word = t.split()[0] if t.split() else ""
+    if word in _ON:
+        return True, f"{word}: the laser software referred the readings to 20 °C"
+    if word in _OFF:
+        return False, f"{word}: not referred to 20 °C by the laser software"
+    raise ValueError(f"expected on or off (yes/no, enabled/disabled), got {text.strip()!r}")
+
+
+def _expansion(text: str, unit: str) -> tuple[float, str]:
+    v, after = _number(text)
+    u = (unit or after).replace("µ", "u").replace("°", "").replace(" ", "").casefold()
+    if u in ("ppm/k", "ppm/c", "ppm", "um/m/k", "um/m/c", "um/(m.k)", "um/(mk)", "10^-6/k",
+             "e-6/k", "x10^-6/k"):
+        return v, ""
+    if u in ("1/k", "/k", "1/c", "/c", "k^-1", "k-1"):
+        return v * 1e6, "1/K -> ppm/K"
+    if u:
+        raise ValueError(f"unknown expansion unit {u!r}: expected ppm/K, um/m/K or 1/K")
+    if abs(v) < 1e-3:
+        return v * 1e6, "no unit: 1/K by its magnitude -> ppm/K"
+    return v, "no unit: ppm/K assumed"
+
+
+_ON = ("on", "yes", "true", "enabled", "active", "applied", "auto", "automatic", "manual",
+       "ein", "an", "ja", "1")
+_OFF = ("off", "no", "false", "disabled", "inactive", "none", "not", "aus", "nein", "0")
+
+
+def _convert(key: str, text: str, unit: str) -> tuple[str | float | bool, str]:
     if key == "date":
         return parse_header_date(text)
+    if key == "referred_to_20c":
+        return _switch(text)
     if key == "operator":
         v = text.strip().strip('"').strip()
         if not v:
@@ -251,6 +308,8 @@ def _convert(key: str, text: str, unit: str) -> tuple[str | float, str]:
         return v, ""
     if key == "air_pressure_pa":
         v, how = _pressure(text, unit)
+    elif key == "expansion_ppm_per_k":
+        v, how = _expansion(text, unit)
     elif key == "humidity_pct":
         v, how = _humidity(text, unit)
     else:

@@ -179,7 +179,8 @@ class LaserTable:
     @property
     def environment(self) -> dict[str, float]:
         """The environment read from the header block (``air_temperature_c``...)."""
-        return {f.key: float(f.value) for f in self.header if f.key in ENVIRONMENT_FIELDS}
+        return {f.key: float(f.value) for f in self.header
+                if f.key in (*ENVIRONMENT_FIELDS, "expansion_ppm_per_k")}
 
     @property
     def calibration(self) -> dict[str, str]:
@@ -526,13 +527,17 @@ def header_meta(table: LaserTable, meta: dict[str, Any]) -> dict[str, Any]:
     -------
     dict
         A copy; ``environment`` gains ``air_temperature_c``, ``air_pressure_pa``,
-        ``humidity_pct``, ``material_temperature_c`` as read (the header's values
-        replace earlier ones of the same key).
+        ``humidity_pct``, ``material_temperature_c``, ``expansion_ppm_per_k`` as read
+        (the header's values replace earlier ones of the same key); ``referred_to_20c``
+        when the header states the material compensation (on: true, off: false).
     """
     out = dict(meta)
     env = table.environment
     if env:
         out["environment"] = {**dict(out.get("environment") or {}), **env}
+    for f in table.header:
+        if f.key == "referred_to_20c":  # the export says whether its software referred them
+            out["referred_to_20c"] = bool(f.value)
     return out
 
 

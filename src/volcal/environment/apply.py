@@ -391,7 +391,8 @@ def thermal_record(meas: Any) -> dict[str, Any]:
     rec: dict[str, Any] = {"compensated_by": comp, "referred_by": by,
                            "referred_to_20c": True if by != "not stated" else None,
                            "material_temperature_c": None, "expansion_ppm_per_k": None}
-    text = f"compensated by {'volcal from raw readings' if comp != 'laser software' else comp}"
+    text = ("compensated by volcal from raw readings" if comp != "laser software"
+            else "compensated by the laser software")
     if ref is not None:
         t, a = ref.get("material_temperature_c"), ref.get("expansion_ppm_per_k")
         rec["material_temperature_c"], rec["expansion_ppm_per_k"] = t, a

@@ -911,6 +911,33 @@ def _check_meta(kind: str, meta: dict[str, Any], pos: NDArray[np.float64], file:
     env = meta.get("environment")
     if env is not None and not isinstance(env, dict):
         raise _err("environment must be a table", toml_path, None, f"{where}.environment")
+    _check_labels(kind, meta, where, toml_path)
+
+
+def _check_labels(kind: str, meta: dict[str, Any], where: str, toml_path: Path) -> None:
+    """The enumerated set-up keys of a diagonal or step diagonal, with the valid choices."""
+    order = meta.get("axis_order")
+    if order is not None and (not isinstance(order, str) or not order
+                              or not set(order.lower()) <= set("xyz")
+                              or len(set(order.lower())) != len(order)):
+        raise _err(f"axis_order must be the moving axes in their order, each once (\"xyz\", "
+                   f"\"yxz\", \"xy\"...), got {order!r}", toml_path, None,
+                   f"{where}.axis_order")
+    plane = meta.get("plane")
+    if plane is not None and (not isinstance(plane, str) or plane.lower() not in PLANES):
+        raise _err(f"unknown plane {plane!r}: expected one of {', '.join(PLANES)}", toml_path,
+                   None, f"{where}.plane")
+    code = meta.get("diagonal")
+    if code is not None and kind in ("diagonal", "step_diagonal") and (
+            not isinstance(code, str) or len(code) not in (2, 3)
+            or not set(code.lower()) <= set("pn")):
+        raise _err(f"unknown diagonal {code!r}: expected the sign of each axis' travel, p or "
+                   "n (body: ppp, npp, pnp, ppn...; face: pp, np)", toml_path, None,
+                   f"{where}.diagonal")
+
+
+PLANES: tuple[str, ...] = ("xy", "yz", "xz")
+"""Values of a face diagonal's ``plane`` key."""
 
 
 def _read_entry(e: Any, i: int, folder: Path, toml_path: Path, seen: set[str],

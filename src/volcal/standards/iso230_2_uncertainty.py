@@ -243,8 +243,7 @@ def budget_for(d: Any, budget: Budget) -> Budget:
 
     rec = _thermal_of(d)
     what = (f"measurement {d.id!r}" if hasattr(d, "id")
-            else f"{getattr(d, 'file', 'the readings')}"
-            + (" (a positioning file, read alone)" if rec is None else ""))
+            else str(getattr(d, "file", "the readings")))
     cross_check_referral(budget, None if rec is None else rec["referred_to_20c"], what)
     return budget if rec is None else budget.at(rec["operating_point"])
 

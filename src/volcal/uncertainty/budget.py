@@ -291,12 +291,21 @@ def cross_check_referral(budget: Budget, referred: bool | None, what: str) -> No
     import warnings
 
     src = budget.file or "the budget"
-    rec = ("say nothing about it (taken as they are)" if referred is None else
-           "are referred to 20 °C" if referred else "are not referred to 20 °C")
-    warnings.warn(f"{src}: [material] referred_to_20c = {str(stated).lower()} is retired and "
-                  f"not applied: the readings of {what} {rec}; state referred_to_20c per "
-                  "measurement in session.toml (docs/uncertainty.md, migration)",
-                  BudgetWarning, stacklevel=3)
+    if referred is None:  # one line for every such test (the same text is shown once)
+        rec = ("readings whose referral to 20 °C is not recorded (no referred_to_20c in "
+               "session.toml, or a positioning file read alone) are taken as they are")
+    else:
+        rec = (f"the readings of {what} "
+               + ("are referred to 20 °C" if referred else "are not referred to 20 °C"))
+    text = (f"{src}: [material] referred_to_20c = {str(stated).lower()} is retired and not "
+            f"applied: {rec}; state referred_to_20c per measurement in session.toml "
+            "(docs/uncertainty.md, migration)")
+    if text not in _WARNED:  # once per process, wherever the budget is applied
+        _WARNED.add(text)
+        warnings.warn(text, BudgetWarning, stacklevel=3)
+
+
+_WARNED: set[str] = set()
 
 
 def _number(v: Any, where: str, file: str | None, k: _Key) -> float:

@@ -348,3 +348,20 @@ def test_other_enumerated_keys_are_refused(tmp_path, monkeypatch, capsys, keys, 
     code, _, err = run_volcal(monkeypatch, capsys, "evaluate", "session", str(s))
     assert code == 2 and "Traceback" not in err
     assert f"measurements[0].{key}" in err and words in err
+
+
+def test_a_measurement_built_in_python_says_it_is_not_referred():
+    from volcal.environment.apply import refer_measurement, thermal_record
+    from volcal.session.format import Measurement
+
+    pos = np.array([[0.0, 0, 0], [500.0, 0, 0], [1000.0, 0, 0]])
+    m = Measurement("m", "linear", "retroreflector", pos, np.array([0.0, 2.0, 4.0]),
+                    np.array([1.0, 0, 0]), meta={"referred_to_20c": False, "environment": {
+                        "material_temperature_c": 22.0, "expansion_ppm_per_k": 10.0}})
+    r = thermal_record(m)
+    assert r["referred_by"] == "not referred" and r["referred_to_20c"] is False
+    done = refer_measurement(m)
+    # by hand: 1000.004 / 1.00002 = 1000.004 - 0.02000008 + 0.0000004 = 999.98400032 mm
+    assert done.deviation[2] == pytest.approx((1000.004 / 1.00002 - 1000.0) * 1e3, abs=1e-9)
+    assert done.deviation[2] == pytest.approx(-15.99968, abs=1e-5)
+    assert thermal_record(done)["referred_by"] == "volcal"

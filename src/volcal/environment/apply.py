@@ -375,8 +375,10 @@ def thermal_record(meas: Any) -> dict[str, Any]:
     -------
     dict
         ``compensated_by``: ``'laser software'`` or ``'volcal (raw readings)'``;
-        ``referred_by``: ``'laser software'``, ``'volcal'`` or ``'not stated'``;
-        ``referred_to_20c``: True, or None when not stated;
+        ``referred_by``: ``'laser software'``, ``'volcal'``, ``'not stated'`` or
+        ``'not referred'`` (``referred_to_20c = false`` on a measurement that was not read
+        from a session file: :func:`prepare_readings` refers it);
+        ``referred_to_20c``: True, False (not referred) or None (not stated);
         ``material_temperature_c`` [degC] and ``expansion_ppm_per_k`` [ppm/K] applied by
         volcal (None otherwise); ``operating_point``: the environment the session records
         (means, by environment key), which serves a budget's sensitivities;
@@ -387,9 +389,11 @@ def thermal_record(meas: Any) -> dict[str, Any]:
     ref = meta.get("referral") if isinstance(meta.get("referral"), dict) else None
     referred = meta.get("referred_to_20c")
     by = "volcal" if ref is not None else ("laser software" if referred is True else
+                                           "not referred" if referred is False else
                                            "not stated")
     rec: dict[str, Any] = {"compensated_by": comp, "referred_by": by,
-                           "referred_to_20c": True if by != "not stated" else None,
+                           "referred_to_20c": {"not stated": None,
+                                               "not referred": False}.get(by, True),
                            "material_temperature_c": None, "expansion_ppm_per_k": None}
     text = ("compensated by volcal from raw readings" if comp != "laser software"
             else "compensated by the laser software")
@@ -401,6 +405,9 @@ def thermal_record(meas: Any) -> dict[str, Any]:
                  f"(alpha = {float(a):g} ppm/K{note})")
     elif by == "laser software":
         text += "; referred to 20 °C by the laser software"
+    elif by == "not referred":  # a Measurement built in Python, not read from a session
+        text += ("; not referred to 20 °C (referred_to_20c = false: volcal refers readings "
+                 "where a session is read)")
     else:
         text += "; referral to 20 °C not stated (readings taken as they are)"
     rec["text"] = text

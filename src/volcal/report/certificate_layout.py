@@ -433,7 +433,7 @@ def _readings_cells(r: dict[str, Any]) -> list[str]:
     elif r["referred_by"] == "laser software":
         ref = "the laser software"
     else:
-        ref = "not stated (readings as given)"
+        ref = f"{r['referred_by']} (readings as given)"
     return [comp, ref]
 
 
@@ -441,7 +441,8 @@ def _referral_sentence(doc: dict[str, Any]) -> str:
     """"Deviations are referred to 20 °C (ISO 1)." where true, else which are not stated."""
     unstated = sorted({e["measurement"] for env in doc["environment"].values()
                        if env is not None for e in env["measurements"]
-                       if (e.get("readings") or {}).get("referred_by") == "not stated"})
+                       if (e.get("readings") or {}).get("referred_by") in ("not stated",
+                                                                           "not referred")})
     if not unstated:
         return "Deviations are referred to 20 °C (ISO 1)."
     return ("Deviations are referred to 20 °C (ISO 1) where the section Environment as "

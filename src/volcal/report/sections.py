@@ -174,7 +174,7 @@ def _thermal_rows(session: Any) -> list[list[str]]:
         elif r["referred_by"] == "laser software":
             ref = "the laser software"
         else:
-            ref = "not stated (readings taken as they are)"
+            ref = f"{r['referred_by']} (readings taken as they are)"
         rows.append([m.id, comp, ref])
     return rows
 

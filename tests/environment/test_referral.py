@@ -156,6 +156,13 @@ def test_referred_to_20c_false_at_21_4_c_gives_the_hand_computed_values(tmp_path
     with_b, err = evaluate_json(monkeypatch, capsys, s, "--budget", str(b))
     assert all(with_b[k] == plain[k] for k in ISO_KEYS)
     assert "warning" not in err  # the fresh template states no referred_to_20c
+    # the retired key agreeing with the session (not referred by the software): no warning
+    _, err = evaluate_json(monkeypatch, capsys, s, "--budget",
+                           str(write_budget(tmp_path / "b2.toml", 21.4, referred=False)))
+    assert "warning" not in err
+    _, err = evaluate_json(monkeypatch, capsys, s, "--budget",
+                           str(write_budget(tmp_path / "b3.toml", 21.4, referred=True)))
+    assert "referred_to_20c = true is retired" in err and "by volcal from the session" in err
     th = plain["thermal"]
     assert th["referred_by"] == "volcal" and th["material_temperature_c"] == 21.4
     assert th["compensated_by"] == "laser software" and th["expansion_ppm_per_k"] == 11.5
@@ -180,7 +187,8 @@ def test_referred_by_the_laser_software_is_taken_as_it_is(tmp_path, monkeypatch,
     b = write_budget(tmp_path / "b.toml", 21.4, referred=False)
     d, err = evaluate_json(monkeypatch, capsys, s, "--budget", str(b))
     assert d["thermal"]["referred_by"] == "laser software"
-    assert "referred_to_20c = false is retired" in err and "are referred to 20 °C" in err
+    assert "referred_to_20c = false is retired" in err
+    assert "were referred to 20 °C by the laser software" in err
 
 
 def test_a_written_back_session_is_not_referred_twice(tmp_path):
@@ -266,6 +274,39 @@ def test_as_left_is_referred_with_its_own_material_temperature(tmp_path):
                                                         "volcal at t = 21 °C"]
     assert any(b.kind == "p" and "Deviations are referred to 20 °C (ISO 1)." in b.text
                for b in text)
+
+
+def test_as_left_through_the_command_line(tmp_path, monkeypatch, capsys):
+    """``volcal report FOUND --as-left LEFT --budget B --certificate``: as-left at 21.0 C."""
+    import volcal.report.sections as sections
+    from volcal.plot._figure import new_figure
+
+    for name in ("linear_deviation_plot", "error_functions_plot", "diagonal_fit_plot",
+                 "identifiability_plot", "volumetric_map_plot"):
+        monkeypatch.setattr(sections, name, lambda *a, **k: new_figure(1.0, 1.0))
+    keys = "referred_to_20c = false"
+    f = write_session(tmp_path / "found", keys=keys,
+                      env='material_temperature_c = 21.4\nmaterial = "steel"')
+    left = write_session(tmp_path / "left", keys=keys,
+                         env='material_temperature_c = 21.0\nmaterial = "steel"')
+    b = write_budget(tmp_path / "b.toml", 21.4)
+    code, _, err = run_volcal(monkeypatch, capsys, "report", str(f), "--as-left", str(left),
+                              "--budget", str(b), "--certificate", "-o", str(tmp_path / "out"))
+    assert code == 0, err
+    cert = json.loads((tmp_path / "out" / "certificate.json").read_text("utf-8"))
+    g = {}
+    for (x, _r, d, _v), v in zip(rows(), referred_by_hand(21.0), strict=True):
+        g.setdefault((x, d), []).append(v)
+    a_left = (max(np.mean(v) + 2 * np.std(v, ddof=1) for v in g.values())
+              - min(np.mean(v) - 2 * np.std(v, ddof=1) for v in g.values()))
+    assert cert["results"]["as_left"]["positioning"][0]["values_um"]["A"] == pytest.approx(
+        a_left, abs=1e-9)
+    assert a_left == pytest.approx(9.7349, abs=1e-4)  # 4.2609 at the as-found's 21.4 C
+    assert cert["results"]["as_found"]["positioning"][0]["values_um"]["A"] == pytest.approx(
+        4.2609, abs=1e-4)
+    left_env = cert["environment"]["as_left"]["measurements"][0]["readings"]
+    assert left_env == {"compensated_by": "laser software", "referred_by": "volcal",
+                        "material_temperature_c": 21.0, "expansion_ppm_per_k": 11.5}
 
 
 def test_the_certificate_does_not_claim_a_referral_nobody_stated(tmp_path):

@@ -244,7 +244,9 @@ def budget_for(d: Any, budget: Budget) -> Budget:
     rec = _thermal_of(d)
     what = (f"measurement {d.id!r}" if hasattr(d, "id")
             else str(getattr(d, "file", "the readings")))
-    cross_check_referral(budget, None if rec is None else rec["referred_to_20c"], what)
+    given = None if rec is None else {"laser software": True, "volcal": False,
+                                      "not referred": False}.get(rec["referred_by"])
+    cross_check_referral(budget, given, what)  # the readings as given, before volcal's
     return budget if rec is None else budget.at(rec["operating_point"])
 
 

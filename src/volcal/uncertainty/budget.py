@@ -273,9 +273,9 @@ def cross_check_referral(budget: Budget, referred: bool | None, what: str) -> No
         The budget (``values['material.referred_to_20c']`` present only when the file
         states it).
     referred : bool or None
-        Whether the readings are referred to 20 degC (by the laser software or by
-        volcal), None when nothing is recorded (a positioning CSV, a measurement
-        without ``referred_to_20c``).
+        Whether the readings as given were referred to 20 degC by the laser software
+        (False: volcal refers them from the session, or raw readings), None when nothing
+        is recorded (a positioning CSV, a measurement without ``referred_to_20c``).
     what : str
         The readings (``"measurement 'lin-x'"``, a file name), for the message.
 
@@ -296,7 +296,9 @@ def cross_check_referral(budget: Budget, referred: bool | None, what: str) -> No
                "session.toml, or a positioning file read alone) are taken as they are")
     else:
         rec = (f"the readings of {what} "
-               + ("are referred to 20 °C" if referred else "are not referred to 20 °C"))
+               + ("were referred to 20 °C by the laser software (taken as they are)"
+                  if referred else "are referred to 20 °C by volcal from the session's "
+                  "environment"))
     text = (f"{src}: [material] referred_to_20c = {str(stated).lower()} is retired and not "
             f"applied: {rec}; state referred_to_20c per measurement in session.toml "
             "(docs/uncertainty.md, migration)")

@@ -74,4 +74,5 @@ def test_error_message_keeps_its_brackets(tmp_path):
                        timeout=scaled_timeout(120), env={**os.environ, "COLUMNS": "400"})
     assert r.returncode == 2
     first = r.stderr.strip().splitlines()[0]
-    assert "session.toml [linear-x1], column 'environment.air_pressure_hpa'" in first, first
+    assert ("session.toml [linear-x1], column 'measurements[0].environment.air_pressure_hpa'"
+            in first), first

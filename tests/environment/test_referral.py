@@ -406,3 +406,16 @@ def test_a_measurement_built_in_python_says_it_is_not_referred():
     assert done.deviation[2] == pytest.approx((1000.004 / 1.00002 - 1000.0) * 1e3, abs=1e-9)
     assert done.deviation[2] == pytest.approx(-15.99968, abs=1e-5)
     assert thermal_record(done)["referred_by"] == "volcal"
+
+
+def test_raw_readings_of_a_direct_optic_are_refused():
+    from volcal.environment.apply import prepare_readings
+    from volcal.errors import VolcalInputError
+    from volcal.session.format import Measurement
+
+    pos = np.array([[0.0, 0, 0], [500.0, 0, 0], [1000.0, 0, 0]])
+    m = Measurement("ang", "angular", "angular_optics", pos, np.zeros(3),
+                    np.array([1.0, 0, 0]), meta={"readings": "raw"})
+    with pytest.raises(VolcalInputError, match="kind 'angular' has none") as e:
+        prepare_readings(m, "S/session.toml [ang]", "measurements[3]")
+    assert e.value.column == "measurements[3].readings"

@@ -223,6 +223,11 @@ def _readings_keys(meas: Any, file: Any, where: str) -> tuple[str, bool | None]:
     if not isinstance(readings, str) or readings not in READINGS:
         raise VolcalInputError(f"unknown readings {readings!r}: expected one of "
                                f"{', '.join(READINGS)}", file, None, f"{where}.readings")
+    if readings == "raw" and meas.kind not in (*REFERRED_KINDS, "multilateration"):
+        raise VolcalInputError(f"raw readings are laser lengths (linear, diagonal, "
+                               f"step_diagonal, multilateration); kind {meas.kind!r} has "
+                               "none: remove readings = \"raw\"", file, None,
+                               f"{where}.readings")
     referred = meas.meta.get("referred_to_20c")
     if referred is not None and not isinstance(referred, bool):
         raise VolcalInputError(f"expected true or false, got {referred!r}", file, None,
@@ -257,7 +262,7 @@ def prepare_readings(meas: Any, file: Any, where: str) -> Any:
     meas : Measurement
         As read.
     file : str or Path
-        ``session.toml``, for errors.
+        ``session.toml`` (``'<path>/session.toml [<id>]'`` in the reader), for errors.
     where : str
         The measurement's key (``measurements[2]``), for errors.
 
@@ -279,7 +284,7 @@ def prepare_readings(meas: Any, file: Any, where: str) -> Any:
     if meas.deviation is None:
         return meas
     if readings == "raw":
-        return compensate_measurement(meas, f"{file} [{meas.id}]")
+        return compensate_measurement(meas, file)
     if referred is False:
         return refer_measurement(meas, file, where)
     return meas

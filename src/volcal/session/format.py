@@ -751,7 +751,8 @@ def read_session(folder: str | Path, require_deviation: bool = True) -> Session:
                         vertical)
         from volcal.environment.apply import prepare_readings
 
-        m = prepare_readings(m, toml_path, f"measurements[{i}]")  # the one referral to 20 C
+        # the one referral to 20 C; errors name '<session.toml> [<id>]' and measurements[i]
+        m = prepare_readings(m, f"{toml_path} [{m.id}]", f"measurements[{i}]")
         (unmeasured if require_deviation and m.deviation is None else meas).append(m)
     if require_deviation and not meas:
         raise _err(f"no readings yet: the deviation_um column of all {len(unmeasured)} "

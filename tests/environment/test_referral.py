@@ -419,3 +419,28 @@ def test_raw_readings_of_a_direct_optic_are_refused():
     with pytest.raises(VolcalInputError, match="kind 'angular' has none") as e:
         prepare_readings(m, "S/session.toml [ang]", "measurements[3]")
     assert e.value.column == "measurements[3].readings"
+
+
+def test_the_identification_systematic_part_uses_the_recorded_material_temperature():
+    """identify --budget: the material sensitivity at the session's 22 C, not the budget's."""
+    from types import SimpleNamespace
+
+    from volcal.identify.systematic import systematic_inputs
+    from volcal.session.format import Measurement
+
+    pos = np.array([[0.0, 0, 0], [500.0, 0, 0], [1000.0, 0, 0]])
+    doc = tomllib.loads(TEMPLATE)
+    doc["material"].update(temperature_c=20.0, u_temperature_k=0.0,
+                           u_expansion_ppm_per_k=1.0)
+    b = parse_budget(doc)
+
+    def material_column(meta):
+        m = Measurement("m", "linear", "retroreflector", pos, np.zeros(3),
+                        np.array([1.0, 0, 0]), meta=meta)
+        d = SimpleNamespace(A=np.zeros((3, 1)), measurements=[m], rows={"m": np.arange(3)})
+        return dict(systematic_inputs(d, b)).get("material, X")
+
+    assert material_column({}) is None  # at the budget's 20 C: no sensitivity to alpha
+    # u_mat = |t - 20| u(alpha) at 22 C (u(t) = 0): 2 K x 1 ppm/K x L
+    col = material_column({"environment": {"material_temperature_c": 22.0}})
+    assert col == pytest.approx([0.0, 500e3 * 2e-6, 1000e3 * 2e-6], abs=1e-12)

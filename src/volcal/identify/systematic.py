@@ -113,17 +113,8 @@ def systematic_inputs(design: Any, budget: Any) -> list[tuple[str, NDArray[np.fl
         length measurements), then the optics' scale errors
         (:func:`optic_scale_inputs`); inputs with zero uncertainty are left out.
     """
-    from volcal.uncertainty.sensitivity import air_sensitivity
-
-    v, i = budget.values, budget.inputs
-    a = air_sensitivity(v["air.temperature_c"], v["air.pressure_pa"], v["air.humidity_pct"],
-                        v["laser.wavelength_nm"], v["air.formula"], v["air.co2_ppm"])
+    i = budget.inputs
     u_wl = i["laser.u_wavelength_ppm"].u * 1e-6
-    u_air = math.hypot(a.dn_dt * i["air.u_temperature_k"].u, a.dn_dp * i["air.u_pressure_pa"].u,
-                       a.dn_dh * i["air.u_humidity_pct"].u) / a.n
-    alpha, ua = v["material.expansion_ppm_per_k"], i["material.u_expansion_ppm_per_k"].u
-    ut, dt = i["material.u_temperature_k"].u, v["material.temperature_c"] - 20.0
-    u_mat = math.sqrt((alpha * ut) ** 2 + (dt * ua) ** 2 + (ua * ut) ** 2) * 1e-6
     n_rows = design.A.shape[0]
     wl = np.zeros(n_rows)
     mat = np.zeros((3, n_rows))
@@ -131,6 +122,8 @@ def systematic_inputs(design: Any, budget: Any) -> list[tuple[str, NDArray[np.fl
     for m in design.measurements:
         if m.kind not in LENGTH_KINDS:
             continue
+        # the sensitivities at the environment the session records (the budget's where none)
+        u_air, u_mat = _relative_u(budget, m)
         rows = design.rows[m.id]
         disp = np.asarray(m.positions, dtype=float) - np.asarray(m.positions[0], dtype=float)
         beam = np.asarray(m.beam_direction, dtype=float)
@@ -144,9 +137,29 @@ def systematic_inputs(design: Any, budget: Any) -> list[tuple[str, NDArray[np.fl
             out.append((f"air, {m.id}", col))
     if u_wl > 0:
         out.insert(0, ("laser wavelength", wl))
-    if u_mat > 0:
-        out.extend((f"material, {AXES[k]}", mat[k]) for k in range(3) if np.any(mat[k]))
+    out.extend((f"material, {AXES[k]}", mat[k]) for k in range(3) if np.any(mat[k]))
     return out + optic_scale_inputs(design, budget)
+
+
+def _relative_u(budget: Any, m: Any) -> tuple[float, float]:
+    """Relative u of the air and of the material term of one length measurement [-].
+
+    The budget's operating point serves only where the measurement's session records no
+    environment (:meth:`volcal.uncertainty.budget.Budget.at`).
+    """
+    from volcal.environment.apply import thermal_record
+    from volcal.uncertainty.sensitivity import air_sensitivity
+
+    b = budget.at(thermal_record(m)["operating_point"]) if hasattr(budget, "at") else budget
+    v, i = b.values, b.inputs
+    a = air_sensitivity(v["air.temperature_c"], v["air.pressure_pa"], v["air.humidity_pct"],
+                        v["laser.wavelength_nm"], v["air.formula"], v["air.co2_ppm"])
+    u_air = math.hypot(a.dn_dt * i["air.u_temperature_k"].u, a.dn_dp * i["air.u_pressure_pa"].u,
+                       a.dn_dh * i["air.u_humidity_pct"].u) / a.n
+    alpha, ua = v["material.expansion_ppm_per_k"], i["material.u_expansion_ppm_per_k"].u
+    ut, dt = i["material.u_temperature_k"].u, v["material.temperature_c"] - 20.0
+    u_mat = math.sqrt((alpha * ut) ** 2 + (dt * ua) ** 2 + (ua * ut) ** 2) * 1e-6
+    return u_air, u_mat
 
 
 def systematic_factor(design: Any, solution: Any, budget: Any

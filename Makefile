@@ -53,9 +53,11 @@ postgres-deps:
 
 # Two workers (pytest-xdist), one per core of the 2-core box; a test file stays on one
 # worker (--dist loadfile), so module fixtures (rendered reports, identified sessions, the
-# PostgreSQL cluster per worker) are built once.
+# PostgreSQL cluster per worker) are built once. The statistical studies marked `slow`
+# (many machines each) run in `make study`; a smaller check of each stays here
+# (benchmarks/README.md, "make test time").
 test: $(STAMP) bytecode browser-deps linuxcnc-deps postgres-deps
-	$(BIN)/python -m pytest -n 2 --dist loadfile
+	$(BIN)/python -m pytest -n 2 --dist loadfile -m "not slow"
 
 # ruff, then the import contracts of pyproject.toml (docs/architecture.md; make test runs
 # them too, tests/test_architecture.py)
@@ -70,6 +72,7 @@ bench: $(STAMP) bytecode
 	$(BIN)/python benchmarks/run.py
 
 study: $(STAMP)
+	$(BIN)/python -m pytest -n 2 --dist loadfile -m slow
 	$(BIN)/python benchmarks/history_study.py --machines 10
 	$(BIN)/python benchmarks/study.py --design all --machines 10 --markdown --quiet
 	$(BIN)/python benchmarks/study.py --drift --design all --machines 10 --markdown --quiet

@@ -3,21 +3,18 @@
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 import tomllib
 
 import numpy as np
 
 from timing import scaled_timeout
 from volcal.session.format import read_session
-
-RUN = [sys.executable, "-c", "from volcal.cli import main; main()"]
+from volcal_cli_helpers import volcal_process
 
 
 def volcal(*args):
-    return subprocess.run([*RUN, *map(str, args)], capture_output=True, text=True,
-                          timeout=scaled_timeout(120))
+    """``volcal *args`` in-process (VOLCAL_TEST_SUBPROCESS=1: in a process of its own)."""
+    return volcal_process(*args, timeout=scaled_timeout(120))
 
 
 def test_plan_simulate_identify_program(tmp_path):

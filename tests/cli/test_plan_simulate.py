@@ -1,9 +1,8 @@
-"""``volcal plan`` and ``volcal simulate`` as a user runs them (subprocess)."""
+"""``volcal plan`` and ``volcal simulate`` as a user runs them (in-process through
+``main()``; VOLCAL_TEST_SUBPROCESS=1 runs each in its own process,
+:func:`volcal_cli_helpers.volcal_process`)."""
 
 from __future__ import annotations
-
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -11,13 +10,11 @@ import pytest
 from timing import scaled_timeout
 from volcal.session.errortable import read_error_table, write_error_table
 from volcal.session.format import read_session
-
-RUN = [sys.executable, "-c", "from volcal.cli import main; main()"]
+from volcal_cli_helpers import volcal_process
 
 
 def volcal(*args, cwd=None):
-    return subprocess.run([*RUN, *map(str, args)], capture_output=True, text=True, cwd=cwd,
-                          timeout=scaled_timeout(120))
+    return volcal_process(*args, cwd=cwd, timeout=scaled_timeout(120))
 
 
 def _one_clean_error(r):

@@ -13,8 +13,8 @@ import pytest
 
 from timing import scaled_timeout
 from volcal.errors import VolcalInputError
+from volcal_cli_helpers import volcal_process
 
-RUN = [sys.executable, "-c", "from volcal.cli import main; main()"]
 TRAVEL = [[0, 800], [0, 600], [0, 500]]
 IDENT = ('make = "Hermle"\nmodel = "C 42"\nserial = "42-1187"\ncontrol = "TNC 640"\n')
 
@@ -256,8 +256,9 @@ def test_corrupted_or_foreign_database(tmp_path, content, message):
 
 
 def _volcal(*args: str, env: dict | None = None) -> subprocess.CompletedProcess:
-    return subprocess.run([*RUN, *args],
-                          capture_output=True, text=True, env=env, timeout=scaled_timeout(300))
+    """``volcal *args`` in-process with ``env`` as the environment (VOLCAL_TEST_SUBPROCESS=1:
+    in a process of its own)."""
+    return volcal_process(*args, env=env, timeout=scaled_timeout(300))
 
 
 def test_cli_round_trip(tmp_path, calibrations):

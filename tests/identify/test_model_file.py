@@ -10,8 +10,6 @@ from __future__ import annotations
 import hashlib
 import json
 import shutil
-import subprocess
-import sys
 import zipfile
 from pathlib import Path
 
@@ -24,15 +22,15 @@ from volcal.identify import load_model
 from volcal.identify.modelfile import ModelFileWarning, binary_path, write_model
 from volcal.model.kinematics import pose_jacobian
 from volcal.model.names import AXES, COMPONENTS
+from volcal_cli_helpers import volcal_process
 
 DATA = Path(__file__).parent / "data"
-RUN = [sys.executable, "-c", "from volcal.cli import main; main()"]
 UNITS = ("um", "um", "um", "urad", "urad", "urad")
 
 
 def volcal(*args):
-    return subprocess.run([*RUN, *map(str, args)], capture_output=True, text=True,
-                          timeout=scaled_timeout(180))
+    """``volcal *args`` in-process (VOLCAL_TEST_SUBPROCESS=1: in a process of its own)."""
+    return volcal_process(*args, timeout=scaled_timeout(180))
 
 
 @pytest.fixture(scope="module")

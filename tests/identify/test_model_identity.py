@@ -6,8 +6,6 @@ import copy
 import hashlib
 import json
 import shutil
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -22,15 +20,15 @@ from volcal.identify.result import MODEL_FORMAT, IdentificationResult
 from volcal.measure.simulate import SimulationOptions, simulate_session
 from volcal.plan.planner import plan_session
 from volcal.session.format import read_session, write_session
+from volcal_cli_helpers import volcal_process
 
 DATA = Path(__file__).parent / "data"
-RUN = [sys.executable, "-c", "from volcal.cli import main; main()"]
 TRAVEL = np.array([[0.0, 300.0], [0.0, 200.0], [0.0, 100.0]])
 
 
 def volcal(*args):
-    return subprocess.run([*RUN, *map(str, args)], capture_output=True, text=True,
-                          timeout=scaled_timeout(180))
+    """``volcal *args`` in-process (VOLCAL_TEST_SUBPROCESS=1: in a process of its own)."""
+    return volcal_process(*args, timeout=scaled_timeout(180))
 
 
 @pytest.fixture(scope="module")

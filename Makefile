@@ -55,9 +55,12 @@ postgres-deps:
 # worker (--dist loadfile), so module fixtures (rendered reports, identified sessions, the
 # PostgreSQL cluster per worker) are built once. The statistical studies marked `slow`
 # (many machines each) run in `make study`; a smaller check of each stays here
-# (benchmarks/README.md, "make test time").
+# (benchmarks/README.md, "make test time"). --no-loadscope-reorder: the files go out in
+# collection order, the longest first (tests/conftest.py, LONGEST_FIRST), instead of
+# xdist's default by number of tests, which left the files of one or two long tests
+# (test_python_docs.py) to the end, one worker running them alone.
 test: $(STAMP) bytecode browser-deps linuxcnc-deps postgres-deps
-	$(BIN)/python -m pytest -n 2 --dist loadfile -m "not slow"
+	$(BIN)/python -m pytest -n 2 --dist loadfile --no-loadscope-reorder -m "not slow"
 
 # ruff, then the import contracts of pyproject.toml (docs/architecture.md; make test runs
 # them too, tests/test_architecture.py)

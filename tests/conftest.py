@@ -151,3 +151,31 @@ def store_url(request, tmp_path):
     if request.param == "sqlite":
         return str(tmp_path / "history.sqlite")
     return new_database(request.getfixturevalue("postgres_server"))
+
+
+# ---------------------------------------------------------------- order of the test files
+LONGEST_FIRST: tuple[str, ...] = (
+    "report/test_report_cli.py", "cli/test_cli_bad_input.py", "report/test_certificate.py",
+    "test_python_docs.py", "report/test_certificate_optics.py",
+    "standards/test_incomplete.py", "test_python_parity_budget.py",
+    "report/test_report_customer_pdf.py", "report/test_report_browser.py",
+    "identify/test_families.py", "identify/test_identify_features.py",
+    "identify/test_estimator_parts.py", "cli/test_uncertainty_chain.py",
+)
+"""The test files that took longest in ``make test`` (benchmarks/README.md, "make test
+time"), longest first. ``make test`` gives each of its two workers one file at a time in
+collection order (``--dist loadfile --no-loadscope-reorder``; xdist's default order, by
+number of tests per file, put the files of one or two long tests such as
+``test_python_docs.py`` last, one worker running them alone minutes after the other ran out
+of files). Starting with the longest files (the longest-processing-time-first rule)
+leaves only short files for the end. A file missing here (renamed, removed) is simply collected
+in its usual place; the order of the tests inside a file is unchanged."""
+
+
+def pytest_collection_modifyitems(session, config, items):
+    """Collect the files of :data:`LONGEST_FIRST` first, in that order."""
+    root = Path(__file__).parent
+    rank = {str(root / f): k for k, f in enumerate(LONGEST_FIRST)}
+    late = len(LONGEST_FIRST)
+    items[:] = [it for _, it in sorted(enumerate(items), key=lambda p: (
+        rank.get(str(p[1].path), late), p[0]))]

@@ -1,16 +1,15 @@
 """`volcal simulate` never destroys measured readings."""
 
-import subprocess
-import sys
 
 import numpy as np
 
 from volcal.session.format import read_session, write_session
+from volcal_cli_helpers import volcal_process
 
 
 def _cli(*args):
-    return subprocess.run([sys.executable, "-c", "from volcal.cli import main; main()", *args],
-                          capture_output=True, text=True)
+    """``volcal *args`` in-process (VOLCAL_TEST_SUBPROCESS=1: in a process of its own)."""
+    return volcal_process(*args)
 
 
 def test_simulate_refuses_measured_readings_and_keeps_a_backup_on_overwrite(tmp_path):

@@ -1,5 +1,3 @@
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -10,6 +8,7 @@ from volcal.errors import VolcalInputError
 from volcal.measure.virtual import random_machine
 from volcal.model.errorfunctions import MachineErrors
 from volcal.session.errortable import write_error_table
+from volcal_cli_helpers import volcal_process
 
 
 def _linear_machine(exx_end_um=12.0):
@@ -109,8 +108,8 @@ def test_foreign_folder_is_kept(tmp_path):
 
 
 def _cli(*args):
-    return subprocess.run([sys.executable, "-c", "from volcal.cli import main; main()", *args],
-                          capture_output=True, text=True)
+    """``volcal *args`` in-process (VOLCAL_TEST_SUBPROCESS=1: in a process of its own)."""
+    return volcal_process(*args)
 
 
 def test_cli_from_error_table(tmp_path):

@@ -1,10 +1,9 @@
-import subprocess
-import sys
+from volcal_cli_helpers import volcal_process
 
 
 def _volcal(*args):
-    return subprocess.run([sys.executable, "-c", "from volcal.cli import main; main()", *args],
-                          capture_output=True, text=True)
+    """``volcal *args`` in-process (VOLCAL_TEST_SUBPROCESS=1: in a process of its own)."""
+    return volcal_process(*args)
 
 
 def test_drift_cli_reports_span_and_rate(tmp_path):

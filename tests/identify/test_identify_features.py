@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -25,6 +23,7 @@ from volcal.model.kinematics import volumetric_error
 from volcal.model.names import ROLL_NAMES
 from volcal.session.errortable import write_error_table
 from volcal.session.format import write_session
+from volcal_cli_helpers import volcal_process
 
 
 @pytest.fixture(scope="module")
@@ -136,8 +135,8 @@ def test_bad_model_file_is_a_clear_error(tmp_path):
 
 
 def _volcal(*args):
-    return subprocess.run([sys.executable, "-c", "from volcal.cli import main; main()", *args],
-                          capture_output=True, text=True)
+    """``volcal *args`` in-process (VOLCAL_TEST_SUBPROCESS=1: in a process of its own)."""
+    return volcal_process(*args)
 
 
 def test_cli_identify_and_predict(noisy, tmp_path):

@@ -1,5 +1,3 @@
-import subprocess
-import sys
 import tomllib
 
 import numpy as np
@@ -12,6 +10,7 @@ from volcal.plan.planner import plan_session
 from volcal.program import ProgramOptions, build_steps, write_programs
 from volcal.program.dialects import DIALECTS
 from volcal.session.format import Measurement, Session, read_session, write_session
+from volcal_cli_helpers import volcal_process
 
 TRAVEL = np.array([[0.0, 800.0], [0.0, 600.0], [0.0, 500.0]])
 
@@ -143,8 +142,8 @@ def test_comments_name_test_and_optics(tmp_path):
 
 
 def _cli(*args):
-    return subprocess.run([sys.executable, "-c", "from volcal.cli import main; main()", *args],
-                          capture_output=True, text=True)
+    """``volcal *args`` in-process (VOLCAL_TEST_SUBPROCESS=1: in a process of its own)."""
+    return volcal_process(*args)
 
 
 def test_cli_writes_programs_and_reports_bad_input(tmp_path):

@@ -30,6 +30,7 @@ from volcal.identify.settings import EstimatorSettings
 from volcal.identify.solver import Solution, solve_bayes, solve_min_norm
 from volcal.model.names import ROLL_NAMES
 from volcal.session.format import Measurement, Session
+from volcal.session.kinds import kind_of
 
 __all__ = ["IdentifyOptions", "advise", "default_outlier_threshold", "identify",
            "standardised_residuals"]
@@ -318,10 +319,7 @@ def advise(session: Session, options: IdentifyOptions | None = None):
                               f"{st.trend_centre_um:g} um over the travel, straightness "
                               f"{straight:g} um, roll and tilts {tilt:g} urad); the measured "
                               "data will refine them.")
-    if any(m.kind in ("straightness", "angular") for m in design.measurements):
-        from volcal.identify.optics import optics_notes  # what each direct optic adds
-
-        report.messages.extend(optics_notes(design.measurements))
+    report.messages.extend(_kind_notes(design.measurements))  # what each kind adds
     if any(m.kind == "multilateration" for m in session.measurements):
         from volcal.identify import multilateration as _ml
 
@@ -427,11 +425,18 @@ def _identify_weighted(session: Session, o: IdentifyOptions,
     if known:
         report.messages.append("Known errors given by the user (held fixed, or priors with "
                                "their uncertainty): " + ", ".join(design.fixed_names) + ".")
-    if any(m.kind in ("straightness", "angular") for m in design.measurements):
-        from volcal.identify.optics import optics_notes  # what each direct optic adds
-
-        report.messages.extend(optics_notes(design.measurements))
+    report.messages.extend(_kind_notes(design.measurements))  # what each kind adds
     return _result(session, design, sol, report, o)
+
+
+def _kind_notes(measurements: list) -> list[str]:
+    """What the measurements of each kind add (:meth:`volcal.kinds.Kind.design_notes`)."""
+    from volcal.session.kinds import hooks_of
+
+    out: list[str] = []
+    for notes in hooks_of([m.kind for m in measurements], "design_notes"):
+        out.extend(notes(measurements))
+    return out
 
 
 def _fit_min_norm(session: Session, o: IdentifyOptions, known: dict, weights,
@@ -657,10 +662,9 @@ def _result(session: Session, design: Design, sol: Solution, report, o: Identify
     for m in design.measurements:
         sl = design.rows[m.id]
         r = resid_all[sl]
-        if m.kind in ("straightness", "angular"):  # weighted rows: back to the readings' unit
-            from volcal.measure.optics import row_weight
-
-            r = r / row_weight(m)
+        w = kind_of(m.kind).row_weight(m)  # weighted rows: back to the readings' unit
+        if w != 1.0:
+            r = r / w
         residuals[m.id] = r
         fitted[m.id] = m.deviation - r
     z = _standardised(design, sol, resid_all, cov)

@@ -29,19 +29,13 @@ from volcal.model.kinematics import UM, URAD, pose_jacobian
 from volcal.model.names import COMPONENT_NAMES, ROLL_NAMES
 from volcal.model.parameters import ParameterLayout
 from volcal.session.format import Measurement, Session
+from volcal.session.kinds import kind_of
 
-__all__ = ["NUISANCE_PRIORS", "ROW_BLOCKS", "Design", "build_design", "choose_nodes"]
+__all__ = ["Design", "build_design", "choose_nodes", "laser_rows"]
 
-ROW_BLOCKS: dict[str, str] = {"multilateration": "volcal.identify.multilateration:row_block",
-                               "straightness": "volcal.identify.optics:row_block",
-                               "angular": "volcal.identify.optics:row_block"}
-"""Extension point: measurement kinds whose rows are not the laser readings of
-:func:`volcal.measure.readings.reading_jacobian`. Maps the kind to ``'module:function'``,
-``function(chain_order, nodes, measurement, drift) -> (J, y, N, names)`` with ``J`` the
-sparse rows on the full parameter layout, ``y`` the observations [um], ``N`` the nuisance
-columns (dense, one row per reading) and ``names`` their names. Nuisances with the same
-name in several measurements share one column (a tracker station seen by several
-measurements)."""
+# The rows of each kind of measurement, and the priors of its nuisances, come from the
+# registry of kinds (volcal.kinds: Kind.rows, Kind.nuisance_priors); the laser readings'
+# rows are :func:`laser_rows`.
 
 
 def known_functions(options: Any) -> dict:
@@ -72,26 +66,6 @@ def known_functions(options: Any) -> dict:
     elif options.roll != "estimate":
         raise VolcalInputError(f"roll must be 'estimate' or 'zero', got {options.roll!r}")
     return known
-
-
-NUISANCE_PRIORS: dict[str, str] = {
-    "multilateration": "volcal.identify.multilateration:station_priors",
-    "straightness": "volcal.identify.optics:square_priors"}
-"""Extension point: measurement kinds whose nuisances have an informative prior. Maps the
-kind to ``'module:function'``, ``function(measurement) -> {nuisance name: (mean, std)}``
-[um]: the design carries them as ``prior_mean`` and ``extra_precision`` (a measurement's
-set-up known to so much, e.g. a tracker station placed to a few mm)."""
-
-
-def _loaded(spec: str):
-    import importlib
-
-    mod, fn = spec.split(":")
-    return getattr(importlib.import_module(mod), fn)
-
-
-def _row_block(kind: str):
-    return _loaded(ROW_BLOCKS[kind])
 
 
 def visited_positions(session: Session) -> list[int]:
@@ -413,13 +387,49 @@ def _nuisance_columns(m: Measurement, drift: bool, tilts: bool, T: NDArray[np.fl
             cols.append(T[:, j])
             names.append(f"{m.id}:tilt{j + 1}")
     d = m.direction
-    if d is not None and m.kind == "linear" and np.any(d == "+") and np.any(d == "-"):
+    if (d is not None and kind_of(m.kind).bidirectional and np.any(d == "+")
+            and np.any(d == "-")):
         cols.append(np.where(d == "+", 0.5, -0.5))
         names.append(f"{m.id}:reversal")
     if drift and drift_separable(m):
         cols.append(m.columns["time_s"] / 3600.0)
         names.append(f"{m.id}:drift")
     return np.stack(cols, 1), names
+
+
+def laser_rows(chain_order, nodes, m: Measurement, drift: bool = False, tilts: bool = True):
+    """Rows of a laser reading along a beam (linear, diagonal, step diagonal).
+
+    Parameters
+    ----------
+    chain_order : sequence of int
+        ``Chain.order``.
+    nodes : list of 3 arrays
+        Node positions per axis [mm].
+    m : Measurement
+        The measurement (with readings).
+    drift : bool
+        Add a linear drift nuisance where it is separable (:func:`drift_separable`).
+    tilts : bool
+        Add the set-up tilt nuisances where visible, with the beam alignment's dependence
+        on the errors (:func:`_alignment_rows`).
+
+    Returns
+    -------
+    J : scipy.sparse.csr_matrix, shape (n, P)
+        Rows on the full parameter layout [um per parameter].
+    y : ndarray, shape (n,)
+        The deviations [um].
+    N : ndarray, shape (n, k)
+        Nuisance columns: offset, tilts, reversal, drift.
+    names : list of str
+    """
+    J = reading_jacobian(chain_order, nodes, m)
+    T, visible = _visible_tilts(m)
+    N, names = _nuisance_columns(m, drift, tilts, T, visible)
+    if tilts and visible:
+        J = (J + _alignment_rows(chain_order, nodes, m, T, visible)).tocsr()
+    return J, m.deviation, N, names
 
 
 def build_design(session: Session, nodes: list[NDArray[np.float64]] | None = None,
@@ -512,15 +522,8 @@ def build_design(session: Session, nodes: list[NDArray[np.float64]] | None = Non
     blocks, nblocks, ys, rows, nnames = [], [], [], {}, []
     r0 = 0
     for m in meas:
-        if m.kind in ROW_BLOCKS:
-            J, y_m, N, names = _row_block(m.kind)(chain.order, layout.nodes, m, drift)
-        else:
-            J = reading_jacobian(chain.order, layout.nodes, m)
-            y_m = m.deviation
-            T, visible = _visible_tilts(m)
-            N, names = _nuisance_columns(m, drift, tilts, T, visible)
-            if tilts and visible:
-                J = (J + _alignment_rows(chain.order, layout.nodes, m, T, visible)).tocsr()
+        J, y_m, N, names = kind_of(m.kind).rows(chain.order, layout.nodes, m, drift=drift,
+                                                tilts=tilts)  # the kind's rows (volcal.kinds)
         ys.append(y_m - J @ fixed_values)
         blocks.append(J[:, free])
         nblocks.append((N, r0, names))
@@ -551,11 +554,10 @@ def build_design(session: Session, nodes: list[NDArray[np.float64]] | None = Non
         mean[p[ok]] = v[ok]
         extra[p[ok]] = 1.0 / std**2
     for m in meas:
-        if m.kind in NUISANCE_PRIORS:
-            for nm, (mu, sd) in _loaded(NUISANCE_PRIORS[m.kind])(m).items():
-                if nm in column:
-                    mean[free.size + column[nm]] = mu
-                    extra[free.size + column[nm]] = 1.0 / sd**2
+        for nm, (mu, sd) in kind_of(m.kind).nuisance_priors(m).items():
+            if nm in column:
+                mean[free.size + column[nm]] = mu
+                extra[free.size + column[nm]] = 1.0 / sd**2
     y = np.concatenate(ys)
     if np.any(mean):
         y = y - A @ mean  # solve for the departure from the prior mean

@@ -7,16 +7,17 @@ The machine's truth (error table and every set-up error) is kept beside the sess
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from volcal.errors import VolcalInputError
 from volcal.io.tomlfmt import dumps as toml_dumps
-from volcal.measure.readings import SetupErrors, perpendicular_basis, reading_exact
+from volcal.measure.readings import SetupErrors
 from volcal.model.errorfunctions import MachineErrors
-from volcal.model.kinematics import UM
 from volcal.session.errortable import error_table_csv, error_table_toml
-from volcal.session.format import DEVIATION_ABS_MAX_UM, Session
+from volcal.session.format import Session
+from volcal.session.kinds import kind_of, kinds
 
 __all__ = ["SimulationOptions", "simulate_session", "truth_files"]
 
@@ -66,18 +67,13 @@ class SimulationOptions:
             raise VolcalInputError(f"--seed {self.seed}: must not be negative")
 
 
-def _random_perp(rng: np.random.Generator, n: np.ndarray, magnitude: float) -> np.ndarray:
-    if magnitude == 0:
-        return np.zeros(3)
-    B = perpendicular_basis(n)
-    phi = rng.uniform(0, 2 * np.pi)
-    return magnitude * (np.cos(phi) * B[0] + np.sin(phi) * B[1])
-
-
 def simulate_session(session: Session, machine: MachineErrors,
                      options: SimulationOptions | None = None,
                      tracker=None) -> dict[str, SetupErrors]:
     """Fill every measurement's deviations from the virtual machine, in place.
+
+    Each measurement is simulated by its kind (:meth:`volcal.kinds.Kind.simulate`), in
+    the session's order, from one random generator.
 
     Parameters
     ----------
@@ -100,53 +96,14 @@ def simulate_session(session: Session, machine: MachineErrors,
     o = options or SimulationOptions()
     rng = np.random.default_rng(o.seed)
     setups = {}
-    stations: dict = {}
-    optics_shared: dict[str, float] = {}
-    if any(m.kind in ("straightness", "angular") for m in session.measurements):
-        from volcal.session.optics import annotate_references
-
-        annotate_references(session.measurements, session.references)
+    shared: dict[str, Any] = {"stations": {}, "optics": {}, "tracker": tracker,
+                              "path": session.path}
+    present = {m.kind for m in session.measurements}
+    for k in kinds():  # once per kind present (the optics group their reference lines)
+        if k.name in present:
+            k.prepare(session)
     for m in session.measurements:
-        if m.kind in ("straightness", "angular"):
-            from volcal.measure.optics_simulate import simulate_optic
-
-            setups[m.id] = simulate_optic(m, machine, rng, o.noise_um, o.dwell_s,
-                                          o.drift_um_per_h, o.reversal, optics_shared)
-            continue
-        if m.kind == "multilateration":
-            from volcal.measure.multilateration import simulate_tracker
-
-            setups[m.id] = simulate_tracker(m, machine, rng, o.noise_um, o.dwell_s,
-                                            o.drift_um_per_h, stations, tracker)
-            continue
-        setup = SetupErrors(
-            mirror_tilt=_random_perp(rng, m.beam_direction, o.mirror_misalignment_urad)
-            if m.target in ("flat_mirror", "retroreflector_mirror") else np.zeros(3),
-            beam_tilt=_random_perp(rng, m.beam_direction, o.beam_misalignment_urad),
-        )
-        q_act = m.positions.copy()
-        if o.reversal and m.direction is not None and m.kind == "linear":
-            k = m.axis
-            sign = np.where(m.direction == "+", 0.5, -0.5)
-            q_act[:, k] += sign * machine.reversal[k] * UM
-        dev = reading_exact(machine, m, setup, q_act)
-        time_s = np.arange(m.n) * o.dwell_s
-        dev = dev + o.drift_um_per_h * time_s / 3600.0
-        if o.noise_um > 0:
-            noise = rng.normal(0.0, o.noise_um, m.n)
-            dev = dev + noise - noise[0]
-        m.deviation = dev - dev[0]
-        big = np.abs(m.deviation) > DEVIATION_ABS_MAX_UM
-        if big.any():  # never write a file its own reader refuses
-            where = (session.path / m.file) if session.path is not None else m.file
-            raise VolcalInputError(
-                f"simulated deviation {m.deviation[big][0]:.6g} um is absurd (> "
-                f"{DEVIATION_ABS_MAX_UM:g} um): the poses of {m.id!r} do not run from the "
-                "first row along its beam direction (rows out of order?)", where,
-                int(np.argmax(big)) + 2, "x_mm")
-        m.columns["time_s"] = time_s
-        m.columns.pop("status", None)  # every row now has a reading (no missed capture)
-        setups[m.id] = setup
+        setups[m.id] = kind_of(m.kind).simulate(m, machine, rng, o, shared)
     return setups
 
 
@@ -182,7 +139,7 @@ def truth_files(machine: MachineErrors, setups: dict[str, SetupErrors],
                         **({"reference_urad": {k: float(v) for k, v in s.nuisances.items()},
                             "direction_tilt_urad": [float(v) for v in s.direction_tilt]}
                            if hasattr(s, "nuisances") else {})}
-                  for mid, s in setups.items()},
+                  for mid, s in setups.items() if s is not None},  # None: no set-up
     }
     return {
         "truth/machine.csv": error_table_csv(machine),

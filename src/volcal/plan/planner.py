@@ -48,8 +48,8 @@ QUALIFIED: dict[str, tuple[str, ...]] = {
 ``direct:level-x`` (a level on X), ``direct:roll-z`` (Z's straightness at two tool
 offsets in one reference group)."""
 
-__all__ = ["DEFAULT_OVERRUN_MM", "QUALIFIED", "TEST_NAMES", "abbe_lines", "plan_session",
-           "split_test"]
+__all__ = ["DEFAULT_OVERRUN_MM", "QUALIFIED", "TEST_NAMES", "PlanOptions", "abbe_lines",
+           "plan_session", "plan_test_names", "split_test"]
 
 DEFAULT_OVERRUN_MM = 5.0
 """Room left at both ends of every linear test for the ISO 230-2 overrun [mm]; equal to
@@ -180,8 +180,32 @@ def plan_session(travel: ArrayLike, chain: str = "XYFZ", steps: int = 10,
     meas: list[Measurement] = []
     for test in tests:
         base, only = split_test(test)
-        meas += _BUILDERS[base](c, only)
+        meas += _planner_of(base).plan(base, c, only)  # the kind that plans it (volcal.kinds)
     return Session(name, chain, t, meas)
+
+
+def _planner_of(test: str):
+    """The registered kind that plans the test ``test`` (:attr:`volcal.kinds.Kind.plan_tests`)."""
+    from volcal.session.kinds import kinds
+
+    for k in kinds():
+        if test in k.plan_tests:
+            return k
+    raise VolcalInputError(f"unknown test {test!r}: expected any of "
+                           f"{', '.join(plan_test_names())}")
+
+
+def plan_test_names() -> tuple[str, ...]:
+    """Every plannable test: :data:`TEST_NAMES` and those of the kinds added since.
+
+    Returns
+    -------
+    tuple of str
+    """
+    from volcal.session.kinds import kinds
+
+    extra = [t for k in kinds() for t in k.plan_tests if t not in TEST_NAMES]
+    return (*TEST_NAMES, *extra)
 
 
 def split_test(test: str) -> tuple[str, str | None]:
@@ -205,9 +229,9 @@ def split_test(test: str) -> tuple[str, str | None]:
         Unknown test, or a qualifier the test does not take.
     """
     base, sep, only = test.strip().partition(":")
-    if base not in TEST_NAMES:
+    if base not in plan_test_names():
         raise VolcalInputError(f"unknown test(s) {test}: expected any of "
-                               f"{', '.join(TEST_NAMES)} ({_qualified_help()})")
+                               f"{', '.join(plan_test_names())} ({_qualified_help()})")
     if not sep:
         return base, None
     valid = QUALIFIED.get(base, ())
@@ -226,12 +250,13 @@ def _qualified_help() -> str:
 
 def _check_options(tests: Sequence[str], steps: int, runs: int, step_target: str,
                    linear_margin_mm: float, abbe_tool_offset_mm: float) -> None:
+    names = plan_test_names()
     if not tests:
-        raise VolcalInputError(f"--tests: no test given; expected any of {', '.join(TEST_NAMES)}")
-    unknown = [x for x in tests if x.partition(":")[0] not in TEST_NAMES]
+        raise VolcalInputError(f"--tests: no test given; expected any of {', '.join(names)}")
+    unknown = [x for x in tests if x.partition(":")[0] not in names]
     if unknown:
         raise VolcalInputError(f"unknown test(s) {', '.join(unknown)}: expected any of "
-                               f"{', '.join(TEST_NAMES)} ({_qualified_help()})")
+                               f"{', '.join(names)} ({_qualified_help()})")
     for x in tests:
         split_test(x)
     if steps < 1 or steps > 10000:
@@ -345,7 +370,7 @@ def _direct(c: _Plan, only: str | None = None) -> list[Measurement]:
     return ms if only is None else select_direct(ms, only)
 
 
-_BUILDERS = {"step-diagonal": _step_diagonals, "direct": _direct, "diagonal": _diagonals,
-             "face-diagonal": _face_diagonals, "face-step-diagonal": _face_step_diagonals,
-             "multilateration": _multilateration, "linear": _linear}
-"""Test name -> the function planning its measurements."""
+PlanOptions = _Plan
+"""The plan's options as a kind's :meth:`volcal.kinds.Kind.plan` receives them (travel
+``t`` [mm], ``chain``, ``steps``, ``runs``, ``off`` (tool offset [mm]), ``iso_spacing``,
+``linear_margin_mm``, ``vertical``...)."""

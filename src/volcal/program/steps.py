@@ -140,10 +140,11 @@ def setup_comments(m: Measurement) -> list[str]:
     lines = [f"volcal measurement {m.id}: {m.kind.replace('_', ' ')} test, {m.n} readings",
              f"optics: {m.target.replace('_', ' ')} on the tool at offset [{t}] mm",
              f"beam direction (machine axes): [{b}]"]
-    if m.kind in ("straightness", "angular"):  # direct optics: which optic, how set up
-        from volcal.program.optics import optic_setup_lines
+    from volcal.session.kinds import kind_of
 
-        lines[1:3] = optic_setup_lines(m)
+    setup = kind_of(m.kind).program_setup_lines(m)  # a kind's own set-up (direct optics)
+    if setup is not None:
+        lines[1:3] = setup
     for key in ("axis", "diagonal", "axis_order", "plane", "line_mm", "station_mm"):
         if key in m.meta:
             lines.append(f"{key}: {m.meta[key]}")
@@ -234,8 +235,11 @@ def _motion(m: Measurement, pos: NDArray[np.float64], travel: NDArray[np.float64
             return
         steps.append(Step("move", tuple(p.tolist()), options.feed, text=role))
 
-    linear = m.kind == "linear" and options.overrun_mm > 0
-    k = m.axis if m.kind == "linear" else None
+    from volcal.session.kinds import kind_of
+
+    bidirectional = kind_of(m.kind).bidirectional  # ISO 230-2 approach and overrun
+    linear = bidirectional and options.overrun_mm > 0
+    k = m.axis if bidirectional else None
     dirs = _directions(m, k) if linear and k is not None else None
     current: NDArray[np.float64] | None = None
     run = m.run

@@ -538,14 +538,14 @@ def build_report(inp: ReportInputs, title: str | None = None) -> Report:
     """
     from volcal import __version__
     from volcal.report.completeness import completeness_section
-    from volcal.report.multilateration import multilateration_section
-    from volcal.report.optics import optics_section
     from volcal.report.uncertainty import uncertainty_section
     from volcal.report.wording import references_section
+    from volcal.session.kinds import hooks_of
 
+    kind_sections = hooks_of([m.kind for m in inp.session.measurements], "report_section")
     builders = [machine_section, measurements_section, completeness_section,
                 positioning_section,
-                diagonal_section, multilateration_section, optics_section,
+                diagonal_section, *kind_sections,  # each kind's own (volcal.kinds)
                 identification_section,
                 identifiability_section, volumetric_section, compensation_section,
                 uncertainty_section]

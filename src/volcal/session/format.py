@@ -30,14 +30,18 @@ from volcal.session.identity import (
     read_equipment,
     read_machine_identity,
 )
+from volcal.session.kinds import ReadContext, kind_names, kind_of, kinds, target_names
 
 SESSION_FORMAT = "volcal-session/1"
 KINDS: tuple[str, ...] = ("linear", "diagonal", "step_diagonal", "multilateration",
                           "straightness", "angular")
-"""Measurement kinds (``kind`` in ``session.toml``); adding one here adds it everywhere."""
+"""The built-in measurement kinds (``kind`` in ``session.toml``), in their documented order.
+Every kind, built-in or added, is an entry of the registry :mod:`volcal.kinds`
+(:func:`volcal.kinds.kind_names`); this tuple is kept for the readers of the names."""
 TARGETS: tuple[str, ...] = ("flat_mirror", "retroreflector", "retroreflector_mirror", "cat_eye",
                             "straightness_optics", "angular_optics", "level", "roll_optics")
-"""Targets (``target`` in ``session.toml``); adding one here adds it everywhere."""
+"""The built-in targets (``target`` in ``session.toml``); each kind of the registry
+:mod:`volcal.kinds` lists its own (:func:`volcal.kinds.target_names`)."""
 MULTILATERATION_COLUMN = "length_mm"
 """Reading column of a multilateration CSV: change of the station-to-reflector distance."""
 MISSED = "missed"
@@ -80,9 +84,11 @@ class Measurement:
     id : str
         Unique name within the session.
     kind : str
-        ``'linear'``, ``'diagonal'`` or ``'step_diagonal'``.
+        A registered measurement kind (:mod:`volcal.kinds`: ``'linear'``,
+        ``'diagonal'``, ``'step_diagonal'``, ``'multilateration'``, ``'straightness'``,
+        ``'angular'``, or one added with :func:`volcal.kinds.register_kind`).
     target : str
-        ``'flat_mirror'`` or ``'retroreflector'``.
+        A target of a registered kind (``'flat_mirror'``, ``'retroreflector'``...).
     positions : ndarray, shape (n, 3)
         Commanded position of each reading [mm].
     deviation : ndarray, shape (n,), or None
@@ -132,8 +138,8 @@ class Measurement:
         if not isinstance(self.id, str) or not self.id:
             raise VolcalInputError(f"measurement id must be a non-empty string, got {self.id!r}")
         where = f"measurement {self.id!r}"
-        check_choice(self.kind, KINDS, "kind", where)
-        check_choice(self.target, TARGETS, "target", where)
+        check_choice(self.kind, kind_names(), "kind", where)
+        check_choice(self.target, target_names(), "target", where)
         if not self.file:
             self.file = f"{self.id}.csv"
         self.positions = _array(self.positions, (-1, 3), f"{where}: positions [mm]")
@@ -180,18 +186,12 @@ class Measurement:
 
     @property
     def axis(self) -> int | None:
-        """Measured axis index of a linear test or direct optic (metadata or positions)."""
-        if self.kind in ("straightness", "angular"):
-            a = self.meta.get("axis")
-            if isinstance(a, str) and a.lower() in ("x", "y", "z"):
-                return "xyz".index(a.lower())
-            return int(np.argmax(np.ptp(self.positions, axis=0)))
-        if self.kind != "linear":
-            return None
-        a = self.meta.get("axis")
-        if isinstance(a, str) and a.upper() in ("X", "Y", "Z"):
-            return "XYZ".index(a.upper())
-        return int(np.argmax(np.ptp(self.positions, axis=0)))
+        """Measured axis index of a linear test or direct optic (metadata or positions).
+
+        The measurement's kind decides (:meth:`volcal.kinds.Kind.axis`); None for a kind
+        that reads no single axis (diagonals, multilateration).
+        """
+        return kind_of(self.kind).axis(self)
 
     def to_toml(self) -> dict[str, Any]:
         """The measurement's entry in ``session.toml``."""
@@ -203,7 +203,7 @@ class Measurement:
             "tool_offset_mm": [float(v) for v in self.tool_offset],
             "file": self.file,
         }
-        if self.kind in ("multilateration", "straightness", "angular"):
+        if not kind_of(self.kind).beam_in_session:
             del d["beam_direction"]  # not part of these set-ups (see docs/formats.md)
         for k, v in self.meta.items():
             if not k.startswith("_"):  # "_" keys: working state, never written
@@ -215,17 +215,8 @@ class Measurement:
         extra = [c for c in OPTIONAL_COLUMNS if c in self.columns]
         buf = io.StringIO()
         w = csv.writer(buf, lineterminator="\n")
-        values, fmt = self.deviation, "{:.6f}"
         header = list(REQUIRED_COLUMNS)
-        if self.kind == "multilateration":
-            from volcal.session.multilateration import length_from_deviation
-
-            header[3], fmt = MULTILATERATION_COLUMN, "{:.8f}"
-            if values is not None:
-                values = length_from_deviation(values, self.positions, self.tool_offset,
-                                               self.meta["station_mm"])
-        if self.kind == "angular":
-            header[3] = "angle_urad"
+        header[3], values, fmt = kind_of(self.kind).csv_values(self)  # the kind's column
         w.writerow([*header, *extra])
         for i in range(self.n):
             row = [_fmt(v) for v in self.positions[i]]
@@ -591,8 +582,22 @@ class _Rows:
     missed: NDArray[np.bool_]
 
 
+def _value_table(value_column: str) -> TableSpec:
+    """Columns of a measurement CSV whose reading column is ``value_column``."""
+    if value_column == "deviation_um":
+        return MEASUREMENT_TABLE
+    if value_column == "angle_urad":
+        return ANGULAR_TABLE
+    return TableSpec(columns=(*MEASUREMENT_TABLE.columns[:3],
+                              Column(value_column, empty=True, abs_max=DEVIATION_ABS_MAX_UM,
+                                     markers=(MISSED,)),
+                              *MEASUREMENT_TABLE.columns[4:]),
+                     min_rows=MIN_ROWS, min_rows_message="need at least {min} readings, found {n}",
+                     what="measurement file", **SPREADSHEET)
+
+
 def _read_rows(path: str | Path, value_column: str = "deviation_um") -> _Rows:
-    spec = ANGULAR_TABLE if value_column == "angle_urad" else MEASUREMENT_TABLE
+    spec = _value_table(value_column)
     t = read_table(path, spec)
     _check_environment_columns(t)
     pos = np.stack([t["x_mm"], t["y_mm"], t["z_mm"]], axis=1)
@@ -855,11 +860,10 @@ def _entry_keys(e: Any, where: str, folder: Path, toml_path: Path, seen: set[str
     if mid in seen:
         raise _err(f"duplicate measurement id {mid!r}", toml_path, None, f"{where}.id")
     seen.add(mid)
-    kind = check_choice(e.get("kind"), KINDS, "kind", "", toml_path, f"{where}.kind")
-    default = {"straightness": "straightness_optics", "angular": "angular_optics"}.get(
-        kind, "retroreflector")  # the direct optics' usual optic when target is left out
-    target = check_choice(e.get("target", default), TARGETS, "target", "", toml_path,
-                          f"{where}.target")
+    kind = check_choice(e.get("kind"), kind_names(), "kind", "", toml_path, f"{where}.kind")
+    k = kind_of(kind)
+    target = check_choice(e.get("target", k.default_target or k.targets[0]), target_names(),
+                          "target", "", toml_path, f"{where}.target")
     file = e.get("file")
     if not isinstance(file, str) or not file:
         raise _err("missing file name", toml_path, None, f"{where}.file")
@@ -867,18 +871,11 @@ def _entry_keys(e: Any, where: str, folder: Path, toml_path: Path, seen: set[str
     if not csv_path.is_file():
         raise _err(f"measurement file {file!r} not found beside session.toml", toml_path, None,
                    f"{where}.file")
-    if target == "cat_eye" and kind != "multilateration":
-        raise _err(f"target 'cat_eye' belongs to kind 'multilateration', not {kind!r}",
+    if target not in k.targets:  # the kind's own targets (registry: volcal.kinds)
+        owner = next((o.name for o in kinds() if target in o.own_targets), None)
+        pre = f"target {target!r} belongs to kind {owner!r}, not {kind!r}: " if owner else ""
+        raise _err(f"{pre}a {kind} measurement needs target = one of {', '.join(k.targets)}",
                    toml_path, None, f"{where}.target")
-    from volcal.session.optics import OPTIC_TARGETS
-
-    for okind, otargets in OPTIC_TARGETS.items():
-        if target in otargets and kind != okind:
-            valid = OPTIC_TARGETS.get(kind, [t for t in TARGETS
-                                             if not any(t in v for v in OPTIC_TARGETS.values())])
-            raise _err(f"target {target!r} belongs to kind {okind!r}, not {kind!r}: a {kind} "
-                       f"measurement needs target = one of {', '.join(valid)}",
-                       toml_path, None, f"{where}.target")
     return mid, kind, target, file, csv_path
 
 
@@ -944,83 +941,86 @@ PLANES: tuple[str, ...] = ("xy", "yz", "xz")
 def _read_entry(e: Any, i: int, folder: Path, toml_path: Path, seen: set[str],
                 require_deviation: bool, travel: NDArray[np.float64],
                 notes: list[str], vertical: int = 2) -> Measurement:
-    from volcal.session.checks import check_geometry, check_travel
-
+    """One ``[[measurements]]`` entry: common keys here, the rest by its kind's reader."""
     where = f"measurements[{i}]"
     mid, kind, target, file, csv_path = _entry_keys(e, where, folder, toml_path, seen)
     offset = _vec3(e.get("tool_offset_mm", [0, 0, 0]), toml_path, f"{where}.tool_offset_mm")
-    if kind == "multilateration":
-        return _read_multilateration(e, where, mid, target, file, csv_path, offset, toml_path,
-                                     require_deviation)
-    if kind in ("straightness", "angular"):
-        return _read_optic(e, where, mid, kind, target, file, csv_path, offset, toml_path,
-                           require_deviation, travel, notes, vertical)
+    ctx = ReadContext(where, mid, kind, target, file, csv_path, toml_path, offset,
+                      require_deviation, travel, notes, vertical)
+    return kind_of(kind).read(e, ctx)
+
+
+def read_laser_entry(e: dict[str, Any], ctx: ReadContext) -> Measurement:
+    """A laser reading along a beam (linear, diagonal, step diagonal): ``deviation_um``.
+
+    Parameters
+    ----------
+    e : dict
+        The ``[[measurements]]`` entry.
+    ctx : ReadContext
+        Its checked keys and the session's context.
+
+    Returns
+    -------
+    Measurement
+    """
+    from volcal.session.checks import check_geometry, check_travel
+
+    where, toml_path, csv_path = ctx.where, ctx.toml_path, ctx.csv_path
     r = _read_rows(csv_path)
     n = _beam(e, r.positions, where, toml_path, csv_path)
     meta = {k: v for k, v in e.items()
             if k not in ("id", "kind", "target", "file", "tool_offset_mm", "beam_direction")}
-    _check_meta(kind, meta, r.positions, file, where, toml_path)
-    check_travel(r.positions, r.rows, travel, csv_path)
-    check_geometry(kind, r.positions, r.rows, meta, csv_path, n if "beam_direction" in e else None)
-    if require_deviation:
+    _check_meta(ctx.kind, meta, r.positions, ctx.file, where, toml_path)
+    check_travel(r.positions, r.rows, ctx.travel, csv_path)
+    check_geometry(ctx.kind, r.positions, r.rows, meta, csv_path,
+                   n if "beam_direction" in e else None)
+    r = missed_dropped(r, meta, ctx)
+    return Measurement(ctx.id, ctx.kind, ctx.target, r.positions, r.deviation, n,
+                       ctx.tool_offset, ctx.file, r.columns, meta, r.rows)
+
+
+def missed_dropped(r: _Rows, meta: dict[str, Any], ctx: ReadContext) -> _Rows:
+    """The rows without their missed captures, recorded in ``meta`` (when readings count).
+
+    Parameters
+    ----------
+    r : rows read by :func:`read_rows`
+    meta : dict
+        The measurement's metadata; gains :data:`MISSED_META`.
+    ctx : ReadContext
+        ``require_deviation`` and the notes.
+
+    Returns
+    -------
+    rows
+    """
+    if ctx.require_deviation:
         if r.deviation is not None and r.missed.any():
             meta[MISSED_META] = _missed_records(r)
-        r = _drop_missed(r, csv_path, notes)
-    return Measurement(mid, kind, target, r.positions, r.deviation, n, offset, file, r.columns,
-                       meta, r.rows)
+        r = _drop_missed(r, ctx.csv_path, ctx.notes)
+    return r
 
 
-def _read_optic(e: dict, where: str, mid: str, kind: str, target: str, file: str,
-                csv_path: Path, offset: NDArray[np.float64], toml_path: Path,
-                require_deviation: bool, travel: NDArray[np.float64], notes: list[str],
-                vertical: int) -> Measurement:
-    """A direct-optics measurement (``straightness`` or ``angular``; ``volcal.session.optics``)."""
-    from volcal.session.checks import check_travel
-    from volcal.session.optics import ANGULAR_COLUMN, read_optic_keys
+def read_rows(path: str | Path, value_column: str = "deviation_um") -> _Rows:
+    """Every row of a measurement CSV with the reading column ``value_column``.
 
-    column = ANGULAR_COLUMN if kind == "angular" else "deviation_um"
-    r = _read_rows(csv_path, column)
-    check_travel(r.positions, r.rows, travel, csv_path)
-    meta = read_optic_keys(kind, target, e, r.positions, r.rows, where, toml_path, csv_path,
-                           vertical)
-    k = "xyz".index(meta["axis"])
-    n = np.eye(3)[k] * (1.0 if r.positions[:, k].max() - r.positions[0, k]
-                        >= r.positions[0, k] - r.positions[:, k].min() else -1.0)
-    if require_deviation:
-        if r.deviation is not None and r.missed.any():
-            meta[MISSED_META] = _missed_records(r)
-        r = _drop_missed(r, csv_path, notes)
-    return Measurement(mid, kind, target, r.positions, r.deviation, n, offset, file, r.columns,
-                       meta, r.rows)
+    Parameters
+    ----------
+    path : str or Path
+        The CSV file (``x_mm, y_mm, z_mm``, the reading column, the optional columns).
+    value_column : str
+        Reading column of the kind (``deviation_um``, ``angle_urad``...).
 
+    Returns
+    -------
+    rows
+        ``positions`` [mm], ``deviation`` (NaN at missed captures; None when the column
+        is empty), ``columns``, ``rows`` (CSV row numbers), ``missed``.
 
-def _read_multilateration(e: dict, where: str, mid: str, target: str, file: str, csv_path: Path,
-                          offset: NDArray[np.float64], toml_path: Path,
-                          require_deviation: bool) -> Measurement:
-    """A tracking-interferometer measurement: station, tool offset, ``length_mm`` readings."""
-    from volcal.session.multilateration import DEFAULT_STATION_U_MM, deviation_from_length
-
-    if target != "cat_eye":
-        raise _err(f"a multilateration measurement needs target = \"cat_eye\", got {target!r}",
-                   toml_path, None, f"{where}.target")
-    if "station_mm" not in e:
-        raise _err("missing station_mm = [x, y, z]: where the tracker's pivot stands [mm]",
-                   toml_path, None, f"{where}.station_mm")
-    station = _vec3(e["station_mm"], toml_path, f"{where}.station_mm")
-    u = e.get("station_u_mm", DEFAULT_STATION_U_MM)
-    if isinstance(u, bool) or not isinstance(u, int | float) or not (math.isfinite(u) and u > 0):
-        raise _err(f"station_u_mm must be a positive number of mm, got {u!r}", toml_path, None,
-                   f"{where}.station_u_mm")
-    pos, length, cols = read_measurement_csv(csv_path, require_deviation,
-                                             value_column=MULTILATERATION_COLUMN)
-    d = np.linalg.norm(pos + offset - station, axis=1)
-    if np.min(d) < 1.0:
-        row = int(np.argmin(d)) + 2
-        raise _err("the reflector comes within 1 mm of the station pivot: check station_mm "
-                   "and tool_offset_mm", csv_path, row, "x_mm")
-    dev = None if length is None else deviation_from_length(length, pos, offset, station)
-    meta = {k: v for k, v in e.items()
-            if k not in ("id", "kind", "target", "file", "tool_offset_mm", "beam_direction")}
-    meta["station_mm"] = [float(v) for v in station]
-    n = (pos[0] + offset - station) / d[0]
-    return Measurement(mid, "multilateration", target, pos, dev, n, offset, file, cols, meta)
+    Raises
+    ------
+    VolcalInputError
+        Naming the file, row and column.
+    """
+    return _read_rows(path, value_column)

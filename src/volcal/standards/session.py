@@ -193,6 +193,7 @@ def evaluate_session(session: Any, result: Any = None, edition: str = "2014",
     indices). Seed 002 (ELv).
     """
     from volcal.errors import VolcalInputError
+    from volcal.session.kinds import kind_of
     from volcal.standards.iso230_2 import evaluate
     from volcal.standards.iso230_6 import evaluate_diagonal
     from volcal.standards.positioning_data import from_measurement
@@ -202,7 +203,8 @@ def evaluate_session(session: Any, result: Any = None, edition: str = "2014",
         if m.deviation is None:
             ev.skipped[m.id] = "no readings yet"
             continue
-        if m.kind == "linear":
+        standard = kind_of(m.kind).standard  # which standard evaluates it (volcal.kinds)
+        if standard == "ISO 230-2":
             if "run" not in m.columns or "direction" not in m.columns:
                 ev.skipped[m.id] = "no run/direction columns"
                 continue
@@ -216,7 +218,7 @@ def evaluate_session(session: Any, result: Any = None, edition: str = "2014",
                 ev.skipped[m.id] = f"too many missed captures: {exc.message}"
                 continue
             ev.axis[m.id] = d.axis or "?"
-        elif m.kind == "diagonal":
+        elif standard == "ISO 230-6":
             try:
                 ev.iso230_6[m.id] = evaluate_diagonal(m, edition)
             except VolcalInputError as exc:

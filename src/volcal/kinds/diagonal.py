@@ -24,7 +24,17 @@ class DiagonalKind(LaserKind):
     description: ClassVar[str] = "body or face diagonal, retroreflector on the tool"
 
     def plan(self, test: str, options: Any, only: str | None = None) -> list[Any]:
-        """The 4 body diagonals, or the face diagonals (of the plane ``only``)."""
+        """The 4 body diagonals, or the face diagonals (of the plane ``only``).
+
+        Parameters
+        ----------
+        test : str
+            One of :attr:`plan_tests`.
+        options : volcal.plan.planner.PlanOptions
+            The plan's options.
+        only : str or None
+            Axis or plane qualifier (``linear:x``); None: all.
+        """
         from volcal.plan.planner import _diagonals, _face_diagonals
 
         return (_diagonals if test == "diagonal" else _face_diagonals)(options, only)

@@ -27,28 +27,76 @@ class LaserKind(Kind):
     default_target: ClassVar[str | None] = "retroreflector"
 
     def read(self, entry: dict[str, Any], ctx: ReadContext) -> Any:
-        """Read the entry and its CSV (:func:`volcal.session.format.read_laser_entry`)."""
+        """Read the entry and its CSV (:func:`volcal.session.format.read_laser_entry`).
+
+        Parameters
+        ----------
+        entry : dict
+            The ``[[measurements]]`` entry as parsed.
+        ctx : ReadContext
+            Its checked keys and the session's context.
+        """
         from volcal.session.format import read_laser_entry
 
         return read_laser_entry(entry, ctx)
 
     def exact(self, machine: Any, m: Any, setup: Any = None,
               q_actual: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
-        """Exact deviations [um] (:func:`volcal.measure.readings.reading_exact`)."""
+        """Exact deviations [um] (:func:`volcal.measure.readings.reading_exact`).
+
+        Parameters
+        ----------
+        machine : MachineErrors
+            The (virtual) machine.
+        m : Measurement
+            The measurement.
+        setup : object, optional
+            Set-up errors drawn by :meth:`simulate`; None: a perfect set-up.
+        q_actual : ndarray, shape (n, 3), optional
+            Axis positions actually reached [mm]; default the commanded ones.
+        """
         from volcal.measure.readings import reading_exact
 
         return reading_exact(machine, m, setup, q_actual)
 
     def rows(self, chain_order: Any, nodes: Any, m: Any, *, drift: bool = False,
              tilts: bool = True) -> RowBlock:
-        """Rows, offset, visible tilts, reversal and drift (:func:`laser_rows`)."""
+        """Rows, offset, visible tilts, reversal and drift (:func:`laser_rows`).
+
+        Parameters
+        ----------
+        chain_order : sequence of int
+            ``Chain.order``.
+        nodes : list of 3 arrays
+            Node positions per axis [mm].
+        m : Measurement
+            The measurement.
+        drift : bool
+            Add a drift nuisance where it is separable from the geometry.
+        tilts : bool
+            Add the set-up tilt nuisances where the kind has them.
+        """
         from volcal.identify.design import laser_rows
 
         return RowBlock(*laser_rows(chain_order, nodes, m, drift, tilts))
 
     def simulate(self, m: Any, machine: Any, rng: np.random.Generator, options: Any,
                  shared: dict[str, Any]) -> Any:
-        """Simulated readings with mirror and beam tilts, reversal, drift, noise."""
+        """Simulated readings with mirror and beam tilts, reversal, drift, noise.
+
+        Parameters
+        ----------
+        m : Measurement
+            The measurement.
+        machine : MachineErrors
+            The (virtual) machine.
+        rng : numpy.random.Generator
+            The simulation's random generator.
+        options : SimulationOptions
+            Noise, misalignments, drift, dwell.
+        shared : dict
+            State shared by the measurements of one simulation.
+        """
         return simulate_laser(self, m, machine, rng, options, shared.get("path"))
 
 

@@ -29,14 +29,30 @@ class LinearKind(LaserKind):
                                   "bidirectional runs")
 
     def axis(self, m: Any) -> int | None:
-        """The ``axis`` key, else the axis that moves most."""
+        """The ``axis`` key, else the axis that moves most.
+
+        Parameters
+        ----------
+        m : Measurement
+            The measurement.
+        """
         a = m.meta.get("axis")
         if isinstance(a, str) and a.upper() in ("X", "Y", "Z"):
             return "XYZ".index(a.upper())
         return int(np.argmax(np.ptp(m.positions, axis=0)))
 
     def plan(self, test: str, options: Any, only: str | None = None) -> list[Any]:
-        """Three lines per axis (or the axis ``only``)."""
+        """Three lines per axis (or the axis ``only``).
+
+        Parameters
+        ----------
+        test : str
+            One of :attr:`plan_tests`.
+        options : volcal.plan.planner.PlanOptions
+            The plan's options.
+        only : str or None
+            Axis or plane qualifier (``linear:x``); None: all.
+        """
         from volcal.plan.planner import _linear
 
         return _linear(options, only)

@@ -33,7 +33,15 @@ class MultilaterationKind(Kind):
     description: ClassVar[str] = "tracking interferometer: distance from a station"
 
     def read(self, entry: dict[str, Any], ctx: ReadContext) -> Any:
-        """Station, tool offset and ``length_mm`` readings, as deviations [um]."""
+        """Station, tool offset and ``length_mm`` readings, as deviations [um].
+
+        Parameters
+        ----------
+        entry : dict
+            The ``[[measurements]]`` entry as parsed.
+        ctx : ReadContext
+            Its checked keys and the session's context.
+        """
         from volcal.session.format import (
             MULTILATERATION_COLUMN,
             Measurement,
@@ -70,7 +78,13 @@ class MultilaterationKind(Kind):
                            meta)
 
     def csv_values(self, m: Any) -> tuple[str, NDArray[np.float64] | None, str]:
-        """``length_mm`` [mm] from the deviations."""
+        """``length_mm`` [mm] from the deviations.
+
+        Parameters
+        ----------
+        m : Measurement
+            The measurement.
+        """
         from volcal.session.multilateration import length_from_deviation
 
         values = m.deviation
@@ -80,7 +94,17 @@ class MultilaterationKind(Kind):
         return self.value_column, values, "{:.8f}"
 
     def exact(self, machine: Any, m: Any, setup: Any = None) -> NDArray[np.float64]:
-        """Exact deviations [um] at the station of the set-up (default: as planned)."""
+        """Exact deviations [um] at the station of the set-up (default: as planned).
+
+        Parameters
+        ----------
+        machine : MachineErrors
+            The (virtual) machine.
+        m : Measurement
+            The measurement.
+        setup : object, optional
+            Set-up errors drawn by :meth:`simulate`; None: a perfect set-up.
+        """
         from volcal.measure.multilateration import length_exact, station_of
         from volcal.session.multilateration import deviation_from_length
 
@@ -90,20 +114,54 @@ class MultilaterationKind(Kind):
 
     def rows(self, chain_order: Any, nodes: Any, m: Any, *, drift: bool = False,
              tilts: bool = True) -> RowBlock:
-        """Rows with the shared station nuisances (:mod:`volcal.identify.multilateration`)."""
+        """Rows with the shared station nuisances (:mod:`volcal.identify.multilateration`).
+
+        Parameters
+        ----------
+        chain_order : sequence of int
+            ``Chain.order``.
+        nodes : list of 3 arrays
+            Node positions per axis [mm].
+        m : Measurement
+            The measurement.
+        drift : bool
+            Add a drift nuisance where it is separable from the geometry.
+        tilts : bool
+            Add the set-up tilt nuisances where the kind has them.
+        """
         from volcal.identify.multilateration import row_block
 
         return RowBlock(*row_block(chain_order, nodes, m, drift))
 
     def nuisance_priors(self, m: Any) -> dict[str, tuple[float, float]]:
-        """The station placed to ``station_u_mm``."""
+        """The station placed to ``station_u_mm``.
+
+        Parameters
+        ----------
+        m : Measurement
+            The measurement.
+        """
         from volcal.identify.multilateration import station_priors
 
         return station_priors(m)
 
     def simulate(self, m: Any, machine: Any, rng: np.random.Generator, options: Any,
                  shared: dict[str, Any]) -> Any:
-        """Simulated lengths (:func:`volcal.measure.multilateration.simulate_tracker`)."""
+        """Simulated lengths (:func:`volcal.measure.multilateration.simulate_tracker`).
+
+        Parameters
+        ----------
+        m : Measurement
+            The measurement.
+        machine : MachineErrors
+            The (virtual) machine.
+        rng : numpy.random.Generator
+            The simulation's random generator.
+        options : SimulationOptions
+            Noise, misalignments, drift, dwell.
+        shared : dict
+            State shared by the measurements of one simulation.
+        """
         from volcal.measure.multilateration import simulate_tracker
 
         return simulate_tracker(m, machine, rng, options.noise_um, options.dwell_s,
@@ -111,13 +169,29 @@ class MultilaterationKind(Kind):
                                 shared.get("tracker"))
 
     def plan(self, test: str, options: Any, only: str | None = None) -> list[Any]:
-        """Stations and tool offsets over a grid (:mod:`volcal.plan.multilateration`)."""
+        """Stations and tool offsets over a grid (:mod:`volcal.plan.multilateration`).
+
+        Parameters
+        ----------
+        test : str
+            One of :attr:`plan_tests`.
+        options : volcal.plan.planner.PlanOptions
+            The plan's options.
+        only : str or None
+            Axis or plane qualifier (``linear:x``); None: all.
+        """
         from volcal.plan.planner import _multilateration
 
         return _multilateration(options, only)
 
     def report_section(self, inp: Any) -> Any:
-        """The multilateration section (:mod:`volcal.report.multilateration`)."""
+        """The multilateration section (:mod:`volcal.report.multilateration`).
+
+        Parameters
+        ----------
+        inp : volcal.report.sections.ReportInputs
+            The session and its results.
+        """
         from volcal.report.multilateration import multilateration_section
 
         return multilateration_section(inp)

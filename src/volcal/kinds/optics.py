@@ -57,11 +57,25 @@ class OpticKind(Kind):
     standard: ClassVar[str | None] = "ISO 230-1"
 
     def read(self, entry: dict[str, Any], ctx: ReadContext) -> Any:
-        """Read the entry, its optic's keys and its CSV."""
+        """Read the entry, its optic's keys and its CSV.
+
+        Parameters
+        ----------
+        entry : dict
+            The ``[[measurements]]`` entry as parsed.
+        ctx : ReadContext
+            Its checked keys and the session's context.
+        """
         return read_optic_entry(entry, ctx, self.value_column)
 
     def axis(self, m: Any) -> int | None:
-        """The ``axis`` key, else the axis that moves most."""
+        """The ``axis`` key, else the axis that moves most.
+
+        Parameters
+        ----------
+        m : Measurement
+            The measurement.
+        """
         a = m.meta.get("axis")
         if isinstance(a, str) and a.lower() in ("x", "y", "z"):
             return "xyz".index(a.lower())
@@ -69,39 +83,97 @@ class OpticKind(Kind):
 
     def exact(self, machine: Any, m: Any, setup: Any = None,
               q_actual: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
-        """Exact readings [um or urad] (:func:`volcal.measure.optics.optic_exact`)."""
+        """Exact readings [um or urad] (:func:`volcal.measure.optics.optic_exact`).
+
+        Parameters
+        ----------
+        machine : MachineErrors
+            The (virtual) machine.
+        m : Measurement
+            The measurement.
+        setup : object, optional
+            Set-up errors drawn by :meth:`simulate`; None: a perfect set-up.
+        q_actual : ndarray, shape (n, 3), optional
+            Axis positions actually reached [mm]; default the commanded ones.
+        """
         from volcal.measure.optics import optic_exact
 
         return optic_exact(machine, m, setup, q_actual)
 
     def rows(self, chain_order: Any, nodes: Any, m: Any, *, drift: bool = False,
              tilts: bool = True) -> RowBlock:
-        """Weighted rows with the offset and reference nuisances."""
+        """Weighted rows with the offset and reference nuisances.
+
+        Parameters
+        ----------
+        chain_order : sequence of int
+            ``Chain.order``.
+        nodes : list of 3 arrays
+            Node positions per axis [mm].
+        m : Measurement
+            The measurement.
+        drift : bool
+            Add a drift nuisance where it is separable from the geometry.
+        tilts : bool
+            Add the set-up tilt nuisances where the kind has them.
+        """
         from volcal.identify.optics import row_block
 
         return RowBlock(*row_block(chain_order, nodes, m, drift))
 
     def row_weight(self, m: Any) -> float:
-        """The optic's weight (:func:`volcal.measure.optics.row_weight`)."""
+        """The optic's weight (:func:`volcal.measure.optics.row_weight`).
+
+        Parameters
+        ----------
+        m : Measurement
+            The measurement.
+        """
         from volcal.measure.optics import row_weight
 
         return float(row_weight(m))
 
     def design_notes(self, measurements: list[Any]) -> list[str]:
-        """What each direct optic adds (:func:`volcal.identify.optics.optics_notes`)."""
+        """What each direct optic adds (:func:`volcal.identify.optics.optics_notes`).
+
+        Parameters
+        ----------
+        measurements : list of Measurement
+            The measurements (of every kind) of the design.
+        """
         from volcal.identify.optics import optics_notes
 
         return optics_notes(measurements)
 
     def prepare(self, session: Any) -> None:
-        """Group the lines of one reference (:func:`~volcal.session.optics.annotate_references`)."""
+        """Group the lines of one reference (:func:`~volcal.session.optics.annotate_references`).
+
+        Parameters
+        ----------
+        session : Session
+            The session (modified in place).
+        """
         from volcal.session.optics import annotate_references
 
         annotate_references(session.measurements, session.references)
 
     def simulate(self, m: Any, machine: Any, rng: np.random.Generator, options: Any,
                  shared: dict[str, Any]) -> Any:
-        """Simulated readings (:func:`volcal.measure.optics_simulate.simulate_optic`)."""
+        """Simulated readings (:func:`volcal.measure.optics_simulate.simulate_optic`).
+
+        Parameters
+        ----------
+        m : Measurement
+            The measurement.
+        machine : MachineErrors
+            The (virtual) machine.
+        rng : numpy.random.Generator
+            The simulation's random generator.
+        options : SimulationOptions
+            Noise, misalignments, drift, dwell.
+        shared : dict
+            State shared by the measurements of one simulation.
+        """
         from volcal.measure.optics_simulate import simulate_optic
 
         return simulate_optic(m, machine, rng, options.noise_um, options.dwell_s,
@@ -109,13 +181,25 @@ class OpticKind(Kind):
                               shared.setdefault("optics", {}))
 
     def program_setup_lines(self, m: Any) -> list[str] | None:
-        """Which optic, how set up (:func:`volcal.program.optics.optic_setup_lines`)."""
+        """Which optic, how set up (:func:`volcal.program.optics.optic_setup_lines`).
+
+        Parameters
+        ----------
+        m : Measurement
+            The measurement.
+        """
         from volcal.program.optics import optic_setup_lines
 
         return optic_setup_lines(m)
 
     def report_section(self, inp: Any) -> Any:
-        """The direct optics' section (:func:`volcal.report.optics.optics_section`)."""
+        """The direct optics' section (:func:`volcal.report.optics.optics_section`).
+
+        Parameters
+        ----------
+        inp : volcal.report.sections.ReportInputs
+            The session and its results.
+        """
         from volcal.report.optics import optics_section
 
         return optics_section(inp)

@@ -25,7 +25,17 @@ class StepDiagonalKind(LaserKind):
     description: ClassVar[str] = "sequential step diagonal, flat mirror on the tool"
 
     def plan(self, test: str, options: Any, only: str | None = None) -> list[Any]:
-        """The 4 body step diagonals per axis order, or the face step diagonals."""
+        """The 4 body step diagonals per axis order, or the face step diagonals.
+
+        Parameters
+        ----------
+        test : str
+            One of :attr:`plan_tests`.
+        options : volcal.plan.planner.PlanOptions
+            The plan's options.
+        only : str or None
+            Axis or plane qualifier (``linear:x``); None: all.
+        """
         from volcal.plan.planner import _face_step_diagonals, _step_diagonals
 
         fn = _step_diagonals if test == "step-diagonal" else _face_step_diagonals

@@ -27,13 +27,29 @@ class StraightnessKind(OpticKind):
     description: ClassVar[str] = "straightness optics: lateral displacement along one axis"
 
     def nuisance_priors(self, m: Any) -> dict[str, tuple[float, float]]:
-        """An optical square's certificate (:func:`volcal.identify.optics.square_priors`)."""
+        """An optical square's certificate (:func:`volcal.identify.optics.square_priors`).
+
+        Parameters
+        ----------
+        m : Measurement
+            The measurement.
+        """
         from volcal.identify.optics import square_priors
 
         return square_priors(m)
 
     def plan(self, test: str, options: Any, only: str | None = None) -> list[Any]:
-        """The direct optics of every axis, or of the selector ``only``."""
+        """The direct optics of every axis, or of the selector ``only``.
+
+        Parameters
+        ----------
+        test : str
+            One of :attr:`plan_tests`.
+        options : volcal.plan.planner.PlanOptions
+            The plan's options.
+        only : str or None
+            Axis or plane qualifier (``linear:x``); None: all.
+        """
         from volcal.plan.planner import _direct
 
         return _direct(options, only)

@@ -185,7 +185,13 @@ class Kind:
         raise NotImplementedError(f"kind {self.name!r} has no reader")
 
     def axis(self, m: Any) -> int | None:
-        """Measured axis (0, 1, 2) of a measurement along one axis, else None."""
+        """Measured axis (0, 1, 2) of a measurement along one axis, else None.
+
+        Parameters
+        ----------
+        m : Measurement
+            The measurement.
+        """
         return None
 
     def csv_values(self, m: Any) -> tuple[str, NDArray[np.float64] | None, str]:
@@ -249,20 +255,44 @@ class Kind:
         raise NotImplementedError(f"kind {self.name!r} has no Jacobian rows")
 
     def nuisance_priors(self, m: Any) -> dict[str, tuple[float, float]]:
-        """Informative priors of nuisances: name -> (mean, standard deviation)."""
+        """Informative priors of nuisances: name -> (mean, standard deviation).
+
+        Parameters
+        ----------
+        m : Measurement
+            The measurement.
+        """
         return {}
 
     def row_weight(self, m: Any) -> float:
-        """Weight of the rows (the estimator's unit over the readings'); 1 by default."""
+        """Weight of the rows (the estimator's unit over the readings'); 1 by default.
+
+        Parameters
+        ----------
+        m : Measurement
+            The measurement.
+        """
         return 1.0
 
     def design_notes(self, measurements: list[Any]) -> list[str]:
-        """What the measurements of this kind add, in plain words (identify, advise)."""
+        """What the measurements of this kind add, in plain words (identify, advise).
+
+        Parameters
+        ----------
+        measurements : list of Measurement
+            The measurements (of every kind) of the design.
+        """
         return []
 
     # -- simulation ------------------------------------------------------------------
     def prepare(self, session: Any) -> None:
-        """Make the session ready for simulation or identification (once per kind)."""
+        """Make the session ready for simulation or identification (once per kind).
+
+        Parameters
+        ----------
+        session : Session
+            The session (modified in place).
+        """
 
     def simulate(self, m: Any, machine: Any, rng: np.random.Generator, options: Any,
                  shared: dict[str, Any]) -> Any:
@@ -321,15 +351,33 @@ class Kind:
         raise VolcalInputError(f"kind {self.name!r} plans no test {test!r}")
 
     def program_setup_lines(self, m: Any) -> list[str] | None:
-        """Set-up lines of the part program's header (which optic, how); None: the default."""
+        """Set-up lines of the part program's header (which optic, how); None: the default.
+
+        Parameters
+        ----------
+        m : Measurement
+            The measurement.
+        """
         return None
 
     def evaluate(self, m: Any) -> dict[str, Any] | None:
-        """Evaluation of one measurement by itself (None: none; see :attr:`standard`)."""
+        """Evaluation of one measurement by itself (None: none; see :attr:`standard`).
+
+        Parameters
+        ----------
+        m : Measurement
+            The measurement.
+        """
         return None
 
     def report_section(self, inp: Any) -> Any:
-        """The report's section for this kind's measurements (None: none)."""
+        """The report's section for this kind's measurements (None: none).
+
+        Parameters
+        ----------
+        inp : volcal.report.sections.ReportInputs
+            The session and its results.
+        """
         return None
 
 

@@ -48,14 +48,20 @@ from numpy.typing import NDArray
 
 from volcal.errors import VolcalInputError
 from volcal.model.names import AXES
+from volcal.session.kinds import kind_of
 
 __all__ = ["LENGTH_KINDS", "OPTIC_KINDS", "attach_systematic", "optic_scale_inputs",
            "systematic_factor", "systematic_inputs"]
 
-#: Measurement kinds whose readings are lengths along the beam.
+#: Measurement kinds whose readings are lengths along the beam (``Kind.systematic``).
 LENGTH_KINDS: tuple[str, ...] = ("linear", "diagonal", "step_diagonal")
 #: Direct-optics kinds (a scale error of the optic: one column per optic or per line).
 OPTIC_KINDS: tuple[str, ...] = ("straightness", "angular")
+
+
+def _systematic(m) -> str | None:
+    """The measurement's systematic errors: ``'length'``, ``'optic'`` or None (its kind)."""
+    return kind_of(m.kind).systematic
 
 
 def optic_scale_inputs(design: Any, budget: Any) -> list[tuple[str, NDArray[np.float64]]]:
@@ -84,7 +90,7 @@ def optic_scale_inputs(design: Any, budget: Any) -> list[tuple[str, NDArray[np.f
     n_rows = design.A.shape[0]
     cols: dict[str, NDArray[np.float64]] = {}
     for m in design.measurements:
-        if m.kind not in OPTIC_KINDS or m.deviation is None or m.target not in OPTIC_KEYS:
+        if _systematic(m) != "optic" or m.deviation is None or m.target not in OPTIC_KEYS:
             continue
         inp = budget.inputs.get(OPTIC_KEYS[m.target][0])
         if inp is None or inp.u == 0:
@@ -120,7 +126,7 @@ def systematic_inputs(design: Any, budget: Any) -> list[tuple[str, NDArray[np.fl
     mat = np.zeros((3, n_rows))
     out: list[tuple[str, NDArray[np.float64]]] = []
     for m in design.measurements:
-        if m.kind not in LENGTH_KINDS:
+        if _systematic(m) != "length":
             continue
         # the sensitivities at the environment the session records (the budget's where none)
         u_air, u_mat = _relative_u(budget, m)

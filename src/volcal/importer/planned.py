@@ -31,6 +31,7 @@ from volcal.importer.laser_csv import (
     write_measurement,
 )
 from volcal.session.format import Measurement, Session, read_session
+from volcal.session.kinds import kind_of
 
 TARGET_TOL_MM = 0.01
 """Largest difference between a file's target and the planned one [mm] (the tolerance of
@@ -213,7 +214,7 @@ def import_planned(path: str | Path, mapping: dict[str, str], session: str | Pat
         raise VolcalInputError(f"measurement {mid!r} has readings; give --replace to replace "
                                "them (the old ones are kept in backup/)", folder / "session.toml")
     angle = None
-    if m.kind == "angular":  # readings in an angle unit: converted to urad below
+    if kind_of(m.kind).value_unit == "urad":  # readings in an angle unit: to urad below
         from volcal.importer.optics import angle_unit
 
         t = read_laser_csv(path, mapping, units, "um")

@@ -25,6 +25,7 @@ class LaserKind(Kind):
     targets: ClassVar[tuple[str, ...]] = ("flat_mirror", "retroreflector",
                                           "retroreflector_mirror")
     default_target: ClassVar[str | None] = "retroreflector"
+    systematic: ClassVar[str | None] = "length"
 
     def read(self, entry: dict[str, Any], ctx: ReadContext) -> Any:
         """Read the entry and its CSV (:func:`volcal.session.format.read_laser_entry`).

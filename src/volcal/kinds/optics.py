@@ -55,6 +55,7 @@ class OpticKind(Kind):
 
     beam_in_session: ClassVar[bool] = False
     standard: ClassVar[str | None] = "ISO 230-1"
+    systematic: ClassVar[str | None] = "optic"
 
     def read(self, entry: dict[str, Any], ctx: ReadContext) -> Any:
         """Read the entry, its optic's keys and its CSV.

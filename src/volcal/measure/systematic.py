@@ -37,8 +37,13 @@ from volcal.model.names import AXES
 
 __all__ = ["SystematicDraw", "apply_systematic", "draw_systematic"]
 
-LENGTH_KINDS = ("linear", "diagonal", "step_diagonal")
-OPTIC_KINDS = ("straightness", "angular")
+
+
+def _systematic(m: Any) -> str | None:
+    """The measurement's systematic errors: ``'length'``, ``'optic'`` or None (its kind)."""
+    from volcal.session.kinds import kind_of
+
+    return kind_of(m.kind).systematic
 
 
 @dataclass
@@ -126,7 +131,7 @@ def draw_systematic(session: Any, budget: Any, rng: np.random.Generator) -> Syst
                         v["laser.wavelength_nm"], v["air.formula"], v["air.co2_ppm"])
     out = SystematicDraw(_draw(rng, i["laser.u_wavelength_ppm"]) * 1e-6)
     for m in session.measurements:
-        if m.kind in LENGTH_KINDS:
+        if _systematic(m) == "length":
             out.air[m.id] = -(a.dn_dt * _draw(rng, i["air.u_temperature_k"])
                               + a.dn_dp * _draw(rng, i["air.u_pressure_pa"])
                               + a.dn_dh * _draw(rng, i["air.u_humidity_pct"])) / a.n
@@ -139,7 +144,7 @@ def draw_systematic(session: Any, budget: Any, rng: np.random.Generator) -> Syst
 
     per_line = v.get("optics.scale_correlation", "instrument") == "measurement"
     for m in session.measurements:
-        if m.kind in OPTIC_KINDS and m.target in OPTIC_KEYS:
+        if _systematic(m) == "optic" and m.target in OPTIC_KEYS:
             key = m.id if per_line else m.target
             inp = i.get(OPTIC_KEYS[m.target][0])
             if key not in out.optics and inp is not None:
@@ -158,10 +163,10 @@ def apply_systematic(session: Any, draw: SystematicDraw) -> None:
         The errors (the direct optics' readings scaled by ``1 + g``).
     """
     for m in session.measurements:
-        if m.kind in OPTIC_KINDS and m.deviation is not None:
+        if _systematic(m) == "optic" and m.deviation is not None:
             m.deviation = np.asarray(m.deviation, dtype=float) * (1.0 + draw.optic_scale(m))
             continue
-        if m.kind not in LENGTH_KINDS or m.deviation is None:
+        if _systematic(m) != "length" or m.deviation is None:
             continue
         d = (np.asarray(m.positions, dtype=float) - np.asarray(m.positions[0], dtype=float))
         n = np.asarray(m.beam_direction, dtype=float)

@@ -32,6 +32,7 @@ from volcal.plan.geometry import (
 )
 from volcal.plan.optics import DIRECT_SELECTORS
 from volcal.session.format import Measurement, Session
+from volcal.session.kinds import kind_of
 
 TEST_NAMES: tuple[str, ...] = (
     "step-diagonal", "diagonal", "linear", "face-diagonal", "face-step-diagonal",
@@ -102,7 +103,7 @@ def abbe_lines(axis: int, travel: np.ndarray, chain: str = "XYFZ",
 def _measurement(mid: str, kind: str, target: str, g: TestGeometry, offset, notes: str
                  ) -> Measurement:
     cols = {}
-    if g.run is not None and kind == "linear":
+    if g.run is not None and kind_of(kind).bidirectional:  # runs of ISO 230-2 tests
         cols["run"] = g.run
     if g.direction is not None:
         cols["direction"] = g.direction

@@ -144,6 +144,10 @@ class Kind:
         part programs.
     standard : str or None
         The standard evaluating it alone (``'ISO 230-2'``, ``'ISO 230-6'``) or None.
+    systematic : str or None
+        Its systematic errors in the budget: ``'length'`` (a laser length along the beam:
+        wavelength, air and material scale, :mod:`volcal.identify.systematic`),
+        ``'optic'`` (the scale of the optic), None (none modelled).
     plan_tests : tuple of str
         Names this kind adds to ``volcal plan --tests`` (built by :meth:`plan`).
     description : str
@@ -159,6 +163,7 @@ class Kind:
     beam_in_session: ClassVar[bool] = True
     bidirectional: ClassVar[bool] = False
     standard: ClassVar[str | None] = None
+    systematic: ClassVar[str | None] = None
     plan_tests: ClassVar[tuple[str, ...]] = ()
     description: ClassVar[str] = ""
 

@@ -36,6 +36,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from volcal.session.kinds import kind_of
+
 if TYPE_CHECKING:
     from volcal.session.format import Measurement, Session
 
@@ -82,10 +84,10 @@ def _scale(ms: list[Measurement]) -> list[str]:
     out = []
     dens = {m.id: _spread_um_per_m(m) for m in ms}
     for m in ms:
-        ang = m.kind == "angular"  # urad, never compared with displacements
+        ang = _in_urad(m)  # angles, never compared with displacements
         group = [o for o in ms if o.kind == m.kind and o is not m]
         if len(group) < 2:
-            group = [o for o in ms if o is not m and (o.kind == "angular") == ang]
+            group = [o for o in ms if o is not m and _in_urad(o) == ang]
         if len(group) < 2:
             continue
         med = max(float(np.median([dens[o.id] for o in group])), SCALE_FLOOR_UM_PER_M)
@@ -203,10 +205,16 @@ def noise_free_simulation(provenance: dict) -> bool:
         return False
 
 
+def _in_urad(m: Measurement) -> bool:
+    """Readings in urad (an angle), by the measurement's kind (:mod:`volcal.kinds`)."""
+    return kind_of(m.kind).value_unit == "urad"
+
+
 def _floors(m: Measurement, exact: bool = False) -> list[str]:
-    if m.kind not in ("linear", "diagonal", "step_diagonal"):
+    kind = kind_of(m.kind)
+    if kind.systematic != "length":  # laser lengths along a beam only
         return []
-    targets = m.positions[:, m.axis] if m.kind == "linear" and not exact else None
+    targets = m.positions[:, m.axis] if kind.bidirectional and not exact else None
     return reading_warnings(m.id, m.file, _length_mm(m), m.deviation, targets, m.run,
                             m.direction)
 
@@ -272,7 +280,7 @@ def _order(m: Measurement) -> list[str]:
     if d[far] @ m.beam_direction < -1e-9:
         out.append(f"{m.id}: the poses move against the beam direction of session.toml: "
                    f"rows of {m.file} in reverse order?")
-    elif m.kind == "linear" and m.direction is not None:
+    elif kind_of(m.kind).bidirectional and m.direction is not None:
         k = m.axis
         run = m.run if m.run is not None else np.zeros(m.n, dtype=int)
         same = (run[1:] == run[:-1]) & (m.direction[1:] == m.direction[:-1])

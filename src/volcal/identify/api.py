@@ -320,12 +320,10 @@ def advise(session: Session, options: IdentifyOptions | None = None):
                               f"{straight:g} um, roll and tilts {tilt:g} urad); the measured "
                               "data will refine them.")
     report.messages.extend(_kind_notes(design.measurements))  # what each kind adds
-    if any(m.kind == "multilateration" for m in session.measurements):
-        from volcal.identify import multilateration as _ml
+    from volcal.session.kinds import hooks_of
 
-        report.messages += _ml.design_notes(session)
-        if o.suggest:
-            report.messages += _ml.layout_messages(_ml.compare_layouts(planned, o))
+    for notes in hooks_of([m.kind for m in session.measurements], "advise_notes"):
+        report.messages += notes(session, planned, o)  # a kind's own advice (tracker layout)
     return report
 
 

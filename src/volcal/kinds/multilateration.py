@@ -145,6 +145,29 @@ class MultilaterationKind(Kind):
 
         return station_priors(m)
 
+    def advise_notes(self, session: Any, planned: Any, options: Any) -> list[str]:
+        """The tracker's design notes and, with ``suggest``, its layouts compared.
+
+        Parameters
+        ----------
+        session : Session
+            The planned session.
+        planned : Session
+            Its copy with zero readings.
+        options : IdentifyOptions
+            The options of ``advise``.
+
+        Returns
+        -------
+        list of str
+        """
+        from volcal.identify import multilateration as _ml
+
+        out = list(_ml.design_notes(session))
+        if options.suggest:
+            out += _ml.layout_messages(_ml.compare_layouts(planned, options))
+        return out
+
     def simulate(self, m: Any, machine: Any, rng: np.random.Generator, options: Any,
                  shared: dict[str, Any]) -> Any:
         """Simulated lengths (:func:`volcal.measure.multilateration.simulate_tracker`).

@@ -289,6 +289,24 @@ class Kind:
         """
         return []
 
+    def advise_notes(self, session: Any, planned: Any, options: Any) -> list[str]:
+        """What ``volcal advise`` says about this kind's measurements before measuring.
+
+        Parameters
+        ----------
+        session : Session
+            The planned session.
+        planned : Session
+            Its copy with zero readings (the design's).
+        options : IdentifyOptions
+            The options of ``advise`` (``suggest``: also compare alternatives).
+
+        Returns
+        -------
+        list of str
+        """
+        return []
+
     # -- simulation ------------------------------------------------------------------
     def prepare(self, session: Any) -> None:
         """Make the session ready for simulation or identification (once per kind).

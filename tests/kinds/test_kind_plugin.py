@@ -159,6 +159,11 @@ def test_a_kind_of_the_test_goes_through_plan_simulate_identify_report(
     assert code == 0, err
     toml = (s / "session.toml").read_text()
     assert toml.count('kind = "tilt"') == 2 and "tilt_urad" in (s / "tilt-xb.csv").read_text()
+    code, out, err = run_volcal(monkeypatch, capsys, "program", str(s), "--dialect",
+                                "linuxcnc", "-o", str(tmp_path / "prog"))
+    assert code == 0, err
+    ngc = (tmp_path / "prog" / "tilt_xb.ngc").read_text()
+    assert ngc.count("G4 P4") == 9 and "TILT SENSOR" in ngc  # a dwell per planned reading
     code, out, err = run_volcal(monkeypatch, capsys, "simulate", str(s), "--seed", "3")
     assert code == 0, err
     session = read_session(s)

@@ -111,13 +111,13 @@ def _random_perp(rng: np.random.Generator, n: np.ndarray, magnitude: float) -> n
     return magnitude * (np.cos(phi) * B[0] + np.sin(phi) * B[1])
 
 
-def simulate_laser(kind: Kind, m: Any, machine: Any, rng: np.random.Generator, o: Any,
+def simulate_laser(kind: LaserKind, m: Any, machine: Any, rng: np.random.Generator, o: Any,
                    path: Any = None) -> Any:
     """Fill a laser measurement's deviations from the virtual machine, in place.
 
     Parameters
     ----------
-    kind : Kind
+    kind : LaserKind
         The measurement's kind (its :attr:`~volcal.kinds.Kind.bidirectional` readings get
         the machine's reversal).
     m : Measurement

@@ -1,6 +1,6 @@
 """Multilateration readings in the unified estimator: rows, station nuisances, Gauss-Newton.
 
-Rows (:func:`row_block`, registered in :data:`volcal.identify.design.ROW_BLOCKS`): a
+Rows (:func:`row_block`, the rows of the kind :mod:`volcal.kinds.multilateration`): a
 tracker reading ``L_i`` (change of the station-to-reflector distance) linearised at the
 current station estimate ``S`` is
 

@@ -1,16 +1,16 @@
 """Rows of the direct optics in the unified estimator (straightness, angular).
 
-Registered in :data:`volcal.identify.design.ROW_BLOCKS` and
-:data:`volcal.identify.design.NUISANCE_PRIORS`. Each reading is linear in the node values
-(:func:`volcal.measure.optics.optic_jacobian`) plus its measurement's nuisances: a reading
-offset, the reference slope of a line of its own (``<id>:slope``) or the rotation of its
-reference group's frame (``reference:<name>:rot_x|rot_y|rot_z``, shared by the group's
-lines through their common name) and, for a line read through an optical square, the
-square's deviation from 90 degrees (``reference:<name>:square``, with the prior of its
-certificate). An optic's rows are weighted by
-:func:`volcal.measure.optics.row_weight`, so that the estimator's one noise scale
-(a displacement reading's, [um]) fits angles [urad] read with another noise; the
-result's residuals are divided back into the readings' unit.
+The rows and nuisance priors of the kinds ``straightness`` and ``angular``
+(:mod:`volcal.kinds.straightness`, :mod:`volcal.kinds.angular`). Each reading is linear in
+the node values (:func:`volcal.measure.optics.optic_jacobian`) plus its measurement's
+nuisances: a reading offset, the reference slope of a line of its own (``<id>:slope``) or
+the rotation of its reference group's frame (``reference:<name>:rot_x|rot_y|rot_z``,
+shared by the group's lines through their common name) and, for a line read through an
+optical square, the square's deviation from 90 degrees (``reference:<name>:square``, with
+the prior of its certificate). An optic's rows are weighted by
+:func:`volcal.measure.optics.row_weight`, so that the estimator's one noise scale (a
+displacement reading's, [um]) fits angles [urad] read with another noise; the result's
+residuals are divided back into the readings' unit.
 """
 
 from __future__ import annotations

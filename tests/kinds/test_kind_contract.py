@@ -128,9 +128,9 @@ def check_refusals(kind: Kind, folder) -> None:
     assert exc.value.file == str(csv) and kind.value_column in str(exc.value)
 
 
-def session_for(kind_name: str):
-    """Factory of a fresh planned session of one kind (chain XYFZ)."""
-    return lambda: planned_session(kind_of(kind_name))
+def session_for(kind_name: str, chain: str = "XYFZ"):
+    """Factory of a fresh planned session of one kind on the chain ``chain``."""
+    return lambda: planned_session(kind_of(kind_name), chain)
 
 
 def test_the_builtin_kinds_are_registered_in_their_documented_order():
@@ -143,9 +143,10 @@ def test_the_builtin_kinds_are_registered_in_their_documented_order():
         kind_of("circle")
 
 
+@pytest.mark.parametrize("chain", ["XYFZ", "FXYZ", "YFXZ"])  # mill, gantry, other levers
 @pytest.mark.parametrize("name", kind_names())
-def test_rows_are_the_first_order_of_the_forward_model(name):
-    check_first_order(kind_of(name), session_for(name))
+def test_rows_are_the_first_order_of_the_forward_model(name, chain):
+    check_first_order(kind_of(name), session_for(name, chain))
 
 
 @pytest.mark.parametrize("name", kind_names())

@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, TypeVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from volcal.errors import VolcalInputError
+from volcal.errors import ParameterError, VolcalInputError
 
 if TYPE_CHECKING:
     from volcal.standards.tolerance import Tolerance
@@ -76,7 +76,9 @@ def checked(func: F) -> F:
     An unknown keyword, a missing required argument or one given twice names the
     method and lists its valid options (with the closest name), instead of Python's
     ``TypeError``; a value of another kind than its default (:func:`check_kinds`: text
-    for a number, a fraction for a whole number...) is refused the same way.
+    for a number, a fraction for a whole number...) is refused the same way. A step's
+    :class:`~volcal.errors.ParameterError` (:mod:`volcal.steps`) names the keyword after
+    the method.
 
     Parameters
     ----------
@@ -111,7 +113,10 @@ def checked(func: F) -> F:
                                    f"valid options: {names(valid)}") from None
         check_kinds(where, {k: v for k, v in bound.arguments.items() if k in defaults},
                     defaults)
-        return func(*args, **kwargs)
+        try:
+            return func(*args, **kwargs)
+        except ParameterError as exc:  # a step's parameter: the keyword, with the method
+            raise exc.spelled({}, f"{where}: ") from None
 
     return wrapper  # type: ignore[return-value]
 

@@ -23,7 +23,7 @@ from __future__ import annotations
 import warnings
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, cast
 
 from numpy.typing import ArrayLike
 
@@ -42,6 +42,7 @@ if TYPE_CHECKING:
     from volcal.session.format import Session
     from volcal.standards.iso230_2_uncertainty import Iso2302Uncertainty
     from volcal.standards.session import SessionEvaluation
+    from volcal.steps.predict import Prediction
     from volcal.steps.simulate import Simulated
     from volcal.uncertainty.budget import Budget
 
@@ -284,7 +285,7 @@ class Calibration:
         """
         from volcal.steps.advise import advise
 
-        return advise(self._planned(), roll=roll, **options).report
+        return advise(self._planned(), roll=roll, **cast("dict[str, Any]", options)).report
 
     @A.checked
     def program(self, folder: str | Path, dialect: str, dwell_s: float = D.PROG_DWELL_S,
@@ -472,9 +473,35 @@ class Calibration:
         """
         from volcal.steps.identify import identify
 
-        self.result = identify(self.session, budget=budget, **options).result
+        self.result = identify(self.session, budget=budget,
+                               **cast("dict[str, Any]", options)).result
         self.evaluation = None
         return self.result
+
+    @A.checked
+    def predict(self, points: str | Path | ArrayLike,
+                tool_offset: ArrayLike | str = D.TOOL_OFFSET_MM) -> Prediction:
+        """The volumetric error and its uncertainty at points, like ``volcal predict``.
+
+        Calls :func:`volcal.steps.predict.predict` with this calibration's model
+        (:meth:`identify` or :meth:`load_model`).
+
+        Parameters
+        ----------
+        points : str, Path or array_like, shape (n, 3)
+            A CSV with ``x_mm,y_mm,z_mm`` or the points [mm], inside the travel.
+        tool_offset : array_like, shape (3,), or str
+            Tool offset x, y, z [mm].
+
+        Returns
+        -------
+        Prediction
+            ``.error_um``, ``.u_um`` (n, 3) [um]; ``.to_csv()`` is the command's file.
+        """
+        from volcal.steps.predict import predict
+
+        return predict(self._need_result(), points,
+                       tool_offset=A.vector_mm(tool_offset, "tool_offset"))
 
     @A.checked
     def load_model(self, path: str | Path, force: bool = False) -> IdentificationResult:

@@ -27,9 +27,8 @@ if TYPE_CHECKING:
     from volcal.standards.tolerance import Tolerance
     from volcal.uncertainty.budget import Budget
 
-__all__ = ["acceptance", "budget_file", "checked", "known_functions", "names", "name_list",
-           "python_names", "python_text", "tolerance_text", "travel_mm", "unknown_option",
-           "vector_mm"]
+__all__ = ["acceptance", "budget_file", "checked", "names", "python_names", "python_text",
+           "tolerance_text", "travel_mm", "unknown_option", "vector_mm"]
 
 F = TypeVar("F", bound=Callable[..., object])
 
@@ -177,27 +176,6 @@ def vector_mm(v: ArrayLike | str, what: str) -> tuple[float, float, float]:
     return float(a[0]), float(a[1]), float(a[2])
 
 
-def name_list(v: str | Sequence[str], what: str) -> list[str]:
-    """A list of names.
-
-    Parameters
-    ----------
-    v : sequence of str, or str
-        The names or the command line's comma-separated text.
-    what : str
-        The keyword, for the message.
-
-    Returns
-    -------
-    list of str
-    """
-    if isinstance(v, str):
-        return [s.strip() for s in v.split(",") if s.strip()]
-    if not all(isinstance(s, str) for s in v):
-        raise VolcalInputError(f"{what} {v!r}: expected names (strings)")
-    return list(v)
-
-
 def tolerance_text(tolerance_um: float | str | Mapping[str, float]) -> str:
     """A tolerance [um] as the command line's ``--tolerance-um`` text.
 
@@ -213,41 +191,6 @@ def tolerance_text(tolerance_um: float | str | Mapping[str, float]) -> str:
     if isinstance(tolerance_um, Mapping):
         return ",".join(f"{k}={v}" for k, v in tolerance_um.items())
     return str(tolerance_um)
-
-
-def known_functions(known: object, where: str) -> dict[str, tuple[object, ...]]:
-    """Check the ``known`` option of :class:`volcal.identify.IdentifyOptions`.
-
-    Parameters
-    ----------
-    known : dict
-        ISO 230-1 name -> ``(positions [mm], values [um or urad])`` or ``(positions,
-        values, u)``.
-    where : str
-        The method, for the message.
-
-    Returns
-    -------
-    dict
-        Upper-case names to tuples.
-    """
-    from volcal.model.names import COMPONENT_NAMES, SQUARENESS_NAMES
-
-    error_names = (*COMPONENT_NAMES, *SQUARENESS_NAMES)
-    if not isinstance(known, Mapping):
-        raise VolcalInputError(f"{where}: known={known!r}: expected a dict name -> "
-                               "(positions [mm], values) or the path of an error table")
-    out: dict[str, tuple[object, ...]] = {}
-    for name, v in known.items():
-        key = str(name).upper()
-        if key not in error_names:
-            raise VolcalInputError(f"{where}: known[{name!r}]: not an error name; expected "
-                                   f"one of {names(error_names)}")
-        if not isinstance(v, tuple | list) or len(v) not in (2, 3):
-            raise VolcalInputError(f"{where}: known[{name!r}]: expected (positions [mm], "
-                                   "values [um or urad]) or (positions, values, u)")
-        out[key] = tuple(v)
-    return out
 
 
 def check_kinds(where: str, values: Mapping[str, object],

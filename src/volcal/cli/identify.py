@@ -99,7 +99,7 @@ def predict_cmd(
     points: Path = typer.Option(..., help="CSV with x_mm,y_mm,z_mm."),
     output: Path = typer.Option(..., "-o", "--output", help="CSV to write; - writes it to "
                                 "standard output."),
-    tool_offset: str = typer.Option(",".join(f"{v:g}" for v in D.TOOL_OFFSET_MM),
+    tool_offset: str = typer.Option(",".join(map("{:g}".format, D.TOOL_OFFSET_MM)),
                                     help="Tool offset x,y,z [mm]."),
     session: Path | None = typer.Option(None, help="Session folder the model should belong "
                                         "to: refused if name, chain, travel or readings "

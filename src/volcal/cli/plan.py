@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import typer
 from rich.console import Console
@@ -56,7 +57,7 @@ def plan(
                              "x,y,z."),
     stations: str = typer.Option(str(D.ML_STATIONS), help="Multilateration: number of "
                                  "default stations (3-8), or pivots 'x,y,z;x,y,z;...' [mm]."),
-    tool_offsets: str = typer.Option(";".join(_text(o) for o in D.ML_TOOL_OFFSETS_MM),
+    tool_offsets: str = typer.Option(";".join(map(_text, D.ML_TOOL_OFFSETS_MM)),
                                      help="Multilateration: reflector offsets on the tool "
                                      "'x,y,z;x,y,z' [mm]."),
     output: Path | None = typer.Option(None, "-o", "--output", help="Session folder to write "
@@ -80,10 +81,10 @@ def plan(
         raise VolcalInputError("give -o/--output FOLDER (a new session) or --add FOLDER (tests "
                                "added to an existing session)" + (", not both" if output
                                                                  else ""))
-    common = {"tests": tests, "steps": steps, "runs": runs, "step_orders": step_orders,
-              "tool_offset": parse_vector(tool_offset, "--tool-offset"),
-              "step_target": step_target, "iso_spacing": iso_spacing,
-              "overrun_mm": overrun_mm, "abbe_offset_mm": abbe_offset_mm}
+    common: dict[str, Any] = {
+        "tests": tests, "steps": steps, "runs": runs, "step_orders": step_orders,
+        "tool_offset": parse_vector(tool_offset, "--tool-offset"), "step_target": step_target,
+        "iso_spacing": iso_spacing, "overrun_mm": overrun_mm, "abbe_offset_mm": abbe_offset_mm}
     if add is not None:
         if replace:
             raise VolcalInputError("--replace belongs to -o (a new session); --add never "

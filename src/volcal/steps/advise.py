@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from volcal import defaults as D
 
@@ -33,7 +33,7 @@ class Advice:
         return list(self.report.messages)
 
 
-def advise(session: Session | str | Path, *, roll: str = D.ROLL, **options: object) -> Advice:
+def advise(session: Session | str | Path, *, roll: str = D.ROLL, **options: Any) -> Advice:
     """What the planned tests will and will not determine (the readings are not used).
 
     Parameters
@@ -54,7 +54,7 @@ def advise(session: Session | str | Path, *, roll: str = D.ROLL, **options: obje
     from volcal.identify import advise as run
     from volcal.steps.identify import _read_known, identify_options
 
-    opts, known_file = identify_options(roll=roll, **options)
+    opts, known_file = identify_options(("known_u",), roll=roll, **options)
     if isinstance(session, str | Path):
         from volcal.session.format import read_session
 

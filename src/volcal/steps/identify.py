@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -118,7 +118,7 @@ def identify(session: Session | str | Path, *, prior: str = D.PRIOR,
              known_u: float | None = None, monte_carlo: int = D.MONTE_CARLO,
              drift: bool = False, measurements: str | Sequence[str] | None = None,
              max_nodes: int = D.MAX_NODES, robust: bool = False,
-             budget: str | Path | Budget | None = None, **options: object) -> Identified:
+             budget: str | Path | Budget | None = None, **options: Any) -> Identified:
     """Identify the machine's errors with their uncertainties.
 
     Parameters
@@ -200,7 +200,7 @@ def identify(session: Session | str | Path, *, prior: str = D.PRIOR,
     return Identified(res, s, mc, sys_summary, tuple(notes))
 
 
-def identify_options(also: Sequence[str] = ("known_u",), **values: object
+def identify_options(also: Sequence[str] = ("known_u",), **values: Any
                      ) -> tuple[IdentifyOptions, str | Path | None]:
     """:class:`~volcal.identify.IdentifyOptions` from keywords, every one checked.
 
@@ -264,7 +264,8 @@ def identify_options(also: Sequence[str] = ("known_u",), **values: object
                              "values) or the path of an error table")
     known_file = None
     if isinstance(known, str | Path):
-        known_file = given.pop("known")
+        known_file = known
+        del given["known"]
     try:
         return IdentifyOptions(**given), known_file  # type: ignore[arg-type]
     except TypeError as exc:

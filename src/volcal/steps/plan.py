@@ -201,9 +201,12 @@ def add(folder: str | Path, *, steps: int = D.PLAN_STEPS,
     folder : str or Path
         An existing session folder: its travel, chain and name are used; its
         measurements and readings are untouched.
-    steps, tests, runs, step_orders, tool_offset, iso_spacing, step_target, overrun_mm,
-    abbe_offset_mm, multilateration
+    steps, tests, runs, step_orders
         As :func:`plan`.
+    tool_offset, iso_spacing, step_target
+        As :func:`plan` (``tool_offset`` [mm]).
+    overrun_mm, abbe_offset_mm, multilateration
+        As :func:`plan` ([mm]).
 
     Returns
     -------

@@ -127,7 +127,7 @@ def predict(model: str | Path | IdentificationResult, points: str | Path | Array
     else:
         warnings = []
     file = points if isinstance(points, str | Path) else None
-    q = read_points(points) if file is not None else _points(points)
+    q = read_points(points) if isinstance(points, str | Path) else _points(points)
     travel = m.errors.travel
     for j, col in enumerate(("x_mm", "y_mm", "z_mm")):
         out = np.flatnonzero((q[:, j] < travel[j, 0] - 1e-9) | (q[:, j] > travel[j, 1] + 1e-9))

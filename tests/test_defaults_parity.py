@@ -7,9 +7,9 @@ they call, for every shared parameter. A parameter only one side has is listed b
 the reason; a new CLI option that Python does not take fails this test until it is added
 or listed.
 
-The steps plan, advise, program, simulate, import, identify and predict are one function
-each (``volcal.steps``) behind both faces: tests/test_steps_signature.py checks them (it
-replaced their entries here).
+The steps plan, advise, program, simulate, import, identify, predict and compensate are
+one function each (``volcal.steps``) behind both faces: tests/test_steps_signature.py
+checks them (it replaced their entries here).
 """
 
 from __future__ import annotations
@@ -98,12 +98,6 @@ def norm(v: Any) -> Any:
     return v
 
 
-def _comp_options():
-    from volcal.compensate.formats import CompensationOptions
-
-    return CompensationOptions
-
-
 def _evaluate_session():
     from volcal.standards.session import evaluate_session
 
@@ -115,13 +109,6 @@ def _evaluate_session():
 # with it; it must be in the first callable (the Calibration method) unless listed.
 SHARED: dict[str, tuple[list[tuple[Callable[[], Any], dict[str, str | None]]],
                         dict[str, str]]] = {
-    "compensate": (
-        [(lambda: Calibration.compensate, {"output": "folder"}),
-         # CompensationOptions.tool_offset None: no offset, the same as (0, 0, 0)
-         (_comp_options, {"squareness": "include_squareness", "tool_offset": None})],
-        {"model": "Calibration uses its identified model (load_model for a file)",
-         "session": "compensate --session belongs to H3 (bidirectional tables)",
-         "force": "with --session only"}),
     "report": (
         [(lambda: Calibration.report, {"output": "folder"})],
         {"session": "the Calibration's session", "model": "Calibration.load_model(path)"}),

@@ -88,7 +88,7 @@ def test_simulate_refuses_measured_readings_unless_overwrite(folder, tmp_path):
     csv.write_text(csv.read_text().replace("0.", "1.", 1))  # edited: no longer simulated
     with pytest.raises(ParameterError) as e:
         simulate_step.simulate(s, seed=1)
-    assert "Use overwrite to replace them" in str(e.value)
+    assert "Use overwrite=True to replace them" in str(e.value)
     assert "Use --overwrite to replace them" in str(e.value.spelled(OPTIONS))
     r = simulate_step.simulate(s, seed=1, overwrite=True)
     assert len(r.replaced) >= 1
@@ -133,3 +133,32 @@ def test_plan_replace_keeps_the_old_session(folder, tmp_path):
     assert p.backup is not None and (p.backup / "session.toml").is_file()
     assert p.n_backed_up > 0
     assert {m.kind for m in p.session.measurements} == {"linear"}
+
+
+def test_compensate_names_the_sign_override_and_the_forced_table(identified, folder, tmp_path):
+    from volcal.errors import spell
+    from volcal.steps.compensate import compensate
+
+    res = identified.result
+    r = compensate(res, format="fanuc", output=tmp_path / "f", sign="error")
+    assert r.sign == "error" and not r.convention and "FANUC_PITCH.TXT" in r.files
+    assert spell(r.sign_note, {}).startswith("sign=error overrides the fanuc convention "
+                                             "'correction'")
+    assert spell(r.sign_note, OPTIONS).startswith("--sign error overrides the fanuc "
+                                                  "convention 'correction'")
+    assert r.session is None and r.line_checks == () and r.volumetric_before_um is None
+    # an error table of another machine with the session: refused, then forced
+    other = tmp_path / "other.csv"
+    from volcal.measure.virtual import random_machine
+    from volcal.session.errortable import write_error_table
+
+    write_error_table(random_machine(np.array([[0, 500], [0, 400], [0, 300]], float),
+                                     "XYFZ", 1), other)
+    with pytest.raises(ParameterError) as e:
+        compensate(other, format="csv", output=tmp_path / "c", session=folder)
+    assert str(e.value).endswith("; give force=True to write them anyway")
+    assert str(e.value.spelled(OPTIONS)).endswith("; give --force to write them anyway")
+    r = compensate(other, format="csv", output=tmp_path / "c", session=folder, force=True)
+    assert len(r.forced) == 1 and "not of this session's machine" in r.forced[0]
+    assert r.volumetric_before_um is not None and r.volumetric_after_um is not None
+    assert len(r.line_checks) + len(r.not_checked) > 0

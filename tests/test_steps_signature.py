@@ -1,14 +1,14 @@
 """Both faces call the same step function with the same keywords and defaults (issue 25).
 
-For each of plan, advise, program, simulate, import, identify and predict, the step
-function of :mod:`volcal.steps` is replaced by a spy; the command (run with only its
+For each of plan, advise, program, simulate, import, identify, predict and compensate,
+the step function of :mod:`volcal.steps` is replaced by a spy; the command (run with only its
 required arguments) and the :class:`volcal.Calibration` method (called with only its
 required arguments) must reach that one function, and the keywords they pass, completed
 with the step signature's defaults, must be the same values: the defaults are defined
 once, in the step's signature (from :mod:`volcal.defaults`). A parameter only one face
 passes is listed with the reason. Replaces the parity tests of these steps
 (test_defaults_parity's SHARED entries plan, simulate, identify, advise, program,
-import; test_plan_travel_and_multilateration_defaults,
+import, compensate; test_plan_travel_and_multilateration_defaults,
 test_identify_budget_default_equals_the_cli; test_python_flow's
 test_advise_and_program_match_the_cli; test_python_parity_budget's comparisons of
 simulate and identify with the CLI).
@@ -230,11 +230,27 @@ def test_predict(monkeypatch, planned, tmp_path):
     _compare(calls, {"model": "a file or the calibration's model"})
 
 
+def test_compensate(monkeypatch, planned, tmp_path):
+    calls = _spy(monkeypatch, "compensate", "compensate")
+    _cli("compensate", tmp_path / "m.json", "--format", "fanuc", "-o", tmp_path / "a")
+    planned.result = object()  # the model: the spy never uses it
+    try:
+        with pytest.raises(Reached):
+            planned.compensate(tmp_path / "b", format="fanuc")
+    finally:
+        planned.result = None
+    cli, py = calls["bound"]
+    assert cli["machine"] is None  # the CLI's: the session's, else the model file's
+    assert py["machine"] is not None and py["machine"].name == planned.session.name
+    assert cli["sign"] is None is py["sign"]  # never a fixed sign: the controller's own
+    _compare(calls, {"model": "a file or the calibration's model", "machine": "above"})
+
+
 @pytest.mark.parametrize("method,module,name", [
     ("plan", "plan", "plan"), ("advise", "advise", "advise"),
     ("program", "program", "program"), ("simulate", "simulate", "simulate"),
     ("import_", "importer", "import_"), ("identify", "identify", "identify"),
-    ("predict", "predict", "predict")])
+    ("predict", "predict", "predict"), ("compensate", "compensate", "compensate")])
 def test_python_signature_is_the_steps(method, module, name):
     """Calibration's keywords have the step's names and defaults (``folder`` is
     ``output``; ``**options`` forwards the rest)."""
@@ -274,7 +290,8 @@ def test_every_parameter_the_steps_name_has_an_option():
 
     for module, name in [("plan", "plan"), ("advise", "advise"), ("program", "program"),
                          ("simulate", "simulate"), ("importer", "import_"),
-                         ("identify", "identify"), ("predict", "predict")]:
+                         ("identify", "identify"), ("predict", "predict"),
+                         ("compensate", "compensate")]:
         sig = inspect.signature(getattr(importlib.import_module(f"volcal.steps.{module}"),
                                         name))
         for k, p in sig.parameters.items():

@@ -650,9 +650,13 @@ class Calibration:
                    fanuc_series: str = D.COMP_FANUC_SERIES,
                    linuxcnc_type: int = D.COMP_LINUXCNC_TYPE,
                    squareness: bool = D.COMP_SQUARENESS,
-                   tool_offset: ArrayLike | str = (0.0, 0.0, 0.0), *,
+                   tool_offset: ArrayLike | str = D.TOOL_OFFSET_MM, *,
                    replace: bool = False) -> list[str]:
         """Write controller compensation tables of the identified model.
+
+        Calls :func:`volcal.steps.compensate.compensate` with this calibration's model and
+        its session's machine identity (``volcal compensate --session`` checks are the
+        command's).
 
         Like ``volcal compensate``: the format is always named, and the tables are
         written in the controller's own sign unless ``sign`` overrides it (with a
@@ -697,44 +701,24 @@ class Calibration:
         list of str
             Files written.
         """
-        from volcal.compensate.formats import (
-            FORMAT_INFO,
-            CompensationOptions,
-            write_compensation,
-        )
-        from volcal.compensate.tables import sign_factor
-
-        fmt = str(format).lower()
-        if fmt not in FORMAT_INFO:
-            raise VolcalInputError(f"Calibration.compensate: unknown format {format!r}: "
-                                   f"expected one of {A.names(list(FORMAT_INFO))}")
-        info = FORMAT_INFO[fmt]
-        if sign is not None:
-            sign_factor(sign)
-            if sign != info.sign:
-                warnings.warn(f"sign={sign!r} overrides the {fmt} convention '{info.sign}' "
-                              f"({info.sign_source}); a table in the wrong sign doubles the "
-                              "error", UserWarning, stacklevel=3)
-        from volcal.compensate.manifest import MANIFEST
-        from volcal.io.folders import manifest_files
-        from volcal.io.paths import check_output_folder
-
-        # as `volcal compensate`: only a new, empty or earlier compensation folder is replaced
-        check_output_folder(folder, "compensation", lambda p: (p / MANIFEST).is_file(),
-                            written=manifest_files(MANIFEST, "files"), replace=replace,
-                            option="replace=True")
-        ref = None if reference_mm is None else A.vector_mm(reference_mm, "reference_mm")
-        opts = CompensationOptions(sign, spacing, max_points, ref, unit_um, magnification,
-                                   max_increment, squareness,
-                                   A.vector_mm(tool_offset, "tool_offset"), fanuc_series,
-                                   linuxcnc_type)
+        from volcal.errors import spell
         from volcal.session.identity import MachineIdentity
+        from volcal.steps.compensate import compensate
 
         result = self._need_result()
         # the manifest names this session's machine (serial, make...), so that the tables
         # are refused on another machine (docs/compensation.md)
-        files = write_compensation(result.errors, fmt, folder, opts, "model",
-                                   machine=MachineIdentity.of(self.session))
+        r = compensate(result, format=format, output=folder, sign=sign, spacing=spacing,
+                       max_points=max_points, reference_mm=None if reference_mm is None
+                       else A.vector_mm(reference_mm, "reference_mm"), unit_um=unit_um,
+                       magnification=magnification, max_increment=max_increment,
+                       fanuc_series=fanuc_series, linuxcnc_type=linuxcnc_type,
+                       squareness=squareness,
+                       tool_offset=A.vector_mm(tool_offset, "tool_offset"),
+                       machine=MachineIdentity.of(self.session), replace=replace)
+        if r.sign_note is not None:
+            warnings.warn(spell(r.sign_note, {}), UserWarning, stacklevel=3)
+        files = list(r.files)
         self.compensation = Path(folder)
         return files
 

@@ -46,6 +46,9 @@ OPTIONS: dict[str, str] = {
         "max_nodes", "robust",
         # predict
         "points", "force",
+        # compensate
+        "format", "spacing", "max_points", "reference_mm", "unit_um", "magnification",
+        "max_increment", "fanuc_series", "linuxcnc_type", "squareness",
     )
 }
 

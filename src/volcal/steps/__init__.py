@@ -14,6 +14,7 @@ simulate    ``simulate.simulate`` (``.save``)   Simulated
 import      ``importer.import_``                Imported
 identify    ``identify.identify``               Identified
 predict     ``predict.predict``                 Prediction
+compensate  ``compensate.compensate``           Compensated
 ==========  ==================================  ===========
 
 The command line (``volcal.cli``) parses text, calls the step and prints its result;

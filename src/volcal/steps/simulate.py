@@ -136,8 +136,8 @@ def simulate(session: Session | str | Path, *,
                                            if len(measured) > 6 else "")
         raise ParameterError(
             f"holds readings that `volcal simulate` did not write ({shown}): simulating would "
-            "overwrite them; nothing was changed. Use {overwrite} to replace them (a backup is "
-            "kept in backup/)", s.path / "session.toml" if s.path else None)
+            "overwrite them; nothing was changed. Use {overwrite=True} to replace them (a "
+            "backup is kept in backup/)", s.path / "session.toml" if s.path else None)
     notes: list[str] = []
     if isinstance(machine, str | Path):
         vm, label = _error_table(Path(machine), s, notes), str(machine)

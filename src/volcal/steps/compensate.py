@@ -169,7 +169,8 @@ def compensate(model: str | Path | IdentificationResult | MachineErrors, *, form
     moved = _checks.output_folder(output, "compensation", lambda p: (p / MANIFEST).is_file(),
                                   manifest_files(MANIFEST, "files"), replace)
     ref = None if reference_mm is None else tuple(_checks.vector("reference_mm", reference_mm))
-    directional, sess, dnotes, none_bidir = None, None, (), False
+    directional, sess, none_bidir = None, None, False
+    dnotes: tuple[str, ...] = ()
     if session is not None:
         from volcal.compensate.bidirectional import directional_from_session
         from volcal.session.format import read_session

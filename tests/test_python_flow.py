@@ -81,7 +81,7 @@ BAD_CALLS = [
     (lambda c: c.evaluate(edition="2099"), "expected one of 1988, 1997, 2006, 2014"),
     (lambda c: c.evaluate("2014", "x"), "too many positional arguments"),
     (lambda c: c.simulate(noise_um=-1),
-     "Calibration.simulate: noise_um=-1: expected a finite value >= 0"),
+     "Calibration.simulate: noise_um=-1: must not be negative"),
     (lambda c: c.simulate(machine=3), "expected MachineErrors"),
     (lambda c: c.simulate(machine="machine.csv"), "machine.csv"),
     (lambda c: c.program("p", dialect="haas"), "expected one of"),

@@ -63,18 +63,19 @@ def compensate(
     from volcal.cli._options import OPTIONS
     from volcal.errors import spell
     from volcal.steps.compensate import compensate as step
+    from volcal.steps.compensate import sign_note
 
+    note = sign_note(format, sign)  # said at once, before any other check can fail
+    if note is not None:
+        err_console.print(escape("note: " + spell(note, OPTIONS)))
     r = step(model, format=format, output=output, sign=sign, session=session, force=force,
              spacing=spacing, max_points=max_points,
              reference_mm=None if reference_mm is None
              else parse_vector(reference_mm, "--reference-mm"),
              unit_um=unit_um, magnification=magnification, max_increment=max_increment,
              fanuc_series=fanuc_series, linuxcnc_type=linuxcnc_type, squareness=squareness,
-             tool_offset=parse_vector(tool_offset, "--tool-offset"), replace=replace)
-    if r.sign_note is not None:
-        err_console.print(escape("note: " + spell(r.sign_note, OPTIONS)))
-    if r.moved is not None:
-        note_moved(output, r.moved)
+             tool_offset=parse_vector(tool_offset, "--tool-offset"), replace=replace,
+             on_moved=lambda rel: note_moved(output, rel))
     if r.session is not None:
         print_session_notes(r.session)
     for line in r.directional_notes:

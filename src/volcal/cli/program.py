@@ -46,9 +46,8 @@ def program(
 
     r = step(session, dialect=dialect, output=output, dwell_s=dwell_s, feed=feed,
              overrun_mm=overrun_mm, decimals=decimals, safe_z_mm=safe_z_mm,
-             first_number=first_number, replace=replace)
-    if r.moved is not None:
-        note_moved(output, r.moved)
+             first_number=first_number, replace=replace,
+             on_moved=lambda rel: note_moved(output, rel))
     for w in r.notes:
         err_console.print(f"[yellow]note:[/] {escape(w)}", highlight=False)
     console.print(f"wrote {r.n_programs} {dialect} programs -> {r.folder}")

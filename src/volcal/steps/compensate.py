@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -19,7 +20,7 @@ if TYPE_CHECKING:
     from volcal.session.format import Session
     from volcal.session.identity import MachineIdentity
 
-__all__ = ["Compensated", "compensate"]
+__all__ = ["Compensated", "compensate", "sign_note"]
 
 
 @dataclass(frozen=True)
@@ -82,6 +83,44 @@ class Compensated:
     moved: str | None = None
 
 
+def sign_note(format: str, sign: str | None) -> str | None:
+    """Check the format and the sign; the note of a sign other than the controller's.
+
+    Parameters
+    ----------
+    format : str
+        The format (any case).
+    sign : str or None
+        ``'error'``, ``'correction'`` or None (the controller's own convention).
+
+    Returns
+    -------
+    str or None
+        The note as a :class:`~volcal.errors.ParameterError` template (``{sign=}``), or
+        None when the sign is the controller's.
+
+    Raises
+    ------
+    ParameterError
+        An unknown format or sign.
+    """
+    from volcal.compensate.formats import FORMAT_INFO
+    from volcal.compensate.tables import sign_factor
+
+    fmt = str(format).lower()
+    if fmt not in FORMAT_INFO:
+        raise ParameterError(f"unknown format {format!r}: expected one of "
+                             f"{', '.join(FORMAT_INFO)}")
+    info = FORMAT_INFO[fmt]
+    if sign is None:
+        return None
+    sign_factor(sign)
+    if sign == info.sign:
+        return None
+    return (f"{{sign=}}{sign} overrides the {fmt} convention '{info.sign}' "
+            f"({info.sign_source}); a table in the wrong sign doubles the error")
+
+
 def compensate(model: str | Path | IdentificationResult | MachineErrors, *, format: str,
                output: str | Path, sign: str | None = D.COMP_SIGN,
                session: str | Path | None = None, force: bool = False,
@@ -93,7 +132,8 @@ def compensate(model: str | Path | IdentificationResult | MachineErrors, *, form
                linuxcnc_type: int = D.COMP_LINUXCNC_TYPE,
                squareness: bool = D.COMP_SQUARENESS,
                tool_offset: ArrayLike = D.TOOL_OFFSET_MM, replace: bool = False,
-               machine: MachineIdentity | None = None) -> Compensated:
+               machine: MachineIdentity | None = None,
+               on_moved: Callable[[str], None] | None = None) -> Compensated:
     """Write compensation tables of a model for a controller, resampled onto its grid.
 
     Parameters
@@ -141,33 +181,23 @@ def compensate(model: str | Path | IdentificationResult | MachineErrors, *, form
     machine : MachineIdentity, optional
         The machine the tables are for (Python: the calibration's session); default the
         session's, else what the model records.
+    on_moved : callable, optional
+        Called at once with ``backup/<UTC time>`` when ``replace`` moved files there
+        (the command line says so before anything else can fail).
 
     Returns
     -------
     Compensated
     """
-    from volcal.compensate.formats import (
-        FORMAT_INFO,
-        MANIFEST,
-        CompensationOptions,
-        write_compensation,
-    )
-    from volcal.compensate.tables import sign_factor
+    from volcal.compensate.formats import MANIFEST, CompensationOptions, write_compensation
     from volcal.io.folders import manifest_files
 
+    note = sign_note(format, sign)
     fmt = str(format).lower()
-    if fmt not in FORMAT_INFO:
-        raise ParameterError(f"unknown format {format!r}: expected one of "
-                             f"{', '.join(FORMAT_INFO)}")
-    info = FORMAT_INFO[fmt]
-    note = None
-    if sign is not None:
-        sign_factor(sign)
-        if sign != info.sign:
-            note = (f"{{sign=}}{sign} overrides the {fmt} convention '{info.sign}' "
-                    f"({info.sign_source}); a table in the wrong sign doubles the error")
     moved = _checks.output_folder(output, "compensation", lambda p: (p / MANIFEST).is_file(),
                                   manifest_files(MANIFEST, "files"), replace)
+    if moved is not None and on_moved is not None:
+        on_moved(moved)
     ref = None if reference_mm is None else tuple(_checks.vector("reference_mm", reference_mm))
     directional, sess, none_bidir = None, None, False
     dnotes: tuple[str, ...] = ()

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -43,7 +44,8 @@ def program(session: Session | str | Path, *, dialect: str, output: str | Path,
             dwell_s: float = D.PROG_DWELL_S, feed: float = D.PROG_FEED,
             overrun_mm: float = D.PROG_OVERRUN_MM, decimals: int = D.PROG_DECIMALS,
             safe_z_mm: float = D.PROG_SAFE_Z_MM,
-            first_number: int = D.PROG_FIRST_NUMBER, replace: bool = False) -> Programs:
+            first_number: int = D.PROG_FIRST_NUMBER, replace: bool = False,
+            on_moved: Callable[[str], None] | None = None) -> Programs:
     """Write one measuring part program per measurement (written atomically).
 
     Parameters
@@ -70,6 +72,9 @@ def program(session: Session | str | Path, *, dialect: str, output: str | Path,
     replace : bool
         The output folder holds files its index does not list (volcal did not write
         them): move them into ``backup/<UTC time>/`` instead of refusing.
+    on_moved : callable, optional
+        Called at once with ``backup/<UTC time>`` when ``replace`` moved files there
+        (the command line says so before anything else can fail).
 
     Returns
     -------
@@ -82,6 +87,8 @@ def program(session: Session | str | Path, *, dialect: str, output: str | Path,
 
     moved = output_folder(output, "program", lambda p: (p / INDEX_FILE).is_file(),
                           manifest_files(INDEX_FILE, "programs", "file"), replace)
+    if moved is not None and on_moved is not None:
+        on_moved(moved)
     opts = ProgramOptions(dwell_s=dwell_s, feed=feed, overrun_mm=overrun_mm, decimals=decimals,
                           safe_z_mm=safe_z_mm)
     opts.check()

@@ -113,11 +113,8 @@ def simulate(session: Session | str | Path, *,
     from volcal.model.errorfunctions import MachineErrors
     from volcal.session.provenance import measured_ids, simulated_provenance
 
-    for key, v in (("reversal_um", reversal_um), ("noise_um", noise_um),
-                   ("mirror_misalignment_urad", mirror_misalignment_urad)):
-        if not (isinstance(v, int | float | np.number) and not isinstance(v, bool)
-                and np.isfinite(v) and v >= 0):
-            raise ParameterError(f"{{{key}=}}{v}: expected a finite value >= 0")
+    if not (np.isfinite(reversal_um) and reversal_um >= 0):
+        raise ParameterError(f"{{reversal_um=}}{reversal_um}: expected a finite value >= 0")
     if _checks.whole("seed", seed) < 0:
         raise ParameterError(f"{{seed=}}{seed!r}: expected a whole number >= 0")
     if machine is not None and not isinstance(machine, MachineErrors | str | Path):

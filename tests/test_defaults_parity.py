@@ -6,6 +6,10 @@ signatures of :class:`volcal.Calibration` and of the library functions and optio
 they call, for every shared parameter. A parameter only one side has is listed below with
 the reason; a new CLI option that Python does not take fails this test until it is added
 or listed.
+
+The steps plan, advise, program, simulate, import, identify, predict and compensate are
+one function each (``volcal.steps``) behind both faces: tests/test_steps_signature.py
+checks them (it replaced their entries here).
 """
 
 from __future__ import annotations
@@ -94,48 +98,6 @@ def norm(v: Any) -> Any:
     return v
 
 
-def _identify_options():
-    from volcal.identify import IdentifyOptions
-
-    return IdentifyOptions
-
-
-def _comp_options():
-    from volcal.compensate.formats import CompensationOptions
-
-    return CompensationOptions
-
-
-def _sim_options():
-    from volcal.measure.simulate import SimulationOptions
-
-    return SimulationOptions
-
-
-def _plan_session():
-    from volcal.plan.planner import plan_session
-
-    return plan_session
-
-
-def _program_options():
-    from volcal.program.steps import ProgramOptions
-
-    return ProgramOptions
-
-
-def _write_programs():
-    from volcal.program.writer import write_programs
-
-    return write_programs
-
-
-def _import_csv():
-    from volcal.importer.laser_csv import import_csv
-
-    return import_csv
-
-
 def _evaluate_session():
     from volcal.standards.session import evaluate_session
 
@@ -147,43 +109,6 @@ def _evaluate_session():
 # with it; it must be in the first callable (the Calibration method) unless listed.
 SHARED: dict[str, tuple[list[tuple[Callable[[], Any], dict[str, str | None]]],
                         dict[str, str]]] = {
-    "compensate": (
-        [(lambda: Calibration.compensate, {"output": "folder"}),
-         # CompensationOptions.tool_offset None: no offset, the same as (0, 0, 0)
-         (_comp_options, {"squareness": "include_squareness", "tool_offset": None})],
-        {"model": "Calibration uses its identified model (load_model for a file)",
-         "session": "compensate --session belongs to H3 (bidirectional tables)",
-         "force": "with --session only"}),
-    "simulate": (
-        [(lambda: Calibration.simulate, {"mirror_urad": "mirror_misalignment_urad"}),
-         (_sim_options, {"mirror_urad": "mirror_misalignment_urad"})],
-        {"session": "the Calibration's session", "overwrite": "Calibration.save writes "
-         "a new session folder from memory"}),
-    "plan": (
-        [(lambda: Calibration.plan, {}),
-         (_plan_session, {"overrun_mm": "linear_margin_mm",
-                          "abbe_offset_mm": "abbe_tool_offset_mm"})],
-        {"output": "Calibration.save(folder)",
-         "travel": "required in Python (a machine's travel is never guessed), below",
-         "grid": "multilateration={'grid': ...}, compared below",
-         "stations": "multilateration={'n_stations': ...}, compared below",
-         "tool_offsets": "multilateration={'tool_offsets': ...}, compared below",
-         "add": "volcal.plan.extend.add_planned_tests(folder, ...) (appends to a session)",
-         "replace": "Calibration.save(folder) refuses to replace; "
-                    "volcal.plan.extend.replace_session"}),
-    "identify": (
-        [(_identify_options, {"measurements": "measurement_ids"})],
-        {"session": "the Calibration's session", "output": "result.to_json(path)",
-         "known_u": "Calibration.identify(known=path, known_u=...)",
-         "budget": "Calibration.identify(budget=...), not an IdentifyOptions field "
-                   "(attach_systematic after the fit), compared below",
-         "monte_carlo": "volcal.identify.monte_carlo(result, q, n)"}),
-    "advise": ([(lambda: Calibration.advise, {}), (_identify_options, {})],
-               {"session": "the Calibration's session"}),
-    "program": (
-        [(lambda: Calibration.program, {"output": "folder"}), (_program_options, {}),
-         (_write_programs, {"output": "folder"})],
-        {"session": "the Calibration's session"}),
     "report": (
         [(lambda: Calibration.report, {"output": "folder"})],
         {"session": "the Calibration's session", "model": "Calibration.load_model(path)"}),
@@ -198,12 +123,6 @@ SHARED: dict[str, tuple[list[tuple[Callable[[], Any], dict[str, str | None]]],
          "decision_rule": "Calibration.verdict(tolerance_um, decision_rule=...): a rule "
                           "judges a tolerance, compared below",
          "guard_band_um": "Calibration.verdict(tolerance_um, guard_band_um=...), below"}),
-    "import": (
-        [(lambda: Calibration.import_, {}),
-         # the library's positional arguments (axis, id, line_mm...) have no default
-         (_import_csv, {"optics": "target", "csv_file": "path", "id": None, "axis": None,
-                        "line_mm": None, "map": None, "session": None})],
-        {}),
 }
 
 
@@ -232,28 +151,6 @@ def test_python_defaults_equal_the_cli(command):
         assert name in cli, f"{command}: {name} is listed but no CLI parameter"
 
 
-def test_plan_travel_and_multilateration_defaults():
-    """Travel is required in Python (a machine's travel is never guessed); the CLI's
-    multilateration layout is Calibration.plan's (volcal.defaults.ML_*), planned alike."""
-    from volcal.cli.plan import _multilateration_options
-
-    assert py_defaults(Calibration.plan)["travel"] == REQUIRED
-    cli = cli_defaults("plan")
-    ml = _multilateration_options(cli["grid"], cli["stations"], cli["tool_offsets"])
-    assert tuple(ml["grid"]) == D.ML_GRID
-    assert ml["n_stations"] == D.ML_STATIONS
-    assert np.allclose(np.array(ml["tool_offsets"]), np.array(D.ML_TOOL_OFFSETS_MM))
-    # the poses planned from Python are the CLI's
-    from volcal.plan.planner import plan_session
-
-    t = np.array([[0, 800], [0, 600], [0, 500]], float)
-    py = Calibration.plan(t, tests=["multilateration"]).session
-    ref = plan_session(t, tests=("multilateration",), multilateration=ml)
-    assert [m.id for m in py.measurements] == [m.id for m in ref.measurements]
-    for a, b in zip(py.measurements, ref.measurements, strict=True):
-        np.testing.assert_array_equal(a.positions, b.positions)
-
-
 def test_verdict_defaults_equal_evaluate_session():
     cli = cli_defaults("evaluate session")
     py = py_defaults(Calibration.verdict)
@@ -267,11 +164,6 @@ def test_verdict_defaults_equal_evaluate_session():
     # the other commands that judge a tolerance take the same rule by default
     assert cli_defaults("report")["decision_rule"] == D.DECISION_RULE
     assert cli_defaults("evaluate iso230-2")["decision_rule"] == D.DECISION_RULE
-
-
-def test_identify_budget_default_equals_the_cli():
-    assert cli_defaults("identify")["budget"] is None
-    assert py_defaults(Calibration.identify)["budget"] is None
 
 
 def test_compensation_defaults_are_safe():
@@ -308,11 +200,13 @@ def _typing_names() -> dict[str, Any]:
     from volcal.report.writer import ReportFiles
     from volcal.session.format import Session
     from volcal.standards.session import SessionEvaluation
+    from volcal.steps.predict import Prediction
     from volcal.uncertainty.budget import Budget
 
     return {"Budget": Budget, "IdentifiabilityReport": IdentifiabilityReport,
             "IdentificationResult": IdentificationResult, "ImportResult": ImportResult,
-            "MachineErrors": MachineErrors, "ReportFiles": ReportFiles, "Session": Session,
+            "MachineErrors": MachineErrors, "Prediction": Prediction,
+            "ReportFiles": ReportFiles, "Session": Session,
             "SessionEvaluation": SessionEvaluation, "Verdict": Verdict}
 
 

@@ -25,6 +25,14 @@ PLAN_RUNS = 5
 """Bidirectional runs per linear test (ISO 230-2)."""
 PLAN_NAME = "VMC-1"
 """Machine name of a planned session."""
+PLAN_STEP_ORDERS: tuple[str, ...] = ("xyz",)
+"""Axis orders of the step diagonals."""
+PLAN_TOOL_OFFSET_MM: tuple[float, float, float] = (0.0, 0.0, 0.0)
+"""Target point on the tool [mm]."""
+PLAN_STEP_TARGET = "flat_mirror"
+"""Target of the step diagonals."""
+PLAN_ABBE_OFFSET_MM = 150.0
+"""Target offset from the spindle of the Abbe lines no machine move can offset [mm]."""
 ML_GRID: tuple[int, int, int] = (9, 7, 6)
 """Multilateration: grid points along x, y, z."""
 ML_STATIONS = 4
@@ -48,6 +56,12 @@ SIM_REVERSAL_UM = 0.0
 # -- identify / advise ----------------------------------------------------------------------
 ROLL = "estimate"
 """Rolls EAX, EBY, ECZ: ``'estimate'`` or ``'zero'``."""
+PRIOR = "smooth"
+"""Prior of the identification: ``'smooth'`` (Bayesian) or ``'none'`` (min-norm LS)."""
+MAX_NODES = 41
+"""Nodes per axis at most (problem size)."""
+MONTE_CARLO = 0
+"""Monte Carlo trials of the noise propagation (GUM S1); 0 = off."""
 
 # -- evaluate / report ----------------------------------------------------------------------
 EDITION = "2014"
@@ -99,3 +113,11 @@ IMPORT_CHAIN = "XYFZ"
 """Chain of a session created by an import."""
 IMPORT_NAME = "machine"
 """Machine name of a session created by an import."""
+IMPORT_SIGN = "+"
+"""Direct optics: ``'+'`` (the tool side relative to the workpiece side) or ``'-'``."""
+IMPORT_DWELL_S = 4.0
+"""Renishaw dynamic capture: the part program's dwell at each target [s]."""
+
+# -- predict (volcal predict) ---------------------------------------------------------------
+TOOL_OFFSET_MM: tuple[float, float, float] = (0.0, 0.0, 0.0)
+"""Tool offset x, y, z of a prediction or a planned target [mm]."""

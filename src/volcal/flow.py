@@ -23,9 +23,8 @@ from __future__ import annotations
 import warnings
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, cast
 
-import numpy as np
 from numpy.typing import ArrayLike
 
 from volcal import defaults as D
@@ -33,11 +32,9 @@ from volcal import flowargs as A
 from volcal.errors import VolcalInputError
 
 if TYPE_CHECKING:
-    from volcal.identify import IdentifyOptions
     from volcal.identify.identifiability import IdentifiabilityReport
     from volcal.identify.result import IdentificationResult
     from volcal.importer.laser_csv import ImportResult
-    from volcal.measure.systematic import SystematicDraw
     from volcal.model.errorfunctions import MachineErrors
     from volcal.report.certificate_files import CertificateFiles
     from volcal.report.verdict import Verdict
@@ -45,6 +42,8 @@ if TYPE_CHECKING:
     from volcal.session.format import Session
     from volcal.standards.iso230_2_uncertainty import Iso2302Uncertainty
     from volcal.standards.session import SessionEvaluation
+    from volcal.steps.predict import Prediction
+    from volcal.steps.simulate import Simulated
     from volcal.uncertainty.budget import Budget
 
 __all__ = ["Calibration"]
@@ -89,9 +88,7 @@ class Calibration:
         self.imported: ImportResult | None = None
         self.uncertainties: dict[str, Iso2302Uncertainty] | None = None
         self.certificate: CertificateFiles | None = None
-        self._setups: object = None
-        self._sim: object = None
-        self._systematic: tuple[SystematicDraw, str] | None = None
+        self._simulated: Simulated | None = None
 
     def __repr__(self) -> str:
         """Short description."""
@@ -105,12 +102,15 @@ class Calibration:
     @A.checked
     def plan(cls, travel: ArrayLike | str, chain: str = D.CHAIN, steps: int = D.PLAN_STEPS,
              tests: str | Sequence[str] = D.PLAN_TESTS, runs: int = D.PLAN_RUNS,
-             name: str = D.PLAN_NAME, step_orders: str | Sequence[str] = ("xyz",),
-             tool_offset: ArrayLike | str = (0.0, 0.0, 0.0),
-             iso_spacing: bool = True, step_target: str = "flat_mirror",
-             overrun_mm: float = D.PROG_OVERRUN_MM, abbe_offset_mm: float = 150.0,
+             name: str = D.PLAN_NAME, step_orders: str | Sequence[str] = D.PLAN_STEP_ORDERS,
+             tool_offset: ArrayLike | str = D.PLAN_TOOL_OFFSET_MM,
+             iso_spacing: bool = True, step_target: str = D.PLAN_STEP_TARGET,
+             overrun_mm: float = D.PROG_OVERRUN_MM,
+             abbe_offset_mm: float = D.PLAN_ABBE_OFFSET_MM,
              multilateration: Mapping[str, ArrayLike | float] | None = None) -> Calibration:
         """Plan the tests of a machine (no readings yet), like ``volcal plan``.
+
+        Calls :func:`volcal.steps.plan.plan`; :meth:`save` writes the session.
 
         Parameters
         ----------
@@ -151,27 +151,14 @@ class Calibration:
         -------
         Calibration
         """
-        from volcal.plan.planner import plan_session
+        from volcal.steps.plan import plan
 
-        t = A.travel_mm(travel)
-        for key, v in (("steps", steps), ("runs", runs)):
-            if isinstance(v, bool) or not isinstance(v, int | np.integer):
-                raise VolcalInputError(f"Calibration.plan: {key}={v!r}: expected a whole "
-                                       "number")
-        ml: dict[str, ArrayLike | float] = {"grid": D.ML_GRID, "n_stations": D.ML_STATIONS,
-                                 "tool_offsets": D.ML_TOOL_OFFSETS_MM}
-        valid = ("grid", "n_stations", "stations", "tool_offsets", "station_u_mm")
-        for key in multilateration or {}:
-            if key not in valid:
-                raise A.unknown_option("Calibration.plan multilateration", key, valid)
-        ml.update(multilateration or {})
-        return cls(plan_session(t, chain, steps, tuple(A.name_list(tests, "tests")), runs,
-                                A.name_list(step_orders, "step_orders"),
-                                A.vector_mm(tool_offset, "tool_offset"), name,
-                                step_target=step_target, iso_spacing=iso_spacing,
-                                linear_margin_mm=overrun_mm,
-                                abbe_tool_offset_mm=abbe_offset_mm,
-                                multilateration=ml))
+        return cls(plan(A.travel_mm(travel), chain=chain, steps=steps, tests=tests, runs=runs,
+                        name=name, step_orders=step_orders,
+                        tool_offset=A.vector_mm(tool_offset, "tool_offset"),
+                        iso_spacing=iso_spacing, step_target=step_target,
+                        overrun_mm=overrun_mm, abbe_offset_mm=abbe_offset_mm,
+                        multilateration=multilateration).session)
 
     @classmethod
     @A.checked
@@ -203,13 +190,17 @@ class Calibration:
     def import_(cls, csv_file: str | Path, map: str | Mapping[str, str] | None = None,
                 session: str | Path | None = None, axis: str | None = None,
                 id: str | None = None,
-                measurement: str | None = None, line_mm: ArrayLike | str = (0.0, 0.0, 0.0),
-                units: str = D.IMPORT_UNITS, deviation_units: str = D.IMPORT_DEVIATION_UNITS,
-                optics: str = D.IMPORT_OPTICS, tool_offset: ArrayLike | str = (0.0, 0.0, 0.0),
+                measurement: str | None = None,
+                line_mm: ArrayLike | str = D.TOOL_OFFSET_MM, units: str = D.IMPORT_UNITS,
+                deviation_units: str = D.IMPORT_DEVIATION_UNITS,
+                optics: str = D.IMPORT_OPTICS, tool_offset: ArrayLike | str = D.TOOL_OFFSET_MM,
                 travel: ArrayLike | str | None = None, chain: str = D.IMPORT_CHAIN,
-                name: str = D.IMPORT_NAME, replace: bool = False, sign: str = "+",
-                slope_removed: bool = False, dwell_s: float = 4.0) -> Calibration:
+                name: str = D.IMPORT_NAME, replace: bool = False, sign: str = D.IMPORT_SIGN,
+                slope_removed: bool = False, dwell_s: float = D.IMPORT_DWELL_S) -> Calibration:
         """Add a laser's CSV export to a session folder, like ``volcal import``.
+
+        Calls :func:`volcal.steps.importer.import_` (the text of ``travel``, ``line_mm``
+        and ``tool_offset`` accepted as on the command line).
 
         Either a new linear measurement (``axis`` and ``id``; the session is created
         with ``travel`` if it does not exist) or the readings of a planned measurement
@@ -259,49 +250,17 @@ class Calibration:
         Calibration
             The session as written; :attr:`imported` holds the notes of the import.
         """
-        from volcal.importer.laser_csv import import_csv, parse_mapping
+        from volcal.steps.importer import import_
 
-        if session is None:
-            raise VolcalInputError("Calibration.import_: give session= (the session folder)")
-        if Path(csv_file).suffix.lower() == ".rtx":
-            from volcal.importer.rtx_import import import_rtx
-
-            if measurement is None or axis is not None or id is not None or map is not None:
-                raise VolcalInputError("Calibration.import_: a dynamic capture (.rtx) fills a "
-                                       "planned measurement: give measurement=, without map=, "
-                                       "axis= and id=", csv_file)
-            from volcal.importer.optics import parse_sign
-
-            r = import_rtx(csv_file, session, measurement, units, deviation_units, replace,
-                           parse_sign(sign), slope_removed, dwell_s=dwell_s)
-            cal = cls.open(r.session)
-            cal.imported = r
-            return cal
-        if map is None:
-            raise VolcalInputError("Calibration.import_: give map= (the export's columns)",
-                                   csv_file)
-        text = map if isinstance(map, str) else ",".join(f"{k}={v}" for k, v in map.items())
-        mapping = parse_mapping(text)
-        if measurement is not None:
-            if axis is not None or id is not None:
-                raise VolcalInputError("Calibration.import_: measurement= fills a planned "
-                                       "measurement: leave out axis= and id=")
-            from volcal.importer.optics import parse_sign
-            from volcal.importer.planned import import_planned
-
-            r = import_planned(csv_file, mapping, session, measurement, units,
-                               deviation_units, replace, parse_sign(sign), slope_removed)
-        else:
-            if axis is None or id is None:
-                raise VolcalInputError("Calibration.import_: give axis= and id= (a new "
-                                       "linear measurement) or measurement= (a planned one)")
-            r = import_csv(csv_file, mapping, axis, A.vector_mm(line_mm, "line_mm"), session,
-                           id, units, deviation_units, optics,
-                           A.vector_mm(tool_offset, "tool_offset"),
-                           None if travel is None else A.travel_mm(travel), chain, name,
-                           replace)
-        cal = cls.open(r.session)
-        cal.imported = r
+        r = import_(csv_file, session=session, map=map, axis=axis, id=id,
+                    measurement=measurement, line_mm=A.vector_mm(line_mm, "line_mm"),
+                    units=units, deviation_units=deviation_units, optics=optics,
+                    tool_offset=A.vector_mm(tool_offset, "tool_offset"),
+                    travel=None if travel is None else A.travel_mm(travel), chain=chain,
+                    name=name, replace=replace, sign=sign, slope_removed=slope_removed,
+                    dwell_s=dwell_s)
+        cal = cls.open(r.result.session)
+        cal.imported = r.result
         return cal
 
     # ------------------------------------------------------------------ steps
@@ -309,7 +268,8 @@ class Calibration:
     def advise(self, roll: str = D.ROLL, **options: object) -> IdentifiabilityReport:
         """Before measuring: what the planned tests will and will not determine.
 
-        Like ``volcal advise``; the readings are not used.
+        Like ``volcal advise`` (:func:`volcal.steps.advise.advise`); the readings are not
+        used.
 
         Parameters
         ----------
@@ -323,9 +283,9 @@ class Calibration:
         IdentifiabilityReport
             ``.messages`` in plain words, ``.suggestions``, ``.ambiguity_um`` [um].
         """
-        from volcal.identify import advise
+        from volcal.steps.advise import advise
 
-        return advise(self._planned(), self._identify_options("advise", roll=roll, **options))
+        return advise(self._planned(), roll=roll, **cast("dict[str, Any]", options)).report
 
     @A.checked
     def program(self, folder: str | Path, dialect: str, dwell_s: float = D.PROG_DWELL_S,
@@ -334,6 +294,9 @@ class Calibration:
                 first_number: int = D.PROG_FIRST_NUMBER, *,
                 replace: bool = False) -> tuple[Path, list[str]]:
         """Write one measuring part program per measurement, like ``volcal program``.
+
+        Calls :func:`volcal.steps.program.program`; only a new, empty or earlier program
+        folder is replaced.
 
         Parameters
         ----------
@@ -364,21 +327,16 @@ class Calibration:
         notes : list of str
             What the user should know (the command line prints them as notes).
         """
-        from volcal.io.folders import manifest_files
-        from volcal.io.paths import check_output_folder
-        from volcal.program.steps import ProgramOptions
-        from volcal.program.writer import INDEX_FILE, write_programs
+        from volcal.steps.program import program
 
-        # as `volcal program`: only a new, empty or earlier program folder is replaced
-        check_output_folder(folder, "program", lambda p: (p / INDEX_FILE).is_file(),
-                            written=manifest_files(INDEX_FILE, "programs", "file"),
-                            replace=replace, option="replace=True")
-        opts = ProgramOptions(dwell_s=dwell_s, feed=feed, overrun_mm=overrun_mm,
-                              decimals=decimals, safe_z_mm=safe_z_mm)
-        return write_programs(self._planned(), dialect, folder, opts, first_number)
+        r = program(self._planned(), dialect=dialect, output=folder, dwell_s=dwell_s,
+                    feed=feed, overrun_mm=overrun_mm, decimals=decimals, safe_z_mm=safe_z_mm,
+                    first_number=first_number, replace=replace)
+        return r.folder, list(r.notes)
 
     @A.checked
-    def simulate(self, machine: MachineErrors | None = None, seed: int = D.SIM_SEED,
+    def simulate(self, machine: MachineErrors | str | Path | None = None,
+                 seed: int = D.SIM_SEED,
                  noise_um: float = D.SIM_NOISE_UM,
                  mirror_misalignment_urad: float = D.SIM_MIRROR_URAD,
                  drift_um_per_h: float = D.SIM_DRIFT_UM_PER_H,
@@ -386,10 +344,13 @@ class Calibration:
                  budget: str | Path | Budget | None = None) -> Calibration:
         """Fill the readings from a virtual machine (in memory; :meth:`save` writes them).
 
+        Calls :func:`volcal.steps.simulate.simulate`.
+
         Parameters
         ----------
-        machine : MachineErrors, optional
-            The virtual machine; a random realistic one (seeded) when omitted.
+        machine : MachineErrors, str or Path, optional
+            The virtual machine, or its error table (``ERRORS.csv``, as ``--machine``); a
+            random realistic one (seeded) when omitted.
         seed : int
             Seed of the random machine and of the noise.
         noise_um : float
@@ -414,47 +375,15 @@ class Calibration:
         Calibration
             ``self``, for chaining.
         """
-        from volcal.measure.simulate import SimulationOptions, simulate_session
-        from volcal.measure.virtual import ErrorRanges, random_machine
-        from volcal.model.errorfunctions import MachineErrors
-        from volcal.session.provenance import simulated_provenance
+        from volcal.steps.simulate import simulate
 
-        for key, v in (("noise_um", noise_um), ("mirror_misalignment_urad",
-                                                mirror_misalignment_urad),
-                       ("reversal_um", reversal_um)):
-            if not (isinstance(v, int | float) and np.isfinite(v) and v >= 0):
-                raise VolcalInputError(f"Calibration.simulate: {key}={v!r}: expected a "
-                                       "finite number >= 0")
-        if not (isinstance(seed, int | np.integer) and seed >= 0):
-            raise VolcalInputError(f"Calibration.simulate: seed={seed!r}: expected a whole "
-                                   "number >= 0")
-        b = None if budget is None else A.budget_file(budget, "Calibration.simulate")
-        s = self.session
-        if machine is None:
-            machine = random_machine(s.travel, s.chain, seed,
-                                     ranges=ErrorRanges(reversal_um=(0.0, reversal_um)),
-                                     name=f"virtual {s.name}")
-        elif not isinstance(machine, MachineErrors):
-            raise VolcalInputError(f"Calibration.simulate: machine= is a "
-                                   f"{type(machine).__name__}: expected MachineErrors "
-                                   "(volcal.session.errortable.read_error_table) or None")
-        self._sim = SimulationOptions(noise_um=noise_um,
-                                      mirror_misalignment_urad=mirror_misalignment_urad,
-                                      drift_um_per_h=drift_um_per_h, seed=seed)
-        self._setups = simulate_session(s, machine, self._sim)
-        self._systematic = None
-        if b is not None:  # as `volcal simulate --budget`: one draw, the CLI's random stream
-            from volcal.measure.systematic import apply_systematic, draw_systematic
-
-            draw = draw_systematic(s, b[0], np.random.default_rng([int(seed), 17]))
-            apply_systematic(s, draw)
-            self._systematic = (draw, b[1])
-        s.provenance = simulated_provenance(
-            s, seed=int(seed), noise_um=float(noise_um),
-            mirror_urad=float(mirror_misalignment_urad), drift_um_per_h=float(drift_um_per_h),
-            machine=f"random (seed {seed})" if machine.name == f"virtual {s.name}"
-            else str(machine.name))
-        self.truth = machine
+        # overwrite: in memory; save() refuses to replace measured readings on disk
+        r = simulate(self.session, machine=machine, seed=seed, noise_um=noise_um,
+                     mirror_misalignment_urad=mirror_misalignment_urad,
+                     drift_um_per_h=drift_um_per_h, reversal_um=reversal_um, budget=budget,
+                     overwrite=True)
+        self._simulated = r
+        self.truth = r.machine
         self.result = self.evaluation = None
         return self
 
@@ -494,17 +423,7 @@ class Calibration:
             full.unmeasured = []
         if (folder / "session.toml").is_file():
             self._check_not_measured(folder, full)
-        extra = None
-        if self._setups is not None:
-            from volcal.measure.simulate import truth_files
-
-            extra = truth_files(self.truth, self._setups, self._sim)
-            if self._systematic is not None:
-                from volcal.io.tomlfmt import dumps as toml_dumps
-
-                draw, label = self._systematic
-                extra["truth/systematic.toml"] = toml_dumps({
-                    "format": "volcal-systematic/1", "budget": label, **draw.to_dict()})
+        extra = None if self._simulated is None else self._simulated.truth_files()
         path = write_session(full, folder, extra, keep_existing=True)
         self.session = Calibration.open(path).session
         return self
@@ -529,6 +448,8 @@ class Calibration:
                  **options: object) -> IdentificationResult:
         """Identify the 21 errors with uncertainties, like ``volcal identify``.
 
+        Calls :func:`volcal.steps.identify.identify`.
+
         Parameters
         ----------
         budget : str, Path or Budget, optional
@@ -540,26 +461,47 @@ class Calibration:
         **options
             Fields of :class:`volcal.identify.IdentifyOptions` (``prior``, ``noise_um``
             [um], ``roll``, ``known``, ``drift``, ``max_nodes``, ``robust``...); the
-            command line's ``measurements`` is ``measurement_ids``. ``known`` may be the
-            path of a CSV of errors measured separately (as ``--known``), with
-            ``known_u`` [um or urad] to use them as priors.
+            command line's names: ``measurements`` (``measurement_ids`` too),
+            ``monte_carlo``; ``known`` may be the path of a CSV of errors measured
+            separately (as ``--known``), with ``known_u`` [um or urad] to use them as
+            priors.
 
         Returns
         -------
         IdentificationResult
             Also kept as :attr:`result`; it carries the session's identity.
         """
-        from volcal.identify import identify
+        from volcal.steps.identify import identify
 
-        b = None if budget is None else A.budget_file(budget, "Calibration.identify")
-        result = identify(self.session, self._identify_options("identify", **options))
-        if b is not None:
-            from volcal.identify.systematic import attach_systematic
-
-            attach_systematic(result, b[0], b[1])
-        self.result = result
+        self.result = identify(self.session, budget=budget,
+                               **cast("dict[str, Any]", options)).result
         self.evaluation = None
         return self.result
+
+    @A.checked
+    def predict(self, points: str | Path | ArrayLike,
+                tool_offset: ArrayLike | str = D.TOOL_OFFSET_MM) -> Prediction:
+        """The volumetric error and its uncertainty at points, like ``volcal predict``.
+
+        Calls :func:`volcal.steps.predict.predict` with this calibration's model
+        (:meth:`identify` or :meth:`load_model`).
+
+        Parameters
+        ----------
+        points : str, Path or array_like, shape (n, 3)
+            A CSV with ``x_mm,y_mm,z_mm`` or the points [mm], inside the travel.
+        tool_offset : array_like, shape (3,), or str
+            Tool offset x, y, z [mm].
+
+        Returns
+        -------
+        Prediction
+            ``.error_um``, ``.u_um`` (n, 3) [um]; ``.to_csv()`` is the command's file.
+        """
+        from volcal.steps.predict import predict
+
+        return predict(self._need_result(), points,
+                       tool_offset=A.vector_mm(tool_offset, "tool_offset"))
 
     @A.checked
     def load_model(self, path: str | Path, force: bool = False) -> IdentificationResult:
@@ -708,9 +650,13 @@ class Calibration:
                    fanuc_series: str = D.COMP_FANUC_SERIES,
                    linuxcnc_type: int = D.COMP_LINUXCNC_TYPE,
                    squareness: bool = D.COMP_SQUARENESS,
-                   tool_offset: ArrayLike | str = (0.0, 0.0, 0.0), *,
+                   tool_offset: ArrayLike | str = D.TOOL_OFFSET_MM, *,
                    replace: bool = False) -> list[str]:
         """Write controller compensation tables of the identified model.
+
+        Calls :func:`volcal.steps.compensate.compensate` with this calibration's model and
+        its session's machine identity (``volcal compensate --session`` checks are the
+        command's).
 
         Like ``volcal compensate``: the format is always named, and the tables are
         written in the controller's own sign unless ``sign`` overrides it (with a
@@ -755,44 +701,24 @@ class Calibration:
         list of str
             Files written.
         """
-        from volcal.compensate.formats import (
-            FORMAT_INFO,
-            CompensationOptions,
-            write_compensation,
-        )
-        from volcal.compensate.tables import sign_factor
-
-        fmt = str(format).lower()
-        if fmt not in FORMAT_INFO:
-            raise VolcalInputError(f"Calibration.compensate: unknown format {format!r}: "
-                                   f"expected one of {A.names(list(FORMAT_INFO))}")
-        info = FORMAT_INFO[fmt]
-        if sign is not None:
-            sign_factor(sign)
-            if sign != info.sign:
-                warnings.warn(f"sign={sign!r} overrides the {fmt} convention '{info.sign}' "
-                              f"({info.sign_source}); a table in the wrong sign doubles the "
-                              "error", UserWarning, stacklevel=3)
-        from volcal.compensate.manifest import MANIFEST
-        from volcal.io.folders import manifest_files
-        from volcal.io.paths import check_output_folder
-
-        # as `volcal compensate`: only a new, empty or earlier compensation folder is replaced
-        check_output_folder(folder, "compensation", lambda p: (p / MANIFEST).is_file(),
-                            written=manifest_files(MANIFEST, "files"), replace=replace,
-                            option="replace=True")
-        ref = None if reference_mm is None else A.vector_mm(reference_mm, "reference_mm")
-        opts = CompensationOptions(sign, spacing, max_points, ref, unit_um, magnification,
-                                   max_increment, squareness,
-                                   A.vector_mm(tool_offset, "tool_offset"), fanuc_series,
-                                   linuxcnc_type)
+        from volcal.errors import spell
         from volcal.session.identity import MachineIdentity
+        from volcal.steps.compensate import compensate
 
         result = self._need_result()
         # the manifest names this session's machine (serial, make...), so that the tables
         # are refused on another machine (docs/compensation.md)
-        files = write_compensation(result.errors, fmt, folder, opts, "model",
-                                   machine=MachineIdentity.of(self.session))
+        r = compensate(result, format=format, output=folder, sign=sign, spacing=spacing,
+                       max_points=max_points, reference_mm=None if reference_mm is None
+                       else A.vector_mm(reference_mm, "reference_mm"), unit_um=unit_um,
+                       magnification=magnification, max_increment=max_increment,
+                       fanuc_series=fanuc_series, linuxcnc_type=linuxcnc_type,
+                       squareness=squareness,
+                       tool_offset=A.vector_mm(tool_offset, "tool_offset"),
+                       machine=MachineIdentity.of(self.session), replace=replace)
+        if r.sign_note is not None:
+            warnings.warn(spell(r.sign_note, {}), UserWarning, stacklevel=3)
+        files = list(r.files)
         self.compensation = Path(folder)
         return files
 
@@ -964,49 +890,6 @@ class Calibration:
         return files
 
     # ------------------------------------------------------------------ helpers
-    def _identify_options(self, where: str, **options: object) -> IdentifyOptions:
-        """IdentifyOptions from keywords, every key checked (the CLI's names accepted)."""
-        from dataclasses import fields
-
-        from volcal.identify import IdentifyOptions
-
-        where = f"Calibration.{where}"
-        valid = [f.name for f in fields(IdentifyOptions)]
-        opts = dict(options)
-        if "measurements" in opts:  # the command line's name
-            opts["measurement_ids"] = opts.pop("measurements")
-        known_u = opts.pop("known_u", None)
-        for key in opts:
-            if key not in valid:
-                extra = ["known_u", "budget"] if where.endswith("identify") else ["known_u"]
-                raise A.unknown_option(where, key, [*valid, *extra])
-        A.check_kinds(where, opts, {f.name: f.default for f in fields(IdentifyOptions)})
-        for key, v in (("noise_um", opts.get("noise_um")), ("known_u", known_u)):
-            if v is not None and not (isinstance(v, int | float) and np.isfinite(v) and v > 0):
-                raise VolcalInputError(f"{where}: {key}={v!r}: expected a positive number "
-                                       "[um] (as --noise-um, --known-u)")
-        if not 3 <= int(opts.get("max_nodes", 41)) <= 2001:  # type: ignore[call-overload]
-            raise VolcalInputError(f"{where}: max_nodes={opts['max_nodes']}: expected 3..2001 "
-                                   "(as --max-nodes)")
-        ids = opts.get("measurement_ids")
-        if ids is not None:
-            opts["measurement_ids"] = A.name_list(ids, "measurement_ids")  # type: ignore
-        known = opts.get("known")
-        if isinstance(known, str | Path):
-            from volcal.session.errortable import read_known_functions
-
-            opts["known"] = {n: (p, v) if known_u is None else (p, v, known_u)
-                             for n, (p, v) in read_known_functions(known).items()}
-        elif known_u is not None:
-            raise VolcalInputError(f"{where}: known_u needs known= (the path of the error "
-                                   "table it applies to)")
-        elif known is not None:
-            opts["known"] = A.known_functions(known, where)
-        try:
-            return IdentifyOptions(**opts)  # type: ignore[arg-type]
-        except TypeError as exc:
-            raise VolcalInputError(f"{where}: {exc}; valid options: {A.names(valid)}") from None
-
     def _planned(self) -> Session:
         """The session with every measurement, those without readings yet included."""
         from copy import copy

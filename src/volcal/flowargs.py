@@ -21,15 +21,14 @@ from typing import TYPE_CHECKING, TypeVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from volcal.errors import VolcalInputError
+from volcal.errors import ParameterError, VolcalInputError
 
 if TYPE_CHECKING:
     from volcal.standards.tolerance import Tolerance
     from volcal.uncertainty.budget import Budget
 
-__all__ = ["acceptance", "budget_file", "checked", "known_functions", "names", "name_list",
-           "python_names", "python_text", "tolerance_text", "travel_mm", "unknown_option",
-           "vector_mm"]
+__all__ = ["acceptance", "budget_file", "checked", "names", "python_names", "python_text",
+           "tolerance_text", "travel_mm", "unknown_option", "vector_mm"]
 
 F = TypeVar("F", bound=Callable[..., object])
 
@@ -76,7 +75,9 @@ def checked(func: F) -> F:
     An unknown keyword, a missing required argument or one given twice names the
     method and lists its valid options (with the closest name), instead of Python's
     ``TypeError``; a value of another kind than its default (:func:`check_kinds`: text
-    for a number, a fraction for a whole number...) is refused the same way.
+    for a number, a fraction for a whole number...) is refused the same way. A step's
+    :class:`~volcal.errors.ParameterError` (:mod:`volcal.steps`) names the keyword after
+    the method.
 
     Parameters
     ----------
@@ -111,7 +112,10 @@ def checked(func: F) -> F:
                                    f"valid options: {names(valid)}") from None
         check_kinds(where, {k: v for k, v in bound.arguments.items() if k in defaults},
                     defaults)
-        return func(*args, **kwargs)
+        try:
+            return func(*args, **kwargs)
+        except ParameterError as exc:  # a step's parameter: the keyword, with the method
+            raise exc.spelled({}, f"{where}: ") from None
 
     return wrapper  # type: ignore[return-value]
 
@@ -172,27 +176,6 @@ def vector_mm(v: ArrayLike | str, what: str) -> tuple[float, float, float]:
     return float(a[0]), float(a[1]), float(a[2])
 
 
-def name_list(v: str | Sequence[str], what: str) -> list[str]:
-    """A list of names.
-
-    Parameters
-    ----------
-    v : sequence of str, or str
-        The names or the command line's comma-separated text.
-    what : str
-        The keyword, for the message.
-
-    Returns
-    -------
-    list of str
-    """
-    if isinstance(v, str):
-        return [s.strip() for s in v.split(",") if s.strip()]
-    if not all(isinstance(s, str) for s in v):
-        raise VolcalInputError(f"{what} {v!r}: expected names (strings)")
-    return list(v)
-
-
 def tolerance_text(tolerance_um: float | str | Mapping[str, float]) -> str:
     """A tolerance [um] as the command line's ``--tolerance-um`` text.
 
@@ -208,41 +191,6 @@ def tolerance_text(tolerance_um: float | str | Mapping[str, float]) -> str:
     if isinstance(tolerance_um, Mapping):
         return ",".join(f"{k}={v}" for k, v in tolerance_um.items())
     return str(tolerance_um)
-
-
-def known_functions(known: object, where: str) -> dict[str, tuple[object, ...]]:
-    """Check the ``known`` option of :class:`volcal.identify.IdentifyOptions`.
-
-    Parameters
-    ----------
-    known : dict
-        ISO 230-1 name -> ``(positions [mm], values [um or urad])`` or ``(positions,
-        values, u)``.
-    where : str
-        The method, for the message.
-
-    Returns
-    -------
-    dict
-        Upper-case names to tuples.
-    """
-    from volcal.model.names import COMPONENT_NAMES, SQUARENESS_NAMES
-
-    error_names = (*COMPONENT_NAMES, *SQUARENESS_NAMES)
-    if not isinstance(known, Mapping):
-        raise VolcalInputError(f"{where}: known={known!r}: expected a dict name -> "
-                               "(positions [mm], values) or the path of an error table")
-    out: dict[str, tuple[object, ...]] = {}
-    for name, v in known.items():
-        key = str(name).upper()
-        if key not in error_names:
-            raise VolcalInputError(f"{where}: known[{name!r}]: not an error name; expected "
-                                   f"one of {names(error_names)}")
-        if not isinstance(v, tuple | list) or len(v) not in (2, 3):
-            raise VolcalInputError(f"{where}: known[{name!r}]: expected (positions [mm], "
-                                   "values [um or urad]) or (positions, values, u)")
-        out[key] = tuple(v)
-    return out
 
 
 def check_kinds(where: str, values: Mapping[str, object],

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from volcal.errors import VolcalInputError
+from volcal.errors import ParameterError, VolcalInputError
 from volcal.importer.optics import ANGLE_TO_URAD, angle_unit, parse_sign
 from volcal.importer.planned import import_planned
 from volcal.measure.simulate import SimulationOptions, simulate_session
@@ -79,5 +79,8 @@ def test_slope_removed_is_recorded_and_refused_in_a_group(planned, tmp_path):
     with pytest.raises(VolcalInputError, match="reference group 'xy'"):
         import_planned(f, MAP, folder, "str-xy", slope_removed=True)
     assert read_session(folder, require_deviation=False).get("str-xy").deviation is None
-    with pytest.raises(VolcalInputError, match="--sign"):
+    with pytest.raises(ParameterError, match="sign='minus'") as e:
         parse_sign("minus")
+    from volcal.cli._options import OPTIONS
+
+    assert str(e.value.spelled(OPTIONS)).startswith("--sign 'minus': expected +")

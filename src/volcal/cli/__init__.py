@@ -8,7 +8,9 @@ numpy, scipy, matplotlib and jinja2 take together). A module of this package tha
 not in the table is still found and registered, eagerly (add it to the table: the tests
 check that each command imports its own module only); an entry whose module is not
 there is left out. User mistakes
-(:class:`~volcal.errors.VolcalInputError`) are printed without a traceback, exit code 2.
+(:class:`~volcal.errors.VolcalInputError`) are printed without a traceback, exit code 2;
+a step's :class:`~volcal.errors.ParameterError` names the command line's option
+(``volcal.cli._options.OPTIONS``).
 """
 
 from __future__ import annotations
@@ -233,6 +235,13 @@ def main() -> None:
         app()  # standalone mode: usage errors are reported by typer with exit code 2
     except VolcalInputError as exc:
         from rich.markup import escape
+
+        from volcal.errors import ParameterError
+
+        if isinstance(exc, ParameterError):  # a step's parameter, named as the CLI's option
+            from volcal.cli._options import OPTIONS
+
+            exc = exc.spelled(OPTIONS)
 
         _err_console().print(f"[bold red]error:[/] {escape(str(exc))}", highlight=False)
         sys.exit(2)

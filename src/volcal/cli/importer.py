@@ -9,7 +9,9 @@ import typer
 from rich.console import Console
 from rich.markup import escape
 
+from volcal import defaults as D
 from volcal.cli._common import parse_travel, parse_vector
+from volcal.cli._options import cli_spelling
 
 console = Console(soft_wrap=True)  # no line breaks inside paths
 err_console = Console(stderr=True, soft_wrap=True)  # warnings: standard error
@@ -78,125 +80,55 @@ def import_(
         help="Machine position x,y,z of the line [mm]; its axis coordinate is added to the "
         "targets.")] = "0,0,0",
     units: Annotated[str, typer.Option(
-        help="Unit of target/reading columns: mm, um, in or auto (header, else mm).")] = "auto",
+        help="Unit of target/reading columns: mm, um, in or auto (header, else mm).")
+                     ] = D.IMPORT_UNITS,
     deviation_units: Annotated[str, typer.Option(
         help="Unit of the deviation columns: um, nm, mm, in, uin or auto; angles: urad, "
-        "arcsec, mm/m, um/m, mrad, deg.")] = "auto",
+        "arcsec, mm/m, um/m, mrad, deg.")
+                               ] = D.IMPORT_DEVIATION_UNITS,
     optics: Annotated[str, typer.Option(help="retroreflector or flat_mirror.")
-                      ] = "retroreflector",
+                      ] = D.IMPORT_OPTICS,
     tool_offset: Annotated[str, typer.Option(help="Target on the tool x,y,z [mm].")] = "0,0,0",
     travel: Annotated[str | None, typer.Option(
         help="Travel of a NEW session, xmin:xmax,ymin:ymax,zmin:zmax [mm].")] = None,
-    chain: Annotated[str, typer.Option(help="Chain of a new session.")] = "XYFZ",
-    name: Annotated[str, typer.Option(help="Machine name of a new session.")] = "machine",
+    chain: Annotated[str, typer.Option(help="Chain of a new session.")] = D.IMPORT_CHAIN,
+    name: Annotated[str, typer.Option(help="Machine name of a new session.")] = D.IMPORT_NAME,
     replace: Annotated[bool, typer.Option(help="Replace a measurement with this id (or the "
                                                 "readings of --measurement).")] = False,
     sign: Annotated[str, typer.Option(
         help="Direct optics: + (the export reads the tool side relative to the workpiece "
-        "side, volcal's sign) or - (the workpiece side relative to the tool side).")] = "+",
+        "side, volcal's sign) or - (the workpiece side relative to the tool side).")
+                    ] = D.IMPORT_SIGN,
     slope_removed: Annotated[bool, typer.Option(
         help="Straightness: the instrument took the slope out (recorded; not allowed in a "
         "reference group).")] = False,
     dwell_s: Annotated[float, typer.Option(
         help="Renishaw dynamic capture (.rtx): the part program's dwell at each target [s] "
         "(volcal program --dwell-s); the reading at each pose is the mean of its dwell.")
-                       ] = 4.0,
+                       ] = D.IMPORT_DWELL_S,
 ) -> None:
     """Add a measurement from a laser CSV export to a session (see HELP)."""
-    from volcal.errors import VolcalInputError
-    from volcal.importer.laser_csv import import_csv, parse_mapping
-    from volcal.io.paths import check_output_folder
+    from volcal.steps.importer import import_ as step
 
-    if session is None:
-        raise VolcalInputError("give --session FOLDER (the session to add the readings to)")
-    if _is_rtx(csv_file):
-        _import_rtx(csv_file, map, session, measurement, axis, id, units, deviation_units,
-                    replace, sign, slope_removed, dwell_s)
-        return
-    if map is None:
-        raise VolcalInputError("--map is needed for a CSV export: name its columns, e.g. "
-                               "--map target=Position,deviation=Error", csv_file)
-    mapping = parse_mapping(map)
-    if measurement is not None:
-        if axis is not None or id is not None:
-            raise VolcalInputError("--measurement fills a planned measurement: leave out "
-                                   "--axis and --id")
-        from volcal.importer.optics import parse_sign
-        from volcal.importer.planned import import_planned
-
-        r = import_planned(csv_file, mapping, session, measurement, units, deviation_units,
-                           replace, parse_sign(sign), slope_removed)
-        what = f"{r.measurement.kind} {r.measurement.id}"
-    else:
-        if axis is None or id is None:
-            raise VolcalInputError("give --axis and --id (a new linear measurement) or "
-                                   "--measurement ID (a planned one)")
-        if not session.exists():
-            check_output_folder(session, "session")
-        r = import_csv(csv_file, mapping, axis, parse_vector(line_mm, "--line-mm"),
-                       session, id, units, deviation_units, optics,
-                       parse_vector(tool_offset, "--tool-offset"),
-                       None if travel is None else parse_travel(travel), chain, name, replace)
-        what = f"{r.measurement.id} ({axis.upper()})"
-    _print_result(r, what)
-
-
-def _print_result(r, what: str) -> None:
-    for note in r.notes:
+    r = step(csv_file, session=session, map=map, axis=axis, id=id, measurement=measurement,
+             line_mm=parse_vector(line_mm, "--line-mm"), units=units,
+             deviation_units=deviation_units, optics=optics,
+             tool_offset=parse_vector(tool_offset, "--tool-offset"),
+             travel=None if travel is None else parse_travel(travel), chain=chain, name=name,
+             replace=replace, sign=sign, slope_removed=slope_removed, dwell_s=dwell_s)
+    i = r.result
+    for note in i.notes:
         console.print(f"[cyan]units/notes:[/] {escape(note)}", highlight=False)
-    for line in r.header:
+    for line in i.header:
         console.print(f"[cyan]header:[/] {escape(line)}", highlight=False)
-    for note in r.header_notes:
+    for note in i.header_notes:
         console.print(f"[yellow]header:[/] {escape(note)}", highlight=False)
-    where = "created session" if r.created else "added to"
-    console.print(f"{r.measurement.n} readings of {what} -> {where} {r.session}")
-    for w in _imported_warnings(r.session, r.measurement.id):
+    where = "created session" if i.created else "added to"
+    console.print(f"{i.measurement.n} readings of {r.what} -> {where} {i.session}")
+    for w in r.warnings:
         err_console.print(f"[yellow]warning:[/] {escape(w)}", highlight=False)
-
-
-def _is_rtx(path: Path) -> bool:
-    """A Renishaw dynamic capture: ``.rtx`` suffix, or a file starting with ``HEADER::``."""
-    if path.suffix.lower() == ".rtx":
-        return True
-    try:
-        with path.open("rb") as f:
-            return f.read(10) == b"HEADER::\r\n"
-    except OSError:
-        return False
-
-
-def _import_rtx(path: Path, map: str | None, session: Path, measurement: str | None,
-                axis: str | None, id: str | None, units: str, deviation_units: str,
-                replace: bool, sign: str, slope_removed: bool, dwell_s: float) -> None:
-    """``volcal import FILE.rtx --measurement ID``: the dwell means of a dynamic capture."""
-    from volcal.errors import VolcalInputError
-    from volcal.importer.optics import parse_sign
-    from volcal.importer.rtx_import import import_rtx
-
-    if measurement is None or axis is not None or id is not None:
-        raise VolcalInputError("a dynamic capture (.rtx) fills a planned measurement: give "
-                               "--measurement ID (from volcal plan), without --axis and --id",
-                               path)
-    if map is not None:
-        raise VolcalInputError("--map names CSV columns; a dynamic capture (.rtx) has one "
-                               "quantity: leave it out", path)
-    r = import_rtx(path, session, measurement, units, deviation_units, replace,
-                   parse_sign(sign), slope_removed, dwell_s)
-    _print_result(r, f"{r.measurement.kind} {r.measurement.id}")
-
-
-def _imported_warnings(session: Path, mid: str) -> list[str]:
-    """Plausibility warnings of the imported measurement, read back with its session."""
-    from volcal.errors import VolcalInputError
-    from volcal.session.format import read_session
-
-    try:
-        s = read_session(session)
-    except VolcalInputError:  # the import itself is done; the session's other tests speak later
-        return []
-    return [w for w in s.warnings if w.startswith(f"{mid}:")]
 
 
 def register(app: typer.Typer) -> None:
     """Add the commands of this module to the app."""
-    app.command("import", help=HELP)(import_)
+    app.command("import", help=HELP)(cli_spelling(import_))

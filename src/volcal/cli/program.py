@@ -10,6 +10,7 @@ from rich.console import Console
 from rich.markup import escape
 
 from volcal import defaults as D
+from volcal.cli._options import cli_spelling
 
 console = Console(soft_wrap=True)  # no line breaks inside paths
 err_console = Console(stderr=True, soft_wrap=True)  # warnings: standard error
@@ -41,27 +42,17 @@ def program(
 ) -> None:
     """Write one part program per measurement: planned poses in order, a dwell at each."""
     from volcal.cli._common import note_moved
-    from volcal.io.folders import manifest_files
-    from volcal.io.paths import prepare_output_folder
-    from volcal.program.steps import ProgramOptions
-    from volcal.program.writer import INDEX_FILE, write_programs
-    from volcal.session.format import read_session
+    from volcal.steps.program import program as step
 
-    moved = prepare_output_folder(output, "program", lambda p: (p / INDEX_FILE).is_file(),
-                                  written=manifest_files(INDEX_FILE, "programs", "file"),
-                                  replace=replace)
-    if moved is not None:
-        note_moved(output, moved)
-    opts = ProgramOptions(dwell_s=dwell_s, feed=feed, overrun_mm=overrun_mm, decimals=decimals,
-                          safe_z_mm=safe_z_mm)
-    opts.check()
-    s = read_session(session, require_deviation=False)
-    folder, warnings = write_programs(s, dialect, output, opts, first_number)
-    for w in warnings:
+    r = step(session, dialect=dialect, output=output, dwell_s=dwell_s, feed=feed,
+             overrun_mm=overrun_mm, decimals=decimals, safe_z_mm=safe_z_mm,
+             first_number=first_number, replace=replace,
+             on_moved=lambda rel: note_moved(output, rel))
+    for w in r.notes:
         err_console.print(f"[yellow]note:[/] {escape(w)}", highlight=False)
-    console.print(f"wrote {len(s.measurements)} {dialect} programs -> {folder}")
+    console.print(f"wrote {r.n_programs} {dialect} programs -> {r.folder}")
 
 
 def register(app: typer.Typer) -> None:
     """Add the commands of this module to the app."""
-    app.command("program")(program)
+    app.command("program")(cli_spelling(program))

@@ -55,7 +55,7 @@ from pathlib import Path
 import numpy as np
 
 from volcal.compensate.tables import AxisTable, axis_grid, require_finite, sign_factor
-from volcal.errors import VolcalInputError
+from volcal.errors import ParameterError, VolcalInputError
 from volcal.model.errorfunctions import MachineErrors
 from volcal.model.names import AXES
 
@@ -128,13 +128,13 @@ def fanuc_files(errors: MachineErrors, spacing: float, sign: str, reference_mm,
     """
     s = sign_factor(sign)
     if series not in SERIES:
-        raise VolcalInputError(f"--fanuc-series {series!r}: expected one of {', '.join(SERIES)}")
+        raise ParameterError(f"{{fanuc_series=}}{series!r}: expected one of {', '.join(SERIES)}")
     if not 1 <= magnification <= 100:
-        raise VolcalInputError(f"--magnification {magnification}: Fanuc allows 1..100")
+        raise ParameterError(f"{{magnification=}}{magnification}: Fanuc allows 1..100")
     interval = spacing * 1000.0 / unit_um
     if abs(interval - round(interval)) > 1e-6 or round(interval) < 1:
-        raise VolcalInputError(f"--spacing {spacing:g} mm is not a whole number of detection "
-                               f"units ({unit_um:g} um)")
+        raise ParameterError(f"{{spacing=}}{spacing:g} mm is not a whole number of detection "
+                             f"units ({unit_um:g} um)")
     res = unit_um * magnification
     ref = np.asarray(reference_mm, dtype=float).reshape(3)
     bidir = directional is not None and any(directional.has(k) for k in range(3))

@@ -18,7 +18,7 @@ from volcal.compensate.manifest import MANIFEST, errors_digest, identity_of_erro
 from volcal.compensate.siemens import siemens_files
 from volcal.compensate.tables import sign_factor
 from volcal.compensate.volumetric import ISG_DEFAULT_SIGN, ISG_SIGN_SOURCE, grid_files, isg_files
-from volcal.errors import VolcalInputError
+from volcal.errors import ParameterError, VolcalInputError
 from volcal.io.atomic import atomic_dir
 from volcal.io.tomlfmt import dumps as toml_dumps
 from volcal.model.errorfunctions import MachineErrors
@@ -128,14 +128,14 @@ class CompensationOptions:
         if self.sign is not None:
             sign_factor(self.sign)
         if not math.isfinite(self.spacing) or self.spacing <= 0:
-            raise VolcalInputError(f"--spacing {self.spacing}: expected a positive distance [mm]")
+            raise ParameterError(f"{{spacing=}}{self.spacing}: expected a positive distance [mm]")
         if self.max_points is not None and self.max_points < 2:
-            raise VolcalInputError(f"--max-points {self.max_points}: expected at least 2")
+            raise ParameterError(f"{{max_points=}}{self.max_points}: expected at least 2")
         if not math.isfinite(self.unit_um) or self.unit_um <= 0:
-            raise VolcalInputError(f"--unit-um {self.unit_um}: expected a positive detection "
-                                   "unit [um]")
+            raise ParameterError(f"{{unit_um=}}{self.unit_um}: expected a positive detection "
+                                 "unit [um]")
         if self.max_increment < 1:
-            raise VolcalInputError(f"--max-increment {self.max_increment}: expected at least 1")
+            raise ParameterError(f"{{max_increment=}}{self.max_increment}: expected at least 1")
 
     def sign_for(self, fmt: str) -> str:
         """The sign written for ``fmt``: the override or the controller's convention.

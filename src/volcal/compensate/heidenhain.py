@@ -43,7 +43,7 @@ from volcal.compensate.tables import (
     require_finite,
     sign_factor,
 )
-from volcal.errors import VolcalInputError
+from volcal.errors import ParameterError, VolcalInputError
 from volcal.model.errorfunctions import MachineErrors
 from volcal.model.names import AXES
 
@@ -97,7 +97,7 @@ def heidenhain_files(errors: MachineErrors, spacing: float, sign: str = DEFAULT_
     dict of str to str
     """
     if abs(spacing * 1e4 - round(spacing * 1e4)) > 1e-6:
-        raise VolcalInputError(f"--spacing {spacing:g}: Heidenhain positions have 4 decimals")
+        raise ParameterError(f"{{spacing=}}{spacing:g}: Heidenhain positions have 4 decimals")
     s = sign_factor(sign)
     files = {}
     widths = [WIDTHS["NR"], WIDTHS["AXISPOS"], WIDTHS["VALUE"], WIDTHS["BACKLASH"]]

@@ -36,7 +36,7 @@ import numpy as np
 
 from volcal.compensate.reference import reference_line_notes
 from volcal.compensate.tables import AxisTable, axis_grid, require_finite, sign_factor
-from volcal.errors import VolcalInputError
+from volcal.errors import ParameterError
 from volcal.model.errorfunctions import MachineErrors
 from volcal.model.names import AXES
 
@@ -78,10 +78,10 @@ def linuxcnc_files(errors: MachineErrors, spacing: float, sign: str = DEFAULT_SI
     """
     s = sign_factor(sign)
     if comp_type not in (0, 1):
-        raise VolcalInputError(f"--linuxcnc-type {comp_type}: expected 0 or 1")
+        raise ParameterError(f"{{linuxcnc_type=}}{comp_type}: expected 0 or 1")
     if max_points > MAX_ENTRIES:
-        raise VolcalInputError(f"--max-points {max_points}: LinuxCNC holds at most "
-                               f"{MAX_ENTRIES} entries per joint")
+        raise ParameterError(f"{{max_points=}}{max_points}: LinuxCNC holds at most "
+                             f"{MAX_ENTRIES} entries per joint")
     files: dict[str, str] = {}
     for k in range(3):
         lo, hi = errors.travel[k]

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from volcal.errors import VolcalInputError
+from volcal.errors import ParameterError, VolcalInputError
 from volcal.model.errorfunctions import MachineErrors
 from volcal.model.kinematics import volumetric_error
 from volcal.model.names import AXES, SQUARENESS_NAMES
@@ -48,7 +48,7 @@ def sign_factor(sign: str) -> float:
     float
     """
     if sign not in SIGNS:
-        raise VolcalInputError(f"--sign {sign!r}: expected 'error' or 'correction'")
+        raise ParameterError(f"{{sign=}}{sign!r}: expected 'error' or 'correction'")
     return 1.0 if sign == "error" else -1.0
 
 
@@ -113,7 +113,7 @@ def axis_grid(lo: float, hi: float, spacing: float, anchor: float | None = None,
         Grid positions [mm]; the first ``<= lo``, the last ``>= hi``.
     """
     if not math.isfinite(spacing) or spacing <= 0:
-        raise VolcalInputError(f"--spacing {spacing}: expected a positive distance [mm]")
+        raise ParameterError(f"{{spacing=}}{spacing}: expected a positive distance [mm]")
     a = lo if anchor is None else float(anchor)
     j0 = math.floor((lo - a) / spacing + 1e-9)
     j1 = math.ceil((hi - a) / spacing - 1e-9)

@@ -84,6 +84,8 @@ def parse_sign(text: str) -> float:
         return 1.0
     if t in ("-", "-1"):
         return -1.0
-    raise VolcalInputError(f"--sign {text!r}: expected + (the tool side relative to the "
-                           "workpiece side, volcal's sign) or - (the workpiece side relative "
-                           "to the tool side)")
+    from volcal.errors import ParameterError
+
+    raise ParameterError(f"{{sign=}}{text!r}: expected + (the tool side relative to the "
+                         "workpiece side, volcal's sign) or - (the workpiece side relative "
+                         "to the tool side)")

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from volcal.errors import VolcalInputError
+from volcal.errors import ParameterError
 from volcal.io.tomlfmt import dumps as toml_dumps
 from volcal.measure.readings import SetupErrors
 from volcal.model.errorfunctions import MachineErrors
@@ -55,16 +55,16 @@ class SimulationOptions:
 
     def __post_init__(self) -> None:
         """Reject values no simulation can use (negative, NaN, infinite)."""
-        for option, v in (("--noise-um", self.noise_um),
-                          ("--mirror-urad", self.mirror_misalignment_urad),
-                          ("beam misalignment", self.beam_misalignment_urad),
-                          ("--drift-um-per-h", self.drift_um_per_h), ("dwell", self.dwell_s)):
+        for option, v in (("{noise_um=}", self.noise_um),
+                          ("{mirror_misalignment_urad=}", self.mirror_misalignment_urad),
+                          ("beam misalignment ", self.beam_misalignment_urad),
+                          ("{drift_um_per_h=}", self.drift_um_per_h), ("dwell ", self.dwell_s)):
             if not np.isfinite(v):
-                raise VolcalInputError(f"{option} {v}: expected a finite number")
-            if option != "--drift-um-per-h" and v < 0:
-                raise VolcalInputError(f"{option} {v}: must not be negative")
+                raise ParameterError(f"{option}{v}: expected a finite number")
+            if option != "{drift_um_per_h=}" and v < 0:
+                raise ParameterError(f"{option}{v}: must not be negative")
         if self.seed is not None and self.seed < 0:
-            raise VolcalInputError(f"--seed {self.seed}: must not be negative")
+            raise ParameterError(f"{{seed=}}{self.seed}: must not be negative")
 
 
 def simulate_session(session: Session, machine: MachineErrors,

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from volcal.errors import VolcalInputError
+from volcal.errors import ParameterError, VolcalInputError
 from volcal.model.names import AXES
 from volcal.session.format import Measurement
 
@@ -66,17 +66,17 @@ class ProgramOptions:
     def check(self) -> None:
         """Raise :class:`VolcalInputError` for options no machine should run."""
         if not np.isfinite(self.dwell_s) or not 0 < self.dwell_s <= MAX_DWELL_S:
-            raise VolcalInputError(f"--dwell-s {self.dwell_s}: expected 0 < dwell <= "
-                                   f"{MAX_DWELL_S:g} s")
+            raise ParameterError(f"{{dwell_s=}}{self.dwell_s}: expected 0 < dwell <= "
+                                 f"{MAX_DWELL_S:g} s")
         if not np.isfinite(self.feed) or not 0 < self.feed <= MAX_FEED_MM_MIN:
-            raise VolcalInputError(f"--feed {self.feed}: expected 0 < feed <= "
-                                   f"{MAX_FEED_MM_MIN:g} mm/min (a measuring feed, not rapid)")
+            raise ParameterError(f"{{feed=}}{self.feed}: expected 0 < feed <= "
+                                 f"{MAX_FEED_MM_MIN:g} mm/min (a measuring feed, not rapid)")
         if not np.isfinite(self.overrun_mm) or not 0 <= self.overrun_mm <= 100:
-            raise VolcalInputError(f"--overrun-mm {self.overrun_mm}: expected 0..100 mm")
+            raise ParameterError(f"{{overrun_mm=}}{self.overrun_mm}: expected 0..100 mm")
         if not np.isfinite(self.safe_z_mm):
-            raise VolcalInputError(f"--safe-z-mm {self.safe_z_mm}: expected a finite number")
+            raise ParameterError(f"{{safe_z_mm=}}{self.safe_z_mm}: expected a finite number")
         if not 0 <= self.decimals <= 5:
-            raise VolcalInputError(f"--decimals {self.decimals}: expected 0..5")
+            raise ParameterError(f"{{decimals=}}{self.decimals}: expected 0..5")
 
 
 OPERATOR_STOP_TEXT = ("at the start pose: check the optics and the laser signal, start the "

@@ -1,0 +1,200 @@
+"""Checks of step parameters: each raises a :class:`~volcal.errors.ParameterError`."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from volcal.errors import ParameterError
+
+
+def whole(name: str, value: object) -> int:
+    """``value`` as a whole number (not a bool, not a fraction).
+
+    Parameters
+    ----------
+    name : str
+        The parameter.
+    value : object
+
+    Returns
+    -------
+    int
+    """
+    if isinstance(value, bool) or not isinstance(value, int | np.integer):
+        raise ParameterError(f"{{{name}=}}{value!r}: expected a whole number")
+    return int(value)
+
+
+def names(name: str, value: str | Sequence[str]) -> list[str]:
+    """A list of names from a sequence or comma-separated text.
+
+    Parameters
+    ----------
+    name : str
+        The parameter.
+    value : sequence of str, or str
+
+    Returns
+    -------
+    list of str
+    """
+    if isinstance(value, str):
+        return [s.strip() for s in value.split(",") if s.strip()]
+    if not all(isinstance(s, str) for s in value):
+        raise ParameterError(f"{{{name}}} {value!r}: expected names (strings)")
+    return list(value)
+
+
+def vector(name: str, value: object) -> np.ndarray:
+    """Three finite numbers x, y, z [mm].
+
+    Parameters
+    ----------
+    name : str
+        The parameter.
+    value : array_like, shape (3,)
+
+    Returns
+    -------
+    ndarray, shape (3,)
+    """
+    try:
+        a = np.asarray(value, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        a = np.array([])
+    if a.size != 3 or not np.all(np.isfinite(a)):
+        raise ParameterError(f"{{{name}}} {value!r}: expected three finite numbers x, y, z "
+                             "[mm]")
+    return a
+
+
+def travel(value: object) -> np.ndarray:
+    """Travel limits [mm] as a (3, 2) array with finite max > min.
+
+    Parameters
+    ----------
+    value : array_like, shape (3, 2)
+
+    Returns
+    -------
+    ndarray, shape (3, 2)
+    """
+    try:
+        t = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{{travel}} {value!r}: expected [[xmin, xmax], [ymin, ymax], "
+                             "[zmin, zmax]] in mm") from None
+    if t.shape != (3, 2):
+        raise ParameterError(f"{{travel}} of shape {t.shape}: expected [[xmin, xmax], [ymin, "
+                             "ymax], [zmin, zmax]] in mm (shape (3, 2))")
+    if not np.all(np.isfinite(t)) or np.any(t[:, 1] <= t[:, 0]):
+        raise ParameterError(f"{{travel}} {t.tolist()}: every range needs finite max > min "
+                             "[mm]")
+    return t
+
+
+def unknown(key: str, valid: Sequence[str]) -> ParameterError:
+    """The error of an unknown keyword: the closest valid name and all of them.
+
+    Parameters
+    ----------
+    key : str
+        The keyword given.
+    valid : sequence of str
+        The keywords taken.
+
+    Returns
+    -------
+    ParameterError
+    """
+    import difflib
+
+    close = difflib.get_close_matches(key, valid, n=1, cutoff=0.5)
+    hint = f" (did you mean {close[0]!r}?)" if close else ""
+    return ParameterError(f"unknown option {key!r}{hint}; valid options: {', '.join(valid)}")
+
+
+def kinds(values: dict[str, object], defaults: dict[str, object]) -> None:
+    """Check that every value is of its default's kind (bool, whole number, number).
+
+    Parameters
+    ----------
+    values : dict
+        Parameter -> value given.
+    defaults : dict
+        Parameter -> default; a default None or of another kind is not checked here.
+    """
+    for key, v in values.items():
+        d = defaults.get(key)
+        if isinstance(d, bool):
+            if not isinstance(v, bool | np.bool_):
+                raise ParameterError(f"{{{key}=}}{v!r}: expected True or False")
+        elif isinstance(d, int):
+            if isinstance(v, bool) or not isinstance(v, int | np.integer):
+                raise ParameterError(f"{{{key}=}}{v!r}: expected a whole number")
+        elif isinstance(d, float):
+            if isinstance(v, bool) or not isinstance(v, int | float | np.number) or \
+                    not np.isfinite(v):
+                raise ParameterError(f"{{{key}=}}{v!r}: expected a finite number")
+
+
+def budget(value: object) -> tuple[object, str]:
+    """An uncertainty budget and the name recorded for it.
+
+    Parameters
+    ----------
+    value : str, Path or Budget
+        The budget file (TOML, ``volcal budget --template``) or a budget already read.
+
+    Returns
+    -------
+    budget : Budget
+    label : str
+        The file as given, or the budget's own ``file``.
+    """
+    from pathlib import Path
+
+    from volcal.uncertainty.budget import Budget, read_budget
+
+    if isinstance(value, Budget):
+        return value, value.file or "budget"
+    if not isinstance(value, str | Path):
+        raise ParameterError(f"{{budget=}}{value!r}: expected the path of a budget file "
+                             "(TOML, `volcal budget --template`) or a Budget")
+    return read_budget(value), str(value)
+
+
+def output_folder(path: object, what: str, own: object, written: object,
+                  replace: bool) -> str | None:
+    """:func:`volcal.io.paths.prepare_output_folder`, its refusal naming ``replace``.
+
+    Parameters
+    ----------
+    path : str or Path
+        The output folder.
+    what : str
+        Its kind, for the message (``'program'``).
+    own : callable
+        True for a folder this step wrote before.
+    written : callable
+        The files volcal wrote in such a folder.
+    replace : bool
+        Move the other files into ``backup/<UTC time>/`` instead of refusing.
+
+    Returns
+    -------
+    str or None
+        Where the files were moved, relative to ``path``.
+    """
+    from volcal.errors import VolcalInputError
+    from volcal.io.paths import prepare_output_folder
+
+    try:
+        return prepare_output_folder(path, what, own, written=written,  # type: ignore[arg-type]
+                                     replace=replace, option="{replace=True}")
+    except VolcalInputError as exc:
+        if "{replace=True}" not in exc.message:
+            raise
+        raise ParameterError(exc.message, exc.file, exc.row, exc.column) from None

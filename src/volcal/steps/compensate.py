@@ -1,0 +1,282 @@
+"""Step ``compensate``: controller tables of an error model (``volcal compensate``)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from numpy.typing import ArrayLike
+
+from volcal import defaults as D
+from volcal.errors import ParameterError
+from volcal.steps import _checks
+
+if TYPE_CHECKING:
+    from volcal.compensate.linecheck import LineCheck
+    from volcal.identify.result import IdentificationResult
+    from volcal.model.errorfunctions import MachineErrors
+    from volcal.session.format import Session
+    from volcal.session.identity import MachineIdentity
+
+__all__ = ["Compensated", "compensate", "sign_note"]
+
+
+@dataclass(frozen=True)
+class Compensated:
+    """What :func:`compensate` wrote and checked.
+
+    Attributes
+    ----------
+    files : tuple of str
+        The files written (in ``output``).
+    output : Path
+        The compensation folder.
+    format : str
+        The format, lower case.
+    sign : str
+        The sign of the tables written (``'error'`` or ``'correction'``).
+    convention : bool
+        ``sign`` is the controller's own (no override given).
+    spacing : float
+        Distance between points [mm].
+    sign_note : str or None
+        A sign override of the controller's convention, as a
+        :class:`~volcal.errors.ParameterError` template (``{sign=}``): each face
+        spells it.
+    session : Session or None
+        The session of ``session=`` (its notes and warnings).
+    directional_notes : tuple of str
+        How the forward and reverse tables came from the session's linear tests.
+    no_bidirectional : bool
+        The session has no bidirectional linear test: forward = reverse.
+    forced : tuple of str
+        What ``force=True`` let through (the model or table of another session).
+    line_checks : tuple of LineCheck
+        ISO 230-2 A of every measured linear line before and after the tables written.
+    not_checked : tuple of str
+        The lines not evaluated, with the reason.
+    volumetric_before_um, volumetric_after_um : float or None
+        Largest modelled volumetric error over 11³ points of the travel before and after
+        the tables [um] (with ``session``).
+    moved : str or None
+        With ``replace``: where the files volcal did not write were moved
+        (``backup/<UTC time>``, relative to ``output``).
+    """
+
+    files: tuple[str, ...]
+    output: Path
+    format: str
+    sign: str
+    convention: bool
+    spacing: float
+    sign_note: str | None = None
+    session: Session | None = None
+    directional_notes: tuple[str, ...] = ()
+    no_bidirectional: bool = False
+    forced: tuple[str, ...] = ()
+    line_checks: tuple[LineCheck, ...] = ()
+    not_checked: tuple[str, ...] = ()
+    volumetric_before_um: float | None = None
+    volumetric_after_um: float | None = None
+    moved: str | None = None
+
+
+def sign_note(format: str, sign: str | None) -> str | None:
+    """Check the format and the sign; the note of a sign other than the controller's.
+
+    Parameters
+    ----------
+    format : str
+        The format (any case).
+    sign : str or None
+        ``'error'``, ``'correction'`` or None (the controller's own convention).
+
+    Returns
+    -------
+    str or None
+        The note as a :class:`~volcal.errors.ParameterError` template (``{sign=}``), or
+        None when the sign is the controller's.
+
+    Raises
+    ------
+    ParameterError
+        An unknown format or sign.
+    """
+    from volcal.compensate.formats import FORMAT_INFO
+    from volcal.compensate.tables import sign_factor
+
+    fmt = str(format).lower()
+    if fmt not in FORMAT_INFO:
+        raise ParameterError(f"unknown format {format!r}: expected one of "
+                             f"{', '.join(FORMAT_INFO)}")
+    info = FORMAT_INFO[fmt]
+    if sign is None:
+        return None
+    sign_factor(sign)
+    if sign == info.sign:
+        return None
+    return (f"{{sign=}}{sign} overrides the {fmt} convention '{info.sign}' "
+            f"({info.sign_source}); a table in the wrong sign doubles the error")
+
+
+def compensate(model: str | Path | IdentificationResult | MachineErrors, *, format: str,
+               output: str | Path, sign: str | None = D.COMP_SIGN,
+               session: str | Path | None = None, force: bool = False,
+               spacing: float = D.COMP_SPACING_MM, max_points: int | None = None,
+               reference_mm: ArrayLike | None = None, unit_um: float = D.COMP_UNIT_UM,
+               magnification: int = D.COMP_MAGNIFICATION,
+               max_increment: int = D.COMP_MAX_INCREMENT,
+               fanuc_series: str = D.COMP_FANUC_SERIES,
+               linuxcnc_type: int = D.COMP_LINUXCNC_TYPE,
+               squareness: bool = D.COMP_SQUARENESS,
+               tool_offset: ArrayLike = D.TOOL_OFFSET_MM, replace: bool = False,
+               machine: MachineIdentity | None = None,
+               on_moved: Callable[[str], None] | None = None) -> Compensated:
+    """Write compensation tables of a model for a controller, resampled onto its grid.
+
+    Parameters
+    ----------
+    model : str, Path, IdentificationResult or MachineErrors
+        ``MODEL.json`` (identified) or an error table ``.csv``, or a model in memory.
+    format : str
+        ``'fanuc'``, ``'siemens'``, ``'heidenhain'``, ``'linuxcnc'``, ``'csv'``, ``'isg'``
+        or ``'grid'``.
+    output : str or Path
+        Folder for the tables: new, empty or written by this step before.
+    sign : str, optional
+        Override of the controller's own sign convention: ``'error'`` (actual -
+        commanded) or ``'correction'`` (= -error). A table in the wrong sign doubles the
+        error.
+    session : str or Path, optional
+        Session folder: its bidirectional ISO 230-2 linear tests give forward and reverse
+        tables; a model file must have been identified from it; every measured linear
+        line is checked before and after the tables.
+    force : bool
+        With ``session``: use a model or table of another session.
+    spacing : float
+        Distance between points [mm].
+    max_points : int, optional
+        Controller's point limit.
+    reference_mm : array_like, shape (3,), optional
+        Fanuc reference position [mm] (default: start of travel).
+    unit_um : float
+        Fanuc detection unit [um].
+    magnification : int
+        Fanuc magnification (3623).
+    max_increment : int
+        Fanuc largest value per point.
+    fanuc_series : str
+        ``'30i'`` or ``'16i'``.
+    linuxcnc_type : int
+        LinuxCNC ``COMP_FILE_TYPE``, 1 (trims) or 0.
+    squareness : bool
+        Siemens CEC: add squareness terms.
+    tool_offset : array_like, shape (3,)
+        3-D grid: target on the tool [mm].
+    replace : bool
+        The output folder holds files its manifest does not list (volcal did not write
+        them): move them into ``backup/<UTC time>/`` instead of refusing.
+    machine : MachineIdentity, optional
+        The machine the tables are for (Python: the calibration's session); default the
+        session's, else what the model records.
+    on_moved : callable, optional
+        Called at once with ``backup/<UTC time>`` when ``replace`` moved files there
+        (the command line says so before anything else can fail).
+
+    Returns
+    -------
+    Compensated
+    """
+    from volcal.compensate.formats import MANIFEST, CompensationOptions, write_compensation
+    from volcal.io.folders import manifest_files
+
+    note = sign_note(format, sign)
+    fmt = str(format).lower()
+    moved = _checks.output_folder(output, "compensation", lambda p: (p / MANIFEST).is_file(),
+                                  manifest_files(MANIFEST, "files"), replace)
+    if moved is not None and on_moved is not None:
+        on_moved(moved)
+    ref = None if reference_mm is None else tuple(_checks.vector("reference_mm", reference_mm))
+    directional, sess, none_bidir = None, None, False
+    dnotes: tuple[str, ...] = ()
+    if session is not None:
+        from volcal.compensate.bidirectional import directional_from_session
+        from volcal.session.format import read_session
+
+        # the readings as identify and evaluate read them: missed captures skipped
+        sess = read_session(session)
+        directional = directional_from_session(sess)
+        dnotes = tuple(directional.notes())
+        if not directional.source:
+            none_bidir, directional = True, None
+    opts = CompensationOptions(sign, spacing, max_points, ref, unit_um, magnification,  # type: ignore[arg-type]
+                               max_increment, squareness,
+                               tuple(_checks.vector("tool_offset", tool_offset)),  # type: ignore[arg-type]
+                               fanuc_series, linuxcnc_type, directional)
+    forced: list[str] = []
+    if session is not None and isinstance(model, str | Path):  # the model must belong to it
+        from volcal.identify.modelfile import check_model_file_session
+
+        forced += check_model_file_session(model, session, force)
+    errors, label = _errors(model)
+    if machine is None:
+        machine = _identity(model, errors, sess, force, forced)
+    files = write_compensation(errors, fmt, output, opts, label, machine)
+    out = Compensated(tuple(files), Path(output), fmt, opts.sign_for(fmt), sign is None,
+                      float(spacing), note, sess, dnotes, none_bidir, tuple(forced),
+                      moved=moved)
+    if sess is None:
+        return out
+    return _checked(out, sess, errors)
+
+
+def _errors(model: Any) -> tuple[MachineErrors, str]:
+    """The error model and the name the manifest records for it."""
+    if isinstance(model, str | Path):
+        from volcal.compensate.source import load_errors
+
+        return load_errors(model), Path(model).name
+    return getattr(model, "errors", model), "model"
+
+
+def _identity(model: Any, errors: MachineErrors, sess: Session | None, force: bool,
+              forced: list[str]) -> MachineIdentity:
+    """The machine the tables are for: the session's identity, else what the model records.
+
+    An error table given with a session must have the session's chain and travel (its
+    name may differ: a simulated truth is called "virtual ..."); ``force`` overrides.
+    """
+    from volcal.compensate.manifest import identity_of_errors, model_identity
+    from volcal.session.identity import MachineIdentity, same_machine
+
+    if sess is None:
+        if isinstance(model, str | Path):
+            return model_identity(model, errors)
+        return identity_of_errors(errors)
+    me = MachineIdentity.of(sess)
+    if isinstance(model, str | Path) and Path(model).suffix.lower() == ".csv":
+        mine = identity_of_errors(errors)
+        same, why = same_machine(MachineIdentity(me.name, mine.chain, mine.travel_mm), me)
+        if not same:
+            text = (f"the error table is not of this session's machine ({why}); the tables "
+                    f"would be labelled {me.label()}")
+            if not force:
+                raise ParameterError(text + "; give {force=True} to write them anyway", model)
+            forced.append(text)
+    return me
+
+
+def _checked(out: Compensated, sess: Session, errors: MachineErrors) -> Compensated:
+    """The result with the measured linear lines and the volumetric error checked."""
+    from dataclasses import replace
+
+    from volcal.compensate.linecheck import check_lines, volumetric_before_after
+    from volcal.compensate.readback import read_written_tables
+
+    written = read_written_tables(out.output, travel=sess.travel)
+    checks, skipped = check_lines(sess, written)
+    before, after = volumetric_before_after(errors, written)
+    return replace(out, line_checks=tuple(checks), not_checked=tuple(skipped),
+                   volumetric_before_um=float(before), volumetric_after_um=float(after))

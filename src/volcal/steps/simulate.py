@@ -1,0 +1,203 @@
+"""Step ``simulate``: readings from a virtual machine, its truth kept (``volcal simulate``)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from volcal import defaults as D
+from volcal.errors import ParameterError
+from volcal.steps import _checks
+
+if TYPE_CHECKING:
+    from volcal.measure.simulate import SetupErrors, SimulationOptions
+    from volcal.measure.systematic import SystematicDraw
+    from volcal.model.errorfunctions import MachineErrors
+    from volcal.session.format import Session
+    from volcal.uncertainty.budget import Budget
+
+__all__ = ["Simulated", "save", "simulate"]
+
+
+@dataclass(frozen=True)
+class Simulated:
+    """What :func:`simulate` did to the session (in memory; :func:`save` writes it).
+
+    Attributes
+    ----------
+    session : Session
+        The session, its readings filled (the same object as given).
+    machine : MachineErrors
+        The virtual machine (the truth).
+    setups : dict
+        Measurement id -> its simulated set-up errors.
+    options : SimulationOptions
+        Noise, misalignment, drift and seed.
+    systematic : SystematicDraw or None
+        The budget's systematic errors drawn and applied.
+    budget : str or None
+        The budget as given (recorded in ``truth/systematic.toml``).
+    replaced : tuple of str
+        Ids of the measured readings replaced (``overwrite=True``).
+    notes : tuple of str
+        What the user should know (an error table without its ``.toml``...).
+    """
+
+    session: Session
+    machine: MachineErrors
+    setups: dict[str, SetupErrors]
+    options: SimulationOptions
+    systematic: SystematicDraw | None = None
+    budget: str | None = None
+    replaced: tuple[str, ...] = ()
+    notes: tuple[str, ...] = ()
+
+    def truth_files(self) -> dict[str, str]:
+        """The files of ``truth/`` (relative path -> text), the systematic draw included."""
+        from volcal.measure.simulate import truth_files
+
+        out = truth_files(self.machine, self.setups, self.options)
+        if self.systematic is not None:
+            from volcal.io.tomlfmt import dumps as toml_dumps
+
+            out["truth/systematic.toml"] = toml_dumps({"format": "volcal-systematic/1",
+                                                       "budget": self.budget,
+                                                       **self.systematic.to_dict()})
+        return out
+
+
+def simulate(session: Session | str | Path, *,
+             machine: MachineErrors | str | Path | None = None, seed: int = D.SIM_SEED,
+             noise_um: float = D.SIM_NOISE_UM,
+             mirror_misalignment_urad: float = D.SIM_MIRROR_URAD,
+             drift_um_per_h: float = D.SIM_DRIFT_UM_PER_H,
+             reversal_um: float = D.SIM_REVERSAL_UM,
+             budget: str | Path | Budget | None = None, overwrite: bool = False) -> Simulated:
+    """Fill the readings of a session from a virtual machine.
+
+    Parameters
+    ----------
+    session : Session, str or Path
+        A planned or measured session, or its folder (read with every measurement).
+    machine : MachineErrors, str or Path, optional
+        The virtual machine, or its error table (``ERRORS.csv``, with ``ERRORS.toml``
+        beside it for the squareness and reversal); a random realistic one (seeded) when
+        omitted.
+    seed : int
+        Seed of the random machine and of the noise (>= 0).
+    noise_um : float
+        Reading noise, standard deviation [um].
+    mirror_misalignment_urad : float
+        Residual set-up misalignment of the optics, standard deviation [urad].
+    drift_um_per_h : float
+        Linear drift of the readings [um/h].
+    reversal_um : float
+        Largest reversal of a random machine's axes [um] (not used with ``machine``).
+    budget : str, Path or Budget, optional
+        Uncertainty budget: its systematic errors (wavelength, air per set-up, material
+        per axis, the scale of each direct optic) drawn once (seeded by ``seed``) and
+        applied to the readings.
+    overwrite : bool
+        Replace readings that a simulation did not write (measured ones); refused
+        otherwise.
+
+    Returns
+    -------
+    Simulated
+    """
+    from volcal.measure.simulate import SimulationOptions, simulate_session
+    from volcal.measure.virtual import ErrorRanges, random_machine
+    from volcal.model.errorfunctions import MachineErrors
+    from volcal.session.provenance import measured_ids, simulated_provenance
+
+    if not (np.isfinite(reversal_um) and reversal_um >= 0):
+        raise ParameterError(f"{{reversal_um=}}{reversal_um}: expected a finite value >= 0")
+    if _checks.whole("seed", seed) < 0:
+        raise ParameterError(f"{{seed=}}{seed!r}: expected a whole number >= 0")
+    if machine is not None and not isinstance(machine, MachineErrors | str | Path):
+        raise ParameterError(f"{{machine=}} is a {type(machine).__name__}: expected "
+                             "MachineErrors (volcal.session.errortable.read_error_table), "
+                             "the path of an error table, or None")
+    b = None if budget is None else _checks.budget(budget)
+    s = session
+    if isinstance(s, str | Path):
+        from volcal.session.format import read_session
+
+        s = read_session(s, require_deviation=False)
+    measured = measured_ids(s)
+    if measured and not overwrite:
+        shown = ", ".join(measured[:6]) + (f" and {len(measured) - 6} more"
+                                           if len(measured) > 6 else "")
+        raise ParameterError(
+            f"holds readings that `volcal simulate` did not write ({shown}): simulating would "
+            "overwrite them; nothing was changed. Use {overwrite=True} to replace them (a "
+            "backup is kept in backup/)", s.path / "session.toml" if s.path else None)
+    notes: list[str] = []
+    if isinstance(machine, str | Path):
+        vm, label = _error_table(Path(machine), s, notes), str(machine)
+    elif machine is not None:
+        vm = machine
+        label = (f"random (seed {seed})" if machine.name == f"virtual {s.name}"
+                 else str(machine.name))
+    else:
+        vm = random_machine(s.travel, s.chain, seed,
+                            ranges=ErrorRanges(reversal_um=(0.0, reversal_um)),
+                            name=f"virtual {s.name}")
+        label = f"random (seed {seed})"
+    opts = SimulationOptions(noise_um=noise_um, mirror_misalignment_urad=mirror_misalignment_urad,
+                             drift_um_per_h=drift_um_per_h, seed=seed)
+    setups = simulate_session(s, vm, opts)
+    draw = None
+    if b is not None:
+        from volcal.measure.systematic import apply_systematic, draw_systematic
+
+        draw = draw_systematic(s, b[0], np.random.default_rng([int(seed), 17]))
+        apply_systematic(s, draw)
+    s.provenance = simulated_provenance(
+        s, seed=int(seed), noise_um=float(noise_um), mirror_urad=float(mirror_misalignment_urad),
+        drift_um_per_h=float(drift_um_per_h), machine=label)
+    return Simulated(s, vm, setups, opts, draw, None if b is None else b[1],
+                     tuple(measured), tuple(notes))
+
+
+def _error_table(path: Path, s: Session, notes: list[str]) -> MachineErrors:
+    """The virtual machine of an error table, on the session's chain."""
+    from volcal.session.errortable import read_error_table
+
+    vm = read_error_table(path, chain=s.chain)
+    if not path.with_suffix(".toml").is_file():
+        notes.append(f"no {path.with_suffix('.toml').name} beside {path.name}: squareness "
+                     "and reversal taken as zero")
+    if str(vm.chain) != s.chain:
+        notes.append(f"error table chain {vm.chain} differs from the session's {s.chain}; "
+                     "using the session's chain")
+        vm.chain = s.chain
+        vm.__post_init__()
+    return vm
+
+
+def save(simulated: Simulated, folder: str | Path) -> Path | None:
+    """Write the simulated session and its ``truth/`` into its folder.
+
+    Parameters
+    ----------
+    simulated : Simulated
+    folder : str or Path
+        The session folder; the files of replaced measured readings are kept in
+        ``backup/<UTC time>/``.
+
+    Returns
+    -------
+    Path or None
+        The backup folder, when measured readings were replaced.
+    """
+    from volcal.session.format import write_session
+    from volcal.session.provenance import backup_name
+
+    backup = backup_name(folder) if simulated.replaced else None
+    write_session(simulated.session, folder, simulated.truth_files(), keep_existing=True,
+                  backup=backup)
+    return None if backup is None else Path(folder) / backup

@@ -444,3 +444,28 @@ def test_the_identification_systematic_part_uses_the_recorded_material_temperatu
     # u_mat = |t - 20| u(alpha) at 22 C (u(t) = 0): 2 K x 1 ppm/K x L
     col = material_column({"environment": {"material_temperature_c": 22.0}})
     assert col == pytest.approx([0.0, 500e3 * 2e-6, 1000e3 * 2e-6], abs=1e-12)
+
+
+def test_simulated_readings_are_recorded_as_referred(tmp_path, monkeypatch, capsys):
+    """The virtual machine is at 20 C: simulate records its laser readings as referred,
+    replacing a planned ``referred_to_20c = false`` (which would refer them twice)."""
+    s = tmp_path / "S"
+    assert run_volcal(monkeypatch, capsys, "plan", "-o", str(s), "--steps", "4")[0] == 0
+    toml = (s / "session.toml").read_text(encoding="utf-8")
+    first = toml.index("[[measurements]]")
+    toml = (toml[:first] + toml[first:].replace(
+        "[[measurements]]", "[[measurements]]\nreferred_to_20c = false\n"
+        "environment = { material_temperature_c = 21.4, material = \"steel\" }", 1))
+    (s / "session.toml").write_text(toml, encoding="utf-8")
+    assert run_volcal(monkeypatch, capsys, "simulate", str(s), "--seed", "3",
+                      "--noise-um", "0")[0] == 0
+    doc = tomllib.loads((s / "session.toml").read_text(encoding="utf-8"))
+    laser = [e for e in doc["measurements"]
+             if e["kind"] in ("linear", "diagonal", "step_diagonal")]
+    assert laser and all(e["referred_to_20c"] is True for e in laser)
+    sess = read_session(s)
+    from volcal.environment.apply import thermal_record
+
+    m = sess.measurements[0]
+    assert thermal_record(m)["referred_by"] == "laser software"
+    assert "referral" not in m.meta  # not referred a second time at 21.4 C

@@ -166,4 +166,8 @@ def simulate_laser(kind: LaserKind, m: Any, machine: Any, rng: np.random.Generat
             int(np.argmax(big)) + 2, "x_mm")
     m.columns["time_s"] = time_s
     m.columns.pop("status", None)  # every row now has a reading (no missed capture)
+    # the virtual machine is at 20 degC: its readings are referred, as a laser program's
+    # with material compensation on (a stale "false" would refer them a second time)
+    m.meta["referred_to_20c"] = True
+    m.meta.pop("referral", None)
     return setup

@@ -106,7 +106,7 @@ def test_one_missed_reading_through_the_whole_flow(missed, tmp_path, monkeypatch
                   str(tables["linuxcnc"]), "-o", str(tmp_path / "R"))
     assert (tmp_path / "R" / "report.html").is_file()
     out, err = ok("history", "add", str(s), "--model", str(model), "--db",
-                  str(tmp_path / "h.sqlite"))
+                  str(tmp_path / "h.sqlite"), "--create")
     assert re.fullmatch(r"C\d+\n", out)
 
 

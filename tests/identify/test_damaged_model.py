@@ -82,7 +82,7 @@ def test_a_missing_or_truncated_npz_is_named_by_every_command(how, small, copy, 
                     str(tmp_path / "p.csv")],
         "report": ["report", s, "--model", str(model), "-o", str(tmp_path / "R")],
         "history": ["history", "add", s, "--model", str(model), "--db",
-                    str(tmp_path / "h.sqlite")],
+                    str(tmp_path / "h.sqlite"), "--create"],
     }
     for name, args in needs_u.items():
         code, out, err = run_volcal(monkeypatch, capsys, *args)

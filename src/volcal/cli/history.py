@@ -33,10 +33,19 @@ DbOption = Annotated[str | None, typer.Option(
     "$VOLCAL_DB, else ~/.local/share/volcal/history.sqlite.")]
 
 
-def _open(db: str | None):
+CreateOption = Annotated[bool, typer.Option(
+    "--create", help="Make a new store when the --db path (or database) holds none; "
+    "without it a path with no history is refused (a typo never makes an empty store).")]
+
+
+def _open(db: str | None, create: bool = False):
+    """The history at ``db``; a new store only with ``create`` (said on standard error)."""
     from volcal.history.api import History
 
-    return History(db)
+    h = History(db, create=create)
+    if h.store.created:
+        _err(f"note: created a new history at {h.store.where}")
+    return h
 
 
 def _err(text: str) -> None:
@@ -59,10 +68,20 @@ def add_cmd(
         help="Machine record id or name, when the session's identity is ambiguous.")] = None,
     force: Annotated[bool, typer.Option(help="Accept a model of other readings.")] = False,
     db: DbOption = None,
+    create: CreateOption = False,
 ) -> None:
-    """Store a calibration; prints the new record's id alone on standard output."""
-    with _open(db) as h:
+    """Store a calibration; prints the new record's id alone on standard output.
+
+    The same readings and model stored again (a retried add) append nothing: the stored
+    record's id is printed, with a note on standard error.
+    """
+    with _open(db, create) as h:
         rec = h.add(session, model, as_left_of, supersedes, machine, force)
+        if rec.already_stored:
+            _err(f"note: this session and model are stored already as {rec.id} "
+                 f"(measured {rec.date}); nothing added (--supersedes ID corrects a record)")
+            typer.echo(rec.id)
+            return
         for n in rec.payload.get("notes", []):
             _err(f"note: {n}")
         for w in rec.payload.get("warnings", []):
@@ -78,9 +97,10 @@ def add_etalon_cmd(
     date: Annotated[str | None, typer.Option(help="Date of measurement (ISO 8601).")] = None,
     machine: Annotated[str | None, typer.Option(help="Machine record id or name.")] = None,
     db: DbOption = None,
+    create: CreateOption = False,
 ) -> None:
     """Store another system's result (Etalon exchange file); prints the record id."""
-    with _open(db) as h:
+    with _open(db, create) as h:
         rec = h.add_etalon(file, session, date, machine)
         if rec.payload.get("not_mapped"):
             _err("note: blocks kept in the stored file but not mapped to volcal's 21 errors: "
@@ -176,11 +196,16 @@ def list_cmd(
                                               "measurement).")] = False,
     db: DbOption = None,
 ) -> None:
-    """The calibrations, oldest first, superseded ones marked (--all: every record)."""
+    """The calibrations by date of measurement, superseded ones marked.
+
+    With --all every record, in the order stored.
+    """
+    from volcal.history.api import by_date
+
     with _open(db) as h:
         recs = h.list()
     if not all_records:  # the records with a date of measurement
-        recs = [r for r in recs if r.kind == "calibration"]
+        recs = by_date([r for r in recs if r.kind == "calibration"])
     if as_json:
         typer.echo(json.dumps([{"id": r.id, "kind": r.kind, "machine": r.machine_name,
                                 "machine_id": r.machine_id or (r.id if r.kind == "machine"

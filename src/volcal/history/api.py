@@ -21,10 +21,13 @@ class History:
     db : str, optional
         URL or SQLite file; default ``VOLCAL_DB``, else the documented default path
         (:func:`volcal.history.url.default_path`).
+    create : bool
+        Make a new store when there is none (``False``: refuse a path or database without
+        a history, as every ``volcal history`` command but ``add --create`` does).
     """
 
-    def __init__(self, db: str | None = None) -> None:
-        self.store = Store(db)
+    def __init__(self, db: str | None = None, create: bool = True) -> None:
+        self.store = Store(db, create=create)
 
     def close(self) -> None:
         """Release the connections."""
@@ -60,12 +63,20 @@ class History:
         Returns
         -------
         Record
-            The calibration record (its ``id``).
+            The calibration record (its ``id``). When the same readings and model are
+            stored already (a retried add), that record, with ``already_stored`` set.
+
+        Raises
+        ------
+        VolcalInputError
+            ``as_left_of`` is not a calibration of the same machine measured on or before
+            this session's date.
         """
         from volcal.history.record import calibration_record
 
         rec, session_obj = calibration_record(session, model, as_left_of, supersedes, force)
-        return self.store.append(rec, check=self._machine_of(session_obj.identity, machine))
+        return self.store.append(rec, check=self._machine_of(session_obj.identity, machine,
+                                                             rec))
 
     def add_etalon(self, path: str | Path, session: str | Path, date: str | None = None,
                    machine: str | None = None) -> Record:
@@ -112,7 +123,8 @@ class History:
                         files=[("etalon", path.name, path.read_bytes())])
         return self.store.append(rec, check=self._machine_of(ident, machine))
 
-    def _machine_of(self, ident: Any, machine: str | None) -> Any:
+    def _machine_of(self, ident: Any, machine: str | None, rec: NewRecord | None = None
+                    ) -> Any:
         """The check :meth:`Store.append` runs under the writers' lock.
 
         It returns the id of the machine record the identity matches, or a new machine
@@ -125,6 +137,8 @@ class History:
             The session's machine.
         machine : str, optional
             Machine record id or name chosen by the user.
+        rec : NewRecord, optional
+            The calibration: its ``as_left_of`` is checked against the machine and date.
         """
         from volcal.history.machines import machine_payload, match
 
@@ -132,6 +146,8 @@ class History:
 
         def check(conn: Any) -> Any:
             found = match(store.records("machine", conn=conn), ident, machine)
+            if rec is not None and rec.as_left_of is not None:
+                _check_as_left(store, conn, rec, found, ident)
             return found.id if found is not None else NewRecord("machine",
                                                                 machine_payload(ident))
 
@@ -143,7 +159,7 @@ class History:
         return self.store.records()
 
     def calibrations(self, machine: str | None = None, current: bool = True) -> list[Record]:
-        """Calibration records, oldest first.
+        """Calibration records, oldest first: by date of measurement (then as stored).
 
         Parameters
         ----------
@@ -154,9 +170,9 @@ class History:
         """
         recs = self.store.records()
         mid = None if machine is None else self.machine_id(machine, recs)
-        return [r for r in recs if r.kind == "calibration"
-                and (mid is None or r.machine_id == mid)
-                and (not current or r.superseded_by is None)]
+        return by_date([r for r in recs if r.kind == "calibration"
+                        and (mid is None or r.machine_id == mid)
+                        and (not current or r.superseded_by is None)])
 
     def machine_id(self, machine: str, records: list[Record] | None = None) -> str:
         """Machine record id of a machine given by id or name.
@@ -216,12 +232,18 @@ class History:
 
         from volcal.history.compare import compare
 
-        return pd.DataFrame([e.to_dict() for e in compare(self.store, id1, id2, level)])
+        df = pd.DataFrame([e.to_dict() for e in compare(self.store, id1, id2, level)],
+                          columns=["name", "difference", "U", "changed", "unit", "test",
+                                   "statistic", "threshold", "dof", "position_mm", "reason"])
+        for col in ("difference", "U", "statistic", "threshold", "dof", "position_mm"):
+            df[col] = pd.to_numeric(df[col], errors="coerce").astype(float)
+        df["changed"] = df["changed"].astype("boolean")
+        return df
 
     def trend(self, machine: str, parameter: str) -> Any:
         """One parameter over the calibrations of a machine, as a DataFrame.
 
-        Columns ``id, date, value, U, unit``.
+        Columns ``id, date`` (datetime64), ``value, U`` (float, NaN where none), ``unit``.
 
         Parameters
         ----------
@@ -234,10 +256,14 @@ class History:
 
         from volcal.history.trend import trend
 
-        return pd.DataFrame(trend(self, machine, parameter))
+        return _typed(pd.DataFrame(trend(self, machine, parameter),
+                                   columns=["id", "date", "value", "U", "unit"]))
 
     def results(self) -> Any:
-        """Every stored result: DataFrame ``machine, date, id, parameter, value, U, unit``."""
+        """Every stored result: DataFrame ``machine, date, id, parameter, value, U, unit``.
+
+        ``date`` is datetime64, ``value`` and ``U`` float (NaN where none).
+        """
         import pandas as pd
 
         rows = []
@@ -245,5 +271,64 @@ class History:
             for name, v in r.results.items():
                 rows.append({"machine": r.machine_name, "date": r.date, "id": r.id,
                              "parameter": name, **v})
-        return pd.DataFrame(rows, columns=["machine", "date", "id", "parameter", "value",
-                                           "U", "unit"])
+        return _typed(pd.DataFrame(rows, columns=["machine", "date", "id", "parameter",
+                                                  "value", "U", "unit"]))
+
+
+def _typed(df: Any) -> Any:
+    """``date`` as datetime64, ``value`` and ``U`` as float (NaN where none)."""
+    import pandas as pd
+
+    df["date"] = pd.to_datetime(df["date"].map(lambda d: None if d is None else str(d)[:10]),
+                                format="%Y-%m-%d", errors="coerce")
+    for col in ("value", "U"):
+        df[col] = pd.to_numeric(df[col], errors="coerce").astype(float)
+    return df
+
+
+def by_date(records: list[Record]) -> list[Record]:
+    """Records by date of measurement, oldest first (then in the order stored).
+
+    "Last" and "previous" mean the newest measurement, never the newest insertion: a
+    back-filled older calibration does not become the last one.
+
+    Parameters
+    ----------
+    records : list of Record
+        Calibration records.
+    """
+    return sorted(records, key=lambda r: (str(r.date or ""), r.seq))
+
+
+def _check_as_left(store: Store, conn: Any, rec: NewRecord, machine: Record | None,
+                   ident: Any) -> None:
+    """Refuse an as-left-of that is no calibration of this machine measured before.
+
+    Run under the writers' lock; the as-found record must be a calibration of the same
+    machine measured on or before ``rec.date``.
+    """
+    from volcal.errors import VolcalInputError
+    from volcal.history import schema as t
+
+    rid = rec.as_left_of
+    found = store._rows(t.records.c.id == rid, conn)  # noqa: SLF001 - the store's reader
+    if not found:
+        raise VolcalInputError(f"no record {rid!r} in the history {store.where}")
+    ref = found[0]
+    if ref.kind != "calibration":
+        raise VolcalInputError(f"--as-left-of {rid}: {rid} is a {ref.kind} record, not a "
+                               "calibration")
+    name = ident.name if machine is None else f"{machine.machine_name} ({machine.id})"
+    if machine is None or ref.machine_id != machine.id:
+        raise VolcalInputError(
+            f"--as-left-of {rid}: {rid} is a calibration of {ref.machine_name} "
+            f"({ref.machine_id}) measured {ref.date}; this session is of {name}"
+            f"{'' if machine is not None else ' (not in the history yet)'}, measured "
+            f"{rec.date}: an as-left calibration pairs with an as-found one of the same "
+            "machine")
+    if str(ref.date or "")[:10] > str(rec.date or "")[:10]:
+        raise VolcalInputError(
+            f"--as-left-of {rid}: {rid} of {name} was measured {ref.date}, after this "
+            f"session ({rec.date}): the as-found calibration is measured before (or on the "
+            "same date as) its as-left one")
+

@@ -29,13 +29,16 @@ def _alembic_config(connection):
     return cfg
 
 
-def make_engine(url: str):
+def make_engine(url: str, create: bool = True):
     """A SQLAlchemy engine for ``url`` with volcal's locking and time-outs.
 
     Parameters
     ----------
     url : str
         SQLAlchemy URL (:func:`volcal.history.url.resolve_url`).
+    create : bool
+        Create the folder of an SQLite file (``False``: refuse a folder or file that does
+        not exist).
 
     Returns
     -------
@@ -56,7 +59,9 @@ def make_engine(url: str):
     try:
         if url.startswith("sqlite"):
             path = url.split(":///", 1)[1] if ":///" in url else ""
-            if path and path != ":memory:":
+            if path and path != ":memory:" and not create:
+                _require_file(Path(path))
+            elif path and path != ":memory:":
                 try:
                     Path(path).parent.mkdir(parents=True, exist_ok=True)
                 except OSError as exc:
@@ -84,6 +89,17 @@ def make_engine(url: str):
                            "sqlite:///FILE or postgresql://USER@HOST/DB")
 
 
+def _require_file(path: Path) -> None:
+    """Refuse an SQLite history that does not exist (a store is created only on request)."""
+    if not path.parent.is_dir():
+        raise VolcalInputError(f"no history here: the folder {path.parent} does not exist "
+                               "(a typo? volcal history add --create makes a new store)",
+                               path)
+    if not path.is_file():
+        raise VolcalInputError("no history file here (a typo? volcal history add --create "
+                               "makes a new store)", path)
+
+
 def lock(conn) -> None:
     """Serialise writers inside the current transaction (PostgreSQL advisory lock).
 
@@ -100,7 +116,7 @@ def lock(conn) -> None:
         conn.execute(text("SELECT pg_advisory_xact_lock(:k)"), {"k": ADVISORY_LOCK_KEY})
 
 
-def open_engine(url: str, upgrade: bool = True):
+def open_engine(url: str, upgrade: bool = True, create: bool = True):
     """An engine whose database is a volcal history at the head revision.
 
     An empty database is given the schema; an older volcal schema is upgraded (Alembic);
@@ -112,10 +128,14 @@ def open_engine(url: str, upgrade: bool = True):
         SQLAlchemy URL.
     upgrade : bool
         Create or upgrade the schema (``False``: refuse a database not at the head).
+    create : bool
+        Make a new store: an SQLite file (and its folder) that does not exist, the schema
+        in an empty database (``False``: refuse them).
 
     Returns
     -------
     sqlalchemy.engine.Engine
+        Its attribute ``volcal_created`` is true when this call made a new store.
 
     Raises
     ------
@@ -128,8 +148,9 @@ def open_engine(url: str, upgrade: bool = True):
 
     from volcal.history.url import describe
 
-    engine = make_engine(url)
+    engine = make_engine(url, create)
     where = describe(url)
+    created = False
     try:
         # one transaction under the writers' lock: look, then create or upgrade the
         # schema, so that writers opening a new store at once never both create it
@@ -140,6 +161,10 @@ def open_engine(url: str, upgrade: bool = True):
             if "alembic_version" in names:
                 version = conn.execute(text("SELECT version_num FROM alembic_version")).scalar()
             _check_schema(names, version, upgrade, where)
+            if not names and not create:
+                raise VolcalInputError("this database holds no volcal history (volcal "
+                                       "history add --create makes one there)", where)
+            created = not names
             if version != HEAD:
                 from alembic import command
 
@@ -150,6 +175,7 @@ def open_engine(url: str, upgrade: bool = True):
         msg = str(exc.orig) if getattr(exc, "orig", None) is not None else str(exc)
         raise VolcalInputError(f"not a usable history database ({msg.splitlines()[0]})",
                                where) from None
+    engine.volcal_created = created
     return engine
 
 

@@ -1,6 +1,7 @@
 """``volcal history fleet``: one HTML page with every machine of the history.
 
-Per machine: identity, last calibration (date, id), the largest volumetric error
+Per machine: identity, last calibration (the newest date of measurement, not the
+newest record; date, id), the largest volumetric error
 E_VXYZ with its U, a small trend of E_VXYZ over its calibrations (inline SVG), the next
 due date (overdue in red).
 """
@@ -38,6 +39,7 @@ def fleet_html(history: Any, today: _dt.date | None = None) -> str:
     today : date, optional
         Reference date of the due column (default today).
     """
+    from volcal.history.api import by_date
     from volcal.history.due import due
     from volcal.history.machines import current_machines
 
@@ -46,8 +48,9 @@ def fleet_html(history: Any, today: _dt.date | None = None) -> str:
     due_rows = due(history, today)
     rows = []
     for mach in current_machines(records):
-        cals = [r for r in records if r.kind == "calibration" and r.machine_id == mach.id
-                and r.superseded_by is None]
+        # by date of measurement: a back-filled older record is not the last one
+        cals = by_date([r for r in records if r.kind == "calibration"
+                        and r.machine_id == mach.id and r.superseded_by is None])
         ident = mach.payload.get("machine", {})
         who = " ".join(str(ident[k]) for k in ("make", "model") if ident.get(k))
         serial = ident.get("serial", "")

@@ -87,7 +87,7 @@ def previous_section(inp: Any, db: str, level: float = 0.05) -> Section:
     """
     check_history(db)
     sec = Section("previous", "Previous calibration")
-    store = Store(db)
+    store = Store(db, create=False)
     try:
         prev = previous_calibration(store, inp.session)
         if prev is None:

@@ -110,6 +110,31 @@ def results_of(session: Any, model: Any) -> list[tuple[str, float | None, float 
     return list(uniq.values())
 
 
+def _content_digest(session_sha256: str, models: list[tuple[str, str, bytes]]) -> str:
+    """sha256 of the readings (the session's digest) and the model's files.
+
+    Two adds of the same session and model have the same digest: the second returns the
+    first record (:meth:`volcal.history.store.Store.append`).
+    """
+    h = hashlib.sha256(session_sha256.encode())
+    for role, name, content in models:
+        h.update(b"\0" + role.encode() + b"\0" + name.encode() + b"\0"
+                 + hashlib.sha256(content).digest())
+    return h.hexdigest()
+
+
+def _once(session: list[tuple[str, str, bytes]], models: list[tuple[str, str, bytes]]
+          ) -> list[tuple[str, str, bytes]]:
+    """The record's files, each content stored once.
+
+    A session folder holding its model (the documented layout ``S/model.json``,
+    ``S/model.npz``) would store the model twice: a session file whose content is one of
+    the model's files is left out (its digest stays in ``session_sha256``).
+    """
+    model_digests = {hashlib.sha256(c).digest() for _, _, c in models}
+    return [f for f in session if hashlib.sha256(f[2]).digest() not in model_digests] + models
+
+
 def calibration_record(session_folder: str | Path, model_path: str | Path,
                        as_left_of: str | None = None, supersedes: str | None = None,
                        force: bool = False) -> tuple[NewRecord, Any]:
@@ -144,11 +169,13 @@ def calibration_record(session_folder: str | Path, model_path: str | Path,
     model.require_uncertainty("a calibration record", model_path)
     check_model_session(model, session, force=force)
     ident = session.identity.to_dict()
-    files = session_files(session.path or folder) + model_files(model_path)
+    kept = session_files(session.path or folder)
+    models = model_files(model_path)
     digest = hashlib.sha256()
-    for _, name, content in files:
-        if _ == "session":
-            digest.update(name.encode() + b"\0" + hashlib.sha256(content).digest())
+    for _, name, content in kept:
+        digest.update(name.encode() + b"\0" + hashlib.sha256(content).digest())
+    content_sha256 = _content_digest(digest.hexdigest(), models)
+    files = _once(kept, models)
     date, notes = session.calibration.get("date"), []
     if date is None:  # not given: the simulation's date, else the newest reading file's
         from volcal.session.identity import parse_date
@@ -167,6 +194,7 @@ def calibration_record(session_folder: str | Path, model_path: str | Path,
         "machine": ident,
         "calibration": session.calibration,
         "session_sha256": digest.hexdigest(),
+        "content_sha256": content_sha256,
         "measurements": [m.id for m in session.measurements],
         "unmeasured": session.unmeasured_ids,
         "warnings": list(session.warnings),

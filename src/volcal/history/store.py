@@ -56,6 +56,9 @@ class Record:
         The calibration's equipment.
     superseded_by : str or None
         Set by :meth:`Store.records`: the newest record that supersedes this one.
+    already_stored : bool
+        Set by :meth:`Store.append`: the calibration was stored before (same readings and
+        model, ``content_sha256``) and this is that record; nothing was appended.
     """
 
     seq: int
@@ -74,6 +77,7 @@ class Record:
     files: list[dict[str, Any]] = field(default_factory=list)
     equipment: list[dict[str, Any]] = field(default_factory=list)
     superseded_by: str | None = None
+    already_stored: bool = False
 
     @property
     def machine_name(self) -> str:
@@ -114,15 +118,20 @@ class Store:
     ----------
     url : str, optional
         ``--db`` value (URL or SQLite file); default :func:`volcal.history.url.resolve_url`.
+    create : bool
+        Make a new store when there is none (an SQLite file and its folder, the schema of
+        an empty database); ``False`` refuses a path or database without a history.
     """
 
-    def __init__(self, url: str | None = None) -> None:
+    def __init__(self, url: str | None = None, create: bool = True) -> None:
         from volcal.history.engine import open_engine
         from volcal.history.url import describe, resolve_url
 
         self.url = resolve_url(url)
         self.where = describe(self.url)
-        self.engine = open_engine(self.url)
+        self.engine = open_engine(self.url, create=create)
+        #: True when opening made a new, empty store
+        self.created = bool(getattr(self.engine, "volcal_created", False))
 
     def close(self) -> None:
         """Release the database connections."""
@@ -144,26 +153,60 @@ class Store:
         Returns
         -------
         Record
-            As stored.
+            As stored; a calibration whose readings and model are stored already (same
+            ``content_sha256``, not a correction) is not appended again: the stored
+            record is returned with ``already_stored`` set.
         """
-        from sqlalchemy import select
-
-        from volcal.history import schema as t
         from volcal.history.engine import lock, writer
 
         with writer(self.engine) as conn, conn.begin():
             lock(conn)
-            extra = check(conn) if check is not None else None
-            if isinstance(extra, NewRecord):
-                rec.machine_id = self._insert(conn, extra)
-            elif isinstance(extra, str):
-                rec.machine_id = extra
-            for ref in (rec.supersedes, rec.as_left_of, rec.machine_id):
-                if ref is not None and conn.execute(
-                        select(t.records.c.seq).where(t.records.c.id == ref)).first() is None:
-                    raise VolcalInputError(f"no record {ref!r} in the history {self.where}")
-            rid = self._insert(conn, rec)
+            same = self._stored_before(conn, rec)
+            if same is None:
+                rid = self._append_locked(conn, rec, check)
+        if same is not None:
+            found = self.current(same)
+            found.already_stored = True
+            return found
         return self.record(rid)
+
+    def _append_locked(self, conn, rec: NewRecord, check) -> str:
+        """The insert of :meth:`append`, under the writers' lock; returns the new id."""
+        from sqlalchemy import select
+
+        from volcal.history import schema as t
+
+        extra = check(conn) if check is not None else None
+        if isinstance(extra, NewRecord):
+            rec.machine_id = self._insert(conn, extra)
+        elif isinstance(extra, str):
+            rec.machine_id = extra
+        for ref in (rec.supersedes, rec.as_left_of, rec.machine_id):
+            if ref is not None and conn.execute(
+                    select(t.records.c.seq).where(t.records.c.id == ref)).first() is None:
+                raise VolcalInputError(f"no record {ref!r} in the history {self.where}")
+        return self._insert(conn, rec)
+
+    @staticmethod
+    def _stored_before(conn, rec: NewRecord) -> str | None:
+        """Id of the calibration stored with the same content (under the writers' lock).
+
+        A correction (``supersedes``) is always appended. The content digest is in the
+        canonical payload (``"content_sha256":"..."``).
+        """
+        from sqlalchemy import select
+
+        from volcal.history import schema as t
+
+        digest = rec.payload.get("content_sha256")
+        if rec.kind != "calibration" or rec.supersedes is not None or not digest:
+            return None
+        key = canonical({"content_sha256": digest})[1:-1]
+        row = conn.execute(select(t.records.c.id).where(
+            t.records.c.kind == "calibration", t.records.c.payload.contains(key,
+                                                                            autoescape=True))
+            .order_by(t.records.c.seq).limit(1)).first()
+        return None if row is None else str(row.id)
 
     def _insert(self, conn, rec: NewRecord) -> str:
         """Insert one record and its children at the head of the chain (under the lock)."""

@@ -18,7 +18,7 @@ _AT = re.compile(r"^(E[XYZABC][XYZ])@(-?[0-9.]+)$", re.IGNORECASE)
 
 
 def trend(history: Any, machine: str, parameter: str) -> list[dict[str, Any]]:
-    """Rows ``id, date, value, U, unit`` of one parameter, oldest first.
+    """Rows ``id, date, value, U, unit`` of one parameter, by date of measurement.
 
     Parameters
     ----------
@@ -32,7 +32,8 @@ def trend(history: Any, machine: str, parameter: str) -> list[dict[str, Any]]:
     Raises
     ------
     VolcalInputError
-        Unknown parameter (the valid names of the latest calibration are listed).
+        Unknown parameter (the valid names of the latest calibration are listed), or a
+        position outside the travel of a calibration's model.
     """
     from volcal.history.compare import load_record_model
 
@@ -56,6 +57,7 @@ def trend(history: Any, machine: str, parameter: str) -> list[dict[str, Any]]:
             if model is None:
                 rows.append({"id": r.id, "date": r.date, "value": None, "U": None, "unit": unit})
                 continue
+            _within_travel(model, name, pos, parameter, r.id)
             v = float(model.errors.function(name, np.array([pos]))[0])
             u = float(model.function_std(name, np.array([pos]))[0])
             rows.append({"id": r.id, "date": r.date, "value": v, "U": 2.0 * u, "unit": unit})
@@ -73,3 +75,17 @@ def trend(history: Any, machine: str, parameter: str) -> list[dict[str, Any]]:
                      "U": None if v is None else v["U"],
                      "unit": "" if v is None else v["unit"]})
     return rows
+
+
+def _within_travel(model: Any, name: str, pos: float, parameter: str, rid: str) -> None:
+    """Refuse a position outside the identified travel of the function's axis [mm].
+
+    The functions are identified between the first and last node of their axis; beyond,
+    the value would be the end value held constant, not a measurement.
+    """
+    axis = "XYZ".index(name[2])
+    nodes = model.errors.nodes[axis]
+    lo, hi = float(nodes[0]), float(nodes[-1])
+    if not lo - 1e-9 <= pos <= hi + 1e-9:
+        raise VolcalInputError(f"--parameter {parameter}: {pos:g} mm is outside the travel "
+                               f"of {name[2]} in {rid} ({lo:g} to {hi:g} mm)")

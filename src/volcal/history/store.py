@@ -166,6 +166,11 @@ class Store:
                 rid = self._append_locked(conn, rec, check)
         if same is not None:
             found = self.current(same)
+            if rec.as_left_of is not None and rec.as_left_of != found.as_left_of:
+                raise VolcalInputError(
+                    f"this session and model are stored already as {found.id}, "
+                    f"{'as-left of ' + found.as_left_of if found.as_left_of else 'not as-left'}"
+                    f": --supersedes {found.id} --as-left-of {rec.as_left_of} corrects it")
             found.already_stored = True
             return found
         return self.record(rid)

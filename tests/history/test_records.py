@@ -89,6 +89,12 @@ def test_a_retried_add_returns_the_stored_id(store_url, sessions):
                            r"--as-left-of C000002 corrects it$"):
             _add(h, s, as_left_of="C000002")
         assert len(h.list()) == 3 and h.verify()[0]
+        other = sessions["a2"]                               # corrected by other content
+        assert h.add(other, other / "model.json", supersedes="C000003").id == "C000004"
+    again = _volcal(*args)
+    assert again.returncode == 0 and again.stdout == "C000003\n", again.stderr
+    assert ("note: this session and model are stored already as C000003 (measured "
+            "2026-01-10, superseded by C000004); nothing added") in again.stderr
 
 
 # ------------------------------------------------------- 2. ordered by date measured

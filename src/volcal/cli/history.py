@@ -78,8 +78,10 @@ def add_cmd(
     with _open(db, create) as h:
         rec = h.add(session, model, as_left_of, supersedes, machine, force)
         if rec.already_stored:
+            later = f", superseded by {rec.superseded_by}" if rec.superseded_by else ""
             _err(f"note: this session and model are stored already as {rec.id} "
-                 f"(measured {rec.date}); nothing added (--supersedes ID corrects a record)")
+                 f"(measured {rec.date}{later}); nothing added (--supersedes ID corrects a "
+                 "record)")
             typer.echo(rec.id)
             return
         for n in rec.payload.get("notes", []):

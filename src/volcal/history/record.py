@@ -117,9 +117,9 @@ def _content_digest(session_sha256: str, models: list[tuple[str, str, bytes]]) -
     first record (:meth:`volcal.history.store.Store.append`).
     """
     h = hashlib.sha256(session_sha256.encode())
-    for role, name, content in models:
-        h.update(b"\0" + role.encode() + b"\0" + name.encode() + b"\0"
-                 + hashlib.sha256(content).digest())
+    for part in sorted(role.encode() + b"\0" + hashlib.sha256(content).digest()
+                       for role, _, content in models):  # the model's content, not its name
+        h.update(b"\0" + part)
     return h.hexdigest()
 
 

@@ -165,7 +165,7 @@ class Store:
             if same is None:
                 rid = self._append_locked(conn, rec, check)
         if same is not None:
-            found = self.current(same)
+            found = self._same_content(same, rec.payload["content_sha256"])
             if rec.as_left_of is not None and rec.as_left_of != found.as_left_of:
                 raise VolcalInputError(
                     f"this session and model are stored already as {found.id}, "
@@ -192,9 +192,18 @@ class Store:
                 raise VolcalInputError(f"no record {ref!r} in the history {self.where}")
         return self._insert(conn, rec)
 
+    def _same_content(self, rid: str, digest: str) -> Record:
+        """The record ``rid``, or its newest correction when that holds the same content.
+
+        Otherwise ``rid`` with ``superseded_by`` set (it was corrected by other content).
+        """
+        every = {r.id: r for r in self.records("calibration")}
+        cur = every[every[rid].superseded_by or rid]
+        return cur if cur.payload.get("content_sha256") == digest else every[rid]
+
     @staticmethod
     def _stored_before(conn, rec: NewRecord) -> str | None:
-        """Id of the calibration stored with the same content (under the writers' lock).
+        """Id of the newest calibration stored with the same content (under the lock).
 
         A correction (``supersedes``) is always appended. The content digest is in the
         canonical payload (``"content_sha256":"..."``).
@@ -210,7 +219,7 @@ class Store:
         row = conn.execute(select(t.records.c.id).where(
             t.records.c.kind == "calibration", t.records.c.payload.contains(key,
                                                                             autoescape=True))
-            .order_by(t.records.c.seq).limit(1)).first()
+            .order_by(t.records.c.seq.desc()).limit(1)).first()
         return None if row is None else str(row.id)
 
     def _insert(self, conn, rec: NewRecord) -> str:

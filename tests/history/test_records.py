@@ -168,14 +168,16 @@ def test_no_store_is_made_by_a_typo(tmp_path, sessions):
     typo = tmp_path / "plnat" / "h.sqlite"
     for args in (["list"], ["show", "C000002"], ["trend", "VMC-A", "--parameter", "X.A"],
                  ["compare", "C000002", "C000003"], ["due"], ["verify"],
-                 ["fleet", "-o", str(tmp_path / "f.html")],
+                 ["fleet", "-o", str(tmp_path / "f.html")], ["export", "-o", str(tmp_path / "x")],
+                 ["interval", "VMC-A", "200"], ["export-qif", "C000002", "-o",
+                                                 str(tmp_path / "q.qif")],
                  ["add", str(s), "--model", str(s / "model.json")]):
         r = _volcal("history", *args, "--db", str(typo))
         assert r.returncode == 2, (args, r.stdout, r.stderr)
         assert (f"error: {typo}: no history here: the folder {typo.parent} does not exist "
                 "(a typo? volcal history add --create makes a new store)") in r.stderr, args
         assert "Traceback" not in r.stderr
-    assert not typo.parent.exists()
+    assert not typo.parent.exists() and not (tmp_path / "x").exists()
     new = tmp_path / "h.sqlite"
     r = _volcal("history", "add", str(s), "--model", str(s / "model.json"), "--db", str(new))
     assert r.returncode == 2 and (f"error: {new}: no history file here (a typo? volcal "

@@ -388,11 +388,12 @@ def export_cmd(
     from volcal.history.export import export_parquet, exported_files
     from volcal.io.paths import prepare_output_folder
 
-    moved = prepare_output_folder(output, "history export", lambda p: bool(exported_files(p)),
-                                  written=exported_files, replace=replace)
-    if moved is not None:
-        note_moved(output, moved)
-    with _open(db) as h:
+    with _open(db) as h:  # a path without a history is refused before the folder is touched
+        moved = prepare_output_folder(output, "history export",
+                                      lambda p: bool(exported_files(p)),
+                                      written=exported_files, replace=replace)
+        if moved is not None:
+            note_moved(output, moved)
         for p in export_parquet(h, output):
             typer.echo(str(p))
 

@@ -42,6 +42,7 @@ if TYPE_CHECKING:
     from volcal.session.format import Session
     from volcal.standards.iso230_2_uncertainty import Iso2302Uncertainty
     from volcal.standards.session import SessionEvaluation
+    from volcal.standards.tolerance import Tolerance
     from volcal.steps.predict import Prediction
     from volcal.steps.simulate import Simulated
     from volcal.uncertainty.budget import Budget
@@ -554,17 +555,8 @@ class Calibration:
                                    f"of {A.names(list(EDITIONS))}")
         b = None if budget is None else A.budget_file(budget, "Calibration.evaluate")[0]
         ev = evaluate_session(self.session, self.result, str(edition),
-                              model_uncertainty=self.result is not None)
-        self.uncertainties = None
-        if b is not None:
-            from volcal.standards.iso230_2_uncertainty import evaluate_with_budget
-            from volcal.standards.positioning_data import from_measurement
-
-            self.uncertainties = {}
-            for k in list(ev.iso230_2):
-                d = from_measurement(self.session.get(k), self.session.path)
-                ev.iso230_2[k], self.uncertainties[k], _ = evaluate_with_budget(
-                    d, b, str(edition))
+                              model_uncertainty=self.result is not None, budget=b)
+        self.uncertainties = None if b is None else dict(ev.uncertainties)
         self.evaluation = ev
         return self.evaluation
 
@@ -610,8 +602,8 @@ class Calibration:
             ``U_before_um``, ``U_after_um``; ``to_dict()`` is an entry of ``volcal
             evaluate session --json``'s ``verdict``.
         """
-        from volcal.report.verdict import verdicts
         from volcal.standards.tolerance import parse_tolerance
+        from volcal.standards.verdict import verdicts
 
         where = "Calibration.verdict"
         tol = A.acceptance(where, parse_tolerance(A.tolerance_text(tolerance_um)),
@@ -638,8 +630,9 @@ class Calibration:
             tables = read_written_tables(compensation, manifest, self.session.travel)
         errors = None if self.result is None else self.result.errors
         with A.python_names(where):
-            return verdicts(tol, self.session, errors, tables, str(edition),
-                            model=self.result)
+            ev = self._evaluation(str(edition), tol.budget, tol)
+            return verdicts(tol, ev, errors, tables, model=self.result,
+                            session=self.session)
 
     @A.checked
     def compensate(self, folder: str | Path, format: str, sign: str | None = D.COMP_SIGN,
@@ -802,6 +795,7 @@ class Calibration:
         from volcal.report.pipeline import collect_inputs
         from volcal.report.sections import build_report
         from volcal.report.writer import write_report, written_files
+        from volcal.standards.session import evaluate_session
         from volcal.standards.tolerance import parse_tolerance
 
         where = "Calibration.report"
@@ -830,6 +824,10 @@ class Calibration:
         with A.python_names(where):  # the command line's checks, the keywords named
             cert = certificate_wanted(s, s2, tables, certificate, strict)
         result = self._need_result()
+        bud = None
+        if budget is not None:  # as `volcal report --budget`: every test with its U
+            bud = tol.budget if tol is not None and getattr(tol, "budget", None) \
+                is not None else A.budget_file(budget, where)[0]
         extra = None
         written: list[CertificateFiles] = []
         if cert and budget is not None:  # the volumetric U with the systematic part
@@ -841,20 +839,18 @@ class Calibration:
                     result, tol.budget if tol is not None and getattr(tol, "budget", None)
                     is not None else b, b_name, None, s,
                     f"Calibration.identify(budget={b_name!r})")
+        with A.python_names(where):  # the one evaluation of each session
+            ev = self._evaluation(str(edition), bud, tol, result)
+            ev_left = None if s2 is None or not cert else evaluate_session(
+                s2, None, str(edition), budget=bud, optics=True)
         if cert:
             from volcal.report.certificate import build_certificate
             from volcal.report.certificate_files import write_certificate
-            from volcal.report.certificate_inputs import session_uncertainties
 
-            uncs = als = ob = None
-            if budget is not None:  # U of every linear test of both sessions, as the CLI
-                bud = ob = tol.budget if tol is not None else A.budget_file(budget, where)[0]
-                uncs = session_uncertainties(s, bud, edition)
-                als = None if s2 is None else session_uncertainties(s2, bud, edition)
             with A.python_names(where):
                 doc = build_certificate(s, result, as_left=s2, tables=tables, tolerance=tol,
-                                        uncertainties=uncs, as_left_uncertainties=als,
-                                        optics_budget=ob, edition=edition)
+                                        optics_budget=bud, edition=edition, evaluation=ev,
+                                        as_left_evaluation=ev_left)
             for w in doc["warnings"]:
                 if w.startswith("EXPIRED"):
                     warnings.warn(f"certificate: {w}", UserWarning, stacklevel=3)
@@ -866,12 +862,8 @@ class Calibration:
                 written.append(write_certificate(doc, tmp))
 
         with A.python_names(where):
-            bud = None
-            if budget is not None:  # as `volcal report --budget`: corrected readings and U
-                bud = tol.budget if tol is not None and getattr(tol, "budget", None) \
-                    is not None else A.budget_file(budget, where)[0]
             inputs = collect_inputs(s, result, self.truth, edition, compensation,
-                                    tolerance=tol, force=force, budget=bud)
+                                    tolerance=tol, force=force, budget=bud, evaluation=ev)
         if history is not None:  # the history (SQLAlchemy) is loaded only here
             from volcal.history.previous import previous_section
 
@@ -890,6 +882,24 @@ class Calibration:
         return files
 
     # ------------------------------------------------------------------ helpers
+    def _evaluation(self, edition: str, budget: Budget | None, tol: Tolerance | None,
+                    result: IdentificationResult | None = None) -> SessionEvaluation:
+        """The session's one evaluation for a verdict or a report (``standards``).
+
+        With ``result`` (the report): the model's indices with their U and, for a
+        volumetric tolerance, the largest volumetric error over the verdict's grid.
+        """
+        from volcal.standards.model_uncertainty import has_covariance
+        from volcal.standards.session import evaluate_session
+        from volcal.standards.verdict import GRID_N
+
+        if result is None:  # a verdict: the linear tests' values and U
+            return evaluate_session(self.session, None, edition, budget=budget)
+        n = GRID_N if tol is not None and tol.volumetric_um is not None else None
+        return evaluate_session(self.session, result, edition,
+                                model_uncertainty=has_covariance(result), budget=budget,
+                                work_zone_n=n, optics=True)
+
     def _planned(self) -> Session:
         """The session with every measurement, those without readings yet included."""
         from copy import copy

@@ -342,7 +342,7 @@ def test_decision_rules_simple_and_guarded():
     verdict, why = conformity_verdict(1.0, 10.0, "guarded", U_um=12.0)
     assert verdict == "conditional" and "no pass is possible" in why
     assert conformity_verdict(8.5, 10.0, "guarded", U_um=2.0, guard_band_um=1.0)[0] == "pass"
-    with pytest.raises(VolcalInputError, match="simple or guarded"):
+    with pytest.raises(VolcalInputError, match="expected one of simple, guarded"):
         conformity_verdict(1.0, 2.0, "strict")
 
 

@@ -47,3 +47,33 @@ def test_unmeasured_tests_are_skipped_and_named(tmp_path):
     s.measurements[0].deviation = None
     ev = evaluate_session(s)
     assert ev.skipped == {s.measurements[0].id: "no readings yet"}
+
+
+def test_verdicts_judge_the_evaluation_without_evaluating_again(tmp_path, monkeypatch):
+    """The per-axis verdict takes ISO 230-2 A from the session's one evaluation: by hand,
+    every run reads the same, so s = 0 and A = E = the range of the shape (X 3, Y 4,
+    Z 12 um); the verdict evaluates nothing itself, and the evaluation is frozen."""
+    import dataclasses
+
+    from volcal.standards import iso230_2
+    from volcal.standards.tolerance import parse_tolerance
+    from volcal.standards.verdict import verdicts
+
+    s = _session(tmp_path)
+    ev = evaluate_session(s)
+    calls = []
+    monkeypatch.setattr(iso230_2, "evaluate", lambda *a, **k: calls.append(a))
+    vs = verdicts(parse_tolerance("X=3,Y=3.9,Z=12"), ev)
+    assert [(v.quantity, v.before_um, v.before) for v in vs] == [
+        ("X: ISO 230-2 A (3 tests)", pytest.approx(3.0), "pass"),
+        ("Y: ISO 230-2 A (3 tests)", pytest.approx(4.0), "fail"),
+        ("Z: ISO 230-2 A (3 tests)", pytest.approx(12.0), "pass")]
+    assert calls == []
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        ev.elv = None  # type: ignore[misc]
+    # the guarded rule needs U: this evaluation had no budget
+    from volcal.errors import VolcalInputError
+    from volcal.standards.tolerance import Tolerance
+
+    with pytest.raises(VolcalInputError, match="--budget FILE"):
+        verdicts(Tolerance(None, {"X": 3.0}, rule="guarded"), ev)

@@ -95,15 +95,11 @@ def _budget_table(unc: Any, corrections: dict[str, Any]) -> None:
 def _iso_decisions(res: Any, unc: Any, tolerance_um: str, rule: str,
                    guard_band_um: float | None) -> dict[str, Any]:
     """Decisions of every toleranced parameter; the combined verdict and the rule."""
-    from volcal.errors import VolcalInputError
-    from volcal.standards.decision import RULE_TEXT, combine, decide
+    from volcal.standards.decision import RULE_TEXT, combine, decide, require_uncertainty
     from volcal.standards.tolerance import parse_parameter_tolerance
 
     tols = parse_parameter_tolerance(tolerance_um)
-    if rule == "guarded" and unc is None and guard_band_um is None:
-        raise VolcalInputError("--decision-rule guarded needs the expanded uncertainty "
-                               "(--budget FILE) or a guard band (--guard-band-um W)",
-                               column="--decision-rule")
+    require_uncertainty(rule, guard_band_um, unc is not None)
     ds = []
     for k, tol in tols.items():
         v = abs(float(getattr(res, k)))
@@ -358,27 +354,18 @@ def session_cmd(
         from volcal.identify.modelfile import load_model
 
         mres = load_model(model)
-    ev = evaluate_session(s, mres, edition=edition, model_uncertainty=mres is not None)
+    b = tol[0].budget if tol[0] is not None else _budget_or_none(budget)
+    ev = evaluate_session(s, mres, edition=edition, model_uncertainty=mres is not None,
+                          budget=b, work_zone_n=_grid_n(tol[0], tol[1]))
     results, axis_of = ev.iso230_2, ev.axis
     why_skipped = {k: why for k, why in ev.skipped.items() if why != "no readings yet"}
     skipped = list(why_skipped)
     if not results:
         raise VolcalInputError("no linear measurement with run and direction columns", session)
     elv_val = None if ev.elv is None else ev.elv["ELv"]
-    verdict = _verdicts(tol, s, edition, mres)
-    uncs: dict[str, Any] = {}
-    corr_text = ""
-    if budget is not None:
-        from volcal.standards.iso230_2_uncertainty import evaluate_with_budget
-        from volcal.standards.positioning_data import from_measurement
-
-        b = tol[0].budget if tol[0] is not None else _budget_or_none(budget)
-        by_id = {m.id: m for m in s.measurements}
-        for k in list(results):
-            res, uncs[k], corr = evaluate_with_budget(from_measurement(by_id[k], s.path), b,
-                                                      edition)
-            results[k] = res
-            corr_text = corr["text"].split("; correction at")[0]
+    verdict = _verdicts(tol, ev, s, mres)
+    uncs = ev.uncertainties
+    corr_text = ev.corrections_text
     if as_json:
         out: dict[str, Any] = {"measurements": {k: {"axis": axis_of[k], **v.to_dict()}
                                                 for k, v in results.items()},
@@ -478,14 +465,9 @@ def _print_model_indices(ev: Any) -> None:
 
 def _checked_rule(decision_rule: str, guard_band_um: float | None) -> str:
     """The decision rule (checked), refusing a guard band without the guarded rule."""
-    from volcal.errors import VolcalInputError
-    from volcal.standards.decision import check_rule
+    from volcal.standards.decision import check_acceptance
 
-    rule = check_rule(decision_rule)
-    if guard_band_um is not None and rule != "guarded":
-        raise VolcalInputError("--guard-band-um applies to --decision-rule guarded",
-                               column="--guard-band-um")
-    return rule
+    return check_acceptance(decision_rule, guard_band_um)
 
 
 def _budget_or_none(budget: Path | None) -> Any:
@@ -561,12 +543,22 @@ def _written_tables(folder: Path, s: Any, errors: Any, model: Path | None, force
     return read_written_tables(folder, manifest, s.travel)
 
 
-def _verdicts(tol: tuple[Any, Any, Any], s: Any, edition: str, model: Any = None) -> Any:
+def _grid_n(tol: Any, errors: Any) -> int | None:
+    """Grid points per axis of the volumetric verdict, when there is one (else None)."""
+    if tol is None or tol.volumetric_um is None or errors is None:
+        return None
+    from volcal.standards.verdict import GRID_N
+
+    return GRID_N
+
+
+def _verdicts(tol: tuple[Any, Any, Any], ev: Any, s: Any, model: Any = None) -> Any:
+    """The verdicts of the tolerance from the session's one evaluation (or None)."""
     if tol[0] is None:
         return None
-    from volcal.report.verdict import verdicts
+    from volcal.standards.verdict import verdicts
 
-    return verdicts(tol[0], s, tol[1], tol[2], edition, model=model)
+    return verdicts(tol[0], ev, tol[1], tol[2], model=model, session=s)
 
 
 def _verdict_word(w: str) -> str:
@@ -670,7 +662,7 @@ def optics_cmd(
     """
     from volcal.errors import VolcalInputError
     from volcal.session.format import read_session
-    from volcal.standards.optics import evaluate_optics
+    from volcal.standards.session import optics_evaluation
 
     tol = None
     if tolerance_um is not None:
@@ -686,20 +678,18 @@ def optics_cmd(
     b = _budget_or_none(budget)
     s = read_session(session)
     print_session_notes(s)
-    ev = evaluate_optics(s)
-    if not (ev["straightness"] or ev["angular"]):
+    ev = optics_evaluation(s, b)  # once, with U given a budget
+    if ev is None:
         raise VolcalInputError("no straightness or angular measurement with readings", session)
     if b is not None:
-        from volcal.standards.optics_uncertainty import add_optics_uncertainty, optics_uncertainty
-
-        add_optics_uncertainty(ev, optics_uncertainty(s, b, ev))
         ev["budget_file"] = str(budget)
     if tol is not None:
         from volcal.report.certificate_optics import direct_optics, optics_conformity
         from volcal.standards.decision import RULE_TEXT
 
-        um, urad = optics_conformity(tol, {"as_found": {"direct_optics": direct_optics(s, b)}},
-                                     decision_rule, guard_band_um)
+        um, urad = optics_conformity(
+            tol, {"as_found": {"direct_optics": direct_optics(s, b, ev)}}, decision_rule,
+            guard_band_um)
         ev["conformity"] = {"decision_rule": decision_rule, "rule": RULE_TEXT[decision_rule],
                             "guard_band_um": guard_band_um,
                             "statements": [{k: v for k, v in r.items() if k != "state"}

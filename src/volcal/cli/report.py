@@ -130,22 +130,25 @@ def report_cmd(
         from volcal.report.certificate_inputs import certificate_model
 
         result = certificate_model(result, bud, budget, model, s)
+    from volcal.standards.model_uncertainty import has_covariance
+    from volcal.standards.session import evaluate_session
+    from volcal.standards.verdict import GRID_N
+
+    # the one evaluation of each session: the certificate and the report format it
+    with console.status("evaluating..."):
+        ev = evaluate_session(s, result, edition, model_uncertainty=has_covariance(result),
+                              budget=bud, work_zone_n=(GRID_N if tol is not None
+                                                       and tol.volumetric_um is not None
+                                                       else None), optics=True)
+        ev_left = None if s2 is None or not cert else evaluate_session(
+            s2, None, edition, budget=bud, optics=True)
     if cert:
         from volcal.report.certificate import build_certificate
         from volcal.report.certificate_files import write_certificate
 
-        uncs = als = b = None
-        if budget is not None:  # U of every linear test of both sessions (docs/uncertainty.md)
-            from volcal.report.certificate_inputs import session_uncertainties
-            from volcal.uncertainty.budget import read_budget
-
-            b = tol.budget if tol is not None and getattr(tol, "budget", None) is not None \
-                else read_budget(budget)
-            uncs = session_uncertainties(s, b, edition)
-            als = None if s2 is None else session_uncertainties(s2, b, edition)
         doc = build_certificate(s, result, as_left=s2, tables=tables, tolerance=tol,
-                                uncertainties=uncs, as_left_uncertainties=als,
-                                optics_budget=b, edition=edition)
+                                optics_budget=bud, edition=edition, evaluation=ev,
+                                as_left_evaluation=ev_left)
         for w in doc["warnings"]:
             if w.startswith("EXPIRED"):
                 err_console.print(f"[yellow]warning[/] certificate: {w}", highlight=False)
@@ -160,7 +163,7 @@ def report_cmd(
         inputs = collect_inputs(s, result, edition=edition, compensation=compensation,
                                 tolerance=tol, force=force,
                                 model_label=("the model identified now" if model is None
-                                             else str(model)), budget=bud)
+                                             else str(model)), budget=bud, evaluation=ev)
         if history is not None:  # the history (SQLAlchemy) is loaded only here
             from volcal.history.previous import previous_section
 

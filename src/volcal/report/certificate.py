@@ -613,6 +613,10 @@ def _results(session: Any, ev: Any, with_model: bool, unc: dict[str, Any] | None
             vol.update(_systematic_statement(ev.volumetric))
         if model_digest is not None:
             vol["model_sha256"] = model_digest
+    if getattr(ev, "optics_evaluated", False) and getattr(ev, "budget", None) is optics_budget:
+        optics = None if ev.optics is None else direct_optics(session, optics_budget, ev.optics)
+    else:  # an evaluation without the optics, or of another budget
+        optics = direct_optics(session, optics_budget)
     return {"session": session.name if session.path is None else Path(session.path).name,
             "date": _measurement_date(session),
             "readings": sum(m.n for m in session.measurements),
@@ -622,7 +626,7 @@ def _results(session: Any, ev: Any, with_model: bool, unc: dict[str, Any] | None
             "volumetric": vol if with_model else None,
             "elv": ev.elv, "elv_source": ev.elv_source or None,
             "skipped": dict(ev.skipped),
-            "direct_optics": direct_optics(session, optics_budget)}
+            "direct_optics": optics}
 
 
 def _pairs(found: dict[str, Any], left: dict[str, Any]) -> list[dict[str, Any]]:
@@ -790,7 +794,9 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
                       optics_budget: Any = None,
                       edition: str = "2014",
                       issued: str | None = None, generator: str | None = None,
-                      technical_report: str | None = "report.pdf") -> dict[str, Any]:
+                      technical_report: str | None = "report.pdf",
+                      evaluation: Any = None,
+                      as_left_evaluation: Any = None) -> dict[str, Any]:
     """Build the certificate document (``volcal-certificate/1``) of a calibration.
 
     Parameters
@@ -842,6 +848,14 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
         Program that wrote the certificate (default ``volcal <version>``).
     technical_report : str, optional
         File name of the technical report issued with it (``report.pdf``), or None.
+    evaluation, as_left_evaluation : SessionEvaluation, optional
+        The one evaluation of each session (:func:`volcal.standards.session.
+        evaluate_session`; the as-found one with ``result`` and, for a volumetric
+        tolerance, ``work_zone_n``), as ``volcal report`` and
+        :meth:`volcal.Calibration.report` give them: the certificate states their values
+        and, when they were evaluated with a budget, their U (``uncertainties`` default to
+        :attr:`~volcal.standards.session.SessionEvaluation.with_budget`). Evaluated here
+        (without a budget) when omitted.
 
     Returns
     -------
@@ -883,8 +897,13 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
 
     from volcal.standards.model_uncertainty import has_covariance
 
-    ev = evaluate_session(session, result, edition,
-                          model_uncertainty=result is not None and has_covariance(result))
+    ev = evaluation
+    if ev is None:
+        ev = evaluate_session(session, result, edition,
+                              model_uncertainty=result is not None and has_covariance(result),
+                              optics=True)
+    if uncertainties is None:
+        uncertainties = getattr(ev, "with_budget", None) or None
     model_digest = None
     if result is not None:
         from volcal.compensate.manifest import errors_digest
@@ -894,8 +913,12 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
                      model_digest)
     left = None
     if as_left is not None:
-        left = _results(as_left, evaluate_session(as_left, None, edition), False,
-                        as_left_uncertainties, optics_budget)
+        ev_left = as_left_evaluation
+        if ev_left is None:
+            ev_left = evaluate_session(as_left, None, edition, optics=True)
+        if as_left_uncertainties is None:
+            as_left_uncertainties = getattr(ev_left, "with_budget", None) or None
+        left = _results(as_left, ev_left, False, as_left_uncertainties, optics_budget)
     if decision_rule is None:
         decision_rule = getattr(tolerance, "rule", None) or "simple"
     if guard_band_um is None:
@@ -909,11 +932,10 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
 
     vol_before = None
     if tolerance is not None and tolerance.volumetric_um is not None and result is not None:
-        from volcal.report.verdict import verdicts
-        from volcal.standards.model_uncertainty import has_covariance
         from volcal.standards.tolerance import Tolerance
+        from volcal.standards.verdict import verdicts
 
-        v = verdicts(Tolerance(tolerance.volumetric_um), None, result.errors, None, edition,
+        v = verdicts(Tolerance(tolerance.volumetric_um), ev, result.errors,
                      model=result if has_covariance(result) else None)[0]
         vol_before = (v.before_um, v.U_before_um)
 

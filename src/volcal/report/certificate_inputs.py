@@ -1,8 +1,10 @@
-"""What a certificate needs before it is built: whether one is issued, and the U of each test.
+"""What a certificate needs before it is built: whether one is issued, the model it states.
 
 One definition for ``volcal report`` and :meth:`volcal.Calibration.report` (the messages
 name the command line's options; the Python API re-words them with
-:func:`volcal.flowargs.python_names`).
+:func:`volcal.flowargs.python_names`). The results and their U are the session's one
+evaluation (:func:`volcal.standards.session.evaluate_session` with the budget; each test
+with its U: :attr:`volcal.standards.session.SessionEvaluation.with_budget`).
 """
 
 from __future__ import annotations
@@ -11,70 +13,6 @@ from pathlib import Path
 from typing import Any
 
 from volcal.errors import VolcalInputError
-
-
-class EvaluatedWithBudget:
-    """A test evaluated with a budget: the corrected results and their U (one dict).
-
-    Parameters
-    ----------
-    res : Iso2302Result or DiagonalResult
-        Results of the readings (the same values as without a budget).
-    unc : object with ``to_dict()``
-        Their uncertainties (``U_<key>``, ``k``).
-    corrections : dict or None
-        What the budget did (ISO 230-2 tests: nothing corrected, the readings' record).
-    """
-
-    def __init__(self, res: Any, unc: Any, corrections: Any) -> None:
-        self.res, self.unc, self.corrections = res, unc, corrections
-
-    def to_dict(self) -> dict:
-        """Parameters of the readings, ``U_<key>``, ``k``, ``corrections``."""
-        out = {**self.res.to_dict(), **self.unc.to_dict()}
-        if self.corrections is not None:
-            out["corrections"] = self.corrections
-        return out
-
-
-def session_uncertainties(session: Any, budget: Any, edition: str) -> dict[str, Any]:
-    """ISO 230-2 (ISO 230-6) of every linear test (diagonal) of a session with a budget.
-
-    The values are those of the readings as the session refers them to 20 C (the same as
-    without a budget: the budget gives the U only), each session at its own recorded
-    environment (an as-left session at its own material temperature).
-
-    Parameters
-    ----------
-    session : Session
-        The session with readings.
-    budget : Budget
-        The uncertainty budget (:func:`volcal.uncertainty.budget.read_budget`).
-    edition : str
-        ISO 230-2 edition.
-
-    Returns
-    -------
-    dict of str to EvaluatedWithBudget
-        By measurement id.
-    """
-    from volcal.standards.iso230_2_uncertainty import evaluate_with_budget
-    from volcal.standards.iso230_6_uncertainty import evaluate_diagonal_with_budget
-    from volcal.standards.positioning_data import from_measurement
-    from volcal.standards.session import evaluate_session
-
-    by_id = {m.id: m for m in session.measurements}
-    out: dict[str, Any] = {}
-    ev = evaluate_session(session, edition=edition)
-    for k in ev.iso230_2:
-        res, unc, corr = evaluate_with_budget(from_measurement(by_id[k], session.path), budget,
-                                              edition)
-        out[k] = EvaluatedWithBudget(res, unc, corr)
-    for k in ev.iso230_6:
-        res, dunc = evaluate_diagonal_with_budget(by_id[k], budget, edition)
-        if dunc is not None:
-            out[k] = EvaluatedWithBudget(res, dunc, None)
-    return out
 
 
 def has_systematic(result: Any) -> bool:

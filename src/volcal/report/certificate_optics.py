@@ -46,7 +46,8 @@ def _f(x: Any) -> float | None:
     return v if math.isfinite(v) else None
 
 
-def direct_optics(session: Any, budget: Any = None) -> dict[str, Any] | None:
+def direct_optics(session: Any, budget: Any = None,
+                  evaluation: dict[str, Any] | None = None) -> dict[str, Any] | None:
     """The direct optics' results of one session, as stated on the certificate.
 
     Parameters
@@ -56,6 +57,10 @@ def direct_optics(session: Any, budget: Any = None) -> dict[str, Any] | None:
     budget : Budget, optional
         Uncertainty budget (its ``[optics]`` section, data-sheet defaults when absent);
         without it every ``U`` and ``k`` is null.
+    evaluation : dict, optional
+        The optics of the session's evaluation with this ``budget``
+        (:attr:`volcal.standards.session.SessionEvaluation.optics`): formatted as given;
+        evaluated here (:func:`volcal.standards.session.optics_evaluation`) when omitted.
 
     Returns
     -------
@@ -78,15 +83,14 @@ def direct_optics(session: Any, budget: Any = None) -> dict[str, Any] | None:
           uncertainty, ``u_square_source``: ``'references.NAME'`` or ``'default'``).
     """
     from volcal.session.optics import DEFAULT_U_SQUARE_URAD
-    from volcal.standards.optics import evaluate_optics
 
-    ev = evaluate_optics(session)
-    if not (ev["straightness"] or ev["angular"]):
+    ev = evaluation
+    if ev is None:
+        from volcal.standards.session import optics_evaluation
+
+        ev = optics_evaluation(session, budget)
+    if ev is None or not (ev["straightness"] or ev["angular"]):
         return None
-    if budget is not None:
-        from volcal.standards.optics_uncertainty import add_optics_uncertainty, optics_uncertainty
-
-        add_optics_uncertainty(ev, optics_uncertainty(session, budget, ev))
     ref = REFERENCE_LINE
     st = []
     for mid, r in ev["straightness"].items():

@@ -22,16 +22,14 @@ def optics_section(inp) -> Section | None:
     Section or None
         None when the session has no measured straightness or angular measurement.
     """
-    from volcal.standards.optics import evaluate_optics
-
-    ev = evaluate_optics(inp.session)
-    if not (ev["straightness"] or ev["angular"]):
-        return None
     b = getattr(inp, "budget", None)
-    if b is not None:  # as `volcal evaluate optics --budget`: U beside each result
-        from volcal.standards.optics_uncertainty import add_optics_uncertainty, optics_uncertainty
+    ev = getattr(getattr(inp, "evaluation", None), "optics", None)
+    if not getattr(getattr(inp, "evaluation", None), "optics_evaluated", False):
+        from volcal.standards.session import optics_evaluation
 
-        add_optics_uncertainty(ev, optics_uncertainty(inp.session, b, ev))
+        ev = optics_evaluation(inp.session, b)
+    if ev is None or not (ev["straightness"] or ev["angular"]):
+        return None
 
     def u(r, key, nd):
         return [fmt(r[key], nd)] if b is not None else []

@@ -93,7 +93,8 @@ def compensation_summary(result: Any, travel: Any, truth: MachineErrors | None =
                          folder: str | Path | None = None, n: int = 11,
                          tolerance: Any = None, session: Session | None = None,
                          edition: str = "2014", force: bool = False,
-                         model_label: str = "the model in use") -> CompensationSummary:
+                         model_label: str = "the model in use",
+                         evaluation: Any = None) -> CompensationSummary:
     """Summarise the compensation of a model: the files written and the error they leave.
 
     Parameters
@@ -123,6 +124,10 @@ def compensation_summary(result: Any, travel: Any, truth: MachineErrors | None =
         refusing them (:func:`volcal.compensate.manifest.check_manifest`).
     model_label : str
         How warnings name the model in use.
+    evaluation : SessionEvaluation, optional
+        The session's one evaluation (:func:`volcal.standards.session.evaluate_session`):
+        the values the verdict judges. Without it, and with ``session`` and a per-axis
+        tolerance, the session is evaluated here (with ``tolerance.budget``).
 
     Returns
     -------
@@ -138,8 +143,8 @@ def compensation_summary(result: Any, travel: Any, truth: MachineErrors | None =
     from volcal.compensate.readback import read_written_tables
     from volcal.model.kinematics import volumetric_error
     from volcal.report.carried import table_set_from_manifest
-    from volcal.report.verdict import verdicts, work_zone_grid
     from volcal.standards.model_uncertainty import has_covariance
+    from volcal.standards.verdict import verdicts, work_zone_grid
 
     manifest: dict[str, Any] = {}
     tables = written = None
@@ -169,9 +174,15 @@ def compensation_summary(result: Any, travel: Any, truth: MachineErrors | None =
         tmodel = _norms(et - e)[0]
         if corr is not None:
             tres, trms = _norms(et - corr)
-    vs = [] if tolerance is None else verdicts(tolerance, session, result.errors, written,
-                                                edition, n, model=result
-                                                if has_covariance(result) else None)
+    if (tolerance is not None and evaluation is None and session is not None
+            and (tolerance.axis_um or tolerance.parameters)):
+        from volcal.standards.session import evaluate_session
+
+        evaluation = evaluate_session(session, None, edition,
+                                      budget=getattr(tolerance, "budget", None))
+    vs = [] if tolerance is None else verdicts(tolerance, evaluation, result.errors, written,
+                                                n, model=result if has_covariance(result)
+                                                else None, session=session)
     return CompensationSummary(None if folder is None else Path(folder), manifest, tables,
                                model_max, model_rms, left_max, left_rms,
                                float(2.0 * np.linalg.norm(u, axis=1).max()), tmax, tmodel,
@@ -200,7 +211,7 @@ def collect_inputs(session: Session, result: Any = None, truth: MachineErrors | 
                    edition: str = "2014", compensation: str | Path | None = None,
                    tolerance: Any = None, force: bool = False,
                    model_label: str = "the model in use", budget: Any = None,
-                   model_uncertainty: bool = True) -> ReportInputs:
+                   model_uncertainty: bool = True, evaluation: Any = None) -> ReportInputs:
     """Evaluate the session and its model for the report.
 
     Parameters
@@ -231,42 +242,33 @@ def collect_inputs(session: Session, result: Any = None, truth: MachineErrors | 
     model_uncertainty : bool
         U of the model's volumetric indices, straightness and squareness
         (:mod:`volcal.standards.model_uncertainty`, about a second).
+    evaluation : SessionEvaluation, optional
+        The session's one evaluation (:func:`volcal.standards.session.evaluate_session`
+        with ``result`` and ``budget``), as the front doors give it; evaluated here when
+        omitted. The report formats it and never evaluates a test again.
 
     Returns
     -------
     ReportInputs
     """
-    from volcal.standards.model_uncertainty import has_covariance
-    from volcal.standards.session import evaluate_session
+    ev = evaluation
+    if ev is None:
+        from volcal.standards.model_uncertainty import has_covariance
+        from volcal.standards.session import evaluate_session
 
-    ev = evaluate_session(session, result, edition,
-                          model_uncertainty=model_uncertainty and has_covariance(result))
-    uncs: dict[str, Any] = {}
-    diag_uncs: dict[str, Any] = {}
-    corr_text = ""
-    if budget is not None:
-        from volcal.standards.iso230_2_uncertainty import evaluate_with_budget
-        from volcal.standards.positioning_data import from_measurement
-
-        for mid in list(ev.iso230_2):
-            res, uncs[mid], corr = evaluate_with_budget(
-                from_measurement(session.get(mid), session.path), budget, edition)
-            ev.iso230_2[mid] = res
-            corr_text = corr["text"].split("; correction at")[0]
-        from volcal.standards.iso230_6_uncertainty import evaluate_diagonal_with_budget
-
-        for mid in list(ev.iso230_6):
-            res, dunc = evaluate_diagonal_with_budget(session.get(mid), budget, edition)
-            if dunc is not None:
-                ev.iso230_6[mid], diag_uncs[mid] = res, dunc
+        ev = evaluate_session(session, result, edition,
+                              model_uncertainty=model_uncertainty and has_covariance(result),
+                              budget=budget, optics=True)
     if truth is None:
         truth = read_truth(session)
     comp = None
     if result is not None:
         comp = compensation_summary(result, session.travel, truth, compensation,
                                     tolerance=tolerance, session=session, edition=edition,
-                                    force=force, model_label=model_label)
+                                    force=force, model_label=model_label, evaluation=ev)
     return ReportInputs(session, result, truth, ev.iso230_2 or None, ev.iso230_6 or None,
-                        ev.volumetric, comp, elv=ev.elv, budget=budget,
-                        iso230_2_uncertainty=uncs or None, corrections=corr_text,
-                        iso230_6_uncertainty=diag_uncs or None)
+                        ev.volumetric, comp, elv=ev.elv, budget=ev.budget,
+                        iso230_2_uncertainty=ev.uncertainties or None,
+                        corrections=ev.corrections_text,
+                        iso230_6_uncertainty=ev.diagonal_uncertainties or None,
+                        evaluation=ev)

@@ -69,6 +69,9 @@ class ReportInputs:
         What the budget applied to the readings before evaluation (a sentence).
     iso230_6_uncertainty : mapping of str to DiagonalUncertainty, optional
         U of every diagonal's E_D, by measurement id [um].
+    evaluation : SessionEvaluation, optional
+        The session's one evaluation (:func:`volcal.standards.session.evaluate_session`)
+        the fields above come from; its ``optics`` feed the direct-optics section.
     """
 
     session: Session
@@ -84,6 +87,7 @@ class ReportInputs:
     iso230_2_uncertainty: Mapping[str, Any] | None = None
     corrections: str = ""
     iso230_6_uncertainty: Mapping[str, Any] | None = None
+    evaluation: Any = None
 
 
 def machine_section(inp: ReportInputs) -> Section:

@@ -31,8 +31,8 @@ from dataclasses import dataclass
 
 from volcal.errors import VolcalInputError
 
-__all__ = ["RULES", "RULE_TEXT", "VERDICTS", "Decision", "check_rule", "combine",
-           "conformity_verdict", "decide"]
+__all__ = ["RULES", "RULE_TEXT", "VERDICTS", "Decision", "check_acceptance", "check_rule",
+           "combine", "conformity_verdict", "decide", "require_uncertainty"]
 
 RULES: tuple[str, ...] = ("simple", "guarded")
 VERDICTS: tuple[str, ...] = ("pass", "fail", "conditional")
@@ -75,6 +75,72 @@ def check_rule(rule: str, option: str = "--decision-rule") -> str:
     return r
 
 
+def check_acceptance(rule: str, guard_band_um: float | None = None,
+                     option: str = "--decision-rule") -> str:
+    """Validate a decision rule with its guard band, once, where they are given.
+
+    Parameters
+    ----------
+    rule : str
+        ``'simple'`` or ``'guarded'`` (case-insensitive).
+    guard_band_um : float, optional
+        Guard band w [um]: only with the guarded rule, finite and >= 0.
+    option : str
+        Name of the rule in the error.
+
+    Returns
+    -------
+    str
+        The rule, lower case.
+
+    Raises
+    ------
+    VolcalInputError
+        Unknown rule; a guard band with the simple rule; a negative or non-finite guard
+        band.
+    """
+    r = check_rule(rule, option)
+    if guard_band_um is not None:
+        _guard_band(guard_band_um)
+        if r != "guarded":
+            raise VolcalInputError("--guard-band-um applies to --decision-rule guarded",
+                                   column="--guard-band-um")
+    return r
+
+
+def require_uncertainty(rule: str, guard_band_um: float | None, have_U: bool,
+                        what: str = "") -> None:
+    """Refuse the guarded rule when there is neither an expanded uncertainty nor a guard band.
+
+    Parameters
+    ----------
+    rule : str
+        The (checked) rule.
+    guard_band_um : float or None
+        Guard band w [um].
+    have_U : bool
+        Whether the values carry their expanded uncertainty U (a budget was given).
+    what : str
+        What is judged, for the message (``' on the volumetric tolerance (V)'``).
+
+    Raises
+    ------
+    VolcalInputError
+        ``rule == 'guarded'`` with no U and no guard band.
+    """
+    if rule == "guarded" and guard_band_um is None and not have_U:
+        raise VolcalInputError(f"--decision-rule guarded{what} needs the expanded uncertainty "
+                               "(--budget FILE) or a guard band (--guard-band-um W)",
+                               column="--decision-rule")
+
+
+def _guard_band(w: float) -> float:
+    if isinstance(w, bool) or not isinstance(w, int | float) or not math.isfinite(w) or w < 0:
+        raise VolcalInputError(f"guard band {w!r} must be a finite number >= 0 um",
+                               column="--guard-band-um")
+    return float(w)
+
+
 @dataclass(frozen=True)
 class Decision:
     """The outcome of a decision rule.
@@ -113,7 +179,7 @@ class Decision:
 
 
 def decide(value: float, tolerance: float, rule: str = "simple", U: float | None = None,
-           guard_band: float | None = None) -> Decision:
+           guard_band: float | None = None, *, without_U: str = "refuse") -> Decision:
     """Apply a decision rule to a value with an upper tolerance.
 
     Parameters
@@ -129,6 +195,10 @@ def decide(value: float, tolerance: float, rule: str = "simple", U: float | None
         unless ``guard_band`` is given.
     guard_band : float, optional
         Guard band w [um], overriding ``U``.
+    without_U : {'refuse', 'conditional'}
+        The guarded rule with neither ``U`` nor ``guard_band``: refused (``'refuse'``:
+        the verdicts of ``evaluate`` and the report), or stated ``'conditional'`` (no
+        pass can be proven; ``'fail'`` above T: the certificate's statements).
 
     Returns
     -------
@@ -137,8 +207,8 @@ def decide(value: float, tolerance: float, rule: str = "simple", U: float | None
     Raises
     ------
     VolcalInputError
-        Unknown rule; a guarded rule with neither ``U`` nor ``guard_band``; a negative
-        or non-finite guard band.
+        Unknown rule; a guarded rule with neither ``U`` nor ``guard_band`` (``without_U
+        = 'refuse'``); a negative or non-finite guard band.
 
     Examples
     --------
@@ -157,13 +227,17 @@ def decide(value: float, tolerance: float, rule: str = "simple", U: float | None
     elif U is not None:
         w = float(U)
         src = "U"
+    elif without_U == "conditional":
+        if v > t:
+            return Decision("fail", rule, v, t, math.nan, math.nan)
+        return Decision("conditional", rule, v, t, math.nan, math.nan,
+                        "guarded rule without an expanded uncertainty or guard band: no "
+                        "pass can be stated")
     else:
         raise VolcalInputError("the guarded decision rule needs the expanded uncertainty "
                                "(--budget FILE) or a guard band (--guard-band-um W)",
                                column="--decision-rule")
-    if not math.isfinite(w) or w < 0:
-        raise VolcalInputError(f"guard band {w!r} must be a finite number >= 0 um",
-                               column="--guard-band-um")
+    _guard_band(w)
     limit = t - w
     note = ""
     if w >= t:
@@ -207,9 +281,9 @@ def conformity_verdict(value_um: float, tolerance_um: float, rule: str = "simple
     """Statement of conformity of one value with a decision rule.
 
     The rules are :func:`decide`'s (one definition for ``evaluate``, the report and the
-    certificate); this wrapper only adds the certificate's case of a guarded rule without
-    any U or guard band, which is stated as ``conditional`` (no pass can be proven) instead
-    of refused.
+    certificate), with the certificate's case of a guarded rule without any U or guard
+    band stated as ``conditional`` (no pass can be proven) instead of refused
+    (``decide(..., without_U='conditional')``).
 
     Parameters
     ----------
@@ -236,12 +310,5 @@ def conformity_verdict(value_um: float, tolerance_um: float, rule: str = "simple
         Why, when the rule could not give a pass (w >= T, or no U) or the value lies in
         the guard band.
     """
-    if str(rule).strip().lower() not in RULES:
-        raise VolcalInputError(f"unknown decision rule {rule!r}: expected simple or guarded")
-    if str(rule).strip().lower() == "guarded" and U_um is None and guard_band_um is None:
-        if value_um > tolerance_um:
-            return "fail", ""
-        return "conditional", ("guarded rule without an expanded uncertainty or guard "
-                               "band: no pass can be stated")
-    d = decide(value_um, tolerance_um, rule, U_um, guard_band_um)
+    d = decide(value_um, tolerance_um, rule, U_um, guard_band_um, without_U="conditional")
     return d.verdict, d.note

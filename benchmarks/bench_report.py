@@ -1,0 +1,69 @@
+"""``volcal report`` plain and with a budget, a tolerance and a certificate (issue 25).
+
+The session is the default plan (``volcal plan``: the seeds' full test set, chain XYFZ)
+simulated with ``volcal simulate --seed 3``, identified once with ``--budget`` (the
+budget is ``volcal budget --template``); both reports use that model file, so the rows
+time the report alone: the plain one (``volcal report S --model M -o R``) and the one
+with ``--budget B --tolerance-um X=10,Y=10,Z=8,V=15 --certificate``, which evaluates
+every test once with its U (:func:`volcal.standards.session.evaluate_session`) and
+formats the same evaluation into the report, the verdict and the certificate. Target
+(issue 25): the second at most 1.5 times the first. Each command is a whole process,
+``REPEAT`` times after one warm-up run (:func:`bench_cli.timed`): median wall-clock, and
+the median CPU time of the child in the note; the ratio is taken on CPU time, which a
+busy shared machine inflates less than wall-clock.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+from bench_cli import _run_once, timed
+
+REPEAT = 3
+TOLERANCE = "X=10,Y=10,Z=8,V=15"
+
+
+def _budget(path: Path) -> None:
+    from volcal.uncertainty.budget import template_text
+
+    path.write_text(template_text(), encoding="utf-8")
+
+
+def run() -> list[dict]:
+    """Time the plain report and the report with budget, tolerance and certificate."""
+    rows = []
+    tmp = Path(tempfile.mkdtemp(prefix="volcal-bench-report-"))
+    try:
+        s, m, b = tmp / "S", tmp / "model.json", tmp / "budget.toml"
+        _run_once(["plan", "-o", str(s)])
+        _run_once(["simulate", str(s), "--seed", "3"])
+        _budget(b)
+        _run_once(["identify", str(s), "-o", str(m), "--budget", str(b)])
+        load0 = os.getloadavg()[0]
+        plain_w, plain_c = timed(["report", str(s), "--model", str(m), "-o",
+                                  str(tmp / "R1")], REPEAT)
+        full_w, full_c = timed(["report", str(s), "--model", str(m), "-o", str(tmp / "R2"),
+                                "--budget", str(b), "--tolerance-um", TOLERANCE,
+                                "--certificate"], REPEAT)
+        load = os.getloadavg()[0]
+        rows.append({"benchmark": "volcal report (plain)", "size": "default plan, seed 3",
+                     "seconds": plain_w,
+                     "note": f"cpu {plain_c:.2f} s; load {load0:.1f} -> {load:.1f}"})
+        rows.append({"benchmark": "volcal report --budget --tolerance-um --certificate",
+                     "size": "default plan, seed 3", "seconds": full_w,
+                     "note": f"cpu {full_c:.2f} s; {full_c / plain_c:.2f}x the plain "
+                             f"report's CPU ({full_w / plain_w:.2f}x wall)"})
+        rows.append({"benchmark": "report with budget+tolerance+certificate / plain, CPU",
+                     "size": "ratio", "seconds": full_c / plain_c, "target_s": 1.5,
+                     "note": "target: at most 1.5 (issue 25)"})
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return rows
+
+
+if __name__ == "__main__":
+    for row in run():
+        print(row)

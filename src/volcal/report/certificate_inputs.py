@@ -15,6 +15,34 @@ from typing import Any
 from volcal.errors import VolcalInputError
 
 
+def session_uncertainties(session: Any, budget: Any, edition: str) -> dict[str, Any]:
+    """ISO 230-2 (ISO 230-6) of every linear test (diagonal) of a session with its U.
+
+    The session's one evaluation with the budget
+    (:func:`volcal.standards.session.evaluate_session`), each test's results and U
+    together (:attr:`volcal.standards.session.SessionEvaluation.with_budget`); ``volcal
+    report`` and :meth:`volcal.Calibration.report` hand that evaluation to the
+    certificate instead.
+
+    Parameters
+    ----------
+    session : Session
+        The session with readings.
+    budget : Budget
+        The uncertainty budget (:func:`volcal.uncertainty.budget.read_budget`).
+    edition : str
+        ISO 230-2 edition.
+
+    Returns
+    -------
+    dict of str to EvaluatedWithBudget
+        By measurement id.
+    """
+    from volcal.standards.session import evaluate_session
+
+    return evaluate_session(session, None, edition, budget=budget).with_budget
+
+
 def has_systematic(result: Any) -> bool:
     """Whether an identified model carries the systematic part of a budget.
 

@@ -56,6 +56,19 @@ class Spy:
         monkeypatch.setattr(verdict, "_after", after)
 
 
+def _model_file(r, folder: Path, budget_file: Path | None = None) -> Path:
+    """MODEL.json of the result; with a budget, identified with it (as ``volcal identify
+    --budget``: the certificate refuses a model without the budget's systematic part)."""
+    if budget_file is not None:
+        from volcal.report.certificate_inputs import certificate_model
+        from volcal.uncertainty.budget import read_budget
+
+        r = certificate_model(r, read_budget(budget_file), budget_file)
+    model = folder / "model.json"
+    r.to_json(model)
+    return model
+
+
 def _files(session, kind: str) -> Counter:
     """Each measured test of a kind, once (the expected count): by file or by id."""
     return Counter((Path(session.path) / m.file).resolve() if kind == "linear" else m.id
@@ -103,8 +116,7 @@ def test_calibration_report_evaluates_each_test_once(identified, budget_file, as
 def test_volcal_report_evaluates_each_test_once(identified, budget_file, tmp_path,
                                                 monkeypatch, capsys):
     s, r = identified
-    model = tmp_path / "model.json"
-    r.to_json(model)
+    model = _model_file(r, tmp_path, budget_file)
     spy = Spy(monkeypatch)
     code, out, err = run_volcal(monkeypatch, capsys, "report", str(s.path), "--model",
                                 str(model), "-o", str(tmp_path / "rep"), "--certificate",
@@ -124,8 +136,7 @@ def test_the_after_compensation_readings_are_evaluated_apart(identified, budget_
     from volcal.compensate.formats import CompensationOptions, write_compensation
 
     s, r = identified
-    model = tmp_path / "model.json"
-    r.to_json(model)
+    model = _model_file(r, tmp_path, budget_file)
     write_compensation(r.errors, "heidenhain", tmp_path / "comp",
                        CompensationOptions("error", 25.0), "model.json")
     spy = Spy(monkeypatch)
@@ -149,8 +160,7 @@ def test_compensate_session_checks_before_and_after_apart(identified, tmp_path, 
     of two sets of readings), and the reversal of one line per axis for the reverse
     tables (:func:`volcal.compensate.bidirectional.directional_from_session`)."""
     s, r = identified
-    model = tmp_path / "model.json"
-    r.to_json(model)
+    model = _model_file(r, tmp_path)
     spy = Spy(monkeypatch)
     code, out, err = run_volcal(monkeypatch, capsys, "compensate", str(model), "--format",
                                 "linuxcnc", "-o", str(tmp_path / "comp"), "--session",
@@ -173,8 +183,7 @@ def test_volcal_evaluate_session_evaluates_each_test_once(identified, budget_fil
     import json
 
     s, r = identified
-    model = tmp_path / "model.json"
-    r.to_json(model)
+    model = _model_file(r, tmp_path, budget_file)
     spy = Spy(monkeypatch)
     code, out, err = run_volcal(monkeypatch, capsys, "evaluate", "session", str(s.path),
                                 "--json", "--model", str(model), "--budget", str(budget_file),

@@ -63,10 +63,12 @@ test: $(STAMP) bytecode browser-deps linuxcnc-deps postgres-deps
 	$(BIN)/python -m pytest -n 2 --dist loadfile --no-loadscope-reorder -m "not slow"
 
 # ruff, then the import contracts of pyproject.toml (docs/architecture.md; make test runs
-# them too, tests/test_architecture.py)
+# them too, tests/test_architecture.py), then mypy on src/volcal ([tool.mypy] of
+# pyproject.toml; make test does not run it)
 lint: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks
 	$(BIN)/lint-imports --no-cache
+	$(BIN)/mypy
 
 demo: $(STAMP) bytecode
 	$(BIN)/volcal demo -o demo-output
@@ -83,4 +85,4 @@ study: $(STAMP)
 	$(BIN)/python benchmarks/families.py --machines 20 --markdown --quiet
 
 clean:
-	rm -rf $(VENV) demo-output .pytest_cache .ruff_cache .import_linter_cache
+	rm -rf $(VENV) demo-output .pytest_cache .ruff_cache .import_linter_cache .mypy_cache

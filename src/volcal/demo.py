@@ -115,8 +115,8 @@ def run_demo(folder: str | Path, seed: int = 7,
 
     on_step("writing compensation tables")
     comp_dir = folder / "compensation"
-    files = cal.compensate(comp_dir, format="grid", spacing=50.0)  # grid's sign: error
-    lines.append(f"compensate: 3-D error grid ({', '.join(files)}) -> {comp_dir}")
+    grid_files = cal.compensate(comp_dir, format="grid", spacing=50.0)  # grid's sign: error
+    lines.append(f"compensate: 3-D error grid ({', '.join(grid_files)}) -> {comp_dir}")
     on_done()
 
     on_step("evaluating to ISO 230-2 / 230-6")

@@ -137,6 +137,24 @@ def test_read_refuses_bad_files(tmp_path, machine):
         read_qif(bad, "XYFZ")
 
 
+def test_read_names_the_element_of_bad_numbers(tmp_path, machine):
+    """Text that is no number: a VolcalInputError naming the element (was a TypeError)."""
+    import re
+
+    from volcal.history.qif import read_qif, write_qif
+
+    text = write_qif(machine, tmp_path / "m.qif").read_text()
+    bad = tmp_path / "bad.qif"
+    bad.write_text(re.sub(r"<DomainValues>[^<]*<", "<DomainValues>0 ten 20<", text, count=1))
+    with pytest.raises(VolcalInputError, match="XLinearity: values that are not numbers") as e:
+        read_qif(bad, "XYFZ")
+    assert e.value.column == "XLinearity" and e.value.file == str(bad)
+    bad.write_text(re.sub(r"<(\w+Squareness\w*)>[^<]*</\1>", "", text, count=1))
+    with pytest.raises(VolcalInputError, match="Squareness.*None is not a number") as e:
+        read_qif(bad, "XYFZ")
+    assert "Squareness" in e.value.column
+
+
 def test_validates_against_qif3_xsd(tmp_path, machine):
     from volcal.history.qif import QifMachine, load_schema, validate_qif, write_qif
 

@@ -48,7 +48,8 @@ def generic_files(errors: MachineErrors, spacing: float, sign: str,
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(["axis", "point", "position_mm", f"{sign}_um"])
     for k in range(3):
-        p = axis_grid(*errors.travel[k], spacing, max_points=max_points, what=AXES[k])
+        lo, hi = errors.travel[k]
+        p = axis_grid(lo, hi, spacing, max_points=max_points, what=AXES[k])
         t = pitch_table(errors, k, p, sign, RESOLUTION_UM)
         for n, (pos, v) in enumerate(zip(p, t.values, strict=True)):
             w.writerow([AXES[k], n, f"{pos:.6f}", f"{v:.3f}"])

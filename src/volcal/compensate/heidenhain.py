@@ -103,7 +103,8 @@ def heidenhain_files(errors: MachineErrors, spacing: float, sign: str = DEFAULT_
     widths = [WIDTHS["NR"], WIDTHS["AXISPOS"], WIDTHS["VALUE"], WIDTHS["BACKLASH"]]
     for k in range(3):
         a = AXES[k]
-        p = axis_grid(*errors.travel[k], spacing, max_points=max_points, what=f"Heidenhain {a}")
+        lo, hi = errors.travel[k]
+        p = axis_grid(lo, hi, spacing, max_points=max_points, what=f"Heidenhain {a}")
         t = pitch_table(errors, k, p, sign, RESOLUTION_UM)
         half = directional.half_reversal(k, p) if directional is not None else 0.0 * p
         fwd = t.values + np.round(s * half / RESOLUTION_UM) * RESOLUTION_UM

@@ -104,7 +104,8 @@ def siemens_files(errors: MachineErrors, spacing: float, sign: str = DEFAULT_SIG
            "MD32710 $MA_CEC_ENABLE[AXi]=1 for each output axis, SD41300 "
            "$SN_CEC_TABLE_ENABLE[t]=1 (set below), NCK reset"]
     for k in range(3):
-        p = axis_grid(*errors.travel[k], spacing, max_points=max_points,
+        lo, hi = errors.travel[k]
+        p = axis_grid(lo, hi, spacing, max_points=max_points,
                       what=f"Siemens LEC {AXES[k]}")
         t = pitch_table(errors, k, p, sign, RESOLUTION_UM)
         ax = f"AX{k + 1}"
@@ -113,7 +114,8 @@ def siemens_files(errors: MachineErrors, spacing: float, sign: str = DEFAULT_SIG
                 f"$AA_ENC_COMP_MIN[0,{ax}]={p[0]:.6f}", f"$AA_ENC_COMP_MAX[0,{ax}]={p[-1]:.6f}",
                 f"$AA_ENC_COMP_IS_MODULO[0,{ax}]=0"]
     for ti, (a_in, a_out) in enumerate(CEC_PAIRS):
-        p = axis_grid(*errors.travel[a_in], spacing, max_points=max_points,
+        lo, hi = errors.travel[a_in]
+        p = axis_grid(lo, hi, spacing, max_points=max_points,
                       what=f"Siemens CEC {AXES[a_in]}")
         t = cross_table(errors, a_in, a_out, p, sign, RESOLUTION_UM, include_squareness)
         cec.append(f"; table {ti}: {t.name}")

@@ -126,7 +126,7 @@ def axis_grid(lo: float, hi: float, spacing: float, anchor: float | None = None,
             " mm or more (or raise --max-points if your control allows)")
     if n > 1_000_000:
         raise VolcalInputError(f"{what}: {n} points; the spacing is too small")
-    return a + spacing * np.arange(j0, j1 + 1)
+    return a + spacing * np.arange(j0, j1 + 1, dtype=np.float64)
 
 
 def require_finite(values: NDArray[np.float64], positions: NDArray[np.float64] | None,

@@ -30,6 +30,7 @@ import io
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import NDArray
 
 from volcal.compensate.tables import (
     axis_grid,
@@ -93,7 +94,8 @@ def isg_files(errors: MachineErrors, spacing: float, sign: str = ISG_DEFAULT_SIG
                   RESOLUTION) * 1e-6
     lines.append(" ".join(f"{x:<16.9e}" for x in sq).strip())
     for k in range(3):
-        p = axis_grid(*errors.travel[k], spacing, max_points=max_points, what=AXES[k])
+        lo, hi = errors.travel[k]
+        p = axis_grid(lo, hi, spacing, max_points=max_points, what=AXES[k])
         v = quantize(s * require_finite(errors.component(k, p), p, f"ISG {AXES[k]} axis"),
                      RESOLUTION)
         v = v * np.array([1e-3, 1e-3, 1e-3, 1e-6, 1e-6, 1e-6])
@@ -179,13 +181,15 @@ def read_isg(path: str | Path) -> tuple[MachineErrors, str]:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise VolcalInputError(f"cannot read ({exc.__class__.__name__})", path) from None
-    meta = {}
+    meta: dict[str, str] = {}
     for raw in text.splitlines():
         if raw.startswith("//") and ":" in raw:
-            k, v = raw[2:].split(":", 1)
-            meta[k.strip()] = v.strip().split()[0] if v.strip() else ""
+            key, val = raw[2:].split(":", 1)
+            meta[key.strip()] = val.strip().split()[0] if val.strip() else ""
     chain = meta.get("kinematic chain (workpiece -> tool, F = frame)", "XYFZ")
-    nodes, values, sq = [None] * 3, [None] * 3, None
+    nodes: list[NDArray[np.float64] | None] = [None] * 3
+    values: list[NDArray[np.float64] | None] = [None] * 3
+    sq: NDArray[np.float64] | None = None
     isg_sq = [ISG_POSITION_NAMES[n] for n in SQUARENESS_NAMES]
     for b in parse_isg_csv(text, path):
         head = list(b)
@@ -204,9 +208,12 @@ def read_isg(path: str | Path) -> tuple[MachineErrors, str]:
             values[k] = v * np.array([1e3, 1e3, 1e3, 1e6, 1e6, 1e6])
         else:
             raise VolcalInputError(f"unknown block header {' '.join(head)}", path)
-    if any(n is None for n in nodes) or sq is None:
+    got_nodes = [n for n in nodes if n is not None]
+    got_values = [v for v in values if v is not None]
+    if len(got_nodes) < 3 or len(got_values) < 3 or sq is None:
         raise VolcalInputError("blocks X, Y, Z and the position-error block are required", path)
-    return (MachineErrors(chain, nodes, values, sq, name=path.stem), meta.get("sign", "error"))
+    return (MachineErrors(chain, got_nodes, got_values, sq, name=path.stem),
+            meta.get("sign", "error"))
 
 
 def grid_files(errors: MachineErrors, spacing: float, sign: str, tool_offset=None,

@@ -7,6 +7,7 @@
 
 from __future__ import annotations
 
+import builtins
 from pathlib import Path
 from typing import Any
 
@@ -118,7 +119,8 @@ class History:
         payload = {"machine": ident.to_dict(), "calibration": dict(s.calibration, date=when),
                    "source": "etalon exchange file", "file": path.name,
                    "not_mapped": sorted(data.other), "k": 2.0}
-        results = [(n, v, None, "urad") for n, v in sorted(data.squareness.items())]
+        results: builtins.list[tuple[str, float | None, float | None, str]] = [
+            (n, v, None, "urad") for n, v in sorted(data.squareness.items())]
         rec = NewRecord("calibration", payload, date=when, results=results,
                         files=[("etalon", path.name, path.read_bytes())])
         return self.store.append(rec, check=self._machine_of(ident, machine))
@@ -158,7 +160,9 @@ class History:
         """Every record in order (``superseded_by`` set)."""
         return self.store.records()
 
-    def calibrations(self, machine: str | None = None, current: bool = True) -> list[Record]:
+    # `list` below is the method above, hence builtins.list
+    def calibrations(self, machine: str | None = None,
+                     current: bool = True) -> builtins.list[Record]:
         """Calibration records, oldest first: by date of measurement (then as stored).
 
         Parameters
@@ -174,7 +178,7 @@ class History:
                         and (mid is None or r.machine_id == mid)
                         and (not current or r.superseded_by is None)])
 
-    def machine_id(self, machine: str, records: list[Record] | None = None) -> str:
+    def machine_id(self, machine: str, records: builtins.list[Record] | None = None) -> str:
         """Machine record id of a machine given by id or name.
 
         Parameters

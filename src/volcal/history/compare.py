@@ -117,13 +117,10 @@ def load_record_model(store: Any, rid: str) -> Any:
     if not any(f["role"] == "model" for f in names):
         return None
     with tempfile.TemporaryDirectory(prefix="volcal-history-") as tmp:
-        main = None
         for f in names:
-            p = Path(tmp) / f["name"]
-            p.write_bytes(store.file(rid, f["role"], f["name"]))
-            if f["role"] == "model":
-                main = p
-        return load_model(main)
+            (Path(tmp) / f["name"]).write_bytes(store.file(rid, f["role"], f["name"]))
+        main = [f["name"] for f in names if f["role"] == "model"][-1]
+        return load_model(Path(tmp) / main)
 
 
 def prior_precision(model: Any) -> Any:

@@ -86,7 +86,9 @@ def read_etalon(path: str | Path) -> EtalonFile:
                                path) from None
     names = _iso_names()
     out = EtalonFile()
-    block, rows, in_grid, start = None, [], False, 0
+    block: str | None = None
+    rows: list[tuple[float, float]] = []
+    in_grid, start = False, 0
     seen: set[str] = set()
 
     def close(lineno: int) -> None:
@@ -101,6 +103,7 @@ def read_etalon(path: str | Path) -> EtalonFile:
         if not line:
             continue
         if in_grid:
+            assert block is not None  # a Gridpoints table opens only inside a [block]
             if line.startswith("}"):
                 in_grid = False
                 pos, val = (np.array(c, dtype=float) for c in zip(*rows, strict=True)) \

@@ -163,7 +163,7 @@ def _datetime(d: str) -> str:
 
 
 def qif_tree(errors: Any, machine: QifMachine | None = None, source: str = "volcal",
-             qpid: str | None = None) -> ET.ElementTree:
+             qpid: str | None = None) -> ET.ElementTree[ET.Element]:
     """The ``QIFDocument`` of a machine's errors.
 
     Parameters
@@ -218,10 +218,10 @@ def qif_tree(errors: Any, machine: QifMachine | None = None, source: str = "volc
     fps = _sub(acc, "CartesianCMMFPSTest")
     for tag, _name, k, c in FUNCTIONS:
         x = np.asarray(errors.nodes[k], dtype=float)
-        v = np.asarray(errors.values[k][:, c], dtype=float)
+        y = np.asarray(errors.values[k][:, c], dtype=float)
         f = _sub(fps, tag, n=str(x.size))
         _sub(f, "DomainValues", _nums(x))
-        _sub(f, "RangeValues", _nums(v))
+        _sub(f, "RangeValues", _nums(y))
         _sub(f, "DomainLinearUnit", "mm")
         _sub(f, "RangeLinearUnit" if c < 3 else "RangeAngularUnit", _LEN if c < 3 else _ANG)
     sq = np.asarray(errors.squareness, dtype=float)
@@ -231,7 +231,7 @@ def qif_tree(errors: Any, machine: QifMachine | None = None, source: str = "volc
         _sub(fps, tag, repr(sign * float(sq[SQUARENESS_NAMES.index(name)]) * 1e-6))
     src = _sub(acc, "AccuracySource")
     _sub(src, "OtherAccuracySource", f"laser-interferometer calibration ({source})")
-    tree = ET.ElementTree(root)
+    tree: ET.ElementTree[ET.Element] = ET.ElementTree(root)
     ET.indent(tree, space=" ")
     return tree
 
@@ -310,7 +310,7 @@ def read_qif(path: str | Path, chain: str, name: str = "qif") -> Any:
             v = np.array((e.findtext(_q("RangeValues")) or "").split(), dtype=float)
         except ValueError:
             raise VolcalInputError(f"{tag}: values that are not numbers", path,
-                                   key=tag) from None
+                                   column=tag) from None
         if x.size != int(e.get("n", -1)) or v.size != x.size or x.size < 1:
             raise VolcalInputError(f"{tag}: n={e.get('n')} but {x.size} domain and "
                                    f"{v.size} range values", path, column=tag)
@@ -334,8 +334,10 @@ def read_qif(path: str | Path, chain: str, name: str = "qif") -> Any:
     for tag, nm, sign in SQUARENESS:
         t = fps.findtext(_q(tag))
         try:
+            if t is None:
+                raise ValueError(f"no {tag}")
             sq[SQUARENESS_NAMES.index(nm)] = sign * float(t) * 1e6
-        except (TypeError, ValueError):
+        except ValueError:
             raise VolcalInputError(f"{tag}: {t!r} is not a number", path, column=tag) from None
     return MachineErrors(chain, nodes, values, sq, name=name)
 

@@ -232,7 +232,8 @@ class Store:
                             .order_by(t.records.c.seq.desc()).limit(1)).first()
         seq = 1 if head is None else int(head.seq) + 1
         prev = GENESIS if head is None else head.hash
-        row = {"seq": seq, "id": f"{KIND_PREFIX[rec.kind]}{seq:06d}", "kind": rec.kind,
+        rid = f"{KIND_PREFIX[rec.kind]}{seq:06d}"
+        row = {"seq": seq, "id": rid, "kind": rec.kind,
                "machine_id": rec.machine_id, "date": rec.date,
                "created": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
                "supersedes": rec.supersedes, "as_left_of": rec.as_left_of,
@@ -255,7 +256,7 @@ class Store:
             conn.execute(insert(t.results), results)
         if equipment:
             conn.execute(insert(t.equipment), equipment)
-        return row["id"]
+        return rid
 
     # ---------------------------------------------------------------- reading
     def _rows(self, where=None, conn=None) -> list[Record]:

@@ -9,6 +9,7 @@ identifiability report (:mod:`.identifiability`) -> residual check -> result
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -24,7 +25,7 @@ from volcal.identify.design import (
 )
 from volcal.identify.identifiability import analyse
 from volcal.identify.prior import PriorStructure
-from volcal.identify.record import session_identity
+from volcal.identify.record import FitRecord, session_identity
 from volcal.identify.result import IdentificationResult
 from volcal.identify.settings import EstimatorSettings
 from volcal.identify.solver import Solution, solve_bayes, solve_min_norm
@@ -397,8 +398,8 @@ def _robust(session: Session, o: IdentifyOptions,
             f"Robust fit: {n_down} reading(s) down-weighted (weights in 'outliers'); the "
             "estimate and its uncertainty no longer lean on them.")
         for f in result.outliers:
-            w = weights.get(f["measurement"])
-            f["weight"] = 1.0 if w is None else float(w[f["row"] - 2])
+            wm = weights.get(f["measurement"])
+            f["weight"] = 1.0 if wm is None else float(wm[f["row"] - 2])
         result.fit["robust"] = {"downweighted": n_down}
     return result
 
@@ -628,7 +629,7 @@ def _covariance_factor(cov: NDArray[np.float64]) -> NDArray[np.float64]:
     eigenvectors of its positive part (minimum norm: singular).
     """
     try:
-        return np.linalg.cholesky(cov)
+        return np.asarray(np.linalg.cholesky(cov), dtype=np.float64)  # float64 for the stubs
     except np.linalg.LinAlgError:
         w, V = np.linalg.eigh(cov)
         keep = w > max(w.max(), 1e-300) * 1e-12
@@ -683,7 +684,7 @@ def _result(session: Session, design: Design, sol: Solution, report, o: Identify
     nuis = {}
     for j, name in enumerate(design.nuisance_names):
         nuis[name] = (float(sol.x[nf + j]), float(np.sqrt(max(cov[nf + j, nf + j], 0))))
-    fit = {
+    fit: dict[str, Any] = {
         "method": sol.method,
         "n_readings": int(design.y.size),
         "n_parameters": int(nf),
@@ -717,7 +718,8 @@ def _result(session: Session, design: Design, sol: Solution, report, o: Identify
     if sol.method == "bayes":
         report.messages.extend(_roll_messages(sol, std, o.settings))
     return IdentificationResult(session.name, errors, design.layout, design.free, factor, std,
-                                sq_std, report, fit, residuals, fitted, nuis, outliers,
+                                sq_std, report, FitRecord.from_dict(fit), residuals, fitted,
+                                nuis, outliers,
                                 design=design, solution=sol,
                                 session=session_identity(session))
 
@@ -759,7 +761,7 @@ def _roll_messages(sol: Solution, std, settings: EstimatorSettings) -> list[str]
             "have no roll, identify with --roll zero (Python: roll='zero'), which leaves "
             "the other functions better determined; a level on each horizontal axis "
             "measures the rolls instead (volcal advise).")
-    elif sol.roll_probability is not None and sol.roll_probability < 0.99:
+    elif lbf is not None and sol.roll_probability is not None and sol.roll_probability < 0.99:
         p_roll = sol.roll_probability
         out.append(
             "The readings do not settle whether this machine has roll errors (Bayes "

@@ -205,7 +205,7 @@ def model_session_differences(model: IdentificationResult, session: Session) -> 
         fmt = " x ".join(f"{a:g}..{b:g}" for a, b in tr)
         fmt2 = " x ".join(f"{a:g}..{b:g}" for a, b in now.travel_mm)
         out.append(f"travel {fmt} mm (model) vs {fmt2} mm (session)")
-    if digest is not None and digest != now.readings_sha256 \
+    if ident is not None and digest is not None and digest != now.readings_sha256 \
             and digest != readings_sha256(session, legacy=True)[0]:
         out.append(f"readings: the model was identified from {ident.n_readings} readings "
                    f"(sha256 {digest[:12]}), the session has {now.n_readings} "

@@ -31,6 +31,7 @@ from dataclasses import replace
 import numpy as np
 from numpy.typing import NDArray
 
+from volcal.errors import VolcalInputError
 from volcal.measure.multilateration import station_key, station_of, tracker_jacobian
 from volcal.session.format import Session
 from volcal.session.multilateration import length_from_deviation, nominal_distances
@@ -375,6 +376,9 @@ def _figures(s: Session, options, noise_um: float, dwell_s: float, feed_mm_min: 
                       options.squareness_std_urad, settings=st)
     Je, _ = pose_jacobian(parse_chain(s.chain).order, d.layout.nodes, q)
     G = Je[:, d.free].toarray()
+    if sol.covariance is None:
+        raise VolcalInputError("problem too large for the dense covariance: reduce --max-nodes "
+                               "or the number of measurements")
     cov = sol.covariance[: d.n_free, : d.n_free]
     var = np.einsum("ij,jk,ik->i", G, cov, G).reshape(-1, 3)
     u = np.sqrt(np.clip(var.sum(1), 0, None))
@@ -423,7 +427,7 @@ def compare_layouts(session: Session, options, noise_um: float = 0.4, dwell_s: f
     variants: list[tuple[str, NDArray, NDArray, NDArray]] = [("as planned", st, offs, q)]
     if st.shape[0] > 3:
         variants.append((f"{st.shape[0] - 1} stations", st[:-1], offs, q))
-    extra = default_stations(session.travel, offs, 8)
+    extra = default_stations(session.travel, list(offs), 8)
     far = extra[np.argmax([np.linalg.norm(st - e, axis=1).min() for e in extra])]
     variants.append((f"{st.shape[0] + 1} stations", np.vstack([st, far]), offs, q))
     flat = st.copy()

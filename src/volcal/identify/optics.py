@@ -116,7 +116,9 @@ def optics_notes(measurements) -> list[str]:
     """
     from volcal.model.names import info
 
-    angles, lines, groups = [], [], {}
+    angles: list[str] = []
+    lines: list[str] = []
+    groups: dict[str, list[Measurement]] = {}
     for m in measurements:
         if m.kind == "angular":
             a = str(m.meta.get("axis", "?")).upper()
@@ -139,14 +141,14 @@ def optics_notes(measurements) -> list[str]:
     sq = {frozenset("XY"): "EC0Y", frozenset("XZ"): "EB0Z", frozenset("YZ"): "EA0Z"}
     for name, ms in groups.items():
         said = []
-        by_axis: dict[str, list] = {}
+        by_axis: dict[str, list[Measurement]] = {}
         for m in ms:
             by_axis.setdefault(str(m.meta["axis"]).upper(), []).append(m)
-        for a, lines in by_axis.items():
-            offs = {tuple(np.round(m.tool_offset, 6)) for m in lines}
+        for a, parallel in by_axis.items():
+            offs = {tuple(np.round(m.tool_offset, 6)) for m in parallel}
             if len(offs) > 1:
                 roll = f"E{'ABC'['XYZ'.index(a)]}{a}"
-                said.append(f"the roll {roll} ({info(roll).label}) from {len(lines)} parallel "
+                said.append(f"the roll {roll} ({info(roll).label}) from {len(parallel)} parallel "
                             "lines at different tool offsets")
         if len(by_axis) == 2:
             nm = sq[frozenset(by_axis)]

@@ -483,8 +483,13 @@ class IdentificationResult:
         arrays["residual_um"] = np.concatenate(resid) if resid else np.zeros(0)
         return arrays, index
 
+    def _part_names(self) -> list[str]:
+        """The covariance parts: ``noise``, and ``systematic`` with a budget."""
+        return ["noise"] + (["systematic"] if self.sys_factor is not None else [])
+
     def _parts(self) -> dict[str, NDArray[np.float64]]:
-        """The covariance factor by part: ``noise``, and ``systematic`` with a budget."""
+        """The covariance factor by part (of a model with uncertainty)."""
+        assert self.cov_factor is not None  # the callers check require_uncertainty
         parts = {"noise": self.cov_factor}
         if self.sys_factor is not None:
             parts["systematic"] = self.sys_factor
@@ -528,7 +533,7 @@ class IdentificationResult:
             "squareness_urad": dict(zip(SQUARENESS_NAMES, _r(self.errors.squareness), strict=True)),
             "u_squareness_urad": dict(zip(SQUARENESS_NAMES, _r(self.squareness_std), strict=True)),
             "covariance": {"free_index": [int(i) for i in self.free],
-                           "parts": {name: f"{name}_factor" for name in self._parts()}},
+                           "parts": {name: f"{name}_factor" for name in self._part_names()}},
             "identifiability": rep,
             "fit": self.fit.to_dict(),
             "nuisances": {k: {"value": _f(v[0]), "u": _f(v[1])} for k, v in self.nuisances.items()},
@@ -611,6 +616,7 @@ class IdentificationResult:
         -------
         IdentificationResult
         """
+        fac: NDArray[np.float64] | None  # the covariance factor, when the model has one
         try:
             fmt = doc.get("format")
             if fmt not in MODEL_FORMATS_READ:
@@ -634,7 +640,7 @@ class IdentificationResult:
             usq = np.array([doc["u_squareness_urad"][n] for n in SQUARENESS_NAMES], dtype=float)
             check_model_values(nodes, values, std, sq, usq, source)
             errors = MachineErrors(doc["chain"], nodes, values, sq, name=doc.get("name", "model"))
-            layout = ParameterLayout(tuple(nodes))
+            layout = ParameterLayout((nodes[0], nodes[1], nodes[2]))
             free = _free_index(doc["covariance"]["free_index"], layout.size, source)
             if fmt == MODEL_FORMAT:
                 part_names = dict(doc["covariance"]["parts"])

@@ -432,7 +432,10 @@ class _HyperSearch:
                            "in 3 iterations")
         name = "L-BFGS-B"
         if not res.success:
-            res2 = minimize(lambda h: self.objective(h)[0], res.x, method="Nelder-Mead",
+            def value(h: NDArray[np.float64]) -> float:
+                return self.objective(h)[0]
+
+            res2 = minimize(value, res.x, method="Nelder-Mead",
                             bounds=bounds,
                             options={"xatol": 5e-3, "fatol": 1e-3, "maxiter": 600})
             if res2.fun <= res.fun:

@@ -302,10 +302,11 @@ def _convert(key: str, text: str, unit: str) -> tuple[str | float | bool, str]:
     if key == "referred_to_20c":
         return _switch(text)
     if key == "operator":
-        v = text.strip().strip('"').strip()
-        if not v:
+        name = text.strip().strip('"').strip()
+        if not name:
             raise ValueError("empty")
-        return v, ""
+        return name, ""
+    v: float
     if key == "air_pressure_pa":
         v, how = _pressure(text, unit)
     elif key == "expansion_ppm_per_k":

@@ -232,9 +232,9 @@ def import_planned(path: str | Path, mapping: dict[str, str], session: str | Pat
                                "relates the slopes)", folder / "session.toml")
     notes = list(t.notes)
     if t.steps:
-        head = (t.header, t.header_notes)
+        header, header_notes = t.header, t.header_notes
         t = _flatten_steps(t, m, path, notes)
-        t.header, t.header_notes = head
+        t.header, t.header_notes = header, header_notes
     if t.deviation_um.size != m.n:
         extra = t.deviation_um.size > m.n
         raise VolcalInputError(f"{t.deviation_um.size} readings in the file, but {mid!r} is "

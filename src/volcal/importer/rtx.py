@@ -273,11 +273,11 @@ def find_dwells(samples: NDArray[np.float64], rate_hz: float, dwell_s: float,
     while n is not None and len(runs) < n:  # dwells joined by a move the window missed
         best = max(((_split(x0, a, b, max(3, d // 4), sigma), k)
                     for k, (a, b) in enumerate(runs)), default=((0.0, 0), 0))
-        (t, c), k = best
+        (t, at), k = best
         if t < SPLIT_T:
             break
         a, b = runs[k]
-        runs[k:k + 1] = [(a, c - w), (c + w, b)]
+        runs[k:k + 1] = [(a, at - w), (at + w, b)]
     out = []
     for a, b in runs:
         cut = int(trim * (b - a))

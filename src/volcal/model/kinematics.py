@@ -25,6 +25,8 @@ the step-diagonal test", Lamdamap 2005 (seed 004); ISO 230-1:2012, annex A.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -267,7 +269,7 @@ def _cross_matrix_columns(L: NDArray[np.float64]) -> list[NDArray[np.float64]]:
             np.stack([-L[:, 1], L[:, 0], zero], 1)]
 
 
-def pose_jacobian(chain_order, nodes: list[NDArray[np.float64]], q: ArrayLike,
+def pose_jacobian(chain_order, nodes: Sequence[NDArray[np.float64]], q: ArrayLike,
                   tool_offset: ArrayLike | None = None):
     """Jacobian of the first-order pose errors with respect to the tabulated node values.
 
@@ -279,7 +281,7 @@ def pose_jacobian(chain_order, nodes: list[NDArray[np.float64]], q: ArrayLike,
     ----------
     chain_order : sequence of int
         Axis order from workpiece to tool (``Chain.order``).
-    nodes : list of 3 arrays
+    nodes : sequence of 3 arrays
         Node positions per axis [mm].
     q : array_like, shape (m, 3)
         Commanded positions [mm].

@@ -77,15 +77,17 @@ def diagonal_fit_plot(measurements: Sequence[Measurement],
                        gridspec_kw={"height_ratios": [2.0, 1.0]})
     for j, m in enumerate(meas):
         s = beam_displacement(m)
+        dev = m.deviation
+        assert dev is not None  # meas keeps the measurements with readings
         top, bottom = axs[0, j], axs[1, j]
-        top.plot(s, m.deviation, linestyle="none", marker=".", markersize=4, color="tab:blue",
+        top.plot(s, dev, linestyle="none", marker=".", markersize=4, color="tab:blue",
                  gid=f"{m.id} reading", label="reading")
         fit = None if fitted is None else fitted.get(m.id)
         res = None if residuals is None else residuals.get(m.id)
         if fit is not None:
             top.plot(s, fit, color="tab:orange", linewidth=1.2, gid=f"{m.id} fit", label="fit")
             if res is None:
-                res = m.deviation - np.asarray(fit)
+                res = dev - np.asarray(fit)
         if res is not None:
             bottom.plot(s, res, linestyle="none", marker=".", markersize=3, color="tab:red",
                         gid=f"{m.id} residual")

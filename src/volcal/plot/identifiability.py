@@ -14,6 +14,7 @@ Van Loan, Matrix Computations, 4th ed., 2013, 2.4 and 6.1).
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from typing import TypedDict
 
 import numpy as np
 from matplotlib.figure import Figure
@@ -56,7 +57,15 @@ def function_uncertainty(std: Sequence[NDArray[np.float64]],
     return out
 
 
-NOT_DETERMINED_STYLE = {"hatch": "//", "facecolor": "0.85", "edgecolor": "0.3"}
+class PatchStyle(TypedDict):
+    """Hatch and colours of a bar (keyword arguments of a matplotlib ``Patch``)."""
+
+    hatch: str
+    facecolor: str
+    edgecolor: str
+
+
+NOT_DETERMINED_STYLE: PatchStyle = {"hatch": "//", "facecolor": "0.85", "edgecolor": "0.3"}
 """Style of the bar of an error function the tests do not determine (the legend's "n/i")."""
 
 

@@ -46,7 +46,9 @@ def trend_plot(rows: Sequence[dict[str, Any]], parameter: str, machine: str) -> 
     x = [_dt.date.fromisoformat(r["date"][:10]) for r in pts]
     y = [r["value"] for r in pts]
     e = [0.0 if r["U"] is None else r["U"] for r in pts]
-    ax.errorbar(x, y, yerr=e, marker="o", capsize=3)
+    # matplotlib's stubs type the data as numbers (ArrayLike); its unit converters plot
+    # datetime.date on a date axis, which is what this figure wants
+    ax.errorbar(x, y, yerr=e, marker="o", capsize=3)  # type: ignore[arg-type]
     unit = pts[0]["unit"].replace("um", "µm").replace("urad", "µrad") if pts else ""
     ax.set_ylabel(f"{parameter} [{unit}]")
     ax.set_title(f"{machine}: {parameter} (bars: U, k = 2)")

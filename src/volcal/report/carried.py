@@ -203,7 +203,7 @@ def table_set_from_manifest(manifest: dict[str, Any], folder: Any = None) -> Tab
 def _grid(lo: float, hi: float, spacing: float) -> NDArray[np.float64]:
     """Table points from ``lo`` with ``spacing`` covering ``hi`` (as the writers do)."""
     n = max(1, math.ceil((hi - lo) / spacing - 1e-9))
-    return lo + spacing * np.arange(n + 1)
+    return lo + spacing * np.arange(n + 1, dtype=np.float64)
 
 
 def _quantize(v: NDArray[np.float64], res: float) -> NDArray[np.float64]:

@@ -15,7 +15,7 @@ from matplotlib.figure import Figure
 __all__ = ["FigureItem", "Report", "Section", "Table", "fmt"]
 
 
-def fmt(v: float, digits: int = 2) -> str:
+def fmt(v: float | None, digits: int = 2) -> str:
     """Format a number for a table cell (fixed point, ``-`` for missing, ``∞``).
 
     Parameters

@@ -295,8 +295,8 @@ def _figure_page(pdf: PdfPages, fig: Figure, caption: str, number: int, footer: 
         engine = None  # a figure without constrained layout is scaled as a whole
     old_size, old_rect = fig.get_size_inches().copy(), engine.get()["rect"] if engine else None
     old_pos = [(ax, ax.get_position(original=True)) for ax in fig.axes] if not engine else []
-    old_sup = ((sup.get_position(), getattr(sup, "_autopos", False), sup.get_in_layout())
-               if sup_h else None)
+    old_sup = ((sup, sup.get_position(), getattr(sup, "_autopos", False), sup.get_in_layout())
+               if sup is not None and sup_h else None)
     fig.set_size_inches(pw, ph, forward=False)
     if engine is not None:
         engine.set(rect=rect)
@@ -305,9 +305,9 @@ def _figure_page(pdf: PdfPages, fig: Figure, caption: str, number: int, footer: 
             ax.set_position((rect[0] + p.x0 * rect[2], rect[1] + p.y0 * rect[3],
                              p.width * rect[2], p.height * rect[3]))
     if old_sup is not None:
-        sup.set_position((0.5, (ph - _FIG_MARGIN) / ph))
-        sup._autopos = False
-        sup.set_in_layout(False)
+        old_sup[0].set_position((0.5, (ph - _FIG_MARGIN) / ph))
+        old_sup[0]._autopos = False
+        old_sup[0].set_in_layout(False)
     y = (top - fh - 0.1) / ph
     added = [fig.text(_FIG_MARGIN / pw, y, "\n".join(lines), fontsize=size, va="top",
                       linespacing=_LINESPACING, parse_math=False),
@@ -318,15 +318,16 @@ def _figure_page(pdf: PdfPages, fig: Figure, caption: str, number: int, footer: 
     finally:
         for a in added:
             a.remove()
-        fig.set_size_inches(*old_size, forward=False)
+        fig.set_size_inches(float(old_size[0]), float(old_size[1]), forward=False)
         if engine is not None:
             engine.set(rect=old_rect)
         for ax, p in old_pos:
             ax.set_position(p)
         if old_sup is not None:
-            sup.set_position(old_sup[0])
-            sup._autopos = old_sup[1]
-            sup.set_in_layout(old_sup[2])
+            title, position, autopos, in_layout = old_sup
+            title.set_position(position)
+            title._autopos = autopos
+            title.set_in_layout(in_layout)
 
 
 def write_pdf(report: Report, path: str | Path) -> int:

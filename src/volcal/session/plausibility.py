@@ -75,8 +75,14 @@ def _length_mm(m: Measurement) -> float:
     return float(np.max(np.linalg.norm(m.positions - m.positions[0], axis=1)))
 
 
+def _readings(m: Measurement) -> NDArray[np.float64]:
+    """The deviations of ``m`` [um]: plausibility_warnings checks only measurements with them."""
+    assert m.deviation is not None
+    return m.deviation
+
+
 def _spread_um_per_m(m: Measurement) -> float:
-    lo, hi = np.percentile(m.deviation, [5, 95])
+    lo, hi = np.percentile(_readings(m), [5, 95])
     return float(hi - lo) / max(_length_mm(m), 1.0) * 1000.0
 
 
@@ -215,7 +221,7 @@ def _floors(m: Measurement, exact: bool = False) -> list[str]:
     if kind.systematic != "length":  # laser lengths along a beam only
         return []
     targets = m.positions[:, m.axis] if kind.bidirectional and not exact else None
-    return reading_warnings(m.id, m.file, _length_mm(m), m.deviation, targets, m.run,
+    return reading_warnings(m.id, m.file, _length_mm(m), _readings(m), targets, m.run,
                             m.direction)
 
 
@@ -234,7 +240,7 @@ def positioning_warnings(data: object) -> list[str]:
     """
     from pathlib import Path
 
-    t = np.asarray(data.targets_mm, dtype=float)  # type: ignore[attr-defined]
+    t = np.asarray(data.targets_mm, dtype=np.float64)  # type: ignore[attr-defined]
     name = Path(data.file).name  # type: ignore[attr-defined]
     return reading_warnings(name, name, float(np.ptp(t)) if t.size else 0.0,
                             data.deviation_um, t, data.run,  # type: ignore[attr-defined]
@@ -290,8 +296,9 @@ def _order(m: Measurement) -> list[str]:
         if up < 0 or down > 0:
             out.append(f"{m.id}: positions descend in the '+' rows (or ascend in the '-' "
                        f"rows) of {m.file}: rows in reverse order?")
-    dev0 = float(m.deviation[0])
-    if abs(dev0) > max(FIRST_READING_UM, 0.2 * float(np.ptp(m.deviation))):
+    dev = _readings(m)
+    dev0 = float(dev[0])
+    if abs(dev0) > max(FIRST_READING_UM, 0.2 * float(np.ptp(dev))):
         out.append(f"{m.id}: the first reading is {dev0:.3g} um, not ~0 (readings count from "
                    f"the first row): deviations of {m.file} in reverse order?")
     return out

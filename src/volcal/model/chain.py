@@ -88,5 +88,5 @@ def parse_chain(code: str) -> Chain:
             f"invalid chain code {code!r}: expected the letters F, X, Y, Z once each, read "
             "from workpiece to tool (e.g. FXYZ, XFYZ, XYFZ, YFXZ)"
         )
-    order = tuple(AXES.index(ch) for ch in c if ch != "F")
-    return Chain(code=c, order=order, frame_index=c.index("F"))  # type: ignore[arg-type]
+    first, second, third = (AXES.index(ch) for ch in c if ch != "F")
+    return Chain(code=c, order=(first, second, third), frame_index=c.index("F"))

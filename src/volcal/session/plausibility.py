@@ -31,7 +31,7 @@ the reader itself (``docs/formats.md``, "Plausibility"). The checks:
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -225,7 +225,21 @@ def _floors(m: Measurement, exact: bool = False) -> list[str]:
                             m.direction)
 
 
-def positioning_warnings(data: object) -> list[str]:
+class PositioningReadings(Protocol):
+    """What :func:`positioning_warnings` reads of a positioning file's readings.
+
+    :class:`volcal.standards.positioning_data.PositioningData` is one (the standards sit
+    above the session: this module does not import it).
+    """
+
+    file: str
+    targets_mm: NDArray[np.float64]
+    deviation_um: NDArray[np.float64]
+    run: NDArray[np.int64]
+    direction: NDArray[np.str_]
+
+
+def positioning_warnings(data: PositioningReadings) -> list[str]:
     """Floors and ceiling of one positioning file (``volcal evaluate iso230-2 FILE``).
 
     Parameters
@@ -240,11 +254,10 @@ def positioning_warnings(data: object) -> list[str]:
     """
     from pathlib import Path
 
-    t = np.asarray(data.targets_mm, dtype=np.float64)  # type: ignore[attr-defined]
-    name = Path(data.file).name  # type: ignore[attr-defined]
+    t = np.asarray(data.targets_mm, dtype=np.float64)
+    name = Path(data.file).name
     return reading_warnings(name, name, float(np.ptp(t)) if t.size else 0.0,
-                            data.deviation_um, t, data.run,  # type: ignore[attr-defined]
-                            data.direction)  # type: ignore[attr-defined]
+                            data.deviation_um, t, data.run, data.direction)
 
 
 def _per_target(m: Measurement) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

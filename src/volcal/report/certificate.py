@@ -36,7 +36,7 @@ import hashlib
 import math
 import re
 from pathlib import Path
-from typing import Any
+from typing import Any, NotRequired, TypedDict
 
 from volcal.errors import VolcalInputError
 from volcal.session.identity import (
@@ -382,7 +382,17 @@ def refuse_expired(sessions: dict[str, Any]) -> None:
 # --------------------------------------------------------------------------- environment
 
 
-def _stats(values: Any) -> dict[str, float] | None:
+class EnvironmentStats(TypedDict):
+    """One recorded quantity of a measurement (:func:`environment_of`)."""
+
+    min: float
+    max: float
+    mean: float
+    n: int
+    source: NotRequired[str]  # 'readings' or 'environment table'
+
+
+def _stats(values: Any) -> EnvironmentStats | None:
     import numpy as np
 
     v = np.asarray(values, dtype=float)
@@ -422,7 +432,7 @@ def environment_of(session: Any) -> dict[str, Any]:
         env = m.meta.get("environment") or {}
         entry: dict[str, Any] = {"measurement": m.id}
         for key, _name, _unit in ENVIRONMENT_KEYS:
-            st = None
+            st: EnvironmentStats | None = None
             if key in m.columns:
                 st = _stats(m.columns[key])
                 if st is not None:
@@ -598,7 +608,7 @@ def _results(session: Any, ev: Any, with_model: bool, unc: dict[str, Any] | None
     from volcal.report.certificate_optics import direct_optics
 
     unc = unc or {}
-    vol = None
+    vol: dict[str, Any] | None = None
     if ev.volumetric is not None:
         v = _as_dict(ev.volumetric)
         vol = {k: float(v[k]) for k in ("E_VX", "E_VY", "E_VZ", "E_VXYZ", "E_VXYZ_range")
@@ -659,9 +669,9 @@ NO_SYSTEMATIC_VERDICT = ("qualified: its U is the identification's noise and pri
 """Appended to the note of a volumetric statement whose U lacks the systematic part."""
 
 
-def _conformity(tolerance: Any, results: dict[str, dict[str, Any]], rule: str,
+def _conformity(tolerance: Any, results: dict[str, dict[str, Any] | None], rule: str,
                 guard_band_um: float | None,
-                volumetric_before: tuple[float, float | None] | None
+                volumetric_before: tuple[float | None, float | None] | None
                 ) -> dict[str, Any] | None:
     if tolerance is None:
         return None
@@ -946,9 +956,9 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
                             "session.toml)")
     lab = _text(cal, "laboratory", session)
     cust = _text(cal, "customer", session)
-    for k, v in (("laboratory", lab), ("customer", cust), ("date", cal.get("date")),
-                 ("operator", cal.get("operator"))):
-        if v is None:
+    for k, stated in (("laboratory", lab), ("customer", cust), ("date", cal.get("date")),
+                      ("operator", cal.get("operator"))):
+        if stated is None:
             warnings.append(f"not stated: [calibration] {k} in session.toml")
     equipment = equipment_status(sessions)
     for e in equipment:

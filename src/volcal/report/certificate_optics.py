@@ -268,9 +268,9 @@ def optics_budgets(opt: dict[str, Any] | None, suffix: str = "") -> dict[str, An
         Name -> ``measurand``, ``u_um``/``u_urad``, ``dof``, ``k``, ``U_um``/``U_urad``,
         ``components`` (label, u, share, distribution, sensitivity, input u, unit).
     """
-    b = (opt or {}).get("_budgets")
-    if not b:
+    if opt is None or not opt.get("_budgets"):
         return {}
+    b = opt["_budgets"]
     out: dict[str, Any] = {}
 
     def entry(what: str, est: dict[str, Any], unit: str) -> dict[str, Any]:

@@ -63,13 +63,14 @@ class Chain:
         return self.code
 
 
-def parse_chain(code: str) -> Chain:
+def parse_chain(code: object) -> Chain:
     """Parse and validate a chain code.
 
     Parameters
     ----------
     code : str
-        Four letters, a permutation of ``F``, ``X``, ``Y``, ``Z`` (case-insensitive).
+        Four letters, a permutation of ``F``, ``X``, ``Y``, ``Z`` (case-insensitive);
+        anything else (read from a file: None, a number) is refused.
 
     Returns
     -------

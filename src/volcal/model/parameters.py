@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from volcal.model.errorfunctions import MachineErrors
 
@@ -23,6 +24,18 @@ class ParameterLayout:
     """
 
     nodes: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
+
+    @classmethod
+    def of_nodes(cls, nodes: Sequence[ArrayLike]) -> ParameterLayout:
+        """The layout of three axes' nodes, each made a float array.
+
+        Parameters
+        ----------
+        nodes : sequence of 3 array_like
+            Node positions of X, Y, Z [mm].
+        """
+        x, y, z = (np.asarray(n, dtype=np.float64) for n in nodes)
+        return cls((x, y, z))
 
     @property
     def starts(self) -> NDArray[np.intp]:

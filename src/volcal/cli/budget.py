@@ -59,8 +59,8 @@ def _show(file: Path, length_mm: float) -> None:
     console = Console(soft_wrap=True)
     t = Table(title=f"{file}: instrument and environment budget of a reading at "
               f"{length_mm:g} mm from the datum (repeatability comes from the data)")
-    for c in ("contributor", "distribution", "u(x)", "unit", "c", "u_i [um]", "share"):
-        t.add_column(c, justify="right")
+    for col in ("contributor", "distribution", "u(x)", "unit", "c", "u_i [um]", "share"):
+        t.add_column(col, justify="right")
     for c in e.components:
         t.add_row(escape(c.label), c.distribution,
                   "" if c.u_input is None else f"{c.u_input:.3g}", escape(c.unit),
@@ -72,8 +72,8 @@ def _show(file: Path, length_mm: float) -> None:
 
     t = Table(title=escape(f"{file}: direct optics ([optics]; one scale error per "
                            f"{b.values['optics.scale_correlation']})"))
-    for c in ("optic", "u scale [%]", "u one reading", "distribution", "source"):
-        t.add_column(c, justify="right")
+    for col in ("optic", "u scale [%]", "u one reading", "distribution", "source"):
+        t.add_column(col, justify="right")
     for target, (ks, kr) in OPTIC_KEYS.items():
         unit = "um" if target == "straightness_optics" else "urad"
         t.add_row(target.replace("_", " "), f"{b.inputs[ks].u:.3g}",

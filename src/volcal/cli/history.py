@@ -132,9 +132,9 @@ def export_etalon_cmd(
 
 @history_app.command("export-qif")
 def export_qif_cmd(
+    output: Annotated[Path, typer.Option("-o", "--output", help="QIF file to write.")],
     record: Annotated[str | None, typer.Argument(
         help="Calibration record id (or give --model).")] = None,
-    output: Annotated[Path, typer.Option("-o", "--output", help="QIF file to write.")] = ...,
     model: Annotated[Path | None, typer.Option(
         "--model", help="Write this model file instead of a record (no store needed).")] = None,
     xsd: Annotated[Path | None, typer.Option(

@@ -362,9 +362,9 @@ def incomplete_notes(g: GroupedRuns, n_up: NDArray[np.int64], n_down: NDArray[np
         total = g.up.shape[1] if miss.direction == "+" else g.down.shape[1]
         out.append(f"incomplete: {miss} (missed capture); that target is evaluated over the "
                    f"{n} of {total} runs that reached it")
-    for sign, n in (("+", n_up), ("-", n_down)):
-        for i in np.flatnonzero(n < 2):
-            out.append(f"target {g.targets[i]:g} mm reached by {n[i]} run(s) in direction "
+    for sign, counts in (("+", n_up), ("-", n_down)):
+        for j in np.flatnonzero(counts < 2):
+            out.append(f"target {g.targets[j]:g} mm reached by {counts[j]} run(s) in direction "
                        f"'{sign}': no standard deviation there, left out of R and A")
     return out
 

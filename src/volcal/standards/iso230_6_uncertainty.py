@@ -79,7 +79,7 @@ def evaluate_diagonal_with_budget(meas: Any, budget: Budget, edition: str = "201
     from volcal.uncertainty.propagation import Propagator
 
     if meas.deviation is None or meas.kind != "diagonal":
-        return evaluate_diagonal(meas, edition), None  # raises the reader's error
+        evaluate_diagonal(meas, edition)  # raises the reader's error (kind, no readings)
     budget = budget_for(meas, budget)  # the session's operating point; no value corrected
     s = (meas.positions - meas.positions[0]) @ meas.beam_direction
     m = meas

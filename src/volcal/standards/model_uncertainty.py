@@ -504,9 +504,9 @@ def function_parts(result: Any) -> list[dict[str, Any]]:
                      "u_sys": float(math.sqrt(max(ut[j] ** 2 - un[j] ** 2, 0.0))),
                      "u_total": float(ut[j])})
     for name in SQUARENESS_NAMES:
-        ut = float(np.asarray(result.function_std(name, [0.0], systematic=True))[0])
-        un = float(np.asarray(result.function_std(name, [0.0], systematic=False))[0])
+        u_total = float(np.asarray(result.function_std(name, [0.0], systematic=True))[0])
+        u_noise = float(np.asarray(result.function_std(name, [0.0], systematic=False))[0])
         rows.append({"name": name, "axis": "", "unit": info(name).unit_symbol,
-                     "node_mm": None, "u_noise": un,
-                     "u_sys": math.sqrt(max(ut**2 - un**2, 0.0)), "u_total": ut})
+                     "node_mm": None, "u_noise": u_noise,
+                     "u_sys": math.sqrt(max(u_total**2 - u_noise**2, 0.0)), "u_total": u_total})
     return rows

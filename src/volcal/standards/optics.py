@@ -31,8 +31,15 @@ _SQ_NAME = {frozenset("xy"): ("EC0Y", 1.0), frozenset("xz"): ("EB0Z", -1.0),
             frozenset("yz"): ("EA0Z", 1.0)}
 
 
-def _line(m: Measurement) -> dict[str, Any]:
+def _axis(m: Measurement) -> int:
+    """The axis a direct optic's line runs along (Measurement.axis: never None for it)."""
     k = m.axis
+    assert k is not None
+    return k
+
+
+def _line(m: Measurement) -> dict[str, Any]:
+    k = _axis(m)
     s = m.positions[:, k]
     d = np.asarray(m.deviation, dtype=float)
     out: dict[str, Any] = {"axis": "xyz"[k], "error_direction": m.meta["error_direction"],
@@ -47,7 +54,7 @@ def _line(m: Measurement) -> dict[str, Any]:
 
 def _angle(m: Measurement) -> dict[str, Any]:
     d = np.asarray(m.deviation, dtype=float)
-    return {"axis": "xyz"[m.axis], "rotation": m.meta["rotation"], "target": m.target,
+    return {"axis": "xyz"[_axis(m)], "rotation": m.meta["rotation"], "target": m.target,
             "angular_deviation_urad": float(np.ptp(d)),
             "min_urad": float(d.min()), "max_urad": float(d.max())}
 

@@ -134,6 +134,7 @@ def _read_measurement_layout(path: Path, header: list[str]) -> PositioningData:
         raise VolcalInputError("no readings yet: the deviation_um column is empty "
                                "(planned, not measured)", path, None, "deviation_um")
     r = _drop_missed(r, path, notes)
+    assert r.deviation is not None  # checked above; dropping missed captures keeps it
     axis = int(np.argmax(np.ptp(r.positions, axis=0)))
     return PositioningData(r.positions[:, axis].copy(), r.columns["run"],
                            r.columns["direction"], r.deviation, r.rows, str(path), "XYZ"[axis],

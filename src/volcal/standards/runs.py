@@ -243,7 +243,7 @@ def _grid(sign: str, tid: np.ndarray, targets: np.ndarray, ri: np.ndarray, s: np
             raise VolcalInputError(
                 f"duplicate reading: target {targets[i]:g} mm, run {ri[k]}, direction "
                 f"'{sign}' already given" + ("" if rw is None else f" in row {rw[seen[i, j]]}"),
-                file, _row(rw, k), target_column)
+                file, _row(rw, int(k)), target_column)
         seen[i, j] = k
         grid[i, j] = d[k]
     miss = [MissingReading(int(runs[j]), float(targets[i]), sign)

@@ -11,6 +11,7 @@ tool offset.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -150,7 +151,7 @@ def multilateration_tests(travel: ArrayLike, grid: Sequence[int] = DEFAULT_GRID,
             if d.min() < 50.0:
                 raise VolcalInputError(f"station {i} at {list(s)} mm is within 50 mm of the "
                                        "grid: place the tracker outside the path")
-            meta = {"station_mm": [round(float(v), 3) for v in s],
+            meta: dict[str, Any] = {"station_mm": [round(float(v), 3) for v in s],
                     "notes": f"tracker at station {i}, reflector at tool offset "
                              f"{', '.join(f'{v:g}' for v in o)} mm; dwell at every point"}
             if station_u_mm is not None:

@@ -16,7 +16,7 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import replace
 from pathlib import Path
-from typing import TYPE_CHECKING, TypeVar
+from typing import TYPE_CHECKING, ParamSpec, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -30,7 +30,8 @@ if TYPE_CHECKING:
 __all__ = ["acceptance", "budget_file", "checked", "names", "python_names", "python_text",
            "tolerance_text", "travel_mm", "unknown_option", "vector_mm"]
 
-F = TypeVar("F", bound=Callable[..., object])
+P = ParamSpec("P")
+R = TypeVar("R")
 
 
 def names(valid: Sequence[str]) -> str:
@@ -69,7 +70,7 @@ def unknown_option(where: str, key: str, valid: Sequence[str]) -> VolcalInputErr
                             f"{names(valid)}")
 
 
-def checked(func: F) -> F:
+def checked(func: Callable[P, R]) -> Callable[P, R]:
     """Turn a call that does not fit ``func``'s signature into a VolcalInputError.
 
     An unknown keyword, a missing required argument or one given twice names the
@@ -99,7 +100,7 @@ def checked(func: F) -> F:
     defaults = {p.name: p.default for p in params if p.default is not p.empty}
 
     @functools.wraps(func)
-    def wrapper(*args: object, **kwargs: object) -> object:
+    def wrapper(*args: P.args, **kwargs: P.kwargs) -> R:
         if not takes_var:
             for key in kwargs:
                 if key not in valid:
@@ -117,7 +118,7 @@ def checked(func: F) -> F:
         except ParameterError as exc:  # a step's parameter: the keyword, with the method
             raise exc.spelled({}, f"{where}: ") from None
 
-    return wrapper  # type: ignore[return-value]
+    return wrapper
 
 
 def travel_mm(travel: ArrayLike | str) -> NDArray[np.float64]:

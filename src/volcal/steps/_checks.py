@@ -2,11 +2,16 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Iterable, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from volcal.errors import ParameterError
+
+if TYPE_CHECKING:
+    from volcal.uncertainty.budget import Budget
 
 
 def whole(name: str, value: object) -> int:
@@ -140,7 +145,7 @@ def kinds(values: dict[str, object], defaults: dict[str, object]) -> None:
                 raise ParameterError(f"{{{key}=}}{v!r}: expected a finite number")
 
 
-def budget(value: object) -> tuple[object, str]:
+def budget(value: object) -> tuple[Budget, str]:
     """An uncertainty budget and the name recorded for it.
 
     Parameters
@@ -166,7 +171,8 @@ def budget(value: object) -> tuple[object, str]:
     return read_budget(value), str(value)
 
 
-def output_folder(path: object, what: str, own: object, written: object,
+def output_folder(path: str | Path, what: str, own: Callable[[Path], bool] | None,
+                  written: Callable[[Path], Iterable[str]] | None,
                   replace: bool) -> str | None:
     """:func:`volcal.io.paths.prepare_output_folder`, its refusal naming ``replace``.
 
@@ -192,7 +198,7 @@ def output_folder(path: object, what: str, own: object, written: object,
     from volcal.io.paths import prepare_output_folder
 
     try:
-        return prepare_output_folder(path, what, own, written=written,  # type: ignore[arg-type]
+        return prepare_output_folder(path, what, own, written=written,
                                      replace=replace, option="{replace=True}")
     except VolcalInputError as exc:
         if "{replace=True}" not in exc.message:

@@ -60,5 +60,5 @@ def advise(session: Session | str | Path, *, roll: str = D.ROLL, **options: Any)
 
         session = read_session(session, require_deviation=False)
     if known_file is not None:
-        opts = _read_known(opts, known_file, options.get("known_u"))  # type: ignore[arg-type]
+        opts = _read_known(opts, known_file, options.get("known_u"))
     return Advice(run(session, opts))

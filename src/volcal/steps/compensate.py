@@ -211,9 +211,9 @@ def compensate(model: str | Path | IdentificationResult | MachineErrors, *, form
         dnotes = tuple(directional.notes())
         if not directional.source:
             none_bidir, directional = True, None
-    opts = CompensationOptions(sign, spacing, max_points, ref, unit_um, magnification,  # type: ignore[arg-type]
+    opts = CompensationOptions(sign, spacing, max_points, ref, unit_um, magnification,
                                max_increment, squareness,
-                               tuple(_checks.vector("tool_offset", tool_offset)),  # type: ignore[arg-type]
+                               tuple(_checks.vector("tool_offset", tool_offset)),
                                fanuc_series, linuxcnc_type, directional)
     forced: list[str] = []
     if session is not None and isinstance(model, str | Path):  # the model must belong to it

@@ -192,9 +192,9 @@ def identify(session: Session | str | Path, *, prior: str = D.PRIOR,
     if b is not None:
         from volcal.identify.systematic import attach_systematic
 
-        attach_systematic(res, b[0], b[1])  # type: ignore[arg-type]
+        attach_systematic(res, b[0], b[1])
         sys_summary = _systematic(res, b[1])
-        if (any(k.endswith("_scale_pct") for k in b[0].defaulted)  # type: ignore[attr-defined]
+        if (any(k.endswith("_scale_pct") for k in b[0].defaulted)
                 and any(lab.startswith("optics scale") for lab in res.sys_labels)):
             notes.append(OPTICS_DEFAULTED_NOTE)
     return Identified(res, s, mc, sys_summary, tuple(notes))
@@ -247,12 +247,12 @@ def identify_options(also: Sequence[str] = ("known_u",), **values: Any
     ids = given.get("measurement_ids")
     if ids is not None:
         raw = ids
-        ids = _checks.names("measurements", ids)  # type: ignore[arg-type]
+        ids = _checks.names("measurements", ids)
         if not ids:
             raise ParameterError(f"{{measurements=}}{raw!r}: no measurement id given")
         given["measurement_ids"] = ids
     n = given.get("max_nodes", D.MAX_NODES)
-    if not 3 <= int(n) <= 2001:  # type: ignore[call-overload]
+    if not 3 <= int(n) <= 2001:
         raise ParameterError(f"{{max_nodes=}}{n}: expected 3..2001")
     if isinstance(known, Mapping):
         if known_u is not None:
@@ -267,7 +267,7 @@ def identify_options(also: Sequence[str] = ("known_u",), **values: Any
         known_file = known
         del given["known"]
     try:
-        return IdentifyOptions(**given), known_file  # type: ignore[arg-type]
+        return IdentifyOptions(**given), known_file
     except TypeError as exc:
         raise ParameterError(f"{exc}; valid options: {', '.join(valid)}") from None
 

@@ -7,7 +7,7 @@ The machine's truth (error table and every set-up error) is kept beside the sess
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -18,6 +18,9 @@ from volcal.model.errorfunctions import MachineErrors
 from volcal.session.errortable import error_table_csv, error_table_toml
 from volcal.session.format import Session
 from volcal.session.kinds import kind_of, kinds
+
+if TYPE_CHECKING:
+    from volcal.measure.optics import OpticSetup
 
 __all__ = ["SimulationOptions", "simulate_session", "truth_files"]
 
@@ -69,7 +72,7 @@ class SimulationOptions:
 
 def simulate_session(session: Session, machine: MachineErrors,
                      options: SimulationOptions | None = None,
-                     tracker=None) -> dict[str, SetupErrors]:
+                     tracker=None) -> dict[str, SetupErrors | OpticSetup | None]:
     """Fill every measurement's deviations from the virtual machine, in place.
 
     Each measurement is simulated by its kind (:meth:`volcal.kinds.Kind.simulate`), in
@@ -90,12 +93,13 @@ def simulate_session(session: Session, machine: MachineErrors,
 
     Returns
     -------
-    dict of str to SetupErrors
-        The set-up errors drawn for each measurement (part of the truth).
+    dict of str to SetupErrors, OpticSetup or None
+        The set-up errors drawn for each measurement (part of the truth; OpticSetup of a
+        direct optic, None where the kind has none).
     """
     o = options or SimulationOptions()
     rng = np.random.default_rng(o.seed)
-    setups = {}
+    setups: dict[str, SetupErrors | OpticSetup | None] = {}
     shared: dict[str, Any] = {"stations": {}, "optics": {}, "tracker": tracker,
                               "path": session.path}
     present = {m.kind for m in session.measurements}
@@ -107,7 +111,7 @@ def simulate_session(session: Session, machine: MachineErrors,
     return setups
 
 
-def truth_files(machine: MachineErrors, setups: dict[str, SetupErrors],
+def truth_files(machine: MachineErrors, setups: dict[str, SetupErrors | OpticSetup | None],
                 options: SimulationOptions) -> dict[str, str]:
     """Text files of the simulation truth, to be written in ``SESSION/truth/``.
 
@@ -115,8 +119,8 @@ def truth_files(machine: MachineErrors, setups: dict[str, SetupErrors],
     ----------
     machine : MachineErrors
         The virtual machine.
-    setups : dict of str to SetupErrors
-        Set-up errors per measurement.
+    setups : dict of str to SetupErrors, OpticSetup or None
+        Set-up errors per measurement (OpticSetup of a direct optic, None: no set-up).
     options : SimulationOptions
         The simulation options.
 
@@ -125,6 +129,8 @@ def truth_files(machine: MachineErrors, setups: dict[str, SetupErrors],
     dict of str to str
         Relative path -> content.
     """
+    from volcal.measure.optics import OpticSetup
+
     doc = {
         "format": "volcal-truth/1",
         "noise_um": o_float(options.noise_um),
@@ -138,7 +144,7 @@ def truth_files(machine: MachineErrors, setups: dict[str, SetupErrors],
                            if hasattr(s, "station_mm") else {}),
                         **({"reference_urad": {k: float(v) for k, v in s.nuisances.items()},
                             "direction_tilt_urad": [float(v) for v in s.direction_tilt]}
-                           if hasattr(s, "nuisances") else {})}
+                           if isinstance(s, OpticSetup) else {})}
                   for mid, s in setups.items() if s is not None},  # None: no set-up
     }
     return {

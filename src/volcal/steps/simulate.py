@@ -13,6 +13,7 @@ from volcal.errors import ParameterError
 from volcal.steps import _checks
 
 if TYPE_CHECKING:
+    from volcal.measure.optics import OpticSetup
     from volcal.measure.simulate import SetupErrors, SimulationOptions
     from volcal.measure.systematic import SystematicDraw
     from volcal.model.errorfunctions import MachineErrors
@@ -48,7 +49,7 @@ class Simulated:
 
     session: Session
     machine: MachineErrors
-    setups: dict[str, SetupErrors]
+    setups: dict[str, SetupErrors | OpticSetup | None]
     options: SimulationOptions
     systematic: SystematicDraw | None = None
     budget: str | None = None

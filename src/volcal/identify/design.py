@@ -284,7 +284,7 @@ def coarsen(design: Design, nodes: list[NDArray[np.float64]]) -> Design | None:
             or design.extra_precision is not None and np.any(design.extra_precision)):
         return None
     fine = design.layout
-    layout = ParameterLayout(tuple(np.asarray(n, dtype=float) for n in nodes))
+    layout = ParameterLayout.of_nodes(nodes)
     rows, cols, vals = [], [], []
     for k in range(3):
         xf, xc = np.asarray(fine.nodes[k]), np.asarray(layout.nodes[k])
@@ -468,7 +468,7 @@ def build_design(session: Session, nodes: list[NDArray[np.float64]] | None = Non
     """
     if nodes is None:
         nodes = choose_nodes(session)
-    layout = ParameterLayout(tuple(np.asarray(n, dtype=float) for n in nodes))
+    layout = ParameterLayout.of_nodes(nodes)
     chain = parse_chain(session.chain)
     meas = [m for m in session.measurements
             if measurement_ids is None or m.id in measurement_ids]

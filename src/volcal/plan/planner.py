@@ -102,7 +102,7 @@ def abbe_lines(axis: int, travel: np.ndarray, chain: str = "XYFZ",
 
 def _measurement(mid: str, kind: str, target: str, g: TestGeometry, offset, notes: str
                  ) -> Measurement:
-    cols = {}
+    cols: dict[str, NDArray] = {}
     if g.run is not None and kind_of(kind).bidirectional:  # runs of ISO 230-2 tests
         cols["run"] = g.run
     if g.direction is not None:

@@ -691,8 +691,9 @@ def read_measurement_csv(path: str | Path, require_deviation: bool = True,
         t = read_table(path, MULTILATERATION_TABLE)
         _check_environment_columns(t)
         pos = np.stack([t["x_mm"], t["y_mm"], t["z_mm"]], axis=1)
-        dev: NDArray[np.float64] | None = t[value_column]
-        missing = np.isnan(dev)
+        readings = t[value_column]
+        missing = np.isnan(readings)
+        dev: NDArray[np.float64] | None = readings
         if missing.all() and not require_deviation:
             dev = None
         elif missing.any():
@@ -750,7 +751,9 @@ def read_session(folder: str | Path, require_deviation: bool = True) -> Session:
     vertical = vertical_axis(meta, toml_path)
     references = read_references(doc, toml_path)
     seen: set[str] = set()
-    meas, unmeasured, notes = [], [], []
+    meas: list[Measurement] = []
+    unmeasured: list[Measurement] = []
+    notes: list[str] = []
     for i, e in enumerate(raw):
         m = _read_entry(e, i, folder, toml_path, seen, require_deviation, travel, notes,
                         vertical)
@@ -767,8 +770,8 @@ def read_session(folder: str | Path, require_deviation: bool = True) -> Session:
         notes.insert(0, f"no readings yet: {', '.join(m.id for m in unmeasured)} "
                      f"(working on the {len(meas)} measured)")
     check_references([*meas, *unmeasured], references, toml_path,
-                     {e.get("id"): f"measurements[{i}]" for i, e in enumerate(raw)
-                      if isinstance(e, dict)})
+                     {e["id"]: f"measurements[{i}]" for i, e in enumerate(raw)
+                      if isinstance(e, dict) and isinstance(e.get("id"), str)})
     annotate_references([*meas, *unmeasured], references)
     s = Session(name, chain, travel, meas, meta, folder, unmeasured, notes, [], provenance,
                 read_calibration(doc, toml_path), read_equipment(doc, toml_path), references)
@@ -823,7 +826,7 @@ def _read_machine(doc: dict[str, Any], toml_path: Path
     provenance = doc.get("provenance", {})
     if not isinstance(provenance, dict):
         raise _err("[provenance] must be a table", toml_path, None, "provenance")
-    return name, chain, travel, meta, provenance
+    return name, str(chain), travel, meta, provenance  # parse_chain took text only
 
 
 def _read_travel(tr: Any, toml_path: Path) -> NDArray[np.float64]:

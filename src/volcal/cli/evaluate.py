@@ -100,7 +100,7 @@ def _iso_decisions(res: Any, unc: Any, tolerance_um: str, rule: str,
 
     tols = parse_parameter_tolerance(tolerance_um)
     require_uncertainty(rule, guard_band_um, unc is not None)
-    ds = []
+    ds: list[dict[str, Any]] = []
     for k, tol in tols.items():
         v = abs(float(getattr(res, k)))
         d = decide(v, tol, rule, None if unc is None else unc.parameters[k].U, guard_band_um)
@@ -164,7 +164,7 @@ def iso230_2_cmd(
         _print_json(out)
         return
     _iso_tables(res, str(file), unc)
-    if unc is not None:
+    if unc is not None and corrections is not None:
         _budget_table(unc, corrections)
     if dec is not None:
         _print_iso_decisions(dec)
@@ -730,8 +730,10 @@ def optics_cmd(
     for r in ev["squareness"]:
         nm = r["name"]
         ls, ep = r["least_squares"], r["end_point"]
-        pm = (lambda e, nm=nm: f" +- {e['U_' + nm]:.2f}") if b is not None else (
-            lambda e: "")
+
+        def pm(e: dict[str, Any], nm: str = nm) -> str:
+            return f" +- {e['U_' + nm]:.2f}" if b is not None else ""
+
         console.print(f"squareness {r['axes'].upper()} (optical square {r['reference']!r}, "
                       f"{' + '.join(r['lines'])}, square {r['square_deviation_urad']:g} urad): "
                       f"{nm} = {ls[nm]:.2f}{pm(ls)} urad from the least-squares "

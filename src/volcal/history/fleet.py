@@ -54,8 +54,8 @@ def fleet_html(history: Any, today: _dt.date | None = None) -> str:
         ident = mach.payload.get("machine", {})
         who = " ".join(str(ident[k]) for k in ("make", "model") if ident.get(k))
         serial = ident.get("serial", "")
-        ev = [r.results.get("V.E_VXYZ", {}).get("value") for r in cals]
-        ev = [v for v in ev if v is not None]
+        stated = [r.results.get("V.E_VXYZ", {}).get("value") for r in cals]
+        ev = [v for v in stated if v is not None]
         last = cals[-1] if cals else None
         evx = last.results.get("V.E_VXYZ") if last else None
         nxt = min((d["next"] for d in due_rows if d["machine_id"] == mach.id), default="")

@@ -11,11 +11,12 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Callable
-from typing import TypeVar
+from typing import ParamSpec, TypeVar
 
 from volcal.errors import ParameterError
 
-F = TypeVar("F", bound=Callable[..., object])
+P = ParamSpec("P")
+R = TypeVar("R")
 
 #: Python parameter -> command-line option, where typer's spelling is not the option.
 RENAMED: dict[str, str] = {
@@ -53,7 +54,7 @@ OPTIONS: dict[str, str] = {
 }
 
 
-def cli_spelling(func: F) -> F:
+def cli_spelling(func: Callable[P, R]) -> Callable[P, R]:
     """Wrap a command so that a step's :class:`ParameterError` names the CLI's options.
 
     Parameters
@@ -66,10 +67,10 @@ def cli_spelling(func: F) -> F:
     callable
     """
     @functools.wraps(func)
-    def wrapper(*args: object, **kwargs: object) -> object:
+    def wrapper(*args: P.args, **kwargs: P.kwargs) -> R:
         try:
             return func(*args, **kwargs)
         except ParameterError as exc:
             raise exc.spelled(OPTIONS) from None
 
-    return wrapper  # type: ignore[return-value]
+    return wrapper

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 from rich.console import Console
@@ -12,6 +12,9 @@ from rich.markup import escape
 from volcal import defaults as D
 from volcal.cli._common import note_moved, parse_vector, print_session_notes
 from volcal.cli._options import cli_spelling
+
+if TYPE_CHECKING:
+    from volcal.steps.compensate import Compensated
 
 console = Console(soft_wrap=True)  # no line breaks inside paths
 err_console = Console(stderr=True, soft_wrap=True)  # notes, warnings: standard error
@@ -92,15 +95,15 @@ def compensate(
         _print_line_checks(r)
 
 
-def _print_line_checks(r: object) -> None:
+def _print_line_checks(r: Compensated) -> None:
     """ISO 230-2 A of every measured linear line before and after the tables just written."""
     from rich.table import Table
 
-    checks = r.line_checks  # type: ignore[attr-defined]
+    checks = r.line_checks
     if checks:
         t = Table(title="measured linear lines: ISO 230-2 A before and after these tables")
-        for c in ("id", "axis", "line [mm]", "A before [µm]", "A after [µm]", "u [µm]"):
-            t.add_column(escape(c), justify="left" if c.startswith("line") else "right")
+        for col in ("id", "axis", "line [mm]", "A before [µm]", "A after [µm]", "u [µm]"):
+            t.add_column(escape(col), justify="left" if col.startswith("line") else "right")
         for c in checks:
             t.add_row(c.id, c.axis, escape(c.short), f"{c.A_before_um:.2f}",
                       f"{c.A_after_um:.2f}" + (" (worse)" if c.worse else ""), f"{c.u_um:.2f}")
@@ -108,9 +111,11 @@ def _print_line_checks(r: object) -> None:
     for c in checks:
         if c.worse:
             err_console.print(f"[yellow]warning[/] {escape(c.warning())}", highlight=False)
-    for why in r.not_checked:  # type: ignore[attr-defined]
+    for why in r.not_checked:
         console.print(f"note: not evaluated: {escape(why)}", highlight=False)
-    before, after = r.volumetric_before_um, r.volumetric_after_um  # type: ignore[attr-defined]
+    before, after = r.volumetric_before_um, r.volumetric_after_um
+    if before is None or after is None:  # both are there whenever a session is
+        return
     text = (f"largest modelled volumetric error over 11³ points of the travel: {before:.2f} µm "
             f"before, {after:.2f} µm after these tables")
     if after > before:

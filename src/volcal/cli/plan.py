@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
@@ -17,9 +18,9 @@ from volcal.errors import VolcalInputError
 console = Console(soft_wrap=True)  # no line breaks inside paths
 
 
-def _text(v: object) -> str:
+def _text(v: Iterable[float]) -> str:
     """A default as the command line's text: ``(0.0, 0.0, 0.0)`` -> ``'0,0,0'``."""
-    return ",".join(f"{x:g}" for x in v)  # type: ignore[attr-defined]
+    return ",".join(f"{x:g}" for x in v)
 
 
 def plan(

@@ -1,74 +1,153 @@
 """Honesty of the history's change test (docs/history.md): false alarms and power.
 
-Pairs of simulated calibrations (the seeds' full set on 800 x 600 x 500 mm, XYFZ, 10
-increments, 0.5 um noise, independent set-ups and noise) of random machines:
-unchanged; X scale +10 um/m; EC0Y +20 urad. Prints, per case, how many pairs flag
-anything (family-wise false alarms, for the unchanged pairs) and how often the changed
-function is flagged, and anything else flagged.
+Pairs of simulated calibrations of one machine (the seeds' full set on 800 x 600 x 500
+mm, XYFZ, 0.5 um noise, 20 urad mirror misalignment; the second calibration with other
+noise and set-up) on designs of 4, 6, 10 and 20 increments and 1, 2 and 5 runs, with
+machines of three families: volcal's own generator
+(:func:`volcal.measure.virtual.random_machine`) and two generated outside it
+(``benchmarks/families.py``: ``b`` polynomials without roll, ``d`` polynomials with
+rolls and ball-screw cyclic errors). Per design and family:
 
-    .venv/bin/python benchmarks/history_study.py --machines 10
+* **unchanged**: the share of pairs with any function flagged
+  (:func:`volcal.history.compare.compare_models`, family-wise level 5 %) and whether it
+  lies within the binomial band (at most the 95 % quantile of Binomial(n, level));
+* **changed** (the later calibration's machine altered): X scale +10 um/m (EXX),
+  squareness EC0Y +20 urad, a 5 um straightness bow of Y along X (EYX, zero at both
+  ends): the share of pairs where the changed function is flagged (detection rate), and
+  where another function is flagged.
+
+    .venv/bin/python benchmarks/history_study.py --pairs 40            # the full study
+    .venv/bin/python benchmarks/history_study.py --pairs 4 --power-pairs 4   # quick
 """
 
 from __future__ import annotations
 
 import argparse
-import shutil
-import tempfile
+import sys
+import time
 from pathlib import Path
 
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
 TRAVEL = [[0, 800], [0, 600], [0, 500]]
+STEPS = (4, 6, 10, 20)
+RUNS = (1, 2, 5)
+GENERATORS = ("volcal", "b", "d")
+CHANGES = {"X scale +10 um/m": "EXX", "EC0Y +20 urad": "EC0Y", "EYX bow 5 um": "EYX"}
+LEVEL = 0.05
 
 
-def pair(tmp: Path, base, changed, seed: int):
+def machine(generator: str, seed: int):
+    """An unchanged machine of a generator (MachineErrors)."""
+    if generator == "volcal":
+        from volcal.measure.virtual import random_machine
+
+        return random_machine(TRAVEL, "XYFZ", seed=seed)
+    from families import FAMILIES
+
+    am = FAMILIES[generator].draw(np.random.default_rng(seed), np.array(TRAVEL, float),
+                                  "XYFZ")
+    return am.tabulate()
+
+
+def changed(m, target: str):
+    """The machine with one change (:data:`CHANGES`)."""
+    out = m.copy()
+    x = out.nodes[0]
+    if target == "EXX":
+        out.values[0][:, 0] += 0.010 * (x - x[0])          # 10 um/m [um]
+    elif target == "EC0Y":
+        out.squareness[0] += 20.0                          # [urad]
+    elif target == "EYX":
+        s = (x - x[0]) / (x[-1] - x[0])
+        out.values[0][:, 1] += 5.0 * 4.0 * s * (1.0 - s)   # 5 um bow, 0 at the ends
+    return out
+
+
+def identify(m, steps: int, runs: int, seed: int):
+    """Plan, simulate (noise and set-up of ``seed``) and identify."""
     from volcal.flow import Calibration
-    from volcal.history.api import History
 
-    h = History(str(tmp / f"h{seed}.sqlite"))
-    ids = []
-    for i, m in enumerate((base, changed)):
-        c = Calibration.plan(TRAVEL, steps=10)
-        c.simulate(machine=m, seed=10 * seed + i)
-        folder = tmp / f"S{seed}-{i}"
-        c.save(folder)
-        c.identify().to_json(folder / "model.json")
-        ids.append(h.add(folder, folder / "model.json").id)
-    df = h.compare(*ids)
-    h.close()
-    f = df[df.test == "chi-square"]
-    return list(f.name[f.changed.fillna(False)])  # changed: pandas "boolean" (NA undecided)
+    c = Calibration.plan(TRAVEL, steps=steps, runs=runs)
+    c.simulate(machine=m, seed=seed)
+    return c.identify()
 
 
-def main() -> None:
-    from volcal.measure.virtual import random_machine
+def flagged(m1, m2) -> list[str]:
+    """Functions the change test flags."""
+    from volcal.history.compare import compare_models
 
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--machines", type=int, default=10)
-    args = ap.parse_args()
-    tmp = Path(tempfile.mkdtemp(prefix="volcal-hstudy-"))
-    cases = {"unchanged": None, "X scale +10 um/m": "EXX", "EC0Y +20 urad": "EC0Y"}
-    try:
-        for case, target in cases.items():
-            any_flag = hit = other = 0
-            for k in range(args.machines):
-                base = random_machine(TRAVEL, "XYFZ", seed=500 + k)
-                m = base.copy()
-                if target == "EXX":
-                    m.values[0][:, 0] += 0.010 * m.nodes[0]
-                elif target == "EC0Y":
-                    m.squareness[0] += 20.0
-                flagged = pair(tmp, base, m, 1000 * len(case) + k)
-                any_flag += bool(flagged)
-                hit += target in flagged if target else 0
-                other += any(f != target for f in flagged)
-            n = args.machines
-            if target is None:
-                print(f"{case}: {any_flag} of {n} pairs flag a function (family-wise level 5 %)")
-            else:
-                print(f"{case}: {target} flagged in {hit} of {n} pairs; another function "
-                      f"flagged in {other} of {n}")
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
+    return [e.name for e in compare_models(m1, m2, LEVEL) if e.changed]
+
+
+def band(n: int) -> int:
+    """Largest count of pairs with a flag within the binomial band of the level."""
+    from scipy.stats import binom
+
+    return int(binom.ppf(0.95, n, LEVEL))
+
+
+def study(pairs: int, power_pairs: int, steps=STEPS, runs=RUNS, generators=GENERATORS,
+          power_designs=((6, 2), (10, 5))) -> list[dict]:
+    """Rows of the study (one per design, generator and case)."""
+    rows = []
+    for st in steps:
+        for ru in runs:
+            for gi, g in enumerate(generators):
+                t0 = time.perf_counter()
+                n_any = 0
+                power = {c: [0, 0] for c in CHANGES}
+                n_pow = power_pairs if (st, ru) in power_designs else 0
+                for k in range(max(pairs, n_pow)):
+                    seed = 100_000 * gi + 1000 * st + 100 * ru + k
+                    m = machine(g, 500 + k + 10_000 * gi)
+                    first = identify(m, st, ru, 2 * seed)
+                    if k < pairs:
+                        n_any += bool(flagged(first, identify(m, st, ru, 2 * seed + 1)))
+                    if k < n_pow:
+                        for case, target in CHANGES.items():
+                            f = flagged(first, identify(changed(m, target), st, ru,
+                                                        2 * seed + 1))
+                            power[case][0] += target in f
+                            power[case][1] += any(x != target for x in f)
+                row = {"steps": st, "runs": ru, "generator": g, "pairs": pairs,
+                       "unchanged_flagged": n_any, "band": band(pairs),
+                       "within": n_any <= band(pairs), "power_pairs": n_pow,
+                       "power": power, "seconds": time.perf_counter() - t0}
+                rows.append(row)
+                _print(row)
+    return rows
+
+
+def _print(r: dict) -> None:
+    s = (f"| {r['steps']} | {r['runs']} | {r['generator']} | {r['unchanged_flagged']} of "
+         f"{r['pairs']} | {'yes' if r['within'] else 'NO'} (<= {r['band']}) |")
+    if r["power_pairs"]:
+        s += " " + "; ".join(f"{c}: {h}/{r['power_pairs']} (other {o})"
+                             for c, (h, o) in r["power"].items())
+    else:
+        s += " -"
+    print(s + f" | {r['seconds']:.0f} s |", flush=True)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--pairs", type=int, default=40, help="unchanged pairs per design")
+    ap.add_argument("--power-pairs", type=int, default=20,
+                    help="changed pairs per case on the power designs (6x2, 10x5)")
+    ap.add_argument("--steps", default=",".join(map(str, STEPS)))
+    ap.add_argument("--runs", default=",".join(map(str, RUNS)))
+    ap.add_argument("--generators", default=",".join(GENERATORS))
+    a = ap.parse_args(argv)
+    print("| increments | runs | generator | unchanged pairs flagged | within band | "
+          "changed flagged (detection) | time |")
+    print("|---|---|---|---|---|---|---|")
+    study(a.pairs, a.power_pairs, tuple(int(x) for x in a.steps.split(",")),
+          tuple(int(x) for x in a.runs.split(",")), tuple(a.generators.split(",")))
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(main())

@@ -319,6 +319,9 @@ def compare_cmd(
         extra = e.reason or (f"chi2 {e.statistic:.1f} > {e.threshold:.1f}" if e.changed
                              else (f"chi2 {e.statistic:.1f} <= {e.threshold:.1f}"
                                    if e.statistic is not None else ""))
+        if e.changed and e.U is not None and abs(e.difference) <= e.U:
+            extra += (f" (decided by the joint test over {e.dof} determined combinations;"
+                      " |difference| <= U at the node shown)")
         typer.echo(f"{e.name}\t{e.difference:+.4f}\t{u}\t{e.unit}\t{ch}\t{e.test} {extra}")
     n = sum(1 for e in entries if e.changed)
     typer.echo(f"{n} of {sum(1 for e in entries if e.changed is not None)} decided entries "

@@ -78,7 +78,7 @@ bench: $(STAMP) bytecode
 
 study: $(STAMP)
 	$(BIN)/python -m pytest -n 2 --dist loadfile -m slow
-	$(BIN)/python benchmarks/history_study.py --machines 10
+	$(BIN)/python benchmarks/history_study.py --pairs 40 --power-pairs 20
 	$(BIN)/python benchmarks/study.py --design all --machines 10 --markdown --quiet
 	$(BIN)/python benchmarks/study.py --drift --design all --machines 10 --markdown --quiet
 	$(BIN)/python benchmarks/study.py --false-alarms 60 --runs 2 --design all

@@ -134,7 +134,8 @@ def _print(r: dict) -> None:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--pairs", type=int, default=40, help="unchanged pairs per design")
+    ap.add_argument("--pairs", "--machines", type=int, default=40,
+                    help="unchanged pairs per design and generator (--machines: as before)")
     ap.add_argument("--power-pairs", type=int, default=20,
                     help="changed pairs per case on the power designs (6x2, 10x5)")
     ap.add_argument("--steps", default=",".join(map(str, STEPS)))

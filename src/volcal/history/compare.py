@@ -264,10 +264,31 @@ def _determined_statistic(d: np.ndarray, C: np.ndarray, Cn: np.ndarray | None
     return int(keep.sum()), float(zk @ zk)
 
 
+def _residual_dof(model: Any) -> float:
+    """Residual degrees of freedom of a model's noise estimate (``fit.dof``; inf if none)."""
+    fit = model.fit
+    v = fit.get("dof") if isinstance(fit, dict) else getattr(fit, "dof", None)
+    return float(v) if isinstance(v, int | float) and v > 0 else float("inf")
+
+
+def _threshold(p: float, r: int, nu: float) -> float:
+    """Critical value of ``chi2`` over ``r`` combinations at probability ``p``.
+
+    The covariances scale with the reading noise each calibration estimates from its own
+    residuals (``nu`` degrees of freedom, the smaller of the two): ``chi2 / r`` then
+    follows an F distribution with ``(r, nu)`` degrees of freedom (Hotelling), not
+    ``chi2(r) / r``; at 4 increments and 1 run (``nu`` about 70) the chi-square quantile
+    flagged unchanged machines in 3 of 12 pairs (three generators), F 1 of 28. ``nu`` infinite: the chi-square quantile.
+    """
+    from scipy.stats import chi2, f
+
+    if not np.isfinite(nu):
+        return float(chi2.ppf(p, r))
+    return float(r * f.ppf(p, r, nu))
+
+
 def _function_entries(m1: Any, m2: Any, level: float, common_prior: bool = True
                       ) -> list[Entry]:
-    from scipy.stats import chi2
-
     from volcal.model.names import COMPONENT_NAMES, SQUARENESS_NAMES
 
     if str(m1.errors.chain) != str(m2.errors.chain):
@@ -301,6 +322,7 @@ def _function_entries(m1: Any, m2: Any, level: float, common_prior: bool = True
         f is not None and f < UNDETERMINED_BELOW for f in (_determined(m1, t[0]),
                                                            _determined(m2, t[0])))]
     m = max(1, len(decided))
+    nu = min(_residual_dof(m1), _residual_dof(m2))
     out = []
     for name, d, C, q, Cn in tests:
         unit = "um" if name[1] in "XYZ" and name not in SQUARENESS_NAMES else "urad"
@@ -321,7 +343,7 @@ def _function_entries(m1: Any, m2: Any, level: float, common_prior: bool = True
                         else "no combination determined by both calibrations")
             out.append(e)
             continue
-        thr = float(chi2.ppf(1.0 - level / m, r))
+        thr = _threshold(1.0 - level / m, r, nu)
         e.statistic, e.threshold, e.dof = stat, thr, r
         e.changed = bool(stat > thr)
         out.append(e)

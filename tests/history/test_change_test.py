@@ -64,3 +64,26 @@ def test_scale_change_detected_few_increments():
     entries = {e.name: e for e in compare_models(_model(m, 37), _model(m2, 38), LEVEL)}
     assert [n for n, e in entries.items() if e.changed] == ["EXX"]
     assert entries["EXX"].difference == pytest.approx(8.0, abs=entries["EXX"].U)
+
+
+def test_cli_says_joint_test_decided(tmp_path, monkeypatch):
+    """An entry flagged with |difference| <= U says that the joint test decided it; one
+    with |difference| > U does not need to."""
+    from typer.testing import CliRunner
+
+    import volcal.history.compare as cm
+    from volcal.cli import app
+    from volcal.history.api import History
+
+    db = str(tmp_path / "h.sqlite")
+    History(db).close()
+    entries = [cm.Entry("EXX", -0.53, 0.61, True, "um", "chi-square", 49.7, 42.3, 19),
+               cm.Entry("EYY", 3.0, 0.61, True, "um", "chi-square", 49.7, 42.3, 19)]
+    monkeypatch.setattr(cm, "compare", lambda *a, **k: entries)
+    res = CliRunner().invoke(app, ["history", "compare", "C1", "C2", "--db", db])
+    assert res.exit_code == 0, res.output
+    lines = {ln.split("\t")[0]: ln for ln in res.output.splitlines()}
+    assert lines["EXX"].endswith("chi-square chi2 49.7 > 42.3 (decided by the joint test "
+                                 "over 19 determined combinations; |difference| <= U at "
+                                 "the node shown)")
+    assert lines["EYY"].endswith("chi-square chi2 49.7 > 42.3")

@@ -278,7 +278,8 @@ def _threshold(p: float, r: int, nu: float) -> float:
     residuals (``nu`` degrees of freedom, the smaller of the two): ``chi2 / r`` then
     follows an F distribution with ``(r, nu)`` degrees of freedom (Hotelling), not
     ``chi2(r) / r``; at 4 increments and 1 run (``nu`` about 70) the chi-square quantile
-    flagged unchanged machines in 3 of 12 pairs (three generators), F 1 of 28. ``nu`` infinite: the chi-square quantile.
+    flagged unchanged machines in 3 of 12 pairs (three generators), F 1 of 28. ``nu``
+    infinite: the chi-square quantile.
     """
     from scipy.stats import chi2, f
 

@@ -16,7 +16,8 @@ Two kinds of entries (``docs/history.md``):
   ``Cn`` in the metric of ``C`` with a determined fraction of at least
   :data:`DETERMINED_FROM` are tested, ``chi2 = sum z^2`` of the difference in those
   directions over its posterior standard deviation, with as many degrees of freedom as
-  directions, against the ``1 - level/m`` quantile of the chi-square distribution; ``m``
+  directions, against ``r F(1 - level/m; r, nu)`` (:func:`_threshold`, ``nu`` the
+  calibrations' residual degrees of freedom; the chi-square quantile when unknown); ``m``
   is the number of functions tested, those both calibrations determine (Bonferroni: the
   family-wise false-alarm rate is at most ``level``). The directions left out are the
   prior's shrinkage: it moves with the hyperparameters each calibration chooses from its

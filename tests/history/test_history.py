@@ -196,12 +196,12 @@ def test_failed_add_leaves_nothing(store_url, calibrations, monkeypatch):
 
 
 def test_migration_from_first_revision(tmp_path):
-    """A store of revision 0001 with a record upgrades to 0002 and keeps its chain."""
+    """A store of revision 0001 with a record upgrades to the head and keeps its chain."""
     from sqlalchemy import text
 
     from volcal.history.api import History
     from volcal.history.chain import GENESIS, record_hash
-    from volcal.history.engine import make_engine, migrate
+    from volcal.history.engine import HEAD, make_engine, migrate
 
     url = f"sqlite:///{tmp_path / 'old.sqlite'}"
     eng = make_engine(url)
@@ -222,7 +222,7 @@ def test_migration_from_first_revision(tmp_path):
         assert [r.id for r in h.list()] == ["M000001"]
         assert h.verify()[0]
         with h.store.engine.connect() as conn:
-            assert conn.execute(text("SELECT version_num FROM alembic_version")).scalar() == "0002"
+            assert conn.execute(text("SELECT version_num FROM alembic_version")).scalar() == HEAD
 
 
 def test_schema_matches_migrations(tmp_path):

@@ -33,16 +33,21 @@ DbOption = Annotated[str | None, typer.Option(
     "$VOLCAL_DB, else ~/.local/share/volcal/history.sqlite.")]
 
 
+KeyOption = Annotated[Path | None, typer.Option(
+    "--private-key", help="Sign the record with this private key (volcal history key new); "
+    "default $VOLCAL_HISTORY_KEY, else unsigned.")]
+
+
 CreateOption = Annotated[bool, typer.Option(
     "--create", help="Make a new store when the --db path (or database) holds none; "
     "without it a path with no history is refused (a typo never makes an empty store).")]
 
 
-def _open(db: str | None, create: bool = False):
+def _open(db: str | None, create: bool = False, private_key: Path | None = None):
     """The history at ``db``; a new store only with ``create`` (said on standard error)."""
     from volcal.history.api import History
 
-    h = History(db, create=create)
+    h = History(db, create=create, private_key=private_key)
     if h.store.created:
         _err(f"note: created a new history at {h.store.where}")
     return h
@@ -67,6 +72,11 @@ def add_cmd(
     machine: Annotated[str | None, typer.Option(
         help="Machine record id or name, when the session's identity is ambiguous.")] = None,
     force: Annotated[bool, typer.Option(help="Accept a model of other readings.")] = False,
+    certificate: Annotated[Path | None, typer.Option(
+        "--certificate", help="Folder `volcal report --certificate` wrote for this "
+        "calibration (certificate.json): its number is stored; default [calibration] "
+        "report_id of the session.")] = None,
+    private_key: KeyOption = None,
     db: DbOption = None,
     create: CreateOption = False,
 ) -> None:
@@ -75,8 +85,8 @@ def add_cmd(
     The same readings and model stored again (a retried add) append nothing: the stored
     record's id is printed, with a note on standard error.
     """
-    with _open(db, create) as h:
-        rec = h.add(session, model, as_left_of, supersedes, machine, force)
+    with _open(db, create, private_key) as h:
+        rec = h.add(session, model, as_left_of, supersedes, machine, force, certificate)
         if rec.already_stored:
             later = f", superseded by {rec.superseded_by}" if rec.superseded_by else ""
             _err(f"note: this session and model are stored already as {rec.id} "
@@ -98,11 +108,12 @@ def add_etalon_cmd(
                                           "([machine]) and the date ([calibration]).")],
     date: Annotated[str | None, typer.Option(help="Date of measurement (ISO 8601).")] = None,
     machine: Annotated[str | None, typer.Option(help="Machine record id or name.")] = None,
+    private_key: KeyOption = None,
     db: DbOption = None,
     create: CreateOption = False,
 ) -> None:
     """Store another system's result (Etalon exchange file); prints the record id."""
-    with _open(db, create) as h:
+    with _open(db, create, private_key) as h:
         rec = h.add_etalon(file, session, date, machine)
         if rec.payload.get("not_mapped"):
             _err("note: blocks kept in the stored file but not mapped to volcal's 21 errors: "
@@ -196,6 +207,8 @@ def list_cmd(
     all_records: Annotated[bool, typer.Option("--all", help="Every record: also the "
                                               "machines and their intervals (no date of "
                                               "measurement).")] = False,
+    certificate: Annotated[str | None, typer.Option(
+        "--certificate", help="Only the calibration of this certificate number.")] = None,
     db: DbOption = None,
 ) -> None:
     """The calibrations by date of measurement, superseded ones marked.
@@ -208,6 +221,11 @@ def list_cmd(
         recs = h.list()
     if not all_records:  # the records with a date of measurement
         recs = by_date([r for r in recs if r.kind == "calibration"])
+    if certificate is not None:
+        recs = [r for r in recs if r.report_id == certificate.strip()]
+        if not recs:
+            _err(f"no calibration of certificate {certificate!r} in the history")
+            raise typer.Exit(1)
     if as_json:
         typer.echo(json.dumps([{"id": r.id, "kind": r.kind, "machine": r.machine_name,
                                 "machine_id": r.machine_id or (r.id if r.kind == "machine"
@@ -215,7 +233,8 @@ def list_cmd(
                                 "date": r.date, "created": r.created,
                                 "supersedes": r.supersedes, "superseded_by": r.superseded_by,
                                 "superseded": r.superseded_by is not None,
-                                "as_left_of": r.as_left_of, "hash": r.hash}
+                                "as_left_of": r.as_left_of, "report_id": r.report_id,
+                                "hash": r.hash}
                                for r in recs], indent=1))
         return
     typer.echo("id\tkind\tmachine\tdate of measurement\tnote")
@@ -227,6 +246,8 @@ def list_cmd(
             note.append(f"corrects {r.supersedes}")
         if r.as_left_of:
             note.append(f"as-left of {r.as_left_of}")
+        if r.report_id:
+            note.append(f"certificate {r.report_id}")
         typer.echo(f"{r.id}\t{r.kind}\t{r.machine_name}\t{r.date or '-'}\t{'; '.join(note)}")
 
 
@@ -250,6 +271,8 @@ def show_cmd(
     for k in ("operator", "customer", "laboratory"):
         if k in cal:
             typer.echo(f"{k}: {cal[k]}")
+    if r.report_id:
+        typer.echo(f"certificate: {r.report_id}")
     for e in r.equipment:
         typer.echo("equipment: " + ", ".join(f"{k} {v}" for k, v in e.items()))
     if r.results:
@@ -261,6 +284,9 @@ def show_cmd(
     for f in r.files:
         typer.echo(f"file {f['role']}: {f['name']} sha256 {f['sha256'][:16]}...")
     typer.echo(f"hash {r.hash}")
+    if r.signature:
+        typer.echo(f"signed by key {r.key_id} (volcal history verify --public-key FILE "
+                   "checks it)")
 
 
 @history_app.command("trend")
@@ -332,12 +358,13 @@ def compare_cmd(
 def interval_cmd(
     machine: Annotated[str, typer.Argument(help="Machine name or record id.")],
     days: Annotated[int, typer.Argument(min=1, help="Calibration interval [days].")],
+    private_key: KeyOption = None,
     db: DbOption = None,
 ) -> None:
     """Set a machine's calibration interval (appends a record)."""
     from volcal.history.store import NewRecord
 
-    with _open(db) as h:
+    with _open(db, private_key=private_key) as h:
         mid = h.machine_id(machine)
         rec = h.store.append(NewRecord("interval", {"interval_days": days}, machine_id=mid))
     typer.echo(rec.id)
@@ -402,15 +429,55 @@ def export_cmd(
 
 
 @history_app.command("verify")
-def verify_cmd(db: DbOption = None) -> None:
+def verify_cmd(
+    db: DbOption = None,
+    public_key: Annotated[list[Path] | None, typer.Option(
+        "--public-key", help="Also check every record's signature against this public key "
+        "(PEM; repeat for several keys).")] = None,
+) -> None:
     """Check the hash chain; exit status 0 only when it is intact. Prints the head hash."""
     with _open(db) as h:
         ok, first, head, n, why = h.verify()
-    if ok:
-        typer.echo(f"chain intact: {n} records; head {head}")
+        if ok and public_key:
+            sig = h.verify_signatures(public_key)
+    if not ok:
+        typer.echo(f"chain BROKEN at {first}: {why}; last good head {head}")
+        raise typer.Exit(1)
+    typer.echo(f"chain intact: {n} records; head {head}")
+    if public_key:
+        _report_signatures(sig)
+
+
+def _report_signatures(sig) -> None:
+    """The line of ``verify --public-key``; exit status 1 when a record is not vouched for."""
+    if sig.ok:
+        typer.echo(f"signatures valid: every record up to {sig.last_signed} is vouched for "
+                   f"by the key ({sig.signed} of {sig.n} records signed)")
         return
-    typer.echo(f"chain BROKEN at {first}: {why}; last good head {head}")
+    where = f" at {sig.first_bad}" if sig.first_bad else ""
+    typer.echo(f"signatures BROKEN{where}: {sig.why}")
     raise typer.Exit(1)
+
+
+key_app = typer.Typer(help="Key pair that signs the history's records (optional).",
+                      no_args_is_help=True)
+history_app.add_typer(key_app, name="key")
+
+
+@key_app.command("new")
+def key_new_cmd(
+    output: Annotated[Path | None, typer.Option(
+        "-o", "--output", help="Folder for history-key.pem (private, 0600) and "
+        "history-key.pub.pem; default $XDG_CONFIG_HOME/volcal (~/.config/volcal).")] = None,
+) -> None:
+    """Make an Ed25519 key pair; prints the private key's path (for VOLCAL_HISTORY_KEY)."""
+    from volcal.history.signing import KEY_ENV, new_key_pair
+
+    private, public, kid = new_key_pair(output)
+    _err(f"key {kid}: public key {public} (give it to whoever verifies: volcal history "
+         f"verify --public-key {public}); keep the private key to yourself and sign with "
+         f"--private-key or {KEY_ENV}")
+    typer.echo(str(private))
 
 
 def register(app: typer.Typer) -> None:

@@ -25,10 +25,14 @@ class History:
     create : bool
         Make a new store when there is none (``False``: refuse a path or database without
         a history, as every ``volcal history`` command but ``add --create`` does).
+    private_key : str or Path, optional
+        Private key file: every record appended is signed (``docs/history.md``, "Signed
+        records"); default the file named by ``VOLCAL_HISTORY_KEY``, else unsigned.
     """
 
-    def __init__(self, db: str | None = None, create: bool = True) -> None:
-        self.store = Store(db, create=create)
+    def __init__(self, db: str | None = None, create: bool = True,
+                 private_key: str | Path | None = None) -> None:
+        self.store = Store(db, create=create, private_key=private_key)
 
     def close(self) -> None:
         """Release the connections."""
@@ -43,7 +47,7 @@ class History:
     # ----------------------------------------------------------------- add
     def add(self, session: str | Path, model: str | Path, as_left_of: str | None = None,
             supersedes: str | None = None, machine: str | None = None,
-            force: bool = False) -> Record:
+            force: bool = False, certificate: str | Path | None = None) -> Record:
         """Store a calibration: its session, model, results and equipment.
 
         Parameters
@@ -60,6 +64,10 @@ class History:
             Machine record id or name when the identity is ambiguous.
         force : bool
             Accept a model of other readings.
+        certificate : str or Path, optional
+            The folder ``volcal report --certificate`` wrote for this calibration (or its
+            ``certificate.json``): the certificate's number is stored (``report_id``);
+            without it, ``[calibration] report_id`` of the session where given.
 
         Returns
         -------
@@ -75,7 +83,8 @@ class History:
         """
         from volcal.history.record import calibration_record
 
-        rec, session_obj = calibration_record(session, model, as_left_of, supersedes, force)
+        rec, session_obj = calibration_record(session, model, as_left_of, supersedes, force,
+                                              certificate)
         return self.store.append(rec, check=self._machine_of(session_obj.identity, machine,
                                                              rec))
 
@@ -218,6 +227,23 @@ class History:
     def verify(self) -> tuple[bool, str | None, str, int, str]:
         """Check the chain (see :meth:`Store.verify`)."""
         return self.store.verify()
+
+    def verify_signatures(self, public_keys: list[str | Path]) -> Any:
+        """Check every record's signature against public key files.
+
+        Parameters
+        ----------
+        public_keys : list of str or Path
+            PEM files of the accepted public keys (``volcal history key new``).
+
+        Returns
+        -------
+        SignatureCheck
+            See :func:`volcal.history.signing.check_signatures`.
+        """
+        from volcal.history.signing import load_public_key, verify_store
+
+        return verify_store(self.store, [load_public_key(p) for p in public_keys])
 
     # ------------------------------------------------------------- analysis
     def compare(self, id1: str, id2: str, level: float = 0.05) -> Any:

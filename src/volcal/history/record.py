@@ -135,9 +135,61 @@ def _once(session: list[tuple[str, str, bytes]], models: list[tuple[str, str, by
     return [f for f in session if hashlib.sha256(f[2]).digest() not in model_digests] + models
 
 
+def certificate_number(certificate: str | Path | None, session: Any) -> str | None:
+    """The number of the calibration certificate of a session (``records.report_id``).
+
+    Parameters
+    ----------
+    certificate : str or Path, optional
+        The folder ``volcal report --certificate`` wrote (its ``certificate.json``) or that
+        file. The certificate must be of this session's readings (its as-found or as-left
+        ``readings_sha256``). Without it: ``[calibration] report_id`` of the session, else
+        None.
+    session : Session
+        The session stored.
+
+    Raises
+    ------
+    VolcalInputError
+        No ``certificate.json``, not a volcal certificate, a certificate of other readings.
+    """
+    import json
+
+    from volcal.errors import VolcalInputError
+    from volcal.session.provenance import readings_digest
+
+    if certificate is None:
+        given = (session.calibration or {}).get("report_id")
+        return None if given in (None, "") else str(given).strip()
+    path = Path(certificate)
+    if path.is_dir():
+        path = path / "certificate.json"
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise VolcalInputError("no certificate.json: --certificate names the folder "
+                               "`volcal report --certificate` wrote", path) from None
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise VolcalInputError(f"not a readable certificate ({exc})", path) from None
+    number = doc.get("report_id") if isinstance(doc, dict) else None
+    if not isinstance(number, str) or not number.strip():
+        raise VolcalInputError("no certificate number here (key report_id): not a volcal "
+                               "certificate", path)
+    results = doc.get("results") if isinstance(doc.get("results"), dict) else {}
+    digests = [(results.get(k) or {}).get("readings_sha256") for k in ("as_found", "as_left")
+               if isinstance(results.get(k), dict)]
+    if readings_digest(session) not in digests:
+        raise VolcalInputError(f"certificate {number.strip()} is of other readings than the "
+                               f"session {session.path or session.name} "
+                               "(results.as_found.readings_sha256)",
+                               path)
+    return number.strip()
+
+
 def calibration_record(session_folder: str | Path, model_path: str | Path,
                        as_left_of: str | None = None, supersedes: str | None = None,
-                       force: bool = False) -> tuple[NewRecord, Any]:
+                       force: bool = False, certificate: str | Path | None = None
+                       ) -> tuple[NewRecord, Any]:
     """The record of one calibration, ready for :meth:`Store.append`.
 
     Parameters
@@ -152,6 +204,9 @@ def calibration_record(session_folder: str | Path, model_path: str | Path,
         Id of the calibration record this one corrects.
     force : bool
         Accept a model identified from other readings.
+    certificate : str or Path, optional
+        The certificate folder (or its ``certificate.json``) of this calibration: its number
+        is stored (:func:`certificate_number`).
 
     Returns
     -------
@@ -168,6 +223,7 @@ def calibration_record(session_folder: str | Path, model_path: str | Path,
     # a record keeps the model whole: its binary part too (the U of the stored results)
     model.require_uncertainty("a calibration record", model_path)
     check_model_session(model, session, force=force)
+    number = certificate_number(certificate, session)
     ident = session.identity.to_dict()
     kept = session_files(session.path or folder)
     models = model_files(model_path)
@@ -205,5 +261,5 @@ def calibration_record(session_folder: str | Path, model_path: str | Path,
     }
     rec = NewRecord("calibration", payload, date=date, as_left_of=as_left_of,
                     supersedes=supersedes, files=files, results=results_of(session, model),
-                    equipment=list(session.equipment))
+                    equipment=list(session.equipment), report_id=number)
     return rec, session

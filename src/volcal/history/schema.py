@@ -7,7 +7,8 @@ are written in the same transaction and enter its hash (:mod:`volcal.history.cha
 
 The schema is created and upgraded by the Alembic revisions in
 ``volcal/history/migrations/versions`` (``0001`` the records, files and results;
-``0002`` the equipment of each calibration and the certificate's report id). These
+``0002`` the equipment of each calibration and the certificate's report id; ``0003`` the
+signature of each record's hash, :mod:`volcal.history.signing`). These
 table objects describe the head revision; a test checks that they agree.
 """
 
@@ -41,6 +42,8 @@ records = Table(
     Column("prev_hash", String(64), nullable=False),
     Column("hash", String(64), nullable=False, unique=True),
     Column("report_id", String(64), nullable=True),      # revision 0002
+    Column("signature", String(128), nullable=True),     # revision 0003: Ed25519, hex
+    Column("key_id", String(16), nullable=True),         # revision 0003: of the signing key
 )
 
 files = Table(

@@ -59,6 +59,9 @@ class Record:
     already_stored : bool
         Set by :meth:`Store.append`: the calibration was stored before (same readings and
         model, ``content_sha256``) and this is that record; nothing was appended.
+    signature, key_id : str or None
+        Ed25519 signature of the hash (hex) and the id of the key that made it
+        (:mod:`volcal.history.signing`); None for an unsigned record.
     """
 
     seq: int
@@ -78,6 +81,8 @@ class Record:
     equipment: list[dict[str, Any]] = field(default_factory=list)
     superseded_by: str | None = None
     already_stored: bool = False
+    signature: str | None = None
+    key_id: str | None = None
 
     @property
     def machine_name(self) -> str:
@@ -91,7 +96,8 @@ class Record:
                 "machine_id": self.machine_id, "date": self.date, "created": self.created,
                 "supersedes": self.supersedes, "superseded_by": self.superseded_by,
                 "as_left_of": self.as_left_of, "report_id": self.report_id,
-                "hash": self.hash, "payload": self.payload,
+                "hash": self.hash, "signature": self.signature, "key_id": self.key_id,
+                "payload": self.payload,
                 "results": self.results, "files": self.files, "equipment": self.equipment}
 
 
@@ -121,17 +127,36 @@ class Store:
     create : bool
         Make a new store when there is none (an SQLite file and its folder, the schema of
         an empty database); ``False`` refuses a path or database without a history.
+    private_key : str or Path, optional
+        Private key file that signs every appended record's hash
+        (:mod:`volcal.history.signing`); default the file named by ``VOLCAL_HISTORY_KEY``,
+        read at the first append. Without a key, appending to a store whose last record is
+        signed is refused.
     """
 
-    def __init__(self, url: str | None = None, create: bool = True) -> None:
+    def __init__(self, url: str | None = None, create: bool = True,
+                 private_key=None) -> None:
         from volcal.history.engine import open_engine
         from volcal.history.url import describe, resolve_url
 
+        self._private_key = private_key
+        self._signer: Any = False  # not resolved yet
+        if private_key is not None:  # a wrong key file: refused before the store is opened
+            _ = self.signer
         self.url = resolve_url(url)
         self.where = describe(self.url)
         self.engine = open_engine(self.url, create=create)
         #: True when opening made a new, empty store
         self.created = bool(getattr(self.engine, "volcal_created", False))
+
+    @property
+    def signer(self) -> Any:
+        """The :class:`~volcal.history.signing.Signer` of appended records, or None."""
+        if self._signer is False:
+            from volcal.history.signing import signer_from
+
+            self._signer = signer_from(self._private_key)
+        return self._signer
 
     def close(self) -> None:
         """Release the database connections."""
@@ -140,6 +165,9 @@ class Store:
     # ---------------------------------------------------------------- writing
     def append(self, rec: NewRecord, check=None) -> Record:
         """Append one record to the chain, atomically and serialised with other writers.
+
+        With a signer (:attr:`signer`) every record appended is signed; without one, a
+        store whose last record is signed is refused.
 
         Parameters
         ----------
@@ -159,6 +187,7 @@ class Store:
         """
         from volcal.history.engine import lock, writer
 
+        _ = self.signer  # the key file read before the lock is taken
         with writer(self.engine) as conn, conn.begin():
             lock(conn)
             same = self._stored_before(conn, rec)
@@ -181,6 +210,7 @@ class Store:
 
         from volcal.history import schema as t
 
+        self._refuse_unsigned(conn)
         extra = check(conn) if check is not None else None
         if isinstance(extra, NewRecord):
             rec.machine_id = self._insert(conn, extra)
@@ -222,6 +252,22 @@ class Store:
             .order_by(t.records.c.seq.desc()).limit(1)).first()
         return None if row is None else str(row.id)
 
+    def _refuse_unsigned(self, conn) -> None:
+        """Without a signer, refuse to append after a signed record (under the lock)."""
+        from sqlalchemy import select
+
+        from volcal.history import schema as t
+        from volcal.history.signing import KEY_ENV
+
+        if self.signer is not None:
+            return
+        head = conn.execute(select(t.records.c.id, t.records.c.key_id, t.records.c.signature)
+                            .order_by(t.records.c.seq.desc()).limit(1)).first()
+        if head is not None and head.signature:
+            raise VolcalInputError(f"the records of the history {self.where} are signed "
+                                   f"(the last, {head.id}, by key {head.key_id}): give "
+                                   f"--private-key FILE or set {KEY_ENV} to sign this one")
+
     def _insert(self, conn, rec: NewRecord) -> str:
         """Insert one record and its children at the head of the chain (under the lock)."""
         from sqlalchemy import insert, select
@@ -249,6 +295,8 @@ class Store:
                                                 "certificate", "calibrated", "due")}}
                      for i, e in enumerate(rec.equipment)]
         row["hash"] = record_hash(prev, row, files, results, equipment)
+        if self.signer is not None:  # outside the hash it signs
+            row["signature"], row["key_id"] = self.signer.sign(row["hash"]), self.signer.key_id
         conn.execute(insert(t.records).values(**row))
         if files:
             conn.execute(insert(t.files), files)
@@ -303,7 +351,8 @@ class Store:
             out.append(Record(r["seq"], r["id"], r["kind"], r["machine_id"], r["date"],
                               r["created"], r["supersedes"], r["as_left_of"], payload,
                               r["prev_hash"], r["hash"], r["report_id"], res[r["seq"]],
-                              fil[r["seq"]], eqp[r["seq"]]))
+                              fil[r["seq"]], eqp[r["seq"]], signature=r["signature"],
+                              key_id=r["key_id"]))
         return out
 
     def records(self, kind: str | None = None, conn=None) -> list[Record]:

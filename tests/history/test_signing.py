@@ -202,6 +202,7 @@ def test_unsigned_stores_and_refusals(tmp_path, history_two, keys, monkeypatch):
     unsigned add after signed records is refused; VOLCAL_HISTORY_KEY signs."""
     from volcal.history.api import History
     from volcal.history.signing import KEY_ENV, Signer
+    from volcal.history.store import NewRecord
 
     priv, pub, kid = keys["lab"]
     monkeypatch.delenv(KEY_ENV, raising=False)
@@ -218,8 +219,11 @@ def test_unsigned_stores_and_refusals(tmp_path, history_two, keys, monkeypatch):
         sig = h.verify_signatures([pub])
         assert sig.ok and (sig.signed, sig.n) == (1, 3)
     monkeypatch.delenv(KEY_ENV)
-    with History(db) as h, pytest.raises(VolcalInputError) as exc:
-        h.add(history_two["a"], history_two["a"] / "model.json")
+    with History(db) as h:
+        # a retried add appends nothing: no key needed
+        assert h.add(history_two["b"], history_two["b"] / "model.json").already_stored
+        with pytest.raises(VolcalInputError) as exc:
+            h.store.append(NewRecord("interval", {"interval_days": 90}, machine_id=b.machine_id))
     assert str(exc.value) == (f"the records of the history sqlite:///{db} are signed (the last, "
                               f"C000003, by key {kid}): give --private-key FILE or set "
                               f"{KEY_ENV} to sign this one")

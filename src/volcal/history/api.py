@@ -228,7 +228,7 @@ class History:
         """Check the chain (see :meth:`Store.verify`)."""
         return self.store.verify()
 
-    def verify_signatures(self, public_keys: list[str | Path]) -> Any:
+    def verify_signatures(self, public_keys: builtins.list[str | Path]) -> Any:
         """Check every record's signature against public key files.
 
         Parameters

@@ -309,9 +309,10 @@ def check_signatures(rows: list[dict[str, Any]], public_keys: list[tuple[Any, st
                                       f"records (last signed: {last})", signed, len(rows),
                                       last)
             continue
-        key = keys.get(r.get("key_id"))
+        kid = r.get("key_id")
+        key = keys.get(kid) if isinstance(kid, str) else None
         if key is None:
-            return SignatureCheck(False, label, f"signed by key {r.get('key_id')}, not by "
+            return SignatureCheck(False, label, f"signed by key {kid}, not by "
                                   f"the key given ({given})", signed, len(rows), last)
         try:
             key.verify(bytes.fromhex(sig), message(r["hash"]))

@@ -60,6 +60,23 @@ def _err(text: str) -> None:
     Console(stderr=True, soft_wrap=True).print(escape(text), highlight=False)
 
 
+def _warn_damaged(h, ids=None) -> None:
+    """A warning on stderr for every record read that does not match its own hash.
+
+    Parameters
+    ----------
+    h : History
+        The open history.
+    ids : iterable of str, optional
+        Only these records (those the command used); default every one read.
+    """
+    keep = None if ids is None else set(ids)
+    for rid, why in sorted(h.store.damaged.items()):
+        if keep is None or rid in keep:
+            _err(f"warning: record {rid} of the history {h.store.where}: {why}; what is "
+                 "shown of it may have been altered (volcal history verify)")
+
+
 @history_app.command("add")
 def add_cmd(
     session: Annotated[Path, typer.Argument(help="Session folder with readings.")],
@@ -135,6 +152,7 @@ def export_etalon_cmd(
     with _open(db) as h:
         r = h.show(record)
         model = load_record_model(h.store, r.id)
+        _warn_damaged(h, {r.id, record})
     if model is None:
         raise VolcalInputError(f"{r.id} has no volcal model to export")
     write_etalon(model.errors, output, f"volcal history {r.id} ({r.machine_name}, {r.date})")
@@ -177,6 +195,7 @@ def export_qif_cmd(
                                        "(volcal history list)")
             m = load_record_model(h.store, r.id)
             days = machine_interval(h.store.records(), r.machine_id)
+            _warn_damaged(h, {r.id, record})
         if m is None:
             raise VolcalInputError(f"{r.id} has no volcal model to export")
         ident = r.payload.get("machine", {})
@@ -219,6 +238,7 @@ def list_cmd(
 
     with _open(db) as h:
         recs = h.list()
+        _warn_damaged(h)
     if not all_records:  # the records with a date of measurement
         recs = by_date([r for r in recs if r.kind == "calibration"])
     if certificate is not None:
@@ -260,6 +280,7 @@ def show_cmd(
     """A record (the newest correction of it), its results and files."""
     with _open(db) as h:
         r = h.show(record)
+        _warn_damaged(h, {r.id, record})
     if as_json:
         typer.echo(json.dumps(r.to_dict(), indent=1, default=str))
         return
@@ -305,6 +326,7 @@ def trend_cmd(
 
     with _open(db) as h:
         rows = trend(h, machine, parameter)
+        _warn_damaged(h, {r["id"] for r in rows})
     if as_json:
         typer.echo(json.dumps(rows, indent=1))
     else:
@@ -335,6 +357,8 @@ def compare_cmd(
 
     with _open(db) as h:
         entries = compare(h.store, first, second, level)
+        _warn_damaged(h, {first, second, h.store.current(first).id,
+                          h.store.current(second).id})
     if as_json:
         typer.echo(json.dumps([e.to_dict() for e in entries], indent=1))
         return
@@ -380,6 +404,7 @@ def due_cmd(
 
     with _open(db) as h:
         rows = due(h)
+        _warn_damaged(h)
     if as_json:
         typer.echo(json.dumps(rows, indent=1))
         return
@@ -401,6 +426,7 @@ def fleet_cmd(
 
     with _open(db) as h:
         path = write_fleet(h, output)
+        _warn_damaged(h)
     typer.echo(str(path))
 
 
@@ -426,6 +452,7 @@ def export_cmd(
             note_moved(output, moved)
         for p in export_parquet(h, output):
             typer.echo(str(p))
+        _warn_damaged(h)
 
 
 @history_app.command("verify")
@@ -434,17 +461,39 @@ def verify_cmd(
     public_key: Annotated[list[Path] | None, typer.Option(
         "--public-key", help="Also check every record's signature against this public key "
         "(PEM; repeat for several keys).")] = None,
+    head: Annotated[str | None, typer.Option(
+        "--head", help="A head hash kept elsewhere (printed by an earlier verify): confirm "
+        "it is still on the chain with every record up to it unchanged.")] = None,
 ) -> None:
     """Check the hash chain; exit status 0 only when it is intact. Prints the head hash."""
+    import re
+
+    from volcal.errors import VolcalInputError
+
+    if head is not None:
+        head = head.strip().lower()
+        if not re.fullmatch(r"[0-9a-f]{64}", head):
+            raise VolcalInputError(f"--head {head}: expected the 64 hex digits of a head "
+                                   "hash printed by volcal history verify")
     with _open(db) as h:
-        ok, first, head, n, why = h.verify()
-        if ok and public_key:
-            sig = h.verify_signatures(public_key)
-    if not ok:
-        typer.echo(f"chain BROKEN at {first}: {why}; last good head {head}")
+        chk = h.store.check()
+        sig = h.verify_signatures(public_key) if chk.ok and public_key else None
+    kept = None if head is None else chk.hashes.get(head)
+    if not chk.ok:
+        typer.echo(f"chain BROKEN at {chk.first}: {chk.why}; last good head {chk.head}")
+        if kept is not None:
+            typer.echo(f"the kept head is record {kept}: it and every record before it "
+                       "unchanged")
         raise typer.Exit(1)
-    typer.echo(f"chain intact: {n} records; head {head}")
-    if public_key:
+    typer.echo(f"chain intact: {chk.n} records; head {chk.head}")
+    if head is not None:
+        if kept is None:
+            typer.echo(f"kept head {head} is NOT on the chain: a record up to it was "
+                       "rewritten or deleted since that head was kept")
+            raise typer.Exit(1)
+        typer.echo(f"kept head is record {kept} of {chk.n}: it and every record before it "
+                   f"unchanged; {chk.n - kept} records appended since")
+    if sig is not None:
         _report_signatures(sig)
 
 

@@ -41,8 +41,14 @@ class History:
     def __enter__(self) -> History:
         return self
 
-    def __exit__(self, *exc: object) -> None:
+    def __exit__(self, exc_type: Any, exc: Any, tb: Any) -> None:
+        from volcal.history.integrity import damaged_error, database_errors
+
         self.close()
+        # a database error met anywhere inside the block (a damaged page read by a
+        # reader of its own, e.g. the export): the user's message, naming the store
+        if exc is not None and isinstance(exc, database_errors()):
+            raise damaged_error(exc, self.store.where) from None
 
     # ----------------------------------------------------------------- add
     def add(self, session: str | Path, model: str | Path, as_left_of: str | None = None,

@@ -131,6 +131,9 @@ def load_record_model(store: Any, rid: str) -> Any:
     from volcal.identify.modelfile import load_model
 
     rec = store.record(rid)
+    if rec.damage is not None:  # its list of files may be altered: nothing of it unpacked
+        raise VolcalInputError(f"record {rec.id}: {rec.damage}; its model is not used "
+                               "(volcal history verify)", store.where)
     names = [f for f in rec.files if f["role"] in ("model", "model-part")]
     if not any(f["role"] == "model" for f in names):
         return None

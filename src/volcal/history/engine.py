@@ -157,6 +157,8 @@ def open_engine(url: str, upgrade: bool = True, create: bool = True):
         with writer(engine) as conn:
             lock(conn)
             names = set(inspect(conn).get_table_names())
+            if not names:
+                _refuse_truncated(url, where)
             version = None
             if "alembic_version" in names:
                 version = conn.execute(text("SELECT version_num FROM alembic_version")).scalar()
@@ -177,6 +179,21 @@ def open_engine(url: str, upgrade: bool = True, create: bool = True):
                                where) from None
     engine.volcal_created = created
     return engine
+
+
+def _refuse_truncated(url: str, where: str) -> None:
+    """Refuse an SQLite file that holds bytes but no table.
+
+    SQLite reads a file shorter than its header as an empty database: a truncated store
+    would be given a new schema.
+    """
+    if not url.startswith("sqlite") or ":///" not in url:
+        return
+    path = Path(url.split(":///", 1)[1])
+    size = path.stat().st_size if path.is_file() else 0
+    if size > 0:
+        raise VolcalInputError(f"not a usable history database (a file of {size} bytes "
+                               "without a table: truncated, or not a database)", where)
 
 
 def _check_schema(names: set[str], version: str | None, upgrade: bool, where: str) -> None:

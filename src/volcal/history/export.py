@@ -32,6 +32,20 @@ def exported_files(folder: str | Path) -> list[str]:
             if (Path(folder) / f"{n}.parquet").is_file()]
 
 
+def _check_files(store: Any, records: Any, files: Any) -> None:
+    """Note in ``store.damaged`` the records whose stored files do not match their digest."""
+    import hashlib
+
+    ids = dict(zip(records["seq"], records["id"], strict=False))
+    for seq, name, digest, content in zip(files["record_seq"], files["name"], files["sha256"],
+                                          files["content"], strict=False):
+        data = content.encode() if isinstance(content, str) else bytes(content or b"")
+        if hashlib.sha256(data).hexdigest() != digest:
+            store.damaged.setdefault(str(ids.get(seq, f"record {seq}")),
+                                     f"stored file {name} does not match its sha256 "
+                                     "(altered in the store)")
+
+
 def export_parquet(history: Any, folder: str | Path) -> list[Path]:
     """Write the Parquet files; returns their paths.
 
@@ -46,16 +60,20 @@ def export_parquet(history: Any, folder: str | Path) -> list[Path]:
     """
     require_extra("history", "volcal history export", ("pandas", "pyarrow"))
     import pandas as pd
-    from sqlalchemy import select
+    from sqlalchemy import LargeBinary, cast, select
 
     from volcal.history import schema as t
     from volcal.io.atomic import atomic_dir
 
     folder = Path(folder)
     with history.store.engine.connect() as conn:
-        frames = {name: pd.DataFrame(conn.execute(select(getattr(t, name))).mappings().all(),
+        # the content as bytes whatever another program wrote into the column
+        cols = {name: [cast(c, LargeBinary).label(c.name) if c.name == "content" else c
+                       for c in getattr(t, name).columns] for name in t.TABLES}
+        frames = {name: pd.DataFrame(conn.execute(select(*cols[name])).mappings().all(),
                                      columns=[c.name for c in getattr(t, name).columns])
                   for name in t.TABLES}
+    _check_files(history.store, frames["records"], frames["files"])
     frames["calibrations"] = history.results()
     out = []
     with atomic_dir(folder) as tmp:

@@ -83,6 +83,8 @@ class Record:
     already_stored: bool = False
     signature: str | None = None
     key_id: str | None = None
+    damage: str | None = None
+    """Set when the record does not match its own hash (:mod:`volcal.history.integrity`)."""
 
     @property
     def machine_name(self) -> str:
@@ -117,6 +119,18 @@ class NewRecord:
     equipment: list[dict[str, Any]] = field(default_factory=list)
 
 
+def _text(v: Any) -> Any:
+    """A value read back as volcal wrote it: bytes (another program's) as text."""
+    if isinstance(v, bytes | bytearray | memoryview):
+        return bytes(v).decode("utf-8", "replace")
+    return v
+
+
+def _number(v: Any) -> Any:
+    """A result's value or U as stored (None for a value of another type than a number)."""
+    return v if isinstance(v, int | float) and not isinstance(v, bool) else None
+
+
 class Store:
     """A calibration history in a SQL database.
 
@@ -137,6 +151,7 @@ class Store:
     def __init__(self, url: str | None = None, create: bool = True,
                  private_key=None) -> None:
         from volcal.history.engine import open_engine
+        from volcal.history.integrity import guard
         from volcal.history.url import describe, resolve_url
 
         self._private_key = private_key
@@ -145,7 +160,10 @@ class Store:
             _ = self.signer
         self.url = resolve_url(url)
         self.where = describe(self.url)
-        self.engine = open_engine(self.url, create=create)
+        #: record id -> what is wrong with it, of every damaged record read so far
+        self.damaged: dict[str, str] = {}
+        with guard(self.where):
+            self.engine = open_engine(self.url, create=create)
         #: True when opening made a new, empty store
         self.created = bool(getattr(self.engine, "volcal_created", False))
 
@@ -186,10 +204,12 @@ class Store:
             record is returned with ``already_stored`` set.
         """
         from volcal.history.engine import lock, writer
+        from volcal.history.integrity import guard
 
         _ = self.signer  # the key file read before the lock is taken
-        with writer(self.engine) as conn, conn.begin():
+        with guard(self.where), writer(self.engine) as conn, conn.begin():
             lock(conn)
+            self._refuse_broken(conn)
             same = self._stored_before(conn, rec)
             if same is None:
                 rid = self._append_locked(conn, rec, check)
@@ -268,6 +288,16 @@ class Store:
                                    f"(the last, {head.id}, by key {head.key_id}): give "
                                    f"--private-key FILE or set {KEY_ENV} to sign this one")
 
+    def _refuse_broken(self, conn) -> None:
+        """Refuse to append to a broken chain (under the lock; stored digests trusted)."""
+        from volcal.history.integrity import check_chain
+
+        chk = check_chain(conn, contents=False)
+        if not chk.ok:
+            raise VolcalInputError(f"the history is broken at {chk.first}: {chk.why}; "
+                                   "nothing was added (volcal history verify tells the rest)",
+                                   self.where)
+
     def _insert(self, conn, rec: NewRecord) -> str:
         """Insert one record and its children at the head of the chain (under the lock)."""
         from sqlalchemy import insert, select
@@ -308,10 +338,13 @@ class Store:
 
     # ---------------------------------------------------------------- reading
     def _rows(self, where=None, conn=None) -> list[Record]:
-        if conn is None:
-            with self.engine.connect() as c:
-                return self._rows(where, c)
-        return self._read(where, conn)
+        from volcal.history.integrity import guard
+
+        with guard(self.where):
+            if conn is None:
+                with self.engine.connect() as c:
+                    return self._read(where, c)
+            return self._read(where, conn)
 
     def _read(self, where, conn) -> list[Record]:
         from sqlalchemy import select
@@ -326,34 +359,49 @@ class Store:
         res: dict[int, dict] = {s: {} for s in seqs}
         fil: dict[int, list] = {s: [] for s in seqs}
         eqp: dict[int, list] = {s: [] for s in seqs}
+        raw: dict[int, tuple[list, list, list]] = {s: ([], [], []) for s in seqs}
         if seqs:
             for r in conn.execute(select(t.results).where(
                     t.results.c.record_seq.in_(seqs))).mappings():
-                res[r["record_seq"]][r["name"]] = {"value": r["value"], "U": r["U"],
-                                                   "unit": r["unit"]}
+                res[r["record_seq"]][_text(r["name"])] = {
+                    "value": _number(r["value"]), "U": _number(r["U"]),
+                    "unit": _text(r["unit"])}
+                raw[r["record_seq"]][1].append(dict(r))
             for r in conn.execute(select(t.files.c.record_seq, t.files.c.role,
                                          t.files.c.name, t.files.c.sha256).where(
                     t.files.c.record_seq.in_(seqs))).mappings():
-                fil[r["record_seq"]].append({"role": r["role"], "name": r["name"],
-                                             "sha256": r["sha256"]})
+                fil[r["record_seq"]].append({k: _text(r[k]) for k in ("role", "name",
+                                                                      "sha256")})
+                raw[r["record_seq"]][0].append(dict(r))
             for r in conn.execute(select(t.equipment).where(
                     t.equipment.c.record_seq.in_(seqs)).order_by(
                     t.equipment.c.position)).mappings():
-                eqp[r["record_seq"]].append({k: v for k, v in r.items()
+                eqp[r["record_seq"]].append({k: _text(v) for k, v in r.items()
                                              if k not in ("record_seq", "position")
                                              and v is not None})
-        out = []
-        for r in rows:
-            try:
-                payload = json.loads(r["payload"])
-            except json.JSONDecodeError:
-                payload = {"unreadable": True}
-            out.append(Record(r["seq"], r["id"], r["kind"], r["machine_id"], r["date"],
-                              r["created"], r["supersedes"], r["as_left_of"], payload,
-                              r["prev_hash"], r["hash"], r["report_id"], res[r["seq"]],
-                              fil[r["seq"]], eqp[r["seq"]], signature=r["signature"],
-                              key_id=r["key_id"]))
-        return out
+                raw[r["record_seq"]][2].append(dict(r))
+        return [self._record(dict(r), res[r["seq"]], fil[r["seq"]], eqp[r["seq"]],
+                             raw[r["seq"]]) for r in rows]
+
+    def _record(self, r: dict, res: dict, fil: list, eqp: list, raw: tuple) -> Record:
+        """A :class:`Record` from its rows, checked against its own hash."""
+        from volcal.history.integrity import record_damage
+
+        try:
+            payload = json.loads(r["payload"])
+        except (ValueError, TypeError):  # not JSON, not text
+            payload = {"unreadable": True}
+        if not isinstance(payload, dict):
+            payload = {"unreadable": True}
+        c = {k: _text(v) for k, v in r.items()}  # a damaged store: bytes where text was
+        rec = Record(r["seq"], str(c["id"]), str(c["kind"]), c["machine_id"], c["date"],
+                     c["created"], c["supersedes"], c["as_left_of"], payload, c["prev_hash"],
+                     c["hash"], c["report_id"], res, fil, eqp, signature=c.get("signature"),
+                     key_id=c.get("key_id"))
+        rec.damage = record_damage(r, *raw)
+        if rec.damage is not None:
+            self.damaged[rec.id] = rec.damage
+        return rec
 
     def records(self, kind: str | None = None, conn=None) -> list[Record]:
         """Every record in chain order, ``superseded_by`` set.
@@ -427,61 +475,64 @@ class Store:
         name : str, optional
             File name.
         """
-        from sqlalchemy import select
+        from sqlalchemy import LargeBinary, cast, select
 
         from volcal.history import schema as t
+        from volcal.history.integrity import guard
 
         rec = self.record(rid)
-        q = select(t.files.c.content).where(t.files.c.record_seq == rec.seq,
-                                            t.files.c.role == role)
+        q = select(cast(t.files.c.content, LargeBinary), t.files.c.name,
+                   t.files.c.sha256).where(t.files.c.record_seq == rec.seq,
+                                           t.files.c.role == role)
         if name is not None:
             q = q.where(t.files.c.name == name)
-        with self.engine.connect() as conn:
+        with guard(self.where), self.engine.connect() as conn:
             row = conn.execute(q.order_by(t.files.c.name)).first()
         if row is None:
             raise VolcalInputError(f"record {rid} has no {role} file")
-        return bytes(row[0])
+        data = row[0].encode() if isinstance(row[0], str) else bytes(row[0] or b"")
+        if hashlib.sha256(data).hexdigest() != row[2]:
+            self.damaged[rec.id] = (f"stored file {row[1]} does not match its sha256 "
+                                    "(altered in the store)")
+            raise VolcalInputError(f"stored file {row[1]} of record {rec.id} does not match "
+                                   "its sha256 (altered in the store): not used (volcal "
+                                   "history verify)", self.where)
+        return data
 
     # ---------------------------------------------------------------- verify
-    def verify(self) -> tuple[bool, str | None, str, int, str]:
-        """Recompute the chain.
+    def verify(self, contents: bool = True) -> tuple[bool, str | None, str, int, str]:
+        """Recompute the chain (:func:`volcal.history.integrity.check_chain`).
+
+        Parameters
+        ----------
+        contents : bool
+            Also hash every stored file's content.
 
         Returns
         -------
         ok : bool
-            Every record's hash and link and every file's digest agree.
+            Every record's hash and link and every file's digest agree, and no row
+            points to a record that does not exist.
         first_broken : str or None
-            Id (or sequence number) of the first record that does not.
+            The first record that does not (``C000003 (record 3)``, ``record 7``).
         head : str
-            Hash of the last record (:data:`GENESIS` when empty).
+            Hash of the last good record (:data:`GENESIS` when empty).
         n : int
             Records checked.
         why : str
             What is wrong with the first broken record.
         """
-        from sqlalchemy import select
+        return self.check(contents).as_tuple()
 
-        from volcal.history import schema as t
+    def check(self, contents: bool = True):
+        """The full outcome of the chain check (:class:`~volcal.history.integrity.ChainCheck`).
 
-        with self.engine.connect() as conn:
-            rows = conn.execute(select(t.records).order_by(t.records.c.seq)).mappings().all()
-            prev = GENESIS
-            for i, r in enumerate(rows, start=1):
-                files = [dict(f) for f in conn.execute(select(t.files).where(
-                    t.files.c.record_seq == r["seq"])).mappings()]
-                results = [dict(x) for x in conn.execute(select(t.results).where(
-                    t.results.c.record_seq == r["seq"])).mappings()]
-                equipment = [dict(x) for x in conn.execute(select(t.equipment).where(
-                    t.equipment.c.record_seq == r["seq"])).mappings()]
-                label = f"{r['id']} (record {r['seq']})"
-                if r["seq"] != i:
-                    return False, label, prev, i, f"record {i} is missing"
-                if r["prev_hash"] != prev:
-                    return False, label, prev, i, "its link to the previous record is broken"
-                for f in files:
-                    if hashlib.sha256(bytes(f["content"])).hexdigest() != f["sha256"]:
-                        return False, label, prev, i, f"file {f['name']} was altered"
-                if record_hash(prev, dict(r), files, results, equipment) != r["hash"]:
-                    return False, label, prev, i, "its content does not match its hash"
-                prev = r["hash"]
-        return True, None, prev, len(rows), ""
+        Parameters
+        ----------
+        contents : bool
+            Also hash every stored file's content.
+        """
+        from volcal.history.integrity import check_chain, guard
+
+        with guard(self.where), self.engine.connect() as conn:
+            return check_chain(conn, contents)

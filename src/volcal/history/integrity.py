@@ -1,0 +1,262 @@
+"""A damaged or foreign store: clear messages, never a traceback, never a write.
+
+Three checks, from the cheapest:
+
+* :func:`record_damage`: one record against its own hash (its row, its children's rows,
+  its files' stored digests). Every read (:meth:`Store.records`) runs it, so that the
+  readers (``show``, ``trend``, ``compare``, ``fleet``, ``export``) can warn about the
+  records they use.
+* :func:`check_chain` with ``contents=False``: the whole chain (order, links, hashes)
+  and rows that point to no record, by the stored file digests. ``add`` runs it under
+  the writers' lock and refuses a broken store (it grows linearly with the store; the
+  files themselves are not read).
+* :func:`check_chain` with ``contents=True`` (``volcal history verify``): the same and
+  every stored file's content against its digest.
+
+Database errors met on the way (a corrupted page, a foreign file, a column of the wrong
+type) become a :class:`~volcal.errors.VolcalInputError` naming the store (:func:`guard`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import sqlite3
+from collections.abc import Iterator
+from dataclasses import dataclass
+from typing import Any
+
+from volcal.errors import VolcalInputError
+from volcal.history.chain import GENESIS, record_hash
+
+CHILDREN = ("files", "results", "equipment")
+
+
+def db_error_message(exc: BaseException) -> str:
+    """The first line of a database error, without SQLAlchemy's boilerplate.
+
+    Parameters
+    ----------
+    exc : BaseException
+        A SQLAlchemy or sqlite3 error.
+    """
+    orig = getattr(exc, "orig", None)
+    text = str(orig if orig is not None else exc).strip() or type(exc).__name__
+    return text.splitlines()[0][:200]
+
+
+def database_errors() -> tuple[type[BaseException], ...]:
+    """The exception types of a damaged or unreadable database."""
+    from sqlalchemy.exc import SQLAlchemyError
+
+    return (SQLAlchemyError, sqlite3.Error)
+
+
+def damaged_error(exc: BaseException, where: str) -> VolcalInputError:
+    """The user's message for a database error met in the store ``where``.
+
+    Parameters
+    ----------
+    exc : BaseException
+        The database error.
+    where : str
+        The store (URL without password).
+    """
+    return VolcalInputError("the history database cannot be read or written "
+                            f"({db_error_message(exc)}): damaged, or not a volcal history; "
+                            "nothing was written", where)
+
+
+@contextlib.contextmanager
+def guard(where: str) -> Iterator[None]:
+    """Turn a database error inside the block into :func:`damaged_error`.
+
+    Parameters
+    ----------
+    where : str
+        The store, named in the message.
+    """
+    try:
+        yield
+    except VolcalInputError:
+        raise
+    except database_errors() as exc:
+        raise damaged_error(exc, where) from None
+
+
+def record_damage(row: dict[str, Any], files: list[dict[str, Any]],
+                  results: list[dict[str, Any]], equipment: list[dict[str, Any]]) -> str | None:
+    """What is wrong with one record against its own hash (None: nothing).
+
+    Parameters
+    ----------
+    row : dict
+        The row of ``records``.
+    files, results, equipment : list of dict
+        Its children's rows (files: ``role, name, sha256``).
+    """
+    try:
+        ok = record_hash(row["prev_hash"], row, files, results, equipment) == row["hash"]
+    except (TypeError, ValueError, KeyError):
+        return "its content cannot be read (a column holds a value of the wrong type)"
+    return None if ok else "its content does not match its hash"
+
+
+@dataclass
+class ChainCheck:
+    """The outcome of :func:`check_chain`.
+
+    Attributes
+    ----------
+    ok : bool
+        Nothing wrong.
+    first : str or None
+        The first broken record, e.g. ``C000003 (record 3)`` or ``record 7``.
+    head : str
+        Hash of the last good record (:data:`GENESIS` when none).
+    n : int
+        Records checked.
+    why : str
+        What is wrong with the first broken record.
+    hashes : dict of str to int
+        Hash -> sequence number of every record found intact, in order.
+    """
+
+    ok: bool
+    first: str | None
+    head: str
+    n: int
+    why: str
+    hashes: dict[str, int]
+
+    def as_tuple(self) -> tuple[bool, str | None, str, int, str]:
+        """``(ok, first, head, n, why)`` as :meth:`Store.verify` returns it."""
+        return self.ok, self.first, self.head, self.n, self.why
+
+
+def _orphans(conn) -> list[tuple[Any, str, list[str]]]:
+    """Rows of the children tables whose record does not exist: (seq, table, names)."""
+    from sqlalchemy import select
+
+    from volcal.history import schema as t
+
+    known = select(t.records.c.seq)
+    out: dict[tuple[Any, str], list[str]] = {}
+    for name in CHILDREN:
+        tbl = getattr(t, name)
+        key = tbl.c.position if name == "equipment" else tbl.c.name
+        for seq, k in conn.execute(select(tbl.c.record_seq, key).where(
+                tbl.c.record_seq.not_in(known) | tbl.c.record_seq.is_(None))):
+            out.setdefault((seq, name), []).append(str(k))
+    return sorted(((s, n, ks) for (s, n), ks in out.items()),
+                  key=lambda x: (-1 if not isinstance(x[0], int) else x[0], x[1]))
+
+
+def _children(conn, seq: int | None = None) -> tuple[dict, dict, dict]:
+    """Files (digests), results and equipment rows by record sequence number."""
+    from sqlalchemy import select
+
+    from volcal.history import schema as t
+
+    out: tuple[dict, dict, dict] = ({}, {}, {})
+    cols = {"files": [t.files.c.record_seq, t.files.c.role, t.files.c.name,
+                      t.files.c.sha256],
+            "results": list(t.results.c), "equipment": list(t.equipment.c)}
+    for k, name in enumerate(CHILDREN):
+        q = select(*cols[name])
+        if seq is not None:
+            q = q.where(getattr(t, name).c.record_seq == seq)
+        for r in conn.execute(q).mappings():
+            out[k].setdefault(r["record_seq"], []).append(dict(r))
+    return out
+
+
+def altered_file(conn, seq: int) -> str | None:
+    """The first stored file of record ``seq`` whose content does not match its digest.
+
+    The content is read as bytes whatever was written into the column (``CAST AS BLOB``:
+    text written into it by another program is hashed, not decoded).
+
+    Parameters
+    ----------
+    conn : Connection
+        Open connection.
+    seq : int
+        Record sequence number.
+    """
+    from sqlalchemy import LargeBinary, cast, select
+
+    from volcal.history import schema as t
+
+    q = select(t.files.c.name, t.files.c.sha256, cast(t.files.c.content, LargeBinary)).where(
+        t.files.c.record_seq == seq).order_by(t.files.c.role, t.files.c.name)
+    for name, digest, content in conn.execute(q):
+        data = content.encode() if isinstance(content, str) else bytes(content or b"")
+        if hashlib.sha256(data).hexdigest() != digest:
+            return str(name)
+    return None
+
+
+def _label(row: dict[str, Any]) -> str:
+    return f"{row['id']} (record {row['seq']})"
+
+
+def check_chain(conn, contents: bool = True) -> ChainCheck:
+    """Walk the chain: order, links, hashes, files, rows that point to no record.
+
+    Parameters
+    ----------
+    conn : Connection
+        Open connection (inside the writer's transaction for ``add``).
+    contents : bool
+        Also hash every stored file's content (``verify``); ``False`` trusts the stored
+        digests (``add``'s check before it appends).
+
+    Returns
+    -------
+    ChainCheck
+        The first problem in chain order: a record deleted, reordered, altered (its row,
+        its children, a file), or rows planted for a record that does not exist.
+    """
+    from sqlalchemy import select
+
+    from volcal.history import schema as t
+
+    rows = [dict(r) for r in conn.execute(select(t.records).order_by(t.records.c.seq))
+            .mappings()]
+    orphans = _orphans(conn)
+    last = rows[-1]["seq"] if rows else 0
+    bad = None
+    if orphans:
+        seq, tbl, keys = orphans[0]
+        planted = isinstance(seq, int) and seq > last
+        what = "planted for" if planted else "pointing to"
+        bad = (seq if isinstance(seq, int) else 0,
+               f"record {seq}",
+               f"{tbl} rows ({', '.join(keys[:5])}) {what} record {seq}, which does not "
+               f"exist{' (not written by volcal)' if planted else ''}")
+    files, results, equipment = ({}, {}, {}) if contents else _children(conn)
+    prev, hashes = GENESIS, {}
+    for i, r in enumerate(rows, start=1):
+        if bad is not None and bad[0] <= i:
+            break
+        if contents:
+            files, results, equipment = _children(conn, r["seq"])
+        why = None
+        if r["seq"] != i:
+            why = f"record {i} is missing (deleted)"
+        elif r["prev_hash"] != prev:
+            why = "its link to the previous record is broken (reordered, or a record " \
+                  "before it rewritten)"
+        elif contents and (name := altered_file(conn, r["seq"])) is not None:
+            why = f"file {name} was altered"
+        else:
+            why = record_damage(r, files.get(r["seq"], []), results.get(r["seq"], []),
+                                equipment.get(r["seq"], []))
+        if why is not None:
+            return ChainCheck(False, _label(r), prev, i, why, hashes)
+        prev = r["hash"]
+        hashes[prev] = i
+    if bad is not None:
+        return ChainCheck(False, bad[1], prev, len(hashes), bad[2], hashes)
+    return ChainCheck(True, None, prev, len(rows), "", hashes)

@@ -46,10 +46,14 @@ def db_error_message(exc: BaseException) -> str:
 
 
 def database_errors() -> tuple[type[BaseException], ...]:
-    """The exception types of a damaged or unreadable database."""
+    """The exception types of a damaged or unreadable database.
+
+    A ``UnicodeDecodeError`` too: volcal writes UTF-8, so text that does not decode (a
+    table name in a damaged schema page) is damage.
+    """
     from sqlalchemy.exc import SQLAlchemyError
 
-    return (SQLAlchemyError, sqlite3.Error)
+    return (SQLAlchemyError, sqlite3.Error, UnicodeDecodeError)
 
 
 def damaged_error(exc: BaseException, where: str) -> VolcalInputError:

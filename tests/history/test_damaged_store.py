@@ -341,3 +341,18 @@ def _rewrite_from(url: str, seq: int) -> None:
             conn.execute(update(t.records).where(t.records.c.seq == r["seq"])
                          .values(prev_hash=prev, hash=new))
             prev = new
+
+
+def test_schema_name_not_utf8(store):
+    """A table name in the schema page that is not UTF-8: a clear message, no traceback."""
+    _sqlite_only(store)
+    p = Path(store)
+    data = bytearray(p.read_bytes())
+    i = data.index(b"tablerecordsrecords") + len(b"table")
+    data[i:i + 7] = b"\xa4\xff\xa4\xff\xa4\xff\xa4"          # the name 'records'
+    p.write_bytes(bytes(data))
+    for args in (["verify"], ["list"]):
+        r = _volcal(*args, "--db", store)
+        assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
+        assert (f"{_where(store)}: the history database cannot be read or written ("
+                in " ".join(r.stderr.split())), r.stderr

@@ -107,13 +107,15 @@ def _column_damage(path: Path, draw) -> None:
     col = draw(st.sampled_from(COLUMNS[table]))
     row = draw(st.integers(0, 40))
     value = draw(VALUES)
-    with sqlite3.connect(path) as conn:
-        try:
+    conn = sqlite3.connect(path)
+    try:
+        with conn:
             conn.execute(f'UPDATE {table} SET "{col}" = ? WHERE rowid = (SELECT rowid FROM '
                          f"{table} LIMIT 1 OFFSET ?)", (value, row))
-        except sqlite3.Error:  # a constraint of the table: this damage is not possible
-            pass
-    conn.close()
+    except sqlite3.Error:  # a constraint of the table, or a file damaged already
+        pass
+    finally:
+        conn.close()
 
 
 def _digest(path: Path) -> str | None:

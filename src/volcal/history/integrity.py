@@ -240,7 +240,8 @@ def check_chain(conn, contents: bool = True) -> ChainCheck:
                f"{tbl} rows ({', '.join(keys[:5])}) {what} record {seq}, which does not "
                f"exist{' (not written by volcal)' if planted else ''}")
     files, results, equipment = ({}, {}, {}) if contents else _children(conn)
-    prev, hashes = GENESIS, {}
+    prev = GENESIS
+    hashes: dict[str, int] = {}
     for i, r in enumerate(rows, start=1):
         if bad is not None and bad[0] <= i:
             break

@@ -77,6 +77,19 @@ def _warn_damaged(h, ids=None) -> None:
                  "shown of it may have been altered (volcal history verify)")
 
 
+def _current_ids(h, ids) -> set[str]:
+    """The records given and their newest corrections (those a comparison used)."""
+    from volcal.errors import VolcalInputError
+
+    out = set(ids)
+    for rid in ids:
+        try:
+            out.add(h.store.current(rid).id)
+        except VolcalInputError:
+            pass
+    return out
+
+
 @history_app.command("add")
 def add_cmd(
     session: Annotated[Path, typer.Argument(help="Session folder with readings.")],
@@ -357,8 +370,7 @@ def compare_cmd(
 
     with _open(db) as h:
         entries = compare(h.store, first, second, level)
-        _warn_damaged(h, {first, second, h.store.current(first).id,
-                          h.store.current(second).id})
+        _warn_damaged(h, _current_ids(h, (first, second)))
     if as_json:
         typer.echo(json.dumps([e.to_dict() for e in entries], indent=1))
         return

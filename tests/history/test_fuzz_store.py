@@ -112,7 +112,7 @@ def _column_damage(path: Path, draw) -> None:
         with conn:
             conn.execute(f'UPDATE {table} SET "{col}" = ? WHERE rowid = (SELECT rowid FROM '
                          f"{table} LIMIT 1 OFFSET ?)", (value, row))
-    except sqlite3.Error:  # a constraint of the table, or a file damaged already
+    except (sqlite3.Error, UnicodeDecodeError):  # a constraint, or a file damaged already
         pass
     finally:
         conn.close()

@@ -354,6 +354,7 @@ def session_cmd(
         from volcal.identify.modelfile import load_model
 
         mres = load_model(model)
+        _warn_model_of_other_session(mres, s, model)
     b = tol[0].budget if tol[0] is not None else _budget_or_none(budget)
     ev = evaluate_session(s, mres, edition=edition, model_uncertainty=mres is not None,
                           budget=b, work_zone_n=_grid_n(tol[0], tol[1]))
@@ -502,6 +503,20 @@ def _runs_cell(r: Any) -> str:
     if r.complete:
         return str(full)
     return f"{int(min(nu.min(), nd.min()))}-{full} incomplete"
+
+
+def _warn_model_of_other_session(mres: Any, s: Any, model: Path) -> None:
+    """Say on standard error when --model was identified from another session.
+
+    Not refused: a model of the as-found session is legitimately used with the as-left
+    session (the verdict after compensation); the indices then describe that model.
+    """
+    from volcal.identify.modelfile import check_model_session
+
+    for d in check_model_session(mres, s, force=True, model_path=model):
+        Console(stderr=True, soft_wrap=True).print(
+            f"note: --model {escape(str(model))} was not identified from this session "
+            f"({escape(d)}); its indices describe the model's session", highlight=False)
 
 
 def _tolerance_inputs(tolerance_um: str | None, model: Path | None,

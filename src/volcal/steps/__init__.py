@@ -15,6 +15,7 @@ import      ``importer.import_``                Imported
 identify    ``identify.identify``               Identified
 predict     ``predict.predict``                 Prediction
 compensate  ``compensate.compensate``           Compensated
+report      ``report.report`` (certificate)     Reported
 ==========  ==================================  ===========
 
 The command line (``volcal.cli``) parses text, calls the step and prints its result;

@@ -42,7 +42,6 @@ if TYPE_CHECKING:
     from volcal.session.format import Session
     from volcal.standards.iso230_2_uncertainty import Iso2302Uncertainty
     from volcal.standards.session import SessionEvaluation
-    from volcal.standards.tolerance import Tolerance
     from volcal.steps.predict import Prediction
     from volcal.steps.simulate import Simulated
     from volcal.uncertainty.budget import Budget
@@ -548,14 +547,14 @@ class Calibration:
             Also kept as :attr:`evaluation`; ``to_rows(table)`` / ``to_dataframe(table)``.
         """
         from volcal.standards.iso230_2 import EDITIONS
-        from volcal.standards.session import evaluate_session
+        from volcal.steps.evaluate import evaluate
 
         if str(edition) not in EDITIONS:
             raise VolcalInputError(f"Calibration.evaluate: edition {edition!r}: expected one "
                                    f"of {A.names(list(EDITIONS))}")
         b = None if budget is None else A.budget_file(budget, "Calibration.evaluate")[0]
-        ev = evaluate_session(self.session, self.result, str(edition),
-                              model_uncertainty=self.result is not None, budget=b)
+        ev = evaluate(self.session, model=self.result, edition=str(edition),
+                      budget=b).evaluation
         self.uncertainties = None if b is None else dict(ev.uncertainties)
         self.evaluation = ev
         return self.evaluation
@@ -603,36 +602,26 @@ class Calibration:
             evaluate session --json``'s ``verdict``.
         """
         from volcal.standards.tolerance import parse_tolerance
-        from volcal.standards.verdict import verdicts
+        from volcal.steps.evaluate import evaluate
 
         where = "Calibration.verdict"
         tol = A.acceptance(where, parse_tolerance(A.tolerance_text(tolerance_um)),
                            decision_rule, guard_band_um, budget)
         assert tol is not None
-        tables = None
-        if compensation is not None:
-            if self.result is None:
-                raise VolcalInputError("Calibration.verdict: compensation= needs the model "
-                                       "the tables were written from: identify() or "
-                                       "load_model() first")
-            import warnings as _w
-
-            from volcal.compensate.manifest import check_manifest, errors_digest, read_manifest
-            from volcal.compensate.readback import read_written_tables
-            from volcal.session.identity import MachineIdentity
-
-            manifest = read_manifest(compensation)
-            for w in check_manifest(manifest, compensation, MachineIdentity.of(self.session),
-                                    errors_digest(self.result.errors), force,
-                                    "this calibration's model"):
-                _w.warn(A.python_text(w), UserWarning, stacklevel=3)
-            # the "after" from the tables as written, read back (not resampled from the model)
-            tables = read_written_tables(compensation, manifest, self.session.travel)
-        errors = None if self.result is None else self.result.errors
+        if compensation is not None and self.result is None:
+            raise VolcalInputError("Calibration.verdict: compensation= needs the model "
+                                   "the tables were written from: identify() or "
+                                   "load_model() first")
         with A.python_names(where):
-            ev = self._evaluation(str(edition), tol.budget, tol)
-            return verdicts(tol, ev, errors, tables, model=self.result,
-                            session=self.session)
+            done = evaluate(self.session, model=self.result, edition=str(edition),
+                            budget=tol.budget, tolerance=tol, compensation=compensation,
+                            force=force, model_label="this calibration's model")
+        import warnings as _w
+
+        for w in done.warnings:
+            _w.warn(A.python_text(w), UserWarning, stacklevel=3)
+        assert done.verdicts is not None
+        return list(done.verdicts)
 
     @A.checked
     def compensate(self, folder: str | Path, format: str, sign: str | None = D.COMP_SIGN,
@@ -830,24 +819,6 @@ class Calibration:
         return done.files
 
     # ------------------------------------------------------------------ helpers
-    def _evaluation(self, edition: str, budget: Budget | None, tol: Tolerance | None,
-                    result: IdentificationResult | None = None) -> SessionEvaluation:
-        """The session's one evaluation for a verdict or a report (``standards``).
-
-        With ``result`` (the report): the model's indices with their U and, for a
-        volumetric tolerance, the largest volumetric error over the verdict's grid.
-        """
-        from volcal.standards.model_uncertainty import has_covariance
-        from volcal.standards.session import evaluate_session
-        from volcal.standards.verdict import GRID_N
-
-        if result is None:  # a verdict: the linear tests' values and U
-            return evaluate_session(self.session, None, edition, budget=budget)
-        n = GRID_N if tol is not None and tol.volumetric_um is not None else None
-        return evaluate_session(self.session, result, edition,
-                                model_uncertainty=has_covariance(result), budget=budget,
-                                work_zone_n=n, optics=True)
-
     def _planned(self) -> Session:
         """The session with every measurement, those without readings yet included."""
         from copy import copy

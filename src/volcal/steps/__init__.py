@@ -15,6 +15,7 @@ import      ``importer.import_``                Imported
 identify    ``identify.identify``               Identified
 predict     ``predict.predict``                 Prediction
 compensate  ``compensate.compensate``           Compensated
+evaluate    ``evaluate.evaluate`` (verdict)     Evaluated
 report      ``report.report`` (certificate)     Reported
 ==========  ==================================  ===========
 

@@ -74,13 +74,12 @@ def report_cmd(
 ) -> None:
     """Write the calibration report of a session as self-contained HTML and as PDF."""
     from volcal.cli.evaluate import _acceptance
+    from volcal.report.rotary import parse_rotary_tolerance
     from volcal.session.format import read_session
+    from volcal.standards.iso230_2_rotary import check_units
     from volcal.standards.tolerance import parse_tolerance
     from volcal.steps.report import check_report_inputs
     from volcal.steps.report import report as report_step
-
-    from volcal.report.rotary import parse_rotary_tolerance
-    from volcal.standards.iso230_2_rotary import check_units
 
     check_units(angle_units)
     rot_tol = parse_rotary_tolerance(rotary_tolerance_urad)

@@ -42,7 +42,7 @@ class Reported:
         The certificate's files (in the report folder), when one was issued.
     report_id : str or None
         The certificate's number.
-    model : IdentificationResult
+    model : IdentificationResult or None
         The model reported (with the budget's systematic part for a certificate).
     evaluation : SessionEvaluation
         The one evaluation of the session.
@@ -58,7 +58,7 @@ class Reported:
     files: ReportFiles
     certificate: CertificateFiles | None
     report_id: str | None
-    model: IdentificationResult
+    model: IdentificationResult | None
     evaluation: SessionEvaluation
     as_left_evaluation: SessionEvaluation | None
     warnings: tuple[str, ...] = ()

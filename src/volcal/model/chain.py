@@ -91,3 +91,101 @@ def parse_chain(code: object) -> Chain:
         )
     first, second, third = (AXES.index(ch) for ch in c if ch != "F")
     return Chain(code=c, order=(first, second, third), frame_index=c.index("F"))
+
+
+ROTARY_AXES: tuple[str, str, str] = ("A", "B", "C")
+"""Rotary axis letters: A turns about X, B about Y, C about Z (ISO 841)."""
+
+
+@dataclass(frozen=True)
+class MachineChain:
+    """A parsed serial chain of linear and rotary axes (3 linear, up to 3 rotary).
+
+    The code is read from the workpiece to the tool with ``F`` for the frame, as for
+    :class:`Chain`, and may hold the rotary letters ``A``, ``B``, ``C`` anywhere:
+    ``CAFXYZ`` is a trunnion table (the workpiece on C, C on A, A on the frame; X, Y, Z
+    carry the tool), ``CFXYZB`` a table-head machine (C under the workpiece, B in the
+    spindle head), ``FXYZCA`` a head-head machine (C carries A carries the spindle).
+
+    Attributes
+    ----------
+    code : str
+        The chain code, upper case, e.g. ``'CAFXYZ'``.
+    letters : tuple of str
+        The axis letters read from workpiece to tool, frame removed.
+    frame_index : int
+        Number of axes on the workpiece side of the frame.
+    linear : Chain
+        The linear sub-chain (the rotary letters removed): its order gives the lever arms
+        of the linear axes' angular errors when every rotary axis is at its zero.
+    """
+
+    code: str
+    letters: tuple[str, ...]
+    frame_index: int
+    linear: Chain
+
+    @property
+    def rotary(self) -> tuple[str, ...]:
+        """The rotary axis letters, read from workpiece to tool."""
+        return tuple(a for a in self.letters if a in ROTARY_AXES)
+
+    def on_workpiece_side(self, letter: str) -> bool:
+        """Whether an axis carries the workpiece (is read before ``F``).
+
+        Parameters
+        ----------
+        letter : str
+            Axis letter.
+        """
+        return self.letters.index(letter.upper()) < self.frame_index
+
+    @property
+    def kind(self) -> str:
+        """The machine type from the sides of its rotary axes.
+
+        ``'table-table'``, ``'table-head'``, ``'head-head'`` (two rotary axes), ``'table'``
+        or ``'head'`` (one), ``'linear'`` (none).
+        """
+        sides = ["table" if self.on_workpiece_side(a) else "head" for a in self.rotary]
+        if not sides:
+            return "linear"
+        if len(sides) == 1:
+            return sides[0]
+        return "-".join(sides)
+
+    def __str__(self) -> str:
+        return self.code
+
+
+def parse_machine_chain(code: object) -> MachineChain:
+    """Parse and validate a chain code that may hold rotary axes.
+
+    Parameters
+    ----------
+    code : str
+        ``F``, ``X``, ``Y``, ``Z`` once each and any of ``A``, ``B``, ``C`` at most once
+        each, in any order, read from workpiece to tool (case-insensitive).
+
+    Returns
+    -------
+    MachineChain
+
+    Raises
+    ------
+    VolcalInputError
+        If the code is not of that form.
+    """
+    if not isinstance(code, str):
+        raise VolcalInputError(f"chain code must be a string like 'CAFXYZ', got {code!r}")
+    c = code.strip().upper()
+    linear = "".join(ch for ch in c if ch not in ROTARY_AXES)
+    rotary = [ch for ch in c if ch in ROTARY_AXES]
+    if sorted(linear) != ["F", "X", "Y", "Z"] or len(set(rotary)) != len(rotary):
+        raise VolcalInputError(
+            f"invalid chain code {code!r}: expected the letters F, X, Y, Z once each and "
+            "rotary axes among A, B, C at most once each, read from workpiece to tool (e.g. CAFXYZ "
+            "trunnion table, CFXYZB table-head, FXYZCA head-head)")
+    letters = tuple(ch for ch in c if ch != "F")
+    return MachineChain(code=c, letters=letters, frame_index=c.index("F"),
+                        linear=parse_chain(linear))

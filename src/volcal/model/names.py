@@ -210,13 +210,19 @@ def info(name: str) -> ErrorName:
     Raises
     ------
     KeyError
-        If ``name`` is none of the 21 names.
+        If ``name`` is none of the 21 names nor of the rotary axes' errors
+        (:data:`ROTARY_ERROR_TABLE`).
     """
     try:
         return ERROR_TABLE[name.upper()]
     except KeyError:
-        raise KeyError(f"{name!r} is not an ISO 230-1 error name of a 3-axis machine "
-                       f"({', '.join(ERROR_NAMES)})") from None
+        pass
+    rotary = ROTARY_ERROR_TABLE.get(name.upper())  # defined below: rotary axes
+    if rotary is not None:
+        return rotary
+    raise KeyError(f"{name!r} is not an ISO 230-1 error name of a 3-axis machine "
+                   f"({', '.join(ERROR_NAMES)}) nor of a rotary axis A, B, C "
+                   "(EX0C ... EC0C, EXC ... ECC)")
 
 
 def kind(name: str) -> str:
@@ -315,3 +321,137 @@ ROLL_NAMES: tuple[str, ...] = names_of_kind("roll")
 
 TILT_NAMES: tuple[str, ...] = names_of_kind("tilt")
 """EBX, ECX, EAY, ECY, EAZ, EBZ: rotations about the axes across the motion."""
+
+
+# --- rotary axes (5-axis machines) ----------------------------------------------------------
+
+ROTARY_AXIS_OF: dict[str, str] = {"A": "X", "B": "Y", "C": "Z"}
+"""Rotary axis letter -> the linear axis its nominal average line is parallel to (ISO 841)."""
+
+ROTARY_KINDS: tuple[str, ...] = ("position", "orientation", "zero", "radial", "axial",
+                                 "tilt", "angular positioning")
+"""Kinds of the rotary axes' errors: three location kinds, then the component kinds."""
+
+
+def location_names(letter: str) -> tuple[str, str, str, str, str]:
+    """ISO 230-1 names of the five location errors of a rotary axis.
+
+    Parameters
+    ----------
+    letter : str
+        ``'A'``, ``'B'`` or ``'C'``.
+
+    Returns
+    -------
+    tuple of 5 str
+        The two positions of the axis average line (across the axis), its two orientation
+        errors, then the zero of the angle: ``('EX0C', 'EY0C', 'EA0C', 'EB0C', 'EC0C')``,
+        ``('EY0A', 'EZ0A', 'EB0A', 'EC0A', 'EA0A')``, ``('EX0B', 'EZ0B', 'EA0B', 'EC0B',
+        'EB0B')``.
+    """
+    r = letter.upper()
+    own = ROTARY_AXIS_OF[r]
+    across = [a for a in AXES if a != own]
+    rot_across = [ROTATION_LETTER[a] for a in across]
+    return (f"E{across[0]}0{r}", f"E{across[1]}0{r}", f"E{rot_across[0]}0{r}",
+            f"E{rot_across[1]}0{r}", f"E{r}0{r}")
+
+
+ROTATION_LETTER: dict[str, str] = {"X": "A", "Y": "B", "Z": "C"}
+"""Linear axis -> letter of the rotation about it."""
+
+
+def rotary_component_names(letter: str) -> tuple[str, ...]:
+    """ISO 230-1 names of the six component errors of a rotary axis (functions of its angle).
+
+    Parameters
+    ----------
+    letter : str
+        ``'A'``, ``'B'`` or ``'C'``.
+
+    Returns
+    -------
+    tuple of 6 str
+        ``EX``, ``EY``, ``EZ`` [um], ``EA``, ``EB``, ``EC`` [urad] + the letter: for C,
+        ``('EXC', 'EYC', 'EZC', 'EAC', 'EBC', 'ECC')`` (radial, radial, axial, tilt, tilt,
+        angular positioning).
+    """
+    r = letter.upper()
+    if r not in ROTARY_AXIS_OF:
+        raise KeyError(f"{letter!r} is not a rotary axis (A, B, C)")
+    return tuple(c + r for c in COMPONENTS)
+
+
+def _location_entry(name: str) -> ErrorName:
+    d, r = name[1], name[3]
+    own = ROTARY_AXIS_OF[r]
+    if d in AXES:
+        return ErrorName(
+            name, "position", "um", r, d, "",
+            f"position of the {r} axis average line in {d}", "",
+            f"location error of the {r}-axis average line in the {d}-axis direction", "-", "-")
+    about = {"A": "X", "B": "Y", "C": "Z"}[d]
+    if about == own:
+        return ErrorName(name, "zero", "urad", r, about, "", f"zero of the {r} angle", "",
+                         f"zero position error of the {r}-axis", "-", "-")
+    return ErrorName(name, "orientation", "urad", r, about, own,
+                     f"orientation of the {r} axis about {about}", "",
+                     f"orientation error of the {r}-axis average line around the "
+                     f"{about}-axis", "-", "-")
+
+
+def _rotary_component_entry(name: str) -> ErrorName:
+    d, r = name[1], name[2]
+    own = ROTARY_AXIS_OF[r]
+    if d in AXES:
+        kind = "axial" if d == own else "radial"
+        return ErrorName(name, kind, "um", r, d, "", f"{kind} error motion of {r} in {d}", "",
+                         f"{kind} error motion of the {r}-axis in the {d}-axis direction",
+                         "-", "-")
+    about = {"A": "X", "B": "Y", "C": "Z"}[d]
+    if about == own:
+        return ErrorName(name, "angular positioning", "urad", r, about, "",
+                         f"angular positioning of {r}", "",
+                         f"angular positioning error motion of the {r}-axis", "-", "-")
+    return ErrorName(name, "tilt", "urad", r, about, "", f"tilt of {r} about {about}", "",
+                     f"tilt error motion of the {r}-axis around the {about}-axis", "-", "-")
+
+
+LOCATION_NAMES: dict[str, tuple[str, ...]] = {r: location_names(r) for r in ROTARY_AXIS_OF}
+"""Rotary axis letter -> its five location errors (positions, orientations, zero)."""
+
+ROTARY_COMPONENT_NAMES: dict[str, tuple[str, ...]] = {
+    r: rotary_component_names(r) for r in ROTARY_AXIS_OF}
+"""Rotary axis letter -> its six component errors over the angle."""
+
+ROTARY_ERROR_TABLE: dict[str, ErrorName] = {
+    **{n: _location_entry(n) for r in ROTARY_AXIS_OF for n in LOCATION_NAMES[r]},
+    **{n: _rotary_component_entry(n) for r in ROTARY_AXIS_OF for n in ROTARY_COMPONENT_NAMES[r]},
+}
+"""The rotary axes' errors: 5 location errors and 6 component errors per axis A, B, C.
+
+ISO 230-1:2012 3.5 (location errors of axis average lines) and 3.4 / ISO 230-7:2015
+(error motions of axes of rotation): ``EX0C`` is the position of the C axis average line
+in X, ``EA0C`` its orientation around X, ``EC0C`` the zero of the C angle; ``EXC``,
+``EYC`` are the radial, ``EZC`` the axial, ``EAC``, ``EBC`` the tilt and ``ECC`` the
+angular positioning error motions of C. ISG/Beckhoff spell the location errors without
+the ``E`` (``X0C``, :data:`ISG_SYMBOLS`). Signs and references: ``docs/fiveaxis.md``.
+"""
+
+ISG_SYMBOLS: dict[str, str] = {n: n[1:] for r in ROTARY_AXIS_OF for n in LOCATION_NAMES[r]}
+"""ISO 230-1 location error name -> ISG/Beckhoff spelling (``EX0C`` -> ``X0C``)."""
+
+
+def rotary_markdown_table() -> str:
+    """The rotary axes' names as Markdown, as ``docs/fiveaxis.md`` shows them.
+
+    Returns
+    -------
+    str
+        One row per name: ISO name, kind, meaning, wording, unit, ISG spelling.
+    """
+    rows = ["| ISO 230-1 | kind | meaning | wording | unit | ISG |", "|---|---|---|---|---|---|"]
+    for e in ROTARY_ERROR_TABLE.values():
+        rows.append(f"| {e.name} | {e.kind} | {e.meaning} | {e.iso_term} | {e.unit} | "
+                    f"{ISG_SYMBOLS.get(e.name, e.name)} |")
+    return "\n".join(rows) + "\n"

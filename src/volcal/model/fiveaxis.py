@@ -56,6 +56,7 @@ __all__ = [
     "location_parameter_names",
     "pose_jacobian5",
     "right_jacobian",
+    "tool_q_jacobian",
 ]
 
 Array = NDArray[np.float64]
@@ -298,7 +299,11 @@ def _build(machine: FiveAxisMachine, q: ArrayLike, angles, tool_offset, componen
         if letter in AXES:
             k = AXES.index(letter)
             comp = lin.component(k, q[:, k]) if lin is not None else np.zeros((m, 6))
-            _add(factors, _T(q[:, k, None] * u[k][None, :] + comp[:, :3] * UM))
+            i = _add(factors, _T(q[:, k, None] * u[k][None, :] + comp[:, :3] * UM))
+            # the commanded motion, for d(tool point)/dq (the slopes of the linear
+            # component errors, below 1e-4, left out)
+            inserts[f"q{letter}"] = [_Insert(i - 1, np.broadcast_to(u[k], (m, 3)).copy(),
+                                             np.zeros((m, 3)))]
             _add(factors, _R(rotation_matrices(comp[:, 3:] * URAD)))
             continue
         ax = machine.rotary[letter]
@@ -310,6 +315,46 @@ def _build(machine: FiveAxisMachine, q: ArrayLike, angles, tool_offset, componen
             _location_part(factors, inserts, ax, th[letter])
     _add(factors, _T(np.array(t)))
     return factors, inserts
+
+
+def tool_q_jacobian(machine: FiveAxisMachine, q: ArrayLike,
+                    angles: Mapping[str, ArrayLike] | None = None,
+                    tool_offset: ArrayLike | None = None) -> tuple[Array, Array, Array]:
+    """Tool pose and its derivative with respect to the commanded linear positions.
+
+    Parameters
+    ----------
+    machine, q, angles, tool_offset
+        As :func:`exact_pose5`.
+
+    Returns
+    -------
+    position : ndarray, shape (m, 3)
+        Tool point [mm].
+    rotation : ndarray, shape (m, 3, 3)
+        Tool orientation.
+    d_q : ndarray, shape (m, 3, 3)
+        d(tool point)/d(X, Y, Z) [mm/mm] (columns X, Y, Z; the slopes of the linear
+        component errors, below 1e-4, left out).
+    """
+    factors, inserts = _build(machine, q, angles, tool_offset, components=False)
+    prefix = _prefixes(factors)
+    H = prefix[-1]
+    m = H.shape[0]
+    dq = np.empty((m, 3, 3))
+    for k, a in enumerate(AXES):
+        ins = inserts[f"q{a}"][0]
+        R = (prefix[ins.after][:, :3, :3] if ins.after >= 0
+             else np.broadcast_to(np.eye(3), (m, 3, 3)))
+        dq[:, :, k] = np.einsum("mij,mj->mi", R, ins.v)
+    return H[:, :3, 3].copy(), H[:, :3, :3].copy(), dq
+
+
+def _prefixes(factors: list[Array]) -> list[Array]:
+    prefix = [factors[0]]
+    for F in factors[1:]:
+        prefix.append(prefix[-1] @ F)
+    return prefix
 
 
 def exact_pose5(machine: FiveAxisMachine, q: ArrayLike,
@@ -389,9 +434,7 @@ def pose_jacobian5(machine: FiveAxisMachine, q: ArrayLike,
     factors, inserts = _build(machine, q, angles, tool_offset, components)
     n = len(factors)
     m = factors[0].shape[0]
-    prefix = [factors[0]]
-    for F in factors[1:]:
-        prefix.append(prefix[-1] @ F)
+    prefix = _prefixes(factors)
     # point of the tool in the frame after factor i: s_i = F_{i+1} ... F_{n-1} [0 0 0 1]
     pts = [np.zeros((m, 3))] * n
     s = np.zeros((m, 4))

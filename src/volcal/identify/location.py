@@ -1,0 +1,431 @@
+r"""Location errors of the rotary axes from sphere readings: identifiability and estimate.
+
+**Identifiability.** The readings of a design (probe-on-sphere centres, R-test
+displacements) depend on the location errors ``x`` and on nuisances ``n`` (each sphere's
+centre, each R-test's sensor zero) through the Jacobian ``[J_x  J_n]`` taken at the
+nominal machine. A location error whose column lies in the span of the nuisance columns
+and of the errors kept before it is *redundant*: no reading separates it. The analysis
+walks the errors in a preference order (positions, then orientations, then zeros of the
+angle, axes nearest the frame first), keeps each one that adds a direction the readings
+see (projection residual of its unit column above ``tol``) and fixes the others at zero.
+That is a parametrisation identifiable by construction; the price is that each kept error
+is determined only in combination with the fixed ones: ``J_g = J_kept k_g`` gives, for
+each fixed ``g``, the coefficients ``k_g`` with which it shifts the kept errors
+(``x_kept + sum_g k_g x_g`` is what the design determines) and the nuisances (a redundant
+error wholly absorbed by a sphere's position is a redefinition of the workpiece zero).
+
+**Estimate.** Gauss-Newton on the exact forward models (:mod:`volcal.measure.spheres`),
+the Jacobian re-evaluated at each iterate (exact at any error state), weighted by the
+probe noise; optional Gaussian priors on the kept errors (zero mean, stated standard
+deviation), flat priors on the nuisances. The covariance is the linearised posterior
+``(J^T W J + \Lambda)^{-1}`` at the solution, scaled by nothing (the stated noise is
+used, and the residual's chi-square is reported beside it).
+
+References: Ibaraki, Iritani, Matsushita (2012), section 3 (the eight location errors of
+a tilting rotary table identifiable by probing); ISG measuring cycle documentation ("lack
+of kinematic separation"); Golub & Van Loan, *Matrix Computations*, 4th ed., 5.4 (QR with
+column pivoting).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from volcal.errors import VolcalInputError
+from volcal.measure.spheres import (
+    SphereReadings,
+    probe_jacobian,
+    rtest_jacobian,
+    rtest_readings,
+)
+from volcal.model.fiveaxis import FiveAxisMachine, location_parameter_names
+from volcal.model.names import describe, info
+
+__all__ = [
+    "LocationIdentifiability",
+    "LocationResult",
+    "analyse_location",
+    "design_jacobian",
+    "identify_location",
+]
+
+Array = NDArray[np.float64]
+UM = 1e-3
+
+
+def _predict(block: SphereReadings, machine: FiveAxisMachine, nuis: dict[str, float],
+             components: bool = False):
+    """Prediction [um or mm], its error Jacobian [um/unit] and nuisance Jacobian of a block."""
+    s = np.array([nuis[f"{block.sphere}:s{a}"] for a in "xyz"])
+    if block.kind == "probe":
+        names, q, dE, dS = probe_jacobian(machine, block.angles, s, block.tool_offset_mm,
+                                          components=components)
+        return names, q / UM, dE, {f"{block.sphere}:s{a}": dS[:, :, i]
+                                   for i, a in enumerate("xyz")}
+    assert block.q_mm is not None
+    zero = np.array([nuis[f"{block.id}:zero_{a}"] for a in "xyz"])
+    r = rtest_readings(machine, block.q_mm, block.angles, s, block.tool_offset_mm) + zero
+    names, dE, dS = rtest_jacobian(machine, block.q_mm, block.angles, s, block.tool_offset_mm,
+                                   components=components)
+    cols = {f"{block.sphere}:s{a}": dS[:, :, i] for i, a in enumerate("xyz")}
+    for i, a in enumerate("xyz"):
+        e = np.zeros((block.n_poses, 3))
+        e[:, i] = 1.0
+        cols[f"{block.id}:zero_{a}"] = e
+    return names, r, dE, cols
+
+
+def _nuisance_start(blocks: Sequence[SphereReadings]) -> dict[str, float]:
+    out: dict[str, float] = {}
+    for b in blocks:
+        for i, a in enumerate("xyz"):
+            out.setdefault(f"{b.sphere}:s{a}", float(b.sphere_mm[i]))
+            if b.kind == "rtest":
+                out.setdefault(f"{b.id}:zero_{a}", 0.0)
+    return out
+
+
+def design_jacobian(machine: FiveAxisMachine, blocks: Sequence[SphereReadings],
+                    nuisances: dict[str, float] | None = None):
+    """Stacked, noise-weighted Jacobian of a design on errors and nuisances.
+
+    Parameters
+    ----------
+    machine : FiveAxisMachine
+        Where to linearise (the nominal machine for the analysis).
+    blocks : sequence of SphereReadings
+        The design (only poses, spheres and tool offsets are used).
+    nuisances : dict, optional
+        Nuisance values (sphere centres [mm], sensor zeros [um]); default the nominal.
+
+    Returns
+    -------
+    J_x : ndarray, shape (n, P)
+        Weighted rows on the location errors [1 per um or urad].
+    J_n : ndarray, shape (n, N)
+        Weighted rows on the nuisances.
+    nuisance_names : list of str
+    prediction : ndarray, shape (n,)
+        Predicted readings, unweighted [um].
+    weights : ndarray, shape (n,)
+        1 / noise [1/um].
+    """
+    nuis = dict(_nuisance_start(blocks)) if nuisances is None else nuisances
+    nnames = list(nuis)
+    rows_x, rows_n, pred, wts = [], [], [], []
+    for b in blocks:
+        _, r, dE, cols = _predict(b, machine, nuis)
+        m = b.n_poses
+        Jn = np.zeros((3 * m, len(nnames)))
+        for k, v in cols.items():
+            # sphere centre columns are per mm of centre; the reading is in um
+            Jn[:, nnames.index(k)] = v.reshape(-1) * (1.0 / UM if ":s" in k else 1.0)
+        w = np.full(3 * m, 1.0 / b.noise_um)
+        rows_x.append(dE.reshape(3 * m, -1) * w[:, None])
+        rows_n.append(Jn * w[:, None])
+        pred.append(r.reshape(-1))
+        wts.append(w)
+    return (np.vstack(rows_x), np.vstack(rows_n), nnames, np.concatenate(pred),
+            np.concatenate(wts))
+
+
+def _preference(names: Sequence[str], chain) -> list[str]:
+    """Order in which errors are kept: positions, orientations, zeros; frame-side axes first."""
+    rot = list(chain.rotary)
+    # the axis nearest the frame first: the last table axis, the first head axis
+    dist = {r: abs(chain.letters.index(r) - (chain.frame_index - 0.5)) for r in rot}
+    order = {"position": 0, "orientation": 1, "zero": 2}
+    return sorted(names, key=lambda n: (order[info(n).kind], dist[n[-1]], names.index(n)))
+
+
+@dataclass
+class LocationIdentifiability:
+    """What a design determines of the location errors.
+
+    Attributes
+    ----------
+    names : tuple of str
+        All location errors of the chain.
+    free : tuple of str
+        The errors kept (identifiable by construction).
+    fixed : tuple of str
+        The redundant errors, held at zero.
+    combinations : dict of str to dict of str to float
+        Fixed error -> {kept error or nuisance: coefficient}: a fixed ``g`` shifts the
+        estimate of each kept ``i`` by ``k_i g`` (units: um/urad, um/um, ...).
+    singular_values : ndarray
+        Of the free errors' normalised columns after eliminating the nuisances (the smallest
+        says how well the worst-separated combination is seen).
+    messages : list of str
+        The report in plain words.
+    """
+
+    names: tuple[str, ...]
+    free: tuple[str, ...]
+    fixed: tuple[str, ...]
+    combinations: dict[str, dict[str, float]] = field(default_factory=dict)
+    singular_values: Array = field(default_factory=lambda: np.zeros(0))
+    messages: list[str] = field(default_factory=list)
+
+    def gauge_truth(self, truth: dict[str, float]) -> dict[str, float]:
+        """What the design determines of a true machine: ``x_kept + sum_g k_g x_g``.
+
+        Parameters
+        ----------
+        truth : dict of str to float
+            True location errors by name [um, urad].
+
+        Returns
+        -------
+        dict of str to float
+            Value of each free error the estimate converges to without noise.
+        """
+        out = {n: float(truth.get(n, 0.0)) for n in self.free}
+        for g, ks in self.combinations.items():
+            for n, k in ks.items():
+                if n in out:
+                    out[n] += k * float(truth.get(g, 0.0))
+        return out
+
+
+def analyse_location(J_x: Array, J_n: Array, names: Sequence[str], nuisance_names: Sequence[str],
+                     chain, tol: float = 1e-6) -> LocationIdentifiability:
+    """Identifiability of the location errors in a design.
+
+    Parameters
+    ----------
+    J_x : ndarray, shape (n, P)
+        Weighted rows on the location errors.
+    J_n : ndarray, shape (n, N)
+        Weighted rows on the nuisances.
+    names : sequence of str
+        The location errors (columns of ``J_x``).
+    nuisance_names : sequence of str
+        Columns of ``J_n``.
+    chain : MachineChain
+        The chain (for the preference order).
+    tol : float
+        Relative residual of a unit column below which it is redundant.
+
+    Returns
+    -------
+    LocationIdentifiability
+    """
+    names = list(names)
+    nrm = lambda A: A / np.maximum(np.linalg.norm(A, axis=0), 1e-300)  # noqa: E731
+    Xn, Nn = nrm(J_x), nrm(J_n)
+    kept: list[str] = []
+    fixed: list[str] = []
+    basis = Nn.copy()
+    for n in _preference(names, chain):
+        col = Xn[:, names.index(n)]
+        Q, _ = np.linalg.qr(basis) if basis.shape[1] else (np.zeros((col.size, 0)), None)
+        res = col - Q @ (Q.T @ col)
+        if np.linalg.norm(col) > 0 and np.linalg.norm(res) > tol:
+            kept.append(n)
+            basis = np.column_stack([basis, col])
+        else:
+            fixed.append(n)
+    kept_sorted = tuple(n for n in names if n in kept)
+    fixed_sorted = tuple(n for n in names if n in fixed)
+    A = np.column_stack([J_x[:, [names.index(n) for n in kept_sorted]], J_n])
+    labels = list(kept_sorted) + list(nuisance_names)
+    combos: dict[str, dict[str, float]] = {}
+    for g in fixed_sorted:
+        k, *_ = np.linalg.lstsq(A, J_x[:, names.index(g)], rcond=None)
+        combos[g] = {labels[i]: float(k[i]) for i in range(len(labels)) if abs(k[i]) > 1e-9}
+    # singular values of the kept errors with the nuisances eliminated
+    Qn, _ = np.linalg.qr(Nn) if Nn.shape[1] else (np.zeros((Xn.shape[0], 0)), None)
+    Xk = Xn[:, [names.index(n) for n in kept_sorted]]
+    sv = np.linalg.svd(Xk - Qn @ (Qn.T @ Xk), compute_uv=False) if kept_sorted else np.zeros(0)
+    rep = LocationIdentifiability(tuple(names), kept_sorted, fixed_sorted, combos, sv)
+    rep.messages = _messages(rep, set(kept_sorted))
+    return rep
+
+
+def _fmt_combo(g: str, ks: dict[str, float], kept: set[str]) -> str:
+    errs = {n: k for n, k in ks.items() if n in kept}
+    nuis = [n for n in ks if n not in kept]
+    unit_g = info(g).unit
+    parts = []
+    for n, k in errs.items():
+        unit_n = info(n).unit
+        per = "" if unit_n == unit_g else f" {unit_n}/{unit_g}"
+        sign = "-" if k < 0 else "+"
+        parts.append(f"{n} {sign} {abs(k):.4g}{per} x {g}")
+    where = []
+    if parts:
+        where.append("the design determines " + "; ".join(parts))
+    if nuis:
+        spheres = sorted({n.split(":")[0] for n in nuis})
+        where.append("it moves the centre of " + ", ".join(spheres) +
+                     (" (a new workpiece zero)" if not parts else ""))
+    return f"{describe(g)} is not separated from the others: " + " and ".join(where) + "."
+
+
+def _messages(rep: LocationIdentifiability, kept: set[str]) -> list[str]:
+    msgs = [f"{len(rep.free)} of {len(rep.names)} location errors are determined: "
+            + ", ".join(rep.free) + "."]
+    if rep.fixed:
+        msgs.append("Held at zero, since no reading separates them: " + ", ".join(rep.fixed)
+                    + ". Each is absorbed as follows:")
+        msgs += ["  " + _fmt_combo(g, rep.combinations[g], kept) for g in rep.fixed]
+    if rep.singular_values.size:
+        msgs.append(f"Worst-separated combination: relative singular value "
+                    f"{rep.singular_values.min() / rep.singular_values.max():.2g} "
+                    "(small: add poses with larger angle differences or move the sphere "
+                    "farther from the axes).")
+    return msgs
+
+
+@dataclass
+class LocationResult:
+    """Identified location errors with their uncertainty.
+
+    Attributes
+    ----------
+    names : tuple of str
+        The free (identified) location errors.
+    estimate : dict of str to float
+        Their values [um, urad].
+    u : dict of str to float
+        Standard uncertainty [um, urad].
+    covariance : ndarray
+        Covariance of the free errors, in ``names`` order.
+    nuisances : dict of str to float
+        Estimated sphere centres [mm] and sensor zeros [um].
+    identifiability : LocationIdentifiability
+        The report of the design.
+    machine : FiveAxisMachine
+        The nominal machine with the estimate (fixed errors zero).
+    rms_before_um, rms_after_um : float
+        RMS residual of the readings with the nominal machine (sphere centres fitted) and
+        after identification [um].
+    chi2 : float
+        Weighted residual sum of squares at the solution.
+    dof : int
+        Readings minus estimated parameters.
+    iterations : int
+        Gauss-Newton iterations.
+    """
+
+    names: tuple[str, ...]
+    estimate: dict[str, float]
+    u: dict[str, float]
+    covariance: Array
+    nuisances: dict[str, float]
+    identifiability: LocationIdentifiability
+    machine: FiveAxisMachine
+    rms_before_um: float
+    rms_after_um: float
+    chi2: float
+    dof: int
+    iterations: int
+
+    def to_rows(self) -> list[dict[str, object]]:
+        """One row per location error of the chain: name, meaning, value, u, status."""
+        rows: list[dict[str, object]] = []
+        for n in self.identifiability.names:
+            e = info(n)
+            if n in self.estimate:
+                rows.append({"name": n, "meaning": e.meaning, "unit": e.unit,
+                             "value": self.estimate[n], "u": self.u[n], "status": "identified"})
+            else:
+                rows.append({"name": n, "meaning": e.meaning, "unit": e.unit, "value": 0.0,
+                             "u": float("nan"), "status": "redundant (held at zero)"})
+        return rows
+
+
+def _readings(blocks: Sequence[SphereReadings]) -> Array:
+    return np.concatenate([(b.values / UM if b.kind == "probe" else b.values).reshape(-1)
+                           for b in blocks])
+
+
+def identify_location(nominal: FiveAxisMachine, blocks: Sequence[SphereReadings], *,
+                      prior_u: dict[str, float] | float | None = None,
+                      max_iter: int = 20, tol: float = 1e-6) -> LocationResult:
+    """Identify the location errors of the rotary axes from sphere readings.
+
+    Parameters
+    ----------
+    nominal : FiveAxisMachine
+        The machine as configured: chain, nominal pivots, linear errors (the laser model
+        of the same machine, taken as known); its location errors are ignored.
+    blocks : sequence of SphereReadings
+        The readings.
+    prior_u : float or dict of str to float, optional
+        Standard deviation of a zero-mean Gaussian prior on each free location error
+        [um, urad]; None: no prior (least squares).
+    max_iter : int
+        Gauss-Newton iterations at most.
+    tol : float
+        Stop when the step changes no parameter by more than ``tol`` [um, urad].
+
+    Returns
+    -------
+    LocationResult
+    """
+    if not blocks:
+        raise VolcalInputError("no sphere readings to identify the location errors from")
+    names = location_parameter_names(nominal.chain_obj)
+    base = nominal.with_location(np.zeros(len(names)))
+    Jx, Jn, nnames, _, _ = design_jacobian(base, blocks)
+    ident = analyse_location(Jx, Jn, names, nnames, base.chain_obj)
+    free = [names.index(n) for n in ident.free]
+    y = _readings(blocks)
+    w = np.concatenate([np.full(3 * b.n_poses, 1.0 / b.noise_um) for b in blocks])
+    if prior_u is None:
+        lam = np.zeros(len(free))
+    else:
+        pu = prior_u if isinstance(prior_u, dict) else {n: float(prior_u) for n in ident.free}
+        lam = np.array([1.0 / pu[n] ** 2 for n in ident.free])
+    x = np.zeros(len(names))
+    nuis = _nuisance_start(blocks)
+    # nuisances scaled to um so the normal equations are well conditioned
+    scale = np.array([1.0 / UM if ":s" in k else 1.0 for k in nnames])
+
+    def step(xv: Array, nv: dict[str, float], with_errors: bool):
+        m = base.with_location(xv)
+        Jx_, Jn_, _, pred, _ = design_jacobian(m, blocks, nv)
+        r = (y - pred) * w
+        A = np.column_stack([Jx_[:, free], Jn_ / scale]) if with_errors else Jn_ / scale
+        return A, r
+
+    # the nominal machine with only the sphere centres fitted: the scatter before
+    for _ in range(5):
+        A, r = step(x, nuis, False)
+        dn, *_ = np.linalg.lstsq(A, r, rcond=None)
+        nuis = {k: v + dn[i] / scale[i] for i, (k, v) in enumerate(nuis.items())}
+    _, r = step(x, nuis, False)
+    rms_before = float(np.sqrt(np.mean((r / w) ** 2)))
+    iterations = 0
+    for it in range(1, max_iter + 1):
+        iterations = it
+        A, r = step(x, nuis, True)
+        nf = len(free)
+        L = np.zeros(A.shape[1])
+        L[:nf] = lam
+        xf = x[free]
+        rhs = A.T @ r - L * np.concatenate([xf, np.zeros(A.shape[1] - nf)])
+        d = np.linalg.solve(A.T @ A + np.diag(L), rhs)
+        x[free] += d[:nf]
+        nuis = {k: v + d[nf + i] / scale[i] for i, (k, v) in enumerate(nuis.items())}
+        if np.abs(d[:nf]).max(initial=0.0) < tol and np.abs(d[nf:]).max(initial=0.0) < tol:
+            break
+    A, r = step(x, nuis, True)
+    nf = len(free)
+    L = np.zeros(A.shape[1])
+    L[:nf] = lam
+    cov_all = np.linalg.inv(A.T @ A + np.diag(L))
+    cov = cov_all[:nf, :nf]
+    u = np.sqrt(np.diag(cov))
+    est = {n: float(x[i]) for n, i in zip(ident.free, free, strict=True)}
+    return LocationResult(
+        names=ident.free, estimate=est, u={n: float(u[k]) for k, n in enumerate(ident.free)},
+        covariance=cov, nuisances=nuis, identifiability=ident, machine=base.with_location(x),
+        rms_before_um=rms_before, rms_after_um=float(np.sqrt(np.mean((r / w) ** 2))),
+        chi2=float(r @ r), dof=int(r.size - A.shape[1]), iterations=iterations)

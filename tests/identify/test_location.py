@@ -106,3 +106,27 @@ def test_recovery_within_uncertainty(kind):
     z = np.abs(np.array(z))
     assert np.max(z) < 4.0
     assert 0.85 <= np.mean(z < 2.0) <= 1.0
+
+
+@pytest.mark.slow
+def test_study_coverage_and_limit():
+    """The study of benchmarks/fiveaxis_study.py (make study): 40 machines per chain type.
+
+    Issue 28's check: determined errors within their 2u on 0.90-0.99 of them, volcal's
+    mean squared error within 30 % of the Cramér-Rao bound, and the report's named
+    combinations reproducing the exact fit to within the second-order terms (0.5 um or
+    urad for the probe designs).
+    """
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+    from fiveaxis_study import MACHINES as STUDY, run
+
+    for i, code in enumerate(STUDY):
+        for kind in ("probe", "rtest"):
+            r = run(code, kind, 40, seed=i)
+            assert 0.90 <= r["coverage_2u"] <= 0.99, r
+            assert 0.7 <= r["mse_over_crb"] <= 1.3, r
+            if kind == "probe":
+                assert r["gauge_gap"] < 0.5, r

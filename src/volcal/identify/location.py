@@ -429,3 +429,35 @@ def identify_location(nominal: FiveAxisMachine, blocks: Sequence[SphereReadings]
         covariance=cov, nuisances=nuis, identifiability=ident, machine=base.with_location(x),
         rms_before_um=rms_before, rms_after_um=float(np.sqrt(np.mean((r / w) ** 2))),
         chi2=float(r @ r), dof=int(r.size - A.shape[1]), iterations=iterations)
+
+
+def identifiability_markdown(reports: dict[tuple[str, str], LocationIdentifiability]) -> str:
+    """A table of what each design determines, as ``docs/fiveaxis.md`` shows it.
+
+    Parameters
+    ----------
+    reports : dict of (str, str) to LocationIdentifiability
+        ``(chain, readings)`` -> the report of that design.
+
+    Returns
+    -------
+    str
+        One row per design: chain, readings, the determined errors, the redundant ones
+        and the combinations the determined ones stand for.
+    """
+    rows = ["| chain | readings | determined | held at zero (redundant) | what the determined "
+            "errors stand for |", "|---|---|---|---|---|"]
+    for (chain, kind), rep in reports.items():
+        combos = []
+        for g in rep.fixed:
+            ks = {n: k for n, k in rep.combinations[g].items() if n in rep.free}
+            if ks:
+                combos += [f"{n} {'-' if k < 0 else '+'} {abs(k):.3g} {g}" for n, k in ks.items()]
+            else:
+                what = ("the sphere centre and the sensor zeros"
+                        if any(":zero_" in n for n in rep.combinations[g])
+                        else "the sphere centre (a new workpiece zero)")
+                combos.append(f"{g} absorbed by {what}")
+        rows.append(f"| {chain} | {kind} | {', '.join(rep.free)} | {', '.join(rep.fixed)} | "
+                    f"{'; '.join(combos)} |")
+    return "\n".join(rows) + "\n"

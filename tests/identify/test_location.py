@@ -121,7 +121,8 @@ def test_study_coverage_and_limit():
     from pathlib import Path
 
     sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
-    from fiveaxis_study import MACHINES as STUDY, run
+    from fiveaxis_study import MACHINES as STUDY
+    from fiveaxis_study import run
 
     for i, code in enumerate(STUDY):
         for kind in ("probe", "rtest"):

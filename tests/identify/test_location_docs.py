@@ -6,8 +6,8 @@ import re
 from pathlib import Path
 
 import numpy as np
-
 from test_location import MACHINES, _design
+
 from volcal.identify.location import analyse_location, design_jacobian, identifiability_markdown
 from volcal.measure.spheres import SphereReadings, probe_centres
 from volcal.model.fiveaxis import location_parameter_names

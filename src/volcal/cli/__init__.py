@@ -42,6 +42,8 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "identify": ("identify", "Identify the machine's errors from the session; write "
                  "MODEL.json."),
     "predict": ("identify", "Predict the volumetric error and its uncertainty at points."),
+    "locate": ("locate", "Identify the rotary axes' location errors from probe-on-sphere "
+               "tests."),
     "budget": ("budget", "Write the budget template, or check a budget and show it at a "
                "length."),
     "compensate": ("compensate", "Write compensation tables of a model for a controller, "

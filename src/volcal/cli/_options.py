@@ -50,6 +50,8 @@ OPTIONS: dict[str, str] = {
         # compensate
         "format", "spacing", "max_points", "reference_mm", "unit_um", "magnification",
         "max_increment", "fanuc_series", "linuxcnc_type", "squareness",
+        # locate
+        "model", "prior_u",
     )
 }
 

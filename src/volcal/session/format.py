@@ -34,13 +34,13 @@ from volcal.session.kinds import ReadContext, kind_names, kind_of, kinds, target
 
 SESSION_FORMAT = "volcal-session/1"
 KINDS: tuple[str, ...] = ("linear", "diagonal", "step_diagonal", "multilateration",
-                          "straightness", "angular", "rotary")
+                          "straightness", "angular", "rotary", "probe_sphere")
 """The built-in measurement kinds (``kind`` in ``session.toml``), in their documented order.
 Every kind, built-in or added, is an entry of the registry :mod:`volcal.kinds`
 (:func:`volcal.kinds.kind_names`); this tuple is kept for the readers of the names."""
 TARGETS: tuple[str, ...] = ("flat_mirror", "retroreflector", "retroreflector_mirror", "cat_eye",
                             "straightness_optics", "angular_optics", "level", "roll_optics",
-                            "rotary_calibrator", "index_table")
+                            "rotary_calibrator", "index_table", "touch_probe")
 """The built-in targets (``target`` in ``session.toml``); each kind of the registry
 :mod:`volcal.kinds` lists its own (:func:`volcal.kinds.target_names`)."""
 MULTILATERATION_COLUMN = "length_mm"

@@ -46,6 +46,7 @@ BUILTIN_KINDS: dict[str, str] = {
     "straightness": "volcal.kinds.straightness",
     "angular": "volcal.kinds.angular",
     "rotary": "volcal.kinds.rotary",
+    "probe_sphere": "volcal.kinds.probe_sphere",
 }
 """Built-in kind -> the module that registers it (imported on the first look-up)."""
 

@@ -1,0 +1,48 @@
+"""``volcal locate``: the rotary axes' location errors from probe-on-sphere tests."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+from rich.console import Console
+
+from volcal.cli._common import is_stdout, message_console, write_output
+from volcal.cli._options import cli_spelling
+
+console = Console(soft_wrap=True)
+
+
+def locate_cmd(
+    session: Path = typer.Argument(..., help="Session folder with probe_sphere tests."),
+    model: Path | None = typer.Option(None, help="The linear axes' errors: a model file "
+                                      "(MODEL.json) or an error table (machine.csv); default "
+                                      "perfect linear axes."),
+    measurements: str | None = typer.Option(None, help="Comma-separated probe_sphere test ids "
+                                            "to use."),
+    prior_u: float | None = typer.Option(None, help="Standard deviation of a zero-mean prior "
+                                         "on each determined location error [um or urad]; "
+                                         "default none (least squares)."),
+    json_out: bool = typer.Option(False, "--json", help="Write the result as JSON "
+                                  "(volcal-location/1)."),
+    output: Path | None = typer.Option(None, "-o", "--output", help="File to write the JSON "
+                                       "to (with --json); - or none: standard output."),
+) -> None:
+    """Identify the rotary axes' location errors from probe-on-sphere tests."""
+    from volcal.steps.locate import locate as step
+    from volcal.steps.locate import located_json
+
+    ids = [x.strip() for x in measurements.split(",")] if measurements else None
+    r = step(session, model=model, measurements=ids, prior_u=prior_u)
+    if json_out:
+        target = output or Path("-")
+        write_output(target, located_json(r))
+        if not is_stdout(target):
+            message_console(target).print(f"location errors -> {target}", highlight=False)
+        return
+    console.print(r.to_text(), highlight=False, markup=False, end="")
+
+
+def register(app: typer.Typer) -> None:
+    """Add the commands of this module to the app."""
+    app.command("locate")(cli_spelling(locate_cmd))

@@ -1,0 +1,347 @@
+"""Kind ``probe_sphere``: the centre of a calibration sphere probed at rotary poses.
+
+A touch probe in the spindle measures a sphere fixed on the workpiece side at a set of
+poses of the rotary axes; the control reports the sphere centre in its machine
+coordinates at each pose (HEIDENHAIN KinematicsOpt cycle 451, Siemens CYCLE996, ISG's
+measuring cycle, or volcal's fit of the points LinuxCNC logs while probing with
+``G38.2``). Where the rotary axes' lines sit elsewhere than the control assumes, the
+reported centres scatter; :func:`volcal.steps.locate.locate` identifies the location
+errors (``EX0C`` ...) from them (``docs/fiveaxis.md``).
+
+Session keys and CSV: :mod:`volcal.session.probe_sphere` (``docs/formats.md``,
+"Probe-on-sphere tests"). ``Measurement.positions`` holds the reported centres [mm]; the
+angles are the columns ``<axis>_deg``; ``Measurement.deviation`` is the dispersion the
+control's own cycles report: the distance of the sphere centre each pose gives through the
+nominal kinematics from their mean [um] (computed on reading, never stored).
+
+The kind is not part of the linear identification (:attr:`in_design` is False).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+import scipy.sparse as sp
+from numpy.typing import NDArray
+
+from volcal.session.kinds import Kind, ReadContext, RowBlock, register_kind
+
+__all__ = ["ProbeSetup", "ProbeSphereKind", "five_axis_machine", "sphere_readings"]
+
+KEYS = ("chain", "pivot_mm", "sphere", "sphere_mm", "sphere_diameter_mm", "noise_um")
+"""The kind's own keys of a ``[[measurements]]`` entry."""
+DEFAULT_PIVOT_DROP_MM = 120.0
+"""Default plan: the A line this far below the C pivot (a trunnion's)."""
+DEFAULT_SPHERE_OFFSET_MM = (150.0, 0.0, 40.0)
+"""Default plan: the sphere this far from the C pivot [mm]."""
+
+
+@dataclass
+class ProbeSetup:
+    """The hidden truth of a simulated probe_sphere test.
+
+    Attributes
+    ----------
+    chain : str
+        The chain.
+    location : dict of str to float
+        True location errors [um, urad].
+    sphere_mm : ndarray, shape (3,)
+        True sphere centre [mm].
+    """
+
+    chain: str
+    location: dict[str, float]
+    sphere_mm: NDArray[np.float64]
+
+    def to_truth(self) -> dict[str, Any]:
+        """The set-up's entry of ``truth/setup.toml``."""
+        return {"chain": self.chain, "location": {k: float(v) for k, v in self.location.items()},
+                "sphere_mm": [float(v) for v in self.sphere_mm]}
+
+
+def _keys(m: Any) -> dict[str, Any]:
+    from volcal.session.probe_sphere import check_probe_keys
+
+    return check_probe_keys(m.meta, None, m.id, m.id)
+
+
+def five_axis_machine(m: Any, linear: Any = None, location: dict[str, float] | None = None):
+    """The 5-axis machine of a probe_sphere measurement: its chain and nominal pivots.
+
+    Parameters
+    ----------
+    m : Measurement
+        The measurement.
+    linear : MachineErrors, optional
+        The linear axes' errors (same linear order as the chain); None: perfect.
+    location : dict of str to float, optional
+        Location errors [um, urad]; None: zero.
+
+    Returns
+    -------
+    FiveAxisMachine
+    """
+    from volcal.model.fiveaxis import FiveAxisMachine
+    from volcal.model.rotary import RotaryAxis
+
+    k = _keys(m)
+    chain = k["chain"]
+    loc = location or {}
+    rot = {}
+    for r in chain.rotary:
+        names = RotaryAxis(r).location_names
+        full = r == "C"
+        rot[r] = RotaryAxis(r, k["pivot_mm"][r], {n: loc[n] for n in names if n in loc},
+                            full_circle=full)
+    if linear is not None and linear.chain_obj.order != chain.linear.order:
+        linear = None
+    return FiveAxisMachine(chain, rot, linear)
+
+
+def _angles(m: Any) -> dict[str, NDArray[np.float64]]:
+    k = _keys(m)
+    return {r: np.asarray(m.columns[f"{r.lower()}_deg"], dtype=float) for r in k["chain"].rotary}
+
+
+def sphere_readings(m: Any):
+    """The measurement as the location estimator's block.
+
+    Parameters
+    ----------
+    m : Measurement
+        A measured probe_sphere measurement.
+
+    Returns
+    -------
+    volcal.measure.spheres.SphereReadings
+    """
+    from volcal.measure.spheres import SphereReadings
+
+    k = _keys(m)
+    return SphereReadings(m.id, "probe", _angles(m), np.asarray(m.positions, dtype=float),
+                          k["sphere"], k["sphere_mm"], np.asarray(m.tool_offset, dtype=float),
+                          None, k["noise_um"])
+
+
+def dispersion_um(m: Any, positions: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Distance of each pose's sphere centre (nominal kinematics) from their mean [um].
+
+    Parameters
+    ----------
+    m : Measurement
+        The measurement (chain, pivots, angles, tool offset).
+    positions : ndarray, shape (n, 3)
+        Reported centres [mm].
+    """
+    from volcal.model.fiveaxis import exact_pose5
+
+    p, _ = exact_pose5(five_axis_machine(m), positions, _angles(m), m.tool_offset)
+    return np.linalg.norm(p - p.mean(axis=0), axis=1) * 1e3
+
+
+class ProbeSphereKind(Kind):
+    """Sphere centres probed at rotary poses (5-axis location errors)."""
+
+    name: ClassVar[str] = "probe_sphere"
+    targets: ClassVar[tuple[str, ...]] = ("touch_probe",)
+    own_targets: ClassVar[tuple[str, ...]] = ("touch_probe",)
+    value_column: ClassVar[str] = "x_mm"
+    value_unit: ClassVar[str] = "um"
+    beam_in_session: ClassVar[bool] = False
+    bidirectional: ClassVar[bool] = False
+    standard: ClassVar[str | None] = None
+    in_design: ClassVar[bool] = False
+    plan_tests: ClassVar[tuple[str, ...]] = ("probe_sphere",)
+    description: ClassVar[str] = ("sphere centres probed at rotary poses: location errors of "
+                                  "the rotary axes (docs/fiveaxis.md)")
+
+    # -- session -----------------------------------------------------------------------
+    def read(self, entry: dict[str, Any], ctx: ReadContext) -> Any:
+        """The entry's keys and its CSV (``<axis>_deg``, ``x_mm, y_mm, z_mm``).
+
+        Parameters
+        ----------
+        entry : dict
+            The ``[[measurements]]`` entry as parsed.
+        ctx : ReadContext
+            Its checked keys and the session's context.
+        """
+        from volcal.errors import VolcalInputError
+        from volcal.session.format import MISSED_META, Measurement
+        from volcal.session.probe_sphere import check_probe_keys, read_probe_csv
+
+        k = check_probe_keys(entry, ctx.toml_path, ctx.where, ctx.id)
+        meta = {key: entry[key] for key in KEYS if key in entry}
+        angles, centres, rows, missed, extra = read_probe_csv(ctx.csv_path, k["chain"])
+        n = rows.size
+        keep = ~missed
+        if centres is not None and missed.any():
+            if ctx.require_deviation:
+                meta[MISSED_META] = [{"row": int(rows[i]), "position_mm": [0.0, 0.0, 0.0],
+                                      **{f"{r.lower()}_deg": float(angles[r][i])
+                                         for r in angles}}
+                                     for i in np.flatnonzero(missed)]
+                ctx.notes.append(f"{ctx.csv_path}: {int(missed.sum())} missed pose(s) left out")
+            else:
+                keep = np.ones(n, dtype=bool)
+        if keep.sum() < 1:
+            raise VolcalInputError("no probed pose left", ctx.csv_path, None, "x_mm")
+        columns: dict[str, Any] = {f"{r.lower()}_deg": a[keep] for r, a in angles.items()}
+        columns.update({c: v[keep] for c, v in extra.items()})
+        pos = np.zeros((int(keep.sum()), 3)) if centres is None else np.nan_to_num(centres[keep])
+        m = Measurement(ctx.id, self.name, ctx.target, pos, None, np.array([0.0, 0.0, 1.0]),
+                        ctx.tool_offset, ctx.file, columns, meta, rows[keep])
+        if centres is not None:
+            m.deviation = dispersion_um(m, pos)
+        return m
+
+    def csv_text(self, m: Any) -> str | None:
+        """``<axis>_deg`` per rotary axis, ``x_mm, y_mm, z_mm`` [deg, mm].
+
+        Parameters
+        ----------
+        m : Measurement
+            The measurement.
+        """
+        from volcal.session.probe_sphere import probe_csv
+
+        return probe_csv(_angles(m), None if m.deviation is None else m.positions, m.columns)
+
+    # -- forward model -----------------------------------------------------------------
+    def exact(self, machine: Any, m: Any, setup: Any = None) -> NDArray[np.float64]:
+        """Exact reported centres of a virtual machine [mm], shape (n, 3).
+
+        Parameters
+        ----------
+        machine : MachineErrors
+            The linear axes' errors of the virtual machine (used when the chain's linear
+            order is the machine's).
+        m : Measurement
+            The measurement.
+        setup : ProbeSetup, optional
+            The hidden location errors and sphere centre; None: none, the nominal sphere.
+        """
+        from volcal.measure.spheres import probe_centres
+
+        k = _keys(m)
+        loc = setup.location if setup is not None else {}
+        sphere = setup.sphere_mm if setup is not None else k["sphere_mm"]
+        fm = five_axis_machine(m, machine if hasattr(machine, "chain_obj") else None, loc)
+        return probe_centres(fm, _angles(m), sphere, m.tool_offset)
+
+    def rows(self, chain_order: Any, nodes: Any, m: Any, *, drift: bool = False,
+             tilts: bool = True) -> RowBlock:
+        """No rows on the linear axes' parameters (:attr:`in_design` is False).
+
+        Parameters
+        ----------
+        chain_order : sequence of int
+            ``Chain.order``.
+        nodes : list of 3 arrays
+            Node positions per axis [mm].
+        m : Measurement
+            The measurement.
+        drift : bool
+            Unused.
+        tilts : bool
+            Unused.
+        """
+        P = sum(6 * len(n) for n in nodes) + 3
+        y = np.zeros(m.n) if m.deviation is None else np.asarray(m.deviation, dtype=float)
+        return RowBlock(sp.csr_matrix((m.n, P)), y, np.ones((m.n, 1)), [f"{m.id}:offset"])
+
+    def simulate(self, m: Any, machine: Any, rng: np.random.Generator, options: Any,
+                 shared: dict[str, Any]) -> Any:
+        """Reported centres of a virtual 5-axis machine with hidden location errors.
+
+        The location errors are drawn once per chain (shared by the session's tests:
+        positions of the axis lines within +-2 mm, orientations and zeros within +-200 urad,
+        :func:`volcal.measure.fiveaxis_virtual.random_location`), the sphere once per
+        sphere id (within +-1 mm of its nominal centre); probe noise of the test's
+        ``noise_um`` on every coordinate. The machine's linear errors act as well.
+
+        Parameters
+        ----------
+        m : Measurement
+            Planned measurement.
+        machine : MachineErrors
+            The virtual machine (linear axes).
+        rng : numpy.random.Generator
+            The simulation's generator.
+        options : SimulationOptions
+            Unused but for the dwell (``time_s``).
+        shared : dict
+            State shared by the measurements of one simulation.
+
+        Returns
+        -------
+        ProbeSetup
+            The hidden truth (``truth/setup.toml``).
+        """
+        from volcal.measure.fiveaxis_virtual import random_location
+
+        k = _keys(m)
+        chain = k["chain"].code
+        locs = shared.setdefault("probe_sphere_location", {})
+        if chain not in locs:
+            locs[chain] = random_location(chain, rng)
+        spheres = shared.setdefault("probe_sphere_spheres", {})
+        if k["sphere"] not in spheres:
+            spheres[k["sphere"]] = k["sphere_mm"] + rng.uniform(-1.0, 1.0, 3)
+        setup = ProbeSetup(chain, dict(locs[chain]), spheres[k["sphere"]])
+        c = self.exact(machine, m, setup)
+        # the CSV's resolution (1 nm), so that the file holds exactly the readings
+        c = np.round(c + rng.normal(0.0, k["noise_um"], c.shape) * 1e-3, 6)
+        m.positions = c
+        m.deviation = dispersion_um(m, c)
+        m.columns["time_s"] = np.arange(m.n) * options.dwell_s
+        return setup
+
+    # -- plan ----------------------------------------------------------------------------
+    def plan(self, test: str, options: Any, only: str | None = None) -> list[Any]:
+        """A trunnion's probe test: C at 6 angles x A at 5 angles, one sphere.
+
+        The chain is ``CA`` + the plan's linear chain (``only`` = another pair of rotary
+        letters, e.g. ``cb``, read workpiece side first); the C pivot at the centre of the
+        X and Y travel and the bottom of Z, the second axis' line 120 mm below it, the
+        sphere 150 mm off the C axis and 40 mm up (``docs/fiveaxis.md``). Edit the
+        session's pivots, sphere and poses to the machine's.
+
+        Parameters
+        ----------
+        test : str
+            ``'probe_sphere'``.
+        options : volcal.plan.planner.PlanOptions
+            The plan's travel and chain.
+        only : str or None
+            Rotary letters of the table (``'ca'`` default, ``'cb'``).
+        """
+        from volcal.errors import VolcalInputError
+        from volcal.measure.fiveaxis_virtual import pose_grid
+        from volcal.model.chain import parse_machine_chain
+        from volcal.session.format import Measurement
+
+        pair = (only or "ca").lower()
+        if len(pair) != 2 or pair[0] != "c" or pair[1] not in "ab":
+            raise VolcalInputError(f"probe_sphere:{only}: expected ca or cb (C on an A or B "
+                                   "cradle)")
+        chain = parse_machine_chain(pair.upper() + options.chain)
+        t = np.asarray(options.t, dtype=float)
+        pc = np.array([t[0].mean(), t[1].mean(), t[2, 0]])
+        pivots = {"c": [float(v) for v in pc],
+                  pair[1]: [float(pc[0]), float(pc[1]), float(pc[2] - DEFAULT_PIVOT_DROP_MM)]}
+        sphere = [float(v) for v in pc + np.array(DEFAULT_SPHERE_OFFSET_MM)]
+        ang = pose_grid(chain.code)
+        n = ang["C"].size
+        meta = {"chain": chain.code, "pivot_mm": pivots, "sphere": "S1", "sphere_mm": sphere,
+                "noise_um": 1.0}
+        cols = {f"{r.lower()}_deg": a for r, a in ang.items()}
+        return [Measurement("probe_sphere", self.name, "touch_probe", np.zeros((n, 3)), None,
+                            np.array([0.0, 0.0, 1.0]), np.zeros(3), "probe_sphere.csv", cols,
+                            meta)]
+
+
+PROBE_SPHERE = register_kind(ProbeSphereKind)

@@ -339,8 +339,9 @@ class ProbeSphereKind(Kind):
         meta = {"chain": chain.code, "pivot_mm": pivots, "sphere": "S1", "sphere_mm": sphere,
                 "noise_um": 1.0}
         cols = {f"{r.lower()}_deg": a for r, a in ang.items()}
-        return [Measurement("probe_sphere", self.name, "touch_probe", np.zeros((n, 3)), None,
-                            np.array([0.0, 0.0, 1.0]), np.zeros(3), "probe_sphere.csv", cols,
+        mid = "probe_sphere" if pair == "ca" else f"probe_sphere_{pair}"
+        return [Measurement(mid, self.name, "touch_probe", np.zeros((n, 3)), None,
+                            np.array([0.0, 0.0, 1.0]), np.zeros(3), f"{mid}.csv", cols,
                             meta)]
 
 

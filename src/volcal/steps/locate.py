@@ -20,6 +20,7 @@ from volcal.errors import ParameterError, VolcalInputError
 
 if TYPE_CHECKING:
     from volcal.identify.location import LocationResult
+    from volcal.model.errorfunctions import MachineErrors
     from volcal.session.format import Session
 
 __all__ = ["LOCATE_FORMAT", "Located", "locate"]
@@ -82,9 +83,9 @@ class Located:
         return "\n".join(lines + [f"- {m}" for m in self.messages]) + "\n"
 
 
-def _linear_model(model: str | Path | None):
-    if model is None:
-        return None
+def _linear_model(model: Any):
+    if model is None or hasattr(model, "chain_obj"):  # None or a MachineErrors
+        return model
     p = Path(model)
     if p.suffix.lower() == ".json":
         from volcal.identify.modelfile import load_model_errors
@@ -95,7 +96,7 @@ def _linear_model(model: str | Path | None):
     return read_error_table(p)
 
 
-def locate(session: str | Path | Session, *, model: str | Path | None = None,
+def locate(session: str | Path | Session, *, model: str | Path | MachineErrors | None = None,
            measurements: list[str] | None = None, prior_u: float | None = None) -> Located:
     """Identify the rotary axes' location errors from a session's probe_sphere tests.
 
@@ -103,9 +104,9 @@ def locate(session: str | Path | Session, *, model: str | Path | None = None,
     ----------
     session : str, Path or Session
         The session folder (or a read session).
-    model : str or Path, optional
-        The linear axes' errors: a model file (``MODEL.json``) or an error table
-        (``machine.csv``/``.toml``); None: perfect linear axes.
+    model : str, Path or MachineErrors, optional
+        The linear axes' errors: a model file (``MODEL.json``), an error table
+        (``machine.csv``/``.toml``) or the errors themselves; None: perfect linear axes.
     measurements : list of str, optional
         Ids of the probe_sphere measurements to use (default all).
     prior_u : float, optional

@@ -1,0 +1,187 @@
+"""Kind probe_sphere and ``volcal locate``: plan, simulate, read, identify; bad input refused."""
+
+from __future__ import annotations
+
+import json
+import tomllib
+
+import numpy as np
+import pytest
+
+from volcal.errors import VolcalInputError
+from volcal.identify.location import identify_location
+from volcal.kinds import kind_of
+from volcal.kinds.probe_sphere import ProbeSetup, five_axis_machine, sphere_readings
+from volcal.measure.simulate import SimulationOptions, simulate_session
+from volcal.measure.virtual import random_machine
+from volcal.plan.planner import plan_session
+from volcal.session.format import read_session, write_session
+from volcal.steps.locate import locate
+from volcal_cli_helpers import volcal_process
+
+
+class _Run:
+    def __init__(self, p):
+        self.exit_code = p.returncode
+        self.output = p.stdout + p.stderr
+
+
+def run_cli(args):
+    return _Run(volcal_process(*args))
+
+TRAVEL = np.array([[0.0, 800.0], [0.0, 600.0], [0.0, 500.0]])
+
+
+@pytest.fixture(scope="module")
+def simulated(tmp_path_factory):
+    """A planned, simulated probe_sphere session written with its truth (volcal simulate)."""
+    folder = tmp_path_factory.mktemp("probe") / "s"
+    assert run_cli(["plan", "--travel", "0:800,0:600,0:500", "--chain", "XYFZ", "--tests",
+                    "probe_sphere", "-o", str(folder)]).exit_code == 0
+    assert run_cli(["simulate", str(folder), "--seed", "7"]).exit_code == 0
+    return folder
+
+
+def _truth(folder):
+    doc = tomllib.loads((folder / "truth" / "setup.toml").read_text())["setup"]["probe_sphere"]
+    return doc["location"], np.array(doc["sphere_mm"])
+
+
+def test_located_errors_within_their_uncertainty(simulated):
+    """volcal locate --json on a simulated session: every determined error within 2.5 U/2 of
+    what the poses determine of the hidden truth (the fit to its exact readings)."""
+    out = simulated.parent / "loc.json"
+    r = run_cli(["locate", str(simulated), "--model", str(simulated / "truth" / "machine.csv"),
+                 "--json", "-o", str(out)])
+    assert r.exit_code == 0, r.output
+    doc = json.loads(out.read_text())
+    assert doc["format"] == "volcal-location/1" and doc["chain"] == "CAXYFZ"
+    assert doc["determined"] == ["EX0C", "EY0C", "EA0C", "EB0C", "EY0A", "EZ0A", "EB0A", "EC0A"]
+    assert set(doc["redundant"]) == {"EC0C", "EA0A"}
+    assert doc["rms_before_um"] > 100.0 and doc["rms_after_um"] < 1.5
+    # the reference: the same fit on the exact readings of the hidden machine
+    location, sphere = _truth(simulated)
+    s = read_session(simulated)
+    m = s.measurements[0]
+    from volcal.session.errortable import read_error_table
+
+    linear = read_error_table(simulated / "truth" / "machine.csv")
+    exact = kind_of("probe_sphere").exact(linear, m, ProbeSetup("CAXYFZ", location, sphere))
+    m.positions = exact
+    ref = identify_location(five_axis_machine(m, linear), [sphere_readings(m)]).estimate
+    rows = {row["name"]: row for row in doc["location_errors"]}
+    for n, v in ref.items():
+        assert abs(rows[n]["value"] - v) < 1.25 * rows[n]["U"], n
+    # and the named combination of the redundant A zero, against the truth itself
+    assert rows["EA0C"]["value"] == pytest.approx(location["EA0C"] - location["EA0A"],
+                                                  abs=1.5 * rows["EA0C"]["U"] + 1.0)
+
+
+def test_round_trip_and_dispersion(simulated, tmp_path):
+    s = read_session(simulated)
+    m = s.measurements[0]
+    assert m.kind == "probe_sphere" and m.target == "touch_probe" and m.n == 30
+    assert set(m.columns) >= {"c_deg", "a_deg"}
+    # the dispersion of the configured kinematics: the pivots are off by up to 2 mm
+    assert 100.0 < np.max(m.deviation) < 10000.0
+    write_session(s, tmp_path / "copy")
+    back = read_session(tmp_path / "copy")
+    np.testing.assert_array_equal(back.measurements[0].positions, m.positions)
+    assert back.measurements[0].meta == m.meta
+
+
+def test_a_perfect_machine_reports_one_centre():
+    s = plan_session(TRAVEL, "XYFZ", steps=4, tests=("probe_sphere:cb",), runs=2)
+    m = s.measurements[0]
+    assert m.meta["chain"] == "CBXYFZ"
+    c = kind_of("probe_sphere").exact(random_machine(TRAVEL, "XYFZ", seed=1).scaled(0.0), m)
+    from volcal.kinds.probe_sphere import dispersion_um
+
+    assert np.max(dispersion_um(m, c)) < 1e-6
+
+
+def _edit(folder, old, new, tmp_path, name="session.toml"):
+    import shutil
+
+    dst = tmp_path / "edit"
+    shutil.copytree(folder, dst)
+    p = dst / name
+    text = p.read_text()
+    assert old in text, old
+    p.write_text(text.replace(old, new, 1))
+    return dst
+
+
+@pytest.mark.parametrize("old,new,key", [
+    ('chain = "CAXYFZ"\n', "", "measurements[0].chain"),
+    ('chain = "CAXYFZ"', 'chain = "CAXY"', "measurements[0].chain"),
+    ('chain = "CAXYFZ"', 'chain = "XYFZ"', "measurements[0].chain"),
+    ("a = [400.0, 300.0, -120.0]", "b = [400.0, 300.0, -120.0]", "measurements[0].pivot_mm.b"),
+    ("a = [400.0, 300.0, -120.0]", "a = [400.0, 300.0]", "measurements[0].pivot_mm.a"),
+    ("sphere_mm = [550.0, 300.0, 40.0]", "sphere_mm = 5", "measurements[0].sphere_mm"),
+    ("noise_um = 1.0", "noise_um = -1.0", "measurements[0].noise_um"),
+])
+def test_bad_keys_are_refused_naming_the_key(simulated, tmp_path, old, new, key):
+    folder = _edit(simulated, old, new, tmp_path)
+    with pytest.raises(VolcalInputError) as exc:
+        read_session(folder)
+    assert exc.value.column == key and exc.value.file == str(folder / "session.toml")
+
+
+@pytest.mark.parametrize("old,new,row,column", [
+    ("c_deg,a_deg,x_mm,y_mm,z_mm", "c_deg,a_deg,x_mm,y_mm,zz", None, "z_mm"),
+    ("c_deg,a_deg,", "c_deg,b_deg,", None, "a_deg"),
+])
+def test_bad_csv_is_refused_naming_row_and_column(simulated, tmp_path, old, new, row, column):
+    folder = _edit(simulated, old, new, tmp_path, "probe_sphere.csv")
+    with pytest.raises(VolcalInputError) as exc:
+        read_session(folder)
+    assert exc.value.file == str(folder / "probe_sphere.csv") and exc.value.column == column
+
+
+def test_empty_cell_and_missed_pose(simulated, tmp_path):
+    p = simulated / "probe_sphere.csv"
+    lines = p.read_text().splitlines()
+    f = lines[3].split(",")
+    folder = _edit(simulated, lines[3], ",".join(f[:3] + [""] + f[4:]), tmp_path,
+                   "probe_sphere.csv")
+    with pytest.raises(VolcalInputError) as exc:
+        read_session(folder)
+    assert (exc.value.row, exc.value.column) == (4, "y_mm")
+    (folder / "probe_sphere.csv").write_text(
+        p.read_text().replace(lines[3], ",".join(f[:2] + ["missed", "missed", "missed"] + f[5:])))
+    s = read_session(folder)
+    assert s.measurements[0].n == 29
+    assert locate(s).result.identifiability.free[0] == "EX0C"
+
+
+def test_locate_refusals(simulated, tmp_path):
+    r = run_cli(["locate", str(simulated), "--prior-u", "-1"])
+    assert r.exit_code == 2 and "--prior-u -1" in r.output
+    r = run_cli(["locate", str(simulated), "--measurements", "nope"])
+    assert r.exit_code == 2 and "--measurements 'nope'" in r.output
+    s = plan_session(TRAVEL, "XYFZ", steps=4, tests=("linear:x",), runs=2)
+    simulate_session(s, random_machine(TRAVEL, "XYFZ", seed=1), SimulationOptions(seed=2))
+    write_session(s, tmp_path / "lin")
+    r = run_cli(["locate", str(tmp_path / "lin")])
+    assert r.exit_code == 2 and "no probe_sphere test" in r.output
+    s = plan_session(TRAVEL, "XYFZ", steps=4, tests=("probe_sphere",), runs=2)
+    with pytest.raises(VolcalInputError, match="is not measured"):
+        locate(s)
+
+
+def test_simulation_shares_one_machine_between_tests():
+    """Two tests of one chain (a second sphere): one hidden machine, two spheres."""
+    import copy
+
+    s = plan_session(TRAVEL, "XYFZ", steps=4, tests=("probe_sphere",), runs=2)
+    m2 = copy.deepcopy(s.measurements[0])
+    m2.id, m2.file, m2.meta["sphere"] = "p2", "p2.csv", "S2"
+    s.measurements.append(m2)
+    linear = random_machine(TRAVEL, "XYFZ", seed=1)
+    setups = simulate_session(s, linear, SimulationOptions(seed=2))
+    a, b = (setups[m.id] for m in s.measurements)
+    assert a.location == b.location and np.any(a.sphere_mm != b.sphere_mm)
+    assert locate(s).result.rms_after_um > 2.0  # the linear errors left out
+    res = locate(s, model=linear)
+    assert res.measurements == ("probe_sphere", "p2") and res.result.rms_after_um < 1.5

@@ -42,6 +42,7 @@ if TYPE_CHECKING:
     from volcal.session.format import Session
     from volcal.standards.iso230_2_uncertainty import Iso2302Uncertainty
     from volcal.standards.session import SessionEvaluation
+    from volcal.steps.locate import Located
     from volcal.steps.predict import Prediction
     from volcal.steps.simulate import Simulated
     from volcal.uncertainty.budget import Budget
@@ -509,6 +510,34 @@ class Calibration:
 
         return predict(self._need_result(), points,
                        tool_offset=A.vector_mm(tool_offset, "tool_offset"))
+
+    @A.checked
+    def locate(self, model: Any = None, measurements: list[str] | None = None,
+               prior_u: float | None = None) -> Located:
+        """The rotary axes' location errors from the probe_sphere tests, like ``volcal locate``.
+
+        Calls :func:`volcal.steps.locate.locate` on this calibration's session.
+
+        Parameters
+        ----------
+        model : str, Path or MachineErrors, optional
+            The linear axes' errors (a model file, an error table or the errors); None:
+            this calibration's identified model if there is one, else perfect linear axes.
+        measurements : list of str, optional
+            Ids of the probe_sphere tests to use (default all).
+        prior_u : float, optional
+            Standard deviation of a zero-mean prior on each determined error [um, urad].
+
+        Returns
+        -------
+        Located
+            ``.result`` (estimate, u, identifiability), ``.to_json()``, ``.to_text()``.
+        """
+        from volcal.steps.locate import locate
+
+        if model is None and self.result is not None:
+            model = self.result.errors
+        return locate(self.session, model=model, measurements=measurements, prior_u=prior_u)
 
     @A.checked
     def load_model(self, path: str | Path, force: bool = False) -> IdentificationResult:

@@ -185,3 +185,15 @@ def test_simulation_shares_one_machine_between_tests():
     assert locate(s).result.rms_after_um > 2.0  # the linear errors left out
     res = locate(s, model=linear)
     assert res.measurements == ("probe_sphere", "p2") and res.result.rms_after_um < 1.5
+
+
+def test_python_face_calls_the_step(simulated):
+    """Calibration.locate: the step on the calibration's session (docs/architecture.md)."""
+    from volcal import Calibration
+    from volcal.session.errortable import read_error_table
+
+    cal = Calibration.open(simulated)
+    linear = read_error_table(simulated / "truth" / "machine.csv")
+    a = cal.locate(model=linear)
+    b = locate(simulated, model=simulated / "truth" / "machine.csv")
+    assert a.to_json() == b.to_json()

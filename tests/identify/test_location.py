@@ -12,7 +12,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from volcal.identify.location import analyse_location, design_jacobian, identify_location
+from volcal.identify.location import (
+    analyse_location,
+    design_jacobian,
+    identify_location,
+    separation_advice,
+)
 from volcal.measure.fiveaxis_virtual import nominal_machine, pose_grid, random_location
 from volcal.measure.spheres import SphereReadings, probe_centres, simulate_blocks
 from volcal.model.fiveaxis import location_parameter_names
@@ -62,6 +67,19 @@ def test_trunnion_redundancy_hand_values():
     assert k["EA0C"] == pytest.approx(-1.0, abs=1e-9)
     assert not {"EX0C", "EB0C", "EY0A", "EZ0A", "EB0A", "EC0A"} & set(k)
     assert any("EA0C - 1 x EA0A" in msg for msg in rep.messages)
+
+
+def test_advice_names_what_would_separate_the_rest():
+    """R-test: probed centres in machine coordinates separate the table axes' positions;
+    probe: the two zeros are redundant whatever the poses or spheres."""
+    nominal, design = _design("CAFXYZ", "rtest")
+    advice = separation_advice(nominal, design)
+    assert ("Adding probed centres of the same sphere in machine coordinates would determine "
+            "EX0C, EY0C, EZ0A.") in advice
+    assert not any("second sphere" in a and "determine" in a for a in advice)
+    nominal, design = _design("CAFXYZ", "probe")
+    advice = separation_advice(nominal, design)
+    assert any(a.startswith("No candidate reading separates EC0C, EA0A") for a in advice)
 
 
 @pytest.mark.parametrize("code", sorted(MACHINES))

@@ -461,3 +461,88 @@ def identifiability_markdown(reports: dict[tuple[str, str], LocationIdentifiabil
         rows.append(f"| {chain} | {kind} | {', '.join(rep.free)} | {', '.join(rep.fixed)} | "
                     f"{'; '.join(combos)} |")
     return "\n".join(rows) + "\n"
+
+
+def separation_advice(nominal: FiveAxisMachine, blocks: Sequence[SphereReadings],
+                      candidates: Sequence[Sequence[SphereReadings]] | None = None,
+                      labels: Sequence[str] | None = None) -> list[str]:
+    """Which extra readings would separate what the design leaves redundant or weak.
+
+    Each candidate (a list of extra blocks: another sphere position, probed centres in
+    machine coordinates beside R-test readings...) is added to the design in turn; the
+    advice names those that determine errors the design holds at zero, and the one that
+    best raises the worst-separated combination (relative singular value).
+
+    Parameters
+    ----------
+    nominal : FiveAxisMachine
+        The configured machine.
+    blocks : sequence of SphereReadings
+        The design.
+    candidates : sequence of lists of SphereReadings, optional
+        Extra readings to try; default: a second sphere at each of 3 radii x 3 heights
+        around the first sphere's axis (same poses and kind), and, for an R-test design,
+        probed centres of its sphere.
+    labels : sequence of str, optional
+        A description of each candidate (default generated).
+
+    Returns
+    -------
+    list of str
+        The advice in plain words (empty when the design determines everything well).
+    """
+    names = location_parameter_names(nominal.chain_obj)
+    base = nominal.with_location(np.zeros(len(names)))
+
+    def report(bs: Sequence[SphereReadings]) -> LocationIdentifiability:
+        Jx, Jn, nn, _, _ = design_jacobian(base, bs)
+        return analyse_location(Jx, Jn, names, nn, base.chain_obj)
+
+    rep0 = report(blocks)
+    b0 = blocks[0]
+    if candidates is None:
+        candidates, labels = [], []
+        for r_mm in (75.0, 150.0, 250.0):
+            for h_mm in (0.0, 40.0, 150.0):
+                s = np.array([b0.sphere_mm[0], b0.sphere_mm[1], 0.0])
+                c = nominal.rotary[nominal.chain_obj.rotary[0]].pivot_mm
+                d = s[:2] - c[:2]
+                d = d / np.linalg.norm(d) if np.linalg.norm(d) > 1e-9 else np.array([1.0, 0.0])
+                pos = np.array([c[0] + r_mm * d[0], c[1] + r_mm * d[1], c[2] + h_mm])
+                q = None
+                if b0.kind == "rtest":
+                    from volcal.measure.spheres import probe_centres
+
+                    q = probe_centres(base, b0.angles, pos, b0.tool_offset_mm)
+                candidates.append([SphereReadings(
+                    "extra", b0.kind, b0.angles, np.zeros_like(b0.values), "extra_sphere", pos,
+                    b0.tool_offset_mm, q, b0.noise_um)])
+                labels.append(f"a second sphere {r_mm:g} mm from the first axis, {h_mm:g} mm "
+                              "above its pivot")
+        if b0.kind == "rtest":
+            candidates.append([SphereReadings("extra", "probe", b0.angles,
+                                              np.zeros_like(b0.values), b0.sphere, b0.sphere_mm,
+                                              b0.tool_offset_mm, None, b0.noise_um)])
+            labels.append("probed centres of the same sphere in machine coordinates")
+    labels = list(labels or [f"candidate {i + 1}" for i in range(len(candidates))])
+    msgs: list[str] = []
+    worst0 = (rep0.singular_values.min() / rep0.singular_values.max()
+              if rep0.singular_values.size else 0.0)
+    best, best_label = worst0, ""
+    for extra, label in zip(candidates, labels, strict=True):
+        rep = report(list(blocks) + list(extra))
+        gained = [n for n in rep0.fixed if n in rep.free]
+        if gained:
+            msgs.append(f"Adding {label} would determine {', '.join(gained)}.")
+        if set(rep.free) == set(rep0.free) and rep.singular_values.size:
+            w = rep.singular_values.min() / rep.singular_values.max()
+            if w > best * 1.1:
+                best, best_label = w, label
+    if rep0.fixed and not any(m.startswith("Adding") for m in msgs):
+        msgs.append("No candidate reading separates " + ", ".join(rep0.fixed) + ": they are "
+                    "redundant for this kind of reading (not a matter of poses or sphere "
+                    "positions); they are held at zero and absorbed as the report says.")
+    if best_label:
+        msgs.append(f"The worst-separated combination would improve most with {best_label} "
+                    f"(relative singular value {worst0:.2g} -> {best:.2g}).")
+    return msgs

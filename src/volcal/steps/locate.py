@@ -122,7 +122,7 @@ def locate(session: str | Path | Session, *, model: str | Path | MachineErrors |
     VolcalInputError
         No probe_sphere test, tests of different chains or pivots, an unmeasured test.
     """
-    from volcal.identify.location import identify_location
+    from volcal.identify.location import identify_location, separation_advice
     from volcal.kinds.probe_sphere import five_axis_machine, sphere_readings
     from volcal.session.format import Session, read_session
 
@@ -151,9 +151,9 @@ def locate(session: str | Path | Session, *, model: str | Path | MachineErrors |
                                    "chain or pivots: locate one machine configuration at a time")
     linear = _linear_model(model)
     nominal = five_axis_machine(ms[0], linear)
-    res = identify_location(nominal, [sphere_readings(m) for m in ms],
-                            prior_u=prior_u)
-    msgs = list(res.identifiability.messages) + [
+    blocks = [sphere_readings(m) for m in ms]
+    res = identify_location(nominal, blocks, prior_u=prior_u)
+    msgs = list(res.identifiability.messages) + separation_advice(nominal, blocks) + [
         f"Scatter of the readings: RMS {res.rms_before_um:.2f} um with the configured "
         f"kinematics, {res.rms_after_um:.2f} um with the identified location errors "
         f"(chi-square {res.chi2:.1f} on {res.dof} degrees of freedom)."]

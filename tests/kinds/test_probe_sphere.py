@@ -197,3 +197,64 @@ def test_python_face_calls_the_step(simulated):
     a = cal.locate(model=linear)
     b = locate(simulated, model=simulated / "truth" / "machine.csv")
     assert a.to_json() == b.to_json()
+
+
+def _probe_log(centres, angles, radius, rng=None, noise_mm=0.0):
+    """A LinuxCNC probe log: 5 points per pose (top, 4 sides 45 deg down), X Y Z A B C U V W."""
+    dirs = [np.array([0.0, 0.0, 1.0])] + [
+        np.array([np.cos(t) * np.cos(np.pi / 4), np.sin(t) * np.cos(np.pi / 4),
+                  np.sin(np.pi / 4)]) for t in np.deg2rad([0, 90, 180, 270])]
+    lines = []
+    for i, c in enumerate(centres):
+        for d in dirs:
+            p = c + radius * d + (rng.normal(0, noise_mm, 3) if rng is not None else 0.0)
+            abc = [angles.get(r, np.zeros(len(centres)))[i] for r in "ABC"]
+            lines.append(" ".join(f"{v:.6f}" for v in [*p, *abc, 0.0, 0.0, 0.0]))
+    return "\n".join(lines) + "\n"
+
+
+def test_fit_sphere_hand_values():
+    from volcal.importer.probe_log import fit_sphere
+
+    c0 = np.array([10.0, -20.0, 30.0])
+    pts = np.array(_probe_log([c0], {}, 12.5).split(), dtype=float).reshape(-1, 9)[:, :3]
+    # the log's 1 nm resolution, amplified by points on the upper half only
+    c, r, rms = fit_sphere(pts)
+    np.testing.assert_allclose(c, c0, atol=5e-6)
+    assert r == pytest.approx(12.5, abs=5e-6) and rms < 1e-3
+    c, r, _ = fit_sphere(pts[:4], radius_mm=12.5)
+    np.testing.assert_allclose(c, c0, atol=5e-6)
+
+
+def test_import_linuxcnc_probe_log(simulated, tmp_path):
+    """volcal import LOG --session S --measurement ID: the centres of the fitted poses."""
+    import shutil
+
+    from volcal.kinds.probe_sphere import dispersion_um
+
+    s = read_session(simulated)
+    m = s.measurements[0]
+    ang = {r.upper(): m.columns[f"{r}_deg"] for r in ("c", "a")}
+    log = tmp_path / "probe.txt"
+    log.write_text(_probe_log(m.positions, ang, 12.5 + 1.0))
+    folder = tmp_path / "planned"
+    assert run_cli(["plan", "--travel", "0:800,0:600,0:500", "--chain", "XYFZ", "--tests",
+                    "probe_sphere", "-o", str(folder)]).exit_code == 0
+    r = run_cli(["import", str(log), "--session", str(folder), "--measurement", "probe_sphere"])
+    assert r.exit_code == 0, r.output
+    got = read_session(folder).measurements[0]
+    np.testing.assert_allclose(got.positions, m.positions, atol=2e-6)
+    np.testing.assert_allclose(got.deviation, dispersion_um(m, m.positions), atol=5e-3)
+    assert got.meta["import"]["layout"] == "linuxcnc-probe-log"
+    # a damaged line is named; a log of another program is refused
+    bad = tmp_path / "bad.txt"
+    bad.write_text(log.read_text().replace("\n", "\n1 2 3\n", 1))
+    shutil.copytree(folder, tmp_path / "again")
+    r = run_cli(["import", str(bad), "--session", str(tmp_path / "again"), "--measurement",
+                 "probe_sphere", "--replace"])
+    assert r.exit_code == 2 and "bad.txt" in r.output and "2" in r.output
+    short = tmp_path / "short.txt"
+    short.write_text("".join(log.read_text().splitlines(keepends=True)[:50]))
+    r = run_cli(["import", str(short), "--session", str(tmp_path / "again"), "--measurement",
+                 "probe_sphere", "--replace"])
+    assert r.exit_code == 2 and "10 poses" in r.output

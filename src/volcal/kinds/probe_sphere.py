@@ -27,8 +27,15 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from volcal.session.kinds import Kind, ReadContext, RowBlock, register_kind
+from volcal.session.probe_sphere import (
+    _angles,
+    _keys,
+    dispersion_um,
+    five_axis_machine,
+)
 
-__all__ = ["ProbeSetup", "ProbeSphereKind", "five_axis_machine", "sphere_readings"]
+__all__ = ["ProbeSetup", "ProbeSphereKind", "dispersion_um", "five_axis_machine",
+           "sphere_readings"]
 
 KEYS = ("chain", "pivot_mm", "sphere", "sphere_mm", "sphere_diameter_mm", "noise_um")
 """The kind's own keys of a ``[[measurements]]`` entry."""
@@ -62,50 +69,6 @@ class ProbeSetup:
                 "sphere_mm": [float(v) for v in self.sphere_mm]}
 
 
-def _keys(m: Any) -> dict[str, Any]:
-    from volcal.session.probe_sphere import check_probe_keys
-
-    return check_probe_keys(m.meta, None, m.id, m.id)
-
-
-def five_axis_machine(m: Any, linear: Any = None, location: dict[str, float] | None = None):
-    """The 5-axis machine of a probe_sphere measurement: its chain and nominal pivots.
-
-    Parameters
-    ----------
-    m : Measurement
-        The measurement.
-    linear : MachineErrors, optional
-        The linear axes' errors (same linear order as the chain); None: perfect.
-    location : dict of str to float, optional
-        Location errors [um, urad]; None: zero.
-
-    Returns
-    -------
-    FiveAxisMachine
-    """
-    from volcal.model.fiveaxis import FiveAxisMachine
-    from volcal.model.rotary import RotaryAxis
-
-    k = _keys(m)
-    chain = k["chain"]
-    loc = location or {}
-    rot = {}
-    for r in chain.rotary:
-        names = RotaryAxis(r).location_names
-        full = r == "C"
-        rot[r] = RotaryAxis(r, k["pivot_mm"][r], {n: loc[n] for n in names if n in loc},
-                            full_circle=full)
-    if linear is not None and linear.chain_obj.order != chain.linear.order:
-        linear = None
-    return FiveAxisMachine(chain, rot, linear)
-
-
-def _angles(m: Any) -> dict[str, NDArray[np.float64]]:
-    k = _keys(m)
-    return {r: np.asarray(m.columns[f"{r.lower()}_deg"], dtype=float) for r in k["chain"].rotary}
-
-
 def sphere_readings(m: Any):
     """The measurement as the location estimator's block.
 
@@ -124,22 +87,6 @@ def sphere_readings(m: Any):
     return SphereReadings(m.id, "probe", _angles(m), np.asarray(m.positions, dtype=float),
                           k["sphere"], k["sphere_mm"], np.asarray(m.tool_offset, dtype=float),
                           None, k["noise_um"])
-
-
-def dispersion_um(m: Any, positions: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Distance of each pose's sphere centre (nominal kinematics) from their mean [um].
-
-    Parameters
-    ----------
-    m : Measurement
-        The measurement (chain, pivots, angles, tool offset).
-    positions : ndarray, shape (n, 3)
-        Reported centres [mm].
-    """
-    from volcal.model.fiveaxis import exact_pose5
-
-    p, _ = exact_pose5(five_axis_machine(m), positions, _angles(m), m.tool_offset)
-    return np.linalg.norm(p - p.mean(axis=0), axis=1) * 1e3
 
 
 class ProbeSphereKind(Kind):
@@ -174,7 +121,8 @@ class ProbeSphereKind(Kind):
         from volcal.session.probe_sphere import check_probe_keys, read_probe_csv
 
         k = check_probe_keys(entry, ctx.toml_path, ctx.where, ctx.id)
-        meta = {key: entry[key] for key in KEYS if key in entry}
+        meta = {key: v for key, v in entry.items()
+                if key not in ("id", "kind", "target", "file", "tool_offset_mm", "beam_direction")}
         angles, centres, rows, missed, extra = read_probe_csv(ctx.csv_path, k["chain"])
         n = rows.size
         keep = ~missed

@@ -32,7 +32,8 @@ from volcal.errors import VolcalInputError
 from volcal.io.table import Column, TableSpec, read_table
 from volcal.model.chain import parse_machine_chain
 
-__all__ = ["CENTRE_COLUMNS", "check_probe_keys", "probe_csv", "read_probe_csv"]
+__all__ = ["CENTRE_COLUMNS", "check_probe_keys", "dispersion_um", "five_axis_machine",
+           "probe_csv", "read_probe_csv"]
 
 CENTRE_COLUMNS: tuple[str, str, str] = ("x_mm", "y_mm", "z_mm")
 """The reported sphere centre, machine coordinates [mm]."""
@@ -231,3 +232,61 @@ def probe_csv(angles: dict[str, NDArray[np.float64]], centres: NDArray[np.float6
         row += [f"{columns[c][i]:.3f}" for c in extra] if columns else []
         w.writerow(row)
     return buf.getvalue()
+
+
+def _keys(m: Any) -> dict[str, Any]:
+    return check_probe_keys(m.meta, None, m.id, m.id)
+
+
+def five_axis_machine(m: Any, linear: Any = None, location: dict[str, float] | None = None):
+    """The 5-axis machine of a probe_sphere measurement: its chain and nominal pivots.
+
+    Parameters
+    ----------
+    m : Measurement
+        The measurement.
+    linear : MachineErrors, optional
+        The linear axes' errors (same linear order as the chain); None: perfect.
+    location : dict of str to float, optional
+        Location errors [um, urad]; None: zero.
+
+    Returns
+    -------
+    FiveAxisMachine
+    """
+    from volcal.model.fiveaxis import FiveAxisMachine
+    from volcal.model.rotary import RotaryAxis
+
+    k = _keys(m)
+    chain = k["chain"]
+    loc = location or {}
+    rot = {}
+    for r in chain.rotary:
+        names = RotaryAxis(r).location_names
+        full = r == "C"
+        rot[r] = RotaryAxis(r, k["pivot_mm"][r], {n: loc[n] for n in names if n in loc},
+                            full_circle=full)
+    if linear is not None and linear.chain_obj.order != chain.linear.order:
+        linear = None
+    return FiveAxisMachine(chain, rot, linear)
+
+
+def _angles(m: Any) -> dict[str, NDArray[np.float64]]:
+    k = _keys(m)
+    return {r: np.asarray(m.columns[f"{r.lower()}_deg"], dtype=float) for r in k["chain"].rotary}
+
+
+def dispersion_um(m: Any, positions: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Distance of each pose's sphere centre (nominal kinematics) from their mean [um].
+
+    Parameters
+    ----------
+    m : Measurement
+        The measurement (chain, pivots, angles, tool offset).
+    positions : ndarray, shape (n, 3)
+        Reported centres [mm].
+    """
+    from volcal.model.fiveaxis import exact_pose5
+
+    p, _ = exact_pose5(five_axis_machine(m), positions, _angles(m), m.tool_offset)
+    return np.linalg.norm(p - p.mean(axis=0), axis=1) * 1e3

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 from numpy.typing import ArrayLike
 
 from volcal import defaults as D
-from volcal.errors import ParameterError
+from volcal.errors import ParameterError, VolcalInputError
 from volcal.steps import _checks
 
 if TYPE_CHECKING:
@@ -123,6 +123,11 @@ def import_(csv_file: str | Path, *, session: str | Path | None = None,
 
     if session is None:
         raise ParameterError("give {session=}FOLDER (the session to add the readings to)")
+    if measurement is not None and _planned_kind(session, measurement) == "probe_sphere":
+        from volcal.importer.probe_log import import_probe_log
+
+        r = import_probe_log(csv_file, session, measurement, replace)
+        return _imported(r, f"{r.measurement.kind} {r.measurement.id}")
     if is_rtx(csv_file):
         from volcal.importer.rtx_import import import_rtx
 
@@ -168,6 +173,19 @@ def import_(csv_file: str | Path, *, session: str | Path | None = None,
                    units, deviation_units, optics, _checks.vector("tool_offset", tool_offset),
                    None if travel is None else _checks.travel(travel), chain, name, replace)
     return _imported(r, f"{r.measurement.id} ({axis.upper()})")
+
+
+def _planned_kind(session: str | Path, mid: str) -> str | None:
+    """The kind of measurement ``mid`` of a session, None if there is none (or no session)."""
+    from volcal.session.format import read_session
+
+    if not (Path(session) / "session.toml").is_file():
+        return None
+    try:
+        s = read_session(session, require_deviation=False)
+    except VolcalInputError:
+        return None  # the importer of the file's own kind says what is wrong
+    return next((m.kind for m in s.measurements + s.unmeasured if m.id == mid), None)
 
 
 def _imported(r: ImportResult, what: str) -> Imported:

@@ -248,6 +248,28 @@ class ProbeSphereKind(Kind):
         m.columns["time_s"] = np.arange(m.n) * options.dwell_s
         return setup
 
+    # -- program -------------------------------------------------------------------------
+    def program_text(self, m: Any, dialect: str, name: str, number: int, options: Any
+                     ) -> tuple[str, list[str]] | None:
+        """LinuxCNC ``G38.2`` probing with a probe log (:mod:`volcal.program.probe_sphere`).
+
+        Parameters
+        ----------
+        m : Measurement
+            The measurement.
+        dialect : str
+            The dialect (other than LinuxCNC: a listing of the poses for the control's cycle).
+        name : str
+            Program name.
+        number : int
+            Program number.
+        options : volcal.program.steps.ProgramOptions
+            Decimals, safe Z.
+        """
+        from volcal.program.probe_sphere import probe_program
+
+        return probe_program(m, dialect, name, number, options)
+
     # -- plan ----------------------------------------------------------------------------
     def plan(self, test: str, options: Any, only: str | None = None) -> list[Any]:
         """A trunnion's probe test: C at 6 angles x A at 5 angles, one sphere.

@@ -125,6 +125,8 @@ def check_probe_keys(entry: dict[str, Any], file: Any, where: str, mid: str) -> 
     dia = entry.get("sphere_diameter_mm")
     if dia is not None:
         dia = _positive(dia, file, f"{where}.sphere_diameter_mm", 1000.0)
+    if entry.get("tip_diameter_mm") is not None:
+        _positive(entry["tip_diameter_mm"], file, f"{where}.tip_diameter_mm", 100.0)
     return {"chain": chain, "pivot_mm": pivots, "sphere": sphere, "sphere_mm": sphere_mm,
             "noise_um": noise, "sphere_diameter_mm": dia}
 

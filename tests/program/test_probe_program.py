@@ -1,0 +1,87 @@
+"""The probe_sphere part program, run through LinuxCNC's own interpreter ``rs274``.
+
+Every ``G38.2`` move must start outside the sphere (plus the tip), travel the clearance
+before the expected contact and end the overtravel beyond it, around the centre the
+configured kinematics predict; the rotary axes turn only with Z retracted in machine
+coordinates; the probe log is opened and closed.
+"""
+
+from __future__ import annotations
+
+import re
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+
+from timing import scaled_timeout
+from volcal.measure.spheres import probe_centres
+from volcal.plan.planner import plan_session
+from volcal.program.probe_sphere import CLEARANCE_MM, OVERTRAVEL_MM
+from volcal.program.steps import ProgramOptions
+from volcal.session.probe_sphere import _angles, _keys, five_axis_machine
+
+RS274 = shutil.which("rs274")
+TRAVEL = np.array([[0.0, 800.0], [0.0, 600.0], [0.0, 500.0]])
+_CANON = re.compile(r"^\s*\d+\s+N\.+\s+([A-Z_]+)\((.*)\)\s*$")
+
+
+def _program(dialect="linuxcnc"):
+    from volcal.kinds import kind_of
+
+    s = plan_session(TRAVEL, "XYFZ", steps=4, tests=("probe_sphere",), runs=2)
+    m = s.measurements[0]
+    text, warnings = kind_of("probe_sphere").program_text(m, dialect, "P", 1,
+                                                            ProgramOptions(safe_z_mm=0.0))
+    return m, text, warnings
+
+
+@pytest.mark.skipif(RS274 is None, reason="LinuxCNC's rs274 is not installed "
+                    "(make linuxcnc-deps)")
+def test_probe_moves_in_rs274(tmp_path):
+    m, text, _ = _program()
+    (tmp_path / "tool.tbl").write_text("T1 P1 Z0 D0 ;unused\n")
+    (tmp_path / "rs274ngc.var").write_text("5220\t1.000000\n")
+    (tmp_path / "p.ngc").write_text(text)
+    r = subprocess.run([RS274, "-g", "-t", "tool.tbl", "-v", "rs274ngc.var", "p.ngc",
+                        "out.txt"], cwd=tmp_path, stdin=subprocess.DEVNULL, capture_output=True,
+                       text=True, timeout=scaled_timeout(120))
+    assert r.returncode == 0, r.stdout[-500:] + r.stderr
+    canon = [(g.group(1), [float(x) for x in g.group(2).split(",") if x.strip()])
+             for g in map(_CANON.match, (tmp_path / "out.txt").read_text().splitlines())
+             if g and g.group(1) in ("STRAIGHT_TRAVERSE", "STRAIGHT_PROBE")]
+    k = _keys(m)
+    centres = probe_centres(five_axis_machine(m), _angles(m), k["sphere_mm"])
+    angles = np.column_stack([_angles(m)[a] for a in ("C", "A")])
+    r_eff = 0.5 * (25.0 + 3.0)
+    pos = None
+    probes = 0
+    pose = -1
+    for name, v in canon:
+        xyz, abc = np.array(v[:3]), np.array(v[3:6])  # X Y Z A B C
+        if name == "STRAIGHT_TRAVERSE" and pos is not None and np.any(abc != pos[1]):
+            # the rotary axes turn only at the machine's safe Z (G53 Z0), X Y held
+            assert xyz[2] == pytest.approx(0.0) and np.allclose(xyz[:2], pos[0][:2])
+            pose += 1
+            np.testing.assert_allclose([abc[2], abc[0]], angles[pose], atol=1e-3)
+        if name == "STRAIGHT_PROBE":
+            probes += 1
+            # the expected contact along the move: |start + t u - c| = r_eff, first root
+            c, start = centres[pose], pos[0]
+            length = np.linalg.norm(xyz - start)
+            u = (xyz - start) / length
+            b = u @ (start - c)
+            t = -b - np.sqrt(b * b - (start - c) @ (start - c) + r_eff**2)
+            assert np.linalg.norm(start - c) > r_eff
+            assert t == pytest.approx(CLEARANCE_MM, abs=2e-3)  # free travel before contact
+            assert length - t == pytest.approx(OVERTRAVEL_MM, abs=2e-3)  # overtravel after
+        pos = (xyz, abc)
+    assert pose == m.n - 1 and probes >= 4 * m.n
+    assert "(PROBEOPEN probe_sphere.txt)" in text and "(PROBECLOSE)" in text
+
+
+def test_other_dialects_list_the_poses():
+    m, text, warnings = _program("heidenhain")
+    assert "G38" not in text and text.count("POSE ") == m.n
+    assert warnings and "LinuxCNC only" in warnings[0]

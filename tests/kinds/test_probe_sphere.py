@@ -258,3 +258,20 @@ def test_import_linuxcnc_probe_log(simulated, tmp_path):
     r = run_cli(["import", str(short), "--session", str(tmp_path / "again"), "--measurement",
                  "probe_sphere", "--replace"])
     assert r.exit_code == 2 and "10 poses" in r.output
+
+
+def test_locate_writes_the_linuxcnc_hal_file(simulated, tmp_path):
+    hal = tmp_path / "trt.hal"
+    r = run_cli(["locate", str(simulated), "--model", str(simulated / "truth" / "machine.csv"),
+                 "--linuxcnc-hal", str(hal), "--z-rot-point-mm", "-5"])
+    assert r.exit_code == 0, r.output
+    text = hal.read_text()
+    setp = dict(line.split()[1:] for line in text.splitlines() if line.startswith("setp "))
+    assert set(setp) == {f"xyzac-trt-kins.{p}" for p in
+                         ("x-rot-point", "y-rot-point", "z-rot-point", "y-offset", "z-offset")}
+    assert float(setp["xyzac-trt-kins.z-rot-point"]) == -5.0
+    location, _ = _truth(simulated)
+    # C's line: the configured pivot plus EX0C, within a few um (the fit without tilts)
+    assert float(setp["xyzac-trt-kins.x-rot-point"]) == pytest.approx(
+        400.0 + location["EX0C"] * 1e-3, abs=0.02)
+    assert "not held by the kinematics" in text and "EA0C" in text

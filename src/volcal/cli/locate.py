@@ -27,6 +27,13 @@ def locate_cmd(
                                   "(volcal-location/1)."),
     output: Path | None = typer.Option(None, "-o", "--output", help="File to write the JSON "
                                        "to (with --json); - or none: standard output."),
+    linuxcnc_hal: Path | None = typer.Option(None, help="Write LinuxCNC's xyzac-/xyzbc-trt-kins "
+                                             "pins (setp lines) to this HAL file, with what "
+                                             "the kinematics cannot hold."),
+    z_rot_point_mm: float | None = typer.Option(None, help="With --linuxcnc-hal: the "
+                                                "z-rot-point to keep [mm] (default the C "
+                                                "pivot's z; only z-rot-point + z-offset "
+                                                "enters)."),
 ) -> None:
     """Identify the rotary axes' location errors from probe-on-sphere tests."""
     from volcal.steps.locate import locate as step
@@ -34,6 +41,17 @@ def locate_cmd(
 
     ids = [x.strip() for x in measurements.split(",")] if measurements else None
     r = step(session, model=model, measurements=ids, prior_u=prior_u)
+    if linuxcnc_hal is not None:
+        from volcal.compensate.linuxcnc_trt import trt_hal
+        from volcal.io.atomic import write_text
+        from volcal.io.paths import check_output_file
+
+        check_output_file(linuxcnc_hal)
+        exp = r.linuxcnc_trt(z_rot_point_mm)
+        write_text(linuxcnc_hal, trt_hal(exp))
+        message_console(output).print(f"{exp.kins} pins -> {linuxcnc_hal}", highlight=False)
+        for note in exp.notes[3:]:
+            message_console(output).print(f"- {note}", highlight=False, markup=False)
     if json_out:
         target = output or Path("-")
         write_output(target, located_json(r))

@@ -347,7 +347,8 @@ def _readings(blocks: Sequence[SphereReadings]) -> Array:
 
 def identify_location(nominal: FiveAxisMachine, blocks: Sequence[SphereReadings], *,
                       prior_u: dict[str, float] | float | None = None,
-                      max_iter: int = 20, tol: float = 1e-6) -> LocationResult:
+                      max_iter: int = 20, tol: float = 1e-6,
+                      hold: Sequence[str] = ()) -> LocationResult:
     """Identify the location errors of the rotary axes from sphere readings.
 
     Parameters
@@ -364,6 +365,9 @@ def identify_location(nominal: FiveAxisMachine, blocks: Sequence[SphereReadings]
         Gauss-Newton iterations at most.
     tol : float
         Stop when the step changes no parameter by more than ``tol`` [um, urad].
+    hold : sequence of str
+        Errors held at zero besides the redundant ones (the best fit of a model without
+        them, e.g. a control's kinematics without tilts).
 
     Returns
     -------
@@ -375,14 +379,15 @@ def identify_location(nominal: FiveAxisMachine, blocks: Sequence[SphereReadings]
     base = nominal.with_location(np.zeros(len(names)))
     Jx, Jn, nnames, _, _ = design_jacobian(base, blocks)
     ident = analyse_location(Jx, Jn, names, nnames, base.chain_obj)
-    free = [names.index(n) for n in ident.free]
+    fitted = tuple(n for n in ident.free if n not in set(hold))
+    free = [names.index(n) for n in fitted]
     y = _readings(blocks)
     w = np.concatenate([np.full(3 * b.n_poses, 1.0 / b.noise_um) for b in blocks])
     if prior_u is None:
         lam = np.zeros(len(free))
     else:
         pu = prior_u if isinstance(prior_u, dict) else {n: float(prior_u) for n in ident.free}
-        lam = np.array([1.0 / pu[n] ** 2 for n in ident.free])
+        lam = np.array([1.0 / pu[n] ** 2 for n in fitted])
     x = np.zeros(len(names))
     nuis = _nuisance_start(blocks)
     # nuisances scaled to um so the normal equations are well conditioned
@@ -423,9 +428,9 @@ def identify_location(nominal: FiveAxisMachine, blocks: Sequence[SphereReadings]
     cov_all = np.linalg.inv(A.T @ A + np.diag(L))
     cov = cov_all[:nf, :nf]
     u = np.sqrt(np.diag(cov))
-    est = {n: float(x[i]) for n, i in zip(ident.free, free, strict=True)}
+    est = {n: float(x[i]) for n, i in zip(fitted, free, strict=True)}
     return LocationResult(
-        names=ident.free, estimate=est, u={n: float(u[k]) for k, n in enumerate(ident.free)},
+        names=fitted, estimate=est, u={n: float(u[k]) for k, n in enumerate(fitted)},
         covariance=cov, nuisances=nuis, identifiability=ident, machine=base.with_location(x),
         rms_before_um=rms_before, rms_after_um=float(np.sqrt(np.mean((r / w) ** 2))),
         chi2=float(r @ r), dof=int(r.size - A.shape[1]), iterations=iterations)

@@ -16,6 +16,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
+
 from volcal.errors import ParameterError, VolcalInputError
 
 if TYPE_CHECKING:
@@ -45,12 +47,15 @@ class Located:
         The probe_sphere measurements used.
     messages : tuple of str
         The identifiability report in plain words, then the scatter.
+    blocks : tuple of SphereReadings
+        The readings used.
     """
 
     result: LocationResult
     chain: str
     measurements: tuple[str, ...]
     messages: tuple[str, ...] = field(default_factory=tuple)
+    blocks: tuple[Any, ...] = field(default_factory=tuple)
 
     def to_json(self) -> dict[str, Any]:
         """The document of ``volcal locate --json`` (``docs/formats.md``)."""
@@ -70,6 +75,35 @@ class Located:
             "rms_after_um": r.rms_after_um, "chi2": r.chi2, "dof": r.dof,
             "messages": list(self.messages),
         }
+
+    def linuxcnc_trt(self, z_rot_point_mm: float | None = None) -> Any:
+        """LinuxCNC's trt kinematics pins of the result and the residual they leave.
+
+        Parameters
+        ----------
+        z_rot_point_mm : float, optional
+            ``z-rot-point`` to keep (default the C pivot's z).
+
+        Returns
+        -------
+        volcal.compensate.linuxcnc_trt.TrtExport
+        """
+        from volcal.compensate.linuxcnc_trt import trt_export
+        from volcal.identify.location import identify_location
+        from volcal.model.names import info
+
+        # the best lines without tilt: the fit with the orientations and zeros held at zero
+        m = self.result.machine
+        hold = [n for n in self.result.identifiability.names if info(n).kind != "position"]
+        nominal = m.with_location(np.zeros(len(self.result.identifiability.names)))
+        control = identify_location(nominal, list(self.blocks), hold=hold).machine
+        spheres: dict[str, Any] = {}
+        for k, v in self.result.nuisances.items():
+            sid, _, ax = k.rpartition(":")
+            if ax in ("sx", "sy", "sz"):
+                spheres.setdefault(sid, [0.0, 0.0, 0.0])["xyz".index(ax[1])] = v
+        return trt_export(m, self.blocks, spheres, configured=nominal,
+                          z_rot_point_mm=z_rot_point_mm, control=control)
 
     def to_text(self) -> str:
         """The table and the report as ``volcal locate`` prints them."""
@@ -157,7 +191,8 @@ def locate(session: str | Path | Session, *, model: str | Path | MachineErrors |
         f"Scatter of the readings: RMS {res.rms_before_um:.2f} um with the configured "
         f"kinematics, {res.rms_after_um:.2f} um with the identified location errors "
         f"(chi-square {res.chi2:.1f} on {res.dof} degrees of freedom)."]
-    return Located(res, nominal.chain_obj.code, tuple(m.id for m in ms), tuple(msgs))
+    return Located(res, nominal.chain_obj.code, tuple(m.id for m in ms), tuple(msgs),
+                   tuple(blocks))
 
 
 def located_json(located: Located) -> str:

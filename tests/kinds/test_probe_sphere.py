@@ -275,3 +275,36 @@ def test_locate_writes_the_linuxcnc_hal_file(simulated, tmp_path):
     assert float(setp["xyzac-trt-kins.x-rot-point"]) == pytest.approx(
         400.0 + location["EX0C"] * 1e-3, abs=0.02)
     assert "not held by the kinematics" in text and "EA0C" in text
+
+
+def test_control_angle_sign_for_linuxcncs_trt_kinematics(simulated, tmp_path):
+    """control_angle_sign = -1: the program turns to minus volcal's angles and the probe log
+    (the control's angles) is read back as volcal's."""
+    import shutil
+
+    from volcal.kinds import kind_of
+    from volcal.program.steps import ProgramOptions
+
+    s = read_session(simulated)
+    m = s.measurements[0]
+    ang = {r.upper(): m.columns[f"{r}_deg"] for r in ("c", "a")}
+    folder = tmp_path / "planned"
+    assert run_cli(["plan", "--travel", "0:800,0:600,0:500", "--chain", "XYFZ", "--tests",
+                    "probe_sphere", "-o", str(folder)]).exit_code == 0
+    toml = folder / "session.toml"
+    toml.write_text(toml.read_text().replace("noise_um = 1.0", "noise_um = 1.0\n"
+                                             "control_angle_sign = -1"))
+    planned = read_session(folder, require_deviation=False).measurements[0]
+    text, _ = kind_of("probe_sphere").program_text(planned, "linuxcnc", "P", 1, ProgramOptions())
+    assert "G0 C-0.000 A90.000" in text or "G0 C0.000 A90.000" in text  # volcal A = -90
+    log = tmp_path / "probe.txt"
+    log.write_text(_probe_log(m.positions, {k: -v for k, v in ang.items()}, 14.0))
+    shutil.copytree(folder, tmp_path / "b")
+    r = run_cli(["import", str(log), "--session", str(folder), "--measurement", "probe_sphere"])
+    assert r.exit_code == 0, r.output
+    np.testing.assert_allclose(read_session(folder).measurements[0].positions, m.positions,
+                               atol=2e-6)
+    log.write_text(_probe_log(m.positions, ang, 14.0))  # volcal's angles: refused
+    r = run_cli(["import", str(log), "--session", str(tmp_path / "b"), "--measurement",
+                 "probe_sphere"])
+    assert r.exit_code == 2 and "planned" in r.output

@@ -213,10 +213,13 @@ def import_probe_log(path: str | Path, session: str | Path, mid: str, replace: b
         raise VolcalInputError(f"measurement {mid!r} has readings; give --replace to replace "
                                "them (the old ones are kept in backup/)", folder / "session.toml")
     from volcal.model.chain import parse_machine_chain
+    from volcal.session.probe_sphere import _keys
 
     letters = parse_machine_chain(m.meta["chain"]).rotary
+    sign = _keys(m)["control_angle_sign"]  # the log holds the control's angles
     pts, rows = read_linuxcnc_probe_log(path)
     angles, centres, rms = pose_centres(pts, letters, radius_mm, rows, path)
+    angles = {r: sign * a for r, a in angles.items()}
     planned = {r: np.asarray(m.columns[f"{r.lower()}_deg"], dtype=float) for r in letters}
     k = len(centres)
     if k != m.n:

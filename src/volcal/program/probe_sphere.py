@@ -86,6 +86,7 @@ def probe_program(m: Any, dialect: str, name: str, number: int, options: Any
     _, R, = exact_pose5(nominal, centres, ang, m.tool_offset)
     d = options.decimals
     letters = list(ang)
+    sign = k["control_angle_sign"]  # the control's angles: volcal's times this
     sphere_d = float(m.meta.get("sphere_diameter_mm", DEFAULT_SPHERE_DIAMETER_MM))
     tip_d = float(m.meta.get("tip_diameter_mm", DEFAULT_TIP_DIAMETER_MM))
     r = 0.5 * (sphere_d + tip_d)  # tip centre at contact, from the sphere centre
@@ -94,7 +95,9 @@ def probe_program(m: Any, dialect: str, name: str, number: int, options: Any
             f"sphere diameter {sphere_d:g} mm, probe tip diameter {tip_d:g} mm, tip offset "
             f"{', '.join(f'{v:g}' for v in m.tool_offset)} mm",
             "coordinates: G54 = machine zero (no work offset), no tool length offset; the "
-            "centres are those the configured kinematics predict"]
+            "centres are those the configured kinematics predict",
+            "rotary angles: the control's" + (" (minus volcal's: control_angle_sign = -1)"
+                                              if sign < 0 else ", volcal's")]
     warnings: list[str] = []
     if dialect != "linuxcnc":
         lines = [_paren_comment(h) for h in head] + [
@@ -102,7 +105,7 @@ def probe_program(m: Any, dialect: str, name: str, number: int, options: Any
                            "451, Siemens CYCLE996, ISG) at these poses and enter the centres "
                            "it reports into the test's CSV")]
         for i in range(m.n):
-            pose = " ".join(f"{a}={ang[a][i]:.3f}" for a in letters)
+            pose = " ".join(f"{a}={sign * ang[a][i]:.3f}" for a in letters)
             c = " ".join(f"{ax}={_fmt(v, d)}" for ax, v in zip("XYZ", centres[i], strict=True))
             lines.append(_paren_comment(f"pose {i + 1}: {pose} nominal centre {c}"))
         warnings.append(f"{m.id}: the {dialect} program lists the poses for the control's own "
@@ -132,7 +135,7 @@ def probe_program(m: Any, dialect: str, name: str, number: int, options: Any
         top = c[2] + r + clear
         out.append(_paren_comment(f"pose {i + 1} of {m.n}"))
         out.append(f"G53 G0 Z{_fmt(safe, d)}")
-        out.append("G0 " + " ".join(f"{a}{_fmt(ang[a][i], d)}" for a in letters))
+        out.append("G0 " + " ".join(f"{a}{_fmt(sign * ang[a][i], d)}" for a in letters))
         out.append(f"G0 X{_fmt(c[0], d)} Y{_fmt(c[1], d)}")
         out.append(f"G0 Z{_fmt(top, d)}")
         out.append(f"G38.2 Z{_fmt(c[2] + r - over, d)} F{PROBE_FEED_MM_MIN:g}")

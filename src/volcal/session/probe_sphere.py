@@ -10,8 +10,10 @@ of rotary poses. ``docs/formats.md`` ("Probe-on-sphere tests") documents it:
   ``sphere_mm`` (the nominal sphere centre, workpiece coordinates at the zero pose),
   ``sphere`` (an id shared by the tests of one sphere placement; default the test's id),
   ``sphere_diameter_mm`` (optional), ``noise_um`` (the probe's repeatability per
-  coordinate, default 1); the common ``tool_offset_mm`` is the probe tip centre in the
-  tool frame;
+  coordinate, default 1), ``control_angle_sign`` (1, default, or -1 where the control's
+  rotary angles turn opposite to volcal's, as LinuxCNC's trt kinematics do: its part
+  program and probe log carry the control's angles); the common ``tool_offset_mm`` is the
+  probe tip centre in the tool frame;
 * CSV: ``<axis>_deg`` for each rotary axis of the chain (``c_deg``, ``a_deg``) and
   ``x_mm, y_mm, z_mm``, the reported centre (empty in a planned skeleton; ``missed`` for a
   pose the cycle did not probe).
@@ -78,7 +80,7 @@ def check_probe_keys(entry: dict[str, Any], file: Any, where: str, mid: str) -> 
     dict
         ``chain`` (MachineChain), ``pivot_mm`` (letter -> ndarray), ``sphere`` (str),
         ``sphere_mm`` (ndarray), ``noise_um`` (float), ``sphere_diameter_mm`` (float or
-        None).
+        None), ``control_angle_sign`` (1 or -1: the control's angle is volcal's times it).
 
     Raises
     ------
@@ -127,8 +129,12 @@ def check_probe_keys(entry: dict[str, Any], file: Any, where: str, mid: str) -> 
         dia = _positive(dia, file, f"{where}.sphere_diameter_mm", 1000.0)
     if entry.get("tip_diameter_mm") is not None:
         _positive(entry["tip_diameter_mm"], file, f"{where}.tip_diameter_mm", 100.0)
+    sign = entry.get("control_angle_sign", 1)
+    if isinstance(sign, bool) or sign not in (1, -1):
+        raise VolcalInputError(f"control_angle_sign must be 1 or -1, got {sign!r}", file, None,
+                               f"{where}.control_angle_sign")
     return {"chain": chain, "pivot_mm": pivots, "sphere": sphere, "sphere_mm": sphere_mm,
-            "noise_um": noise, "sphere_diameter_mm": dia}
+            "noise_um": noise, "sphere_diameter_mm": dia, "control_angle_sign": int(sign)}
 
 
 def _spec(letters: list[str]) -> TableSpec:

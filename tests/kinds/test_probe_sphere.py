@@ -308,3 +308,13 @@ def test_control_angle_sign_for_linuxcncs_trt_kinematics(simulated, tmp_path):
     r = run_cli(["import", str(log), "--session", str(tmp_path / "b"), "--measurement",
                  "probe_sphere"])
     assert r.exit_code == 2 and "planned" in r.output
+
+
+def test_advise_says_what_the_planned_poses_determine():
+    """volcal advise on a planned session with a probe_sphere test beside a linear one."""
+    from volcal.steps.advise import advise
+
+    s = plan_session(TRAVEL, "XYFZ", steps=4, tests=("probe_sphere", "linear:x"), runs=2)
+    msgs = [m for m in advise(s).messages if m.startswith("probe_sphere (CAXYFZ)")]
+    assert any("8 of 10 location errors are determined" in m for m in msgs)
+    assert any("No candidate reading separates EC0C, EA0A" in m for m in msgs)

@@ -69,13 +69,16 @@ class ProbeSetup:
                 "sphere_mm": [float(v) for v in self.sphere_mm]}
 
 
-def sphere_readings(m: Any):
+def sphere_readings(m: Any, nominal_centres: bool = False):
     """The measurement as the location estimator's block.
 
     Parameters
     ----------
     m : Measurement
         A measured probe_sphere measurement.
+    nominal_centres : bool
+        Use the centres the configured kinematics predict instead of the readings (a
+        planned test, for the design's analysis).
 
     Returns
     -------
@@ -84,7 +87,12 @@ def sphere_readings(m: Any):
     from volcal.measure.spheres import SphereReadings
 
     k = _keys(m)
-    return SphereReadings(m.id, "probe", _angles(m), np.asarray(m.positions, dtype=float),
+    values = np.asarray(m.positions, dtype=float)
+    if nominal_centres:
+        from volcal.measure.spheres import probe_centres
+
+        values = probe_centres(five_axis_machine(m), _angles(m), k["sphere_mm"], m.tool_offset)
+    return SphereReadings(m.id, "probe", _angles(m), values,
                           k["sphere"], k["sphere_mm"], np.asarray(m.tool_offset, dtype=float),
                           None, k["noise_um"])
 
@@ -247,6 +255,40 @@ class ProbeSphereKind(Kind):
         m.deviation = dispersion_um(m, c)
         m.columns["time_s"] = np.arange(m.n) * options.dwell_s
         return setup
+
+    # -- advise --------------------------------------------------------------------------
+    def advise_notes(self, session: Any, planned: Any, options: Any) -> list[str]:
+        """What the planned probe_sphere poses will determine of the location errors.
+
+        Parameters
+        ----------
+        session : Session
+            The planned session.
+        planned : Session
+            Its copy with zero readings.
+        options : IdentifyOptions
+            Unused.
+        """
+        from volcal.identify.location import (
+            analyse_location,
+            design_jacobian,
+            separation_advice,
+        )
+        from volcal.model.fiveaxis import location_parameter_names
+
+        ms = [m for m in session.measurements + session.unmeasured if m.kind == self.name]
+        notes: list[str] = []
+        for chain in dict.fromkeys(_keys(m)["chain"].code for m in ms):
+            group = [m for m in ms if _keys(m)["chain"].code == chain]
+            nominal = five_axis_machine(group[0])
+            blocks = [sphere_readings(m, nominal_centres=True) for m in group]
+            Jx, Jn, nn, _, _ = design_jacobian(nominal, blocks)
+            rep = analyse_location(Jx, Jn, location_parameter_names(chain), nn,
+                                   nominal.chain_obj)
+            notes += [f"probe_sphere ({chain}): {msg}" for msg in rep.messages]
+            notes += [f"probe_sphere ({chain}): {msg}"
+                      for msg in separation_advice(nominal, blocks)]
+        return notes
 
     # -- program -------------------------------------------------------------------------
     def program_text(self, m: Any, dialect: str, name: str, number: int, options: Any

@@ -475,7 +475,8 @@ def build_design(session: Session, nodes: list[NDArray[np.float64]] | None = Non
             and kind_of(m.kind).in_design]  # a rotary test is evaluated on its own
     if not meas:
         raise VolcalInputError("no measurements selected for identification (rotary tests "
-                               "are evaluated per axis: volcal evaluate)")
+                               "are evaluated per axis: volcal evaluate; probe_sphere tests "
+                               "locate the rotary axes: volcal locate)")
     for m in meas:
         if m.deviation is None:
             raise VolcalInputError("measurement has no deviations (run it or simulate it first)",

@@ -1,0 +1,102 @@
+"""volcal's LinuxCNC compensation files loaded and applied by LinuxCNC itself.
+
+LinuxCNC 2.9 runs headless in simulation (tests/linuxcnc_sim.py): it loads volcal's
+``COMP_FILE`` on a joint at start-up (its own ``usrmotLoadComp``), and at every target,
+approached in each direction, the offset it applies (``joint.N.motor-pos-cmd`` minus
+``joint.N.pos-cmd``, with the sim's zero motor offset checked) is compared with what
+volcal says its table applies (``volcal.compensate.readback``, the controller's rule:
+linear interpolation, forward trims while moving +, reverse trims while moving -).
+
+This replaces the transcription of ``usrmotLoadComp`` that
+tests/compensate/test_controllers.py used to carry (``linuxcnc_load``): a line LinuxCNC
+does not load, a sign or a column swapped, shows here as a wrong offset.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from linuxcnc_sim import joint_pins, mdi_samples, xyzc_joints
+from volcal.compensate import CompensationOptions, write_compensation
+from volcal.compensate.bidirectional import DirectionalErrors
+from volcal.compensate.readback import read_written_tables
+from volcal.measure.virtual import random_machine
+
+TRAVEL = np.array([[0.0, 800.0], [0.0, 600.0], [0.0, 400.0]])
+TOL_MM = 1e-6
+"""LinuxCNC's offset and volcal's table agree to this [mm] (the comp filter of LinuxCNC
+settles to within about 1e-8 of the table; the files carry 1e-6 mm)."""
+
+
+def sweep_moves(axis: str, targets: np.ndarray, overrun: float) -> tuple[list[str], list]:
+    """MDI moves visiting ``targets`` upwards then downwards, each approached in its
+    direction (an overrun before each sweep); the (target, direction) sampled after each."""
+    t = np.round(np.sort(np.asarray(targets, dtype=float)), 6)
+    moves = [f"G0 {axis}{t[0] - overrun:.6f}"]
+    tags: list = [None]
+    for p in t:
+        moves.append(f"G0 {axis}{p:.6f}")
+        tags.append((float(p), "+"))
+    moves.append(f"G0 {axis}{t[-1] + overrun:.6f}")
+    tags.append(None)
+    for p in t[::-1]:
+        moves.append(f"G0 {axis}{p:.6f}")
+        tags.append((float(p), "-"))
+    return moves, tags
+
+
+def applied_offsets(res: dict, tags: list, joint: int) -> tuple[np.ndarray, list, np.ndarray]:
+    """(targets, directions, offsets LinuxCNC applied [mm or deg]) of the tagged samples."""
+    pos, dirs, off = [], [], []
+    for s, tag in zip(res["samples"], tags, strict=True):
+        if tag is None:
+            continue
+        p = s["pins"]
+        assert p[f"joint.{joint}.motor-offset"] == 0.0  # sim homing: no motor offset
+        assert p[f"joint.{joint}.pos-cmd"] == pytest.approx(tag[0], abs=1e-9)
+        pos.append(tag[0])
+        dirs.append(tag[1])
+        off.append(p[f"joint.{joint}.motor-pos-cmd"] - p[f"joint.{joint}.pos-cmd"])
+    return np.array(pos), dirs, np.array(off)
+
+
+def test_linuxcnc_applies_volcals_linear_tables_types_0_and_1(tmp_path, linuxcnc_sim):
+    """X with a COMP_FILE_TYPE 0 file, Y with a type 1 file, both bidirectional."""
+    m = random_machine(TRAVEL, "XYFZ", 3, n_nodes=9)
+    rev = DirectionalErrors([np.array([0.0, 800.0]), np.array([0.0, 600.0]), None],
+                            [np.array([4.0, 8.0]), np.array([-6.0, 2.0]), None], "lin-xy")
+    folders = {}
+    for t in (0, 1):
+        folders[t] = tmp_path / f"type{t}"
+        write_compensation(m, "linuxcnc", folders[t], CompensationOptions(
+            spacing=25.0, linuxcnc_type=t, directional=rev))
+    joints = xyzc_joints()
+    joints[0] = type(joints[0])("X", comp_file=folders[0] / "X.comp", comp_type=0)
+    joints[1] = type(joints[1])("Y", comp_file=folders[1] / "Y.comp", comp_type=1)
+    rng = np.random.default_rng(7)
+    # nodes, points between nodes, and both ends (held beyond the table: not visited)
+    tx = np.r_[0.0, 800.0, 25.0 * rng.integers(1, 32, 3), rng.uniform(0, 800, 3)]
+    ty = np.r_[0.0, 600.0, 25.0 * rng.integers(1, 24, 3), rng.uniform(0, 600, 3)]
+    mx, tagx = sweep_moves("X", tx, 5.0)
+    my, tagy = sweep_moves("Y", ty, 5.0)
+    res = mdi_samples(joints, mx + my, pins=joint_pins(0) + joint_pins(1) + joint_pins(2))
+    assert res["errors"] == []
+    nx = len(mx)
+    for k, (folder, moves_tags, samples) in enumerate([
+            (folders[0], tagx, res["samples"][:nx]),
+            (folders[1], tagy, res["samples"][nx:])]):
+        pos, dirs, off = applied_offsets({"samples": samples}, moves_tags, k)
+        tables = read_written_tables(folder)
+        q = np.zeros((pos.size, 3))
+        q[:, k] = pos
+        said = -tables.correction(q, direction=dirs)[:, k] / 1000.0  # trim = -error [mm]
+        np.testing.assert_allclose(off, said, atol=TOL_MM, rtol=0)
+        # and the tables cancel the model's error at the nodes and between them (within
+        # the 1e-6 mm of the files and the linear interpolation between 25 mm points)
+        half = rev.half_reversal(k, pos)
+        err = m.component(k, pos)[:, k] + np.where(np.array(dirs) == "+", half, -half)
+        np.testing.assert_allclose(err + 1000.0 * off, 0.0, atol=0.01)
+        assert np.ptp(off) > 1e-3  # the trims are not all zero
+    for s in res["samples"]:  # Z carries no table: LinuxCNC adds nothing
+        assert s["pins"]["joint.2.motor-pos-cmd"] == s["pins"]["joint.2.pos-cmd"]

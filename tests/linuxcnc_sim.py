@@ -177,7 +177,7 @@ def sim_ini(joints: Sequence[SimJoint], comp_names: Mapping[int, str]) -> str:
         "",
         "[TRAJ]", f"COORDINATES = {coords}", "LINEAR_UNITS = mm", "ANGULAR_UNITS = degree",
         "DEFAULT_LINEAR_VELOCITY = 50", "MAX_LINEAR_VELOCITY = 5000",
-        "DEFAULT_ANGULAR_VELOCITY = 90", "MAX_ANGULAR_VELOCITY = 720", "",
+        "DEFAULT_ANGULAR_VELOCITY = 90", "MAX_ANGULAR_VELOCITY = 7200", "",
         "[KINS]", f"JOINTS = {len(joints)}", f"KINEMATICS = trivkins coordinates={coords}", "",
     ]
     for n, j in enumerate(joints):

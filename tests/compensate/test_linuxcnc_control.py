@@ -17,9 +17,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from linuxcnc_sim import joint_pins, mdi_samples, xyzc_joints
+from linuxcnc_sim import SimJoint, joint_pins, mdi_samples, xyzc_joints
 from volcal.compensate import CompensationOptions, write_compensation
 from volcal.compensate.bidirectional import DirectionalErrors
+from volcal.compensate.linuxcnc import load_linuxcnc_comp
 from volcal.compensate.readback import read_written_tables
 from volcal.measure.virtual import random_machine
 
@@ -72,8 +73,8 @@ def test_linuxcnc_applies_volcals_linear_tables_types_0_and_1(tmp_path, linuxcnc
         write_compensation(m, "linuxcnc", folders[t], CompensationOptions(
             spacing=25.0, linuxcnc_type=t, directional=rev))
     joints = xyzc_joints()
-    joints[0] = type(joints[0])("X", comp_file=folders[0] / "X.comp", comp_type=0)
-    joints[1] = type(joints[1])("Y", comp_file=folders[1] / "Y.comp", comp_type=1)
+    joints[0] = SimJoint("X", comp_file=folders[0] / "X.comp", comp_type=0)
+    joints[1] = SimJoint("Y", comp_file=folders[1] / "Y.comp", comp_type=1)
     rng = np.random.default_rng(7)
     # nodes, points between nodes, and both ends (held beyond the table: not visited)
     tx = np.r_[0.0, 800.0, 25.0 * rng.integers(1, 32, 3), rng.uniform(0, 800, 3)]
@@ -100,3 +101,89 @@ def test_linuxcnc_applies_volcals_linear_tables_types_0_and_1(tmp_path, linuxcnc
         assert np.ptp(off) > 1e-3  # the trims are not all zero
     for s in res["samples"]:  # Z carries no table: LinuxCNC adds nothing
         assert s["pins"]["joint.2.motor-pos-cmd"] == s["pins"]["joint.2.pos-cmd"]
+
+
+# --- rotary joint ------------------------------------------------------------------------
+
+def rotary_session(tmp_path, seed: int = 5, steps: int = 10, runs: int = 5):
+    """A simulated session with one rotary test of a full-circle C axis (volcal's own
+    plan and virtual rotary axis)."""
+    from volcal.session.format import read_session
+    from volcal.steps.plan import plan
+    from volcal.steps.simulate import save, simulate
+
+    s = tmp_path / "session"
+    plan(TRAVEL, tests="rotary:c", steps=steps, runs=runs, output=s)
+    save(simulate(s, seed=seed), s)
+    return read_session(s)
+
+
+SERVO_PERIOD_S = 1e-3
+"""``[EMCMOT] SERVO_PERIOD`` of the sim configuration [s]."""
+
+
+def last_cycle_tolerance(nom: np.ndarray, trim: np.ndarray, acc: float) -> float:
+    """How far LinuxCNC's applied trim may be from the table at the target [deg or mm].
+
+    LinuxCNC takes the trim at the joint position of the last servo cycle in motion and
+    keeps it when the joint stops (``compute_screw_comp``: "not moving, use whatever was
+    there before"); that cycle ends at most ``acc * T**2`` before the target, where the
+    table changes by at most its largest slope times that. Plus the 1e-9 of the file.
+    """
+    slope = np.max(np.abs(np.diff(trim) / np.diff(nom)))
+    return float(slope * acc * SERVO_PERIOD_S**2 + 1e-9)
+
+
+ROT_ACC = 36000.0
+"""The rotary axes' acceleration in the sim [deg/s^2]."""
+
+
+def test_linuxcnc_applies_volcals_rotary_table(tmp_path, linuxcnc_sim):
+    """C (full circle) with volcal's COMP_FILE_TYPE 1 table, A with the type 0 one."""
+    from volcal.compensate.rotary import (
+        RotaryOptions,
+        rotary_profiles,
+        rotary_removed_urad,
+        rotary_tables,
+    )
+    from volcal.compensate.rotary.profile import DEG_PER_URAD
+
+    sess = rotary_session(tmp_path)
+    prof = rotary_profiles(sess)
+    assert prof[0].bidirectional and prof[0].modulo
+    folders, entries = {}, {}
+    for t in (0, 1):
+        files, ent, skipped = rotary_tables(prof, "linuxcnc", RotaryOptions(linuxcnc_type=t))
+        assert skipped == [] and sorted(files) == ["C.comp", "ROTARY_NOTES.TXT"]
+        folders[t] = tmp_path / f"rot{t}"
+        folders[t].mkdir()
+        for k, v in files.items():
+            (folders[t] / k).write_text(v)
+        entries[t] = ent[0]
+    joints = [SimJoint("X"), SimJoint("Y"), SimJoint("Z"),
+              SimJoint("A", "ANGULAR", min=-120.0, max=120.0, max_velocity=3600.0,
+                       max_acceleration=ROT_ACC, comp_file=folders[0] / "C.comp", comp_type=0),
+              SimJoint("C", "ANGULAR", min=-720.0, max=720.0, max_velocity=3600.0,
+                       max_acceleration=ROT_ACC, comp_file=folders[1] / "C.comp", comp_type=1)]
+    targets = prof[0].targets_deg
+    # C: the test's targets, 360, and one turn below and above (the periodic table)
+    tc = np.r_[targets, 360.0, targets[[2, 5]] - 360.0, targets[[1, 7]] + 360.0]
+    ta = np.r_[targets[targets < 115.0], -targets[[3, 6]] % 360 - 360.0 + 0.0]
+    ta = ta[(ta > -115.0) & (ta < 115.0)]
+    mc, tagc = sweep_moves("C", tc, 3.0)
+    ma, taga = sweep_moves("A", ta, 3.0)
+    res = mdi_samples(joints, mc + ma, pins=joint_pins(3) + joint_pins(4))
+    assert res["errors"] == []
+    for joint, t, moves_tags, samples in ((4, 1, tagc, res["samples"][:len(mc)]),
+                                          (3, 0, taga, res["samples"][len(mc):])):
+        pos, dirs, off = applied_offsets({"samples": samples}, moves_tags, joint)
+        # what volcal says its table applies: trim = -(error removed) [deg]
+        said = -rotary_removed_urad(folders[t], "linuxcnc", entries[t], pos, dirs) * DEG_PER_URAD
+        nom, fwd, rev = load_linuxcnc_comp(folders[t] / "C.comp", t)
+        tol = max(last_cycle_tolerance(nom, fwd, ROT_ACC), last_cycle_tolerance(nom, rev, ROT_ACC))
+        assert tol < 1e-6  # the brief's bound: 1e-6 deg (0.0036 arcsec)
+        np.testing.assert_allclose(off, said, atol=tol, rtol=0)
+        # and the trims remove the measured mean error, periodic over the turns
+        want = -prof[0].error_urad(pos, np.array(dirs)) * DEG_PER_URAD
+        np.testing.assert_allclose(off, want, atol=tol, rtol=0)
+        assert np.ptp(off) > 1e-4  # the trims are not all zero (> 0.36 arcsec)

@@ -321,6 +321,28 @@ class RotaryKind(Kind):
                 else f"MOUNTED OFF AXIS, ECCENTRICITY {ecc:g} MM"]
 
 
+    def program_text(self, m: Any, dialect: str, name: str, number: int, options: Any
+                     ) -> tuple[str, list[str]] | None:
+        """Incremental turns with overruns and dwells (:mod:`volcal.program.rotary`).
+
+        Parameters
+        ----------
+        m : Measurement
+            The measurement.
+        dialect : str
+            The dialect.
+        name : str
+            Program name.
+        number : int
+            Fanuc program number.
+        options : volcal.program.steps.ProgramOptions
+            Dwell, feed [deg/min], ``overrun_deg``, decimals, safe Z.
+        """
+        from volcal.program.rotary import rotary_program
+
+        return rotary_program(m, dialect, name, number, options)
+
+
 def _no_reversal(e: Any) -> Any:
     from dataclasses import replace
 

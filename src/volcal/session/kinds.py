@@ -406,6 +406,32 @@ class Kind:
         """
         return None
 
+    def program_text(self, m: Any, dialect: str, name: str, number: int, options: Any
+                     ) -> tuple[str, list[str]] | None:
+        """The whole part program of a measurement in its own shape; None: the common one.
+
+        The common program (:mod:`volcal.program.steps`) moves the linear axes to the
+        poses; a kind that moves other axes (``rotary``) writes its program here.
+
+        Parameters
+        ----------
+        m : Measurement
+            The measurement.
+        dialect : str
+            ``'fanuc'``, ``'linuxcnc'``, ``'siemens'`` or ``'heidenhain'``.
+        name : str
+            Program name.
+        number : int
+            Fanuc program number.
+        options : volcal.program.steps.ProgramOptions
+            Dwell, feed, overruns, decimals, safe Z.
+
+        Returns
+        -------
+        (text, warnings) or None
+        """
+        return None
+
     def evaluate(self, m: Any) -> dict[str, Any] | None:
         """Evaluation of one measurement by itself (None: none; see :attr:`standard`).
 

@@ -37,6 +37,7 @@ __all__ = [
     "RotaryAxis",
     "RotaryReadings",
     "arcsec_to_urad",
+    "check_rotary_keys",
     "read_rotary_axes",
     "read_rotary_csv",
     "rotary_csv",
@@ -182,6 +183,77 @@ def read_rotary_axes(machine: dict[str, Any], file: Any = None) -> list[RotaryAx
         rng = _range(e.get("range_deg", [0.0, 360.0]), file, f"{where}.range_deg", modulo)
         out.append(RotaryAxis(name, rng, modulo))
     return out
+
+
+ECCENTRICITY_MAX_MM = 100.0
+"""Largest accepted eccentricity of an off-axis mounting [mm]."""
+
+
+def check_rotary_keys(entry: dict[str, Any], file: Any, where: str,
+                      machine_axes: list[Any] | None = None) -> dict[str, Any]:
+    """Check a rotary entry's own keys; the checked values (defaults filled in).
+
+    Parameters
+    ----------
+    entry : dict
+        The ``[[measurements]]`` entry.
+    file : str or Path
+        ``session.toml``, for errors.
+    where : str
+        The entry's key (``measurements[3]``).
+    machine_axes : list of RotaryAxis, optional
+        ``[[machine.rotary_axes]]``: the test's axis, range and modulo must agree.
+
+    Returns
+    -------
+    dict
+        ``axis``, ``range_deg`` (tuple), ``modulo``, ``mounting``, ``eccentricity_mm``.
+
+    Raises
+    ------
+    VolcalInputError
+        Naming the key.
+    """
+    if "axis" not in entry:
+        raise VolcalInputError("missing axis = \"a\", \"b\" or \"c\": the rotary axis tested",
+                               file, None, f"{where}.axis")
+    axis = _axis_name(entry["axis"], file, f"{where}.axis")
+    if entry["axis"] != axis:
+        raise VolcalInputError(f"axis must be \"a\", \"b\" or \"c\" (lower case), got "
+                               f"{entry['axis']!r}", file, None, f"{where}.axis")
+    modulo = _bool(entry.get("modulo", True), file, f"{where}.modulo")
+    rng = _range(entry.get("range_deg", [0.0, 360.0]), file, f"{where}.range_deg", modulo)
+    mounting = entry.get("mounting", "on_axis")
+    if not isinstance(mounting, str) or mounting not in MOUNTINGS:
+        raise VolcalInputError(f"unknown mounting {mounting!r}: expected one of "
+                               f"{', '.join(MOUNTINGS)}", file, None, f"{where}.mounting")
+    ecc = entry.get("eccentricity_mm")
+    if mounting == "off_axis" and ecc is None:
+        raise VolcalInputError("an off-axis mounting needs eccentricity_mm: the distance of "
+                               "the calibrator's centre from the axis [mm]", file, None,
+                               f"{where}.eccentricity_mm")
+    if ecc is not None:
+        if mounting != "off_axis":
+            raise VolcalInputError("eccentricity_mm belongs to mounting = \"off_axis\"", file,
+                                   None, f"{where}.eccentricity_mm")
+        if (isinstance(ecc, bool) or not isinstance(ecc, int | float) or not math.isfinite(ecc)
+                or not 0.0 <= ecc <= ECCENTRICITY_MAX_MM):
+            raise VolcalInputError(f"eccentricity_mm must be a number of mm between 0 and "
+                                   f"{ECCENTRICITY_MAX_MM:g}, got {ecc!r}", file, None,
+                                   f"{where}.eccentricity_mm")
+    for a in machine_axes or []:
+        if a.name != axis:
+            continue
+        if a.modulo != modulo:
+            raise VolcalInputError(f"modulo = {str(modulo).lower()} but [machine] lists axis "
+                                   f"{axis} with modulo = {str(a.modulo).lower()}", file, None,
+                                   f"{where}.modulo")
+        if rng[0] < a.range_deg[0] - 1e-9 or rng[1] > a.range_deg[1] + 1e-9:
+            raise VolcalInputError(f"range_deg {list(rng)} leaves the range of axis {axis} in "
+                                   f"[machine] {list(a.range_deg)}", file, None,
+                                   f"{where}.range_deg")
+    return {"axis": axis, "range_deg": rng, "modulo": modulo, "mounting": mounting,
+            "eccentricity_mm": float(ecc or 0.0)}
 
 
 # ------------------------------------------------------------------------------ CSV

@@ -14,9 +14,13 @@ each STEP one of
 * ``{"home": true}``: machine on, home all joints, wait until every joint is homed;
 * ``{"mdi": "G0 C10", "label": any, "sample": true}``: one MDI command, wait until it is
   done and the sampled pins stop changing, then (``sample``) record ``pins``;
-* ``{"program": "prog.ngc", "poll_s": s}``: run a program in auto mode to its end,
-  recording the status (``stat.joint_actual_position``, ``stat.position``, line) and
-  ``pins`` every ``poll_s`` seconds (0 or absent: no time series);
+* ``{"program": "prog.ngc", "poll_s": s, "resume": true, "timeout_s": s}``: run a program
+  in auto mode to its end, recording the status (``stat.joint_actual_position``,
+  ``stat.position``, line) and ``pins`` every ``poll_s`` seconds (0 or absent: no time
+  series) into ``series[label or program]``; a pause (M0, M1) is resumed at once, as the
+  operator's cycle start (``resume``: true), and listed in the end sample's ``pauses``;
+* ``{"jog": joint, "increment": d, "velocity": v}``: an incremental jog of one joint in
+  joint mode, then a sample of ``pins``;
 * ``{"sleep_s": s}``.
 
 Result (JSON): ``{"ok": bool, "samples": [...], "series": {...}, "errors": [...],
@@ -63,7 +67,8 @@ class Driver:
             if not err:
                 return
             kind, text = err
-            self.errors.append({"kind": int(kind), "text": str(text)})
+            self.errors.append({"kind": int(kind), "text": str(text),
+                                "error": kind in (linuxcnc.NML_ERROR, linuxcnc.OPERATOR_ERROR)})
 
     def wait(self, cond, what, timeout=None):
         t_end = time.monotonic() + (timeout or self.step_timeout_s)
@@ -159,6 +164,9 @@ class Driver:
         t0 = time.monotonic()
         timeout = float(step.get("timeout_s", self.step_timeout_s))
         started = False
+        resume = bool(step.get("resume", True))
+        pauses = []
+        was_paused = False
         while True:
             self.s.poll()
             self.poll_errors()
@@ -168,16 +176,22 @@ class Driver:
                             "position": list(self.s.position), "pins": self.read_pins()})
             if self.s.interp_state != linuxcnc.INTERP_IDLE:
                 started = True
+                paused = self.s.interp_state == linuxcnc.INTERP_PAUSED or self.s.paused
+                if paused and resume and not was_paused:
+                    # M0/M1: the operator's cycle start (not waited for: the loop polls on)
+                    pauses.append({"t": time.monotonic() - t0, "line": self.s.current_line})
+                    self.c.auto(linuxcnc.AUTO_RESUME)
+                was_paused = paused
             elif started or time.monotonic() - t0 > 1.0:
                 break
-            if any(e["kind"] in (linuxcnc.NML_ERROR, linuxcnc.OPERATOR_ERROR)
-                   for e in self.errors):
+            if any(e["error"] for e in self.errors):
                 raise RuntimeError("program stopped on an error: " + self.errors[-1]["text"])
             if time.monotonic() - t0 > timeout:
                 raise RuntimeError("program did not end in time")
             time.sleep(poll_s or 0.01)
         self.s.poll()
         self.samples.append({"label": name, "program": step["program"], "end": True,
+                             "pauses": pauses, "run_s": time.monotonic() - t0,
                              "motion_line": self.s.motion_line, "pins": self.read_pins(),
                              "joint_actual_position": list(self.s.joint_actual_position),
                              "position": list(self.s.position)})

@@ -8,9 +8,9 @@ minus the error the written table removes at each commanded angle and approach d
 largest unidirectional standard uncertainty ``s_i`` of the test's targets. A test whose A
 grows by more than ``u`` is flagged. Units: urad.
 
-ISO 230-2 is evaluated with the target angles as positions; on a full-circle axis 0 and
-360 deg stay two targets (ISO 230-2 counts each target approached), the same physical
-position for the table.
+ISO 230-2 for rotary axes (:func:`volcal.standards.iso230_2_rotary.evaluate_rotary`): on a
+full-circle axis 0 and 360 deg stay two targets (ISO 230-2 counts each target approached),
+the same physical position for the table.
 
 References
 ----------
@@ -83,7 +83,7 @@ def check_rotary(session: Any, folder: str | Path, fmt: str, entries: list[dict[
         ``"id: why"`` for rotary tests not evaluated.
     """
     from volcal.compensate.rotary import rotary_removed_urad
-    from volcal.standards.iso230_2 import evaluate
+    from volcal.standards.iso230_2_rotary import evaluate_rotary
 
     by_id = {str(e["id"]): e for e in entries}
     checks: list[RotaryCheck] = []
@@ -101,10 +101,11 @@ def check_rotary(session: Any, folder: str | Path, fmt: str, entries: list[dict[
         ok = np.isfinite(dev)
         try:
             removed = rotary_removed_urad(folder, fmt, by_id[m.id], t[ok], d[ok])
-            before = evaluate(t[ok], run[ok], d[ok], dev[ok], edition, allow_incomplete=True,
-                              target_column="target_deg")
-            after = evaluate(t[ok], run[ok], d[ok], dev[ok] - removed, edition,
-                             allow_incomplete=True, target_column="target_deg")
+            kw = {"axis": str(m.meta.get("axis", "?")), "modulo": bool(m.meta.get("modulo", True)),
+                  "allow_incomplete": True}
+            before = evaluate_rotary(t[ok], run[ok], d[ok], dev[ok], edition, **kw).iso
+            after = evaluate_rotary(t[ok], run[ok], d[ok], dev[ok] - removed, edition,
+                                    **kw).iso
         except VolcalInputError as exc:
             skipped.append(f"{m.id}: {exc.message}")
             continue

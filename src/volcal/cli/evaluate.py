@@ -204,6 +204,11 @@ def _rotary_cmd(file: Path, as_json: bool, edition: str, b: Any, budget: Path | 
     res, notes = evaluate_rotary_file(file, edition, b)
     for n in notes:
         err_console.print(f"note: {escape(n)}", highlight=False)
+    from volcal.standards.iso230_2_rotary import read_rotary_file, rotary_plausibility
+
+    plaus = rotary_plausibility(read_rotary_file(file)[0].deviation_urad, str(file))
+    for w in plaus:
+        err_console.print(f"[yellow]warning:[/] {escape(w)}", highlight=False)
     dec = None
     if tolerance_urad is not None:
         dec = _iso_decisions(res, res.uncertainty, tolerance_urad, rule, None)
@@ -214,8 +219,15 @@ def _rotary_cmd(file: Path, as_json: bool, edition: str, b: Any, budget: Path | 
     if as_json:
         out = res.to_dict(units)
         out["file"] = str(file)
+        out["plausibility"] = plaus
         if budget is not None:
             out["budget_file"] = str(budget)
+            out["corrections"] = {"material_applied": False,
+                                  "cosine_expectation_applied": False,
+                                  "largest_correction_um": 0.0,
+                                  "text": "angles read by an angular interferometer need no "
+                                          "air or material correction: the readings are "
+                                          "evaluated as given"}
         if dec is not None:
             out.update(dec)
         _print_json(out)

@@ -459,8 +459,10 @@ def session_cmd(
     budget: Path | None = typer.Option(None, help="Uncertainty budget (TOML): U of every "
                                        "ISO 230-2 parameter of every linear test (values "
                                        "unchanged); the guard band of the guarded rule."),
+    units: str = typer.Option("urad", "--units", help="Rotary tests: urad or arcsec for "
+                              "every angle printed."),
 ) -> None:
-    """ISO 230-2 for every linear measurement with runs and directions; ELv (seed 002)."""
+    """ISO 230-2 for every linear and rotary measurement with runs and directions; ELv."""
     from volcal.errors import VolcalInputError
     from volcal.session.format import read_session
     from volcal.standards.session import evaluate_session
@@ -472,6 +474,9 @@ def session_cmd(
             "note: the straightness_um / squareness_urad limits are the direct optics': "
             "judged by `volcal evaluate optics SESSION --tolerance-um ...` and on the "
             "certificate, not here", highlight=False)
+    from volcal.standards.iso230_2_rotary import check_units
+
+    check_units(units)
     s = read_session(session)
     print_session_notes(s)
     if compensation is not None:
@@ -487,7 +492,7 @@ def session_cmd(
     results, axis_of = ev.iso230_2, ev.axis
     why_skipped = {k: why for k, why in ev.skipped.items() if why != "no readings yet"}
     skipped = list(why_skipped)
-    if not results:
+    if not results and not ev.rotary:
         raise VolcalInputError("no linear measurement with run and direction columns", session)
     elv_val = None if ev.elv is None else ev.elv["ELv"]
     verdict = _verdicts(tol, ev, s, mres)
@@ -514,6 +519,8 @@ def session_cmd(
                 row["U_um"] = u.targets[i].U
         if uncs:
             out["corrections"] = corr_text
+        if ev.rotary:
+            out["rotary"] = {k: r.to_dict(units) for k, r in ev.rotary.items()}
         if verdict is not None:
             from volcal.standards.decision import RULE_TEXT
 
@@ -521,6 +528,10 @@ def session_cmd(
             rule = tol[0].rule
             out["decision_rule"] = {"name": rule, "text": RULE_TEXT[rule]}
         _print_json(out)
+        return
+    for k, r in ev.rotary.items():
+        print_rotary_tables(r, k, units)
+    if not results:
         return
     t = Table(title=escape(f"{session}: ISO 230-2:{edition} [um]"))
     cols = ["id", "axis", "runs", "A [um]", "E [um]", "M [um]", "R [um]", "B [um]",

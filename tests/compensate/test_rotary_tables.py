@@ -212,3 +212,25 @@ def test_compensate_session_writes_rotary_tables_and_prints_A(tmp_path, monkeypa
     assert cells[:2] == ["rotary-c", "C"]
     assert float(cells[2]) == pytest.approx(before, abs=0.005)
     assert float(cells[3]) < 0.3 * float(cells[2])
+
+
+def test_fanuc_rotary_points_must_not_reuse_the_linear_ones(tmp_path, monkeypatch, capsys):
+    from volcal_cli_helpers import run_volcal
+
+    s = tmp_path / "s"
+    assert run_volcal(monkeypatch, capsys, "plan", "--tests", "linear:x,rotary:c", "--runs",
+                      "2", "--travel", "0:400,0:300,0:200", "-o", str(s))[0] == 0
+    assert run_volcal(monkeypatch, capsys, "simulate", str(s), "--seed", "4")[0] == 0
+    args = ["compensate", str(s / "truth" / "machine.csv"), "--format", "fanuc",
+            "--session", str(s)]
+    # 2 mm: the linear points (both directions of X) run past 900, where the rotary table
+    # starts
+    code, out, err = run_volcal(monkeypatch, capsys, *args, "-o", str(tmp_path / "a"),
+                                "--spacing", "2")
+    assert code != 0 and "Traceback" not in err
+    assert "Fanuc pitch error compensation: point 900 in FANUC_PITCH.TXT and " \
+        "FANUC_ROTARY_PITCH_C.TXT" in err
+    assert not (tmp_path / "a").exists()
+    code, out, err = run_volcal(monkeypatch, capsys, *args, "-o", str(tmp_path / "b"))
+    assert code == 0, err
+    assert (tmp_path / "b" / "FANUC_ROTARY_PITCH_C.TXT").is_file()

@@ -172,9 +172,26 @@ def test_fanuc_rejects_a_spacing_that_does_not_divide_the_turn():
         rotary_tables([p], "fanuc", RotaryOptions(spacing_deg=7.0))
 
 
+def test_isg_rotary_component_error_file(tmp_path):
+    from volcal.compensate.volumetric import parse_isg_csv
+
+    p = rotary_profile(hand_measurement())
+    files, entries, _ = rotary_tables([p], "isg", RotaryOptions())
+    text = files["rotary_isg_C.csv"]
+    (b,) = parse_isg_csv(text)  # the parser written from the published syntax
+    assert list(b) == ["C", "ECC"]
+    np.testing.assert_array_equal(b["C"], [0, 90, 180, 270, 360])  # degrees
+    # the mean of both directions [rad], the error (ISG convention), 0 = 360
+    np.testing.assert_allclose(b["ECC"], np.array([3.75, 13, 23, 13, 3.75]) * 1e-6,
+                               rtol=1e-6)
+    folder = write(files, tmp_path / "i")
+    got = rotary_removed_urad(folder, "isg", entries[0], [45.0, 315.0], ["-", "+"])
+    np.testing.assert_allclose(got, [8.375, 8.375], rtol=1e-6)
+
+
 def test_formats_without_rotary_tables_say_so():
     p = rotary_profile(hand_measurement())
-    files, entries, skipped = rotary_tables([p], "isg", RotaryOptions())
+    files, entries, skipped = rotary_tables([p], "csv", RotaryOptions())
     assert files == {} and entries == [] and "no rotary tables" in skipped[0]
 
 

@@ -229,6 +229,16 @@ def test_compensate_session_writes_rotary_tables_and_prints_A(tmp_path, monkeypa
     assert cells[:2] == ["rotary-c", "C"]
     assert float(cells[2]) == pytest.approx(before, abs=0.005)
     assert float(cells[3]) < 0.3 * float(cells[2])
+    # the display in arcsec (1 arcsec = 4.8481368 urad)
+    code, out2, err = run_volcal(monkeypatch, capsys, "compensate", str(s / "truth" /
+                                 "machine.csv"), "--format", "heidenhain", "-o",
+                                 str(tmp_path / "comp2"), "--session", str(s), "--units",
+                                 "arcsec")
+    assert code == 0, err
+    assert "A before [arcsec]" in out2
+    row2 = next(line for line in out2.splitlines() if "rotary-c" in line)
+    cells2 = [c.strip() for c in row2.strip("│┃ ").split("│")]
+    assert float(cells2[2]) == pytest.approx(before / 4.8481368, abs=0.005)
 
 
 def test_fanuc_rotary_points_must_not_reuse_the_linear_ones(tmp_path, monkeypatch, capsys):

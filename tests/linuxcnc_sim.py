@@ -35,6 +35,8 @@ API (kept stable; issue 29's live capture uses it):
     Home, then one MDI move per entry, a sample of ``pins`` after each.
 ``joint_pins(j)``
     The names of joint ``j``'s position pins.
+``run_halrun(hal_text, files={}) -> str``
+    ``halrun -f`` on a HAL text (no motion), halcmd's output.
 fixture ``linuxcnc_sim``
     Skips (with the reason) when LinuxCNC is missing, else returns :func:`run_linuxcnc`.
 """
@@ -319,6 +321,44 @@ def run_linuxcnc(joints: Sequence[SimJoint], steps: Sequence[Mapping], *,
             if not folder.exists():
                 break
             time.sleep(0.2)
+
+
+def run_halrun(hal_text: str, files: Mapping[str, str] | None = None, *,
+               timeout_s: float = 30.0) -> str:
+    """Run ``halrun -f`` on ``hal_text`` (as :data:`USER` when root, under the lock).
+
+    ``files`` are written beside it (a HAL file the text ``source``s). Returns halcmd's
+    output (``show pin`` tables...); raises :class:`LinuxCNCRunError` when halcmd fails.
+    HAL is unloaded afterwards (``halrun -U``).
+    """
+    owner = _ensure_user()
+    folder = Path(tempfile.mkdtemp(prefix="volcal-hal-"))
+    try:
+        (folder / "main.hal").write_text(hal_text)
+        for name, content in (files or {}).items():
+            (folder / name).write_text(content)
+        env = {"PATH": "/usr/local/bin:/usr/bin:/bin:/usr/sbin:/sbin", "LANG": "C.UTF-8",
+               "HOME": str(folder), "USER": USER if owner else os.environ.get("USER", "")}
+        pre: list[str] = []
+        if owner:
+            for p in [folder, *folder.iterdir()]:
+                os.chown(p, *owner)
+            pre = [RUNUSER, "-u", USER, "--", "env", *(f"{k}={v}" for k, v in env.items())]
+        with open(LOCK_FILE, "a") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)
+            try:
+                p = subprocess.run([*pre, "halrun", "-f", "main.hal"], cwd=folder, env=env,
+                                   capture_output=True, text=True,
+                                   timeout=scaled_timeout(timeout_s))
+            finally:
+                subprocess.run([*pre, "halrun", "-U"], cwd=folder, env=env,
+                               capture_output=True, timeout=scaled_timeout(30))
+        if p.returncode:
+            raise LinuxCNCRunError(f"halrun exited {p.returncode}:\n{p.stdout[-3000:]}"
+                                   f"{p.stderr[-3000:]}")
+        return p.stdout
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
 
 
 def mdi_samples(joints: Sequence[SimJoint], moves: Iterable[str], *,

@@ -198,7 +198,10 @@ def trt_hal(exp: TrtExport) -> str:
     """
     lines = ["# volcal: rotary axes' location errors for LinuxCNC's " + exp.kins,
              "# activate: add this file as a HALFILE after the one that loads the kinematics",
-             "# (loadrt " + exp.kins + "); values in mm"]
+             "# (loadrt " + exp.kins + "); values in mm",
+             "# limits: float pins without bounds in the module; the values are the axis"
+             " lines' positions in machine coordinates, valid with tool-offset as the control"
+             " sets it (the tool length) and the rotary joints homed where the probing had them"]
     lines += [f"# {n}" for n in exp.notes]
     if exp.residual_um.size:
         lines.append("# predicted dispersion of the sphere centre: before "

@@ -51,7 +51,7 @@ OPTIONS: dict[str, str] = {
         "format", "spacing", "max_points", "reference_mm", "unit_um", "magnification",
         "max_increment", "fanuc_series", "linuxcnc_type", "squareness",
         # locate
-        "model", "prior_u", "linuxcnc_hal", "z_rot_point_mm",
+        "model", "prior_u", "linuxcnc_hal", "z_rot_point_mm", "siemens_tcarr", "tool_carrier",
     )
 }
 

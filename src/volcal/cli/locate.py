@@ -30,6 +30,11 @@ def locate_cmd(
     linuxcnc_hal: Path | None = typer.Option(None, help="Write LinuxCNC's xyzac-/xyzbc-trt-kins "
                                              "pins (setp lines) to this HAL file, with what "
                                              "the kinematics cannot hold."),
+    siemens_tcarr: Path | None = typer.Option(None, help="Write the Siemens swivel data "
+                                              "record ($TC_CARR..[n], kinematic type P) of a "
+                                              "trunnion to this part program (.MPF), with what "
+                                              "it leaves."),
+    tool_carrier: int = typer.Option(1, help="With --siemens-tcarr: the record number n."),
     z_rot_point_mm: float | None = typer.Option(None, help="With --linuxcnc-hal: the "
                                                 "z-rot-point to keep [mm] (default the C "
                                                 "pivot's z; only z-rot-point + z-offset "
@@ -52,6 +57,17 @@ def locate_cmd(
         message_console(output).print(f"{exp.kins} pins -> {linuxcnc_hal}", highlight=False)
         for note in exp.notes[3:]:
             message_console(output).print(f"- {note}", highlight=False, markup=False)
+    if siemens_tcarr is not None:
+        from volcal.compensate.siemens_tcarr import tcarr_mpf
+        from volcal.io.atomic import write_text
+        from volcal.io.paths import check_output_file
+
+        check_output_file(siemens_tcarr)
+        texp = r.siemens_tcarr(tool_carrier)
+        write_text(siemens_tcarr, tcarr_mpf(texp))
+        message_console(output).print(f"$TC_CARR..[{tool_carrier}] -> {siemens_tcarr} "
+                                      f"(predicted dispersion {texp.residual_um.max():.3f} "
+                                      "um)", highlight=False)
     if json_out:
         target = output or Path("-")
         write_output(target, located_json(r))

@@ -105,6 +105,29 @@ class Located:
         return trt_export(m, self.blocks, spheres, configured=nominal,
                           z_rot_point_mm=z_rot_point_mm, control=control)
 
+    def siemens_tcarr(self, carrier: int = 1) -> Any:
+        """The Siemens swivel data record (``$TC_CARR``) of the result and its residual.
+
+        Parameters
+        ----------
+        carrier : int
+            Number of the record.
+
+        Returns
+        -------
+        volcal.compensate.siemens_tcarr.TcarrExport
+        """
+        from volcal.compensate.siemens_tcarr import tcarr_export
+
+        m = self.result.machine
+        spheres: dict[str, Any] = {}
+        for k, v in self.result.nuisances.items():
+            sid, _, ax = k.rpartition(":")
+            if ax in ("sx", "sy", "sz"):
+                spheres.setdefault(sid, [0.0, 0.0, 0.0])["xyz".index(ax[1])] = v
+        nominal = m.with_location(np.zeros(len(self.result.identifiability.names)))
+        return tcarr_export(m, self.blocks, spheres, nominal, carrier)
+
     def to_text(self) -> str:
         """The table and the report as ``volcal locate`` prints them."""
         lines = [f"chain {self.chain}: {len(self.measurements)} probe_sphere test(s)",

@@ -165,8 +165,15 @@ def _fmt(x: float) -> str:
     return repr(float(x))
 
 
-def sim_ini(joints: Sequence[SimJoint], comp_names: Mapping[int, str]) -> str:
-    """The INI text of the sim configuration (mm, deg; trivkins on ``joints``)."""
+def sim_ini(joints: Sequence[SimJoint], comp_names: Mapping[int, str],
+            kinematics: str | None = None, halfiles: Sequence[str] = (),
+            servo_period_ns: int = 1000000) -> str:
+    """The INI text of the sim configuration (mm, deg; trivkins on ``joints``).
+
+    ``kinematics`` replaces trivkins (``"xyzac-trt-kins"``: the ``[KINS] KINEMATICS`` line);
+    ``halfiles`` are further ``[HAL] HALFILE`` lines after basic_sim's (files of the
+    configuration folder); ``servo_period_ns`` is ``[EMCMOT] SERVO_PERIOD``.
+    """
     coords = "".join(j.axis for j in joints)
     lines = [
         "[EMC]", "VERSION = 1.1", "MACHINE = volcal-sim", "DEBUG = 0", "",
@@ -175,13 +182,15 @@ def sim_ini(joints: Sequence[SimJoint], comp_names: Mapping[int, str]) -> str:
         "[TASK]", "TASK = milltask", "CYCLE_TIME = 0.001", "",
         "[RS274NGC]", "PARAMETER_FILE = sim.var", "", "[EMCIO]", "EMCIO = io",
         "CYCLE_TIME = 0.100", "TOOL_TABLE = sim.tbl", "",
-        "[EMCMOT]", "EMCMOT = motmod", "COMM_TIMEOUT = 1.0", "SERVO_PERIOD = 1000000", "",
+        "[EMCMOT]", "EMCMOT = motmod", "COMM_TIMEOUT = 1.0",
+        f"SERVO_PERIOD = {int(servo_period_ns)}", "",
         "[HAL]", "HALFILE = LIB:basic_sim.tcl -no_use_hal_manualtoolchange -no_sim_spindle",
-        "",
+        *(f"HALFILE = {h}" for h in halfiles), "",
         "[TRAJ]", f"COORDINATES = {coords}", "LINEAR_UNITS = mm", "ANGULAR_UNITS = degree",
         "DEFAULT_LINEAR_VELOCITY = 50", "MAX_LINEAR_VELOCITY = 5000",
         "DEFAULT_ANGULAR_VELOCITY = 90", "MAX_ANGULAR_VELOCITY = 7200", "",
-        "[KINS]", f"JOINTS = {len(joints)}", f"KINEMATICS = trivkins coordinates={coords}", "",
+        "[KINS]", f"JOINTS = {len(joints)}",
+        f"KINEMATICS = {kinematics or 'trivkins coordinates=' + coords}", "",
     ]
     for n, j in enumerate(joints):
         # the joint's limits are twice the axis' so that the comp/backlash filter has room
@@ -221,7 +230,9 @@ def _end_group(proc: subprocess.Popen, grace_s: float) -> None:
 def run_linuxcnc(joints: Sequence[SimJoint], steps: Sequence[Mapping], *,
                  pins: Iterable[str] = (), files: Mapping[str, str | bytes] | None = None,
                  settle_s: float = 0.03, timeout_s: float = 60.0,
-                 keep: str | os.PathLike[str] | None = None) -> dict:
+                 keep: str | os.PathLike[str] | None = None,
+                 kinematics: str | None = None, halfiles: Sequence[str] = (),
+                 servo_period_ns: int = 1000000) -> dict:
     """Run LinuxCNC once on a sim configuration and return the driver's ``result.json``.
 
     Parameters
@@ -243,6 +254,9 @@ def run_linuxcnc(joints: Sequence[SimJoint], steps: Sequence[Mapping], *,
         Nominal timeout of the whole run on the idle reference box [s] (scaled).
     keep : path, optional
         Copy the configuration folder (INI, logs, result) here after the run.
+    kinematics, halfiles, servo_period_ns
+        As :func:`sim_ini` (another kinematics module, further HAL files among ``files``,
+        the servo period [ns]).
 
     Returns
     -------
@@ -258,7 +272,8 @@ def run_linuxcnc(joints: Sequence[SimJoint], steps: Sequence[Mapping], *,
             if j.comp_file is not None:
                 comp_names[n] = f"joint{n}.comp"
                 shutil.copyfile(j.comp_file, folder / comp_names[n])
-        (folder / "sim.ini").write_text(sim_ini(joints, comp_names))
+        (folder / "sim.ini").write_text(sim_ini(joints, comp_names, kinematics, halfiles,
+                                                servo_period_ns))
         (folder / "sim.tbl").write_text("T1 P1 D0 Z0 ;\n")
         shutil.copyfile(DRIVER, folder / DRIVER.name)
         os.chmod(folder / DRIVER.name, 0o755)

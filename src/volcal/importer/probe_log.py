@@ -220,6 +220,13 @@ def import_probe_log(path: str | Path, session: str | Path, mid: str, replace: b
     pts, rows = read_linuxcnc_probe_log(path)
     angles, centres, rms = pose_centres(pts, letters, radius_mm, rows, path)
     angles = {r: sign * a for r, a in angles.items()}
+    from volcal.session.probe_control import control_kinematics
+
+    if control_kinematics(m) == "tcp":  # the log holds table coordinates: to machine ones
+        from volcal.measure.spheres import probe_centres
+        from volcal.session.probe_sphere import five_axis_machine
+
+        centres = probe_centres(five_axis_machine(m), angles, centres, m.tool_offset)
     planned = {r: np.asarray(m.columns[f"{r.lower()}_deg"], dtype=float) for r in letters}
     k = len(centres)
     if k != m.n:

@@ -37,7 +37,9 @@ from volcal.program.dialects import _ascii, _paren_comment
 __all__ = ["PROBE_FEED_MM_MIN", "probe_program"]
 
 PROBE_FEED_MM_MIN = 100.0
-"""Probing feed [mm/min]."""
+"""Probing feed [mm/min] (the test's ``probe_feed_mm_min`` replaces it)."""
+MAX_PROBE_FEED_MM_MIN = 1000.0
+"""Largest probing feed a test may ask [mm/min]."""
 CLEARANCE_MM = 5.0
 """Distance outside the sphere each approach starts from [mm]."""
 OVERTRAVEL_MM = 5.0
@@ -90,6 +92,13 @@ def probe_program(m: Any, dialect: str, name: str, number: int, options: Any
     sphere_d = float(m.meta.get("sphere_diameter_mm", DEFAULT_SPHERE_DIAMETER_MM))
     tip_d = float(m.meta.get("tip_diameter_mm", DEFAULT_TIP_DIAMETER_MM))
     r = 0.5 * (sphere_d + tip_d)  # tip centre at contact, from the sphere centre
+    feed = float(m.meta.get("probe_feed_mm_min", PROBE_FEED_MM_MIN))
+    if not (np.isfinite(feed) and 0.0 < feed <= MAX_PROBE_FEED_MM_MIN):
+        from volcal.errors import VolcalInputError
+
+        raise VolcalInputError(f"probe_feed_mm_min {feed:g}: expected 0 < feed <= "
+                               f"{MAX_PROBE_FEED_MM_MIN:g} mm/min", None, None,
+                               f"measurements.{m.id}.probe_feed_mm_min")
     head = [f"volcal probe_sphere program {name}: test {m.id}, chain {k['chain'].code}, "
             f"{m.n} poses",
             f"sphere diameter {sphere_d:g} mm, probe tip diameter {tip_d:g} mm, tip offset "
@@ -99,6 +108,14 @@ def probe_program(m: Any, dialect: str, name: str, number: int, options: Any
             "rotary angles: the control's" + (" (minus volcal's: control_angle_sign = -1)"
                                               if sign < 0 else ", volcal's")]
     warnings: list[str] = []
+    from volcal.session.probe_control import control_kinematics
+
+    if dialect == "linuxcnc" and control_kinematics(m) == "tcp":
+        from volcal.program.probe_sphere_tcp import probe_program_tcp
+
+        return probe_program_tcp(m, name, options, feed=feed, clearance=CLEARANCE_MM,
+                                 overtravel=OVERTRAVEL_MM, elevation_deg=SIDE_ELEVATION_DEG,
+                                 sphere_d=sphere_d, tip_d=tip_d)
     if dialect != "linuxcnc":
         lines = [_paren_comment(h) for h in head] + [
             _paren_comment(f"{dialect}: run the control's own kinematics cycle (HEIDENHAIN "
@@ -138,7 +155,7 @@ def probe_program(m: Any, dialect: str, name: str, number: int, options: Any
         out.append("G0 " + " ".join(f"{a}{_fmt(sign * ang[a][i], d)}" for a in letters))
         out.append(f"G0 X{_fmt(c[0], d)} Y{_fmt(c[1], d)}")
         out.append(f"G0 Z{_fmt(top, d)}")
-        out.append(f"G38.2 Z{_fmt(c[2] + r - over, d)} F{PROBE_FEED_MM_MIN:g}")
+        out.append(f"G38.2 Z{_fmt(c[2] + r - over, d)} F{feed:g}")
         out.append(f"G0 Z{_fmt(top, d)}")
         for u in sides:
             h = c[2] + r * np.sin(el)
@@ -147,7 +164,7 @@ def probe_program(m: Any, dialect: str, name: str, number: int, options: Any
             end = c[:2] + (rad - over) * u[:2]
             out.append(f"G0 X{_fmt(start[0], d)} Y{_fmt(start[1], d)}")
             out.append(f"G0 Z{_fmt(h, d)}")
-            out.append(f"G38.2 X{_fmt(end[0], d)} Y{_fmt(end[1], d)} F{PROBE_FEED_MM_MIN:g}")
+            out.append(f"G38.2 X{_fmt(end[0], d)} Y{_fmt(end[1], d)} F{feed:g}")
             out.append(f"G0 X{_fmt(start[0], d)} Y{_fmt(start[1], d)}")
             out.append(f"G0 Z{_fmt(top, d)}")
     out += ["(PROBECLOSE)", f"G53 G0 Z{_fmt(safe, d)}", "M2"]

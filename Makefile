@@ -41,6 +41,11 @@ linuxcnc-deps:
 	  apt-get update -q && apt-cache policy linuxcnc-uspace | grep -q 'Candidate: [0-9]' && \
 	  DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends \
 	    linuxcnc-uspace || echo "linuxcnc-uspace not available: the rs274 tests will skip"; fi
+	@# halcompile builds the closed loop's HAL component (tests/compensate/hal/*.comp)
+	@if command -v halcompile >/dev/null || ! command -v rs274 >/dev/null; then :; else \
+	  apt-get update -q && DEBIAN_FRONTEND=noninteractive apt-get install -y -q \
+	    --no-install-recommends linuxcnc-uspace-dev || \
+	    echo "linuxcnc-uspace-dev not available: the LinuxCNC closed loop will skip"; fi
 
 # PostgreSQL server for the history tests (Debian package postgresql, run as root). The
 # test fixtures start a throw-away cluster as the unprivileged 'postgres' user the

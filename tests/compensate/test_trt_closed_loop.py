@@ -187,6 +187,7 @@ def test_closed_loop_on_linuxcnc_trimmed(trt_sim, tmp_path):
     """6 poses probed with the configuration's wrong pivots scatter by millimetres; with
     volcal's HAL file LinuxCNC reports one sphere centre within 2 um at 4 other poses."""
     before, after, hal, _ = _loop(trt_sim, tmp_path, TRIM_POSES, TRIM_AFTER, 0.0)
+    print(f"trimmed: before {before.max():.1f} um, after {after.max():.2f} um")
     assert before.max() > 1000.0, before
     assert after.max() < 2.0, (after, hal)
 
@@ -195,6 +196,7 @@ def test_closed_loop_on_linuxcnc_trimmed(trt_sim, tmp_path):
 def test_closed_loop_on_linuxcnc_full(trt_sim, tmp_path):
     """The 18-pose grid (C at 6 angles times A at 3): within 2 um at every pose after."""
     before, after, hal, _ = _loop(trt_sim, tmp_path, FULL_POSES, FULL_POSES, 0.0)
+    print(f"full: before {before.max():.1f} um, after {after.max():.2f} um")
     assert before.max() > 1000.0, before
     assert after.max() < 2.0, (after, hal)
 
@@ -202,13 +204,17 @@ def test_closed_loop_on_linuxcnc_full(trt_sim, tmp_path):
 @pytest.mark.slow
 def test_closed_loop_with_a_tilt_the_kinematics_cannot_hold(trt_sim, tmp_path):
     """C tilted by 300 urad about X: the trt pins cannot hold it; LinuxCNC restarted with
-    volcal's file reports at each pose the scatter volcal predicted (within 1 um), well
-    above the 2 um of the tilt-free loop."""
+    volcal's file reports at each pose the scatter volcal predicted, within the 2 um that
+    one probing of a pose scatters by (the tilt-free loop), where the scatter reaches
+    15-20 um."""
     from volcal.steps.locate import locate
 
     before, after, hal, _ = _loop(trt_sim, tmp_path, FULL_POSES, FULL_POSES, 300.0)
     exp = locate(tmp_path / "s").linuxcnc_trt()
     assert "EA0C" in exp.not_held and "EA0C" in hal
     assert before.max() > 1000.0
-    assert after.max() > 5.0, after
-    np.testing.assert_allclose(after, exp.residual_um, atol=1.0)
+    print(f"tilt: before {before.max():.1f} um, after {after.max():.2f} um, predicted "
+          f"{exp.residual_um.max():.2f} um, largest difference "
+          f"{np.abs(after - exp.residual_um).max():.2f} um")
+    assert after.max() > 10.0, after
+    np.testing.assert_allclose(after, exp.residual_um, atol=2.0)

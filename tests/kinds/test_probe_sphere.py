@@ -318,3 +318,30 @@ def test_advise_says_what_the_planned_poses_determine():
     msgs = [m for m in advise(s).messages if m.startswith("probe_sphere (CAXYFZ)")]
     assert any("8 of 10 location errors are determined" in m for m in msgs)
     assert any("No candidate reading separates EC0C, EA0A" in m for m in msgs)
+
+
+def test_report_section_lists_the_location_errors_with_u(simulated):
+    """The kind's report section: every location error, value and U, the redundant ones
+    named; the scatter before and after."""
+    from types import SimpleNamespace
+
+    s = read_session(simulated)
+    sec = kind_of("probe_sphere").report_section(SimpleNamespace(session=s, result=None))
+    assert sec is not None and sec.id == "location"
+    table = sec.tables[0]
+    names = [r[0] for r in table.rows]
+    assert names == ["EX0C", "EY0C", "EA0C", "EB0C", "EC0C", "EY0A", "EZ0A", "EB0A", "EC0A",
+                     "EA0A"]
+    ec0c = table.rows[names.index("EC0C")]
+    assert ec0c[2] == "-" and ec0c[5].startswith("redundant")
+    ex0c = table.rows[0]
+    location, _ = _truth(simulated)
+    # perfect linear axes assumed here (the simulation's are small): within a few U
+    assert abs(float(ex0c[2]) - location["EX0C"]) < 20.0
+    assert "with the configured kinematics" in table.note
+    assert any("8 of 10 location errors are determined" in p for p in sec.paragraphs)
+
+
+def test_no_laser_plausibility_warnings_on_sphere_centres(simulated):
+    """The laser readings' checks (order of the rows, first reading ~0) do not apply."""
+    assert not [w for w in read_session(simulated).warnings if w.startswith("probe_sphere:")]

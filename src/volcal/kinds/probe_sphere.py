@@ -290,6 +290,18 @@ class ProbeSphereKind(Kind):
                       for msg in separation_advice(nominal, blocks)]
         return notes
 
+    def report_section(self, inp: Any) -> Any:
+        """The location errors with U (:mod:`volcal.report.fiveaxis`).
+
+        Parameters
+        ----------
+        inp : volcal.report.sections.ReportInputs
+            The session and its results.
+        """
+        from volcal.report.fiveaxis import location_section
+
+        return location_section(inp)
+
     # -- program -------------------------------------------------------------------------
     def program_text(self, m: Any, dialect: str, name: str, number: int, options: Any
                      ) -> tuple[str, list[str]] | None:

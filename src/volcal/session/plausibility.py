@@ -332,7 +332,8 @@ def plausibility_warnings(session: Session) -> list[str]:
         One message per finding, starting with the measurement id.
     """
     ms = [m for m in session.measurements if m.deviation is not None
-          and np.all(np.isfinite(m.deviation)) and m.n >= 2]
+          and np.all(np.isfinite(m.deviation)) and m.n >= 2
+          and m.kind != "probe_sphere"]  # sphere centres, not laser readings (its dispersion)
     out = _scale(ms) + _sign(ms)
     scaled = {w.split(":", 1)[0] for w in out}  # one warning per cause: floors say the same
     exact = noise_free_simulation(getattr(session, "provenance", {}) or {})

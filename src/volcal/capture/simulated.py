@@ -36,6 +36,7 @@ error alone. Keys: ``seed`` (the random machine's and the noise's, default 0),
 from __future__ import annotations
 
 import math
+import random
 import zlib
 from dataclasses import dataclass
 from pathlib import Path
@@ -173,8 +174,12 @@ def _float(opts: dict[str, str], key: str, default: float, where: str) -> float:
     return v
 
 
-def _rng(seed: int, mid: str, tick: int, salt: int) -> np.random.Generator:
-    return np.random.default_rng([seed, zlib.crc32(mid.encode()), tick, salt])
+def _gauss(seed: int, mid: str, tick: int, salt: int, sigma: float, n: int = 1
+           ) -> list[float]:
+    """Deterministic normal draws keyed by (seed, measurement, time tick, salt)."""
+    key = ((seed * 7919 + salt) * 4294967311 + zlib.crc32(mid.encode())) * 10**13 + tick
+    r = random.Random(key)
+    return [r.gauss(0.0, sigma) for _ in range(n)]
 
 
 class SimulatedControl:
@@ -265,7 +270,7 @@ class SimulatedControl:
         p, moving, running, ended = self._at(tr)
         self._pos = p
         if self.noise > 0:
-            p = p + _rng(self.seed, mid, round(tr * 1e6), 1).normal(0.0, self.noise, 3)
+            p = p + np.array(_gauss(self.seed, mid, round(tr * 1e6), 1, self.noise, 3))
         pos = {a: float(v) for a, v in zip("XYZ", p, strict=True)}
         if not self.flags:
             return ControlSample(t, pos, status="ended" if ended else "ok")
@@ -369,7 +374,7 @@ class SimulatedLaser:
                 value += self.creep * (t - self._rest[1])
         tick = round((t - self._t0) * 1e6)
         if self.noise > 0:
-            value += float(_rng(self.seed, mid, tick, 2).normal(0.0, self.noise))
+            value += _gauss(self.seed, mid, tick, 2, self.noise)[0]
         return LaserSample(t, value, unit)
 
 

@@ -277,12 +277,15 @@ class _Signal:
         self.horizon = horizon_s
         self.diffs: deque[NDArray[np.float64]] = deque(maxlen=512)
         self.dim = dim
+        self._added = 0
+        self._pooled: tuple[int, float, NDArray[np.float64]] | None = None
 
     def add(self, t: float, v: NDArray[np.float64], max_gap: float, pool: bool) -> bool:
         """Append; True when a gap longer than ``max_gap`` preceded the sample."""
         gap = bool(self.t) and t - self.t[-1] > max_gap
         if pool and self.t and not gap:
             self.diffs.append(v - self.v[-1])
+            self._added += 1
         self.t.append(t)
         self.v.append(v)
         while self.t and self.t[0] < t - self.horizon:
@@ -298,10 +301,29 @@ class _Signal:
         return t[sel], v[sel]
 
     def sigma(self, floor: float, local: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Per-component noise: pooled differences at rest, else the window's own."""
-        pooled = (np.array(self.diffs, float).reshape(-1, self.dim) if len(self.diffs) >= 16
-                  else np.diff(local, axis=0))
-        return np.array([noise_sigma(pooled[:, j], floor) for j in range(self.dim)])
+        """Per-component noise: pooled differences at rest, else the window's own.
+
+        Parameters
+        ----------
+        floor : float
+            The smallest value [signal's unit].
+        local : ndarray, shape (n, dim)
+            The window's samples.
+
+        Returns
+        -------
+        ndarray, shape (dim,)
+        """
+        if len(self.diffs) >= 16:  # the pooled estimate, renewed every 16 differences
+            c = self._pooled
+            if c is None or c[1] != floor or self._added - c[0] >= 16:
+                pooled = np.array(self.diffs, float).reshape(-1, self.dim)
+                c = (self._added, floor,
+                     np.array([noise_sigma(pooled[:, j], floor) for j in range(self.dim)]))
+                self._pooled = c
+            return c[2]
+        d = np.diff(local, axis=0)
+        return np.array([noise_sigma(d[:, j], floor) for j in range(self.dim)])
 
 
 class TriggerRule:
@@ -608,7 +630,7 @@ class TriggerRule:
 
     @staticmethod
     def _vec(u: NDArray[np.float64]) -> str:
-        return "(" + ", ".join(f"{v:+.3f}" for v in u) + ")"
+        return "(" + ", ".join(f"{v + 0.0:+.3f}" for v in np.round(u, 3)) + ")"
 
     def _dir(self, u: NDArray[np.float64] | None) -> str:
         return "" if u is None else f" approached along {self._vec(u)}"

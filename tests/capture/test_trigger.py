@@ -17,6 +17,7 @@ from volcal.capture.trigger import (
     Accepted,
     CaptureMismatch,
     Missed,
+    Note,
     Replayed,
     TriggerParams,
     TriggerRule,
@@ -298,3 +299,22 @@ def test_a_restarted_program_is_not_taken_for_its_second_run():
     assert [e.reading for e in events if isinstance(e, Replayed)] == [0, 1]
     assert [(e.reading, e.value) for e in decided(events)] == \
         [(e.reading, e.value) for e in full[2:]]
+
+
+def test_a_resumed_rule_waits_through_the_rest_of_the_interrupted_program():
+    """Killed after reading 2; the program went on to its end, then runs again."""
+    p = Program(TARGETS[:5], SIGNS[:5])
+    once = p.stream()
+    _, b = p.dwell_intervals()[3]
+    t_end = once[-1].time_s + 0.02
+    tail = [s for s in once if s.time_s >= b + 0.1]  # back after reading 4's dwell
+    again = [type(s)(**{**s.__dict__, "time_s": s.time_s + t_end}) for s in once]
+    rule = TriggerRule(p.dwells(), TriggerParams(), p.waypoints(), "um", done={0, 1, 2},
+                       start=np.array([p.home, 0.0, 0.0]))
+    events = run(rule, tail + again)
+    assert any(isinstance(e, Note) and "resumed, waiting for reading 4" in e.text
+               for e in events)  # reading 5's dwell, passed over
+    assert [e.reading for e in events if isinstance(e, Replayed)] == [0, 1, 2]
+    full = decided(run(rule_for(p), once))
+    assert [(e.reading, e.value) for e in decided(events)] == \
+        [(e.reading, e.value) for e in full[3:]]

@@ -33,9 +33,11 @@ or, when the control leaves the target before a stable window was found, ``misse
 dwell records that dwell as missed too.
 
 After a resume (``done`` lists the readings already recorded) the rule expects the first
-reading not recorded; if the machine instead runs the program again from its first
-reading, the rule follows it from there and passes over the readings already recorded
-(:class:`Replayed`, never written again).
+reading not recorded: the program may have gone on while the capture was down. If the
+machine stands at the program's start pose (its operator stop) or dwells at the first
+reading, the program was started again: the rule follows it from there and passes over
+the readings already recorded (:class:`Replayed`, never written again). Until one of
+the two happens, the program's other stops are passed over (with a note), not refused.
 
 The rule is pure: no clock, no input or output; :mod:`volcal.capture.runner` feeds it.
 
@@ -560,6 +562,11 @@ class TriggerRule:
         if any(self._near(w) for w in self.waypoints):
             self._passed = True  # a stop at a start, approach or overrun point
             return []
+        if self._may_replay:  # resumed: wait for the program to reach the first missing
+            self._passed = True  # reading or to start again; its other stops are passed
+            return [Note(t, f"{self.label}: resumed, waiting for reading {d.reading + 1} or "
+                            f"the program's start; the control stands at "
+                            f"{self._fmt(self._pos)}")]
         nxt = self.cursor + 1
         if (nxt < len(self.dwells) and self._ctrl_gap and self._near(self.dwells[nxt].target)
                 and self._direction_ok(self.dwells[nxt], seen)):

@@ -29,6 +29,7 @@ from volcal.capture.trigger import (
     TriggerParams,
     TriggerRule,
 )
+from volcal.errors import VolcalInputError
 
 __all__ = ["LoopOptions", "Outcome", "capture_measurement"]
 
@@ -245,6 +246,12 @@ def capture_measurement(pm: PlannedMeasurement, folder: Path, control: ControlSo
             clock.sleep(loop.poll_s)
     except SourceError as e:
         reason = f"disconnected: {e}"
+    except VolcalInputError as e:  # a mismatch with the plan: refused, said in the journal
+        reason = f"refused: {e}"
+        raise
+    except KeyboardInterrupt:
+        reason = "interrupted"
+        raise
     finally:
         complete = rule.complete
         journal.write("end", {"t": clock.now(), "reason": reason if complete or

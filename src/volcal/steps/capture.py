@@ -114,6 +114,9 @@ def _target_folder(session: Any, output: str | Path | None) -> Path:
     """The folder captured into: the session, or ``output`` (made from it, or resumed)."""
     from volcal.session.format import write_session
 
+    if not isinstance(session, str | Path) and session.path is None:
+        raise ParameterError("{session=} has no folder: capture writes into a session "
+                             "folder (save the session first)")
     src = Path(session.path) if not isinstance(session, str | Path) else Path(session)
     if output is None:
         return src

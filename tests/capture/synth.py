@@ -40,12 +40,14 @@ class Program:
     flags: bool = True
     errors_um: list[float] | None = None
     seed: int = 0
+    lines: bool = False          # the control reports the program line (as LinuxCNC does)
 
     def dwells(self) -> list[PlannedDwell]:
         out = []
         for i, (x, s) in enumerate(zip(self.targets, self.signs, strict=True)):
             out.append(PlannedDwell(i, np.array([x, 0.0, 0.0]), np.array([float(s), 0, 0]),
-                                    self.dwell_s, 1, "+" if s > 0 else "-"))
+                                    self.dwell_s, 1, "+" if s > 0 else "-",
+                                    (100 + 2 * i, 101 + 2 * i) if self.lines else ()))
         return out
 
     def error(self, i: int) -> float:
@@ -137,8 +139,10 @@ class Program:
             dropped = {w for (g0, g1, w) in self.gaps if g0 <= t < g1}
             if "control" not in dropped:
                 pos = {"X": xc, "Y": 0.0, "Z": 0.0}
+                # the line of the move being made or last made (LinuxCNC's motion_line)
+                line = (100 + 2 * reading if reading is not None else 99) if self.lines else None
                 out.append(ControlSample(t, pos, moving if self.flags else None,
-                                         running if self.flags else None))
+                                         running if self.flags else None, line=line))
             if "laser" not in dropped:
                 out.append(LaserSample(t + 0.5 / self.rate, lv, "um"))
         out.sort(key=lambda s: s.time_s)

@@ -318,3 +318,28 @@ def test_a_resumed_rule_waits_through_the_rest_of_the_interrupted_program():
     full = decided(run(rule_for(p), once))
     assert [(e.reading, e.value) for e in decided(events)] == \
         [(e.reading, e.value) for e in full[3:]]
+
+
+def test_a_resumed_rule_knows_the_dwell_from_the_program_line():
+    """Two runs over the same targets; killed after reading 2, back after reading 3 passed:
+    run 2's first dwell has reading 1's target and direction. The line LinuxCNC reports
+    names the dwell, so the rule waits for the program to start again instead of taking run
+    2 for run 1."""
+    p = Program([0.0, 25.0, 50.0, 0.0, 25.0, 50.0], [1] * 6, lines=True)
+    once = p.stream()
+    _, b = p.dwell_intervals()[2]
+    t_end = once[-1].time_s + 0.02
+    tail = [s for s in once if s.time_s >= b + 0.1]
+    again = [type(s)(**{**s.__dict__, "time_s": s.time_s + t_end}) for s in once]
+    for k, s in enumerate(again):  # the operator restarted it: no stop at home this time
+        if hasattr(s, "running") or hasattr(s, "program_running"):
+            again[k] = type(s)(**{**s.__dict__, "program_running": True})
+    rule = TriggerRule(p.dwells(), TriggerParams(), p.waypoints(), "um", done={0, 1},
+                       start=None)
+    events = run(rule, tail + again)
+    assert [e.reading for e in events if isinstance(e, Replayed)] == [0, 1]
+    full = decided(run(rule_for(p), once))
+    assert [(e.reading, e.value) for e in decided(events)] == \
+        [(e.reading, e.value) for e in full[2:]]
+    waits = [e.text for e in events if isinstance(e, Note)]
+    assert any("the program dwells at reading 4 (line 106)" in w for w in waits)

@@ -8,8 +8,9 @@ approach moves and the dwell time are exactly those of the program on the contro
 
 from __future__ import annotations
 
+import re
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -19,7 +20,11 @@ from numpy.typing import NDArray
 from volcal.errors import VolcalInputError
 from volcal.program.steps import ProgramOptions, Step, build_steps
 
-__all__ = ["PlannedDwell", "PlannedMeasurement", "plan_measurement", "program_options"]
+__all__ = ["PlannedDwell", "PlannedMeasurement", "dwell_lines", "plan_measurement",
+           "program_options"]
+
+_DWELL = re.compile(r"^\s*(?:N\d+\s+)?G0?4(?![0-9.])", re.IGNORECASE)
+_MOVE = re.compile(r"^\s*(?:N\d+\s+)?(?:G0?[01](?![0-9.])|[XYZABC][-+0-9.])", re.IGNORECASE)
 
 
 @dataclass(frozen=True)
@@ -41,6 +46,10 @@ class PlannedDwell:
         Run number (linear tests).
     direction : str or None
         ``'+'`` or ``'-'`` (linear tests).
+    lines : tuple of int
+        Lines of the part program (1-based) a control reports while the machine dwells
+        here: the dwell block and the move before it (LinuxCNC's ``motion_line`` names the
+        move); empty when the program file is not known.
     """
 
     reading: int
@@ -49,6 +58,7 @@ class PlannedDwell:
     seconds: float
     run: int | None = None
     direction: str | None = None
+    lines: tuple[int, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -122,8 +132,46 @@ def program_options(programs: str | Path | None = None, **overrides: Any) -> Pro
     return opts
 
 
-def plan_measurement(m: Any, travel: NDArray[np.float64], options: ProgramOptions
-                     ) -> PlannedMeasurement:
+def dwell_lines(programs: str | Path | None, measurement_id: str) -> list[tuple[int, int]]:
+    """Program lines of each dwell of a measurement's part program, in order.
+
+    Parameters
+    ----------
+    programs : str or Path or None
+        The program folder (``volcal program -o``) or its index.
+    measurement_id : str
+        The measurement.
+
+    Returns
+    -------
+    list of (int, int)
+        (line of the move before the dwell, line of the dwell block), 1-based; empty when
+        the folder, its index or the program is missing, or the program has no ISO dwell
+        blocks (``G4``/``G04``: Fanuc, LinuxCNC, Siemens).
+    """
+    if programs is None:
+        return []
+    p = Path(programs)
+    folder = p if p.is_dir() else p.parent
+    try:
+        doc = tomllib.loads((folder / "volcal-programs.toml").read_text(encoding="utf-8"))
+        entry = next(e for e in doc.get("programs", [])
+                     if isinstance(e, dict) and e.get("measurement") == measurement_id)
+        text = (folder / str(entry["file"])).read_text(encoding="utf-8", errors="replace")
+    except (OSError, tomllib.TOMLDecodeError, StopIteration, KeyError):
+        return []
+    out: list[tuple[int, int]] = []
+    move = 0
+    for no, line in enumerate(text.splitlines(), start=1):
+        if _DWELL.match(line):
+            out.append((move, no))
+        elif _MOVE.match(line):
+            move = no
+    return out
+
+
+def plan_measurement(m: Any, travel: NDArray[np.float64], options: ProgramOptions,
+                     programs: str | Path | None = None) -> PlannedMeasurement:
     """The programmed dwells of measurement ``m``.
 
     Parameters
@@ -134,6 +182,9 @@ def plan_measurement(m: Any, travel: NDArray[np.float64], options: ProgramOption
         The machine's travel [mm].
     options : ProgramOptions
         The program's options (:func:`program_options`).
+    programs : str or Path, optional
+        The program folder: the program lines of each dwell (:func:`dwell_lines`), by
+        which a control that reports its line (LinuxCNC) names the dwell it stands in.
 
     Returns
     -------
@@ -165,6 +216,9 @@ def plan_measurement(m: Any, travel: NDArray[np.float64], options: ProgramOption
                 None if approach is None else approach.copy(), float(st.seconds or 0.0),
                 None if run is None else int(run[i]),
                 None if direction is None else str(direction[i])))
+    lines = dwell_lines(programs, m.id)
+    if len(lines) == len(dwells):
+        dwells = [replace(d, lines=lines[k]) for k, d in enumerate(dwells)]
     start = next(st.position for st in sl.steps if st.kind == "start")
     if start is not None:
         waypoints.insert(0, start)

@@ -38,6 +38,9 @@ machine stands at the program's start pose (its operator stop) or dwells at the 
 reading, the program was started again: the rule follows it from there and passes over
 the readings already recorded (:class:`Replayed`, never written again). Until one of
 the two happens, the program's other stops are passed over (with a note), not refused.
+When the control reports the program line and the dwells know theirs
+(:attr:`PlannedDwell.lines`, from ``--programs``), the line names the dwell the machine
+stands in: a later run's dwell at the same target is never taken for the missing one.
 
 The rule is pure: no clock, no input or output; :mod:`volcal.capture.runner` feeds it.
 
@@ -383,6 +386,8 @@ class TriggerRule:
         self._rest_since: float | None = None
         self._passed = False                  # the current rest is passed over
         self._ctrl_gap = False                # a control gap since the last dwell
+        self._line: int | None = None         # the program line the control reports
+        self._by_line = {ln: k for k, d in enumerate(self.dwells) for ln in d.lines}
         self.last_time = 0.0
 
     # ---------------------------------------------------------------- state
@@ -439,6 +444,7 @@ class TriggerRule:
         if self._first_pos is None:
             self._first_pos = p
         self._moving, self._running = s.in_motion, s.program_running
+        self._line = s.line
         if not self.armed and (s.program_running is True or s.in_motion is True
                                or float(np.max(np.abs(p - self._first_pos)))
                                > self.p.window_mm):
@@ -542,10 +548,14 @@ class TriggerRule:
         d = self.dwells[self.cursor]
         seen = self._approach_seen()
         events: list[TriggerEvent] = []
+        j = self._by_line.get(self._line) if self._line is not None else None
+        if self._may_replay and j is not None and self._near(self.dwells[j].target):
+            return self._resume_at(j, t)  # the control names the dwell it stands in
         if self._near(d.target) and self._direction_ok(d, seen):
             return self._enter(d, t)
         first = self.dwells[0]
-        if self._may_replay and self._near(first.target) and self._direction_ok(first, seen):
+        if (self._may_replay and not self._by_line and self._near(first.target)
+                and self._direction_ok(first, seen)):
             events.append(Note(t, f"{self.label}: the program runs again from its first "
                                   "reading; the readings already recorded are kept"))
             return events + self._enter(first, t)
@@ -586,6 +596,20 @@ class TriggerRule:
                 f"{what}. Run the measurement's own program from its start (volcal "
                 "program), or resume the capture where the program stands")
         return events
+
+    def _resume_at(self, j: int, t: float) -> list[TriggerEvent]:
+        """A resumed capture: the control's program line says the machine dwells at ``j``."""
+        d = self.dwells[j]
+        if j == self.cursor:
+            return self._enter(d, t)
+        if d.reading in self.done:  # the program was run again from an earlier line
+            return [Note(t, f"{self.label}: the program runs again from reading "
+                            f"{d.reading + 1} (line {self._line}); the readings already "
+                            "recorded are kept")] + self._enter(d, t)
+        self._passed = True  # the program is past the first missing reading: wait
+        return [Note(t, f"{self.label}: resumed, waiting for reading "
+                        f"{self.dwells[self.cursor].reading + 1} or the program's start; "
+                        f"the program dwells at reading {d.reading + 1} (line {self._line})")]
 
     def _enter(self, d: PlannedDwell, t: float) -> list[TriggerEvent]:
         tracked = self.dwells[self.cursor]  # the target _in_window_since was kept for

@@ -248,7 +248,7 @@ def capture(session: Session | str | Path, *, control: str, laser: str,
                                  f"measurements: {', '.join(ids)})", folder / "session.toml")
     if len(set(chosen)) != len(chosen):
         raise ParameterError(f"{{measurement=}}: an id is given twice ({', '.join(chosen)})")
-    plans = [plan_measurement(s.get(mid), s.travel, opts) for mid in chosen]
+    plans = [plan_measurement(s.get(mid), s.travel, opts, programs) for mid in chosen]
     (folder / JOURNAL_FOLDER).mkdir(exist_ok=True)
     for pm in plans:  # keep each measurement's planned file at its first start
         keep = folder / JOURNAL_FOLDER / (Path(pm.measurement.file).stem + PLANNED_SUFFIX)

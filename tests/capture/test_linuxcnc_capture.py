@@ -8,8 +8,8 @@ random virtual machine, seed 3) at LinuxCNC's actual position. Checks:
 
 * capture A (program run 1, uninterrupted): exactly one row per dwell, in order, every
   accepted window inside a dwell of LinuxCNC (no sample of the window in motion, the
-  program running, the axes at the target) and after the program's start; the readings
-  equal the injected map within the noise;
+  program running, the axes at the target, LinuxCNC on that reading's own program lines)
+  and after the program's start; the readings equal the injected map within the noise;
 * capture B (program runs 2 and 3): SIGKILL after two points, resumed at once: every
   reading once, the same rows as A, readings equal to A's and to the map within noise.
 
@@ -67,8 +67,10 @@ def _truth(session: Path, mid: str) -> np.ndarray:
     return np.asarray(kind_of(m.kind).exact(random_machine(s.travel, s.chain, SEED), m))
 
 
-def _check_windows(journal: list[dict], targets: np.ndarray, window_mm: float) -> None:
-    """Each accepted window lies inside one dwell of LinuxCNC, after the program started."""
+def _check_windows(journal: list[dict], targets: np.ndarray, window_mm: float,
+                   lines: list[tuple[int, int]]) -> None:
+    """Each accepted window lies inside one dwell of LinuxCNC, after the program started,
+    and LinuxCNC executes that reading's own lines of the program (the right run)."""
     ctrl = [x for x in journal if x["type"] == "control"]
     runs = [k for k, x in enumerate(journal) if x["type"] == "start"]
     first_running = min(x["t"] for x in ctrl if x.get("running"))
@@ -84,6 +86,7 @@ def _check_windows(journal: list[dict], targets: np.ndarray, window_mm: float) -
         assert len(inside) >= 5
         for c in inside:
             assert c["running"] and not c["moving"], (x["reading"], c)
+            assert c["line"] in lines[x["reading"]], (x["reading"], c["line"])
             p = np.array([c["pos"][a] for a in "XYZ"])
             assert np.max(np.abs(p - targets[x["reading"]])) <= window_mm
 
@@ -181,6 +184,7 @@ def _captures(tmp_path: Path, s: Path, progs: Path, mid: str, marker: str,
 
 
 def _check(tmp_path: Path, s: Path, mid: str, stable_s: float) -> None:
+    from volcal.capture.plan import dwell_lines
     from volcal.session.format import read_session
 
     a_dir, b_dir = tmp_path / "A", tmp_path / "B"
@@ -190,8 +194,10 @@ def _check(tmp_path: Path, s: Path, mid: str, stable_s: float) -> None:
     # exactly one row per dwell, in order; none before the start or in motion
     assert [x["reading"] for x in ja if x["type"] == "accepted"] == list(range(planned.n))
     assert not [x for x in ja if x["type"] == "missed"]
-    _check_windows(ja, planned.positions, 0.010)
-    _check_windows(jb, planned.positions, 0.010)
+    lines = dwell_lines(tmp_path / "P", mid)
+    assert len(lines) == planned.n
+    _check_windows(ja, planned.positions, 0.010, lines)
+    _check_windows(jb, planned.positions, 0.010, lines)
     ma, mb = read_session(a_dir).get(mid), read_session(b_dir).get(mid)
     # a deviation is the difference of two means of >= stable_s / 0.02 samples
     tol = 5 * NOISE_UM * np.sqrt(2 / (stable_s / 0.02))

@@ -48,6 +48,7 @@ import shutil
 import signal
 import subprocess
 import tempfile
+import time
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -247,8 +248,6 @@ def run_linuxcnc(joints: Sequence[SimJoint], steps: Sequence[Mapping], *,
         ``{"ok", "failed", "samples", "series", "errors"}`` plus ``"log"`` (LinuxCNC's
         output) and ``"run_s"`` (wall time of the run [s]).
     """
-    import time
-
     owner = _ensure_user()
     folder = Path(tempfile.mkdtemp(prefix="volcal-cnc-"))
     try:
@@ -315,7 +314,11 @@ def run_linuxcnc(joints: Sequence[SimJoint], steps: Sequence[Mapping], *,
     finally:
         if keep is not None:
             shutil.copytree(folder, keep, dirs_exist_ok=True)
-        shutil.rmtree(folder, ignore_errors=True)
+        for _ in range(5):  # a process of the run may still close its files
+            shutil.rmtree(folder, ignore_errors=True)
+            if not folder.exists():
+                break
+            time.sleep(0.2)
 
 
 def mdi_samples(joints: Sequence[SimJoint], moves: Iterable[str], *,

@@ -107,7 +107,9 @@ class Calibration:
              iso_spacing: bool = True, step_target: str = D.PLAN_STEP_TARGET,
              overrun_mm: float = D.PROG_OVERRUN_MM,
              abbe_offset_mm: float = D.PLAN_ABBE_OFFSET_MM,
-             multilateration: Mapping[str, ArrayLike | float] | None = None) -> Calibration:
+             multilateration: Mapping[str, ArrayLike | float] | None = None,
+             targets: str | Sequence[float] | None = None,
+             rotary_axes: str | None = None) -> Calibration:
         """Plan the tests of a machine (no readings yet), like ``volcal plan``.
 
         Calls :func:`volcal.steps.plan.plan`; :meth:`save` writes the session.
@@ -146,6 +148,10 @@ class Calibration:
             (:func:`volcal.plan.multilateration.multilateration_tests`); the keys not
             given take the command line's defaults (``--grid 9,7,6 --stations 4
             --tool-offsets '0,0,-100;100,100,-100'``).
+        targets : str or sequence of float, optional
+            Target angles of the rotary tests [deg] (``tests=['rotary:c']``).
+        rotary_axes : str, optional
+            The machine's rotary axes, ``'c:0:360:modulo,a:-120:30:limited'`` [deg].
 
         Returns
         -------
@@ -158,7 +164,8 @@ class Calibration:
                         tool_offset=A.vector_mm(tool_offset, "tool_offset"),
                         iso_spacing=iso_spacing, step_target=step_target,
                         overrun_mm=overrun_mm, abbe_offset_mm=abbe_offset_mm,
-                        multilateration=multilateration).session)
+                        multilateration=multilateration, targets=targets,
+                        rotary_axes=rotary_axes).session)
 
     @classmethod
     @A.checked

@@ -105,17 +105,53 @@ def test_linuxcnc_applies_volcals_linear_tables_types_0_and_1(tmp_path, linuxcnc
 
 # --- rotary joint ------------------------------------------------------------------------
 
-def rotary_session(tmp_path, seed: int = 5, steps: int = 10, runs: int = 5):
+def rotary_session(tmp_path, seed: int = 5, steps: int = 10, runs: int = 5, truth=None):
     """A simulated session with one rotary test of a full-circle C axis (volcal's own
-    plan and virtual rotary axis)."""
+    plan and virtual rotary axis); ``truth`` (a dict) receives the simulated set-up."""
     from volcal.session.format import read_session
     from volcal.steps.plan import plan
     from volcal.steps.simulate import save, simulate
 
     s = tmp_path / "session"
     plan(TRAVEL, tests="rotary:c", steps=steps, runs=runs, output=s)
-    save(simulate(s, seed=seed), s)
+    sim = simulate(s, seed=seed)
+    save(sim, s)
+    if truth is not None:
+        truth.update(sim.setups)
     return read_session(s)
+
+
+def round_trip(m, setup, trims: dict | np.ndarray) -> tuple[float, float, float]:
+    """ISO 230-2 A of a rotary test before and after the trims LinuxCNC applied.
+
+    ``trims`` maps (target [deg], direction) to the offset LinuxCNC added to the command
+    [deg] (joint motor-pos-cmd - pos-cmd), or gives it per reading (NaN: not seen).
+    Commanded ``t``, the joint goes to ``t + trim`` and the axis reads
+    ``trim + e(t + trim)`` instead of ``e(t)`` (``e`` the virtual axis' true error, so the
+    change of ``e`` over the trim is included). Returns (A before, A after, the
+    repeatability band 4 max s of the test) [urad].
+    """
+    from volcal.compensate.rotary.profile import DEG_PER_URAD
+    from volcal.measure.rotary import rotary_exact
+    from volcal.standards.iso230_2_rotary import evaluate_rotary
+
+    t = np.asarray(m.columns["target_deg"], dtype=float)
+    d = np.asarray(m.columns["direction"]).astype(str)
+    run = np.asarray(m.columns["run"])
+    ok = np.isfinite(m.deviation)
+    if isinstance(trims, dict):
+        trim = np.array([trims.get((round(float(a), 6), b), np.nan)
+                         for a, b in zip(t, d, strict=True)])
+    else:
+        trim = np.asarray(trims, dtype=float)
+    after = (m.deviation + trim / DEG_PER_URAD + rotary_exact(setup, t + trim, d)
+             - rotary_exact(setup, t, d))
+    ok &= np.isfinite(after)
+    kw = {"modulo": True, "allow_incomplete": True}
+    before = evaluate_rotary(t[ok], run[ok], d[ok], m.deviation[ok], **kw).iso
+    res = evaluate_rotary(t[ok], run[ok], d[ok], after[ok], **kw).iso
+    s = np.concatenate([before.targets.s_up, before.targets.s_down])
+    return float(before.A), float(res.A), float(4.0 * np.nanmax(s))
 
 
 SERVO_PERIOD_S = 1e-3
@@ -148,7 +184,8 @@ def test_linuxcnc_applies_volcals_rotary_table(tmp_path, linuxcnc_sim):
     )
     from volcal.compensate.rotary.profile import DEG_PER_URAD
 
-    sess = rotary_session(tmp_path)
+    truth: dict = {}
+    sess = rotary_session(tmp_path, truth=truth)
     prof = rotary_profiles(sess)
     assert prof[0].bidirectional and prof[0].modulo
     folders, entries = {}, {}
@@ -187,6 +224,14 @@ def test_linuxcnc_applies_volcals_rotary_table(tmp_path, linuxcnc_sim):
         want = -prof[0].error_urad(pos, np.array(dirs)) * DEG_PER_URAD
         np.testing.assert_allclose(off, want, atol=tol, rtol=0)
         assert np.ptp(off) > 1e-4  # the trims are not all zero (> 0.36 arcsec)
+        if joint == 4:  # C: the round trip through LinuxCNC's own loader
+            trims = {(round(float(a), 6), b): o for a, b, o in zip(pos, dirs, off, strict=True)}
+            m = sess.measurements[0]
+            a_before, a_after, band = round_trip(m, truth[m.id], trims)
+            # what is left is the repeatability: the +-2 s band (x̄ = 0 at every target),
+            # plus what a 1e-9 deg table and the slope of e over the trim leave (< 0.01 urad)
+            assert a_after <= band + 0.01, (a_before, a_after, band)
+            assert a_before > 5 * a_after
 
 
 # --- volcal's rotary part program through LinuxCNC, table loaded -------------------------
@@ -210,14 +255,15 @@ def stops(series: list[dict], joint: int, min_s: float) -> list[dict]:
     return out
 
 
-def run_rotary_program(tmp_path, linuxcnc_sim, runs: int, dwell_s: float, feed: float):
+def run_rotary_program(tmp_path, linuxcnc_sim, runs: int, dwell_s: float, feed: float,
+                       truth: dict | None = None):
     """Plan and simulate a C test, write its table and its LinuxCNC program, run the
     program on the sim with the table loaded; (session, profile, planned readings, stops,
     result)."""
     from volcal.compensate.rotary import RotaryOptions, rotary_profiles, rotary_tables
     from volcal.steps.program import program
 
-    sess = rotary_session(tmp_path, runs=runs)
+    sess = rotary_session(tmp_path, runs=runs, truth=truth)
     prof = rotary_profiles(sess)[0]
     files, _, _ = rotary_tables([prof], "linuxcnc", RotaryOptions())
     (tmp_path / "C.comp").write_text(files["C.comp"])
@@ -246,6 +292,7 @@ def check_program_run(prof, planned, st, res, dwell_s):
     # every reading's dwell, in the planned order, at the planned angle, with the trim of its
     # approach direction (polling may miss a dwell on a busy box: at most a few)
     k, seen = 0, 0
+    trims = np.full(len(planned), np.nan)
     for s in st:
         while k < len(planned) and abs(planned[k][0] - s["pos"]) > 1e-6:
             k += 1
@@ -254,10 +301,12 @@ def check_program_run(prof, planned, st, res, dwell_s):
         t, d = planned[k]
         want = -prof.error_urad(t, d) * DEG_PER_URAD
         assert s["off"] == pytest.approx(want, abs=1e-6), (t, d)
+        trims[k] = s["off"]
         seen += 1
         k += 1
     assert seen >= 0.9 * len(planned), (seen, len(planned))
     assert abs(st[-1]["pos"] - planned[-1][0]) < 1e-6  # it ends at the last target
+    return trims
 
 
 def test_rotary_program_runs_to_the_end_on_linuxcnc_with_the_table(tmp_path, linuxcnc_sim):
@@ -271,5 +320,15 @@ def test_rotary_program_runs_to_the_end_on_linuxcnc_with_the_table(tmp_path, lin
 def test_rotary_program_five_runs_on_linuxcnc_with_the_table(tmp_path, linuxcnc_sim):
     """The planned test as it is (5 bidirectional runs) at a fast feed."""
     dwell = 0.3
-    _, prof, planned, st, res = run_rotary_program(tmp_path, linuxcnc_sim, 5, dwell, 10000.0)
-    check_program_run(prof, planned, st, res, dwell)
+    truth: dict = {}
+    sess, prof, planned, st, res = run_rotary_program(tmp_path, linuxcnc_sim, 5, dwell,
+                                                      10000.0, truth)
+    trims = check_program_run(prof, planned, st, res, dwell)
+    # the round trip over the program's own moves: every reading with the trim LinuxCNC
+    # applied at its dwell
+    m = sess.measurements[0]
+    a_before, a_after, band = round_trip(m, truth[m.id], trims)
+    print(f"rotary round trip (program, 5 runs): A {a_before:.2f} -> {a_after:.2f} urad, "
+          f"band 4 s_max {band:.2f} urad")
+    assert a_after <= band + 0.01, (a_before, a_after, band)
+    assert a_before > 5 * a_after

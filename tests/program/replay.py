@@ -87,7 +87,8 @@ def replay_fanuc(text: str):
 _CANON = re.compile(r"^\s*\d+\s+N\.+\s+([A-Z_]+)\((.*)\)\s*$")
 
 
-def run_rs274(text: str, strip_fanuc: bool = False) -> list[tuple[str, list[float]]]:
+def run_rs274(text: str, strip_fanuc: bool = False, axes: int = 3
+              ) -> list[tuple[str, list[float]]]:
     """Run LinuxCNC's interpreter on a program; return its canonical commands.
 
     Parameters
@@ -97,6 +98,8 @@ def run_rs274(text: str, strip_fanuc: bool = False) -> list[tuple[str, list[floa
     strip_fanuc : bool
         Remove the ``%`` lines and the ``O`` number line of a Fanuc program (an O word is a
         subroutine label in LinuxCNC); every other block is given as written.
+    axes : int
+        Coordinates kept of each move: 3 (x, y, z) or 6 (with a, b, c [deg]).
 
     Returns
     -------
@@ -128,7 +131,7 @@ def run_rs274(text: str, strip_fanuc: bool = False) -> list[tuple[str, list[floa
             continue
         nums = ([] if m.group(1) == "MESSAGE"
                 else [float(x) for x in m.group(2).split(",") if x.strip()])
-        cmds.append((m.group(1), nums[:3] if "STRAIGHT" in m.group(1) else nums))
+        cmds.append((m.group(1), nums[:axes] if "STRAIGHT" in m.group(1) else nums))
     return cmds
 
 

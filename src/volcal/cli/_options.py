@@ -33,7 +33,7 @@ OPTIONS: dict[str, str] = {
         # plan
         "travel", "chain", "steps", "tests", "runs", "name", "step_orders", "tool_offset",
         "iso_spacing", "step_target", "overrun_mm", "abbe_offset_mm", "multilateration",
-        "output", "add", "replace",
+        "output", "add", "replace", "targets", "rotary_axes",
         # simulate
         "seed", "noise_um", "mirror_misalignment_urad", "drift_um_per_h", "reversal_um",
         "machine", "overwrite", "budget",

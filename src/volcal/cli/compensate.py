@@ -61,13 +61,18 @@ def compensate(
         "--replace", help="The output folder holds files its manifest does not list (volcal "
         "did not write them): move them into OUTPUT/backup/<UTC time>/ instead of "
         "refusing.")] = False,
+    units: Annotated[str, typer.Option(
+        "--units", help="With --session: the rotary tests' A before and after in urad or "
+        "arcsec (display only).")] = "urad",
 ) -> None:
     """Write compensation tables of a model for a controller, resampled onto its grid."""
     from volcal.cli._options import OPTIONS
     from volcal.errors import spell
+    from volcal.standards.iso230_2_rotary import check_units
     from volcal.steps.compensate import compensate as step
     from volcal.steps.compensate import sign_note
 
+    check_units(units)
     note = sign_note(format, sign)  # said at once, before any other check can fail
     if note is not None:
         err_console.print(escape("note: " + spell(note, OPTIONS)))
@@ -92,10 +97,10 @@ def compensate(
                          + (", the controller's convention" if r.convention else "")
                          + f", {r.spacing:g} mm): {', '.join(r.files)} -> {output}"))
     if r.session is not None:
-        _print_line_checks(r)
+        _print_line_checks(r, units)
 
 
-def _print_line_checks(r: Compensated) -> None:
+def _print_line_checks(r: Compensated, units: str = "urad") -> None:
     """ISO 230-2 A of every measured linear line before and after the tables just written."""
     from rich.table import Table
 
@@ -113,7 +118,7 @@ def _print_line_checks(r: Compensated) -> None:
             err_console.print(f"[yellow]warning[/] {escape(c.warning())}", highlight=False)
     for why in r.not_checked:
         console.print(f"note: not evaluated: {escape(why)}", highlight=False)
-    _print_rotary_checks(r)
+    _print_rotary_checks(r, units)
     before, after = r.volumetric_before_um, r.volumetric_after_um
     if before is None or after is None:  # both are there whenever a session is
         return
@@ -126,24 +131,29 @@ def _print_line_checks(r: Compensated) -> None:
         console.print(text, highlight=False)
 
 
-def _print_rotary_checks(r: Compensated) -> None:
+def _print_rotary_checks(r: Compensated, units: str = "urad") -> None:
     """ISO 230-2 A of every rotary test before and after its rotary table."""
     from rich.table import Table
 
+    from volcal.standards.iso230_2_rotary import UNITS
+
+    f = UNITS[units]
+    u = "µrad" if units == "urad" else units
     if r.rotary_checks:
         t = Table(title="rotary tests: ISO 230-2 A before and after these tables")
-        for col in ("id", "axis", "A before [µrad]", "A after [µrad]", "u [µrad]"):
+        for col in ("id", "axis", f"A before [{u}]", f"A after [{u}]", f"u [{u}]"):
             t.add_column(escape(col), justify="right")
         for c in r.rotary_checks:
-            t.add_row(c.id, c.axis, f"{c.A_before_urad:.2f}",
-                      f"{c.A_after_urad:.2f}" + (" (worse)" if c.worse else ""),
-                      f"{c.u_urad:.2f}")
+            t.add_row(c.id, c.axis, f"{c.A_before_urad * f:.2f}",
+                      f"{c.A_after_urad * f:.2f}" + (" (worse)" if c.worse else ""),
+                      f"{c.u_urad * f:.2f}")
         console.print(t)
     for c in r.rotary_checks:
         if c.worse:
             err_console.print(f"[yellow]warning[/] rotary test {escape(c.id)}: ISO 230-2 A "
-                              f"grows from {c.A_before_urad:.2f} µrad to {c.A_after_urad:.2f} "
-                              f"µrad with these tables", highlight=False)
+                              f"grows from {c.A_before_urad * f:.2f} {u} to "
+                              f"{c.A_after_urad * f:.2f} {u} with these tables",
+                              highlight=False)
     for why in r.rotary_not_written:
         console.print(f"note: rotary: {escape(why)}", highlight=False)
 

@@ -204,6 +204,11 @@ def _rotary_cmd(file: Path, as_json: bool, edition: str, b: Any, budget: Path | 
     res, notes = evaluate_rotary_file(file, edition, b)
     for n in notes:
         err_console.print(f"note: {escape(n)}", highlight=False)
+    from volcal.standards.iso230_2_rotary import read_rotary_file, rotary_plausibility
+
+    plaus = rotary_plausibility(read_rotary_file(file)[0].deviation_urad, str(file))
+    for w in plaus:
+        err_console.print(f"[yellow]warning:[/] {escape(w)}", highlight=False)
     dec = None
     if tolerance_urad is not None:
         dec = _iso_decisions(res, res.uncertainty, tolerance_urad, rule, None)
@@ -214,8 +219,15 @@ def _rotary_cmd(file: Path, as_json: bool, edition: str, b: Any, budget: Path | 
     if as_json:
         out = res.to_dict(units)
         out["file"] = str(file)
+        out["plausibility"] = plaus
         if budget is not None:
             out["budget_file"] = str(budget)
+            out["corrections"] = {"material_applied": False,
+                                  "cosine_expectation_applied": False,
+                                  "largest_correction_um": 0.0,
+                                  "text": "angles read by an angular interferometer need no "
+                                          "air or material correction: the readings are "
+                                          "evaluated as given"}
         if dec is not None:
             out.update(dec)
         _print_json(out)
@@ -447,8 +459,10 @@ def session_cmd(
     budget: Path | None = typer.Option(None, help="Uncertainty budget (TOML): U of every "
                                        "ISO 230-2 parameter of every linear test (values "
                                        "unchanged); the guard band of the guarded rule."),
+    units: str = typer.Option("urad", "--units", help="Rotary tests: urad or arcsec for "
+                              "every angle printed."),
 ) -> None:
-    """ISO 230-2 for every linear measurement with runs and directions; ELv (seed 002)."""
+    """ISO 230-2 for every linear and rotary measurement with runs and directions; ELv."""
     from volcal.errors import VolcalInputError
     from volcal.session.format import read_session
 
@@ -459,6 +473,9 @@ def session_cmd(
             "note: the straightness_um / squareness_urad limits are the direct optics': "
             "judged by `volcal evaluate optics SESSION --tolerance-um ...` and on the "
             "certificate, not here", highlight=False)
+    from volcal.standards.iso230_2_rotary import check_units
+
+    check_units(units)
     s = read_session(session)
     print_session_notes(s)
     from volcal.steps.evaluate import evaluate
@@ -476,7 +493,7 @@ def session_cmd(
     results, axis_of = ev.iso230_2, ev.axis
     why_skipped = {k: why for k, why in ev.skipped.items() if why != "no readings yet"}
     skipped = list(why_skipped)
-    if not results:
+    if not results and not ev.rotary:
         raise VolcalInputError("no linear measurement with run and direction columns", session)
     elv_val = None if ev.elv is None else ev.elv["ELv"]
     verdict = None if done.verdicts is None else list(done.verdicts)
@@ -503,6 +520,8 @@ def session_cmd(
                 row["U_um"] = u.targets[i].U
         if uncs:
             out["corrections"] = corr_text
+        if ev.rotary:
+            out["rotary"] = {k: r.to_dict(units) for k, r in ev.rotary.items()}
         if verdict is not None:
             from volcal.standards.decision import RULE_TEXT
 
@@ -510,6 +529,10 @@ def session_cmd(
             rule = tol[0].rule
             out["decision_rule"] = {"name": rule, "text": RULE_TEXT[rule]}
         _print_json(out)
+        return
+    for k, r in ev.rotary.items():
+        print_rotary_tables(r, k, units)
+    if not results:
         return
     t = Table(title=escape(f"{session}: ISO 230-2:{edition} [um]"))
     cols = ["id", "axis", "runs", "A [um]", "E [um]", "M [um]", "R [um]", "B [um]",

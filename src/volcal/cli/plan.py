@@ -33,8 +33,9 @@ def plan(
                               help="Comma-separated: step-diagonal, diagonal, linear, "
                               "face-diagonal, face-step-diagonal, multilateration, direct "
                               "(direct optics: straightness, angular, level, optical squares; "
-                              "docs/formats.md); one axis or plane: linear:x, "
-                              "face-diagonal:xy, face-step-diagonal:yz."),
+                              "docs/formats.md), rotary (a rotary axis, ISO 230-2); one axis "
+                              "or plane: linear:x, face-diagonal:xy, face-step-diagonal:yz, "
+                              "rotary:c."),
     runs: int = typer.Option(D.PLAN_RUNS, help="Bidirectional runs per linear test "
                              "(ISO 230-2)."),
     step_orders: str = typer.Option(",".join(D.PLAN_STEP_ORDERS),
@@ -61,6 +62,13 @@ def plan(
     tool_offsets: str = typer.Option(";".join(map(_text, D.ML_TOOL_OFFSETS_MM)),
                                      help="Multilateration: reflector offsets on the tool "
                                      "'x,y,z;x,y,z' [mm]."),
+    targets: str | None = typer.Option(None, "--targets", help="Rotary tests: target angles "
+                                       "[deg], comma-separated (default: the ISO 230-2 "
+                                       "spread over the axis' range)."),
+    rotary_axes: str | None = typer.Option(None, "--rotary-axes", help="The machine's rotary "
+                                           "axes name:min:max[:modulo|limited] [deg], e.g. "
+                                           "c:0:360:modulo,a:-120:30:limited (default for "
+                                           "rotary:a|b|c: a full circle)."),
     output: Path | None = typer.Option(None, "-o", "--output", help="Session folder to write "
                                        "(a new or empty folder; an existing session only "
                                        "with --replace)."),
@@ -85,7 +93,8 @@ def plan(
     common: dict[str, Any] = {
         "tests": tests, "steps": steps, "runs": runs, "step_orders": step_orders,
         "tool_offset": parse_vector(tool_offset, "--tool-offset"), "step_target": step_target,
-        "iso_spacing": iso_spacing, "overrun_mm": overrun_mm, "abbe_offset_mm": abbe_offset_mm}
+        "iso_spacing": iso_spacing, "overrun_mm": overrun_mm, "abbe_offset_mm": abbe_offset_mm,
+        "targets": targets, "rotary_axes": rotary_axes}
     if add is not None:
         if replace:
             raise VolcalInputError("--replace belongs to -o (a new session); --add never "

@@ -226,6 +226,14 @@ def write_compensation(errors: MachineErrors, fmt: str, folder: str | Path,
         if clash:
             raise VolcalInputError(f"rotary table {clash[0]} would replace a linear one")
         files = {**files, **rotary[0]}
+        if fmt == "fanuc":
+            from volcal.compensate.rotary.fanuc import fanuc_point_clash
+
+            clash2 = fanuc_point_clash(files)
+            if clash2 is not None:
+                raise VolcalInputError(f"Fanuc pitch error compensation: {clash2} (one table "
+                                       "for all axes): the rotary table starts at point 900; "
+                                       "use a larger --spacing for the linear axes")
     carries = list(info.carries)
     if fmt == "siemens" and not options.include_squareness:
         carries = [c for c in carries if c not in SQUARENESS_NAMES]

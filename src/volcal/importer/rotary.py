@@ -37,6 +37,7 @@ from volcal.importer.laser_csv import (
     write_measurement,
 )
 from volcal.importer.optics import ANGLE_TO_URAD, angle_unit
+from volcal.importer.units import TO_MM, unit_from_header
 from volcal.session.format import Measurement, Session, read_session, write_session
 
 __all__ = ["TARGET_TOL_DEG", "import_rotary_new", "import_rotary_planned", "read_rotary_export"]
@@ -107,7 +108,9 @@ def read_rotary_export(path: str | Path, mapping: dict[str, str], units: str = "
     if m and not _DEG.search(thead):
         raise VolcalInputError(f"the target column {thead!r} names the unit {m.group(1)!r}: a "
                                "rotary test's targets are degrees", path, None, mapping["target"])
-    t = read_laser_csv(path, mapping, "mm", "mm")  # raw numbers: the units are angles here
+    if "deviation" in mapping and layout_of(mapping) == "long":  # the angle unit first
+        angle_unit(deviation_units, _header_of(path, mapping["deviation"]))
+    t = read_laser_csv(path, mapping, "mm", "auto")  # targets as written: angles here
     notes = [n for n in t.notes if not n.startswith(("target column", "deviation column",
                                                      "reading column"))]
     notes.append(f"target column {thead!r}: deg")
@@ -127,7 +130,10 @@ def read_rotary_export(path: str | Path, mapping: dict[str, str], units: str = "
         col = mapping["deviation"]
         head = _header_of(path, col) if layout_of(mapping) == "long" else t.sources[0]
         u = angle_unit(deviation_units, head)
-        dev = np.asarray(t.deviation_um, dtype=float) / 1000.0 * ANGLE_TO_URAD[u]
+        # the table reader took an angle header for um (or a length header for its unit):
+        # back to the numbers as written
+        per = np.array([TO_MM[unit_from_header(c) or "um"] * 1000.0 for c in t.sources])
+        dev = np.asarray(t.deviation_um, dtype=float) / per * ANGLE_TO_URAD[u]
         notes.append(f"deviation column {head!r}: {u} -> urad")
     if sign != 1.0:
         dev = -dev + 0.0

@@ -272,6 +272,35 @@ class RotaryKind(Kind):
         return rotary_program(m, dialect, name, number, options)
 
 
+    def evaluate_positioning(self, m: Any, edition: str, budget: Any) -> Any:
+        """ISO 230-2 of the rotary axis [urad] (:mod:`volcal.standards.iso230_2_rotary`).
+
+        Parameters
+        ----------
+        m : Measurement
+            The measurement.
+        edition : str
+            ISO 230-2 edition.
+        budget : Budget or None
+            For U (its ``[angular]`` section).
+        """
+        from volcal.standards.iso230_2_rotary import evaluate_rotary_measurement
+
+        return evaluate_rotary_measurement(m, edition, budget)
+
+    def report_section(self, inp: Any) -> Any:
+        """The rotary section of the report (:mod:`volcal.report.rotary`).
+
+        Parameters
+        ----------
+        inp : volcal.report.sections.ReportInputs
+            The session and its results.
+        """
+        from volcal.report.rotary import rotary_section
+
+        return rotary_section(inp)
+
+
 def _no_reversal(e: Any) -> Any:
     from dataclasses import replace
 

@@ -329,6 +329,12 @@ def add_planned_tests(folder: str | Path, tests: Sequence[str], steps: int = 10,
     from volcal.session.optics import vertical_axis
 
     s = read_session(require_session(folder), require_deviation=False)
+    rotary = dict(options.pop("rotary", None) or {})
+    if "axes" not in rotary:  # the session's [[machine.rotary_axes]]
+        from volcal.session.rotary import read_rotary_axes
+
+        rotary["axes"] = read_rotary_axes(s.meta)
+    options["rotary"] = rotary
     planned = plan_session(s.travel, s.chain, steps, list(tests), runs, list(step_orders),
                            tool_offset, s.name, step_target=step_target,
                            vertical_axis=vertical_axis(s.meta), **options)

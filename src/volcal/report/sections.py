@@ -72,6 +72,11 @@ class ReportInputs:
     evaluation : SessionEvaluation, optional
         The session's one evaluation (:func:`volcal.standards.session.evaluate_session`)
         the fields above come from; its ``optics`` feed the direct-optics section.
+    angle_units : str
+        Unit of the rotary axes' angles in the report: ``'urad'`` or ``'arcsec'``.
+    rotary_tolerance_urad : mapping of str to float, optional
+        Tolerance of the accuracy A of each rotary axis (``'C'`` -> [urad]): the rotary
+        section's verdict (:mod:`volcal.report.rotary`).
     """
 
     session: Session
@@ -88,6 +93,8 @@ class ReportInputs:
     corrections: str = ""
     iso230_6_uncertainty: Mapping[str, Any] | None = None
     evaluation: Any = None
+    angle_units: str = "urad"
+    rotary_tolerance_urad: Mapping[str, float] | None = None
 
 
 def machine_section(inp: ReportInputs) -> Section:

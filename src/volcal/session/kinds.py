@@ -432,6 +432,28 @@ class Kind:
         """
         return None
 
+    def evaluate_positioning(self, m: Any, edition: str, budget: Any) -> Any:
+        """Its own ISO 230-2 evaluation (a rotary axis); None: the linear one.
+
+        :func:`volcal.standards.session.evaluate_session` asks a kind whose
+        :attr:`standard` is ISO 230-2; the linear evaluation reads positions along an
+        axis, a kind whose targets are something else (angles) evaluates itself here.
+
+        Parameters
+        ----------
+        m : Measurement
+            The measurement (with readings).
+        edition : str
+            ISO 230-2 edition.
+        budget : Budget or None
+            The uncertainty budget.
+
+        Returns
+        -------
+        object or None
+        """
+        return None
+
     def evaluate(self, m: Any) -> dict[str, Any] | None:
         """Evaluation of one measurement by itself (None: none; see :attr:`standard`).
 

@@ -456,6 +456,36 @@ def read_rotary_file(path: str | Path) -> tuple[Any, list[str]]:
     return r, notes
 
 
+PLAUSIBLE_URAD = 2000.0
+"""Largest plausible angular positioning error of a rotary axis [urad] (about 410 arcsec):
+a larger reading is more likely an angle in another unit (mrad, arcsec typed as urad)."""
+
+
+def rotary_plausibility(deviation_urad: ArrayLike, file: str = "") -> list[str]:
+    """Warnings about implausible rotary readings (``plausibility`` of the JSON output).
+
+    Parameters
+    ----------
+    deviation_urad : array_like
+        The readings [urad].
+    file : str
+        Their file, named in the warnings.
+
+    Returns
+    -------
+    list of str
+    """
+    d = np.asarray(deviation_urad, dtype=float)
+    d = d[np.isfinite(d)]
+    name = Path(file).name if file else "the readings"
+    out = []
+    if d.size and float(np.max(np.abs(d))) > PLAUSIBLE_URAD:
+        out.append(f"{name}: a deviation of {float(np.max(np.abs(d))):.4g} urad "
+                   f"(> {PLAUSIBLE_URAD:g} urad, {PLAUSIBLE_URAD / ARCSEC_URAD:.0f} arcsec): "
+                   "readings in another unit (mrad, or arcsec written as urad)?")
+    return out
+
+
 def evaluate_rotary_file(path: str | Path, edition: str = "2014", budget: Any = None,
                          axis: str = "?", modulo: bool | None = None
                          ) -> tuple[RotaryIso2302Result, list[str]]:

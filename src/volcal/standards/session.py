@@ -128,6 +128,9 @@ class SessionEvaluation:
     optics_evaluated : bool
         Whether the direct optics were evaluated (``evaluate_session(..., optics=True)``;
         otherwise ``optics`` is None without looking).
+    rotary : dict of str to RotaryIso2302Result
+        ISO 230-2 of every rotary test [urad], per measurement id (with U given a budget;
+        :mod:`volcal.standards.iso230_2_rotary`).
     """
 
     iso230_2: dict[str, Any] = field(default_factory=dict)
@@ -146,6 +149,7 @@ class SessionEvaluation:
     optics: dict[str, Any] | None = field(default=None, repr=False)
     largest_volumetric: LargestVolumetric | None = field(default=None, repr=False)
     optics_evaluated: bool = field(default=False, repr=False)
+    rotary: dict[str, Any] = field(default_factory=dict, repr=False)
 
     @property
     def with_budget(self) -> dict[str, EvaluatedWithBudget]:
@@ -204,7 +208,9 @@ class SessionEvaluation:
                 "ELv": None if self.elv is None else self.elv["ELv"],
                 "elv": self.elv, "elv_source": self.elv_source,
                 "skipped": list(self.skipped), "incomplete": self.incomplete,
-                "unmeasured": list(self.unmeasured)}
+                "unmeasured": list(self.unmeasured),
+                **({"rotary": {k: v.to_dict() for k, v in self.rotary.items()}}
+                   if self.rotary else {})}
 
     def to_rows(self, table: str = "iso230-2") -> list[dict[str, Any]]:
         """One table of the evaluation, one row per measurement.
@@ -335,18 +341,24 @@ def evaluate_session(session: Any, result: Any = None, edition: str = "2014",
     corrs: dict[str, dict[str, Any]] = {}
     duncs: dict[str, Any] = {}
     skipped: dict[str, str] = {}
+    rotary: dict[str, Any] = {}
     for m in session.measurements:
         if m.deviation is None:
             skipped[m.id] = "no readings yet"
             continue
-        standard = kind_of(m.kind).standard  # which standard evaluates it (volcal.kinds)
+        kind = kind_of(m.kind)
+        standard = kind.standard  # which standard evaluates it (volcal.kinds)
         if standard not in ("ISO 230-2", "ISO 230-6"):
             continue
         if standard == "ISO 230-2" and ("run" not in m.columns or "direction" not in m.columns):
             skipped[m.id] = "no run/direction columns"
             continue
         try:
-            if standard == "ISO 230-2":
+            own = (kind.evaluate_positioning(m, edition, budget) if standard == "ISO 230-2"
+                   else None)  # a rotary axis evaluates its angles itself
+            if own is not None:
+                rotary[m.id] = own
+            elif standard == "ISO 230-2":
                 lin[m.id], unc, corr, axis[m.id] = _linear(m, session.path, edition, budget)
                 if unc is not None:
                     uncs[m.id], corrs[m.id] = unc, corr
@@ -376,7 +388,7 @@ def evaluate_session(session: Any, result: Any = None, edition: str = "2014",
         lin, axis, diag, volumetric, elv, elv_source, skipped,
         [m.id for m in getattr(session, "unmeasured", [])], str(edition), budget, uncs,
         corrs, duncs, optics_evaluation(session, budget) if optics else None, largest,
-        bool(optics))
+        bool(optics), rotary)
 
 
 def _linear(m: Any, folder: Any, edition: str, budget: Any) -> tuple[Any, Any, Any, str]:

@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from numpy.typing import ArrayLike
 
@@ -16,6 +16,7 @@ from volcal.steps import _checks
 if TYPE_CHECKING:
     from volcal.plan.extend import AddResult
     from volcal.session.format import Session
+    from volcal.session.rotary import RotaryAxis
 
 __all__ = ["Added", "Planned", "add", "plan"]
 
@@ -96,6 +97,41 @@ def multilateration_layout(multilateration: Mapping[str, object] | None) -> dict
     return out
 
 
+def rotary_options(targets: str | Sequence[float] | None,
+                   rotary_axes: str | Sequence[RotaryAxis] | None) -> dict[str, Any]:
+    """The rotary plan's options from the step's keywords (text or values).
+
+    Parameters
+    ----------
+    targets : str or sequence of float, optional
+        Target angles [deg].
+    rotary_axes : str or sequence of RotaryAxis, optional
+        ``'c:0:360:modulo,...'`` or the axes.
+
+    Returns
+    -------
+    dict
+        ``targets_deg`` and ``axes`` where given.
+    """
+    from volcal.plan.rotary import rotary_axis_spec
+
+    out: dict[str, Any] = {}
+    if targets is not None:
+        if isinstance(targets, str):
+            try:
+                vals = [float(v) for v in targets.replace(";", ",").split(",") if v.strip()]
+            except ValueError:
+                raise ParameterError(f"{{targets=}}{targets!r}: expected angles in deg, "
+                                     "comma-separated") from None
+        else:
+            vals = [float(v) for v in targets]
+        out["targets_deg"] = vals
+    if rotary_axes is not None:
+        out["axes"] = (rotary_axis_spec(rotary_axes) if isinstance(rotary_axes, str)
+                       else list(rotary_axes))
+    return out
+
+
 def plan(travel: ArrayLike, *, chain: str = D.CHAIN, steps: int = D.PLAN_STEPS,
          tests: str | Sequence[str] = D.PLAN_TESTS, runs: int = D.PLAN_RUNS,
          name: str = D.PLAN_NAME, step_orders: str | Sequence[str] = D.PLAN_STEP_ORDERS,
@@ -103,6 +139,8 @@ def plan(travel: ArrayLike, *, chain: str = D.CHAIN, steps: int = D.PLAN_STEPS,
          step_target: str = D.PLAN_STEP_TARGET, overrun_mm: float = D.PROG_OVERRUN_MM,
          abbe_offset_mm: float = D.PLAN_ABBE_OFFSET_MM,
          multilateration: Mapping[str, object] | None = None,
+         targets: str | Sequence[float] | None = None,
+         rotary_axes: str | Sequence[RotaryAxis] | None = None,
          output: str | Path | None = None, replace: bool = False) -> Planned:
     """Plan the tests of a machine (no readings yet); write them with ``output``.
 
@@ -138,6 +176,13 @@ def plan(travel: ArrayLike, *, chain: str = D.CHAIN, steps: int = D.PLAN_STEPS,
         ``grid``, ``n_stations`` or ``stations`` [mm], ``tool_offsets`` [mm],
         ``station_u_mm`` of a multilateration plan; the keys not given take
         :data:`volcal.defaults.ML_GRID`, ``ML_STATIONS``, ``ML_TOOL_OFFSETS_MM``.
+    targets : str or sequence of float, optional
+        Target angles of the rotary tests [deg] (``'0,47.3,133.9,360'``); default the ISO
+        230-2 spread over the axis' range (:mod:`volcal.plan.rotary`).
+    rotary_axes : str or sequence of RotaryAxis, optional
+        The machine's rotary axes, ``'c:0:360:modulo,a:-120:30:limited'`` (name:min:max
+        [deg]), written to ``[[machine.rotary_axes]]``; an axis of ``rotary:a`` not given
+        is a full circle 0..360 deg.
     output : str or Path, optional
         Session folder to write: a new or empty folder, or an existing session with
         ``replace``.
@@ -172,7 +217,7 @@ def plan(travel: ArrayLike, *, chain: str = D.CHAIN, steps: int = D.PLAN_STEPS,
                      _checks.vector("tool_offset", tool_offset), name,
                      step_target=step_target, iso_spacing=iso_spacing,
                      linear_margin_mm=overrun_mm, abbe_tool_offset_mm=abbe_offset_mm,
-                     multilateration=ml)
+                     multilateration=ml, rotary=rotary_options(targets, rotary_axes))
     n = sum(m.n for m in s.measurements)
     if output is None:
         return Planned(s, n)
@@ -193,7 +238,9 @@ def add(folder: str | Path, *, steps: int = D.PLAN_STEPS,
         tool_offset: ArrayLike = D.PLAN_TOOL_OFFSET_MM, iso_spacing: bool = True,
         step_target: str = D.PLAN_STEP_TARGET, overrun_mm: float = D.PROG_OVERRUN_MM,
         abbe_offset_mm: float = D.PLAN_ABBE_OFFSET_MM,
-        multilateration: Mapping[str, object] | None = None) -> Added:
+        multilateration: Mapping[str, object] | None = None,
+        targets: str | Sequence[float] | None = None,
+        rotary_axes: str | Sequence[RotaryAxis] | None = None) -> Added:
     """Plan tests on an existing session's machine and append them (``plan --add``).
 
     Parameters
@@ -207,6 +254,9 @@ def add(folder: str | Path, *, steps: int = D.PLAN_STEPS,
         As :func:`plan` (``tool_offset`` [mm]).
     overrun_mm, abbe_offset_mm, multilateration
         As :func:`plan` ([mm]).
+    targets, rotary_axes
+        As :func:`plan` ([deg]); the rotary axes default to the session's
+        ``[[machine.rotary_axes]]``.
 
     Returns
     -------
@@ -220,5 +270,6 @@ def add(folder: str | Path, *, steps: int = D.PLAN_STEPS,
                           _checks.vector("tool_offset", tool_offset), step_target,
                           iso_spacing=iso_spacing, linear_margin_mm=overrun_mm,
                           abbe_tool_offset_mm=abbe_offset_mm,
-                          multilateration=multilateration_layout(multilateration))
+                          multilateration=multilateration_layout(multilateration),
+                          rotary=rotary_options(targets, rotary_axes))
     return Added(Path(folder), r, sum(m.n for m in r.added))

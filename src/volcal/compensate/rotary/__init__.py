@@ -5,7 +5,8 @@ manual's source, limits and activation in its docstring and in the notes written
 the tables: :mod:`.linuxcnc` (``COMP_FILE`` of the rotary joint, bidirectional),
 :mod:`.heidenhain` (``.COM`` with ``BACKLASH``), :mod:`.siemens` (LEC on a modulo axis,
 the reversal as direction-dependent CEC tables), :mod:`.fanuc` (rotation-axis pitch error
-compensation, 3620-3625). The input is :class:`~.profile.RotaryProfile`: the mean deviation
+compensation, 3620-3625), :mod:`.isg` (ISG CSV component error ``ECC`` for the ISG /
+Beckhoff volumetric compensation). The input is :class:`~.profile.RotaryProfile`: the mean deviation
 per target and direction of an ISO 230-2 rotary test, periodic on a full-circle axis.
 
 :func:`rotary_tables` writes them for a format; :func:`rotary_removed_urad` reads the
@@ -32,7 +33,8 @@ __all__ = ["ROTARY_FORMATS", "RotaryOptions", "RotaryProfile", "rotary_profiles"
            "rotary_removed_urad", "rotary_tables"]
 
 ROTARY_FORMATS: dict[str, str] = {
-    "linuxcnc": "correction", "heidenhain": "error", "siemens": "error", "fanuc": "correction"}
+    "linuxcnc": "correction", "heidenhain": "error", "siemens": "error", "fanuc": "correction",
+    "isg": "error"}
 """Formats with rotary tables -> the control's own sign."""
 NOTES_FILE = "ROTARY_NOTES.TXT"
 
@@ -93,13 +95,13 @@ def rotary_tables(profiles: Sequence[RotaryProfile], fmt: str, o: RotaryOptions
     skipped : list of str
         Why a test got no table (format without rotary tables, limited axis on Fanuc).
     """
-    from volcal.compensate.rotary import fanuc, heidenhain, linuxcnc, siemens
+    from volcal.compensate.rotary import fanuc, heidenhain, isg, linuxcnc, siemens
 
     if not profiles:
         return {}, [], []
     if fmt not in ROTARY_FORMATS:
         return {}, [], [f"{p.id}: the {fmt} format has no rotary tables (LinuxCNC, "
-                        "HEIDENHAIN, Siemens and Fanuc have)" for p in profiles]
+                        "HEIDENHAIN, Siemens, Fanuc and ISG have)" for p in profiles]
     sign = o.sign if o.sign is not None else ROTARY_FORMATS[fmt]
     sign_factor(sign)
     files: dict[str, str] = {}
@@ -132,6 +134,8 @@ def rotary_tables(profiles: Sequence[RotaryProfile], fmt: str, o: RotaryOptions
                 name = f"{stem}.COM"
                 f, n = heidenhain.heidenhain_rotary_files(p, name, sign)
                 cma[stem] = name
+            elif fmt == "isg":
+                f, n = isg.isg_rotary_files(p, f"rotary_isg_{stem}.csv", sign)
             else:
                 if not p.modulo:
                     skipped.append(f"{p.id}: Fanuc's rotation-axis pitch compensation is for "
@@ -179,7 +183,7 @@ def rotary_removed_urad(folder: str | Path, fmt: str, entry: dict[str, Any],
     ndarray
         The error removed [urad] (the error left is the error minus this).
     """
-    from volcal.compensate.rotary import fanuc, heidenhain, linuxcnc, siemens
+    from volcal.compensate.rotary import fanuc, heidenhain, isg, linuxcnc, siemens
 
     folder = Path(folder)
     a = np.asarray(angle_deg, dtype=float)
@@ -212,6 +216,9 @@ def rotary_removed_urad(folder: str | Path, fmt: str, entry: dict[str, Any],
         if "+" in t and "-" in t:
             val = val + np.where(d == "-", periodic(a, *t["-"][:2]), periodic(a, *t["+"][:2]))
         return s * val / DEG_PER_URAD
+    if fmt == "isg":
+        pos, v = isg.read_isg_rotary(folder / files[0])
+        return s * periodic(a, pos, v) * 1e6  # rad -> urad
     if fmt == "fanuc":
         pos, cum = fanuc.read_fanuc_rotary(folder, str(entry["fanuc_stem"]),
                                            float(entry.get("fanuc_unit_deg", 0.001)))

@@ -101,11 +101,11 @@ def check_rotary(session: Any, folder: str | Path, fmt: str, entries: list[dict[
         ok = np.isfinite(dev)
         try:
             removed = rotary_removed_urad(folder, fmt, by_id[m.id], t[ok], d[ok])
-            kw = {"axis": str(m.meta.get("axis", "?")), "modulo": bool(m.meta.get("modulo", True)),
-                  "allow_incomplete": True}
-            before = evaluate_rotary(t[ok], run[ok], d[ok], dev[ok], edition, **kw).iso
+            axis, modulo = str(m.meta.get("axis", "?")), bool(m.meta.get("modulo", True))
+            before = evaluate_rotary(t[ok], run[ok], d[ok], dev[ok], edition, axis=axis,
+                                     modulo=modulo, allow_incomplete=True).iso
             after = evaluate_rotary(t[ok], run[ok], d[ok], dev[ok] - removed, edition,
-                                    **kw).iso
+                                    axis=axis, modulo=modulo, allow_incomplete=True).iso
         except VolcalInputError as exc:
             skipped.append(f"{m.id}: {exc.message}")
             continue

@@ -53,7 +53,8 @@ from volcal.compensate.rotary.profile import DEG_PER_URAD, RotaryProfile
 from volcal.compensate.tables import sign_factor
 from volcal.errors import ParameterError, VolcalInputError
 
-__all__ = ["ROT_PARAM_FILE", "ROT_PITCH_FILE", "fanuc_rotary_files", "read_fanuc_rotary"]
+__all__ = ["ROT_PARAM_FILE", "ROT_PITCH_FILE", "fanuc_point_clash", "fanuc_rotary_files",
+           "read_fanuc_rotary"]
 
 ROT_PARAM_FILE = "FANUC_ROTARY_PARAM_{}.TXT"
 ROT_PITCH_FILE = "FANUC_ROTARY_PITCH_{}.TXT"
@@ -195,3 +196,31 @@ def read_fanuc_rotary(folder: str | Path, stem: str, unit_deg: float = 0.001
         raise VolcalInputError("the increments of one revolution do not sum to zero",
                                dfile)
     return d * np.arange(cum.size), cum
+
+
+def fanuc_point_clash(files: dict[str, str]) -> str | None:
+    """The first compensation point number used by two Fanuc pitch files, with their names.
+
+    All axes share one numbered table: a rotary table must not reuse the points of the
+    linear ones (``N1nnnn`` data lines).
+
+    Parameters
+    ----------
+    files : dict of str to str
+        The files of a compensation folder.
+
+    Returns
+    -------
+    str or None
+        ``"point 905 in FANUC_PITCH.TXT and FANUC_ROTARY_PITCH_C.TXT"``, or None.
+    """
+    seen: dict[int, str] = {}
+    for name in sorted(files):
+        if not (name.startswith("FANUC_") and "PITCH" in name):
+            continue
+        for mt in re.finditer(r"^N1(\d{4})(?:Q0)?P", files[name], re.M):
+            n = int(mt.group(1))
+            if n in seen and seen[n] != name:
+                return f"point {n} in {seen[n]} and {name}"
+            seen.setdefault(n, name)
+    return None

@@ -123,10 +123,10 @@ def linuxcnc_rotary_files(p: RotaryProfile, name: str, comp_type: int = 1, turns
         ("Forward and reverse trims from the test's two approach directions."
          if p.bidirectional else "One approach direction measured: forward = reverse."),
         "Do not set BACKLASH on this joint together with the table.",
-        "LinuxCNC 2.9.0~pre1 (Debian 12) applies a change of the correction larger than "
-        "MAX_ACCELERATION/4 x servo period^2 of the joint (the reversal step) only if its "
-        "ramp can move; see docs/controllers.md (LinuxCNC) before relying on the reverse "
-        "trims.",
+        "LinuxCNC 2.9.0~pre1 (Debian 12) was seen not to apply a step of the trim larger "
+        "than MAX_ACCELERATION/4 x servo period^2 of the joint (the reversal at a change of "
+        "direction): after a reversal compare joint.N.backlash-filt with "
+        "joint.N.backlash-corr (halcmd getp); volcal's docs/controllers.md (LinuxCNC).",
     ]
     return {name: "\n".join(lines) + "\n"}, notes
 

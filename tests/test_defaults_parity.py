@@ -122,7 +122,8 @@ SHARED: dict[str, tuple[list[tuple[Callable[[], Any], dict[str, str | None]]],
                   "force=True)",
          "decision_rule": "Calibration.verdict(tolerance_um, decision_rule=...): a rule "
                           "judges a tolerance, compared below",
-         "guard_band_um": "Calibration.verdict(tolerance_um, guard_band_um=...), below"}),
+         "guard_band_um": "Calibration.verdict(tolerance_um, guard_band_um=...), below",
+         "units": "a display option: SessionEvaluation.rotary[id].to_dict(units)"}),
 }
 
 

@@ -720,7 +720,9 @@ class Calibration:
                tables: str | Path | None = None, strict: bool = False,
                decision_rule: str = D.DECISION_RULE, guard_band_um: float | None = None,
                budget: str | Path | Budget | None = None,
-               replace: bool = False) -> ReportFiles:
+               replace: bool = False, angle_units: str = "urad",
+               rotary_tolerance_urad: str | Mapping[str, float] | None = None
+               ) -> ReportFiles:
         """Write the HTML and PDF report (and the certificate), like ``volcal report``.
 
         Parameters
@@ -775,6 +777,11 @@ class Calibration:
         replace : bool
             The folder holds files volcal did not write there: move them into its
             ``backup/<UTC time>/`` instead of refusing, as ``--replace``.
+        angle_units : str
+            ``'urad'`` or ``'arcsec'``: the rotary axes' angles, as ``--angle-units``.
+        rotary_tolerance_urad : str or dict, optional
+            Tolerance of the accuracy A per rotary axis [urad], ``'C=25'`` or ``{'C': 25}``:
+            the rotary verdict, as ``--rotary-tolerance-urad``.
 
         Returns
         -------
@@ -807,6 +814,13 @@ class Calibration:
         b, b_name = (None, None) if budget is None else A.budget_file(budget, where)
         bud = tol.budget if tol is not None and getattr(tol, "budget", None) is not None \
             else b
+        from volcal.report.rotary import parse_rotary_tolerance
+        from volcal.standards.iso230_2_rotary import check_units
+
+        check_units(angle_units)
+        rot_tol = (parse_rotary_tolerance(rotary_tolerance_urad)
+                   if isinstance(rotary_tolerance_urad, str | type(None))
+                   else {str(k).upper(): float(v) for k, v in rotary_tolerance_urad.items()})
         with A.python_names(where):  # the command line's checks, the keywords named
             from volcal.report.certificate_inputs import certificate_wanted
 
@@ -819,7 +833,8 @@ class Calibration:
                                tolerance=tol, compensation=compensation, history=history,
                                force=force, certificate=certificate, as_left=s2,
                                tables=tables, strict=strict, budget=bud, budget_file=b_name,
-                               identify_hint=f"Calibration.identify(budget={b_name!r})")
+                               identify_hint=f"Calibration.identify(budget={b_name!r})",
+                               angle_units=angle_units, rotary_tolerance_urad=rot_tol)
         for w in done.warnings:
             warnings.warn(A.python_text(w), UserWarning, stacklevel=3)
         self.certificate = done.certificate

@@ -59,6 +59,11 @@ def report_cmd(
                                        "230-2 parameter and target (tables, ± U error bars "
                                        "in the plots), the budget tables; the guard band of "
                                        "the guarded rule; the certificate's U."),
+    angle_units: str = typer.Option("urad", "--angle-units", help="Rotary axes: urad or "
+                                    "arcsec for the angles of the report."),
+    rotary_tolerance_urad: str | None = typer.Option(
+        None, "--rotary-tolerance-urad", help="Tolerance of the accuracy A of each rotary "
+        "axis [urad], e.g. C=25,A=30: the verdict of the rotary section and certificate."),
     history: str | None = typer.Option(None, "--history", help="Calibration history (URL or "
                                        "SQLite file, as `volcal history --db`): add a section "
                                        "with the machine's previous calibration and the "
@@ -69,11 +74,15 @@ def report_cmd(
 ) -> None:
     """Write the calibration report of a session as self-contained HTML and as PDF."""
     from volcal.cli.evaluate import _acceptance
+    from volcal.report.rotary import parse_rotary_tolerance
     from volcal.session.format import read_session
+    from volcal.standards.iso230_2_rotary import check_units
     from volcal.standards.tolerance import parse_tolerance
     from volcal.steps.report import check_report_inputs
     from volcal.steps.report import report as report_step
 
+    check_units(angle_units)
+    rot_tol = parse_rotary_tolerance(rotary_tolerance_urad)
     tol = None if tolerance_um is None else parse_tolerance(tolerance_um)
     tol = _acceptance(tol, decision_rule, guard_band_um, budget)
     bud = None
@@ -95,7 +104,8 @@ def report_cmd(
                        tolerance=tol, compensation=compensation, history=history,
                        force=force, certificate=certificate, as_left=s2, tables=tables,
                        strict=strict, budget=bud, budget_file=budget, moved=moved,
-                       status=console.status)
+                       status=console.status, angle_units=angle_units,
+                       rotary_tolerance_urad=rot_tol)
     for w in done.warnings:
         err_console.print(f"[yellow]warning[/] {escape(w)}", highlight=False)
     files = done.files

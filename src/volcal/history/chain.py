@@ -20,8 +20,8 @@ _RECORD_FIELDS = ("seq", "id", "kind", "machine_id", "date", "created", "superse
 
 
 def _num(v: Any) -> Any:
-    if isinstance(v, float):
-        return None if not math.isfinite(v) else float(f"{v:.12g}")
+    if isinstance(v, float):  # -0.0 is 0.0: SQLite reads a stored -0.0 back as 0.0
+        return None if not math.isfinite(v) else float(f"{v:.12g}") + 0.0
     return v
 
 

@@ -4,8 +4,9 @@ What is stored: every file of the session folder (``session.toml``, the measurem
 CSVs; ``backup/`` and ``truth/`` are left out) with its sha256, the model file and the
 files beside it that share its stem (a binary covariance part), and the results with
 their expanded uncertainty where volcal has one: ISO 230-2 parameters of every linear
-test (``<id>.<key>``, and ``<axis>.<key>`` for the first test of each axis), ISO 230-6
-results, the volumetric indices of the model (``V.<key>``) and the squareness errors
+test (``<id>.<key>``, and ``<axis>.<key>`` for the first test of each axis), those of
+every rotary test in urad (``<id>.<key>``, ``C.A`` for the first test of the C axis),
+ISO 230-6 results, the volumetric indices of the model (``V.<key>``) and the squareness errors
 (``EC0Y``...; U = 2 u from the model's covariance).
 """
 
@@ -88,6 +89,16 @@ def results_of(session: Any, model: Any) -> list[tuple[str, float | None, float 
             if axis not in seen_axes:
                 rows.append((f"{axis}.{key}", value, u, "um"))
         seen_axes.add(axis)
+    seen_rotary: set[str] = set()
+    for mid, res in getattr(ev, "rotary", {}).items():  # rotary axes: angles [urad]
+        d = res.to_dict("urad")
+        axis = str(res.axis).upper()
+        for key in ISO230_2_KEYS:
+            value, u = _num(d.get(key)), _num(d.get(f"U_{key}"))
+            rows.append((f"{mid}.{key}", value, u, "urad"))
+            if axis not in seen_rotary:  # C.A: the accuracy of the C axis' first test
+                rows.append((f"{axis}.{key}", value, u, "urad"))
+        seen_rotary.add(axis)
     for mid, res in ev.iso230_6.items():
         d = res.to_dict() if hasattr(res, "to_dict") else {}
         for key, value in d.items():
@@ -101,7 +112,9 @@ def results_of(session: Any, model: Any) -> list[tuple[str, float | None, float 
         from volcal.model.names import SQUARENESS_NAMES
 
         for i, name in enumerate(SQUARENESS_NAMES):
-            rows.append((name, float(model.errors.squareness[i]),
+            # + 0.0: a -0.0 (a squareness the tests do not see) is stored by SQLite as 0.0,
+            # and a hash over -0.0 would then not match the record read back
+            rows.append((name, float(model.errors.squareness[i]) + 0.0,
                          2.0 * float(model.squareness_std[i]), "urad"))
     # one row per name: the first wins (an axis name repeats a test's row)
     uniq: dict[str, tuple] = {}

@@ -570,6 +570,26 @@ def _positioning(ev: Any, unc: dict[str, Any]) -> list[dict[str, Any]]:
     return out
 
 
+def _rotary(ev: Any) -> list[dict[str, Any]]:
+    """The rotary axes' ISO 230-2 parameters [urad] with U and the closure."""
+    out = []
+    for mid, r in (getattr(ev, "rotary", None) or {}).items():
+        d = r.to_dict("urad")
+        row: dict[str, Any] = {"measurement": mid, "axis": r.axis, "edition": d["edition"],
+                               "complete": bool(d["complete"]),
+                               "n_runs_up": d.get("n_runs_up"),
+                               "n_runs_down": d.get("n_runs_down"),
+                               "targets": len(d["targets"]), "unit": "urad",
+                               "values": {k: float(d[k]) for k in _POSITIONING_KEYS if k in d},
+                               "U": ({k: float(d[f"U_{k}"]) for k in _POSITIONING_KEYS
+                                      if f"U_{k}" in d} or None),
+                               "closure": d["closure"] or None}
+        if d.get("k") is not None:
+            row["k"] = float(d["k"])
+        out.append(row)
+    return out
+
+
 def _diagonals(ev: Any, unc: dict[str, Any]) -> list[dict[str, Any]]:
     out = []
     for mid, r in ev.iso230_6.items():
@@ -636,7 +656,8 @@ def _results(session: Any, ev: Any, with_model: bool, unc: dict[str, Any] | None
             "volumetric": vol if with_model else None,
             "elv": ev.elv, "elv_source": ev.elv_source or None,
             "skipped": dict(ev.skipped),
-            "direct_optics": optics}
+            "direct_optics": optics,
+            **({"rotary": _rotary(ev)} if getattr(ev, "rotary", None) else {})}
 
 
 def _pairs(found: dict[str, Any], left: dict[str, Any]) -> list[dict[str, Any]]:
@@ -806,7 +827,9 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
                       issued: str | None = None, generator: str | None = None,
                       technical_report: str | None = "report.pdf",
                       evaluation: Any = None,
-                      as_left_evaluation: Any = None) -> dict[str, Any]:
+                      as_left_evaluation: Any = None,
+                      rotary_tolerance_urad: dict[str, float] | None = None
+                      ) -> dict[str, Any]:
     """Build the certificate document (``volcal-certificate/1``) of a calibration.
 
     Parameters
@@ -866,6 +889,9 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
         and, when they were evaluated with a budget, their U (``uncertainties`` default to
         :attr:`~volcal.standards.session.SessionEvaluation.with_budget`). Evaluated here
         (without a budget) when omitted.
+    rotary_tolerance_urad : dict of str to float, optional
+        Tolerance of the accuracy A of each rotary axis (``{'C': 25.0}`` [urad]): the
+        verdict of its rotary tests (simple rule), in ``results.rotary[*].verdict``.
 
     Returns
     -------
@@ -921,6 +947,13 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
         model_digest = errors_digest(result.errors)
     found = _results(session, ev, result is not None, uncertainties, optics_budget,
                      model_digest)
+    for row in found.get("rotary", []):  # a rotary axis' A against its tolerance
+        t = (rotary_tolerance_urad or {}).get(row["axis"])
+        if t is not None:
+            from volcal.standards.decision import decide
+
+            row["tolerance"] = float(t)
+            row["verdict"] = decide(row["values"]["A"], float(t), "simple").verdict
     left = None
     if as_left is not None:
         ev_left = as_left_evaluation

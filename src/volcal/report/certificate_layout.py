@@ -320,6 +320,32 @@ def _result_blocks(state: str, res: dict[str, Any], paired: bool) -> list[Block]
         ed = sorted({str(r["edition"]) for r in pos if r.get("edition")})
         out.append(Block("table", title=f"{head}positioning, ISO 230-2:{'/'.join(ed)} [µm]",
                          columns=cols, rows=rows))
+    rot = res.get("rotary") or []
+    if rot:
+        with_u = any(r["U"] for r in rot)
+        judged = any(r.get("verdict") for r in rot)
+        cols = ["measurement", "axis"] + [f"{_KEYS[k]}" for k in _SHOWN] + ["closure ↑/↓"]
+        if with_u:
+            cols += [f"U({_KEYS[k]})" for k in ("A", "E", "R", "B")] + ["k"]
+        if judged:
+            cols += ["tolerance (A)", "verdict"]
+        rows = []
+        for r in rot:
+            c = r.get("closure") or {}
+            row = [r["measurement"] + ("" if r["complete"] else " (incomplete)"), r["axis"]]
+            row += [_n(r["values"].get(k)) for k in _SHOWN]
+            row.append("–" if not c else f"{_n(c.get('up'))} / {_n(c.get('down'))}")
+            if with_u:
+                U = r["U"] or {}
+                row += [_n(U.get(k)) for k in ("A", "E", "R", "B")] + [_n(r.get("k"), 2)]
+            if judged:
+                row += [_n(r.get("tolerance")), str(r.get("verdict") or "–")]
+            rows.append(row)
+        ed = sorted({str(r["edition"]) for r in rot if r.get("edition")})
+        out.append(Block("table", title=f"{head}rotary axes, angular positioning, ISO "
+                         f"230-2:{'/'.join(ed)} [µrad] (1 arcsec = 4.848 µrad; positive "
+                         "counter-clockwise seen from the positive end of the axis, ISO 841)",
+                         columns=cols, rows=rows))
     dia = res["diagonals"]
     if dia:
         with_u = any(r["U_E_D_um"] is not None for r in dia)

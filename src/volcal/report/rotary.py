@@ -6,7 +6,7 @@ from typing import Any
 
 from volcal.report.document import FigureItem, Section, Table, fmt
 
-__all__ = ["rotary_results", "rotary_section", "rotary_verdicts"]
+__all__ = ["parse_rotary_tolerance", "rotary_results", "rotary_section", "rotary_verdicts"]
 
 _KEYS = ("A", "A_up", "A_down", "E", "M", "R", "R_up", "R_down", "B", "B_mean")
 
@@ -144,6 +144,36 @@ def rotary_verdicts(res: dict[str, Any], tolerance_urad: Any, units: str = "urad
         rows.append([mid, "A", fmt(r.value("A", units), 3), fmt(float(t) * UNITS[units], 3),
                      d.verdict])
     return rows
+
+
+def parse_rotary_tolerance(text: str | None) -> dict[str, float] | None:
+    """``'C=25,A=30'`` -> ``{'C': 25.0, 'A': 30.0}`` (tolerance of A per rotary axis [urad]).
+
+    Parameters
+    ----------
+    text : str or None
+        The option's text.
+
+    Returns
+    -------
+    dict or None
+    """
+    from volcal.errors import VolcalInputError
+
+    if text is None:
+        return None
+    out: dict[str, float] = {}
+    for part in (p.strip() for p in text.split(",") if p.strip()):
+        k, sep, v = part.partition("=")
+        try:
+            x = float(v)
+        except ValueError:
+            x = float("nan")
+        if not sep or k.strip().upper() not in ("A", "B", "C") or not x > 0:
+            raise VolcalInputError(f"--rotary-tolerance-urad {part!r}: expected AXIS=urad with "
+                                   "AXIS A, B or C and a positive tolerance (C=25)")
+        out[k.strip().upper()] = x
+    return out
 
 
 def _verdicts(inp: Any, res: dict[str, Any]) -> list[list[str]]:

@@ -88,6 +88,7 @@ def _spread_um_per_m(m: Measurement) -> float:
 
 def _scale(ms: list[Measurement]) -> list[str]:
     out = []
+    ms = [m for m in ms if _length_mm(m) > 0]  # a rotary test's poses do not move
     dens = {m.id: _spread_um_per_m(m) for m in ms}
     for m in ms:
         ang = _in_urad(m)  # angles, never compared with displacements

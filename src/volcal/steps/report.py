@@ -42,7 +42,7 @@ class Reported:
         The certificate's files (in the report folder), when one was issued.
     report_id : str or None
         The certificate's number.
-    model : IdentificationResult
+    model : IdentificationResult or None
         The model reported (with the budget's systematic part for a certificate).
     evaluation : SessionEvaluation
         The one evaluation of the session.
@@ -58,7 +58,7 @@ class Reported:
     files: ReportFiles
     certificate: CertificateFiles | None
     report_id: str | None
-    model: IdentificationResult
+    model: IdentificationResult | None
     evaluation: SessionEvaluation
     as_left_evaluation: SessionEvaluation | None
     warnings: tuple[str, ...] = ()
@@ -110,7 +110,9 @@ def report(session: Session, *, output: str | Path,
            budget: Budget | None = None, budget_file: str | Path | None = None,
            model_label: str | None = None, identify_hint: str | None = None,
            moved: str | None = None,
-           status: Callable[[str], AbstractContextManager[Any]] | None = None) -> Reported:
+           status: Callable[[str], AbstractContextManager[Any]] | None = None,
+           angle_units: str = "urad",
+           rotary_tolerance_urad: dict[str, float] | None = None) -> Reported:
     """Evaluate a session once and write its report (and certificate).
 
     Parameters
@@ -158,6 +160,11 @@ def report(session: Session, *, output: str | Path,
         What :func:`check_report_inputs` moved (returned in the result).
     status : callable, optional
         ``status(text)`` -> context manager shown while a long part runs.
+    angle_units : str
+        ``'urad'`` or ``'arcsec'``: the rotary axes' angles in the report.
+    rotary_tolerance_urad : dict of str to float, optional
+        Tolerance of the accuracy A per rotary axis (``{'C': 25.0}`` [urad]): the verdict
+        of the rotary section and of the certificate's rotary table.
 
     Returns
     -------
@@ -181,7 +188,11 @@ def report(session: Session, *, output: str | Path,
                        MachineIdentity.of(session), None, force)
     cert = certificate_wanted(session, as_left, tables, certificate, strict)
     model_file = None
-    if model is None:
+    from volcal.session.kinds import kind_of
+
+    if model is None and not any(kind_of(m.kind).in_design for m in session.measurements):
+        result = None  # rotary tests only: evaluated per axis, nothing to identify
+    elif model is None:
         from volcal.identify import identify
 
         with busy("identifying the machine's errors..."):
@@ -215,7 +226,8 @@ def report(session: Session, *, output: str | Path,
 
         doc = build_certificate(session, result, as_left=as_left, tables=tables,
                                 tolerance=tolerance, optics_budget=budget, edition=edition,
-                                evaluation=ev, as_left_evaluation=ev_left)
+                                evaluation=ev, as_left_evaluation=ev_left,
+                                rotary_tolerance_urad=rotary_tolerance_urad)
         report_id = doc["report_id"]
         warned += [f"certificate: {w}" for w in doc["warnings"] if w.startswith("EXPIRED")]
         if title is None:  # the technical report names its certificate on every page
@@ -232,6 +244,7 @@ def report(session: Session, *, output: str | Path,
                                     "the model identified now" if model is None
                                     else str(model_file or "the model in use")),
                                 budget=budget, evaluation=ev)
+        inputs.angle_units, inputs.rotary_tolerance_urad = angle_units, rotary_tolerance_urad
         if history is not None:  # the history (SQLAlchemy) is loaded only here
             from volcal.history.previous import previous_section
 

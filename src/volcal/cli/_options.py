@@ -50,6 +50,9 @@ OPTIONS: dict[str, str] = {
         # compensate
         "format", "spacing", "max_points", "reference_mm", "unit_um", "magnification",
         "max_increment", "fanuc_series", "linuxcnc_type", "squareness",
+        # capture
+        "control", "laser", "programs", "window_mm", "stable_s", "k_sigma", "laser_noise",
+        "control_noise_mm", "max_gap_s", "poll_s", "timeout_s", "speed",
     )
 }
 

@@ -14,7 +14,7 @@ import time
 
 import numpy as np
 import pytest
-from opcua_server import cnc_server  # noqa: F401 - the module's fixture
+from .opcua_server import cnc_server  # noqa: F401 - the module's fixture
 from timing import scaled_timeout
 
 pytest.importorskip("asyncua", reason="the capture extra (asyncua) is not installed")
@@ -188,7 +188,7 @@ def test_a_dropped_connection_is_a_status_not_a_position(cnc_server):  # noqa: F
 
 
 def test_an_address_without_a_server_is_refused_at_open():
-    from opcua_server import free_port
+    from .opcua_server import free_port
 
     from volcal.capture.sources import SourceError
 

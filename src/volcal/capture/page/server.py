@@ -34,7 +34,7 @@ from volcal.capture.page.state import LiveState
 from volcal.errors import VolcalInputError
 from volcal.extras import require_extra
 
-__all__ = ["PUSH_S", "PageServer"]
+__all__ = ["PUSH_S", "Page", "PageServer"]
 
 PUSH_S = 0.25
 """Interval of the server-sent events [s] (a state that did not change is not sent, but
@@ -211,3 +211,60 @@ class PageServer:
         if self._thread is not None:
             self._thread.join(timeout=5.0)
         self._thread = None
+
+
+class Page:
+    """The page of one capture: its state, its server, and what the capture is handed.
+
+    Parameters
+    ----------
+    title : str
+        The page's heading (the session).
+    control, laser : str
+        The ``SOURCE`` texts; with ``laser`` ``typed`` the page takes typed readings.
+    host : str
+        Address to bind (``127.0.0.1``: this computer only).
+    port : int
+        TCP port (0: any free one).
+    window_mm : float
+        The trigger rule's target window [mm] (for the indicator).
+    stale_s : float
+        A source silent this long gets a banner [s].
+
+    Attributes
+    ----------
+    url : str
+        Where the page is served.
+    observer : LiveState
+        The capture's observer (``volcal.steps.capture.capture(observer=...)``).
+    extras : dict
+        The capture's ``extras`` (the typed readings' queue).
+    """
+
+    def __init__(self, title: str, control: str, laser: str, host: str = "127.0.0.1",
+                 port: int = 8765, window_mm: float = 0.010, stale_s: float = 2.0) -> None:
+        from volcal.capture.typed import EXTRAS_KEY, TypedQueue
+
+        typed = TypedQueue() if laser.partition(":")[0].strip().lower() == "typed" else None
+        self.observer = LiveState(title, typed=typed, window_mm=window_mm, stale_s=stale_s)
+        self.observer.set_sources(control, laser)
+        self.extras: dict[str, Any] = {EXTRAS_KEY: typed} if typed is not None else {}
+        self.server = PageServer(self.observer, host, port)
+        self.url = self.server.start()
+
+    def close(self, message: str = "capture finished", error: str | None = None) -> None:
+        """Show the end on the page (one last push), then stop serving."""
+        import time
+
+        self.observer.finish(message, error)
+        time.sleep(2.0 * PUSH_S + 0.1)
+        self.server.stop()
+
+    def __enter__(self) -> Page:
+        return self
+
+    def __exit__(self, typ: Any, exc: Any, tb: Any) -> None:
+        if exc is None:
+            self.close()
+        else:
+            self.close("capture stopped", str(exc) or type(exc).__name__)

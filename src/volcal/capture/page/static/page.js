@@ -19,7 +19,10 @@
   function renderBanners(s) {
     const box = $("banners");
     const list = (s.banners || []).slice();
-    if (pageLost) list.unshift("The page lost its connection to volcal capture (retrying)");
+    if (pageLost) {
+      list.unshift(s.finished ? "volcal capture has ended (" + s.finished + "): this page no longer updates"
+        : "The page lost its connection to volcal capture (retrying)");
+    }
     const html = list.map((b) => "<div class=\"banner\"></div>");
     if (box.children.length !== list.length) box.innerHTML = html.join("");
     list.forEach((b, i) => text(box.children[i], b));

@@ -86,7 +86,8 @@
       tb.dataset.measurement = m.id;
       tb.innerHTML = "<tr class=\"group\"><td colspan=\"8\"></td></tr>" +
         rows.map(() => "<tr><td></td><td></td><td></td><td></td><td></td><td></td><td></td><td></td></tr>").join("");
-      text(tb.rows[0].cells[0], m.id + " (" + m.kind + ", " + rows.length + " readings)");
+      text(tb.rows[0].cells[0], m.id + ": " + rows.length + " readings, " + (m.column || "reading") +
+        " [" + m.unit + "]");
     }
     rows.forEach((d, i) => {
       const tr = tb.rows[i + 1];

@@ -18,6 +18,7 @@ import time
 from pathlib import Path
 
 import pytest
+
 from timing import scaled_timeout
 
 HERE = Path(__file__).resolve().parent.parent / "opcua"

@@ -14,8 +14,10 @@ import time
 
 import numpy as np
 import pytest
-from .opcua_server import cnc_server  # noqa: F401 - the module's fixture
+
 from timing import scaled_timeout
+
+from .opcua_server import cnc_server  # noqa: F401 - the module's fixture
 
 pytest.importorskip("asyncua", reason="the capture extra (asyncua) is not installed")
 
@@ -188,9 +190,9 @@ def test_a_dropped_connection_is_a_status_not_a_position(cnc_server):  # noqa: F
 
 
 def test_an_address_without_a_server_is_refused_at_open():
-    from .opcua_server import free_port
-
     from volcal.capture.sources import SourceError
+
+    from .opcua_server import free_port
 
     ctx = SourceContext(clock=Clock())
     src = make_control(f"opcua:opc.tcp://127.0.0.1:{free_port()}/;timeout_s=1", ctx)

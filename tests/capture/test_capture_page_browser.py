@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 from timing import scaled_timeout
 
 pytest.importorskip("aiohttp", reason="the capture extra (aiohttp) is not installed")

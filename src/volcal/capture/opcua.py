@@ -12,15 +12,15 @@ like a dwell); the link connects again by itself and the samples resume.
 
 Options after the URL, separated by ``;``:
 
-=================  =========  ================================================================
-key                default    meaning
-=================  =========  ================================================================
-``position``       direct     ``direct`` (``PosDirect``: the scale) or ``indirect`` (``PosIndirect``:
-                              the motor encoder)
-``publishing_ms``  50         publishing and sampling interval of the subscription [ms]
-``timeout_s``      4          timeout of one request, and of the first connection [s]
-``watch_s``        0.5        interval of the liveness check (a read of the server state) [s]
-=================  =========  ================================================================
+=================  =======  ===============================================================
+key                default  meaning
+=================  =======  ===============================================================
+``position``       direct   ``direct`` (``PosDirect``: the scale) or ``indirect``
+                            (``PosIndirect``: the motor encoder)
+``publishing_ms``  50       publishing and sampling interval of the subscription [ms]
+``timeout_s``      4        timeout of one request, and of the first connection [s]
+``watch_s``        0.5      interval of the liveness check (a read of the server state) [s]
+=================  =======  ===============================================================
 
 Requires the ``capture`` extra (PyPI ``asyncua``).
 """

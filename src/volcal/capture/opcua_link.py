@@ -264,7 +264,10 @@ class OpcUaLink:
             nodes = [client.get_node(a.value_id) for a in axes]
             values = await client.read_values(nodes)
             sub = await client.create_subscription(self.publishing_ms, handler)
-            await sub.subscribe_data_change(nodes, sampling_interval=self.publishing_ms)
+            from asyncua import ua
+
+            await sub.subscribe_data_change(nodes,
+                                            sampling_interval=ua.Double(self.publishing_ms))
             with self._lock:
                 self._snap.axes = axes
             self._set_status("connected")
@@ -319,7 +322,7 @@ async def find_axes(client: Any, position: str = "direct") -> list[AxisNode]:
     if idx is None:
         raise OpcUaError(f"{client.server_url.geturl()}: the server has no OPC 40502 CNC "
                          f"namespace ({CNC_NAMESPACES[0]}); namespaces: {', '.join(uris)}")
-    axis_type = ua.NodeId(CNC_AXIS_TYPE_ID, idx)
+    axis_type = ua.NodeId(ua.Int32(CNC_AXIS_TYPE_ID), ua.Int16(idx))
     types = {axis_type.to_string()}
     todo = [axis_type]
     while todo:  # subtypes of CncAxisType

@@ -170,6 +170,11 @@ class OpcUaLink:
     def start(self, wait_s: float = 10.0) -> None:
         """Start the thread; wait until connected or ``wait_s`` passed.
 
+        Parameters
+        ----------
+        wait_s : float
+            Longest wait for the first connection [s] (the thread goes on trying after).
+
         Raises
         ------
         OpcUaError

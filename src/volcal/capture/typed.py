@@ -196,6 +196,17 @@ class TypedLaser:
 def make(spec: SourceSpec, context: SourceContext) -> TypedLaser:
     """The factory registered as ``typed`` (``typed`` or ``typed:hold_mm=0.02``).
 
+    Parameters
+    ----------
+    spec : SourceSpec
+        The source as written; its argument may set ``hold_mm`` [mm].
+    context : SourceContext
+        The capture's context: ``extras['typed']`` is the page's queue.
+
+    Returns
+    -------
+    TypedLaser
+
     Raises
     ------
     SourceError

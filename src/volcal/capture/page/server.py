@@ -163,6 +163,16 @@ class PageServer:
     def start(self, wait_s: float = 10.0) -> str:
         """Serve in a background thread; returns the page's URL.
 
+        Parameters
+        ----------
+        wait_s : float
+            Longest wait for the server to listen [s].
+
+        Returns
+        -------
+        str
+            The page's URL (``http://127.0.0.1:PORT/``).
+
         Raises
         ------
         VolcalInputError
@@ -253,7 +263,15 @@ class Page:
         self.url = self.server.start()
 
     def close(self, message: str = "capture finished", error: str | None = None) -> None:
-        """Show the end on the page (one last push), then stop serving."""
+        """Show the end on the page (one last push), then stop serving.
+
+        Parameters
+        ----------
+        message : str
+            What the page says of the end.
+        error : str, optional
+            Why the capture stopped (shown as a banner).
+        """
         import time
 
         self.observer.finish(message, error)

@@ -114,7 +114,13 @@ class LiveState:
             self.points_version += 1
 
     def set_sources(self, control: str, laser: str) -> None:
-        """Name the sources as on the command line."""
+        """Name the sources as on the command line.
+
+        Parameters
+        ----------
+        control, laser : str
+            The ``SOURCE`` texts (a ``typed`` laser gets no silence banner).
+        """
         with self._lock:
             self.control_src.text = control
             self.laser_src.text = laser
@@ -232,13 +238,27 @@ class LiveState:
         return next((d["reading"] for d in m["dwells"] if d["status"] == "pending"), None)
 
     def note(self, text: str) -> None:
-        """A message for the technician."""
+        """A message for the technician.
+
+        Parameters
+        ----------
+        text : str
+            The message.
+        """
         with self._lock:
             self.notes.append({"t": None, "text": str(text)})
             self._bump()
 
     def finish(self, message: str = "capture finished", error: str | None = None) -> None:
-        """The capture ended (``error``: it stopped on an error, shown as a banner)."""
+        """The capture ended.
+
+        Parameters
+        ----------
+        message : str
+            What the page says of the end.
+        error : str, optional
+            Why it stopped on an error (shown as a banner).
+        """
         with self._lock:
             self.finished = message
             self.error = error
@@ -246,6 +266,15 @@ class LiveState:
 
     def typed_put(self, value: float, unit: str, note: str = "") -> dict[str, Any]:
         """Queue a reading typed on the page for the ``typed`` source.
+
+        Parameters
+        ----------
+        value : float
+            The reading [``unit``].
+        unit : str
+            Its unit (``'um'``, ``'mm'``, ``'urad'``...).
+        note : str
+            Free text.
 
         Returns
         -------

@@ -126,15 +126,20 @@ def _drive(server, pm, stop, speed_mm_s=800.0, tick_s=0.025):
             time.sleep(float(st.seconds))  # silence: the server writes nothing
 
 
-def test_capture_over_opcua_one_row_per_dwell(cnc_server, tmp_path):  # noqa: F811
-    s = plan_session(np.array([[0, 400], [0, 300], [0, 250]], float), "XYFZ", 2,
+@pytest.mark.parametrize("steps, dwell_s, stable_s", [
+    (1, 1.0, 0.5),  # 4 dwells: make test
+    pytest.param(4, 2.0, 1.0, marks=pytest.mark.slow),  # 10 dwells, the default stable time
+])
+def test_capture_over_opcua_one_row_per_dwell(cnc_server, tmp_path, steps, dwell_s,  # noqa: F811
+                                              stable_s):
+    s = plan_session(np.array([[0, 400], [0, 300], [0, 250]], float), "XYFZ", steps,
                      ("linear:x",), 1, name="OPCUA")
     folder = tmp_path / "session"
     write_session(s, folder)
     m = s.measurements[0]
-    opts = program_options(dwell_s=1.2)
+    opts = program_options(dwell_s=dwell_s)
     pm = plan_measurement(m, s.travel, opts)
-    params = TriggerParams(stable_s=0.6, max_gap_s=0.3)
+    params = TriggerParams(stable_s=stable_s, max_gap_s=min(0.5, stable_s / 2))
     clock = Clock()
     latest = {}
     ctx = SourceContext(clock=clock, latest_control=lambda: latest.get("c"))

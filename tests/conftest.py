@@ -153,6 +153,9 @@ def store_url(request, tmp_path):
     return new_database(request.getfixturevalue("postgres_server"))
 
 
+# LinuxCNC itself, headless in simulation (tests/linuxcnc_sim.py): the fixture linuxcnc_sim
+from linuxcnc_sim import linuxcnc_sim  # noqa: E402, F401
+
 # ---------------------------------------------------------------- order of the test files
 LONGEST_FIRST: tuple[str, ...] = (
     "report/test_report_cli.py", "cli/test_cli_bad_input.py", "report/test_certificate.py",

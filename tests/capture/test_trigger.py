@@ -17,6 +17,7 @@ from volcal.capture.trigger import (
     Accepted,
     CaptureMismatch,
     Missed,
+    Note,
     Replayed,
     TriggerParams,
     TriggerRule,
@@ -193,7 +194,8 @@ def test_a_dwell_at_another_readings_target_is_refused():
 def test_a_resumed_rule_passes_over_the_readings_already_recorded():
     """Killed after reading 3; the program runs again from its start."""
     p = Program(TARGETS, SIGNS)
-    rule = TriggerRule(p.dwells(), TriggerParams(), p.waypoints(), "um", done={0, 1, 2, 3})
+    rule = TriggerRule(p.dwells(), TriggerParams(), p.waypoints(), "um", done={0, 1, 2, 3},
+                       start=np.array([p.home, 0.0, 0.0]))
     events = run(rule, p.stream())
     assert [e.reading for e in events if isinstance(e, Replayed)] == [0, 1, 2, 3]
     assert [e.reading for e in decided(events)] == [4, 5, 6, 7, 8]
@@ -206,7 +208,8 @@ def test_a_resumed_rule_follows_a_program_run_from_the_missing_reading():
     segs = p.dwell_intervals()
     t0 = segs[3][1]  # the end of reading 4's dwell: the program continues from there
     stream = [s for s in p.stream() if s.time_s >= t0]
-    rule = TriggerRule(p.dwells(), TriggerParams(), p.waypoints(), "um", done={0, 1, 2, 3})
+    rule = TriggerRule(p.dwells(), TriggerParams(), p.waypoints(), "um", done={0, 1, 2, 3},
+                       start=np.array([p.home, 0.0, 0.0]))
     rule.armed = True
     events = run(rule, stream)
     assert [e.reading for e in decided(events)] == [4, 5, 6, 7, 8]
@@ -283,3 +286,35 @@ def _one_row_per_dwell(noise, cnoise, overshoot, seed, gaps, flags):
               for t in rng.uniform(0, t_end, gaps)]
     events = run(rule_for(p, window_mm=0.01), p.stream())
     check_accepted(p, events, tol_sigmas=6.0)
+
+
+def test_a_restarted_program_is_not_taken_for_its_second_run():
+    """Killed after run 1; run 2's first target and direction are run 1's: the program
+    standing at its start pose again says it restarted, so run 1's dwells are replays."""
+    p = Program([0.0, 25.0, 0.0, 25.0], [1, 1, 1, 1], wait_s=3.0)
+    full = decided(run(rule_for(p), p.stream()))
+    rule = TriggerRule(p.dwells(), TriggerParams(), p.waypoints(), "um", done={0, 1},
+                       start=np.array([p.home, 0.0, 0.0]))
+    events = run(rule, p.stream())
+    assert [e.reading for e in events if isinstance(e, Replayed)] == [0, 1]
+    assert [(e.reading, e.value) for e in decided(events)] == \
+        [(e.reading, e.value) for e in full[2:]]
+
+
+def test_a_resumed_rule_waits_through_the_rest_of_the_interrupted_program():
+    """Killed after reading 2; the program went on to its end, then runs again."""
+    p = Program(TARGETS[:5], SIGNS[:5])
+    once = p.stream()
+    _, b = p.dwell_intervals()[3]
+    t_end = once[-1].time_s + 0.02
+    tail = [s for s in once if s.time_s >= b + 0.1]  # back after reading 4's dwell
+    again = [type(s)(**{**s.__dict__, "time_s": s.time_s + t_end}) for s in once]
+    rule = TriggerRule(p.dwells(), TriggerParams(), p.waypoints(), "um", done={0, 1, 2},
+                       start=np.array([p.home, 0.0, 0.0]))
+    events = run(rule, tail + again)
+    assert any(isinstance(e, Note) and "resumed, waiting for reading 4" in e.text
+               for e in events)  # reading 5's dwell, passed over
+    assert [e.reading for e in events if isinstance(e, Replayed)] == [0, 1, 2]
+    full = decided(run(rule_for(p), once))
+    assert [(e.reading, e.value) for e in decided(events)] == \
+        [(e.reading, e.value) for e in full[3:]]

@@ -2,10 +2,8 @@
 
 * HEIDENHAIN tables are read with pyLSV2's fixed-width table reader (it takes each column
   from where its header name starts): nobody on this team wrote it.
-* LinuxCNC comp files are loaded with the rule of LinuxCNC's ``usrmotLoadComp``
-  (``src/emc/motion/usrmotintf.cc``, transcribed below, not imported from volcal): read
-  triplets with ``sscanf("%lf %lf %lf")`` until the first other line; type 0 turns the
-  actual positions into trims ``nominal - actual``; the trim is added to the command.
+* LinuxCNC comp files are loaded and applied by LinuxCNC itself, in simulation
+  (tests/compensate/test_linuxcnc_control.py).
 * ISG CSV files are parsed by a parser written here from the published syntax (Beckhoff
   TF5280 "ISG CSV format") and checked on the documentation's own example first.
 * Fanuc: the reader accepts lines of real 30i-class backups.
@@ -48,49 +46,10 @@ def _machine(seed: int):
     return random_machine(TRAVEL, "XYFZ", seed, n_nodes=9)
 
 
-# --- LinuxCNC: the loader's rule, transcribed from usrmotLoadComp --------------------
-
-def linuxcnc_load(path, comp_type):
-    entries = []
-    with open(path) as f:
-        for line in f:
-            parts = line.split()
-            try:
-                nom, fwd, rev = (float(parts[0]), float(parts[1]), float(parts[2]))
-            except (IndexError, ValueError):
-                break  # "if (3 != sscanf(...)) break;"
-            if comp_type == 0:
-                fwd, rev = nom - fwd, nom - rev  # "convert to diffs"
-            entries.append((nom, fwd, rev))
-    return np.array(entries)
-
-
-@pytest.mark.parametrize("comp_type", [0, 1])
-def test_linuxcnc_files_load_whole_and_cancel_the_error(tmp_path, comp_type):
-    m = _machine(3)
-    rev = DirectionalErrors([np.array([0.0, 800.0]), None, None],
-                            [np.array([4.0, 8.0]), None, None], "lin-x")
-    write_compensation(m, "linuxcnc", tmp_path, CompensationOptions(
-        spacing=25.0, linuxcnc_type=comp_type, directional=rev))
-    readme = (tmp_path / "README.txt").read_text()
-    assert "[JOINT_0]" in readme and "COMP_FILE = X.comp" in readme
-    assert f"COMP_FILE_TYPE = {comp_type}" in readme
-    for k, a in enumerate(AXES):
-        text = (tmp_path / f"{a}.comp").read_text()
-        n_lines = len(text.splitlines())
-        e = linuxcnc_load(tmp_path / f"{a}.comp", comp_type)
-        assert len(e) == n_lines <= 256  # every line loads: no header, no comment
-        assert np.all(np.diff(e[:, 0]) > 0)
-        nom = e[:, 0]
-        err = m.component(k, nom)[:, k]  # [um]
-        half = rev.half_reversal(k, nom)
-        # the trim is added to the command: what is left is error + trim
-        np.testing.assert_allclose(err + half + 1000 * e[:, 1], 0, atol=0.0005 + 1e-9)
-        np.testing.assert_allclose(err - half + 1000 * e[:, 2], 0, atol=0.0005 + 1e-9)
-        mid = 0.5 * (nom[1:] + nom[:-1])  # LinuxCNC interpolates linearly
-        trim_mid = np.interp(mid, nom, e[:, 1]) * 1000
-        np.testing.assert_allclose(m.component(k, mid)[:, k] + rev.half_reversal(k, mid)
-                                   + trim_mid, 0, atol=0.001)
+# --- LinuxCNC ------------------------------------------------------------------------
+# LinuxCNC itself loads and applies volcal's comp files (types 0 and 1, bidirectional) in
+# tests/compensate/test_linuxcnc_control.py; it replaced the transcription of
+# usrmotLoadComp that stood here.
 
 
 def test_linuxcnc_too_many_entries_is_an_error(tmp_path):

@@ -29,7 +29,8 @@ from volcal.plan.planner import plan_session
 from volcal.session.format import Session, read_session, write_session
 
 TRAVEL = np.array([[0.0, 400.0], [0.0, 300.0], [0.0, 200.0]])
-BUILTIN = ("linear", "diagonal", "step_diagonal", "multilateration", "straightness", "angular")
+BUILTIN = ("linear", "diagonal", "step_diagonal", "multilateration", "straightness", "angular",
+           "rotary")
 
 
 def planned_session(kind: Kind, chain: str = "XYFZ", **plan_kw) -> Session:
@@ -134,7 +135,7 @@ def session_for(kind_name: str, chain: str = "XYFZ"):
 
 
 def test_the_builtin_kinds_are_registered_in_their_documented_order():
-    assert kind_names()[:6] == BUILTIN
+    assert kind_names()[:7] == BUILTIN
     for name in BUILTIN:
         k = kind_of(name)
         assert k.name == name and k.targets and isinstance(k, Kind)
@@ -144,9 +145,21 @@ def test_the_builtin_kinds_are_registered_in_their_documented_order():
 
 
 @pytest.mark.parametrize("chain", ["XYFZ", "FXYZ", "YFXZ"])  # mill, gantry, other levers
-@pytest.mark.parametrize("name", kind_names())
+@pytest.mark.parametrize("name", [n for n in kind_names() if kind_of(n).in_design])
 def test_rows_are_the_first_order_of_the_forward_model(name, chain):
     check_first_order(kind_of(name), session_for(name, chain))
+
+
+def test_kinds_outside_the_design_are_left_out_of_the_identification(tmp_path):
+    """A kind with ``in_design = False`` (rotary) adds no row to the linear estimator."""
+    from volcal.identify.design import build_design
+
+    out = [n for n in kind_names() if not kind_of(n).in_design]
+    assert out == ["rotary"]
+    s = plan_session(TRAVEL, "XYFZ", steps=4, tests=("linear:x", "rotary:c"), runs=2)
+    simulate_session(s, random_machine(s.travel, s.chain, seed=2), SimulationOptions(seed=4))
+    design = build_design(s)
+    assert [m.kind for m in design.measurements] == ["linear"] * 3
 
 
 @pytest.mark.parametrize("name", kind_names())

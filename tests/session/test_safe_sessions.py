@@ -205,9 +205,9 @@ def _m(**kw):
 @pytest.mark.parametrize("kw,message", [
     ({"target": "flat-mirror"}, "measurement 'm': unknown target 'flat-mirror': expected one of "
      "flat_mirror, retroreflector, retroreflector_mirror, cat_eye, straightness_optics, "
-     "angular_optics, level, roll_optics"),
+     "angular_optics, level, roll_optics, rotary_calibrator, index_table"),
     ({"kind": "circle"}, "measurement 'm': unknown kind 'circle': expected one of linear, "
-     "diagonal, step_diagonal, multilateration, straightness, angular"),
+     "diagonal, step_diagonal, multilateration, straightness, angular, rotary"),
     ({"id": ""}, "measurement id must be a non-empty string, got ''"),
     ({"positions": [[0, 0], [1, 0]]}, "measurement 'm': positions [mm]: expected shape (n, 3), "
      "got (2, 2)"),
@@ -242,7 +242,8 @@ def test_unknown_target_in_file(S):
     assert _msg(exc) == ("session.toml", None, "measurements[0].target",
                          "unknown target 'flat-mirror': expected one of flat_mirror, "
                          "retroreflector, retroreflector_mirror, cat_eye, straightness_optics, "
-                         "angular_optics, level, roll_optics")
+                         "angular_optics, level, roll_optics, rotary_calibrator, "
+                         "index_table")
 
 
 @pytest.mark.parametrize("kw,message", [

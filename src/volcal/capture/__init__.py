@@ -21,7 +21,7 @@ module              what it holds
                     (volcal's virtual machine)
 ``stream``          line-stream laser source (TCP, serial port, pipe) and its parser
 ``filetail``        laser readings appended to a file by a vendor program
-``linuxcnc``        LinuxCNC control source through a bridge run by the system Python
+``linuxcnc_source`` LinuxCNC control source through a bridge run by the system Python
 ==================  =================================================================
 
 The method and the wiring are documented in ``docs/capture.md``.

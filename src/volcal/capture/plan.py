@@ -77,6 +77,12 @@ class PlannedMeasurement:
     options: ProgramOptions
 
     @property
+    def start(self) -> NDArray[np.float64] | None:
+        """The start pose: where the program stands at its operator stop [mm]."""
+        st = next((s for s in self.steps if s.kind == "start"), None)
+        return None if st is None or st.position is None else np.asarray(st.position, float)
+
+    @property
     def id(self) -> str:
         """The measurement's id."""
         return str(self.measurement.id)
@@ -138,13 +144,11 @@ def plan_measurement(m: Any, travel: NDArray[np.float64], options: ProgramOption
     waypoints: list[tuple[float, float, float]] = []
     here: NDArray[np.float64] | None = None
     approach: NDArray[np.float64] | None = None
-    last_target: tuple[float, float, float] | None = None
     run = m.run
     direction = m.direction
     for st in sl.steps:
         if st.kind == "start" and st.position is not None:
             here, approach = np.asarray(st.position, float), None
-            last_target = st.position
         elif st.kind == "move" and st.position is not None:
             p = np.asarray(st.position, float)
             if here is not None:
@@ -152,7 +156,6 @@ def plan_measurement(m: Any, travel: NDArray[np.float64], options: ProgramOption
                 n = float(np.linalg.norm(d))
                 approach = d / n if n > 0 else approach
             here = p
-            last_target = st.position
             if st.text != "reading":
                 waypoints.append(st.position)
         elif st.kind == "dwell" and st.reading is not None:
@@ -162,7 +165,6 @@ def plan_measurement(m: Any, travel: NDArray[np.float64], options: ProgramOption
                 None if approach is None else approach.copy(), float(st.seconds or 0.0),
                 None if run is None else int(run[i]),
                 None if direction is None else str(direction[i])))
-    del last_target
     start = next(st.position for st in sl.steps if st.kind == "start")
     if start is not None:
         waypoints.insert(0, start)

@@ -150,7 +150,7 @@ def capture_measurement(pm: PlannedMeasurement, folder: Path, control: ControlSo
     journal = Journal(jpath)
     emit = observer or (lambda e: None)
     notes: list[str] = []
-    rule = TriggerRule(pm.dwells, params, pm.waypoints, reading.unit, rec.done, m.id)
+    rule = TriggerRule(pm.dwells, params, pm.waypoints, reading.unit, rec.done, m.id, pm.start)
     t_start = clock.now()
     journal.write("start", {
         "measurement": m.id, "control": sources[0], "laser": sources[1],

@@ -295,6 +295,7 @@ class SimulatedLaser:
         self._mid: str | None = None
         self._t0 = 0.0
         self._next = 0.0
+        self._last_t: float | None = None
         self._rest: tuple[NDArray[np.float64], float] | None = None
 
     def open(self) -> None:
@@ -353,8 +354,9 @@ class SimulatedLaser:
         t = self.ctx.clock.now()
         if mid != self._mid:
             self._mid, self._t0, self._next = mid, t, t
-        if t + 1e-9 < self._next:
+        if t + 1e-9 < self._next or (self._last_t is not None and t <= self._last_t):
             return None
+        self._last_t = t
         self._next = max(self._next + 1.0 / self.rate, t)
         pos, e, displacement, unit = self._table(mid)
         p = np.array([c.positions[a] for a in "XYZ"], float)

@@ -10,7 +10,7 @@ argument the source reads itself:
 ``sim`` / ``sim:KEY=V,...``            control   the planned program, timed (acceleration, dwells)
                                                  on a simulated clock (:mod:`.simulated`)
 ``linuxcnc`` / ``linuxcnc:INI-or-NML`` control   LinuxCNC's status channel through a bridge run
-                                                 by the system Python (:mod:`.linuxcnc`)
+                                                 by the system Python (:mod:`.linuxcnc_source`)
 ``opcua:opc.tcp://host:4840``          control   an OPC UA server with the OPC 40502 CNC model
                                                  (added by :mod:`volcal.capture.opcua`)
 ``sim`` / ``sim:KEY=V,...``            laser     volcal's virtual machine at the control's actual
@@ -225,7 +225,7 @@ _LASERS: dict[str, _Entry] = {}
 LAZY_MODULES: dict[tuple[str, str], str] = {
     ("control", "sim"): "volcal.capture.simulated",
     ("laser", "sim"): "volcal.capture.simulated",
-    ("control", "linuxcnc"): "volcal.capture.linuxcnc",
+    ("control", "linuxcnc"): "volcal.capture.linuxcnc_source",
     ("laser", "stream"): "volcal.capture.stream",
     ("laser", "file"): "volcal.capture.filetail",
     ("control", "opcua"): "volcal.capture.opcua",

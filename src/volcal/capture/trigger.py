@@ -33,9 +33,11 @@ or, when the control leaves the target before a stable window was found, ``misse
 dwell records that dwell as missed too.
 
 After a resume (``done`` lists the readings already recorded) the rule expects the first
-reading not recorded; if the machine instead runs the program again from its first
-reading, the rule follows it from there and passes over the readings already recorded
-(:class:`Replayed`, never written again).
+reading not recorded: the program may have gone on while the capture was down. If the
+machine stands at the program's start pose (its operator stop) or dwells at the first
+reading, the program was started again: the rule follows it from there and passes over
+the readings already recorded (:class:`Replayed`, never written again). Until one of
+the two happens, the program's other stops are passed over (with a note), not refused.
 
 The rule is pure: no clock, no input or output; :mod:`volcal.capture.runner` feeds it.
 
@@ -225,9 +227,12 @@ def noise_sigma(diffs: NDArray[np.float64], floor: float) -> float:
     float
         ``max(floor, 1.4826 * median(|d - median(d)|) / sqrt(2))``: white noise of
         standard deviation s gives differences of standard deviation s*sqrt(2); a slow
-        creep shifts the median of the differences and is left out.
+        creep shifts the median of the differences and is left out. Differences of
+        exactly zero (a sample repeated because the source was polled faster than it
+        updates) are left out.
     """
     d = np.asarray(diffs, float)
+    d = d[d != 0.0]  # a repeated sample (a source polled faster than it updates) says nothing
     if d.size < 4:
         return floor
     mad = float(np.median(np.abs(d - np.median(d))))
@@ -342,11 +347,17 @@ class TriggerRule:
         Readings already recorded (a resumed capture).
     label : str
         The measurement's id, for the messages.
+    start : ndarray, shape (3,), optional
+        The program's start pose [mm] (its operator stop). After a resume, the machine
+        standing there means the program was started again: the rule follows it from
+        the first reading.
     """
 
     def __init__(self, dwells: Sequence[PlannedDwell], params: TriggerParams | None = None,
                  waypoints: NDArray[np.float64] | None = None, unit: str = "um",
-                 done: Collection[int] = (), label: str = "") -> None:
+                 done: Collection[int] = (), label: str = "",
+                 start: NDArray[np.float64] | None = None) -> None:
+        self.start = None if start is None else np.asarray(start, float)
         self.p = params or TriggerParams()
         self.p.check(min((d.seconds for d in dwells), default=None))
         self.dwells = list(dwells)
@@ -416,7 +427,7 @@ class TriggerRule:
         list of TriggerEvent
             The events it decided (usually none).
         """
-        if s.status not in ("ok",) or self.complete:
+        if s.status not in ("ok", "ended") or self.complete:
             return []
         try:
             p = np.array([float(s.positions[a]) for a in AXES3])
@@ -502,6 +513,14 @@ class TriggerRule:
                                      else self._in_window_since)
         else:
             self._in_window_since = None
+        if (self._may_replay and self.start is not None and self._near(self.start)
+                and (self._running is False or self._ctrl_stable(t - self.p.stable_s, t)[0])):
+            self._may_replay = False  # the program was started again: follow it from reading 1
+            self.cursor = 0
+            self._in_window_since = None
+            return [Note(t, f"{self.label}: the program stands at its start pose: the capture "
+                            "follows it from its first reading and keeps the readings "
+                            "already recorded")]
         if not self.armed or self._running is False or self._moving is True:
             self._rest_since, self._passed = None, False
             return []
@@ -515,23 +534,42 @@ class TriggerRule:
             return []
         return self._classify(t)
 
+    def _direction_ok(self, d: PlannedDwell, seen: NDArray[np.float64] | None) -> bool:
+        return d.approach is None or (seen is not None and float(seen @ d.approach) >= 0.5)
+
     def _classify(self, t: float) -> list[TriggerEvent]:
         assert self._pos is not None
         d = self.dwells[self.cursor]
+        seen = self._approach_seen()
         events: list[TriggerEvent] = []
-        if self._near(d.target):
+        if self._near(d.target) and self._direction_ok(d, seen):
             return self._enter(d, t)
+        first = self.dwells[0]
+        if self._may_replay and self._near(first.target) and self._direction_ok(first, seen):
+            events.append(Note(t, f"{self.label}: the program runs again from its first "
+                                  "reading; the readings already recorded are kept"))
+            return events + self._enter(first, t)
+        if self._near(d.target):
+            if seen is None:
+                self._passed = True
+                return [Note(t, f"{self._where(d)}: passed over, the approach to it was not "
+                                "seen (the capture started at the target)")]
+            raise CaptureMismatch(
+                f"{self._where(d)}: the plan reaches {self._fmt(d.target)}"
+                f"{self._dir(d.approach)}; the control reached it moving "
+                f"{self._vec(seen)}. The program on the control is not the planned one "
+                "(approach and overrun moves differ): write it with volcal program")
         if any(self._near(w) for w in self.waypoints):
             self._passed = True  # a stop at a start, approach or overrun point
             return []
-        if self._may_replay and self._near(self.dwells[0].target):
-            self.cursor = 0
-            self._may_replay = False
-            events.append(Note(t, f"{self.label}: the program runs again from its first "
-                                  "reading; the readings already recorded are kept"))
-            return events + self._enter(self.dwells[0], t)
+        if self._may_replay:  # resumed: wait for the program to reach the first missing
+            self._passed = True  # reading or to start again; its other stops are passed
+            return [Note(t, f"{self.label}: resumed, waiting for reading {d.reading + 1} or "
+                            f"the program's start; the control stands at "
+                            f"{self._fmt(self._pos)}")]
         nxt = self.cursor + 1
-        if nxt < len(self.dwells) and self._ctrl_gap and self._near(self.dwells[nxt].target):
+        if (nxt < len(self.dwells) and self._ctrl_gap and self._near(self.dwells[nxt].target)
+                and self._direction_ok(self.dwells[nxt], seen)):
             events.append(Missed(d.reading, t, "no control samples during its dwell (a "
                                                "polling gap longer than the dwell)"))
             self.done.add(d.reading)
@@ -540,35 +578,23 @@ class TriggerRule:
         other = [e for e in self.dwells if self._near(e.target)]
         rest = t - (self._rest_since if self._rest_since is not None else t)
         if other or rest >= max(d.seconds, self.p.stable_s):
-            seen = self._fmt(self._pos)
             what = (f"the target of {self._where(other[0])}" if other
                     else "a position the program has no reading at")
             raise CaptureMismatch(
                 f"{self._where(d)}: the plan expects {self._fmt(d.target)}"
-                f"{self._dir(d.approach)}; the control stands at {seen}, {what}. Run the "
-                "measurement's own program from its start (volcal program), or resume "
-                "the capture where the program stands")
+                f"{self._dir(d.approach)}; the control stands at {self._fmt(self._pos)}, "
+                f"{what}. Run the measurement's own program from its start (volcal "
+                "program), or resume the capture where the program stands")
         return events
 
     def _enter(self, d: PlannedDwell, t: float) -> list[TriggerEvent]:
-        if d.approach is not None:
-            seen = self._approach_seen()
-            if seen is None:
-                self._passed = True
-                return [Note(t, f"{self._where(d)}: passed over, the approach to it was not "
-                                "seen (the capture started at the target)")]
-            if float(seen @ d.approach) < 0.5:
-                raise CaptureMismatch(
-                    f"{self._where(d)}: the plan reaches {self._fmt(d.target)}"
-                    f"{self._dir(d.approach)}; the control reached it moving "
-                    f"{self._vec(seen)}. The program on the control is not the planned one "
-                    "(approach and overrun moves differ): write it with volcal program")
+        tracked = self.dwells[self.cursor]  # the target _in_window_since was kept for
         self._dwell = self._index(d)
         self.cursor = self._dwell
         self._may_replay = False
         self._decided = False
         self._ctrl_gap = False
-        if self._in_window_since is None:
+        if self._in_window_since is None or d is not tracked:
             self._in_window_since = self._rest_since
         return self._in_dwell(t)
 

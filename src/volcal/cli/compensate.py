@@ -113,6 +113,7 @@ def _print_line_checks(r: Compensated) -> None:
             err_console.print(f"[yellow]warning[/] {escape(c.warning())}", highlight=False)
     for why in r.not_checked:
         console.print(f"note: not evaluated: {escape(why)}", highlight=False)
+    _print_rotary_checks(r)
     before, after = r.volumetric_before_um, r.volumetric_after_um
     if before is None or after is None:  # both are there whenever a session is
         return
@@ -123,6 +124,28 @@ def _print_line_checks(r: Compensated) -> None:
                           highlight=False)
     else:
         console.print(text, highlight=False)
+
+
+def _print_rotary_checks(r: Compensated) -> None:
+    """ISO 230-2 A of every rotary test before and after its rotary table."""
+    from rich.table import Table
+
+    if r.rotary_checks:
+        t = Table(title="rotary tests: ISO 230-2 A before and after these tables")
+        for col in ("id", "axis", "A before [µrad]", "A after [µrad]", "u [µrad]"):
+            t.add_column(escape(col), justify="right")
+        for c in r.rotary_checks:
+            t.add_row(c.id, c.axis, f"{c.A_before_urad:.2f}",
+                      f"{c.A_after_urad:.2f}" + (" (worse)" if c.worse else ""),
+                      f"{c.u_urad:.2f}")
+        console.print(t)
+    for c in r.rotary_checks:
+        if c.worse:
+            err_console.print(f"[yellow]warning[/] rotary test {escape(c.id)}: ISO 230-2 A "
+                              f"grows from {c.A_before_urad:.2f} µrad to {c.A_after_urad:.2f} "
+                              f"µrad with these tables", highlight=False)
+    for why in r.rotary_not_written:
+        console.print(f"note: rotary: {escape(why)}", highlight=False)
 
 
 def register(app: typer.Typer) -> None:

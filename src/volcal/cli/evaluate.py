@@ -127,13 +127,31 @@ def iso230_2_cmd(
                                       "T; w = U or --guard-band-um)."),
     guard_band_um: float | None = typer.Option(None, help="Guard band w of the guarded "
                                                "rule [um] (default: U of the parameter)."),
+    units: str = typer.Option("urad", "--units", help="Rotary files (a target_deg column): "
+                              "urad or arcsec for every angle printed."),
+    tolerance_urad: str | None = typer.Option(
+        None, help="Rotary files: tolerance [urad], a number (on A) or A=..,E=..,R=.."),
 ) -> None:
-    """Positioning accuracy and repeatability of one axis (ISO 230-2)."""
+    """Positioning accuracy and repeatability of one axis, linear or rotary (ISO 230-2).
+
+    A file with a ``target_deg`` column is a rotary axis: the parameters are angles
+    (urad, or arcsec with ``--units arcsec``).
+    """
     from volcal.standards.iso230_2 import evaluate
+    from volcal.standards.iso230_2_rotary import is_rotary_csv
     from volcal.standards.positioning_data import read_positioning_csv
 
     rule = _checked_rule(decision_rule, guard_band_um)
     b = _budget_or_none(budget)
+    if is_rotary_csv(file):
+        _rotary_cmd(file, as_json, edition, b, budget, units, tolerance_um, tolerance_urad,
+                    rule, guard_band_um)
+        return
+    if units != "urad":
+        from volcal.errors import VolcalInputError
+
+        raise VolcalInputError("--units applies to rotary files (a target_deg column); a "
+                               "linear axis' parameters are in um", file, None, "units")
     d = read_positioning_csv(file)
     unc = corrections = None
     if b is not None:
@@ -148,6 +166,7 @@ def iso230_2_cmd(
                                                            guard_band_um)
     if as_json:
         out = res.to_dict()
+        out["unit"] = "um"
         out["file"] = str(file)
         out["plausibility"] = plaus
         if unc is not None:
@@ -168,6 +187,102 @@ def iso230_2_cmd(
         _budget_table(unc, corrections)
     if dec is not None:
         _print_iso_decisions(dec)
+
+
+def _rotary_cmd(file: Path, as_json: bool, edition: str, b: Any, budget: Path | None,
+                units: str, tolerance_um: str | None, tolerance_urad: str | None, rule: str,
+                guard_band_um: float | None) -> None:
+    """``evaluate iso230-2`` of a rotary file: parse, evaluate, print in ``units``."""
+    from volcal.errors import VolcalInputError
+    from volcal.standards.iso230_2_rotary import check_units, evaluate_rotary_file
+
+    check_units(units)
+    if tolerance_um is not None or guard_band_um is not None:
+        raise VolcalInputError("a rotary file's parameters are angles: give the tolerance "
+                               "with --tolerance-urad (and the guard band is U)", file, None,
+                               "tolerance_um")
+    res, notes = evaluate_rotary_file(file, edition, b)
+    for n in notes:
+        err_console.print(f"note: {escape(n)}", highlight=False)
+    dec = None
+    if tolerance_urad is not None:
+        dec = _iso_decisions(res, res.uncertainty, tolerance_urad, rule, None)
+        for d in dec["verdicts"]:
+            for k in list(d):
+                if k.endswith("_um"):
+                    d[k[:-3] + "_urad"] = d.pop(k)
+    if as_json:
+        out = res.to_dict(units)
+        out["file"] = str(file)
+        if budget is not None:
+            out["budget_file"] = str(budget)
+        if dec is not None:
+            out.update(dec)
+        _print_json(out)
+        return
+    print_rotary_tables(res, str(file), units)
+    if dec is not None:
+        colour = {"pass": "green", "fail": "red", "conditional": "yellow"}
+        for d in dec["verdicts"]:
+            console.print(f"{d['parameter']}: {d['value_urad']:.3f} urad, tolerance "
+                          f"{d['tolerance_urad']:g} urad: [{colour[d['verdict']]}]"
+                          f"{d['verdict']}[/]", highlight=False)
+        console.print(f"verdict: {dec['verdict']} (decision rule: "
+                      f"{escape(dec['decision_rule']['text'])})", highlight=False)
+
+
+def print_rotary_tables(res: Any, title: str, units: str = "urad") -> None:
+    """Print a rotary ISO 230-2 result (parameters, per target, closure) in ``units``.
+
+    Parameters
+    ----------
+    res : RotaryIso2302Result
+        The evaluation.
+    title : str
+        Table title (the file or measurement).
+    units : str
+        ``'urad'`` or ``'arcsec'``.
+    """
+    d = res.to_dict(units)
+    unc = res.uncertainty
+    t = Table(title=escape(f"{title}: rotary axis {res.axis} (ISO 230-2:{res.iso.edition})"))
+    t.add_column("parameter")
+    t.add_column(escape(f"value [{units}]"), justify="right")
+    if unc is not None:
+        t.add_column(escape(f"U [{units}]"), justify="right")
+        t.add_column("k", justify="right")
+    for k, label in _AXIS_LABELS.items():
+        row = [label, f"{d[k]:.3f}"]
+        if unc is not None:
+            row += [f"{d[f'U_{k}']:.3f}", f"{unc.parameters[k].k:.2f}"]
+        t.add_row(*row)
+    print_table(console, t)
+    tt = Table(title=escape(f"per target [{units}]; n↑ n↓: runs that reached the target"))
+    cols = ["target [deg]", "n↑", "n↓", "x̄↑", "x̄↓", "x̄", "s↑", "s↓", "B_i", "R_i"]
+    if unc is not None:
+        cols.append("U(x̄)")
+    for c in cols:
+        tt.add_column(escape(c), justify="right")
+    for row in d["targets"]:
+        cells = [f"{row['target_deg']:.3f}", str(row["n_up"]), str(row["n_down"]),
+                 *["-" if row[k] is None else f"{row[k]:.3f}"
+                   for k in ("mean_up", "mean_down", "mean", "s_up", "s_down", "B", "R")]]
+        if unc is not None:
+            cells.append(f"{row[f'U_{units}']:.3f}")
+        tt.add_row(*cells)
+    print_table(console, tt)
+    c = d["closure"]
+    if c:
+        console.print(f"closure ({c['targets_deg'][0]:g} and {c['targets_deg'][1]:g} deg are "
+                      f"one position): {c['up']:.3f} {units} up, {c['down']:.3f} {units} down",
+                      highlight=False)
+    for n in res.iso.notes:
+        console.print(f"[yellow]note:[/] {escape(n)}", highlight=False)
+    for w in res.warnings:
+        err_console.print(f"[yellow]warning:[/] {escape(w)}", highlight=False)
+    if unc is not None:
+        for n in unc.notes:
+            console.print(f"note: {escape(n)}", highlight=False)
 
 
 def _print_iso_decisions(dec: dict[str, Any]) -> None:

@@ -6,6 +6,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -178,7 +179,9 @@ FORMATS: dict[str, Callable[[MachineErrors, CompensationOptions, str], dict[str,
 
 def write_compensation(errors: MachineErrors, fmt: str, folder: str | Path,
                        options: CompensationOptions, source: str = "",
-                       machine: MachineIdentity | None = None) -> list[str]:
+                       machine: MachineIdentity | None = None,
+                       rotary: tuple[dict[str, str], list[dict[str, Any]]] | None = None
+                       ) -> list[str]:
     """Write the compensation files of one format into a folder, atomically.
 
     Parameters
@@ -199,6 +202,10 @@ def write_compensation(errors: MachineErrors, fmt: str, folder: str | Path,
         manifest's ``[machine]`` table; default what the model says of itself (name,
         chain, travel). ``model_sha256`` records the digest of ``errors``
         (:func:`volcal.compensate.manifest.errors_digest`).
+    rotary : tuple, optional
+        The rotary axes' tables (:func:`volcal.compensate.rotary.rotary_tables`: files,
+        manifest entries), written beside the linear ones and listed in the manifest's
+        ``files`` and ``[[rotary]]``.
 
     Returns
     -------
@@ -214,6 +221,11 @@ def write_compensation(errors: MachineErrors, fmt: str, folder: str | Path,
                                                     and not (folder / MANIFEST).is_file())):
         raise VolcalInputError("output exists and is not a volcal compensation folder", folder)
     files = FORMATS[fmt](errors, options, sign)
+    if rotary is not None:
+        clash = sorted(set(files) & set(rotary[0]))
+        if clash:
+            raise VolcalInputError(f"rotary table {clash[0]} would replace a linear one")
+        files = {**files, **rotary[0]}
     carries = list(info.carries)
     if fmt == "siemens" and not options.include_squareness:
         carries = [c for c in carries if c not in SQUARENESS_NAMES]
@@ -238,6 +250,8 @@ def write_compensation(errors: MachineErrors, fmt: str, folder: str | Path,
         manifest["fanuc_unit_um"] = options.unit_um
     if fmt == "linuxcnc":
         manifest["linuxcnc_type"] = options.linuxcnc_type
+    if rotary is not None and rotary[1]:
+        manifest["rotary"] = rotary[1]
     manifest["machine"] = machine.to_dict()
     with atomic_dir(folder) as tmp:
         for name, text in files.items():

@@ -471,9 +471,11 @@ def build_design(session: Session, nodes: list[NDArray[np.float64]] | None = Non
     layout = ParameterLayout.of_nodes(nodes)
     chain = parse_chain(session.chain)
     meas = [m for m in session.measurements
-            if measurement_ids is None or m.id in measurement_ids]
+            if (measurement_ids is None or m.id in measurement_ids)
+            and kind_of(m.kind).in_design]  # a rotary test is evaluated on its own
     if not meas:
-        raise VolcalInputError("no measurements selected for identification")
+        raise VolcalInputError("no measurements selected for identification (rotary tests "
+                               "are evaluated per axis: volcal evaluate)")
     for m in meas:
         if m.deviation is None:
             raise VolcalInputError("measurement has no deviations (run it or simulate it first)",

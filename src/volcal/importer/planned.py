@@ -210,6 +210,11 @@ def import_planned(path: str | Path, mapping: dict[str, str], session: str | Pat
         raise VolcalInputError("--measurement needs an existing session (volcal plan writes "
                                "one)", folder)
     m = _find(read_session(folder, require_deviation=False), mid, folder)
+    if m.kind == "rotary":  # angles against target angles (volcal.importer.rotary)
+        from volcal.importer.rotary import import_rotary_planned
+
+        return import_rotary_planned(path, mapping, folder, mid, units, deviation_units,
+                                     replace, sign)
     if m.deviation is not None and not replace:
         raise VolcalInputError(f"measurement {mid!r} has readings; give --replace to replace "
                                "them (the old ones are kept in backup/)", folder / "session.toml")

@@ -138,7 +138,8 @@ def truth_files(machine: MachineErrors, setups: dict[str, SetupErrors | OpticSet
         "beam_misalignment_urad": o_float(options.beam_misalignment_urad),
         "drift_um_per_h": o_float(options.drift_um_per_h),
         "seed": -1 if options.seed is None else int(options.seed),
-        "setup": {mid: {"mirror_tilt_urad": [float(v) for v in s.mirror_tilt],
+        "setup": {mid: s.to_truth() if hasattr(s, "to_truth") else  # a kind's own set-up
+                  {"mirror_tilt_urad": [float(v) for v in s.mirror_tilt],
                         "beam_tilt_urad": [float(v) for v in s.beam_tilt],
                         **({"station_mm": [float(v) for v in s.station_mm]}
                            if hasattr(s, "station_mm") else {}),

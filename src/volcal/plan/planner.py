@@ -12,7 +12,7 @@ so that the part programs' overrun before each reversal (5.3) has room. ``plan``
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -43,11 +43,12 @@ QUALIFIED: dict[str, tuple[str, ...]] = {
     "face-diagonal": FACE_PLANES,
     "face-step-diagonal": FACE_PLANES,
     "direct": DIRECT_SELECTORS,
+    "rotary": ("a", "b", "c"),
 }
 """Tests that may be narrowed to one axis or plane: ``linear:x`` (the 3 lines of X),
 ``face-diagonal:xy``, ``face-step-diagonal:yz``; ``direct:x`` (the direct optics of X),
 ``direct:level-x`` (a level on X), ``direct:roll-z`` (Z's straightness at two tool
-offsets in one reference group)."""
+offsets in one reference group); ``rotary:c`` (the C axis' angular positioning)."""
 
 __all__ = ["DEFAULT_OVERRUN_MM", "QUALIFIED", "TEST_NAMES", "PlanOptions", "abbe_lines",
            "plan_session", "plan_test_names", "split_test"]
@@ -121,7 +122,8 @@ def plan_session(travel: ArrayLike, chain: str = "XYFZ", steps: int = 10,
                  tool_offset: ArrayLike = (0.0, 0.0, 0.0), name: str = "VMC-1",
                  step_target: str = "flat_mirror", abbe_tool_offset_mm: float = 150.0,
                  iso_spacing: bool = True, linear_margin_mm: float = DEFAULT_OVERRUN_MM,
-                 multilateration: dict | None = None, vertical_axis: int = 2) -> Session:
+                 multilateration: dict | None = None, vertical_axis: int = 2,
+                 rotary: dict | None = None) -> Session:
     """Plan a session skeleton (commanded poses, deviations empty).
 
     Parameters
@@ -167,6 +169,11 @@ def plan_session(travel: ArrayLike, chain: str = "XYFZ", steps: int = 10,
         The machine's vertical axis (0, 1, 2) for the test ``direct``: no level about it;
         its roll is read by its straightness at two tool offsets (``[machine]
         vertical_axis``; ``volcal plan --add`` takes the session's).
+    rotary : dict, optional
+        Options of the test ``rotary`` (:func:`volcal.plan.rotary.rotary_tests`):
+        ``axes`` (list of :class:`volcal.session.rotary.RotaryAxis`, written to
+        ``[[machine.rotary_axes]]``), ``targets_deg`` (the targets [deg]), ``mounting``,
+        ``eccentricity_mm``, ``target``.
 
     Returns
     -------
@@ -177,12 +184,15 @@ def plan_session(travel: ArrayLike, chain: str = "XYFZ", steps: int = 10,
     _check_options(tests, steps, runs, step_target, linear_margin_mm, abbe_tool_offset_mm)
     c = _Plan(t, chain, steps, runs, tuple(step_orders), np.asarray(tool_offset, dtype=float),
               step_target, abbe_tool_offset_mm, iso_spacing, linear_margin_mm,
-              multilateration or {}, int(vertical_axis))
+              multilateration or {}, int(vertical_axis), dict(rotary or {}))
     meas: list[Measurement] = []
     for test in tests:
         base, only = split_test(test)
         meas += _planner_of(base).plan(base, c, only)  # the kind that plans it (volcal.kinds)
-    return Session(name, chain, t, meas)
+    from volcal.plan.rotary import machine_rotary_axes
+
+    axes = machine_rotary_axes(meas, c.rotary.get("axes"))
+    return Session(name, chain, t, meas, {"rotary_axes": axes} if axes else {})
 
 
 def _planner_of(test: str):
@@ -246,7 +256,7 @@ def split_test(test: str) -> tuple[str, str | None]:
 def _qualified_help() -> str:
     return ("linear:x|y|z, face-diagonal:xy|yz|xz, face-step-diagonal:xy|yz|xz for one axis or "
             "plane, direct:x|y|z|level-x|level-y|roll-z (one axis' optics, a level, the "
-            "vertical axis' roll pair)")
+            "vertical axis' roll pair), rotary:a|b|c (one rotary axis)")
 
 
 def _check_options(tests: Sequence[str], steps: int, runs: int, step_target: str,
@@ -291,6 +301,7 @@ class _Plan:
     linear_margin_mm: float
     multilateration: dict
     vertical: int = 2
+    rotary: dict = field(default_factory=dict)
 
 
 def _step_diagonals(c: _Plan, only: str | None = None) -> list[Measurement]:

@@ -55,6 +55,9 @@ class ProgramOptions:
         Z of the retract that starts every program, in machine coordinates [mm]
         (``G53`` / ``SUPA`` / ``M91``); 0 is the reference position, at the top of the Z
         travel on most machining centres.
+    overrun_deg : float
+        Overrun before a reversal in rotary tests [deg] (:mod:`volcal.program.rotary`;
+        there ``feed`` is read in deg/min).
     """
 
     dwell_s: float = 4.0
@@ -62,6 +65,7 @@ class ProgramOptions:
     overrun_mm: float = 5.0
     decimals: int = 3
     safe_z_mm: float = 0.0
+    overrun_deg: float = 2.0
 
     def check(self) -> None:
         """Raise :class:`VolcalInputError` for options no machine should run."""
@@ -75,6 +79,8 @@ class ProgramOptions:
             raise ParameterError(f"{{overrun_mm=}}{self.overrun_mm}: expected 0..100 mm")
         if not np.isfinite(self.safe_z_mm):
             raise ParameterError(f"{{safe_z_mm=}}{self.safe_z_mm}: expected a finite number")
+        if not np.isfinite(self.overrun_deg) or not 0 <= self.overrun_deg <= 30:
+            raise ParameterError(f"overrun_deg={self.overrun_deg}: expected 0..30 deg")
         if not 0 <= self.decimals <= 5:
             raise ParameterError(f"{{decimals=}}{self.decimals}: expected 0..5")
 

@@ -10,6 +10,7 @@ from volcal.io.tomlfmt import dumps as toml_dumps
 from volcal.program.dialects import DIALECTS, EXTENSIONS, program_name, render
 from volcal.program.steps import ProgramOptions, build_steps
 from volcal.session.format import Session
+from volcal.session.kinds import kind_of
 
 INDEX_FILE = "volcal-programs.toml"
 """Index written into every program folder (program file -> measurement id)."""
@@ -62,8 +63,6 @@ def write_programs(session: Session, dialect: str, folder: str | Path,
     index: list[dict[str, object]] = []
     warnings: list[str] = []
     for i, m in enumerate(session.measurements):
-        built = build_steps(m, session.travel, options)
-        warnings += built.warnings
         name = program_name(m.id, dialect)
         fname = name + EXTENSIONS[dialect]
         base, n = name, 2
@@ -71,8 +70,15 @@ def write_programs(session: Session, dialect: str, folder: str | Path,
             name = f"{base}_{n}"
             fname = name + EXTENSIONS[dialect]
             n += 1
-        files[fname] = render(built.steps, dialect, name, first_number + i,
-                              options.decimals, options.safe_z_mm)
+        own = kind_of(m.kind).program_text(m, dialect, name, first_number + i, options)
+        if own is not None:  # a kind with its own program (rotary: incremental turns)
+            files[fname], more = own
+            warnings += more
+        else:
+            built = build_steps(m, session.travel, options)
+            warnings += built.warnings
+            files[fname] = render(built.steps, dialect, name, first_number + i,
+                                  options.decimals, options.safe_z_mm)
         index.append({"file": fname, "measurement": m.id, "kind": m.kind, "readings": m.n})
     doc = {"format": "volcal-programs/1", "dialect": dialect, "session": session.name,
            "dwell_s": options.dwell_s, "feed_mm_min": options.feed,

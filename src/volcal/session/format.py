@@ -34,12 +34,13 @@ from volcal.session.kinds import ReadContext, kind_names, kind_of, kinds, target
 
 SESSION_FORMAT = "volcal-session/1"
 KINDS: tuple[str, ...] = ("linear", "diagonal", "step_diagonal", "multilateration",
-                          "straightness", "angular")
+                          "straightness", "angular", "rotary")
 """The built-in measurement kinds (``kind`` in ``session.toml``), in their documented order.
 Every kind, built-in or added, is an entry of the registry :mod:`volcal.kinds`
 (:func:`volcal.kinds.kind_names`); this tuple is kept for the readers of the names."""
 TARGETS: tuple[str, ...] = ("flat_mirror", "retroreflector", "retroreflector_mirror", "cat_eye",
-                            "straightness_optics", "angular_optics", "level", "roll_optics")
+                            "straightness_optics", "angular_optics", "level", "roll_optics",
+                            "rotary_calibrator", "index_table")
 """The built-in targets (``target`` in ``session.toml``); each kind of the registry
 :mod:`volcal.kinds` lists its own (:func:`volcal.kinds.target_names`)."""
 MULTILATERATION_COLUMN = "length_mm"
@@ -212,6 +213,9 @@ class Measurement:
 
     def to_csv(self) -> str:
         """The measurement's CSV text (header ``x_mm,y_mm,z_mm,deviation_um`` + optional)."""
+        own = kind_of(self.kind).csv_text(self)  # a kind with its own columns (rotary)
+        if own is not None:
+            return own
         extra = [c for c in OPTIONAL_COLUMNS if c in self.columns]
         buf = io.StringIO()
         w = csv.writer(buf, lineterminator="\n")
@@ -756,7 +760,7 @@ def read_session(folder: str | Path, require_deviation: bool = True) -> Session:
     notes: list[str] = []
     for i, e in enumerate(raw):
         m = _read_entry(e, i, folder, toml_path, seen, require_deviation, travel, notes,
-                        vertical)
+                        vertical, meta)
         from volcal.environment.apply import prepare_readings
 
         # the one referral to 20 C; errors name '<session.toml> [<id>]' and measurements[i]
@@ -823,6 +827,9 @@ def _read_machine(doc: dict[str, Any], toml_path: Path
     travel = _read_travel(machine.get("travel_mm"), toml_path)
     meta = {k: v for k, v in machine.items() if k not in ("name", "chain", "travel_mm")}
     meta.update(read_machine_identity(machine, toml_path))  # identity keys validated, as text
+    from volcal.session.rotary import read_rotary_axes
+
+    read_rotary_axes(machine, toml_path)  # [[machine.rotary_axes]] validated
     provenance = doc.get("provenance", {})
     if not isinstance(provenance, dict):
         raise _err("[provenance] must be a table", toml_path, None, "provenance")
@@ -943,13 +950,14 @@ PLANES: tuple[str, ...] = ("xy", "yz", "xz")
 
 def _read_entry(e: Any, i: int, folder: Path, toml_path: Path, seen: set[str],
                 require_deviation: bool, travel: NDArray[np.float64],
-                notes: list[str], vertical: int = 2) -> Measurement:
+                notes: list[str], vertical: int = 2,
+                machine: dict[str, Any] | None = None) -> Measurement:
     """One ``[[measurements]]`` entry: common keys here, the rest by its kind's reader."""
     where = f"measurements[{i}]"
     mid, kind, target, file, csv_path = _entry_keys(e, where, folder, toml_path, seen)
     offset = _vec3(e.get("tool_offset_mm", [0, 0, 0]), toml_path, f"{where}.tool_offset_mm")
     ctx = ReadContext(where, mid, kind, target, file, csv_path, toml_path, offset,
-                      require_deviation, travel, notes, vertical)
+                      require_deviation, travel, notes, vertical, dict(machine or {}))
     return kind_of(kind).read(e, ctx)
 
 

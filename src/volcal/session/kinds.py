@@ -9,7 +9,8 @@ and which standard evaluates it. Every step of the flow looks the kind up here
 
 The built-in kinds live in :mod:`volcal.kinds.linear`, :mod:`volcal.kinds.diagonal`,
 :mod:`volcal.kinds.step_diagonal`, :mod:`volcal.kinds.multilateration`,
-:mod:`volcal.kinds.straightness` and :mod:`volcal.kinds.angular`; they are imported on
+:mod:`volcal.kinds.straightness`, :mod:`volcal.kinds.angular` and
+:mod:`volcal.kinds.rotary`; they are imported on
 the first look-up. Another kind is a subclass of :class:`Kind` passed to
 :func:`register_kind` (``docs/architecture.md``, "Adding a measurement kind").
 
@@ -44,6 +45,7 @@ BUILTIN_KINDS: dict[str, str] = {
     "multilateration": "volcal.kinds.multilateration",
     "straightness": "volcal.kinds.straightness",
     "angular": "volcal.kinds.angular",
+    "rotary": "volcal.kinds.rotary",
 }
 """Built-in kind -> the module that registers it (imported on the first look-up)."""
 
@@ -72,6 +74,8 @@ class ReadContext:
         The reader's notes (a kind appends what the user should know).
     vertical : int
         The machine's vertical axis (0, 1, 2).
+    machine : dict
+        The other keys of the session's ``[machine]`` table (``rotary_axes``...).
     """
 
     where: str
@@ -86,6 +90,7 @@ class ReadContext:
     travel: NDArray[np.float64]
     notes: list[str] = field(default_factory=list)
     vertical: int = 2
+    machine: dict[str, Any] = field(default_factory=dict)
 
 
 @dataclass
@@ -150,6 +155,9 @@ class Kind:
         ``'optic'`` (the scale of the optic), None (none modelled).
     plan_tests : tuple of str
         Names this kind adds to ``volcal plan --tests`` (built by :meth:`plan`).
+    in_design : bool
+        Whether its readings enter the identification of the linear axes' errors
+        (``volcal identify``); False for a kind evaluated on its own (``rotary``).
     description : str
         One line for the documentation and the report.
     """
@@ -165,6 +173,7 @@ class Kind:
     standard: ClassVar[str | None] = None
     systematic: ClassVar[str | None] = None
     plan_tests: ClassVar[tuple[str, ...]] = ()
+    in_design: ClassVar[bool] = True
     description: ClassVar[str] = ""
 
     # -- session ---------------------------------------------------------------------
@@ -216,6 +225,20 @@ class Kind:
             ``str.format`` pattern of a value.
         """
         return self.value_column, m.deviation, "{:.6f}"
+
+    def csv_text(self, m: Any) -> str | None:
+        """The whole CSV text of a measurement of its own layout; None: the common layout.
+
+        The common layout is ``x_mm, y_mm, z_mm``, the reading column of
+        :meth:`csv_values` and the optional columns; a kind whose CSV has other columns
+        (``rotary``: ``target_deg, run, direction, deviation_urad``) writes it here.
+
+        Parameters
+        ----------
+        m : Measurement
+            The measurement.
+        """
+        return None
 
     # -- forward model and estimator -------------------------------------------------
     def exact(self, machine: Any, m: Any, setup: Any = None) -> NDArray[np.float64]:
@@ -380,6 +403,32 @@ class Kind:
         ----------
         m : Measurement
             The measurement.
+        """
+        return None
+
+    def program_text(self, m: Any, dialect: str, name: str, number: int, options: Any
+                     ) -> tuple[str, list[str]] | None:
+        """The whole part program of a measurement in its own shape; None: the common one.
+
+        The common program (:mod:`volcal.program.steps`) moves the linear axes to the
+        poses; a kind that moves other axes (``rotary``) writes its program here.
+
+        Parameters
+        ----------
+        m : Measurement
+            The measurement.
+        dialect : str
+            ``'fanuc'``, ``'linuxcnc'``, ``'siemens'`` or ``'heidenhain'``.
+        name : str
+            Program name.
+        number : int
+            Fanuc program number.
+        options : volcal.program.steps.ProgramOptions
+            Dwell, feed, overruns, decimals, safe Z.
+
+        Returns
+        -------
+        (text, warnings) or None
         """
         return None
 

@@ -299,7 +299,7 @@ def _order(m: Measurement) -> list[str]:
     if d[far] @ m.beam_direction < -1e-9:
         out.append(f"{m.id}: the poses move against the beam direction of session.toml: "
                    f"rows of {m.file} in reverse order?")
-    elif kind_of(m.kind).bidirectional and m.direction is not None:
+    elif kind_of(m.kind).bidirectional and m.direction is not None and m.axis is not None:
         k = m.axis
         run = m.run if m.run is not None else np.zeros(m.n, dtype=int)
         same = (run[1:] == run[:-1]) & (m.direction[1:] == m.direction[:-1])

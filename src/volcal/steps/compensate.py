@@ -15,6 +15,7 @@ from volcal.steps import _checks
 
 if TYPE_CHECKING:
     from volcal.compensate.linecheck import LineCheck
+    from volcal.compensate.rotary.check import RotaryCheck
     from volcal.identify.result import IdentificationResult
     from volcal.model.errorfunctions import MachineErrors
     from volcal.session.format import Session
@@ -63,6 +64,11 @@ class Compensated:
     moved : str or None
         With ``replace``: where the files volcal did not write were moved
         (``backup/<UTC time>``, relative to ``output``).
+    rotary_checks : tuple of RotaryCheck
+        ISO 230-2 A of every rotary test before and after its rotary table [urad]
+        (:mod:`volcal.compensate.rotary.check`).
+    rotary_not_written : tuple of str
+        Rotary tests without a table or not evaluated, with the reason.
     """
 
     files: tuple[str, ...]
@@ -81,6 +87,8 @@ class Compensated:
     volumetric_before_um: float | None = None
     volumetric_after_um: float | None = None
     moved: str | None = None
+    rotary_checks: tuple[RotaryCheck, ...] = ()
+    rotary_not_written: tuple[str, ...] = ()
 
 
 def sign_note(format: str, sign: str | None) -> str | None:
@@ -223,13 +231,31 @@ def compensate(model: str | Path | IdentificationResult | MachineErrors, *, form
     errors, label = _errors(model)
     if machine is None:
         machine = _identity(model, errors, sess, force, forced)
-    files = write_compensation(errors, fmt, output, opts, label, machine)
+    rotary, rot_skipped = _rotary(sess, fmt, sign, linuxcnc_type, fanuc_series,
+                                  magnification, max_increment)
+    files = write_compensation(errors, fmt, output, opts, label, machine, rotary)
     out = Compensated(tuple(files), Path(output), fmt, opts.sign_for(fmt), sign is None,
                       float(spacing), note, sess, dnotes, none_bidir, tuple(forced),
-                      moved=moved)
+                      moved=moved, rotary_not_written=tuple(rot_skipped))
     if sess is None:
         return out
-    return _checked(out, sess, errors)
+    return _checked(out, sess, errors, [] if rotary is None else rotary[1])
+
+
+def _rotary(sess: Session | None, fmt: str, sign: str | None, linuxcnc_type: int,
+            fanuc_series: str, magnification: int, max_increment: int
+            ) -> tuple[tuple[dict[str, str], list[dict[str, Any]]] | None, list[str]]:
+    """The rotary tables of the session's rotary tests (none without a session)."""
+    if sess is None or not any(m.kind == "rotary" for m in sess.measurements):
+        return None, []
+    from volcal.compensate.rotary import RotaryOptions, rotary_profiles, rotary_tables
+
+    files, entries, skipped = rotary_tables(
+        rotary_profiles(sess), fmt, RotaryOptions(sign=sign, linuxcnc_type=linuxcnc_type,
+                                                  fanuc_series=fanuc_series,
+                                                  magnification=magnification,
+                                                  max_increment=max_increment))
+    return ((files, entries) if files else None), skipped
 
 
 def _errors(model: Any) -> tuple[MachineErrors, str]:
@@ -268,15 +294,20 @@ def _identity(model: Any, errors: MachineErrors, sess: Session | None, force: bo
     return me
 
 
-def _checked(out: Compensated, sess: Session, errors: MachineErrors) -> Compensated:
-    """The result with the measured linear lines and the volumetric error checked."""
+def _checked(out: Compensated, sess: Session, errors: MachineErrors,
+             rotary: list[dict[str, Any]] | None = None) -> Compensated:
+    """The result with the linear lines, rotary tests and volumetric error checked."""
     from dataclasses import replace
 
     from volcal.compensate.linecheck import check_lines, volumetric_before_after
     from volcal.compensate.readback import read_written_tables
+    from volcal.compensate.rotary.check import check_rotary
 
     written = read_written_tables(out.output, travel=sess.travel)
     checks, skipped = check_lines(sess, written)
     before, after = volumetric_before_after(errors, written)
+    rchecks, rskipped = check_rotary(sess, out.output, out.format, rotary or [])
     return replace(out, line_checks=tuple(checks), not_checked=tuple(skipped),
-                   volumetric_before_um=float(before), volumetric_after_um=float(after))
+                   volumetric_before_um=float(before), volumetric_after_um=float(after),
+                   rotary_checks=tuple(rchecks),
+                   rotary_not_written=out.rotary_not_written + tuple(rskipped))

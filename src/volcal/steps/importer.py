@@ -86,7 +86,8 @@ def import_(csv_file: str | Path, *, session: str | Path | None = None,
         Columns of a CSV export, ``'target=Pos,deviation=Error'`` or ``{'target':
         'Pos', 'deviation': 'Error'}`` (docs/formats.md); not for ``.rtx``.
     axis : str, optional
-        Measured axis ``'X'``, ``'Y'`` or ``'Z'`` of a new linear measurement.
+        Measured axis ``'X'``, ``'Y'`` or ``'Z'`` of a new linear measurement, or ``'A'``,
+        ``'B'``, ``'C'`` of a new rotary one (targets in deg, errors in an angle unit).
     id : str, optional
         Id of the new measurement.
     measurement : str, optional
@@ -152,6 +153,13 @@ def import_(csv_file: str | Path, *, session: str | Path | None = None,
     if axis is None or id is None:
         raise ParameterError("give {axis} and {id} (a new linear measurement) or "
                              "{measurement=}ID (a planned one)")
+    if axis.lower() in ("a", "b", "c"):  # a rotary axis: angles (volcal.importer.rotary)
+        from volcal.importer.rotary import import_rotary_new
+
+        r = import_rotary_new(csv_file, mapping, axis, session, id, units, deviation_units,
+                              travel=None if travel is None else _checks.travel(travel),
+                              chain=chain, name=name, replace=replace, sign=parse_sign(sign))
+        return _imported(r, f"{r.measurement.id} ({axis.upper()})")
     if not Path(session).exists():
         from volcal.io.paths import check_output_folder
 

@@ -49,6 +49,12 @@ u_roll_urad                one roll-optics reading [urad] (independent per readi
 scale_correlation          ``instrument`` (default): one scale error per optic (target),
                            common to every line read with it; ``measurement``: one per
                            line (each line read with another optic of that kind)
+``[angular]``              optional (rotary tests; every key has a data-sheet default)
+u_calibrator_urad          rotary calibrator's accuracy [urad] (XR20: +-1 arcsec, rect.)
+u_index_table_urad         precision index table [urad] (Keysight 5530 360-tooth table:
+                           +-0.5 arcsec, rect.), for tests with target ``index_table``
+u_eccentricity_urad_per_mm eccentric mounting, per mm of eccentricity [urad/mm] (XR20:
+                           under +-0.5 arcsec for 1 mm, rect.)
 =========================  ==========================================================
 
 Every problem raises :class:`~volcal.errors.VolcalInputError` naming the file and the
@@ -77,6 +83,8 @@ __all__ = ["DISTRIBUTIONS", "OPERATING_KEYS", "OPTIC_KEYS", "Budget", "BudgetWar
 DISTRIBUTIONS: tuple[str, ...] = ("normal", "rectangular", "triangular", "arcsine")
 
 _REQUIRED = object()
+_ARCSEC_URAD = math.pi / 648000.0 * 1e6
+"""One arcsecond [urad]."""
 
 
 @dataclass(frozen=True)
@@ -155,10 +163,21 @@ SCHEMA: dict[str, dict[str, _Key]] = {
         "scale_correlation": _Key("choice", "instrument", "",
                                   choices=("instrument", "measurement")),
     },
+    "angular": {  # rotary tests (volcal.standards.iso230_2_rotary); data-sheet defaults
+        "u_calibrator_urad": _Key("u", 1.0 * _ARCSEC_URAD / math.sqrt(3), "urad", hi=1000.0,
+                                  hint="microradians: 1 arcsec = 4.848 urad",
+                                  distribution="rectangular"),
+        "u_index_table_urad": _Key("u", 0.5 * _ARCSEC_URAD / math.sqrt(3), "urad",
+                                   hi=1000.0, hint="microradians: 1 arcsec = 4.848 urad",
+                                   distribution="rectangular"),
+        "u_eccentricity_urad_per_mm": _Key("u", 0.5 * _ARCSEC_URAD / math.sqrt(3), "urad/mm",
+                                           hi=1000.0, hint="microradians per mm",
+                                           distribution="rectangular"),
+    },
 }
 
 #: Sections whose every key has a default: the section may be absent from the file.
-OPTIONAL_SECTIONS: tuple[str, ...] = ("optics",)
+OPTIONAL_SECTIONS: tuple[str, ...] = ("optics", "angular")
 
 #: ``[optics]`` keys of each direct-optics target: (scale [%], one reading [um or urad]).
 OPTIC_KEYS: dict[str, tuple[str, str]] = {
@@ -570,6 +589,22 @@ u_roll_urad_distribution = "rectangular"
 scale_correlation = "instrument"
 # The optical square's deviation from 90 degrees and its u are the session's
 # [references.NAME] square_deviation_urad / u_square_urad (its certificate), not here.
+
+[angular]
+# Rotary tests (kind "rotary"); optional: without this section these data-sheet defaults
+# are used and the outputs say so. 1 arcsec = 4.8481 urad.
+# Renishaw XR20 rotary calibrator (data sheet; white paper TE327): within +-1 arcsec,
+# rectangular -> u = 4.8481 / sqrt(3):
+u_calibrator_urad = 2.80
+u_calibrator_urad_distribution = "rectangular"
+# Keysight 5530 precision index table (Measurements Reference Guide, ch. 4): 360 teeth,
+# +-0.5 arcsec, rectangular (tests with target = "index_table"):
+u_index_table_urad = 1.40
+u_index_table_urad_distribution = "rectangular"
+# Eccentric (off-axis) mounting, per mm of the test's eccentricity_mm (TE327: 1 mm adds
+# under +-0.5 arcsec), rectangular:
+u_eccentricity_urad_per_mm = 1.40
+u_eccentricity_urad_per_mm_distribution = "rectangular"
 """
 
 

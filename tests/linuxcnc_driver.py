@@ -1,0 +1,244 @@
+#!/usr/bin/python3
+"""The display program of the test sim configurations (tests/linuxcnc_sim.py).
+
+LinuxCNC starts ``[DISPLAY] DISPLAY`` as ``PROGRAM -ini INIFILE`` after its realtime part
+is up and shuts the whole run down when the program exits. This one is run by Debian's
+``/usr/bin/python3`` (the only interpreter that imports LinuxCNC's ``linuxcnc`` and ``hal``
+modules), reads the plan ``plan.json`` beside the INI file, drives the run through the
+``linuxcnc`` module (NML: command, status, error channels), samples HAL pins with
+``hal.get_value`` and writes ``result.json`` beside the INI file, then exits.
+
+Plan (JSON): ``{"steps": [STEP, ...], "pins": [PIN, ...], "settle_s": s, "step_timeout_s": s}``,
+each STEP one of
+
+* ``{"home": true}``: machine on, home all joints, wait until every joint is homed;
+* ``{"mdi": "G0 C10", "label": any, "sample": true}``: one MDI command, wait until it is
+  done and the sampled pins stop changing, then (``sample``) record ``pins``;
+* ``{"program": "prog.ngc", "poll_s": s, "resume": true, "timeout_s": s}``: run a program
+  in auto mode to its end, recording the status (``stat.joint_actual_position``,
+  ``stat.position``, line) and ``pins`` every ``poll_s`` seconds (0 or absent: no time
+  series) into ``series[label or program]``; a pause (M0, M1) is resumed at once, as the
+  operator's cycle start (``resume``: true), and listed in the end sample's ``pauses``;
+* ``{"jog": joint, "increment": d, "velocity": v}``: an incremental jog of one joint in
+  joint mode, then a sample of ``pins``;
+* ``{"sleep_s": s}``.
+
+Result (JSON): ``{"ok": bool, "samples": [...], "series": {...}, "errors": [...],
+"failed": str | null}``. Only the standard library and LinuxCNC's modules are used here.
+"""
+
+import json
+import os
+import sys
+import time
+import traceback
+
+import hal
+import linuxcnc
+
+
+def _ini_dir():
+    args = sys.argv[1:]
+    ini = args[args.index("-ini") + 1]
+    return os.path.dirname(os.path.abspath(ini))
+
+
+class Driver:
+    def __init__(self, plan):
+        self.plan = plan
+        self.pins = list(plan.get("pins", []))
+        self.settle_s = float(plan.get("settle_s", 0.05))
+        self.step_timeout_s = float(plan.get("step_timeout_s", 60.0))
+        self.c = linuxcnc.command()
+        self.s = linuxcnc.stat()
+        self.e = linuxcnc.error_channel()
+        self.errors = []
+        self.samples = []
+        self.series = {}
+        self.h = None
+        if self.pins:  # hal.get_value needs a component of this process
+            self.h = hal.component(f"volcal-driver-{os.getpid()}")
+            self.h.ready()
+
+    # --- helpers -------------------------------------------------------------------
+    def poll_errors(self):
+        while True:
+            err = self.e.poll()
+            if not err:
+                return
+            kind, text = err
+            self.errors.append({"kind": int(kind), "text": str(text),
+                                "error": kind in (linuxcnc.NML_ERROR, linuxcnc.OPERATOR_ERROR)})
+
+    def wait(self, cond, what, timeout=None):
+        t_end = time.monotonic() + (timeout or self.step_timeout_s)
+        while time.monotonic() < t_end:
+            self.s.poll()
+            self.poll_errors()
+            if cond():
+                return
+            time.sleep(0.005)
+        raise RuntimeError("timed out waiting for " + what)
+
+    def read_pins(self):
+        return {p: hal.get_value(p) for p in self.pins}
+
+    def settle(self):
+        """Wait until every sampled pin reads the same twice ``settle_s`` apart."""
+        t_end = time.monotonic() + self.step_timeout_s
+        last = self.read_pins()
+        while time.monotonic() < t_end:
+            time.sleep(self.settle_s)
+            now = self.read_pins()
+            if now == last:
+                return now
+            last = now
+        raise RuntimeError("the sampled pins did not settle")
+
+    def mode(self, m):
+        self.s.poll()
+        if self.s.task_mode != m:
+            self.c.mode(m)
+            self.c.wait_complete()
+
+    # --- steps ---------------------------------------------------------------------
+    def home(self):
+        self.c.state(linuxcnc.STATE_ESTOP_RESET)
+        self.c.wait_complete()
+        self.c.state(linuxcnc.STATE_ON)
+        self.c.wait_complete()
+        self.mode(linuxcnc.MODE_MANUAL)
+        self.c.teleop_enable(0)
+        self.c.wait_complete()
+        self.c.home(-1)
+        self.c.wait_complete()
+        self.wait(lambda: all(self.s.homed[j] for j in range(self.s.joints)), "homing")
+        self.c.feedrate(1.0)  # 100 % feed and rapid override, as a GUI sets them
+        self.c.rapidrate(1.0)
+        self.mode(linuxcnc.MODE_MDI)
+
+    def mdi(self, step):
+        t0 = time.monotonic()
+        self.mode(linuxcnc.MODE_MDI)
+        self.c.mdi(step["mdi"])
+        self.c.wait_complete(self.step_timeout_s)
+        self.wait(lambda: self.s.interp_state == linuxcnc.INTERP_IDLE and self.s.inpos,
+                  "MDI " + step["mdi"])
+        values = self.settle()
+        if step.get("sample", True):
+            self.s.poll()
+            self.samples.append({"label": step.get("label"), "mdi": step["mdi"],
+                                 "pins": values,
+                                 "joint_actual_position": list(self.s.joint_actual_position),
+                                 "position": list(self.s.position),
+                                 "step_s": time.monotonic() - t0})
+
+    def jog(self, step):
+        """Jog joint ``jog`` by ``increment`` at ``velocity`` in joint (free) mode."""
+        t0 = time.monotonic()
+        self.mode(linuxcnc.MODE_MANUAL)
+        self.c.teleop_enable(0)
+        self.c.wait_complete()
+        self.c.jog(linuxcnc.JOG_INCREMENT, True, int(step["jog"]), float(step["velocity"]),
+                   float(step["increment"]))
+        self.wait(lambda: self.s.joint[int(step["jog"])]["inpos"] and self.s.inpos, "jog")
+        time.sleep(0.02)
+        self.wait(lambda: self.s.inpos, "jog")
+        values = self.settle()
+        self.s.poll()
+        self.samples.append({"label": step.get("label"), "jog": step["jog"], "pins": values,
+                             "joint_actual_position": list(self.s.joint_actual_position),
+                             "position": list(self.s.position),
+                             "step_s": time.monotonic() - t0})
+
+    def program(self, step):
+        path = os.path.join(_ini_dir(), step["program"])
+        poll_s = float(step.get("poll_s", 0) or 0)
+        name = step.get("label") or step["program"]
+        rec = self.series.setdefault(name, [])
+        self.mode(linuxcnc.MODE_AUTO)
+        self.c.program_open(path)
+        self.c.wait_complete()
+        self.c.auto(linuxcnc.AUTO_RUN, 0)
+        self.c.wait_complete()
+        t0 = time.monotonic()
+        timeout = float(step.get("timeout_s", self.step_timeout_s))
+        started = False
+        resume = bool(step.get("resume", True))
+        pauses = []
+        was_paused = False
+        while True:
+            self.s.poll()
+            self.poll_errors()
+            if poll_s:
+                rec.append({"t": time.monotonic() - t0, "line": self.s.current_line,
+                            "joint_actual_position": list(self.s.joint_actual_position),
+                            "position": list(self.s.position), "pins": self.read_pins()})
+            if self.s.interp_state != linuxcnc.INTERP_IDLE:
+                started = True
+                paused = self.s.interp_state == linuxcnc.INTERP_PAUSED or self.s.paused
+                if paused and resume and not was_paused:
+                    # M0/M1: the operator's cycle start (not waited for: the loop polls on)
+                    pauses.append({"t": time.monotonic() - t0, "line": self.s.current_line})
+                    self.c.auto(linuxcnc.AUTO_RESUME)
+                was_paused = paused
+            elif started or time.monotonic() - t0 > 1.0:
+                break
+            if any(e["error"] for e in self.errors):
+                raise RuntimeError("program stopped on an error: " + self.errors[-1]["text"])
+            if time.monotonic() - t0 > timeout:
+                raise RuntimeError("program did not end in time")
+            time.sleep(poll_s or 0.01)
+        self.s.poll()
+        self.samples.append({"label": name, "program": step["program"], "end": True,
+                             "pauses": pauses, "run_s": time.monotonic() - t0,
+                             "motion_line": self.s.motion_line, "pins": self.read_pins(),
+                             "joint_actual_position": list(self.s.joint_actual_position),
+                             "position": list(self.s.position)})
+
+    def run(self):
+        for step in self.plan.get("steps", []):
+            if step.get("home"):
+                self.home()
+            elif "mdi" in step:
+                self.mdi(step)
+            elif "program" in step:
+                self.program(step)
+            elif "jog" in step:
+                self.jog(step)
+            elif "sleep_s" in step:
+                time.sleep(float(step["sleep_s"]))
+            else:
+                raise RuntimeError(f"unknown step {step!r}")
+        self.poll_errors()
+
+
+def main():
+    folder = _ini_dir()
+    with open(os.path.join(folder, "plan.json")) as f:
+        plan = json.load(f)
+    d = Driver(plan)
+    failed = None
+    try:
+        d.run()
+    except Exception:  # the result says what failed; LinuxCNC is shut down anyway
+        failed = traceback.format_exc()
+    try:
+        d.poll_errors()
+    except Exception:
+        pass
+    result = {"ok": failed is None, "failed": failed, "samples": d.samples,
+              "series": d.series, "errors": d.errors}
+    tmp = os.path.join(folder, "result.json.tmp")
+    with open(tmp, "w") as f:
+        json.dump(result, f)
+    os.replace(tmp, os.path.join(folder, "result.json"))
+    try:  # leave the machine off before LinuxCNC shuts down
+        d.c.state(linuxcnc.STATE_ESTOP)
+    except Exception:
+        pass
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -46,8 +46,8 @@ def free_port() -> int:
 class CncServer:
     """A running ``cnc_server.mjs``: ``set(X=..., ...)`` writes positions, ``stop()`` ends it."""
 
-    def __init__(self) -> None:
-        self.port = free_port()
+    def __init__(self, port: int | None = None) -> None:
+        self.port = free_port() if port is None else port
         self.url = f"opc.tcp://127.0.0.1:{self.port}/"
         self.proc = subprocess.Popen(
             ["node", str(SCRIPT), str(self.port)], cwd=HERE, stdin=subprocess.PIPE,

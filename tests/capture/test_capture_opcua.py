@@ -194,6 +194,33 @@ def test_a_dropped_connection_is_a_status_not_a_position(cnc_server):  # noqa: F
         src.close()
 
 
+@pytest.mark.slow
+def test_the_source_connects_again_when_the_server_returns():
+    from .opcua_server import CncServer, skip_reason
+
+    if skip_reason():
+        pytest.skip(skip_reason())
+    first = CncServer()
+    ctx = SourceContext(clock=Clock())
+    src = make_control(f"opcua:{first.url};watch_s=0.2;timeout_s=2", ctx)
+    second = None
+    try:
+        src.open()
+        first.set(X=1.0)
+        _poll_until(src, lambda s: s.positions.get("X") == 1.0)
+        first.stop()
+        _poll_until(src, lambda s: s.status.startswith("lost"))
+        second = CncServer(port=first.port)  # the control restarted: new session, new nodes
+        second.set(X=7.25, Y=1.0, Z=2.0)
+        s = _poll_until(src, lambda s: s.status == "ok" and s.positions.get("X") == 7.25, 60.0)
+        assert dict(s.positions) == {"X": 7.25, "Y": 1.0, "Z": 2.0}
+    finally:
+        src.close()
+        first.stop()
+        if second is not None:
+            second.stop()
+
+
 def test_an_address_without_a_server_is_refused_at_open():
     from volcal.capture.sources import SourceError
 

@@ -190,6 +190,17 @@ def test_a_dropped_connection_is_a_status_not_a_position(cnc_server):  # noqa: F
         s = _poll_until(src, lambda s: s.status != "ok")
         assert s.status.startswith("lost")
         assert dict(s.positions) == {}
+        # the page shows it as a banner naming the source and the reason
+        from volcal.capture.page.state import LiveState
+        from volcal.capture.samples import CaptureEvent
+
+        page = LiveState("OPCUA")
+        page.set_sources(f"opcua:{cnc_server.url}", "sim")
+        page(CaptureEvent("start", "m", 0.0, {"targets": [[1.0, 2.0, 3.0]]}))
+        page(CaptureEvent("control", "m", s.time_s, s.to_json()))
+        (banner,) = [b for b in page.snapshot()["banners"] if "control" in b]
+        assert banner.startswith(f"The control source opcua:{cnc_server.url} stopped sending")
+        assert "(lost: " in banner
     finally:
         src.close()
 

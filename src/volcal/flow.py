@@ -42,7 +42,6 @@ if TYPE_CHECKING:
     from volcal.session.format import Session
     from volcal.standards.iso230_2_uncertainty import Iso2302Uncertainty
     from volcal.standards.session import SessionEvaluation
-    from volcal.standards.tolerance import Tolerance
     from volcal.steps.predict import Prediction
     from volcal.steps.simulate import Simulated
     from volcal.uncertainty.budget import Budget
@@ -548,14 +547,14 @@ class Calibration:
             Also kept as :attr:`evaluation`; ``to_rows(table)`` / ``to_dataframe(table)``.
         """
         from volcal.standards.iso230_2 import EDITIONS
-        from volcal.standards.session import evaluate_session
+        from volcal.steps.evaluate import evaluate
 
         if str(edition) not in EDITIONS:
             raise VolcalInputError(f"Calibration.evaluate: edition {edition!r}: expected one "
                                    f"of {A.names(list(EDITIONS))}")
         b = None if budget is None else A.budget_file(budget, "Calibration.evaluate")[0]
-        ev = evaluate_session(self.session, self.result, str(edition),
-                              model_uncertainty=self.result is not None, budget=b)
+        ev = evaluate(self.session, model=self.result, edition=str(edition),
+                      budget=b).evaluation
         self.uncertainties = None if b is None else dict(ev.uncertainties)
         self.evaluation = ev
         return self.evaluation
@@ -603,36 +602,26 @@ class Calibration:
             evaluate session --json``'s ``verdict``.
         """
         from volcal.standards.tolerance import parse_tolerance
-        from volcal.standards.verdict import verdicts
+        from volcal.steps.evaluate import evaluate
 
         where = "Calibration.verdict"
         tol = A.acceptance(where, parse_tolerance(A.tolerance_text(tolerance_um)),
                            decision_rule, guard_band_um, budget)
         assert tol is not None
-        tables = None
-        if compensation is not None:
-            if self.result is None:
-                raise VolcalInputError("Calibration.verdict: compensation= needs the model "
-                                       "the tables were written from: identify() or "
-                                       "load_model() first")
-            import warnings as _w
-
-            from volcal.compensate.manifest import check_manifest, errors_digest, read_manifest
-            from volcal.compensate.readback import read_written_tables
-            from volcal.session.identity import MachineIdentity
-
-            manifest = read_manifest(compensation)
-            for w in check_manifest(manifest, compensation, MachineIdentity.of(self.session),
-                                    errors_digest(self.result.errors), force,
-                                    "this calibration's model"):
-                _w.warn(A.python_text(w), UserWarning, stacklevel=3)
-            # the "after" from the tables as written, read back (not resampled from the model)
-            tables = read_written_tables(compensation, manifest, self.session.travel)
-        errors = None if self.result is None else self.result.errors
+        if compensation is not None and self.result is None:
+            raise VolcalInputError("Calibration.verdict: compensation= needs the model "
+                                   "the tables were written from: identify() or "
+                                   "load_model() first")
         with A.python_names(where):
-            ev = self._evaluation(str(edition), tol.budget, tol)
-            return verdicts(tol, ev, errors, tables, model=self.result,
-                            session=self.session)
+            done = evaluate(self.session, model=self.result, edition=str(edition),
+                            budget=tol.budget, tolerance=tol, compensation=compensation,
+                            force=force, model_label="this calibration's model")
+        import warnings as _w
+
+        for w in done.warnings:
+            _w.warn(A.python_text(w), UserWarning, stacklevel=3)
+        assert done.verdicts is not None
+        return list(done.verdicts)
 
     @A.checked
     def compensate(self, folder: str | Path, format: str, sign: str | None = D.COMP_SIGN,
@@ -791,27 +780,16 @@ class Calibration:
             Equipment overdue for calibration (without ``strict``), compensation tables
             of another machine used with ``force``.
         """
-        from volcal.io.paths import check_output_folder
-        from volcal.report.pipeline import collect_inputs
-        from volcal.report.sections import build_report
-        from volcal.report.writer import write_report, written_files
-        from volcal.standards.session import evaluate_session
         from volcal.standards.tolerance import parse_tolerance
+        from volcal.steps.report import check_report_inputs
+        from volcal.steps.report import report as report_step
 
         where = "Calibration.report"
         tol = None if tolerance_um is None else parse_tolerance(A.tolerance_text(tolerance_um))
         tol = A.acceptance(where, tol, decision_rule, guard_band_um, budget)
-        # as `volcal report`: only a new, empty or earlier report folder is replaced
-        check_output_folder(folder, "report", lambda p: (p / "report.html").is_file(),
-                            written=written_files, replace=replace, option="replace=True")
         if compensation is not None and not Path(compensation).is_dir():
             raise VolcalInputError(f"{where}: compensation= is not a folder written by "
                                    "compensate", compensation)
-        if history is not None:
-            from volcal.history.previous import check_history
-
-            check_history(history)
-        s = self.session
         s2 = None
         if isinstance(as_left, Calibration):
             s2 = as_left.session
@@ -819,87 +797,28 @@ class Calibration:
             from volcal.session.format import read_session
 
             s2 = read_session(as_left)
-        from volcal.report.certificate_inputs import certificate_wanted
-
+        b, b_name = (None, None) if budget is None else A.budget_file(budget, where)
+        bud = tol.budget if tol is not None and getattr(tol, "budget", None) is not None \
+            else b
         with A.python_names(where):  # the command line's checks, the keywords named
-            cert = certificate_wanted(s, s2, tables, certificate, strict)
-        result = self._need_result()
-        bud = None
-        if budget is not None:  # as `volcal report --budget`: every test with its U
-            bud = tol.budget if tol is not None and getattr(tol, "budget", None) \
-                is not None else A.budget_file(budget, where)[0]
-        extra = None
-        written: list[CertificateFiles] = []
-        if cert and budget is not None:  # the volumetric U with the systematic part
-            from volcal.report.certificate_inputs import certificate_model
+            from volcal.report.certificate_inputs import certificate_wanted
 
-            b, b_name = A.budget_file(budget, where)
-            with A.python_names(where):
-                result = certificate_model(
-                    result, tol.budget if tol is not None and getattr(tol, "budget", None)
-                    is not None else b, b_name, None, s,
-                    f"Calibration.identify(budget={b_name!r})")
-        with A.python_names(where):  # the one evaluation of each session
-            ev = self._evaluation(str(edition), bud, tol, result)
-            ev_left = None if s2 is None or not cert else evaluate_session(
-                s2, None, str(edition), budget=bud, optics=True)
-        if cert:
-            from volcal.report.certificate import build_certificate
-            from volcal.report.certificate_files import write_certificate
-
-            with A.python_names(where):
-                doc = build_certificate(s, result, as_left=s2, tables=tables, tolerance=tol,
-                                        optics_budget=bud, edition=edition, evaluation=ev,
-                                        as_left_evaluation=ev_left)
-            for w in doc["warnings"]:
-                if w.startswith("EXPIRED"):
-                    warnings.warn(f"certificate: {w}", UserWarning, stacklevel=3)
-            if title is None:  # the technical report names its certificate on every page
-                title = (f"Calibration report: {s.name}, technical report to certificate "
-                         f"{doc['report_id']}")
-
-            def extra(tmp: Path) -> None:
-                written.append(write_certificate(doc, tmp))
-
-        with A.python_names(where):
-            inputs = collect_inputs(s, result, self.truth, edition, compensation,
-                                    tolerance=tol, force=force, budget=bud, evaluation=ev)
-        if history is not None:  # the history (SQLAlchemy) is loaded only here
-            from volcal.history.previous import previous_section
-
-            inputs.extra_sections.append(previous_section(inputs, history))
-        files = write_report(build_report(inputs, title), folder, extra)
-        if inputs.compensation is not None:
-            for w in inputs.compensation.warnings:
-                warnings.warn(A.python_text(w), UserWarning, stacklevel=3)
-        self.certificate = None
-        if written:
-            from volcal.report.certificate_files import CertificateFiles
-
-            c, out = written[0], Path(folder)
-            self.certificate = CertificateFiles(out / c.pdf.name, out / c.html.name,
-                                                out / c.json.name, c.pdf_pages)
-        return files
+            certificate_wanted(self.session, s2, tables, certificate, strict)
+            # as `volcal report`: only a new, empty or earlier report folder is replaced
+            check_report_inputs(folder, history=history, replace=replace,
+                                option="replace=True")
+            done = report_step(self.session, output=folder, model=self._need_result(),
+                               truth=self.truth, title=title, edition=str(edition),
+                               tolerance=tol, compensation=compensation, history=history,
+                               force=force, certificate=certificate, as_left=s2,
+                               tables=tables, strict=strict, budget=bud, budget_file=b_name,
+                               identify_hint=f"Calibration.identify(budget={b_name!r})")
+        for w in done.warnings:
+            warnings.warn(A.python_text(w), UserWarning, stacklevel=3)
+        self.certificate = done.certificate
+        return done.files
 
     # ------------------------------------------------------------------ helpers
-    def _evaluation(self, edition: str, budget: Budget | None, tol: Tolerance | None,
-                    result: IdentificationResult | None = None) -> SessionEvaluation:
-        """The session's one evaluation for a verdict or a report (``standards``).
-
-        With ``result`` (the report): the model's indices with their U and, for a
-        volumetric tolerance, the largest volumetric error over the verdict's grid.
-        """
-        from volcal.standards.model_uncertainty import has_covariance
-        from volcal.standards.session import evaluate_session
-        from volcal.standards.verdict import GRID_N
-
-        if result is None:  # a verdict: the linear tests' values and U
-            return evaluate_session(self.session, None, edition, budget=budget)
-        n = GRID_N if tol is not None and tol.volumetric_um is not None else None
-        return evaluate_session(self.session, result, edition,
-                                model_uncertainty=has_covariance(result), budget=budget,
-                                work_zone_n=n, optics=True)
-
     def _planned(self) -> Session:
         """The session with every measurement, those without readings yet included."""
         from copy import copy

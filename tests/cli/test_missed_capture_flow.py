@@ -102,6 +102,7 @@ def test_one_missed_reading_through_the_whole_flow(missed, tmp_path, monkeypatch
     out, err = ok("evaluate", "session", str(s), "--model", str(model), "--compensation",
                   str(tables["linuxcnc"]), "--tolerance-um", "X=40,Y=40,Z=40")
     assert re.search(r"linear-x1 .*incomplete", out)
+    assert "not identified from this session" not in err  # the model is bound to it
     out, err = ok("report", str(s), "--model", str(model), "--compensation",
                   str(tables["linuxcnc"]), "-o", str(tmp_path / "R"))
     assert (tmp_path / "R" / "report.html").is_file()
@@ -137,3 +138,16 @@ def test_an_axis_without_reverse_data_says_so(missed, tmp_path, monkeypatch, cap
     assert said in (tmp_path / "H" / "HEIDENHAIN_NOTES.TXT").read_text()
     assert "BACKLASH" not in (tmp_path / "H" / "Y.COM").read_text()
     assert "BACKLASH" in (tmp_path / "H" / "X.COM").read_text()
+
+
+def test_evaluate_with_a_model_of_another_session_says_so(missed, tmp_path, monkeypatch,
+                                                         capsys):
+    """``evaluate session --model`` with the model of another session: a note naming why."""
+    s, model = missed, tmp_path / "model.json"
+    code, _, err = run_volcal(monkeypatch, capsys, "identify", str(s), "-o", str(model))
+    assert code == 0, err
+    _mark_missed(s / "linear-x1.csv", MISSED_ROW + 1)  # now other readings than identified
+    code, out, err = run_volcal(monkeypatch, capsys, "evaluate", "session", str(s),
+                                "--model", str(model))
+    assert code == 0, err
+    assert f"note: --model {model} was not identified from this session (readings:" in err

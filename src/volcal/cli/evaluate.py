@@ -451,7 +451,6 @@ def session_cmd(
     """ISO 230-2 for every linear measurement with runs and directions; ELv (seed 002)."""
     from volcal.errors import VolcalInputError
     from volcal.session.format import read_session
-    from volcal.standards.session import evaluate_session
 
     tol = _tolerance_inputs(tolerance_um, model, compensation)
     tol = (_acceptance(tol[0], decision_rule, guard_band_um, budget), tol[1], tol[2])
@@ -462,23 +461,25 @@ def session_cmd(
             "certificate, not here", highlight=False)
     s = read_session(session)
     print_session_notes(s)
-    if compensation is not None:
-        tol = (tol[0], tol[1], _written_tables(compensation, s, tol[1], model, force))
-    mres = None
-    if model is not None and model.suffix.lower() == ".json":
-        from volcal.identify.modelfile import load_model
+    from volcal.steps.evaluate import evaluate
 
-        mres = load_model(model)
     b = tol[0].budget if tol[0] is not None else _budget_or_none(budget)
-    ev = evaluate_session(s, mres, edition=edition, model_uncertainty=mres is not None,
-                          budget=b, work_zone_n=_grid_n(tol[0], tol[1]))
+    done = evaluate(s, model=model, edition=edition, budget=b, tolerance=tol[0],
+                    compensation=compensation, force=force)
+    err = Console(stderr=True, soft_wrap=True)  # stdout may be --json
+    for w in done.warnings:
+        err.print(f"[yellow]warning[/] {escape(w)}", highlight=False)
+    for d in done.other_session:
+        err.print(f"note: --model {escape(str(model))} was not identified from this session "
+                  f"({escape(d)}); its indices describe the model's session", highlight=False)
+    ev = done.evaluation
     results, axis_of = ev.iso230_2, ev.axis
     why_skipped = {k: why for k, why in ev.skipped.items() if why != "no readings yet"}
     skipped = list(why_skipped)
     if not results:
         raise VolcalInputError("no linear measurement with run and direction columns", session)
     elv_val = None if ev.elv is None else ev.elv["ELv"]
-    verdict = _verdicts(tol, ev, s, mres)
+    verdict = None if done.verdicts is None else list(done.verdicts)
     uncs = ev.uncertainties
     corr_text = ev.corrections_text
     if as_json:
@@ -553,7 +554,7 @@ def session_cmd(
     for k, why in why_skipped.items():
         console.print(f"[yellow]skipped[/] {k}: {escape(why)}", highlight=False)
     if verdict:
-        _print_verdict(verdict, tol[1] is not None)
+        _print_verdict(verdict, model is not None)
 
 
 def _print_model_indices(ev: Any) -> None:
@@ -621,7 +622,7 @@ def _runs_cell(r: Any) -> str:
 
 def _tolerance_inputs(tolerance_um: str | None, model: Path | None,
                       compensation: Path | None) -> tuple[Any, Any, Any]:
-    """Parse the tolerance and read the model and the tables' manifest (or None)."""
+    """Parse the tolerance; refuse --compensation without it or without --model."""
     from volcal.errors import VolcalInputError
 
     if tolerance_um is None:
@@ -634,47 +635,7 @@ def _tolerance_inputs(tolerance_um: str | None, model: Path | None,
     tol = parse_tolerance(tolerance_um)
     if compensation is not None and model is None:
         raise VolcalInputError("--compensation needs the --model the tables were written from")
-    errors = tables = None
-    if model is not None:
-        from volcal.compensate.source import load_errors
-
-        errors = load_errors(model)
-    return tol, errors, tables
-
-
-def _written_tables(folder: Path, s: Any, errors: Any, model: Path | None, force: bool
-                    ) -> Any:
-    """Check the tables' manifest against the session and the model; read them back."""
-    from volcal.compensate.manifest import check_manifest, errors_digest, read_manifest
-    from volcal.compensate.readback import read_written_tables
-    from volcal.session.identity import MachineIdentity
-
-    manifest = read_manifest(folder)
-    err = Console(stderr=True, soft_wrap=True)  # stdout may be --json
-    for w in check_manifest(manifest, folder, MachineIdentity.of(s),
-                            None if errors is None else errors_digest(errors), force,
-                            str(model) if model is not None else "the model in use"):
-        err.print(f"[yellow]warning[/] {escape(w)}", highlight=False)
-    return read_written_tables(folder, manifest, s.travel)
-
-
-def _grid_n(tol: Any, errors: Any) -> int | None:
-    """Grid points per axis of the volumetric verdict, when there is one (else None)."""
-    if tol is None or tol.volumetric_um is None or errors is None:
-        return None
-    from volcal.standards.verdict import GRID_N
-
-    return GRID_N
-
-
-def _verdicts(tol: tuple[Any, Any, Any], ev: Any, s: Any, model: Any = None) -> Any:
-    """The verdicts of the tolerance from the session's one evaluation (or None)."""
-    if tol[0] is None:
-        return None
-    from volcal.standards.verdict import verdicts
-
-    return verdicts(tol[0], ev, tol[1], tol[2], model=model, session=s)
-
+    return tol, None, None
 
 def _verdict_word(w: str) -> str:
     """A verdict coloured for the terminal (pass green, fail red, conditional yellow)."""

@@ -69,114 +69,41 @@ def report_cmd(
 ) -> None:
     """Write the calibration report of a session as self-contained HTML and as PDF."""
     from volcal.cli.evaluate import _acceptance
-    from volcal.io.paths import prepare_output_folder
-    from volcal.report.pipeline import collect_inputs
-    from volcal.report.sections import build_report
-    from volcal.report.writer import write_report, written_files
     from volcal.session.format import read_session
     from volcal.standards.tolerance import parse_tolerance
+    from volcal.steps.report import check_report_inputs
+    from volcal.steps.report import report as report_step
 
     tol = None if tolerance_um is None else parse_tolerance(tolerance_um)
     tol = _acceptance(tol, decision_rule, guard_band_um, budget)
-    if history is not None:
-        from volcal.extras import HISTORY_STORE, require_extra
-
-        require_extra("history", "volcal report --history", HISTORY_STORE)
-        from volcal.history.previous import check_history
-
-        check_history(history)
     bud = None
     if budget is not None:
         from volcal.uncertainty.budget import read_budget
 
         bud = tol.budget if tol is not None and getattr(tol, "budget", None) is not None \
             else read_budget(budget)
-    moved = prepare_output_folder(output, "report", lambda p: (p / "report.html").is_file(),
-                                  written=written_files, replace=replace)
+    moved = check_report_inputs(output, history=history, replace=replace)
     if moved is not None:
         note_moved(output, moved)
     s = read_session(session)
     print_session_notes(s)
-    if compensation is not None:  # refuse another machine's tables before any work
-        from volcal.compensate.manifest import check_manifest, read_manifest
-        from volcal.session.identity import MachineIdentity
-
-        check_manifest(read_manifest(compensation), compensation, MachineIdentity.of(s),
-                       None, force)
-
     s2 = None
     if as_left is not None:
         s2 = read_session(as_left)
         print_session_notes(s2)
-    from volcal.report.certificate_inputs import certificate_wanted
-
-    cert = certificate_wanted(s, s2, tables, certificate, strict)
-    if model is not None:
-        from volcal.identify.modelfile import check_model_session, load_model
-
-        result = load_model(model)
-        result.require_uncertainty("the report (the uncertainty bands of the error functions "
-                                   "and of the volumetric error)", model)
-        for d in check_model_session(result, s, force, model):
-            err_console.print(f"[yellow]warning[/] --force: {d}", highlight=False)
-    else:
-        from volcal.identify import identify
-
-        with console.status("identifying the machine's errors..."):
-            result = identify(s)
-    written: list = []
-    extra = None
-    if cert and bud is not None:  # the certificate's volumetric U with the systematic part
-        from volcal.report.certificate_inputs import certificate_model
-
-        result = certificate_model(result, bud, budget, model, s)
-    from volcal.standards.model_uncertainty import has_covariance
-    from volcal.standards.session import evaluate_session
-    from volcal.standards.verdict import GRID_N
-
-    # the one evaluation of each session: the certificate and the report format it
-    with console.status("evaluating..."):
-        ev = evaluate_session(s, result, edition, model_uncertainty=has_covariance(result),
-                              budget=bud, work_zone_n=(GRID_N if tol is not None
-                                                       and tol.volumetric_um is not None
-                                                       else None), optics=True)
-        ev_left = None if s2 is None or not cert else evaluate_session(
-            s2, None, edition, budget=bud, optics=True)
-    if cert:
-        from volcal.report.certificate import build_certificate
-        from volcal.report.certificate_files import write_certificate
-
-        doc = build_certificate(s, result, as_left=s2, tables=tables, tolerance=tol,
-                                optics_budget=bud, edition=edition, evaluation=ev,
-                                as_left_evaluation=ev_left)
-        for w in doc["warnings"]:
-            if w.startswith("EXPIRED"):
-                err_console.print(f"[yellow]warning[/] certificate: {w}", highlight=False)
-        if title is None:  # the technical report names its certificate on every page
-            title = (f"Calibration report: {s.name}, technical report to certificate "
-                     f"{doc['report_id']}")
-
-        def extra(tmp: Path) -> None:
-            written.append(write_certificate(doc, tmp))
-
-    with console.status("evaluating and writing the report..."):
-        inputs = collect_inputs(s, result, edition=edition, compensation=compensation,
-                                tolerance=tol, force=force,
-                                model_label=("the model identified now" if model is None
-                                             else str(model)), budget=bud, evaluation=ev)
-        if history is not None:  # the history (SQLAlchemy) is loaded only here
-            from volcal.history.previous import previous_section
-
-            inputs.extra_sections.append(previous_section(inputs, history))
-        files = write_report(build_report(inputs, title), output, extra)
-    if inputs.compensation is not None:
-        for w in inputs.compensation.warnings:
-            err_console.print(f"[yellow]warning[/] {escape(w)}", highlight=False)
+    done = report_step(s, output=output, model=model, title=title, edition=edition,
+                       tolerance=tol, compensation=compensation, history=history,
+                       force=force, certificate=certificate, as_left=s2, tables=tables,
+                       strict=strict, budget=bud, budget_file=budget, moved=moved,
+                       status=console.status)
+    for w in done.warnings:
+        err_console.print(f"[yellow]warning[/] {escape(w)}", highlight=False)
+    files = done.files
     console.print(f"report: {files.html} and {files.pdf} ({files.pdf_pages} pages, "
                   f"{len(files.figures)} figures)", soft_wrap=True)
-    if written:
-        c = written[0]
-        console.print(f"certificate {doc['report_id']}: {output / c.pdf.name} "
+    if done.certificate is not None:
+        c = done.certificate
+        console.print(f"certificate {done.report_id}: {output / c.pdf.name} "
                       f"({c.pdf_pages} pages), {output / c.json.name}", soft_wrap=True)
 
 

@@ -15,6 +15,8 @@ import      ``importer.import_``                Imported
 identify    ``identify.identify``               Identified
 predict     ``predict.predict``                 Prediction
 compensate  ``compensate.compensate``           Compensated
+evaluate    ``evaluate.evaluate`` (verdict)     Evaluated
+report      ``report.report`` (certificate)     Reported
 ==========  ==================================  ===========
 
 The command line (``volcal.cli``) parses text, calls the step and prints its result;

@@ -290,3 +290,17 @@ def test_cli_serve_prints_the_page_and_captures(tmp_path, monkeypatch, capsys):
                                 "--serve", "--port", "0")
     assert code == 0, out + err
     assert "page: http://127.0.0.1:" in out and "captured" in out
+
+
+def test_cli_typed_readings_need_the_page(tmp_path, monkeypatch, capsys):
+    from volcal.plan.planner import plan_session
+    from volcal.session.format import write_session
+
+    s = plan_session(np.array([[0, 100], [0, 100], [0, 100]], float), "XYFZ", 2,
+                     ("linear:x",), 1, name="CLI")
+    write_session(s, tmp_path / "s")
+    code, out, err = run_volcal(monkeypatch, capsys, "capture", str(tmp_path / "s"),
+                                "--control", "sim", "--laser", "typed")
+    assert code == 2
+    assert "laser source 'typed'" in err and "add --serve" in err
+    assert "Traceback" not in err

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import logging
 import threading
 import time
 from dataclasses import dataclass, field
@@ -183,6 +184,9 @@ class OpcUaLink:
         """
         if self._thread is not None:
             return
+        log = logging.getLogger("asyncua")
+        if log.level == logging.NOTSET:  # its routine warnings (revised intervals) would
+            log.setLevel(logging.ERROR)  # reach the technician's terminal; a set level wins
         self._thread = threading.Thread(target=self._run, name="volcal-opcua", daemon=True)
         self._thread.start()
         self._first.wait(wait_s)

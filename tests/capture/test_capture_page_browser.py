@@ -156,7 +156,7 @@ def test_a_typed_reading_is_stored_in_the_session(browser, session):
     folder, mid = session
     page = Page("PAGE-VMC", "gated-sim", "typed", port=0)
     # real time; a dwell long enough to type in (the page's use with typed readings)
-    th, out = _run(folder, mid, "typed", page, speed=1.0, dwell_s=3.0)
+    th, out = _run(folder, mid, "typed", page, speed=1.0, dwell_s=8.0)
     try:
         browser.get(page.url)
         _wait(browser, "return !document.getElementById('typed-form').hidden;", 10.0, "form")

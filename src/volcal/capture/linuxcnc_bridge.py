@@ -7,7 +7,9 @@ reads its standard output (:mod:`volcal.capture.linuxcnc`). It only reads the st
 channel: it never sends a command to the machine. Standard library and ``linuxcnc`` only
 (volcal is not importable here).
 
-Usage: ``/usr/bin/python3 linuxcnc_bridge.py [--period S] [--nml FILE] [--wait S]``
+Usage: ``/usr/bin/python3 linuxcnc_bridge.py [--period S] [--nml FILE] [--ini FILE]
+[--wait S] [--lost S]``. With ``--ini``, only a LinuxCNC started with that INI file is
+read (``stat.ini_filename``): another machine configuration on the same PC is waited out.
 
 Each line is a JSON object:
 
@@ -19,8 +21,11 @@ Each line is a JSON object:
   ``joints`` ``joint_actual_position``; ``moving`` is ``current_vel > 0`` or not
   ``inpos``; ``running`` is a program executing in auto mode and not paused (an
   ``M0`` stop or a feed hold reads false);
-* ``{"waiting": text}``: LinuxCNC is not running yet (once a second, up to ``--wait``);
-* ``{"error": text}``: the status channel failed; the bridge exits with status 1.
+* ``{"waiting": text}``: LinuxCNC is not running yet (up to ``--wait`` seconds at the
+  start), or its status channel failed and the bridge connects again (up to ``--lost``
+  seconds);
+* ``{"error": text}``: LinuxCNC did not come (back) in time; the bridge exits with
+  status 1.
 """
 
 import argparse
@@ -41,6 +46,8 @@ def main():
     ap.add_argument("--period", type=float, default=0.02)
     ap.add_argument("--nml", default=None)
     ap.add_argument("--wait", type=float, default=600.0)
+    ap.add_argument("--lost", type=float, default=30.0)
+    ap.add_argument("--ini", default=None)
     a = ap.parse_args()
     out = sys.stdout
 
@@ -55,28 +62,45 @@ def main():
         return 1
     if a.nml:
         linuxcnc.nmlfile = a.nml
-    deadline = time.monotonic() + a.wait
-    s = None
-    while s is None:
-        try:
-            s = linuxcnc.stat()
-            s.poll()
-        except linuxcnc.error as e:
-            s = None
+    def ours(st):
+        """The LinuxCNC running is the one of ``--ini`` (when given)."""
+        return a.ini is None or os.path.realpath(st.ini_filename) == os.path.realpath(a.ini)
+
+    def connect(wait_s):
+        """A polled status object; None (after an error line) when none came in time."""
+        deadline = time.monotonic() + wait_s
+        while True:
+            try:
+                st = linuxcnc.stat()
+                st.poll()
+                if ours(st):
+                    return st
+                why = f"the LinuxCNC running is another one's ({st.ini_filename})"
+            except linuxcnc.error as e:
+                why = str(e)
             if time.monotonic() > deadline:
-                emit({"error": f"LinuxCNC is not running: {e}"})
-                return 1
-            emit({"waiting": str(e)})
-            time.sleep(1.0)
+                emit({"error": f"LinuxCNC is not running: {why}"})
+                return None
+            emit({"waiting": why})
+            time.sleep(0.2)
+
+    s = connect(a.wait)
+    if s is None:
+        return 1
     letters = "XYZABCUVW"
     auto, running_states = linuxcnc.MODE_AUTO, (linuxcnc.INTERP_READING,
                                                  linuxcnc.INTERP_WAITING)
     while True:
         try:
             s.poll()
-        except linuxcnc.error as e:
-            emit({"error": f"status poll failed: {e}"})
-            return 1
+            lost = not ours(s)
+        except linuxcnc.error:
+            lost = True
+        if lost:  # LinuxCNC starting, restarting or replaced: connect again
+            s = connect(a.lost)
+            if s is None:
+                return 1
+            continue
         mask = s.axis_mask
         act, g5x, g92, tool = s.actual_position, s.g5x_offset, s.g92_offset, s.tool_offset
         pos, machine = {}, {}
@@ -84,6 +108,10 @@ def main():
             if mask & (1 << k):
                 machine[name] = act[k]
                 pos[name] = act[k] - g5x[k] - g92[k] - tool[k]
+        if not pos:  # LinuxCNC up, its status not filled yet
+            emit({"waiting": "no axis in the status yet"})
+            time.sleep(max(a.period, 0.2))
+            continue
         paused = bool(s.task_paused) or s.interp_state == linuxcnc.INTERP_PAUSED
         emit({"t": time.monotonic(), "pos": pos, "machine": machine,
               "joints": list(s.joint_actual_position[:s.joints]),

@@ -11,8 +11,10 @@ seconds and writes one JSON line per poll (the actual position, ``joint_actual_p
 thread turns each line into a :class:`~volcal.capture.samples.ControlSample`. The bridge
 only reads the status: volcal never commands the machine.
 
-* ``linuxcnc`` uses LinuxCNC's default NML file; ``linuxcnc:/path/machine.ini`` reads the
-  ``[EMC] NML_FILE`` of that INI file when it names one.
+* ``linuxcnc`` reads the LinuxCNC running (its default NML file);
+  ``linuxcnc:/path/machine.ini`` reads only a LinuxCNC started with that INI file
+  (``stat.ini_filename``; another configuration running is waited out) and uses the
+  ``[EMC] NML_FILE`` the INI file names, if any.
 * The interpreter is ``/usr/bin/python3``, or the environment variable
   ``VOLCAL_LINUXCNC_PYTHON``.
 * The positions are those of the program (actual position minus the G5x, G92 and tool
@@ -88,6 +90,7 @@ class LinuxCNCControl:
         if not 0.001 <= self.period <= 1.0:
             raise VolcalInputError(f"source {spec.text!r}: period={opts.get('period')!r}: "
                                    "expected 0.001 to 1 s")
+        self.ini = str(Path(ini.strip()).resolve()) if ini.strip() else None
         self.nml = _nml_of(Path(ini), spec.text) if ini.strip() else None
         self.where, self.ctx = spec.text, ctx
         self._q: queue.Queue[ControlSample] = queue.Queue()
@@ -106,6 +109,8 @@ class LinuxCNCControl:
         cmd = [py, str(BRIDGE), "--period", repr(self.period)]
         if self.nml:
             cmd += ["--nml", self.nml]
+        if self.ini:
+            cmd += ["--ini", self.ini]
         env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "PYTHONHOME")}
         self._proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                       stdin=subprocess.DEVNULL, env=env)

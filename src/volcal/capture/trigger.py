@@ -549,7 +549,7 @@ class TriggerRule:
             events.append(Note(t, f"{self.label}: the program runs again from its first "
                                   "reading; the readings already recorded are kept"))
             return events + self._enter(first, t)
-        if self._near(d.target):
+        if self._near(d.target) and not self._may_replay:
             if seen is None:
                 self._passed = True
                 return [Note(t, f"{self._where(d)}: passed over, the approach to it was not "

@@ -248,6 +248,11 @@ def test_typed_reading_posted_reaches_the_queue(page):
     assert code == 200 and body["value"] == 12.75 and body["state"] == "queued"
     r = page.extras["typed"].take()
     assert (r.value, r.unit) == (12.75, "um")
+    # an angle typed for a length measurement would stop the capture: refused here
+    _start(page.observer)
+    code, body = _post(url, json.dumps({"value": 3.0, "unit": "arcsec"}))
+    assert code == 400 and "reads lengths" in body["error"]
+    assert page.extras["typed"].take() is None
     assert page.observer.snapshot()["typed_log"][0]["value"] == 12.75
 
 

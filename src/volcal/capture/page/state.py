@@ -286,10 +286,18 @@ class LiveState:
         VolcalInputError
             No typed source, or a bad value or unit (from the queue).
         """
+        from volcal.capture.samples import ANGULAR_UNITS, LINEAR_UNITS
         from volcal.errors import VolcalInputError
 
         if self.typed is None:
             raise VolcalInputError("this capture reads no typed laser (--laser typed)")
+        with self._lock:
+            m = self._by_id.get(self.current or "")
+        u = str(unit).strip()
+        if m is not None and (m["unit"] == "um" and u in ANGULAR_UNITS
+                              or m["unit"] == "urad" and u in LINEAR_UNITS):
+            reads = "lengths (um, mm...)" if m["unit"] == "um" else "angles (urad, arcsec...)"
+            raise VolcalInputError(f"typed reading in {u}: measurement {m['id']} reads {reads}")
         r = self.typed.put(value, unit, note)
         with self._lock:
             entry = {"id": r.id, "value": r.value, "unit": r.unit, "state": "queued",

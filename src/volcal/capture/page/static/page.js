@@ -88,6 +88,7 @@
         rows.map(() => "<tr><td></td><td></td><td></td><td></td><td></td><td></td><td></td><td></td></tr>").join("");
       text(tb.rows[0].cells[0], m.id + ": " + rows.length + " readings, " + (m.column || "reading") +
         " [" + m.unit + "]");
+      $("typed-unit").value = m.unit === "urad" ? "urad" : "um";  // the measurement's unit
     }
     rows.forEach((d, i) => {
       const tr = tb.rows[i + 1];

@@ -100,7 +100,7 @@ def _wait(p: subprocess.Popen[str], what: str, timeout: float) -> str:
 
 
 def _run(tmp_path: Path, *, steps: int, runs: int, travel: float, dwell_s: float,
-         stable_s: float, max_gap_s: float) -> None:
+         stable_s: float, max_gap_s: float, feed: float) -> None:
     from volcal.steps.plan import plan
     from volcal.steps.program import program
 
@@ -111,7 +111,7 @@ def _run(tmp_path: Path, *, steps: int, runs: int, travel: float, dwell_s: float
     plan(((0.0, travel), (0.0, 50.0), (0.0, 40.0)), steps=steps, tests="linear", runs=runs,
          output=s)
     progs = tmp_path / "P"
-    program(s, dialect="linuxcnc", output=progs, dwell_s=dwell_s, feed=3000.0)
+    program(s, dialect="linuxcnc", output=progs, dwell_s=dwell_s, feed=feed)
     ngc = (progs / "linear_x1.ngc").read_text()
     mid = "linear-x1"
     marker = f"volcal-capture-{uuid.uuid4().hex}"  # finds this test's LinuxCNC folder
@@ -206,11 +206,13 @@ def _check(tmp_path: Path, s: Path, mid: str, stable_s: float) -> None:
 
 
 def test_capture_on_linuxcnc_trimmed(tmp_path):
-    """A linear test of 2 steps, 1 run (6 dwells of 1.2 s) run three times: about 1 min."""
-    _run(tmp_path, steps=2, runs=1, travel=60.0, dwell_s=1.2, stable_s=0.4, max_gap_s=0.25)
+    """A linear test of 2 steps, 1 run (6 dwells of 1 s) run three times: about 40 s."""
+    _run(tmp_path, steps=2, runs=1, travel=60.0, dwell_s=1.0, stable_s=0.35, max_gap_s=0.25,
+         feed=6000.0)
 
 
 @pytest.mark.slow
 def test_capture_on_linuxcnc_iso230_2(tmp_path):
     """The ISO 230-2 cycle: 10 steps, 5 runs (110 dwells of 2 s), three times."""
-    _run(tmp_path, steps=10, runs=5, travel=300.0, dwell_s=2.0, stable_s=0.8, max_gap_s=0.3)
+    _run(tmp_path, steps=10, runs=5, travel=300.0, dwell_s=2.0, stable_s=0.8, max_gap_s=0.3,
+         feed=3000.0)

@@ -46,11 +46,13 @@ def free_port() -> int:
 class CncServer:
     """A running ``cnc_server.mjs``: ``set(X=..., ...)`` writes positions, ``stop()`` ends it."""
 
-    def __init__(self, port: int | None = None) -> None:
+    def __init__(self, port: int | None = None, pki: Path | None = None) -> None:
+        """``pki``: serve signed and encrypted channels only, certificates in that folder."""
         self.port = free_port() if port is None else port
         self.url = f"opc.tcp://127.0.0.1:{self.port}/"
+        secure = [] if pki is None else ["secure", str(pki)]
         self.proc = subprocess.Popen(
-            ["node", str(SCRIPT), str(self.port)], cwd=HERE, stdin=subprocess.PIPE,
+            ["node", str(SCRIPT), str(self.port), *secure], cwd=HERE, stdin=subprocess.PIPE,
             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, bufsize=1)
         self.lines: list[str] = []
         self._cond = threading.Condition()

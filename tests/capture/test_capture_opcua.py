@@ -232,6 +232,64 @@ def test_the_source_connects_again_when_the_server_returns():
             second.stop()
 
 
+@pytest.mark.slow
+def test_a_signed_and_encrypted_channel(tmp_path):
+    import asyncio
+    import socket
+
+    from asyncua.crypto.cert_gen import setup_self_signed_certificate
+    from cryptography.x509.oid import ExtendedKeyUsageOID
+
+    from volcal.capture.sources import SourceError
+
+    from .opcua_server import CncServer, skip_reason
+
+    if skip_reason():
+        pytest.skip(skip_reason())
+    cert, key = tmp_path / "volcal.der", tmp_path / "volcal.pem"
+    asyncio.run(setup_self_signed_certificate(
+        key, cert, "urn:volcal:capture:test", socket.gethostname(),
+        [ExtendedKeyUsageOID.CLIENT_AUTH], {"commonName": "volcal capture test"}))
+    (tmp_path / "pki").mkdir()
+    server = CncServer(pki=tmp_path / "pki")
+    try:
+        server.set(X=3.5, Y=4.5, Z=5.5)
+        # the server offers no channel without security: refused, with the reason
+        plain = make_control(f"opcua:{server.url};timeout_s=2", SourceContext(clock=Clock()))
+        with pytest.raises(SourceError, match="cannot connect"):
+            plain.open()
+        # the server's own certificate, as its administrator exports it (node-opcua keeps
+        # it in its PKI folder): this server offers no unsecured channel to ask for it
+        server_cert = tmp_path / "pki" / "own" / "certs" / "certificate.pem"
+        src = make_control(f"opcua:{server.url};policy=Basic256Sha256;mode=SignAndEncrypt;"
+                           f"cert={cert};key={key};server_cert={server_cert}",
+                           SourceContext(clock=Clock()))
+        src.open()
+        try:
+            s = _poll_until(src, lambda s: s.positions.get("X") == 3.5)
+            assert dict(s.positions) == {"X": 3.5, "Y": 4.5, "Z": 5.5}
+        finally:
+            src.close()
+    finally:
+        server.stop()
+
+
+def test_signed_channel_options_are_checked(tmp_path):
+    from volcal.errors import VolcalInputError
+
+    ctx = SourceContext(clock=Clock())
+    with pytest.raises(VolcalInputError, match="needs cert=, key="):
+        make_control("opcua:opc.tcp://h:1;policy=Basic256Sha256", ctx)
+    (tmp_path / "c.der").write_bytes(b"x")
+    with pytest.raises(VolcalInputError, match="key=.*no such file"):
+        make_control(f"opcua:opc.tcp://h:1;policy=Basic256Sha256;cert={tmp_path / 'c.der'};"
+                     f"key={tmp_path / 'nope.pem'}", ctx)
+    with pytest.raises(VolcalInputError, match="policy='Basic128Rsa15'"):
+        make_control("opcua:opc.tcp://h:1;policy=Basic128Rsa15;cert=a;key=b", ctx)
+    with pytest.raises(VolcalInputError, match="mode= needs"):
+        make_control("opcua:opc.tcp://h:1;mode=Sign", ctx)
+
+
 def test_an_address_without_a_server_is_refused_at_open():
     from volcal.capture.sources import SourceError
 

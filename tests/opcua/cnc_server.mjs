@@ -3,7 +3,9 @@
 // node-opcua-nodesets), with three axes X, Y, Z instantiated from CncAxisType under
 // Objects/CncInterface/CncAxisList. The test writes positions on request.
 //
-// Usage: node cnc_server.mjs PORT
+// Usage: node cnc_server.mjs PORT [secure PKI_FOLDER]
+// With "secure", the server offers only signed and encrypted channels (Basic256Sha256,
+// SignAndEncrypt), keeps its certificates in PKI_FOLDER and accepts any client certificate.
 // Prints one line "READY opc.tcp://127.0.0.1:PORT/ NSURI" on stdout once it serves, then
 // reads one JSON command per line on stdin:
 //   {"set": {"X": 10.0, "Y": 0.0}}   write PosDirect.ActPos (and the PosDirect structure)
@@ -12,19 +14,32 @@
 // Only loopback: the endpoint is bound to 127.0.0.1.
 
 import readline from "node:readline";
-import { OPCUAServer, DataType, MessageSecurityMode, SecurityPolicy } from "node-opcua";
+import {
+  OPCUAServer, OPCUACertificateManager, DataType, MessageSecurityMode, SecurityPolicy,
+} from "node-opcua";
 import { nodesets } from "node-opcua-nodesets";
 
 const port = Number(process.argv[2] || 4840);
 const CNC_URI = "http://opcfoundation.org/UA/CNC";
+
+const secure = process.argv[3] === "secure";
+const security = secure ? {
+  securityModes: [MessageSecurityMode.SignAndEncrypt],
+  securityPolicies: [SecurityPolicy.Basic256Sha256],
+  serverCertificateManager: new OPCUACertificateManager({
+    rootFolder: process.argv[4], automaticallyAcceptUnknownCertificate: true,
+  }),
+} : {
+  securityModes: [MessageSecurityMode.None],
+  securityPolicies: [SecurityPolicy.None],
+};
 
 const server = new OPCUAServer({
   port,
   hostname: "127.0.0.1",
   alternateHostname: [],
   nodeset_filename: [nodesets.standard, nodesets.cnc],
-  securityModes: [MessageSecurityMode.None],
-  securityPolicies: [SecurityPolicy.None],
+  ...security,
   allowAnonymous: true,
   disableDiscovery: true,
   buildInfo: { productName: "volcal-test-cnc", buildNumber: "1" },

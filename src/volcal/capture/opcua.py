@@ -20,12 +20,22 @@ key                default  meaning
 ``publishing_ms``  50       publishing and sampling interval of the subscription [ms]
 ``timeout_s``      4        timeout of one request, and of the first connection [s]
 ``watch_s``        0.5      interval of the liveness check (a read of the server state) [s]
+``policy``         -        a signed channel: ``Basic256Sha256``, ``Aes128_Sha256_RsaOaep``
+                            or ``Aes256_Sha256_RsaPss`` (default: message security None)
+``mode``           SignAnd  ``Sign`` or ``SignAndEncrypt``
+                   Encrypt
+``cert``, ``key``  -        volcal's application certificate (DER or PEM) and its private
+                            key (PEM), required with ``policy``
+``server_cert``    -        the server's certificate (DER or PEM); without it the endpoints
+                            are asked over an unsecured channel first
 =================  =======  ===============================================================
 
 Requires the ``capture`` extra (PyPI ``asyncua``).
 """
 
 from __future__ import annotations
+
+from typing import TYPE_CHECKING
 
 from volcal.capture.samples import ControlSample
 from volcal.capture.sources import (
@@ -38,12 +48,16 @@ from volcal.capture.sources import (
 from volcal.errors import VolcalInputError
 from volcal.extras import require_extra
 
+if TYPE_CHECKING:
+    from volcal.capture.opcua_link import Security
+
 __all__ = ["OpcUaControl", "STATUS_LOST", "make"]
 
 STATUS_LOST = "lost"
 """First word of the status of a sample taken while the connection is down."""
 
-OPTION_KEYS = ("position", "publishing_ms", "timeout_s", "watch_s")
+OPTION_KEYS = ("position", "publishing_ms", "timeout_s", "watch_s", "policy", "mode", "cert",
+               "key", "server_cert")
 
 MIN_INTERVAL_S = 0.005
 """A poll within this time [s] of the last sample returns None: the capture's loop drains
@@ -67,18 +81,20 @@ class OpcUaControl:
         Timeout of one request and of the first connection [s].
     watch_s : float
         Interval of the liveness check [s].
+    security : Security, optional
+        A signed channel (:class:`volcal.capture.opcua_link.Security`).
     """
 
     def __init__(self, url: str, context: SourceContext, *, position: str = "direct",
                  publishing_ms: float = 50.0, timeout_s: float = 4.0,
-                 watch_s: float = 0.5) -> None:
+                 watch_s: float = 0.5, security: Security | None = None) -> None:
         from volcal.capture.opcua_link import OpcUaLink
 
         self.url = url
         self.context = context
         self.timeout_s = timeout_s
         self.link = OpcUaLink(url, position=position, publishing_ms=publishing_ms,
-                              timeout_s=timeout_s, watch_s=watch_s)
+                              timeout_s=timeout_s, watch_s=watch_s, security=security)
         self._last_t: float | None = None
 
     def open(self) -> None:
@@ -168,7 +184,36 @@ def make(spec: SourceSpec, context: SourceContext) -> OpcUaControl:
     if position not in ("direct", "indirect"):
         raise VolcalInputError(f"control source {spec.text!r}: position={position!r}: "
                                "expected direct or indirect")
-    return OpcUaControl(url, context, position=position, **kw)
+    security = None
+    if any(k in opts for k in ("policy", "cert", "key", "server_cert")):
+        security = _security(opts, spec.text)
+    elif "mode" in opts:
+        raise VolcalInputError(f"control source {spec.text!r}: mode= needs policy=, cert= "
+                               "and key= (docs/capture_opcua.md)")
+    return OpcUaControl(url, context, position=position, security=security, **kw)
+
+
+def _security(opts: dict[str, str], where: str) -> Security:
+    """The signed channel of the options ``policy``, ``mode``, ``cert``, ``key``."""
+    from pathlib import Path
+
+    from volcal.capture.opcua_link import MODES, POLICIES, Security
+
+    missing = [k for k in ("policy", "cert", "key") if not opts.get(k)]
+    if missing:
+        raise VolcalInputError(f"control source {where!r}: a signed channel needs "
+                               f"{', '.join(k + '=' for k in missing)} (docs/capture_opcua.md)")
+    if opts["policy"] not in POLICIES:
+        raise VolcalInputError(f"control source {where!r}: policy={opts['policy']!r}: "
+                               f"expected one of {', '.join(POLICIES)}")
+    mode = opts.get("mode", "SignAndEncrypt")
+    if mode not in MODES:
+        raise VolcalInputError(f"control source {where!r}: mode={mode!r}: expected "
+                               f"{' or '.join(MODES)}")
+    for k in ("cert", "key", "server_cert"):
+        if k in opts and not Path(opts[k]).is_file():
+            raise VolcalInputError(f"control source {where!r}: {k}={opts[k]}: no such file")
+    return Security(opts["policy"], mode, opts["cert"], opts["key"], opts.get("server_cert"))
 
 
 register_control("opcua", make, "an OPC UA server with the OPC 40502 CNC model "

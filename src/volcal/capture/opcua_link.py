@@ -28,6 +28,7 @@ import logging
 import threading
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 from volcal.errors import VolcalInputError
@@ -37,6 +38,42 @@ CNC_NAMESPACES = ("http://opcfoundation.org/UA/CNC", "http://opcfoundation.org/U
 
 CNC_AXIS_TYPE_ID = 1004
 """Numeric node id of ``CncAxisType`` in the CNC namespace (``Opc.Ua.CNC.NodeSet.xml``)."""
+
+POLICIES = ("Basic256Sha256", "Aes128_Sha256_RsaOaep", "Aes256_Sha256_RsaPss")
+"""Security policies of a signed channel (OPC UA's current ones; the deprecated Basic128Rsa15
+and Basic256 are left out)."""
+
+MODES = ("Sign", "SignAndEncrypt")
+"""Message security modes of a signed channel."""
+
+
+@dataclass(frozen=True)
+class Security:
+    """A signed (and encrypted) channel: the policy, the mode and volcal's certificate.
+
+    Attributes
+    ----------
+    policy : str
+        One of :data:`POLICIES`.
+    mode : str
+        ``'Sign'`` or ``'SignAndEncrypt'``.
+    cert : str
+        volcal's application certificate (DER or PEM); its URI (subject alternative name)
+        becomes the client's application URI, as servers check.
+    key : str
+        Its private key (PEM).
+    server_cert : str, optional
+        The server's certificate (DER or PEM). Without it the client asks the server for
+        its endpoints over an unsecured channel first, which a server offering only
+        secured channels refuses.
+    """
+
+    policy: str
+    mode: str
+    cert: str
+    key: str
+    server_cert: str | None = None
+
 
 POSITION_NODES = {"direct": "PosDirect", "indirect": "PosIndirect"}
 """Which position of ``CncAxisType`` to read: the direct measuring system (a scale on the
@@ -144,10 +181,13 @@ class OpcUaLink:
         Interval of the liveness check (a read of the server state) [s].
     retry_s : float
         Delay before connecting again after a loss [s].
+    security : Security, optional
+        A signed channel (default: message security None).
     """
 
     def __init__(self, url: str, *, position: str = "direct", publishing_ms: float = 50.0,
-                 timeout_s: float = 4.0, watch_s: float = 0.5, retry_s: float = 1.0) -> None:
+                 timeout_s: float = 4.0, watch_s: float = 0.5, retry_s: float = 1.0,
+                 security: Security | None = None) -> None:
         if not url.startswith("opc.tcp://"):
             raise OpcUaError(f"OPC UA source {url!r}: expected opc.tcp://host:port")
         if position not in POSITION_NODES:
@@ -159,6 +199,7 @@ class OpcUaLink:
         self.timeout_s = float(timeout_s)
         self.watch_s = float(watch_s)
         self.retry_s = float(retry_s)
+        self.security = security
         self._lock = threading.Lock()
         self._snap = Snapshot(since=time.time())
         self._loop: asyncio.AbstractEventLoop | None = None
@@ -185,8 +226,9 @@ class OpcUaLink:
         if self._thread is not None:
             return
         log = logging.getLogger("asyncua")
-        if log.level == logging.NOTSET:  # its routine warnings (revised intervals) would
-            log.setLevel(logging.ERROR)  # reach the technician's terminal; a set level wins
+        if log.level == logging.NOTSET:  # its warnings (revised intervals) and the errors of
+            log.setLevel(logging.CRITICAL)  # a refused channel would reach the terminal: the
+            # snapshot's status says why; a level set by the caller wins
         self._thread = threading.Thread(target=self._run, name="volcal-opcua", daemon=True)
         self._thread.start()
         self._first.wait(wait_s)
@@ -267,6 +309,8 @@ class OpcUaLink:
         assert self._stop is not None
         client = Client(self.url, timeout=self.timeout_s)
         try:
+            if self.security is not None:
+                await _secure(client, self.security)
             await client.connect()
             axes = await find_axes(client, self.position)
             handler = _Handler(self, axes)
@@ -296,6 +340,29 @@ class OpcUaLink:
             with contextlib.suppress(Exception):
                 await asyncio.wait_for(client.disconnect(), self.timeout_s)
         self._set_status("lost", "closed")
+
+
+async def _secure(client: Any, sec: Security) -> None:
+    """Set a signed channel on ``client`` (before it connects)."""
+    from asyncua import ua
+    from asyncua.crypto import security_policies as sp
+    from cryptography import x509
+
+    policy = {"Basic256Sha256": sp.SecurityPolicyBasic256Sha256,
+              "Aes128_Sha256_RsaOaep": sp.SecurityPolicyAes128Sha256RsaOaep,
+              "Aes256_Sha256_RsaPss": sp.SecurityPolicyAes256Sha256RsaPss}[sec.policy]
+    raw = Path(sec.cert).read_bytes()
+    cert = (x509.load_pem_x509_certificate(raw) if raw.lstrip().startswith(b"-----")
+            else x509.load_der_x509_certificate(raw))
+    try:
+        san = cert.extensions.get_extension_for_class(x509.SubjectAlternativeName)
+        uris = san.value.get_values_for_type(x509.UniformResourceIdentifier)
+    except x509.ExtensionNotFound:
+        uris = []
+    if uris:
+        client.application_uri = uris[0]
+    await client.set_security(policy, sec.cert, sec.key, server_certificate=sec.server_cert,
+                              mode=getattr(ua.MessageSecurityMode, sec.mode))
 
 
 def _describe(exc: Exception) -> str:

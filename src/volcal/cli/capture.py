@@ -62,15 +62,37 @@ def capture(
     speed: Annotated[float | None, typer.Option(
         help="Simulated control: simulated seconds per second (default: as fast as "
         "possible).")] = None,
+    serve: Annotated[bool, typer.Option(
+        "--serve", help="Serve the technician's page while capturing (docs/capture_page.md)."
+    )] = False,
+    host: Annotated[str, typer.Option(
+        help="Address the page binds (127.0.0.1: this computer only).")] = "127.0.0.1",
+    port: Annotated[int, typer.Option(help="TCP port of the page (0: any free one).")
+                    ] = 8765,
 ) -> None:
     """Capture the readings while the part programs run: one row per dwell (resumable)."""
     from volcal.steps.capture import capture as step
 
-    r = step(session, control=control, laser=laser, measurement=measurement, output=output,
-             programs=programs, dwell_s=dwell_s, feed=feed, overrun_mm=overrun_mm,
-             window_mm=window_mm, stable_s=stable_s, k_sigma=k_sigma,
-             laser_noise=laser_noise, control_noise_mm=control_noise_mm,
-             max_gap_s=max_gap_s, poll_s=poll_s, timeout_s=timeout_s, speed=speed)
+    page = None
+    if serve:  # the technician's page (volcal.capture.page): observer and typed readings
+        from volcal.capture.page.server import Page
+
+        page = Page(session.resolve().name, control, laser, host, port, window_mm=window_mm)
+        console.print(f"page: {page.url}")
+    try:
+        r = step(session, control=control, laser=laser, measurement=measurement,
+                 output=output, programs=programs, dwell_s=dwell_s, feed=feed,
+                 overrun_mm=overrun_mm, window_mm=window_mm, stable_s=stable_s,
+                 k_sigma=k_sigma, laser_noise=laser_noise, control_noise_mm=control_noise_mm,
+                 max_gap_s=max_gap_s, poll_s=poll_s, timeout_s=timeout_s, speed=speed,
+                 observer=page.observer if page else None,
+                 extras=page.extras if page else None)
+    except BaseException as e:
+        if page is not None:
+            page.close("capture stopped", str(e) or type(e).__name__)
+        raise
+    if page is not None:
+        page.close("captured" if r.complete else "capture stopped")
     for mid in r.skipped:
         console.print(f"{mid}: already complete (journal), skipped")
     for o in r.outcomes:

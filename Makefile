@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: all install bytecode test lint demo bench study clean browser-deps linuxcnc-deps postgres-deps
+.PHONY: all install bytecode test lint demo bench study clean browser-deps linuxcnc-deps postgres-deps opcua-deps
 
 all: test
 
@@ -13,7 +13,7 @@ $(BIN)/python:
 	$(BIN)/python -m pip install --quiet --upgrade pip
 
 $(STAMP): $(BIN)/python pyproject.toml
-	$(BIN)/python -m pip install --quiet -e ".[test,history,dataframe,qif]"
+	$(BIN)/python -m pip install --quiet -e ".[test,history,dataframe,qif,capture]"
 	touch $(STAMP)
 
 install: $(STAMP) bytecode
@@ -25,12 +25,26 @@ install: $(STAMP) bytecode
 bytecode: $(STAMP)
 	$(BIN)/python -m compileall -q src
 
-# Headless Chromium and poppler (pdftoppm) for the report tests; Debian packages, run as
-# root. Does nothing when both are present.
+# Headless Chromium and poppler (pdftoppm) for the report tests, chromium-driver for the
+# capture page's test (Selenium); Debian packages, run as root. Does nothing when all are
+# present.
 browser-deps:
-	@if [ -x /usr/bin/chromium ] && command -v pdftoppm >/dev/null; then :; else \
+	@if [ -x /usr/bin/chromium ] && command -v pdftoppm >/dev/null && \
+	  command -v chromedriver >/dev/null; then :; else \
 	  apt-get update -q && DEBIAN_FRONTEND=noninteractive apt-get install -y -q \
-	    --no-install-recommends chromium poppler-utils; fi
+	    --no-install-recommends chromium poppler-utils chromium-driver; fi
+
+# The independent OPC UA server of the capture tests: npm node-opcua and the OPC 40502
+# CNC nodeset (node-opcua-nodesets) into tests/opcua/node_modules, at the versions of
+# tests/opcua/package-lock.json; Node.js and npm from Debian when missing (run as root).
+# Does nothing when installed; the OPC UA tests skip with the reason when it cannot be.
+opcua-deps:
+	@if [ -f tests/opcua/node_modules/node-opcua-nodesets/nodesets/Opc.Ua.CNC.NodeSet.xml ] && \
+	  [ -d tests/opcua/node_modules/node-opcua ]; then :; else \
+	  { command -v npm >/dev/null || { apt-get update -q && DEBIAN_FRONTEND=noninteractive \
+	    apt-get install -y -q --no-install-recommends nodejs npm; }; } && \
+	  (cd tests/opcua && npm ci --no-audit --no-fund --loglevel=error) || \
+	  echo "node-opcua not available: the OPC UA capture tests will skip"; fi
 
 # LinuxCNC's standalone G-code interpreter rs274 (Debian package linuxcnc-uspace, in
 # bookworm main): the part-program tests run the generated ISO and LinuxCNC programs
@@ -64,7 +78,7 @@ postgres-deps:
 # collection order, the longest first (tests/conftest.py, LONGEST_FIRST), instead of
 # xdist's default by number of tests, which left the files of one or two long tests
 # (test_python_docs.py) to the end, one worker running them alone.
-test: $(STAMP) bytecode browser-deps linuxcnc-deps postgres-deps
+test: $(STAMP) bytecode browser-deps linuxcnc-deps postgres-deps opcua-deps
 	$(BIN)/python -m pytest -n 2 --dist loadfile --no-loadscope-reorder -m "not slow"
 
 # ruff, then the import contracts of pyproject.toml (docs/architecture.md; make test runs

@@ -16,7 +16,8 @@ each STEP one of
   done and the sampled pins stop changing, then (``sample``) record ``pins``;
 * ``{"program": "prog.ngc", "poll_s": s, "resume": true, "timeout_s": s}``: run a program
   in auto mode to its end, recording the status (``stat.joint_actual_position``,
-  ``stat.position``, line) and ``pins`` every ``poll_s`` seconds (0 or absent: no time
+  ``stat.position``, ``current_line``, ``motion_line``, ``delay_left`` (> 0 while a G4 dwell
+  runs)) and ``pins`` every ``poll_s`` seconds (0 or absent: no time
   series) into ``series[label or program]``; a pause (M0, M1) is resumed at once, as the
   operator's cycle start (``resume``: true), and listed in the end sample's ``pauses``;
 * ``{"jog": joint, "increment": d, "velocity": v}``: an incremental jog of one joint in
@@ -172,6 +173,8 @@ class Driver:
             self.poll_errors()
             if poll_s:
                 rec.append({"t": time.monotonic() - t0, "line": self.s.current_line,
+                            "motion_line": self.s.motion_line,
+                            "delay_left": self.s.delay_left,  # > 0 during a G4 dwell
                             "joint_actual_position": list(self.s.joint_actual_position),
                             "position": list(self.s.position), "pins": self.read_pins()})
             if self.s.interp_state != linuxcnc.INTERP_IDLE:

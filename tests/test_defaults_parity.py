@@ -201,10 +201,11 @@ def _typing_names() -> dict[str, Any]:
     from volcal.report.writer import ReportFiles
     from volcal.session.format import Session
     from volcal.standards.session import SessionEvaluation
+    from volcal.steps.locate import Located
     from volcal.steps.predict import Prediction
     from volcal.uncertainty.budget import Budget
 
-    return {"Budget": Budget, "IdentifiabilityReport": IdentifiabilityReport,
+    return {"Located": Located, "Budget": Budget, "IdentifiabilityReport": IdentifiabilityReport,
             "IdentificationResult": IdentificationResult, "ImportResult": ImportResult,
             "MachineErrors": MachineErrors, "Prediction": Prediction,
             "ReportFiles": ReportFiles, "Session": Session,

@@ -121,3 +121,19 @@ IMPORT_DWELL_S = 4.0
 # -- predict (volcal predict) ---------------------------------------------------------------
 TOOL_OFFSET_MM: tuple[float, float, float] = (0.0, 0.0, 0.0)
 """Tool offset x, y, z of a prediction or a planned target [mm]."""
+
+# -- capture (volcal capture) --------------------------------------------------------------
+CAPTURE_WINDOW_MM = 0.010
+"""Target window of the trigger rule: every axis within this distance of the target [mm]."""
+CAPTURE_STABLE_S = 1.0
+"""Time both signals must be stable before a point is accepted [s]."""
+CAPTURE_K_SIGMA = 4.0
+"""Stability threshold of the trigger rule, in standard errors of the noise."""
+CAPTURE_LASER_NOISE = 0.01
+"""Floor of the laser's noise standard deviation [um or urad] (its resolution)."""
+CAPTURE_CONTROL_NOISE_MM = 0.0005
+"""Floor of the control position's noise standard deviation [mm]."""
+CAPTURE_MAX_GAP_S = 0.5
+"""Longest polling gap tolerated inside a stable window [s]."""
+CAPTURE_POLL_S = 0.02
+"""Pause between two polls of the sources [s]."""

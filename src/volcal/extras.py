@@ -24,6 +24,7 @@ __all__ = ["EXTRAS", "HISTORY_STORE", "MissingExtraError", "missing_modules", "r
 EXTRAS: dict[str, tuple[str, ...]] = {
     "history": ("sqlalchemy", "alembic", "psycopg", "pandas", "pyarrow"),
     "dataframe": ("pandas",),
+    "capture": ("asyncua", "aiohttp"),
 }
 """Extra -> the top-level modules it installs (``pyproject.toml``, optional dependencies)."""
 

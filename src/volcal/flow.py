@@ -512,7 +512,8 @@ class Calibration:
                        tool_offset=A.vector_mm(tool_offset, "tool_offset"))
 
     @A.checked
-    def locate(self, model: Any = None, measurements: list[str] | None = None,
+    def locate(self, model: str | Path | MachineErrors | None = None,
+               measurements: list[str] | None = None,
                prior_u: float | None = None) -> Located:
         """The rotary axes' location errors from the probe_sphere tests, like ``volcal locate``.
 

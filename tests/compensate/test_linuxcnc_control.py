@@ -236,22 +236,25 @@ def test_linuxcnc_applies_volcals_rotary_table(tmp_path, linuxcnc_sim):
 
 # --- volcal's rotary part program through LinuxCNC, table loaded -------------------------
 
-def stops(series: list[dict], joint: int, min_s: float) -> list[dict]:
-    """Where the joint stood still for at least ``min_s`` (the dwells): the last sample of
-    each stop (position, offset, time)."""
-    out, run = [], []
+def stops(series: list[dict], joint: int) -> list[dict]:
+    """The G4 dwells seen in a program's time series: LinuxCNC's ``delay_left`` > 0 with the
+    joint standing (task starts the dwell's clock while the move before it may still end);
+    the last sample of each (joint position, offset applied, time)."""
+    out: list[dict] = []
     pos = f"joint.{joint}.pos-cmd"
-    for smp in series + [None]:
-        p = None if smp is None else smp["pins"]
-        if p is not None and p[f"joint.{joint}.vel-cmd"] == 0.0 and (
-                not run or p[pos] == run[-1]["pins"][pos]):
-            run.append(smp)
-            continue
-        if run and run[-1]["t"] - run[0]["t"] >= min_s:
-            q = run[-1]["pins"]
-            out.append({"pos": q[f"joint.{joint}.pos-cmd"], "t": run[-1]["t"],
-                        "off": q[f"joint.{joint}.motor-pos-cmd"] - q[f"joint.{joint}.pos-cmd"]})
-        run = [smp] if p is not None and p[f"joint.{joint}.vel-cmd"] == 0.0 else []
+    here = None  # the position of the current dwell; None once the joint moved
+    for smp in series:
+        p = smp["pins"]
+        if here is not None and p[pos] != here:
+            here = None  # moved: the next dwell is another one
+        if smp["delay_left"] <= 0 or p[f"joint.{joint}.vel-cmd"] != 0.0:
+            continue  # not in a dwell, or the move before it still ends
+        rec = {"pos": p[pos], "t": smp["t"], "off": p[f"joint.{joint}.motor-pos-cmd"] - p[pos]}
+        if here is not None:
+            out[-1] = rec  # the same dwell (delay_left may read 0 between two of its polls)
+        else:
+            out.append(rec)
+        here = p[pos]
     return out
 
 
@@ -279,7 +282,7 @@ def run_rotary_program(tmp_path, linuxcnc_sim, runs: int, dwell_s: float, feed: 
     m = sess.measurements[0]
     planned = list(zip(np.asarray(m.columns["target_deg"], float),
                        np.asarray(m.columns["direction"]).astype(str), strict=True))
-    return sess, prof, planned, stops(res["series"]["rotary_c.ngc"], 3, 0.5 * dwell_s), res
+    return sess, prof, planned, stops(res["series"]["rotary_c.ngc"], 3), res
 
 
 def check_program_run(prof, planned, st, res, dwell_s):

@@ -59,6 +59,8 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "evaluate": ("evaluate", "Evaluate measurements to the standards (ISO 230-2, VDI/DGQ "
                  "3441, ISO 230-6, ISO 230-1 volumetric indices)."),
     "env": ("env", "Environment: refractive index of air, drift check."),
+    "capture": ("capture", "Capture the readings while the part programs run: one row per "
+                "dwell (resumable)."),
     "history": ("history", "Calibration history: add, list, show, trend, compare, due, "
                 "fleet, export, verify (SQLite by default, PostgreSQL by URL)."),
 }

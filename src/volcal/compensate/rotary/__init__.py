@@ -85,6 +85,16 @@ def rotary_tables(profiles: Sequence[RotaryProfile], fmt: str, o: RotaryOptions
                   ) -> tuple[dict[str, str], list[dict[str, Any]], list[str]]:
     """The rotary tables of ``fmt``.
 
+    Parameters
+    ----------
+    profiles : sequence of RotaryProfile
+        One per rotary test (the session's order).
+    fmt : str
+        The format (``linuxcnc``, ``heidenhain``, ``siemens``, ``fanuc``, ``isg``; others
+        get none, with the reason in ``skipped``).
+    o : RotaryOptions
+        Sign override, spacing, the controllers' options.
+
     Returns
     -------
     files : dict of str to str

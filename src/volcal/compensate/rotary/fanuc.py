@@ -173,6 +173,20 @@ def read_fanuc_rotary(folder: str | Path, stem: str, unit_deg: float = 0.001
     """Points [deg] and cumulative compensation [deg] of a rotary table as written.
 
     Read from the parameter and pitch files; the compensation is zero at the reference.
+
+    Parameters
+    ----------
+    folder : str or Path
+        The compensation folder.
+    stem : str
+        Axis name in the file names (``C``).
+    unit_deg : float
+        Detection unit [deg].
+
+    Returns
+    -------
+    points, compensation : ndarray
+        Angles of the points from the reference [deg] and the compensation there [deg].
     """
     folder = Path(folder)
     pfile, dfile = folder / ROT_PARAM_FILE.format(stem), folder / ROT_PITCH_FILE.format(stem)

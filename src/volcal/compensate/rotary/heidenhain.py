@@ -49,7 +49,17 @@ WIDTHS = [6, 14, 16, 16]
 
 
 def heidenhain_nodes(p: RotaryProfile) -> NDArray[np.float64]:
-    """Points of the table [deg]: the targets, and 360 deg on a full-circle axis."""
+    """Points of the table [deg]: the targets, and 360 deg on a full-circle axis.
+
+    Parameters
+    ----------
+    p : RotaryProfile
+        The axis' error.
+
+    Returns
+    -------
+    ndarray
+    """
     t = np.asarray(p.targets_deg, dtype=float)
     if p.modulo:
         t = np.unique(np.r_[0.0, t, 360.0])
@@ -101,7 +111,17 @@ def heidenhain_rotary_files(p: RotaryProfile, name: str, sign: str = DEFAULT_SIG
 
 
 def heidenhain_rotary_cma(assign: dict[str, str]) -> str:
-    """``VOLCAL_ROTARY.CMA``: one active line assigning each rotary axis its table."""
+    """``VOLCAL_ROTARY.CMA``: one active line assigning each rotary axis its table.
+
+    Parameters
+    ----------
+    assign : dict of str to str
+        Axis name -> ``.COM`` file.
+
+    Returns
+    -------
+    str
+    """
     axes = sorted(assign)
     w = [6, 8] + [12] * len(axes)
     rows = [f"BEGIN {ROTARY_CMA_FILE}", _row(["NR", "ACTIVE", *axes], w),
@@ -113,7 +133,17 @@ def read_heidenhain_rotary(path: str | Path, column: str | None = None
                            ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Positions [deg] and values [deg] of a rotary ``.COM``.
 
-    ``column='BACKLASH'`` for the negative direction (the axis column when there is none).
+    Parameters
+    ----------
+    path : str or Path
+        The ``.COM`` table.
+    column : str, optional
+        ``'BACKLASH'`` for the negative direction (the axis column when there is none);
+        default the axis column.
+
+    Returns
+    -------
+    positions, values : ndarray
     """
     path = Path(path)
     head, rows = _table(path)

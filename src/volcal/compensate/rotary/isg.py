@@ -84,7 +84,17 @@ def isg_rotary_files(p: RotaryProfile, name: str, sign: str = DEFAULT_SIGN
 
 
 def read_isg_rotary(path: str | Path) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Argument [deg] and value [rad] of a rotary ISG CSV file (the documented syntax)."""
+    """Argument [deg] and value [rad] of a rotary ISG CSV file (the documented syntax).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+
+    Returns
+    -------
+    argument, value : ndarray
+    """
     from volcal.compensate.volumetric import parse_isg_csv
 
     path = Path(path)

@@ -47,7 +47,19 @@ DECIMALS = 9
 
 
 def linuxcnc_rotary_nodes(p: RotaryProfile, turns: int = 1) -> NDArray[np.float64]:
-    """Nominal joint positions of the table [deg]: the targets, repeated over the turns."""
+    """Nominal joint positions of the table [deg]: the targets, repeated over the turns.
+
+    Parameters
+    ----------
+    p : RotaryProfile
+        The axis' error.
+    turns : int
+        Full-circle axis: turns either side of 0..360 deg.
+
+    Returns
+    -------
+    ndarray
+    """
     if not p.modulo:
         return np.asarray(p.targets_deg, dtype=float)
     if turns < 0:
@@ -134,7 +146,19 @@ def linuxcnc_rotary_files(p: RotaryProfile, name: str, comp_type: int = 1, turns
 def read_linuxcnc_rotary(path: str | Path, comp_type: int = 1
                          ) -> tuple[NDArray[np.float64], NDArray[np.float64],
                                     NDArray[np.float64]]:
-    """Load a rotary comp file as LinuxCNC does: (nominal [deg], fwd, rev trims [deg])."""
+    """Load a rotary comp file as LinuxCNC does: (nominal [deg], fwd, rev trims [deg]).
+
+    Parameters
+    ----------
+    path : str or Path
+        The comp file.
+    comp_type : int
+        ``COMP_FILE_TYPE``.
+
+    Returns
+    -------
+    nominal, forward, reverse : ndarray
+    """
     from volcal.compensate.linuxcnc import load_linuxcnc_comp
 
     return load_linuxcnc_comp(path, comp_type)

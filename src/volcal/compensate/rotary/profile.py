@@ -166,6 +166,16 @@ def rotary_profile(m: Any) -> RotaryProfile:
 
 
 def rotary_profiles(session: Any) -> list[RotaryProfile]:
-    """Profiles of every rotary test of a session that has readings, in session order."""
+    """Profiles of every rotary test of a session that has readings, in session order.
+
+    Parameters
+    ----------
+    session : Session
+        A measured session.
+
+    Returns
+    -------
+    list of RotaryProfile
+    """
     return [rotary_profile(m) for m in session.measurements
             if m.kind == "rotary" and m.deviation is not None]

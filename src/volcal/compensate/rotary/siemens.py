@@ -57,7 +57,19 @@ FIRST_CEC_TABLE = 6
 
 
 def siemens_grid(p: RotaryProfile, spacing_deg: float) -> NDArray[np.float64]:
-    """Equidistant points [deg]: 0..360 on a full-circle axis, the targets' span otherwise."""
+    """Equidistant points [deg]: 0..360 on a full-circle axis, the targets' span otherwise.
+
+    Parameters
+    ----------
+    p : RotaryProfile
+        The axis' error.
+    spacing_deg : float
+        Distance between points [deg].
+
+    Returns
+    -------
+    ndarray
+    """
     if not math.isfinite(spacing_deg) or spacing_deg <= 0:
         raise ParameterError(f"{{rotary_spacing=}}{spacing_deg}: expected a positive angle "
                              "[deg]")
@@ -156,7 +168,17 @@ def read_siemens_rotary(folder: str | Path, ax: str
                         ) -> dict[str, tuple[NDArray[np.float64], NDArray[np.float64], bool]]:
     """The tables of one rotary machine axis, read from the programs.
 
-    ``{'lec'|'+'|'-': (points, values, modulo)}`` [deg], points MIN + N * STEP.
+    Parameters
+    ----------
+    folder : str or Path
+        The compensation folder.
+    ax : str
+        The machine axis (``AX4``).
+
+    Returns
+    -------
+    dict
+        ``{'lec'|'+'|'-': (points, values, modulo)}`` [deg], points MIN + N * STEP.
     """
     folder = Path(folder)
     out: dict[str, tuple[NDArray[np.float64], NDArray[np.float64], bool]] = {}

@@ -1,0 +1,220 @@
+"""The OPC UA control source: ``--control opcua:opc.tcp://host:4840[;KEY=V...]``.
+
+The control's axes are found by type (``CncAxisType`` of OPC 40502, the CNC information
+model), their positions read from ``PosDirect/ActPos`` (or ``PosIndirect/ActPos``) through
+a subscription (:mod:`volcal.capture.opcua_link`). A subscription notifies only on change,
+so while the machine dwells the server is silent: :meth:`OpcUaControl.poll` reports the last
+value of each axis at every poll, stamped with the time of the poll, and the trigger rule
+sees a control at rest, exactly as a polled LinuxCNC status would show it; nothing depends
+on how many notifications arrived. A lost connection is a sample with status
+``'lost: <reason>'`` and no position (never the last position: a lost control must not look
+like a dwell); the link connects again by itself and the samples resume.
+
+Options after the URL, separated by ``;``:
+
+=================  =======  ===============================================================
+key                default  meaning
+=================  =======  ===============================================================
+``position``       direct   ``direct`` (``PosDirect``: the scale) or ``indirect``
+                            (``PosIndirect``: the motor encoder)
+``publishing_ms``  50       publishing and sampling interval of the subscription [ms]
+``timeout_s``      4        timeout of one request, and of the first connection [s]
+``watch_s``        0.5      interval of the liveness check (a read of the server state) [s]
+``policy``         -        a signed channel: ``Basic256Sha256``, ``Aes128_Sha256_RsaOaep``
+                            or ``Aes256_Sha256_RsaPss`` (default: message security None)
+``mode``           SignAnd  ``Sign`` or ``SignAndEncrypt``
+                   Encrypt
+``cert``, ``key``  -        volcal's application certificate (DER or PEM) and its private
+                            key (PEM), required with ``policy``
+``server_cert``    -        the server's certificate (DER or PEM); without it the endpoints
+                            are asked over an unsecured channel first
+=================  =======  ===============================================================
+
+Requires the ``capture`` extra (PyPI ``asyncua``).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from volcal.capture.samples import ControlSample
+from volcal.capture.sources import (
+    SourceContext,
+    SourceError,
+    SourceSpec,
+    options,
+    register_control,
+)
+from volcal.errors import VolcalInputError
+from volcal.extras import require_extra
+
+if TYPE_CHECKING:
+    from volcal.capture.opcua_link import Security
+
+__all__ = ["OpcUaControl", "STATUS_LOST", "make"]
+
+STATUS_LOST = "lost"
+"""First word of the status of a sample taken while the connection is down."""
+
+OPTION_KEYS = ("position", "publishing_ms", "timeout_s", "watch_s", "policy", "mode", "cert",
+               "key", "server_cert")
+
+MIN_INTERVAL_S = 0.005
+"""A poll within this time [s] of the last sample returns None: the capture's loop drains
+each source until None, and a held value is one sample per poll, not an endless stream."""
+
+
+class OpcUaControl:
+    """A CNC control read over OPC UA (OPC 40502 ``CncAxisType``).
+
+    Parameters
+    ----------
+    url : str
+        ``opc.tcp://host:port[/path]``.
+    context : SourceContext
+        The capture's clock stamps the samples.
+    position : {'direct', 'indirect'}
+        ``PosDirect`` or ``PosIndirect``.
+    publishing_ms : float
+        Publishing interval of the subscription [ms].
+    timeout_s : float
+        Timeout of one request and of the first connection [s].
+    watch_s : float
+        Interval of the liveness check [s].
+    security : Security, optional
+        A signed channel (:class:`volcal.capture.opcua_link.Security`).
+    """
+
+    def __init__(self, url: str, context: SourceContext, *, position: str = "direct",
+                 publishing_ms: float = 50.0, timeout_s: float = 4.0,
+                 watch_s: float = 0.5, security: Security | None = None) -> None:
+        from volcal.capture.opcua_link import OpcUaLink
+
+        self.url = url
+        self.context = context
+        self.timeout_s = timeout_s
+        self.link = OpcUaLink(url, position=position, publishing_ms=publishing_ms,
+                              timeout_s=timeout_s, watch_s=watch_s, security=security)
+        self._last_t: float | None = None
+
+    def open(self) -> None:
+        """Connect, find the axes and subscribe.
+
+        Raises
+        ------
+        SourceError
+            No answer within ``timeout_s`` (plus the browse), or the server has no CNC axes.
+        """
+        from volcal.capture.opcua_link import OpcUaError
+
+        try:
+            self.link.start(wait_s=self.timeout_s * 2.0 + 2.0)
+        except OpcUaError as e:
+            raise SourceError(f"control source opcua:{self.url}: {e}") from None
+        snap = self.link.snapshot()
+        if not snap.connected:
+            self.link.close()
+            raise SourceError(f"control source opcua:{self.url}: cannot connect "
+                              f"({snap.reason or 'no answer'})")
+
+    def poll(self) -> ControlSample | None:
+        """The last position of every axis, at the time of this poll.
+
+        Returns
+        -------
+        ControlSample or None
+            ``status`` ``'ok'`` with the positions [mm] while connected; ``'lost: ...'``
+            with no position while the connection is down; None when the last sample is
+            less than :data:`MIN_INTERVAL_S` old (the loop asks again at once).
+        """
+        now = self.context.clock.now()
+        if self._last_t is not None and now - self._last_t < MIN_INTERVAL_S:
+            return None
+        self._last_t = now
+        snap = self.link.snapshot()
+        if not snap.connected:
+            return ControlSample(time_s=now, positions={},
+                                 status=f"{STATUS_LOST}: {snap.reason or snap.status}")
+        return ControlSample(time_s=now, positions=snap.positions)
+
+    def close(self) -> None:
+        """Disconnect (may be called twice)."""
+        self.link.close()
+
+    @property
+    def axes(self) -> list[str]:
+        """The names of the axes found (after :meth:`open`)."""
+        return [a.name for a in self.link.snapshot().axes]
+
+
+def make(spec: SourceSpec, context: SourceContext) -> OpcUaControl:
+    """The factory registered as ``opcua``: parse ``URL[;KEY=V...]``.
+
+    Parameters
+    ----------
+    spec : SourceSpec
+        ``argument`` is the URL and its options.
+    context : SourceContext
+        The capture's context.
+
+    Returns
+    -------
+    OpcUaControl
+        Not connected yet.
+    """
+    require_extra("capture", f"control source {spec.text!r}", ("asyncua",))
+    url, _, rest = spec.argument.partition(";")
+    url = url.strip()
+    if not url.startswith("opc.tcp://") or len(url) <= len("opc.tcp://"):
+        raise VolcalInputError(f"control source {spec.text!r}: expected "
+                               "opcua:opc.tcp://HOST:PORT (docs/capture_opcua.md)")
+    opts = options(rest, spec.text, OPTION_KEYS)
+    kw: dict[str, float] = {}
+    for key in ("publishing_ms", "timeout_s", "watch_s"):
+        if key in opts:
+            try:
+                kw[key] = float(opts[key])
+            except ValueError:
+                raise VolcalInputError(f"control source {spec.text!r}: {key}={opts[key]!r}: "
+                                       "expected a number") from None
+            if not kw[key] > 0:
+                raise VolcalInputError(f"control source {spec.text!r}: {key}={opts[key]}: "
+                                       "expected a positive number")
+    position = opts.get("position", "direct").lower()
+    if position not in ("direct", "indirect"):
+        raise VolcalInputError(f"control source {spec.text!r}: position={position!r}: "
+                               "expected direct or indirect")
+    security = None
+    if any(k in opts for k in ("policy", "cert", "key", "server_cert")):
+        security = _security(opts, spec.text)
+    elif "mode" in opts:
+        raise VolcalInputError(f"control source {spec.text!r}: mode= needs policy=, cert= "
+                               "and key= (docs/capture_opcua.md)")
+    return OpcUaControl(url, context, position=position, security=security, **kw)
+
+
+def _security(opts: dict[str, str], where: str) -> Security:
+    """The signed channel of the options ``policy``, ``mode``, ``cert``, ``key``."""
+    from pathlib import Path
+
+    from volcal.capture.opcua_link import MODES, POLICIES, Security
+
+    missing = [k for k in ("policy", "cert", "key") if not opts.get(k)]
+    if missing:
+        raise VolcalInputError(f"control source {where!r}: a signed channel needs "
+                               f"{', '.join(k + '=' for k in missing)} (docs/capture_opcua.md)")
+    if opts["policy"] not in POLICIES:
+        raise VolcalInputError(f"control source {where!r}: policy={opts['policy']!r}: "
+                               f"expected one of {', '.join(POLICIES)}")
+    mode = opts.get("mode", "SignAndEncrypt")
+    if mode not in MODES:
+        raise VolcalInputError(f"control source {where!r}: mode={mode!r}: expected "
+                               f"{' or '.join(MODES)}")
+    for k in ("cert", "key", "server_cert"):
+        if k in opts and not Path(opts[k]).is_file():
+            raise VolcalInputError(f"control source {where!r}: {k}={opts[k]}: no such file")
+    return Security(opts["policy"], mode, opts["cert"], opts["key"], opts.get("server_cert"))
+
+
+register_control("opcua", make, "an OPC UA server with the OPC 40502 CNC model "
+                 "(opcua:opc.tcp://HOST:4840)")

@@ -1,0 +1,478 @@
+"""The OPC UA connection to a CNC control (OPC 40502 CNC information model).
+
+A background thread runs an asyncio loop with an :mod:`asyncua` client. It browses the
+server's ``Objects`` folder for objects whose type is ``CncAxisType`` (or a subtype) of the
+namespace ``http://opcfoundation.org/UA/CNC``, subscribes to each axis' ``PosDirect/ActPos``
+(or ``PosIndirect/ActPos``), keeps the last value of each and watches the connection by
+reading the server's state every ``watch_s`` seconds.
+
+A subscription notifies only on change: while the machine dwells at a target, the server
+sends nothing. :meth:`OpcUaLink.snapshot` therefore answers from the values kept, never from a
+count of notifications; the caller stamps them with the time of its poll. When the
+connection is lost, the snapshot says so (``connected`` false, the reason and the time) and
+holds no position, so a lost control never looks like a dwell; the thread connects again
+every ``retry_s`` seconds, browses again and subscribes again.
+
+References
+----------
+OPC Foundation, OPC 40502 "OPC UA for Computerized Numerical Control (CNC) Systems" 1.00
+(2017): section 6.8.2 ``CncAxisType``, 7.3.2 ``CncPositionVariableType`` (``ActPos``,
+``CmdPos``, ``RemDist``). The nodeset file is ``Opc.Ua.CNC.NodeSet.xml``.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from volcal.errors import VolcalInputError
+
+CNC_NAMESPACES = ("http://opcfoundation.org/UA/CNC", "http://opcfoundation.org/UA/CNC/")
+"""The namespace URI of OPC 40502 (the nodeset spells it without the final slash)."""
+
+CNC_AXIS_TYPE_ID = 1004
+"""Numeric node id of ``CncAxisType`` in the CNC namespace (``Opc.Ua.CNC.NodeSet.xml``)."""
+
+POLICIES = ("Basic256Sha256", "Aes128_Sha256_RsaOaep", "Aes256_Sha256_RsaPss")
+"""Security policies of a signed channel (OPC UA's current ones; the deprecated Basic128Rsa15
+and Basic256 are left out)."""
+
+MODES = ("Sign", "SignAndEncrypt")
+"""Message security modes of a signed channel."""
+
+
+@dataclass(frozen=True)
+class Security:
+    """A signed (and encrypted) channel: the policy, the mode and volcal's certificate.
+
+    Attributes
+    ----------
+    policy : str
+        One of :data:`POLICIES`.
+    mode : str
+        ``'Sign'`` or ``'SignAndEncrypt'``.
+    cert : str
+        volcal's application certificate (DER or PEM); its URI (subject alternative name)
+        becomes the client's application URI, as servers check.
+    key : str
+        Its private key (PEM).
+    server_cert : str, optional
+        The server's certificate (DER or PEM). Without it the client asks the server for
+        its endpoints over an unsecured channel first, which a server offering only
+        secured channels refuses.
+    """
+
+    policy: str
+    mode: str
+    cert: str
+    key: str
+    server_cert: str | None = None
+
+
+POSITION_NODES = {"direct": "PosDirect", "indirect": "PosIndirect"}
+"""Which position of ``CncAxisType`` to read: the direct measuring system (a scale on the
+axis) or the indirect one (the motor encoder)."""
+
+MAX_BROWSE_NODES = 20000
+"""Browsing stops after this many objects (a large server is not browsed without end)."""
+
+MAX_BROWSE_DEPTH = 8
+"""Browsing goes at most this many references deep below ``Objects``."""
+
+
+class OpcUaError(VolcalInputError):
+    """The OPC UA server cannot be used as a control source (no CNC axes, bad URL...)."""
+
+
+@dataclass(frozen=True)
+class AxisNode:
+    """One CNC axis found on the server.
+
+    Attributes
+    ----------
+    name : str
+        Its browse name (``X``).
+    node_id : str
+        The axis object's node id.
+    value_id : str
+        The node id of the ``ActPos`` variable subscribed to.
+    factor : float
+        Millimetres (or degrees) per unit of the server's value, from the position's
+        ``EngineeringUnits`` (1 when it has none: OPC 40502 positions are in mm).
+    """
+
+    name: str
+    node_id: str
+    value_id: str
+    factor: float = 1.0
+
+
+@dataclass
+class Snapshot:
+    """What the link knows at one instant.
+
+    Attributes
+    ----------
+    connected : bool
+        The connection is up and subscribed.
+    positions : dict of str to float
+        Last ``ActPos`` per axis name [mm] (empty while not connected).
+    changed_at : float
+        ``time.time()`` when a position last changed [s] (0 before the first value).
+    notifications : int
+        Count of data-change notifications received (for diagnostics only).
+    status : str
+        ``'connecting'``, ``'connected'`` or ``'lost'``.
+    reason : str
+        Why the link is not connected (empty when connected).
+    since : float
+        ``time.time()`` of the last change of ``status`` [s].
+    axes : list of AxisNode
+        The axes subscribed to.
+    """
+
+    connected: bool = False
+    positions: dict[str, float] = field(default_factory=dict)
+    changed_at: float = 0.0
+    notifications: int = 0
+    status: str = "connecting"
+    reason: str = ""
+    since: float = 0.0
+    axes: list[AxisNode] = field(default_factory=list)
+
+
+class _Handler:
+    """asyncua subscription handler: stores each notified value under the link's lock."""
+
+    def __init__(self, link: OpcUaLink, axes: list[AxisNode]) -> None:
+        self.link = link
+        self.axes = {a.value_id: a for a in axes}  # node id string -> axis
+
+    def datachange_notification(self, node: Any, val: Any, data: Any) -> None:
+        axis = self.axes.get(node.nodeid.to_string())
+        if axis is None or val is None:
+            return
+        self.link._store(axis.name, float(val) * axis.factor)
+
+    def status_change_notification(self, status: Any) -> None:
+        self.link._lost(f"subscription status {status}")
+
+
+class OpcUaLink:
+    """A connection to an OPC UA CNC server kept by a background thread.
+
+    Parameters
+    ----------
+    url : str
+        ``opc.tcp://host:port[/path]``.
+    position : {'direct', 'indirect'}
+        ``PosDirect`` (the scale) or ``PosIndirect`` (the motor encoder).
+    publishing_ms : float
+        Publishing interval of the subscription [ms]; also its sampling interval.
+    timeout_s : float
+        Timeout of one request [s].
+    watch_s : float
+        Interval of the liveness check (a read of the server state) [s].
+    retry_s : float
+        Delay before connecting again after a loss [s].
+    security : Security, optional
+        A signed channel (default: message security None).
+    """
+
+    def __init__(self, url: str, *, position: str = "direct", publishing_ms: float = 50.0,
+                 timeout_s: float = 4.0, watch_s: float = 0.5, retry_s: float = 1.0,
+                 security: Security | None = None) -> None:
+        if not url.startswith("opc.tcp://"):
+            raise OpcUaError(f"OPC UA source {url!r}: expected opc.tcp://host:port")
+        if position not in POSITION_NODES:
+            raise OpcUaError(f"OPC UA source {url!r}: position {position!r}: expected "
+                             f"{' or '.join(POSITION_NODES)}")
+        self.url = url
+        self.position = position
+        self.publishing_ms = float(publishing_ms)
+        self.timeout_s = float(timeout_s)
+        self.watch_s = float(watch_s)
+        self.retry_s = float(retry_s)
+        self.security = security
+        self._lock = threading.Lock()
+        self._snap = Snapshot(since=time.time())
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._thread: threading.Thread | None = None
+        self._stop: asyncio.Event | None = None
+        self._first = threading.Event()
+        self._fatal: Exception | None = None
+
+    # -- the caller's side ------------------------------------------------------------
+    def start(self, wait_s: float = 10.0) -> None:
+        """Start the thread; wait until connected or ``wait_s`` passed.
+
+        Parameters
+        ----------
+        wait_s : float
+            Longest wait for the first connection [s] (the thread goes on trying after).
+
+        Raises
+        ------
+        OpcUaError
+            The server answered but exposes no usable CNC axis (a configuration error,
+            not a lost connection).
+        """
+        if self._thread is not None:
+            return
+        log = logging.getLogger("asyncua")
+        if log.level == logging.NOTSET:  # its warnings (revised intervals) and the errors of
+            log.setLevel(logging.CRITICAL)  # a refused channel would reach the terminal: the
+            # snapshot's status says why; a level set by the caller wins
+        self._thread = threading.Thread(target=self._run, name="volcal-opcua", daemon=True)
+        self._thread.start()
+        self._first.wait(wait_s)
+        if self._fatal is not None:
+            self.close()
+            raise OpcUaError(str(self._fatal)) from self._fatal
+
+    def snapshot(self) -> Snapshot:
+        """A copy of what the link knows now (thread-safe)."""
+        with self._lock:
+            s = self._snap
+            return Snapshot(connected=s.connected,
+                            positions=dict(s.positions) if s.connected else {},
+                            changed_at=s.changed_at, notifications=s.notifications,
+                            status=s.status, reason=s.reason, since=s.since,
+                            axes=list(s.axes))
+
+    def close(self) -> None:
+        """Stop the thread and disconnect."""
+        loop, stop = self._loop, self._stop
+        if loop is not None and stop is not None and loop.is_running():
+            loop.call_soon_threadsafe(stop.set)
+        if self._thread is not None:
+            self._thread.join(timeout=self.timeout_s + 2.0)
+        self._thread = None
+
+    # -- called from the loop thread -------------------------------------------------
+    def _store(self, name: str, value: float) -> None:
+        with self._lock:
+            s = self._snap
+            if s.positions.get(name) != value:
+                s.changed_at = time.time()
+            s.positions[name] = value
+            s.notifications += 1
+
+    def _set_status(self, status: str, reason: str = "") -> None:
+        with self._lock:
+            s = self._snap
+            if s.status != status:
+                s.since = time.time()
+            s.status = status
+            s.reason = reason
+            s.connected = status == "connected"
+            if not s.connected:
+                s.positions = {}
+
+    def _lost(self, reason: str) -> None:
+        self._set_status("lost", reason)
+
+    def _run(self) -> None:
+        loop = asyncio.new_event_loop()
+        self._loop = loop
+        try:
+            loop.run_until_complete(self._supervise())
+        finally:
+            loop.close()
+            self._first.set()
+
+    async def _supervise(self) -> None:
+        self._stop = asyncio.Event()
+        while not self._stop.is_set():
+            try:
+                await self._session()
+            except OpcUaError as exc:  # the server is there but has no CNC axes
+                self._fatal = exc
+                self._lost(str(exc))
+                self._first.set()
+                return
+            except Exception as exc:  # any loss: report, retry
+                self._lost(_describe(exc))
+            self._first.set()
+            with contextlib.suppress(asyncio.TimeoutError):
+                await asyncio.wait_for(self._stop.wait(), self.retry_s)
+
+    async def _session(self) -> None:
+        from asyncua import Client
+
+        assert self._stop is not None
+        client = Client(self.url, timeout=self.timeout_s)
+        try:
+            if self.security is not None:
+                await _secure(client, self.security)
+            await client.connect()
+            axes = await find_axes(client, self.position)
+            handler = _Handler(self, axes)
+            nodes = [client.get_node(a.value_id) for a in axes]
+            values = await client.read_values(nodes)
+            sub = await client.create_subscription(self.publishing_ms, handler)
+            from asyncua import ua
+
+            await sub.subscribe_data_change(nodes,
+                                            sampling_interval=ua.Double(self.publishing_ms))
+            with self._lock:
+                self._snap.axes = axes
+            self._set_status("connected")
+            for a, v in zip(axes, values, strict=True):
+                self._store(a.name, float(v) * a.factor)
+            self._first.set()
+            state = client.nodes.server_state
+            while not self._stop.is_set():
+                with contextlib.suppress(asyncio.TimeoutError):
+                    await asyncio.wait_for(self._stop.wait(), self.watch_s)
+                if self._stop.is_set():
+                    break
+                await asyncio.wait_for(state.read_value(), self.timeout_s)
+                if self._snap.status != "connected":  # the subscription said it died
+                    raise ConnectionError(self._snap.reason or "subscription lost")
+        finally:
+            with contextlib.suppress(Exception):
+                await asyncio.wait_for(client.disconnect(), self.timeout_s)
+        self._set_status("lost", "closed")
+
+
+async def _secure(client: Any, sec: Security) -> None:
+    """Set a signed channel on ``client`` (before it connects)."""
+    from asyncua import ua
+    from asyncua.crypto import security_policies as sp
+    from cryptography import x509
+
+    policy = {"Basic256Sha256": sp.SecurityPolicyBasic256Sha256,
+              "Aes128_Sha256_RsaOaep": sp.SecurityPolicyAes128Sha256RsaOaep,
+              "Aes256_Sha256_RsaPss": sp.SecurityPolicyAes256Sha256RsaPss}[sec.policy]
+    raw = Path(sec.cert).read_bytes()
+    cert = (x509.load_pem_x509_certificate(raw) if raw.lstrip().startswith(b"-----")
+            else x509.load_der_x509_certificate(raw))
+    try:
+        san = cert.extensions.get_extension_for_class(x509.SubjectAlternativeName)
+        uris = san.value.get_values_for_type(x509.UniformResourceIdentifier)
+    except x509.ExtensionNotFound:
+        uris = []
+    if uris:
+        client.application_uri = uris[0]
+    await client.set_security(policy, sec.cert, sec.key, server_certificate=sec.server_cert,
+                              mode=getattr(ua.MessageSecurityMode, sec.mode))
+
+
+def _describe(exc: Exception) -> str:
+    text = str(exc) or type(exc).__name__
+    return f"{type(exc).__name__}: {text}" if text != type(exc).__name__ else text
+
+
+async def find_axes(client: Any, position: str = "direct") -> list[AxisNode]:
+    """Browse ``Objects`` for the CNC axes and the ``ActPos`` variable of each.
+
+    Parameters
+    ----------
+    client : asyncua.Client
+        A connected client.
+    position : {'direct', 'indirect'}
+        ``PosDirect`` or ``PosIndirect``.
+
+    Returns
+    -------
+    list of AxisNode
+        In browse order.
+
+    Raises
+    ------
+    OpcUaError
+        No CNC namespace, no object of type ``CncAxisType``, an axis without the position
+        variable, or two axes of one name.
+    """
+    from asyncua import ua
+
+    uris = await client.get_namespace_array()
+    idx = next((i for i, u in enumerate(uris) if u in CNC_NAMESPACES), None)
+    if idx is None:
+        raise OpcUaError(f"{client.server_url.geturl()}: the server has no OPC 40502 CNC "
+                         f"namespace ({CNC_NAMESPACES[0]}); namespaces: {', '.join(uris)}")
+    axis_type = ua.NodeId(ua.Int32(CNC_AXIS_TYPE_ID), ua.Int16(idx))
+    types = {axis_type.to_string()}
+    todo = [axis_type]
+    while todo:  # subtypes of CncAxisType
+        children = await client.get_node(todo.pop()).get_children(
+            refs=ua.ObjectIds.HasSubtype, nodeclassmask=ua.NodeClass.ObjectType)
+        for c in children:
+            if c.nodeid.to_string() not in types:
+                types.add(c.nodeid.to_string())
+                todo.append(c.nodeid)
+    found: list[tuple[str, str]] = []
+    seen = {client.nodes.objects.nodeid.to_string(), client.nodes.server.nodeid.to_string()}
+    level = [client.nodes.objects]
+    for _ in range(MAX_BROWSE_DEPTH):
+        nxt = []
+        for node in level:
+            refs = await node.get_children_descriptions(
+                refs=ua.ObjectIds.HierarchicalReferences, nodeclassmask=ua.NodeClass.Object)
+            for r in refs:
+                key = r.NodeId.to_string()
+                if key in seen:
+                    continue
+                seen.add(key)
+                if r.TypeDefinition.to_string() in types:
+                    found.append((r.BrowseName.Name, key))
+                else:
+                    nxt.append(client.get_node(r.NodeId))
+                if len(seen) > MAX_BROWSE_NODES:
+                    break
+        level = nxt
+        if not level or len(seen) > MAX_BROWSE_NODES:
+            break
+    url = client.server_url.geturl()
+    if not found:
+        raise OpcUaError(f"{url}: no object of type CncAxisType below Objects "
+                         f"(OPC 40502 namespace {uris[idx]})")
+    names = [n for n, _ in found]
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise OpcUaError(f"{url}: several CNC axes named {', '.join(dup)}: "
+                         + "; ".join(f"{n} {k}" for n, k in found if n in dup))
+    axes = []
+    var = POSITION_NODES[position]
+    for name, key in found:
+        try:
+            node = await client.get_node(key).get_child([f"{idx}:{var}", f"{idx}:ActPos"])
+        except Exception as exc:  # BadNoMatch and the like
+            raise OpcUaError(f"{url}: axis {name} ({key}) has no {var}/ActPos: "
+                             f"{_describe(exc)}") from exc
+        factor = await _unit_factor(client, key, idx, var, url, name)
+        axes.append(AxisNode(name=name, node_id=key, value_id=node.nodeid.to_string(),
+                             factor=factor))
+    return axes
+
+
+UNIT_FACTORS = {5066068: 1.0, 4804168: 25.4, 5067858: 1000.0, 17476: 1.0}
+"""UNECE unit id (``EUInformation.UnitId``) -> factor to mm (or deg): MMT, INH, MTR, DD."""
+
+
+async def _unit_factor(client: Any, key: str, idx: int, var: str, url: str,
+                       name: str) -> float:
+    """The factor of the position's ``EngineeringUnits`` to mm (1 when it has none)."""
+    pos = client.get_node(key)
+    eu = None
+    for browse in (f"{idx}:{var}/{idx}:EngineeringUnits", f"{idx}:{var}/0:EngineeringUnits"):
+        try:
+            node = await pos.get_child(browse.split("/"))
+            eu = await node.read_value()
+            break
+        except Exception:  # absent or empty: the model's mm
+            continue
+    if eu is None or not getattr(eu, "UnitId", None):
+        return 1.0
+    if eu.UnitId in UNIT_FACTORS:
+        return UNIT_FACTORS[eu.UnitId]
+    text = getattr(getattr(eu, "DisplayName", None), "Text", "") or ""
+    raise OpcUaError(f"{url}: axis {name} {var} is in {text or eu.UnitId}: expected mm, "
+                     f"m, inch or deg (UNECE MMT, MTR, INH, DD)")

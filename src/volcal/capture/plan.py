@@ -1,0 +1,226 @@
+"""The planned dwells of a measurement, from the step list its part program was written from.
+
+The capture does not parse the part program: it rebuilds the program's steps with
+:func:`volcal.program.steps.build_steps` from the session and the program options (read
+from the program folder's index ``volcal-programs.toml`` when given), so the targets, the
+approach moves and the dwell time are exactly those of the program on the control.
+"""
+
+from __future__ import annotations
+
+import re
+import tomllib
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from volcal.errors import VolcalInputError
+from volcal.program.steps import ProgramOptions, Step, build_steps
+
+__all__ = ["PlannedDwell", "PlannedMeasurement", "dwell_lines", "plan_measurement",
+           "program_options"]
+
+_DWELL = re.compile(r"^\s*(?:N\d+\s+)?G0?4(?![0-9.])", re.IGNORECASE)
+_MOVE = re.compile(r"^\s*(?:N\d+\s+)?(?:G0?[01](?![0-9.])|[XYZABC][-+0-9.])", re.IGNORECASE)
+
+
+@dataclass(frozen=True)
+class PlannedDwell:
+    """One programmed dwell: where a reading is taken.
+
+    Attributes
+    ----------
+    reading : int
+        Data row of the measurement's CSV (0-based; the CSV row is ``reading + 2``).
+    target : ndarray, shape (3,)
+        Commanded position X, Y, Z [mm].
+    approach : ndarray, shape (3,), or None
+        Unit vector of the move that reaches the target (the ISO 230-2 approach
+        direction); None for a dwell reached by the start positioning only.
+    seconds : float
+        Programmed dwell [s].
+    run : int or None
+        Run number (linear tests).
+    direction : str or None
+        ``'+'`` or ``'-'`` (linear tests).
+    lines : tuple of int
+        Lines of the part program (1-based) a control reports while the machine dwells
+        here: the dwell block and the move before it (LinuxCNC's ``motion_line`` names the
+        move); empty when the program file is not known.
+    """
+
+    reading: int
+    target: NDArray[np.float64]
+    approach: NDArray[np.float64] | None
+    seconds: float
+    run: int | None = None
+    direction: str | None = None
+    lines: tuple[int, ...] = ()
+
+
+@dataclass(frozen=True)
+class PlannedMeasurement:
+    """A measurement with its programmed steps and dwells.
+
+    Attributes
+    ----------
+    measurement : Measurement
+        The planned measurement (:class:`volcal.session.format.Measurement`).
+    steps : tuple of Step
+        The program's steps (start positioning, operator stop, moves, dwells).
+    dwells : tuple of PlannedDwell
+        One per reading, in the program's order.
+    waypoints : ndarray, shape (k, 3)
+        End points of the moves that are not readings (start pose, approach and overrun
+        points) [mm]: a stop there is no reading.
+    options : ProgramOptions
+        The program's options.
+    """
+
+    measurement: Any
+    steps: tuple[Step, ...]
+    dwells: tuple[PlannedDwell, ...]
+    waypoints: NDArray[np.float64]
+    options: ProgramOptions
+
+    @property
+    def start(self) -> NDArray[np.float64] | None:
+        """The start pose: where the program stands at its operator stop [mm]."""
+        st = next((s for s in self.steps if s.kind == "start"), None)
+        return None if st is None or st.position is None else np.asarray(st.position, float)
+
+    @property
+    def id(self) -> str:
+        """The measurement's id."""
+        return str(self.measurement.id)
+
+
+def program_options(programs: str | Path | None = None, **overrides: Any) -> ProgramOptions:
+    """The options the part programs were written with.
+
+    Parameters
+    ----------
+    programs : str or Path, optional
+        The program folder (``volcal program -o``) or its ``volcal-programs.toml``: its
+        dwell, feed, overrun and safe Z are used.
+    **overrides
+        ``dwell_s``, ``feed``, ``overrun_mm``, ``decimals``, ``safe_z_mm`` given
+        explicitly (None: from the index, else volcal's defaults).
+
+    Returns
+    -------
+    ProgramOptions
+    """
+    base: dict[str, Any] = {}
+    if programs is not None:
+        p = Path(programs)
+        index = p / "volcal-programs.toml" if p.is_dir() else p
+        try:
+            doc = tomllib.loads(index.read_text(encoding="utf-8"))
+        except (OSError, tomllib.TOMLDecodeError) as e:
+            raise VolcalInputError(f"cannot read the program index: {e}", index) from None
+        for key, name in (("dwell_s", "dwell_s"), ("feed_mm_min", "feed"),
+                          ("overrun_mm", "overrun_mm"), ("safe_z_machine_mm", "safe_z_mm")):
+            if key in doc:
+                base[name] = float(doc[key])
+    base.update({k: v for k, v in overrides.items() if v is not None})
+    opts = ProgramOptions(**base)
+    opts.check()
+    return opts
+
+
+def dwell_lines(programs: str | Path | None, measurement_id: str) -> list[tuple[int, int]]:
+    """Program lines of each dwell of a measurement's part program, in order.
+
+    Parameters
+    ----------
+    programs : str or Path or None
+        The program folder (``volcal program -o``) or its index.
+    measurement_id : str
+        The measurement.
+
+    Returns
+    -------
+    list of (int, int)
+        (line of the move before the dwell, line of the dwell block), 1-based; empty when
+        the folder, its index or the program is missing, or the program has no ISO dwell
+        blocks (``G4``/``G04``: Fanuc, LinuxCNC, Siemens).
+    """
+    if programs is None:
+        return []
+    p = Path(programs)
+    folder = p if p.is_dir() else p.parent
+    try:
+        doc = tomllib.loads((folder / "volcal-programs.toml").read_text(encoding="utf-8"))
+        entry = next(e for e in doc.get("programs", [])
+                     if isinstance(e, dict) and e.get("measurement") == measurement_id)
+        text = (folder / str(entry["file"])).read_text(encoding="utf-8", errors="replace")
+    except (OSError, tomllib.TOMLDecodeError, StopIteration, KeyError):
+        return []
+    out: list[tuple[int, int]] = []
+    move = 0
+    for no, line in enumerate(text.splitlines(), start=1):
+        if _DWELL.match(line):
+            out.append((move, no))
+        elif _MOVE.match(line):
+            move = no
+    return out
+
+
+def plan_measurement(m: Any, travel: NDArray[np.float64], options: ProgramOptions,
+                     programs: str | Path | None = None) -> PlannedMeasurement:
+    """The programmed dwells of measurement ``m``.
+
+    Parameters
+    ----------
+    m : Measurement
+        A planned (or measured) measurement.
+    travel : ndarray, shape (3, 2)
+        The machine's travel [mm].
+    options : ProgramOptions
+        The program's options (:func:`program_options`).
+    programs : str or Path, optional
+        The program folder: the program lines of each dwell (:func:`dwell_lines`), by
+        which a control that reports its line (LinuxCNC) names the dwell it stands in.
+
+    Returns
+    -------
+    PlannedMeasurement
+    """
+    sl = build_steps(m, travel, options)
+    dwells: list[PlannedDwell] = []
+    waypoints: list[tuple[float, float, float]] = []
+    here: NDArray[np.float64] | None = None
+    approach: NDArray[np.float64] | None = None
+    run = m.run
+    direction = m.direction
+    for st in sl.steps:
+        if st.kind == "start" and st.position is not None:
+            here, approach = np.asarray(st.position, float), None
+        elif st.kind == "move" and st.position is not None:
+            p = np.asarray(st.position, float)
+            if here is not None:
+                d = p - here
+                n = float(np.linalg.norm(d))
+                approach = d / n if n > 0 else approach
+            here = p
+            if st.text != "reading":
+                waypoints.append(st.position)
+        elif st.kind == "dwell" and st.reading is not None:
+            i = int(st.reading)
+            dwells.append(PlannedDwell(
+                i, np.asarray(m.positions[i], float),
+                None if approach is None else approach.copy(), float(st.seconds or 0.0),
+                None if run is None else int(run[i]),
+                None if direction is None else str(direction[i])))
+    lines = dwell_lines(programs, m.id)
+    if len(lines) == len(dwells):
+        dwells = [replace(d, lines=lines[k]) for k, d in enumerate(dwells)]
+    start = next(st.position for st in sl.steps if st.kind == "start")
+    if start is not None:
+        waypoints.insert(0, start)
+    return PlannedMeasurement(m, tuple(sl.steps), tuple(dwells),
+                              np.asarray(waypoints, float).reshape(-1, 3), options)

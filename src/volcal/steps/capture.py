@@ -1,0 +1,304 @@
+"""Step ``capture``: readings taken while the part programs run, one row per dwell."""
+
+from __future__ import annotations
+
+import shutil
+import tempfile
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from volcal import defaults as D
+from volcal.errors import ParameterError, VolcalInputError
+
+if TYPE_CHECKING:
+    from volcal.capture.plan import PlannedMeasurement
+    from volcal.capture.runner import Outcome
+    from volcal.capture.samples import CaptureEvent
+    from volcal.session.format import Session
+
+__all__ = ["Captured", "capture", "read_planned"]
+
+PLANNED_SUFFIX = ".planned.csv"
+"""``capture/<id>.planned.csv``: the measurement's file as planned, kept at the first start."""
+
+
+@dataclass(frozen=True)
+class Captured:
+    """What :func:`capture` recorded.
+
+    Attributes
+    ----------
+    folder : Path
+        The session folder written (``output``, else the session).
+    outcomes : tuple of Outcome
+        One per measurement captured in this run (:class:`volcal.capture.runner.Outcome`).
+    skipped : tuple of str
+        Measurements already complete in their journals, not captured again.
+    complete : bool
+        Every asked measurement is complete.
+    notes : tuple of str
+        What the user should know (missed rows, where to resume).
+    """
+
+    folder: Path
+    outcomes: tuple[Outcome, ...]
+    skipped: tuple[str, ...]
+    complete: bool
+    notes: tuple[str, ...]
+
+
+def read_planned(folder: str | Path) -> Session:
+    """The session as planned, also while its measurements are being captured.
+
+    A measurement under capture has rows not filled yet, which the session reader refuses;
+    its planned file, kept at the first start in ``capture/<id>.planned.csv``, is read in
+    its place.
+
+    Parameters
+    ----------
+    folder : str or Path
+        The session folder.
+
+    Returns
+    -------
+    Session
+        Read with ``require_deviation=False``; ``path`` is ``folder``.
+    """
+    from volcal.capture.journal import JOURNAL_FOLDER
+    from volcal.session.format import read_session
+
+    folder = Path(folder)
+    planned = folder / JOURNAL_FOLDER
+    if not planned.is_dir() or not any(planned.glob("*" + PLANNED_SUFFIX)):
+        return read_session(folder, require_deviation=False)
+    with tempfile.TemporaryDirectory() as tmp:
+        copy = Path(tmp) / "s"
+        shutil.copytree(folder, copy, ignore=shutil.ignore_patterns(
+            JOURNAL_FOLDER, "backup", "truth", ".*.tmp"))
+        s0 = read_session_toml_files(copy)
+        for rel in s0:
+            src = planned / (Path(rel).stem + PLANNED_SUFFIX)
+            if src.is_file():
+                shutil.copyfile(src, copy / rel)
+        s = read_session(copy, require_deviation=False)
+    s.path = folder
+    return s
+
+
+def read_session_toml_files(folder: Path) -> list[str]:
+    """The measurement files ``session.toml`` names.
+
+    Parameters
+    ----------
+    folder : Path
+        A session folder.
+
+    Returns
+    -------
+    list of str
+        Relative paths.
+    """
+    import tomllib
+
+    try:
+        doc = tomllib.loads((folder / "session.toml").read_text(encoding="utf-8"))
+    except (OSError, tomllib.TOMLDecodeError):
+        return []
+    return [str(e["file"]) for e in doc.get("measurements", []) if isinstance(e, dict)
+            and isinstance(e.get("file"), str)]
+
+
+def _target_folder(session: Any, output: str | Path | None) -> Path:
+    """The folder captured into: the session, or ``output`` (made from it, or resumed)."""
+    from volcal.session.format import write_session
+
+    if not isinstance(session, str | Path) and session.path is None:
+        raise ParameterError("{session=} has no folder: capture writes into a session "
+                             "folder (save the session first)")
+    src = Path(session.path) if not isinstance(session, str | Path) else Path(session)
+    if output is None:
+        return src
+    out = Path(output)
+    if (out / "session.toml").is_file():
+        a, b = read_planned(src), read_planned(out)
+        if [m.id for m in a.measurements] != [m.id for m in b.measurements]:
+            raise ParameterError(f"{{output=}}{out} holds another session (measurements "
+                                 f"{', '.join(m.id for m in b.measurements)}), not a "
+                                 "capture of this one", out / "session.toml")
+        return out
+    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+        raise ParameterError(f"{{output=}}{out} exists and is not a session: give a new "
+                             "folder, or the folder of a capture to resume")
+    planned = read_planned(src)
+    for m in planned.measurements:
+        if m.deviation is not None:
+            raise ParameterError(f"{{output=}}: {m.id} of {src} holds readings: capture into "
+                                 "a copy of the planned session only", src / m.file)
+    write_session(planned, out)
+    return out
+
+
+def capture(session: Session | str | Path, *, control: str, laser: str,
+            measurement: Sequence[str] | None = None, output: str | Path | None = None,
+            programs: str | Path | None = None, dwell_s: float | None = None,
+            feed: float | None = None, overrun_mm: float | None = None,
+            window_mm: float = D.CAPTURE_WINDOW_MM, stable_s: float = D.CAPTURE_STABLE_S,
+            k_sigma: float = D.CAPTURE_K_SIGMA, laser_noise: float = D.CAPTURE_LASER_NOISE,
+            control_noise_mm: float = D.CAPTURE_CONTROL_NOISE_MM,
+            max_gap_s: float = D.CAPTURE_MAX_GAP_S, poll_s: float = D.CAPTURE_POLL_S,
+            timeout_s: float | None = None, speed: float | None = None,
+            observer: Callable[[CaptureEvent], None] | None = None,
+            extras: dict[str, Any] | None = None) -> Captured:
+    """Capture the planned measurements of a session while their part programs run.
+
+    Each measurement is captured in the plan's order (or the order of ``measurement``):
+    the trigger rule (:mod:`volcal.capture.trigger`, ``docs/capture.md``) accepts one
+    point per programmed dwell, or records it ``missed``; every sample and decision is
+    journaled in ``SESSION/capture/<id>.jsonl`` and the measurement's CSV is rewritten
+    atomically after each point. Run again after a kill or a disconnection, the same call
+    resumes each measurement where its journal stopped; a complete measurement is skipped.
+
+    Parameters
+    ----------
+    session : Session, str or Path
+        The planned session (its folder).
+    control : str
+        Control ``SOURCE``: ``'sim'``, ``'linuxcnc'``, ``'opcua:opc.tcp://host:4840'``...
+        (:mod:`volcal.capture.sources`).
+    laser : str
+        Laser ``SOURCE``: ``'sim'``, ``'stream:tcp://host:port'``, ``'stream:/dev/ttyUSB0'``,
+        ``'stream:-'``, ``'file:PATH'``, ``'typed'``.
+    measurement : sequence of str, optional
+        Ids of the measurements to capture, in this order (default: every one).
+    output : str or Path, optional
+        Capture into this folder (a copy of the planned session is made there; an
+        existing capture there is resumed) instead of the session's own folder.
+    programs : str or Path, optional
+        The program folder (``volcal program -o``): its dwell, feed and overrun.
+    dwell_s, feed, overrun_mm : float, optional
+        The program's dwell [s], feed [mm/min] and overrun [mm] when not read from
+        ``programs`` (default: volcal program's defaults).
+    window_mm : float
+        Target window [mm].
+    stable_s : float
+        Time both signals must be stable [s] (at most 3/4 of the dwell).
+    k_sigma : float
+        Stability threshold in standard errors.
+    laser_noise : float
+        Floor of the laser noise [um or urad].
+    control_noise_mm : float
+        Floor of the control position noise [mm].
+    max_gap_s : float
+        Longest polling gap inside a stable window [s].
+    poll_s : float
+        Pause between two polls [s].
+    timeout_s : float, optional
+        Stop (to resume later) when the control is silent, or nothing is decided, this
+        long [s]; None waits for ever (a simulated control ends with its program).
+    speed : float, optional
+        With a simulated control: simulated seconds per wall second (None: as fast as
+        possible).
+    observer : callable, optional
+        Called with every :class:`volcal.capture.samples.CaptureEvent` (the page).
+    extras : dict, optional
+        Objects handed to the sources (:attr:`volcal.capture.sources.SourceContext.extras`).
+
+    Returns
+    -------
+    Captured
+    """
+    from volcal.capture.journal import JOURNAL_FOLDER, journal_path, read_journal
+    from volcal.capture.plan import plan_measurement, program_options
+    from volcal.capture.runner import LoopOptions, capture_measurement
+    from volcal.capture.sources import (
+        Clock,
+        SourceContext,
+        VirtualClock,
+        is_simulated_control,
+        make_control,
+        make_laser,
+    )
+    from volcal.capture.trigger import TriggerParams
+
+    params = TriggerParams(window_mm=window_mm, stable_s=stable_s, k_sigma=k_sigma,
+                           laser_noise=laser_noise, control_noise_mm=control_noise_mm,
+                           max_gap_s=max_gap_s)
+    params.check()
+    if not (isinstance(poll_s, int | float) and 0 < poll_s <= max_gap_s):
+        raise ParameterError(f"{{poll_s=}}{poll_s!r}: expected 0 < poll <= {{max_gap_s=}}"
+                             f"{max_gap_s:g} s")
+    if timeout_s is not None and not timeout_s > 0:
+        raise ParameterError(f"{{timeout_s=}}{timeout_s!r}: expected a positive time [s]")
+    if speed is not None and not speed > 0:
+        raise ParameterError(f"{{speed=}}{speed!r}: expected a positive factor")
+    opts = program_options(programs, dwell_s=dwell_s, feed=feed, overrun_mm=overrun_mm)
+    params.check(opts.dwell_s)
+    simulated = is_simulated_control(control)
+    if isinstance(session, str | Path) and not (Path(session) / "session.toml").is_file():
+        raise VolcalInputError("not a session folder (no session.toml)", session)
+    folder = _target_folder(session, output)
+    s = read_planned(folder)
+    ids = [m.id for m in s.measurements]
+    chosen = list(measurement) if measurement else ids
+    for mid in chosen:
+        if mid not in ids:
+            raise ParameterError(f"{{measurement=}}{mid!r} is not in the session (its "
+                                 f"measurements: {', '.join(ids)})", folder / "session.toml")
+    if len(set(chosen)) != len(chosen):
+        raise ParameterError(f"{{measurement=}}: an id is given twice ({', '.join(chosen)})")
+    plans = [plan_measurement(s.get(mid), s.travel, opts, programs) for mid in chosen]
+    (folder / JOURNAL_FOLDER).mkdir(exist_ok=True)
+    for pm in plans:  # keep each measurement's planned file at its first start
+        keep = folder / JOURNAL_FOLDER / (Path(pm.measurement.file).stem + PLANNED_SUFFIX)
+        if not keep.is_file():
+            from volcal.io.atomic import write_text
+
+            write_text(keep, (folder / pm.measurement.file).read_text(encoding="utf-8"))
+    todo: list[PlannedMeasurement] = []
+    skipped: list[PlannedMeasurement] = []
+    for pm in plans:
+        rec = read_journal(journal_path(folder, pm.id))
+        (skipped if rec.done >= {d.reading for d in pm.dwells} else todo).append(pm)
+    clock = VirtualClock(speed) if simulated else Clock()
+    state: dict[str, Any] = {"latest": None, "current": None}
+    ctx = SourceContext(clock, s, plans, lambda: state["latest"], lambda: state["current"],
+                        dict(extras or {}))
+    outcomes: list[Outcome] = []
+    notes: list[str] = []
+    if todo:
+        ctrl = make_control(control, ctx)
+        las = make_laser(laser, ctx)
+        ctrl.open()
+        try:
+            las.open()
+            try:
+                for pm in todo:
+                    state["current"] = pm.id
+                    out = capture_measurement(
+                        pm, folder, ctrl, las, clock, params, sources=(control, laser),
+                        loop=LoopOptions(poll_s=poll_s, timeout_s=timeout_s),
+                        observer=observer, latest=lambda c: state.__setitem__("latest", c))
+                    outcomes.append(out)
+                    notes += out.notes
+                    if not out.complete:
+                        break
+            finally:
+                las.close()
+        finally:
+            ctrl.close()
+    for out in outcomes:
+        if out.missed:
+            notes.append(f"{out.measurement}: missed at row(s) {', '.join(map(str, out.missed))}"
+                         " (docs/capture.md: what to do when a point is missed)")
+        if not out.complete:
+            notes.append(f"{out.measurement}: {out.reason}; {out.accepted} of {out.planned} "
+                         "readings recorded. Run the same command again to resume")
+        elif 2 in out.missed:
+            notes.append(f"{out.measurement}: the first reading (row 2), the reference of "
+                         "the others, was missed: the session reader refuses the file; "
+                         "capture the measurement again into a new session (-o)")
+    done = len(outcomes) == len(todo) and all(o.complete for o in outcomes)
+    return Captured(folder, tuple(outcomes), tuple(pm.id for pm in skipped), done,
+                    tuple(notes))

@@ -1,0 +1,225 @@
+"""volcal capture on LinuxCNC itself: volcal's part program run by LinuxCNC in simulation.
+
+LinuxCNC 2.9 runs headless as an unprivileged user (the fixture of the rotary issue,
+tests/linuxcnc_sim.py) and executes volcal's own program for a linear test three times;
+``volcal capture --control linuxcnc`` reads LinuxCNC's status channel through the bridge
+run by /usr/bin/python3, and the simulated laser reads an injected error map (volcal's
+random virtual machine, seed 3) at LinuxCNC's actual position. Checks:
+
+* capture A (program run 1, uninterrupted): exactly one row per dwell, in order, every
+  accepted window inside a dwell of LinuxCNC (no sample of the window in motion, the
+  program running, the axes at the target, LinuxCNC on that reading's own program lines)
+  and after the program's start; the readings equal the injected map within the noise;
+* capture B (program runs 2 and 3): SIGKILL after two points, resumed at once: every
+  reading once, the same rows as A, readings equal to A's and to the map within noise.
+
+The trimmed check (6 dwells) runs in make test; the ISO 230-2 cycle (5 runs, 60 dwells)
+runs in make study.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import uuid
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from linuxcnc_sim import linuxcnc_missing, run_linuxcnc, xyzc_joints
+from timing import scaled_timeout
+
+SEED = 3
+NOISE_UM = 0.05
+
+
+def _volcal(*args: str) -> subprocess.Popen[str]:
+    return subprocess.Popen([sys.executable, "-c", "from volcal.cli import main; main()",
+                             *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def _journal(folder: Path, mid: str) -> list[dict]:
+    p = folder / "capture" / f"{mid}.jsonl"
+    out = []
+    if p.is_file():
+        for line in p.read_bytes().splitlines():
+            try:
+                out.append(json.loads(line))
+            except json.JSONDecodeError:
+                pass
+    return out
+
+
+def _truth(session: Path, mid: str) -> np.ndarray:
+    from volcal.measure.virtual import random_machine
+    from volcal.session.format import read_session
+    from volcal.session.kinds import kind_of
+
+    s = read_session(session, require_deviation=False)
+    m = s.get(mid)
+    return np.asarray(kind_of(m.kind).exact(random_machine(s.travel, s.chain, SEED), m))
+
+
+def _check_windows(journal: list[dict], targets: np.ndarray, window_mm: float,
+                   lines: list[tuple[int, int]]) -> None:
+    """Each accepted window lies inside one dwell of LinuxCNC, after the program started,
+    and LinuxCNC executes that reading's own lines of the program (the right run)."""
+    ctrl = [x for x in journal if x["type"] == "control"]
+    runs = [k for k, x in enumerate(journal) if x["type"] == "start"]
+    first_running = min(x["t"] for x in ctrl if x.get("running"))
+    for x in journal:
+        if x["type"] != "accepted":
+            continue
+        lo, hi = x["window"]
+        assert lo > first_running
+        # the control samples of the window's own run (each run has its own clock)
+        run_start = max(k for k in runs if k < journal.index(x))
+        inside = [c for c in journal[run_start:journal.index(x)]
+                  if c["type"] == "control" and lo <= c["t"] <= hi]
+        assert len(inside) >= 5
+        for c in inside:
+            assert c["running"] and not c["moving"], (x["reading"], c)
+            assert c["line"] in lines[x["reading"]], (x["reading"], c["line"])
+            p = np.array([c["pos"][a] for a in "XYZ"])
+            assert np.max(np.abs(p - targets[x["reading"]])) <= window_mm
+
+
+def _wait(p: subprocess.Popen[str], what: str, timeout: float) -> str:
+    try:
+        out, err = p.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        p.kill()
+        out, err = p.communicate()
+        raise AssertionError(f"{what} did not end: {out}\n{err}") from None
+    assert p.returncode == 0, f"{what}: {out}\n{err}"
+    return out
+
+
+def _run(tmp_path: Path, *, steps: int, runs: int, travel: float, dwell_s: float,
+         stable_s: float, max_gap_s: float, feed: float) -> None:
+    from volcal.steps.plan import plan
+    from volcal.steps.program import program
+
+    why = linuxcnc_missing()
+    if why:
+        pytest.skip(why)
+    s = tmp_path / "S"
+    plan(((0.0, travel), (0.0, 50.0), (0.0, 40.0)), steps=steps, tests="linear", runs=runs,
+         output=s)
+    progs = tmp_path / "P"
+    program(s, dialect="linuxcnc", output=progs, dwell_s=dwell_s, feed=feed)
+    ngc = (progs / "linear_x1.ngc").read_text()
+    mid = "linear-x1"
+    marker = f"volcal-capture-{uuid.uuid4().hex}"  # finds this test's LinuxCNC folder
+    result: dict = {}
+    n_prog = 3
+
+    def cnc() -> None:
+        try:
+            result["res"] = run_linuxcnc(
+                xyzc_joints(), [{"home": True}, {"sleep_s": scaled_timeout(4)},
+                                *[{"program": "linear_x1.ngc", "label": f"p{k}",
+                                   "timeout_s": scaled_timeout(600)} for k in range(n_prog)]],
+                files={"linear_x1.ngc": ngc, marker: ""}, timeout_s=900)
+        except Exception as e:  # reported by the test below
+            result["error"] = e
+
+    t = threading.Thread(target=cnc, daemon=True)
+    t.start()
+    procs: list[subprocess.Popen[str]] = []
+    try:
+        _captures(tmp_path, s, progs, mid, marker, procs, stable_s, max_gap_s)
+    finally:
+        for p in procs:  # never leave a capture or LinuxCNC behind
+            if p.poll() is None:
+                p.kill()
+                p.wait()
+        t.join(scaled_timeout(1200))
+    assert "error" not in result, result.get("error")
+    assert result["res"]["ok"], result["res"]["failed"]
+    _check(tmp_path, s, mid, stable_s)
+
+
+def _captures(tmp_path: Path, s: Path, progs: Path, mid: str, marker: str,
+              procs: list[subprocess.Popen[str]], stable_s: float, max_gap_s: float) -> None:
+    deadline = time.monotonic() + scaled_timeout(120)
+    found: list[Path] = []
+    while not found:
+        found = list(Path(tempfile.gettempdir()).glob(f"volcal-cnc-*/{marker}"))
+        assert time.monotonic() < deadline, "the LinuxCNC configuration was not written"
+        time.sleep(0.05)
+    ini = found[0].with_name("sim.ini")
+    common = [str(s), "--control", f"linuxcnc:{ini}",
+              "--laser", f"sim:seed={SEED},noise={NOISE_UM}",
+              "--measurement", mid, "--programs", str(progs), "--stable-s", str(stable_s),
+              "--max-gap-s", str(max_gap_s), "--poll-s", "0.02",
+              "--timeout-s", str(scaled_timeout(120))]
+    a_dir, b_dir = tmp_path / "A", tmp_path / "B"
+    a = _volcal("capture", *common, "-o", str(a_dir))  # waits for LinuxCNC to come up
+    procs.append(a)
+    out_a = _wait(a, "capture A", scaled_timeout(900))
+    assert "captured ->" in out_a
+    # capture B during program run 2: killed after two points, resumed at once
+    b = _volcal("capture", *common, "-o", str(b_dir))
+    procs.append(b)
+    deadline = time.monotonic() + scaled_timeout(600)
+    while len([x for x in _journal(b_dir, mid) if x["type"] == "accepted"]) < 2:
+        assert b.poll() is None, b.communicate()
+        assert time.monotonic() < deadline, "capture B took no point"
+        time.sleep(0.02)
+    os.kill(b.pid, signal.SIGKILL)
+    b.wait()
+    killed_with = [x["reading"] for x in _journal(b_dir, mid) if x["type"] == "accepted"]
+    assert len(killed_with) >= 2
+    b2 = _volcal("capture", *common, "-o", str(b_dir))
+    procs.append(b2)
+    _wait(b2, "capture B (resumed)", scaled_timeout(900))
+
+
+def _check(tmp_path: Path, s: Path, mid: str, stable_s: float) -> None:
+    from volcal.capture.plan import dwell_lines
+    from volcal.session.format import read_session
+
+    a_dir, b_dir = tmp_path / "A", tmp_path / "B"
+    truth = _truth(s, mid)
+    planned = read_session(s, require_deviation=False).get(mid)
+    ja, jb = _journal(a_dir, mid), _journal(b_dir, mid)
+    # exactly one row per dwell, in order; none before the start or in motion
+    assert [x["reading"] for x in ja if x["type"] == "accepted"] == list(range(planned.n))
+    assert not [x for x in ja if x["type"] == "missed"]
+    lines = dwell_lines(tmp_path / "P", mid)
+    assert len(lines) == planned.n
+    _check_windows(ja, planned.positions, 0.010, lines)
+    _check_windows(jb, planned.positions, 0.010, lines)
+    ma, mb = read_session(a_dir).get(mid), read_session(b_dir).get(mid)
+    # a deviation is the difference of two means of >= stable_s / 0.02 samples
+    tol = 5 * NOISE_UM * np.sqrt(2 / (stable_s / 0.02))
+    assert np.max(np.abs(ma.deviation - truth)) < tol, ma.deviation - truth
+    # SIGKILL + resume: every reading once, the same rows, the same readings within noise
+    acc_b = [x["reading"] for x in jb if x["type"] == "accepted"]
+    assert sorted(acc_b) == list(range(planned.n))
+    assert np.array_equal(ma.positions, mb.positions)
+    assert np.array_equal(ma.columns["direction"], mb.columns["direction"])
+    assert np.max(np.abs(mb.deviation - truth)) < tol, mb.deviation - truth
+    assert np.max(np.abs(mb.deviation - ma.deviation)) < tol * np.sqrt(2)
+
+
+def test_capture_on_linuxcnc_trimmed(tmp_path):
+    """A linear test of 2 steps, 1 run (6 dwells of 1 s) run three times: about 40 s."""
+    _run(tmp_path, steps=2, runs=1, travel=60.0, dwell_s=1.0, stable_s=0.35, max_gap_s=0.25,
+         feed=6000.0)
+
+
+@pytest.mark.slow
+def test_capture_on_linuxcnc_iso230_2(tmp_path):
+    """The ISO 230-2 cycle, 5 bidirectional runs over 6 targets (60 dwells of 1.5 s), three
+    times: about 8 minutes."""
+    _run(tmp_path, steps=5, runs=5, travel=300.0, dwell_s=1.5, stable_s=0.6, max_gap_s=0.3,
+         feed=6000.0)

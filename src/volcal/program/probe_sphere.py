@@ -17,8 +17,11 @@ mm, more than the largest pivot error a configuration should carry; raise it for
 machine whose pivots are not known to a few mm) and every probing move ends
 ``overtravel`` (5 mm) inside the expected surface, so a missing sphere stops the program
 with LinuxCNC's error instead of driving on. Z goes up first, then the rotary axes turn,
-then X and Y. The probe feed is 100 mm/min; the header states the sphere and tip
-diameters the program assumes (``sphere_diameter_mm``, ``tip_diameter_mm`` of the test).
+then X and Y. The probe feed is 100 mm/min (the test's ``probe_feed_mm_min`` replaces
+it); the header states the sphere and tip diameters the program assumes
+(``sphere_diameter_mm``, ``tip_diameter_mm`` of the test). A tool centre point control
+(``control_kinematics = "tcp"``, LinuxCNC's trt kinematics) gets the program of
+:mod:`volcal.program.probe_sphere_tcp`.
 
 Only LinuxCNC is written (the probe log is LinuxCNC's); HEIDENHAIN (cycle 451 MEASURE
 KINEMATICS), Siemens (CYCLE996) and ISG run their own cycles: for them volcal writes a

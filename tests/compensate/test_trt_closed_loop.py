@@ -37,7 +37,6 @@ from volcal_cli_helpers import volcal_process
 
 COMP = Path(__file__).with_name("hal") / "volcal_trt_machine.comp"
 MODULES = Path("/usr/lib/linuxcnc/modules")
-KINS = "xyzac-trt-kins"
 SERVO_NS = 250_000
 """Servo period [ns]: 0.25 ms, so that the probe feed moves 1.67 um per cycle."""
 FEED = 400.0
@@ -53,6 +52,8 @@ C_TRUE = np.array([0.9, -0.7, 0.0])
 """True point of the C line [mm] (configured: the origin)."""
 A_TRUE = np.array([0.0, 0.8, -61.2])
 """True point of the A line [mm] (configured: (0, 0, -60))."""
+B_TRUE = np.array([0.8, 0.0, -61.2])
+"""True point of the B line of the xyzbc machine [mm] (configured: (0, 0, -60))."""
 TRIM_POSES = [(0.0, 0.0), (90.0, 0.0), (180.0, 0.0), (270.0, 0.0), (0.0, -40.0),
               (180.0, -40.0)]
 """(c, a) in volcal's angles [deg] of the trimmed loop (make test)."""
@@ -61,13 +62,25 @@ FULL_POSES = [(c, a) for a in (0.0, -20.0, -40.0) for c in (0.0, 60.0, 120.0, 18
                                                               300.0)]
 
 
-def _machine_hal(tilt_urad: float) -> str:
+def _kins(t: str) -> str:
+    return f"xyz{t.lower()}c-trt-kins"
+
+
+def _configured(t: str) -> dict[str, float]:
+    """The configuration's pins of the A (xyzac) or B (xyzbc) trunnion [mm]."""
+    return CONFIGURED if t == "A" else {"x-rot-point": 0.0, "y-rot-point": 0.0,
+                                        "z-rot-point": 0.0, "x-offset": 0.0,
+                                        "z-offset": -60.0}
+
+
+def _machine_hal(tilt_urad: float, t_axis: str = "A") -> str:
     """The component loaded, wired to the joints and the probe input, with the truth."""
     t = tilt_urad * 1e-6
+    tp = A_TRUE if t_axis == "A" else B_TRUE
     pins = {"c-point-x": C_TRUE[0], "c-point-y": C_TRUE[1], "c-point-z": C_TRUE[2],
             "c-dir-x": 0.0, "c-dir-y": -np.sin(t), "c-dir-z": np.cos(t),  # C tilted about X
-            "t-point-x": A_TRUE[0], "t-point-y": A_TRUE[1], "t-point-z": A_TRUE[2],
-            "t-dir-x": 1.0, "t-dir-y": 0.0, "t-dir-z": 0.0,
+            "t-point-x": tp[0], "t-point-y": tp[1], "t-point-z": tp[2],
+            "t-dir-x": float(t_axis == "A"), "t-dir-y": float(t_axis == "B"), "t-dir-z": 0.0,
             "sphere-x": TRUE_SPHERE_MM[0], "sphere-y": TRUE_SPHERE_MM[1],
             "sphere-z": TRUE_SPHERE_MM[2], "radius": 14.0}
     lines = ["loadrt volcal_trt_machine", "addf volcal-trt-machine.0 servo-thread"]
@@ -108,18 +121,18 @@ def trt_sim():
     return run_linuxcnc
 
 
-def _joints() -> list[SimJoint]:
+def _joints(t: str = "A") -> list[SimJoint]:
     rot = {"max_velocity": 360.0, "max_acceleration": 3600.0}
     return [SimJoint("X"), SimJoint("Y"), SimJoint("Z"),
-            SimJoint("A", "ANGULAR", min=-120.0, max=120.0, **rot),
+            SimJoint(t, "ANGULAR", min=-120.0, max=120.0, **rot),
             SimJoint("C", "ANGULAR", min=-720.0, max=720.0, **rot)]
 
 
-def _session(folder: Path, poses) -> Path:
+def _session(folder: Path, poses, t: str = "A") -> Path:
     """A planned probe_sphere test of the configuration (volcal plan, then its documented
     keys set to the machine: pivots, sphere, control_angle_sign, the poses)."""
     p = volcal_process("plan", "--travel", "-300:300,-300:300,-300:300", "--chain", "FXYZ",
-                       "--tests", "probe_sphere", "-o", str(folder))
+                       "--tests", f"probe_sphere:c{t.lower()}", "-o", str(folder))
     assert p.returncode == 0, p.stdout + p.stderr
     toml = folder / "session.toml"
     text = toml.read_text()
@@ -127,25 +140,30 @@ def _session(folder: Path, poses) -> Path:
         f"{v:g}" for v in SPHERE_MM) + "]\ncontrol_angle_sign = -1\nsphere_diameter_mm = 25.0"
         f"\ntip_diameter_mm = 3.0\nprobe_feed_mm_min = {FEED:g}"
         "\ncontrol_kinematics = \"tcp\"", text)
-    c = (CONFIGURED["x-rot-point"], CONFIGURED["y-rot-point"], CONFIGURED["z-rot-point"])
-    a = (c[0], c[1] + CONFIGURED["y-offset"], c[2] + CONFIGURED["z-offset"])
+    pins = _configured(t)
+    c = (pins["x-rot-point"], pins["y-rot-point"], pins["z-rot-point"])
+    a = (c[0] + pins.get("x-offset", 0.0), c[1] + pins.get("y-offset", 0.0),
+         c[2] + pins["z-offset"])
     text = re.sub(r"c = \[.*\]", "c = [" + ", ".join(f"{v:g}" for v in c) + "]", text)
-    text = re.sub(r"a = \[.*\]", "a = [" + ", ".join(f"{v:g}" for v in a) + "]", text)
+    text = re.sub(rf"^{t.lower()} = \[.*\]", f"{t.lower()} = [" + ", ".join(
+        f"{v:g}" for v in a) + "]", text, flags=re.M)
     toml.write_text(text)
     (folder / "probe_sphere.csv").write_text(
-        "c_deg,a_deg,x_mm,y_mm,z_mm\n" + "".join(f"{c:.6f},{a:.6f},,,\n" for c, a in poses))
+        f"c_deg,{t.lower()}_deg,x_mm,y_mm,z_mm\n"
+        + "".join(f"{c:.6f},{a:.6f},,,\n" for c, a in poses))
     p = volcal_process("program", str(folder), "--dialect", "linuxcnc", "--safe-z-mm", "150",
                        "-o", str(folder / "programs"))
     assert p.returncode == 0, p.stdout + p.stderr
     return next((folder / "programs").glob("*.ngc"))
 
 
-def _probe(sim, program: Path, pins_hal: str, tilt_urad: float, keep: Path) -> Path:
+def _probe(sim, program: Path, pins_hal: str, tilt_urad: float, keep: Path,
+           t: str = "A") -> Path:
     """LinuxCNC runs the program with ``pins_hal`` as the kinematics' pins; the probe log."""
-    files = {"pins.hal": pins_hal, "machine.hal": _machine_hal(tilt_urad),
+    files = {"pins.hal": pins_hal, "machine.hal": _machine_hal(tilt_urad, t),
              "probe.ngc": program.read_text()}
-    res = sim(_joints(), [{"home": True}, {"program": "probe.ngc"}], files=files,
-              kinematics=KINS, halfiles=("pins.hal", "machine.hal"), servo_period_ns=SERVO_NS,
+    res = sim(_joints(t), [{"home": True}, {"program": "probe.ngc"}], files=files,
+              kinematics=_kins(t), halfiles=("pins.hal", "machine.hal"), servo_period_ns=SERVO_NS,
               timeout_s=600, keep=keep)
     assert res["ok"], (res["failed"], res["errors"], res["log"][-3000:])
     logs = [f for f in keep.glob("*.txt") if f.name != "result.txt"]
@@ -153,9 +171,9 @@ def _probe(sim, program: Path, pins_hal: str, tilt_urad: float, keep: Path) -> P
     return logs[0]
 
 
-def _centres(log: Path) -> np.ndarray:
+def _centres(log: Path, t: str = "A") -> np.ndarray:
     pts, rows = read_linuxcnc_probe_log(log)
-    _, centres, _ = pose_centres(pts, ("C", "A"), None, rows, log)
+    _, centres, _ = pose_centres(pts, ("C", t), None, rows, log)
     return centres
 
 
@@ -163,23 +181,24 @@ def _spread_um(c: np.ndarray) -> np.ndarray:
     return np.linalg.norm(c - c.mean(axis=0), axis=1) * 1e3
 
 
-def _loop(sim, tmp_path: Path, poses, after_poses, tilt_urad: float):
-    configured = "\n".join(f"setp {KINS}.{k} {v:.6f}" for k, v in CONFIGURED.items()) + "\n"
+def _loop(sim, tmp_path: Path, poses, after_poses, tilt_urad: float, t: str = "A"):
+    configured = "\n".join(f"setp {_kins(t)}.{k} {v:.6f}"
+                           for k, v in _configured(t).items()) + "\n"
     s = tmp_path / "s"
-    prog = _session(s, poses)
-    log = _probe(sim, prog, configured, tilt_urad, tmp_path / "run1")
-    before = _spread_um(_centres(log))
+    prog = _session(s, poses, t)
+    log = _probe(sim, prog, configured, tilt_urad, tmp_path / "run1", t)
+    before = _spread_um(_centres(log, t))
     p = volcal_process("import", str(log), "--session", str(s), "--measurement",
-                       "probe_sphere")
+                       log.stem)  # the program's PROBEOPEN file is named after the test
     assert p.returncode == 0, p.stdout + p.stderr
     hal = tmp_path / "volcal-trt.hal"
     p = volcal_process("locate", str(s), "--linuxcnc-hal", str(hal))
     assert p.returncode == 0, p.stdout + p.stderr
     # LinuxCNC restarted with volcal's pins probes again (the poses of the check)
     s2 = tmp_path / "s2"
-    prog2 = _session(s2, after_poses)
-    log2 = _probe(sim, prog2, hal.read_text(), tilt_urad, tmp_path / "run2")
-    after = _spread_um(_centres(log2))
+    prog2 = _session(s2, after_poses, t)
+    log2 = _probe(sim, prog2, hal.read_text(), tilt_urad, tmp_path / "run2", t)
+    after = _spread_um(_centres(log2, t))
     return before, after, hal.read_text(), s2
 
 
@@ -218,3 +237,13 @@ def test_closed_loop_with_a_tilt_the_kinematics_cannot_hold(trt_sim, tmp_path):
           f"{np.abs(after - exp.residual_um).max():.2f} um")
     assert after.max() > 10.0, after
     np.testing.assert_allclose(after, exp.residual_um, atol=2.0)
+
+
+@pytest.mark.slow
+def test_closed_loop_on_linuxcnc_xyzbc_trimmed(trt_sim, tmp_path):
+    """The same loop on xyzbc-trt-kins (C on a B cradle, the B line off by mm)."""
+    before, after, hal, _ = _loop(trt_sim, tmp_path, TRIM_POSES, TRIM_AFTER, 0.0, "B")
+    print(f"xyzbc trimmed: before {before.max():.1f} um, after {after.max():.2f} um")
+    assert "setp xyzbc-trt-kins.x-offset" in hal
+    assert before.max() > 1000.0, before
+    assert after.max() < 2.0, (after, hal)

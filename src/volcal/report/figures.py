@@ -72,10 +72,10 @@ def png_bytes(fig: Figure, dpi: int = PNG_DPI) -> bytes:
         old = fig.dpi
         try:
             fig.dpi = dpi
-            canvas._is_saving = True  # as savefig: what is saved, not what is shown
+            canvas._is_saving = True  # type: ignore[attr-defined]  # as savefig does
             canvas.print_png(buf, metadata={"Software": None})
         finally:
-            canvas._is_saving = False
+            canvas._is_saving = False  # type: ignore[attr-defined]
             fig.dpi = old
         cache[dpi] = buf.getvalue()
     return cache[dpi]

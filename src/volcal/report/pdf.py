@@ -103,7 +103,7 @@ class _Measure:
         still fits, else on the next), found with few measurements of whole lines: the
         width of a line grows with every word appended to it (its glyphs keep their
         places, the ink only reaches further right), so the words that fit after a line
-        are found from an estimate (the words' own widths) and two exact measurements
+        are found from an estimate (the widths of the characters) and two exact measurements
         (:meth:`_fit`), instead of measuring the line again after every word.
         """
         lines: list[str] = []
@@ -143,7 +143,7 @@ class _Measure:
         est = (self.width(line, size, weight) + space) if line else 0.0
         m = 0
         while m < n:
-            est += self.width(words[j + m], size, weight) + (space if m else 0.0)
+            est += self._estimate(words[j + m], size, weight) + (space if m else 0.0)
             if est > width:
                 break
             m += 1
@@ -154,6 +154,10 @@ class _Measure:
             while m < n and fits(m + 1):
                 m += 1
         return m
+
+    def _estimate(self, word: str, size: float, weight: str) -> float:
+        """Width of a word from the widths of its characters [pt] (no kerning): a guess."""
+        return sum(self.width(c, size, weight) - 0.5 for c in word)
 
     def _prefix(self, word: str, width: float, size: float, weight: str) -> int:
         """Length of the longest head of ``word`` that fits ``width`` [pt] (at least 1)."""
@@ -397,11 +401,12 @@ def _figure_page(pdf: PdfPages, fig: Figure, caption: str, number: int, footer: 
 def _points(a: Artist) -> int:
     """Number of points an artist draws (vertices, markers, arrows, image cells)."""
     if isinstance(a, Line2D):
-        return len(a.get_xydata())
+        return int(np.shape(a.get_xydata())[0])
     if isinstance(a, Collection):
-        return max(len(a.get_offsets()), len(a.get_paths()))
+        return max(int(np.shape(a.get_offsets())[0]), len(a.get_paths()))
     if isinstance(a, AxesImage):
-        return int(np.prod(a.get_array().shape[:2])) if a.get_array() is not None else 0
+        data = a.get_array()
+        return 0 if data is None else int(np.prod(np.shape(data)[:2]))
     return 0
 
 

@@ -3,6 +3,7 @@ output format, the PNGs drawn in worker processes the same as here, the figures'
 untouched by the rendering, the PDF's text wrapped as by the greedy rule, heavy artists
 rasterized at RASTER_DPI."""
 
+import os
 import shutil
 import subprocess
 
@@ -132,6 +133,31 @@ def test_pngs_drawn_in_worker_processes_equal_the_ones_drawn_here(identified):
     assert [figure_data(f) for f in forked] == data
 
 
+def _small_figures():
+    out = []
+    for k in (1, 2):
+        fig = new_figure(4.0, 3.0)
+        ax = fig.add_subplot()
+        ax.plot(np.arange(10.0), np.arange(10.0) ** k)
+        ax.set_xlabel("X [mm]")
+        out.append(fig)
+    return out
+
+
+def test_a_worker_that_dies_leaves_its_figures_to_this_process():
+    parent = os.getpid()
+
+    def draw(fig):
+        if os.getpid() != parent:
+            os._exit(3)  # a worker killed while it draws
+        return F.png_bytes(fig)
+
+    drawing = F.draw_pngs(_small_figures(), draw, workers=1)
+    assert drawing.parallel
+    expected = [F.png_bytes(f) for f in _small_figures()]
+    assert drawing.result() == expected and expected[0] != expected[1]
+
+
 def test_draw_workers_from_the_environment(monkeypatch):
     monkeypatch.setenv(F.WORKERS_ENV, "3")
     assert F.draw_workers(8) == 3
@@ -171,13 +197,13 @@ def _greedy(m: _Measure, text: str, width: float, size: float, weight: str = "no
 
 def test_wrap_breaks_the_lines_of_the_greedy_rule(built):
     m = _Measure()
-    texts = [p for s in built.sections for p in s.paragraphs + s.warnings]
-    texts += [c for s in built.sections for t in s.tables for r in t.rows for c in r]
-    texts += ["x" * 60 + "Y" * 60 + "z" * 60, "a " + "W" * 50 + " b c", "", "one\n\ntwo three",
-              " ".join(f"word{i:03d}" for i in range(90))]
+    paragraphs = [p for s in built.sections for p in s.paragraphs + s.warnings]
+    cells = sorted({c for s in built.sections for t in s.tables for r in t.rows for c in r})
+    hard = ["x" * 60 + "Y" * 60 + "z" * 60, "a " + "W" * 50 + " b c", "", "one\n\ntwo three",
+            " ".join(f"word{i:03d}" for i in range(90))]
     n = 0
-    for size, weight, width in ((9.5, "normal", 480.0), (7.0, "bold", 120.0),
-                                (6.5, "normal", 40.0)):
+    for texts, size, weight, width in ((paragraphs + hard, 9.5, "normal", 480.0),
+                                       (cells + hard, 7.0, "bold", 60.0)):
         for t in texts:
             assert m.wrap(t, width, size, weight) == _greedy(m, t, width, size, weight)
             n += 1

@@ -15,7 +15,8 @@ import multiprocessing
 import os
 import warnings
 from collections.abc import Callable, Sequence
-from typing import Any
+from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
@@ -164,17 +165,19 @@ class PngDrawing:
                  workers: int) -> None:
         global _TASK
         self.figs, self.draw, self.workers = list(figs), draw, workers
-        self._pool: Any = None
-        self._async: Any = None
+        self._pool: ProcessPoolExecutor | None = None
+        self._futures: list[Future[bytes]] = []
         if workers and self.figs:
             _TASK = (draw, self.figs)
             with warnings.catch_warnings():  # a fork beside the console's status thread:
                 warnings.simplefilter("ignore", DeprecationWarning)  # the child only draws
-                self._pool = multiprocessing.get_context("fork").Pool(workers)
-            # the largest figures first, so that the workers finish together
-            order = sorted(range(len(self.figs)), key=lambda i: -len(self.figs[i].axes))
-            self._order = order
-            self._async = self._pool.map_async(_draw_one, order, chunksize=1)
+                self._pool = ProcessPoolExecutor(
+                    workers, mp_context=multiprocessing.get_context("fork"))
+                # the largest figures first, so that the workers finish together; the
+                # workers are forked at the first submission, inheriting the figures
+                order = sorted(range(len(self.figs)), key=lambda i: -len(self.figs[i].axes))
+                futures = {i: self._pool.submit(_draw_one, i) for i in order}
+            self._futures = [futures[i] for i in range(len(self.figs))]
 
     def result(self) -> list[bytes]:
         """The PNG of every figure, in the order given (also kept on each figure).
@@ -182,21 +185,29 @@ class PngDrawing:
         Returns
         -------
         list of bytes
+
+        Notes
+        -----
+        A worker that dies (killed, out of memory) does not hang the report: its figures
+        are drawn in this process instead.
         """
         global _TASK
         if self._pool is None:
             return [self.draw(f) for f in self.figs]
+        out: list[bytes] = []
         try:
-            drawn = self._async.get()
+            for fig, future in zip(self.figs, self._futures, strict=True):
+                try:
+                    data = future.result()
+                except BrokenProcessPool:
+                    data = self.draw(fig)
+                else:
+                    if self.draw is png_bytes:  # what png_bytes gives from now on
+                        _cache(fig)[PNG_DPI] = data
+                out.append(data)
         finally:
-            self._pool.close()
-            self._pool.join()
+            self._pool.shutdown(cancel_futures=True)
             _TASK = None
-        out: list[bytes] = [b""] * len(self.figs)
-        for i, data in zip(self._order, drawn, strict=True):
-            out[i] = data
-            if self.draw is png_bytes:  # what png_bytes gives from now on
-                _cache(self.figs[i])[PNG_DPI] = data
         return out
 
     @property

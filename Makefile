@@ -103,6 +103,7 @@ study: $(STAMP)
 	$(BIN)/python benchmarks/study.py --false-alarms 60 --runs 2 --design all
 	$(BIN)/python benchmarks/families.py --machines 20 --markdown --quiet
 	$(BIN)/python benchmarks/fiveaxis_study.py --machines 40 --markdown
+	$(BIN)/python benchmarks/travel_study.py --machines 20 --design full,step --markdown
 
 clean:
 	rm -rf $(VENV) demo-output .pytest_cache .ruff_cache .import_linter_cache .mypy_cache

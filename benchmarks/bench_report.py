@@ -11,12 +11,22 @@ formats the same evaluation into the report, the verdict and the certificate. Ta
 ``REPEAT`` times after one warm-up run (:func:`bench_cli.timed`): median wall-clock, and
 the median CPU time of the child in the note; the ratio is taken on CPU time, which a
 busy shared machine inflates less than wall-clock.
+
+Issue 31: the report's CPU time is also given in units of the machine's own speed, the
+CPU time of a 2000 x 2000 Cholesky factorisation timed in the same run
+(:func:`cholesky_unit`, median of ``REPEAT``), so that runs on other machines or at other
+loads compare. The CPU time counts the worker processes that draw the PNG figures
+(``os.wait4`` of the command reaps them); how many there were depends on the load
+(:func:`volcal.report.figures.draw_workers`), and is in the note.
 """
 
 from __future__ import annotations
 
 import os
 import shutil
+import statistics
+import subprocess
+import sys
 import tempfile
 from pathlib import Path
 
@@ -32,6 +42,35 @@ def _budget(path: Path) -> None:
     path.write_text(template_text(), encoding="utf-8")
 
 
+_CHOLESKY = """
+import time, numpy as np
+a = np.random.default_rng(0).standard_normal(({n}, {n}))
+spd = a @ a.T + {n} * np.eye({n})
+np.linalg.cholesky(spd)
+times = []
+for _ in range({repeat}):
+    t0 = time.process_time()
+    np.linalg.cholesky(spd)
+    times.append(time.process_time() - t0)
+print(sorted(times)[len(times) // 2])
+"""
+
+
+def cholesky_unit(n: int = 2000, repeat: int = REPEAT) -> float:
+    """CPU seconds of one Cholesky factorisation of an ``n x n`` SPD matrix (median).
+
+    The machine's own speed: ``numpy.linalg.cholesky`` (LAPACK ``potrf``) of
+    ``A A^T + n I``, ``A`` standard normal (seed 0), after one warm-up, in a child
+    process with one BLAS thread (``OPENBLAS_NUM_THREADS=1`` and the like): a second
+    thread spinning while it waits would count as CPU time on a busy machine.
+    """
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1",
+               MKL_NUM_THREADS="1")
+    out = subprocess.run([sys.executable, "-c", _CHOLESKY.format(n=n, repeat=repeat)],
+                         env=env, capture_output=True, text=True, check=True).stdout
+    return float(out)
+
+
 def run() -> list[dict]:
     """Time the plain report and the report with budget, tolerance and certificate."""
     rows = []
@@ -42,20 +81,32 @@ def run() -> list[dict]:
         _run_once(["simulate", str(s), "--seed", "3"])
         _budget(b)
         _run_once(["identify", str(s), "-o", str(m), "--budget", str(b)])
+        from volcal.report.figures import draw_workers
+
+        unit0 = cholesky_unit()
         load0 = os.getloadavg()[0]
+        workers0 = draw_workers(8)
         plain_w, plain_c = timed(["report", str(s), "--model", str(m), "-o",
                                   str(tmp / "R1")], REPEAT)
         full_w, full_c = timed(["report", str(s), "--model", str(m), "-o", str(tmp / "R2"),
                                 "--budget", str(b), "--tolerance-um", TOLERANCE,
                                 "--certificate"], REPEAT)
         load = os.getloadavg()[0]
+        workers = draw_workers(8)
+        unit = statistics.median([unit0, cholesky_unit()])
+        rows.append({"benchmark": "Cholesky 2000 x 2000 (numpy, the unit below)",
+                     "size": "n = 2000", "seconds": unit,
+                     "note": "CPU seconds, median; the machine's own speed"})
         rows.append({"benchmark": "volcal report (plain)", "size": "default plan, seed 3",
                      "seconds": plain_w,
-                     "note": f"cpu {plain_c:.2f} s; load {load0:.1f} -> {load:.1f}"})
+                     "note": f"cpu {plain_c:.2f} s = {plain_c / unit:.0f} Cholesky units; "
+                             f"load {load0:.1f} -> {load:.1f}, PNG workers "
+                             f"{workers0} -> {workers}"})
         rows.append({"benchmark": "volcal report --budget --tolerance-um --certificate",
                      "size": "default plan, seed 3", "seconds": full_w,
-                     "note": f"cpu {full_c:.2f} s; {full_c / plain_c:.2f}x the plain "
-                             f"report's CPU ({full_w / plain_w:.2f}x wall)"})
+                     "note": f"cpu {full_c:.2f} s = {full_c / unit:.0f} Cholesky units; "
+                             f"{full_c / plain_c:.2f}x the plain report's CPU "
+                             f"({full_w / plain_w:.2f}x wall)"})
         rows.append({"benchmark": "report with budget+tolerance+certificate / plain, CPU",
                      "size": "ratio", "seconds": full_c / plain_c, "target_s": 1.5,
                      "note": "target: at most 1.5 (issue 25)"})

@@ -273,7 +273,8 @@ def test_evidence_gradient_with_the_nugget(small):
     Pinv = np.linalg.inv(ev.prior.unit_block(b)[0])
     s = ev.prior.coords[b]
     n = s.size
-    S = fs[0] ** 2 * Pinv + 144.0 * np.outer(s, s) + 0.49 * (np.eye(n) + np.ones((n, n)))
+    t = 12.0 * ev.prior.trend_length[0]  # um/m times the X travel [m] (issue 30)
+    S = fs[0] ** 2 * Pinv + t**2 * np.outer(s, s) + 0.49 * (np.eye(n) + np.ones((n, n)))
     np.testing.assert_allclose(ev.prior.block_precision(b, fs), np.linalg.inv(S),
                                rtol=1e-8, atol=1e-12)
 
@@ -313,7 +314,8 @@ def test_trend_prior_is_the_covariance_of_wiggles_plus_a_slope(small, boundary):
 
     b = next(i for i, blk in enumerate(p.blocks) if blk[4] == 0)  # EXX
     s = p.coords[b]
-    cov = 16.0 * base_cov(b) + 225.0 * np.outer(s, s)
+    t = 15.0 * p.trend_length[0]  # um/m times the X travel [m] (issue 30)
+    cov = 16.0 * base_cov(b) + t**2 * np.outer(s, s)
     np.testing.assert_allclose(p.block_precision(b, fs), np.linalg.inv(cov), rtol=1e-8,
                                atol=1e-10 * np.abs(np.linalg.inv(cov)).max())
     assert s[-1] == pytest.approx(1.0) and np.all(np.diff(s) > 0)

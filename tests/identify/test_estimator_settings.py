@@ -57,6 +57,22 @@ BEFORE = {
 }
 
 
+# issue 30 (the estimator on long machines) changed or added these defaults; the others are
+# BEFORE's
+ISSUE_30 = {
+    "hyper_spread": 3.0,  # 30 before: the scales' hyperprior a factor 3
+    "trend_per_metre": True,  # the positioning trend a scale error per metre of travel
+    "trend_centre_um_per_m": 25.0,
+    "tilt_trend_centre_urad": 15.0,  # the tilts' linear part with a scale of its own
+    "tilt_trend_spread": 3.0,
+    "axis_kappa_spread": 3.0,  # each axis' curvature factor chosen by the evidence
+    "axis_scale_spread": 0.0,
+}
+# the estimator of volcal before issue 30, through the settings
+OLD = {"hyper_spread": 30.0, "trend_per_metre": False, "tilt_trend_centre_urad": 0.0,
+       "axis_kappa_spread": 0.0}
+
+
 @pytest.fixture(scope="module")
 def small():
     s = seeds_session("XYFZ", steps=4)
@@ -66,15 +82,16 @@ def small():
 
 @pytest.fixture(scope="module")
 def default_fit(small):
-    return identify(small, IdentifyOptions(suggest=False))
+    """The fit of the estimator before issue 30 (its settings, :data:`OLD`)."""
+    return identify(small, IdentifyOptions(suggest=False, settings=EstimatorSettings(**OLD)))
 
 
 def test_settings_are_frozen_and_their_defaults_are_the_old_constants():
     st = EstimatorSettings()
     with pytest.raises(dataclasses.FrozenInstanceError):
         st.roll_factor = 2.0  # type: ignore[misc]
-    assert {f.name for f in dataclasses.fields(st)} == set(BEFORE)
-    for name, value in BEFORE.items():
+    assert {f.name for f in dataclasses.fields(st)} == set(BEFORE) | set(ISSUE_30)
+    for name, value in {**BEFORE, **ISSUE_30}.items():
         assert getattr(st, name) == value, name
     assert IdentifyOptions().settings == st
     changed = dataclasses.replace(st, roll_factor=2.0)
@@ -82,7 +99,9 @@ def test_settings_are_frozen_and_their_defaults_are_the_old_constants():
 
 
 def test_the_default_fit_is_the_one_volcal_computed_before(default_fit):
-    """Figures of volcal at commit 427f26d (before the settings object) on this session."""
+    """Figures of volcal at commit 427f26d (before the settings object) on this session,
+    with the settings of the estimator before issue 30 (:data:`OLD`): the old estimator is
+    still reached, bit for bit."""
     fit = default_fit.fit
     assert fit["log_evidence"] == pytest.approx(-637.0768523757879, rel=1e-7)
     assert fit["sigma_um"] == pytest.approx(0.47468807931912965, rel=1e-7)
@@ -91,7 +110,10 @@ def test_the_default_fit_is_the_one_volcal_computed_before(default_fit):
             "roll_urad": 7.381617596998594, "tilt_urad": 4.921078397999063,
             "kappa": 18.743554241801917, "positioning_trend_um": 9.986665118759307,
             "positioning_nugget_um": 0.2558568187126094, "setup_tilt_urad": 17.587935336540372}
-    assert fit["prior_scales"] == pytest.approx(want, rel=1e-7)
+    assert {k: fit["prior_scales"][k] for k in want} == pytest.approx(want, rel=1e-7)
+    # the hyperparameters issue 30 added are absent from the old estimator's fit
+    assert all(fit["prior_scales"][k] is None
+               for k in ("positioning_trend_um_per_m", "tilt_trend_urad", "kappa_axis"))
     rp = fit["roll_presence"]
     assert rp["log_bayes_factor"] == pytest.approx(-1.8115754311829022, rel=1e-7)
     assert rp["probability"] == pytest.approx(0.1404478284047197, rel=1e-7)
@@ -110,7 +132,7 @@ def test_a_setting_given_through_the_options_changes_the_fit(small, default_fit)
     """The rolls' factor over the tilts' scale is applied after the evidence: twice the
     factor, twice the rolls' prior scale, the other scales as they were."""
     r = identify(small, IdentifyOptions(suggest=False,
-                                        settings=EstimatorSettings(roll_factor=3.0)))
+                                        settings=EstimatorSettings(**OLD, roll_factor=3.0)))
     a, b = default_fit.fit["prior_scales"], r.fit["prior_scales"]
     assert b["roll_urad"] == pytest.approx(2.0 * a["roll_urad"], rel=1e-9)
     for key in ("positioning_um", "straightness_um", "tilt_urad", "kappa"):
@@ -126,7 +148,7 @@ def test_a_setting_given_to_calibration_identify_reaches_the_estimator(small, de
     from volcal.flow import Calibration
 
     cal = Calibration(small)
-    r = cal.identify(suggest=False, settings=EstimatorSettings(roll_mixture_absent=0.0))
+    r = cal.identify(suggest=False, settings=EstimatorSettings(**OLD, roll_mixture_absent=0.0))
     rp = r.fit["roll_presence"]
     assert rp["prior_probability_absent"] == 0.0 and rp["probability"] is None
     assert rp["log_bayes_factor"] == pytest.approx(
@@ -143,6 +165,10 @@ def test_bad_settings_are_refused_with_the_field_named():
         EstimatorSettings(roll_mixture_absent=1.0)
     with pytest.raises(VolcalInputError, match="group_kappa"):
         EstimatorSettings(group_kappa=(1.0, 1.0, 0.6))
+    with pytest.raises(VolcalInputError, match="axis_kappa_spread"):
+        EstimatorSettings(axis_kappa_spread=0.5)
+    with pytest.raises(VolcalInputError, match="tilt_trend_centre_urad"):
+        EstimatorSettings(tilt_trend_centre_urad=-1.0)
     with pytest.raises(VolcalInputError, match="settings"):
         IdentifyOptions(settings={"roll_factor": 2.0})  # type: ignore[arg-type]
 

@@ -147,7 +147,7 @@ def iso230_2_cmd(
         _rotary_cmd(file, as_json, edition, b, budget, units, tolerance_um, tolerance_urad,
                     rule, guard_band_um)
         return
-    if units != "urad":
+    if units != "urad" and Path(file).is_file():  # else the reader names the missing file
         from volcal.errors import VolcalInputError
 
         raise VolcalInputError("--units applies to rotary files (a target_deg column); a "
@@ -257,7 +257,8 @@ def print_rotary_tables(res: Any, title: str, units: str = "urad") -> None:
     """
     d = res.to_dict(units)
     unc = res.uncertainty
-    t = Table(title=escape(f"{title}: rotary axis {res.axis} (ISO 230-2:{res.iso.edition})"))
+    axis = "" if res.axis == "?" else f" {res.axis}"  # a lone file does not name its axis
+    t = Table(title=escape(f"{title}: rotary axis{axis} (ISO 230-2:{res.iso.edition})"))
     t.add_column("parameter")
     t.add_column(escape(f"value [{units}]"), justify="right")
     if unc is not None:

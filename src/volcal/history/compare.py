@@ -156,13 +156,23 @@ def prior_precision(model: Any) -> Any:
         A model whose fit records its hyperparameters.
     """
     from volcal.identify.prior import PriorStructure
+    from volcal.identify.settings import EstimatorSettings
 
     hyp = model.fit.hyperparameters or {}
     keys = ("positioning_um", "straightness_um", "roll_urad", "tilt_urad", "kappa")
     if not all(isinstance(hyp.get(k), int | float) for k in keys):
         return None
-    prior = PriorStructure.build(model.layout, model.free, float(hyp["kappa"]))
-    prior = prior.with_trend(hyp.get("positioning_trend_um") or 0.0)
+    per_metre = isinstance(hyp.get("positioning_trend_um_per_m"), int | float)
+    prior = PriorStructure.build(model.layout, model.free, float(hyp["kappa"]),
+                                 settings=EstimatorSettings(trend_per_metre=per_metre))
+    # a model of volcal <= issue 29 records one trend at the end of every travel [um]
+    prior = prior.with_trend(hyp["positioning_trend_um_per_m"] if per_metre
+                             else hyp.get("positioning_trend_um") or 0.0)
+    # the tilts' linear part and each axis' curvature factor (issue 30; absent before)
+    prior = prior.with_tilt_trend(hyp.get("tilt_trend_urad") or 0.0)
+    axis_kappa = hyp.get("kappa_axis")
+    if isinstance(axis_kappa, list) and len(axis_kappa) == 3:
+        prior = prior.with_axis_kappa([float(v) for v in axis_kappa])
     if NUGGET_IN_PRIOR:
         prior = prior.with_nugget(hyp.get("positioning_nugget_um") or 0.0)
     scales = np.array([hyp[k] for k in keys[:4]], dtype=float)

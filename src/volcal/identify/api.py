@@ -317,7 +317,7 @@ def advise(session: Session, options: IdentifyOptions | None = None):
     pos, straight, _, tilt = st.typical_scales
     report.messages.insert(0, "Before measuring: the figures assume a typical machining centre "
                               f"(prior scales: positioning {pos:g} um with a linear trend of "
-                              f"{st.trend_centre_um:g} um over the travel, straightness "
+                              f"{_trend_words(st)}, straightness "
                               f"{straight:g} um, roll and tilts {tilt:g} urad); the measured "
                               "data will refine them.")
     report.messages.extend(_kind_notes(design.measurements))  # what each kind adds
@@ -428,6 +428,13 @@ def _identify_weighted(session: Session, o: IdentifyOptions,
     return _result(session, design, sol, report, o)
 
 
+def _trend_words(st: EstimatorSettings) -> str:
+    """The positioning trend the prior assumes before measuring, in words."""
+    if st.trend_per_metre:
+        return f"{st.trend_centre_um_per_m:g} um per metre of travel"
+    return f"{st.trend_centre_um:g} um over the travel"
+
+
 def _kind_notes(measurements: list) -> list[str]:
     """What the measurements of each kind add (:meth:`volcal.kinds.Kind.design_notes`)."""
     from volcal.session.kinds import hooks_of
@@ -518,7 +525,8 @@ def _fit_smooth(session: Session, o: IdentifyOptions, known: dict, weights,
         scales = sol_h.function_scales
         tilt_std = sol_h.tilt_std_urad
         prior = (prior.with_kappa(sol_h.kappa).with_trend(sol_h.trend_um)
-                 .with_kappa_factor(sol_h.kappa_factor).with_nugget(sol_h.nugget_um))
+                 .with_kappa_factor(sol_h.kappa_factor).with_nugget(sol_h.nugget_um)
+                 .with_axis_kappa(sol_h.axis_kappa).with_tilt_trend(sol_h.tilt_trend_urad))
         hyper_noise = noise if noise is not None else sol_h.sigma_um
         sol = solve_bayes(design, prior, scales, hyper_noise, o.squareness_std_urad,
                           tilt_std=tilt_std, settings=st)
@@ -547,7 +555,8 @@ def _identifiability(session: Session, o: IdentifyOptions, known: dict, weights,
     kappa = sol.kappa if np.isfinite(sol.kappa) else o.kappa
     prior1 = (PriorStructure.build(design1.layout, design1.free, kappa, settings=st)
               .with_trend(sol.trend_um).with_kappa_factor(sol.kappa_factor)
-              .with_nugget(sol.nugget_um))
+              .with_nugget(sol.nugget_um).with_axis_kappa(sol.axis_kappa)
+              .with_tilt_trend(sol.tilt_trend_urad))
     scales = (sol.function_scales if sol.function_scales is not None
               else sol.scales if np.all(np.isfinite(sol.scales))
               else np.array(st.typical_scales))
@@ -696,9 +705,21 @@ def _result(session: Session, design: Design, sol: Solution, report, o: Identify
                          "straightness_um": _fin(sol.scales[1]),
                          "roll_urad": _fin(sol.scales[2]), "tilt_urad": _fin(sol.scales[3]),
                          "kappa": _fin(sol.kappa),
-                         "positioning_trend_um": _fin(sol.trend_um) if sol.trend_um else None,
+                         # the trend at the end of the longest axis' travel [um], and the
+                         # evidence's scale per metre of travel when it is one
+                         # (EstimatorSettings.trend_per_metre)
+                         "positioning_trend_um": (_fin(sol.trend_um * max(sol.trend_length))
+                                                  if sol.trend_um else None),
+                         "positioning_trend_um_per_m": (
+                             _fin(sol.trend_um) if sol.trend_um
+                             and o.settings.trend_per_metre else None),
                          "positioning_nugget_um": (_fin(sol.nugget_um) if sol.nugget_um
                                                    else None),
+                         "tilt_trend_urad": (_fin(sol.tilt_trend_urad) if sol.tilt_trend_urad
+                                             else None),
+                         # each axis' curvature factor (EstimatorSettings.axis_kappa_spread)
+                         "kappa_axis": ([_fin(v) for v in sol.axis_kappa]
+                                        if any(v != 1.0 for v in sol.axis_kappa) else None),
                          "setup_tilt_urad": (_fin(sol.tilt_std_urad)
                                              if sol.tilt_std_urad is not None else None)},
         "convergence": dict(sol.convergence),

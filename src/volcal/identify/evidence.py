@@ -16,12 +16,26 @@ import scipy.linalg as sla
 from numpy.typing import NDArray
 
 from volcal.identify.design import Design
-from volcal.identify.prior import GROUPS, PriorStructure, function_group, function_scales
+from volcal.identify.prior import (
+    GROUPS,
+    TILT_GROUP,
+    PriorStructure,
+    function_group,
+    function_scales,
+)
 
 __all__ = ["NUISANCE_PRECISION", "N_HYPER"]
 
-N_HYPER = 27
+N_HYPER = 31
 """Entries of the gradient of :meth:`_Evidence.neg2_grad_functions`."""
+
+AXIS_KAPPA = 27
+"""Gradient index of the X axis' curvature factor (then Y, Z):
+:attr:`volcal.identify.prior.PriorStructure.axis_kappa`."""
+
+TILT_TREND = 30
+"""Gradient index of the tilts' linear part
+(:attr:`volcal.identify.prior.PriorStructure.tilt_trend_urad`)."""
 
 NUISANCE_PRECISION = {"offset": 1e-10, "tilt": 1e-8, "reversal": 1e-8, "drift": 1e-8,
                       "station_x": 1e-10, "station_y": 1e-10, "station_z": 1e-10}
@@ -94,6 +108,16 @@ class _Evidence:
                 for b, (idx, *_) in enumerate(self.prior.blocks)]
 
     def _block_derivatives(self, b: int, fscales, Qb):
+        """:meth:`_block_derivatives_kappa` with the axis' curvature factor.
+
+        ``kappa`` enters a block only through ``kappa * axis_kappa[k]``, so the block's
+        derivative in the log of its axis' factor is its derivative in ``log kappa``.
+        """
+        out = self._block_derivatives_kappa(b, fscales, Qb)
+        k = self.prior.blocks[b][4] // 6
+        return out + [(AXIS_KAPPA + k, dQ) for j, dQ in out if j == 18]
+
+    def _block_derivatives_kappa(self, b: int, fscales, Qb):
         """``[(gradient index, dQ_b / dlog hyperparameter)]`` of block ``b``.
 
         Without trend ``Q = P / a^2`` (``P = C / kappa^2 + W``, or its difference form,
@@ -124,13 +148,14 @@ class _Evidence:
         K = self.prior.unit_block(b)[1] / fscales[f] ** 2
         if not self.prior.has_trend(b):
             return [(f, -2.0 * Qb), (18, -2.0 * K), (gk, -2.0 * K)]
-        t2 = self.prior.trend_um**2
+        t2 = self.prior.block_trend(b) ** 2
         v = self.prior.coords[b]
         w = Qb @ v
         ww = np.outer(w, w)
         T = np.eye(v.size) - t2 * np.outer(w, v)
         dk = -2.0 * T @ K @ T.T
-        return [(f, -2.0 * Qb + 2.0 * t2 * ww), (21, -2.0 * t2 * ww), (18, dk), (gk, dk)]
+        it = TILT_TREND if g == TILT_GROUP else 21
+        return [(f, -2.0 * Qb + 2.0 * t2 * ww), (it, -2.0 * t2 * ww), (18, dk), (gk, dk)]
 
     def _prior_blocks(self, scales, kappa=None):
         """Function scales (18) and per-block precisions at these hyperparameters."""
@@ -196,9 +221,10 @@ class _Evidence:
                             ) -> tuple[float, NDArray[np.float64]]:
         """``neg2`` and its gradient in log of hyperparameters (function scales, kappa...).
 
-        The 27 entries: the 18 function scales, kappa, sigma, the tilts' scale, the trend
-        scale, the curvature factor of each group of :data:`GROUPS`, then the
-        short-wavelength (nugget) scale of the positioning errors.
+        The 31 entries: the 18 function scales, kappa, sigma, the tilts' scale, the trend
+        scale, the curvature factor of each group of :data:`GROUPS`, the short-wavelength
+        (nugget) scale of the positioning errors, the curvature factor of each axis
+        (:data:`AXIS_KAPPA`), then the scale of the tilts' linear part (:data:`TILT_TREND`).
 
         With ``D = |y - A x|^2 / s^2 + x'Q x`` at the posterior mean ``x`` (stationary, so
         only explicit dependences count), ``Q`` block diagonal (one block ``Q_f`` per

@@ -291,7 +291,8 @@ def _reference_prior(design: Design, settings: EstimatorSettings | None = None
     """
     st = settings if settings is not None else EstimatorSettings()
     return PriorStructure.build(design.layout, design.free, st.kappa_centre,
-                                settings=st).with_trend(st.trend_centre_um)
+                                settings=st).with_trend(
+        st.trend_centre_um_per_m if st.trend_per_metre else st.trend_centre_um)
 
 
 def analyse(design: Design, prior: PriorStructure, scales: NDArray[np.float64],

@@ -39,7 +39,10 @@ error (thermal expansion of scale or screw, pitch of the screw: 11.5 um/m/K on s
 plus smaller periodic and local errors, so the trend gets its own scale instead of the
 amplitude of the wiggles (ISO 230-2 reports and compensates the slope separately)."""
 
-__all__ = ["GROUPS", "TREND_FUNCTIONS", "PriorStructure", "function_group",
+TILT_GROUP = 3
+"""Index of the tilts (pitch and yaw) in :data:`GROUPS`."""
+
+__all__ = ["GROUPS", "TILT_GROUP", "TREND_FUNCTIONS", "PriorStructure", "function_group",
            "function_scales", "unit_parts", "unit_precision"]
 
 
@@ -191,8 +194,22 @@ class PriorStructure:
         straightness wiggles more over its travel than a positioning error or a tilt.
     trend_um : float
         Prior standard deviation of the linear trend of the functions of
-        :data:`TREND_FUNCTIONS` at the end of travel [um]; 0: no separate trend. With it
-        the block covariance is ``a^2 (C / kappa^2 + W)^-1 + trend^2 s s'``.
+        :data:`TREND_FUNCTIONS` at the end of travel [um], times the axis' factor of
+        :attr:`trend_length`; 0: no separate trend. With it the block covariance is
+        ``a^2 (C / kappa^2 + W)^-1 + t_k^2 s s'``, ``t_k = trend_um * trend_length[k]``
+        (:meth:`block_trend`).
+    tilt_trend_urad : float
+        Prior standard deviation of the linear part of each tilt (pitch and yaw) at the
+        end of travel [urad] (:attr:`EstimatorSettings.tilt_trend_centre_urad`); 0: none.
+        Step diagonals hardly see a tilt's linear part (each line's set-up tilts take
+        it), so without a scale of its own the evidence set it with the wiggles' scale,
+        which the readings can shrink to nothing.
+    trend_length : tuple of 3 float
+        Factor of each axis' trend over :attr:`trend_um`: the axis' travel in metres when
+        the trend is a scale error per length
+        (:attr:`EstimatorSettings.trend_per_metre`: ``trend_um`` is then in um/m, the
+        same thermal or pitch error growing with the travel), 1 for one trend at the end
+        of every travel.
     maps : list
         Per block, None (the prior conditioned on the gauge zeros: ``C``, ``W`` are the
         free nodes' sub-matrices) or ``(D, C_full, W_full)`` with the boundary
@@ -205,6 +222,11 @@ class PriorStructure:
     group_kappa : tuple of 4 float
         Fixed curvature factor of each group of :data:`GROUPS` over ``kappa``
         (:attr:`EstimatorSettings.group_kappa`).
+    axis_kappa : tuple of 3 float
+        Curvature factor of each axis' functions over ``kappa`` (evidence-chosen with
+        :attr:`EstimatorSettings.axis_kappa_spread`; 1 otherwise): a 6 m axis whose errors
+        keep their wavelengths in millimetres undulates more over its normalised travel
+        than the 1 m axis beside it.
     """
 
     blocks: list[tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.float64], int, int]]
@@ -213,10 +235,13 @@ class PriorStructure:
     kappa: float = 40.0
     coords: list[NDArray[np.float64]] = field(default_factory=list)
     trend_um: float = 0.0
+    trend_length: tuple[float, ...] = (1.0, 1.0, 1.0)
+    tilt_trend_urad: float = 0.0
     kappa_factor: tuple[float, ...] = (1.0, 1.0, 1.0, 1.0)
     maps: list = field(default_factory=list)
     nugget_um: float = 0.0
     group_kappa: tuple[float, ...] = _DEFAULT.group_kappa
+    axis_kappa: tuple[float, ...] = (1.0, 1.0, 1.0)
     _unit: dict = field(default_factory=dict, repr=False, compare=False)
 
     @classmethod
@@ -255,8 +280,11 @@ class PriorStructure:
                 coords.append(s[sel])
                 maps.append(_boundary_map(s, sel, C, W, st.boundary))
         sq = pos_in_free[layout.squareness_indices()]
+        lengths = (tuple(float(np.ptp(layout.nodes[k])) / 1000.0 if len(layout.nodes[k]) > 1
+                         else 1.0 for k in range(3))
+                   if st.trend_per_metre else (1.0, 1.0, 1.0))
         return cls(blocks, sq[sq >= 0], int(free.size), kappa, coords, maps=maps,
-                   group_kappa=tuple(st.group_kappa))
+                   group_kappa=tuple(st.group_kappa), trend_length=lengths)
 
     def with_kappa(self, kappa: float) -> PriorStructure:
         """The same prior with another curvature scale.
@@ -279,7 +307,8 @@ class PriorStructure:
         Parameters
         ----------
         trend_um : float or None
-            New :attr:`trend_um` [um at the end of travel]; None or 0: no trend.
+            New :attr:`trend_um` [um at the end of travel, or um/m with
+            :attr:`trend_length` in metres]; None or 0: no trend.
 
         Returns
         -------
@@ -287,6 +316,21 @@ class PriorStructure:
             A copy sharing the blocks.
         """
         return replace(self, trend_um=float(trend_um or 0.0))
+
+    def with_tilt_trend(self, tilt_trend_urad: float | None) -> PriorStructure:
+        """The same prior with another scale of the tilts' linear part.
+
+        Parameters
+        ----------
+        tilt_trend_urad : float or None
+            New :attr:`tilt_trend_urad` [urad at the end of travel]; None or 0: none.
+
+        Returns
+        -------
+        PriorStructure
+            A copy sharing the blocks.
+        """
+        return replace(self, tilt_trend_urad=float(tilt_trend_urad or 0.0))
 
     def with_nugget(self, nugget_um: float | None) -> PriorStructure:
         """The same prior with another short-wavelength (nugget) scale.
@@ -350,7 +394,8 @@ class PriorStructure:
         -------
         (Pinv, K, s, N)
             Unit smooth covariance ``P^-1``, the curvature part ``K`` of
-            :meth:`unit_block`, the normalised positions ``s`` (zero when there is no trend)
+            :meth:`unit_block`, the normalised positions ``s`` times the axis' trend length
+            (:attr:`trend_length`; zero when there is no trend)
             and :meth:`nugget_shape`.
         """
         P, K = self.unit_block(b)
@@ -360,7 +405,8 @@ class PriorStructure:
             Pinv = np.linalg.inv(P)
             Pinv = (Pinv + Pinv.T) / 2
             self._unit[key] = Pinv
-        s = self.coords[b] if self.has_trend(b) else np.zeros(P.shape[0])
+        s = (self.coords[b] * self.trend_length[self.blocks[b][4] // 6] if self.has_trend(b)
+             else np.zeros(P.shape[0]))
         return Pinv, K, s, self.nugget_shape(b)
 
     def with_kappa_factor(self, factor) -> PriorStructure:
@@ -378,6 +424,21 @@ class PriorStructure:
         """
         return replace(self, kappa_factor=tuple(float(v) for v in factor))
 
+    def with_axis_kappa(self, factor) -> PriorStructure:
+        """The same prior with other per-axis curvature factors.
+
+        Parameters
+        ----------
+        factor : sequence of 3 float
+            New :attr:`axis_kappa` (X, Y, Z).
+
+        Returns
+        -------
+        PriorStructure
+            A copy sharing the blocks.
+        """
+        return replace(self, axis_kappa=tuple(float(v) for v in factor))
+
     def block_kappa(self, b: int) -> float:
         """Curvature scale of block ``b``: ``kappa`` times its group's two factors.
 
@@ -394,7 +455,8 @@ class PriorStructure:
         float
         """
         g = self.blocks[b][3]
-        return self.kappa * self.kappa_factor[g] * self.group_kappa[g]
+        return (self.kappa * self.kappa_factor[g] * self.group_kappa[g]
+                * self.axis_kappa[self.blocks[b][4] // 6])
 
     def has_trend(self, b: int) -> bool:
         """True when block ``b`` carries the separate linear trend.
@@ -408,7 +470,29 @@ class PriorStructure:
         -------
         bool
         """
+        if self.blocks[b][3] == TILT_GROUP:
+            return self.tilt_trend_urad > 0
         return self.trend_um > 0 and self.blocks[b][4] in TREND_FUNCTIONS
+
+    def block_trend(self, b: int) -> float:
+        """Prior standard deviation of block ``b``'s trend at the end of travel [um].
+
+        ``trend_um`` times the axis' :attr:`trend_length`; 0 without a trend.
+
+        Parameters
+        ----------
+        b : int
+            Block index.
+
+        Returns
+        -------
+        float
+        """
+        if not self.has_trend(b):
+            return 0.0
+        if self.blocks[b][3] == TILT_GROUP:
+            return self.tilt_trend_urad
+        return self.trend_um * self.trend_length[self.blocks[b][4] // 6]
 
     def unit_block(self, b: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Block ``b``'s precision for a unit amplitude scale and its curvature derivative.
@@ -479,7 +563,7 @@ class PriorStructure:
         if not self.has_trend(b):
             return Q0
         u = Q0 @ self.coords[b]
-        return Q0 - np.outer(u, u) / (1.0 / self.trend_um**2 + float(self.coords[b] @ u))
+        return Q0 - np.outer(u, u) / (1.0 / self.block_trend(b)**2 + float(self.coords[b] @ u))
 
     def precision(self, scales: NDArray[np.float64], squareness_std: float,
                   n_total: int, nuisance_precision: NDArray[np.float64]) -> sp.csc_matrix:

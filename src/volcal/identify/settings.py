@@ -60,6 +60,31 @@ class EstimatorSettings:
         travel (1 m of steel scale 2 K off 20 C) [um].
     trend_spread : float
         Spread of the trend scale's hyperprior (a factor) [1].
+    trend_per_metre : bool
+        The positioning trend is a scale error per length: one evidence-chosen scale in
+        um/m, each axis' trend at the end of its travel that scale times its travel
+        (:attr:`volcal.identify.prior.PriorStructure.trend_length`), the hyperprior
+        centred on ``trend_centre_um_per_m``. False: one trend in um at the end of every
+        travel, centred on ``trend_centre_um`` (volcal <= issue 29), which on a 6 m axis
+        expects the scale error of a 0.8 m one.
+    trend_centre_um_per_m : float
+        Centre of the hyperprior of the trend with ``trend_per_metre`` [um/m]: 25 um/m is
+        the 20 um over the 800 mm X axis of ``trend_centre_um`` (steel 2 K off 20 C).
+    tilt_trend_centre_urad : float
+        Centre of the hyperprior of the tilts' linear part at the end of travel
+        (:attr:`volcal.identify.prior.PriorStructure.tilt_trend_urad`) [urad]; 0: no
+        linear part of its own (the tilts' wiggles' scale holds it).
+    tilt_trend_spread : float
+        Spread of that hyperprior (a factor) [1].
+    axis_kappa_spread : float
+        Spread (a factor, one standard deviation) of each axis' curvature factor around
+        the common ``kappa``, chosen by the evidence
+        (:attr:`volcal.identify.prior.PriorStructure.axis_kappa`); 0: one curvature scale
+        for the three axes [1].
+    axis_scale_spread : float
+        Spread (a factor) of each axis' amplitude scale around its group's (positioning,
+        straightness, tilts; the roll follows its axis' tilts), chosen by the evidence; 0:
+        one scale per group [1].
     nugget : bool
         Estimate a short-wavelength ("nugget") part of the positioning errors' prior,
         independent at every point (a lead screw's cyclic error shorter than the node
@@ -129,11 +154,17 @@ class EstimatorSettings:
     typical_scales: tuple[float, float, float, float] = (10.0, 5.0, 15.0, 15.0)
     hyper_centre: tuple[float, float, float, float] = (10.0, 2.0, 15.0, 15.0)
     kappa_centre: float = 6.0
-    hyper_spread: float = 30.0
+    hyper_spread: float = 3.0
     tilt_centre_urad: float = 50.0
     tilt_spread: float = 2.0
     trend_centre_um: float = 20.0
     trend_spread: float = 3.0
+    trend_per_metre: bool = True
+    trend_centre_um_per_m: float = 25.0
+    tilt_trend_centre_urad: float = 15.0
+    tilt_trend_spread: float = 3.0
+    axis_kappa_spread: float = 3.0
+    axis_scale_spread: float = 0.0
     nugget: bool = True
     nugget_centre_um: float = 0.2
     nugget_spread: float = 10.0
@@ -164,6 +195,14 @@ class EstimatorSettings:
         if self.boundary not in ("difference", "conditional", "start"):
             raise VolcalInputError("EstimatorSettings.boundary must be 'difference', "
                                    f"'conditional' or 'start', got {self.boundary!r}")
+        if not float(self.tilt_trend_centre_urad) >= 0:
+            raise VolcalInputError("EstimatorSettings.tilt_trend_centre_urad must be 0 (off) "
+                                   f"or positive, got {self.tilt_trend_centre_urad!r}")
+        for name in ("axis_kappa_spread", "axis_scale_spread"):
+            v = float(getattr(self, name))
+            if not (v == 0.0 or v > 1.0):
+                raise VolcalInputError(f"EstimatorSettings.{name} must be 0 (off) or a factor "
+                                       f"above 1, got {v!r}")
         if not 0.0 <= self.roll_mixture_absent < 1.0:
             raise VolcalInputError("EstimatorSettings.roll_mixture_absent must be in [0, 1), "
                                    f"got {self.roll_mixture_absent!r}")
@@ -173,7 +212,8 @@ class EstimatorSettings:
                 raise VolcalInputError(f"EstimatorSettings.{name} must be 4 positive numbers, "
                                        f"got {v!r}")
         for name in ("kappa_centre", "hyper_spread", "tilt_centre_urad", "tilt_spread",
-                     "trend_centre_um", "trend_spread", "nugget_centre_um", "nugget_spread",
+                     "trend_centre_um", "trend_spread", "trend_centre_um_per_m",
+                     "tilt_trend_spread", "nugget_centre_um", "nugget_spread",
                      "roll_factor", "evidence_tol", "visited_nodes_factor",
                      "default_repeatability_um", "no_roll_note_factor"):
             if not float(getattr(self, name)) > 0:

@@ -33,8 +33,10 @@ from scipy.optimize import minimize
 
 from volcal.identify.design import Design
 from volcal.identify.evidence import (  # noqa: F401  (re-exported for tests and callers)
+    AXIS_KAPPA,
     N_HYPER,
     NUISANCE_PRECISION,
+    TILT_TREND,
     _Evidence,
     _inverse_from_cholesky,
     _nuisance_precision,
@@ -96,7 +98,17 @@ class Solution:
         the design has none.
     trend_um : float
         Prior standard deviation of the positioning errors' linear trend at the end of
-        travel [um] (:attr:`volcal.identify.prior.PriorStructure.trend_um`; 0: none).
+        travel [um], or per metre of travel [um/m] (:attr:`trend_length`;
+        :attr:`volcal.identify.prior.PriorStructure.trend_um`; 0: none).
+    trend_length : tuple of 3 float
+        Each axis' factor on ``trend_um``
+        (:attr:`volcal.identify.prior.PriorStructure.trend_length`).
+    tilt_trend_urad : float
+        Prior standard deviation of the tilts' linear part at the end of travel [urad]
+        (:attr:`volcal.identify.prior.PriorStructure.tilt_trend_urad`; 0: none).
+    axis_kappa : tuple of 3 float
+        Each axis' curvature factor
+        (:attr:`volcal.identify.prior.PriorStructure.axis_kappa`).
     kappa_factor : tuple of 4 float
         Curvature scale of each prior group relative to ``kappa``
         (:attr:`volcal.identify.prior.PriorStructure.kappa_factor`).
@@ -131,6 +143,9 @@ class Solution:
     tilt_std_urad: float | None = None
     trend_um: float = 0.0
     kappa_factor: tuple[float, ...] = (1.0, 1.0, 1.0, 1.0)
+    trend_length: tuple[float, ...] = (1.0, 1.0, 1.0)
+    axis_kappa: tuple[float, ...] = (1.0, 1.0, 1.0)
+    tilt_trend_urad: float = 0.0
     nugget_um: float = 0.0
     roll_log_bayes_factor: float | None = None
     roll_probability: float | None = None
@@ -197,6 +212,8 @@ def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float6
                     convergence=convergence, function_scales=f_opt, ata=ev.AtA,
                     tilt_std_urad=ev.tilt_std if ev.has_tilts else None,
                     trend_um=ev.prior.trend_um, kappa_factor=ev.prior.kappa_factor,
+                    trend_length=ev.prior.trend_length, axis_kappa=ev.prior.axis_kappa,
+                    tilt_trend_urad=ev.prior.tilt_trend_urad,
                     nugget_um=ev.prior.nugget_um, roll_log_bayes_factor=roll_lbf,
                     roll_probability=p_roll)
 
@@ -242,6 +259,14 @@ class _HyperSearch:
         self.extra = self._extra_scales(tilt_std)
         self.M, self.centre, self.spread = self._hyper_map(centre[list(FREE_GROUPS)])
         self.ns = self.M.shape[1]
+        # per-axis curvature factors: present only when the evidence may choose them
+        self.axes = self._axes_with_functions() if self.free_scales and \
+            st.axis_kappa_spread > 0 else []
+        self.axis_spread = np.log(st.axis_kappa_spread) if self.axes else 1.0
+        # the axes' log factors as contrasts (their sum zero): the common kappa keeps the
+        # mean, so the search has no direction only the hyperprior pins
+        self.contrast = _contrasts(len(self.axes))
+        self.na = self.contrast.shape[1]
         self.h0, self.bounds = self._start()
 
     def _extra_scales(self, tilt_std: float | None) -> list:
@@ -260,12 +285,21 @@ class _HyperSearch:
             ev.set_tilt_std(tilt_std)
         positioning = any(f in TREND_FUNCTIONS for *_, f in ev.prior.blocks)
         if self.free_scales and positioning:
-            extra.append((21, np.log(st.trend_centre_um), (np.log(1e-2), np.log(1e4)),
+            centre = st.trend_centre_um_per_m if st.trend_per_metre else st.trend_centre_um
+            extra.append((21, np.log(centre), (np.log(1e-2), np.log(1e4)),
                           np.log(st.trend_spread)))
+        tilts = any(g == 3 for *_, g, _ in ev.prior.blocks)
+        if self.free_scales and st.tilt_trend_centre_urad > 0 and tilts:
+            extra.append((TILT_TREND, np.log(st.tilt_trend_centre_urad),
+                          (np.log(1e-2), np.log(1e4)), np.log(st.tilt_trend_spread)))
         if self.free_scales and st.nugget and positioning:
             extra.append((26, np.log(st.nugget_centre_um), (np.log(1e-4), np.log(1e2)),
                           np.log(st.nugget_spread)))
         return extra
+
+    def _axes_with_functions(self) -> list[int]:
+        """Axes with free function nodes (their curvature factor is searched)."""
+        return sorted({f // 6 for *_, f in self.ev.prior.blocks})
 
     def _hyper_map(self, group_centre: NDArray[np.float64]):
         """Log function scales and extra scales as a linear map of the search vector.
@@ -286,6 +320,19 @@ class _HyperSearch:
                 M[6 * k + c, groups.index(g if g in groups else 3)] = 1.0  # roll -> tilt
         centre = np.asarray(group_centre, dtype=float)
         spread = np.full(len(groups), self.hyper_spread)
+        if self.st.axis_scale_spread > 0:  # each axis' scale around its group's
+            cols = []
+            for g in groups:
+                for k in range(3):
+                    col = np.zeros(18)
+                    for c in range(6):
+                        gf = function_group(k, c)
+                        if (gf if gf in groups else 3) == g:
+                            col[6 * k + c] = 1.0
+                    cols.append(col)
+            M = np.hstack([M, np.array(cols).T])
+            centre = np.append(centre, np.zeros(len(cols)))
+            spread = np.append(spread, np.full(len(cols), np.log(self.st.axis_scale_spread)))
         m0 = M.shape[1]
         for j, (_, c, _, sd) in enumerate(self.extra):
             M = np.vstack([np.hstack([M, np.zeros((M.shape[0], 1))]),
@@ -299,10 +346,13 @@ class _HyperSearch:
         h0: list = []
         bounds: list = []
         if self.free_scales:
-            h0 += list(self.centre) + [np.log(self.k0)]
+            n_axis_scale = self.ns - len(FREE_GROUPS) - len(self.extra)
+            h0 += list(self.centre) + [np.log(self.k0)] + [0.0] * self.na
             bounds += ([(np.log(1e-2), np.log(1e4))] * len(FREE_GROUPS)
+                       + [(np.log(1e-2), np.log(1e2))] * n_axis_scale
                        + [bd for _, _, bd, _ in self.extra]
-                       + [(np.log(1.0), np.log(1e4))])
+                       + [(np.log(1.0), np.log(1e4))]
+                       + [(np.log(0.05), np.log(20.0))] * self.na)
         if self.free_sigma:
             h0.append(np.log(self.sig0))
             bounds.append((np.log(self.sig_floor), np.log(1e3)))
@@ -325,11 +375,18 @@ class _HyperSearch:
                     ev.set_tilt_std(v)
                 elif gi == 21:
                     ev.prior = ev.prior.with_trend(v)
+                elif gi == TILT_TREND:
+                    ev.prior = ev.prior.with_tilt_trend(v)
                 else:
                     ev.prior = ev.prior.with_nugget(v)
             ev.prior = ev.prior.with_kappa_factor(np.ones(len(GROUPS)))  # one curvature scale
             kap = float(np.exp(h[ns]))
             i = ns + 1
+            if self.na:
+                fac = np.ones(3)
+                fac[self.axes] = np.exp(self.contrast @ h[i:i + self.na])
+                ev.prior = ev.prior.with_axis_kappa(fac)
+                i += self.na
         sig = float(np.exp(h[i])) if self.free_sigma else self.sig0
         return fsc, sig, kap
 
@@ -348,6 +405,12 @@ class _HyperSearch:
             grad[:ns] = self.M.T @ g_scales + 2.0 * z[:ns] / self.spread
             grad[ns] = g20[18] + 2.0 * z[ns] / self.hyper_spread
             i = ns + 1
+            if self.na:  # log-normal around 1 (one curvature scale)
+                za = h[i:i + self.na] / self.axis_spread
+                val += float(za @ za)
+                ga = np.array([g20[AXIS_KAPPA + k] for k in self.axes])
+                grad[i:i + self.na] = self.contrast.T @ ga + 2.0 * za / self.axis_spread
+            i += self.na
         if self.free_sigma:
             grad[i] = g20[19]
         return val, grad
@@ -463,9 +526,20 @@ class _HyperSearch:
             gs = np.append(g[:18], [g[gi] for gi, *_ in self.extra])
             c += list((self.M**2).T @ (2.0 * np.abs(gs)) + 2.0 / self.spread**2)
             c.append(2.0 * abs(g[18]) + 2.0 / self.hyper_spread**2)
+            if self.na:
+                ga = np.abs([g[AXIS_KAPPA + k] for k in self.axes])
+                c += list((self.contrast**2).T @ (2.0 * ga) + 2.0 / self.axis_spread**2)
         if self.free_sigma:
             c.append(2.0 * abs(g[19]))
         return np.sqrt(np.maximum(np.array(c), 1.0))
+
+
+def _contrasts(n: int) -> NDArray[np.float64]:
+    """Orthonormal basis of the vectors of ``n`` entries summing to zero, ``(n, n - 1)``."""
+    if n < 2:
+        return np.zeros((n, 0))
+    q, _ = np.linalg.qr(np.hstack([np.ones((n, 1)), np.eye(n)[:, :n - 1]]))
+    return q[:, 1:]
 
 
 def _roll_presence(prior: PriorStructure, design: Design, fscales, H, cf, x, cov,

@@ -11,32 +11,45 @@ What the customer reads is never cut: paragraphs and table cells are wrapped at 
 boundaries, measured with the font that draws them (a word wider than its column is broken
 between characters), and a table row grows to hold its longest cell. Figures are drawn as
 vector graphics at the size they are printed (the figure is laid out again on the page,
-its fonts kept at their point sizes, so a label set in 6.5 pt prints at 6.5 pt); the few
-parts matplotlib rasterizes (colour bars) are embedded at :data:`RASTER_DPI`.
+its fonts kept at their point sizes, so a label set in 6.5 pt prints at 6.5 pt), laid out
+and drawn in one pass; the parts matplotlib rasterizes (colour bars) and the heavy artists
+(more than :data:`RASTER_POINTS` points) are embedded at :data:`RASTER_DPI`.
 """
 
 from __future__ import annotations
 
 import re
 from pathlib import Path
+from typing import Any
 
+import numpy as np
+from matplotlib.artist import Artist
 from matplotlib.backends.backend_agg import RendererAgg
-from matplotlib.backends.backend_pdf import PdfPages
+from matplotlib.backends.backend_pdf import FigureCanvasPdf, PdfPages
+from matplotlib.collections import Collection
 from matplotlib.figure import Figure
 from matplotlib.font_manager import FontProperties
+from matplotlib.image import AxesImage
 from matplotlib.layout_engine import ConstrainedLayoutEngine
+from matplotlib.lines import Line2D
 from matplotlib.patches import Rectangle
 
 from volcal.plot._figure import new_figure
 from volcal.report.document import Report, Table
 from volcal.report.wording import customer_report
 
-__all__ = ["RASTER_DPI", "write_pdf"]
+__all__ = ["RASTER_DPI", "RASTER_POINTS", "write_pdf"]
 
 A4_PORTRAIT = (8.27, 11.69)
 A4_LANDSCAPE = (11.69, 8.27)
 RASTER_DPI = 300
-"""Resolution of the rasterized parts of the figures (colour bars) [dots per inch]."""
+"""Resolution of the rasterized parts of the figures (colour bars, heavy artists) [dots per
+inch]."""
+RASTER_POINTS = 2000
+"""Artists drawing more points than this (the readings of a dense scatter, the vertices of
+a long line, the cells of an error-map image) are rasterized in the PDF at
+:data:`RASTER_DPI`, inside otherwise vector figures: their labels, ticks and axes stay
+text and vectors."""
 
 _PT = 72.0  # points per inch
 _TOP, _BOTTOM, _LEFT = 0.95, 0.06, 0.07
@@ -85,27 +98,77 @@ class _Measure:
 
         Every character of ``text`` other than the spaces at the breaks is kept: a word
         wider than the line is broken between characters, never shortened.
+
+        The lines are those of the greedy rule (each word on the line if the line with it
+        still fits, else on the next), found with few measurements of whole lines: the
+        width of a line grows with every word appended to it (its glyphs keep their
+        places, the ink only reaches further right), so the words that fit after a line
+        are found from an estimate (the widths of the characters) and two exact measurements
+        (:meth:`_fit`), instead of measuring the line again after every word.
         """
         lines: list[str] = []
         for para in text.split("\n"):
+            words = para.split()
             line = ""
-            for word in para.split():
-                cand = f"{line} {word}" if line else word
-                if self.width(cand, size, weight) <= width:
-                    line = cand
-                    continue
+            j = 0
+            while j < len(words):
+                m = self._fit(line, words, j, width, size, weight)
+                if m:
+                    line = " ".join(([line] if line else []) + words[j:j + m])
+                    j += m
+                    if j == len(words):
+                        break
+                word = words[j]  # does not fit after the line: a new line
+                j += 1
                 if line:
                     lines.append(line)
-                line = ""
                 while self.width(word, size, weight) > width and len(word) > 1:
-                    k = len(word) - 1
-                    while k > 1 and self.width(word[:k], size, weight) > width:
-                        k -= 1
+                    k = self._prefix(word, width, size, weight)
                     lines.append(word[:k])
                     word = word[k:]
                 line = word
             lines.append(line)
         return lines or [""]
+
+    def _fit(self, line: str, words: list[str], j: int, width: float, size: float,
+             weight: str) -> int:
+        """How many of ``words[j:]`` fit after ``line``, one space apart, in ``width`` [pt]."""
+        head = [line] if line else []
+
+        def fits(m: int) -> bool:
+            return self.width(" ".join(head + words[j:j + m]), size, weight) <= width
+
+        n = len(words) - j
+        space = 0.32 * size  # DejaVu Sans's space, 0.318 em [pt]
+        est = (self.width(line, size, weight) + space) if line else 0.0
+        m = 0
+        while m < n:
+            est += self._estimate(words[j + m], size, weight) + (space if m else 0.0)
+            if est > width:
+                break
+            m += 1
+        if m and not fits(m):
+            while m and not fits(m):
+                m -= 1
+        else:
+            while m < n and fits(m + 1):
+                m += 1
+        return m
+
+    def _estimate(self, word: str, size: float, weight: str) -> float:
+        """Width of a word from the widths of its characters [pt] (no kerning): a guess."""
+        return sum(self.width(c, size, weight) - 0.5 for c in word)
+
+    def _prefix(self, word: str, width: float, size: float, weight: str) -> int:
+        """Length of the longest head of ``word`` that fits ``width`` [pt] (at least 1)."""
+        lo, hi = 1, len(word) - 1  # the head of length lo is kept even if it is too wide
+        while lo < hi:
+            mid = (lo + hi + 1) // 2
+            if self.width(word[:mid], size, weight) <= width:
+                lo = mid
+            else:
+                hi = mid - 1
+        return lo
 
 
 def _weight(i: int) -> str:
@@ -313,9 +376,14 @@ def _figure_page(pdf: PdfPages, fig: Figure, caption: str, number: int, footer: 
                       linespacing=_LINESPACING, parse_math=False),
              fig.text(0.5, 0.02, footer, ha="center", fontsize=7, color="0.4",
                       parse_math=False)]
+    heavy = [a for a in _heavy_artists(fig) if not a.get_rasterized()]
     try:
-        pdf.savefig(fig, dpi=RASTER_DPI)
+        for a in heavy:
+            a.set_rasterized(True)
+        _print_page(pdf, fig)
     finally:
+        for a in heavy:
+            a.set_rasterized(False)
         for a in added:
             a.remove()
         fig.set_size_inches(float(old_size[0]), float(old_size[1]), forward=False)
@@ -328,6 +396,61 @@ def _figure_page(pdf: PdfPages, fig: Figure, caption: str, number: int, footer: 
             title.set_position(position)
             title._autopos = autopos
             title.set_in_layout(in_layout)
+
+
+def _points(a: Artist) -> int:
+    """Number of points an artist draws (vertices, markers, arrows, image cells)."""
+    if isinstance(a, Line2D):
+        return int(np.shape(a.get_xydata())[0])
+    if isinstance(a, Collection):
+        return max(int(np.shape(a.get_offsets())[0]), len(a.get_paths()))
+    if isinstance(a, AxesImage):
+        data = a.get_array()
+        return 0 if data is None else int(np.prod(np.shape(data)[:2]))
+    return 0
+
+
+def _heavy_artists(fig: Figure) -> list[Artist]:
+    """The artists of a figure with more than :data:`RASTER_POINTS` points."""
+    return [a for ax in fig.axes for a in ax.get_children() if _points(a) > RASTER_POINTS]
+
+
+class _PageCanvas(FigureCanvasPdf):
+    """A PDF canvas whose layout engine measures with the renderer that prints the page."""
+
+    def __init__(self, figure: Figure) -> None:
+        super().__init__(figure)
+        self.renderer: Any = None
+        self._is_saving = True  # as savefig: what is printed, not what is shown
+
+    def get_renderer(self) -> Any:
+        return self.renderer
+
+
+def _print_page(pdf: PdfPages, fig: Figure) -> None:
+    """Print a figure as the next page of ``pdf``, laid out and drawn in one pass.
+
+    ``PdfPages.savefig`` lays a figure with a layout engine out in a drawing pass of its
+    own, with a renderer of its own, before the drawing it prints; here the layout engine
+    runs inside the one drawing (as ``Figure.draw`` does) and measures the texts with the
+    renderer that prints them, so each text is measured once. The rasterized parts are
+    drawn at :data:`RASTER_DPI`.
+    """
+    canvas, dpi = fig.canvas, fig.dpi
+    page = _PageCanvas(fig)
+
+    def draw(renderer: Any) -> None:
+        page.renderer = renderer
+        Figure.draw(fig, renderer)
+
+    try:
+        fig.dpi = RASTER_DPI  # the resolution of the rasterized parts; the page is in points
+        fig.draw = draw  # type: ignore[method-assign]
+        page.print_pdf(pdf)
+    finally:
+        del fig.draw
+        fig.set_canvas(canvas)
+        fig.dpi = dpi
 
 
 def write_pdf(report: Report, path: str | Path) -> int:

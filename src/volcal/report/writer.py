@@ -9,7 +9,7 @@ from pathlib import Path
 
 from volcal.io.atomic import atomic_dir
 from volcal.report.document import Report
-from volcal.report.figures import png_bytes
+from volcal.report.figures import draw_pngs, png_bytes
 from volcal.report.html import render_html
 from volcal.report.pdf import write_pdf
 
@@ -70,13 +70,20 @@ def write_report(report: Report, folder: str | Path,
     """
     folder = Path(folder)
     names = []
+    figs = report.figures
     with atomic_dir(folder) as tmp:
-        (tmp / "report.html").write_text(render_html(report), encoding="utf-8")
+        # each figure drawn once as PNG (HTML and figures folder) and once for the PDF; the
+        # PNGs in worker processes while this one prints the PDF, where cores are spare
+        drawing = draw_pngs([f.figure for f in figs], png_bytes)
+        pngs = None if drawing.parallel else drawing.result()
         pages = write_pdf(report, tmp / "report.pdf")
+        if pngs is None:
+            pngs = drawing.result()
+        (tmp / "report.html").write_text(render_html(report), encoding="utf-8")
         (tmp / "figures").mkdir()
-        for i, f in enumerate(report.figures, start=1):
+        for i, (f, png) in enumerate(zip(figs, pngs, strict=True), start=1):
             name = f"{i:02d}-{f.name}.png"
-            (tmp / "figures" / name).write_bytes(png_bytes(f.figure))
+            (tmp / "figures" / name).write_bytes(png)
             names.append(name)
         if extra is not None:
             extra(tmp)

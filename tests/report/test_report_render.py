@@ -1,0 +1,246 @@
+"""Rendering the report fast without changing it (issue 31): each figure drawn once per
+output format, the PNGs drawn in worker processes the same as here, the figures' data
+untouched by the rendering, the PDF's text wrapped as by the greedy rule, heavy artists
+rasterized at RASTER_DPI."""
+
+import os
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+import report_fixtures as _fx
+from matplotlib.collections import Collection
+from matplotlib.figure import Figure
+from matplotlib.image import AxesImage
+from matplotlib.lines import Line2D
+from matplotlib.patches import Rectangle
+from matplotlib.quiver import Quiver
+from matplotlib.text import Text
+
+from timing import scaled_timeout
+from volcal.plot._figure import new_figure
+from volcal.report import figures as F
+from volcal.report.document import FigureItem, Report, Section, Table
+from volcal.report.pdf import RASTER_DPI, RASTER_POINTS, _Measure, write_pdf
+
+# pytest fixtures shared by the report tests (see report_fixtures.py)
+identified = _fx.identified
+small_session = _fx.small_session
+
+
+def figure_data(fig: Figure) -> list:
+    """What a figure shows, axes by axes: the data of its lines, collections (scatter,
+    bands, arrows, bars), images and patches, and its titles, labels and legends, in
+    drawing order (not its pixels; tick marks and tick labels are made by the drawing)."""
+    out: list = []
+
+    def text(t):
+        if t is not None and t.get_text():
+            out.append(("text", t.get_text()))
+
+    for ax in fig.axes:
+        for a in ax.get_children():
+            if isinstance(a, Line2D):
+                out.append(("line", a.get_gid(), np.asarray(a.get_xydata(), float).tolist(),
+                            a.get_marker(), a.get_linestyle(), a.get_color()))
+            elif isinstance(a, Quiver):  # the arrows' shapes are made by the drawing
+                out.append(("quiver", a.get_gid(), np.asarray(a.get_offsets()).tolist(),
+                            np.asarray(a.U).tolist(), np.asarray(a.V).tolist(),
+                            np.asarray(a.get_array()).tolist(), a.scale))
+            elif isinstance(a, Collection):
+                arr = a.get_array()
+                out.append(("collection", type(a).__name__, a.get_gid(),
+                            np.asarray(a.get_offsets(), float).tolist(),
+                            [np.asarray(p.vertices).tolist() for p in a.get_paths()],
+                            None if arr is None else np.asarray(arr).tolist()))
+            elif isinstance(a, AxesImage):
+                out.append(("image", np.asarray(a.get_array()).tolist()))
+            elif isinstance(a, Rectangle) and a is not ax.patch:
+                out.append(("rectangle", a.get_gid(), a.get_xy(), a.get_width(),
+                            a.get_height(), a.get_hatch()))
+            elif isinstance(a, Text):
+                text(a)
+        for t in (ax.xaxis.label, ax.yaxis.label):
+            text(t)
+        legend = ax.get_legend()
+        for t in legend.get_texts() if legend is not None else []:
+            text(t)
+    for t in fig.texts:
+        text(t)
+    text(getattr(fig, "_suptitle", None))
+    return out
+
+
+@pytest.fixture(scope="module")
+def built(identified):
+    """A report built and not yet rendered (its own figures, not the shared fixture's)."""
+    from volcal.report.pipeline import collect_inputs
+    from volcal.report.sections import build_report
+
+    s, r = identified
+    return build_report(collect_inputs(s, r))
+
+
+def test_rendering_draws_each_figure_once_per_format_and_keeps_its_data(built, tmp_path,
+                                                                        monkeypatch):
+    from volcal.report.writer import write_report
+
+    before = [figure_data(f.figure) for f in built.figures]
+    assert all(before) and len(built.figures) >= 6
+    drawn: dict = {}
+    draw = Figure.draw
+
+    def counting(fig, renderer):
+        key = (id(fig), "pdf" if type(renderer).__name__ == "MixedModeRenderer" else "png")
+        drawn[key] = drawn.get(key, 0) + 1
+        return draw(fig, renderer)
+
+    monkeypatch.setattr(Figure, "draw", counting)
+    monkeypatch.setenv(F.WORKERS_ENV, "0")  # in this process, where the draws are counted
+    files = write_report(built, tmp_path / "r")
+    for f in built.figures:
+        assert drawn.get((id(f.figure), "png")) == 1, f.name  # HTML and figures folder
+        assert drawn.get((id(f.figure), "pdf")) == 1, f.name  # its PDF page
+    assert len(files.figures) == len(built.figures)
+    assert [figure_data(f.figure) for f in built.figures] == before
+    # the figures are left as built: their own size, their layout engine, Agg canvas
+    for f in built.figures:
+        assert f.figure.get_layout_engine() is not None
+        assert type(f.figure.canvas).__name__ == "FigureCanvasAgg"
+        assert not any(a.get_rasterized() for a in f.figure.findobj(Line2D))
+
+
+def test_pngs_drawn_in_worker_processes_equal_the_ones_drawn_here(identified):
+    from volcal.plot import error_functions_plot, linear_deviation_plot
+
+    s, r = identified
+    lin = next(m for m in s.measurements if m.kind == "linear")
+
+    def figs():
+        return [linear_deviation_plot(lin), error_functions_plot(r.errors),
+                linear_deviation_plot(lin)]
+
+    forked = figs()
+    drawing = F.draw_pngs(forked, workers=2)
+    assert drawing.parallel
+    data = [figure_data(f) for f in forked]
+    pngs = drawing.result()
+    here = figs()
+    assert F.draw_pngs(here, workers=0).result() == pngs
+    assert pngs[0] == pngs[2] and pngs[0] != pngs[1]
+    assert [F.png_bytes(f) for f in forked] == pngs  # kept on the figures
+    assert [figure_data(f) for f in forked] == data
+
+
+def _small_figures():
+    out = []
+    for k in (1, 2):
+        fig = new_figure(4.0, 3.0)
+        ax = fig.add_subplot()
+        ax.plot(np.arange(10.0), np.arange(10.0) ** k)
+        ax.set_xlabel("X [mm]")
+        out.append(fig)
+    return out
+
+
+def test_a_worker_that_dies_leaves_its_figures_to_this_process():
+    parent = os.getpid()
+
+    def draw(fig):
+        if os.getpid() != parent:
+            os._exit(3)  # a worker killed while it draws
+        return F.png_bytes(fig)
+
+    drawing = F.draw_pngs(_small_figures(), draw, workers=1)
+    assert drawing.parallel
+    expected = [F.png_bytes(f) for f in _small_figures()]
+    assert drawing.result() == expected and expected[0] != expected[1]
+
+
+def test_draw_workers_from_the_environment(monkeypatch):
+    monkeypatch.setenv(F.WORKERS_ENV, "3")
+    assert F.draw_workers(8) == 3
+    assert F.draw_workers(2) == 2  # never more than the figures
+    monkeypatch.setenv(F.WORKERS_ENV, "0")
+    assert F.draw_workers(8) == 0
+    monkeypatch.setenv(F.WORKERS_ENV, "two")
+    with pytest.raises(ValueError, match="VOLCAL_REPORT_WORKERS='two'"):
+        F.draw_workers(8)
+    monkeypatch.delenv(F.WORKERS_ENV)
+    assert 0 <= F.draw_workers(8) <= 8
+
+
+def _greedy(m: _Measure, text: str, width: float, size: float, weight: str = "normal"):
+    """The greedy rule as it was written first: every candidate line measured whole."""
+    lines = []
+    for para in text.split("\n"):
+        line = ""
+        for word in para.split():
+            cand = f"{line} {word}" if line else word
+            if m.width(cand, size, weight) <= width:
+                line = cand
+                continue
+            if line:
+                lines.append(line)
+            line = ""
+            while m.width(word, size, weight) > width and len(word) > 1:
+                k = len(word) - 1
+                while k > 1 and m.width(word[:k], size, weight) > width:
+                    k -= 1
+                lines.append(word[:k])
+                word = word[k:]
+            line = word
+        lines.append(line)
+    return lines or [""]
+
+
+def test_wrap_breaks_the_lines_of_the_greedy_rule(built):
+    m = _Measure()
+    paragraphs = [p for s in built.sections for p in s.paragraphs + s.warnings]
+    cells = sorted({c for s in built.sections for t in s.tables for r in t.rows for c in r})
+    hard = ["x" * 60 + "Y" * 60 + "z" * 60, "a " + "W" * 50 + " b c", "", "one\n\ntwo three",
+            " ".join(f"word{i:03d}" for i in range(90))]
+    n = 0
+    for texts, size, weight, width in ((paragraphs + hard, 9.5, "normal", 480.0),
+                                       (cells + hard, 7.0, "bold", 60.0)):
+        for t in texts:
+            assert m.wrap(t, width, size, weight) == _greedy(m, t, width, size, weight)
+            n += 1
+    assert n > 300
+
+
+def _pdfimages(pdf):
+    tool = shutil.which("pdfimages")
+    if tool is None:
+        pytest.skip("pdfimages is not installed (poppler-utils)")
+    r = subprocess.run([tool, "-list", str(pdf)], capture_output=True, text=True,
+                       timeout=scaled_timeout(60))
+    assert r.returncode == 0, r.stderr
+    return [ln.split() for ln in r.stdout.splitlines()[2:] if ln.strip()]
+
+
+def test_heavy_artists_rasterized_inside_a_vector_figure(tmp_path):
+    rng = np.random.default_rng(5)
+    fig = new_figure(8.0, 5.0)
+    ax = fig.add_subplot()
+    dense = ax.plot(rng.normal(size=RASTER_POINTS + 500), rng.normal(size=RASTER_POINTS + 500),
+                    linestyle="none", marker=".", markersize=2, gid="readings")[0]
+    ax.plot([-3.0, 3.0], [-1.0, 1.0], color="tab:orange", gid="fit")
+    ax.set_xlabel("along beam [mm]")
+    ax.set_ylabel("deviation [µm]")
+    light = new_figure(8.0, 5.0)
+    light.add_subplot().plot(np.arange(RASTER_POINTS), np.zeros(RASTER_POINTS))
+    rep = Report("raster test", [Section("s", "S", tables=[Table(["a"], [["1"]])],
+                                         figures=[FigureItem(fig, "dense", "dense"),
+                                                  FigureItem(light, "light", "light")])])
+    pdf = tmp_path / "r.pdf"
+    assert write_pdf(rep, pdf) == 3
+    images = [c for c in _pdfimages(pdf) if c[2] == "image"]  # not their alpha masks
+    assert [int(c[0]) for c in images] == [2]  # the dense figure's page only
+    xppi, yppi = float(images[0][12]), float(images[0][13])
+    assert xppi >= RASTER_DPI - 1 and yppi >= RASTER_DPI - 1
+    text = subprocess.run([shutil.which("pdftotext"), "-layout", str(pdf), "-"],
+                          capture_output=True, text=True, timeout=scaled_timeout(60)).stdout
+    assert "along beam [mm]" in text and "deviation [µm]" in text  # labels stay text
+    assert not dense.get_rasterized()  # the figure itself is left as it was

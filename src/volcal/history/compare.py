@@ -111,11 +111,18 @@ class Entry:
     position_mm: float | None = None
     reason: str = ""
 
+    @property
+    def verdict(self) -> str:
+        """``CHANGED``, ``unchanged`` or ``undecided`` (``changed`` true, false, None)."""
+        return "undecided" if self.changed is None else (
+            "CHANGED" if self.changed else "unchanged")
+
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready dict."""
-        return {k: getattr(self, k) for k in ("name", "difference", "U", "changed", "unit",
-                                              "test", "statistic", "threshold", "dof",
-                                              "position_mm", "reason")}
+        """JSON-ready dict (with ``verdict``)."""
+        return {**{k: getattr(self, k) for k in ("name", "difference", "U", "changed",
+                                                 "unit", "test", "statistic", "threshold",
+                                                 "dof", "position_mm", "reason")},
+                "verdict": self.verdict}
 
 
 def load_record_model(store: Any, rid: str) -> Any:
@@ -516,7 +523,7 @@ def previous_calibration(store: Any, session: Any) -> Any:
 
 
 def compare_with_model(store: Any, earlier: str, session: Any, model: Any,
-                       level: float = 0.05) -> list[Entry]:
+                       level: float = 0.05, evaluation: Any = None) -> list[Entry]:
     """The change test between a stored calibration and one not stored (yet).
 
     As :func:`compare`, with the later calibration given by its session and model
@@ -535,6 +542,9 @@ def compare_with_model(store: Any, earlier: str, session: Any, model: Any,
         Its model; ``None`` compares the results only.
     level : float
         Family-wise false-alarm level of the function tests (default 5 %).
+    evaluation : SessionEvaluation, optional
+        The session's evaluation already made (the report's, with its budget): its results
+        and U are used as they are.
 
     Returns
     -------
@@ -548,7 +558,7 @@ def compare_with_model(store: Any, earlier: str, session: Any, model: Any,
     if r1.kind != "calibration":
         raise VolcalInputError(f"{r1.id} is a {r1.kind} record, not a calibration")
     r2 = _Results({n: {"value": v, "U": u, "unit": unit}
-                   for n, v, u, unit in results_of(session, model)})
+                   for n, v, u, unit in results_of(session, model, evaluation=evaluation)})
     m1 = load_record_model(store, r1.id)
     both = m1 is not None and model is not None
     out = _result_entries(r1, r2, both)

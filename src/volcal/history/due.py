@@ -35,6 +35,11 @@ def machine_interval(records: list[Any], machine_id: str) -> int:
 
 
 def _kinds(history: Any, rec: Any) -> list[str]:
+    """The kinds of test a calibration measured (its payload's ``kinds``; a record stored
+    before volcal kept them: from its stored ``session.toml``)."""
+    kinds = rec.payload.get("kinds")
+    if isinstance(kinds, list) and kinds and all(isinstance(k, str) for k in kinds):
+        return sorted(set(kinds))
     try:
         doc = __import__("tomllib").loads(history.store.file(rec.id, "session",
                                                              "session.toml").decode())
@@ -46,7 +51,8 @@ def _kinds(history: Any, rec: Any) -> list[str]:
         return ["calibration"]
 
 
-def due(history: Any, today: _dt.date | None = None) -> list[dict[str, Any]]:
+def due(history: Any, today: _dt.date | None = None, machine: str | None = None
+        ) -> list[dict[str, Any]]:
     """Rows ``machine, machine_id, test, last, next, interval_days, overdue_days``.
 
     Sorted by the next date, so the most overdue come first.
@@ -57,17 +63,30 @@ def due(history: Any, today: _dt.date | None = None) -> list[dict[str, Any]]:
         The store.
     today : date, optional
         Reference date (default today).
+    machine : str, optional
+        Only this machine (record id or name): only its records are read.
     """
     from volcal.history.machines import current_machines
 
     today = today or _dt.date.today()
-    records = history.store.records()
+    store = history.store
+    machines = current_machines(store.records("machine"))
+    if machine is not None:
+        mid = history.machine_id(machine, machines)
+        machines = [m for m in machines if m.id == mid]
+        others = store.records(machine_id=mid)
+    else:
+        others = store.records("interval") + store.records("calibration")
+    mine: dict[str | None, list[Any]] = {}
+    for r in others:
+        mine.setdefault(r.machine_id, []).append(r)
     rows = []
-    for mach in current_machines(records):
-        interval = machine_interval(records, mach.id)
+    for mach in machines:
+        own = sorted(mine.get(mach.id, []), key=lambda r: r.seq)
+        interval = machine_interval([mach, *own], mach.id)
         last: dict[str, str] = {}
-        for r in records:
-            if r.kind == "calibration" and r.machine_id == mach.id and r.superseded_by is None:
+        for r in own:
+            if r.kind == "calibration" and r.superseded_by is None:
                 for k in _kinds(history, r):
                     if r.date and (k not in last or r.date > last[k]):
                         last[k] = r.date

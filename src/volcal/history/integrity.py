@@ -23,7 +23,7 @@ import contextlib
 import hashlib
 import sqlite3
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from volcal.errors import VolcalInputError
@@ -103,7 +103,34 @@ def record_damage(row: dict[str, Any], files: list[dict[str, Any]],
         ok = record_hash(row["prev_hash"], row, files, results, equipment) == row["hash"]
     except (TypeError, ValueError, KeyError):
         return "its content cannot be read (a column holds a value of the wrong type)"
-    return None if ok else "its content does not match its hash"
+    if not ok:
+        return "its content does not match its hash"
+    return digest_column_damage(row)
+
+
+def digest_column_damage(row: dict[str, Any]) -> str | None:
+    """Whether ``records.content_sha256`` (revision 0004, outside the hash) agrees with the
+    record's payload (None: it does, or the store has no such column).
+
+    Parameters
+    ----------
+    row : dict
+        The row of ``records``.
+    """
+    import json
+
+    from volcal.history.store import content_key
+
+    if "content_sha256" not in row:
+        return None
+    try:
+        payload = json.loads(row["payload"])
+    except (TypeError, ValueError):
+        payload = None
+    if row["content_sha256"] != content_key(row.get("kind"), row.get("supersedes"), payload):
+        return ("its content digest column (records.content_sha256) does not match its "
+                "payload (altered in the store)")
+    return None
 
 
 @dataclass
@@ -124,6 +151,9 @@ class ChainCheck:
         What is wrong with the first broken record.
     hashes : dict of str to int
         Hash -> sequence number of every record found intact, in order.
+    duplicates : list of list of str
+        Ids of calibrations that hold the same readings and model, one list per content
+        (a store written before revision 0004 refused them; not a break of the chain).
     """
 
     ok: bool
@@ -132,6 +162,7 @@ class ChainCheck:
     n: int
     why: str
     hashes: dict[str, int]
+    duplicates: list[list[str]] = field(default_factory=list)
 
     def as_tuple(self) -> tuple[bool, str | None, str, int, str]:
         """``(ok, first, head, n, why)`` as :meth:`Store.verify` returns it."""
@@ -201,6 +232,33 @@ def altered_file(conn, seq: int) -> str | None:
     return None
 
 
+def duplicates(conn) -> list[list[str]]:
+    """Calibrations stored more than once with the same content (revision 0004's column).
+
+    Parameters
+    ----------
+    conn : Connection
+        Open connection.
+
+    Returns
+    -------
+    list of list of str
+        Record ids of each content held by several records, in chain order.
+    """
+    from sqlalchemy import func, select
+
+    from volcal.history import schema as t
+
+    c = t.records.c
+    twice = select(c.content_sha256).where(c.content_sha256.is_not(None)).group_by(
+        c.content_sha256).having(func.count() > 1)
+    out: dict[str, list[str]] = {}
+    for digest, rid in conn.execute(select(c.content_sha256, c.id).where(
+            c.content_sha256.in_(twice)).order_by(c.seq)):
+        out.setdefault(str(digest), []).append(str(rid))
+    return sorted(out.values())
+
+
 def _label(row: dict[str, Any]) -> str:
     return f"{row['id']} (record {row['seq']})"
 
@@ -264,4 +322,5 @@ def check_chain(conn, contents: bool = True) -> ChainCheck:
         hashes[prev] = i
     if bad is not None:
         return ChainCheck(False, bad[1], prev, len(hashes), bad[2], hashes)
-    return ChainCheck(True, None, prev, len(rows), "", hashes)
+    return ChainCheck(True, None, prev, len(rows), "", hashes,
+                      duplicates(conn) if contents else [])

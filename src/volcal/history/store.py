@@ -119,6 +119,25 @@ class NewRecord:
     equipment: list[dict[str, Any]] = field(default_factory=list)
 
 
+def content_key(kind: Any, supersedes: Any, payload: Any) -> str | None:
+    """The ``records.content_sha256`` of a record: its payload's content digest when it is
+    a calibration that corrects nothing, else None (revision 0004).
+
+    Parameters
+    ----------
+    kind : str
+        The record's kind.
+    supersedes : str or None
+        The record it corrects.
+    payload : dict
+        Its payload.
+    """
+    if kind != "calibration" or supersedes is not None or not isinstance(payload, dict):
+        return None
+    d = payload.get("content_sha256")
+    return d if isinstance(d, str) and d else None
+
+
 def _text(v: Any) -> Any:
     """A value read back as volcal wrote it: bytes (another program's) as text."""
     if isinstance(v, bytes | bytearray | memoryview):
@@ -247,29 +266,27 @@ class Store:
 
         Otherwise ``rid`` with ``superseded_by`` set (it was corrected by other content).
         """
-        every = {r.id: r for r in self.records("calibration")}
-        cur = every[every[rid].superseded_by or rid]
-        return cur if cur.payload.get("content_sha256") == digest else every[rid]
+        first = self.record(rid)
+        cur = self.record(first.superseded_by) if first.superseded_by else first
+        return cur if cur.payload.get("content_sha256") == digest else first
 
     @staticmethod
     def _stored_before(conn, rec: NewRecord) -> str | None:
         """Id of the newest calibration stored with the same content (under the lock).
 
-        A correction (``supersedes``) is always appended. The content digest is in the
-        canonical payload (``"content_sha256":"..."``).
+        A correction (``supersedes``) is always appended. The content digest is the
+        indexed column ``records.content_sha256`` (revision 0004, unique where the store
+        never held duplicates).
         """
         from sqlalchemy import select
 
         from volcal.history import schema as t
 
-        digest = rec.payload.get("content_sha256")
-        if rec.kind != "calibration" or rec.supersedes is not None or not digest:
+        digest = content_key(rec.kind, rec.supersedes, rec.payload)
+        if digest is None:
             return None
-        key = canonical({"content_sha256": digest})[1:-1]
-        row = conn.execute(select(t.records.c.id).where(
-            t.records.c.kind == "calibration", t.records.c.payload.contains(key,
-                                                                            autoescape=True))
-            .order_by(t.records.c.seq.desc()).limit(1)).first()
+        row = conn.execute(select(t.records.c.id).where(t.records.c.content_sha256 == digest)
+                           .order_by(t.records.c.seq.desc()).limit(1)).first()
         return None if row is None else str(row.id)
 
     def _refuse_unsigned(self, conn) -> None:
@@ -314,7 +331,8 @@ class Store:
                "created": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
                "supersedes": rec.supersedes, "as_left_of": rec.as_left_of,
                "report_id": rec.report_id, "payload": canonical(rec.payload),
-               "prev_hash": prev}
+               "prev_hash": prev, "content_sha256": content_key(rec.kind, rec.supersedes,
+                                                                 rec.payload)}
         files = [{"record_seq": seq, "role": r, "name": n,
                   "sha256": hashlib.sha256(c).hexdigest(), "content": c}
                  for r, n, c in rec.files]
@@ -403,8 +421,13 @@ class Store:
             self.damaged[rec.id] = rec.damage
         return rec
 
-    def records(self, kind: str | None = None, conn=None) -> list[Record]:
-        """Every record in chain order, ``superseded_by`` set.
+    def records(self, kind: str | None = None, conn=None,
+                machine_id: str | None = None) -> list[Record]:
+        """Records in chain order, ``superseded_by`` set.
+
+        Only the records asked for are read and checked against their hashes (indexes on
+        ``kind`` and ``machine_id``: the records of one machine are read without reading
+        the store).
 
         Parameters
         ----------
@@ -412,25 +435,52 @@ class Store:
             Only records of this kind.
         conn : Connection, optional
             Read inside this transaction (a writer's, under its lock).
+        machine_id : str, optional
+            Only the records that belong to this machine record (calibrations, intervals).
         """
+        from sqlalchemy import and_
+
         from volcal.history import schema as t
 
-        allr = self._rows(None if kind is None else t.records.c.kind == kind, conn)
-        every = {r.id: r for r in allr}
-        for r in allr:
-            if r.supersedes in every:
-                every[r.supersedes].superseded_by = r.id
-        # a chain of corrections: the newest wins for every older one
-        for r in allr:
-            nxt = r.superseded_by
-            while nxt is not None and every.get(nxt) is not None \
-                    and every[nxt].superseded_by is not None:
-                nxt = every[nxt].superseded_by
-            r.superseded_by = nxt
+        conds = []
+        if kind is not None:
+            conds.append(t.records.c.kind == kind)
+        if machine_id is not None:
+            conds.append(t.records.c.machine_id == machine_id)
+        allr = self._rows(and_(*conds) if conds else None, conn)
+        self._mark_superseded(allr, conn)
         return allr
 
+    def _corrections(self, conn=None) -> dict[str, str]:
+        """Record id -> id of the newest record that supersedes it, directly (one query of
+        two columns over the indexed ``supersedes``; the chain order decides)."""
+        from sqlalchemy import select
+
+        from volcal.history import schema as t
+        from volcal.history.integrity import guard
+
+        q = select(t.records.c.id, t.records.c.supersedes).where(
+            t.records.c.supersedes.is_not(None)).order_by(t.records.c.seq)
+        with guard(self.where):
+            if conn is None:
+                with self.engine.connect() as c:
+                    rows = c.execute(q).all()
+            else:
+                rows = conn.execute(q).all()
+        return {str(_text(old)): str(_text(new)) for new, old in rows}
+
+    def _mark_superseded(self, recs: list[Record], conn=None) -> None:
+        """Set ``superseded_by``: the newest record of the chain of corrections."""
+        links = self._corrections(conn)
+        for r in recs:
+            nxt, seen = links.get(r.id), {r.id}
+            while nxt is not None and nxt in links and links[nxt] not in seen:
+                seen.add(nxt)
+                nxt = links[nxt]
+            r.superseded_by = nxt
+
     def record(self, rid: str) -> Record:
-        """One record by id (as stored, superseded or not).
+        """One record by id (as stored, superseded or not; ``superseded_by`` set).
 
         Parameters
         ----------
@@ -447,6 +497,7 @@ class Store:
         rows = self._rows(t.records.c.id == rid)
         if not rows:
             raise VolcalInputError(f"no record {rid!r} in the history {self.where}")
+        self._mark_superseded(rows)
         return rows[0]
 
     def current(self, rid: str) -> Record:
@@ -457,11 +508,8 @@ class Store:
         rid : str
             Record id.
         """
-        every = {r.id: r for r in self.records()}
-        if rid not in every:
-            raise VolcalInputError(f"no record {rid!r} in the history {self.where}")
-        r = every[rid]
-        return every[r.superseded_by] if r.superseded_by else r
+        r = self.record(rid)
+        return self.record(r.superseded_by) if r.superseded_by else r
 
     def file(self, rid: str, role: str, name: str | None = None) -> bytes:
         """The stored content of a record's file (the first of ``role`` if no name).

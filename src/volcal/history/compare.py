@@ -125,7 +125,7 @@ class Entry:
                 "verdict": self.verdict}
 
 
-def load_record_model(store: Any, rid: str) -> Any:
+def load_record_model(store: Any, rid: str, record: Any = None) -> Any:
     """The model file of a calibration record, loaded from the store's copy.
 
     Parameters
@@ -134,10 +134,12 @@ def load_record_model(store: Any, rid: str) -> Any:
         The history.
     rid : str
         Calibration record id.
+    record : Record, optional
+        The record ``rid``, when already read (checked against its hash as it was read).
     """
     from volcal.identify.modelfile import load_model
 
-    rec = store.record(rid)
+    rec = record if record is not None and record.id == rid else store.record(rid)
     if rec.damage is not None:  # its list of files may be altered: nothing of it unpacked
         raise VolcalInputError(f"record {rec.id}: {rec.damage}; its model is not used "
                                "(volcal history verify)", store.where)
@@ -146,7 +148,7 @@ def load_record_model(store: Any, rid: str) -> Any:
         return None
     with tempfile.TemporaryDirectory(prefix="volcal-history-") as tmp:
         for f in names:
-            (Path(tmp) / f["name"]).write_bytes(store.file(rid, f["role"], f["name"]))
+            (Path(tmp) / f["name"]).write_bytes(store.file(rid, f["role"], f["name"], rec))
         main = [f["name"] for f in names if f["role"] == "model"][-1]
         return load_model(Path(tmp) / main)
 
@@ -446,7 +448,7 @@ def compare(store: Any, id1: str, id2: str, level: float = 0.05) -> list[Entry]:
     if r1.machine_id != r2.machine_id:
         raise VolcalInputError(f"{r1.id} and {r2.id} are calibrations of two machines "
                                f"({r1.machine_name}, {r2.machine_name})")
-    m1, m2 = load_record_model(store, r1.id), load_record_model(store, r2.id)
+    m1, m2 = load_record_model(store, r1.id, r1), load_record_model(store, r2.id, r2)
     both = m1 is not None and m2 is not None
     out = _result_entries(r1, r2, both)
     if both:

@@ -66,17 +66,44 @@ def due(history: Any, today: _dt.date | None = None, machine: str | None = None
     machine : str, optional
         Only this machine (record id or name): only its records are read.
     """
+    machines, others = machine_records(history, machine)
+    return due_rows(history, today, machines, others)
+
+
+def machine_records(history: Any, machine: str | None = None) -> tuple[list[Any], list[Any]]:
+    """The current machine records and the other records of them (calibrations, intervals).
+
+    Parameters
+    ----------
+    history : History
+        The store.
+    machine : str, optional
+        Only this machine (record id or name): only its records are read (indexed).
+    """
     from volcal.history.machines import current_machines
 
-    today = today or _dt.date.today()
     store = history.store
     machines = current_machines(store.records("machine"))
     if machine is not None:
         mid = history.machine_id(machine, machines)
-        machines = [m for m in machines if m.id == mid]
-        others = store.records(machine_id=mid)
-    else:
-        others = store.records("interval") + store.records("calibration")
+        return [m for m in machines if m.id == mid], store.records(machine_id=mid)
+    return machines, store.records("interval") + store.records("calibration")
+
+
+def due_rows(history: Any, today: _dt.date | None, machines: list[Any], others: list[Any]
+             ) -> list[dict[str, Any]]:
+    """:func:`due` of records already read (:func:`machine_records`).
+
+    Parameters
+    ----------
+    history : History
+        The store (a stored session file is read for a record older than ``kinds``).
+    today : date or None
+        Reference date (default today).
+    machines, others : list of Record
+        :func:`machine_records`.
+    """
+    today = today or _dt.date.today()
     mine: dict[str | None, list[Any]] = {}
     for r in others:
         mine.setdefault(r.machine_id, []).append(r)

@@ -65,23 +65,16 @@ def fleet_html(history: Any, today: _dt.date | None = None, machine: str | None 
         Only this machine (record id or name): only its records are read.
     """
     from volcal.history.api import by_date
-    from volcal.history.due import due
-    from volcal.history.machines import current_machines
+    from volcal.history.due import due_rows as _due_rows
+    from volcal.history.due import machine_records
 
     today = today or _dt.date.today()
-    store = history.store
-    machines = current_machines(store.records("machine"))
-    if machine is not None:
-        mid = history.machine_id(machine, machines)
-        machines = [m for m in machines if m.id == mid]
-        calibrations = store.records("calibration", machine_id=mid)
-    else:
-        calibrations = store.records("calibration")
+    machines, others = machine_records(history, machine)  # each record read once
     mine: dict[str | None, list[Any]] = {}
-    for r in calibrations:
-        if r.superseded_by is None:
+    for r in others:
+        if r.kind == "calibration" and r.superseded_by is None:
             mine.setdefault(r.machine_id, []).append(r)
-    due_rows = due(history, today, machine)
+    due_rows = _due_rows(history, today, machines, others)
     rows = []
     for mach in machines:
         # by date of measurement: a back-filled older record is not the last one

@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from volcal.errors import VolcalInputError
-from volcal.history.chain import GENESIS, record_hash
+from volcal.history.chain import GENESIS, hash_rows, record_hash
 
 CHILDREN = ("files", "results", "equipment")
 
@@ -97,11 +97,15 @@ def record_damage(row: dict[str, Any], files: list[dict[str, Any]],
     row : dict
         The row of ``records``.
     files, results, equipment : list of dict
-        Its children's rows (files: ``role, name, sha256``).
+        Its children's rows (files: ``role, name, sha256``); files and results may be
+        tuples ``(role, name, sha256)`` and ``(name, value, U, unit)``.
     """
     try:
-        ok = record_hash(row["prev_hash"], row, files, results, equipment) == row["hash"]
-    except (TypeError, ValueError, KeyError):
+        if files and isinstance(files[0], tuple) or results and isinstance(results[0], tuple):
+            ok = hash_rows(row["prev_hash"], row, files, results, equipment) == row["hash"]
+        else:
+            ok = record_hash(row["prev_hash"], row, files, results, equipment) == row["hash"]
+    except (TypeError, ValueError, KeyError, IndexError):
         return "its content cannot be read (a column holds a value of the wrong type)"
     if not ok:
         return "its content does not match its hash"
@@ -169,8 +173,12 @@ class ChainCheck:
         return self.ok, self.first, self.head, self.n, self.why
 
 
-def _orphans(conn) -> list[tuple[Any, str, list[str]]]:
-    """Rows of the children tables whose record does not exist: (seq, table, names)."""
+def _orphans(conn, after: int = 0) -> list[tuple[Any, str, list[str]]]:
+    """Rows of the children tables whose record does not exist: (seq, table, names).
+
+    ``after``: only rows of a sequence number above it (or none, or of another type):
+    the add's incremental check, where the links show the records up to it all exist.
+    """
     from sqlalchemy import select
 
     from volcal.history import schema as t
@@ -180,29 +188,41 @@ def _orphans(conn) -> list[tuple[Any, str, list[str]]]:
     for name in CHILDREN:
         tbl = getattr(t, name)
         key = tbl.c.position if name == "equipment" else tbl.c.name
-        for seq, k in conn.execute(select(tbl.c.record_seq, key).where(
-                tbl.c.record_seq.not_in(known) | tbl.c.record_seq.is_(None))):
+        cond = tbl.c.record_seq.not_in(known) | tbl.c.record_seq.is_(None)
+        if after:
+            cond = cond & (tbl.c.record_seq.is_(None) | (tbl.c.record_seq > after))
+        for seq, k in conn.execute(select(tbl.c.record_seq, key).where(cond)):
             out.setdefault((seq, name), []).append(str(k))
     return sorted(((s, n, ks) for (s, n), ks in out.items()),
                   key=lambda x: (-1 if not isinstance(x[0], int) else x[0], x[1]))
 
 
-def _children(conn, seq: int | None = None) -> tuple[dict, dict, dict]:
-    """Files (digests), results and equipment rows by record sequence number."""
+def _children(conn, seq: int | None = None, after: int = 0) -> tuple[dict, dict, dict]:
+    """Files ``(role, name, sha256)`` and results ``(name, value, U, unit)`` as tuples and
+    equipment rows by record sequence number: of record ``seq``, else of every record
+    after ``after``."""
     from sqlalchemy import select
 
     from volcal.history import schema as t
 
     out: tuple[dict, dict, dict] = ({}, {}, {})
-    cols = {"files": [t.files.c.record_seq, t.files.c.role, t.files.c.name,
-                      t.files.c.sha256],
-            "results": list(t.results.c), "equipment": list(t.equipment.c)}
+    f, r = t.files.c, t.results.c
+    cols = {"files": [f.record_seq, f.role, f.name, f.sha256],
+            "results": [r.record_seq, r.name, r.value, r.U, r.unit],
+            "equipment": list(t.equipment.c)}
     for k, name in enumerate(CHILDREN):
         q = select(*cols[name])
+        col = getattr(t, name).c.record_seq
         if seq is not None:
-            q = q.where(getattr(t, name).c.record_seq == seq)
-        for r in conn.execute(q).mappings():
-            out[k].setdefault(r["record_seq"], []).append(dict(r))
+            q = q.where(col == seq)
+        elif after:
+            q = q.where(col > after)
+        if name == "equipment":
+            for e in conn.execute(q).mappings():
+                out[k].setdefault(e["record_seq"], []).append(dict(e))
+        else:
+            for row in conn.execute(q).all():
+                out[k].setdefault(row[0], []).append(tuple(row[1:]))
     return out
 
 
@@ -263,7 +283,8 @@ def _label(row: dict[str, Any]) -> str:
     return f"{row['id']} (record {row['seq']})"
 
 
-def check_chain(conn, contents: bool = True) -> ChainCheck:
+def check_chain(conn, contents: bool = True, trusted: tuple[int, str] | None = None
+                ) -> ChainCheck:
     """Walk the chain: order, links, hashes, files, rows that point to no record.
 
     Parameters
@@ -273,6 +294,11 @@ def check_chain(conn, contents: bool = True) -> ChainCheck:
     contents : bool
         Also hash every stored file's content (``verify``); ``False`` trusts the stored
         digests (``add``'s check before it appends).
+    trusted : (int, str), optional
+        A head checked before (``add``'s, :mod:`volcal.history.heads`): when the record at
+        that position still carries that hash, the records up to it are checked by their
+        links only (sequence numbers and hashes) and only those after it are re-hashed.
+        Otherwise the whole chain is checked.
 
     Returns
     -------
@@ -284,9 +310,18 @@ def check_chain(conn, contents: bool = True) -> ChainCheck:
 
     from volcal.history import schema as t
 
-    rows = [dict(r) for r in conn.execute(select(t.records).order_by(t.records.c.seq))
-            .mappings()]
-    orphans = _orphans(conn)
+    c = t.records.c
+    after = 0
+    if trusted is not None and not contents:
+        row = conn.execute(select(c.hash).where(c.seq == trusted[0])).first()
+        after = trusted[0] if row is not None and row[0] == trusted[1] else 0
+    light = [] if not after else [
+        {"seq": s, "id": i, "prev_hash": p, "hash": h} for s, i, p, h in conn.execute(
+            select(c.seq, c.id, c.prev_hash, c.hash).where(c.seq <= after)
+            .order_by(c.seq)).all()]
+    rows = light + [dict(r) for r in conn.execute(
+        select(t.records).where(c.seq > after).order_by(c.seq)).mappings()]
+    orphans = _orphans(conn, after)
     last = rows[-1]["seq"] if rows else 0
     bad = None
     if orphans:
@@ -297,7 +332,7 @@ def check_chain(conn, contents: bool = True) -> ChainCheck:
                f"record {seq}",
                f"{tbl} rows ({', '.join(keys[:5])}) {what} record {seq}, which does not "
                f"exist{' (not written by volcal)' if planted else ''}")
-    files, results, equipment = ({}, {}, {}) if contents else _children(conn)
+    files, results, equipment = ({}, {}, {}) if contents else _children(conn, after=after)
     prev = GENESIS
     hashes: dict[str, int] = {}
     for i, r in enumerate(rows, start=1):
@@ -311,6 +346,8 @@ def check_chain(conn, contents: bool = True) -> ChainCheck:
         elif r["prev_hash"] != prev:
             why = "its link to the previous record is broken (reordered, or a record " \
                   "before it rewritten)"
+        elif i <= after:  # before the trusted head: its link only
+            why = None
         elif contents and (name := altered_file(conn, r["seq"])) is not None:
             why = f"file {name} was altered"
         else:

@@ -145,6 +145,11 @@ def _text(v: Any) -> Any:
     return v
 
 
+def _chunks(seqs: list[Any], size: int = 20_000) -> list[list[Any]]:
+    """``seqs`` in pieces small enough for one ``IN (...)`` of SQLite and PostgreSQL."""
+    return [seqs[k:k + size] for k in range(0, len(seqs), size)]
+
+
 def _number(v: Any) -> Any:
     """A result's value or U as stored (None for a value of another type than a number)."""
     return v if isinstance(v, int | float) and not isinstance(v, bool) else None
@@ -170,6 +175,7 @@ class Store:
     def __init__(self, url: str | None = None, create: bool = True,
                  private_key=None) -> None:
         from volcal.history.engine import open_engine
+        from volcal.history.heads import store_key
         from volcal.history.integrity import guard
         from volcal.history.url import describe, resolve_url
 
@@ -179,6 +185,10 @@ class Store:
             _ = self.signer
         self.url = resolve_url(url)
         self.where = describe(self.url)
+        #: this store's entry in the kept heads (:mod:`volcal.history.heads`)
+        self.key = store_key(describe(self.url) if not self.url.startswith("sqlite")
+                             else self.url)
+        self._head: tuple[int, str] | None = None  # the last appended, under the lock
         #: record id -> what is wrong with it, of every damaged record read so far
         self.damaged: dict[str, str] = {}
         with guard(self.where):
@@ -226,12 +236,14 @@ class Store:
         from volcal.history.integrity import guard
 
         _ = self.signer  # the key file read before the lock is taken
+        self._head = None
         with guard(self.where), writer(self.engine) as conn, conn.begin():
             lock(conn)
             self._refuse_broken(conn)
             same = self._stored_before(conn, rec)
             if same is None:
                 rid = self._append_locked(conn, rec, check)
+        self._keep_head()
         if same is not None:
             found = self._same_content(same, rec.payload["content_sha256"])
             if rec.as_left_of is not None and rec.as_left_of != found.as_left_of:
@@ -242,6 +254,48 @@ class Store:
             found.already_stored = True
             return found
         return self.record(rid)
+
+    def append_many(self, recs: list[NewRecord]) -> list[str]:
+        """Append records in one transaction: one lock, one check of the chain.
+
+        A bulk import (the benchmarks build stores of 10^4 calibrations with it): each
+        record is appended as :meth:`append` appends it, without a ``check``, so a
+        calibration names its machine record (``machine_id``) itself; a calibration whose
+        content is stored already is not appended again (its id is returned). Nothing is
+        appended when any record is refused.
+
+        Parameters
+        ----------
+        recs : list of NewRecord
+            The records, in order.
+
+        Returns
+        -------
+        list of str
+            The id of each record (the stored one for a content stored already).
+        """
+        from volcal.history.engine import lock, writer
+        from volcal.history.integrity import guard
+
+        _ = self.signer
+        self._head = None
+        ids: list[str] = []
+        with guard(self.where), writer(self.engine) as conn, conn.begin():
+            lock(conn)
+            self._refuse_broken(conn)
+            for rec in recs:
+                same = self._stored_before(conn, rec)
+                ids.append(same if same is not None else self._append_locked(conn, rec, None))
+        self._keep_head()
+        return ids
+
+    def _keep_head(self) -> None:
+        """Keep the head this writer checked and appended to (after the commit)."""
+        from volcal.history.heads import keep_head
+
+        if self._head is not None:
+            keep_head(self.key, *self._head)
+            self._head = None
 
     def _append_locked(self, conn, rec: NewRecord, check) -> str:
         """The insert of :meth:`append`, under the writers' lock; returns the new id."""
@@ -306,10 +360,15 @@ class Store:
                                    f"--private-key FILE or set {KEY_ENV} to sign this one")
 
     def _refuse_broken(self, conn) -> None:
-        """Refuse to append to a broken chain (under the lock; stored digests trusted)."""
+        """Refuse to append to a broken chain (under the lock; stored digests trusted).
+
+        Incremental: the records after the head this machine last checked are re-hashed,
+        the links of all (:mod:`volcal.history.heads`).
+        """
+        from volcal.history.heads import kept_head
         from volcal.history.integrity import check_chain
 
-        chk = check_chain(conn, contents=False)
+        chk = check_chain(conn, contents=False, trusted=kept_head(self.key))
         if not chk.ok:
             raise VolcalInputError(f"the history is broken at {chk.first}: {chk.why}; "
                                    "nothing was added (volcal history verify tells the rest)",
@@ -343,6 +402,7 @@ class Store:
                                                 "certificate", "calibrated", "due")}}
                      for i, e in enumerate(rec.equipment)]
         row["hash"] = record_hash(prev, row, files, results, equipment)
+        self._head = (seq, row["hash"])
         if self.signer is not None:  # outside the hash it signs
             row["signature"], row["key_id"] = self.signer.sign(row["hash"]), self.signer.key_id
         conn.execute(insert(t.records).values(**row))
@@ -378,21 +438,24 @@ class Store:
         fil: dict[int, list] = {s: [] for s in seqs}
         eqp: dict[int, list] = {s: [] for s in seqs}
         raw: dict[int, tuple[list, list, list]] = {s: ([], [], []) for s in seqs}
-        if seqs:
-            for r in conn.execute(select(t.results).where(
-                    t.results.c.record_seq.in_(seqs))).mappings():
-                res[r["record_seq"]][_text(r["name"])] = {
-                    "value": _number(r["value"]), "U": _number(r["U"]),
-                    "unit": _text(r["unit"])}
-                raw[r["record_seq"]][1].append(dict(r))
-            for r in conn.execute(select(t.files.c.record_seq, t.files.c.role,
-                                         t.files.c.name, t.files.c.sha256).where(
-                    t.files.c.record_seq.in_(seqs))).mappings():
-                fil[r["record_seq"]].append({k: _text(r[k]) for k in ("role", "name",
-                                                                      "sha256")})
-                raw[r["record_seq"]][0].append(dict(r))
+        # the children as tuples (the rows of thousands of records: no mappings)
+        for chunk in _chunks(seqs):
+            c = t.results.c
+            for seq, name, value, u, unit in conn.execute(select(
+                    c.record_seq, c.name, c.value, c.U, c.unit).where(
+                    c.record_seq.in_(chunk))).all():
+                res[seq][name if type(name) is str else _text(name)] = {
+                    "value": _number(value), "U": _number(u),
+                    "unit": unit if type(unit) is str else _text(unit)}
+                raw[seq][1].append((name, value, u, unit))
+            f = t.files.c
+            for seq, role, name, sha in conn.execute(select(
+                    f.record_seq, f.role, f.name, f.sha256).where(f.record_seq.in_(chunk))).all():
+                fil[seq].append({"role": _text(role), "name": _text(name),
+                                 "sha256": _text(sha)})
+                raw[seq][0].append((role, name, sha))
             for r in conn.execute(select(t.equipment).where(
-                    t.equipment.c.record_seq.in_(seqs)).order_by(
+                    t.equipment.c.record_seq.in_(chunk)).order_by(
                     t.equipment.c.position)).mappings():
                 eqp[r["record_seq"]].append({k: _text(v) for k, v in r.items()
                                              if k not in ("record_seq", "position")
@@ -511,7 +574,8 @@ class Store:
         r = self.record(rid)
         return self.record(r.superseded_by) if r.superseded_by else r
 
-    def file(self, rid: str, role: str, name: str | None = None) -> bytes:
+    def file(self, rid: str, role: str, name: str | None = None,
+             record: Record | None = None) -> bytes:
         """The stored content of a record's file (the first of ``role`` if no name).
 
         Parameters
@@ -522,13 +586,15 @@ class Store:
             File role (``session``, ``model``, ``model-part``, ``etalon``).
         name : str, optional
             File name.
+        record : Record, optional
+            The record ``rid``, when already read.
         """
         from sqlalchemy import LargeBinary, cast, select
 
         from volcal.history import schema as t
         from volcal.history.integrity import guard
 
-        rec = self.record(rid)
+        rec = record if record is not None and record.id == rid else self.record(rid)
         q = select(cast(t.files.c.content, LargeBinary), t.files.c.name,
                    t.files.c.sha256).where(t.files.c.record_seq == rec.seq,
                                            t.files.c.role == role)
@@ -582,5 +648,10 @@ class Store:
         """
         from volcal.history.integrity import check_chain, guard
 
+        from volcal.history.heads import keep_head
+
         with guard(self.where), self.engine.connect() as conn:
-            return check_chain(conn, contents)
+            chk = check_chain(conn, contents)
+        if chk.ok and contents and chk.n:  # every record checked: the head kept
+            keep_head(self.key, chk.n, chk.head)
+        return chk

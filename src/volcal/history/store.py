@@ -316,13 +316,18 @@ class Store:
         return self._insert(conn, rec)
 
     def _same_content(self, rid: str, digest: str) -> Record:
-        """The record ``rid``, or its newest correction when that holds the same content.
-
-        Otherwise ``rid`` with ``superseded_by`` set (it was corrected by other content).
-        """
-        first = self.record(rid)
-        cur = self.record(first.superseded_by) if first.superseded_by else first
-        return cur if cur.payload.get("content_sha256") == digest else first
+        """The newest record of ``rid``'s corrections that holds the same content, else
+        ``rid`` (``superseded_by`` set: corrected by other content)."""
+        links = self._corrections()
+        chain, seen = [rid], {rid}
+        while chain[-1] in links and links[chain[-1]] not in seen:  # rid's corrections
+            chain.append(links[chain[-1]])
+            seen.add(chain[-1])
+        for r in reversed(chain[1:]):  # the newest correction of the same content
+            rec = self.record(r)
+            if rec.payload.get("content_sha256") == digest:
+                return rec
+        return self.record(rid)
 
     @staticmethod
     def _stored_before(conn, rec: NewRecord) -> str | None:

@@ -47,7 +47,7 @@ def _old_store(url: str, digests: list[str]) -> None:
             row = {"seq": seq, "id": f"{'C' if cal else 'M'}{seq:06d}",
                    "kind": "calibration" if cal else "machine",
                    "machine_id": "M000001" if cal else None,
-                   "date": "2025-01-0%d" % seq if cal else None,
+                   "date": f"2025-01-0{seq}" if cal else None,
                    "created": "2025-01-01T00:00:00+00:00", "supersedes": None,
                    "as_left_of": None, "report_id": None,
                    "payload": json.dumps(payload, sort_keys=True, separators=(",", ":")),

@@ -37,6 +37,26 @@ def canonical(obj: Any) -> str:
                       default=str)
 
 
+def content_key(kind: Any, supersedes: Any, payload: Any) -> str | None:
+    """The ``records.content_sha256`` of a record (revision 0004).
+
+    Its payload's content digest when it is a calibration that corrects nothing, else None.
+
+    Parameters
+    ----------
+    kind : str
+        The record's kind.
+    supersedes : str or None
+        The record it corrects.
+    payload : dict
+        Its payload.
+    """
+    if kind != "calibration" or supersedes is not None or not isinstance(payload, dict):
+        return None
+    d = payload.get("content_sha256")
+    return d if isinstance(d, str) and d else None
+
+
 def record_hash(prev_hash: str, record: dict[str, Any], files: list[dict[str, Any]],
                 results: list[dict[str, Any]], equipment: list[dict[str, Any]]) -> str:
     """The hash of one record.

@@ -35,8 +35,11 @@ def machine_interval(records: list[Any], machine_id: str) -> int:
 
 
 def _kinds(history: Any, rec: Any) -> list[str]:
-    """The kinds of test a calibration measured (its payload's ``kinds``; a record stored
-    before volcal kept them: from its stored ``session.toml``)."""
+    """The kinds of test a calibration measured.
+
+    Its payload's ``kinds``; a record stored before volcal kept them: from its stored
+    ``session.toml``.
+    """
     kinds = rec.payload.get("kinds")
     if isinstance(kinds, list) and kinds and all(isinstance(k, str) for k in kinds):
         return sorted(set(kinds))

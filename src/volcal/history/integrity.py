@@ -113,8 +113,9 @@ def record_damage(row: dict[str, Any], files: list[dict[str, Any]],
 
 
 def digest_column_damage(row: dict[str, Any]) -> str | None:
-    """Whether ``records.content_sha256`` (revision 0004, outside the hash) agrees with the
-    record's payload (None: it does, or the store has no such column).
+    """What is wrong with ``records.content_sha256`` (revision 0004, outside the hash).
+
+    None when it agrees with the record's payload, or the store has no such column.
 
     Parameters
     ----------
@@ -123,7 +124,7 @@ def digest_column_damage(row: dict[str, Any]) -> str | None:
     """
     import json
 
-    from volcal.history.store import content_key
+    from volcal.history.chain import content_key
 
     if "content_sha256" not in row:
         return None
@@ -198,9 +199,11 @@ def _orphans(conn, after: int = 0) -> list[tuple[Any, str, list[str]]]:
 
 
 def _children(conn, seq: int | None = None, after: int = 0) -> tuple[dict, dict, dict]:
-    """Files ``(role, name, sha256)`` and results ``(name, value, U, unit)`` as tuples and
-    equipment rows by record sequence number: of record ``seq``, else of every record
-    after ``after``."""
+    """The children of records by sequence number.
+
+    Files ``(role, name, sha256)`` and results ``(name, value, U, unit)`` as tuples,
+    equipment rows as dicts: of record ``seq``, else of every record after ``after``.
+    """
     from sqlalchemy import select
 
     from volcal.history import schema as t

@@ -173,8 +173,11 @@ def results_from_evaluation(ev: Any, model: Any = None
 
 def _optics_rows(optics: dict[str, Any] | None
                  ) -> list[tuple[str, float | None, float | None, str]]:
-    """Rows of the direct optics' evaluation (:func:`volcal.standards.optics.
-    evaluate_optics`, with ``U_<key>`` beside the values given a budget)."""
+    """Rows of the direct optics' evaluation.
+
+    :func:`volcal.standards.optics.evaluate_optics`, with ``U_<key>`` beside the values
+    given a budget.
+    """
     if not optics:
         return []
     rows: list[tuple[str, float | None, float | None, str]] = []

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from volcal.errors import VolcalInputError
-from volcal.history.chain import GENESIS, canonical, record_hash
+from volcal.history.chain import GENESIS, canonical, content_key, record_hash
 
 KIND_PREFIX = {"machine": "M", "calibration": "C", "interval": "I"}
 
@@ -117,25 +117,6 @@ class NewRecord:
     files: list[tuple[str, str, bytes]] = field(default_factory=list)  # role, name, content
     results: list[tuple[str, float | None, float | None, str]] = field(default_factory=list)
     equipment: list[dict[str, Any]] = field(default_factory=list)
-
-
-def content_key(kind: Any, supersedes: Any, payload: Any) -> str | None:
-    """The ``records.content_sha256`` of a record: its payload's content digest when it is
-    a calibration that corrects nothing, else None (revision 0004).
-
-    Parameters
-    ----------
-    kind : str
-        The record's kind.
-    supersedes : str or None
-        The record it corrects.
-    payload : dict
-        Its payload.
-    """
-    if kind != "calibration" or supersedes is not None or not isinstance(payload, dict):
-        return None
-    d = payload.get("content_sha256")
-    return d if isinstance(d, str) and d else None
 
 
 def _text(v: Any) -> Any:
@@ -316,8 +297,10 @@ class Store:
         return self._insert(conn, rec)
 
     def _same_content(self, rid: str, digest: str) -> Record:
-        """The newest record of ``rid``'s corrections that holds the same content, else
-        ``rid`` (``superseded_by`` set: corrected by other content)."""
+        """The newest of ``rid`` and its corrections that holds the same content.
+
+        ``rid`` itself (``superseded_by`` set) when it was corrected by other content.
+        """
         links = self._corrections()
         chain, seen = [rid], {rid}
         while chain[-1] in links and links[chain[-1]] not in seen:  # rid's corrections
@@ -407,7 +390,7 @@ class Store:
                                                 "certificate", "calibrated", "due")}}
                      for i, e in enumerate(rec.equipment)]
         row["hash"] = record_hash(prev, row, files, results, equipment)
-        self._head = (seq, row["hash"])
+        self._head = (seq, str(row["hash"]))
         if self.signer is not None:  # outside the hash it signs
             row["signature"], row["key_id"] = self.signer.sign(row["hash"]), self.signer.key_id
         conn.execute(insert(t.records).values(**row))
@@ -520,8 +503,10 @@ class Store:
         return allr
 
     def _corrections(self, conn=None) -> dict[str, str]:
-        """Record id -> id of the newest record that supersedes it, directly (one query of
-        two columns over the indexed ``supersedes``; the chain order decides)."""
+        """Record id -> id of the newest record that supersedes it, directly.
+
+        One query of two columns over the indexed ``supersedes``; the chain order decides.
+        """
         from sqlalchemy import select
 
         from volcal.history import schema as t
@@ -651,9 +636,8 @@ class Store:
         contents : bool
             Also hash every stored file's content.
         """
-        from volcal.history.integrity import check_chain, guard
-
         from volcal.history.heads import keep_head
+        from volcal.history.integrity import check_chain, guard
 
         with guard(self.where), self.engine.connect() as conn:
             chk = check_chain(conn, contents)

@@ -1,5 +1,6 @@
-"""The content digest of each calibration as a column with a unique index; the indexes of
-one machine's reads.
+"""The content digest of each calibration in a column with a unique index; more indexes.
+
+The indexes of one machine's reads: ``machine_id``, ``supersedes``, ``kind``.
 
 Revision ID: 0004
 Revises: 0003

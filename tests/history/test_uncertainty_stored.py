@@ -110,8 +110,12 @@ def test_without_budget(tmp_path, history_two, budget_file):  # noqa: F811
 
     a, b = history_two["a"], history_two["b"]
     db = str(tmp_path / "h.sqlite")
+    add = volcal_process("history", "add", a, "--model", a / "model.json", "--budget",
+                         budget_file, "--db", db, "--create")
+    assert add.returncode == 0 and add.stdout == "C000002\n", add.stderr
     with History(db) as h:
-        ra = h.add(a, a / "model.json", budget=budget_file)
+        ra = h.show("C000002")
+        assert ra.results["X.A"]["U"] > 0 and ra.payload["budget"]["file"] == "budget.toml"
         rb = h.add(b, b / "model.json")
         frame = h.results().set_index(["id", "parameter"])["U"]
         page = fleet_html(h)

@@ -216,8 +216,12 @@ class History:
         from volcal.history.machines import current_machines
 
         ms = current_machines(records if records is not None
-                              else self.store.records("machine"))
+                              else self.store.machines_named(machine))
         hit = [r for r in ms if r.id == machine] or [r for r in ms if r.machine_name == machine]
+        if len(hit) != 1 and records is None:  # the message lists every machine
+            ms = current_machines(self.store.records("machine"))
+            hit = [r for r in ms if r.id == machine] or [r for r in ms
+                                                         if r.machine_name == machine]
         if len(hit) != 1:
             names = ", ".join(f"{r.id} {r.machine_name}" for r in ms) or "none"
             what = "several machines are" if hit else "no machine is"

@@ -86,10 +86,10 @@ def machine_records(history: Any, machine: str | None = None) -> tuple[list[Any]
     from volcal.history.machines import current_machines
 
     store = history.store
-    machines = current_machines(store.records("machine"))
     if machine is not None:
-        mid = history.machine_id(machine, machines)
-        return [m for m in machines if m.id == mid], store.records(machine_id=mid)
+        mid = history.machine_id(machine)
+        return [store.record(mid)], store.records(machine_id=mid)
+    machines = current_machines(store.records("machine"))
     return machines, store.records("interval") + store.records("calibration")
 
 

@@ -494,13 +494,40 @@ class Store:
         from volcal.history import schema as t
 
         conds = []
-        if kind is not None:
-            conds.append(t.records.c.kind == kind)
-        if machine_id is not None:
+        if machine_id is not None:  # by its own index alone (the kind: below), so that
+            # the database never scans every calibration through the index of kinds
             conds.append(t.records.c.machine_id == machine_id)
+        elif kind is not None:
+            conds.append(t.records.c.kind == kind)
         allr = self._rows(and_(*conds) if conds else None, conn)
+        if machine_id is not None and kind is not None:
+            allr = [r for r in allr if r.kind == kind]
         self._mark_superseded(allr, conn)
         return allr
+
+    def machines_named(self, machine: str, conn=None) -> list[Record]:
+        """The machine records whose id or name is ``machine`` (``superseded_by`` set).
+
+        The name is found in the canonical payload (``"name":"VMC-1"``) by the database,
+        so that naming one machine does not read every machine record.
+
+        Parameters
+        ----------
+        machine : str
+            Machine record id or name.
+        conn : Connection, optional
+            Read inside this transaction.
+        """
+        from sqlalchemy import and_, or_
+
+        from volcal.history import schema as t
+
+        c = t.records.c
+        key = canonical({"name": machine})[1:-1]
+        recs = self._rows(and_(c.kind == "machine", or_(
+            c.id == machine, c.payload.contains(key, autoescape=True))), conn)
+        self._mark_superseded(recs, conn)
+        return [r for r in recs if r.id == machine or r.machine_name == machine]
 
     def _corrections(self, conn=None) -> dict[str, str]:
         """Record id -> id of the newest record that supersedes it, directly.

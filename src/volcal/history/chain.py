@@ -9,12 +9,9 @@ elsewhere, which ``volcal history verify`` prints for that purpose.
 
 from __future__ import annotations
 
-import contextlib
-import gc
 import hashlib
 import json
 import math
-from collections.abc import Iterator
 from typing import Any
 
 GENESIS = "0" * 64
@@ -26,23 +23,6 @@ def _num(v: Any) -> Any:
     if isinstance(v, float):  # -0.0 is 0.0: SQLite reads a stored -0.0 back as 0.0
         return None if not math.isfinite(v) else float(f"{v:.12g}") + 0.0
     return v
-
-
-@contextlib.contextmanager
-def no_gc() -> Iterator[None]:
-    """Python's cyclic garbage collector paused inside the block.
-
-    Reading the rows of thousands of records makes millions of tuples and dicts, none of
-    them in a cycle: each automatic collection walks every object made so far, which made
-    ``list`` of 10^4 calibrations grow faster than the store (benchmarks/README.md).
-    """
-    was = gc.isenabled()
-    gc.disable()
-    try:
-        yield
-    finally:
-        if was:
-            gc.enable()
 
 
 def canonical(obj: Any) -> str:

@@ -404,10 +404,9 @@ class Store:
 
     # ---------------------------------------------------------------- reading
     def _rows(self, where=None, conn=None) -> list[Record]:
-        from volcal.history.chain import no_gc
         from volcal.history.integrity import guard
 
-        with guard(self.where), no_gc():
+        with guard(self.where):
             if conn is None:
                 with self.engine.connect() as c:
                     return self._read(where, c)

@@ -142,40 +142,40 @@ def _payload_edit(url: str, rid: str) -> None:
 
 
 def test_add_checks_after_the_kept_head(store_url, tmp_path, monkeypatch):
-    """add re-hashes the records after the head this machine last checked: an alteration
-    after it is refused; one before it is verify's (and the readers') to find."""
+    """add re-hashes only the records after the head this machine last checked while
+    nobody else wrote to the store; once anyone did (an alteration with another program),
+    the whole chain is checked and the alteration refused, wherever it is."""
+    from volcal.history import integrity
     from volcal.history.api import History
     from volcal.history.heads import kept_head
     from volcal.history.store import NewRecord
 
-    def writer(name: str) -> History:  # each machine keeps its own heads
-        monkeypatch.setenv("VOLCAL_HISTORY_HEADS", str(tmp_path / f"{name}.json"))
-        return History(store_url)
+    trusted: list = []
+    real = integrity.check_chain
+
+    def spy(conn, contents=True, trusted_head=None, **kw):
+        trusted.append(kw.get("trusted", trusted_head))
+        return real(conn, contents, kw.get("trusted", trusted_head))
+
+    monkeypatch.setattr(integrity, "check_chain", spy)
 
     def interval(h: History, days: int):
         return h.store.append(NewRecord("interval", {"interval_days": days},
                                         machine_id="M000001"))
 
     _old_store(store_url, [DIGEST, "cd" * 32])
-    with writer("ours") as h:
+    with History(store_url) as h:
         assert kept_head(h.store.key) is None
         assert h.store.check().ok                                   # verify keeps the head
-        assert kept_head(h.store.key)[0] == 3
-    with writer("other") as h:
-        assert interval(h, 30).id == "I000004" and kept_head(h.store.key)[0] == 4
-    _payload_edit(store_url, "C000002")
-    _payload_edit(store_url, "I000004")
-    with writer("ours") as h, pytest.raises(VolcalInputError) as exc:
-        interval(h, 31)                                             # after our head: refused
-    assert ("the history is broken at I000004 (record 4): its content does not match its "
+        assert interval(h, 30).id == "I000004"                      # checked after record 3
+        assert interval(h, 31).id == "I000005"                      # after record 4
+    assert [t[0] for t in trusted[1:]] == [3, 4]
+    _payload_edit(store_url, "C000002")                             # another program
+    with History(store_url) as h, pytest.raises(VolcalInputError) as exc:
+        interval(h, 32)
+    assert trusted[-1] is None                                      # the whole chain
+    assert ("the history is broken at C000002 (record 2): its content does not match its "
             "hash; nothing was added") in str(exc.value)
-    with writer("other") as h:                                      # both before its head
-        assert interval(h, 32).id == "I000005"
-        ok, first, *_ = h.verify()
-        assert not ok and first == "C000002 (record 2)"
-    with writer("new") as h, pytest.raises(VolcalInputError) as exc:
-        interval(h, 33)                                             # no head kept: whole
-    assert "the history is broken at C000002 (record 2)" in str(exc.value)
 
 
 def test_one_machine_reads_only_its_records(store_url, monkeypatch):

@@ -272,10 +272,11 @@ class Store:
 
     def _keep_head(self) -> None:
         """Keep the head this writer checked and appended to (after the commit)."""
-        from volcal.history.heads import keep_head
+        from volcal.history.heads import keep_head, store_state
 
         if self._head is not None:
-            keep_head(self.key, *self._head)
+            with self.engine.connect() as conn:
+                keep_head(self.key, *self._head, store_state(self.url, conn))
             self._head = None
 
     def _append_locked(self, conn, rec: NewRecord, check) -> str:
@@ -350,13 +351,15 @@ class Store:
     def _refuse_broken(self, conn) -> None:
         """Refuse to append to a broken chain (under the lock; stored digests trusted).
 
-        Incremental: the records after the head this machine last checked are re-hashed,
-        the links of all (:mod:`volcal.history.heads`).
+        Incremental when nobody wrote to the store since this machine last checked or
+        appended: the records after that head are re-hashed, the links of all
+        (:mod:`volcal.history.heads`); otherwise the whole chain.
         """
-        from volcal.history.heads import kept_head
+        from volcal.history.heads import kept_head, store_state
         from volcal.history.integrity import check_chain
 
-        chk = check_chain(conn, contents=False, trusted=kept_head(self.key))
+        trusted = kept_head(self.key, store_state(self.url, conn))
+        chk = check_chain(conn, contents=False, trusted=trusted)
         if not chk.ok:
             raise VolcalInputError(f"the history is broken at {chk.first}: {chk.why}; "
                                    "nothing was added (volcal history verify tells the rest)",
@@ -663,11 +666,11 @@ class Store:
         contents : bool
             Also hash every stored file's content.
         """
-        from volcal.history.heads import keep_head
+        from volcal.history.heads import keep_head, store_state
         from volcal.history.integrity import check_chain, guard
 
         with guard(self.where), self.engine.connect() as conn:
             chk = check_chain(conn, contents)
-        if chk.ok and contents and chk.n:  # every record checked: the head kept
-            keep_head(self.key, chk.n, chk.head)
+            if chk.ok and contents and chk.n:  # every record checked: the head kept
+                keep_head(self.key, chk.n, chk.head, store_state(self.url, conn))
         return chk

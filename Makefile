@@ -92,7 +92,7 @@ lint: $(STAMP)
 demo: $(STAMP) bytecode
 	$(BIN)/volcal demo -o demo-output
 
-bench: $(STAMP) bytecode
+bench: $(STAMP) bytecode postgres-deps
 	$(BIN)/python benchmarks/run.py
 
 study: $(STAMP)

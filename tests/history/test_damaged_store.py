@@ -233,14 +233,17 @@ def test_text_in_blob_column(store, text):
         "its sha256" in " ".join(r.stderr.split())
 
 
-def test_due_warns_about_an_altered_session_file(store):
+def test_due_does_not_use_an_altered_session_file(store):
+    """due takes the kinds of test from the record's payload (in its hash), not from the
+    stored session.toml: an altered file changes nothing there; verify names it."""
+    before = _volcal("due", "--db", store).stdout
     _sql(store, "UPDATE files SET content = content || 'x' WHERE name = 'session.toml' "
                 "AND record_seq = 3")
     r = _volcal("due", "--db", store)
-    assert r.returncode == 0, r.stderr
-    assert (f"warning: record C000003 of the history {_where(store)}: stored file "
-            "session.toml does not match its sha256 (altered in the store)") in \
-        " ".join(r.stderr.split())
+    assert r.returncode == 0 and r.stderr == "" and r.stdout == before, r.stderr
+    assert "\tdiagonal\t" in before and "\tlinear\t" in before
+    v = _volcal("verify", "--db", store)
+    assert v.returncode == 1 and "file session.toml was altered" in v.stdout
 
 
 def test_corrupted_page_clean_message(store, base):

@@ -114,14 +114,18 @@ def test_change_test_honest(store_url, calibrations):
         ids = {k: h.add(*v).id for k, v in calibrations.items() if not pg or k in "a scale"}
         sc = h.compare(ids["a"], ids["scale"]).set_index("name")
         flagged = list(sc.index[sc.changed.fillna(False)])   # changed: pandas "boolean"
-        assert flagged == ["EXX"]
+        # the scale change moves the volumetric index of X beyond its U too: the index is
+        # stored with the model's U (issue 26, deliver 5) and tested |d| > U
+        assert flagged == ["V.E_VX", "EXX"]
+        assert sc.loc["V.E_VX", "verdict"] == "CHANGED"
+        assert abs(sc.loc["V.E_VX", "difference"]) > sc.loc["V.E_VX", "U"] > 0
         assert sc.loc["EXX", "difference"] == pytest.approx(8.0, abs=0.6)  # 10 um/m x 800 mm
         if pg:
             return
         same = h.compare(ids["a"], ids["b"])
         funcs = same[same.test == "chi-square"]
         assert len(funcs) == 21
-        assert not funcs.changed.fillna(False).any()
+        assert not same.changed.fillna(False).any()      # the indices with U too
         # an undetermined roll is not decided
         assert funcs.set_index("name").loc["EAX", "changed"] is pd.NA
         sq = h.compare(ids["a"], ids["square"]).set_index("name")
@@ -290,7 +294,7 @@ def test_cli_round_trip(tmp_path, calibrations):
     cmp = json.loads(_volcal("history", "compare", "C000002", "C000003", "--json",
                              env=env).stdout)
     assert {"name", "difference", "U", "changed"} <= set(cmp[0])
-    assert [e["name"] for e in cmp if e["changed"]] == ["EXX"]
+    assert [e["name"] for e in cmp if e["changed"]] == ["V.E_VX", "EXX"]
     tr = _volcal("history", "trend", "VMC-1", "--parameter", "EXX@800", "--json", env=env)
     vals = [x["value"] for x in json.loads(tr.stdout)]
     assert vals[1] - vals[0] == pytest.approx(8.0, abs=0.6)

@@ -240,7 +240,7 @@ def test_unsigned_stores_and_refusals(tmp_path, history_two, keys, monkeypatch):
 
 
 def test_migration_keeps_records_unsigned(tmp_path, history_two):
-    """A store of revision 0002 upgrades to 0003: same records, same hashes, unsigned."""
+    """A store of revision 0002 upgrades to the head: same records, same hashes, unsigned."""
     import sqlite3
 
     from sqlalchemy import text
@@ -268,7 +268,7 @@ def test_migration_keeps_records_unsigned(tmp_path, history_two):
         assert h.verify()[0] and all(r.signature is None for r in h.list())
         with h.store.engine.connect() as conn:
             assert conn.execute(text("SELECT version_num FROM alembic_version")).scalar() == HEAD
-    assert HEAD == "0003"
+    assert HEAD == "0004"
 
 
 def _certificate(folder, session_folder, number=None):

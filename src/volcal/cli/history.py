@@ -106,6 +106,10 @@ def add_cmd(
         "--certificate", help="Folder `volcal report --certificate` wrote for this "
         "calibration (certificate.json): its number is stored; default [calibration] "
         "report_id of the session.")] = None,
+    budget: Annotated[Path | None, typer.Option(
+        "--budget", help="Uncertainty budget (TOML): the U of every ISO 230-2 parameter, "
+        "diagonal and direct-optics result is stored with it (the volumetric indices and "
+        "squareness have the model's U either way).")] = None,
     private_key: KeyOption = None,
     db: DbOption = None,
     create: CreateOption = False,
@@ -116,7 +120,8 @@ def add_cmd(
     record's id is printed, with a note on standard error.
     """
     with _open(db, create, private_key) as h:
-        rec = h.add(session, model, as_left_of, supersedes, machine, force, certificate)
+        rec = h.add(session, model, as_left_of, supersedes, machine, force, certificate,
+                    budget)
         if rec.already_stored:
             later = f", superseded by {rec.superseded_by}" if rec.superseded_by else ""
             _err(f"note: this session and model are stored already as {rec.id} "
@@ -241,6 +246,8 @@ def list_cmd(
                                               "measurement).")] = False,
     certificate: Annotated[str | None, typer.Option(
         "--certificate", help="Only the calibration of this certificate number.")] = None,
+    machine: Annotated[str | None, typer.Option(
+        "--machine", help="Only this machine's records (name or record id).")] = None,
     db: DbOption = None,
 ) -> None:
     """The calibrations by date of measurement, superseded ones marked.
@@ -250,7 +257,11 @@ def list_cmd(
     from volcal.history.api import by_date
 
     with _open(db) as h:
-        recs = h.list()
+        if machine is None:
+            recs = h.list()
+        else:  # the machine's own records only (indexed), its machine record first
+            mid = h.machine_id(machine)
+            recs = [h.store.record(mid), *h.store.records(machine_id=mid)]
         _warn_damaged(h)
     if not all_records:  # the records with a date of measurement
         recs = by_date([r for r in recs if r.kind == "calibration"])
@@ -374,17 +385,22 @@ def compare_cmd(
     if as_json:
         typer.echo(json.dumps([e.to_dict() for e in entries], indent=1))
         return
-    typer.echo("name\tdifference\tU (k=2)\tunit\tchanged\ttest")
+    typer.echo("name\tdifference\tU (k=2)\tunit\tverdict\ttest")
     for e in entries:
-        ch = "-" if e.changed is None else ("CHANGED" if e.changed else "no")
         u = "-" if e.U is None else f"{e.U:.4f}"
-        extra = e.reason or (f"chi2 {e.statistic:.1f} > {e.threshold:.1f}" if e.changed
-                             else (f"chi2 {e.statistic:.1f} <= {e.threshold:.1f}"
-                                   if e.statistic is not None else ""))
-        if e.changed and e.U is not None and abs(e.difference) <= e.U:
-            extra += (f" (decided by the joint test over {e.dof} determined combinations;"
-                      " |difference| <= U at the node shown)")
-        typer.echo(f"{e.name}\t{e.difference:+.4f}\t{u}\t{e.unit}\t{ch}\t{e.test} {extra}")
+        if e.test == "chi-square":
+            extra = e.reason or (f"chi2 {e.statistic:.1f} > {e.threshold:.1f}" if e.changed
+                                 else (f"chi2 {e.statistic:.1f} <= {e.threshold:.1f}"
+                                       if e.statistic is not None else ""))
+            if e.changed and e.U is not None and abs(e.difference) <= e.U:
+                extra += (f" (decided by the joint test over {e.dof} determined "
+                          "combinations; |difference| <= U at the node shown)")
+            test = f"{e.test} {extra}".rstrip()
+        elif e.U is not None:  # a result against the combined U of the two calibrations
+            test = f"|d| {abs(e.difference):.4f} {'>' if e.changed else '<='} U {e.U:.4f}"
+        else:
+            test = f"{e.test}: {e.reason}"
+        typer.echo(f"{e.name}\t{e.difference:+.4f}\t{u}\t{e.unit}\t{e.verdict}\t{test}")
     n = sum(1 for e in entries if e.changed)
     typer.echo(f"{n} of {sum(1 for e in entries if e.changed is not None)} decided entries "
                f"changed (functions: family-wise level {level:g})")
@@ -431,13 +447,15 @@ def due_cmd(
 def fleet_cmd(
     output: Annotated[Path, typer.Option("-o", "--output", help="HTML file.")] = Path(
         "fleet.html"),
+    machine: Annotated[str | None, typer.Option(
+        "--machine", help="Only this machine (name or record id).")] = None,
     db: DbOption = None,
 ) -> None:
-    """One HTML page: every machine, its last calibration, E_VXYZ, trend, due date."""
+    """One HTML page: every machine, its last calibration, E_VXYZ ± U, trend, due date."""
     from volcal.history.fleet import write_fleet
 
     with _open(db) as h:
-        path = write_fleet(h, output)
+        path = write_fleet(h, output, machine)
         _warn_damaged(h)
     typer.echo(str(path))
 
@@ -498,6 +516,10 @@ def verify_cmd(
                        "unchanged")
         raise typer.Exit(1)
     typer.echo(f"chain intact: {chk.n} records; head {chk.head}")
+    for ids in chk.duplicates:
+        typer.echo(f"note: {', '.join(ids)} hold the same readings and model (added more "
+                   "than once before schema revision 0004 refused it; records are never "
+                   "deleted, a retried add returns the newest)")
     if head is not None:
         if kept is None:
             typer.echo(f"kept head {head} is NOT on the chain: a record up to it was "

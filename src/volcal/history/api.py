@@ -53,7 +53,8 @@ class History:
     # ----------------------------------------------------------------- add
     def add(self, session: str | Path, model: str | Path, as_left_of: str | None = None,
             supersedes: str | None = None, machine: str | None = None,
-            force: bool = False, certificate: str | Path | None = None) -> Record:
+            force: bool = False, certificate: str | Path | None = None,
+            budget: str | Path | None = None) -> Record:
         """Store a calibration: its session, model, results and equipment.
 
         Parameters
@@ -74,6 +75,11 @@ class History:
             The folder ``volcal report --certificate`` wrote for this calibration (or its
             ``certificate.json``): the certificate's number is stored (``report_id``);
             without it, ``[calibration] report_id`` of the session where given.
+        budget : str or Path, optional
+            Uncertainty budget (TOML, ``volcal budget``): the session is evaluated with it
+            and the U of every ISO 230-2 parameter, diagonal and direct-optics result is
+            stored with its value. Without it those have no U (NaN in the DataFrames);
+            the volumetric indices and squareness errors have the model's U either way.
 
         Returns
         -------
@@ -90,7 +96,7 @@ class History:
         from volcal.history.record import calibration_record
 
         rec, session_obj = calibration_record(session, model, as_left_of, supersedes, force,
-                                              certificate)
+                                              certificate, budget)
         return self.store.append(rec, check=self._machine_of(session_obj.identity, machine,
                                                              rec))
 
@@ -187,11 +193,9 @@ class History:
         current : bool
             Leave out superseded records.
         """
-        recs = self.store.records()
-        mid = None if machine is None else self.machine_id(machine, recs)
-        return by_date([r for r in recs if r.kind == "calibration"
-                        and (mid is None or r.machine_id == mid)
-                        and (not current or r.superseded_by is None)])
+        mid = None if machine is None else self.machine_id(machine)
+        recs = self.store.records("calibration", machine_id=mid)  # one machine's: indexed
+        return by_date([r for r in recs if not current or r.superseded_by is None])
 
     def machine_id(self, machine: str, records: builtins.list[Record] | None = None) -> str:
         """Machine record id of a machine given by id or name.
@@ -211,8 +215,13 @@ class History:
         from volcal.errors import VolcalInputError
         from volcal.history.machines import current_machines
 
-        ms = current_machines(records if records is not None else self.store.records())
+        ms = current_machines(records if records is not None
+                              else self.store.machines_named(machine))
         hit = [r for r in ms if r.id == machine] or [r for r in ms if r.machine_name == machine]
+        if len(hit) != 1 and records is None:  # the message lists every machine
+            ms = current_machines(self.store.records("machine"))
+            hit = [r for r in ms if r.id == machine] or [r for r in ms
+                                                         if r.machine_name == machine]
         if len(hit) != 1:
             names = ", ".join(f"{r.id} {r.machine_name}" for r in ms) or "none"
             what = "several machines are" if hit else "no machine is"
@@ -270,7 +279,8 @@ class History:
 
         df = pd.DataFrame([e.to_dict() for e in compare(self.store, id1, id2, level)],
                           columns=["name", "difference", "U", "changed", "unit", "test",
-                                   "statistic", "threshold", "dof", "position_mm", "reason"])
+                                   "statistic", "threshold", "dof", "position_mm", "reason",
+                                   "verdict"])
         for col in ("difference", "U", "statistic", "threshold", "dof", "position_mm"):
             df[col] = pd.to_numeric(df[col], errors="coerce").astype(float)
         df["changed"] = df["changed"].astype("boolean")

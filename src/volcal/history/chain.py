@@ -37,6 +37,26 @@ def canonical(obj: Any) -> str:
                       default=str)
 
 
+def content_key(kind: Any, supersedes: Any, payload: Any) -> str | None:
+    """The ``records.content_sha256`` of a record (revision 0004).
+
+    Its payload's content digest when it is a calibration that corrects nothing, else None.
+
+    Parameters
+    ----------
+    kind : str
+        The record's kind.
+    supersedes : str or None
+        The record it corrects.
+    payload : dict
+        Its payload.
+    """
+    if kind != "calibration" or supersedes is not None or not isinstance(payload, dict):
+        return None
+    d = payload.get("content_sha256")
+    return d if isinstance(d, str) and d else None
+
+
 def record_hash(prev_hash: str, record: dict[str, Any], files: list[dict[str, Any]],
                 results: list[dict[str, Any]], equipment: list[dict[str, Any]]) -> str:
     """The hash of one record.
@@ -56,11 +76,37 @@ def record_hash(prev_hash: str, record: dict[str, Any], files: list[dict[str, An
     str
         64 hex digits.
     """
+    return hash_rows(prev_hash, record,
+                     [(f["role"], f["name"], f["sha256"]) for f in files],
+                     [(r["name"], r["value"], r["U"], r["unit"]) for r in results], equipment)
+
+
+def hash_rows(prev_hash: str, record: dict[str, Any], files: list[tuple[Any, ...]],
+              results: list[tuple[Any, ...]], equipment: list[dict[str, Any]]) -> str:
+    """:func:`record_hash` of children given as tuples (the readers' fast path).
+
+    Parameters
+    ----------
+    prev_hash : str
+        Hash of the predecessor.
+    record : dict
+        The row of ``records``.
+    files : list of tuple
+        ``(role, name, sha256)`` of each file.
+    results : list of tuple
+        ``(name, value, U, unit)`` of each result.
+    equipment : list of dict
+        The equipment rows.
+
+    Returns
+    -------
+    str
+        64 hex digits, the same as :func:`record_hash`.
+    """
     body = {
         "record": {k: record.get(k) for k in _RECORD_FIELDS},
-        "files": sorted([f["role"], f["name"], f["sha256"]] for f in files),
-        "results": sorted([r["name"], _num(r["value"]), _num(r["U"]), r["unit"]]
-                          for r in results),
+        "files": sorted([f[0], f[1], f[2]] for f in files),
+        "results": sorted([r[0], _num(r[1]), _num(r[2]), r[3]] for r in results),
         "equipment": sorted(([int(e["position"])] + [e.get(k) for k in
                              ("role", "make", "model", "serial", "certificate",
                               "calibrated", "due")]) for e in equipment),

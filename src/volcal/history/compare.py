@@ -111,14 +111,21 @@ class Entry:
     position_mm: float | None = None
     reason: str = ""
 
+    @property
+    def verdict(self) -> str:
+        """``CHANGED``, ``unchanged`` or ``undecided`` (``changed`` true, false, None)."""
+        return "undecided" if self.changed is None else (
+            "CHANGED" if self.changed else "unchanged")
+
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready dict."""
-        return {k: getattr(self, k) for k in ("name", "difference", "U", "changed", "unit",
-                                              "test", "statistic", "threshold", "dof",
-                                              "position_mm", "reason")}
+        """JSON-ready dict (with ``verdict``)."""
+        return {**{k: getattr(self, k) for k in ("name", "difference", "U", "changed",
+                                                 "unit", "test", "statistic", "threshold",
+                                                 "dof", "position_mm", "reason")},
+                "verdict": self.verdict}
 
 
-def load_record_model(store: Any, rid: str) -> Any:
+def load_record_model(store: Any, rid: str, record: Any = None) -> Any:
     """The model file of a calibration record, loaded from the store's copy.
 
     Parameters
@@ -127,10 +134,12 @@ def load_record_model(store: Any, rid: str) -> Any:
         The history.
     rid : str
         Calibration record id.
+    record : Record, optional
+        The record ``rid``, when already read (checked against its hash as it was read).
     """
     from volcal.identify.modelfile import load_model
 
-    rec = store.record(rid)
+    rec = record if record is not None and record.id == rid else store.record(rid)
     if rec.damage is not None:  # its list of files may be altered: nothing of it unpacked
         raise VolcalInputError(f"record {rec.id}: {rec.damage}; its model is not used "
                                "(volcal history verify)", store.where)
@@ -139,7 +148,7 @@ def load_record_model(store: Any, rid: str) -> Any:
         return None
     with tempfile.TemporaryDirectory(prefix="volcal-history-") as tmp:
         for f in names:
-            (Path(tmp) / f["name"]).write_bytes(store.file(rid, f["role"], f["name"]))
+            (Path(tmp) / f["name"]).write_bytes(store.file(rid, f["role"], f["name"], rec))
         main = [f["name"] for f in names if f["role"] == "model"][-1]
         return load_model(Path(tmp) / main)
 
@@ -439,7 +448,7 @@ def compare(store: Any, id1: str, id2: str, level: float = 0.05) -> list[Entry]:
     if r1.machine_id != r2.machine_id:
         raise VolcalInputError(f"{r1.id} and {r2.id} are calibrations of two machines "
                                f"({r1.machine_name}, {r2.machine_name})")
-    m1, m2 = load_record_model(store, r1.id), load_record_model(store, r2.id)
+    m1, m2 = load_record_model(store, r1.id, r1), load_record_model(store, r2.id, r2)
     both = m1 is not None and m2 is not None
     out = _result_entries(r1, r2, both)
     if both:
@@ -516,7 +525,7 @@ def previous_calibration(store: Any, session: Any) -> Any:
 
 
 def compare_with_model(store: Any, earlier: str, session: Any, model: Any,
-                       level: float = 0.05) -> list[Entry]:
+                       level: float = 0.05, evaluation: Any = None) -> list[Entry]:
     """The change test between a stored calibration and one not stored (yet).
 
     As :func:`compare`, with the later calibration given by its session and model
@@ -535,6 +544,9 @@ def compare_with_model(store: Any, earlier: str, session: Any, model: Any,
         Its model; ``None`` compares the results only.
     level : float
         Family-wise false-alarm level of the function tests (default 5 %).
+    evaluation : SessionEvaluation, optional
+        The session's evaluation already made (the report's, with its budget): its results
+        and U are used as they are.
 
     Returns
     -------
@@ -548,7 +560,7 @@ def compare_with_model(store: Any, earlier: str, session: Any, model: Any,
     if r1.kind != "calibration":
         raise VolcalInputError(f"{r1.id} is a {r1.kind} record, not a calibration")
     r2 = _Results({n: {"value": v, "U": u, "unit": unit}
-                   for n, v, u, unit in results_of(session, model)})
+                   for n, v, u, unit in results_of(session, model, evaluation=evaluation)})
     m1 = load_record_model(store, r1.id)
     both = m1 is not None and model is not None
     out = _result_entries(r1, r2, both)

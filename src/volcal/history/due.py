@@ -35,6 +35,14 @@ def machine_interval(records: list[Any], machine_id: str) -> int:
 
 
 def _kinds(history: Any, rec: Any) -> list[str]:
+    """The kinds of test a calibration measured.
+
+    Its payload's ``kinds``; a record stored before volcal kept them: from its stored
+    ``session.toml``.
+    """
+    kinds = rec.payload.get("kinds")
+    if isinstance(kinds, list) and kinds and all(isinstance(k, str) for k in kinds):
+        return sorted(set(kinds))
     try:
         doc = __import__("tomllib").loads(history.store.file(rec.id, "session",
                                                              "session.toml").decode())
@@ -46,7 +54,8 @@ def _kinds(history: Any, rec: Any) -> list[str]:
         return ["calibration"]
 
 
-def due(history: Any, today: _dt.date | None = None) -> list[dict[str, Any]]:
+def due(history: Any, today: _dt.date | None = None, machine: str | None = None
+        ) -> list[dict[str, Any]]:
     """Rows ``machine, machine_id, test, last, next, interval_days, overdue_days``.
 
     Sorted by the next date, so the most overdue come first.
@@ -57,17 +66,57 @@ def due(history: Any, today: _dt.date | None = None) -> list[dict[str, Any]]:
         The store.
     today : date, optional
         Reference date (default today).
+    machine : str, optional
+        Only this machine (record id or name): only its records are read.
+    """
+    machines, others = machine_records(history, machine)
+    return due_rows(history, today, machines, others)
+
+
+def machine_records(history: Any, machine: str | None = None) -> tuple[list[Any], list[Any]]:
+    """The current machine records and the other records of them (calibrations, intervals).
+
+    Parameters
+    ----------
+    history : History
+        The store.
+    machine : str, optional
+        Only this machine (record id or name): only its records are read (indexed).
     """
     from volcal.history.machines import current_machines
 
+    store = history.store
+    if machine is not None:
+        mid = history.machine_id(machine)
+        return [store.record(mid)], store.records(machine_id=mid)
+    machines = current_machines(store.records("machine"))
+    return machines, store.records("interval") + store.records("calibration")
+
+
+def due_rows(history: Any, today: _dt.date | None, machines: list[Any], others: list[Any]
+             ) -> list[dict[str, Any]]:
+    """:func:`due` of records already read (:func:`machine_records`).
+
+    Parameters
+    ----------
+    history : History
+        The store (a stored session file is read for a record older than ``kinds``).
+    today : date or None
+        Reference date (default today).
+    machines, others : list of Record
+        :func:`machine_records`.
+    """
     today = today or _dt.date.today()
-    records = history.store.records()
+    mine: dict[str | None, list[Any]] = {}
+    for r in others:
+        mine.setdefault(r.machine_id, []).append(r)
     rows = []
-    for mach in current_machines(records):
-        interval = machine_interval(records, mach.id)
+    for mach in machines:
+        own = sorted(mine.get(mach.id, []), key=lambda r: r.seq)
+        interval = machine_interval([mach, *own], mach.id)
         last: dict[str, str] = {}
-        for r in records:
-            if r.kind == "calibration" and r.machine_id == mach.id and r.superseded_by is None:
+        for r in own:
+            if r.kind == "calibration" and r.superseded_by is None:
                 for k in _kinds(history, r):
                     if r.date and (k not in last or r.date > last[k]):
                         last[k] = r.date

@@ -14,7 +14,7 @@ from volcal.errors import VolcalInputError
 
 #: Key of the PostgreSQL advisory lock taken by every insert (``pg_advisory_xact_lock``).
 ADVISORY_LOCK_KEY = 0x766F6C63  # "volc"
-HEAD = "0003"
+HEAD = "0004"
 #: Alembic keeps its migration context in module globals: one migration at a time per
 #: process (threads opening stores at once); across processes the database lock serialises.
 _ALEMBIC_LOCK = threading.Lock()
@@ -203,7 +203,7 @@ def _check_schema(names: set[str], version: str | None, upgrade: bool, where: st
         raise VolcalInputError("this database holds tables of another program "
                                f"({', '.join(sorted(names))[:200]}), not a volcal history",
                                where)
-    if version not in (None, "0001", "0002", HEAD):
+    if version not in (None, "0001", "0002", "0003", HEAD):
         raise VolcalInputError(f"history schema revision {version!r} is unknown to this "
                                f"volcal (head {HEAD}): a newer volcal wrote it", where)
     if version != HEAD and not upgrade:

@@ -2,7 +2,8 @@
 
 Per machine: identity, last calibration (the newest date of measurement, not the
 newest record; date, id), the largest volumetric error
-E_VXYZ with its U, a small trend of E_VXYZ over its calibrations (inline SVG), the next
+E_VXYZ with its U, a small trend of E_VXYZ over its calibrations with its U band (inline
+SVG), the next
 due date (overdue in red).
 """
 
@@ -14,22 +15,44 @@ from pathlib import Path
 from typing import Any
 
 
-def _sparkline(values: list[float], width: int = 120, height: int = 28) -> str:
+def _sparkline(values: list[float], width: int = 120, height: int = 28,
+               us: list[float | None] | None = None) -> str:
+    """Inline SVG of a trend; with ``us`` (U of each value, None where none) its U band."""
     if not values:
         return ""
-    lo, hi = min(values), max(values)
+    us = us if us is not None else [None] * len(values)
+    lo = min(v - (u or 0.0) for v, u in zip(values, us, strict=True))
+    hi = max(v + (u or 0.0) for v, u in zip(values, us, strict=True))
     span = hi - lo or 1.0
     n = len(values)
-    pts = [(4 + (width - 8) * (i / (n - 1) if n > 1 else 0.5),
-            height - 4 - (height - 8) * (v - lo) / span) for i, v in enumerate(values)]
+
+    def xy(i: int, v: float) -> tuple[float, float]:
+        return (4 + (width - 8) * (i / (n - 1) if n > 1 else 0.5),
+                height - 4 - (height - 8) * (v - lo) / span)
+
+    pts = [xy(i, v) for i, v in enumerate(values)]
     path = " ".join(f"{x:.1f},{y:.1f}" for x, y in pts)
     dots = "".join(f'<circle cx="{x:.1f}" cy="{y:.1f}" r="2"/>' for x, y in pts)
+    with_u = [(i, v, u) for i, (v, u) in enumerate(zip(values, us, strict=True))
+              if u is not None]
+    band = ""
+    if with_u:
+        edge = [xy(i, v + u) for i, v, u in with_u] + [xy(i, v - u) for i, v, u in
+                                                       reversed(with_u)]
+        if len(with_u) == 1:  # one calibration with U: its bar
+            (x0, y0), (_, y1) = edge
+            band = (f'<line x1="{x0:.1f}" y1="{y0:.1f}" x2="{x0:.1f}" y2="{y1:.1f}" '
+                    'stroke="#9bd" stroke-width="3"/>')
+        else:
+            band = ('<polygon fill="#cde" stroke="none" points="'
+                    + " ".join(f"{x:.1f},{y:.1f}" for x, y in edge) + '"/>')
     return (f'<svg width="{width}" height="{height}" role="img" '
-            f'aria-label="E_VXYZ trend"><polyline fill="none" stroke="#246" '
+            f'aria-label="E_VXYZ trend with U">{band}<polyline fill="none" stroke="#246" '
             f'points="{path}"/>{dots}</svg>')
 
 
-def fleet_html(history: Any, today: _dt.date | None = None) -> str:
+def fleet_html(history: Any, today: _dt.date | None = None, machine: str | None = None
+               ) -> str:
     """The page's HTML text.
 
     Parameters
@@ -38,24 +61,30 @@ def fleet_html(history: Any, today: _dt.date | None = None) -> str:
         The store.
     today : date, optional
         Reference date of the due column (default today).
+    machine : str, optional
+        Only this machine (record id or name): only its records are read.
     """
     from volcal.history.api import by_date
-    from volcal.history.due import due
-    from volcal.history.machines import current_machines
+    from volcal.history.due import due_rows as _due_rows
+    from volcal.history.due import machine_records
 
     today = today or _dt.date.today()
-    records = history.store.records()
-    due_rows = due(history, today)
+    machines, others = machine_records(history, machine)  # each record read once
+    mine: dict[str | None, list[Any]] = {}
+    for r in others:
+        if r.kind == "calibration" and r.superseded_by is None:
+            mine.setdefault(r.machine_id, []).append(r)
+    due_rows = _due_rows(history, today, machines, others)
     rows = []
-    for mach in current_machines(records):
+    for mach in machines:
         # by date of measurement: a back-filled older record is not the last one
-        cals = by_date([r for r in records if r.kind == "calibration"
-                        and r.machine_id == mach.id and r.superseded_by is None])
+        cals = by_date(mine.get(mach.id, []))
         ident = mach.payload.get("machine", {})
         who = " ".join(str(ident[k]) for k in ("make", "model") if ident.get(k))
         serial = ident.get("serial", "")
-        stated = [r.results.get("V.E_VXYZ", {}).get("value") for r in cals]
-        ev = [v for v in stated if v is not None]
+        stated = [r.results.get("V.E_VXYZ", {}) for r in cals]
+        ev = [v["value"] for v in stated if v.get("value") is not None]
+        ev_u = [v.get("U") for v in stated if v.get("value") is not None]
         last = cals[-1] if cals else None
         evx = last.results.get("V.E_VXYZ") if last else None
         nxt = min((d["next"] for d in due_rows if d["machine_id"] == mach.id), default="")
@@ -70,7 +99,7 @@ def fleet_html(history: Any, today: _dt.date | None = None) -> str:
             f"<td>{html.escape(last.date[:10] if last and last.date else '-')}"
             f"{' (' + html.escape(last.id) + ')' if last else ''}</td>"
             f"<td>{ev_text}</td>"
-            f"<td>{_sparkline(ev)}</td>"
+            f"<td>{_sparkline(ev, us=ev_u)}</td>"
             f"<td class=\"{'overdue' if overdue else ''}\">{html.escape(nxt)}"
             f"{' overdue' if overdue else ''}</td></tr>")
     return f"""<!DOCTYPE html>
@@ -90,7 +119,7 @@ E<sub>VXYZ</sub>: largest volumetric error of the identified model over the work
 """
 
 
-def write_fleet(history: Any, path: str | Path) -> Path:
+def write_fleet(history: Any, path: str | Path, machine: str | None = None) -> Path:
     """Write the fleet page atomically.
 
     Parameters
@@ -99,8 +128,10 @@ def write_fleet(history: Any, path: str | Path) -> Path:
         The store.
     path : str or Path
         HTML file to write.
+    machine : str, optional
+        Only this machine (record id or name).
     """
     from volcal.io.atomic import write_text
 
-    write_text(path, fleet_html(history))
+    write_text(path, fleet_html(history, machine=machine))
     return Path(path)

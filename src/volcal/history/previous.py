@@ -94,7 +94,8 @@ def previous_section(inp: Any, db: str, level: float = 0.05) -> Section:
             sec.paragraphs.append(f"The history ({store.where}) holds no earlier calibration "
                                   f"of {inp.session.name}: nothing to compare with.")
             return sec
-        entries = compare_with_model(store, prev.id, inp.session, inp.result, level)
+        entries = compare_with_model(store, prev.id, inp.session, inp.result, level,
+                                     getattr(inp, "evaluation", None))
     finally:
         store.close()
     sec.paragraphs.append(

@@ -63,8 +63,13 @@ def _num(v: Any) -> float | None:
     return f if f == f else None
 
 
-def results_of(session: Any, model: Any) -> list[tuple[str, float | None, float | None, str]]:
+def results_of(session: Any, model: Any, budget: Any = None, evaluation: Any = None
+               ) -> list[tuple[str, float | None, float | None, str]]:
     """Named results with U (None where volcal has none) of a session and its model.
+
+    The session is evaluated once (:func:`volcal.standards.session.evaluate_session`,
+    with the model's uncertainty where it has a covariance and the direct optics) unless
+    that evaluation is given; the rows are :func:`results_from_evaluation`'s.
 
     Parameters
     ----------
@@ -72,14 +77,49 @@ def results_of(session: Any, model: Any) -> list[tuple[str, float | None, float 
         The session with readings.
     model : IdentificationResult or None
         Its model.
+    budget : Budget, optional
+        Uncertainty budget (:func:`volcal.uncertainty.budget.read_budget`): the U of every
+        ISO 230-2 parameter, diagonal and direct-optics result. Without it those have
+        none; the volumetric indices and the squareness have the model's U either way.
+    evaluation : SessionEvaluation, optional
+        The session's evaluation, already made (the report's): stored as it is.
     """
-    from volcal.standards.session import evaluate_session
+    if evaluation is None:
+        from volcal.standards.model_uncertainty import has_covariance
+        from volcal.standards.session import evaluate_session
 
-    ev = evaluate_session(session, model)
+        evaluation = evaluate_session(
+            session, model, model_uncertainty=model is not None and has_covariance(model),
+            budget=budget, optics=True)
+    return results_from_evaluation(evaluation, model)
+
+
+def results_from_evaluation(ev: Any, model: Any = None
+                            ) -> list[tuple[str, float | None, float | None, str]]:
+    """The rows ``name, value, U, unit`` of a session's evaluation, as stored.
+
+    What the evaluation gives, never recomputed: ISO 230-2 parameters with the budget's U
+    (:attr:`SessionEvaluation.with_budget`), the diagonals' results (``E_D`` with its
+    U), the volumetric indices with the model's U (noise and systematic parts), the
+    squareness errors with theirs (:attr:`SessionEvaluation.model_indices`; without it,
+    U = 2 u from the model's covariance), and the direct optics' results with their U
+    (``<id>.straightness``, ``<id>.straightness_end_point``, ``<id>.slope``,
+    ``<id>.slope_end_point``, ``<id>.angular_deviation``, ``optics.EC0Y`` and
+    ``optics.EC0Y_end_point`` for an optical-square pair). U is None where the
+    evaluation has none.
+
+    Parameters
+    ----------
+    ev : SessionEvaluation
+        :func:`volcal.standards.session.evaluate_session`'s result.
+    model : IdentificationResult, optional
+        The model (its squareness when the evaluation has no model indices).
+    """
     rows: list[tuple[str, float | None, float | None, str]] = []
     seen_axes: set[str] = set()
+    stated = ev.with_budget  # the tests evaluated with the budget: results and U together
     for mid, res in ev.iso230_2.items():
-        d = res.to_dict()
+        d = stated[mid].to_dict() if mid in stated else res.to_dict()
         axis = ev.axis[mid].upper()
         for key in ISO230_2_KEYS:
             if key not in d:
@@ -100,15 +140,23 @@ def results_of(session: Any, model: Any) -> list[tuple[str, float | None, float 
                 rows.append((f"{axis}.{key}", value, u, "urad"))
         seen_rotary.add(axis)
     for mid, res in ev.iso230_6.items():
-        d = res.to_dict() if hasattr(res, "to_dict") else {}
+        d = stated[mid].to_dict() if mid in stated else (
+            res.to_dict() if hasattr(res, "to_dict") else {})
         for key, value in d.items():
+            if key.startswith(("U_", "u_", "k_")) or key == "k":
+                continue
             if isinstance(value, int | float) and not isinstance(value, bool):
                 rows.append((f"{mid}.{key}", _num(value), _num(d.get(f"U_{key}")), "um"))
     if ev.volumetric is not None:
         v = ev.volumetric.to_dict()
         for key in ("E_VX", "E_VY", "E_VZ", "E_VXYZ", "E_VXYZ_range"):
             rows.append((f"V.{key}", _num(v[key]), _num(v.get(f"U_{key}")), "um"))
-    if model is not None:
+    rows.extend(_optics_rows(ev.optics))
+    square = (ev.model_indices or {}).get("squareness")
+    if square:
+        for name, e in square.items():
+            rows.append((name, _num(e["value_urad"]), _num(e["U_urad"]), "urad"))
+    elif model is not None:
         from volcal.model.names import SQUARENESS_NAMES
 
         for i, name in enumerate(SQUARENESS_NAMES):
@@ -121,6 +169,35 @@ def results_of(session: Any, model: Any) -> list[tuple[str, float | None, float 
     for r in rows:
         uniq.setdefault(r[0], r)
     return list(uniq.values())
+
+
+def _optics_rows(optics: dict[str, Any] | None
+                 ) -> list[tuple[str, float | None, float | None, str]]:
+    """Rows of the direct optics' evaluation.
+
+    :func:`volcal.standards.optics.evaluate_optics`, with ``U_<key>`` beside the values
+    given a budget.
+    """
+    if not optics:
+        return []
+    rows: list[tuple[str, float | None, float | None, str]] = []
+    for mid, line in (optics.get("straightness") or {}).items():
+        for ref, tail in (("least_squares", ""), ("end_point", "_end_point")):
+            e = line.get(ref) or {}
+            rows.append((f"{mid}.straightness{tail}", _num(e.get("straightness_um")),
+                         _num(e.get("U_straightness_um")), "um"))
+            rows.append((f"{mid}.slope{tail}", _num(e.get("slope_urad")),
+                         _num(e.get("U_slope_urad")), "urad"))
+    for mid, e in (optics.get("angular") or {}).items():
+        rows.append((f"{mid}.angular_deviation", _num(e.get("angular_deviation_urad")),
+                     _num(e.get("U_angular_deviation_urad")), "urad"))
+    for pair in optics.get("squareness") or []:
+        name = pair["name"]
+        for ref, tail in (("least_squares", ""), ("end_point", "_end_point")):
+            e = pair.get(ref) or {}
+            rows.append((f"optics.{name}{tail}", _num(e.get(name)),
+                         _num(e.get(f"U_{name}")), "urad"))
+    return rows
 
 
 def _content_digest(session_sha256: str, models: list[tuple[str, str, bytes]]) -> str:
@@ -201,8 +278,8 @@ def certificate_number(certificate: str | Path | None, session: Any) -> str | No
 
 def calibration_record(session_folder: str | Path, model_path: str | Path,
                        as_left_of: str | None = None, supersedes: str | None = None,
-                       force: bool = False, certificate: str | Path | None = None
-                       ) -> tuple[NewRecord, Any]:
+                       force: bool = False, certificate: str | Path | None = None,
+                       budget: str | Path | None = None) -> tuple[NewRecord, Any]:
     """The record of one calibration, ready for :meth:`Store.append`.
 
     Parameters
@@ -220,6 +297,10 @@ def calibration_record(session_folder: str | Path, model_path: str | Path,
     certificate : str or Path, optional
         The certificate folder (or its ``certificate.json``) of this calibration: its number
         is stored (:func:`certificate_number`).
+    budget : str or Path, optional
+        Uncertainty budget (TOML) the session is evaluated with: the U of every ISO 230-2
+        parameter, diagonal and direct-optics result is stored (:func:`results_of`); the
+        file is stored with the record (role ``budget``).
 
     Returns
     -------
@@ -237,6 +318,11 @@ def calibration_record(session_folder: str | Path, model_path: str | Path,
     model.require_uncertainty("a calibration record", model_path)
     check_model_session(model, session, force=force)
     number = certificate_number(certificate, session)
+    bud = None
+    if budget is not None:
+        from volcal.uncertainty.budget import read_budget
+
+        bud = read_budget(budget)
     ident = session.identity.to_dict()
     kept = session_files(session.path or folder)
     models = model_files(model_path)
@@ -245,6 +331,8 @@ def calibration_record(session_folder: str | Path, model_path: str | Path,
         digest.update(name.encode() + b"\0" + hashlib.sha256(content).digest())
     content_sha256 = _content_digest(digest.hexdigest(), models)
     files = _once(kept, models)
+    if budget is not None:
+        files.append(("budget", Path(budget).name, Path(budget).read_bytes()))
     date, notes = session.calibration.get("date"), []
     if date is None:  # not given: the simulation's date, else the newest reading file's
         from volcal.session.identity import parse_date
@@ -265,6 +353,7 @@ def calibration_record(session_folder: str | Path, model_path: str | Path,
         "session_sha256": digest.hexdigest(),
         "content_sha256": content_sha256,
         "measurements": [m.id for m in session.measurements],
+        "kinds": sorted({str(m.kind) for m in session.measurements}),
         "unmeasured": session.unmeasured_ids,
         "warnings": list(session.warnings),
         "model": {"format": model.format, "file": model_path.name,
@@ -272,7 +361,10 @@ def calibration_record(session_folder: str | Path, model_path: str | Path,
         "k": 2.0,
         "notes": notes,
     }
+    if budget is not None:
+        payload["budget"] = {"file": Path(budget).name,
+                             "sha256": hashlib.sha256(Path(budget).read_bytes()).hexdigest()}
     rec = NewRecord("calibration", payload, date=date, as_left_of=as_left_of,
-                    supersedes=supersedes, files=files, results=results_of(session, model),
+                    supersedes=supersedes, files=files, results=results_of(session, model, bud),
                     equipment=list(session.equipment), report_id=number)
     return rec, session

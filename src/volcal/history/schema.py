@@ -8,7 +8,9 @@ are written in the same transaction and enter its hash (:mod:`volcal.history.cha
 The schema is created and upgraded by the Alembic revisions in
 ``volcal/history/migrations/versions`` (``0001`` the records, files and results;
 ``0002`` the equipment of each calibration and the certificate's report id; ``0003`` the
-signature of each record's hash, :mod:`volcal.history.signing`). These
+signature of each record's hash, :mod:`volcal.history.signing`; ``0004`` the content
+digest of each calibration with a unique index, and the indexes of one machine's reads).
+These
 table objects describe the head revision; a test checks that they agree.
 """
 
@@ -18,6 +20,7 @@ from sqlalchemy import (
     Column,
     Float,
     ForeignKey,
+    Index,
     Integer,
     LargeBinary,
     MetaData,
@@ -44,6 +47,14 @@ records = Table(
     Column("report_id", String(64), nullable=True),      # revision 0002
     Column("signature", String(128), nullable=True),     # revision 0003: Ed25519, hex
     Column("key_id", String(16), nullable=True),         # revision 0003: of the signing key
+    # revision 0004: the payload's content_sha256 of a calibration that is no correction
+    # (outside the hash, checked against the payload by verify)
+    Column("content_sha256", String(64), nullable=True),
+    # not unique in a store that held duplicates before 0004 (the migration says why)
+    Index("ix_records_content_sha256", "content_sha256", unique=True),
+    Index("ix_records_machine_id", "machine_id"),
+    Index("ix_records_supersedes", "supersedes"),
+    Index("ix_records_kind", "kind"),
 )
 
 files = Table(

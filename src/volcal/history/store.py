@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from volcal.errors import VolcalInputError
-from volcal.history.chain import GENESIS, canonical, record_hash
+from volcal.history.chain import GENESIS, canonical, content_key, record_hash
 
 KIND_PREFIX = {"machine": "M", "calibration": "C", "interval": "I"}
 
@@ -126,6 +126,11 @@ def _text(v: Any) -> Any:
     return v
 
 
+def _chunks(seqs: list[Any], size: int = 20_000) -> list[list[Any]]:
+    """``seqs`` in pieces small enough for one ``IN (...)`` of SQLite and PostgreSQL."""
+    return [seqs[k:k + size] for k in range(0, len(seqs), size)]
+
+
 def _number(v: Any) -> Any:
     """A result's value or U as stored (None for a value of another type than a number)."""
     return v if isinstance(v, int | float) and not isinstance(v, bool) else None
@@ -151,6 +156,7 @@ class Store:
     def __init__(self, url: str | None = None, create: bool = True,
                  private_key=None) -> None:
         from volcal.history.engine import open_engine
+        from volcal.history.heads import store_key
         from volcal.history.integrity import guard
         from volcal.history.url import describe, resolve_url
 
@@ -160,6 +166,10 @@ class Store:
             _ = self.signer
         self.url = resolve_url(url)
         self.where = describe(self.url)
+        #: this store's entry in the kept heads (:mod:`volcal.history.heads`)
+        self.key = store_key(describe(self.url) if not self.url.startswith("sqlite")
+                             else self.url)
+        self._head: tuple[int, str] | None = None  # the last appended, under the lock
         #: record id -> what is wrong with it, of every damaged record read so far
         self.damaged: dict[str, str] = {}
         with guard(self.where):
@@ -207,12 +217,14 @@ class Store:
         from volcal.history.integrity import guard
 
         _ = self.signer  # the key file read before the lock is taken
+        self._head = None
         with guard(self.where), writer(self.engine) as conn, conn.begin():
             lock(conn)
             self._refuse_broken(conn)
             same = self._stored_before(conn, rec)
             if same is None:
                 rid = self._append_locked(conn, rec, check)
+        self._keep_head()
         if same is not None:
             found = self._same_content(same, rec.payload["content_sha256"])
             if rec.as_left_of is not None and rec.as_left_of != found.as_left_of:
@@ -223,6 +235,49 @@ class Store:
             found.already_stored = True
             return found
         return self.record(rid)
+
+    def append_many(self, recs: list[NewRecord]) -> list[str]:
+        """Append records in one transaction: one lock, one check of the chain.
+
+        A bulk import (the benchmarks build stores of 10^4 calibrations with it): each
+        record is appended as :meth:`append` appends it, without a ``check``, so a
+        calibration names its machine record (``machine_id``) itself; a calibration whose
+        content is stored already is not appended again (its id is returned). Nothing is
+        appended when any record is refused.
+
+        Parameters
+        ----------
+        recs : list of NewRecord
+            The records, in order.
+
+        Returns
+        -------
+        list of str
+            The id of each record (the stored one for a content stored already).
+        """
+        from volcal.history.engine import lock, writer
+        from volcal.history.integrity import guard
+
+        _ = self.signer
+        self._head = None
+        ids: list[str] = []
+        with guard(self.where), writer(self.engine) as conn, conn.begin():
+            lock(conn)
+            self._refuse_broken(conn)
+            for rec in recs:
+                same = self._stored_before(conn, rec)
+                ids.append(same if same is not None else self._append_locked(conn, rec, None))
+        self._keep_head()
+        return ids
+
+    def _keep_head(self) -> None:
+        """Keep the head this writer checked and appended to (after the commit)."""
+        from volcal.history.heads import keep_head, store_state
+
+        if self._head is not None:
+            with self.engine.connect() as conn:
+                keep_head(self.key, *self._head, store_state(self.url, conn))
+            self._head = None
 
     def _append_locked(self, conn, rec: NewRecord, check) -> str:
         """The insert of :meth:`append`, under the writers' lock; returns the new id."""
@@ -243,33 +298,38 @@ class Store:
         return self._insert(conn, rec)
 
     def _same_content(self, rid: str, digest: str) -> Record:
-        """The record ``rid``, or its newest correction when that holds the same content.
+        """The newest of ``rid`` and its corrections that holds the same content.
 
-        Otherwise ``rid`` with ``superseded_by`` set (it was corrected by other content).
+        ``rid`` itself (``superseded_by`` set) when it was corrected by other content.
         """
-        every = {r.id: r for r in self.records("calibration")}
-        cur = every[every[rid].superseded_by or rid]
-        return cur if cur.payload.get("content_sha256") == digest else every[rid]
+        links = self._corrections()
+        chain, seen = [rid], {rid}
+        while chain[-1] in links and links[chain[-1]] not in seen:  # rid's corrections
+            chain.append(links[chain[-1]])
+            seen.add(chain[-1])
+        for r in reversed(chain[1:]):  # the newest correction of the same content
+            rec = self.record(r)
+            if rec.payload.get("content_sha256") == digest:
+                return rec
+        return self.record(rid)
 
     @staticmethod
     def _stored_before(conn, rec: NewRecord) -> str | None:
         """Id of the newest calibration stored with the same content (under the lock).
 
-        A correction (``supersedes``) is always appended. The content digest is in the
-        canonical payload (``"content_sha256":"..."``).
+        A correction (``supersedes``) is always appended. The content digest is the
+        indexed column ``records.content_sha256`` (revision 0004, unique where the store
+        never held duplicates).
         """
         from sqlalchemy import select
 
         from volcal.history import schema as t
 
-        digest = rec.payload.get("content_sha256")
-        if rec.kind != "calibration" or rec.supersedes is not None or not digest:
+        digest = content_key(rec.kind, rec.supersedes, rec.payload)
+        if digest is None:
             return None
-        key = canonical({"content_sha256": digest})[1:-1]
-        row = conn.execute(select(t.records.c.id).where(
-            t.records.c.kind == "calibration", t.records.c.payload.contains(key,
-                                                                            autoescape=True))
-            .order_by(t.records.c.seq.desc()).limit(1)).first()
+        row = conn.execute(select(t.records.c.id).where(t.records.c.content_sha256 == digest)
+                           .order_by(t.records.c.seq.desc()).limit(1)).first()
         return None if row is None else str(row.id)
 
     def _refuse_unsigned(self, conn) -> None:
@@ -289,10 +349,17 @@ class Store:
                                    f"--private-key FILE or set {KEY_ENV} to sign this one")
 
     def _refuse_broken(self, conn) -> None:
-        """Refuse to append to a broken chain (under the lock; stored digests trusted)."""
+        """Refuse to append to a broken chain (under the lock; stored digests trusted).
+
+        Incremental when nobody wrote to the store since this machine last checked or
+        appended: the records after that head are re-hashed, the links of all
+        (:mod:`volcal.history.heads`); otherwise the whole chain.
+        """
+        from volcal.history.heads import kept_head, store_state
         from volcal.history.integrity import check_chain
 
-        chk = check_chain(conn, contents=False)
+        trusted = kept_head(self.key, store_state(self.url, conn))
+        chk = check_chain(conn, contents=False, trusted=trusted)
         if not chk.ok:
             raise VolcalInputError(f"the history is broken at {chk.first}: {chk.why}; "
                                    "nothing was added (volcal history verify tells the rest)",
@@ -314,7 +381,8 @@ class Store:
                "created": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
                "supersedes": rec.supersedes, "as_left_of": rec.as_left_of,
                "report_id": rec.report_id, "payload": canonical(rec.payload),
-               "prev_hash": prev}
+               "prev_hash": prev, "content_sha256": content_key(rec.kind, rec.supersedes,
+                                                                 rec.payload)}
         files = [{"record_seq": seq, "role": r, "name": n,
                   "sha256": hashlib.sha256(c).hexdigest(), "content": c}
                  for r, n, c in rec.files]
@@ -325,6 +393,7 @@ class Store:
                                                 "certificate", "calibrated", "due")}}
                      for i, e in enumerate(rec.equipment)]
         row["hash"] = record_hash(prev, row, files, results, equipment)
+        self._head = (seq, str(row["hash"]))
         if self.signer is not None:  # outside the hash it signs
             row["signature"], row["key_id"] = self.signer.sign(row["hash"]), self.signer.key_id
         conn.execute(insert(t.records).values(**row))
@@ -360,21 +429,24 @@ class Store:
         fil: dict[int, list] = {s: [] for s in seqs}
         eqp: dict[int, list] = {s: [] for s in seqs}
         raw: dict[int, tuple[list, list, list]] = {s: ([], [], []) for s in seqs}
-        if seqs:
-            for r in conn.execute(select(t.results).where(
-                    t.results.c.record_seq.in_(seqs))).mappings():
-                res[r["record_seq"]][_text(r["name"])] = {
-                    "value": _number(r["value"]), "U": _number(r["U"]),
-                    "unit": _text(r["unit"])}
-                raw[r["record_seq"]][1].append(dict(r))
-            for r in conn.execute(select(t.files.c.record_seq, t.files.c.role,
-                                         t.files.c.name, t.files.c.sha256).where(
-                    t.files.c.record_seq.in_(seqs))).mappings():
-                fil[r["record_seq"]].append({k: _text(r[k]) for k in ("role", "name",
-                                                                      "sha256")})
-                raw[r["record_seq"]][0].append(dict(r))
+        # the children as tuples (the rows of thousands of records: no mappings)
+        for chunk in _chunks(seqs):
+            c = t.results.c
+            for seq, name, value, u, unit in conn.execute(select(
+                    c.record_seq, c.name, c.value, c.U, c.unit).where(
+                    c.record_seq.in_(chunk))).all():
+                res[seq][name if type(name) is str else _text(name)] = {
+                    "value": _number(value), "U": _number(u),
+                    "unit": unit if type(unit) is str else _text(unit)}
+                raw[seq][1].append((name, value, u, unit))
+            f = t.files.c
+            for seq, role, name, sha in conn.execute(select(
+                    f.record_seq, f.role, f.name, f.sha256).where(f.record_seq.in_(chunk))).all():
+                fil[seq].append({"role": _text(role), "name": _text(name),
+                                 "sha256": _text(sha)})
+                raw[seq][0].append((role, name, sha))
             for r in conn.execute(select(t.equipment).where(
-                    t.equipment.c.record_seq.in_(seqs)).order_by(
+                    t.equipment.c.record_seq.in_(chunk)).order_by(
                     t.equipment.c.position)).mappings():
                 eqp[r["record_seq"]].append({k: _text(v) for k, v in r.items()
                                              if k not in ("record_seq", "position")
@@ -403,8 +475,13 @@ class Store:
             self.damaged[rec.id] = rec.damage
         return rec
 
-    def records(self, kind: str | None = None, conn=None) -> list[Record]:
-        """Every record in chain order, ``superseded_by`` set.
+    def records(self, kind: str | None = None, conn=None,
+                machine_id: str | None = None) -> list[Record]:
+        """Records in chain order, ``superseded_by`` set.
+
+        Only the records asked for are read and checked against their hashes (indexes on
+        ``kind`` and ``machine_id``: the records of one machine are read without reading
+        the store).
 
         Parameters
         ----------
@@ -412,25 +489,81 @@ class Store:
             Only records of this kind.
         conn : Connection, optional
             Read inside this transaction (a writer's, under its lock).
+        machine_id : str, optional
+            Only the records that belong to this machine record (calibrations, intervals).
         """
+        from sqlalchemy import and_
+
         from volcal.history import schema as t
 
-        allr = self._rows(None if kind is None else t.records.c.kind == kind, conn)
-        every = {r.id: r for r in allr}
-        for r in allr:
-            if r.supersedes in every:
-                every[r.supersedes].superseded_by = r.id
-        # a chain of corrections: the newest wins for every older one
-        for r in allr:
-            nxt = r.superseded_by
-            while nxt is not None and every.get(nxt) is not None \
-                    and every[nxt].superseded_by is not None:
-                nxt = every[nxt].superseded_by
-            r.superseded_by = nxt
+        conds = []
+        if machine_id is not None:  # by its own index alone (the kind: below), so that
+            # the database never scans every calibration through the index of kinds
+            conds.append(t.records.c.machine_id == machine_id)
+        elif kind is not None:
+            conds.append(t.records.c.kind == kind)
+        allr = self._rows(and_(*conds) if conds else None, conn)
+        if machine_id is not None and kind is not None:
+            allr = [r for r in allr if r.kind == kind]
+        self._mark_superseded(allr, conn)
         return allr
 
+    def machines_named(self, machine: str, conn=None) -> list[Record]:
+        """The machine records whose id or name is ``machine`` (``superseded_by`` set).
+
+        The name is found in the canonical payload (``"name":"VMC-1"``) by the database,
+        so that naming one machine does not read every machine record.
+
+        Parameters
+        ----------
+        machine : str
+            Machine record id or name.
+        conn : Connection, optional
+            Read inside this transaction.
+        """
+        from sqlalchemy import and_, or_
+
+        from volcal.history import schema as t
+
+        c = t.records.c
+        key = canonical({"name": machine})[1:-1]
+        recs = self._rows(and_(c.kind == "machine", or_(
+            c.id == machine, c.payload.contains(key, autoescape=True))), conn)
+        self._mark_superseded(recs, conn)
+        return [r for r in recs if r.id == machine or r.machine_name == machine]
+
+    def _corrections(self, conn=None) -> dict[str, str]:
+        """Record id -> id of the newest record that supersedes it, directly.
+
+        One query of two columns over the indexed ``supersedes``; the chain order decides.
+        """
+        from sqlalchemy import select
+
+        from volcal.history import schema as t
+        from volcal.history.integrity import guard
+
+        q = select(t.records.c.id, t.records.c.supersedes).where(
+            t.records.c.supersedes.is_not(None)).order_by(t.records.c.seq)
+        with guard(self.where):
+            if conn is None:
+                with self.engine.connect() as c:
+                    rows = c.execute(q).all()
+            else:
+                rows = conn.execute(q).all()
+        return {str(_text(old)): str(_text(new)) for new, old in rows}
+
+    def _mark_superseded(self, recs: list[Record], conn=None) -> None:
+        """Set ``superseded_by``: the newest record of the chain of corrections."""
+        links = self._corrections(conn)
+        for r in recs:
+            nxt, seen = links.get(r.id), {r.id}
+            while nxt is not None and nxt in links and links[nxt] not in seen:
+                seen.add(nxt)
+                nxt = links[nxt]
+            r.superseded_by = nxt
+
     def record(self, rid: str) -> Record:
-        """One record by id (as stored, superseded or not).
+        """One record by id (as stored, superseded or not; ``superseded_by`` set).
 
         Parameters
         ----------
@@ -447,6 +580,7 @@ class Store:
         rows = self._rows(t.records.c.id == rid)
         if not rows:
             raise VolcalInputError(f"no record {rid!r} in the history {self.where}")
+        self._mark_superseded(rows)
         return rows[0]
 
     def current(self, rid: str) -> Record:
@@ -457,13 +591,11 @@ class Store:
         rid : str
             Record id.
         """
-        every = {r.id: r for r in self.records()}
-        if rid not in every:
-            raise VolcalInputError(f"no record {rid!r} in the history {self.where}")
-        r = every[rid]
-        return every[r.superseded_by] if r.superseded_by else r
+        r = self.record(rid)
+        return self.record(r.superseded_by) if r.superseded_by else r
 
-    def file(self, rid: str, role: str, name: str | None = None) -> bytes:
+    def file(self, rid: str, role: str, name: str | None = None,
+             record: Record | None = None) -> bytes:
         """The stored content of a record's file (the first of ``role`` if no name).
 
         Parameters
@@ -474,13 +606,15 @@ class Store:
             File role (``session``, ``model``, ``model-part``, ``etalon``).
         name : str, optional
             File name.
+        record : Record, optional
+            The record ``rid``, when already read.
         """
         from sqlalchemy import LargeBinary, cast, select
 
         from volcal.history import schema as t
         from volcal.history.integrity import guard
 
-        rec = self.record(rid)
+        rec = record if record is not None and record.id == rid else self.record(rid)
         q = select(cast(t.files.c.content, LargeBinary), t.files.c.name,
                    t.files.c.sha256).where(t.files.c.record_seq == rec.seq,
                                            t.files.c.role == role)
@@ -532,7 +666,11 @@ class Store:
         contents : bool
             Also hash every stored file's content.
         """
+        from volcal.history.heads import keep_head, store_state
         from volcal.history.integrity import check_chain, guard
 
         with guard(self.where), self.engine.connect() as conn:
-            return check_chain(conn, contents)
+            chk = check_chain(conn, contents)
+            if chk.ok and contents and chk.n:  # every record checked: the head kept
+                keep_head(self.key, chk.n, chk.head, store_state(self.url, conn))
+        return chk

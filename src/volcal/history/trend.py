@@ -53,7 +53,7 @@ def trend(history: Any, machine: str, parameter: str) -> list[dict[str, Any]]:
                                    f"{', '.join(COMPONENT_NAMES)}")
         unit = "urad" if name[1] in "ABC" else "um"
         for r in cals:
-            model = load_record_model(history.store, r.id)
+            model = load_record_model(history.store, r.id, r)
             if model is None:
                 rows.append({"id": r.id, "date": r.date, "value": None, "U": None, "unit": unit})
                 continue

@@ -22,7 +22,10 @@ __all__ = ["trend_plot", "write_trend_plot"]
 
 
 def trend_plot(rows: Sequence[dict[str, Any]], parameter: str, machine: str) -> Figure:
-    """The trend as a figure: value with its expanded uncertainty U (k = 2) as error bars.
+    """The trend as a figure: value with its expanded uncertainty U (k = 2) as a band.
+
+    The band ``value - U`` to ``value + U`` joins the calibrations that have a U (shaded),
+    and each of them has its error bar; a calibration without U is a point alone.
 
     Parameters
     ----------
@@ -49,9 +52,16 @@ def trend_plot(rows: Sequence[dict[str, Any]], parameter: str, machine: str) -> 
     # matplotlib's stubs type the data as numbers (ArrayLike); its unit converters plot
     # datetime.date on a date axis, which is what this figure wants
     ax.errorbar(x, y, yerr=e, marker="o", capsize=3)  # type: ignore[arg-type]
+    band = [(xi, r["value"], r["U"]) for xi, r in zip(x, pts, strict=True)
+            if r["U"] is not None]
+    if band:
+        bx = [b[0] for b in band]
+        ax.fill_between(bx, [b[1] - b[2] for b in band],  # type: ignore[arg-type]
+                        [b[1] + b[2] for b in band], alpha=0.25, linewidth=0,
+                        label="U (k = 2)")
     unit = pts[0]["unit"].replace("um", "µm").replace("urad", "µrad") if pts else ""
     ax.set_ylabel(f"{parameter} [{unit}]")
-    ax.set_title(f"{machine}: {parameter} (bars: U, k = 2)")
+    ax.set_title(f"{machine}: {parameter} (band and bars: U, k = 2)")
     fig.autofmt_xdate()
     return fig
 

@@ -182,3 +182,10 @@ def pytest_collection_modifyitems(session, config, items):
     late = len(LONGEST_FIRST)
     items[:] = [it for _, it in sorted(enumerate(items), key=lambda p: (
         rank.get(str(p[1].path), late), p[0]))]
+
+
+@pytest.fixture(autouse=True)
+def _history_heads_in_tmp(tmp_path, monkeypatch):
+    """The history's kept heads (``volcal.history.heads``) in the test's folder, never in
+    the user's ``~/.cache`` (subprocesses inherit the variable)."""
+    monkeypatch.setenv("VOLCAL_HISTORY_HEADS", str(tmp_path / "history-heads.json"))

@@ -157,7 +157,16 @@ def store_url(request, tmp_path):
 from linuxcnc_sim import linuxcnc_sim  # noqa: E402, F401
 
 # ---------------------------------------------------------------- order of the test files
+LINUXCNC_FILES: tuple[str, ...] = (
+    "compensate/test_trt_closed_loop.py", "capture/test_linuxcnc_capture.py",
+    "compensate/test_linuxcnc_control.py", "compensate/test_trt_halcmd.py",
+)
+"""The test files that run LinuxCNC (one at a time per box: ``linuxcnc_sim``'s lock).
+``make test`` gives them to one worker as one unit of work (:func:`pytest_xdist_make_scheduler`),
+first, so the other worker never waits on the lock while they run."""
+
 LONGEST_FIRST: tuple[str, ...] = (
+    *LINUXCNC_FILES,
     "report/test_report_cli.py", "cli/test_cli_bad_input.py", "report/test_certificate.py",
     "test_python_docs.py", "report/test_certificate_optics.py",
     "standards/test_incomplete.py", "test_python_parity_budget.py",
@@ -173,6 +182,22 @@ number of tests per file, put the files of one or two long tests such as
 of files). Starting with the longest files (the longest-processing-time-first rule)
 leaves only short files for the end. A file missing here (renamed, removed) is simply collected
 in its usual place; the order of the tests inside a file is unchanged."""
+
+
+def pytest_xdist_make_scheduler(config, log):
+    """``--dist loadfile`` with the LinuxCNC files as one unit of work (see LINUXCNC_FILES)."""
+    if config.getoption("dist", None) != "loadfile":
+        return None
+    from xdist.scheduler import LoadFileScheduling
+
+    class OneLinuxCNC(LoadFileScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            path = nodeid.split("::", 1)[0]
+            if any(path.endswith(f) for f in LINUXCNC_FILES):
+                return "linuxcnc"
+            return super()._split_scope(nodeid)
+
+    return OneLinuxCNC(config, log)
 
 
 def pytest_collection_modifyitems(session, config, items):

@@ -43,6 +43,7 @@ from numpy.typing import ArrayLike, NDArray
 from volcal.errors import VolcalInputError
 from volcal.session.rotary import ARCSEC_URAD
 from volcal.standards.iso230_2 import AXIS_KEYS, EDITIONS, Iso2302Result, evaluate
+from volcal.standards.iso230_2_uncertainty import parameter_expressions
 
 __all__ = ["UNITS", "RotaryIso2302Result", "RotaryUncertainty", "evaluate_rotary",
            "evaluate_rotary_measurement", "is_rotary_csv", "read_rotary_file",
@@ -366,31 +367,7 @@ def rotary_uncertainty(res: RotaryIso2302Result, budget: Any, target: str = "rot
         sd.append(sdev("-", t.s_down[i], int(nd[i])))
     mid = [(a + b) / 2 for a, b in zip(mu, md, strict=True)]
 
-    def rng(vals: list[Any]) -> Any:
-        x = np.array([float(v.x) for v in vals])
-        return vals[int(np.nanargmax(x))] - vals[int(np.nanargmin(x))]
-
-    def acc(means: list[Any], sds: list[Any]) -> Any:
-        hi = [a + ke * s for a, s in zip(means, sds, strict=True)]
-        lo = [a - ke * s for a, s in zip(means, sds, strict=True)]
-        xh = np.array([float(v.x) for v in hi])
-        xl = np.array([float(v.x) for v in lo])
-        return hi[int(np.nanargmax(xh))] - lo[int(np.nanargmin(xl))]
-
-    def largest(vals: list[Any]) -> Any:
-        return vals[int(np.nanargmax([float(v.x) for v in vals]))]
-
-    b = [a - c for a, c in zip(mu, md, strict=True)]
-    babs = [v if float(v.x) >= 0 else -v for v in b]
-    r_bi = [ke * su[i] + ke * sd[i] + babs[i] for i in range(m)]
-    expr = {
-        "A": acc(mu + md, su + sd), "A_up": acc(mu, su), "A_down": acc(md, sd),
-        "E": rng(mu + md), "E_up": rng(mu), "E_down": rng(md), "M": rng(mid),
-        "R": largest(r_bi + [2 * ke * s for s in su] + [2 * ke * s for s in sd]),
-        "R_up": largest([2 * ke * s for s in su]),
-        "R_down": largest([2 * ke * s for s in sd]),
-        "B": largest(babs), "B_mean": sum(b) / m,
-    }
+    expr = parameter_expressions(mu, md, su, sd, ke, np.nanargmax, np.nanargmin)
     params = {k: prop.estimate(expr[k]) for k in AXIS_KEYS}
     notes.append(f"datum (calibrator zeroed) at {datum:g} deg; instrument term "
                  f"{inst_key.split('.')[1]} = {inst.u:.3g} urad"

@@ -129,6 +129,60 @@ def _n(v: Any, m: int) -> np.ndarray:
     return np.broadcast_to(np.asarray(v, dtype=float), (m,))
 
 
+def parameter_expressions(mu: list[Any], md: list[Any], su: list[Any], sd: list[Any],
+                          ke: float, argmax: Any = np.argmax, argmin: Any = np.argmin
+                          ) -> dict[str, Any]:
+    """The ISO 230-2 parameters as propagated expressions of the per-target statistics.
+
+    Parameters
+    ----------
+    mu, md : list
+        Mean positional deviation per target, up and down (propagated inputs).
+    su, sd : list
+        Standard deviation per target, up and down (propagated inputs).
+    ke : float
+        Coverage factor of the edition (2 or 3).
+    argmax, argmin : callable
+        How the largest and smallest values are found (``np.nanargmax`` /
+        ``np.nanargmin`` where a target may have no readings).
+
+    Returns
+    -------
+    dict
+        The expression of every key of :data:`volcal.standards.iso230_2.AXIS_KEYS`
+        (ISO 230-2:2014 3.3 to 3.19; the same formulas as :func:`~volcal.standards.
+        iso230_2.evaluate`, on the propagated inputs).
+    """
+    m = len(mu)
+    mid = [(a + b) / 2 for a, b in zip(mu, md, strict=True)]
+
+    def rng(vals: list[Any]) -> Any:
+        x = np.array([float(v.x) for v in vals])
+        return vals[int(argmax(x))] - vals[int(argmin(x))]
+
+    def acc(means: list[Any], sds: list[Any]) -> Any:
+        hi = [a + ke * s for a, s in zip(means, sds, strict=True)]
+        lo = [a - ke * s for a, s in zip(means, sds, strict=True)]
+        xh = np.array([float(v.x) for v in hi])
+        xl = np.array([float(v.x) for v in lo])
+        return hi[int(argmax(xh))] - lo[int(argmin(xl))]
+
+    def largest(vals: list[Any]) -> Any:
+        return vals[int(argmax([float(v.x) for v in vals]))]
+
+    b = [a - c for a, c in zip(mu, md, strict=True)]
+    babs = [v if float(v.x) >= 0 else -v for v in b]
+    r_bi = [ke * su[i] + ke * sd[i] + babs[i] for i in range(m)]
+    return {
+        "A": acc(mu + md, su + sd), "A_up": acc(mu, su), "A_down": acc(md, sd),
+        "E": rng(mu + md), "E_up": rng(mu), "E_down": rng(md), "M": rng(mid),
+        "R": largest(r_bi + [2 * ke * s for s in su] + [2 * ke * s for s in sd]),
+        "R_up": largest([2 * ke * s for s in su]),
+        "R_down": largest([2 * ke * s for s in sd]),
+        "B": largest(babs), "B_mean": sum(b) / m,
+    }
+
+
 def iso230_2_uncertainty(res: Any, budget: Budget, datum_mm: float | None = None
                          ) -> Iso2302Uncertainty:
     """Expanded uncertainty of every ISO 230-2 parameter and every target's mean.
@@ -182,31 +236,7 @@ def iso230_2_uncertainty(res: Any, budget: Budget, datum_mm: float | None = None
         sd.append(sdev("-", t.s_down[i], nd[i]))
     mid = [(a + b) / 2 for a, b in zip(mu, md, strict=True)]
 
-    def rng(vals: list[Any]) -> Any:
-        x = np.array([float(v.x) for v in vals])
-        return vals[int(np.argmax(x))] - vals[int(np.argmin(x))]
-
-    def acc(means: list[Any], sds: list[Any]) -> Any:
-        hi = [a + ke * s for a, s in zip(means, sds, strict=True)]
-        lo = [a - ke * s for a, s in zip(means, sds, strict=True)]
-        xh = np.array([float(v.x) for v in hi])
-        xl = np.array([float(v.x) for v in lo])
-        return hi[int(np.argmax(xh))] - lo[int(np.argmin(xl))]
-
-    def largest(vals: list[Any]) -> Any:
-        return vals[int(np.argmax([float(v.x) for v in vals]))]
-
-    b = [a - c for a, c in zip(mu, md, strict=True)]
-    babs = [v if float(v.x) >= 0 else -v for v in b]
-    r_bi = [ke * su[i] + ke * sd[i] + babs[i] for i in range(m)]
-    expr = {
-        "A": acc(mu + md, su + sd), "A_up": acc(mu, su), "A_down": acc(md, sd),
-        "E": rng(mu + md), "E_up": rng(mu), "E_down": rng(md), "M": rng(mid),
-        "R": largest(r_bi + [2 * ke * s for s in su] + [2 * ke * s for s in sd]),
-        "R_up": largest([2 * ke * s for s in su]),
-        "R_down": largest([2 * ke * s for s in sd]),
-        "B": largest(babs), "B_mean": sum(b) / m,
-    }
+    expr = parameter_expressions(mu, md, su, sd, ke)
     params = {k: prop.estimate(expr[k]) for k in AXIS_KEYS}
     targets = [prop.estimate(v) for v in mid]
     far = int(np.argmax(np.abs(L)))

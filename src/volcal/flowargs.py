@@ -11,10 +11,8 @@ from __future__ import annotations
 import difflib
 import functools
 import inspect
-import math
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
-from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, ParamSpec, TypeVar
 
@@ -231,6 +229,9 @@ def check_kinds(where: str, values: Mapping[str, object],
 def budget_file(budget: str | Path | Budget, where: str) -> tuple[Budget, str]:
     """An uncertainty budget and the name recorded for it (the ``--budget`` option).
 
+    :func:`volcal.steps._checks.budget`, the check behind both faces, its message
+    naming the method.
+
     Parameters
     ----------
     budget : str, Path or Budget
@@ -247,14 +248,12 @@ def budget_file(budget: str | Path | Budget, where: str) -> tuple[Budget, str]:
         The file as given (recorded in the model file and in ``truth/systematic.toml``,
         as by the command line), or the budget's own ``file``.
     """
-    from volcal.uncertainty.budget import Budget, read_budget
+    from volcal.steps._checks import budget as checked
 
-    if isinstance(budget, Budget):
-        return budget, budget.file or "budget"
-    if not isinstance(budget, str | Path):
-        raise VolcalInputError(f"{where}: budget={budget!r}: expected the path of a budget "
-                               "file (TOML, `volcal budget --template`) or a Budget")
-    return read_budget(budget), str(budget)
+    try:
+        return checked(budget)
+    except ParameterError as exc:
+        raise exc.spelled({}, f"{where}: ") from None
 
 
 def acceptance(where: str, tolerance: Tolerance | None, decision_rule: str,
@@ -262,9 +261,8 @@ def acceptance(where: str, tolerance: Tolerance | None, decision_rule: str,
                ) -> Tolerance | None:
     """The tolerance with its decision rule, guard band and budget, checked.
 
-    The Python spelling of the command line's ``--decision-rule``, ``--guard-band-um``
-    and ``--budget`` (``volcal.cli.evaluate._acceptance``): the same checks, with the
-    keywords named in the messages.
+    :func:`volcal.steps._checks.acceptance`, the one check behind both faces; its
+    :class:`~volcal.errors.ParameterError` names the keywords after the method.
 
     Parameters
     ----------
@@ -284,29 +282,12 @@ def acceptance(where: str, tolerance: Tolerance | None, decision_rule: str,
     Tolerance or None
         None without a tolerance (then the rule must be ``'simple'``).
     """
-    from volcal.standards.decision import RULES, check_rule
+    from volcal.steps._checks import acceptance as checked
 
-    if not isinstance(decision_rule, str) or decision_rule.strip().lower() not in RULES:
-        raise VolcalInputError(f"{where}: decision_rule={decision_rule!r}: expected one of "
-                               f"{names(RULES)}")
-    rule = check_rule(decision_rule)
-    if guard_band_um is not None:
-        if isinstance(guard_band_um, bool) or not isinstance(guard_band_um, int | float) \
-                or not math.isfinite(guard_band_um) or guard_band_um < 0:
-            raise VolcalInputError(f"{where}: guard_band_um={guard_band_um!r}: expected a "
-                                   "finite number >= 0 [um]")
-        if rule != "guarded":
-            raise VolcalInputError(f"{where}: guard_band_um applies to "
-                                   "decision_rule='guarded' (valid rules: "
-                                   f"{names(RULES)})")
-    if tolerance is None:
-        if rule != "simple":
-            raise VolcalInputError(f"{where}: decision_rule={rule!r} judges a tolerance: "
-                                   "give tolerance_um too")
-        return None
-    b = None if budget is None else budget_file(budget, where)[0]
-    return replace(tolerance, rule=rule, guard_band_um=None if guard_band_um is None
-                   else float(guard_band_um), budget=b)
+    try:
+        return checked(tolerance, decision_rule, guard_band_um, budget)
+    except ParameterError as exc:
+        raise exc.spelled({}, f"{where}: ") from None
 
 
 #: The command line's option spellings in the library's messages, and their keywords.

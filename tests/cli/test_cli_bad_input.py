@@ -785,6 +785,23 @@ CASES: list[Case] = [
                                                "{d}/R"],
          ("COMP", "table file pitch.csv named in the manifest is missing"),
          remove("COMP/pitch.csv")),
+    # the decision rule, guard band and tolerance: one check behind both faces
+    # (volcal.steps._checks.acceptance), the Python keywords spelled as options
+    Case("report:guarded-without-tolerance", ["report", "{d}/S", "--model", "{d}/MODEL.json",
+                                              "--decision-rule", "guarded", "-o", "{d}/R"],
+         ("--decision-rule 'guarded' judges a tolerance: give --tolerance-um too",)),
+    Case("report:guard-band-simple", ["report", "{d}/S", "--model", "{d}/MODEL.json",
+                                      "--tolerance-um", "X=10", "--guard-band-um", "1",
+                                      "-o", "{d}/R"],
+         ("--guard-band-um applies to --decision-rule 'guarded' (valid rules: simple, "
+          "guarded)",)),
+    Case("evaluate:guard-band-negative", ["evaluate", "session", "{d}/S", "--tolerance-um",
+                                          "X=10", "--decision-rule", "guarded",
+                                          "--guard-band-um", "-1"],
+         ("--guard-band-um -1.0: expected a finite number >= 0 [um]",)),
+    Case("evaluate:rule-unknown", ["evaluate", "session", "{d}/S", "--tolerance-um", "X=10",
+                                   "--decision-rule", "guardd"],
+         ("--decision-rule 'guardd': expected one of simple, guarded",)),
     Case("report:edition-unknown", ["report", "{d}/S", "--model", "{d}/MODEL.json",
                                     "--edition", "1999", "-o", "{d}/R"], ("1999",)),
     Case("report:output-is-file", ["report", "{d}/S", "--model", "{d}/MODEL.json",

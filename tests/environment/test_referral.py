@@ -412,12 +412,13 @@ def test_raw_readings_of_a_direct_optic_are_refused():
     from volcal.environment.apply import prepare_readings
     from volcal.errors import VolcalInputError
     from volcal.session.format import Measurement
+    from volcal.session.kinds import kinds
 
     pos = np.array([[0.0, 0, 0], [500.0, 0, 0], [1000.0, 0, 0]])
     m = Measurement("ang", "angular", "angular_optics", pos, np.zeros(3),
                     np.array([1.0, 0, 0]), meta={"readings": "raw"})
     with pytest.raises(VolcalInputError, match="kind 'angular' has none") as e:
-        prepare_readings(m, "S/session.toml [ang]", "measurements[3]")
+        prepare_readings(m, "S/session.toml [ang]", "measurements[3]", kinds())
     assert e.value.column == "measurements[3].readings"
 
 

@@ -37,6 +37,8 @@ OPTIONS: dict[str, str] = {
         # simulate
         "seed", "noise_um", "mirror_misalignment_urad", "drift_um_per_h", "reversal_um",
         "machine", "overwrite", "budget",
+        # evaluate, verdict, report
+        "decision_rule", "guard_band_um", "tolerance_um",
         # program
         "dialect", "dwell_s", "feed", "decimals", "safe_z_mm", "first_number",
         # import

@@ -621,18 +621,13 @@ def _budget_or_none(budget: Path | None) -> Any:
 
 def _acceptance(tol: Any, decision_rule: str, guard_band_um: float | None,
                 budget: Path | None) -> Any:
-    """The tolerance with its decision rule, guard band and budget (checked)."""
-    from dataclasses import replace
+    """The tolerance with its decision rule, guard band and budget (checked).
 
-    from volcal.errors import VolcalInputError
+    :func:`volcal.steps._checks.acceptance`, the check behind both faces.
+    """
+    from volcal.steps._checks import acceptance
 
-    rule = _checked_rule(decision_rule, guard_band_um)
-    if tol is None:
-        if rule != "simple":
-            raise VolcalInputError("--decision-rule judges a tolerance: give --tolerance-um "
-                                   "too")
-        return None
-    return replace(tol, rule=rule, guard_band_um=guard_band_um, budget=_budget_or_none(budget))
+    return acceptance(tol, decision_rule, guard_band_um, budget)
 
 
 def _runs_cell(r: Any) -> str:

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import copy
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -37,7 +38,7 @@ from volcal.environment.refractive import (
 )
 from volcal.errors import VolcalInputError
 
-__all__ = ["ENVIRONMENT_KEYS", "READINGS", "REFERRED_KINDS", "check_environment",
+__all__ = ["ENVIRONMENT_KEYS", "READINGS", "check_environment",
            "compensate_measurement", "prepare_readings", "refer_measurement",
            "thermal_record"]
 
@@ -45,9 +46,6 @@ READINGS: tuple[str, ...] = ("deviation", "compensated", "raw")
 """Values of a measurement's ``readings`` key: ``deviation`` (default: as the laser software
 compensated them), ``compensated`` (written by volcal after compensating raw readings) and
 ``raw`` (vacuum wavelength, no material correction: compensated by volcal on reading)."""
-REFERRED_KINDS: tuple[str, ...] = ("linear", "diagonal", "step_diagonal")
-"""Kinds whose compensated readings volcal refers to 20 degC (``referred_to_20c = false``):
-laser length readings along the beam, counted from the first row."""
 
 ENVIRONMENT_KEYS: dict[str, float | None] = {
     "air_temperature_c": None,
@@ -217,17 +215,19 @@ def check_environment(env: Any, file: Any, where: str) -> dict[str, Any]:
     return out
 
 
-def _readings_keys(meas: Any, file: Any, where: str) -> tuple[str, bool | None]:
-    """The measurement's ``readings`` and ``referred_to_20c``, checked."""
+def _readings_keys(meas: Any, file: Any, where: str, kinds: Sequence[Any]
+                   ) -> tuple[str, bool | None]:
+    """The measurement's ``readings`` and ``referred_to_20c``, checked against its kind."""
+    raw_kinds = [k.name for k in kinds if k.raw_readings]
+    referable = [k.name for k in kinds if k.referable]
     readings = meas.meta.get("readings", "deviation")
     if not isinstance(readings, str) or readings not in READINGS:
         raise VolcalInputError(f"unknown readings {readings!r}: expected one of "
                                f"{', '.join(READINGS)}", file, None, f"{where}.readings")
-    if readings == "raw" and meas.kind not in (*REFERRED_KINDS, "multilateration"):
-        raise VolcalInputError(f"raw readings are laser lengths (linear, diagonal, "
-                               f"step_diagonal, multilateration); kind {meas.kind!r} has "
-                               "none: remove readings = \"raw\"", file, None,
-                               f"{where}.readings")
+    if readings == "raw" and meas.kind not in raw_kinds:
+        raise VolcalInputError(f"raw readings are laser lengths ({', '.join(raw_kinds)}); "
+                               f"kind {meas.kind!r} has none: remove readings = \"raw\"",
+                               file, None, f"{where}.readings")
     referred = meas.meta.get("referred_to_20c")
     if referred is not None and not isinstance(referred, bool):
         raise VolcalInputError(f"expected true or false, got {referred!r}", file, None,
@@ -236,9 +236,9 @@ def _readings_keys(meas: Any, file: Any, where: str) -> tuple[str, bool | None]:
         raise VolcalInputError("raw readings are not referred to 20 °C (volcal refers them "
                                "from the environment): remove referred_to_20c or set it "
                                "false", file, None, f"{where}.referred_to_20c")
-    if referred is False and meas.kind not in REFERRED_KINDS and readings != "raw":
+    if referred is False and meas.kind not in referable and readings != "raw":
         raise VolcalInputError(f"volcal refers to 20 °C the readings of "
-                               f"{', '.join(REFERRED_KINDS)} tests, not of a {meas.kind} "
+                               f"{', '.join(referable)} tests, not of a {meas.kind} "
                                "measurement: refer them before the import (or remove the key)",
                                file, None, f"{where}.referred_to_20c")
     ref = meas.meta.get("referral")
@@ -248,7 +248,7 @@ def _readings_keys(meas: Any, file: Any, where: str) -> tuple[str, bool | None]:
     return readings, referred
 
 
-def prepare_readings(meas: Any, file: Any, where: str) -> Any:
+def prepare_readings(meas: Any, file: Any, where: str, kinds: Sequence[Any]) -> Any:
     """Validate a measurement's thermal record and compensate/refer its readings once.
 
     The one place where a session's readings are referred to 20 degC (called by
@@ -265,6 +265,10 @@ def prepare_readings(meas: Any, file: Any, where: str) -> Any:
         ``session.toml`` (``'<path>/session.toml [<id>]'`` in the reader), for errors.
     where : str
         The measurement's key (``measurements[2]``), for errors.
+    kinds : sequence of Kind
+        The registered measurement kinds (:func:`volcal.session.kinds.kinds`): their
+        ``raw_readings`` and ``referable`` say which kinds take raw readings and which
+        volcal refers to 20 degC (the environment sits below the registry).
 
     Returns
     -------
@@ -278,7 +282,7 @@ def prepare_readings(meas: Any, file: Any, where: str) -> Any:
         boolean or contradicting raw readings, an invalid ``environment`` table,
         ``referred_to_20c = false`` without a material temperature or expansion.
     """
-    readings, referred = _readings_keys(meas, file, where)
+    readings, referred = _readings_keys(meas, file, where, kinds)
     if "environment" in meas.meta:
         check_environment(meas.meta["environment"], file, where)
     if meas.deviation is None:

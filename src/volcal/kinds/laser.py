@@ -26,6 +26,8 @@ class LaserKind(Kind):
                                           "retroreflector_mirror")
     default_target: ClassVar[str | None] = "retroreflector"
     systematic: ClassVar[str | None] = "length"
+    raw_readings: ClassVar[bool] = True
+    referable: ClassVar[bool] = True
 
     def read(self, entry: dict[str, Any], ctx: ReadContext) -> Any:
         """Read the entry and its CSV (:func:`volcal.session.format.read_laser_entry`).

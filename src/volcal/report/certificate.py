@@ -450,9 +450,10 @@ def environment_of(session: Any) -> dict[str, Any]:
         for k in ("material", "expansion_ppm_per_k"):
             if k in env:
                 entry[k] = env[k]
-        from volcal.environment.apply import REFERRED_KINDS, thermal_record
+        from volcal.environment.apply import thermal_record
+        from volcal.session.kinds import kind_of
 
-        if m.kind in (*REFERRED_KINDS, "multilateration"):
+        if kind_of(m.kind).raw_readings:  # laser lengths
             rec = thermal_record(m)  # how the readings were compensated and referred
             entry["readings"] = {k: rec[k] for k in ("compensated_by", "referred_by",
                                                      "material_temperature_c",

@@ -170,11 +170,12 @@ def measurements_section(inp: ReportInputs) -> Section:
 
 def _thermal_rows(session: Any) -> list[list[str]]:
     """Per laser measurement: who compensated its readings and who referred them."""
-    from volcal.environment.apply import REFERRED_KINDS, thermal_record
+    from volcal.environment.apply import thermal_record
+    from volcal.session.kinds import kind_of
 
     rows = []
     for m in session.measurements:
-        if m.kind not in (*REFERRED_KINDS, "multilateration"):
+        if not kind_of(m.kind).raw_readings:  # laser lengths only
             continue
         r = thermal_record(m)
         comp = ("volcal from raw readings" if r["compensated_by"] != "laser software"

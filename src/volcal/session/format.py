@@ -762,9 +762,10 @@ def read_session(folder: str | Path, require_deviation: bool = True) -> Session:
         m = _read_entry(e, i, folder, toml_path, seen, require_deviation, travel, notes,
                         vertical, meta)
         from volcal.environment.apply import prepare_readings
+        from volcal.session.kinds import kinds
 
         # the one referral to 20 C; errors name '<session.toml> [<id>]' and measurements[i]
-        m = prepare_readings(m, f"{toml_path} [{m.id}]", f"measurements[{i}]")
+        m = prepare_readings(m, f"{toml_path} [{m.id}]", f"measurements[{i}]", kinds())
         (unmeasured if require_deviation and m.deviation is None else meas).append(m)
     if require_deviation and not meas:
         raise _err(f"no readings yet: the deviation_um column of all {len(unmeasured)} "

@@ -159,6 +159,14 @@ class Kind:
     in_design : bool
         Whether its readings enter the identification of the linear axes' errors
         (``volcal identify``); False for a kind evaluated on its own (``rotary``).
+    raw_readings : bool
+        Its readings are laser lengths: ``readings = "raw"`` (as the laser counted them,
+        not compensated for the air) is accepted and compensated from the measurement's
+        environment (:func:`volcal.environment.apply.prepare_readings`).
+    referable : bool
+        volcal refers its compensated readings to 20 degC when the session says they are
+        not (``referred_to_20c = false``, ISO 1; the material correction of a length
+        along a line).
     description : str
         One line for the documentation and the report.
     """
@@ -175,6 +183,8 @@ class Kind:
     systematic: ClassVar[str | None] = None
     plan_tests: ClassVar[tuple[str, ...]] = ()
     in_design: ClassVar[bool] = True
+    raw_readings: ClassVar[bool] = False
+    referable: ClassVar[bool] = False
     description: ClassVar[str] = ""
 
     # -- session ---------------------------------------------------------------------

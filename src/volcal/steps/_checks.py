@@ -11,6 +11,7 @@ import numpy as np
 from volcal.errors import ParameterError
 
 if TYPE_CHECKING:
+    from volcal.standards.tolerance import Tolerance
     from volcal.uncertainty.budget import Budget
 
 
@@ -169,6 +170,70 @@ def budget(value: object) -> tuple[Budget, str]:
         raise ParameterError(f"{{budget=}}{value!r}: expected the path of a budget file "
                              "(TOML, `volcal budget --template`) or a Budget")
     return read_budget(value), str(value)
+
+
+def acceptance(tolerance: Tolerance | None, decision_rule: str, guard_band_um: float | None,
+               budget_value: str | Path | Budget | None) -> Tolerance | None:
+    """The tolerance with its decision rule, guard band and budget, checked once.
+
+    Behind both faces: the command line's ``--decision-rule``, ``--guard-band-um``,
+    ``--tolerance-um`` and ``--budget`` and :class:`volcal.Calibration`'s keywords; the
+    messages name the parameters (:class:`~volcal.errors.ParameterError`), each face
+    spells them.
+
+    Parameters
+    ----------
+    tolerance : Tolerance or None
+        :func:`volcal.standards.tolerance.parse_tolerance` of ``tolerance_um``.
+    decision_rule : str
+        ``'simple'`` or ``'guarded'`` (:data:`volcal.standards.decision.RULES`;
+        case-insensitive).
+    guard_band_um : float or None
+        Guard band w of the guarded rule [um] (default: U of each parameter).
+    budget_value : str, Path, Budget or None
+        Uncertainty budget: U of the ISO 230-2 parameters, the guarded rule's guard band.
+
+    Returns
+    -------
+    Tolerance or None
+        None without a tolerance (then the rule must be ``'simple'``).
+
+    Raises
+    ------
+    ParameterError
+        An unknown rule, a guard band that is not a finite number >= 0 or given with the
+        simple rule, the guarded rule without a tolerance.
+
+    References
+    ----------
+    ISO 14253-1:2017, decision rules for proving conformity with specifications.
+    """
+    import math
+    from dataclasses import replace
+
+    from volcal.standards.decision import RULES
+
+    valid = ", ".join(RULES)
+    if not isinstance(decision_rule, str) or decision_rule.strip().lower() not in RULES:
+        raise ParameterError(f"{{decision_rule=}}{decision_rule!r}: expected one of {valid}")
+    rule = decision_rule.strip().lower()
+    w = guard_band_um
+    if w is not None:
+        if isinstance(w, bool) or not isinstance(w, int | float) or not math.isfinite(w) \
+                or w < 0:
+            raise ParameterError(f"{{guard_band_um=}}{w!r}: expected a finite number >= 0 "
+                                 "[um]")
+        if rule != "guarded":
+            raise ParameterError(f"{{guard_band_um}} applies to {{decision_rule=}}'guarded' "
+                                 f"(valid rules: {valid})")
+    if tolerance is None:
+        if rule != "simple":
+            raise ParameterError(f"{{decision_rule=}}{rule!r} judges a tolerance: give "
+                                 "{tolerance_um} too")
+        return None
+    b = None if budget_value is None else budget(budget_value)[0]
+    return replace(tolerance, rule=rule, guard_band_um=None if w is None else float(w),
+                   budget=b)
 
 
 def output_folder(path: str | Path, what: str, own: Callable[[Path], bool] | None,

@@ -675,7 +675,9 @@ class Calibration:
 
         Calls :func:`volcal.steps.compensate.compensate` with this calibration's model and
         its session's machine identity (``volcal compensate --session`` checks are the
-        command's).
+        command's). A session with nothing to identify (rotary tests only) has no linear
+        model: its rotary tables alone are written, as ``volcal compensate --session S``
+        without a model.
 
         Like ``volcal compensate``: the format is always named, and the tables are
         written in the controller's own sign unless ``sign`` overrides it (with a
@@ -724,7 +726,9 @@ class Calibration:
         from volcal.session.identity import MachineIdentity
         from volcal.steps.compensate import compensate
 
-        result = self._need_result()
+        # a session with nothing to identify (rotary tests only): its rotary tables alone
+        rotary_only = self.result is None and not self._identifiable()
+        result = None if rotary_only else self._need_result()
         # the manifest names this session's machine (serial, make...), so that the tables
         # are refused on another machine (docs/compensation.md)
         r = compensate(result, format=format, output=folder, sign=sign, spacing=spacing,
@@ -734,7 +738,8 @@ class Calibration:
                        fanuc_series=fanuc_series, linuxcnc_type=linuxcnc_type,
                        squareness=squareness,
                        tool_offset=A.vector_mm(tool_offset, "tool_offset"),
-                       machine=MachineIdentity.of(self.session), replace=replace)
+                       machine=MachineIdentity.of(self.session), replace=replace,
+                       session=self.session if rotary_only else None)
         if r.sign_note is not None:
             warnings.warn(spell(r.sign_note, {}), UserWarning, stacklevel=3)
         files = list(r.files)
@@ -858,7 +863,9 @@ class Calibration:
             # as `volcal report`: only a new, empty or earlier report folder is replaced
             check_report_inputs(folder, history=history, replace=replace,
                                 option="replace=True")
-            done = report_step(self.session, output=folder, model=self._need_result(),
+            done = report_step(self.session, output=folder,
+                               model=(None if self.result is None and not self._identifiable()
+                                      else self._need_result()),
                                truth=self.truth, title=title, edition=str(edition),
                                tolerance=tol, compensation=compensation, history=history,
                                force=force, certificate=certificate, as_left=s2,
@@ -886,6 +893,12 @@ class Calibration:
         out.measurements = [*s.measurements, *s.unmeasured]
         out.unmeasured = []
         return out
+
+    def _identifiable(self) -> bool:
+        """The session has a test identify reads (not only rotary tests, say)."""
+        from volcal.session.kinds import kind_of
+
+        return any(kind_of(m.kind).in_design for m in self.session.measurements)
 
     def _need_result(self) -> IdentificationResult:
         if self.result is None:

@@ -172,21 +172,39 @@ def test_fanuc_rejects_a_spacing_that_does_not_divide_the_turn():
         rotary_tables([p], "fanuc", RotaryOptions(spacing_deg=7.0))
 
 
-def test_isg_rotary_component_error_file(tmp_path):
-    from volcal.compensate.volumetric import parse_isg_csv
+def test_isg_rotary_leadscrew_list_by_hand(tmp_path):
+    """The SSFK list of TF5200 (kw.ssfk.*): 0.0001 deg, bilateral, modulo, the error.
+
+    Values by hand (urad x 0.57296 = 0.0001 deg, rounded): up 1.5, 11, 21, 11, 1.5 ->
+    1, 6, 12, 6, 1; down 6, 15, 25, 15, 6 -> 3, 9, 14, 9, 3.
+    """
+    from volcal.compensate.rotary.isg import read_isg_rotary
 
     p = rotary_profile(hand_measurement())
     files, entries, _ = rotary_tables([p], "isg", RotaryOptions())
-    text = files["rotary_isg_C.csv"]
-    (b,) = parse_isg_csv(text)  # the parser written from the published syntax
-    assert list(b) == ["C", "ECC"]
-    np.testing.assert_array_equal(b["C"], [0, 90, 180, 270, 360])  # degrees
-    # the mean of both directions [rad], the error (ISG convention), 0 = 360
-    np.testing.assert_allclose(b["ECC"], np.array([3.75, 13, 23, 13, 3.75]) * 1e-6,
-                               rtol=1e-6)
+    assert sorted(files) == ["ROTARY_NOTES.TXT", "rotary_isg_C.lis"]
+    lines = [x for x in files["rotary_isg_C.lis"].splitlines() if not x.startswith("#")]
+    kv = dict(x.split() for x in lines)
+    assert {k: kv[k] for k in ("kw.ssfk.unit", "kw.ssfk.interval", "kw.ssfk.kw_nr_max",
+                               "kw.ssfk.bilateral", "kw.ssfk.modulo", "kopf.log_achs_name")} \
+        == {"kw.ssfk.unit": "1", "kw.ssfk.interval": "0", "kw.ssfk.kw_nr_max": "5",
+            "kw.ssfk.bilateral": "1", "kw.ssfk.modulo": "1", "kopf.log_achs_name": "C"}
+    assert [kv[f"kw.ssfk.table[{i}].setpoint"] for i in range(5)] == [
+        "0", "900000", "1800000", "2700000", "3600000"]
+    assert [kv[f"kw.ssfk.table[{i}].pos"] for i in range(5)] == ["1", "6", "12", "6", "1"]
+    assert [kv[f"kw.ssfk.table[{i}].neg"] for i in range(5)] == ["3", "9", "14", "9", "3"]
     folder = write(files, tmp_path / "i")
-    got = rotary_removed_urad(folder, "isg", entries[0], [45.0, 315.0], ["-", "+"])
-    np.testing.assert_allclose(got, [8.375, 8.375], rtol=1e-6)
+    pts, up, down, modulo = read_isg_rotary(folder / "rotary_isg_C.lis")
+    assert modulo and pts[-1] == pytest.approx(360.0) and up[1] == pytest.approx(6e-4)
+    # linear between points, per direction, periodic: 45 deg down (3 + 9) / 2 = 6 units,
+    # 315 deg up (6 + 1) / 2 = 3.5 units, 405 deg = 45 deg
+    got = rotary_removed_urad(folder, "isg", entries[0], [45.0, 315.0, 405.0],
+                              ["-", "+", "-"])
+    np.testing.assert_allclose(got, np.array([6.0, 3.5, 6.0]) * 1e-4 / DEG_PER_URAD,
+                               rtol=1e-12)
+    # the correction sign negates every value
+    files2, _, _ = rotary_tables([p], "isg", RotaryOptions(sign="correction"))
+    assert "kw.ssfk.table[2].pos -12" in files2["rotary_isg_C.lis"]
 
 
 def test_formats_without_rotary_tables_say_so():

@@ -21,11 +21,14 @@ err_console = Console(stderr=True, soft_wrap=True)  # notes, warnings: standard 
 
 
 def compensate(
-    model: Annotated[Path, typer.Argument(help="MODEL.json (identified) or error table .csv.")],
     format: Annotated[str, typer.Option(
         "--format", help="fanuc, siemens, heidenhain, linuxcnc, csv, isg (ISG/Beckhoff "
         "volumetric), grid (3-D).")],
     output: Annotated[Path, typer.Option("-o", "--output", help="Folder for the tables.")],
+    model: Annotated[Path | None, typer.Argument(
+        help="MODEL.json (identified) or error table .csv. Omitted with --session: no "
+        "linear model (rotary tests only), only the session's rotary tables are written.")
+    ] = None,
     sign: Annotated[str | None, typer.Option(
         help="Override the controller's own sign convention (the default; see "
         "docs/compensation.md): error (table = actual - commanded) or correction "
@@ -93,9 +96,17 @@ def compensate(
                           "= reverse", highlight=False)
     for d in r.forced:
         err_console.print(f"[yellow]warning[/] --force: {escape(d)}", highlight=False)
-    console.print(escape(f"wrote {r.format} tables ({r.sign}"
-                         + (", the controller's convention" if r.convention else "")
-                         + f", {r.spacing:g} mm): {', '.join(r.files)} -> {output}"))
+    if r.rotary_only:
+        err_console.print("note: no linear model given: only the session's rotary tables are "
+                          "written (the linear axes get none; give MODEL.json for them)",
+                          highlight=False)
+        console.print(escape(f"wrote {r.format} rotary tables ({r.sign}"
+                             + (", the controller's convention" if r.convention else "")
+                             + f"): {', '.join(r.files)} -> {output}"))
+    else:
+        console.print(escape(f"wrote {r.format} tables ({r.sign}"
+                             + (", the controller's convention" if r.convention else "")
+                             + f", {r.spacing:g} mm): {', '.join(r.files)} -> {output}"))
     if r.session is not None:
         _print_line_checks(r, units)
 

@@ -93,7 +93,10 @@ def _current_ids(h, ids) -> set[str]:
 @history_app.command("add")
 def add_cmd(
     session: Annotated[Path, typer.Argument(help="Session folder with readings.")],
-    model: Annotated[Path, typer.Option("--model", help="Model file identified from it.")],
+    model: Annotated[Path | None, typer.Option(
+        "--model", help="Model file identified from it. Omitted: no linear model (a machine "
+        "with rotary tests only, or only those of interest): the session's ISO 230-2 "
+        "results are stored without the model's.")] = None,
     as_left_of: Annotated[str | None, typer.Option(
         "--as-left-of", help="Id of the as-found calibration (this one measured after "
         "loading compensation tables).")] = None,
@@ -300,13 +303,22 @@ def show_cmd(
     record: Annotated[str, typer.Argument(help="Record id.")],
     as_json: Annotated[bool, typer.Option("--json", help="JSON.")] = False,
     db: DbOption = None,
+    units: Annotated[str, typer.Option(
+        "--units", help="Angles (rotary axes, squareness: the results stored in urad) in "
+        "urad or arcsec.")] = "urad",
 ) -> None:
     """A record (the newest correction of it), its results and files."""
+    from volcal.standards.iso230_2_rotary import check_units
+
+    check_units(units)
     with _open(db) as h:
         r = h.show(record)
         _warn_damaged(h, {r.id, record})
     if as_json:
-        typer.echo(json.dumps(r.to_dict(), indent=1, default=str))
+        d = r.to_dict()
+        if isinstance(d.get("results"), dict):
+            d["results"] = {k: _in_units(v, units) for k, v in d["results"].items()}
+        typer.echo(json.dumps(d, indent=1, default=str))
         return
     typer.echo(f"{r.id} ({r.kind}) of {r.machine_name}, measured {r.date or '-'}, "
                f"stored {r.created}")
@@ -323,6 +335,7 @@ def show_cmd(
     if r.results:
         typer.echo("result\tvalue\tU (k=2)\tunit")
         for name, v in r.results.items():
+            v = _in_units(v, units)
             val = "-" if v["value"] is None else f"{v['value']:.4f}"
             u = "-" if v["U"] is None else f"{v['U']:.4f}"
             typer.echo(f"{name}\t{val}\t{u}\t{v['unit']}")
@@ -332,6 +345,17 @@ def show_cmd(
     if r.signature:
         typer.echo(f"signed by key {r.key_id} (volcal history verify --public-key FILE "
                    "checks it)")
+
+
+def _in_units(row: dict, units: str) -> dict:
+    """A result row (``value``, ``U``, ``unit``) with an angle in ``units`` (display)."""
+    from volcal.standards.iso230_2_rotary import UNITS
+
+    if units == "urad" or row.get("unit") != "urad":
+        return row
+    f = UNITS[units]
+    return {**row, "unit": units,
+            **{k: None if row.get(k) is None else float(row[k]) * f for k in ("value", "U")}}
 
 
 @history_app.command("trend")
@@ -344,12 +368,17 @@ def trend_cmd(
                                               ".pdf) with the U bands.")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="JSON rows.")] = False,
     db: DbOption = None,
+    units: Annotated[str, typer.Option(
+        "--units", help="An angle (a rotary axis' C.A, a squareness: stored in urad) in "
+        "urad or arcsec.")] = "urad",
 ) -> None:
     """One parameter over the calibrations of a machine, with its U (k = 2)."""
     from volcal.history.trend import trend
+    from volcal.standards.iso230_2_rotary import check_units
 
+    check_units(units)
     with _open(db) as h:
-        rows = trend(h, machine, parameter)
+        rows = [_in_units(r, units) for r in trend(h, machine, parameter)]
         _warn_damaged(h, {r["id"] for r in rows})
     if as_json:
         typer.echo(json.dumps(rows, indent=1))
@@ -375,13 +404,25 @@ def compare_cmd(
         help="Family-wise false-alarm level of the function tests.")] = 0.05,
     as_json: Annotated[bool, typer.Option("--json", help="JSON array of entries.")] = False,
     db: DbOption = None,
+    units: Annotated[str, typer.Option(
+        "--units", help="Angles (rotary axes, squareness: stored in urad) in urad or "
+        "arcsec.")] = "urad",
 ) -> None:
     """Has the machine changed? Each result and identified function against its U."""
-    from volcal.history.compare import compare
+    from dataclasses import replace
 
+    from volcal.history.compare import compare
+    from volcal.standards.iso230_2_rotary import UNITS, check_units
+
+    check_units(units)
     with _open(db) as h:
         entries = compare(h.store, first, second, level)
         _warn_damaged(h, _current_ids(h, (first, second)))
+    if units != "urad":  # display: the differences of angles and their U
+        f = UNITS[units]
+        entries = [replace(e, difference=e.difference * f, unit=units,
+                           U=None if e.U is None else e.U * f)
+                   if e.unit == "urad" and e.test != "chi-square" else e for e in entries]
     if as_json:
         typer.echo(json.dumps([e.to_dict() for e in entries], indent=1))
         return

@@ -266,3 +266,55 @@ def write_compensation(errors: MachineErrors, fmt: str, folder: str | Path,
             (tmp / name).write_text(text, encoding="utf-8", newline="\n")
         (tmp / MANIFEST).write_text(toml_dumps(manifest), encoding="utf-8")
     return sorted(files)
+
+
+def write_rotary_compensation(fmt: str, folder: str | Path, sign: str,
+                              machine: MachineIdentity,
+                              rotary: tuple[dict[str, str], list[dict[str, Any]]]
+                              ) -> list[str]:
+    """Write the rotary tables alone, without a linear model (a rotary-only calibration).
+
+    The manifest is :func:`write_compensation`'s without the linear keys (``carries``,
+    ``model_sha256``, ``spacing_mm``...): ``linear = false`` says the folder holds no
+    table of the linear axes (:func:`volcal.compensate.readback.read_written_tables`
+    refuses to read linear tables from it), ``model = ""``; ``files``, ``[[rotary]]`` and
+    ``[machine]`` as with a model.
+
+    Parameters
+    ----------
+    fmt : str
+        A format with rotary tables (:data:`volcal.compensate.rotary.ROTARY_FORMATS`).
+    folder : str or Path
+        Output folder (new, empty, or written by ``volcal compensate`` before).
+    sign : str
+        The sign of the rotary tables written.
+    machine : MachineIdentity
+        The machine the tables are for (the session's).
+    rotary : tuple
+        The rotary tables (:func:`volcal.compensate.rotary.rotary_tables`: files, manifest
+        entries).
+
+    Returns
+    -------
+    list of str
+        Names of the files written (without the manifest).
+    """
+    from volcal.compensate.rotary import ROTARY_FORMATS
+
+    if fmt not in ROTARY_FORMATS:
+        raise VolcalInputError(f"the {fmt} format has no rotary tables (expected one of "
+                               f"{', '.join(ROTARY_FORMATS)})")
+    folder = Path(folder)
+    if folder.exists() and (not folder.is_dir() or (any(folder.iterdir())
+                                                    and not (folder / MANIFEST).is_file())):
+        raise VolcalInputError("output exists and is not a volcal compensation folder", folder)
+    files = rotary[0]
+    manifest: dict[str, Any] = {
+        "format": MANIFEST_FORMAT, "controller_format": fmt, "sign": sign,
+        "sign_default": ROTARY_FORMATS[fmt], "linear": False, "model": "",
+        "files": sorted(files), "rotary": rotary[1], "machine": machine.to_dict()}
+    with atomic_dir(folder) as tmp:
+        for name, text in files.items():
+            (tmp / name).write_text(text, encoding="utf-8", newline="\n")
+        (tmp / MANIFEST).write_text(toml_dumps(manifest), encoding="utf-8")
+    return sorted(files)

@@ -273,6 +273,11 @@ def read_written_tables(folder: str | Path, manifest: dict[str, Any] | None = No
     folder = Path(folder)
     if manifest is None:
         manifest = read_manifest(folder)
+    if manifest.get("linear", True) is False:  # write_rotary_compensation: no linear model
+        raise VolcalInputError("this folder holds rotary tables only (written without a "
+                               "linear model): there are no tables of the linear axes to "
+                               "apply; `volcal compensate --session` prints the rotary "
+                               "tests' ISO 230-2 A before and after them", folder)
     fmt = str(manifest.get("controller_format", "?")).lower()
     sign = str(manifest.get("sign", "error"))
     sign_factor(sign)

@@ -51,7 +51,8 @@ class History:
             raise damaged_error(exc, self.store.where) from None
 
     # ----------------------------------------------------------------- add
-    def add(self, session: str | Path, model: str | Path, as_left_of: str | None = None,
+    def add(self, session: str | Path, model: str | Path | None = None,
+            as_left_of: str | None = None,
             supersedes: str | None = None, machine: str | None = None,
             force: bool = False, certificate: str | Path | None = None,
             budget: str | Path | None = None) -> Record:
@@ -61,8 +62,10 @@ class History:
         ----------
         session : str or Path
             Session folder with readings.
-        model : str or Path
-            The model file identified from it.
+        model : str or Path, optional
+            The model file identified from it. None: no linear model (rotary tests only,
+            or only those of interest): the session's evaluation is stored without the
+            model's results, with a note in the record.
         as_left_of : str, optional
             Id of the as-found calibration (this one measured after loading tables).
         supersedes : str, optional

@@ -276,7 +276,7 @@ def certificate_number(certificate: str | Path | None, session: Any) -> str | No
     return number.strip()
 
 
-def calibration_record(session_folder: str | Path, model_path: str | Path,
+def calibration_record(session_folder: str | Path, model_path: str | Path | None,
                        as_left_of: str | None = None, supersedes: str | None = None,
                        force: bool = False, certificate: str | Path | None = None,
                        budget: str | Path | None = None) -> tuple[NewRecord, Any]:
@@ -286,8 +286,11 @@ def calibration_record(session_folder: str | Path, model_path: str | Path,
     ----------
     session_folder : str or Path
         The session (with readings).
-    model_path : str or Path
-        The model identified from it (checked against the session's readings).
+    model_path : str or Path or None
+        The model identified from it (checked against the session's readings). None: no
+        linear model (a calibration of rotary axes only, or one whose rotary tests alone
+        are of interest): the session's evaluation is stored without the model's results
+        (volumetric indices, squareness), ``payload.model`` is None and a note says so.
     as_left_of : str, optional
         Id of the as-found calibration this one was measured after (tables loaded).
     supersedes : str, optional
@@ -312,11 +315,13 @@ def calibration_record(session_folder: str | Path, model_path: str | Path,
 
     folder = Path(session_folder)
     session = read_session(folder)
-    model_path = Path(model_path)
-    model = load_model(model_path)
-    # a record keeps the model whole: its binary part too (the U of the stored results)
-    model.require_uncertainty("a calibration record", model_path)
-    check_model_session(model, session, force=force)
+    model = None
+    if model_path is not None:
+        model_path = Path(model_path)
+        model = load_model(model_path)
+        # a record keeps the model whole: its binary part too (the U of the stored results)
+        model.require_uncertainty("a calibration record", model_path)
+        check_model_session(model, session, force=force)
     number = certificate_number(certificate, session)
     bud = None
     if budget is not None:
@@ -325,7 +330,7 @@ def calibration_record(session_folder: str | Path, model_path: str | Path,
         bud = read_budget(budget)
     ident = session.identity.to_dict()
     kept = session_files(session.path or folder)
-    models = model_files(model_path)
+    models = [] if model_path is None else model_files(model_path)
     digest = hashlib.sha256()
     for _, name, content in kept:
         digest.update(name.encode() + b"\0" + hashlib.sha256(content).digest())
@@ -347,6 +352,15 @@ def calibration_record(session_folder: str | Path, model_path: str | Path,
             date = _dt.datetime.fromtimestamp(newest, _dt.UTC).date().isoformat()
             src = "the date of the newest measurement file"
         notes.append(f"no [calibration] date in the session: dated {date}, {src}")
+    if model is None:
+        from volcal.session.kinds import kind_of
+
+        linear = any(kind_of(m.kind).in_design for m in session.measurements)
+        notes.append("no model given: stored without a linear model (no identified error "
+                     "functions, volumetric indices or squareness)"
+                     + ("; the session's linear tests are stored with their ISO 230-2 "
+                        "results only" if linear else
+                        "; the rotary tests' ISO 230-2 results are stored (urad)"))
     payload = {
         "machine": ident,
         "calibration": session.calibration,
@@ -356,8 +370,9 @@ def calibration_record(session_folder: str | Path, model_path: str | Path,
         "kinds": sorted({str(m.kind) for m in session.measurements}),
         "unmeasured": session.unmeasured_ids,
         "warnings": list(session.warnings),
-        "model": {"format": model.format, "file": model_path.name,
-                  "sigma_um": model.fit.sigma_um, "n_readings": model.fit.n_readings},
+        "model": None if model is None or model_path is None else {
+            "format": model.format, "file": model_path.name, "sigma_um": model.fit.sigma_um,
+            "n_readings": model.fit.n_readings},
         "k": 2.0,
         "notes": notes,
     }

@@ -781,9 +781,12 @@ def _jsonable(x: Any) -> Any:
 def _methods(found: dict[str, Any], left: dict[str, Any] | None, sessions: dict[str, Any],
              with_model: bool) -> list[dict[str, Any]]:
     res = [found] + ([left] if left else [])
-    lin = sorted({r["measurement"] for x in res for r in x["positioning"]})
+    # ISO 230-2 applies "equally to linear and rotary axes": the rotary tests are its too
+    lin = sorted({r["measurement"] for x in res for r in [*x["positioning"],
+                                                         *(x.get("rotary") or [])]})
     dia = sorted({r["measurement"] for x in res for r in x["diagonals"]})
-    editions = sorted({str(r["edition"]) for x in res for r in x["positioning"]
+    editions = sorted({str(r["edition"]) for x in res for r in [*x["positioning"],
+                                                               *(x.get("rotary") or [])]
                        if r.get("edition")})
     out = []
     if lin:
@@ -1011,6 +1014,10 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
         if (s.provenance or {}).get("readings") == "simulated":
             warnings.append(f"the {state.replace('_', '-')} readings are simulated "
                             "(volcal simulate), not measured")
+    if result is None and found.get("rotary"):  # a rotary-only calibration
+        warnings.append("no linear model was identified (rotary tests only, each evaluated "
+                        "on its own to ISO 230-2): no volumetric indices or error functions "
+                        "of the linear axes")
 
     from volcal.report.certificate_optics import optics_budgets
 

@@ -134,6 +134,11 @@ def layout(doc: dict[str, Any]) -> list[CertSection]:
                           + (" Angles (angular deviations, squareness) and their "
                              "uncertainties in µrad." if any(
                                  (r or {}).get("direct_optics") for r in
+                                 doc["results"].values()) else "")
+                          + (" Rotary axes: commanded angles in degrees, their angular "
+                             "deviations, parameters and uncertainties in µrad "
+                             "(1 arcsec = 4.848 µrad)." if any(
+                                 (r or {}).get("rotary") for r in
                                  doc["results"].values()) else "")))
     out.append(s)
 

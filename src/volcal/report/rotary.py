@@ -6,9 +6,15 @@ from typing import Any
 
 from volcal.report.document import FigureItem, Section, Table, fmt
 
-__all__ = ["parse_rotary_tolerance", "rotary_results", "rotary_section", "rotary_verdicts"]
+__all__ = ["NO_LINEAR_MODEL", "parse_rotary_tolerance", "rotary_results", "rotary_section", "rotary_verdicts"]
 
 _KEYS = ("A", "A_up", "A_down", "E", "M", "R", "R_up", "R_down", "B", "B_mean")
+NO_LINEAR_MODEL = (
+    "No linear model was identified: the session holds no test of the linear axes (only "
+    "rotary tests, each evaluated on its own to ISO 230-2), so this report has no error "
+    "functions, volumetric indices or linear compensation; the rotary tables come from "
+    "`volcal compensate --session S --format F -o OUT` without a model.")
+"""What the report and the certificate say of a calibration without a linear model."""
 
 
 def rotary_results(inp: Any) -> dict[str, Any]:
@@ -70,6 +76,8 @@ def rotary_section(inp: Any, units: str | None = None) -> Section | None:
         f"origin (ISO 841); every angle in {u} (1 arcsec = 4.848 µrad). On a full-circle "
         "axis 0 and 360° are one position read at both ends of each pass: their "
         "difference (the closure) shows drift or a lost count.")
+    if getattr(inp, "result", None) is None:
+        sec.paragraphs.append(NO_LINEAR_MODEL)
     rows = []
     for mid, r in res.items():
         rows.append([mid, r.axis, *(fmt(r.value(k, units), 3) for k in _KEYS),

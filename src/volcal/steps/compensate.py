@@ -69,6 +69,9 @@ class Compensated:
         (:mod:`volcal.compensate.rotary.check`).
     rotary_not_written : tuple of str
         Rotary tests without a table or not evaluated, with the reason.
+    rotary_only : bool
+        No linear model was given (``model=None``): only the session's rotary tables were
+        written (:func:`volcal.compensate.formats.write_rotary_compensation`).
     """
 
     files: tuple[str, ...]
@@ -89,6 +92,7 @@ class Compensated:
     moved: str | None = None
     rotary_checks: tuple[RotaryCheck, ...] = ()
     rotary_not_written: tuple[str, ...] = ()
+    rotary_only: bool = False
 
 
 def sign_note(format: str, sign: str | None) -> str | None:
@@ -129,9 +133,9 @@ def sign_note(format: str, sign: str | None) -> str | None:
             f"({info.sign_source}); a table in the wrong sign doubles the error")
 
 
-def compensate(model: str | Path | IdentificationResult | MachineErrors, *, format: str,
-               output: str | Path, sign: str | None = D.COMP_SIGN,
-               session: str | Path | None = None, force: bool = False,
+def compensate(model: str | Path | IdentificationResult | MachineErrors | None, *,
+               format: str, output: str | Path, sign: str | None = D.COMP_SIGN,
+               session: str | Path | Session | None = None, force: bool = False,
                spacing: float = D.COMP_SPACING_MM, max_points: int | None = None,
                reference_mm: ArrayLike | None = None, unit_um: float = D.COMP_UNIT_UM,
                magnification: int = D.COMP_MAGNIFICATION,
@@ -146,8 +150,11 @@ def compensate(model: str | Path | IdentificationResult | MachineErrors, *, form
 
     Parameters
     ----------
-    model : str, Path, IdentificationResult or MachineErrors
+    model : str, Path, IdentificationResult, MachineErrors or None
         ``MODEL.json`` (identified) or an error table ``.csv``, or a model in memory.
+        None (no linear model: a machine or a calibration with rotary tests only): with
+        ``session``, only the session's rotary tables are written, and their ISO 230-2 A
+        before and after checked (``rotary_only``).
     format : str
         ``'fanuc'``, ``'siemens'``, ``'heidenhain'``, ``'linuxcnc'``, ``'csv'``, ``'isg'``
         or ``'grid'``.
@@ -157,10 +164,11 @@ def compensate(model: str | Path | IdentificationResult | MachineErrors, *, form
         Override of the controller's own sign convention: ``'error'`` (actual -
         commanded) or ``'correction'`` (= -error). A table in the wrong sign doubles the
         error.
-    session : str or Path, optional
-        Session folder: its bidirectional ISO 230-2 linear tests give forward and reverse
-        tables; a model file must have been identified from it; every measured linear
-        line is checked before and after the tables.
+    session : str, Path or Session, optional
+        Session folder (or a session read): its bidirectional ISO 230-2 linear tests give
+        forward and reverse tables; a model file must have been identified from it; every
+        measured linear line is checked before and after the tables; each rotary test
+        gives its rotary table, checked the same way.
     force : bool
         With ``session``: use a model or table of another session.
     spacing : float
@@ -202,6 +210,10 @@ def compensate(model: str | Path | IdentificationResult | MachineErrors, *, form
 
     note = sign_note(format, sign)
     fmt = str(format).lower()
+    if model is None and session is None:
+        raise ParameterError("no model given: the tables of the linear axes need one "
+                             "(MODEL.json or an error table); a session with rotary tests "
+                             "gives its rotary tables without a model")
     moved = _checks.output_folder(output, "compensation", lambda p: (p / MANIFEST).is_file(),
                                   manifest_files(MANIFEST, "files"), replace)
     if moved is not None and on_moved is not None:
@@ -211,10 +223,13 @@ def compensate(model: str | Path | IdentificationResult | MachineErrors, *, form
     dnotes: tuple[str, ...] = ()
     if session is not None:
         from volcal.compensate.bidirectional import directional_from_session
-        from volcal.session.format import read_session
+        from volcal.session.format import Session, read_session
 
         # the readings as identify and evaluate read them: missed captures skipped
-        sess = read_session(session)
+        sess = session if isinstance(session, Session) else read_session(session)
+        if model is None:
+            return _rotary_only(sess, fmt, output, sign, note, moved, machine, linuxcnc_type,
+                                fanuc_series, magnification, max_increment, float(spacing))
         directional = directional_from_session(sess)
         dnotes = tuple(directional.notes())
         if not directional.source:
@@ -227,7 +242,8 @@ def compensate(model: str | Path | IdentificationResult | MachineErrors, *, form
     if session is not None and isinstance(model, str | Path):  # the model must belong to it
         from volcal.identify.modelfile import check_model_file_session
 
-        forced += check_model_file_session(model, session, force)
+        forced += check_model_file_session(
+            model, session if isinstance(session, str | Path) else sess and sess.path, force)
     errors, label = _errors(model)
     if machine is None:
         machine = _identity(model, errors, sess, force, forced)
@@ -240,6 +256,34 @@ def compensate(model: str | Path | IdentificationResult | MachineErrors, *, form
     if sess is None:
         return out
     return _checked(out, sess, errors, [] if rotary is None else rotary[1])
+
+
+def _rotary_only(sess: Session, fmt: str, output: str | Path, sign: str | None,
+                 note: str | None, moved: str | None, machine: MachineIdentity | None,
+                 linuxcnc_type: int, fanuc_series: str, magnification: int,
+                 max_increment: int, spacing: float) -> Compensated:
+    """The rotary tables of the session alone, checked: no linear model (``model=None``)."""
+    from volcal.compensate.formats import write_rotary_compensation
+    from volcal.compensate.rotary import ROTARY_FORMATS
+    from volcal.compensate.rotary.check import check_rotary
+    from volcal.session.identity import MachineIdentity
+
+    if not any(m.kind == "rotary" for m in sess.measurements):
+        raise ParameterError("no model given and the session has no rotary test: the "
+                             "tables of the linear axes need a model (volcal identify)",
+                             sess.path)
+    rotary, skipped = _rotary(sess, fmt, sign, linuxcnc_type, fanuc_series, magnification,
+                              max_increment)
+    if rotary is None:
+        raise ParameterError(f"no model given, and no rotary table in the {fmt} format "
+                             f"({'; '.join(skipped) or 'no rotary test'})", sess.path)
+    rsign = sign if sign is not None else ROTARY_FORMATS[fmt]
+    files = write_rotary_compensation(fmt, output, rsign, machine or MachineIdentity.of(sess),
+                                      rotary)
+    checks, rskipped = check_rotary(sess, output, fmt, rotary[1])
+    return Compensated(tuple(files), Path(output), fmt, rsign, sign is None, spacing, note,
+                       sess, moved=moved, rotary_checks=tuple(checks),
+                       rotary_not_written=tuple(skipped) + tuple(rskipped), rotary_only=True)
 
 
 def _rotary(sess: Session | None, fmt: str, sign: str | None, linuxcnc_type: int,

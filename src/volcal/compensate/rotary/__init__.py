@@ -5,8 +5,8 @@ manual's source, limits and activation in its docstring and in the notes written
 the tables: :mod:`.linuxcnc` (``COMP_FILE`` of the rotary joint, bidirectional),
 :mod:`.heidenhain` (``.COM`` with ``BACKLASH``), :mod:`.siemens` (LEC on a modulo axis,
 the reversal as direction-dependent CEC tables), :mod:`.fanuc` (rotation-axis pitch error
-compensation, 3620-3625), :mod:`.isg` (ISG CSV component error ``ECC`` for the ISG /
-Beckhoff volumetric compensation). The input is :class:`~.profile.RotaryProfile`: the mean deviation
+compensation, 3620-3625), :mod:`.isg` (the ISG / Beckhoff leadscrew error compensation
+list ``kw.ssfk.*`` of the rotary axis, bilateral, modulo). The input is :class:`~.profile.RotaryProfile`: the mean deviation
 per target and direction of an ISO 230-2 rotary test, periodic on a full-circle axis.
 
 :func:`rotary_tables` writes them for a format; :func:`rotary_removed_urad` reads the
@@ -145,7 +145,7 @@ def rotary_tables(profiles: Sequence[RotaryProfile], fmt: str, o: RotaryOptions
                 f, n = heidenhain.heidenhain_rotary_files(p, name, sign)
                 cma[stem] = name
             elif fmt == "isg":
-                f, n = isg.isg_rotary_files(p, f"rotary_isg_{stem}.csv", sign)
+                f, n = isg.isg_rotary_files(p, f"rotary_isg_{stem}.lis", sign, 4 + i)
             else:
                 if not p.modulo:
                     skipped.append(f"{p.id}: Fanuc's rotation-axis pitch compensation is for "
@@ -226,9 +226,10 @@ def rotary_removed_urad(folder: str | Path, fmt: str, entry: dict[str, Any],
         if "+" in t and "-" in t:
             val = val + np.where(d == "-", periodic(a, *t["-"][:2]), periodic(a, *t["+"][:2]))
         return s * val / DEG_PER_URAD
-    if fmt == "isg":
-        pos, v = isg.read_isg_rotary(folder / files[0])
-        return s * periodic(a, pos, v) * 1e6  # rad -> urad
+    if fmt == "isg":  # the SSFK list: a table per direction, linear between points
+        pos, up, down, _ = isg.read_isg_rotary(folder / files[0])
+        val = np.where(d == "-", periodic(a, pos, down), periodic(a, pos, up))
+        return s * val / DEG_PER_URAD
     if fmt == "fanuc":
         pos, cum = fanuc.read_fanuc_rotary(folder, str(entry["fanuc_stem"]),
                                            float(entry.get("fanuc_unit_deg", 0.001)))

@@ -6,7 +6,8 @@ from typing import Any
 
 from volcal.report.document import FigureItem, Section, Table, fmt
 
-__all__ = ["NO_LINEAR_MODEL", "parse_rotary_tolerance", "rotary_results", "rotary_section", "rotary_verdicts"]
+__all__ = ["NO_LINEAR_MODEL", "parse_rotary_tolerance", "rotary_results", "rotary_section",
+           "rotary_verdicts"]
 
 _KEYS = ("A", "A_up", "A_down", "E", "M", "R", "R_up", "R_down", "B", "B_mean")
 NO_LINEAR_MODEL = (

@@ -242,8 +242,9 @@ def compensate(model: str | Path | IdentificationResult | MachineErrors | None, 
     if session is not None and isinstance(model, str | Path):  # the model must belong to it
         from volcal.identify.modelfile import check_model_file_session
 
-        forced += check_model_file_session(
-            model, session if isinstance(session, str | Path) else sess and sess.path, force)
+        folder = session if isinstance(session, str | Path) else None if sess is None \
+            else sess.path
+        forced += check_model_file_session(model, folder, force)
     errors, label = _errors(model)
     if machine is None:
         machine = _identity(model, errors, sess, force, forced)

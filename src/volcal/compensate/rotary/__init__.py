@@ -6,8 +6,9 @@ the tables: :mod:`.linuxcnc` (``COMP_FILE`` of the rotary joint, bidirectional),
 :mod:`.heidenhain` (``.COM`` with ``BACKLASH``), :mod:`.siemens` (LEC on a modulo axis,
 the reversal as direction-dependent CEC tables), :mod:`.fanuc` (rotation-axis pitch error
 compensation, 3620-3625), :mod:`.isg` (the ISG / Beckhoff leadscrew error compensation
-list ``kw.ssfk.*`` of the rotary axis, bilateral, modulo). The input is :class:`~.profile.RotaryProfile`: the mean deviation
-per target and direction of an ISO 230-2 rotary test, periodic on a full-circle axis.
+list ``kw.ssfk.*`` of the rotary axis, bilateral, modulo). The input is
+:class:`~.profile.RotaryProfile`: the mean deviation per target and direction of an
+ISO 230-2 rotary test, periodic on a full-circle axis.
 
 :func:`rotary_tables` writes them for a format; :func:`rotary_removed_urad` reads the
 written files back and applies them as the control does (the error they remove at a

@@ -175,28 +175,32 @@ ROT_ACC = 36000.0
 
 
 def test_linuxcnc_applies_volcals_rotary_table(tmp_path, linuxcnc_sim):
-    """C (full circle) with volcal's COMP_FILE_TYPE 1 table, A with the type 0 one."""
-    from volcal.compensate.rotary import (
-        RotaryOptions,
-        rotary_profiles,
-        rotary_removed_urad,
-        rotary_tables,
-    )
+    """C (full circle) with volcal's COMP_FILE_TYPE 1 table, A with the type 0 one.
+
+    The round trip of the issue: simulate a rotary axis, evaluate, compensate (the step of
+    ``volcal compensate --session S --format linuxcnc``, no linear model), apply the table
+    through LinuxCNC's own loader, evaluate again: A after below the repeatability band,
+    and equal to the A after ``compensate`` printed."""
+    import tomllib
+
+    from volcal.compensate.rotary import rotary_profiles, rotary_removed_urad
     from volcal.compensate.rotary.profile import DEG_PER_URAD
+    from volcal.steps.compensate import compensate
 
     truth: dict = {}
     sess = rotary_session(tmp_path, truth=truth)
     prof = rotary_profiles(sess)
     assert prof[0].bidirectional and prof[0].modulo
-    folders, entries = {}, {}
+    folders, entries, checks = {}, {}, {}
     for t in (0, 1):
-        files, ent, skipped = rotary_tables(prof, "linuxcnc", RotaryOptions(linuxcnc_type=t))
-        assert skipped == [] and sorted(files) == ["C.comp", "ROTARY_NOTES.TXT"]
         folders[t] = tmp_path / f"rot{t}"
-        folders[t].mkdir()
-        for k, v in files.items():
-            (folders[t] / k).write_text(v)
-        entries[t] = ent[0]
+        r = compensate(None, format="linuxcnc", output=folders[t],
+                       session=tmp_path / "session", linuxcnc_type=t)
+        assert r.rotary_only and r.rotary_not_written == ()
+        assert sorted(r.files) == ["C.comp", "ROTARY_NOTES.TXT"]
+        entries[t] = tomllib.loads((folders[t] / "volcal-compensation.toml").read_text()
+                                   )["rotary"][0]
+        checks[t] = r.rotary_checks[0]
     joints = [SimJoint("X"), SimJoint("Y"), SimJoint("Z"),
               SimJoint("A", "ANGULAR", min=-120.0, max=120.0, max_velocity=3600.0,
                        max_acceleration=ROT_ACC, comp_file=folders[0] / "C.comp", comp_type=0),
@@ -232,6 +236,10 @@ def test_linuxcnc_applies_volcals_rotary_table(tmp_path, linuxcnc_sim):
             # plus what a 1e-9 deg table and the slope of e over the trim leave (< 0.01 urad)
             assert a_after <= band + 0.01, (a_before, a_after, band)
             assert a_before > 5 * a_after
+            # what `volcal compensate` printed: A before, and A after from its own reading
+            # of the table, is what LinuxCNC's trims give
+            assert checks[t].A_before_urad == pytest.approx(a_before, abs=1e-9)
+            assert checks[t].A_after_urad == pytest.approx(a_after, abs=0.02)
 
 
 # --- volcal's rotary part program through LinuxCNC, table loaded -------------------------

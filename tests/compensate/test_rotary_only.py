@@ -67,6 +67,14 @@ def test_compensate_without_a_model_writes_the_rotary_tables_alone(rotary_only, 
     row2 = next(x for x in stdout2.splitlines() if "rotary-c" in x).split("│")
     assert float(row2[3]) == pytest.approx(a / ARCSEC_URAD, abs=0.005)
     assert float(row2[4]) == pytest.approx(after / ARCSEC_URAD, abs=0.01)
+    # the full-circle closure is stated, in the unit asked for
+    from volcal.session.format import read_session
+    from volcal.standards.iso230_2_rotary import evaluate_rotary_measurement
+
+    clo = evaluate_rotary_measurement(read_session(rotary_only).measurements[0]).closure_urad
+    assert (f"rotary-c: full circle, 0 and 360 deg are one position (closure "
+            f"{clo['up'] / ARCSEC_URAD:.2f} up, {clo['down'] / ARCSEC_URAD:.2f} down arcsec"
+            ) in stdout2
     # the folder holds no linear tables: reading them back (report --compensation) says so
     from volcal.compensate.readback import read_written_tables
     from volcal.errors import VolcalInputError

@@ -159,6 +159,16 @@ def _print_rotary_checks(r: Compensated, units: str = "urad") -> None:
                       f"{c.A_after_urad * f:.2f}" + (" (worse)" if c.worse else ""),
                       f"{c.u_urad * f:.2f}")
         console.print(t)
+    for c in r.rotary_checks:  # what the table did with 0 and 360 deg
+        if not c.modulo:
+            console.print(f"note: rotary: {escape(c.id)}: a limited axis, the table holds its "
+                          "end values beyond the targets", highlight=False)
+            continue
+        clo = ("" if not c.closure_urad else
+               f" (closure {c.closure_urad['up'] * f:.2f} up, "
+               f"{c.closure_urad['down'] * f:.2f} down {u}: averaged into one value)")
+        console.print(f"note: rotary: {escape(c.id)}: full circle, 0 and 360 deg are one "
+                      f"position{clo}; the table is periodic", highlight=False)
     for c in r.rotary_checks:
         if c.worse:
             err_console.print(f"[yellow]warning[/] rotary test {escape(c.id)}: ISO 230-2 A "

@@ -45,6 +45,11 @@ class RotaryCheck:
         ISO 230-2 accuracy A as measured and with the table [urad].
     u_urad : float
         Repeatability-based uncertainty (largest ``s_i``) [urad].
+    modulo : bool
+        A full-circle axis: 0 and 360 deg are one position, the table is periodic.
+    closure_urad : dict or None
+        Full circle: the difference of the means at 360 and 0 deg per direction
+        (``'up'``, ``'down'``) [urad] (what the table averages into one value).
     """
 
     id: str
@@ -52,6 +57,8 @@ class RotaryCheck:
     A_before_urad: float
     A_after_urad: float
     u_urad: float
+    modulo: bool = True
+    closure_urad: dict[str, float] | None = None
 
     @property
     def worse(self) -> bool:
@@ -102,8 +109,9 @@ def check_rotary(session: Any, folder: str | Path, fmt: str, entries: list[dict[
         try:
             removed = rotary_removed_urad(folder, fmt, by_id[m.id], t[ok], d[ok])
             axis, modulo = str(m.meta.get("axis", "?")), bool(m.meta.get("modulo", True))
-            before = evaluate_rotary(t[ok], run[ok], d[ok], dev[ok], edition, axis=axis,
-                                     modulo=modulo, allow_incomplete=True).iso
+            full = evaluate_rotary(t[ok], run[ok], d[ok], dev[ok], edition, axis=axis,
+                                   modulo=modulo, allow_incomplete=True)
+            before = full.iso
             after = evaluate_rotary(t[ok], run[ok], d[ok], dev[ok] - removed, edition,
                                     axis=axis, modulo=modulo, allow_incomplete=True).iso
         except VolcalInputError as exc:
@@ -113,5 +121,6 @@ def check_rotary(session: Any, folder: str | Path, fmt: str, entries: list[dict[
         s = s[np.isfinite(s)]
         u = float(s.max()) if s.size else 0.0
         checks.append(RotaryCheck(m.id, str(m.meta.get("axis", "?")).upper(), float(before.A),
-                                  float(after.A), u if math.isfinite(u) else 0.0))
+                                  float(after.A), u if math.isfinite(u) else 0.0, modulo,
+                                  dict(full.closure_urad) if full.closure_urad else None))
     return checks, skipped

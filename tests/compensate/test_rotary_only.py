@@ -167,3 +167,31 @@ def test_report_and_certificate_say_no_linear_model(rotary_only):
     rot = doc["results"]["as_found"]["rotary"][0]
     assert rot["values"]["A"] == pytest.approx(a) and rot["closure"] is not None
     np.testing.assert_allclose(rot["closure"]["up"], ev.rotary["rotary-c"].closure_urad["up"])
+
+
+def test_previous_calibration_section_compares_the_rotary_results(rotary_only, tmp_path):
+    """The report's "Previous calibration" lists C.A ... (in the report's angle unit)."""
+    pytest.importorskip("sqlalchemy")
+    from volcal.history.api import History
+    from volcal.history.previous import previous_section
+    from volcal.report.pipeline import collect_inputs
+    from volcal.session.format import read_session
+    from volcal.steps.plan import plan
+    from volcal.steps.simulate import save, simulate
+
+    earlier = tmp_path / "earlier"
+    plan([[0, 400], [0, 300], [0, 200]], tests="rotary:c", steps=6, runs=2, output=earlier)
+    save(simulate(earlier, seed=11), earlier)
+    toml = earlier / "session.toml"
+    toml.write_text(toml.read_text() + "\n[calibration]\ndate = 2020-01-01\n")
+    db = str(tmp_path / "h.sqlite")
+    with History(db, create=True) as h:
+        h.add(earlier)
+    s = read_session(rotary_only)
+    inp = collect_inputs(s, None, model_uncertainty=False)
+    inp.angle_units = "arcsec"
+    sec = previous_section(inp, db)
+    table = next(t for t in sec.tables if t.title.startswith("Results"))
+    row = next(r for r in table.rows if r[0] == "C.A")
+    d = (_A(rotary_only) - _A(earlier)) / ARCSEC_URAD
+    assert row[1] == f"{d:.2f}" and row[3] == "arcsec"

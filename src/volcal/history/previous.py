@@ -28,9 +28,10 @@ _AXIS_KEYS = ("A", "B", "E", "M", "R")
 
 
 def _shown(name: str) -> bool:
-    """Results of the results table: per-axis A, B, E, M, R; indices; diagonals."""
+    """Results of the results table: per-axis A, B, E, M, R (rotary axes' too); indices;
+    diagonals."""
     prefix, _, key = name.partition(".")
-    if prefix in ("X", "Y", "Z"):
+    if prefix in ("X", "Y", "Z", "A", "B", "C"):  # A, B, C: a rotary axis' first test
         return key in _AXIS_KEYS
     return prefix == "V" or (prefix.startswith("diag") and not key.endswith("_mm"))
 
@@ -132,9 +133,15 @@ def previous_section(inp: Any, db: str, level: float = 0.05) -> Section:
         sec.paragraphs.append("Not tested (undetermined by either calibration, or no "
                               "covariance): " + ", ".join(undetermined) + ".")
     if results:
+        from volcal.standards.iso230_2_rotary import UNITS
+
+        units = getattr(inp, "angle_units", None) or "urad"  # angles in the report's unit
+        f = {e.name: UNITS[units] if e.unit == "urad" else 1.0 for e in results}
         sec.tables.append(Table(
             ["Result", "Difference", "U (k=2)", "Unit", "Changed"],
-            [[e.name, _num(e.difference), _num(e.U), e.unit, _changed(e.changed)]
+            [[e.name, _num(e.difference * f[e.name]),
+              _num(None if e.U is None else e.U * f[e.name]),
+              units if e.unit == "urad" else e.unit, _changed(e.changed)]
              for e in results],
             title=f"Results: this calibration minus {prev.id}",
             note="U: expanded uncertainty of the difference, sqrt(U1^2 + U2^2); "

@@ -29,7 +29,8 @@ _AXIS_KEYS = ("A", "B", "E", "M", "R")
 
 def _shown(name: str) -> bool:
     """Results of the results table: per-axis A, B, E, M, R (rotary axes' too); indices;
-    diagonals."""
+    diagonals.
+    """
     prefix, _, key = name.partition(".")
     if prefix in ("X", "Y", "Z", "A", "B", "C"):  # A, B, C: a rotary axis' first test
         return key in _AXIS_KEYS

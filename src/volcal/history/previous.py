@@ -28,9 +28,7 @@ _AXIS_KEYS = ("A", "B", "E", "M", "R")
 
 
 def _shown(name: str) -> bool:
-    """Results of the results table: per-axis A, B, E, M, R (rotary axes' too); indices;
-    diagonals.
-    """
+    """Results of the results table: per-axis A, B, E, M, R (also a rotary axis'); V; diagonals."""
     prefix, _, key = name.partition(".")
     if prefix in ("X", "Y", "Z", "A", "B", "C"):  # A, B, C: a rotary axis' first test
         return key in _AXIS_KEYS

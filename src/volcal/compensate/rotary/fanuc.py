@@ -32,10 +32,20 @@ say so when the test measured a reversal. The axis is control axis ``axis_number
 table of all axes with the linear ones (volcal's linear tables start at 0): pick
 ``n_ref`` above them.
 
+Sign: Fanuc's manuals name the value the "compensation value" output at each point (pulses
+added to the command); the explicit rule is the GSK983Ma manual's (a FANUC-compatible
+control, Appendix 8, stored pitch error compensation of a rotary axis): "When the error is
+'+' (excessive movement), the compensation value is '-'", the **correction**. Not found in a
+FANUC manual: that sentence, the unit of the real parameters 3624/3625 of a rotation axis
+on the 30i class (deg is assumed, as mm for a linear axis), and the bidirectional rotary
+case (docs/controllers.md).
+
 References
 ----------
 FANUC Series 0i-PB Parameter Manual B-63980EN/01, parameters 3620-3625 and the rotation
-axis example. FANUC Series 30i/31i/32i-MODEL A Parameter Manual B-63950EN/02 (parameter
+axis example (p. 100). FANUC Series 16i/18i-MA/TA technical report A-77810E (3605#0,
+3620-3627; "3625 For a rotation axis, amount of travel per rotation"). GSK983Ma
+connection and operation manual, Appendix 8 (the sign rule). FANUC Series 30i/31i/32i-MODEL A Parameter Manual B-63950EN/02 (parameter
 I/O format ``N03620Q1A4P..``, real parameters 3624/3625 on the 30i class).
 """
 

@@ -45,8 +45,9 @@ References
 FANUC Series 0i-PB Parameter Manual B-63980EN/01, parameters 3620-3625 and the rotation
 axis example (p. 100). FANUC Series 16i/18i-MA/TA technical report A-77810E (3605#0,
 3620-3627; "3625 For a rotation axis, amount of travel per rotation"). GSK983Ma
-connection and operation manual, Appendix 8 (the sign rule). FANUC Series 30i/31i/32i-MODEL A Parameter Manual B-63950EN/02 (parameter
-I/O format ``N03620Q1A4P..``, real parameters 3624/3625 on the 30i class).
+connection and operation manual, Appendix 8 (the sign rule). FANUC Series
+30i/31i/32i-MODEL A Parameter Manual B-63950EN/02 (parameter I/O format ``N03620Q1A4P..``,
+real parameters 3624/3625 on the 30i class).
 """
 
 from __future__ import annotations

@@ -195,3 +195,15 @@ def test_previous_calibration_section_compares_the_rotary_results(rotary_only, t
     row = next(r for r in table.rows if r[0] == "C.A")
     d = (_A(rotary_only) - _A(earlier)) / ARCSEC_URAD
     assert row[1] == f"{d:.2f}" and row[3] == "arcsec"
+
+
+def test_evaluate_verdict_in_arcsec(rotary_only, monkeypatch, capsys):
+    """``--units arcsec`` prints the verdict line in arcsec too (the tolerance is urad)."""
+    a = _A(rotary_only)
+    tol = a + 1.0
+    code, out, err = run_volcal(monkeypatch, capsys, "evaluate", "iso230-2",
+                                str(rotary_only / "rotary-c.csv"), "--tolerance-urad",
+                                f"{tol}", "--units", "arcsec")
+    assert code == 0, err
+    assert (f"A: {a / ARCSEC_URAD:.3f} arcsec, tolerance {tol / ARCSEC_URAD:.4g} arcsec: "
+            "pass") in out

@@ -234,10 +234,13 @@ def _rotary_cmd(file: Path, as_json: bool, edition: str, b: Any, budget: Path | 
         return
     print_rotary_tables(res, str(file), units)
     if dec is not None:
+        from volcal.standards.iso230_2_rotary import UNITS
+
         colour = {"pass": "green", "fail": "red", "conditional": "yellow"}
+        f = UNITS[units]  # the verdict in the unit of the tables above (JSON: urad keys)
         for d in dec["verdicts"]:
-            console.print(f"{d['parameter']}: {d['value_urad']:.3f} urad, tolerance "
-                          f"{d['tolerance_urad']:g} urad: [{colour[d['verdict']]}]"
+            console.print(f"{d['parameter']}: {d['value_urad'] * f:.3f} {units}, tolerance "
+                          f"{d['tolerance_urad'] * f:.4g} {units}: [{colour[d['verdict']]}]"
                           f"{d['verdict']}[/]", highlight=False)
         console.print(f"verdict: {dec['verdict']} (decision rule: "
                       f"{escape(dec['decision_rule']['text'])})", highlight=False)

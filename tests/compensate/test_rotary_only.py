@@ -167,6 +167,13 @@ def test_report_and_certificate_say_no_linear_model(rotary_only):
     rot = doc["results"]["as_found"]["rotary"][0]
     assert rot["values"]["A"] == pytest.approx(a) and rot["closure"] is not None
     np.testing.assert_allclose(rot["closure"]["up"], ev.rotary["rotary-c"].closure_urad["up"])
+    # printed in arcsec on request (certificate.json keeps urad)
+    from volcal.report.certificate_layout import layout
+
+    blocks = [b for sec in layout(doc, "arcsec") for b in sec.blocks
+              if b.kind == "table" and "rotary axes" in (b.title or "")]
+    assert "[arcsec]" in blocks[0].title
+    assert blocks[0].rows[0][2] == f"{a / ARCSEC_URAD:.2f}"
 
 
 def test_previous_calibration_section_compares_the_rotary_results(rotary_only, tmp_path):

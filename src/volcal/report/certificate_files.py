@@ -44,7 +44,8 @@ def schema() -> dict[str, Any]:
     return json.loads(text)
 
 
-def write_certificate(doc: dict[str, Any], folder: str | Path) -> CertificateFiles:
+def write_certificate(doc: dict[str, Any], folder: str | Path, angle_units: str = "urad"
+                      ) -> CertificateFiles:
     """Write the certificate into a folder (the caller makes the folder atomic).
 
     Parameters
@@ -54,6 +55,9 @@ def write_certificate(doc: dict[str, Any], folder: str | Path) -> CertificateFil
     folder : str or Path
         Existing folder (normally the temporary report folder of
         :func:`volcal.report.writer.write_report`).
+    angle_units : str
+        ``'urad'`` or ``'arcsec'``: the printed unit of the rotary axes' results in the
+        HTML and PDF (``certificate.json`` keeps µrad, its ``unit``).
 
     Returns
     -------
@@ -67,7 +71,7 @@ def write_certificate(doc: dict[str, Any], folder: str | Path) -> CertificateFil
     js.write_text(json.dumps(doc, indent=2, ensure_ascii=False, allow_nan=False) + "\n",
                   encoding="utf-8")
     html = folder / "certificate.html"
-    html.write_text(render_certificate_html(doc), encoding="utf-8")
+    html.write_text(render_certificate_html(doc, angle_units), encoding="utf-8")
     pdf = folder / "certificate.pdf"
-    pages = write_certificate_pdf(doc, pdf)
+    pages = write_certificate_pdf(doc, pdf, angle_units)
     return CertificateFiles(pdf, html, js, pages)

@@ -13,13 +13,15 @@ from volcal.report.certificate_layout import layout
 __all__ = ["render_certificate_html"]
 
 
-def render_certificate_html(doc: dict[str, Any]) -> str:
+def render_certificate_html(doc: dict[str, Any], angle_units: str = "urad") -> str:
     """Render a ``volcal-certificate/1`` document as HTML text.
 
     Parameters
     ----------
     doc : dict
         The certificate (:func:`volcal.report.certificate.build_certificate`).
+    angle_units : str
+        ``'urad'`` or ``'arcsec'``: the printed unit of the rotary axes' results.
 
     Returns
     -------
@@ -28,4 +30,5 @@ def render_certificate_html(doc: dict[str, Any]) -> str:
     """
     from volcal.report.html import _ENV
 
-    return _ENV.get_template("certificate.html.j2").render(doc=doc, sections=layout(doc))
+    return _ENV.get_template("certificate.html.j2").render(doc=doc,
+                                                               sections=layout(doc, angle_units))

@@ -77,13 +77,16 @@ def _state(s: str) -> str:
     return s.replace("_", "-")
 
 
-def layout(doc: dict[str, Any]) -> list[CertSection]:
+def layout(doc: dict[str, Any], angle_units: str = "urad") -> list[CertSection]:
     """The printed sections of a certificate document.
 
     Parameters
     ----------
     doc : dict
         A ``volcal-certificate/1`` document.
+    angle_units : str
+        ``'urad'`` or ``'arcsec'``: the printed unit of the rotary axes' results (the
+        document itself keeps µrad).
 
     Returns
     -------
@@ -136,8 +139,9 @@ def layout(doc: dict[str, Any]) -> list[CertSection]:
                                  (r or {}).get("direct_optics") for r in
                                  doc["results"].values()) else "")
                           + (" Rotary axes: commanded angles in degrees, their angular "
-                             "deviations, parameters and uncertainties in µrad "
-                             "(1 arcsec = 4.848 µrad)." if any(
+                             "deviations, parameters and uncertainties in "
+                             + ("µrad" if angle_units == "urad" else "arcsec")
+                             + " (1 arcsec = 4.848 µrad)." if any(
                                  (r or {}).get("rotary") for r in
                                  doc["results"].values()) else "")))
     out.append(s)
@@ -194,7 +198,8 @@ def layout(doc: dict[str, Any]) -> list[CertSection]:
         res = doc["results"].get(state)
         if res is None:
             continue
-        s.blocks.extend(_result_blocks(state, res, doc["results"].get("as_left") is not None))
+        s.blocks.extend(_result_blocks(state, res, doc["results"].get("as_left") is not None,
+                                       angle_units))
     out.append(s)
 
     pair = doc.get("as_found_as_left")
@@ -303,7 +308,8 @@ def _range(st: dict[str, Any] | None, digits: int) -> str:
     return f"{st['min']:.{digits}f} to {st['max']:.{digits}f}"
 
 
-def _result_blocks(state: str, res: dict[str, Any], paired: bool) -> list[Block]:
+def _result_blocks(state: str, res: dict[str, Any], paired: bool,
+                   angle_units: str = "urad") -> list[Block]:
     head = f"{_state(state)}: " if paired else ""
     out = [Block("p", text=f"{head}session {res['session']}, measured {_or(res['date'])}, "
                  f"{res['readings']} readings (sha256 {res['readings_sha256'][:16]})"
@@ -335,20 +341,28 @@ def _result_blocks(state: str, res: dict[str, Any], paired: bool) -> list[Block]
         if judged:
             cols += ["tolerance (A)", "verdict"]
         rows = []
+        from volcal.standards.iso230_2_rotary import UNITS
+
+        f = UNITS[angle_units]  # the document's urad -> the printed unit
+
+        def a(v: Any) -> str:
+            return _n(None if v is None else float(v) * f)
+
         for r in rot:
             c = r.get("closure") or {}
             row = [r["measurement"] + ("" if r["complete"] else " (incomplete)"), r["axis"]]
-            row += [_n(r["values"].get(k)) for k in _SHOWN]
-            row.append("–" if not c else f"{_n(c.get('up'))} / {_n(c.get('down'))}")
+            row += [a(r["values"].get(k)) for k in _SHOWN]
+            row.append("–" if not c else f"{a(c.get('up'))} / {a(c.get('down'))}")
             if with_u:
                 U = r["U"] or {}
-                row += [_n(U.get(k)) for k in ("A", "E", "R", "B")] + [_n(r.get("k"), 2)]
+                row += [a(U.get(k)) for k in ("A", "E", "R", "B")] + [_n(r.get("k"), 2)]
             if judged:
-                row += [_n(r.get("tolerance")), str(r.get("verdict") or "–")]
+                row += [a(r.get("tolerance")), str(r.get("verdict") or "–")]
             rows.append(row)
         ed = sorted({str(r["edition"]) for r in rot if r.get("edition")})
+        unit = "µrad" if angle_units == "urad" else "arcsec"
         out.append(Block("table", title=f"{head}rotary axes, angular positioning, ISO "
-                         f"230-2:{'/'.join(ed)} [µrad] (1 arcsec = 4.848 µrad; positive "
+                         f"230-2:{'/'.join(ed)} [{unit}] (1 arcsec = 4.848 µrad; positive "
                          "counter-clockwise seen from the positive end of the axis, ISO 841)",
                          columns=cols, rows=rows))
     dia = res["diagonals"]

@@ -145,7 +145,8 @@ def _rect(top: float, h: float, color: str, fig: Any) -> Any:
                      transform=fig.transFigure, figure=fig, zorder=-1)
 
 
-def write_certificate_pdf(doc: dict[str, Any], path: str | Path) -> int:
+def write_certificate_pdf(doc: dict[str, Any], path: str | Path, angle_units: str = "urad"
+                          ) -> int:
     """Write the certificate as PDF (the caller makes the write atomic).
 
     Parameters
@@ -154,6 +155,8 @@ def write_certificate_pdf(doc: dict[str, Any], path: str | Path) -> int:
         A ``volcal-certificate/1`` document (:func:`volcal.report.certificate.build_certificate`).
     path : str or Path
         Output file.
+    angle_units : str
+        ``'urad'`` or ``'arcsec'``: the printed unit of the rotary axes' results.
 
     Returns
     -------
@@ -175,7 +178,7 @@ def write_certificate_pdf(doc: dict[str, Any], path: str | Path) -> int:
     p.text(f"Certificate number {rid}", size=11)
     p.text(f"Issued {doc['issued']} by {doc['generator']}", size=8.5, color="0.35")
     p.gap(9, 1.0)
-    for k, s in enumerate(layout(doc), start=1):
+    for k, s in enumerate(layout(doc, angle_units), start=1):
         p.need(p.line_h(11) * 4)
         p.gap(9, 0.6)
         p.text(f"{k}. {s.title}", size=11.5, weight="bold")

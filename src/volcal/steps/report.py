@@ -235,7 +235,7 @@ def report(session: Session, *, output: str | Path,
                      f"{report_id}")
 
         def extra(tmp: Path) -> None:
-            written.append(write_certificate(doc, tmp))
+            written.append(write_certificate(doc, tmp, angle_units))
 
     with busy("writing the report..."):
         inputs = collect_inputs(session, result, truth, edition, compensation,

@@ -742,6 +742,10 @@ class Calibration:
                        session=self.session if rotary_only else None)
         if r.sign_note is not None:
             warnings.warn(spell(r.sign_note, {}), UserWarning, stacklevel=3)
+        if r.rotary_only:  # as the command line's note
+            warnings.warn("Calibration.compensate: no linear model (the session has rotary "
+                          "tests only): only the rotary tables were written", UserWarning,
+                          stacklevel=3)
         files = list(r.files)
         self.compensation = Path(folder)
         return files

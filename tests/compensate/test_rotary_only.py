@@ -97,7 +97,8 @@ def test_calibration_of_a_rotary_only_session(rotary_only, tmp_path, monkeypatch
     from volcal.flow import Calibration
 
     c = Calibration.open(rotary_only)
-    files = c.compensate(tmp_path / "h", "heidenhain")
+    with pytest.warns(UserWarning, match="only the rotary tables were written"):
+        files = c.compensate(tmp_path / "h", "heidenhain")
     assert files == ["C.COM", "ROTARY_NOTES.TXT", "VOLCAL_ROTARY.CMA"]
     assert c.result is None  # nothing was identified
     seen = {}

@@ -82,6 +82,6 @@ def test_probe_moves_in_rs274(tmp_path):
 
 
 def test_other_dialects_list_the_poses():
-    m, text, warnings = _program("heidenhain")
+    m, text, warnings = _program("fanuc")  # HEIDENHAIN, Siemens: test_probe_program_controls
     assert "G38" not in text and text.count("POSE ") == m.n
-    assert warnings and "LinuxCNC only" in warnings[0]
+    assert warnings and "LinuxCNC, HEIDENHAIN and Siemens" in warnings[0]

@@ -176,7 +176,11 @@ def pose_centres(points: Array, letters: tuple[str, ...], radius_mm: float | Non
 
 def import_probe_log(path: str | Path, session: str | Path, mid: str, replace: bool = False,
                      radius_mm: float | None = None):
-    """Fill a planned probe_sphere measurement from a LinuxCNC probe log.
+    """Fill a planned probe_sphere measurement from a control's probe log.
+
+    LinuxCNC's ``PROBEOPEN`` log, or the file volcal's HEIDENHAIN (``FN 16``) or Siemens
+    (``WRITE``) program printed (:mod:`volcal.importer.probe_control_log`), told apart by
+    its first word.
 
     Parameters
     ----------
@@ -217,7 +221,13 @@ def import_probe_log(path: str | Path, session: str | Path, mid: str, replace: b
 
     letters = parse_machine_chain(m.meta["chain"]).rotary
     sign = _keys(m)["control_angle_sign"]  # the log holds the control's angles
-    pts, rows = read_linuxcnc_probe_log(path)
+    from volcal.importer.probe_control_log import control_log_layout, read_control_probe_log
+
+    if control_log_layout(path) is not None:  # volcal's HEIDENHAIN or Siemens program
+        pts, rows, layout = read_control_probe_log(path, tuple(letters))
+    else:
+        pts, rows = read_linuxcnc_probe_log(path)
+        layout = "linuxcnc-probe-log"
     angles, centres, rms = pose_centres(pts, letters, radius_mm, rows, path)
     angles = {r: sign * a for r, a in angles.items()}
     from volcal.session.probe_control import control_kinematics
@@ -241,7 +251,7 @@ def import_probe_log(path: str | Path, session: str | Path, mid: str, replace: b
                                    f"{planned[r][i]:g} deg planned", path)
     notes = [f"{len(pts)} probed points, {k} poses; sphere fits RMS "
              f"{np.median(rms):.2f} um (median), {rms.max():.2f} um (largest)"]
-    meta = {**m.meta, "import": {"source": Path(path).name, "layout": "linuxcnc-probe-log",
+    meta = {**m.meta, "import": {"source": Path(path).name, "layout": layout,
                                  "points": int(len(pts))}}
     cols = dict(m.columns)
     new = Measurement(m.id, m.kind, m.target, np.round(centres, 6), None, m.beam_direction,

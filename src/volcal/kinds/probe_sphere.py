@@ -324,6 +324,22 @@ class ProbeSphereKind(Kind):
 
         return probe_program(m, dialect, name, number, options)
 
+    def program_files(self, m: Any, dialect: str, name: str) -> dict[str, str]:
+        """HEIDENHAIN: the ``FN 16`` format file the program prints with.
+
+        Parameters
+        ----------
+        m : Measurement
+            The measurement.
+        dialect : str
+            The dialect.
+        name : str
+            Program name.
+        """
+        from volcal.program.probe_sphere import probe_program_files
+
+        return probe_program_files(m, dialect, name)
+
     # -- plan ----------------------------------------------------------------------------
     def plan(self, test: str, options: Any, only: str | None = None) -> list[Any]:
         """A trunnion's probe test: C at 6 angles x A at 5 angles, one sphere.

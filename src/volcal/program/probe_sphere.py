@@ -23,10 +23,11 @@ it); the header states the sphere and tip diameters the program assumes
 (``control_kinematics = "tcp"``, LinuxCNC's trt kinematics) gets the program of
 :mod:`volcal.program.probe_sphere_tcp`.
 
-Only LinuxCNC is written (the probe log is LinuxCNC's); HEIDENHAIN (cycle 451 MEASURE
-KINEMATICS), Siemens (CYCLE996) and ISG run their own cycles: for them volcal writes a
-listing of the poses and nominal centres to enter into the cycle, and reads the centres
-they report as the test's CSV (``docs/formats.md``).
+HEIDENHAIN (cycle 0 and ``FN 16``) and Siemens (``MEAS=1`` and ``WRITE``) get the same
+probing with the control's own functions (:mod:`volcal.program.probe_sphere_controls`);
+for another dialect (Fanuc) volcal writes a listing of the poses and nominal centres to
+enter into the control's own cycle, and reads the centres it reports as the test's CSV
+(``docs/formats.md``).
 """
 
 from __future__ import annotations
@@ -37,7 +38,7 @@ import numpy as np
 
 from volcal.program.dialects import _ascii, _paren_comment
 
-__all__ = ["PROBE_FEED_MM_MIN", "probe_program"]
+__all__ = ["PROBE_FEED_MM_MIN", "probe_program", "probe_program_files"]
 
 PROBE_FEED_MM_MIN = 100.0
 """Probing feed [mm/min] (the test's ``probe_feed_mm_min`` replaces it)."""
@@ -67,8 +68,8 @@ def probe_program(m: Any, dialect: str, name: str, number: int, options: Any
     m : Measurement
         The planned test (chain, pivots, sphere, poses).
     dialect : str
-        ``'linuxcnc'`` writes the probing program; any other dialect a listing of the
-        poses for the control's own cycle.
+        ``'linuxcnc'``, ``'heidenhain'``, ``'siemens'`` write the probing program; another
+        dialect a listing of the poses for the control's own cycle.
     name : str
         Program name.
     number : int
@@ -119,17 +120,26 @@ def probe_program(m: Any, dialect: str, name: str, number: int, options: Any
         return probe_program_tcp(m, name, options, feed=feed, clearance=CLEARANCE_MM,
                                  overtravel=OVERTRAVEL_MM, elevation_deg=SIDE_ELEVATION_DEG,
                                  sphere_d=sphere_d, tip_d=tip_d)
+    if dialect in ("heidenhain", "siemens"):
+        from volcal.program import probe_sphere_controls as pc
+
+        kw = dict(feed=feed, clearance=pc.CLEARANCE_MM, overtravel=pc.OVERTRAVEL_MM,
+                  elevation_deg=SIDE_ELEVATION_DEG, sphere_d=sphere_d, tip_d=tip_d)
+        if dialect == "siemens":
+            return pc.probe_program_siemens(m, name, options, **kw)
+        text, more, _ = pc.probe_program_heidenhain(m, name, options, **kw)
+        return text, more
     if dialect != "linuxcnc":
         lines = [_paren_comment(h) for h in head] + [
-            _paren_comment(f"{dialect}: run the control's own kinematics cycle (HEIDENHAIN "
-                           "451, Siemens CYCLE996, ISG) at these poses and enter the centres "
-                           "it reports into the test's CSV")]
+            _paren_comment(f"{dialect}: run the control's own kinematics cycle at these "
+                           "poses and enter the centres it reports into the test's CSV")]
         for i in range(m.n):
             pose = " ".join(f"{a}={sign * ang[a][i]:.3f}" for a in letters)
             c = " ".join(f"{ax}={_fmt(v, d)}" for ax, v in zip("XYZ", centres[i], strict=True))
             lines.append(_paren_comment(f"pose {i + 1}: {pose} nominal centre {c}"))
         warnings.append(f"{m.id}: the {dialect} program lists the poses for the control's own "
-                        "probing cycle; volcal writes probing moves for LinuxCNC only")
+                        "probing cycle; volcal writes probing moves for LinuxCNC, HEIDENHAIN "
+                        "and Siemens")
         return "\n".join(lines) + "\n", warnings
     clear, over = CLEARANCE_MM, OVERTRAVEL_MM
     safe = options.safe_z_mm
@@ -172,3 +182,28 @@ def probe_program(m: Any, dialect: str, name: str, number: int, options: Any
             out.append(f"G0 Z{_fmt(top, d)}")
     out += ["(PROBECLOSE)", f"G53 G0 Z{_fmt(safe, d)}", "M2"]
     return "\n".join(out) + "\n", warnings
+
+
+def probe_program_files(m: Any, dialect: str, name: str) -> dict[str, str]:
+    """Files a probe_sphere program needs beside it: HEIDENHAIN's ``FN 16`` format file.
+
+    Parameters
+    ----------
+    m : Measurement
+        The planned test.
+    dialect : str
+        The dialect.
+    name : str
+        The program's name.
+
+    Returns
+    -------
+    dict of str to str
+        File name to text (empty for the other dialects).
+    """
+    if dialect != "heidenhain":
+        return {}
+    from volcal.program.probe_sphere_controls import heidenhain_format_file
+    from volcal.session.probe_sphere import _angles
+
+    return {f"{name}.A": heidenhain_format_file(list(_angles(m)))}

@@ -79,7 +79,10 @@ def write_programs(session: Session, dialect: str, folder: str | Path,
             warnings += built.warnings
             files[fname] = render(built.steps, dialect, name, first_number + i,
                                   options.decimals, options.safe_z_mm)
-        index.append({"file": fname, "measurement": m.id, "kind": m.kind, "readings": m.n})
+        extra = kind_of(m.kind).program_files(m, dialect, name)
+        files.update(extra)
+        index.append({"file": fname, "measurement": m.id, "kind": m.kind, "readings": m.n,
+                      **({"needs": sorted(extra)} if extra else {})})
     doc = {"format": "volcal-programs/1", "dialect": dialect, "session": session.name,
            "dwell_s": options.dwell_s, "feed_mm_min": options.feed,
            "overrun_mm": options.overrun_mm, "safe_z_machine_mm": options.safe_z_mm,

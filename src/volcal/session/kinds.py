@@ -443,6 +443,25 @@ class Kind:
         """
         return None
 
+    def program_files(self, m: Any, dialect: str, name: str) -> dict[str, str]:
+        """Files the measurement's part program needs beside it (default none).
+
+        Parameters
+        ----------
+        m : Measurement
+            The measurement.
+        dialect : str
+            The dialect.
+        name : str
+            The program's name.
+
+        Returns
+        -------
+        dict of str to str
+            File name to text.
+        """
+        return {}
+
     def evaluate_positioning(self, m: Any, edition: str, budget: Any) -> Any:
         """Its own ISO 230-2 evaluation (a rotary axis); None: the linear one.
 

@@ -54,6 +54,7 @@ OPTIONS: dict[str, str] = {
         "max_increment", "fanuc_series", "linuxcnc_type", "squareness",
         # locate
         "model", "prior_u", "linuxcnc_hal", "z_rot_point_mm", "siemens_tcarr", "tool_carrier",
+        "isg_kinematics",
         # capture
         "control", "laser", "programs", "window_mm", "stable_s", "k_sigma", "laser_noise",
         "control_noise_mm", "max_gap_s", "poll_s", "timeout_s", "speed",

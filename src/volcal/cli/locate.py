@@ -35,6 +35,10 @@ def locate_cmd(
                                               "trunnion to this part program (.MPF), with what "
                                               "it leaves."),
     tool_carrier: int = typer.Option(1, help="With --siemens-tcarr: the record number n."),
+    isg_kinematics: Path | None = typer.Option(None, help="Write the ISG/Beckhoff volumetric "
+                                               "compensation's location errors (X0C, Y0C, "
+                                               "A0C, ... ISG CSV, mm and rad) to this file, "
+                                               "with what they leave."),
     z_rot_point_mm: float | None = typer.Option(None, help="With --linuxcnc-hal: the "
                                                 "z-rot-point to keep [mm] (default the C "
                                                 "pivot's z; only z-rot-point + z-offset "
@@ -68,6 +72,19 @@ def locate_cmd(
         message_console(output).print(f"$TC_CARR..[{tool_carrier}] -> {siemens_tcarr} "
                                       f"(predicted dispersion {texp.residual_um.max():.3f} "
                                       "um)", highlight=False)
+    if isg_kinematics is not None:
+        from volcal.compensate.isg_location import isg_location_csv
+        from volcal.io.atomic import write_text
+        from volcal.io.paths import check_output_file
+
+        check_output_file(isg_kinematics)
+        iexp = r.isg_location()
+        write_text(isg_kinematics, isg_location_csv(iexp))
+        message_console(output).print(f"ISG location errors ({', '.join(iexp.errors)}) -> "
+                                      f"{isg_kinematics} (predicted dispersion "
+                                      f"{iexp.residual_um.max():.3f} um)", highlight=False)
+        for note in iexp.notes[4:]:
+            message_console(output).print(f"- {note}", highlight=False, markup=False)
     if json_out:
         target = output or Path("-")
         write_output(target, located_json(r))

@@ -128,6 +128,25 @@ class Located:
         nominal = m.with_location(np.zeros(len(self.result.identifiability.names)))
         return tcarr_export(m, self.blocks, spheres, nominal, carrier)
 
+    def isg_location(self) -> Any:
+        """The ISG/Beckhoff volumetric compensation's location errors and their residual.
+
+        Returns
+        -------
+        volcal.compensate.isg_location.IsgLocationExport
+        """
+        from volcal.compensate.isg_location import isg_location_export
+
+        m = self.result.machine
+        spheres: dict[str, Any] = {}
+        for k, v in self.result.nuisances.items():
+            sid, _, ax = k.rpartition(":")
+            if ax in ("sx", "sy", "sz"):
+                spheres.setdefault(sid, [0.0, 0.0, 0.0])["xyz".index(ax[1])] = v
+        nominal = m.with_location(np.zeros(len(self.result.identifiability.names)))
+        return isg_location_export(m, self.blocks, spheres, nominal,
+                                   list(self.result.identifiability.fixed))
+
     def to_text(self) -> str:
         """The table and the report as ``volcal locate`` prints them."""
         lines = [f"chain {self.chain}: {len(self.measurements)} probe_sphere test(s)",

@@ -53,7 +53,9 @@ length and radius 0 for these positioning blocks (volcal carries the tip offset
 ``tool_offset_mm``: the programs' and the logged coordinates are the spindle's); the
 sphere where the test says (``sphere_mm`` within a few mm, ``sphere_diameter_mm``); the
 machine datum as the program's zero (HEIDENHAIN: the preset of the machine datum;
-Siemens: no basic frame); HEIDENHAIN: ``DIST`` of the touch probe table at least
+Siemens: no basic frame), so that the safe machine Z (``--safe-z-mm``, refused below
+:func:`safe_height`: the sphere's highest point, plus tip and clearance, at the poses and
+while the rotary axes turn between them) is a height in the program's frame; HEIDENHAIN: ``DIST`` of the touch probe table at least
 ``clearance + overtravel`` (20 mm); nothing within ``clearance`` of the probing paths.
 """
 
@@ -69,7 +71,7 @@ from volcal.errors import VolcalInputError
 from volcal.program.dialects import _ascii, _num
 
 __all__ = ["ProbeMove", "heidenhain_format_file", "probe_moves", "probe_program_heidenhain",
-           "probe_program_siemens", "HEIDENHAIN_TAG", "SIEMENS_TAG", "SIEMENS_FILE"]
+           "probe_program_siemens", "safe_height", "HEIDENHAIN_TAG", "SIEMENS_TAG", "SIEMENS_FILE"]
 
 HEIDENHAIN_TAG = "VOLCAL_TNC"
 """First word of every line the HEIDENHAIN program prints (``FN 16``)."""
@@ -176,6 +178,41 @@ def probe_moves(m: Any, *, clearance: float, overtravel: float, elevation_deg: f
     return ang, centres, moves, warnings
 
 
+SWEEP_SAMPLES = 24
+"""Samples of each rotary move between two poses for :func:`safe_height`."""
+
+
+def safe_height(m: Any, angles: dict[str, Array], above_mm: float) -> float:
+    """The lowest safe Z: the predicted sphere centre's highest Z plus ``above_mm``.
+
+    Over every pose and every rotary move between consecutive poses (the angles moving
+    linearly, :data:`SWEEP_SAMPLES` samples each), the centre the configured kinematics
+    predict; the linear axes stand still while the rotary axes turn.
+
+    Parameters
+    ----------
+    m : Measurement
+        The planned test.
+    angles : dict of str to ndarray
+        volcal's angles per rotary letter [deg].
+    above_mm : float
+        Height to keep above the centre [mm] (sphere radius + tip radius + clearance).
+
+    Returns
+    -------
+    float
+        [mm].
+    """
+    from volcal.measure.spheres import probe_centres
+    from volcal.session.probe_sphere import _keys, five_axis_machine
+
+    t = np.linspace(0.0, 1.0, SWEEP_SAMPLES + 1)
+    swept = {a: np.concatenate([v[:1]] + [v[i] + t[1:] * (v[i + 1] - v[i])
+                                          for i in range(len(v) - 1)]) for a, v in angles.items()}
+    c = probe_centres(five_axis_machine(m), swept, _keys(m)["sphere_mm"], m.tool_offset)
+    return float(c[:, 2].max() + above_mm)
+
+
 def _setup(m: Any, options: Any, feed: float, clearance: float, overtravel: float,
            elevation_deg: float, sphere_d: float, tip_d: float
            ) -> tuple[dict[str, Any], list[str], list[ProbeMove], list[str], list[str]]:
@@ -191,6 +228,13 @@ def _setup(m: Any, options: Any, feed: float, clearance: float, overtravel: floa
     ang, centres, moves, warnings = probe_moves(
         m, clearance=clearance, overtravel=overtravel, elevation_deg=elevation_deg,
         sphere_d=sphere_d, tip_d=tip_d)
+    need = safe_height(m, ang, 0.5 * (sphere_d + tip_d) + clearance)
+    if options.safe_z_mm < need:
+        raise VolcalInputError(f"--safe-z-mm {options.safe_z_mm:g}: below {need:.3f} mm, the "
+                               "highest point of the sphere (plus tip and clearance) at the "
+                               "poses and while the rotary axes turn between them; this program "
+                               "retracts there before every rotary move (machine coordinates = "
+                               "the program's: the machine datum is its zero)")
     sign = k["control_angle_sign"]
     letters = list(ang)
     ctrl = {a: sign * ang[a] for a in letters}

@@ -55,8 +55,9 @@ sphere where the test says (``sphere_mm`` within a few mm, ``sphere_diameter_mm`
 machine datum as the program's zero (HEIDENHAIN: the preset of the machine datum;
 Siemens: no basic frame), so that the safe machine Z (``--safe-z-mm``, refused below
 :func:`safe_height`: the sphere's highest point, plus tip and clearance, at the poses and
-while the rotary axes turn between them) is a height in the program's frame; HEIDENHAIN: ``DIST`` of the touch probe table at least
-``clearance + overtravel`` (20 mm); nothing within ``clearance`` of the probing paths.
+while the rotary axes turn between them) is a height in the program's frame; HEIDENHAIN:
+``DIST`` of the touch probe table at least ``clearance + overtravel`` (20 mm); nothing
+within ``clearance`` of the probing paths.
 """
 
 from __future__ import annotations

@@ -143,3 +143,34 @@ def _spheres(r):
         if ax in ("sx", "sy", "sz"):
             out.setdefault(sid, [0.0, 0.0, 0.0])["xyz".index(ax[1])] = v
     return out
+
+
+def test_head_head_chain_and_round_trip_of_the_values():
+    """A fork head (volcal FXYZCA): ISG chain XYZCA ("a conventional CA machine",
+    P-VOLC-00007), no workpiece axes; every value read back in um and urad."""
+    from volcal.compensate.isg_location import IsgLocationExport, read_isg_location
+
+    loc = {"EX0C": 812.5, "EY0C": -40.25, "EA0C": 120.0, "EB0C": -35.5, "EC0C": 17.0,
+           "EY0A": 1500.0, "EZ0A": -2.0, "EB0A": 60.0, "EC0A": -199.0, "EA0A": 5.5}
+    rot = {"C": RotaryAxis("C", [0.0, 0.0, 450.0], {k: v for k, v in loc.items()
+                                                     if k.endswith("C")}),
+           "A": RotaryAxis("A", [0.0, 0.0, 300.0], {k: v for k, v in loc.items()
+                                                     if k.endswith("A")})}
+    m = FiveAxisMachine("FXYZCA", rot)
+    nominal = m.with_location(np.zeros(10))
+    exp = IsgLocationExport("XYZCA", 0, {"PXC": 0.0, "PYC": 0.0, "PZC": 450.0, "PXA": 0.0,
+                                         "PYA": 0.0, "PZA": 300.0},
+                            {n[1:]: v * (1e-3 if n[1] in "XYZ" else 1e-6)
+                             for n, v in loc.items()})
+    text = isg_location_csv(exp)
+    assert "chain XYZCA" in text and "workpiece_axes 0" in text
+    _, errors = _parse(text)
+    assert errors["C0A"] == [pytest.approx(-1.99e-4)] and errors["X0C"] == [0.8125]
+    back = read_isg_location(text, nominal)
+    for r in "CA":
+        for n, v in back.rotary[r].location.items():
+            assert v == pytest.approx(loc[n], abs=1e-6), n
+    full = isg_location_export(m, [], {}, nominal)
+    assert (full.chain, full.workpiece_axes) == ("XYZCA", 0)
+    assert full.errors == {n[1:]: pytest.approx(v * (1e-3 if n[1] in "XYZ" else 1e-6))
+                           for n, v in loc.items()}

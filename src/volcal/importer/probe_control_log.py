@@ -38,8 +38,8 @@ _CONTROL = {"VOLCAL_TNC": "HEIDENHAIN FN 16", "VOLCAL_840D": "Siemens WRITE"}
 
 def _text(path: Path) -> str:
     try:
-        return path.read_text(encoding="ascii")
-    except (OSError, UnicodeDecodeError) as e:
+        return path.read_bytes().decode("latin-1")  # every byte: a stray one is named by row
+    except OSError as e:
         raise VolcalInputError(f"cannot read the probe log: {e}", path) from None
 
 

@@ -329,7 +329,8 @@ def test_round_trip_simulate_print_import_locate(simulated, tmp_path, dialect):
             lines.append("VOLCAL_840D " + " ".join(_siemens_real(v) for v in p) + " "
                          + " ".join(f"{ang[a]:.4f}" for a in letters))
     log = tmp_path / ("PROBE_SPHERE.TXT" if dialect == "heidenhain" else "VOLCAL_PROBE.MPF")
-    log.write_text("\n".join(lines) + "\n")
+    eol = "\r\n" if dialect == "heidenhain" else "\n"  # the TNC's files read on a PC: CR LF
+    log.write_bytes((eol.join(lines) + eol).encode("ascii"))
     target = tmp_path / "s"
     shutil.copytree(planned, target)
     code, msg = _cli("import", str(log), "--session", str(target), "--measurement",

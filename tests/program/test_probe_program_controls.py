@@ -309,11 +309,19 @@ def _siemens_real(v):
     return f"{v:.10g}"  # the NC's REAL to STRING conversion: any decimal text is read
 
 
-@pytest.mark.parametrize("dialect", ["heidenhain", "siemens"])
-def test_round_trip_simulate_print_import_locate(simulated, tmp_path, dialect):
+@pytest.mark.parametrize("dialect,sign", [("heidenhain", 1), ("siemens", -1)])
+def test_round_trip_simulate_print_import_locate(simulated, tmp_path, dialect, sign):
+    """control_angle_sign -1 (Siemens case): the program turns to, and prints, minus
+    volcal's angles; the import turns them back."""
     folder, planned = simulated
     m, linear, exact = _true_centres(folder)
-    _, text, _, _ = _program(planned, dialect)
+    target = tmp_path / "s"
+    shutil.copytree(planned, target)
+    if sign < 0:
+        toml = target / "session.toml"
+        toml.write_text(toml.read_text().replace("noise_um = 1.0", "noise_um = 1.0\n"
+                                                 "control_angle_sign = -1"))
+    _, text, _, _ = _program(target, dialect)
     letters = list(_angles(m))
     rng = np.random.default_rng(3)
     lines = []
@@ -331,8 +339,9 @@ def test_round_trip_simulate_print_import_locate(simulated, tmp_path, dialect):
     log = tmp_path / ("PROBE_SPHERE.TXT" if dialect == "heidenhain" else "VOLCAL_PROBE.MPF")
     eol = "\r\n" if dialect == "heidenhain" else "\n"  # the TNC's files read on a PC: CR LF
     log.write_bytes((eol.join(lines) + eol).encode("ascii"))
-    target = tmp_path / "s"
-    shutil.copytree(planned, target)
+    if sign < 0:  # the printed angles are the control's: minus volcal's
+        assert lines[0].endswith(" ".join(f"{-v:.4f}" for v in (m.columns["c_deg"][0],
+                                                                  m.columns["a_deg"][0])))
     code, msg = _cli("import", str(log), "--session", str(target), "--measurement",
                      "probe_sphere")
     assert code == 0, msg

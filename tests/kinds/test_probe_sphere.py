@@ -295,7 +295,8 @@ def test_control_angle_sign_for_linuxcncs_trt_kinematics(simulated, tmp_path):
     toml.write_text(toml.read_text().replace("noise_um = 1.0", "noise_um = 1.0\n"
                                              "control_angle_sign = -1"))
     planned = read_session(folder, require_deviation=False).measurements[0]
-    text, _ = kind_of("probe_sphere").program_text(planned, "linuxcnc", "P", 1, ProgramOptions())
+    text, _ = kind_of("probe_sphere").program_text(planned, "linuxcnc", "P", 1,
+                                                   ProgramOptions(safe_z_mm=150.0))
     assert "G0 C-0.000 A90.000" in text or "G0 C0.000 A90.000" in text  # volcal A = -90
     log = tmp_path / "probe.txt"
     log.write_text(_probe_log(m.positions, {k: -v for k, v in ang.items()}, 14.0))

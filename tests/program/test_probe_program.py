@@ -27,13 +27,23 @@ TRAVEL = np.array([[0.0, 800.0], [0.0, 600.0], [0.0, 500.0]])
 _CANON = re.compile(r"^\s*\d+\s+N\.+\s+([A-Z_]+)\((.*)\)\s*$")
 
 
-def _program(dialect="linuxcnc"):
+SAFE_Z = 150.0
+"""Retract height of the tests [mm]: clears the planned sphere (its top, tip and clearance
+at every pose and while the rotary axes turn: 120.1 mm, by
+:func:`volcal.program.probe_sphere_controls.safe_height`)."""
+
+
+def _planned():
+    return plan_session(TRAVEL, "XYFZ", steps=4, tests=("probe_sphere",),
+                        runs=2).measurements[0]
+
+
+def _program(dialect="linuxcnc", safe_z_mm=SAFE_Z):
     from volcal.kinds import kind_of
 
-    s = plan_session(TRAVEL, "XYFZ", steps=4, tests=("probe_sphere",), runs=2)
-    m = s.measurements[0]
+    m = _planned()
     text, warnings = kind_of("probe_sphere").program_text(m, dialect, "P", 1,
-                                                            ProgramOptions(safe_z_mm=0.0))
+                                                            ProgramOptions(safe_z_mm=safe_z_mm))
     return m, text, warnings
 
 
@@ -61,8 +71,8 @@ def test_probe_moves_in_rs274(tmp_path):
     for name, v in canon:
         xyz, abc = np.array(v[:3]), np.array(v[3:6])  # X Y Z A B C
         if name == "STRAIGHT_TRAVERSE" and pos is not None and np.any(abc != pos[1]):
-            # the rotary axes turn only at the machine's safe Z (G53 Z0), X Y held
-            assert xyz[2] == pytest.approx(0.0) and np.allclose(xyz[:2], pos[0][:2])
+            # the rotary axes turn only at the machine's safe Z (G53 Z150), X Y held
+            assert xyz[2] == pytest.approx(SAFE_Z) and np.allclose(xyz[:2], pos[0][:2])
             pose += 1
             np.testing.assert_allclose([abc[2], abc[0]], angles[pose], atol=1e-3)
         if name == "STRAIGHT_PROBE":
@@ -85,3 +95,18 @@ def test_other_dialects_list_the_poses():
     m, text, warnings = _program("fanuc")  # HEIDENHAIN, Siemens: test_probe_program_controls
     assert "G38" not in text and text.count("POSE ") == m.n
     assert warnings and "LinuxCNC, HEIDENHAIN and Siemens" in warnings[0]
+
+
+def test_linuxcnc_safe_z_below_the_swept_sphere_is_refused():
+    """The LinuxCNC program retracts to --safe-z-mm before every rotary move and moves X, Y
+    there: a height that does not clear the sphere is refused, naming the height needed."""
+    from volcal.errors import VolcalInputError
+    from volcal.program.probe_sphere_controls import safe_height
+
+    m = _planned()
+    need = safe_height(m, _angles(m), 0.5 * (25.0 + 3.0) + CLEARANCE_MM)
+    # the planned sphere: centre Z at the poses below 100 mm, + 14 mm (radii) + clearance
+    assert 100.0 < need < SAFE_Z
+    with pytest.raises(VolcalInputError, match=f"--safe-z-mm 0: below {need:.3f} mm"):
+        _program(safe_z_mm=0.0)
+    _program(safe_z_mm=need)  # exactly clear: accepted

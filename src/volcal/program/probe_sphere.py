@@ -143,6 +143,10 @@ def probe_program(m: Any, dialect: str, name: str, number: int, options: Any
         return "\n".join(lines) + "\n", warnings
     clear, over = CLEARANCE_MM, OVERTRAVEL_MM
     safe = options.safe_z_mm
+    from volcal.program.probe_sphere_controls import check_safe_z
+
+    # the rotary axes turn, and X Y move, at this height: it must clear the sphere
+    check_safe_z(m, ang, safe, r + clear)
     out = [_paren_comment(h) for h in head] + [
         _paren_comment("G38.2 stops on contact and raises an error without one; every "
                        f"probing move travels {clear:g} mm before the expected contact"),

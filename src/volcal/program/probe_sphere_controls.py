@@ -71,7 +71,7 @@ from numpy.typing import NDArray
 from volcal.errors import VolcalInputError
 from volcal.program.dialects import _ascii, _num
 
-__all__ = ["ProbeMove", "heidenhain_format_file", "probe_moves", "probe_program_heidenhain",
+__all__ = ["ProbeMove", "check_safe_z", "heidenhain_format_file", "probe_moves", "probe_program_heidenhain",
            "probe_program_siemens", "safe_height", "HEIDENHAIN_TAG", "SIEMENS_TAG", "SIEMENS_FILE"]
 
 HEIDENHAIN_TAG = "VOLCAL_TNC"
@@ -214,6 +214,36 @@ def safe_height(m: Any, angles: dict[str, Array], above_mm: float) -> float:
     return float(c[:, 2].max() + above_mm)
 
 
+def check_safe_z(m: Any, angles: dict[str, Array], safe_z_mm: float, above_mm: float
+                 ) -> None:
+    """Refuse a retract height that does not clear the sphere (:func:`safe_height`).
+
+    Parameters
+    ----------
+    m : Measurement
+        The planned test.
+    angles : dict of str to ndarray
+        volcal's angles per rotary letter [deg].
+    safe_z_mm : float
+        The program's retract height, machine Z [mm] (``--safe-z-mm``).
+    above_mm : float
+        Height to keep above the centre [mm] (sphere radius + tip radius + clearance).
+
+    Raises
+    ------
+    VolcalInputError
+        ``safe_z_mm`` below the highest point of the sphere at the poses and while the
+        rotary axes turn between them, naming the height needed.
+    """
+    need = safe_height(m, angles, above_mm)
+    if safe_z_mm < need:
+        raise VolcalInputError(f"--safe-z-mm {safe_z_mm:g}: below {need:.3f} mm, the "
+                               "highest point of the sphere (plus tip and clearance) at the "
+                               "poses and while the rotary axes turn between them; this program "
+                               "retracts there before every rotary move (machine coordinates = "
+                               "the program's: the machine datum is its zero)")
+
+
 def _setup(m: Any, options: Any, feed: float, clearance: float, overtravel: float,
            elevation_deg: float, sphere_d: float, tip_d: float
            ) -> tuple[dict[str, Any], list[str], list[ProbeMove], list[str], list[str]]:
@@ -229,13 +259,7 @@ def _setup(m: Any, options: Any, feed: float, clearance: float, overtravel: floa
     ang, centres, moves, warnings = probe_moves(
         m, clearance=clearance, overtravel=overtravel, elevation_deg=elevation_deg,
         sphere_d=sphere_d, tip_d=tip_d)
-    need = safe_height(m, ang, 0.5 * (sphere_d + tip_d) + clearance)
-    if options.safe_z_mm < need:
-        raise VolcalInputError(f"--safe-z-mm {options.safe_z_mm:g}: below {need:.3f} mm, the "
-                               "highest point of the sphere (plus tip and clearance) at the "
-                               "poses and while the rotary axes turn between them; this program "
-                               "retracts there before every rotary move (machine coordinates = "
-                               "the program's: the machine datum is its zero)")
+    check_safe_z(m, ang, options.safe_z_mm, 0.5 * (sphere_d + tip_d) + clearance)
     sign = k["control_angle_sign"]
     letters = list(ang)
     ctrl = {a: sign * ang[a] for a in letters}

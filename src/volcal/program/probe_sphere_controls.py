@@ -71,8 +71,9 @@ from numpy.typing import NDArray
 from volcal.errors import VolcalInputError
 from volcal.program.dialects import _ascii, _num
 
-__all__ = ["ProbeMove", "check_safe_z", "heidenhain_format_file", "probe_moves", "probe_program_heidenhain",
-           "probe_program_siemens", "safe_height", "HEIDENHAIN_TAG", "SIEMENS_TAG", "SIEMENS_FILE"]
+__all__ = ["ProbeMove", "check_safe_z", "heidenhain_format_file", "probe_moves",
+           "probe_program_heidenhain", "probe_program_siemens", "safe_height",
+           "HEIDENHAIN_TAG", "SIEMENS_TAG", "SIEMENS_FILE"]
 
 HEIDENHAIN_TAG = "VOLCAL_TNC"
 """First word of every line the HEIDENHAIN program prints (``FN 16``)."""

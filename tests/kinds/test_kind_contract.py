@@ -155,7 +155,7 @@ def test_kinds_outside_the_design_are_left_out_of_the_identification(tmp_path):
     from volcal.identify.design import build_design
 
     out = [n for n in kind_names() if not kind_of(n).in_design]
-    assert out == ["rotary", "probe_sphere"]
+    assert out == ["rotary", "probe_sphere", "r_test"]
     s = plan_session(TRAVEL, "XYFZ", steps=4, tests=("linear:x", "rotary:c"), runs=2)
     simulate_session(s, random_machine(s.travel, s.chain, seed=2), SimulationOptions(seed=4))
     design = build_design(s)

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -311,6 +312,11 @@ class LocationResult:
         Readings minus estimated parameters.
     iterations : int
         Gauss-Newton iterations.
+    linear : LinearPrior or None
+        The linear model's prior (:mod:`volcal.identify.location_linear`), when given.
+    u_without_linear : dict of str to float or None
+        With a linear prior carrying a covariance: the standard uncertainty the readings'
+        noise alone would give [um, urad] (the linear model's share is ``u`` beside it).
     """
 
     names: tuple[str, ...]
@@ -325,6 +331,8 @@ class LocationResult:
     chi2: float
     dof: int
     iterations: int
+    linear: Any = None
+    u_without_linear: dict[str, float] | None = None
 
     def to_rows(self) -> list[dict[str, object]]:
         """One row per location error of the chain: name, meaning, value, u, status."""
@@ -340,6 +348,11 @@ class LocationResult:
         return rows
 
 
+def _structural(machine: FiveAxisMachine) -> FiveAxisMachine:
+    """The machine with perfect linear axes (the design's analysis)."""
+    return FiveAxisMachine(machine.chain_obj, machine.rotary, None, machine.name)
+
+
 def _readings(blocks: Sequence[SphereReadings]) -> Array:
     return np.concatenate([(b.values / UM if b.kind == "probe" else b.values).reshape(-1)
                            for b in blocks])
@@ -348,7 +361,7 @@ def _readings(blocks: Sequence[SphereReadings]) -> Array:
 def identify_location(nominal: FiveAxisMachine, blocks: Sequence[SphereReadings], *,
                       prior_u: dict[str, float] | float | None = None,
                       max_iter: int = 20, tol: float = 1e-6,
-                      hold: Sequence[str] = ()) -> LocationResult:
+                      hold: Sequence[str] = (), linear: Any = None) -> LocationResult:
     """Identify the location errors of the rotary axes from sphere readings.
 
     Parameters
@@ -368,6 +381,11 @@ def identify_location(nominal: FiveAxisMachine, blocks: Sequence[SphereReadings]
     hold : sequence of str
         Errors held at zero besides the redundant ones (the best fit of a model without
         them, e.g. a control's kinematics without tilts).
+    linear : LinearPrior, optional
+        The linear model's uncertainty on the readings
+        (:func:`volcal.identify.location_linear.linear_prior`): with a covariance, the fit
+        is generalised least squares with the readings' covariance ``diag(noise^2) + C_lin``
+        and the location errors' covariance includes the linear model's.
 
     Returns
     -------
@@ -377,7 +395,10 @@ def identify_location(nominal: FiveAxisMachine, blocks: Sequence[SphereReadings]
         raise VolcalInputError("no sphere readings to identify the location errors from")
     names = location_parameter_names(nominal.chain_obj)
     base = nominal.with_location(np.zeros(len(names)))
-    Jx, Jn, nnames, _, _ = design_jacobian(base, blocks)
+    # what the design determines is a property of the poses, not of the linear axes' small
+    # errors: analysed on the configured machine with perfect linear axes (the linear
+    # errors would otherwise lift redundant errors just above the threshold, with huge U)
+    Jx, Jn, nnames, _, _ = design_jacobian(_structural(base), blocks)
     ident = analyse_location(Jx, Jn, names, nnames, base.chain_obj)
     fitted = tuple(n for n in ident.free if n not in set(hold))
     free = [names.index(n) for n in fitted]
@@ -393,11 +414,20 @@ def identify_location(nominal: FiveAxisMachine, blocks: Sequence[SphereReadings]
     # nuisances scaled to um so the normal equations are well conditioned
     scale = np.array([1.0 / UM if ":s" in k else 1.0 for k in nnames])
 
-    def step(xv: Array, nv: dict[str, float], with_errors: bool):
+    # the linear model's covariance: whiten the weighted readings by C_w = K K^T
+    K = None
+    if linear is not None and linear.has_uncertainty:
+        Cw = np.eye(y.size) + linear.covariance(y.size) * np.outer(w, w)
+        K = np.linalg.cholesky(Cw)
+
+    def step(xv: Array, nv: dict[str, float], with_errors: bool, white: bool = True):
         m = base.with_location(xv)
         Jx_, Jn_, _, pred, _ = design_jacobian(m, blocks, nv)
         r = (y - pred) * w
         A = np.column_stack([Jx_[:, free], Jn_ / scale]) if with_errors else Jn_ / scale
+        if K is not None and white:
+            A = np.linalg.solve(K, A)
+            r = np.linalg.solve(K, r)
         return A, r
 
     # the nominal machine with only the sphere centres fitted: the scatter before
@@ -405,7 +435,7 @@ def identify_location(nominal: FiveAxisMachine, blocks: Sequence[SphereReadings]
         A, r = step(x, nuis, False)
         dn, *_ = np.linalg.lstsq(A, r, rcond=None)
         nuis = {k: v + dn[i] / scale[i] for i, (k, v) in enumerate(nuis.items())}
-    _, r = step(x, nuis, False)
+    _, r = step(x, nuis, False, white=False)
     rms_before = float(np.sqrt(np.mean((r / w) ** 2)))
     iterations = 0
     for it in range(1, max_iter + 1):
@@ -429,11 +459,17 @@ def identify_location(nominal: FiveAxisMachine, blocks: Sequence[SphereReadings]
     cov = cov_all[:nf, :nf]
     u = np.sqrt(np.diag(cov))
     est = {n: float(x[i]) for n, i in zip(fitted, free, strict=True)}
+    A0, r0 = step(x, nuis, True, white=False)
+    u_noise = None
+    if K is not None:
+        u0 = np.sqrt(np.diag(np.linalg.inv(A0.T @ A0 + np.diag(L))[:nf, :nf]))
+        u_noise = {n: float(u0[k]) for k, n in enumerate(fitted)}
     return LocationResult(
         names=fitted, estimate=est, u={n: float(u[k]) for k, n in enumerate(fitted)},
         covariance=cov, nuisances=nuis, identifiability=ident, machine=base.with_location(x),
-        rms_before_um=rms_before, rms_after_um=float(np.sqrt(np.mean((r / w) ** 2))),
-        chi2=float(r @ r), dof=int(r.size - A.shape[1]), iterations=iterations)
+        rms_before_um=rms_before, rms_after_um=float(np.sqrt(np.mean((r0 / w) ** 2))),
+        chi2=float(r @ r), dof=int(r.size - A.shape[1]), iterations=iterations,
+        linear=linear, u_without_linear=u_noise)
 
 
 def identifiability_markdown(reports: dict[tuple[str, str], LocationIdentifiability]) -> str:
@@ -497,7 +533,7 @@ def separation_advice(nominal: FiveAxisMachine, blocks: Sequence[SphereReadings]
         The advice in plain words (empty when the design determines everything well).
     """
     names = location_parameter_names(nominal.chain_obj)
-    base = nominal.with_location(np.zeros(len(names)))
+    base = _structural(nominal.with_location(np.zeros(len(names))))
 
     def report(bs: Sequence[SphereReadings]) -> LocationIdentifiability:
         Jx, Jn, nn, _, _ = design_jacobian(base, bs)

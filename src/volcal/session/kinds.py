@@ -47,6 +47,7 @@ BUILTIN_KINDS: dict[str, str] = {
     "angular": "volcal.kinds.angular",
     "rotary": "volcal.kinds.rotary",
     "probe_sphere": "volcal.kinds.probe_sphere",
+    "r_test": "volcal.kinds.r_test",
 }
 """Built-in kind -> the module that registers it (imported on the first look-up)."""
 

@@ -1,11 +1,15 @@
-"""Step ``locate``: the location errors of the rotary axes from probe-on-sphere tests.
+"""Step ``locate``: the location errors of the rotary axes from probe-on-sphere and R-test tests.
 
-``volcal locate SESSION`` reads the session's ``probe_sphere`` measurements (one chain),
+``volcal locate SESSION`` reads the session's ``probe_sphere`` and ``r_test`` measurements
+(one chain, either kind or both),
 identifies the location errors the poses determine with their uncertainty
 (:func:`volcal.identify.location.identify_location`) and says in plain words which errors
 the design cannot separate and what the determined ones stand for (``docs/fiveaxis.md``).
 The linear axes' errors are those of ``model`` (a ``volcal identify`` model file, or an
-error table such as a simulation's ``truth/machine.csv``), else taken as perfect.
+error table such as a simulation's ``truth/machine.csv``), else taken as perfect; a model
+file with its covariance enters as a prior with its uncertainty
+(:mod:`volcal.identify.location_linear`): the location errors' U then includes the linear
+model's.
 """
 
 from __future__ import annotations
@@ -22,6 +26,7 @@ from volcal.errors import ParameterError, VolcalInputError
 
 if TYPE_CHECKING:
     from volcal.identify.location import LocationResult
+    from volcal.identify.result import IdentificationResult
     from volcal.model.errorfunctions import MachineErrors
     from volcal.session.format import Session
 
@@ -31,6 +36,8 @@ LOCATE_FORMAT = "volcal-location/1"
 """``format`` of the JSON ``volcal locate --json`` writes."""
 COVERAGE_K = 2.0
 """Coverage factor of the expanded uncertainty U = k u."""
+SPHERE_KINDS = ("probe_sphere", "r_test")
+"""The kinds whose readings locate the rotary axes."""
 
 
 @dataclass(frozen=True)
@@ -49,6 +56,8 @@ class Located:
         The identifiability report in plain words, then the scatter.
     blocks : tuple of SphereReadings
         The readings used.
+    kinds : tuple of str
+        The kind of each measurement used (``probe_sphere``, ``r_test``).
     """
 
     result: LocationResult
@@ -56,6 +65,7 @@ class Located:
     measurements: tuple[str, ...]
     messages: tuple[str, ...] = field(default_factory=tuple)
     blocks: tuple[Any, ...] = field(default_factory=tuple)
+    kinds: tuple[str, ...] = field(default_factory=tuple)
 
     def to_json(self) -> dict[str, Any]:
         """The document of ``volcal locate --json`` (``docs/formats.md``)."""
@@ -74,6 +84,10 @@ class Located:
             "nuisances": r.nuisances, "rms_before_um": r.rms_before_um,
             "rms_after_um": r.rms_after_um, "chi2": r.chi2, "dof": r.dof,
             "messages": list(self.messages),
+            "kinds": list(self.kinds),
+            "linear_model": None if r.linear is None else r.linear.to_json(),
+            "u_without_linear": (None if r.u_without_linear is None
+                                 else dict(r.u_without_linear)),
         }
 
     def linuxcnc_trt(self, z_rot_point_mm: float | None = None) -> Any:
@@ -149,7 +163,9 @@ class Located:
 
     def to_text(self) -> str:
         """The table and the report as ``volcal locate`` prints them."""
-        lines = [f"chain {self.chain}: {len(self.measurements)} probe_sphere test(s)",
+        kinds = self.kinds or ("probe_sphere",) * len(self.measurements)
+        counts = ", ".join(f"{kinds.count(k)} {k} test(s)" for k in dict.fromkeys(kinds))
+        lines = [f"chain {self.chain}: {counts}",
                  f"{'error':6} {'value':>10} {'U (k=2)':>9}  unit  meaning"]
         for row in self.result.to_rows():
             u = float(row["u"])  # type: ignore[arg-type]
@@ -160,31 +176,35 @@ class Located:
 
 
 def _linear_model(model: Any):
-    if model is None or hasattr(model, "chain_obj"):  # None or a MachineErrors
+    """None, MachineErrors (an error table) or IdentificationResult (a model file)."""
+    if model is None or hasattr(model, "chain_obj") or hasattr(model, "layout"):
         return model
     p = Path(model)
     if p.suffix.lower() == ".json":
-        from volcal.identify.modelfile import load_model_errors
+        from volcal.identify.modelfile import load_model
 
-        return load_model_errors(p)
+        return load_model(p)
     from volcal.session.errortable import read_error_table
 
     return read_error_table(p)
 
 
-def locate(session: str | Path | Session, *, model: str | Path | MachineErrors | None = None,
+def locate(session: str | Path | Session, *,
+           model: str | Path | MachineErrors | IdentificationResult | None = None,
            measurements: list[str] | None = None, prior_u: float | None = None) -> Located:
-    """Identify the rotary axes' location errors from a session's probe_sphere tests.
+    """Identify the rotary axes' location errors from a session's probe_sphere and r_test tests.
 
     Parameters
     ----------
     session : str, Path or Session
         The session folder (or a read session).
-    model : str, Path or MachineErrors, optional
-        The linear axes' errors: a model file (``MODEL.json``), an error table
-        (``machine.csv``/``.toml``) or the errors themselves; None: perfect linear axes.
+    model : str, Path, IdentificationResult or MachineErrors, optional
+        The linear axes' errors: a model file (``MODEL.json``: its estimate, and its
+        covariance as a prior whose uncertainty the location errors' U then includes), an
+        error table (``machine.csv``/``.toml``: taken as known) or the errors themselves;
+        None: perfect linear axes.
     measurements : list of str, optional
-        Ids of the probe_sphere measurements to use (default all).
+        Ids of the probe_sphere and r_test measurements to use (default all).
     prior_u : float, optional
         Standard deviation of a zero-mean Gaussian prior on each determined location error
         [um for positions, urad for angles]; None: none (least squares).
@@ -196,45 +216,72 @@ def locate(session: str | Path | Session, *, model: str | Path | MachineErrors |
     Raises
     ------
     VolcalInputError
-        No probe_sphere test, tests of different chains or pivots, an unmeasured test.
+        No probe_sphere or r_test test, tests of different chains or pivots, an unmeasured
+        test.
     """
     from volcal.identify.location import identify_location, separation_advice
     from volcal.kinds.probe_sphere import five_axis_machine, sphere_readings
+    from volcal.kinds.r_test import rtest_readings_block
     from volcal.session.format import Session, read_session
 
     if prior_u is not None and not (math.isfinite(prior_u) and prior_u > 0):
         raise ParameterError(f"{{prior_u=}}{prior_u}: expected a positive standard deviation "
                              "[um or urad]")
     s = session if isinstance(session, Session) else read_session(session)
-    ms = [m for m in s.measurements if m.kind == "probe_sphere"]
+    ms = [m for m in s.measurements if m.kind in SPHERE_KINDS]
     if measurements is not None:
         unknown = sorted(set(measurements) - {m.id for m in ms})
         if unknown:
             raise ParameterError(f"{{measurements=}}{unknown[0]!r}: no probe_sphere test of "
-                                 "that id in the session")
+                                 "that id in the session (nor an r_test test)")
         ms = [m for m in ms if m.id in measurements]
     if not ms:
-        raise VolcalInputError("the session has no probe_sphere test (docs/fiveaxis.md)")
+        raise VolcalInputError("the session has no probe_sphere test and no r_test test "
+                               "(docs/fiveaxis.md)")
     for m in ms:
         if m.deviation is None:
-            raise VolcalInputError(f"probe_sphere test {m.id!r} is not measured: its CSV has "
-                                   "no reported centres (x_mm, y_mm, z_mm)")
+            what = ("no reported centres (x_mm, y_mm, z_mm)" if m.kind == "probe_sphere"
+                    else "no readings (dx_um, dy_um, dz_um or s1_um, s2_um, s3_um)")
+            raise VolcalInputError(f"{m.kind} test {m.id!r} is not measured: its CSV has {what}")
     ref = ms[0].meta
     for m in ms[1:]:
         if m.meta.get("chain") != ref.get("chain") or m.meta.get("pivot_mm") != ref.get(
                 "pivot_mm"):
-            raise VolcalInputError(f"probe_sphere tests {ms[0].id!r} and {m.id!r} give another "
-                                   "chain or pivots: locate one machine configuration at a time")
-    linear = _linear_model(model)
+            raise VolcalInputError(f"{ms[0].kind} test {ms[0].id!r} and {m.kind} test {m.id!r} "
+                                   "give another chain or pivots: locate one machine "
+                                   "configuration at a time")
+    loaded = _linear_model(model)
+    linear = getattr(loaded, "errors", loaded)
     nominal = five_axis_machine(ms[0], linear)
-    blocks = [sphere_readings(m) for m in ms]
-    res = identify_location(nominal, blocks, prior_u=prior_u)
+    blocks = [sphere_readings(m) if m.kind == "probe_sphere" else rtest_readings_block(m)
+              for m in ms]
+    msgs_linear: list[str] = []
+    prior = None
+    if model is not None and nominal.linear is None:
+        msgs_linear.append("The linear model's chain has another linear order than the tests' "
+                           f"chain {nominal.chain_obj.code}: it is not used (perfect linear "
+                           "axes).")
+    elif model is not None:
+        from volcal.identify.location_linear import linear_prior, linear_prior_note
+
+        prior = linear_prior(loaded, nominal, blocks)
+        msgs_linear.append(linear_prior_note(prior, model))
+    else:
+        msgs_linear.append("No linear model given: the linear axes are taken as perfect; their "
+                           "errors along the poses' linear positions go into the location "
+                           "errors unaccounted (volcal locate --model MODEL.json).")
+    res = identify_location(nominal, blocks, prior_u=prior_u, linear=prior)
     msgs = list(res.identifiability.messages) + separation_advice(nominal, blocks) + [
         f"Scatter of the readings: RMS {res.rms_before_um:.2f} um with the configured "
         f"kinematics, {res.rms_after_um:.2f} um with the identified location errors "
-        f"(chi-square {res.chi2:.1f} on {res.dof} degrees of freedom)."]
+        f"(chi-square {res.chi2:.1f} on {res.dof} degrees of freedom)."] + msgs_linear
+    if any(m.kind == "r_test" for m in ms):
+        msgs.append("R-test readings carry the rotary axes' error motions over the angle "
+                    "(radial, axial, tilt) too; they are not separated from the location "
+                    "errors: their first harmonic over a turn is one with the axis' location "
+                    "errors, the rest is left in the scatter after identification.")
     return Located(res, nominal.chain_obj.code, tuple(m.id for m in ms), tuple(msgs),
-                   tuple(blocks))
+                   tuple(blocks), tuple(m.kind for m in ms))
 
 
 def located_json(located: Located) -> str:

@@ -1,0 +1,216 @@
+r"""The linear axes' model as a prior of the location errors' identification.
+
+The sphere readings of a 5-axis machine (probe-on-sphere centres, R-test displacements)
+depend on the linear axes' errors at the poses' linear positions as much as on the rotary
+axes' location errors: the linear axes move by the pivot-to-sphere distance between poses.
+``volcal locate --model MODEL.json`` takes the laser model of the same machine
+(``volcal identify``) as known **with its uncertainty**: its estimate enters the forward
+model, and its posterior covariance ``Sigma = L L^T`` (the model's covariance factor, noise
+and systematic parts) enters the readings' covariance
+
+.. math:: C = \operatorname{diag}(\sigma^2) + G L L^T G^T + \operatorname{diag}(v_\mathrm{nug}),
+
+with ``G = d(reading)/d(theta_lin)`` the readings' sensitivity to the model's parameters
+(central differences of the exact forward model of :mod:`volcal.measure.spheres`, one per
+parameter the poses touch) and ``v_nug`` the model's variance of the positioning errors
+between its nodes (:meth:`IdentificationResult.nugget_variance`). Generalised least squares
+with ``C`` is the joint estimate of the location errors and the linear parameters under the
+model's Gaussian posterior as prior, the linear parameters marginalised (Kaipio &
+Somersalo, *Statistical and Computational Inverse Problems*, 2005, 3.3; the "approximation
+error" treatment of uncertain model parameters); the location errors' covariance then
+includes the linear model's uncertainty.
+
+An error table (``machine.csv``, a simulation's truth) or a model without its binary part
+carries no covariance: its errors are taken as known, and the report says so.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from volcal.measure.spheres import SphereReadings, probe_centres, rtest_readings
+from volcal.model.fiveaxis import FiveAxisMachine
+
+__all__ = ["LinearPrior", "linear_prior", "linear_prior_note"]
+
+Array = NDArray[np.float64]
+UM = 1e-3
+
+
+@dataclass
+class LinearPrior:
+    """The linear model's uncertainty as it acts on the sphere readings.
+
+    Attributes
+    ----------
+    source : str
+        What the linear errors are: ``'model with covariance'``, ``'model without
+        uncertainty'`` or ``'error table'``.
+    factor_rows : ndarray, shape (n, r)
+        ``G L``: the readings' response to each column of the model's covariance factor
+        [um per standard deviation], in the order of the blocks' readings.
+    nugget_var : ndarray, shape (n,)
+        Variance of the readings from the model's positioning errors between its nodes
+        [um^2].
+    parameters : int
+        Layout parameters the poses' linear positions touch.
+    notes : list of str
+        What is left out (positions outside the model's travel).
+    """
+
+    source: str
+    factor_rows: Array = field(default_factory=lambda: np.zeros((0, 0)))
+    nugget_var: Array = field(default_factory=lambda: np.zeros(0))
+    parameters: int = 0
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def has_uncertainty(self) -> bool:
+        """Whether the prior carries a covariance."""
+        return self.factor_rows.size > 0
+
+    def reading_std_um(self) -> Array:
+        """Standard deviation of each reading from the linear model's uncertainty [um]."""
+        if not self.has_uncertainty:
+            return np.zeros(self.nugget_var.size)
+        return np.asarray(np.sqrt(np.sum(self.factor_rows**2, axis=1) + self.nugget_var))
+
+    def covariance(self, n: int) -> Array:
+        """The readings' covariance from the linear model, shape (n, n) [um^2]."""
+        if not self.has_uncertainty:
+            return np.zeros((n, n))
+        F = self.factor_rows
+        return np.asarray(F @ F.T + np.diag(self.nugget_var))
+
+    def to_json(self) -> dict[str, Any]:
+        """The ``linear_model`` entry of ``volcal locate --json``."""
+        s = self.reading_std_um()
+        return {"source": self.source, "with_uncertainty": self.has_uncertainty,
+                "parameters": self.parameters,
+                "reading_u_um_max": float(s.max()) if s.size else 0.0,
+                "reading_u_um_rms": float(np.sqrt(np.mean(s**2))) if s.size else 0.0,
+                "notes": list(self.notes)}
+
+
+def _predict_um(machine: FiveAxisMachine, blocks: Sequence[SphereReadings]) -> Array:
+    """Every reading of the blocks on a machine [um], nominal spheres."""
+    out = []
+    for b in blocks:
+        if b.kind == "probe":
+            v = probe_centres(machine, b.angles, b.sphere_mm, b.tool_offset_mm,
+                              q0=b.values) / UM
+        else:
+            assert b.q_mm is not None
+            v = rtest_readings(machine, b.q_mm, b.angles, b.sphere_mm, b.tool_offset_mm)
+        out.append(np.asarray(v, dtype=float).reshape(-1))
+    return np.concatenate(out)
+
+
+def _positions(blocks: Sequence[SphereReadings]) -> Array:
+    return np.vstack([np.asarray(b.values if b.kind == "probe" else b.q_mm, dtype=float)
+                      for b in blocks])
+
+
+def linear_prior(model: Any, nominal: FiveAxisMachine, blocks: Sequence[SphereReadings]
+                 ) -> LinearPrior:
+    """The linear model's covariance on the sphere readings.
+
+    Parameters
+    ----------
+    model : IdentificationResult or MachineErrors
+        The linear model (``volcal identify``'s, with its covariance) or bare errors.
+    nominal : FiveAxisMachine
+        The configured machine with the model's errors as its linear errors.
+    blocks : sequence of SphereReadings
+        The readings.
+
+    Returns
+    -------
+    LinearPrior
+    """
+    q = _positions(blocks)
+    n = sum(3 * b.n_poses for b in blocks)
+    layout = getattr(model, "layout", None)
+    cov = getattr(model, "cov_factor", None)
+    if layout is None:
+        return LinearPrior("error table", nugget_var=np.zeros(n))
+    if cov is None:
+        return LinearPrior("model without uncertainty", nugget_var=np.zeros(n))
+    factor = model._factor(True)
+    L = np.zeros((layout.size, factor.shape[1]))
+    L[model.free] = factor
+    chain = model.errors.chain_obj
+    theta0 = layout.pack(model.errors)
+    # the parameters the poses touch: the two nodes around each position, the squareness
+    from volcal.model.errorfunctions import interp_weights
+
+    touched: set[int] = set(int(i) for i in layout.squareness_indices())
+    notes: list[str] = []
+    travel = model.errors.travel
+    for k in range(3):
+        i0, i1, _ = interp_weights(layout.nodes[k], q[:, k])
+        for i in np.unique(np.concatenate([i0, i1])):
+            touched.update(int(j) for j in layout.starts[k] + 6 * int(i) + np.arange(6))
+        out = (q[:, k] < travel[k, 0] - 1e-6) | (q[:, k] > travel[k, 1] + 1e-6)
+        if out.any():
+            notes.append(f"{int(out.sum())} pose(s) put {'XYZ'[k]} outside the model's travel "
+                         f"{travel[k, 0]:g}..{travel[k, 1]:g} mm: its errors there are the "
+                         "end node's (no extrapolation)")
+    idx = sorted(j for j in touched if np.any(L[j] != 0.0))
+    G = np.zeros((n, len(idx)))
+
+    def machine(theta: Array) -> FiveAxisMachine:
+        lin = layout.unpack(theta, chain, model.errors.name)
+        return FiveAxisMachine(nominal.chain_obj, nominal.rotary, lin, nominal.name)
+
+    for c, j in enumerate(idx):
+        h = 1.0  # [um or urad]: the readings are linear in it to far below a nanometre
+        tp, tm = theta0.copy(), theta0.copy()
+        tp[j] += h
+        tm[j] -= h
+        G[:, c] = (_predict_um(machine(tp), blocks) - _predict_um(machine(tm), blocks)) / (2 * h)
+    F = G @ L[idx]
+    # positioning errors between the nodes: uncorrelated, along the machine axes
+    nug = np.zeros(n)
+    from volcal.session.r_test import head_rotation
+
+    row = 0
+    for b in blocks:
+        qb = np.asarray(b.values if b.kind == "probe" else b.q_mm, dtype=float)
+        v = np.column_stack([model.nugget_variance(k, qb[:, k]) for k in range(3)])
+        if b.kind == "rtest":
+            R = head_rotation(nominal.chain_obj, b.angles)
+            v = np.einsum("mki,mk->mi", R**2, v)  # diagonal of R^T diag(v) R
+        nug[row:row + 3 * b.n_poses] = v.reshape(-1)
+        row += 3 * b.n_poses
+    return LinearPrior("model with covariance", F, nug, len(idx), notes)
+
+
+def linear_prior_note(prior: LinearPrior, model: Any) -> str:
+    """The report's sentence on the linear model, in plain words.
+
+    Parameters
+    ----------
+    prior : LinearPrior
+        The prior.
+    model : object
+        What was given (a path or the model), named in the sentence.
+    """
+    name = Path(model).name if isinstance(model, str | Path) else "the linear model"
+    if not prior.has_uncertainty:
+        why = ("an error table carries no uncertainty" if prior.source == "error table"
+               else "the model was loaded without its uncertainty (its binary part)")
+        return (f"The linear axes' errors are those of {name}, taken as known ({why}): the "
+                "location errors' U does not include them.")
+    s = prior.reading_std_um()
+    text = (f"The linear axes' errors are those of {name}, with its uncertainty: the model's "
+            f"covariance on the {prior.parameters} parameters the poses' linear positions "
+            f"touch moves the readings by up to {s.max():.2f} um (1 standard deviation, RMS "
+            f"{np.sqrt(np.mean(s**2)):.2f} um), and the location errors' U includes it.")
+    return " ".join([text] + prior.notes)

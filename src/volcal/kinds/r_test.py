@@ -1,0 +1,476 @@
+"""Kind ``r_test``: a sphere on the table read by three displacement sensors on the spindle.
+
+The R-test (Weikert 2004; ISO 10791-6:2014, annex; Ibaraki et al. 2010): a precision
+sphere fixed on the table and a nest of three displacement sensors in the spindle. Along a
+path of the rotary axes the linear axes follow, so that the control's configured
+kinematics keep the nominal sphere centre at the nest; where the rotary axes' lines sit
+elsewhere than configured, the sphere moves in the nest. At each pose the reading is the
+sphere's 3-D displacement relative to the nest (``dx_um, dy_um, dz_um`` along the machine
+axes, or the three sensors' readings converted through their directions).
+:func:`volcal.steps.locate.locate` identifies the location errors from them, alone or with
+``probe_sphere`` tests of the same machine (``docs/fiveaxis.md``).
+
+Session keys and CSV: :mod:`volcal.session.r_test` (``docs/formats.md``, "R-test
+measurements"). ``Measurement.positions`` holds the commanded linear positions [mm];
+the angles are the columns ``<axis>_deg``, the displacements the columns ``dx_um, dy_um,
+dz_um``; ``Measurement.deviation`` is the length of the displacement [um] (computed on
+reading, never stored).
+
+What the readings do not separate: with unknown sensor zeros and an unknown sphere
+position the positions of the table axes' lines are one with the sphere's set-up
+(``docs/fiveaxis.md``, "What a design determines"), and the rotary axes' error motions over
+the angle (radial, axial, tilt) are not estimated: their first harmonic over a full turn is
+one with the location errors of that axis, the rest stays in the residual
+(``rms_after_um``).
+
+The kind is not part of the linear identification (:attr:`in_design` is False).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+import scipy.sparse as sp
+from numpy.typing import NDArray
+
+from volcal.session.kinds import Kind, ReadContext, RowBlock, register_kind
+
+__all__ = ["RTestKind", "RTestSetup", "rtest_angles", "rtest_keys", "rtest_paths",
+           "rtest_readings_block"]
+
+DEFAULT_PIVOT_DROP_MM = 120.0
+"""Default plan: the tilting axis' line this far below the C pivot (a trunnion's)."""
+DEFAULT_SPHERE_OFFSET_MM = (150.0, 0.0, 40.0)
+"""Default plan: the sphere this far from the C pivot [mm] (along Y for a B cradle)."""
+C_STEP_DEG = 30.0
+"""Default plan: C turns in steps of this angle over a full circle [deg]."""
+TILT_FIXED_DEG = (0.0, -45.0, -90.0)
+"""Default plan: the tilting axis' fixed angles of the C paths [deg]."""
+TILT_SWEEP_DEG = (-90.0, 90.0, 15.0)
+"""Default plan: the tilting axis' sweep at C = 0 (from, to, step) [deg]."""
+DEFAULT_NOISE_UM = 0.5
+"""Default repeatability of one displacement component [um]."""
+
+
+@dataclass
+class RTestSetup:
+    """The hidden truth of a simulated r_test.
+
+    Attributes
+    ----------
+    chain : str
+        The chain.
+    location : dict of str to float
+        True location errors [um, urad].
+    sphere_mm : ndarray, shape (3,)
+        True sphere centre [mm].
+    """
+
+    chain: str
+    location: dict[str, float]
+    sphere_mm: NDArray[np.float64]
+
+    def to_truth(self) -> dict[str, Any]:
+        """The set-up's entry of ``truth/setup.toml``."""
+        return {"chain": self.chain, "location": {k: float(v) for k, v in self.location.items()},
+                "sphere_mm": [float(v) for v in self.sphere_mm]}
+
+
+def rtest_keys(m: Any) -> dict[str, Any]:
+    """The checked keys of an r_test measurement (:func:`check_rtest_keys`)."""
+    from volcal.session.r_test import check_rtest_keys
+
+    return check_rtest_keys(m.meta, None, m.id, m.id)
+
+
+def rtest_angles(m: Any) -> dict[str, NDArray[np.float64]]:
+    """Commanded angle of each rotary axis per pose [deg]."""
+    k = rtest_keys(m)
+    return {r: np.asarray(m.columns[f"{r.lower()}_deg"], dtype=float) for r in k["chain"].rotary}
+
+
+def _machine(m: Any, linear: Any = None, location: dict[str, float] | None = None):
+    from volcal.session.probe_sphere import five_axis_machine
+
+    return five_axis_machine(m, linear, location)
+
+
+def _displacement(m: Any) -> NDArray[np.float64]:
+    return np.column_stack([np.asarray(m.columns[c], dtype=float)
+                            for c in ("dx_um", "dy_um", "dz_um")])
+
+
+def rtest_readings_block(m: Any):
+    """The measurement as the location estimator's block (readings in the nest's frame).
+
+    Parameters
+    ----------
+    m : Measurement
+        A measured r_test measurement.
+
+    Returns
+    -------
+    volcal.measure.spheres.SphereReadings
+        ``kind = 'rtest'``: the displacement turned into the nest's frame
+        (``R_head^T d``), the commanded positions, the sphere and the noise.
+    """
+    from volcal.measure.spheres import SphereReadings
+    from volcal.session.r_test import head_rotation
+
+    k = rtest_keys(m)
+    ang = rtest_angles(m)
+    R = head_rotation(k["chain"], ang)
+    v = np.einsum("mji,mj->mi", R, _displacement(m))
+    return SphereReadings(m.id, "rtest", ang, v, k["sphere"], k["sphere_mm"],
+                          np.asarray(m.tool_offset, dtype=float),
+                          np.asarray(m.positions, dtype=float), k["noise_um"])
+
+
+def rtest_paths(pair: str) -> dict[str, NDArray[np.float64]]:
+    """The default R-test paths of a trunnion (ISO 10791-6; Ibaraki et al. 2010).
+
+    C turns a full circle in steps of :data:`C_STEP_DEG` at each fixed angle
+    :data:`TILT_FIXED_DEG` of the tilting axis (serpentine: up, down, up), then the tilting
+    axis sweeps :data:`TILT_SWEEP_DEG` with C at 0.
+
+    Parameters
+    ----------
+    pair : str
+        ``'ca'`` or ``'cb'``.
+
+    Returns
+    -------
+    dict of str to ndarray
+        ``C`` and the tilting axis' letter: angle per pose [deg].
+    """
+    tilt = pair[1].upper()
+    cs = np.arange(0.0, 360.0, C_STEP_DEG)
+    c_list: list[float] = []
+    t_list: list[float] = []
+    for i, a in enumerate(TILT_FIXED_DEG):
+        seq = cs if i % 2 == 0 else cs[::-1]
+        c_list += [float(c) for c in seq]
+        t_list += [a] * seq.size
+    lo, hi, step = TILT_SWEEP_DEG
+    sweep = np.arange(lo, hi + 0.5 * step, step)
+    c_list += [0.0] * sweep.size
+    t_list += [float(v) for v in sweep]
+    return {"C": np.array(c_list), tilt: np.array(t_list)}
+
+
+class RTestKind(Kind):
+    """R-test: the sphere's displacement in a nest of three sensors along rotary paths."""
+
+    name: ClassVar[str] = "r_test"
+    targets: ClassVar[tuple[str, ...]] = ("r_test_nest",)
+    own_targets: ClassVar[tuple[str, ...]] = ("r_test_nest",)
+    value_column: ClassVar[str] = "dx_um"
+    value_unit: ClassVar[str] = "um"
+    beam_in_session: ClassVar[bool] = False
+    bidirectional: ClassVar[bool] = False
+    standard: ClassVar[str | None] = None
+    in_design: ClassVar[bool] = False
+    plan_tests: ClassVar[tuple[str, ...]] = ("r_test",)
+    description: ClassVar[str] = ("R-test: a sphere's 3-D displacement in a nest of sensors "
+                                  "along rotary paths, location errors of the rotary axes "
+                                  "(docs/fiveaxis.md)")
+
+    # -- session -----------------------------------------------------------------------
+    def read(self, entry: dict[str, Any], ctx: ReadContext) -> Any:
+        """The entry's keys and its CSV (``<axis>_deg``, ``x_mm...``, ``dx_um...``).
+
+        Parameters
+        ----------
+        entry : dict
+            The ``[[measurements]]`` entry as parsed.
+        ctx : ReadContext
+            Its checked keys and the session's context.
+        """
+        from volcal.errors import VolcalInputError
+        from volcal.measure.spheres import probe_centres
+        from volcal.session.format import MISSED_META, Measurement
+        from volcal.session.r_test import check_rtest_keys, read_rtest_csv
+
+        k = check_rtest_keys(entry, ctx.toml_path, ctx.where, ctx.id)
+        meta = {key: v for key, v in entry.items()
+                if key not in ("id", "kind", "target", "file", "tool_offset_mm", "beam_direction")}
+        r = read_rtest_csv(ctx.csv_path, k["chain"], k["sensor_directions"], ctx.toml_path,
+                           ctx.where)
+        angles, q, d, missed, rows = r["angles"], r["q"], r["d"], r["missed"], r["rows"]
+        n = rows.size
+        if q is None:  # the configured kinematics' solution: the nest on the nominal sphere
+            from volcal.model.fiveaxis import FiveAxisMachine
+            from volcal.model.rotary import RotaryAxis
+
+            rot = {a: RotaryAxis(a, k["pivot_mm"][a], full_circle=a == "C")
+                   for a in k["chain"].rotary}
+            q = probe_centres(FiveAxisMachine(k["chain"], rot), angles, k["sphere_mm"],
+                              ctx.tool_offset)
+        keep = ~missed
+        if d is not None and missed.any():
+            if ctx.require_deviation:
+                meta[MISSED_META] = [{"row": int(rows[i]), "position_mm": [float(v) for v in q[i]],
+                                      **{f"{a.lower()}_deg": float(angles[a][i]) for a in angles}}
+                                     for i in np.flatnonzero(missed)]
+                ctx.notes.append(f"{ctx.csv_path}: {int(missed.sum())} missed pose(s) left out")
+            else:
+                keep = np.ones(n, dtype=bool)
+        if keep.sum() < 1:
+            raise VolcalInputError("no pose read", ctx.csv_path, None, "dx_um")
+        columns: dict[str, Any] = {f"{a.lower()}_deg": v[keep] for a, v in angles.items()}
+        columns.update({c: v[keep] for c, v in r["extra"].items()})
+        if d is not None:
+            dd = np.nan_to_num(d[keep])
+            for i, c in enumerate(("dx_um", "dy_um", "dz_um")):
+                columns[c] = dd[:, i]
+            if r["sensors"] is not None:
+                s = np.nan_to_num(r["sensors"][keep])
+                for i, c in enumerate(("s1_um", "s2_um", "s3_um")):
+                    columns[c] = s[:, i]
+        m = Measurement(ctx.id, self.name, ctx.target, np.asarray(q[keep], dtype=float), None,
+                        np.array([0.0, 0.0, 1.0]), ctx.tool_offset, ctx.file, columns, meta,
+                        rows[keep])
+        if d is not None:
+            m.deviation = np.linalg.norm(np.nan_to_num(d[keep]), axis=1)
+        return m
+
+    def csv_text(self, m: Any) -> str | None:
+        """``<axis>_deg``, ``x_mm, y_mm, z_mm`` and ``dx_um, dy_um, dz_um`` (or s1..s3).
+
+        Parameters
+        ----------
+        m : Measurement
+            The measurement.
+        """
+        from volcal.session.r_test import rtest_csv
+
+        if m.deviation is None:
+            return rtest_csv(rtest_angles(m), m.positions, None, m.columns)
+        sensors = None
+        if "s1_um" in m.columns:
+            sensors = np.column_stack([np.asarray(m.columns[c], dtype=float)
+                                       for c in ("s1_um", "s2_um", "s3_um")])
+        return rtest_csv(rtest_angles(m), m.positions, _displacement(m), m.columns, sensors)
+
+    # -- forward model -----------------------------------------------------------------
+    def exact(self, machine: Any, m: Any, setup: Any = None) -> NDArray[np.float64]:
+        """Exact readings of a virtual machine, counted from the first pose [um], (n, 3).
+
+        The sphere's displacement relative to the nest along the machine axes, with the
+        sensors zeroed at the first pose.
+
+        Parameters
+        ----------
+        machine : MachineErrors
+            The linear axes' errors of the virtual machine (used when the chain's linear
+            order is the machine's).
+        m : Measurement
+            The measurement.
+        setup : RTestSetup, optional
+            The hidden location errors and sphere centre; None: none, the nominal sphere.
+        """
+        from volcal.measure.spheres import rtest_readings
+        from volcal.session.r_test import head_rotation
+
+        k = rtest_keys(m)
+        loc = setup.location if setup is not None else {}
+        sphere = setup.sphere_mm if setup is not None else k["sphere_mm"]
+        fm = _machine(m, machine if hasattr(machine, "chain_obj") else None, loc)
+        ang = rtest_angles(m)
+        r = rtest_readings(fm, m.positions, ang, sphere, m.tool_offset)
+        d = np.einsum("mij,mj->mi", head_rotation(k["chain"], ang), r)
+        return np.asarray(d - d[0], dtype=float)
+
+    def rows(self, chain_order: Any, nodes: Any, m: Any, *, drift: bool = False,
+             tilts: bool = True) -> RowBlock:
+        """No rows on the linear axes' parameters (:attr:`in_design` is False).
+
+        Parameters
+        ----------
+        chain_order : sequence of int
+            ``Chain.order``.
+        nodes : list of 3 arrays
+            Node positions per axis [mm].
+        m : Measurement
+            The measurement.
+        drift : bool
+            Unused.
+        tilts : bool
+            Unused.
+        """
+        P = sum(6 * len(n) for n in nodes) + 3
+        y = np.zeros(m.n) if m.deviation is None else np.asarray(m.deviation, dtype=float)
+        return RowBlock(sp.csr_matrix((m.n, P)), y, np.ones((m.n, 1)), [f"{m.id}:offset"])
+
+    def simulate(self, m: Any, machine: Any, rng: np.random.Generator, options: Any,
+                 shared: dict[str, Any]) -> Any:
+        """Readings of a virtual 5-axis machine with hidden location errors.
+
+        The location errors are those of the session's probe_sphere tests of the same
+        chain (one draw per chain, :func:`volcal.measure.fiveaxis_virtual.random_location`:
+        positions within +-2 mm, orientations and zeros within +-200 urad), the sphere
+        drawn once per sphere id within +-1 mm of its nominal centre; the sensors zeroed at
+        the first pose; noise of the test's ``noise_um`` on each displacement component.
+        The machine's linear errors act as well (the linear axes follow the configured
+        kinematics' positions, so their errors at those positions move the nest).
+
+        Parameters
+        ----------
+        m : Measurement
+            Planned measurement.
+        machine : MachineErrors
+            The virtual machine (linear axes).
+        rng : numpy.random.Generator
+            The simulation's generator.
+        options : SimulationOptions
+            Its dwell gives ``time_s``.
+        shared : dict
+            State shared by the measurements of one simulation.
+
+        Returns
+        -------
+        RTestSetup
+            The hidden truth (``truth/setup.toml``).
+        """
+        from volcal.measure.fiveaxis_virtual import random_location
+
+        k = rtest_keys(m)
+        chain = k["chain"].code
+        locs = shared.setdefault("probe_sphere_location", {})
+        if chain not in locs:
+            locs[chain] = random_location(chain, rng)
+        spheres = shared.setdefault("probe_sphere_spheres", {})
+        if k["sphere"] not in spheres:
+            spheres[k["sphere"]] = k["sphere_mm"] + rng.uniform(-1.0, 1.0, 3)
+        setup = RTestSetup(chain, dict(locs[chain]), spheres[k["sphere"]])
+        d = self.exact(machine, m, setup)
+        # the CSV's resolution (0.1 nm), so that the file holds exactly the readings
+        d = np.round(d + rng.normal(0.0, k["noise_um"], d.shape), 4)
+        for i, c in enumerate(("dx_um", "dy_um", "dz_um")):
+            m.columns[c] = d[:, i]
+        for c in ("s1_um", "s2_um", "s3_um"):
+            m.columns.pop(c, None)
+        m.deviation = np.linalg.norm(d, axis=1)
+        m.columns["time_s"] = np.arange(m.n) * options.dwell_s
+        return setup
+
+    # -- advise --------------------------------------------------------------------------
+    def advise_notes(self, session: Any, planned: Any, options: Any) -> list[str]:
+        """What the planned R-test paths will determine of the location errors.
+
+        Parameters
+        ----------
+        session : Session
+            The planned session.
+        planned : Session
+            Its copy with zero readings.
+        options : IdentifyOptions
+            Unused.
+        """
+        from volcal.identify.location import (
+            analyse_location,
+            design_jacobian,
+            separation_advice,
+        )
+        from volcal.model.fiveaxis import location_parameter_names
+
+        ms = [m for m in session.measurements + session.unmeasured if m.kind == self.name]
+        notes: list[str] = []
+        for chain in dict.fromkeys(rtest_keys(m)["chain"].code for m in ms):
+            group = [m for m in ms if rtest_keys(m)["chain"].code == chain]
+            nominal = _machine(group[0])
+            blocks = [rtest_readings_block(_zero_readings(m)) for m in group]
+            Jx, Jn, nn, _, _ = design_jacobian(nominal, blocks)
+            rep = analyse_location(Jx, Jn, location_parameter_names(chain), nn,
+                                   nominal.chain_obj)
+            notes += [f"r_test ({chain}): {msg}" for msg in rep.messages]
+            notes += [f"r_test ({chain}): {msg}" for msg in separation_advice(nominal, blocks)]
+        return notes
+
+    # -- program -------------------------------------------------------------------------
+    def program_text(self, m: Any, dialect: str, name: str, number: int, options: Any
+                     ) -> tuple[str, list[str]] | None:
+        """The R-test path for LinuxCNC (:mod:`volcal.program.r_test`).
+
+        Parameters
+        ----------
+        m : Measurement
+            The measurement.
+        dialect : str
+            The dialect (other than LinuxCNC: a listing of the poses).
+        name : str
+            Program name.
+        number : int
+            Program number.
+        options : volcal.program.steps.ProgramOptions
+            Decimals, safe Z, feed, dwell.
+        """
+        from volcal.program.r_test import rtest_program
+
+        return rtest_program(m, dialect, name, number, options)
+
+    # -- plan ----------------------------------------------------------------------------
+    def plan(self, test: str, options: Any, only: str | None = None) -> list[Any]:
+        """A trunnion's R-test: C turning at fixed tilts, then the tilt sweeping at C = 0.
+
+        The chain is ``CA`` + the plan's linear chain (``only`` = ``cb`` for a B cradle);
+        the C pivot at the centre of the X and Y travel and the bottom of Z, the tilting
+        axis' line 120 mm below it, the sphere 150 mm off the C axis and 40 mm up
+        (``docs/fiveaxis.md``); the paths of :func:`rtest_paths`; the commanded positions
+        are the configured kinematics' (the nest on the nominal sphere). Edit the
+        session's pivots, sphere, nest offset and paths to the machine's.
+
+        Parameters
+        ----------
+        test : str
+            ``'r_test'``.
+        options : volcal.plan.planner.PlanOptions
+            The plan's travel and chain.
+        only : str or None
+            Rotary letters of the table (``'ca'`` default, ``'cb'``).
+        """
+        from volcal.errors import VolcalInputError
+        from volcal.measure.spheres import probe_centres
+        from volcal.model.chain import parse_machine_chain
+        from volcal.model.fiveaxis import FiveAxisMachine
+        from volcal.model.rotary import RotaryAxis
+        from volcal.session.format import Measurement
+
+        pair = (only or "ca").lower()
+        if len(pair) != 2 or pair[0] != "c" or pair[1] not in "ab":
+            raise VolcalInputError(f"r_test:{only}: expected ca or cb (C on an A or B cradle)")
+        chain = parse_machine_chain(pair.upper() + options.chain)
+        t = np.asarray(options.t, dtype=float)
+        pc = np.array([t[0].mean(), t[1].mean(), t[2, 0]])
+        pt = pc - np.array([0.0, 0.0, DEFAULT_PIVOT_DROP_MM])
+        pivots = {"c": [float(v) for v in pc], pair[1]: [float(v) for v in pt]}
+        off = np.array(DEFAULT_SPHERE_OFFSET_MM)
+        if pair == "cb":
+            off = off[[1, 0, 2]]
+        sphere = pc + off
+        ang = rtest_paths(pair)
+        rot = {"C": RotaryAxis("C", pc), pair[1].upper(): RotaryAxis(pair[1].upper(), pt,
+                                                                      full_circle=False)}
+        q = probe_centres(FiveAxisMachine(chain, rot), ang, sphere, np.zeros(3))
+        meta = {"chain": chain.code, "pivot_mm": pivots, "sphere": "R1",
+                "sphere_mm": [float(v) for v in sphere], "noise_um": DEFAULT_NOISE_UM}
+        cols = {f"{r.lower()}_deg": a for r, a in ang.items()}
+        mid = "r_test" if pair == "ca" else f"r_test_{pair}"
+        return [Measurement(mid, self.name, "r_test_nest", np.round(q, 6), None,
+                            np.array([0.0, 0.0, 1.0]), np.zeros(3), f"{mid}.csv", cols, meta)]
+
+
+def _zero_readings(m: Any) -> Any:
+    """A copy of a (planned) measurement with zero displacements, for the design's analysis."""
+    import copy
+
+    c = copy.copy(m)
+    c.columns = dict(m.columns)
+    for col in ("dx_um", "dy_um", "dz_um"):
+        c.columns.setdefault(col, np.zeros(m.n))
+    return c
+
+
+R_TEST = register_kind(RTestKind)

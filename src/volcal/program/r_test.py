@@ -1,0 +1,218 @@
+"""Part program of an r_test: the rotary paths with the linear axes following (LinuxCNC).
+
+The R-test nest (three displacement sensors in the spindle) must stay around the sphere
+while the rotary axes turn, so the linear axes follow. Two ways, the test's
+``control_kinematics`` says which:
+
+* ``"joints"`` (default; LinuxCNC with ``trivkins``, X Y Z the linear axes' positions):
+  volcal computes the linear positions with the **configured** kinematics (the test's
+  ``pivot_mm``: :func:`volcal.measure.spheres.probe_centres`, the nest centre on the
+  nominal sphere) at every pose and at intermediate angles at most ``MAX_STEP_DEG`` apart,
+  and writes ``G1`` moves of all five axes between them: the chord between two steps
+  leaves the nest at most ``r (1 - cos(step / 2))`` off the sphere (19 um at 500 mm from
+  the axes and 1 deg);
+* ``"tcp"`` (a tool centre point control, LinuxCNC's ``xyzac-trt-kins``/``xyzbc-trt-kins``:
+  X Y Z are the table's coordinates, ``man 9 kins``): X Y Z stay at the sphere's table
+  coordinates and only the rotary axes are programmed; the control makes the linear axes
+  follow with its configured pins.
+
+**Safe as written.** Z goes up to ``safe_z_mm`` first (machine coordinates, ``G53``; in
+table coordinates above the sphere for ``"tcp"``), then the rotary axes turn to the first
+pose, then X Y, then Z down to ``CLEARANCE_MM`` above the sphere along the tool axis and
+the nest is lowered onto the sphere at the slow ``APPROACH_FEED_MM_MIN``; ``M0`` stops for
+the operator to check the sphere sits in the nest and to zero the sensors (they read
+relative to the first pose). Each measuring pose dwells ``dwell_s`` (the sensors are read
+at standstill). At the end the path returns, following, to the first pose and the nest is
+lifted off along the tool axis before Z goes up. Rotary angles are the control's
+(``control_angle_sign``: volcal's times it).
+
+Only LinuxCNC is written; for another dialect volcal lists the poses with the nominal
+linear positions (a HEIDENHAIN or Siemens control with TCPM/TRAORI runs the path with its
+own tool centre point function: program the sphere's table coordinates and the angles).
+
+References: ISO 10791-6:2014, annex (R-test); Ibaraki, S., Oyama, C., Otsubo, H.,
+"Construction of an error map of rotary axes on a five-axis machining center by static
+R-test", Int. J. Machine Tools and Manufacture 51 (2011) 190-200; LinuxCNC G-code
+reference (G1, G4, G53, M0).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from volcal.errors import VolcalInputError
+from volcal.program.dialects import _paren_comment
+
+__all__ = ["APPROACH_FEED_MM_MIN", "CLEARANCE_MM", "MAX_STEP_DEG", "rtest_program",
+           "rtest_path_points"]
+
+CLEARANCE_MM = 10.0
+"""Distance along the tool axis above the sphere from which the nest is lowered [mm]."""
+APPROACH_FEED_MM_MIN = 200.0
+"""Feed of lowering the nest onto the sphere and lifting it off [mm/min]."""
+MAX_STEP_DEG = 1.0
+"""Largest angle between two interpolated points of a following move [deg]."""
+FOLLOW_FEED_MAX_MM_MIN = 1000.0
+"""Largest feed of a following move [mm/min]."""
+
+
+def _f(v: float, d: int) -> str:
+    s = f"{v:.{d}f}"
+    return s[1:] if s == "-0." + "0" * d else s
+
+
+def rtest_path_points(angles: dict[str, np.ndarray], max_step_deg: float = MAX_STEP_DEG
+                      ) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """The poses with interpolated angles between consecutive ones.
+
+    Parameters
+    ----------
+    angles : dict of str to ndarray
+        Angle per rotary axis per pose [deg].
+    max_step_deg : float
+        Largest angle step of any axis between two points [deg].
+
+    Returns
+    -------
+    points : dict of str to ndarray
+        Angles of every point of the path [deg].
+    is_pose : ndarray of int
+        Index of the pose a point is (-1 for an intermediate point).
+    """
+    letters = list(angles)
+    A = np.column_stack([np.asarray(angles[a], dtype=float) for a in letters])
+    pts = [A[0]]
+    pose = [0]
+    for i in range(1, A.shape[0]):
+        span = np.abs(A[i] - A[i - 1]).max()
+        n = max(1, int(np.ceil(span / max_step_deg - 1e-9)))
+        for k in range(1, n + 1):
+            pts.append(A[i - 1] + (A[i] - A[i - 1]) * k / n)
+            pose.append(i if k == n else -1)
+    P = np.array(pts)
+    return {a: P[:, j] for j, a in enumerate(letters)}, np.array(pose)
+
+
+def rtest_program(m: Any, dialect: str, name: str, number: int, options: Any
+                  ) -> tuple[str, list[str]]:
+    """The part program of an r_test measurement.
+
+    Parameters
+    ----------
+    m : Measurement
+        The planned test (chain, pivots, sphere, poses, commanded positions).
+    dialect : str
+        ``'linuxcnc'`` writes the path; any other dialect a listing of the poses.
+    name : str
+        Program name.
+    number : int
+        Program number (unused).
+    options : volcal.program.steps.ProgramOptions
+        ``decimals``, ``safe_z_mm``, ``dwell_s``, ``feed`` (capped at
+        ``FOLLOW_FEED_MAX_MM_MIN`` for the following moves).
+
+    Returns
+    -------
+    (text, warnings)
+    """
+    from volcal.kinds.r_test import _machine, rtest_angles, rtest_keys
+    from volcal.measure.spheres import probe_centres
+    from volcal.model.fiveaxis import exact_pose5
+
+    k = rtest_keys(m)
+    nominal = _machine(m)
+    ang = rtest_angles(m)
+    letters = list(ang)
+    sign = k["control_angle_sign"]
+    d = options.decimals
+    s = np.asarray(k["sphere_mm"], dtype=float)
+    t = np.asarray(m.tool_offset, dtype=float)
+    feed = min(float(options.feed), FOLLOW_FEED_MAX_MM_MIN)
+    tcp = k["control_kinematics"] == "tcp"
+    head = [f"volcal r_test program {name}: test {m.id}, chain {k['chain'].code}, {m.n} poses",
+            f"nominal sphere centre {', '.join(f'{v:g}' for v in s)} mm (table coordinates at "
+            f"the zero pose); nest centre {', '.join(f'{v:g}' for v in t)} mm from the tool "
+            "reference point",
+            "the linear axes follow: " + ("the control's tool centre point kinematics "
+                                          "(X Y Z are table coordinates)" if tcp else
+                                          "positions computed by volcal with the configured "
+                                          "pivots (pivot_mm)"),
+            "rotary angles: the control's" + (" (minus volcal's: control_angle_sign = -1)"
+                                              if sign < 0 else ", volcal's"),
+            "coordinates: G54 = machine zero (no work offset), no tool length offset"
+            + ("" if not tcp else " beyond the nest's in the kinematics")]
+    warnings: list[str] = []
+    pts, is_pose = rtest_path_points(ang)
+    if dialect != "linuxcnc":
+        lines = [_paren_comment(h) for h in head] + [
+            _paren_comment(f"{dialect}: run the path with the control's tool centre point "
+                           "function (TCPM, TRAORI) at the sphere's table coordinates, "
+                           "reading the sensors at each pose")]
+        for i in range(m.n):
+            pose = " ".join(f"{a}={sign * ang[a][i]:.3f}" for a in letters)
+            q = " ".join(f"{ax}={_f(v, d)}" for ax, v in zip("XYZ", m.positions[i], strict=True))
+            lines.append(_paren_comment(f"pose {i + 1}: {pose} linear axes {q}"))
+        warnings.append(f"{m.id}: the {dialect} program lists the poses; volcal writes the "
+                        "R-test path for LinuxCNC only")
+        return "\n".join(lines) + "\n", warnings
+    # the tool axis at the first and last pose, workpiece coordinates (for the approach)
+    first = {a: ang[a][:1] for a in letters}
+    _, R0 = exact_pose5(nominal, m.positions[:1], first, t)
+    axis0 = R0[0][:, 2]
+    safe = float(options.safe_z_mm)
+    out = [_paren_comment(h) for h in head] + ["G21 G90 G17 G40 G49 G94 G54"]
+
+    def rot(i: int, src: dict[str, np.ndarray]) -> str:
+        return " ".join(f"{a}{_f(sign * src[a][i], d)}" for a in letters)
+
+    def xyz(v: np.ndarray) -> str:
+        return " ".join(f"{ax}{_f(x, d)}" for ax, x in zip("XYZ", v, strict=True))
+
+    if tcp:
+        if not np.allclose(axis0, [0.0, 0.0, 1.0], atol=1e-9):
+            raise VolcalInputError("control_kinematics = \"tcp\": the first pose must hold the "
+                                   "tool along the table's Z (the approach and retract go "
+                                   "along it)", None, None, f"measurements.{m.id}.file")
+        above = s + CLEARANCE_MM * axis0
+        if safe < above[2]:
+            raise VolcalInputError(f"--safe-z-mm {safe:g}: below the approach point "
+                                   f"{above[2]:g} mm above the sphere (table coordinates)")
+        out += [f"G0 Z{_f(safe, d)}", "G0 " + rot(0, ang),
+                f"G0 X{_f(above[0], d)} Y{_f(above[1], d)}", f"G0 Z{_f(above[2], d)}",
+                f"G1 {xyz(s)} F{APPROACH_FEED_MM_MIN:g}"]
+    else:
+        above = probe_centres(nominal, first, s + CLEARANCE_MM * axis0, t)[0]
+        out += [f"G53 G0 Z{_f(safe, d)}", "G0 " + rot(0, ang),
+                f"G0 X{_f(above[0], d)} Y{_f(above[1], d)}", f"G0 Z{_f(above[2], d)}",
+                f"G1 {xyz(m.positions[0])} F{APPROACH_FEED_MM_MIN:g}"]
+    out += ["M0 (the sphere in the nest: zero the sensors, start recording, cycle start)",
+            _paren_comment(f"pose 1 of {m.n}"), f"G4 P{options.dwell_s:g}"]
+    # intermediate points: the configured kinematics' positions (joints) or none (tcp)
+    mid = np.flatnonzero(is_pose < 0)
+    q_mid = (probe_centres(nominal, {a: pts[a][mid] for a in letters}, s, t)
+             if mid.size and not tcp else np.zeros((0, 3)))
+    qi = {int(j): q_mid[n] for n, j in enumerate(mid)}
+
+    def follow(j: int, q: np.ndarray) -> str:
+        return f"G1 {rot(j, pts)}" + ("" if tcp else f" {xyz(q)}") + f" F{feed:g}"
+
+    for j in range(1, is_pose.size):
+        p = int(is_pose[j])
+        out.append(follow(j, m.positions[p] if p >= 0 else qi.get(j, np.zeros(3))))
+        if p >= 0:
+            out += [_paren_comment(f"pose {p + 1} of {m.n}"), f"G4 P{options.dwell_s:g}"]
+    # back to the first pose, following, then lift the nest off along the tool axis
+    back = {a: np.array([ang[a][-1], ang[a][0]]) for a in letters}
+    bpts, bpose = rtest_path_points(back)
+    bmid = np.flatnonzero(bpose < 0)
+    bq = (probe_centres(nominal, {a: bpts[a][bmid] for a in letters}, s, t)
+          if bmid.size and not tcp else np.zeros((0, 3)))
+    out.append(_paren_comment("back to the first pose, following"))
+    for n, j in enumerate(bmid):
+        out.append(f"G1 {rot(int(j), bpts)}" + ("" if tcp else f" {xyz(bq[n])}") + f" F{feed:g}")
+    out.append(f"G1 {rot(0, ang)}" + ("" if tcp else f" {xyz(m.positions[0])}") + f" F{feed:g}")
+    out.append(f"G1 {xyz(above)} F{APPROACH_FEED_MM_MIN:g}")
+    out += [f"G0 Z{_f(safe, d)}" if tcp else f"G53 G0 Z{_f(safe, d)}", "M2"]
+    return "\n".join(out) + "\n", warnings

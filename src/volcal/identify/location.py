@@ -249,6 +249,9 @@ def analyse_location(J_x: Array, J_n: Array, names: Sequence[str], nuisance_name
 
 
 def _fmt_combo(g: str, ks: dict[str, float], kept: set[str]) -> str:
+    if not ks:
+        return (f"{describe(g)} does not act on these readings: no reading depends on it at "
+                "these poses (its axis does not turn away from its zero in them).")
     errs = {n: k for n, k in ks.items() if n in kept}
     nuis = [n for n in ks if n not in kept]
     unit_g = info(g).unit
@@ -494,6 +497,8 @@ def identifiability_markdown(reports: dict[tuple[str, str], LocationIdentifiabil
             ks = {n: k for n, k in rep.combinations[g].items() if n in rep.free}
             if ks:
                 combos += [f"{n} {'-' if k < 0 else '+'} {abs(k):.3g} {g}" for n, k in ks.items()]
+            elif not rep.combinations[g]:
+                combos.append(f"{g} not acting at these poses")
             else:
                 what = ("the sphere centre and the sensor zeros"
                         if any(":zero_" in n for n in rep.combinations[g])

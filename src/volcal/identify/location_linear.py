@@ -28,7 +28,6 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -200,9 +199,9 @@ def linear_prior_note(prior: LinearPrior, model: Any) -> str:
     prior : LinearPrior
         The prior.
     model : object
-        What was given (a path or the model), named in the sentence.
+        What was given (a path or the model).
     """
-    name = Path(model).name if isinstance(model, str | Path) else "the linear model"
+    name = "the error table given" if prior.source == "error table" else "the model given"
     if not prior.has_uncertainty:
         why = ("an error table carries no uncertainty" if prior.source == "error table"
                else "the model was loaded without its uncertainty (its binary part)")

@@ -417,11 +417,13 @@ def identify_location(nominal: FiveAxisMachine, blocks: Sequence[SphereReadings]
     # nuisances scaled to um so the normal equations are well conditioned
     scale = np.array([1.0 / UM if ":s" in k else 1.0 for k in nnames])
 
-    # the linear model's covariance: whiten the weighted readings by C_w = K K^T
+    # the linear model's covariance: whiten the weighted readings by K = chol(C_w)^-1
     K = None
     if linear is not None and linear.has_uncertainty:
+        from scipy.linalg import solve_triangular
+
         Cw = np.eye(y.size) + linear.covariance(y.size) * np.outer(w, w)
-        K = np.linalg.cholesky(Cw)
+        K = solve_triangular(np.linalg.cholesky(Cw), np.eye(y.size), lower=True)  # K^-1
 
     def step(xv: Array, nv: dict[str, float], with_errors: bool, white: bool = True):
         m = base.with_location(xv)
@@ -429,8 +431,8 @@ def identify_location(nominal: FiveAxisMachine, blocks: Sequence[SphereReadings]
         r = (y - pred) * w
         A = np.column_stack([Jx_[:, free], Jn_ / scale]) if with_errors else Jn_ / scale
         if K is not None and white:
-            A = np.linalg.solve(K, A)
-            r = np.linalg.solve(K, r)
+            A = K @ A
+            r = K @ r
         return A, r
 
     # the nominal machine with only the sphere centres fitted: the scatter before

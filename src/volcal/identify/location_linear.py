@@ -162,18 +162,37 @@ def linear_prior(model: Any, nominal: FiveAxisMachine, blocks: Sequence[SphereRe
                          f"{travel[k, 0]:g}..{travel[k, 1]:g} mm: its errors there are the "
                          "end node's (no extrapolation)")
     idx = sorted(j for j in touched if np.any(L[j] != 0.0))
-    G = np.zeros((n, len(idx)))
+    col = {j: c for c, j in enumerate(idx)}
 
-    def machine(theta: Array) -> FiveAxisMachine:
-        lin = layout.unpack(theta, chain, model.errors.name)
+    def machine(lin: Any) -> FiveAxisMachine:
         return FiveAxisMachine(nominal.chain_obj, nominal.rotary, lin, nominal.name)
 
-    for c, j in enumerate(idx):
-        h = 1.0  # [um or urad]: the readings are linear in it to far below a nanometre
-        tp, tm = theta0.copy(), theta0.copy()
-        tp[j] += h
-        tm[j] -= h
-        G[:, c] = (_predict_um(machine(tp), blocks) - _predict_um(machine(tm), blocks)) / (2 * h)
+    h = 1.0  # [um or urad]: the readings are linear in it to far below a nanometre
+    G = np.zeros((n, len(idx)))
+    # each pose's readings depend on the component errors at its own positions only: a
+    # uniform step of one component function gives its derivative at every pose at once,
+    # spread onto the two nodes around each pose by the interpolation weights
+    for k in range(3):
+        i0, i1, wt = interp_weights(layout.nodes[k], q[:, k])
+        for c in range(6):
+            up, down = model.errors.copy(), model.errors.copy()
+            up.values[k][:, c] += h
+            down.values[k][:, c] -= h
+            d = ((_predict_um(machine(up), blocks) - _predict_um(machine(down), blocks))
+                 / (2 * h)).reshape(-1, 3)
+            for nodes, weight in ((i0, 1.0 - wt), (i1, wt)):
+                for pose in range(q.shape[0]):
+                    j = int(layout.starts[k] + 6 * nodes[pose] + c)
+                    if j in col:
+                        G[3 * pose:3 * pose + 3, col[j]] += weight[pose] * d[pose]
+    for a, j in enumerate(layout.squareness_indices()):
+        if int(j) not in col:
+            continue
+        up, down = model.errors.copy(), model.errors.copy()
+        up.squareness[a] += h
+        down.squareness[a] -= h
+        G[:, col[int(j)]] = ((_predict_um(machine(up), blocks)
+                              - _predict_um(machine(down), blocks)) / (2 * h))
     F = G @ L[idx]
     # positioning errors between the nodes: uncorrelated, along the machine axes
     nug = np.zeros(n)

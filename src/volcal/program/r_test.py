@@ -17,7 +17,7 @@ while the rotary axes turn, so the linear axes follow. Two ways, the test's
   follow with its configured pins.
 
 **Safe as written.** Z goes up to ``safe_z_mm`` first (machine coordinates, ``G53``; in
-table coordinates above the sphere for ``"tcp"``), then the rotary axes turn to the first
+table coordinates for ``"tcp"``; refused below the approach point), then the rotary axes turn to the first
 pose, then X Y, then Z down to ``CLEARANCE_MM`` above the sphere along the tool axis and
 the nest is lowered onto the sphere at the slow ``APPROACH_FEED_MM_MIN``; ``M0`` stops for
 the operator to check the sphere sits in the nest and to zero the sensors (they read
@@ -48,8 +48,9 @@ from volcal.program.dialects import _paren_comment
 __all__ = ["APPROACH_FEED_MM_MIN", "CLEARANCE_MM", "MAX_STEP_DEG", "rtest_program",
            "rtest_path_points"]
 
-CLEARANCE_MM = 10.0
-"""Distance along the tool axis above the sphere from which the nest is lowered [mm]."""
+CLEARANCE_MM = 30.0
+"""Distance along the tool axis above the sphere from which the nest is lowered [mm] (the
+test's ``approach_mm`` replaces it): the sensors must be clear of the sphere there."""
 APPROACH_FEED_MM_MIN = 200.0
 """Feed of lowering the nest onto the sphere and lifting it off [mm/min]."""
 MAX_STEP_DEG = 1.0
@@ -131,6 +132,11 @@ def rtest_program(m: Any, dialect: str, name: str, number: int, options: Any
     t = np.asarray(m.tool_offset, dtype=float)
     feed = min(float(options.feed), FOLLOW_FEED_MAX_MM_MIN)
     tcp = k["control_kinematics"] == "tcp"
+    clear = m.meta.get("approach_mm", CLEARANCE_MM)
+    if isinstance(clear, bool) or not isinstance(clear, int | float) or not 0 < clear <= 500:
+        raise VolcalInputError(f"approach_mm {clear!r}: expected a number above 0 and at most "
+                               "500 [mm]", None, None, f"measurements.{m.id}.approach_mm")
+    clear = float(clear)
     head = [f"volcal r_test program {name}: test {m.id}, chain {k['chain'].code}, {m.n} poses",
             f"nominal sphere centre {', '.join(f'{v:g}' for v in s)} mm (table coordinates at "
             f"the zero pose); nest centre {', '.join(f'{v:g}' for v in t)} mm from the tool "
@@ -175,7 +181,7 @@ def rtest_program(m: Any, dialect: str, name: str, number: int, options: Any
             raise VolcalInputError("control_kinematics = \"tcp\": the first pose must hold the "
                                    "tool along the table's Z (the approach and retract go "
                                    "along it)", None, None, f"measurements.{m.id}.file")
-        above = s + CLEARANCE_MM * axis0
+        above = s + clear * axis0
         if safe < above[2]:
             raise VolcalInputError(f"--safe-z-mm {safe:g}: below the approach point "
                                    f"{above[2]:g} mm above the sphere (table coordinates)")
@@ -183,7 +189,12 @@ def rtest_program(m: Any, dialect: str, name: str, number: int, options: Any
                 f"G0 X{_f(above[0], d)} Y{_f(above[1], d)}", f"G0 Z{_f(above[2], d)}",
                 f"G1 {xyz(s)} F{APPROACH_FEED_MM_MIN:g}"]
     else:
-        above = probe_centres(nominal, first, s + CLEARANCE_MM * axis0, t)[0]
+        above = probe_centres(nominal, first, s + clear * axis0, t)[0]
+        if safe < above[2]:
+            raise VolcalInputError(f"--safe-z-mm {safe:g}: below the approach point "
+                                   f"{above[2]:g} mm (machine coordinates, {clear:g} mm above "
+                                   "the sphere's working position): the nest would hit the "
+                                   "sphere")
         out += [f"G53 G0 Z{_f(safe, d)}", "G0 " + rot(0, ang),
                 f"G0 X{_f(above[0], d)} Y{_f(above[1], d)}", f"G0 Z{_f(above[2], d)}",
                 f"G1 {xyz(m.positions[0])} F{APPROACH_FEED_MM_MIN:g}"]

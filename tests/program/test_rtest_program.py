@@ -1,0 +1,134 @@
+"""The r_test part program, run through LinuxCNC's own interpreter ``rs274``.
+
+What LinuxCNC would do with it: Z retracts first (machine coordinates), the rotary axes turn
+only there or while the linear axes follow; every following move ends where the configured
+kinematics put the nest centre on the nominal sphere, and its chord (a straight line of the
+five joints) stays within 20 um of it; the program dwells once at each pose, at that pose's
+angles and commanded positions; the nest is lowered onto the sphere and lifted off along the
+tool axis, slowly, from the approach distance.
+"""
+
+from __future__ import annotations
+
+import re
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+
+from timing import scaled_timeout
+from volcal.errors import VolcalInputError
+from volcal.kinds import kind_of
+from volcal.kinds.r_test import _machine, rtest_angles
+from volcal.model.fiveaxis import exact_pose5
+from volcal.plan.planner import plan_session
+from volcal.program.r_test import APPROACH_FEED_MM_MIN, CLEARANCE_MM
+from volcal.program.steps import ProgramOptions
+
+RS274 = shutil.which("rs274")
+TRAVEL = np.array([[0.0, 800.0], [0.0, 600.0], [0.0, 500.0]])
+_CANON = re.compile(r"^\s*\d+\s+N\.+\s+([A-Z_]+)\((.*)\)\s*$")
+SAFE_Z = 300.0
+
+
+def _measurement():
+    s = plan_session(TRAVEL, "XYFZ", steps=4, tests=("r_test",), runs=2)
+    return s.measurements[0]
+
+
+def test_safe_z_below_the_approach_is_refused():
+    m = _measurement()
+    with pytest.raises(VolcalInputError, match="--safe-z-mm 0: below the approach point 70 mm"):
+        kind_of("r_test").program_text(m, "linuxcnc", "R", 1, ProgramOptions(safe_z_mm=0.0))
+
+
+@pytest.mark.skipif(RS274 is None, reason="LinuxCNC's rs274 is not installed "
+                    "(make linuxcnc-deps)")
+def test_path_in_rs274(tmp_path):
+    m = _measurement()
+    text, warnings = kind_of("r_test").program_text(m, "linuxcnc", "R", 1,
+                                                    ProgramOptions(safe_z_mm=SAFE_Z))
+    assert not warnings
+    (tmp_path / "tool.tbl").write_text("T1 P1 Z0 D0 ;unused\n")
+    (tmp_path / "rs274ngc.var").write_text("5220\t1.000000\n")
+    (tmp_path / "r.ngc").write_text(text)
+    r = subprocess.run([RS274, "-g", "-t", "tool.tbl", "-v", "rs274ngc.var", "r.ngc",
+                        "out.txt"], cwd=tmp_path, stdin=subprocess.DEVNULL, capture_output=True,
+                       text=True, timeout=scaled_timeout(120))
+    assert r.returncode == 0, r.stdout[-500:] + r.stderr
+    canon = []
+    for g in map(_CANON.match, (tmp_path / "out.txt").read_text().splitlines()):
+        if g and g.group(1) in ("STRAIGHT_TRAVERSE", "STRAIGHT_FEED", "DWELL",
+                                "SET_FEED_RATE", "PROGRAM_STOP"):
+            canon.append((g.group(1), [float(x) for x in g.group(2).split(",") if x.strip()]))
+    nominal = _machine(m)
+    sphere = np.array(m.meta["sphere_mm"])
+    angles = rtest_angles(m)
+
+    # the nest centre at every move's end and chord midpoint, in one batch
+    ends, mids, prev = [], [], np.zeros(6)
+    for name, v in canon:
+        if name in ("STRAIGHT_TRAVERSE", "STRAIGHT_FEED"):
+            cur = np.array(v[:6])
+            ends.append(cur)
+            mids.append(0.5 * (prev + cur))
+            prev = cur
+    J = np.array(ends + mids)
+    P, RR = exact_pose5(nominal, J[:, :3], {"A": J[:, 3], "C": J[:, 5]}, m.tool_offset)
+    table = {tuple(j): (P[i], RR[i]) for i, j in enumerate(J)}
+
+    def tool_point(xyz, abc):
+        return table[tuple(np.concatenate([xyz, abc]))]
+
+    pos = (np.zeros(3), np.zeros(3))
+    feed = 0.0
+    dwells, stopped, following = 0, False, False
+    lowered = lifted = False
+    for name, v in canon:
+        if name == "SET_FEED_RATE":
+            feed = v[0]
+            continue
+        if name == "PROGRAM_STOP":
+            stopped = True
+            continue
+        if name == "DWELL":
+            # at a pose: its angles and commanded positions, the nest on the sphere
+            np.testing.assert_allclose(pos[0], m.positions[dwells], atol=1e-3)
+            np.testing.assert_allclose([pos[1][2], pos[1][0]],
+                                       [angles["C"][dwells], angles["A"][dwells]], atol=1e-3)
+            dwells += 1
+            continue
+        xyz, abc = np.array(v[:3]), np.array(v[3:6])
+        if name == "STRAIGHT_TRAVERSE":
+            assert not following, "a rapid move while the nest is around the sphere"
+            if np.any(abc != pos[1]):  # the rotary axes turn only at the safe Z, X Y held
+                assert xyz[2] == pytest.approx(SAFE_Z) and pos[0][2] == pytest.approx(SAFE_Z)
+                assert np.allclose(xyz[:2], pos[0][:2])
+            if dwells == 0 and not stopped and np.all(pos[0] == 0):
+                assert xyz[2] == pytest.approx(SAFE_Z)  # the first move retracts Z
+        else:
+            end, R = tool_point(xyz, abc)
+            gap = np.linalg.norm(end - sphere)
+            if not following and not lifted:
+                # lowering the nest: slowly, along the tool axis, from the approach distance
+                start, _ = tool_point(*pos)
+                assert feed == APPROACH_FEED_MM_MIN
+                assert np.linalg.norm(start - sphere) == pytest.approx(CLEARANCE_MM, abs=1e-3)
+                np.testing.assert_allclose((start - end) / CLEARANCE_MM, R[:, 2], atol=1e-6)
+                assert gap < 2e-3
+                lowered, following = True, True
+            elif gap > 1.0:  # lifting off along the tool axis: the end of the path
+                assert following and dwells == m.n and feed == APPROACH_FEED_MM_MIN
+                assert gap == pytest.approx(CLEARANCE_MM, abs=1e-3)
+                np.testing.assert_allclose((end - sphere) / CLEARANCE_MM, R[:, 2], atol=1e-6)
+                following, lifted = False, True
+            else:
+                # following: the end on the sphere (rounding of 0.001 mm and 0.001 deg), the
+                # chord of the five joints close to it
+                assert stopped and gap < 5e-3
+                mid, _ = tool_point(0.5 * (pos[0] + xyz), 0.5 * (pos[1] + abc))
+                assert np.linalg.norm(mid - sphere) < 0.02
+        pos = (xyz, abc)
+    assert lowered and lifted and dwells == m.n
+    assert pos[0][2] == pytest.approx(SAFE_Z)  # ends retracted

@@ -20,11 +20,12 @@ import pytest
 from timing import scaled_timeout
 from volcal.errors import VolcalInputError
 from volcal.kinds import kind_of
-from volcal.kinds.r_test import _machine, rtest_angles
 from volcal.model.fiveaxis import exact_pose5
 from volcal.plan.planner import plan_session
 from volcal.program.r_test import APPROACH_FEED_MM_MIN, CLEARANCE_MM
 from volcal.program.steps import ProgramOptions
+from volcal.session.r_test import rtest_angles
+from volcal.session.r_test import rtest_machine as _machine
 
 RS274 = shutil.which("rs274")
 TRAVEL = np.array([[0.0, 800.0], [0.0, 600.0], [0.0, 500.0]])

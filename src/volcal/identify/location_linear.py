@@ -144,8 +144,6 @@ def linear_prior(model: Any, nominal: FiveAxisMachine, blocks: Sequence[SphereRe
     factor = model._factor(True)
     L = np.zeros((layout.size, factor.shape[1]))
     L[model.free] = factor
-    chain = model.errors.chain_obj
-    theta0 = layout.pack(model.errors)
     # the parameters the poses touch: the two nodes around each position, the squareness
     from volcal.model.errorfunctions import interp_weights
 

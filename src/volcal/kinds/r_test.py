@@ -36,6 +36,8 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from volcal.session.kinds import Kind, ReadContext, RowBlock, register_kind
+from volcal.session.r_test import rtest_angles, rtest_keys
+from volcal.session.r_test import rtest_machine as _machine
 
 __all__ = ["RTestKind", "RTestSetup", "rtest_angles", "rtest_keys", "rtest_paths",
            "rtest_readings_block"]
@@ -76,25 +78,6 @@ class RTestSetup:
         """The set-up's entry of ``truth/setup.toml``."""
         return {"chain": self.chain, "location": {k: float(v) for k, v in self.location.items()},
                 "sphere_mm": [float(v) for v in self.sphere_mm]}
-
-
-def rtest_keys(m: Any) -> dict[str, Any]:
-    """The checked keys of an r_test measurement (:func:`check_rtest_keys`)."""
-    from volcal.session.r_test import check_rtest_keys
-
-    return check_rtest_keys(m.meta, None, m.id, m.id)
-
-
-def rtest_angles(m: Any) -> dict[str, NDArray[np.float64]]:
-    """Commanded angle of each rotary axis per pose [deg]."""
-    k = rtest_keys(m)
-    return {r: np.asarray(m.columns[f"{r.lower()}_deg"], dtype=float) for r in k["chain"].rotary}
-
-
-def _machine(m: Any, linear: Any = None, location: dict[str, float] | None = None):
-    from volcal.session.probe_sphere import five_axis_machine
-
-    return five_axis_machine(m, linear, location)
 
 
 def _displacement(m: Any) -> NDArray[np.float64]:

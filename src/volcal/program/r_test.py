@@ -17,14 +17,15 @@ while the rotary axes turn, so the linear axes follow. Two ways, the test's
   follow with its configured pins.
 
 **Safe as written.** Z goes up to ``safe_z_mm`` first (machine coordinates, ``G53``; in
-table coordinates for ``"tcp"``; refused below the approach point), then the rotary axes turn to the first
-pose, then X Y, then Z down to ``CLEARANCE_MM`` above the sphere along the tool axis and
-the nest is lowered onto the sphere at the slow ``APPROACH_FEED_MM_MIN``; ``M0`` stops for
-the operator to check the sphere sits in the nest and to zero the sensors (they read
-relative to the first pose). Each measuring pose dwells ``dwell_s`` (the sensors are read
-at standstill). At the end the path returns, following, to the first pose and the nest is
-lifted off along the tool axis before Z goes up. Rotary angles are the control's
-(``control_angle_sign``: volcal's times it).
+table coordinates for ``"tcp"``; refused below the approach point), then the rotary axes
+turn to the first pose, then X Y, then Z down to ``CLEARANCE_MM`` (the test's
+``approach_mm``) above the sphere along the tool axis, where the nest must be clear of
+the sphere, and the nest is lowered onto the sphere at the slow ``APPROACH_FEED_MM_MIN``;
+``M0`` stops for the operator to check the sphere sits in the nest and to zero the sensors
+(they read relative to the first pose). Each measuring pose dwells ``dwell_s`` (the
+sensors are read at standstill). At the end the path returns, following, to the first
+pose and the nest is lifted off along the tool axis before Z goes up. Rotary angles are
+the control's (``control_angle_sign``: volcal's times it).
 
 Only LinuxCNC is written; for another dialect volcal lists the poses with the nominal
 linear positions (a HEIDENHAIN or Siemens control with TCPM/TRAORI runs the path with its
@@ -118,9 +119,10 @@ def rtest_program(m: Any, dialect: str, name: str, number: int, options: Any
     -------
     (text, warnings)
     """
-    from volcal.kinds.r_test import _machine, rtest_angles, rtest_keys
     from volcal.measure.spheres import probe_centres
     from volcal.model.fiveaxis import exact_pose5
+    from volcal.session.r_test import rtest_angles, rtest_keys
+    from volcal.session.r_test import rtest_machine as _machine
 
     k = rtest_keys(m)
     nominal = _machine(m)
@@ -221,8 +223,8 @@ def rtest_program(m: Any, dialect: str, name: str, number: int, options: Any
     bq = (probe_centres(nominal, {a: bpts[a][bmid] for a in letters}, s, t)
           if bmid.size and not tcp else np.zeros((0, 3)))
     out.append(_paren_comment("back to the first pose, following"))
-    for n, j in enumerate(bmid):
-        out.append(f"G1 {rot(int(j), bpts)}" + ("" if tcp else f" {xyz(bq[n])}") + f" F{feed:g}")
+    for n, jb in enumerate(bmid):
+        out.append(f"G1 {rot(int(jb), bpts)}" + ("" if tcp else f" {xyz(bq[n])}") + f" F{feed:g}")
     out.append(f"G1 {rot(0, ang)}" + ("" if tcp else f" {xyz(m.positions[0])}") + f" F{feed:g}")
     out.append(f"G1 {xyz(above)} F{APPROACH_FEED_MM_MIN:g}")
     out += [f"G0 Z{_f(safe, d)}" if tcp else f"G53 G0 Z{_f(safe, d)}", "M2"]

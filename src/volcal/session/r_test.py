@@ -43,7 +43,8 @@ from volcal.io.table import Column, TableSpec, read_table
 from volcal.session.probe_sphere import CENTRE_COLUMNS, check_probe_keys
 
 __all__ = ["DISPLACEMENT_COLUMNS", "SENSOR_COLUMNS", "check_rtest_keys", "head_rotation",
-           "read_rtest_csv", "rtest_csv", "sensor_matrix"]
+           "read_rtest_csv", "rtest_angles", "rtest_csv", "rtest_keys", "rtest_machine",
+           "sensor_matrix"]
 
 DISPLACEMENT_COLUMNS: tuple[str, str, str] = ("dx_um", "dy_um", "dz_um")
 """The sphere's displacement relative to the nest, machine axes [um]."""
@@ -324,3 +325,47 @@ def rtest_csv(angles: dict[str, NDArray[np.float64]], q: NDArray[np.float64],
         row += [f"{columns[c][i]:.3f}" for c in extra] if columns else []
         w.writerow(row)
     return buf.getvalue()
+
+
+def rtest_keys(m: Any) -> dict[str, Any]:
+    """The checked keys of an r_test measurement (:func:`check_rtest_keys` on its meta).
+
+    Parameters
+    ----------
+    m : Measurement
+        The measurement.
+    """
+    return check_rtest_keys(m.meta, None, m.id, m.id)
+
+
+def rtest_angles(m: Any) -> dict[str, NDArray[np.float64]]:
+    """Commanded angle of each rotary axis per pose [deg].
+
+    Parameters
+    ----------
+    m : Measurement
+        The measurement.
+    """
+    k = rtest_keys(m)
+    return {r: np.asarray(m.columns[f"{r.lower()}_deg"], dtype=float) for r in k["chain"].rotary}
+
+
+def rtest_machine(m: Any, linear: Any = None, location: dict[str, float] | None = None):
+    """The 5-axis machine of an r_test: its chain and configured pivots.
+
+    Parameters
+    ----------
+    m : Measurement
+        The measurement.
+    linear : MachineErrors, optional
+        The linear axes' errors; None: perfect.
+    location : dict of str to float, optional
+        Location errors [um, urad]; None: zero.
+
+    Returns
+    -------
+    FiveAxisMachine
+    """
+    from volcal.session.probe_sphere import five_axis_machine
+
+    return five_axis_machine(m, linear, location)

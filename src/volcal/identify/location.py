@@ -264,10 +264,13 @@ def _fmt_combo(g: str, ks: dict[str, float], kept: set[str]) -> str:
     where = []
     if parts:
         where.append("the design determines " + "; ".join(parts))
-    if nuis:
-        spheres = sorted({n.split(":")[0] for n in nuis})
+    spheres = sorted({n.split(":")[0] for n in nuis if ":zero_" not in n})
+    zeros = sorted({n.split(":")[0] for n in nuis if ":zero_" in n})
+    if spheres:
         where.append("it moves the centre of " + ", ".join(spheres) +
                      (" (a new workpiece zero)" if not parts else ""))
+    if zeros:
+        where.append("it moves the sensor zeros of " + ", ".join(zeros))
     return f"{describe(g)} is not separated from the others: " + " and ".join(where) + "."
 
 

@@ -44,6 +44,9 @@ __all__ = ["RTestKind", "RTestSetup", "rtest_angles", "rtest_keys", "rtest_paths
 
 DEFAULT_PIVOT_DROP_MM = 120.0
 """Default plan: the tilting axis' line this far below the C pivot (a trunnion's)."""
+DEFAULT_C_PIVOT_UP_MM = 160.0
+"""Default plan: the C pivot this far above the bottom of the Z travel (the linear axes'
+positions then stay within the travel at every tilt)."""
 DEFAULT_SPHERE_OFFSET_MM = (150.0, 0.0, 40.0)
 """Default plan: the sphere this far from the C pivot [mm] (along Y for a B cradle)."""
 C_STEP_DEG = 30.0
@@ -399,8 +402,8 @@ class RTestKind(Kind):
         """A trunnion's R-test: C turning at fixed tilts, then the tilt sweeping at C = 0.
 
         The chain is ``CA`` + the plan's linear chain (``only`` = ``cb`` for a B cradle);
-        the C pivot at the centre of the X and Y travel and the bottom of Z, the tilting
-        axis' line 120 mm below it, the sphere 150 mm off the C axis and 40 mm up
+        the C pivot at the centre of the X and Y travel, 160 mm above the bottom of Z, the
+        tilting axis' line 120 mm below it, the sphere 150 mm off the C axis and 40 mm up
         (``docs/fiveaxis.md``); the paths of :func:`rtest_paths`; the commanded positions
         are the configured kinematics' (the nest on the nominal sphere). Edit the
         session's pivots, sphere, nest offset and paths to the machine's.
@@ -426,7 +429,7 @@ class RTestKind(Kind):
             raise VolcalInputError(f"r_test:{only}: expected ca or cb (C on an A or B cradle)")
         chain = parse_machine_chain(pair.upper() + options.chain)
         t = np.asarray(options.t, dtype=float)
-        pc = np.array([t[0].mean(), t[1].mean(), t[2, 0]])
+        pc = np.array([t[0].mean(), t[1].mean(), t[2, 0] + DEFAULT_C_PIVOT_UP_MM])
         pt = pc - np.array([0.0, 0.0, DEFAULT_PIVOT_DROP_MM])
         pivots = {"c": [float(v) for v in pc], pair[1]: [float(v) for v in pt]}
         off = np.array(DEFAULT_SPHERE_OFFSET_MM)

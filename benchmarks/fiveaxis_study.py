@@ -1,7 +1,8 @@
 """Study of the 5-axis location-error identification (issue 28): coverage and the limit.
 
 For each chain type (trunnion AC ``CAFXYZ`` and BC ``CBFXYZ``, table-head ``CFXYZB``,
-head-head ``FXYZCA``) and each reading kind (probe-on-sphere, R-test), ``--machines``
+head-head ``FXYZCA``) and each design (probe-on-sphere and R-test on the 6 x 5 pose grid;
+the R-test's paths of ``volcal plan --tests r_test``, ``rtest_paths``), ``--machines``
 virtual machines with random location errors (positions of the axis lines within +-2 mm,
 orientations and zeros within +-200 urad), a sphere placed 1 mm off its nominal centre and
 1 um of probe noise on every reading component. For each machine:
@@ -44,13 +45,28 @@ MACHINES = {
 
 
 def design(code: str, kind: str, noise_um: float = 1.0):
-    """The nominal machine and the pose grid's readings (values to be simulated)."""
+    """The nominal machine and the design's readings (values to be simulated).
+
+    ``kind``: ``probe`` or ``rtest`` on the pose grid; ``rtest_paths`` the R-test's paths
+    of ``volcal plan --tests r_test`` (C turning a full circle in 30 deg steps at the other
+    axis' 0, -45 and -90 deg, then the other axis sweeping -90..90 deg at C = 0; ISO
+    10791-6, Ibaraki et al. 2010); ``rtest_c`` C turning at the other axis' 0 only.
+    """
+    from volcal.kinds.r_test import rtest_paths
+
     pivots, sphere, tool = MACHINES[code]
-    ang = pose_grid(code)
     nominal = nominal_machine(code, pivots)
+    if kind.startswith("rtest_"):
+        other = next(r for r in nominal.chain_obj.rotary if r != "C")
+        ang = rtest_paths("c" + other.lower())
+        if kind == "rtest_c":
+            ang = {r: a[:12] for r, a in ang.items()}
+    else:
+        ang = pose_grid(code)
     m = ang[next(iter(ang))].size
-    q = probe_centres(nominal, ang, sphere, tool) if kind == "rtest" else None
-    return nominal, [SphereReadings("m1", kind, ang, np.zeros((m, 3)), "S1", np.array(sphere),
+    reading = "probe" if kind == "probe" else "rtest"
+    q = probe_centres(nominal, ang, sphere, tool) if reading == "rtest" else None
+    return nominal, [SphereReadings("m1", reading, ang, np.zeros((m, 3)), "S1", np.array(sphere),
                                     np.array(tool), q, noise_um)]
 
 
@@ -71,30 +87,32 @@ def run(code: str, kind: str, machines: int, seed: int = 0) -> dict[str, object]
         ident = res.identifiability
         fixed = ident.fixed
         lin = ident.gauge_truth(truth)
-        gauge_gap = max(gauge_gap, max(abs(exact.estimate[n] - lin[n]) for n in res.names))
+        gauge_gap = max([gauge_gap] + [abs(exact.estimate[n] - lin[n]) for n in res.names])
         # Cramér-Rao bound at the truth (gauge fixed: the determined errors and nuisances)
         m_true = exact.machine
         Jx, Jn, _, _, _ = design_jacobian(m_true, blocks, exact.nuisances)
         free = [names.index(n) for n in ident.free]
         scale = np.array([1e3 if ":s" in k else 1.0 for k in exact.nuisances])
         A = np.column_stack([Jx[:, free], Jn / scale])
-        crb = np.diag(np.linalg.inv(A.T @ A))[:len(free)]
+        crb = np.diag(np.linalg.pinv(A.T @ A, hermitian=True))[:len(free)]
         for i, n in enumerate(res.names):
             err = res.estimate[n] - exact.estimate[n]
             z.append(err / res.u[n])
             ratio.append(err**2 / crb[i])
     za = np.abs(np.array(z))
+    nan = float("nan")  # a design that determines nothing
     return {"chain": code, "kind": kind, "machines": machines, "determined": len(res.names),
-            "undetermined": ", ".join(fixed), "coverage_2u": float(np.mean(za < 2.0)),
-            "max_abs_z": float(za.max()), "mse_over_crb": float(np.mean(ratio)),
-            "gauge_gap": gauge_gap}
+            "undetermined": ", ".join(fixed),
+            "coverage_2u": float(np.mean(za < 2.0)) if za.size else nan,
+            "max_abs_z": float(za.max()) if za.size else nan,
+            "mse_over_crb": float(np.mean(ratio)) if ratio else nan, "gauge_gap": gauge_gap}
 
 
 def main(argv: list[str] | None = None) -> int:
     """Run the study and print its table."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--machines", type=int, default=20)
-    ap.add_argument("--kinds", default="probe,rtest")
+    ap.add_argument("--kinds", default="probe,rtest,rtest_paths")
     ap.add_argument("--markdown", action="store_true")
     args = ap.parse_args(argv)
     rows = [run(code, kind, args.machines, seed=i)

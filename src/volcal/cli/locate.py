@@ -1,4 +1,4 @@
-"""``volcal locate``: the rotary axes' location errors from probe-on-sphere tests."""
+"""``volcal locate``: the rotary axes' location errors from probe-on-sphere and R-test tests."""
 
 from __future__ import annotations
 
@@ -14,12 +14,13 @@ console = Console(soft_wrap=True)
 
 
 def locate_cmd(
-    session: Path = typer.Argument(..., help="Session folder with probe_sphere tests."),
+    session: Path = typer.Argument(..., help="Session folder with probe_sphere and/or r_test tests."),
     model: Path | None = typer.Option(None, help="The linear axes' errors: a model file "
-                                      "(MODEL.json) or an error table (machine.csv); default "
-                                      "perfect linear axes."),
-    measurements: str | None = typer.Option(None, help="Comma-separated probe_sphere test ids "
-                                            "to use."),
+                                      "(MODEL.json, with its uncertainty as a prior) or an error "
+                                      "table (machine.csv, taken as known); default perfect "
+                                      "linear axes."),
+    measurements: str | None = typer.Option(None, help="Comma-separated probe_sphere and r_test "
+                                            "test ids to use."),
     prior_u: float | None = typer.Option(None, help="Standard deviation of a zero-mean prior "
                                          "on each determined location error [um or urad]; "
                                          "default none (least squares)."),
@@ -44,7 +45,7 @@ def locate_cmd(
                                                 "pivot's z; only z-rot-point + z-offset "
                                                 "enters)."),
 ) -> None:
-    """Identify the rotary axes' location errors from probe-on-sphere tests."""
+    """Identify the rotary axes' location errors from probe-on-sphere and R-test tests."""
     from volcal.steps.locate import locate as step
     from volcal.steps.locate import located_json
 

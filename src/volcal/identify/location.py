@@ -193,6 +193,18 @@ class LocationIdentifiability:
         return out
 
 
+def _orth(A: Array, n: int, rtol: float = 1e-10) -> Array:
+    """An orthonormal basis of the span of the columns of ``A`` (rank-revealing SVD).
+
+    QR would give a spurious direction for each dependent column (nuisances one with
+    another, such as a sphere's height and a sensor's zero when only C turns).
+    """
+    if A.shape[1] == 0:
+        return np.zeros((n, 0))
+    U, sv, _ = np.linalg.svd(A, full_matrices=False)
+    return np.asarray(U[:, sv > rtol * max(sv.max(initial=0.0), 1e-300)])
+
+
 def analyse_location(J_x: Array, J_n: Array, names: Sequence[str], nuisance_names: Sequence[str],
                      chain, tol: float = 1e-6) -> LocationIdentifiability:
     """Identifiability of the location errors in a design.
@@ -224,7 +236,7 @@ def analyse_location(J_x: Array, J_n: Array, names: Sequence[str], nuisance_name
     basis = Nn.copy()
     for n in _preference(names, chain):
         col = Xn[:, names.index(n)]
-        Q, _ = np.linalg.qr(basis) if basis.shape[1] else (np.zeros((col.size, 0)), None)
+        Q = _orth(basis, col.size)
         res = col - Q @ (Q.T @ col)
         if np.linalg.norm(col) > 0 and np.linalg.norm(res) > tol:
             kept.append(n)
@@ -240,7 +252,7 @@ def analyse_location(J_x: Array, J_n: Array, names: Sequence[str], nuisance_name
         k, *_ = np.linalg.lstsq(A, J_x[:, names.index(g)], rcond=None)
         combos[g] = {labels[i]: float(k[i]) for i in range(len(labels)) if abs(k[i]) > 1e-9}
     # singular values of the kept errors with the nuisances eliminated
-    Qn, _ = np.linalg.qr(Nn) if Nn.shape[1] else (np.zeros((Xn.shape[0], 0)), None)
+    Qn = _orth(Nn, Xn.shape[0])
     Xk = Xn[:, [names.index(n) for n in kept_sorted]]
     sv = np.linalg.svd(Xk - Qn @ (Qn.T @ Xk), compute_uv=False) if kept_sorted else np.zeros(0)
     rep = LocationIdentifiability(tuple(names), kept_sorted, fixed_sorted, combos, sv)
@@ -454,7 +466,7 @@ def identify_location(nominal: FiveAxisMachine, blocks: Sequence[SphereReadings]
         L[:nf] = lam
         xf = x[free]
         rhs = A.T @ r - L * np.concatenate([xf, np.zeros(A.shape[1] - nf)])
-        d = np.linalg.solve(A.T @ A + np.diag(L), rhs)
+        d = np.linalg.lstsq(A.T @ A + np.diag(L), rhs, rcond=None)[0]
         x[free] += d[:nf]
         nuis = {k: v + d[nf + i] / scale[i] for i, (k, v) in enumerate(nuis.items())}
         if np.abs(d[:nf]).max(initial=0.0) < tol and np.abs(d[nf:]).max(initial=0.0) < tol:
@@ -463,14 +475,17 @@ def identify_location(nominal: FiveAxisMachine, blocks: Sequence[SphereReadings]
     nf = len(free)
     L = np.zeros(A.shape[1])
     L[:nf] = lam
-    cov_all = np.linalg.inv(A.T @ A + np.diag(L))
+    # pinv: nuisances one with another (an R-test turning C only: the sphere's height and
+    # the z sensor's zero) leave the normal matrix singular in their directions only, and
+    # the errors' block of the pseudo-inverse is then their covariance
+    cov_all = np.linalg.pinv(A.T @ A + np.diag(L), hermitian=True)
     cov = cov_all[:nf, :nf]
     u = np.sqrt(np.diag(cov))
     est = {n: float(x[i]) for n, i in zip(fitted, free, strict=True)}
     A0, r0 = step(x, nuis, True, white=False)
     u_noise = None
     if K is not None:
-        u0 = np.sqrt(np.diag(np.linalg.inv(A0.T @ A0 + np.diag(L))[:nf, :nf]))
+        u0 = np.sqrt(np.diag(np.linalg.pinv(A0.T @ A0 + np.diag(L), hermitian=True)[:nf, :nf]))
         u_noise = {n: float(u0[k]) for k, n in enumerate(fitted)}
     return LocationResult(
         names=fitted, estimate=est, u={n: float(u[k]) for k, n in enumerate(fitted)},

@@ -14,7 +14,8 @@ console = Console(soft_wrap=True)
 
 
 def locate_cmd(
-    session: Path = typer.Argument(..., help="Session folder with probe_sphere and/or r_test tests."),
+    session: Path = typer.Argument(..., help="Session folder with probe_sphere and/or r_test "
+                                   "tests."),
     model: Path | None = typer.Option(None, help="The linear axes' errors: a model file "
                                       "(MODEL.json, with its uncertainty as a prior) or an error "
                                       "table (machine.csv, taken as known); default perfect "

@@ -103,6 +103,7 @@ study: $(STAMP)
 	$(BIN)/python benchmarks/study.py --false-alarms 60 --runs 2 --design all
 	$(BIN)/python benchmarks/families.py --machines 20 --markdown --quiet
 	$(BIN)/python benchmarks/fiveaxis_study.py --machines 40 --markdown
+	$(BIN)/python benchmarks/fiveaxis_fusion_study.py --machines 20 --laser step-diagonal,diagonal,linear,direct
 	$(BIN)/python benchmarks/travel_study.py --machines 20 --design full,step --markdown
 
 clean:

@@ -104,3 +104,22 @@ def test_an_error_table_is_taken_as_known(machine_session):
     assert loc.result.u_without_linear is None
     assert loc.to_json()["linear_model"]["with_uncertainty"] is False
     assert any("taken as known" in msg for msg in loc.messages)
+
+
+@pytest.mark.slow
+def test_fusion_study_coverage():
+    """benchmarks/fiveaxis_fusion_study.py (make study): 20 machines, the laser tests with
+    the direct optics (the rolls measured): with the model, the determined errors within 2u
+    on 0.90-0.99 of them and the stated U right (mean z^2 within 0.6-1.4); without it, far
+    from both."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+    from fiveaxis_fusion_study import run
+
+    rows = {r["variant"].split(" ")[0]: r for r in run(
+        20, laser=("step-diagonal", "diagonal", "linear", "direct"))}
+    assert 0.90 <= rows["laser"]["coverage_2u"] <= 0.99, rows
+    assert 0.6 <= rows["laser"]["mean_z2"] <= 1.4, rows
+    assert rows["no"]["coverage_2u"] < 0.5 and rows["no"]["mean_z2"] > 50, rows

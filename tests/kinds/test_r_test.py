@@ -190,3 +190,25 @@ def test_bad_keys_are_refused_naming_the_key(tmp_path, old, new, key):
     with pytest.raises(VolcalInputError) as exc:
         read_session(tmp_path / "s")
     assert exc.value.column == key and exc.value.file == str(toml)
+
+
+@pytest.mark.slow
+def test_study_rows_of_the_planned_paths():
+    """benchmarks/fiveaxis_study.py, the R-test's planned paths (make study): 20 machines per
+    chain type, 1 um noise: within 2u on 0.90-0.99, MSE within 30 % of the Cramér-Rao bound,
+    5 determined; C turning alone determines 2 (table chains) and nothing on the head-head
+    whose tool point lies on the C axis."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+    from fiveaxis_study import MACHINES as STUDY
+    from fiveaxis_study import run
+
+    for i, code in enumerate(STUDY):
+        r = run(code, "rtest_paths", 20, seed=i)
+        assert r["determined"] == 5, r
+        assert 0.90 <= r["coverage_2u"] <= 0.99, r
+        assert 0.7 <= r["mse_over_crb"] <= 1.3, r
+        c = run(code, "rtest_c", 5, seed=i)
+        assert c["determined"] == (0 if code == "FXYZCA" else 2), c

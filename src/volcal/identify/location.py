@@ -282,7 +282,8 @@ def _fmt_combo(g: str, ks: dict[str, float], kept: set[str]) -> str:
         where.append("it moves the centre of " + ", ".join(spheres) +
                      (" (a new workpiece zero)" if not parts else ""))
     if zeros:
-        where.append("it moves the sensor zeros of " + ", ".join(zeros))
+        where.append(("the " if spheres else "it moves the ") + "sensor zeros of "
+                     + ", ".join(zeros))
     return f"{describe(g)} is not separated from the others: " + " and ".join(where) + "."
 
 

@@ -19,9 +19,9 @@ reading, never stored).
 What the readings do not separate: with unknown sensor zeros and an unknown sphere
 position the positions of the table axes' lines are one with the sphere's set-up
 (``docs/fiveaxis.md``, "What a design determines"), and the rotary axes' error motions over
-the angle (radial, axial, tilt) are not estimated: their first harmonic over a full turn is
-one with the location errors of that axis, the rest stays in the residual
-(``rms_after_um``).
+the angle (radial, axial, tilt) are not estimated: their mean and first harmonic over a
+full turn are one with the location errors of that axis and the set-up (sphere, sensor
+zeros), the rest stays in the residual (``rms_after_um``).
 
 The kind is not part of the linear identification (:attr:`in_design` is False).
 """

@@ -278,8 +278,9 @@ def locate(session: str | Path | Session, *,
     if any(m.kind == "r_test" for m in ms):
         msgs.append("R-test readings carry the rotary axes' error motions over the angle "
                     "(radial, axial, tilt) too; they are not separated from the location "
-                    "errors: their first harmonic over a turn is one with the axis' location "
-                    "errors, the rest is left in the scatter after identification.")
+                    "errors: their mean and first harmonic over a turn are one with the axis' "
+                    "location errors and the set-up (sphere, sensor zeros), the rest is left "
+                    "in the scatter after identification.")
     return Located(res, nominal.chain_obj.code, tuple(m.id for m in ms), tuple(msgs),
                    tuple(blocks), tuple(m.kind for m in ms))
 

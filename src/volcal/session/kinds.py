@@ -576,7 +576,9 @@ def unregister_kind(name: str) -> None:
 def kinds() -> tuple[Kind, ...]:
     """Every registered kind, the built-in ones first in their documented order."""
     _load_builtins()
-    return tuple(_REGISTRY.values())
+    # a kind's module imported before the first look-up registers it early: keep the order
+    builtin = [_REGISTRY[n] for n in BUILTIN_KINDS if n in _REGISTRY]
+    return tuple(builtin + [k for n, k in _REGISTRY.items() if n not in BUILTIN_KINDS])
 
 
 def kind_names() -> tuple[str, ...]:

@@ -21,7 +21,9 @@ position the positions of the table axes' lines are one with the sphere's set-up
 (``docs/fiveaxis.md``, "What a design determines"), and the rotary axes' error motions over
 the angle (radial, axial, tilt) are not estimated: their mean and first harmonic over a
 full turn are one with the location errors of that axis and the set-up (sphere, sensor
-zeros), the rest stays in the residual (``rms_after_um``).
+zeros), their values where another axis sweeps and the tilt motions (through the sphere's
+lever arm) go partly into the location errors, the rest stays in the residual
+(``rms_after_um``; ``docs/fiveaxis.md``).
 
 The kind is not part of the linear identification (:attr:`in_design` is False).
 """

@@ -277,10 +277,12 @@ def locate(session: str | Path | Session, *,
         f"(chi-square {res.chi2:.1f} on {res.dof} degrees of freedom)."] + msgs_linear
     if any(m.kind == "r_test" for m in ms):
         msgs.append("R-test readings carry the rotary axes' error motions over the angle "
-                    "(radial, axial, tilt) too; they are not separated from the location "
-                    "errors: their mean and first harmonic over a turn are one with the axis' "
-                    "location errors and the set-up (sphere, sensor zeros), the rest is left "
-                    "in the scatter after identification.")
+                    "(radial, axial, tilt) too; they are not estimated and not separated from "
+                    "the location errors: their mean and first harmonic over a turn are one "
+                    "with the axis' location errors and the set-up (sphere, sensor zeros), "
+                    "their values where another axis sweeps and the tilt motions (through the "
+                    "sphere's lever arm) go partly into the location errors, the rest is left "
+                    "in the scatter after identification (docs/fiveaxis.md).")
     return Located(res, nominal.chain_obj.code, tuple(m.id for m in ms), tuple(msgs),
                    tuple(blocks), tuple(m.kind for m in ms))
 

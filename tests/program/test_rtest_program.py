@@ -133,3 +133,29 @@ def test_path_in_rs274(tmp_path):
         pos = (xyz, abc)
     assert lowered and lifted and dwells == m.n
     assert pos[0][2] == pytest.approx(SAFE_Z)  # ends retracted
+
+
+def test_tcp_program_holds_the_sphere_and_turns_the_rotary_axes_only():
+    """control_kinematics = "tcp" (LinuxCNC's trt kinematics follows): X Y Z stay at the
+    sphere's table coordinates, the following moves program the rotary axes alone, in the
+    control's angles (control_angle_sign = -1), and the listing of another dialect."""
+    m = _measurement()
+    m.meta["control_kinematics"] = "tcp"
+    m.meta["control_angle_sign"] = -1
+    text, _ = kind_of("r_test").program_text(m, "linuxcnc", "R", 1,
+                                             ProgramOptions(safe_z_mm=SAFE_Z))
+    lines = text.splitlines()
+    s = m.meta["sphere_mm"]
+    onto = f"G1 X{s[0]:.3f} Y{s[1]:.3f} Z{s[2]:.3f} F{APPROACH_FEED_MM_MIN:g}"
+    i = lines.index(onto)
+    assert lines[i - 1] == f"G0 Z{s[2] + CLEARANCE_MM:.3f}" and lines[1 + i].startswith("M0")
+    follow = [ln for ln in lines[i + 1:] if ln.startswith("G1 C")]
+    assert follow and all(not any(w in ln for w in ("X", "Y", "Z")) for ln in follow)
+    assert "G1 C-30.000 A0.000 F1000" in follow  # pose 2, C = 30 in volcal's sense
+    assert text.count("G4 P") == m.n
+    assert lines[-3:] == [f"G1 X{s[0]:.3f} Y{s[1]:.3f} Z{s[2] + CLEARANCE_MM:.3f} F200",
+                          f"G0 Z{SAFE_Z:.3f}", "M2"]
+    listing, warnings = kind_of("r_test").program_text(m, "heidenhain", "R", 1,
+                                                       ProgramOptions(safe_z_mm=SAFE_Z))
+    assert "(POSE 2: C=-30.000 A=0.000 LINEAR AXES X=529.904 Y=225.000 Z=200.000)" in listing
+    assert warnings and "LinuxCNC only" in warnings[0]

@@ -81,7 +81,17 @@ class LinearPrior:
         return np.asarray(np.sqrt(np.sum(self.factor_rows**2, axis=1) + self.nugget_var))
 
     def covariance(self, n: int) -> Array:
-        """The readings' covariance from the linear model, shape (n, n) [um^2]."""
+        """The readings' covariance from the linear model [um^2].
+
+        Parameters
+        ----------
+        n : int
+            Number of readings (the shape of the zero matrix without a covariance).
+
+        Returns
+        -------
+        ndarray, shape (n, n)
+        """
         if not self.has_uncertainty:
             return np.zeros((n, n))
         F = self.factor_rows

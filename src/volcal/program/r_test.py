@@ -159,7 +159,7 @@ def rtest_program(m: Any, dialect: str, name: str, number: int, options: Any
                            "function (TCPM, TRAORI) at the sphere's table coordinates, "
                            "reading the sensors at each pose")]
         for i in range(m.n):
-            pose = " ".join(f"{a}={sign * ang[a][i]:.3f}" for a in letters)
+            pose = " ".join(f"{a}={_f(sign * ang[a][i], 3)}" for a in letters)
             q = " ".join(f"{ax}={_f(v, d)}" for ax, v in zip("XYZ", m.positions[i], strict=True))
             lines.append(_paren_comment(f"pose {i + 1}: {pose} linear axes {q}"))
         warnings.append(f"{m.id}: the {dialect} program lists the poses; volcal writes the "
@@ -206,7 +206,7 @@ def rtest_program(m: Any, dialect: str, name: str, number: int, options: Any
     mid = np.flatnonzero(is_pose < 0)
     q_mid = (probe_centres(nominal, {a: pts[a][mid] for a in letters}, s, t)
              if mid.size and not tcp else np.zeros((0, 3)))
-    qi = {int(j): q_mid[n] for n, j in enumerate(mid)}
+    qi = {int(j): q_mid[n] for n, j in enumerate(mid)} if not tcp else {}
 
     def follow(j: int, q: np.ndarray) -> str:
         return f"G1 {rot(j, pts)}" + ("" if tcp else f" {xyz(q)}") + f" F{feed:g}"

@@ -512,20 +512,22 @@ class Calibration:
                        tool_offset=A.vector_mm(tool_offset, "tool_offset"))
 
     @A.checked
-    def locate(self, model: str | Path | MachineErrors | None = None,
+    def locate(self, model: str | Path | MachineErrors | IdentificationResult | None = None,
                measurements: list[str] | None = None,
                prior_u: float | None = None) -> Located:
-        """The rotary axes' location errors from the probe_sphere tests, like ``volcal locate``.
+        """The rotary axes' location errors from probe_sphere and r_test tests (volcal locate).
 
         Calls :func:`volcal.steps.locate.locate` on this calibration's session.
 
         Parameters
         ----------
-        model : str, Path or MachineErrors, optional
-            The linear axes' errors (a model file, an error table or the errors); None:
-            this calibration's identified model if there is one, else perfect linear axes.
+        model : str, Path, IdentificationResult or MachineErrors, optional
+            The linear axes' errors (a model file or model, with its covariance as a prior;
+            an error table or the errors, taken as known); None: this calibration's
+            identified model, with its covariance, if there is one, else perfect linear
+            axes.
         measurements : list of str, optional
-            Ids of the probe_sphere tests to use (default all).
+            Ids of the probe_sphere and r_test tests to use (default all).
         prior_u : float, optional
             Standard deviation of a zero-mean prior on each determined error [um, urad].
 
@@ -537,7 +539,7 @@ class Calibration:
         from volcal.steps.locate import locate
 
         if model is None and self.result is not None:
-            model = self.result.errors
+            model = self.result
         return locate(self.session, model=model, measurements=measurements, prior_u=prior_u)
 
     @A.checked

@@ -270,6 +270,13 @@ def locate(session: str | Path | Session, *,
         msgs_linear.append("No linear model given: the linear axes are taken as perfect; their "
                            "errors along the poses' linear positions go into the location "
                            "errors unaccounted (volcal locate --model MODEL.json).")
+        from volcal.kinds import kind_of
+
+        if any(kind_of(m.kind).in_design for m in s.measurements):
+            msgs_linear.append("The session holds tests of the linear axes: identify them "
+                               "(volcal identify SESSION -o MODEL.json) and locate with "
+                               "--model MODEL.json to take their errors, with their "
+                               "uncertainty, into account.")
     res = identify_location(nominal, blocks, prior_u=prior_u, linear=prior)
     msgs = list(res.identifiability.messages) + separation_advice(nominal, blocks) + [
         f"Scatter of the readings: RMS {res.rms_before_um:.2f} um with the configured "

@@ -256,3 +256,43 @@ def test_error_motions_beyond_the_first_harmonic_stay_in_the_residual():
         assert moved.rms_after_um > 0.5  # the error motions, left in the residual
         shifts.append(max(abs(moved.estimate[n] - plain.estimate[n]) for n in plain.names))
     assert shifts[0] < 0.01 and shifts[1] > 0.5
+
+
+def test_probe_and_r_test_of_one_machine_locate_together():
+    """Both kinds in one session (the same chain and pivots): the probe's machine coordinates
+    separate what the R-test leaves to its set-up; 8 errors determined, each within 2u of
+    what the two tests determine of the hidden machine (the fit to their exact readings)."""
+    from volcal.kinds.probe_sphere import ProbeSetup, sphere_readings
+    from volcal.measure.spheres import probe_centres
+
+    s = plan_session(TRAVEL, "XYFZ", steps=4, tests=("probe_sphere", "r_test"), runs=2)
+    probe, rt = s.measurements
+    rt.meta["pivot_mm"] = probe.meta["pivot_mm"]  # one machine, one configuration
+    rt.meta["sphere_mm"] = [550.0, 300.0, 40.0]
+    nominal = five_axis_machine(rt)
+    rt.positions = probe_centres(nominal, {"C": rt.columns["c_deg"], "A": rt.columns["a_deg"]},
+                                 rt.meta["sphere_mm"])
+    machine = random_machine(TRAVEL, "XYFZ", seed=3)
+    setups = simulate_session(s, machine, SimulationOptions(seed=9))
+    loc = locate(s, model=machine)
+    r = loc.result
+    assert loc.kinds == ("probe_sphere", "r_test")
+    assert r.names == ("EX0C", "EY0C", "EA0C", "EB0C", "EY0A", "EZ0A", "EB0A", "EC0A")
+    # the reference: the same fit on both tests' exact readings
+    ep = kind_of("probe_sphere").exact(machine, probe, ProbeSetup(
+        "CAXYFZ", setups["probe_sphere"].location, setups["probe_sphere"].sphere_mm))
+    er = kind_of("r_test").exact(machine, rt, setups["r_test"])
+    p2 = Measurement(probe.id, probe.kind, probe.target, ep, probe.deviation,
+                     probe.beam_direction, probe.tool_offset, probe.file, probe.columns,
+                     probe.meta)
+    r2 = Measurement(rt.id, rt.kind, rt.target, rt.positions, np.linalg.norm(er, axis=1),
+                     rt.beam_direction, rt.tool_offset, rt.file,
+                     {**rt.columns, "dx_um": er[:, 0], "dy_um": er[:, 1], "dz_um": er[:, 2]},
+                     rt.meta)
+    ref = identify_location(five_axis_machine(p2, machine),
+                            [sphere_readings(p2), rtest_readings_block(r2)]).estimate
+    for n in r.names:
+        assert abs(r.estimate[n] - ref[n]) < 2.0 * r.u[n], (n, r.estimate[n], ref[n], r.u[n])
+    alone = locate(Session(s.name, s.chain, s.travel, [probe], s.meta), model=machine).result
+    # the R-test sharpens the probe's estimate of C's tilt
+    assert r.u["EA0C"] < alone.u["EA0C"] and r.u["EB0C"] < alone.u["EB0C"]

@@ -47,8 +47,9 @@ __all__ = ["RTestKind", "RTestSetup", "rtest_angles", "rtest_keys", "rtest_paths
 DEFAULT_PIVOT_DROP_MM = 120.0
 """Default plan: the tilting axis' line this far below the C pivot (a trunnion's)."""
 DEFAULT_C_PIVOT_UP_MM = 160.0
-"""Default plan: the C pivot this far above the bottom of the Z travel (the linear axes'
-positions then stay within the travel at every tilt)."""
+"""Default plan: the C pivot this far above the bottom of the Z travel (the tilt sweep's
+positions then stay within the travel; the C turn at -90 deg goes 110 mm below it, as the
+table's lowest point would on a machine whose Z travel ends at the table)."""
 DEFAULT_SPHERE_OFFSET_MM = (150.0, 0.0, 40.0)
 """Default plan: the sphere this far from the C pivot [mm] (along Y for a B cradle)."""
 C_STEP_DEG = 30.0

@@ -45,6 +45,7 @@ QUALIFIED: dict[str, tuple[str, ...]] = {
     "direct": DIRECT_SELECTORS,
     "rotary": ("a", "b", "c"),
     "probe_sphere": ("ca", "cb"),
+    "r_test": ("ca", "cb"),
 }
 """Tests that may be narrowed to one axis or plane: ``linear:x`` (the 3 lines of X),
 ``face-diagonal:xy``, ``face-step-diagonal:yz``; ``direct:x`` (the direct optics of X),
@@ -257,8 +258,8 @@ def split_test(test: str) -> tuple[str, str | None]:
 def _qualified_help() -> str:
     return ("linear:x|y|z, face-diagonal:xy|yz|xz, face-step-diagonal:xy|yz|xz for one axis or "
             "plane, direct:x|y|z|level-x|level-y|roll-z (one axis' optics, a level, the "
-            "vertical axis' roll pair), rotary:a|b|c (one rotary axis), probe_sphere:ca|cb "
-            "(the trunnion's second axis)")
+            "vertical axis' roll pair), rotary:a|b|c (one rotary axis), probe_sphere:ca|cb, "
+            "r_test:ca|cb (the trunnion's second axis)")
 
 
 def _check_options(tests: Sequence[str], steps: int, runs: int, step_target: str,

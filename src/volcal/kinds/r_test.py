@@ -48,8 +48,8 @@ DEFAULT_PIVOT_DROP_MM = 120.0
 """Default plan: the tilting axis' line this far below the C pivot (a trunnion's)."""
 DEFAULT_C_PIVOT_UP_MM = 160.0
 """Default plan: the C pivot this far above the bottom of the Z travel (the tilt sweep's
-positions then stay within the travel; the C turn at -90 deg goes 110 mm below it, as the
-table's lowest point would on a machine whose Z travel ends at the table)."""
+positions stay within the travel; the C turn at -90 deg reaches 110 mm below its bottom:
+edit the pivots to the machine's)."""
 DEFAULT_SPHERE_OFFSET_MM = (150.0, 0.0, 40.0)
 """Default plan: the sphere this far from the C pivot [mm] (along Y for a B cradle)."""
 C_STEP_DEG = 30.0

@@ -205,10 +205,11 @@ def _m(**kw):
 @pytest.mark.parametrize("kw,message", [
     ({"target": "flat-mirror"}, "measurement 'm': unknown target 'flat-mirror': expected one of "
      "flat_mirror, retroreflector, retroreflector_mirror, cat_eye, straightness_optics, "
-     "angular_optics, level, roll_optics, rotary_calibrator, index_table, touch_probe"),
+     "angular_optics, level, roll_optics, rotary_calibrator, index_table, touch_probe, "
+     "r_test_nest"),
     ({"kind": "circle"}, "measurement 'm': unknown kind 'circle': expected one of linear, "
      "diagonal, step_diagonal, multilateration, straightness, angular, rotary, "
-     "probe_sphere"),
+     "probe_sphere, r_test"),
     ({"id": ""}, "measurement id must be a non-empty string, got ''"),
     ({"positions": [[0, 0], [1, 0]]}, "measurement 'm': positions [mm]: expected shape (n, 3), "
      "got (2, 2)"),
@@ -244,7 +245,7 @@ def test_unknown_target_in_file(S):
                          "unknown target 'flat-mirror': expected one of flat_mirror, "
                          "retroreflector, retroreflector_mirror, cat_eye, straightness_optics, "
                          "angular_optics, level, roll_optics, rotary_calibrator, "
-                         "index_table, touch_probe")
+                         "index_table, touch_probe, r_test_nest")
 
 
 @pytest.mark.parametrize("kw,message", [

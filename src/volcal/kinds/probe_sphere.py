@@ -39,10 +39,6 @@ __all__ = ["ProbeSetup", "ProbeSphereKind", "dispersion_um", "five_axis_machine"
 
 KEYS = ("chain", "pivot_mm", "sphere", "sphere_mm", "sphere_diameter_mm", "noise_um")
 """The kind's own keys of a ``[[measurements]]`` entry."""
-DEFAULT_PIVOT_DROP_MM = 120.0
-"""Default plan: the A line this far below the C pivot (a trunnion's)."""
-DEFAULT_SPHERE_OFFSET_MM = (150.0, 0.0, 40.0)
-"""Default plan: the sphere this far from the C pivot [mm]."""
 
 
 @dataclass
@@ -303,6 +299,20 @@ class ProbeSphereKind(Kind):
         return location_section(inp)
 
     # -- program -------------------------------------------------------------------------
+    def program_positions(self, m: Any, dialect: str) -> list[tuple[str, Any]]:
+        """The machine positions the program commands (checked against the travel).
+
+        Parameters
+        ----------
+        m : Measurement
+            The measurement.
+        dialect : str
+            The dialect.
+        """
+        from volcal.program.probe_sphere import probe_program_positions
+
+        return probe_program_positions(m, dialect)
+
     def program_text(self, m: Any, dialect: str, name: str, number: int, options: Any
                      ) -> tuple[str, list[str]] | None:
         """LinuxCNC ``G38.2`` probing with a probe log (:mod:`volcal.program.probe_sphere`).
@@ -345,10 +355,11 @@ class ProbeSphereKind(Kind):
         """A trunnion's probe test: C at 6 angles x A at 5 angles, one sphere.
 
         The chain is ``CA`` + the plan's linear chain (``only`` = another pair of rotary
-        letters, e.g. ``cb``, read workpiece side first); the C pivot at the centre of the
-        X and Y travel and the bottom of Z, the second axis' line 120 mm below it, the
-        sphere 150 mm off the C axis and 40 mm up (``docs/fiveaxis.md``). Edit the
-        session's pivots, sphere and poses to the machine's.
+        letters, e.g. ``cb``, read workpiece side first); the pivots and sphere of
+        :func:`volcal.plan.fiveaxis.default_trunnion` (the r_test plan's: planned together
+        the two locate together; every pose's sphere centre inside the travel;
+        ``docs/fiveaxis.md``). Edit the session's pivots, sphere and poses to the
+        machine's.
 
         Parameters
         ----------
@@ -362,6 +373,7 @@ class ProbeSphereKind(Kind):
         from volcal.errors import VolcalInputError
         from volcal.measure.fiveaxis_virtual import pose_grid
         from volcal.model.chain import parse_machine_chain
+        from volcal.plan.fiveaxis import default_trunnion
         from volcal.session.format import Measurement
 
         pair = (only or "ca").lower()
@@ -369,11 +381,8 @@ class ProbeSphereKind(Kind):
             raise VolcalInputError(f"probe_sphere:{only}: expected ca or cb (C on an A or B "
                                    "cradle)")
         chain = parse_machine_chain(pair.upper() + options.chain)
-        t = np.asarray(options.t, dtype=float)
-        pc = np.array([t[0].mean(), t[1].mean(), t[2, 0]])
-        pivots = {"c": [float(v) for v in pc],
-                  pair[1]: [float(pc[0]), float(pc[1]), float(pc[2] - DEFAULT_PIVOT_DROP_MM)]}
-        sphere = [float(v) for v in pc + np.array(DEFAULT_SPHERE_OFFSET_MM)]
+        lay = default_trunnion(pair, options.chain, options.t)
+        pivots, sphere = lay.pivot_mm, lay.sphere_mm
         ang = pose_grid(chain.code)
         n = ang["C"].size
         meta = {"chain": chain.code, "pivot_mm": pivots, "sphere": "S1", "sphere_mm": sphere,

@@ -44,14 +44,6 @@ from volcal.session.r_test import rtest_machine as _machine
 __all__ = ["RTestKind", "RTestSetup", "rtest_angles", "rtest_keys", "rtest_paths",
            "rtest_readings_block"]
 
-DEFAULT_PIVOT_DROP_MM = 120.0
-"""Default plan: the tilting axis' line this far below the C pivot (a trunnion's)."""
-DEFAULT_C_PIVOT_UP_MM = 160.0
-"""Default plan: the C pivot this far above the bottom of the Z travel (the tilt sweep's
-positions stay within the travel; the C turn at -90 deg reaches 110 mm below its bottom:
-edit the pivots to the machine's)."""
-DEFAULT_SPHERE_OFFSET_MM = (150.0, 0.0, 40.0)
-"""Default plan: the sphere this far from the C pivot [mm] (along Y for a B cradle)."""
 C_STEP_DEG = 30.0
 """Default plan: C turns in steps of this angle over a full circle [deg]."""
 TILT_FIXED_DEG = (0.0, -45.0, -90.0)
@@ -379,6 +371,20 @@ class RTestKind(Kind):
         return notes
 
     # -- program -------------------------------------------------------------------------
+    def program_positions(self, m: Any, dialect: str) -> list[tuple[str, Any]]:
+        """The machine positions the program commands (checked against the travel).
+
+        Parameters
+        ----------
+        m : Measurement
+            The measurement.
+        dialect : str
+            The dialect.
+        """
+        from volcal.program.r_test import rtest_program_positions
+
+        return rtest_program_positions(m)
+
     def program_text(self, m: Any, dialect: str, name: str, number: int, options: Any
                      ) -> tuple[str, list[str]] | None:
         """The R-test path for LinuxCNC (:mod:`volcal.program.r_test`).
@@ -405,11 +411,11 @@ class RTestKind(Kind):
         """A trunnion's R-test: C turning at fixed tilts, then the tilt sweeping at C = 0.
 
         The chain is ``CA`` + the plan's linear chain (``only`` = ``cb`` for a B cradle);
-        the C pivot at the centre of the X and Y travel, 160 mm above the bottom of Z, the
-        tilting axis' line 120 mm below it, the sphere 150 mm off the C axis and 40 mm up
-        (``docs/fiveaxis.md``); the paths of :func:`rtest_paths`; the commanded positions
-        are the configured kinematics' (the nest on the nominal sphere). Edit the
-        session's pivots, sphere, nest offset and paths to the machine's.
+        the pivots and sphere of :func:`volcal.plan.fiveaxis.default_trunnion` (the
+        probe_sphere plan's: the two locate together; every position of the paths inside
+        the travel); the paths of :func:`rtest_paths`; the commanded positions are the
+        configured kinematics' (the nest on the nominal sphere). Edit the session's pivots,
+        sphere, nest offset and paths to the machine's.
 
         Parameters
         ----------
@@ -425,20 +431,17 @@ class RTestKind(Kind):
         from volcal.model.chain import parse_machine_chain
         from volcal.model.fiveaxis import FiveAxisMachine
         from volcal.model.rotary import RotaryAxis
+        from volcal.plan.fiveaxis import default_trunnion
         from volcal.session.format import Measurement
 
         pair = (only or "ca").lower()
         if len(pair) != 2 or pair[0] != "c" or pair[1] not in "ab":
             raise VolcalInputError(f"r_test:{only}: expected ca or cb (C on an A or B cradle)")
         chain = parse_machine_chain(pair.upper() + options.chain)
-        t = np.asarray(options.t, dtype=float)
-        pc = np.array([t[0].mean(), t[1].mean(), t[2, 0] + DEFAULT_C_PIVOT_UP_MM])
-        pt = pc - np.array([0.0, 0.0, DEFAULT_PIVOT_DROP_MM])
-        pivots = {"c": [float(v) for v in pc], pair[1]: [float(v) for v in pt]}
-        off = np.array(DEFAULT_SPHERE_OFFSET_MM)
-        if pair == "cb":
-            off = off[[1, 0, 2]]
-        sphere = pc + off
+        lay = default_trunnion(pair, options.chain, options.t)
+        pivots = lay.pivot_mm
+        sphere = np.array(lay.sphere_mm)
+        pc, pt = np.array(pivots["c"]), np.array(pivots[pair[1]])
         ang = rtest_paths(pair)
         rot = {"C": RotaryAxis("C", pc), pair[1].upper(): RotaryAxis(pair[1].upper(), pt,
                                                                       full_circle=False)}

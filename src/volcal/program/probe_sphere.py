@@ -38,7 +38,8 @@ import numpy as np
 
 from volcal.program.dialects import _ascii, _paren_comment
 
-__all__ = ["PROBE_FEED_MM_MIN", "probe_program", "probe_program_files"]
+__all__ = ["PROBE_FEED_MM_MIN", "probe_program", "probe_program_files",
+           "probe_program_positions"]
 
 PROBE_FEED_MM_MIN = 100.0
 """Probing feed [mm/min] (the test's ``probe_feed_mm_min`` replaces it)."""
@@ -211,3 +212,42 @@ def probe_program_files(m: Any, dialect: str, name: str) -> dict[str, str]:
     from volcal.session.probe_sphere import _angles
 
     return {f"{name}.A": heidenhain_format_file(list(_angles(m)))}
+
+
+def probe_program_positions(m: Any, dialect: str) -> list[tuple[str, np.ndarray]]:
+    """The machine positions a probe_sphere program goes to, labelled.
+
+    Each pose's sphere centre as the configured kinematics predict it, then (for the
+    dialects volcal writes probing moves for) the start and end of every probing move
+    around it, with the dialect's clearance and overtravel (the LinuxCNC program's side
+    points between the axes lie inside these). ``volcal program`` refuses the test when
+    one lies outside the session's travel.
+
+    Parameters
+    ----------
+    m : Measurement
+        The planned test.
+    dialect : str
+        The dialect.
+
+    Returns
+    -------
+    list of (str, ndarray)
+        ``'pose 3'``, ``'pose 3, probing along Z'`` ... and the position X, Y, Z [mm].
+    """
+    from volcal.program import probe_sphere_controls as pc
+
+    sphere_d = float(m.meta.get("sphere_diameter_mm", DEFAULT_SPHERE_DIAMETER_MM))
+    tip_d = float(m.meta.get("tip_diameter_mm", DEFAULT_TIP_DIAMETER_MM))
+    clear, over = ((pc.CLEARANCE_MM, pc.OVERTRAVEL_MM) if dialect in ("heidenhain", "siemens")
+                   else (CLEARANCE_MM, OVERTRAVEL_MM))
+    _, centres, moves, _ = pc.probe_moves(m, clearance=clear, overtravel=over,
+                                          elevation_deg=SIDE_ELEVATION_DEG, sphere_d=sphere_d,
+                                          tip_d=tip_d)
+    out = [(f"pose {i + 1}", centres[i]) for i in range(m.n)]
+    if dialect in ("linuxcnc", "heidenhain", "siemens"):
+        for mv in moves:
+            what = f"pose {mv.pose + 1}, probing along {'-' if mv.sign < 0 else '+'}{mv.axis}"
+            out += [(f"{what} (start)", mv.start), (f"{what} (end)", mv.end)]
+    return out
+

@@ -46,8 +46,8 @@ import numpy as np
 from volcal.errors import VolcalInputError
 from volcal.program.dialects import _paren_comment
 
-__all__ = ["APPROACH_FEED_MM_MIN", "CLEARANCE_MM", "MAX_STEP_DEG", "rtest_program",
-           "rtest_path_points"]
+__all__ = ["APPROACH_FEED_MM_MIN", "CLEARANCE_MM", "MAX_STEP_DEG", "rtest_path_points",
+           "rtest_program", "rtest_program_positions"]
 
 CLEARANCE_MM = 30.0
 """Distance along the tool axis above the sphere from which the nest is lowered [mm] (the
@@ -229,3 +229,56 @@ def rtest_program(m: Any, dialect: str, name: str, number: int, options: Any
     out.append(f"G1 {xyz(above)} F{APPROACH_FEED_MM_MIN:g}")
     out += [f"G0 Z{_f(safe, d)}" if tcp else f"G53 G0 Z{_f(safe, d)}", "M2"]
     return "\n".join(out) + "\n", warnings
+
+
+def rtest_program_positions(m: Any) -> list[tuple[str, np.ndarray]]:
+    """The machine positions the LinuxCNC path of an r_test commands, labelled.
+
+    The nest's approach point above the first pose, every pose and every intermediate
+    point of the following moves (the configured kinematics' positions: with
+    ``control_kinematics = "tcp"`` the control's joints go there too). ``volcal program``
+    refuses the test when one lies outside the session's travel.
+
+    Parameters
+    ----------
+    m : Measurement
+        The planned test.
+
+    Returns
+    -------
+    list of (str, ndarray)
+        ``'approach point above pose 1'``, ``'pose 3'``, ``'between pose 3 and 4'`` ... and
+        the position X, Y, Z [mm].
+    """
+    from volcal.measure.spheres import probe_centres
+    from volcal.model.fiveaxis import exact_pose5
+    from volcal.session.r_test import rtest_angles, rtest_keys
+    from volcal.session.r_test import rtest_machine as _machine
+
+    k = rtest_keys(m)
+    nominal = _machine(m)
+    ang = rtest_angles(m)
+    letters = list(ang)
+    s = np.asarray(k["sphere_mm"], dtype=float)
+    t = np.asarray(m.tool_offset, dtype=float)
+    pos = np.asarray(m.positions, dtype=float)
+    clear = m.meta.get("approach_mm", CLEARANCE_MM)
+    clear = float(clear) if isinstance(clear, int | float) and not isinstance(clear, bool) \
+        else CLEARANCE_MM
+    first = {a: ang[a][:1] for a in letters}
+    _, R0 = exact_pose5(nominal, pos[:1], first, t)
+    out = [("approach point above pose 1",
+            probe_centres(nominal, first, s + clear * R0[0][:, 2], t)[0])]
+    out += [(f"pose {i + 1}", pos[i]) for i in range(m.n)]
+    back = {a: np.concatenate([ang[a], ang[a][:1]]) for a in letters}
+    pts, is_pose = rtest_path_points(back)
+    mid = np.flatnonzero(is_pose < 0)
+    if mid.size:
+        q = probe_centres(nominal, {a: pts[a][mid] for a in letters}, s, t)
+        # the last pose point before each point (the path's poses: 0 .. n, n = back at 0)
+        prev = np.maximum.accumulate(np.where(is_pose >= 0, np.arange(is_pose.size), 0))
+        for n, j in enumerate(mid):
+            a = int(is_pose[prev[j]])
+            out.append((f"between pose {a + 1} and {(a + 1) % m.n + 1}", q[n]))
+    return out
+

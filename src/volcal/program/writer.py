@@ -12,6 +12,8 @@ from volcal.program.steps import ProgramOptions, build_steps
 from volcal.session.format import Session
 from volcal.session.kinds import kind_of
 
+_TRAVEL_TOL_MM = 1e-3
+"""Tolerance of the travel check of a kind's own program [mm]."""
 INDEX_FILE = "volcal-programs.toml"
 """Index written into every program folder (program file -> measurement id)."""
 
@@ -70,6 +72,7 @@ def write_programs(session: Session, dialect: str, folder: str | Path,
             name = f"{base}_{n}"
             fname = name + EXTENSIONS[dialect]
             n += 1
+        _check_travel(m, kind_of(m.kind).program_positions(m, dialect), session.travel)
         own = kind_of(m.kind).program_text(m, dialect, name, first_number + i, options)
         if own is not None:  # a kind with its own program (rotary: incremental turns)
             files[fname], more = own
@@ -92,3 +95,39 @@ def write_programs(session: Session, dialect: str, folder: str | Path,
             (tmp / fname).write_text(text, encoding="ascii", newline="\n")
         (tmp / INDEX_FILE).write_text(toml_dumps(doc), encoding="utf-8")
     return folder, warnings
+
+
+def _check_travel(m, positions, travel) -> None:
+    """Refuse a kind's own program that commands a position outside the travel.
+
+    Parameters
+    ----------
+    m : Measurement
+        The measurement.
+    positions : list of (str, array_like) or None
+        :meth:`volcal.session.kinds.Kind.program_positions`.
+    travel : array_like, shape (3, 2)
+        The session's travel [mm].
+
+    Raises
+    ------
+    VolcalInputError
+        Naming the measurement, the first position outside (its label), the axis and the
+        travel.
+    """
+    import numpy as np
+
+    t = np.asarray(travel, dtype=float).reshape(3, 2)
+    for label, p in positions or []:
+        q = np.asarray(p, dtype=float).reshape(3)
+        bad = np.flatnonzero((q < t[:, 0] - _TRAVEL_TOL_MM) | (q > t[:, 1] + _TRAVEL_TOL_MM))
+        if bad.size:
+            k = int(bad[0])
+            v = float(q[k])
+            ax = "XYZ"[k]
+            raise VolcalInputError(
+                f"{m.kind} test {m.id!r}: {label}: {ax} = {v:.3f} mm lies outside the "
+                f"session's travel {ax} {t[k, 0]:g}..{t[k, 1]:g} mm; the program would "
+                "command it. Edit the test's pivot_mm, sphere_mm or poses to the machine's, "
+                "or the session's travel_mm", m.file, None, f"{ax.lower()}_mm")
+

@@ -444,6 +444,27 @@ class Kind:
         """
         return None
 
+    def program_positions(self, m: Any, dialect: str) -> list[tuple[str, Any]] | None:
+        """The linear positions a kind's own program commands, to check against the travel.
+
+        :func:`volcal.program.writer.write_programs` refuses a program with one outside the
+        session's travel, naming the measurement, the position's label and the axis.
+
+        Parameters
+        ----------
+        m : Measurement
+            The measurement.
+        dialect : str
+            The dialect.
+
+        Returns
+        -------
+        list of (str, array_like) or None
+            Label (``'pose 3'``, ``'between pose 3 and 4'`` ...) and machine position X, Y,
+            Z [mm] of each; None: nothing to check (the common program checks its poses).
+        """
+        return None
+
     def program_files(self, m: Any, dialect: str, name: str) -> dict[str, str]:
         """Files the measurement's part program needs beside it (default none).
 

@@ -116,9 +116,9 @@ def _edit(folder, old, new, tmp_path, name="session.toml"):
     ('chain = "CAXYFZ"\n', "", "measurements[0].chain"),
     ('chain = "CAXYFZ"', 'chain = "CAXY"', "measurements[0].chain"),
     ('chain = "CAXYFZ"', 'chain = "XYFZ"', "measurements[0].chain"),
-    ("a = [400.0, 300.0, -120.0]", "b = [400.0, 300.0, -120.0]", "measurements[0].pivot_mm.b"),
-    ("a = [400.0, 300.0, -120.0]", "a = [400.0, 300.0]", "measurements[0].pivot_mm.a"),
-    ("sphere_mm = [550.0, 300.0, 40.0]", "sphere_mm = 5", "measurements[0].sphere_mm"),
+    ("a = [400.0, 300.0, 215.353]", "b = [400.0, 300.0, 215.353]", "measurements[0].pivot_mm.b"),
+    ("a = [400.0, 300.0, 215.353]", "a = [400.0, 300.0]", "measurements[0].pivot_mm.a"),
+    ("sphere_mm = [550.0, 300.0, 375.353]", "sphere_mm = 5", "measurements[0].sphere_mm"),
     ("noise_um = 1.0", "noise_um = -1.0", "measurements[0].noise_um"),
 ])
 def test_bad_keys_are_refused_naming_the_key(simulated, tmp_path, old, new, key):
@@ -296,7 +296,7 @@ def test_control_angle_sign_for_linuxcncs_trt_kinematics(simulated, tmp_path):
                                              "control_angle_sign = -1"))
     planned = read_session(folder, require_deviation=False).measurements[0]
     text, _ = kind_of("probe_sphere").program_text(planned, "linuxcnc", "P", 1,
-                                                   ProgramOptions(safe_z_mm=150.0))
+                                                   ProgramOptions(safe_z_mm=500.0))
     assert "G0 C-0.000 A90.000" in text or "G0 C0.000 A90.000" in text  # volcal A = -90
     log = tmp_path / "probe.txt"
     log.write_text(_probe_log(m.positions, {k: -v for k, v in ang.items()}, 14.0))

@@ -178,7 +178,7 @@ def test_empty_reading_and_missed_pose(tmp_path):
      "measurements[0].sensor_directions"),
     ('sphere = "R1"', 'sphere = "R1"\ncontrol_kinematics = "trt"',
      "measurements[0].control_kinematics"),
-    ("a = [400.0, 300.0, 40.0]", "b = [400.0, 300.0, 40.0]", "measurements[0].pivot_mm.b"),
+    ("a = [400.0, 300.0, 215.353]", "b = [400.0, 300.0, 215.353]", "measurements[0].pivot_mm.b"),
 ])
 def test_bad_keys_are_refused_naming_the_key(tmp_path, old, new, key):
     s, _, _ = _simulated()

@@ -27,7 +27,7 @@ TRAVEL = np.array([[0.0, 800.0], [0.0, 600.0], [0.0, 500.0]])
 _CANON = re.compile(r"^\s*\d+\s+N\.+\s+([A-Z_]+)\((.*)\)\s*$")
 
 
-SAFE_Z = 150.0
+SAFE_Z = 500.0
 """Retract height of the tests [mm]: clears the planned sphere (its top, tip and clearance
 at every pose and while the rotary axes turn: 120.1 mm, by
 :func:`volcal.program.probe_sphere_controls.safe_height`)."""
@@ -105,8 +105,9 @@ def test_linuxcnc_safe_z_below_the_swept_sphere_is_refused():
 
     m = _planned()
     need = safe_height(m, _angles(m), 0.5 * (25.0 + 3.0) + CLEARANCE_MM)
-    # the planned sphere: centre Z at the poses below 100 mm, + 14 mm (radii) + clearance
-    assert 100.0 < need < SAFE_Z
+    # the planned sphere: centre Z at the poses and between them at most 99.3 mm above the
+    # C pivot (z 335.353 mm), + 14 mm (radii) + clearance
+    assert 400.0 < need <= 335.353 + 99.3 + 14.0 + CLEARANCE_MM < SAFE_Z
     with pytest.raises(VolcalInputError, match=f"--safe-z-mm 0: below {need:.3f} mm"):
         _program(safe_z_mm=0.0)
     _program(safe_z_mm=need)  # exactly clear: accepted

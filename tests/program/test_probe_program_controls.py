@@ -34,7 +34,7 @@ from volcal_cli_helpers import volcal_process
 
 R_EFF = 0.5 * (25.0 + 3.0)
 FEED = 2000.0
-SAFE_Z = 150.0
+SAFE_Z = 500.0
 _NUM = r"[+-]?\d+(?:\.\d*)?"
 POINT_NOISE_MM = 0.3e-3
 """Noise of each trip point: 4 or 5 points on the upper half turn it into about 1 um of the
@@ -257,21 +257,22 @@ def test_program_folder_has_the_format_file(simulated, tmp_path):
 def test_safe_z_below_the_swept_sphere_is_refused(simulated):
     """The retract height must clear the sphere at every pose and while the axes turn.
 
-    Hand bounds: at the poses the highest centre is on top of the table (A = 0: z = 40
-    mm); turning A with C at 90 deg lifts it on a circle around the A line (z = -120 mm)
-    of radius sqrt(150^2 + 160^2) = 219.3 mm, to at most 99.3 mm; plus 14 mm (sphere and
-    tip) and 10 mm (clearance)."""
+    Hand bounds (the default layout in the travel 0..500: C pivot at z = 335.353 mm,
+    volcal.plan.fiveaxis): at the poses the highest centre is on top of the table (A = 0:
+    z = 375.353 mm); turning A with C at 90 deg lifts it on a circle around the A line
+    (z = 215.353 mm) of radius sqrt(150^2 + 160^2) = 219.3 mm, to at most 434.6 mm; plus
+    14 mm (sphere and tip) and 10 mm (clearance)."""
     import re as _re
 
     from volcal.errors import VolcalInputError
 
     m = read_session(simulated[1], require_deviation=False).measurements[0]
     for dialect in ("heidenhain", "siemens"):
-        with pytest.raises(VolcalInputError, match="--safe-z-mm 60: below") as e:
+        with pytest.raises(VolcalInputError, match="--safe-z-mm 300: below") as e:
             kind_of("probe_sphere").program_text(m, dialect, "PS", 1,
-                                                 ProgramOptions(safe_z_mm=60.0))
+                                                 ProgramOptions(safe_z_mm=300.0))
         need = float(_re.search(r"below ([0-9.]+) mm", str(e.value)).group(1))
-        assert 40.0 + 24.0 < need <= -120.0 + np.hypot(150.0, 160.0) + 24.0 + 1e-3
+        assert 375.353 + 24.0 < need <= 215.353 + np.hypot(150.0, 160.0) + 24.0 + 1e-3
         kind_of("probe_sphere").program_text(m, dialect, "PS", 1,
                                              ProgramOptions(safe_z_mm=need + 1e-3))
 

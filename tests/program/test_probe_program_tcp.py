@@ -30,7 +30,7 @@ def _test(**meta):
 def test_tcp_program_probes_the_same_table_points_at_every_pose():
     _, m = _test()
     text, _ = kind_of("probe_sphere").program_text(m, "linuxcnc", "P", 1,
-                                                   ProgramOptions(safe_z_mm=0.0))
+                                                   ProgramOptions(safe_z_mm=300.0))
     poses = text.split("(POSE ")[1:]
     assert len(poses) == m.n
     sphere = np.array(m.meta["sphere_mm"], dtype=float)
@@ -42,7 +42,7 @@ def test_tcp_program_probes_the_same_table_points_at_every_pose():
     ang = _angles(m)
     first = poses[0].splitlines()
     c0, a0 = 0.0 - ang["C"][0], 0.0 - ang["A"][0]
-    assert first[1] == "G0 Z0.000" and first[2] == f"G0 C{c0:.3f} A{a0:.3f}"
+    assert first[1] == "G0 Z300.000" and first[2] == f"G0 C{c0:.3f} A{a0:.3f}"
     assert "(PROBEOPEN probe_sphere.txt)" in text and "(PROBECLOSE)" in text
 
 

@@ -30,7 +30,7 @@ from volcal.session.r_test import rtest_machine as _machine
 RS274 = shutil.which("rs274")
 TRAVEL = np.array([[0.0, 800.0], [0.0, 600.0], [0.0, 500.0]])
 _CANON = re.compile(r"^\s*\d+\s+N\.+\s+([A-Z_]+)\((.*)\)\s*$")
-SAFE_Z = 300.0
+SAFE_Z = 500.0
 
 
 def _measurement():
@@ -40,7 +40,7 @@ def _measurement():
 
 def test_safe_z_below_the_approach_is_refused():
     m = _measurement()
-    with pytest.raises(VolcalInputError, match="--safe-z-mm 0: below the approach point 230 mm"):
+    with pytest.raises(VolcalInputError, match="--safe-z-mm 0: below the approach point 405.353 mm"):
         kind_of("r_test").program_text(m, "linuxcnc", "R", 1, ProgramOptions(safe_z_mm=0.0))
 
 
@@ -157,5 +157,5 @@ def test_tcp_program_holds_the_sphere_and_turns_the_rotary_axes_only():
                           f"G0 Z{SAFE_Z:.3f}", "M2"]
     listing, warnings = kind_of("r_test").program_text(m, "heidenhain", "R", 1,
                                                        ProgramOptions(safe_z_mm=SAFE_Z))
-    assert "(POSE 2: C=-30.000 A=0.000 LINEAR AXES X=529.904 Y=225.000 Z=200.000)" in listing
+    assert "(POSE 2: C=-30.000 A=0.000 LINEAR AXES X=529.904 Y=225.000 Z=375.353)" in listing
     assert warnings and "LinuxCNC only" in warnings[0]

@@ -91,7 +91,7 @@ def test_program_refuses_a_pose_outside_the_travel(tmp_path):
     """The old defaults: the probe's pose 1 (C 0, A -90) puts the sphere centre on the A line's
     height, Z = 40 - 160 = -120 mm; the R-test's C turn at A = -90 reaches
     Z = 200 - 160 - 150 sin(30 deg) = -35 mm at C = 30 deg (pose 26: A = -90, C = 0 is pose
-    25; volcal's +C turns the tool by +C, the sphere by -C), each refused naming the test, pose, axis and travel."""
+    25); each refused naming the test, pose, axis and travel."""
     s = plan_session(TRAVEL, "XYFZ", steps=4, tests=("probe_sphere",), runs=2)
     _old_layout(s.measurements[0], [550.0, 300.0, 40.0])
     with pytest.raises(VolcalInputError) as e:

@@ -116,13 +116,28 @@ def _to_isg(name: str, value: float) -> float:
     return value * (MM_PER_UM if name[1] in "XYZ" else RAD_PER_URAD)
 
 
-def _scatter(identified: Any, control: Any, blocks: Any, sphere_mm: Any) -> Array:
-    """Centre dispersion the control computes at the measured poses [um]."""
+def _scatter(identified: Any, control: Any, blocks: Any, sphere_mm: Any,
+             before: bool = False) -> Array:
+    """Centre dispersion the control computes at the measured poses [um].
+
+    An r_test block's: the dispersion of the sphere's displacement in the nest, measured
+    (``before``) or predicted (:mod:`volcal.compensate.rtest_residual`).
+    """
+    from volcal.compensate.rtest_residual import (
+        machine_command,
+        measured_dispersion,
+        rtest_dispersion,
+    )
     from volcal.measure.spheres import probe_centres
     from volcal.model.fiveaxis import exact_pose5
 
     out = []
     for b in blocks:
+        if b.kind == "rtest":
+            out.append(measured_dispersion(b) if before else rtest_dispersion(
+                identified, machine_command(control, b.tool_offset_mm), b,
+                sphere_mm[b.sphere]))
+            continue
         q = probe_centres(identified, b.angles, np.asarray(sphere_mm[b.sphere], dtype=float),
                           b.tool_offset_mm)
         p, _ = exact_pose5(control, q, b.angles, b.tool_offset_mm)
@@ -174,7 +189,7 @@ def isg_location_export(identified: Any, blocks: Any, sphere_mm: Any, configured
                             [_isg(n) for n in redundant], comps)
     held = read_isg_location(isg_location_csv(exp), configured, "<written text>")
     exp.residual_um = _scatter(identified, held, blocks, sphere_mm)
-    exp.scatter_before_um = _scatter(identified, configured, blocks, sphere_mm)
+    exp.scatter_before_um = _scatter(identified, configured, blocks, sphere_mm, before=True)
     exp.notes = [
         f"ISG/Beckhoff volumetric compensation (TF5280), ISG CSV; source: {SOURCE}",
         "units: mm (positions), rad (angles), deg (arguments); the errors (negate 0)",

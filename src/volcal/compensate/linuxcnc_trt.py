@@ -60,9 +60,11 @@ class TrtExport:
         The identified errors the kinematics cannot hold [um or urad].
     residual_um : ndarray
         Predicted dispersion of the sphere centre the control computes at each measured pose
-        with these pins (distance from their mean) [um].
+        with these pins (distance from their mean) [um]; for an r_test test's poses the
+        dispersion of the sphere's displacement in the nest
+        (:mod:`volcal.compensate.rtest_residual`).
     scatter_before_um : ndarray
-        The same with the configured pins [um].
+        The same with the configured pins [um] (r_test: the measured displacements).
     notes : list of str
         Plain words for the HAL file and the user.
     """
@@ -156,16 +158,27 @@ def trt_export(identified: Any, blocks: Any, sphere_mm: Any,
         np.zeros(5 * len(chain.rotary)))
     not_held = {n: v for n, v in loc.items() if n not in held_names and abs(v) > 0}
 
-    def scatter(control: Any) -> NDArray[np.float64]:
+    def scatter(control: Any, before: bool = False) -> NDArray[np.float64]:
+        from volcal.compensate.rtest_residual import (
+            machine_command,
+            measured_dispersion,
+            rtest_dispersion,
+        )
+
         out = []
         for b in blocks:
+            if b.kind == "rtest":  # the sphere's displacement in the nest
+                out.append(measured_dispersion(b) if before else rtest_dispersion(
+                    identified, machine_command(control, b.tool_offset_mm), b,
+                    sphere_mm[b.sphere]))
+                continue
             c = probe_centres(identified, b.angles, np.asarray(sphere_mm[b.sphere], dtype=float),
                               b.tool_offset_mm)
             p, _ = exact_pose5(control, c, b.angles, b.tool_offset_mm)
             out.append(np.linalg.norm(p - p.mean(axis=0), axis=1) * 1e3)
         return np.concatenate(out)
 
-    exp = TrtExport(kins, pins, not_held, scatter(held), scatter(nominal))
+    exp = TrtExport(kins, pins, not_held, scatter(held), scatter(nominal, before=True))
     exp.notes = [
         f"{kins}: the positions of the C and {'A' if 'y-offset' in pins else 'B'} lines "
         f"(source: {SOURCE})",
@@ -177,7 +190,8 @@ def trt_export(identified: Any, blocks: Any, sphere_mm: Any,
         exp.notes.append("not held by the kinematics (no tilt, no zero of the angles): "
                          + ", ".join(f"{n} = {v:.1f}" for n, v in not_held.items())
                          + f"; they leave a scatter of {exp.residual_um.max():.2f} um (largest)"
-                         " of the sphere centre on the measured poses")
+                         " of the sphere centre (R-test: of its displacement in the nest) on "
+                         "the measured poses")
     return exp
 
 

@@ -49,7 +49,8 @@ from numpy.typing import NDArray
 
 from volcal.errors import VolcalInputError
 
-__all__ = ["TcarrExport", "tcarr_export", "tcarr_mpf", "tcarr_to_workpiece", "tcarr_values"]
+__all__ = ["TcarrExport", "tcarr_export", "tcarr_mpf", "tcarr_to_machine", "tcarr_to_workpiece",
+           "tcarr_values"]
 
 Array = NDArray[np.float64]
 SOURCE = ("SINUMERIK 828D Function Manual Basic Functions 09/2011 (6FC5397-0BP40-2BA0) W1 "
@@ -171,6 +172,55 @@ def tcarr_to_workpiece(values: dict[int, float | str], x: Any, a1_deg: Any, a2_d
     return np.einsum("mji,mj->mi", R2, inner) + l2 + l3
 
 
+def tcarr_to_machine(values: dict[int, float | str], w: Any, a1_deg: Any, a2_deg: Any
+                     ) -> Array:
+    """Machine points of workpiece points through the record (:func:`tcarr_to_workpiece`'s inverse).
+
+    Parameters
+    ----------
+    values : dict
+        The record (:func:`tcarr_values`).
+    w : array_like, shape (m, 3)
+        Points in workpiece coordinates [mm].
+    a1_deg, a2_deg : array_like, shape (m,)
+        Positions of the 1st and the 2nd rotary axis [deg].
+
+    Returns
+    -------
+    ndarray, shape (m, 3)
+        ``x = l2 + R(v1, a1 - o1) [l3 + R(v2, a2 - o2) (w - l2 - l3)]`` [mm].
+    """
+    def vec(i: int) -> Array:
+        return np.array([float(values[i + k]) for k in range(3)])
+
+    l2, v1, v2, l3 = vec(4), vec(7), vec(10), vec(15)
+    w = np.atleast_2d(np.asarray(w, dtype=float))
+    R1 = _rot(v1, np.asarray(a1_deg, dtype=float) - float(values[24]))
+    R2 = _rot(v2, np.asarray(a2_deg, dtype=float) - float(values[25]))
+    inner = np.einsum("mij,mj->mi", R2, w - l2 - l3) + l3
+    return np.einsum("mij,mj->mi", R1, inner) + l2
+
+
+def _command(values: dict[int, float | str], axes: tuple[str, str], straight: Any,
+             tool_offset: Any) -> Any:
+    """The linear positions the control computes through the record to reach a sphere."""
+    from volcal.model.fiveaxis import exact_pose5
+
+    t = np.asarray(tool_offset, dtype=float)
+
+    def command(angles: dict[str, Array], sphere: Array) -> Array:
+        m = len(angles[axes[0]])
+        x = tcarr_to_machine(values, np.broadcast_to(sphere, (m, 3)), angles[axes[0]],
+                             angles[axes[1]])
+        q = x - t
+        for _ in range(3):  # the linear axes as they are (the model's linear errors)
+            p, _ = exact_pose5(straight, q, None, t)
+            q = q - (p - x)
+        return q
+
+    return command
+
+
 def tcarr_export(identified: Any, blocks: Any, sphere_mm: Any, configured: Any,
                  carrier: int = 1) -> TcarrExport:
     """The record of an identified trunnion and the residual it leaves on the measured poses.
@@ -202,9 +252,16 @@ def tcarr_export(identified: Any, blocks: Any, sphere_mm: Any, configured: Any,
     nloc = identified.location_vector().size
     straight = identified.with_location(np.zeros(nloc))
 
-    def scatter(values: dict[int, float | str]) -> Array:
+    def scatter(values: dict[int, float | str], before: bool = False) -> Array:
+        from volcal.compensate.rtest_residual import measured_dispersion, rtest_dispersion
+
         out = []
         for b in blocks:
+            if b.kind == "rtest":  # the sphere's displacement in the nest
+                out.append(measured_dispersion(b) if before else rtest_dispersion(
+                    identified, _command(values, axes, straight, b.tool_offset_mm), b,
+                    sphere_mm[b.sphere]))
+                continue
             q = probe_centres(identified, b.angles, np.asarray(sphere_mm[b.sphere], dtype=float),
                               b.tool_offset_mm)
             # the tool point in machine axes (the linear axes as they are, no rotary axis)
@@ -213,7 +270,7 @@ def tcarr_export(identified: Any, blocks: Any, sphere_mm: Any, configured: Any,
             out.append(np.linalg.norm(w - w.mean(axis=0), axis=1) * 1e3)
         return np.concatenate(out) if out else np.zeros(0)
 
-    exp = TcarrExport(carrier, vals, axes, scatter(vals), scatter(before))
+    exp = TcarrExport(carrier, vals, axes, scatter(vals), scatter(before, before=True))
     loc = {n: v for r in identified.chain_obj.rotary
            for n, v in identified.rotary[r].location.items()}
     exp.notes = [

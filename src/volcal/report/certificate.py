@@ -684,6 +684,44 @@ def _pairs(found: dict[str, Any], left: dict[str, Any]) -> list[dict[str, Any]]:
     return rows
 
 
+def _rotary_pairs(found: dict[str, Any], left: dict[str, Any]) -> list[dict[str, Any]]:
+    """Pair the as-found and as-left rotary tests axis by axis [urad].
+
+    A rotary test of the as-found session pairs with the as-left test of the same axis:
+    the one of the same measurement id, or else the only one of that axis when each
+    session has one test of it (several tests of one axis under other ids are ambiguous:
+    not paired).
+
+    Parameters
+    ----------
+    found, left : dict
+        :func:`_results` of the two sessions.
+
+    Returns
+    -------
+    list of dict
+        ``measurement`` (the as-found id), ``as_left_measurement`` (the as-left id),
+        ``axis``, ``quantity`` (``A``, ``E``, ``M``, ``R``, ``B``), ``as_found_urad``,
+        ``as_left_urad``.
+    """
+    rows: list[dict[str, Any]] = []
+    fr, lr = found.get("rotary") or [], left.get("rotary") or []
+    for r in fr:
+        same_axis = [o for o in lr if o["axis"] == r["axis"]]
+        o = next((o for o in same_axis if o["measurement"] == r["measurement"]), None)
+        if o is None and len(same_axis) == 1 and sum(x["axis"] == r["axis"] for x in fr) == 1:
+            o = same_axis[0]
+        if o is None:
+            continue
+        for k in ("A", "E", "M", "R", "B"):
+            if k in r["values"] and k in o["values"]:
+                rows.append({"measurement": r["measurement"],
+                             "as_left_measurement": o["measurement"], "axis": r["axis"],
+                             "quantity": k, "as_found_urad": r["values"][k],
+                             "as_left_urad": o["values"][k]})
+    return rows
+
+
 NO_SYSTEMATIC_VERDICT = ("qualified: its U is the identification's noise and prior part "
                          "only (the model carries no systematic part: laser, air and "
                          "material inputs not included; identify with --budget to include "
@@ -1073,6 +1111,7 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
         "as_found_as_left": None if left is None else {
             "tables": tab, "pairs": _pairs(found, left),
             "direct_optics_pairs": optics_pairs(found["direct_optics"], left["direct_optics"]),
+            **({"rotary_pairs": rp} if (rp := _rotary_pairs(found, left)) else {}),
             "statement": "As-found: measured before adjustment. As-left: measured after "
                          "the compensation tables below were loaded into the control. Both "
                          "are measured results; the tables are named, not applied again."},

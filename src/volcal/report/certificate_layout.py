@@ -220,17 +220,21 @@ def layout(doc: dict[str, Any], angle_units: str = "urad") -> list[CertSection]:
             s.blocks.append(Block("flag", text="The compensation tables loaded between the "
                                   "two measurements are not named (--tables)."))
         opt_pairs = pair.get("direct_optics_pairs") or []
-        if not pair["pairs"] and not opt_pairs:
+        rot_pairs = pair.get("rotary_pairs") or []
+        if not pair["pairs"] and not opt_pairs and not rot_pairs:
             s.blocks.append(Block("flag", text="No evaluated measurement id is common to the "
                                   "as-found and the as-left session: nothing to pair."))
-        s.blocks.append(Block("table", title="Measured as-found and as-left [µm]",
-                              columns=["measurement", "axis", "quantity", "as-found",
-                                       "as-left", "change"],
-                              rows=[[p["measurement"], str(p["axis"]), _KEYS.get(
-                                  p["quantity"], p["quantity"]), _n(p["as_found_um"]),
-                                     _n(p["as_left_um"]),
-                                     _n(p["as_left_um"] - p["as_found_um"])]
-                                    for p in pair["pairs"]]))
+        if pair["pairs"] or not rot_pairs:  # (a rotary-only calibration: the table below)
+            s.blocks.append(Block("table", title="Measured as-found and as-left [µm]",
+                                  columns=["measurement", "axis", "quantity", "as-found",
+                                           "as-left", "change"],
+                                  rows=[[p["measurement"], str(p["axis"]), _KEYS.get(
+                                      p["quantity"], p["quantity"]), _n(p["as_found_um"]),
+                                         _n(p["as_left_um"]),
+                                         _n(p["as_left_um"] - p["as_found_um"])]
+                                        for p in pair["pairs"]]))
+        if rot_pairs:
+            s.blocks.append(_rotary_pairs_block(rot_pairs, angle_units))
         if opt_pairs:
             s.blocks.append(Block("table", title="Direct optics (ISO 230-1) measured as-found "
                                   "and as-left", columns=["measurement", "axis", "quantity",
@@ -397,6 +401,24 @@ def _result_blocks(state: str, res: dict[str, Any], paired: bool,
         out.append(Block("note", text="Not evaluated: " + "; ".join(
             f"{k} ({v})" for k, v in res["skipped"].items())))
     return out
+
+
+def _rotary_pairs_block(pairs: list[dict[str, Any]], angle_units: str) -> Block:
+    """The rotary tests' as-found / as-left table, in ``angle_units`` (the document: urad)."""
+    from volcal.standards.iso230_2_rotary import UNITS
+
+    f = UNITS[angle_units]
+    unit = "µrad" if angle_units == "urad" else "arcsec"
+    rows = []
+    for p in pairs:
+        mid = p["measurement"] + ("" if p["as_left_measurement"] == p["measurement"]
+                                  else f" / {p['as_left_measurement']}")
+        a, b = float(p["as_found_urad"]) * f, float(p["as_left_urad"]) * f
+        rows.append([mid, str(p["axis"]), _KEYS.get(p["quantity"], p["quantity"]), _n(a),
+                     _n(b), _n(b - a)])
+    return Block("table", title=f"Rotary axes measured as-found and as-left [{unit}]",
+                 columns=["measurement", "axis", "quantity", "as-found", "as-left", "change"],
+                 rows=rows)
 
 
 def _optics_blocks(head: str, opt: dict[str, Any] | None) -> list[Block]:

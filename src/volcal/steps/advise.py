@@ -61,4 +61,32 @@ def advise(session: Session | str | Path, *, roll: str = D.ROLL, **options: Any)
         session = read_session(session, require_deviation=False)
     if known_file is not None:
         opts = _read_known(opts, known_file, options.get("known_u"))
+    _refuse_without_linear_tests(session)
     return Advice(run(session, opts))
+
+
+def _refuse_without_linear_tests(session: Session) -> None:
+    """Refuse a session none of whose tests enters the linear identification.
+
+    advise ranks what the tests determine of the linear axes' model (``volcal identify``);
+    a rotary test is evaluated on its own (ISO 230-2 for rotary axes), a probe-on-sphere
+    test locates the rotary axes: with only those there is nothing to rank, which is said
+    plainly here rather than by the identification's "no measurements selected".
+    """
+    from volcal.errors import VolcalInputError
+    from volcal.session.kinds import kind_of
+
+    if any(kind_of(m.kind).in_design for m in session.measurements):
+        return
+    kinds = sorted({m.kind for m in session.measurements})
+    name = str(session.path) if session.path is not None else session.name
+    why = ["advise ranks the tests for the identification of the linear axes (the model of "
+           f"volcal identify), and session {name} has none (its tests: "
+           + (", ".join(f"{m.id} ({m.kind})" for m in session.measurements) or "none") + ")"]
+    if "rotary" in kinds:
+        why.append("the rotary axes are evaluated by ISO 230-2 alone: volcal evaluate "
+                   f"session {name}, or volcal evaluate iso230-2 FILE per test")
+    if "probe_sphere" in kinds:
+        why.append("probe-on-sphere tests locate the rotary axes: volcal locate")
+    raise VolcalInputError("; ".join(why),
+                           None if session.path is None else session.path / "session.toml")

@@ -104,6 +104,11 @@ def test_certificate_pairs_the_rotary_tests_by_axis(found_left):
             and (b.title or "").startswith("Rotary axes measured")]
     assert urad[0].title.endswith("[µrad]")
     assert next(r for r in urad[0].rows if r[2] == "A")[3] == f"{float(before.A):.2f}"
+    from volcal.report.certificate_html import render_certificate_html
+
+    html = render_certificate_html(doc, "arcsec")
+    assert "Rotary axes measured as-found and as-left [arcsec]" in html
+    assert f"{a0:.2f}" in html and f"{a1:.2f}" in html
 
 
 def test_rotary_pairs_schema_is_additive(found_left):

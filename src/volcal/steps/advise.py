@@ -69,8 +69,8 @@ def _refuse_without_linear_tests(session: Session) -> None:
     """Refuse a session none of whose tests enters the linear identification.
 
     advise ranks what the tests determine of the linear axes' model (``volcal identify``);
-    a rotary test is evaluated on its own (ISO 230-2 for rotary axes), a probe-on-sphere
-    test locates the rotary axes: with only those there is nothing to rank, which is said
+    a rotary test is evaluated on its own (ISO 230-2 for rotary axes), probe-on-sphere and
+    R-test tests locate the rotary axes: with only those there is nothing to rank, which is said
     plainly here rather than by the identification's "no measurements selected".
     """
     from volcal.errors import VolcalInputError
@@ -86,7 +86,8 @@ def _refuse_without_linear_tests(session: Session) -> None:
     if "rotary" in kinds:
         why.append("the rotary axes are evaluated by ISO 230-2 alone: volcal evaluate "
                    f"session {name}, or volcal evaluate iso230-2 FILE per test")
-    if "probe_sphere" in kinds:
-        why.append("probe-on-sphere tests locate the rotary axes: volcal locate")
+    located = [k for k in ("probe_sphere", "r_test") if k in kinds]
+    if located:
+        why.append(f"{' and '.join(located)} tests locate the rotary axes: volcal locate")
     raise VolcalInputError("; ".join(why),
                            None if session.path is None else session.path / "session.toml")

@@ -46,7 +46,7 @@ OPTIONS: dict[str, str] = {
         "deviation_units", "optics", "sign", "slope_removed",
         # identify, advise
         "prior", "roll", "known", "known_u", "monte_carlo", "drift", "measurements",
-        "max_nodes", "robust",
+        "max_nodes", "robust", "candidates", "top",
         # predict
         "points", "force",
         # compensate

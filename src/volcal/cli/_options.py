@@ -25,6 +25,7 @@ RENAMED: dict[str, str] = {
     "csv_file": "FILE",
     "session": "--session",
     "output": "--output",
+    "location_tolerance": "--location-tolerance-um",
 }
 
 #: Every parameter the command line names in an error of a step.
@@ -55,6 +56,8 @@ OPTIONS: dict[str, str] = {
         # locate
         "model", "prior_u", "linuxcnc_hal", "z_rot_point_mm", "siemens_tcarr", "tool_carrier",
         "isg_kinematics",
+        # report
+        "location_tolerance_um", "location_tolerance",
         # capture
         "control", "laser", "programs", "window_mm", "stable_s", "k_sigma", "laser_noise",
         "control_noise_mm", "max_gap_s", "poll_s", "timeout_s", "speed",

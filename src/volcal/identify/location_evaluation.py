@@ -43,12 +43,61 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["COVERAGE_K", "LocatedChain", "PathRange", "locate_session", "location_results",
-           "path_decisions"]
+__all__ = ["COVERAGE_K", "LocatedChain", "LocationTolerance", "PathRange", "locate_session",
+           "location_results", "location_tolerance", "path_decisions"]
 
 Array = NDArray[np.float64]
 COVERAGE_K = 2.0
 """Coverage factor of every U of this module."""
+
+
+@dataclass(frozen=True)
+class LocationTolerance:
+    """The tolerance of the per-path sphere-centre test and its decision rule.
+
+    Attributes
+    ----------
+    tolerance_um : float
+        Tolerance T of the largest range (X, Y or Z) of a path [um].
+    rule : str
+        ``'simple'`` or ``'guarded'`` (:mod:`volcal.standards.decision`).
+    guard_band_um : float, optional
+        Guard band w of the guarded rule [um] (default U).
+    """
+
+    tolerance_um: float
+    rule: str = "simple"
+    guard_band_um: float | None = None
+
+
+def location_tolerance(tolerance_um: float | None, rule: str = "simple",
+                       guard_band_um: float | None = None) -> LocationTolerance | None:
+    """The checked tolerance (None when ``tolerance_um`` is None).
+
+    Parameters
+    ----------
+    tolerance_um : float or None
+        Tolerance [um], finite and positive.
+    rule : str
+        Decision rule.
+    guard_band_um : float, optional
+        Guard band [um].
+
+    Raises
+    ------
+    ParameterError
+        A tolerance that is not a positive number, an unknown rule.
+    """
+    from volcal.errors import ParameterError
+    from volcal.standards.decision import check_rule
+
+    if tolerance_um is None:
+        return None
+    t = float(tolerance_um)
+    if not (math.isfinite(t) and t > 0):
+        raise ParameterError(f"{{location_tolerance_um=}}{tolerance_um}: expected a positive "
+                             "tolerance [um]")
+    return LocationTolerance(t, check_rule(rule), guard_band_um)
 
 
 @dataclass(frozen=True)

@@ -870,7 +870,8 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
                       technical_report: str | None = "report.pdf",
                       evaluation: Any = None,
                       as_left_evaluation: Any = None,
-                      rotary_tolerance_urad: dict[str, float] | None = None
+                      rotary_tolerance_urad: dict[str, float] | None = None,
+                      location: list[Any] | None = None, location_tolerance: Any = None
                       ) -> dict[str, Any]:
     """Build the certificate document (``volcal-certificate/1``) of a calibration.
 
@@ -934,6 +935,14 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
     rotary_tolerance_urad : dict of str to float, optional
         Tolerance of the accuracy A of each rotary axis (``{'C': 25.0}`` [urad]): the
         verdict of its rotary tests (simple rule), in ``results.rotary[*].verdict``.
+    location : list of LocatedChain, optional
+        The as-found session's location evaluation
+        (:func:`volcal.identify.location_evaluation.locate_session`, with the model's
+        linear errors), as the report step computes it; computed here when omitted. Its
+        probe_sphere tests give ``results.<state>.location``
+        (:func:`volcal.report.certificate_location.location_results`).
+    location_tolerance : LocationTolerance, optional
+        Tolerance and decision rule of the per-path sphere-centre test.
 
     Returns
     -------
@@ -989,6 +998,13 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
         model_digest = errors_digest(result.errors)
     found = _results(session, ev, result is not None, uncertainties, optics_budget,
                      model_digest)
+    from volcal.identify.location_evaluation import locate_session
+    from volcal.report.certificate_location import location_results
+
+    if location is None:
+        location = locate_session(session, None if result is None else result.errors)
+    if location:  # the probe_sphere tests' location errors (docs/fiveaxis.md)
+        found["location"] = location_results(location, location_tolerance)
     for row in found.get("rotary", []):  # a rotary axis' A against its tolerance
         t = (rotary_tolerance_urad or {}).get(row["axis"])
         if t is not None:
@@ -1004,6 +1020,9 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
         if as_left_uncertainties is None:
             as_left_uncertainties = getattr(ev_left, "with_budget", None) or None
         left = _results(as_left, ev_left, False, as_left_uncertainties, optics_budget)
+        left_location = locate_session(as_left)
+        if left_location:
+            left["location"] = location_results(left_location, location_tolerance)
     if decision_rule is None:
         decision_rule = getattr(tolerance, "rule", None) or "simple"
     if guard_band_um is None:

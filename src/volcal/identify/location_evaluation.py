@@ -8,15 +8,18 @@ certificate and the history (they format or store what it gives):
 * the **scatter of the sphere centre before and after**: at each pose, the sphere centre
   the reported probe centre gives in workpiece coordinates (the probe tip through the
   inverse of the chain's pose) with the configured kinematics, minus the mean of the
-  test's poses (the dispersion a control's own cycle reports, HEIDENHAIN cycle 451,
-  Siemens CYCLE996) -- *before*; and with the identified location errors applied, minus
-  the identified sphere centre -- *after* (the residual the identified kinematics
-  predict, what a control holding them would leave);
+  test's poses (its length is the dispersion a control's own cycle reports, HEIDENHAIN
+  cycle 451, Siemens CYCLE996) -- *before*; and with the identified location errors
+  applied, minus the identified sphere centre -- *after* (the residual the identified
+  kinematics leave, what a control holding them would leave);
 * an **ISO 10791-6-style test** of each path: the poses of a test along which one rotary
-  axis turns while the others stand (``C at A = 45 deg``); the range (max - min) of the
-  deviation in X, in Y and in Z over the path, as the kinematic tests of ISO 10791-6:2014
-  evaluate the sphere centre's deviation during a rotary motion (Weikert 2004; Ibaraki
-  et al. 2010), compared with a tolerance by the decision rules of the linear axes
+  axis turns while the others stand (``C at A = 45 deg``). At each pose of the path the
+  deviation in machine coordinates X, Y, Z: the reported centre minus where the
+  kinematics put the sphere as the path's first pose located it (an R-test's sensors
+  zeroed at the start of the path); its range (max - min) in X, in Y and in Z over the
+  path, as the kinematic tests of ISO 10791-6:2014 evaluate the sphere centre's
+  deviation during a rotary motion with the linear axes following (Weikert 2004;
+  Ibaraki et al. 2011), compared with a tolerance by the decision rules of the linear axes
   (:func:`volcal.standards.decision.decide`). The expanded uncertainty of a range (the
   difference of two readings) is ``U = k sqrt(2) sigma`` with the test's probe noise
   ``sigma`` (``noise_um``), k = 2.
@@ -116,7 +119,8 @@ class PathRange:
     n_poses : int
         Poses on the path.
     range_before_um : ndarray, shape (3,)
-        Range of the deviation in X, Y, Z with the configured kinematics [um].
+        Range of the deviation in X, Y, Z with the configured kinematics, zeroed at the
+        path's first pose, machine coordinates [um].
     range_after_um : ndarray, shape (3,)
         The same with the identified location errors applied [um].
     U_um : float
@@ -159,7 +163,8 @@ class LocatedChain:
     pose_measurement : tuple of str
         The test of each pose.
     before_um : ndarray, shape (n, 3)
-        Sphere centre per pose with the configured kinematics minus the test's mean [um].
+        Sphere centre per pose with the configured kinematics minus the test's mean,
+        workpiece coordinates [um].
     after_um : ndarray, shape (n, 3)
         Sphere centre per pose with the identified errors minus the identified centre [um].
     paths : tuple of PathRange
@@ -193,25 +198,43 @@ class LocatedChain:
         return rows
 
 
-def _paths(mid: str, angles: dict[str, Array], before: Array, after: Array,
-           U: float) -> list[PathRange]:
+def _path_range(kin: tuple[Any, Array], angles: dict[str, Array], idx: list[int],
+                pos: Array, tool: Array) -> Array:
+    """Range in X, Y, Z of a path's deviation, zeroed at its first pose [um].
+
+    The deviation at each pose of the path: the reported centre minus where the
+    kinematics put the sphere as the first pose of the path located it (an R-test's
+    sensors zeroed at the start of the path), in machine coordinates.
+    """
+    from volcal.measure.spheres import probe_centres
+
+    machine, p = kin
+    ang = {r: v[idx] for r, v in angles.items()}
+    d = pos[idx] - probe_centres(machine, ang, p[idx[0]], tool)
+    return np.asarray(np.ptp(d, axis=0) * 1e3, dtype=float)
+
+
+def _paths(mid: str, angles: dict[str, Array], before: tuple[Any, Array],
+           after: tuple[Any, Array], pos: Array, tool: Array, U: float) -> list[PathRange]:
     """The poses along which one axis turns while the others stand (>= 3 poses)."""
     letters = list(angles)
+    n = pos.shape[0]
     out: list[PathRange] = []
     for r in letters:
         others = [o for o in letters if o != r]
-        keys = [tuple(round(float(angles[o][i]), 6) for o in others)
-                for i in range(before.shape[0])]
+        keys = [tuple(round(float(angles[o][i]), 6) for o in others) for i in range(n)]
         for key in dict.fromkeys(keys):
             idx = [i for i, k in enumerate(keys) if k == key]
             if len(idx) < 3 or np.ptp(angles[r][idx]) == 0.0:
                 continue
             where = ", ".join(f"{o} = {v:g}°" for o, v in zip(others, key, strict=True))
             out.append(PathRange(mid, f"{r} at {where}" if where else f"{r}", r, len(idx),
-                                 np.ptp(before[idx], axis=0), np.ptp(after[idx], axis=0), U))
-    if not out and before.shape[0] >= 2:
-        out.append(PathRange(mid, "all poses", "", before.shape[0], np.ptp(before, axis=0),
-                             np.ptp(after, axis=0), U))
+                                 _path_range(before, angles, idx, pos, tool),
+                                 _path_range(after, angles, idx, pos, tool), U))
+    if not out and n >= 2:
+        idx = list(range(n))
+        out.append(PathRange(mid, "all poses", "", n, _path_range(before, angles, idx, pos, tool),
+                             _path_range(after, angles, idx, pos, tool), U))
     return out
 
 
@@ -249,18 +272,17 @@ def locate_session(session: Any, linear: Any = None) -> list[LocatedChain]:
             ang = _angles(m)
             pos = np.asarray(m.positions, dtype=float)
             tool = np.asarray(m.tool_offset, dtype=float)
-            p0, _ = exact_pose5(five_axis_machine(m, linear), pos, ang, tool)
+            nom = five_axis_machine(m, linear)
+            p0, _ = exact_pose5(nom, pos, ang, tool)
             p1, _ = exact_pose5(res.machine, pos, ang, tool)
             s = np.array([res.nuisances[f"{k['sphere']}:s{a}"] for a in "xyz"])
-            b = (p0 - p0.mean(axis=0)) * 1e3
-            a = (p1 - s) * 1e3
-            before.append(b)
-            after.append(a)
+            before.append((p0 - p0.mean(axis=0)) * 1e3)
+            after.append((p1 - s) * 1e3)
             poses += [m.id] * m.n
             for r, v in ang.items():
                 angles.setdefault(r, []).append(v)
             U = COVERAGE_K * math.sqrt(2.0) * float(k["noise_um"])
-            paths += _paths(m.id, ang, b, a, U)
+            paths += _paths(m.id, ang, (nom, p0), (res.machine, p1), pos, tool, U)
         out.append(LocatedChain(
             nominal.chain_obj.code, tuple(m.id for m in group), res,
             {r: np.concatenate(v) for r, v in angles.items()}, tuple(poses),

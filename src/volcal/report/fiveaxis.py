@@ -39,12 +39,12 @@ def _scatter_table(lc: Any) -> Table:
                   "after dX [µm]", "dY [µm]", "dZ [µm]", "|d| [µm]"], rows,
                  f"Sphere centre at each pose, chain {lc.chain}: before (configured "
                  "kinematics) and after (identified location errors applied)",
-                 "Before: the centre each pose gives in workpiece coordinates with the "
-                 "configured rotation points, minus the mean of the test's poses (the "
-                 "dispersion the control's own probing cycle reports). After: the same with "
-                 "the identified location errors applied, minus the identified sphere centre: "
-                 "what a control holding the identified errors would leave (a prediction, "
-                 "not a measurement after compensation).")
+                 "In workpiece coordinates (the table's at the zero pose). Before: the "
+                 "centre each pose gives with the configured rotation points, minus the "
+                 "mean of the test's poses; |d| is the dispersion the control's own probing "
+                 "cycle reports. After: the same with the identified location errors "
+                 "applied, minus the identified sphere centre: what a control holding them "
+                 "would leave (a prediction, not a measurement after compensation).")
 
 
 def _path_table(lc: Any, decisions: list[dict[str, Any]] | None) -> Table:
@@ -61,10 +61,12 @@ def _path_table(lc: Any, decisions: list[dict[str, Any]] | None) -> Table:
     cols = ["test", "path", "poses", "range before X/Y/Z [µm]", "range after X/Y/Z [µm]",
             "U (k = 2) [µm]"]
     note = ("A path: the poses along which one rotary axis turns while the others stand. "
-            "The range (max - min) of the sphere centre's deviation in X, Y and Z over the "
-            "path, as the kinematic tests of ISO 10791-6:2014 evaluate a rotary motion with "
-            "the linear axes following (Weikert 2004; Ibaraki et al. 2011); U of a range is "
-            "2 √2 σ with the probe noise σ of the test.")
+            "At each pose, the reported centre minus where the kinematics put the sphere as "
+            "the path's first pose located it (an R-test's sensors zeroed at the start of "
+            "the path), in machine coordinates; its range (max - min) in X, Y and Z over "
+            "the path, as the kinematic tests of ISO 10791-6:2014 evaluate a rotary motion "
+            "with the linear axes following (Weikert 2004; Ibaraki et al. 2011); U of a "
+            "range is 2 √2 σ with the probe noise σ of the test.")
     if decisions is not None:
         cols += ["verdict before", "verdict after"]
         d0 = decisions[0] if decisions else None

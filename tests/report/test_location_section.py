@@ -7,9 +7,9 @@ first pose located (C = 0) is found at ``(I - R_z(-theta)) d e_x`` = d (1 - cos 
 sin theta, 0) from where the configured kinematics put it: on the path "C at A = 0" (C =
 0, 60, ..., 300 deg) X spans 2 d = 1000 um, Y spans 2 d sin 60 deg = 866.03 um, Z none;
 with C standing (an A path) the offset is a workpiece shift, no range. With the
-identified location errors the residual is the rounding of the CSV (1 nm). The ISO 10791-6-style test with T = 20 um then
-fails as found and passes after; the certificate states it in ``results.as_found.location``
-and validates against its schema.
+identified location errors the residual is the rounding of the CSV (1 nm). The
+ISO 10791-6-style test with T = 20 um then fails as found and passes after; the
+certificate states it in ``results.as_found.location`` and validates against its schema.
 """
 
 from __future__ import annotations

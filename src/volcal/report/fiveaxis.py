@@ -1,5 +1,8 @@
-"""Report section of the probe_sphere tests: the rotary axes' location errors with U,
-the scatter of the sphere centre before and after, and its ISO 10791-6-style test."""
+"""Report section of the probe_sphere tests: the rotary axes' location errors with U.
+
+With the scatter of the sphere centre before and after and its ISO 10791-6-style test
+per path (:mod:`volcal.identify.location_evaluation`).
+"""
 
 from __future__ import annotations
 

@@ -143,3 +143,25 @@ def test_ranking_numbers_match_the_analysis():
     best = r.candidates[0]
     assert best.gain > 0 and best.gain_per_pose == pytest.approx(best.gain)
     assert all(best.U_after[n] <= r.U[n] + 1e-9 for n in r.U)  # a pose never adds U
+
+
+def test_locate_and_advise_say_which_redundant_errors_poses_would_separate():
+    """A trunnion probed with A standing at 0: A's line is seen by no reading; other poses
+    would determine it (the ranking names them), the two zeros stay redundant."""
+    from volcal.identify.location import analyse_location, design_jacobian, separation_advice
+    from volcal.measure.fiveaxis_virtual import nominal_machine
+    from volcal.measure.spheres import SphereReadings
+    from volcal.model.fiveaxis import location_parameter_names
+
+    nom = nominal_machine("CAFXYZ", {"C": [0, 0, 0], "A": [0, 0, -120]})
+    ang = {"C": np.array([0.0, 90.0, 180.0, 270.0]), "A": np.zeros(4)}
+    b = SphereReadings("m", "probe", ang, np.zeros((4, 3)), "S1", np.array([150.0, 0, 40]),
+                       np.zeros(3), None, 1.0)
+    Jx, Jn, nn, _, _ = design_jacobian(nom, [b])
+    rep = analyse_location(Jx, Jn, location_parameter_names("CAFXYZ"), nn, nom.chain_obj)
+    assert any(m.startswith("  EY0A (position of the A axis average line in Y) is seen by no "
+                            "reading") for m in rep.messages)
+    advice = separation_advice(nom, [b])
+    assert ("Adding poses at other angles would determine EY0A, EZ0A, EB0A, EC0A (volcal "
+            "advise ranks the candidate poses).") in advice
+    assert any(a.startswith("No candidate reading separates EC0C, EA0A:") for a in advice)

@@ -91,6 +91,8 @@ def test_report_and_certificate_sections(session, tmp_path, monkeypatch, capsys)
     assert "fail as found with the configured kinematics; pass predicted" in html
     doc = json.loads((out / "certificate.json").read_text())
     jsonschema.validate(doc, schema(), cls=jsonschema.Draft202012Validator)
+    method = next(x for x in doc["methods"] if x["id"] == "ISO 230-1 location errors")
+    assert method["measurements"] == ["probe_sphere"]
     (loc,) = doc["results"]["as_found"]["location"]
     assert loc["chain"] == "CAXYFZ" and loc["tolerance"]["verdict_before"] == "fail"
     assert loc["tolerance"]["verdict_after"] == "pass"

@@ -92,6 +92,10 @@ METHODS: dict[str, dict[str, str]] = {
         "title": "Identification of the 21 rigid-body error functions and squareness "
         "errors of the machine from all laser readings (Bayesian least squares on the "
         "kinematic chain)", "reference": "volcal docs/identification.md"},
+    "ISO 230-1 location errors": {
+        "title": "Location errors of the rotary axes (ISO 230-1:2012 3.5) identified from the "
+        "centre of a calibration sphere probed at rotary poses, with the sphere centre's "
+        "deviation per path (ISO 10791-6-style)", "reference": "volcal docs/fiveaxis.md"},
     "refractive index of air": {
         "title": "Readings referred to air and 20 °C from the measured environment (Ciddor "
         "1996 or modified Edlén, Birch & Downs 1993/1994; ISO 1)",
@@ -850,6 +854,11 @@ def _methods(found: dict[str, Any], left: dict[str, Any] | None, sessions: dict[
         out.append({"id": "ISO 230-1", **METHODS["ISO 230-1"], "edition": "2012",
                     "measurements": []})
         out[-1]["reference"] = "ISO 230-1:2012"
+    loc = sorted({mid for x in res for e in x.get("location") or []
+                  for mid in e["measurements"]})
+    if loc:
+        out.append({"id": "ISO 230-1 location errors", **METHODS["ISO 230-1 location errors"],
+                    "edition": "2012", "measurements": loc})
     raw = sorted({m.id for s in sessions.values() for m in s.measurements
                   if m.meta.get("readings") == "compensated"})
     if raw:

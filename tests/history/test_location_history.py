@@ -120,3 +120,29 @@ def test_location_errors_stored_trended_compared(store_url, sessions, monkeypatc
                 assert e["changed"] is False, name
         if changed:  # other hidden location errors: pivots mm apart, far beyond U
             assert entries["EX0C"]["changed"] and entries["EY0C"]["changed"]
+
+
+def test_a_probe_sphere_session_alone_is_stored_without_a_model(tmp_path, monkeypatch,
+                                                                  capsys):
+    """No linear test, no model (``history add`` without ``--model``): the location errors
+    are stored as ``volcal locate`` states them with perfect linear axes."""
+    from volcal.steps.locate import locate
+
+    folder = tmp_path / "S"
+    for args in (["plan", "--travel", "0:800,0:600,0:500", "--chain", "XYFZ", "--tests",
+                  "probe_sphere", "-o", str(folder)], ["simulate", str(folder), "--seed", "3"]):
+        code, _, err = run_volcal(monkeypatch, capsys, *args)
+        assert code == 0, err
+    toml = folder / "session.toml"
+    toml.write_text(toml.read_text() + "\n[calibration]\ndate = 2026-03-01\n")
+    db = str(tmp_path / "h.sqlite")
+    code, out, err = run_volcal(monkeypatch, capsys, "history", "add", str(folder), "--db", db,
+                                "--create")
+    assert code == 0, err
+    code, out, err = run_volcal(monkeypatch, capsys, "history", "trend", "VMC-1",
+                                "--parameter", "EA0C", "--json", "--db", db)
+    assert code == 0, err
+    (row,) = json.loads(out)
+    want = next(r for r in locate(folder).to_json()["location_errors"] if r["name"] == "EA0C")
+    assert row["value"] == pytest.approx(want["value"], rel=1e-12)
+    assert row["U"] == pytest.approx(want["U"], rel=1e-12) and row["unit"] == "urad"

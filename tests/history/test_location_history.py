@@ -73,7 +73,6 @@ def sessions(tmp_path_factory):
 
 def test_location_errors_stored_trended_compared(store_url, sessions, monkeypatch, capsys):
     from volcal.history.api import History
-    from volcal.identify.modelfile import load_model
     from volcal.steps.locate import locate
 
     # on PostgreSQL the changed pair only (the same stored rows; each add costs seconds)
@@ -82,7 +81,7 @@ def test_location_errors_stored_trended_compared(store_url, sessions, monkeypatc
         recs = {k: h.add(sessions[k], sessions[k] / "model.json") for k in keys}
     # stored: what `volcal locate` states with the model's linear errors, value and U
     for k, rec in recs.items():
-        loc = locate(sessions[k], model=load_model(sessions[k] / "model.json").errors)
+        loc = locate(sessions[k], model=sessions[k] / "model.json")
         for row in loc.to_json()["location_errors"]:
             name = row["name"]
             if row["status"] != "identified":

@@ -146,7 +146,7 @@ def test_ranking_numbers_match_the_analysis():
 
 
 def test_locate_and_advise_say_which_redundant_errors_poses_would_separate():
-    """A trunnion probed with A standing at 0: A's line is seen by no reading; other poses
+    """A trunnion probed with A standing at 0: A's line acts on no reading; other poses
     would determine it (the ranking names them), the two zeros stay redundant."""
     from volcal.identify.location import analyse_location, design_jacobian, separation_advice
     from volcal.measure.fiveaxis_virtual import nominal_machine
@@ -159,8 +159,8 @@ def test_locate_and_advise_say_which_redundant_errors_poses_would_separate():
                        np.zeros(3), None, 1.0)
     Jx, Jn, nn, _, _ = design_jacobian(nom, [b])
     rep = analyse_location(Jx, Jn, location_parameter_names("CAFXYZ"), nn, nom.chain_obj)
-    assert any(m.startswith("  EY0A (position of the A axis average line in Y) is seen by no "
-                            "reading") for m in rep.messages)
+    assert any(m.startswith("  EY0A (position of the A axis average line in Y) does not act "
+                            "on these readings") for m in rep.messages)
     advice = separation_advice(nom, [b])
     assert ("Adding poses at other angles would determine EY0A, EZ0A, EB0A, EC0A (volcal "
             "advise ranks the candidate poses).") in advice

@@ -119,7 +119,7 @@ def location_rows(session: Any, model: Any = None
         return []
     from volcal.identify.location_evaluation import locate_session, location_results
 
-    return location_results(locate_session(session, getattr(model, "errors", None)))
+    return location_results(locate_session(session, model))
 
 
 def results_from_evaluation(ev: Any, model: Any = None

@@ -284,9 +284,6 @@ def _fmt_combo(g: str, ks: dict[str, float], kept: set[str]) -> str:
     if zeros:
         where.append(("the " if spheres else "it moves the ") + "sensor zeros of "
                      + ", ".join(zeros))
-    if not where:  # its column is zero: no pose of the design moves what it describes
-        return (f"{describe(g)} is seen by no reading of the design (does its axis stand "
-                "still in every pose?).")
     return f"{describe(g)} is not separated from the others: " + " and ".join(where) + "."
 
 

@@ -238,15 +238,21 @@ def _paths(mid: str, angles: dict[str, Array], before: tuple[Any, Array],
     return out
 
 
-def locate_session(session: Any, linear: Any = None) -> list[LocatedChain]:
+def locate_session(session: Any, model: Any = None) -> list[LocatedChain]:
     """The location errors and the sphere-centre scatter of a session, chain by chain.
+
+    Identified as ``volcal locate SESSION --model MODEL`` identifies them
+    (:func:`volcal.steps.locate.locate`): the model's linear errors in the forward model
+    and, for a model with its covariance, its uncertainty in the readings' covariance
+    (:func:`volcal.identify.location_linear.linear_prior`).
 
     Parameters
     ----------
     session : Session
         A session; its measured ``probe_sphere`` tests are used (none: an empty list).
-    linear : MachineErrors, optional
-        The linear axes' errors (a model's ``errors``); None: perfect linear axes.
+    model : IdentificationResult or MachineErrors, optional
+        The linear axes' model (``volcal identify``'s, with its covariance) or bare
+        errors; None: perfect linear axes.
 
     Returns
     -------
@@ -256,6 +262,7 @@ def locate_session(session: Any, linear: Any = None) -> list[LocatedChain]:
     from volcal.model.fiveaxis import exact_pose5
     from volcal.session.probe_sphere import _angles, _keys, five_axis_machine
 
+    linear = getattr(model, "errors", model)
     ms = [m for m in session.measurements
           if m.kind == "probe_sphere" and m.deviation is not None]
     out: list[LocatedChain] = []
@@ -263,7 +270,12 @@ def locate_session(session: Any, linear: Any = None) -> list[LocatedChain]:
         group = [m for m in ms if m.meta["chain"] == chain]
         nominal = five_axis_machine(group[0], linear)
         blocks = [_block(m) for m in group]
-        res = identify_location(nominal, blocks)
+        prior = None
+        if model is not None and nominal.linear is not None:  # as volcal locate --model
+            from volcal.identify.location_linear import linear_prior
+
+            prior = linear_prior(model, nominal, blocks)
+        res = identify_location(nominal, blocks, linear=prior)
         before, after, poses = [], [], []
         paths: list[PathRange] = []
         angles: dict[str, list[Array]] = {}
@@ -286,7 +298,7 @@ def locate_session(session: Any, linear: Any = None) -> list[LocatedChain]:
         out.append(LocatedChain(
             nominal.chain_obj.code, tuple(m.id for m in group), res,
             {r: np.concatenate(v) for r, v in angles.items()}, tuple(poses),
-            np.vstack(before), np.vstack(after), tuple(paths), linear is not None))
+            np.vstack(before), np.vstack(after), tuple(paths), nominal.linear is not None))
     return out
 
 

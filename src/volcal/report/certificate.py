@@ -1011,7 +1011,7 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
     from volcal.report.certificate_location import location_results
 
     if location is None:
-        location = locate_session(session, None if result is None else result.errors)
+        location = locate_session(session, result)
     if location:  # the probe_sphere tests' location errors (docs/fiveaxis.md)
         found["location"] = location_results(location, location_tolerance)
     for row in found.get("rotary", []):  # a rotary axis' A against its tolerance

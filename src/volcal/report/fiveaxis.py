@@ -22,8 +22,7 @@ def _located(inp: Any) -> list[Any]:
         return list(located)
     from volcal.identify.location_evaluation import locate_session
 
-    result = getattr(inp, "result", None)
-    return locate_session(inp.session, getattr(result, "errors", None))
+    return locate_session(inp.session, getattr(inp, "result", None))
 
 
 def _unit(u: str) -> str:

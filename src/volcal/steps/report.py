@@ -227,7 +227,7 @@ def report(session: Session, *, output: str | Path,
         ev_left = None if as_left is None or not cert else evaluate_session(
             as_left, None, edition, budget=budget, optics=True)
         # the probe_sphere tests' location errors, once for the report and the certificate
-        located = locate_session(session, getattr(result, "errors", None))
+        located = locate_session(session, result)
     written: list[CertificateFiles] = []
     extra = None
     report_id = None

@@ -383,12 +383,17 @@ def calibration_record(session_folder: str | Path, model_path: str | Path | None
     if model is None:
         from volcal.session.kinds import kind_of
 
-        linear = any(kind_of(m.kind).in_design for m in session.measurements)
+        present = {str(m.kind) for m in session.measurements}
+        linear = any(kind_of(k).in_design for k in present)
+        stored = (["the session's linear tests with their ISO 230-2 results only"] if linear
+                  else [])
+        if "rotary" in present:
+            stored.append("the rotary tests' ISO 230-2 results (urad)")
+        if "probe_sphere" in present:
+            stored.append("the rotary axes' location errors")
         notes.append("no model given: stored without a linear model (no identified error "
                      "functions, volumetric indices or squareness)"
-                     + ("; the session's linear tests are stored with their ISO 230-2 "
-                        "results only" if linear else
-                        "; the rotary tests' ISO 230-2 results are stored (urad)"))
+                     + ("; stored: " + "; ".join(stored) if stored else ""))
     payload = {
         "machine": ident,
         "calibration": session.calibration,

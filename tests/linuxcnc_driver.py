@@ -20,16 +20,22 @@ each STEP one of
   runs)) and ``pins`` every ``poll_s`` seconds (0 or absent: no time
   series) into ``series[label or program]``; a pause (M0, M1) is resumed at once, as the
   operator's cycle start (``resume``: true), and listed in the end sample's ``pauses``;
+  with the plan's ``sampled_pins``, the same pins of every servo cycle of the program
+  (HAL's realtime ``sampler`` in the servo thread, drained by ``halsampler``: nothing is
+  lost when this process is not scheduled for a while) into ``sampled[label or program]``
+  (``{"pins": [...], "rows": [[cycle, value, ...], ...], "overruns": n}``);
 * ``{"jog": joint, "increment": d, "velocity": v}``: an incremental jog of one joint in
   joint mode, then a sample of ``pins``;
 * ``{"sleep_s": s}``.
 
-Result (JSON): ``{"ok": bool, "samples": [...], "series": {...}, "errors": [...],
-"failed": str | null}``. Only the standard library and LinuxCNC's modules are used here.
+Result (JSON): ``{"ok": bool, "samples": [...], "series": {...}, "sampled": {...},
+"errors": [...], "failed": str | null}``. Only the standard library and LinuxCNC's modules
+(and its ``halcmd``, ``halsampler``) are used here.
 """
 
 import json
 import os
+import subprocess
 import sys
 import time
 import traceback
@@ -56,6 +62,9 @@ class Driver:
         self.errors = []
         self.samples = []
         self.series = {}
+        self.sampled = {}
+        self.sampled_pins = list(plan.get("sampled_pins", []))
+        self.sampler_ready = False
         self.h = None
         if self.pins:  # hal.get_value needs a component of this process
             self.h = hal.component(f"volcal-driver-{os.getpid()}")
@@ -95,6 +104,76 @@ class Driver:
                 return now
             last = now
         raise RuntimeError("the sampled pins did not settle")
+
+    # --- the realtime sampler (HAL's sampler + halsampler) ---------------------------
+    SAMPLER_DEPTH = 200000
+    """FIFO depth [servo cycles]: 200 s at 1 kHz before a sample could be lost."""
+
+    def halcmd(self, *args):
+        p = subprocess.run(["halcmd", *args], capture_output=True, text=True)
+        if p.returncode:
+            raise RuntimeError("halcmd " + " ".join(args) + ": " + p.stdout + p.stderr)
+        return p.stdout
+
+    def pin_info(self, name):
+        """(HAL type letter for sampler's cfg, the signal the pin is on or None)."""
+        for line in self.halcmd("-s", "show", "pin", name).splitlines():
+            f = line.split()
+            if name in f:
+                types = {"float": "f", "bit": "b", "s32": "s", "u32": "u"}
+                letter = next(types[x] for x in f if x in types)
+                k = f.index(name)
+                sig = f[k + 2] if len(f) > k + 2 and f[k + 1] in ("==>", "<==", "<=>") else None
+                return letter, sig
+        raise RuntimeError("no HAL pin " + name)
+
+    def setup_sampler(self):
+        """Load ``sampler`` (disabled) at the end of the servo thread, wired to the pins."""
+        info = [self.pin_info(p) for p in self.sampled_pins]
+        cfg = "".join(t for t, _ in info)
+        self.halcmd("loadrt", "sampler", f"depth={self.SAMPLER_DEPTH}", "cfg=" + cfg)
+        self.halcmd("setp", "sampler.0.enable", "0")
+        for k, (pin, (_, sig)) in enumerate(zip(self.sampled_pins, info, strict=True)):
+            if sig is None:  # a pin on no signal yet: a new one
+                sig = f"volcal-sampled-{k}"
+                self.halcmd("net", sig, pin)
+            self.halcmd("net", sig, f"sampler.0.pin.{k}")
+        self.halcmd("addf", "sampler.0", "servo-thread")
+        self.sampler_ready = True
+
+    def start_sampling(self, name):
+        if not self.sampler_ready:
+            self.setup_sampler()
+        path = os.path.join(_ini_dir(), f"sampled-{len(self.sampled)}.txt")
+        with open(path + ".err", "w") as err:  # (its messages, kept with the run)
+            proc = subprocess.Popen(["halsampler", "-t", "-c", "0", path],
+                                    stdout=subprocess.DEVNULL, stderr=err)
+        self.halcmd("setp", "sampler.0.enable", "1")
+        return name, path, proc
+
+    def stop_sampling(self, handle):
+        """Disable the sampler, let halsampler drain the FIFO, keep the rows."""
+        name, path, proc = handle
+        self.halcmd("setp", "sampler.0.enable", "0")
+        t_end = time.monotonic() + self.step_timeout_s
+        while int(self.halcmd("-s", "getp", "sampler.0.curr-depth").split()[0]) > 0:
+            if time.monotonic() > t_end:
+                raise RuntimeError("halsampler did not drain the sampler's FIFO")
+            time.sleep(0.02)
+        time.sleep(0.2)  # its last lines written (it retries every 10 ms when empty)
+        proc.terminate()
+        proc.wait(10)
+        rows, overruns = [], 0
+        with open(path) as f:
+            for line in f:
+                parts = line.split()
+                if not parts:
+                    continue
+                if parts[0] == "overrun":
+                    overruns += 1
+                    continue
+                rows.append([float(v) for v in parts])
+        self.sampled[name] = {"pins": self.sampled_pins, "rows": rows, "overruns": overruns}
 
     def mode(self, m):
         self.s.poll()
@@ -160,6 +239,7 @@ class Driver:
         self.mode(linuxcnc.MODE_AUTO)
         self.c.program_open(path)
         self.c.wait_complete()
+        sampling = self.start_sampling(name) if self.sampled_pins else None
         self.c.auto(linuxcnc.AUTO_RUN, 0)
         self.c.wait_complete()
         t0 = time.monotonic()
@@ -192,6 +272,8 @@ class Driver:
             if time.monotonic() - t0 > timeout:
                 raise RuntimeError("program did not end in time")
             time.sleep(poll_s or 0.01)
+        if sampling is not None:
+            self.stop_sampling(sampling)
         self.s.poll()
         self.samples.append({"label": name, "program": step["program"], "end": True,
                              "pauses": pauses, "run_s": time.monotonic() - t0,
@@ -231,7 +313,7 @@ def main():
     except Exception:
         pass
     result = {"ok": failed is None, "failed": failed, "samples": d.samples,
-              "series": d.series, "errors": d.errors}
+              "series": d.series, "sampled": d.sampled, "errors": d.errors}
     tmp = os.path.join(folder, "result.json.tmp")
     with open(tmp, "w") as f:
         json.dump(result, f)

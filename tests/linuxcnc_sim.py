@@ -31,6 +31,8 @@ API (kept stable; issue 29's live capture uses it):
 ``run_linuxcnc(joints, steps, *, pins=(), files={}, timeout_s=60, keep=None) -> dict``
     Run one plan (see tests/linuxcnc_driver.py for the steps) and return ``result.json``;
     raises :class:`LinuxCNCRunError` with LinuxCNC's own output when the run fails.
+    ``sampled_pins=[...]`` records those pins at every servo cycle of a program (HAL's
+    realtime ``sampler``), in ``result["sampled"]``.
 ``mdi_samples(joints, moves, *, pins, ...)``
     Home, then one MDI move per entry, a sample of ``pins`` after each.
 ``joint_pins(j)``
@@ -232,7 +234,7 @@ def run_linuxcnc(joints: Sequence[SimJoint], steps: Sequence[Mapping], *,
                  settle_s: float = 0.03, timeout_s: float = 60.0,
                  keep: str | os.PathLike[str] | None = None,
                  kinematics: str | None = None, halfiles: Sequence[str] = (),
-                 servo_period_ns: int = 1000000) -> dict:
+                 servo_period_ns: int = 1000000, sampled_pins: Iterable[str] = ()) -> dict:
     """Run LinuxCNC once on a sim configuration and return the driver's ``result.json``.
 
     Parameters
@@ -257,6 +259,10 @@ def run_linuxcnc(joints: Sequence[SimJoint], steps: Sequence[Mapping], *,
     kinematics, halfiles, servo_period_ns
         As :func:`sim_ini` (another kinematics module, further HAL files among ``files``,
         the servo period [ns]).
+    sampled_pins : iterable of str
+        HAL pins recorded at every servo cycle while a program runs (HAL's ``sampler`` in
+        the servo thread, drained by ``halsampler``), into ``result["sampled"]``: a
+        realtime record that does not depend on the driver being scheduled.
 
     Returns
     -------
@@ -279,7 +285,7 @@ def run_linuxcnc(joints: Sequence[SimJoint], steps: Sequence[Mapping], *,
         os.chmod(folder / DRIVER.name, 0o755)
         total = scaled_timeout(timeout_s)
         plan = {"steps": list(steps), "pins": list(pins), "settle_s": settle_s,
-                "step_timeout_s": total}
+                "step_timeout_s": total, "sampled_pins": list(sampled_pins)}
         (folder / "plan.json").write_text(json.dumps(plan))
         for name, content in (files or {}).items():
             p = folder / name

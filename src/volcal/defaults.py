@@ -62,6 +62,8 @@ MAX_NODES = 41
 """Nodes per axis at most (problem size)."""
 MONTE_CARLO = 0
 """Monte Carlo trials of the noise propagation (GUM S1); 0 = off."""
+ADVISE_TOP = 10
+"""Candidate poses and sphere positions ``advise`` lists for a 5-axis design."""
 
 # -- evaluate / report ----------------------------------------------------------------------
 EDITION = "2014"

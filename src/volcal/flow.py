@@ -273,7 +273,8 @@ class Calibration:
 
     # ------------------------------------------------------------------ steps
     @A.checked
-    def advise(self, roll: str = D.ROLL, **options: object) -> IdentifiabilityReport:
+    def advise(self, roll: str = D.ROLL, candidates: str | Path | None = None,
+               top: int = D.ADVISE_TOP, **options: object) -> IdentifiabilityReport:
         """Before measuring: what the planned tests will and will not determine.
 
         Like ``volcal advise`` (:func:`volcal.steps.advise.advise`); the readings are not
@@ -283,6 +284,11 @@ class Calibration:
         ----------
         roll : str
             ``'estimate'`` or ``'zero'`` (the rolls EAX, EBY, ECZ fixed to zero).
+        candidates : str or Path, optional
+            With probe_sphere tests: a CSV of candidate poses and sphere positions to
+            rank (default a generated set); the ranking ends ``.messages``.
+        top : int
+            With probe_sphere tests: how many ranked candidates per chain.
         **options
             Other fields of :class:`volcal.identify.IdentifyOptions` (``known``...).
 
@@ -293,7 +299,8 @@ class Calibration:
         """
         from volcal.steps.advise import advise
 
-        return advise(self._planned(), roll=roll, **cast("dict[str, Any]", options)).report
+        return advise(self._planned(), roll=roll, candidates=candidates, top=top,
+                      **cast("dict[str, Any]", options)).report
 
     @A.checked
     def program(self, folder: str | Path, dialect: str, dwell_s: float = D.PROG_DWELL_S,
@@ -762,7 +769,8 @@ class Calibration:
                decision_rule: str = D.DECISION_RULE, guard_band_um: float | None = None,
                budget: str | Path | Budget | None = None,
                replace: bool = False, angle_units: str = "urad",
-               rotary_tolerance_urad: str | Mapping[str, float] | None = None
+               rotary_tolerance_urad: str | Mapping[str, float] | None = None,
+               location_tolerance_um: float | None = None
                ) -> ReportFiles:
         """Write the HTML and PDF report (and the certificate), like ``volcal report``.
 
@@ -823,6 +831,10 @@ class Calibration:
         rotary_tolerance_urad : str or dict, optional
             Tolerance of the accuracy A per rotary axis [urad], ``'C=25'`` or ``{'C': 25}``:
             the rotary verdict, as ``--rotary-tolerance-urad``.
+        location_tolerance_um : float, optional
+            With probe_sphere tests: tolerance of the largest range of the sphere
+            centre's deviation per path [um], judged by ``decision_rule``, as
+            ``--location-tolerance-um``.
 
         Returns
         -------
@@ -841,7 +853,16 @@ class Calibration:
 
         where = "Calibration.report"
         tol = None if tolerance_um is None else parse_tolerance(A.tolerance_text(tolerance_um))
-        tol = A.acceptance(where, tol, decision_rule, guard_band_um, budget)
+        from volcal.identify.location_evaluation import location_tolerance
+
+        if tol is None and location_tolerance_um is not None:  # the rule judges it alone
+            from volcal.standards.decision import check_acceptance
+
+            with A.python_names(where):
+                check_acceptance(decision_rule, guard_band_um)
+        else:
+            tol = A.acceptance(where, tol, decision_rule, guard_band_um, budget)
+        loc_tol = location_tolerance(location_tolerance_um, decision_rule, guard_band_um)
         if compensation is not None and not Path(compensation).is_dir():
             raise VolcalInputError(f"{where}: compensation= is not a folder written by "
                                    "compensate", compensation)
@@ -877,7 +898,8 @@ class Calibration:
                                force=force, certificate=certificate, as_left=s2,
                                tables=tables, strict=strict, budget=bud, budget_file=b_name,
                                identify_hint=f"Calibration.identify(budget={b_name!r})",
-                               angle_units=angle_units, rotary_tolerance_urad=rot_tol)
+                               angle_units=angle_units, rotary_tolerance_urad=rot_tol,
+                               location_tolerance=loc_tol)
         for w in done.warnings:
             warnings.warn(A.python_text(w), UserWarning, stacklevel=3)
         self.certificate = done.certificate

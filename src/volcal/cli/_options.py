@@ -25,6 +25,7 @@ RENAMED: dict[str, str] = {
     "csv_file": "FILE",
     "session": "--session",
     "output": "--output",
+    "location_tolerance": "--location-tolerance-um",
 }
 
 #: Every parameter the command line names in an error of a step.
@@ -46,7 +47,7 @@ OPTIONS: dict[str, str] = {
         "deviation_units", "optics", "sign", "slope_removed",
         # identify, advise
         "prior", "roll", "known", "known_u", "monte_carlo", "drift", "measurements",
-        "max_nodes", "robust",
+        "max_nodes", "robust", "candidates", "top",
         # predict
         "points", "force",
         # compensate
@@ -55,6 +56,8 @@ OPTIONS: dict[str, str] = {
         # locate
         "model", "prior_u", "linuxcnc_hal", "z_rot_point_mm", "siemens_tcarr", "tool_carrier",
         "isg_kinematics",
+        # report
+        "location_tolerance_um", "location_tolerance",
         # capture
         "control", "laser", "programs", "window_mm", "stable_s", "k_sigma", "laser_noise",
         "control_noise_mm", "max_gap_s", "poll_s", "timeout_s", "speed",

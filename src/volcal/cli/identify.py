@@ -127,12 +127,26 @@ def advise_cmd(
     session: Path = typer.Argument(..., help="Planned (or measured) session folder."),
     roll: str = typer.Option(D.ROLL, help="estimate, or zero (the rolls EAX, EBY, ECZ "
                              "fixed to zero)."),
+    candidates: Path | None = typer.Option(None, help="With probe_sphere tests: a CSV of "
+                                           "candidate poses and sphere positions to rank "
+                                           "(<axis>_deg columns, optional sphere_x_mm, "
+                                           "sphere_y_mm, sphere_z_mm, candidate); default "
+                                           "a generated set."),
+    top: int = typer.Option(D.ADVISE_TOP, help="With probe_sphere tests: how many ranked "
+                            "candidates to list per chain."),
+    json_out: bool = typer.Option(False, "--json", help="Write the advice as JSON "
+                                  "(volcal-advice/1) to standard output."),
 ) -> None:
     """Before measuring: what the planned tests will and will not determine."""
     from volcal.steps.advise import advise as step
 
     with console.status("analysing the design..."):
-        r = step(session, roll=roll)
+        r = step(session, roll=roll, candidates=candidates, top=top)
+    if json_out:
+        import json
+
+        typer.echo(json.dumps(r.to_dict(), indent=1, allow_nan=False))
+        return
     for msg in r.messages:
         console.print(f"- {msg}", highlight=False, markup=False)
 

@@ -64,6 +64,10 @@ def report_cmd(
     rotary_tolerance_urad: str | None = typer.Option(
         None, "--rotary-tolerance-urad", help="Tolerance of the accuracy A of each rotary "
         "axis [urad], e.g. C=25,A=30: the verdict of the rotary section and certificate."),
+    location_tolerance_um: float | None = typer.Option(
+        None, "--location-tolerance-um", help="With probe_sphere tests: tolerance of the "
+        "largest range of the sphere centre's deviation per path [um] (an ISO 10791-6-style "
+        "test, judged by --decision-rule)."),
     history: str | None = typer.Option(None, "--history", help="Calibration history (URL or "
                                        "SQLite file, as `volcal history --db`): add a section "
                                        "with the machine's previous calibration and the "
@@ -84,7 +88,16 @@ def report_cmd(
     check_units(angle_units)
     rot_tol = parse_rotary_tolerance(rotary_tolerance_urad)
     tol = None if tolerance_um is None else parse_tolerance(tolerance_um)
-    tol = _acceptance(tol, decision_rule, guard_band_um, budget)
+    from volcal.identify.location_evaluation import location_tolerance
+
+    if tol is None and location_tolerance_um is not None:  # the rule judges it alone
+        from volcal.cli.evaluate import _checked_rule
+
+        loc_tol = location_tolerance(location_tolerance_um,
+                                     _checked_rule(decision_rule, guard_band_um), guard_band_um)
+    else:
+        tol = _acceptance(tol, decision_rule, guard_band_um, budget)
+        loc_tol = location_tolerance(location_tolerance_um, decision_rule, guard_band_um)
     bud = None
     if budget is not None:
         from volcal.uncertainty.budget import read_budget
@@ -105,7 +118,8 @@ def report_cmd(
                        force=force, certificate=certificate, as_left=s2, tables=tables,
                        strict=strict, budget=bud, budget_file=budget, moved=moved,
                        status=console.status, angle_units=angle_units,
-                       rotary_tolerance_urad=rot_tol)
+                       rotary_tolerance_urad=rot_tol,
+                       location_tolerance=loc_tol)
     for w in done.warnings:
         err_console.print(f"[yellow]warning[/] {escape(w)}", highlight=False)
     files = done.files

@@ -7,7 +7,9 @@ their expanded uncertainty where volcal has one: ISO 230-2 parameters of every l
 test (``<id>.<key>``, and ``<axis>.<key>`` for the first test of each axis), those of
 every rotary test in urad (``<id>.<key>``, ``C.A`` for the first test of the C axis),
 ISO 230-6 results, the volumetric indices of the model (``V.<key>``) and the squareness errors
-(``EC0Y``...; U = 2 u from the model's covariance).
+(``EC0Y``...; U = 2 u from the model's covariance); with probe_sphere tests, the rotary axes'
+location errors the poses determine (``EX0C``...; U = 2 u of ``volcal locate``) and the RMS
+scatter of the sphere centre (``<chain>.scatter_before``, ``<chain>.scatter_after`` [um]).
 """
 
 from __future__ import annotations
@@ -91,7 +93,33 @@ def results_of(session: Any, model: Any, budget: Any = None, evaluation: Any = N
         evaluation = evaluate_session(
             session, model, model_uncertainty=model is not None and has_covariance(model),
             budget=budget, optics=True)
-    return results_from_evaluation(evaluation, model)
+    rows = results_from_evaluation(evaluation, model)
+    names = {r[0] for r in rows}
+    return rows + [r for r in location_rows(session, model) if r[0] not in names]
+
+
+def location_rows(session: Any, model: Any = None
+                  ) -> list[tuple[str, float | None, float | None, str]]:
+    """The location errors of a session's probe_sphere tests as stored results.
+
+    Each determined location error by its ISO 230-1 name (``EX0C``; a second chain of the
+    session prefixes its code, ``FXYZCA.EX0C``) with U = 2 u, identified as ``volcal
+    locate`` and the report identify it, with the linear axes' errors of ``model``
+    (:func:`volcal.identify.location_evaluation.location_results`); errors held at zero
+    (redundant) are not stored. None without probe_sphere tests.
+
+    Parameters
+    ----------
+    session : Session
+        The session.
+    model : IdentificationResult, optional
+        Its model (the linear axes' errors); None: perfect linear axes.
+    """
+    if not any(m.kind == "probe_sphere" for m in session.measurements):
+        return []
+    from volcal.identify.location_evaluation import locate_session, location_results
+
+    return location_results(locate_session(session, model))
 
 
 def results_from_evaluation(ev: Any, model: Any = None
@@ -355,12 +383,17 @@ def calibration_record(session_folder: str | Path, model_path: str | Path | None
     if model is None:
         from volcal.session.kinds import kind_of
 
-        linear = any(kind_of(m.kind).in_design for m in session.measurements)
+        present = {str(m.kind) for m in session.measurements}
+        linear = any(kind_of(k).in_design for k in present)
+        stored = (["the session's linear tests with their ISO 230-2 results only"] if linear
+                  else [])
+        if "rotary" in present:
+            stored.append("the rotary tests' ISO 230-2 results (urad)")
+        if "probe_sphere" in present:
+            stored.append("the rotary axes' location errors")
         notes.append("no model given: stored without a linear model (no identified error "
                      "functions, volumetric indices or squareness)"
-                     + ("; the session's linear tests are stored with their ISO 230-2 "
-                        "results only" if linear else
-                        "; the rotary tests' ISO 230-2 results are stored (urad)"))
+                     + ("; stored: " + "; ".join(stored) if stored else ""))
     payload = {
         "machine": ident,
         "calibration": session.calibration,

@@ -141,7 +141,8 @@ def choose_nodes(session: Session, refine: int = 2, max_nodes: int = 201,
     out = []
     for k in range(3):
         vals = [session.travel[k]]
-        vals += [m.positions[:, k] for m in session.measurements]
+        vals += [m.positions[:, k] for m in session.measurements
+                 if kind_of(m.kind).linear_nodes]  # not a probe_sphere's sphere centres
         v = np.unique(np.round(np.concatenate(vals), 6))
         lo, hi = session.travel[k]
         v = v[(v >= lo - 1e-9) & (v <= hi + 1e-9)]

@@ -606,9 +606,25 @@ def separation_advice(nominal: FiveAxisMachine, blocks: Sequence[SphereReadings]
             if w > best * 1.1:
                 best, best_label = w, label
     if rep0.fixed and not any(m.startswith("Adding") for m in msgs):
-        msgs.append("No candidate reading separates " + ", ".join(rep0.fixed) + ": they are "
-                    "redundant for this kind of reading (not a matter of poses or sphere "
-                    "positions); they are held at zero and absorbed as the report says.")
+        # what other poses of the same sphere would separate (volcal advise ranks them)
+        from volcal.measure.fiveaxis_virtual import pose_grid
+        from volcal.measure.spheres import probe_centres as centres
+
+        grid = pose_grid(base.chain_obj.code, counts={"A": 13, "B": 13, "C": 12})
+        rich = report(list(blocks) + [SphereReadings(
+            b0.id, b0.kind, grid, np.zeros((next(iter(grid.values())).size, 3)), b0.sphere,
+            b0.sphere_mm, b0.tool_offset_mm,
+            None if b0.kind != "rtest" else centres(base, grid, b0.sphere_mm,
+                                                    b0.tool_offset_mm), b0.noise_um)])
+        by_poses = [g for g in rep0.fixed if g in rich.free]
+        if by_poses:
+            msgs.append("Adding poses at other angles would determine " + ", ".join(by_poses)
+                        + " (volcal advise ranks the candidate poses).")
+        rest = [g for g in rep0.fixed if g not in by_poses]
+        if rest:
+            msgs.append("No candidate reading separates " + ", ".join(rest) + ": they are "
+                        "redundant for this kind of reading (not a matter of poses or sphere "
+                        "positions); they are held at zero and absorbed as the report says.")
     if best_label:
         msgs.append(f"The worst-separated combination would improve most with {best_label} "
                     f"(relative singular value {worst0:.2g} -> {best:.2g}).")

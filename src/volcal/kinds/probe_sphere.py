@@ -105,6 +105,7 @@ class ProbeSphereKind(Kind):
     bidirectional: ClassVar[bool] = False
     standard: ClassVar[str | None] = None
     in_design: ClassVar[bool] = False
+    linear_nodes: ClassVar[bool] = False
     plan_tests: ClassVar[tuple[str, ...]] = ("probe_sphere",)
     description: ClassVar[str] = ("sphere centres probed at rotary poses: location errors of "
                                   "the rotary axes (docs/fiveaxis.md)")

@@ -12,6 +12,13 @@ to the readings as scale errors of the length readings (``linear``, ``diagonal``
   expansion coefficient ``dalpha`` give ``-(alpha dt_m + (t_m - 20) dalpha + dalpha dt_m)``
   on the displacement component along that axis.
 
+The sensitivities (the air's ``dn/dt, dn/dp, dn/dRH, n``, the material's ``alpha`` and
+``t_m - 20``) are taken at the operating point each measurement records, the budget's
+where it records none (:meth:`volcal.uncertainty.budget.Budget.at`), as the
+identification's systematic part takes them (:mod:`volcal.identify.systematic`); the
+draws themselves (one per input, in the same order) do not depend on it, so that a
+session recording no environment draws exactly what it drew before.
+
 A reading at displacement ``d`` from the measurement's first reading along the beam ``n``
 gains ``(e_lambda + e_air) (d . n) + sum_k e_k d_k n_k`` [um for d in um]. Each input is
 drawn from its distribution with its standard uncertainty.
@@ -57,7 +64,12 @@ class SystematicDraw:
     air : dict of str to float
         Relative compensation error per measurement id.
     material : dict of str to float
-        Relative scale error per axis (``'X'``, ``'Y'``, ``'Z'``).
+        Relative scale error per axis (``'X'``, ``'Y'``, ``'Z'``), at the budget's
+        operating point.
+    material_by_measurement : dict of str to dict
+        Measurement id -> its relative scale error per axis, for the measurements that
+        record another operating point (material temperature, expansion coefficient):
+        the same draws of ``dt_m`` and ``dalpha`` at their ``alpha`` and ``t_m - 20``.
     optics : dict of str to float
         Relative scale error per direct optic (by target) or per line (by measurement id,
         ``scale_correlation = "measurement"``).
@@ -67,6 +79,7 @@ class SystematicDraw:
     air: dict[str, float] = field(default_factory=dict)
     material: dict[str, float] = field(default_factory=dict)
     optics: dict[str, float] = field(default_factory=dict)
+    material_by_measurement: dict[str, dict[str, float]] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         """TOML-friendly dict in ppm (the optics' scale errors in percent)."""
@@ -75,7 +88,26 @@ class SystematicDraw:
                "material_ppm": {k: v * 1e6 for k, v in self.material.items()}}
         if self.optics:
             out["optics_scale_pct"] = {k: v * 1e2 for k, v in self.optics.items()}
+        if self.material_by_measurement:
+            out["material_by_measurement_ppm"] = {
+                mid: {k: v * 1e6 for k, v in e.items()}
+                for mid, e in self.material_by_measurement.items()}
         return out
+
+    def material_of(self, meas_id: str) -> dict[str, float]:
+        """The relative scale error per axis on one measurement's readings [-].
+
+        Parameters
+        ----------
+        meas_id : str
+            Measurement id.
+
+        Returns
+        -------
+        dict of str to float
+            Its own (at the operating point it records) or the budget's.
+        """
+        return self.material_by_measurement.get(meas_id, self.material)
 
     def optic_scale(self, meas: Any) -> float:
         """The drawn scale error of a direct-optics measurement.
@@ -116,33 +148,40 @@ def draw_systematic(session: Any, budget: Any, rng: np.random.Generator) -> Syst
         The session (one air draw per length measurement, one scale draw per direct optic
         or per direct-optics line).
     budget : Budget
-        The uncertainty budget (:mod:`volcal.uncertainty.budget`).
+        The uncertainty budget (:mod:`volcal.uncertainty.budget`): its uncertainties, and
+        its operating point where a measurement records none (the sensitivities at the
+        operating point each measurement records, as the identification takes them).
     rng : numpy.random.Generator
-        Random source.
+        Random source (the draws do not depend on the operating point).
 
     Returns
     -------
     SystematicDraw
     """
-    from volcal.uncertainty.sensitivity import air_sensitivity
-
-    v, i = budget.values, budget.inputs
-    a = air_sensitivity(v["air.temperature_c"], v["air.pressure_pa"], v["air.humidity_pct"],
-                        v["laser.wavelength_nm"], v["air.formula"], v["air.co2_ppm"])
+    i = budget.inputs
     out = SystematicDraw(_draw(rng, i["laser.u_wavelength_ppm"]) * 1e-6)
-    for m in session.measurements:
-        if _systematic(m) == "length":
-            out.air[m.id] = -(a.dn_dt * _draw(rng, i["air.u_temperature_k"])
-                              + a.dn_dp * _draw(rng, i["air.u_pressure_pa"])
-                              + a.dn_dh * _draw(rng, i["air.u_humidity_pct"])) / a.n
-    alpha, dt20 = v["material.expansion_ppm_per_k"], v["material.temperature_c"] - 20.0
+    length = [m for m in session.measurements if _systematic(m) == "length"]
+    at = {m.id: _at(budget, m) for m in length}  # the operating point each records
+    airs: dict[int, Any] = {}
+    for m in length:
+        b = at[m.id]
+        if id(b) not in airs:
+            airs[id(b)] = _air(b)
+        a = airs[id(b)]
+        out.air[m.id] = -(a.dn_dt * _draw(rng, i["air.u_temperature_k"])
+                          + a.dn_dp * _draw(rng, i["air.u_pressure_pa"])
+                          + a.dn_dh * _draw(rng, i["air.u_humidity_pct"])) / a.n
+    drawn: dict[str, tuple[float, float]] = {}
     for k in AXES:
-        dt = _draw(rng, i["material.u_temperature_k"])
-        da = _draw(rng, i["material.u_expansion_ppm_per_k"])
-        out.material[k] = -(alpha * dt + dt20 * da + da * dt) * 1e-6
+        drawn[k] = (_draw(rng, i["material.u_temperature_k"]),
+                    _draw(rng, i["material.u_expansion_ppm_per_k"]))
+    out.material = _material(budget, drawn)
+    for m in length:
+        if at[m.id] is not budget:
+            out.material_by_measurement[m.id] = _material(at[m.id], drawn)
     from volcal.uncertainty.budget import OPTIC_KEYS
 
-    per_line = v.get("optics.scale_correlation", "instrument") == "measurement"
+    per_line = budget.values.get("optics.scale_correlation", "instrument") == "measurement"
     for m in session.measurements:
         if _systematic(m) == "optic" and m.target in OPTIC_KEYS:
             key = m.id if per_line else m.target
@@ -150,6 +189,34 @@ def draw_systematic(session: Any, budget: Any, rng: np.random.Generator) -> Syst
             if key not in out.optics and inp is not None:
                 out.optics[key] = _draw(rng, inp) * 1e-2
     return out
+
+
+def _at(budget: Any, m: Any) -> Any:
+    """The budget at the operating point ``m`` records (``budget`` itself where none)."""
+    if not hasattr(budget, "at"):
+        return budget
+    from volcal.environment.apply import thermal_record
+
+    return budget.at(thermal_record(m)["operating_point"])
+
+
+def _air(b: Any) -> Any:
+    """The air's refractive index and its sensitivities at ``b``'s operating point."""
+    from volcal.uncertainty.sensitivity import air_sensitivity
+
+    v = b.values
+    return air_sensitivity(v["air.temperature_c"], v["air.pressure_pa"], v["air.humidity_pct"],
+                           v["laser.wavelength_nm"], v["air.formula"], v["air.co2_ppm"])
+
+
+def _material(b: Any, drawn: dict[str, tuple[float, float]]) -> dict[str, float]:
+    """Relative scale error per axis of the drawn ``(dt_m, dalpha)`` [-].
+
+    At ``b``'s ``alpha`` and ``t_m - 20``.
+    """
+    v = b.values
+    alpha, dt20 = v["material.expansion_ppm_per_k"], v["material.temperature_c"] - 20.0
+    return {k: -(alpha * dt + dt20 * da + da * dt) * 1e-6 for k, (dt, da) in drawn.items()}
 
 
 def apply_systematic(session: Any, draw: SystematicDraw) -> None:
@@ -171,6 +238,7 @@ def apply_systematic(session: Any, draw: SystematicDraw) -> None:
         d = (np.asarray(m.positions, dtype=float) - np.asarray(m.positions[0], dtype=float))
         n = np.asarray(m.beam_direction, dtype=float)
         change = (draw.wavelength + draw.air.get(m.id, 0.0)) * (d @ n)
+        material = draw.material_of(m.id)
         for k, ax in enumerate(AXES):
-            change = change + draw.material[ax] * d[:, k] * n[k]
+            change = change + material[ax] * d[:, k] * n[k]
         m.deviation = np.asarray(m.deviation, dtype=float) + change * 1e3

@@ -92,6 +92,10 @@ METHODS: dict[str, dict[str, str]] = {
         "title": "Identification of the 21 rigid-body error functions and squareness "
         "errors of the machine from all laser readings (Bayesian least squares on the "
         "kinematic chain)", "reference": "volcal docs/identification.md"},
+    "ISO 230-1 location errors": {
+        "title": "Location errors of the rotary axes (ISO 230-1:2012 3.5) identified from the "
+        "centre of a calibration sphere probed at rotary poses, with the sphere centre's "
+        "deviation per path (ISO 10791-6-style)", "reference": "volcal docs/fiveaxis.md"},
     "refractive index of air": {
         "title": "Readings referred to air and 20 °C from the measured environment (Ciddor "
         "1996 or modified Edlén, Birch & Downs 1993/1994; ISO 1)",
@@ -684,6 +688,44 @@ def _pairs(found: dict[str, Any], left: dict[str, Any]) -> list[dict[str, Any]]:
     return rows
 
 
+def _rotary_pairs(found: dict[str, Any], left: dict[str, Any]) -> list[dict[str, Any]]:
+    """Pair the as-found and as-left rotary tests axis by axis [urad].
+
+    A rotary test of the as-found session pairs with the as-left test of the same axis:
+    the one of the same measurement id, or else the only one of that axis when each
+    session has one test of it (several tests of one axis under other ids are ambiguous:
+    not paired).
+
+    Parameters
+    ----------
+    found, left : dict
+        :func:`_results` of the two sessions.
+
+    Returns
+    -------
+    list of dict
+        ``measurement`` (the as-found id), ``as_left_measurement`` (the as-left id),
+        ``axis``, ``quantity`` (``A``, ``E``, ``M``, ``R``, ``B``), ``as_found_urad``,
+        ``as_left_urad``.
+    """
+    rows: list[dict[str, Any]] = []
+    fr, lr = found.get("rotary") or [], left.get("rotary") or []
+    for r in fr:
+        same_axis = [o for o in lr if o["axis"] == r["axis"]]
+        o = next((o for o in same_axis if o["measurement"] == r["measurement"]), None)
+        if o is None and len(same_axis) == 1 and sum(x["axis"] == r["axis"] for x in fr) == 1:
+            o = same_axis[0]
+        if o is None:
+            continue
+        for k in ("A", "E", "M", "R", "B"):
+            if k in r["values"] and k in o["values"]:
+                rows.append({"measurement": r["measurement"],
+                             "as_left_measurement": o["measurement"], "axis": r["axis"],
+                             "quantity": k, "as_found_urad": r["values"][k],
+                             "as_left_urad": o["values"][k]})
+    return rows
+
+
 NO_SYSTEMATIC_VERDICT = ("qualified: its U is the identification's noise and prior part "
                          "only (the model carries no systematic part: laser, air and "
                          "material inputs not included; identify with --budget to include "
@@ -812,6 +854,11 @@ def _methods(found: dict[str, Any], left: dict[str, Any] | None, sessions: dict[
         out.append({"id": "ISO 230-1", **METHODS["ISO 230-1"], "edition": "2012",
                     "measurements": []})
         out[-1]["reference"] = "ISO 230-1:2012"
+    loc = sorted({mid for x in res for e in x.get("location") or []
+                  for mid in e["measurements"]})
+    if loc:
+        out.append({"id": "ISO 230-1 location errors", **METHODS["ISO 230-1 location errors"],
+                    "edition": "2012", "measurements": loc})
     raw = sorted({m.id for s in sessions.values() for m in s.measurements
                   if m.meta.get("readings") == "compensated"})
     if raw:
@@ -832,7 +879,8 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
                       technical_report: str | None = "report.pdf",
                       evaluation: Any = None,
                       as_left_evaluation: Any = None,
-                      rotary_tolerance_urad: dict[str, float] | None = None
+                      rotary_tolerance_urad: dict[str, float] | None = None,
+                      location: list[Any] | None = None, location_tolerance: Any = None
                       ) -> dict[str, Any]:
     """Build the certificate document (``volcal-certificate/1``) of a calibration.
 
@@ -896,6 +944,14 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
     rotary_tolerance_urad : dict of str to float, optional
         Tolerance of the accuracy A of each rotary axis (``{'C': 25.0}`` [urad]): the
         verdict of its rotary tests (simple rule), in ``results.rotary[*].verdict``.
+    location : list of LocatedChain, optional
+        The as-found session's location evaluation
+        (:func:`volcal.identify.location_evaluation.locate_session`, with the model's
+        linear errors), as the report step computes it; computed here when omitted. Its
+        probe_sphere tests give ``results.<state>.location``
+        (:func:`volcal.report.certificate_location.location_results`).
+    location_tolerance : LocationTolerance, optional
+        Tolerance and decision rule of the per-path sphere-centre test.
 
     Returns
     -------
@@ -951,6 +1007,13 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
         model_digest = errors_digest(result.errors)
     found = _results(session, ev, result is not None, uncertainties, optics_budget,
                      model_digest)
+    from volcal.identify.location_evaluation import locate_session
+    from volcal.report.certificate_location import location_results
+
+    if location is None:
+        location = locate_session(session, result)
+    if location:  # the probe_sphere tests' location errors (docs/fiveaxis.md)
+        found["location"] = location_results(location, location_tolerance)
     for row in found.get("rotary", []):  # a rotary axis' A against its tolerance
         t = (rotary_tolerance_urad or {}).get(row["axis"])
         if t is not None:
@@ -966,6 +1029,9 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
         if as_left_uncertainties is None:
             as_left_uncertainties = getattr(ev_left, "with_budget", None) or None
         left = _results(as_left, ev_left, False, as_left_uncertainties, optics_budget)
+        left_location = locate_session(as_left)
+        if left_location:
+            left["location"] = location_results(left_location, location_tolerance)
     if decision_rule is None:
         decision_rule = getattr(tolerance, "rule", None) or "simple"
     if guard_band_um is None:
@@ -1073,6 +1139,7 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
         "as_found_as_left": None if left is None else {
             "tables": tab, "pairs": _pairs(found, left),
             "direct_optics_pairs": optics_pairs(found["direct_optics"], left["direct_optics"]),
+            **({"rotary_pairs": rp} if (rp := _rotary_pairs(found, left)) else {}),
             "statement": "As-found: measured before adjustment. As-left: measured after "
                          "the compensation tables below were loaded into the control. Both "
                          "are measured results; the tables are named, not applied again."},

@@ -220,17 +220,21 @@ def layout(doc: dict[str, Any], angle_units: str = "urad") -> list[CertSection]:
             s.blocks.append(Block("flag", text="The compensation tables loaded between the "
                                   "two measurements are not named (--tables)."))
         opt_pairs = pair.get("direct_optics_pairs") or []
-        if not pair["pairs"] and not opt_pairs:
+        rot_pairs = pair.get("rotary_pairs") or []
+        if not pair["pairs"] and not opt_pairs and not rot_pairs:
             s.blocks.append(Block("flag", text="No evaluated measurement id is common to the "
                                   "as-found and the as-left session: nothing to pair."))
-        s.blocks.append(Block("table", title="Measured as-found and as-left [µm]",
-                              columns=["measurement", "axis", "quantity", "as-found",
-                                       "as-left", "change"],
-                              rows=[[p["measurement"], str(p["axis"]), _KEYS.get(
-                                  p["quantity"], p["quantity"]), _n(p["as_found_um"]),
-                                     _n(p["as_left_um"]),
-                                     _n(p["as_left_um"] - p["as_found_um"])]
-                                    for p in pair["pairs"]]))
+        if pair["pairs"] or not rot_pairs:  # (a rotary-only calibration: the table below)
+            s.blocks.append(Block("table", title="Measured as-found and as-left [µm]",
+                                  columns=["measurement", "axis", "quantity", "as-found",
+                                           "as-left", "change"],
+                                  rows=[[p["measurement"], str(p["axis"]), _KEYS.get(
+                                      p["quantity"], p["quantity"]), _n(p["as_found_um"]),
+                                         _n(p["as_left_um"]),
+                                         _n(p["as_left_um"] - p["as_found_um"])]
+                                        for p in pair["pairs"]]))
+        if rot_pairs:
+            s.blocks.append(_rotary_pairs_block(rot_pairs, angle_units))
         if opt_pairs:
             s.blocks.append(Block("table", title="Direct optics (ISO 230-1) measured as-found "
                                   "and as-left", columns=["measurement", "axis", "quantity",
@@ -365,6 +369,7 @@ def _result_blocks(state: str, res: dict[str, Any], paired: bool,
                          f"230-2:{'/'.join(ed)} [{unit}] (1 arcsec = 4.848 µrad; positive "
                          "counter-clockwise seen from the positive end of the axis, ISO 841)",
                          columns=cols, rows=rows))
+    out.extend(location_blocks(head, res.get("location") or []))  # 5-axis location errors
     dia = res["diagonals"]
     if dia:
         with_u = any(r["U_E_D_um"] is not None for r in dia)
@@ -397,6 +402,24 @@ def _result_blocks(state: str, res: dict[str, Any], paired: bool,
         out.append(Block("note", text="Not evaluated: " + "; ".join(
             f"{k} ({v})" for k, v in res["skipped"].items())))
     return out
+
+
+def _rotary_pairs_block(pairs: list[dict[str, Any]], angle_units: str) -> Block:
+    """The rotary tests' as-found / as-left table, in ``angle_units`` (the document: urad)."""
+    from volcal.standards.iso230_2_rotary import UNITS
+
+    f = UNITS[angle_units]
+    unit = "µrad" if angle_units == "urad" else "arcsec"
+    rows = []
+    for p in pairs:
+        mid = p["measurement"] + ("" if p["as_left_measurement"] == p["measurement"]
+                                  else f" / {p['as_left_measurement']}")
+        a, b = float(p["as_found_urad"]) * f, float(p["as_left_urad"]) * f
+        rows.append([mid, str(p["axis"]), _KEYS.get(p["quantity"], p["quantity"]), _n(a),
+                     _n(b), _n(b - a)])
+    return Block("table", title=f"Rotary axes measured as-found and as-left [{unit}]",
+                 columns=["measurement", "axis", "quantity", "as-found", "as-left", "change"],
+                 rows=rows)
 
 
 def _optics_blocks(head: str, opt: dict[str, Any] | None) -> list[Block]:
@@ -493,3 +516,57 @@ def _referral_sentence(doc: dict[str, Any]) -> str:
     return ("Deviations are referred to 20 °C (ISO 1) where the section Environment as "
             "measured says by whom; for " + ", ".join(unstated) + " the referral to "
             "20 °C is not stated: their readings are taken as the laser software gave them.")
+
+
+def _nl(v: Any, d: int = 2) -> str:
+    return "–" if v is None else f"{float(v):.{d}f}"
+
+
+def location_blocks(head: str, entries: list[dict[str, Any]]) -> list[Block]:
+    """The certificate's tables of ``results.<state>.location``.
+
+    Parameters
+    ----------
+    head : str
+        ``'As-found: '`` or ``''``.
+    entries : list of dict
+        :func:`volcal.report.certificate_location.location_results`'s.
+    """
+    out: list[Block] = []
+    for e in entries:
+        unit = {"um": "µm", "urad": "µrad"}
+        out.append(Block(
+            "table", title=f"{head}location errors of the rotary axes, chain {e['chain']} "
+            f"(ISO 230-1:2012 3.5; U with k = {e['coverage_factor']:g})",
+            columns=["error", "meaning", "value", "U", "unit", "status"],
+            rows=[[r["name"], r["meaning"], _nl(r["value"]), _nl(r["U"]), unit[r["unit"]],
+                   r["status"]] for r in e["errors"]]))
+        sc = e["scatter"]
+        text = (f"{head}scatter of the sphere centre (RMS): {_nl(sc['rms_before_um'])} µm with "
+                f"the configured kinematics, {_nl(sc['rms_after_um'])} µm with the identified "
+                "location errors applied (predicted); the linear axes' errors "
+                + ("of the identified model applied." if e["linear_model"]
+                   else "taken as perfect."))
+        if e["determined_combinations"]:
+            text += (" The determined errors stand for: "
+                     + "; ".join(e["determined_combinations"]) + ".")
+        out.append(Block("p", text=text))
+        if e["paths"]:
+            judged = e["tolerance"] is not None
+            cols = ["test", "path", "poses", "range before X/Y/Z [µm]",
+                    "range after X/Y/Z [µm]", "U [µm]"]
+            if judged:
+                cols += ["verdict before", "verdict after"]
+            rows = []
+            for p in e["paths"]:
+                row = [p["measurement"], p["path"], str(p["n_poses"]),
+                       "/".join(_nl(v, 1) for v in p["range_before_um"]),
+                       "/".join(_nl(v, 2) for v in p["range_after_um"]), _nl(p["U_um"])]
+                if judged:
+                    row += [str(p["verdict_before"]), str(p["verdict_after"])]
+                rows.append(row)
+            out.append(Block("table", title=f"{head}sphere centre per path, ISO 10791-6-style "
+                             f"(chain {e['chain']})", columns=cols, rows=rows))
+        if e["tolerance"] is not None:
+            out.append(Block("p", text=e["tolerance"]["statement"]))
+    return out

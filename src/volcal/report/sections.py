@@ -77,6 +77,12 @@ class ReportInputs:
     rotary_tolerance_urad : mapping of str to float, optional
         Tolerance of the accuracy A of each rotary axis (``'C'`` -> [urad]): the rotary
         section's verdict (:mod:`volcal.report.rotary`).
+    location : list of LocatedChain, optional
+        The probe_sphere tests' location errors and sphere-centre scatter
+        (:func:`volcal.identify.location_evaluation.locate_session`), computed once.
+    location_tolerance : LocationTolerance, optional
+        Tolerance and decision rule of the per-path sphere-centre test
+        (:mod:`volcal.report.fiveaxis`).
     """
 
     session: Session
@@ -95,6 +101,8 @@ class ReportInputs:
     evaluation: Any = None
     angle_units: str = "urad"
     rotary_tolerance_urad: Mapping[str, float] | None = None
+    location: Any = None
+    location_tolerance: Any = None
 
 
 def machine_section(inp: ReportInputs) -> Section:

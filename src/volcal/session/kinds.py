@@ -168,6 +168,11 @@ class Kind:
         volcal refers its compensated readings to 20 degC when the session says they are
         not (``referred_to_20c = false``, ISO 1; the material correction of a length
         along a line).
+    linear_nodes : bool
+        Whether its positions place nodes of the linear axes' error functions (the
+        identification's grid, :func:`volcal.identify.design.choose_nodes`); False for a
+        kind whose positions are no readings along the linear axes (the sphere centres
+        of ``probe_sphere``: dozens of positions without a reading of the linear axes).
     description : str
         One line for the documentation and the report.
     """
@@ -186,6 +191,7 @@ class Kind:
     in_design: ClassVar[bool] = True
     raw_readings: ClassVar[bool] = False
     referable: ClassVar[bool] = False
+    linear_nodes: ClassVar[bool] = True
     description: ClassVar[str] = ""
 
     # -- session ---------------------------------------------------------------------

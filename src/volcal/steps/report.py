@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any
 from volcal import defaults as D
 
 if TYPE_CHECKING:
+    from volcal.identify.location_evaluation import LocationTolerance
     from volcal.identify.result import IdentificationResult
     from volcal.model.errorfunctions import MachineErrors
     from volcal.report.certificate_files import CertificateFiles
@@ -112,7 +113,8 @@ def report(session: Session, *, output: str | Path,
            moved: str | None = None,
            status: Callable[[str], AbstractContextManager[Any]] | None = None,
            angle_units: str = "urad",
-           rotary_tolerance_urad: dict[str, float] | None = None) -> Reported:
+           rotary_tolerance_urad: dict[str, float] | None = None,
+           location_tolerance: LocationTolerance | None = None) -> Reported:
     """Evaluate a session once and write its report (and certificate).
 
     Parameters
@@ -165,6 +167,11 @@ def report(session: Session, *, output: str | Path,
     rotary_tolerance_urad : dict of str to float, optional
         Tolerance of the accuracy A per rotary axis (``{'C': 25.0}`` [urad]): the verdict
         of the rotary section and of the certificate's rotary table.
+    location_tolerance : LocationTolerance, optional
+        With probe_sphere tests: the tolerance of the largest range of the sphere
+        centre's deviation per path [um] with its decision rule
+        (:func:`volcal.identify.location_evaluation.location_tolerance`): the
+        ISO 10791-6-style test of the report's and the certificate's location sections.
 
     Returns
     -------
@@ -212,11 +219,15 @@ def report(session: Session, *, output: str | Path,
         result = certificate_model(result, budget, budget_file, model_file, session,
                                    identify_hint)
     grid = GRID_N if tolerance is not None and tolerance.volumetric_um is not None else None
+    from volcal.identify.location_evaluation import locate_session
+
     with busy("evaluating..."):  # the one evaluation of each session
         ev = evaluate_session(session, result, edition, model_uncertainty=has_covariance(result),
                               budget=budget, work_zone_n=grid, optics=True)
         ev_left = None if as_left is None or not cert else evaluate_session(
             as_left, None, edition, budget=budget, optics=True)
+        # the probe_sphere tests' location errors, once for the report and the certificate
+        located = locate_session(session, result)
     written: list[CertificateFiles] = []
     extra = None
     report_id = None
@@ -227,7 +238,8 @@ def report(session: Session, *, output: str | Path,
         doc = build_certificate(session, result, as_left=as_left, tables=tables,
                                 tolerance=tolerance, optics_budget=budget, edition=edition,
                                 evaluation=ev, as_left_evaluation=ev_left,
-                                rotary_tolerance_urad=rotary_tolerance_urad)
+                                rotary_tolerance_urad=rotary_tolerance_urad,
+                                location=located, location_tolerance=location_tolerance)
         report_id = doc["report_id"]
         warned += [f"certificate: {w}" for w in doc["warnings"] if w.startswith("EXPIRED")]
         if title is None:  # the technical report names its certificate on every page
@@ -245,6 +257,7 @@ def report(session: Session, *, output: str | Path,
                                     else str(model_file or "the model in use")),
                                 budget=budget, evaluation=ev)
         inputs.angle_units, inputs.rotary_tolerance_urad = angle_units, rotary_tolerance_urad
+        inputs.location, inputs.location_tolerance = located, location_tolerance
         if history is not None:  # the history (SQLAlchemy) is loaded only here
             from volcal.history.previous import previous_section
 

@@ -1,6 +1,6 @@
 r"""The location errors of a session, the sphere-centre scatter and its test per path.
 
-One evaluation of a session's ``probe_sphere`` tests, shared by the report, the
+One evaluation of a session's ``probe_sphere`` and ``r_test`` tests, shared by the report, the
 certificate and the history (they format or store what it gives):
 
 * the location errors per chain (:func:`volcal.identify.location.identify_location`),
@@ -217,8 +217,22 @@ def _path_range(kin: tuple[Any, Array], angles: dict[str, Array], idx: list[int]
 def _paths(mid: str, angles: dict[str, Array], before: tuple[Any, Array],
            after: tuple[Any, Array], pos: Array, tool: Array, U: float) -> list[PathRange]:
     """The poses along which one axis turns while the others stand (>= 3 poses)."""
+    return _path_ranges(mid, angles, pos.shape[0], U, lambda idx: (
+        _path_range(before, angles, idx, pos, tool), _path_range(after, angles, idx, pos, tool)))
+
+
+def _rtest_paths(mid: str, angles: dict[str, Array], before: Array, after: Array,
+                 U: float) -> list[PathRange]:
+    """An r_test's paths: the range of its displacements (before) and residuals (after)."""
+    return _path_ranges(mid, angles, before.shape[0], U, lambda idx: (
+        np.asarray(np.ptp(before[idx], axis=0), dtype=float),
+        np.asarray(np.ptp(after[idx], axis=0), dtype=float)))
+
+
+def _path_ranges(mid: str, angles: dict[str, Array], n: int, U: float,
+                 ranges: Any) -> list[PathRange]:
+    """The paths of a test, ``ranges(idx)`` giving the ranges before and after [um]."""
     letters = list(angles)
-    n = pos.shape[0]
     out: list[PathRange] = []
     for r in letters:
         others = [o for o in letters if o != r]
@@ -229,12 +243,10 @@ def _paths(mid: str, angles: dict[str, Array], before: tuple[Any, Array],
                 continue
             where = ", ".join(f"{o} = {v:g}°" for o, v in zip(others, key, strict=True))
             out.append(PathRange(mid, f"{r} at {where}" if where else f"{r}", r, len(idx),
-                                 _path_range(before, angles, idx, pos, tool),
-                                 _path_range(after, angles, idx, pos, tool), U))
+                                 *ranges(idx), U))
     if not out and n >= 2:
         idx = list(range(n))
-        out.append(PathRange(mid, "all poses", "", n, _path_range(before, angles, idx, pos, tool),
-                             _path_range(after, angles, idx, pos, tool), U))
+        out.append(PathRange(mid, "all poses", "", n, *ranges(idx), U))
     return out
 
 
@@ -249,7 +261,11 @@ def locate_session(session: Any, model: Any = None) -> list[LocatedChain]:
     Parameters
     ----------
     session : Session
-        A session; its measured ``probe_sphere`` tests are used (none: an empty list).
+        A session; its measured ``probe_sphere`` and ``r_test`` tests are used (none: an
+        empty list). An r_test's scatter is the sphere's displacement in the nest [um]:
+        before, the readings minus their mean; after, the residual of the identification
+        (the readings minus those the identified errors, sphere and nest predict) minus its
+        mean; its paths' ranges are those of the readings and of the residual.
     model : IdentificationResult or MachineErrors, optional
         The linear axes' model (``volcal identify``'s, with its covariance) or bare
         errors; None: perfect linear axes.
@@ -259,17 +275,18 @@ def locate_session(session: Any, model: Any = None) -> list[LocatedChain]:
     list of LocatedChain
     """
     from volcal.identify.location import identify_location
+    from volcal.measure.spheres import rtest_readings
     from volcal.model.fiveaxis import exact_pose5
     from volcal.session.probe_sphere import _angles, _keys, five_axis_machine
 
     linear = getattr(model, "errors", model)
     ms = [m for m in session.measurements
-          if m.kind == "probe_sphere" and m.deviation is not None]
+          if m.kind in ("probe_sphere", "r_test") and m.deviation is not None]
     out: list[LocatedChain] = []
     for chain in dict.fromkeys(m.meta["chain"] for m in ms):
         group = [m for m in ms if m.meta["chain"] == chain]
         nominal = five_axis_machine(group[0], linear)
-        blocks = [_block(m) for m in group]
+        blocks = [_block(m) if m.kind == "probe_sphere" else _rtest_block(m) for m in group]
         prior = None
         if model is not None and nominal.linear is not None:  # as volcal locate --model
             from volcal.identify.location_linear import linear_prior
@@ -279,7 +296,20 @@ def locate_session(session: Any, model: Any = None) -> list[LocatedChain]:
         before, after, poses = [], [], []
         paths: list[PathRange] = []
         angles: dict[str, list[Array]] = {}
-        for m in group:
+        for m, b in zip(group, blocks, strict=True):
+            if m.kind == "r_test":
+                s = np.array([res.nuisances[f"{b.sphere}:s{a}"] for a in "xyz"])
+                pred = rtest_readings(res.machine, b.q_mm, b.angles, s, b.tool_offset_mm)
+                v = np.asarray(b.values, dtype=float)
+                resid = v - pred
+                before.append(v - v.mean(axis=0))
+                after.append(resid - resid.mean(axis=0))
+                poses += [m.id] * m.n
+                for r, a in b.angles.items():
+                    angles.setdefault(r, []).append(a)
+                paths += _rtest_paths(m.id, b.angles, v, resid,
+                                      COVERAGE_K * math.sqrt(2.0) * float(b.noise_um))
+                continue
             k = _keys(m)
             ang = _angles(m)
             pos = np.asarray(m.positions, dtype=float)
@@ -311,6 +341,22 @@ def _block(m: Any) -> Any:
     return SphereReadings(m.id, "probe", _angles(m), np.asarray(m.positions, dtype=float),
                           k["sphere"], k["sphere_mm"], np.asarray(m.tool_offset, dtype=float),
                           None, k["noise_um"])
+
+
+def _rtest_block(m: Any) -> Any:
+    """A measured r_test test as the estimator's block (the readings in the nest's frame,
+    as ``volcal locate`` builds it: :func:`volcal.kinds.r_test.rtest_readings_block`)."""
+    from volcal.measure.spheres import SphereReadings
+    from volcal.session.r_test import head_rotation, rtest_angles, rtest_keys
+
+    k = rtest_keys(m)
+    ang = rtest_angles(m)
+    d = np.column_stack([np.asarray(m.columns[c], dtype=float)
+                         for c in ("dx_um", "dy_um", "dz_um")])
+    v = np.einsum("mji,mj->mi", head_rotation(k["chain"], ang), d)
+    return SphereReadings(m.id, "rtest", ang, v, k["sphere"], k["sphere_mm"],
+                          np.asarray(m.tool_offset, dtype=float),
+                          np.asarray(m.positions, dtype=float), k["noise_um"])
 
 
 def path_decisions(located: list[LocatedChain], tolerance_um: float, rule: str = "simple",

@@ -37,6 +37,7 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
+from volcal.kinds.probe_sphere import ProbeSphereKind
 from volcal.session.kinds import Kind, ReadContext, RowBlock, register_kind
 from volcal.session.r_test import rtest_angles, rtest_keys
 from volcal.session.r_test import rtest_machine as _machine
@@ -369,6 +370,9 @@ class RTestKind(Kind):
             notes += [f"r_test ({chain}): {msg}" for msg in rep.messages]
             notes += [f"r_test ({chain}): {msg}" for msg in separation_advice(nominal, blocks)]
         return notes
+
+    # the probe_sphere kind's hook itself: a session with both kinds gets one section
+    report_section = ProbeSphereKind.report_section
 
     # -- program -------------------------------------------------------------------------
     def program_positions(self, m: Any, dialect: str) -> list[tuple[str, Any]]:

@@ -1,4 +1,4 @@
-"""Report section of the probe_sphere tests: the rotary axes' location errors with U.
+"""Report section of the probe_sphere and r_test tests: the rotary axes' location errors with U.
 
 With the scatter of the sphere centre before and after and its ISO 10791-6-style test
 per path (:mod:`volcal.identify.location_evaluation`).
@@ -82,7 +82,7 @@ def _path_table(lc: Any, decisions: list[dict[str, Any]] | None) -> Table:
 
 
 def location_section(inp: Any) -> Section | None:
-    """The location errors the session's probe_sphere tests determine, with U (k = 2).
+    """The location errors the session's probe_sphere and r_test tests determine, with U (k = 2).
 
     Parameters
     ----------
@@ -96,12 +96,14 @@ def location_section(inp: Any) -> Section | None:
     Returns
     -------
     Section or None
-        None without a measured probe_sphere test.
+        None without a measured probe_sphere or r_test test.
     """
     located = _located(inp)
     if not located:
         return None
-    sec = Section("location", "Rotary axes: location errors (probe on a sphere)")
+    rtest = any(m.kind == "r_test" for m in inp.session.measurements)
+    sec = Section("location", "Rotary axes: location errors (probe on a sphere)" if not rtest
+                  else "Rotary axes: location errors (probe on a sphere, R-test)")
     linear = any(lc.linear for lc in located)
     sec.paragraphs.append(
         "The centre of a calibration sphere probed at a set of rotary poses, as the control "
@@ -111,6 +113,17 @@ def location_section(inp: Any) -> Section | None:
         "docs/fiveaxis.md. Errors the poses cannot separate are held at zero; the ones "
         "determined then stand for the combinations named below. The linear axes' errors "
         + ("are those identified above." if linear else "are taken as perfect."))
+    if rtest:
+        sec.paragraphs.append(
+            "An R-test (r_test tests: a sphere on the table read by three displacement "
+            "sensors in the spindle while the linear axes follow the rotary paths; ISO "
+            "10791-6:2014, annex; Weikert 2004) identifies them from the sphere's "
+            "displacement in the nest. Its rows of the scatter table are that displacement "
+            "[µm] (in the nest's axes): before, the readings minus their mean over the test; "
+            "after, what the identified errors leave of them (the readings minus the ones "
+            "they predict, minus the mean). Its paths' ranges are those of the readings and "
+            "of that residual; the rotary axes' error motions over the angle stay in it "
+            "(docs/fiveaxis.md).")
     tol = getattr(inp, "location_tolerance", None)
     decisions = None
     if tol is not None:

@@ -40,6 +40,7 @@ References
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -230,7 +231,7 @@ def _rtest_paths(mid: str, angles: dict[str, Array], before: Array, after: Array
 
 
 def _path_ranges(mid: str, angles: dict[str, Array], n: int, U: float,
-                 ranges: Any) -> list[PathRange]:
+                 ranges: Callable[[list[int]], tuple[Array, Array]]) -> list[PathRange]:
     """The paths of a test, ``ranges(idx)`` giving the ranges before and after [um]."""
     letters = list(angles)
     out: list[PathRange] = []
@@ -242,11 +243,12 @@ def _path_ranges(mid: str, angles: dict[str, Array], n: int, U: float,
             if len(idx) < 3 or np.ptp(angles[r][idx]) == 0.0:
                 continue
             where = ", ".join(f"{o} = {v:g}°" for o, v in zip(others, key, strict=True))
+            before, after = ranges(idx)
             out.append(PathRange(mid, f"{r} at {where}" if where else f"{r}", r, len(idx),
-                                 *ranges(idx), U))
+                                 before, after, U))
     if not out and n >= 2:
-        idx = list(range(n))
-        out.append(PathRange(mid, "all poses", "", n, *ranges(idx), U))
+        before, after = ranges(list(range(n)))
+        out.append(PathRange(mid, "all poses", "", n, before, after, U))
     return out
 
 
@@ -344,8 +346,10 @@ def _block(m: Any) -> Any:
 
 
 def _rtest_block(m: Any) -> Any:
-    """A measured r_test test as the estimator's block (the readings in the nest's frame,
-    as ``volcal locate`` builds it: :func:`volcal.kinds.r_test.rtest_readings_block`)."""
+    """A measured r_test test as the estimator's block, in the nest's frame.
+
+    As ``volcal locate`` builds it (:func:`volcal.kinds.r_test.rtest_readings_block`).
+    """
     from volcal.measure.spheres import SphereReadings
     from volcal.session.r_test import head_rotation, rtest_angles, rtest_keys
 

@@ -122,7 +122,8 @@ def default_trunnion(pair: str, chain: str, travel: ArrayLike) -> TrunnionLayout
     scale = float(min(1.0, np.floor(1e3 * (room / span).min()) / 1e3))
     if scale < MIN_SCALE:
         need = MIN_SCALE * span + 2.0 * TRAVEL_MARGIN_MM
-        raise VolcalInputError(f"C table on {'an A' if pair[1] == 'a' else 'a B'} cradle: the travel "
+        cradle = "an A" if pair[1] == "a" else "a B"
+        raise VolcalInputError(f"C table on {cradle} cradle: the travel "
                                f"{', '.join(f'{a:g}..{b:g}' for a, b in t)} mm is too short "
                                "for a sphere test's default layout (it needs "
                                f"{', '.join(f'{v:.0f}' for v in need)} mm of X, Y, Z travel at "

@@ -85,8 +85,8 @@ def test_candidates_from_a_file_and_the_sphere_far_from_the_axis(tmp_path, monke
     cands.write_text("candidate,c_deg,a_deg,sphere_x_mm,sphere_y_mm,sphere_z_mm\n"
                      "repeat,45,0,,,\n"
                      "tilt,180,-45,,,\n"
-                     + "".join(f"near,{c},{a},400,300,40\n" for c, a in DESIGN)
-                     + "".join(f"far,{c},{a},650,300,40\n" for c, a in DESIGN))
+                     + "".join(f"near,{c},{a},400,300,375.353\n" for c, a in DESIGN)
+                     + "".join(f"far,{c},{a},650,300,375.353\n" for c, a in DESIGN))
     d = _advice(monkeypatch, capsys, str(folder), "--candidates", str(cands), "--top", "10")
     got = d["location_candidates"][0]
     assert got["source"] == "cands.csv" and got["n_candidates"] == 4

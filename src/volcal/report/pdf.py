@@ -36,6 +36,7 @@ from matplotlib.patches import Rectangle
 
 from volcal.plot._figure import new_figure
 from volcal.report.document import Report, Table
+from volcal.report.drawcache import cached_drawing
 from volcal.report.wording import customer_report
 
 __all__ = ["RASTER_DPI", "RASTER_POINTS", "write_pdf"]
@@ -471,7 +472,8 @@ def write_pdf(report: Report, path: str | Path) -> int:
     """
     report = customer_report(report)
     number = 0
-    with PdfPages(path, metadata={"Title": report.title, "Creator": report.generator}) as pdf:
+    with (cached_drawing(),
+          PdfPages(path, metadata={"Title": report.title, "Creator": report.generator}) as pdf):
         flow = _Flow(pdf, report)
         flow.new_page()
         flow.text(report.title, size=18, weight="bold")

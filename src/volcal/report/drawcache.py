@@ -36,7 +36,7 @@ from typing import Any
 import matplotlib.text as _mtext
 from matplotlib.axis import Axis
 
-__all__ = ["cached_drawing"]
+__all__ = ["cached_drawing", "text_metrics"]
 
 _TICKS = "_volcal_ticks"
 _BOXES = "_volcal_tick_boxes"
@@ -83,17 +83,53 @@ def _cached_ticklabel_bboxes(self: Axis, ticks: list[Any], renderer: Any) -> Any
     return list(out[0]), list(out[1])
 
 
-def _shared_metrics_function(renderer: Any) -> Callable[..., tuple[float, float, float]]:
-    """Text metrics cached across renderers of one kind and resolution."""
+def _kind(renderer: Any) -> tuple[Any, Any]:
+    """What a renderer's text metrics depend on besides the text: its kind and resolution.
+
+    A PDF renderer measures in points whatever the figure's resolution; Agg in pixels
+    at its own.
+    """
     inner = getattr(renderer, "_renderer", renderer)  # a PDF page's mixed-mode renderer
-    kind = (type(inner), getattr(inner, "dpi", None))
+    return type(inner), getattr(inner, "dpi", None)
+
+
+def text_metrics(renderer: Any, text: str, prop: Any,
+                 ismath: Any = False) -> tuple[float, float, float]:
+    """Width, height and descent of a text as ``renderer`` measures it [its units].
+
+    Inside :func:`cached_drawing` from the block's cache, shared with every renderer of
+    the same kind and resolution (so a text measured here to lay a page out is not
+    measured again when the page draws it); outside, measured.
+
+    Parameters
+    ----------
+    renderer : RendererBase
+        The renderer (or one of the same kind and resolution as the one that will draw).
+    text : str
+        One line of text.
+    prop : FontProperties
+        Its font (not changed afterwards: it is part of the cache's key).
+    ismath : bool or str
+        As ``RendererBase.get_text_width_height_descent``.
+
+    Returns
+    -------
+    tuple of float
+    """
+    if not _depth:
+        return renderer.get_text_width_height_descent(text, prop, ismath)
+    key = (_kind(renderer), text, prop, ismath)
+    hit = _metrics.get(key)
+    if hit is None:
+        hit = _metrics[key] = renderer.get_text_width_height_descent(text, prop, ismath)
+    return hit
+
+
+def _shared_metrics_function(renderer: Any) -> Callable[..., tuple[float, float, float]]:
+    """matplotlib's text metrics, cached across renderers of one kind and resolution."""
 
     def metrics(text: str, fontprop: Any, ismath: Any, dpi: float) -> tuple[float, float, float]:
-        key = (kind, text, fontprop, ismath, dpi)
-        hit = _metrics.get(key)
-        if hit is None:
-            hit = _metrics[key] = renderer.get_text_width_height_descent(text, fontprop, ismath)
-        return hit
+        return text_metrics(renderer, text, fontprop, ismath)
 
     return metrics
 

@@ -126,7 +126,7 @@ def text_metrics(renderer: Any, text: str, prop: Any,
 
 
 def _shared_metrics_function(renderer: Any) -> Callable[..., tuple[float, float, float]]:
-    """matplotlib's text metrics, cached across renderers of one kind and resolution."""
+    """Text metrics for matplotlib, cached across renderers of one kind and resolution."""
 
     def metrics(text: str, fontprop: Any, ismath: Any, dpi: float) -> tuple[float, float, float]:
         return text_metrics(renderer, text, fontprop, ismath)

@@ -134,6 +134,14 @@ def _shared_metrics_function(renderer: Any) -> Callable[..., tuple[float, float,
     return metrics
 
 
+def _patch(update: Any, boxes: Any, metrics: Any) -> None:
+    """Set matplotlib's three functions (private: set by name)."""
+    for owner, name, value in ((Axis, "_update_ticks", update),
+                               (Axis, "_get_ticklabel_bboxes", boxes),
+                               (_mtext, "_get_text_metrics_function", metrics)):
+        setattr(owner, name, value)
+
+
 @contextmanager
 def cached_drawing() -> Iterator[None]:
     """Within this block, ticks, their labels' boxes and text metrics are computed once.
@@ -146,18 +154,14 @@ def cached_drawing() -> Iterator[None]:
         yield
         return
     if _depth == 0:
-        Axis._update_ticks = _cached_update_ticks  # type: ignore[method-assign]
-        Axis._get_ticklabel_bboxes = _cached_ticklabel_bboxes  # type: ignore[method-assign]
-        _mtext._get_text_metrics_function = _shared_metrics_function  # type: ignore[attr-defined]
+        _patch(_cached_update_ticks, _cached_ticklabel_bboxes, _shared_metrics_function)
     _depth += 1
     try:
         yield
     finally:
         _depth -= 1
         if _depth == 0:
-            Axis._update_ticks = _update_ticks  # type: ignore[method-assign]
-            Axis._get_ticklabel_bboxes = _ticklabel_bboxes  # type: ignore[method-assign]
-            _mtext._get_text_metrics_function = _metrics_function  # type: ignore[attr-defined]
+            _patch(_update_ticks, _ticklabel_bboxes, _metrics_function)
             for axis in _seen:
                 axis.__dict__.pop(_TICKS, None)
                 axis.__dict__.pop(_BOXES, None)

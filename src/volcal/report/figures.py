@@ -21,6 +21,8 @@ from concurrent.futures.process import BrokenProcessPool
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from volcal.report.drawcache import cached_drawing
+
 __all__ = ["PNG_DPI", "WORKERS_ENV", "PngDrawing", "draw_pngs", "draw_workers", "png_bytes",
            "png_data_uri"]
 
@@ -74,7 +76,8 @@ def png_bytes(fig: Figure, dpi: int = PNG_DPI) -> bytes:
         try:
             fig.dpi = dpi
             canvas._is_saving = True  # type: ignore[attr-defined]  # as savefig does
-            canvas.print_png(buf, metadata={"Software": None})
+            with cached_drawing():
+                canvas.print_png(buf, metadata={"Software": None})
         finally:
             canvas._is_saving = False  # type: ignore[attr-defined]
             fig.dpi = old

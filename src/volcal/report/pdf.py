@@ -24,8 +24,7 @@ from typing import Any
 
 import numpy as np
 from matplotlib.artist import Artist
-from matplotlib.backends.backend_agg import RendererAgg
-from matplotlib.backends.backend_pdf import FigureCanvasPdf, PdfPages
+from matplotlib.backends.backend_pdf import FigureCanvasPdf, PdfPages, RendererPdf
 from matplotlib.collections import Collection
 from matplotlib.figure import Figure
 from matplotlib.font_manager import FontProperties
@@ -36,6 +35,7 @@ from matplotlib.patches import Rectangle
 
 from volcal.plot._figure import new_figure
 from volcal.report.document import Report, Table
+from volcal.report.drawcache import cached_drawing, text_metrics
 from volcal.report.wording import customer_report
 
 __all__ = ["RASTER_DPI", "RASTER_POINTS", "write_pdf"]
@@ -64,10 +64,17 @@ _NUMBER = re.compile(r"^[-+−]?(\d[\d.,]*|∞|-)$|^\(.*\)$")
 
 
 class _Measure:
-    """Width of a text line in the font that draws it [pt] (Agg's metrics, 10x oversampled)."""
+    """Width of a text line in the font that draws it [pt], as the PDF page measures it.
+
+    The widths are those of matplotlib's PDF renderer (the one that prints the text, so
+    a line measured to fit its column prints as wide as measured), shared with the page
+    that draws the line (:func:`volcal.report.drawcache.text_metrics`: within
+    :func:`write_pdf` a line is measured once).
+    """
 
     def __init__(self) -> None:
-        self._renderer = RendererAgg(10, 10, 10 * _PT)
+        h, w = A4_PORTRAIT[1] * _PT, A4_PORTRAIT[0] * _PT
+        self._renderer = RendererPdf(None, _PT, h, w)  # measures only: draws nothing
         self._props: dict[tuple[float, str], FontProperties] = {}
         self._cache: dict[tuple[str, float, str], float] = {}
 
@@ -77,9 +84,8 @@ class _Measure:
     def width(self, text: str, size: float, weight: str = "normal") -> float:
         key = (text, size, weight)
         if key not in self._cache:
-            w, _, _ = self._renderer.get_text_width_height_descent(
-                text, self._prop(size, weight), ismath=False)
-            self._cache[key] = w / 10.0 + 0.5  # half a point of slack for rounding
+            w, _, _ = text_metrics(self._renderer, text, self._prop(size, weight))
+            self._cache[key] = w + 0.5  # half a point of slack for rounding
         return self._cache[key]
 
     def line_metrics(self, size: float) -> tuple[float, float]:
@@ -89,9 +95,8 @@ class _Measure:
         line spacing plus the descent ``d`` below the previous one, ``h`` the height of
         ``'lp'``.
         """
-        _, h, d = self._renderer.get_text_width_height_descent("lp", self._prop(size, "normal"),
-                                                               ismath=False)
-        return (_LINESPACING * (h - d) + d) / 10.0, h / 10.0
+        _, h, d = text_metrics(self._renderer, "lp", self._prop(size, "normal"))
+        return _LINESPACING * (h - d) + d, h
 
     def wrap(self, text: str, width: float, size: float, weight: str = "normal") -> list[str]:
         """Break ``text`` into lines no wider than ``width`` [pt], at spaces where possible.
@@ -471,7 +476,8 @@ def write_pdf(report: Report, path: str | Path) -> int:
     """
     report = customer_report(report)
     number = 0
-    with PdfPages(path, metadata={"Title": report.title, "Creator": report.generator}) as pdf:
+    with (cached_drawing(),
+          PdfPages(path, metadata={"Title": report.title, "Creator": report.generator}) as pdf):
         flow = _Flow(pdf, report)
         flow.new_page()
         flow.text(report.title, size=18, weight="bold")

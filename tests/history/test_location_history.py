@@ -30,6 +30,11 @@ def _calibration(folder, seed, date):
     from volcal.measure.virtual import random_machine
 
     c = Calibration.plan(TRAVEL, steps=4, runs=3, tests=["linear:x", "probe_sphere"])
+    # the layout this test was written with (the plan's default before it kept the poses
+    # inside the travel, volcal.plan.fiveaxis; no program is written here)
+    m = c.session.measurements[-1]
+    m.meta["pivot_mm"] = {"c": [200.0, 150.0, 0.0], "a": [200.0, 150.0, -120.0]}
+    m.meta["sphere_mm"] = [350.0, 150.0, 40.0]
     c.simulate(machine=random_machine(TRAVEL, "XYFZ", seed=7), seed=seed, noise_um=0.1)
     c.save(folder)
     toml = folder / "session.toml"

@@ -26,7 +26,10 @@ each STEP one of
   (``{"pins": [...], "rows": [[cycle, value, ...], ...], "overruns": n}``);
 * ``{"jog": joint, "increment": d, "velocity": v}``: an incremental jog of one joint in
   joint mode, then a sample of ``pins``;
-* ``{"sleep_s": s}``.
+* ``{"sleep_s": s}``;
+* ``{"wait_file": name, "timeout_s": s}``: wait until the file ``name`` exists in the
+  configuration's folder (the test writes it: a step that waits for the test, e.g. for a
+  capture to be connected before the next program starts).
 
 Result (JSON): ``{"ok": bool, "samples": [...], "series": {...}, "sampled": {...},
 "errors": [...], "failed": str | null}``. Only the standard library and LinuxCNC's modules
@@ -293,6 +296,13 @@ class Driver:
                 self.jog(step)
             elif "sleep_s" in step:
                 time.sleep(float(step["sleep_s"]))
+            elif "wait_file" in step:
+                path = os.path.join(_ini_dir(), step["wait_file"])
+                end = time.monotonic() + float(step.get("timeout_s", self.step_timeout_s))
+                while not os.path.exists(path):
+                    if time.monotonic() > end:
+                        raise RuntimeError(f"{step['wait_file']} did not appear")
+                    time.sleep(0.05)
             else:
                 raise RuntimeError(f"unknown step {step!r}")
         self.poll_errors()

@@ -125,8 +125,14 @@ def _run(tmp_path: Path, *, steps: int, runs: int, travel: float, dwell_s: float
         try:
             result["res"] = run_linuxcnc(
                 xyzc_joints(), [{"home": True}, {"sleep_s": scaled_timeout(4)},
-                                *[{"program": "linear_x1.ngc", "label": f"p{k}",
-                                   "timeout_s": scaled_timeout(600)} for k in range(n_prog)]],
+                                *[step for k in range(n_prog) for step in (
+                                    # runs 2 and 3 start once the test says the capture
+                                    # that follows them is connected (a loaded box starts a
+                                    # capture late: it would join the program mid-run)
+                                    *([{"wait_file": f"go-p{k}",
+                                        "timeout_s": scaled_timeout(600)}] if k else []),
+                                    {"program": "linear_x1.ngc", "label": f"p{k}",
+                                     "timeout_s": scaled_timeout(600)})]],
                 files={"linear_x1.ngc": ngc, marker: ""}, timeout_s=900)
         except Exception as e:  # reported by the test below
             result["error"] = e
@@ -145,6 +151,22 @@ def _run(tmp_path: Path, *, steps: int, runs: int, travel: float, dwell_s: float
     assert "error" not in result, result.get("error")
     assert result["res"]["ok"], result["res"]["failed"]
     _check(tmp_path, s, mid, stable_s)
+
+
+def _go(config: Path, name: str, p: subprocess.Popen[str], folder: Path, mid: str,
+        starts: int) -> None:
+    """Let LinuxCNC start its next program once capture ``p`` is connected.
+
+    The capture journals ``start`` after opening its sources; then the file ``name`` in
+    the configuration's folder releases the driver's ``wait_file`` step.
+    """
+    deadline = time.monotonic() + scaled_timeout(300)
+    while len([x for x in _journal(folder, mid) if x["type"] == "start"]) < starts:
+        assert p.poll() is None, p.communicate()
+        assert time.monotonic() < deadline, f"{name}: the capture did not connect"
+        time.sleep(0.02)
+    (config / name).write_text("")
+    os.chmod(config / name, 0o644)
 
 
 def _captures(tmp_path: Path, s: Path, progs: Path, mid: str, marker: str,
@@ -169,6 +191,7 @@ def _captures(tmp_path: Path, s: Path, progs: Path, mid: str, marker: str,
     # capture B during program run 2: killed after two points, resumed at once
     b = _volcal("capture", *common, "-o", str(b_dir))
     procs.append(b)
+    _go(found[0].parent, "go-p1", b, b_dir, mid, 1)
     deadline = time.monotonic() + scaled_timeout(600)
     while len([x for x in _journal(b_dir, mid) if x["type"] == "accepted"]) < 2:
         assert b.poll() is None, b.communicate()
@@ -180,6 +203,7 @@ def _captures(tmp_path: Path, s: Path, progs: Path, mid: str, marker: str,
     assert len(killed_with) >= 2
     b2 = _volcal("capture", *common, "-o", str(b_dir))
     procs.append(b2)
+    _go(found[0].parent, "go-p2", b2, b_dir, mid, 2)
     _wait(b2, "capture B (resumed)", scaled_timeout(900))
 
 

@@ -7,9 +7,10 @@ their expanded uncertainty where volcal has one: ISO 230-2 parameters of every l
 test (``<id>.<key>``, and ``<axis>.<key>`` for the first test of each axis), those of
 every rotary test in urad (``<id>.<key>``, ``C.A`` for the first test of the C axis),
 ISO 230-6 results, the volumetric indices of the model (``V.<key>``) and the squareness errors
-(``EC0Y``...; U = 2 u from the model's covariance); with probe_sphere tests, the rotary axes'
-location errors the poses determine (``EX0C``...; U = 2 u of ``volcal locate``) and the RMS
-scatter of the sphere centre (``<chain>.scatter_before``, ``<chain>.scatter_after`` [um]).
+(``EC0Y``...; U = 2 u from the model's covariance); with probe_sphere or r_test tests, the
+rotary axes' location errors the poses determine (``EX0C``...; U = 2 u of ``volcal
+locate``) and the RMS scatter of the sphere centre (``<chain>.scatter_before``,
+``<chain>.scatter_after`` [um]).
 """
 
 from __future__ import annotations
@@ -100,13 +101,13 @@ def results_of(session: Any, model: Any, budget: Any = None, evaluation: Any = N
 
 def location_rows(session: Any, model: Any = None
                   ) -> list[tuple[str, float | None, float | None, str]]:
-    """The location errors of a session's probe_sphere tests as stored results.
+    """The location errors of a session's probe_sphere and r_test tests as stored results.
 
     Each determined location error by its ISO 230-1 name (``EX0C``; a second chain of the
     session prefixes its code, ``FXYZCA.EX0C``) with U = 2 u, identified as ``volcal
     locate`` and the report identify it, with the linear axes' errors of ``model``
     (:func:`volcal.identify.location_evaluation.location_results`); errors held at zero
-    (redundant) are not stored. None without probe_sphere tests.
+    (redundant) are not stored. None without probe_sphere or r_test tests.
 
     Parameters
     ----------
@@ -115,7 +116,7 @@ def location_rows(session: Any, model: Any = None
     model : IdentificationResult, optional
         Its model (the linear axes' errors); None: perfect linear axes.
     """
-    if not any(m.kind == "probe_sphere" for m in session.measurements):
+    if not any(m.kind in ("probe_sphere", "r_test") for m in session.measurements):
         return []
     from volcal.identify.location_evaluation import locate_session, location_results
 
@@ -389,7 +390,7 @@ def calibration_record(session_folder: str | Path, model_path: str | Path | None
                   else [])
         if "rotary" in present:
             stored.append("the rotary tests' ISO 230-2 results (urad)")
-        if "probe_sphere" in present:
+        if present & {"probe_sphere", "r_test"}:
             stored.append("the rotary axes' location errors")
         notes.append("no model given: stored without a linear model (no identified error "
                      "functions, volumetric indices or squareness)"

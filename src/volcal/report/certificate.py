@@ -94,8 +94,9 @@ METHODS: dict[str, dict[str, str]] = {
         "kinematic chain)", "reference": "volcal docs/identification.md"},
     "ISO 230-1 location errors": {
         "title": "Location errors of the rotary axes (ISO 230-1:2012 3.5) identified from the "
-        "centre of a calibration sphere probed at rotary poses, with the sphere centre's "
-        "deviation per path (ISO 10791-6-style)", "reference": "volcal docs/fiveaxis.md"},
+        "centre of a calibration sphere probed at rotary poses, or its displacement read by "
+        "three sensors on the spindle (R-test), with the sphere centre's deviation per path "
+        "(ISO 10791-6-style)", "reference": "volcal docs/fiveaxis.md"},
     "refractive index of air": {
         "title": "Readings referred to air and 20 °C from the measured environment (Ciddor "
         "1996 or modified Edlén, Birch & Downs 1993/1994; ISO 1)",
@@ -948,7 +949,7 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
         The as-found session's location evaluation
         (:func:`volcal.identify.location_evaluation.locate_session`, with the model's
         linear errors), as the report step computes it; computed here when omitted. Its
-        probe_sphere tests give ``results.<state>.location``
+        probe_sphere and r_test tests give ``results.<state>.location``
         (:func:`volcal.report.certificate_location.location_results`).
     location_tolerance : LocationTolerance, optional
         Tolerance and decision rule of the per-path sphere-centre test.
@@ -1012,7 +1013,7 @@ def build_certificate(session: Any, result: Any = None, *, as_left: Any = None,
 
     if location is None:
         location = locate_session(session, result)
-    if location:  # the probe_sphere tests' location errors (docs/fiveaxis.md)
+    if location:  # the probe_sphere and r_test tests' location errors (docs/fiveaxis.md)
         found["location"] = location_results(location, location_tolerance)
     for row in found.get("rotary", []):  # a rotary axis' A against its tolerance
         t = (rotary_tolerance_urad or {}).get(row["axis"])

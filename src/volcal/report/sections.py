@@ -78,7 +78,7 @@ class ReportInputs:
         Tolerance of the accuracy A of each rotary axis (``'C'`` -> [urad]): the rotary
         section's verdict (:mod:`volcal.report.rotary`).
     location : list of LocatedChain, optional
-        The probe_sphere tests' location errors and sphere-centre scatter
+        The probe_sphere and r_test tests' location errors and sphere-centre scatter
         (:func:`volcal.identify.location_evaluation.locate_session`), computed once.
     location_tolerance : LocationTolerance, optional
         Tolerance and decision rule of the per-path sphere-centre test

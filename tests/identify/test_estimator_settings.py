@@ -65,7 +65,7 @@ ISSUE_30 = {
     "trend_centre_um_per_m": 25.0,
     "tilt_trend_centre_urad": 15.0,  # the tilts' linear part with a scale of its own
     "tilt_trend_spread": 3.0,
-    "axis_kappa_spread": 3.0,  # each axis' curvature factor chosen by the evidence
+    "axis_kappa_spread": 6.0,  # each axis' curvature factor chosen by the evidence (3 in round 1)
     "axis_scale_spread": 0.0,
 }
 # the estimator of volcal before issue 30, through the settings

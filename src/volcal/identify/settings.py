@@ -163,7 +163,7 @@ class EstimatorSettings:
     trend_centre_um_per_m: float = 25.0
     tilt_trend_centre_urad: float = 15.0
     tilt_trend_spread: float = 3.0
-    axis_kappa_spread: float = 3.0
+    axis_kappa_spread: float = 6.0
     axis_scale_spread: float = 0.0
     nugget: bool = True
     nugget_centre_um: float = 0.2

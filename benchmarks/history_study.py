@@ -97,6 +97,84 @@ def flagged(m1, m2) -> list[str]:
     return verdicts(m1, m2)[0]
 
 
+TRUE_SIZE = {"EXX": 8.0, "EC0Y": 20.0, "EYX": 5.0}
+"""Largest true change of each case [um, urad] (:func:`changed`; EXX at x = 800 mm)."""
+
+
+def signal(m1, m2, m3, name: str) -> dict:
+    """What the change test sees of a change: the identifiability of the difference.
+
+    ``m1``, ``m2`` an unchanged pair, ``m3`` the later calibration of the changed machine
+    with ``m2``'s noise and set-up: ``m3 - m2`` is the change as the estimator sees it
+    (the noise cancels). Returned: ``seen`` (its largest size at the nodes over the true
+    one: the share the design and prior let through), ``r`` and ``lambda`` (the tested
+    combinations and the noncentrality of the test statistic over them,
+    :func:`volcal.history.compare._split_statistic` of the signal), ``threshold`` (the
+    test's, from the unchanged pair) and ``power`` (the probability that the test flags
+    it: non-central chi-square over ``threshold``).
+    """
+    from scipy.stats import ncx2
+
+    from volcal.history.compare import (
+        _full_cov,
+        _interp_matrix,
+        _split_statistic,
+        compare_models,
+        noise_covariance,
+    )
+    from volcal.model.names import COMPONENT_NAMES, SQUARENESS_NAMES
+
+    c1, c2 = noise_covariance(m1), noise_covariance(m2)
+    if name in SQUARENESS_NAMES:
+        j = SQUARENESS_NAMES.index(name)
+        s1, s2 = m1.layout.squareness_indices(), m2.layout.squareness_indices()
+        d = np.array([m3.theta[s2[j]] - m2.theta[s2[j]]])
+        C = _full_cov(m1, s1[j:j + 1]) + _full_cov(m2, s2[j:j + 1])
+        Cn = _full_cov(m1, s1[j:j + 1], c1) + _full_cov(m2, s2[j:j + 1], c2)
+    else:
+        k, c = divmod(COMPONENT_NAMES.index(name), 6)
+        n1, n2 = m1.layout.nodes[k], m2.layout.nodes[k]
+        q = n1[(n1 >= max(n1[0], n2[0]) - 1e-9) & (n1 <= min(n1[-1], n2[-1]) + 1e-9)]
+        P1, P2 = _interp_matrix(n1, q), _interp_matrix(n2, q)
+        i1, i2 = m1.layout.indices(k, c), m2.layout.indices(k, c)
+        d = P2 @ (m3.theta[i2] - m2.theta[i2])
+        C = P1 @ _full_cov(m1, i1) @ P1.T + P2 @ _full_cov(m2, i2) @ P2.T
+        Cn = P1 @ _full_cov(m1, i1, c1) @ P1.T + P2 @ _full_cov(m2, i2, c2) @ P2.T
+    r, lam, r_rest, lam_rest = _split_statistic(d, C, Cn)
+    e = next(x for x in compare_models(m1, m2, LEVEL) if x.name == name)
+    thr = e.threshold
+    power = float(ncx2.sf(thr, r, max(lam, 1e-12))) if r and thr is not None else 0.0
+    return {"seen": float(np.abs(d).max()) / TRUE_SIZE[name], "r": r, "lambda": lam,
+            "r_rest": r_rest, "lambda_rest": lam_rest, "threshold": thr, "power": power,
+            "U": e.U, "verdict_unchanged_pair": e.verdict}
+
+
+def detectability(steps=STEPS, runs=RUNS, generator: str = "volcal", seed: int = 500
+                  ) -> list[dict]:
+    """:func:`signal` of each change on each design (one machine of ``generator``)."""
+    rows = []
+    gi = GENERATORS.index(generator)
+    m = machine(generator, seed + 10_000 * gi)
+    print("| increments | runs | change | seen of the true size | tested combinations | "
+          "noncentrality | threshold | power | U of the difference (k=2) | "
+          "noncentrality in the combinations not determined |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    for st in steps:
+        for ru in runs:
+            s = 2 * (100_000 * gi + 1000 * st + 100 * ru)
+            first, second = identify(m, st, ru, s), identify(m, st, ru, s + 1)
+            for case, target in CHANGES.items():
+                row = {"steps": st, "runs": ru, "case": case,
+                       **signal(first, second, identify(changed(m, target), st, ru, s + 1),
+                                target)}
+                rows.append(row)
+                print(f"| {st} | {ru} | {case} | {row['seen']:.2f} | {row['r']} | "
+                      f"{row['lambda']:.1f} | {row['threshold']:.1f} | {row['power']:.2f} | "
+                      f"{row['U']:.2f} | {row['lambda_rest']:.1f} over {row['r_rest']} |",
+                      flush=True)
+    return rows
+
+
 def band(n: int) -> int:
     """Largest count of pairs with a flag within the binomial band of the level."""
     from scipy.stats import binom
@@ -164,7 +242,13 @@ def main(argv=None) -> int:
     ap.add_argument("--generators", default=",".join(GENERATORS))
     ap.add_argument("--power-designs", default="6x2,10x5",
                     help="designs (increments x runs) of the changed pairs")
+    ap.add_argument("--detectability", action="store_true",
+                    help="what the test sees of each change on each design (one machine)")
     a = ap.parse_args(argv)
+    if a.detectability:
+        detectability(tuple(int(x) for x in a.steps.split(",")),
+                      tuple(int(x) for x in a.runs.split(",")))
+        return 0
     power = tuple(tuple(int(v) for v in d.split("x")) for d in a.power_designs.split(","))
     print("| increments | runs | generator | unchanged pairs flagged | within band | "
           "unchanged pairs with an entry the design cannot tell | "

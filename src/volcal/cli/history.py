@@ -215,7 +215,9 @@ def export_qif_cmd(
                 raise VolcalInputError(f"{r.id} is a {r.kind} record, not a calibration "
                                        "(volcal history list)")
             m = load_record_model(h.store, r.id)
-            days = machine_interval(h.store.records(), r.machine_id)
+            days = machine_interval([h.store.record(r.machine_id),  # its own records
+                                     *h.store.records(machine_id=r.machine_id)]
+                                    if r.machine_id else [], r.machine_id)
             _warn_damaged(h, {r.id, record})
         if m is None:
             raise VolcalInputError(f"{r.id} has no volcal model to export")

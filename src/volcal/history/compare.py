@@ -534,10 +534,10 @@ def previous_calibration(store: Any, session: Any) -> Any:
     from volcal.history.machines import match
     from volcal.session.identity import parse_date
 
-    recs = store.records()
-    machine = match(recs, session.identity)
+    machine = match(store.records("machine"), session.identity)
     if machine is None:
         return None
+    recs = store.records("calibration", machine_id=machine.id)  # its own: indexed
     own = session_digest(session) if session.path is not None else None
     when = session.calibration.get("date") or session.provenance.get("date")
     day = None if when is None else str(parse_date(when))[:10]

@@ -20,6 +20,7 @@ rolls and ball-screw cyclic errors). Per design and family:
 
     .venv/bin/python benchmarks/history_study.py --pairs 40            # the full study
     .venv/bin/python benchmarks/history_study.py --pairs 4 --power-pairs 4   # quick
+    .venv/bin/python benchmarks/history_study.py --detectability   # what the test sees
 """
 
 from __future__ import annotations

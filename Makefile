@@ -98,6 +98,8 @@ bench: $(STAMP) bytecode postgres-deps
 study: $(STAMP)
 	$(BIN)/python -m pytest -n 2 --dist loadfile -m slow
 	$(BIN)/python benchmarks/history_study.py --pairs 40 --power-pairs 20
+	$(BIN)/python benchmarks/history_study.py --detectability --steps 4,6,10,20 --runs 1,2,5
+	HYPOTHESIS_PROFILE=fuzz VOLCAL_FUZZ_STORES=10000 $(BIN)/python -m pytest -q -p no:cacheprovider tests/history/test_fuzz_store.py
 	$(BIN)/python benchmarks/study.py --design all --machines 10 --markdown --quiet
 	$(BIN)/python benchmarks/study.py --drift --design all --machines 10 --markdown --quiet
 	$(BIN)/python benchmarks/study.py --false-alarms 60 --runs 2 --design all

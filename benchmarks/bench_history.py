@@ -14,7 +14,8 @@ does not depend on the store, are not):
 
 * ``add``: :meth:`Store.append` of one new calibration of ``VMC-0000`` with the machine
   matching ``history add`` runs (its chain check reads the whole chain: linear);
-* ``list`` (every calibration: linear) and ``list --machine`` (one machine's records);
+* ``list`` (every calibration, streamed a chunk at a time as ``history list`` reads
+  them: linear, memory bounded) and ``list --machine`` (one machine's records);
 * ``trend`` ``X.A`` and ``EXX@100`` (ten stored models loaded) of ``VMC-0000``;
 * ``compare`` of two calibrations of ``VMC-0000``;
 * ``fleet --machine`` and ``fleet`` (every machine: linear);
@@ -173,7 +174,7 @@ def measure(url: str, base, ident, n: int, tmp: Path) -> dict[str, float]:
     out["trend EXX@100"] = _timed(opened(lambda h: trend(h, "VMC-0000", "EXX@100")))
     out["compare"] = _timed(opened(lambda h: compare(h.store, two["a"], two["b"])))
     out["fleet --machine"] = _timed(opened(lambda h: fleet_html(h, machine="VMC-0000")))
-    out["list"] = _timed(opened(lambda h: h.list()))
+    out["list"] = _timed(opened(lambda h: sum(1 for _ in h.stream())))  # as the CLI
     out["fleet"] = _timed(opened(lambda h: fleet_html(h)))
     folder = tmp / f"export-{n}"
     out["export"] = _timed(opened(lambda h: export_parquet(h, folder)), 1)

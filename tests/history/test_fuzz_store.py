@@ -209,3 +209,21 @@ def test_verify_reads_every_page_add_reads(intact, tmp_path):
         if _check(path, True) and not _check(path, False):
             missed.append(k + 1)
     assert missed == []
+
+
+def test_readers_write_nothing_on_a_damaged_header(intact, tmp_path):
+    """Garbage over the header's page count (offset 27-29): every reader left the file as
+    it was. Found by the fuzz run (draws ``bytes``, offset 27, ``garbage`` b'<\\xec\\xd1'):
+    opening the store took the writers' lock, a write transaction, and committing it made
+    SQLite rewrite the header (change counter and page count) of a store only read."""
+    path = tmp_path / "h.sqlite"
+    raw = bytearray(intact["bytes"])
+    raw[27:30] = b"<\xec\xd1"
+    path.write_bytes(bytes(raw))
+    before = _digest(path)
+    for args in (["verify"], ["list", "--json", "--all"], ["show", "C000003", "--json"],
+                 ["trend", "VMC-1", "--parameter", "X.A", "--json"], ["due"],
+                 ["compare", "C000002", "C000003"]):
+        r = volcal_process("history", *args, "--db", path)
+        _clean(r, path)
+        assert _digest(path) == before, args

@@ -215,7 +215,9 @@ def export_qif_cmd(
                 raise VolcalInputError(f"{r.id} is a {r.kind} record, not a calibration "
                                        "(volcal history list)")
             m = load_record_model(h.store, r.id)
-            days = machine_interval(h.store.records(), r.machine_id)
+            days = machine_interval([h.store.record(r.machine_id),  # its own records
+                                     *h.store.records(machine_id=r.machine_id)]
+                                    if r.machine_id else [], r.machine_id)
             _warn_damaged(h, {r.id, record})
         if m is None:
             raise VolcalInputError(f"{r.id} has no volcal model to export")
@@ -260,42 +262,53 @@ def list_cmd(
     from volcal.history.api import by_date
 
     with _open(db) as h:
-        if machine is None:
-            recs = h.list()
+        if machine is None:  # streamed: a chunk of records in memory at a time
+            recs = h.stream(all_records)
         else:  # the machine's own records only (indexed), its machine record first
             mid = h.machine_id(machine)
             recs = [h.store.record(mid), *h.store.records(machine_id=mid)]
+            if not all_records:  # the records with a date of measurement
+                recs = by_date([r for r in recs if r.kind == "calibration"])
+        if certificate is not None:
+            recs = [r for r in recs if r.report_id == certificate.strip()]
+            if not recs:
+                _warn_damaged(h)
+                _err(f"no calibration of certificate {certificate!r} in the history")
+                raise typer.Exit(1)
+        if as_json:
+            _echo_json_array({"id": r.id, "kind": r.kind, "machine": r.machine_name,
+                              "machine_id": r.machine_id or (r.id if r.kind == "machine"
+                                                             else None),
+                              "date": r.date, "created": r.created,
+                              "supersedes": r.supersedes, "superseded_by": r.superseded_by,
+                              "superseded": r.superseded_by is not None,
+                              "as_left_of": r.as_left_of, "report_id": r.report_id,
+                              "hash": r.hash} for r in recs)
+        else:
+            typer.echo("id\tkind\tmachine\tdate of measurement\tnote")
+            for r in recs:
+                note = []
+                if r.superseded_by:
+                    note.append(f"superseded by {r.superseded_by}")
+                if r.supersedes:
+                    note.append(f"corrects {r.supersedes}")
+                if r.as_left_of:
+                    note.append(f"as-left of {r.as_left_of}")
+                if r.report_id:
+                    note.append(f"certificate {r.report_id}")
+                typer.echo(f"{r.id}\t{r.kind}\t{r.machine_name}\t{r.date or '-'}\t"
+                           f"{'; '.join(note)}")
         _warn_damaged(h)
-    if not all_records:  # the records with a date of measurement
-        recs = by_date([r for r in recs if r.kind == "calibration"])
-    if certificate is not None:
-        recs = [r for r in recs if r.report_id == certificate.strip()]
-        if not recs:
-            _err(f"no calibration of certificate {certificate!r} in the history")
-            raise typer.Exit(1)
-    if as_json:
-        typer.echo(json.dumps([{"id": r.id, "kind": r.kind, "machine": r.machine_name,
-                                "machine_id": r.machine_id or (r.id if r.kind == "machine"
-                                                               else None),
-                                "date": r.date, "created": r.created,
-                                "supersedes": r.supersedes, "superseded_by": r.superseded_by,
-                                "superseded": r.superseded_by is not None,
-                                "as_left_of": r.as_left_of, "report_id": r.report_id,
-                                "hash": r.hash}
-                               for r in recs], indent=1))
-        return
-    typer.echo("id\tkind\tmachine\tdate of measurement\tnote")
-    for r in recs:
-        note = []
-        if r.superseded_by:
-            note.append(f"superseded by {r.superseded_by}")
-        if r.supersedes:
-            note.append(f"corrects {r.supersedes}")
-        if r.as_left_of:
-            note.append(f"as-left of {r.as_left_of}")
-        if r.report_id:
-            note.append(f"certificate {r.report_id}")
-        typer.echo(f"{r.id}\t{r.kind}\t{r.machine_name}\t{r.date or '-'}\t{'; '.join(note)}")
+
+
+def _echo_json_array(items) -> None:
+    """``json.dumps(list(items), indent=1)``, written an item at a time (streamed)."""
+    first = True
+    for item in items:
+        typer.echo("[" if first else ",")
+        typer.echo(" " + json.dumps(item, indent=1).replace("\n", "\n "), nl=False)
+        first = False
+    typer.echo("[]" if first else "\n]")
 
 
 @history_app.command("show")

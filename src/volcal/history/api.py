@@ -8,6 +8,7 @@
 from __future__ import annotations
 
 import builtins
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -183,6 +184,22 @@ class History:
     def list(self) -> list[Record]:
         """Every record in order (``superseded_by`` set)."""
         return self.store.records()
+
+    def stream(self, all_records: bool = False, results: bool = False
+               ) -> Iterator[Record]:
+        """What ``volcal history list`` shows, read a chunk at a time (memory bounded).
+
+        Parameters
+        ----------
+        all_records : bool
+            Every record in the order stored; default the calibrations by date of
+            measurement (:func:`by_date`).
+        results : bool
+            Fill ``Record.results`` (``list`` shows none).
+        """
+        if all_records:
+            return self.store.iter_records(results=results)
+        return self.store.iter_records("calibration", by_date=True, results=results)
 
     # `list` below is the method above, hence builtins.list
     def calibrations(self, machine: str | None = None,

@@ -254,6 +254,13 @@ def _determined(model: Any, name: str) -> float | None:
 
 def _determined_statistic(d: np.ndarray, C: np.ndarray, Cn: np.ndarray | None
                           ) -> tuple[int, float]:
+    """:func:`_split_statistic`'s tested part: ``(dof, statistic)``."""
+    r, stat, _, _ = _split_statistic(d, C, Cn)
+    return r, stat
+
+
+def _split_statistic(d: np.ndarray, C: np.ndarray, Cn: np.ndarray | None
+                     ) -> tuple[int, float, int, float]:
     """Chi-square of a difference over the combinations the data determine.
 
     ``C`` is the sum of the two posterior covariances, ``Cn`` the sum of their parts due
@@ -271,20 +278,27 @@ def _determined_statistic(d: np.ndarray, C: np.ndarray, Cn: np.ndarray | None
     statistic : float
         ``sum z_i^2``, ``z`` the difference in those combinations over its posterior
         standard deviation.
+    rest_dof : int
+        Combinations left out (not determined by the data).
+    rest_statistic : float
+        The same sum over them: large when the difference lies where the design cannot
+        tell a change from the prior's shrinkage (the verdict is then undecided, never
+        ``unchanged``; :func:`_function_entries`).
     """
     w, U = np.linalg.eigh((C + C.T) / 2)
     ok = w > max(w.max(), 0.0) * RANK_RTOL
     if not ok.any():
-        return 0, 0.0
+        return 0, 0.0, 0, 0.0
     T = U[:, ok] / np.sqrt(w[ok])
     z = T.T @ d
     if Cn is None:
-        return int(ok.sum()), float(z @ z)
+        return int(ok.sum()), float(z @ z), 0, 0.0
     M = T.T @ Cn @ T
     mu, V = np.linalg.eigh((M + M.T) / 2)
     keep = mu >= DETERMINED_FROM
     zk = V[:, keep].T @ z
-    return int(keep.sum()), float(zk @ zk)
+    zr = V[:, ~keep].T @ z
+    return int(keep.sum()), float(zk @ zk), int((~keep).sum()), float(zr @ zr)
 
 
 def _residual_dof(model: Any) -> float:
@@ -361,7 +375,7 @@ def _function_entries(m1: Any, m2: Any, level: float, common_prior: bool = True
                 if f is not None and f < UNDETERMINED_BELOW) + " calibration"
             out.append(e)
             continue
-        r, stat = _determined_statistic(d, C, Cn)
+        r, stat, r_rest, stat_rest = _split_statistic(d, C, Cn)
         if r == 0:
             e.reason = ("fixed by the gauge in both calibrations" if not np.any(C)
                         else "no combination determined by both calibrations")
@@ -370,6 +384,14 @@ def _function_entries(m1: Any, m2: Any, level: float, common_prior: bool = True
         thr = _threshold(1.0 - level / m, r, nu)
         e.statistic, e.threshold, e.dof = stat, thr, r
         e.changed = bool(stat > thr)
+        if not e.changed and r_rest and stat_rest > (thr_rest := _threshold(
+                1.0 - level / m, r_rest, nu)):
+            # not "unchanged": the difference lies where the design cannot tell
+            e.changed = None
+            e.reason = (f"no change in the {r} combinations of its nodes the data "
+                        f"determine (chi2 {stat:.1f} <= {thr:.1f}), but the difference in "
+                        f"the {r_rest} they do not determine is beyond their spread (chi2 "
+                        f"{stat_rest:.1f} > {thr_rest:.1f}): this design cannot tell")
         out.append(e)
     return out
 
@@ -441,14 +463,15 @@ def compare(store: Any, id1: str, id2: str, level: float = 0.05) -> list[Entry]:
     """
     if not 0.0 < level < 1.0:
         raise VolcalInputError(f"--level {level}: expected a fraction between 0 and 1")
-    r1, r2 = store.current(id1), store.current(id2)
-    for r in (r1, r2):
-        if r.kind != "calibration":
-            raise VolcalInputError(f"{r.id} is a {r.kind} record, not a calibration")
-    if r1.machine_id != r2.machine_id:
-        raise VolcalInputError(f"{r1.id} and {r2.id} are calibrations of two machines "
-                               f"({r1.machine_name}, {r2.machine_name})")
-    m1, m2 = load_record_model(store, r1.id, r1), load_record_model(store, r2.id, r2)
+    with store.reading():  # one connection for the records and their files
+        r1, r2 = store.current(id1), store.current(id2)
+        for r in (r1, r2):
+            if r.kind != "calibration":
+                raise VolcalInputError(f"{r.id} is a {r.kind} record, not a calibration")
+        if r1.machine_id != r2.machine_id:
+            raise VolcalInputError(f"{r1.id} and {r2.id} are calibrations of two machines "
+                                   f"({r1.machine_name}, {r2.machine_name})")
+        m1, m2 = load_record_model(store, r1.id, r1), load_record_model(store, r2.id, r2)
     both = m1 is not None and m2 is not None
     out = _result_entries(r1, r2, both)
     if both:
@@ -511,10 +534,10 @@ def previous_calibration(store: Any, session: Any) -> Any:
     from volcal.history.machines import match
     from volcal.session.identity import parse_date
 
-    recs = store.records()
-    machine = match(recs, session.identity)
+    machine = match(store.records("machine"), session.identity)
     if machine is None:
         return None
+    recs = store.records("calibration", machine_id=machine.id)  # its own: indexed
     own = session_digest(session) if session.path is not None else None
     when = session.calibration.get("date") or session.provenance.get("date")
     day = None if when is None else str(parse_date(when))[:10]

@@ -69,12 +69,13 @@ def fleet_html(history: Any, today: _dt.date | None = None, machine: str | None 
     from volcal.history.due import machine_records
 
     today = today or _dt.date.today()
-    machines, others = machine_records(history, machine)  # each record read once
-    mine: dict[str | None, list[Any]] = {}
-    for r in others:
-        if r.kind == "calibration" and r.superseded_by is None:
-            mine.setdefault(r.machine_id, []).append(r)
-    due_rows = _due_rows(history, today, machines, others)
+    with history.store.reading():  # one connection (and snapshot) for every read
+        machines, others = machine_records(history, machine)  # each record read once
+        mine: dict[str | None, list[Any]] = {}
+        for r in others:
+            if r.kind == "calibration" and r.superseded_by is None:
+                mine.setdefault(r.machine_id, []).append(r)
+        due_rows = _due_rows(history, today, machines, others)
     rows = []
     for mach in machines:
         # by date of measurement: a back-filled older record is not the last one

@@ -8,9 +8,11 @@ leaves nothing behind.
 
 from __future__ import annotations
 
+import contextlib
 import datetime as _dt
 import hashlib
 import json
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -172,6 +174,7 @@ class Store:
         self._head: tuple[int, str] | None = None  # the last appended, under the lock
         #: record id -> what is wrong with it, of every damaged record read so far
         self.damaged: dict[str, str] = {}
+        self._reader: Any = None  # the connection of :meth:`reading`, inside its block
         with guard(self.where):
             self.engine = open_engine(self.url, create=create)
         #: True when opening made a new, empty store
@@ -406,16 +409,43 @@ class Store:
         return rid
 
     # ---------------------------------------------------------------- reading
+    @contextlib.contextmanager
+    def reading(self) -> Iterator[None]:
+        """Every read inside the block on one connection (one snapshot of the store).
+
+        The engine keeps no pool (:func:`volcal.history.engine.open_engine`), so each read
+        outside such a block opens a connection: 30 ms each on a PostgreSQL server, and a
+        ``trend EXX@100`` reads 10 records and 20 stored files. Nested blocks share the
+        outer one.
+        """
+        from volcal.history.integrity import guard
+
+        if self._reader is not None:
+            yield
+            return
+        with guard(self.where), self.engine.connect() as conn:
+            self._reader = conn
+            try:
+                yield
+            finally:
+                self._reader = None
+
     def _rows(self, where=None, conn=None) -> list[Record]:
         from volcal.history.integrity import guard
 
+        conn = self._reader if conn is None else conn
         with guard(self.where):
             if conn is None:
                 with self.engine.connect() as c:
                     return self._read(where, c)
             return self._read(where, conn)
 
-    def _read(self, where, conn) -> list[Record]:
+    def _read(self, where, conn, results: bool = True) -> list[Record]:
+        """The records ``where`` selects, with their children, each checked against its hash.
+
+        ``results=False`` reads the results only for the check (``Record.results`` left
+        empty: ``list`` shows none; a third less work per record).
+        """
         from sqlalchemy import select
 
         from volcal.history import schema as t
@@ -435,9 +465,10 @@ class Store:
             for seq, name, value, u, unit in conn.execute(select(
                     c.record_seq, c.name, c.value, c.U, c.unit).where(
                     c.record_seq.in_(chunk))).all():
-                res[seq][name if type(name) is str else _text(name)] = {
-                    "value": _number(value), "U": _number(u),
-                    "unit": unit if type(unit) is str else _text(unit)}
+                if results:
+                    res[seq][name if type(name) is str else _text(name)] = {
+                        "value": _number(value), "U": _number(u),
+                        "unit": unit if type(unit) is str else _text(unit)}
                 raw[seq][1].append((name, value, u, unit))
             f = t.files.c
             for seq, role, name, sha in conn.execute(select(
@@ -508,6 +539,48 @@ class Store:
         self._mark_superseded(allr, conn)
         return allr
 
+    def iter_records(self, kind: str | None = None, by_date: bool = False,
+                     results: bool = True, chunk: int = 500) -> Iterator[Record]:
+        """Every record (of ``kind``), streamed: read and checked ``chunk`` records at a time.
+
+        The memory held is that of one chunk whatever the size of the store (``list``
+        of 10^4 calibrations: 1.2 GB read at once before), and the first records are out
+        before the last are read. Each record is checked against its own hash as
+        :meth:`records` checks it; ``superseded_by`` is set.
+
+        Parameters
+        ----------
+        kind : str, optional
+            Only records of this kind.
+        by_date : bool
+            By date of measurement, then in the order stored
+            (:func:`volcal.history.api.by_date`); default the chain's order.
+        results : bool
+            Fill ``Record.results`` (``False``: read only for the check).
+        chunk : int
+            Records read per query.
+        """
+        from sqlalchemy import select
+
+        from volcal.history import schema as t
+        from volcal.history.integrity import guard
+
+        c = t.records.c
+        q = select(c.seq, c.date).order_by(c.seq)
+        if kind is not None:
+            q = q.where(c.kind == kind)
+        with guard(self.where), self.engine.connect() as conn:
+            keys = [(int(seq), str(_text(day) or "")) for seq, day in conn.execute(q).all()]
+            if by_date:
+                keys.sort(key=lambda k: (k[1], k[0]))
+            links = self._corrections(conn)
+            for k in range(0, len(keys), chunk):
+                part = [seq for seq, _ in keys[k:k + chunk]]
+                got = {r.seq: r for r in self._read(c.seq.in_(part), conn, results)}
+                recs = [got[seq] for seq in part if seq in got]
+                self._mark_superseded(recs, links=links)
+                yield from recs
+
     def machines_named(self, machine: str, conn=None) -> list[Record]:
         """The machine records whose id or name is ``machine`` (``superseded_by`` set).
 
@@ -544,6 +617,7 @@ class Store:
 
         q = select(t.records.c.id, t.records.c.supersedes).where(
             t.records.c.supersedes.is_not(None)).order_by(t.records.c.seq)
+        conn = self._reader if conn is None else conn
         with guard(self.where):
             if conn is None:
                 with self.engine.connect() as c:
@@ -552,9 +626,13 @@ class Store:
                 rows = conn.execute(q).all()
         return {str(_text(old)): str(_text(new)) for new, old in rows}
 
-    def _mark_superseded(self, recs: list[Record], conn=None) -> None:
-        """Set ``superseded_by``: the newest record of the chain of corrections."""
-        links = self._corrections(conn)
+    def _mark_superseded(self, recs: list[Record], conn=None,
+                         links: dict[str, str] | None = None) -> None:
+        """Set ``superseded_by``: the newest record of the chain of corrections.
+
+        ``links``: :meth:`_corrections`, when already read.
+        """
+        links = self._corrections(conn) if links is None else links
         for r in recs:
             nxt, seen = links.get(r.id), {r.id}
             while nxt is not None and nxt in links and links[nxt] not in seen:
@@ -620,8 +698,12 @@ class Store:
                                            t.files.c.role == role)
         if name is not None:
             q = q.where(t.files.c.name == name)
-        with guard(self.where), self.engine.connect() as conn:
-            row = conn.execute(q.order_by(t.files.c.name)).first()
+        with guard(self.where):
+            if self._reader is not None:
+                row = self._reader.execute(q.order_by(t.files.c.name)).first()
+            else:
+                with self.engine.connect() as conn:
+                    row = conn.execute(q.order_by(t.files.c.name)).first()
         if row is None:
             raise VolcalInputError(f"record {rid} has no {role} file")
         data = row[0].encode() if isinstance(row[0], str) else bytes(row[0] or b"")

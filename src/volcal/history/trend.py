@@ -35,6 +35,12 @@ def trend(history: Any, machine: str, parameter: str) -> list[dict[str, Any]]:
         Unknown parameter (the valid names of the latest calibration are listed), or a
         position outside the travel of a calibration's model.
     """
+    with history.store.reading():  # one connection for the records and their files
+        return _trend(history, machine, parameter)
+
+
+def _trend(history: Any, machine: str, parameter: str) -> list[dict[str, Any]]:
+    """:func:`trend` inside one reading connection."""
     from volcal.history.compare import load_record_model
 
     cals = history.calibrations(machine)

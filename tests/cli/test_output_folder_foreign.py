@@ -6,6 +6,9 @@ changed; with ``--replace`` they are moved into ``backup/<UTC time>/`` of the fo
 the output is written; re-running over its own output still works, and ``backup/``
 survives it. Report, compensate and program through the command line; the same through
 ``volcal.Calibration``; the library function on its own.
+
+The reports are written with blank figures (tests/blank_figures.py): what is checked is
+which files are kept, moved or replaced, not the drawing.
 """
 
 from __future__ import annotations
@@ -54,7 +57,8 @@ def _snapshot(folder: Path) -> dict[str, bytes]:
             for p in sorted(folder.rglob("*")) if p.is_file()}
 
 
-def test_report_over_a_folder_with_a_foreign_file(model, tmp_path, monkeypatch, capsys):
+def test_report_over_a_folder_with_a_foreign_file(model, tmp_path, monkeypatch, capsys,
+                                                  blank_figures):
     session, mfile = model
     out = tmp_path / "R"
     args = ["report", str(session), "--model", str(mfile), "-o", str(out)]

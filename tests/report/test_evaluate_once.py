@@ -7,6 +7,10 @@ certificate: exactly one per linear test (and per diagonal) of each session, as-
 as-left. The "after" of a verdict with compensation tables, and the line check of
 ``volcal compensate --session``, evaluate other readings (the readings with the tables'
 correction taken off): they are counted apart.
+
+The reports are written with blank figures (tests/blank_figures.py): drawing a figure
+evaluates nothing (the figures are built from the evaluation before they are drawn), and
+the drawing is checked by the rendering tests of tests/report.
 """
 
 import shutil
@@ -23,6 +27,8 @@ identified = _fx.identified
 small_session = _fx.small_session
 
 TOLERANCE = "X=1000,Y=1000,Z=1000,V=1000"
+
+pytestmark = pytest.mark.usefixtures("blank_figures")
 
 
 class Spy:

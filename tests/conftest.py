@@ -153,10 +153,10 @@ def store_url(request, tmp_path):
     return new_database(request.getfixturevalue("postgres_server"))
 
 
-# reports written with blank figures (tests/blank_figures.py): the fixture blank_figures;
-# LinuxCNC itself, headless in simulation (tests/linuxcnc_sim.py): the fixture linuxcnc_sim
-from blank_figures import blank_figures  # noqa: E402, F401
+# LinuxCNC itself, headless in simulation (tests/linuxcnc_sim.py): the fixture linuxcnc_sim;
+# reports with less drawing (tests/report_stubs.py): the fixtures blank_figures, stub_pdfs
 from linuxcnc_sim import linuxcnc_sim  # noqa: E402, F401
+from report_stubs import blank_figures, stub_pdfs  # noqa: E402, F401
 
 # ---------------------------------------------------------------- order of the test files
 LINUXCNC_FILES: tuple[str, ...] = (

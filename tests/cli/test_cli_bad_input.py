@@ -1044,9 +1044,17 @@ PARTIAL_COMMANDS = [
 
 
 @pytest.mark.parametrize("args", PARTIAL_COMMANDS, ids=[" ".join(a[:2]) for a in PARTIAL_COMMANDS])
-def test_partial_session(args: list[str], base: Path, tmp_path: Path) -> None:
+def test_partial_session(args: list[str], base: Path, tmp_path: Path,
+                         request: pytest.FixtureRequest) -> None:
     """A partly measured session (one linear line, one diagonal, one step diagonal still
-    empty; one missed capture) works on the measured subset and says what it left out."""
+    empty; one missed capture) works on the measured subset and says what it left out.
+
+    The report is written with blank figures and a stub PDF (tests/report_stubs.py): its
+    HTML is checked here; a partly measured session's report is drawn for real by
+    tests/standards/test_incomplete.py::test_report_lists_missed_readings_and_unmeasured_tests."""
+    if args[0] == "report":
+        request.getfixturevalue("blank_figures")
+        request.getfixturevalue("stub_pdfs")
     d = tmp_path / "w"
     shutil.copytree(base, d)
     for f in ("linear-x2", "diag-ppp", "step-npp"):

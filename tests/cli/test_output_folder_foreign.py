@@ -7,8 +7,8 @@ the output is written; re-running over its own output still works, and ``backup/
 survives it. Report, compensate and program through the command line; the same through
 ``volcal.Calibration``; the library function on its own.
 
-The reports are written with blank figures (tests/blank_figures.py): what is checked is
-which files are kept, moved or replaced, not the drawing.
+The reports are written with blank figures and a stub PDF (tests/report_stubs.py): what
+is checked is which files are kept, moved or replaced, not the drawing.
 """
 
 from __future__ import annotations
@@ -58,7 +58,7 @@ def _snapshot(folder: Path) -> dict[str, bytes]:
 
 
 def test_report_over_a_folder_with_a_foreign_file(model, tmp_path, monkeypatch, capsys,
-                                                  blank_figures):
+                                                  blank_figures, stub_pdfs):
     session, mfile = model
     out = tmp_path / "R"
     args = ["report", str(session), "--model", str(mfile), "-o", str(out)]

@@ -8,9 +8,9 @@ as-left. The "after" of a verdict with compensation tables, and the line check o
 ``volcal compensate --session``, evaluate other readings (the readings with the tables'
 correction taken off): they are counted apart.
 
-The reports are written with blank figures (tests/blank_figures.py): drawing a figure
-evaluates nothing (the figures are built from the evaluation before they are drawn), and
-the drawing is checked by the rendering tests of tests/report.
+The reports are written with blank figures and stub PDFs (tests/report_stubs.py): drawing
+evaluates nothing (the figures and the certificate are built from the evaluation before
+they are drawn), and the drawing is checked by the rendering tests of tests/report.
 """
 
 import shutil
@@ -28,7 +28,7 @@ small_session = _fx.small_session
 
 TOLERANCE = "X=1000,Y=1000,Z=1000,V=1000"
 
-pytestmark = pytest.mark.usefixtures("blank_figures")
+pytestmark = pytest.mark.usefixtures("blank_figures", "stub_pdfs")
 
 
 class Spy:

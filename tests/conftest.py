@@ -154,8 +154,10 @@ def store_url(request, tmp_path):
 
 
 # LinuxCNC itself, headless in simulation (tests/linuxcnc_sim.py): the fixture linuxcnc_sim;
+# the model's U drawn once per model (tests/model_u_once.py): the fixture model_u_once;
 # reports with less drawing (tests/report_stubs.py): the fixtures blank_figures, stub_pdfs
 from linuxcnc_sim import linuxcnc_sim  # noqa: E402, F401
+from model_u_once import model_u_once  # noqa: E402, F401
 from report_stubs import blank_figures, stub_pdfs  # noqa: E402, F401
 
 # ---------------------------------------------------------------- order of the test files

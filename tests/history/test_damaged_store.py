@@ -22,6 +22,9 @@ from timing import scaled_timeout
 from volcal.errors import VolcalInputError
 from volcal_cli_helpers import volcal_process
 
+# the model's U drawn once per model in this process (tests/model_u_once.py)
+pytestmark = pytest.mark.usefixtures("model_u_once")
+
 _COPY = itertools.count()
 
 

@@ -16,6 +16,9 @@ from timing import scaled_timeout
 from volcal.errors import VolcalInputError
 from volcal_cli_helpers import volcal_process
 
+# the model's U drawn once per model in this process (tests/model_u_once.py)
+pytestmark = pytest.mark.usefixtures("model_u_once")
+
 TRAVEL = [[0, 800], [0, 600], [0, 500]]
 IDENT = ('make = "Hermle"\nmodel = "C 42"\nserial = "42-1187"\ncontrol = "TNC 640"\n')
 

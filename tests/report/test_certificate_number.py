@@ -227,8 +227,11 @@ def test_calibration_report_refuses_the_same(cal, tmp_path):
     assert not (tmp_path / "rep").exists()
 
 
-def test_the_certificate_json_of_the_command_line_says_it(cal, tmp_path, monkeypatch, capsys):
-    """Through `volcal report --certificate` without a budget (one PDF rendering)."""
+def test_the_certificate_json_of_the_command_line_says_it(cal, tmp_path, monkeypatch, capsys,
+                                                         blank_figures, stub_pdfs):
+    """Through `volcal report --certificate` without a budget: its JSON and HTML (the
+    report's figures blank and the PDFs stubbed, tests/report_stubs.py; the certificate's
+    PDF is read back in test_certificate.py)."""
     s, _, _, root = cal
     out = tmp_path / "rep"
     code, _, err = run_volcal(monkeypatch, capsys, "report", str(s.path), "--model",

@@ -32,7 +32,8 @@ from pathlib import Path
 
 import pytest
 
-__all__ = ["STUB_PDF", "blank_figure", "blank_figures", "stub_pdfs"]
+__all__ = ["STUB_PDF", "blank_figure", "blank_figures", "stub_pdfs", "use_blank_figures",
+           "use_stub_pdfs"]
 
 STUB_PDF = b"%PDF-1.4\n% stub: tests/report_stubs.py\n"
 """What ``stub_pdfs`` writes in place of report.pdf and certificate.pdf (one page, as
@@ -49,10 +50,9 @@ def blank_figure(fig):
     return out
 
 
-@pytest.fixture
-def blank_figures(monkeypatch: pytest.MonkeyPatch) -> list[str]:
-    """Write every report of the test with blank figures (see the module); the names of
-    the figures swapped, in the order written."""
+def use_blank_figures(monkeypatch: pytest.MonkeyPatch) -> list[str]:
+    """Write every report with blank figures while ``monkeypatch`` holds (see the module);
+    the names of the figures swapped, in the order written."""
     import volcal.report.writer as writer
 
     real = writer.write_report
@@ -68,10 +68,9 @@ def blank_figures(monkeypatch: pytest.MonkeyPatch) -> list[str]:
     return swapped
 
 
-@pytest.fixture
-def stub_pdfs(monkeypatch: pytest.MonkeyPatch) -> list[Path]:
-    """Write report.pdf and certificate.pdf as :data:`STUB_PDF` (see the module); the
-    paths stubbed, in the order written."""
+def use_stub_pdfs(monkeypatch: pytest.MonkeyPatch) -> list[Path]:
+    """Write report.pdf and certificate.pdf as :data:`STUB_PDF` while ``monkeypatch``
+    holds (see the module); the paths stubbed, in the order written."""
     import volcal.report.certificate_pdf as certificate_pdf
     import volcal.report.writer as writer
 
@@ -85,3 +84,15 @@ def stub_pdfs(monkeypatch: pytest.MonkeyPatch) -> list[Path]:
     monkeypatch.setattr(writer, "write_pdf", write_pdf)
     monkeypatch.setattr(certificate_pdf, "write_certificate_pdf", write_pdf)
     return stubbed
+
+
+@pytest.fixture
+def blank_figures(monkeypatch: pytest.MonkeyPatch) -> list[str]:
+    """The test's reports with blank figures (:func:`use_blank_figures`)."""
+    return use_blank_figures(monkeypatch)
+
+
+@pytest.fixture
+def stub_pdfs(monkeypatch: pytest.MonkeyPatch) -> list[Path]:
+    """The test's report.pdf and certificate.pdf stubbed (:func:`use_stub_pdfs`)."""
+    return use_stub_pdfs(monkeypatch)

@@ -22,6 +22,9 @@ from volcal.identify.record import readings_sha256
 from volcal.session.format import read_session
 from volcal_cli_helpers import run_volcal
 
+# the model's U drawn once per model in this process (tests/model_u_once.py)
+pytestmark = pytest.mark.usefixtures("model_u_once")
+
 MISSED_ROW = 4  # linear-x1.csv, row 4 (header = row 1): run 1, '+', the third target
 
 

@@ -276,8 +276,9 @@ def test_as_left_is_referred_with_its_own_material_temperature(tmp_path):
                for b in text)
 
 
-def test_as_left_through_the_command_line(tmp_path, monkeypatch, capsys):
-    """``volcal report FOUND --as-left LEFT --budget B --certificate``: as-left at 21.0 C."""
+def test_as_left_through_the_command_line(tmp_path, monkeypatch, capsys, stub_pdfs):
+    """``volcal report FOUND --as-left LEFT --budget B --certificate``: as-left at 21.0 C
+    (certificate.json; the PDFs stubbed, tests/report_stubs.py)."""
     import volcal.report.sections as sections
     from volcal.plot._figure import new_figure
 

@@ -289,10 +289,13 @@ def test_tolerance_keys_of_the_direct_optics():
             parse_tolerance(bad)
 
 
-def test_report_budget_reaches_the_certificate(tmp_path, monkeypatch, capsys):
+def test_report_budget_reaches_the_certificate(tmp_path, monkeypatch, capsys, stub_pdfs):
     """`volcal report --certificate --budget B`: the hand lines' U on certificate.json
     (the budget file with straightness 0.5 %, 0.3 um; the template's level, 0.58 % and
-    0.58 urad: U = 2 sqrt((6.5 x 0.0058)^2 + 2 x 0.58^2))."""
+    0.58 urad: U = 2 sqrt((6.5 x 0.0058)^2 + 2 x 0.58^2)). The PDFs stubbed
+    (tests/report_stubs.py): the certificate's PDF is read in
+    test_the_pdf_and_the_html_carry_the_tables; the figures of a direct-optics session are
+    drawn here."""
     from volcal.cli import main
 
     write_session(hand_session(), tmp_path / "s")

@@ -5,7 +5,9 @@ One simulated machine is measured twice: as found, and as left after its positio
 errors were taken out (what perfect pitch tables do). The certificate is rendered ONCE,
 through the command line, in the module fixture; every number the tests expect is
 computed here independently (ISO 230-2 evaluated directly, the environment from the
-values written into the CSV, the tables' manifest hashed from its file).
+values written into the CSV, the tables' manifest hashed from its file). The technical
+report beside it is written with blank figures (tests/report_stubs.py: its pages and
+their footers are read here, its figures are drawn by tests/report/test_report_*.py).
 """
 
 import datetime as dt
@@ -13,7 +15,6 @@ import hashlib
 import json
 import shutil
 import subprocess
-import sys
 import tomllib
 from pathlib import Path
 from types import SimpleNamespace
@@ -23,6 +24,7 @@ import numpy as np
 import pytest
 import tomli_w
 
+from report_stubs import use_blank_figures
 from timing import scaled_timeout
 from volcal.errors import VolcalInputError
 from volcal.measure.simulate import SimulationOptions, simulate_session
@@ -41,8 +43,8 @@ from volcal.session.format import read_session, write_session
 from volcal.session.provenance import readings_digest
 from volcal.standards.iso230_2 import evaluate
 from volcal.standards.positioning_data import from_measurement
+from volcal_cli_helpers import volcal_process
 
-VOLCAL = [sys.executable, "-c", "from volcal.cli import main; main()"]
 TRAVEL = np.array([[0, 400], [0, 300], [0, 250]], float)
 FOUND_DATE, LEFT_DATE = dt.date(2026, 11, 23), dt.date(2026, 11, 24)
 TOLERANCE = "X=15,Y=9,Z=12,V=60"
@@ -50,8 +52,8 @@ N_ENV = 30  # the air temperature column cycles through 20.10, 20.11, ... 20.39 
 
 
 def _run(*args):
-    p = subprocess.run([*VOLCAL, *args], capture_output=True, text=True,
-                       timeout=scaled_timeout(600))
+    """``volcal *args`` (in-process unless VOLCAL_TEST_SUBPROCESS=1: volcal_cli_helpers)."""
+    p = volcal_process(*args, timeout=scaled_timeout(600))
     p.stdout, p.stderr = " ".join(p.stdout.split()), " ".join(p.stderr.split())
     return p
 
@@ -121,9 +123,11 @@ def cert(tmp_path_factory):
     write_compensation(r.errors, "heidenhain", root / "comp",
                        CompensationOptions("error", 25.0), "model.json")
     out = root / "out"
-    p = _run("report", str(root / "found"), "--model", str(root / "model.json"),
-             "--as-left", str(root / "left"), "--tables", str(root / "comp"),
-             "--tolerance-um", TOLERANCE, "-o", str(out))
+    with pytest.MonkeyPatch.context() as mp:
+        use_blank_figures(mp)
+        p = _run("report", str(root / "found"), "--model", str(root / "model.json"),
+                 "--as-left", str(root / "left"), "--tables", str(root / "comp"),
+                 "--tolerance-um", TOLERANCE, "-o", str(out))
     assert p.returncode == 0, p.stderr
     text = subprocess.run(["pdftotext", "-layout", str(out / "certificate.pdf"), "-"],
                           capture_output=True, text=True, check=True).stdout

@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 from timing import scaled_timeout
+from volcal_cli_helpers import SUBPROCESS
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "python.md"
 
@@ -16,13 +17,37 @@ def _blocks() -> list[str]:
     return re.findall(r"```python\n(.*?)```", DOC.read_text(encoding="utf-8"), re.S)
 
 
-def test_walkthrough_runs_and_writes_every_output(tmp_path):
+def _run_script(script: str, cwd: Path, monkeypatch) -> subprocess.CompletedProcess[str]:
+    """Run the walkthrough in ``cwd``: in this process (a fresh namespace, its output
+    captured, its report's figures blank: tests/report_stubs.py, the figures are drawn by
+    tests/report) unless VOLCAL_TEST_SUBPROCESS=1, then in a Python process of its own."""
+    if SUBPROCESS:
+        return subprocess.run([sys.executable, "-c", script], cwd=cwd, capture_output=True,
+                              text=True, timeout=scaled_timeout(900))
+    import contextlib
+    import io
+    import traceback
+
+    from report_stubs import use_blank_figures
+
+    use_blank_figures(monkeypatch)
+    monkeypatch.chdir(cwd)
+    out, err, code = io.StringIO(), io.StringIO(), 0
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        try:
+            exec(compile(script, "docs/python.md", "exec"), {"__name__": "__main__"})
+        except BaseException:  # what the user would see
+            err.write(traceback.format_exc())
+            code = 1
+    return subprocess.CompletedProcess(["python"], code, out.getvalue(), err.getvalue())
+
+
+def test_walkthrough_runs_and_writes_every_output(tmp_path, monkeypatch):
     blocks = _blocks()
     assert len(blocks) == 5  # flow, measured session, advise/program/import, budget, tables
     assert len([ln for ln in blocks[0].splitlines() if ln.strip()]) <= 13
     script = "\n".join(blocks) + "\n"
-    r = subprocess.run([sys.executable, "-c", script], cwd=tmp_path, capture_output=True,
-                       text=True, timeout=scaled_timeout(900))
+    r = _run_script(script, tmp_path, monkeypatch)
     assert r.returncode == 0, r.stderr
     assert "Traceback" not in r.stderr
     assert "model of VMC-400 (chain XYFZ, travel 0..400 x 0..300 x 0..200 mm)" in r.stdout

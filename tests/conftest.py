@@ -169,13 +169,29 @@ LINUXCNC_FILES: tuple[str, ...] = (
 ``make test`` gives them to one worker as one unit of work (:func:`pytest_xdist_make_scheduler`),
 first, so the other worker never waits on the lock while they run."""
 
+REPORT_FIXTURE_FILES: tuple[str, ...] = (
+    "report/test_report_render.py", "report/test_report_cli.py", "report/test_evaluate_once.py",
+    "report/test_report_customer_pdf.py", "report/test_report_pdf.py",
+    "report/test_report_browser.py", "report/test_report_sections.py",
+)
+"""The test files of tests/report/report_fixtures.py's session fixtures (the simulated
+session identified once; the report rendered once, ``written_report``, about 10 s). ``make
+test`` gives them to one worker as one unit of work (:func:`pytest_xdist_make_scheduler`),
+so the session is identified and the report rendered once per run, not once per worker."""
+
 LONGEST_FIRST: tuple[str, ...] = (
-    *LINUXCNC_FILES,
-    "report/test_report_cli.py", "cli/test_cli_bad_input.py", "report/test_certificate.py",
-    "test_python_docs.py", "report/test_certificate_optics.py",
-    "standards/test_incomplete.py", "test_python_parity_budget.py",
-    "report/test_report_customer_pdf.py", "report/test_report_browser.py",
-    "identify/test_families.py", "identify/test_identify_features.py",
+    *LINUXCNC_FILES, *REPORT_FIXTURE_FILES,
+    "cli/test_cli_bad_input.py", "history/test_history.py", "history/test_uncertainty_stored.py",
+    "test_python_parity_budget.py", "standards/test_model_uncertainty.py",
+    "identify/test_systematic_optics.py", "test_python_docs.py",
+    "identify/test_optics_roundtrip.py", "identify/test_multilateration_roundtrip.py",
+    "identify/test_outliers.py", "history/test_records.py", "cli/test_missed_capture_flow.py",
+    "report/test_certificate_optics.py", "history/test_signing.py",
+    "report/test_certificate.py", "report/test_certificate_number.py",
+    "identify/test_families.py", "kinds/test_kind_plugin.py", "test_python_flow.py",
+    "history/test_damaged_store.py", "history/test_change_test.py",
+    "standards/test_incomplete.py", "identify/test_identify_roundtrip.py",
+    "identify/test_solver_contract.py", "identify/test_identify_features.py",
     "identify/test_estimator_parts.py", "cli/test_uncertainty_chain.py",
 )
 """The test files that took longest in ``make test`` (benchmarks/README.md, "make test
@@ -189,7 +205,8 @@ in its usual place; the order of the tests inside a file is unchanged."""
 
 
 def pytest_xdist_make_scheduler(config, log):
-    """``--dist loadfile`` with the LinuxCNC files as one unit of work (see LINUXCNC_FILES)."""
+    """``--dist loadfile`` with the LinuxCNC files as one unit of work (see LINUXCNC_FILES),
+    and the files of the shared report fixtures as another (see REPORT_FIXTURE_FILES)."""
     if config.getoption("dist", None) != "loadfile":
         return None
     from xdist.scheduler import LoadFileScheduling
@@ -199,6 +216,8 @@ def pytest_xdist_make_scheduler(config, log):
             path = nodeid.split("::", 1)[0]
             if any(path.endswith(f) for f in LINUXCNC_FILES):
                 return "linuxcnc"
+            if any(path.endswith(f) for f in REPORT_FIXTURE_FILES):
+                return "report_fixtures"
             return super()._split_scope(nodeid)
 
     return OneLinuxCNC(config, log)

@@ -14,9 +14,6 @@ from scipy.stats import binom
 
 from volcal.history.compare import _determined_statistic, compare_models
 
-# the model's U drawn once per model in this process (tests/model_u_once.py)
-pytestmark = pytest.mark.usefixtures("model_u_once")
-
 TRAVEL = [[0, 800], [0, 600], [0, 500]]
 LEVEL = 0.05
 

@@ -29,9 +29,6 @@ from hypothesis import strategies as st
 
 from volcal_cli_helpers import volcal_process
 
-# the model's U drawn once per model in this process (tests/model_u_once.py)
-pytestmark = pytest.mark.usefixtures("model_u_once")
-
 FUZZ = os.environ.get("HYPOTHESIS_PROFILE") == "fuzz"
 N_STORES = int(os.environ.get("VOLCAL_FUZZ_STORES", "10000")) if FUZZ else 8
 """Damaged stores: 10^4 in the slow run (``VOLCAL_FUZZ_STORES`` for a shorter one), a fixed

@@ -10,9 +10,6 @@ import pytest
 
 from volcal.errors import VolcalInputError
 
-# the model's U drawn once per model in this process (tests/model_u_once.py)
-pytestmark = pytest.mark.usefixtures("model_u_once")
-
 # pytest fixtures shared by the history tests (see history_fixtures.py)
 history_two = _fx.history_two
 

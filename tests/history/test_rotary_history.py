@@ -18,9 +18,6 @@ from volcal.measure.rotary import RotaryAxisErrors
 from volcal.measure.virtual import random_machine
 from volcal_cli_helpers import run_volcal
 
-# the model's U drawn once per model in this process (tests/model_u_once.py)
-pytestmark = pytest.mark.usefixtures("model_u_once")
-
 pytest.importorskip("sqlalchemy")
 TRAVEL = [[0, 400], [0, 300], [0, 200]]
 TESTS = ["linear:x", "rotary:c"]

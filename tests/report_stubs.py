@@ -76,7 +76,7 @@ def use_stub_pdfs(monkeypatch: pytest.MonkeyPatch) -> list[Path]:
 
     stubbed: list[Path] = []
 
-    def write_pdf(doc, path) -> int:
+    def write_pdf(doc, path, *options, **keywords) -> int:  # any further argument ignored
         Path(path).write_bytes(STUB_PDF)
         stubbed.append(Path(path))
         return 1

@@ -6,11 +6,13 @@ Drawing is most of a report's cost. For the small simulated session of tests/rep
 (8 figures; main of 2026-11-26 with the drawing cache) building the document takes about
 2.3 s of CPU, the figures' PNGs 3.5 s and the PDF 3.6 s (its figure pages, and its text
 pages: every table cell measured and drawn by matplotlib); a certificate's PDF takes
-seconds more (benchmarks/README.md, "make test time"). What is drawn is checked where it is drawn for real: tests/report/test_report_render.py,
-test_report_pdf.py, test_report_customer_pdf.py and test_report_browser.py (one shared
-rendering, ``report_fixtures.written_report``), test_report_cli.py (``volcal report`` and
-``volcal demo``), test_certificate*.py (the certificate's PDF read back), the walkthrough of
-docs/python.md (tests/test_python_docs.py) and every other test that asks for neither
+seconds more (benchmarks/README.md, "make test time"). What is drawn is checked where it
+is drawn for real: tests/report/test_report_render.py, test_report_pdf.py,
+test_report_customer_pdf.py and test_report_browser.py (one shared rendering,
+``report_fixtures.written_report``), test_report_cli.py (``volcal report`` and ``volcal
+demo``), test_certificate*.py (the certificate's PDF read back),
+tests/standards/test_incomplete.py and tests/cli/test_missed_capture_flow.py (reports of
+partly measured sessions and missed readings) and every other test that asks for neither
 fixture.
 
 ``blank_figures``: :func:`volcal.report.writer.write_report` (the one writer behind

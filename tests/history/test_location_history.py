@@ -126,15 +126,17 @@ def test_location_errors_stored_trended_compared(store_url, sessions, monkeypatc
             assert entries["EX0C"]["changed"] and entries["EY0C"]["changed"]
 
 
-def test_a_probe_sphere_session_alone_is_stored_without_a_model(tmp_path, monkeypatch,
+@pytest.mark.parametrize("kind", ["probe_sphere", "r_test"])
+def test_a_probe_sphere_session_alone_is_stored_without_a_model(kind, tmp_path, monkeypatch,
                                                                   capsys):
     """No linear test, no model (``history add`` without ``--model``): the location errors
-    are stored as ``volcal locate`` states them with perfect linear axes."""
+    are stored as ``volcal locate`` states them with perfect linear axes, for the probed
+    sphere centres and for the R-test's displacements alike."""
     from volcal.steps.locate import locate
 
     folder = tmp_path / "S"
     for args in (["plan", "--travel", "0:800,0:600,0:500", "--chain", "XYFZ", "--tests",
-                  "probe_sphere", "-o", str(folder)], ["simulate", str(folder), "--seed", "3"]):
+                  kind, "-o", str(folder)], ["simulate", str(folder), "--seed", "3"]):
         code, _, err = run_volcal(monkeypatch, capsys, *args)
         assert code == 0, err
     toml = folder / "session.toml"
@@ -143,6 +145,7 @@ def test_a_probe_sphere_session_alone_is_stored_without_a_model(tmp_path, monkey
     code, out, err = run_volcal(monkeypatch, capsys, "history", "add", str(folder), "--db", db,
                                 "--create")
     assert code == 0, err
+    assert "stored: the rotary axes' location errors" in " ".join(err.split())
     code, out, err = run_volcal(monkeypatch, capsys, "history", "trend", "VMC-1",
                                 "--parameter", "EA0C", "--json", "--db", db)
     assert code == 0, err

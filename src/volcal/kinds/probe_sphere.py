@@ -19,6 +19,7 @@ The kind is not part of the linear identification (:attr:`in_design` is False).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -35,7 +36,7 @@ from volcal.session.probe_sphere import (
 )
 
 __all__ = ["ProbeSetup", "ProbeSphereKind", "dispersion_um", "five_axis_machine",
-           "sphere_readings"]
+           "location_notes", "sphere_readings"]
 
 KEYS = ("chain", "pivot_mm", "sphere", "sphere_mm", "sphere_diameter_mm", "noise_um")
 """The kind's own keys of a ``[[measurements]]`` entry."""
@@ -91,6 +92,50 @@ def sphere_readings(m: Any, nominal_centres: bool = False):
     return SphereReadings(m.id, "probe", _angles(m), values,
                           k["sphere"], k["sphere_mm"], np.asarray(m.tool_offset, dtype=float),
                           None, k["noise_um"])
+
+
+def location_notes(kind: str, ms: list[Any], chain_of: Callable[[Any], str],
+                   machine_of: Callable[[Any], Any], block_of: Callable[[Any], Any]
+                   ) -> list[str]:
+    """What a kind's planned tests determine of the location errors, per chain.
+
+    The identifiability report (:func:`volcal.identify.location.analyse_location`) and the
+    separation advice of each chain's tests, shared by the probe_sphere and r_test kinds.
+
+    Parameters
+    ----------
+    kind : str
+        The kind's name, leading each note.
+    ms : list of Measurement
+        The kind's tests.
+    chain_of : callable
+        A test's chain code.
+    machine_of : callable
+        A test's nominal five-axis machine.
+    block_of : callable
+        A test's readings block at its planned poses (zero readings).
+
+    Returns
+    -------
+    list of str
+    """
+    from volcal.identify.location import (
+        analyse_location,
+        design_jacobian,
+        separation_advice,
+    )
+    from volcal.model.fiveaxis import location_parameter_names
+
+    notes: list[str] = []
+    for chain in dict.fromkeys(chain_of(m) for m in ms):
+        group = [m for m in ms if chain_of(m) == chain]
+        nominal = machine_of(group[0])
+        blocks = [block_of(m) for m in group]
+        Jx, Jn, nn, _, _ = design_jacobian(nominal, blocks)
+        rep = analyse_location(Jx, Jn, location_parameter_names(chain), nn, nominal.chain_obj)
+        notes += [f"{kind} ({chain}): {msg}" for msg in rep.messages]
+        notes += [f"{kind} ({chain}): {msg}" for msg in separation_advice(nominal, blocks)]
+    return notes
 
 
 class ProbeSphereKind(Kind):
@@ -266,26 +311,10 @@ class ProbeSphereKind(Kind):
         options : IdentifyOptions
             Unused.
         """
-        from volcal.identify.location import (
-            analyse_location,
-            design_jacobian,
-            separation_advice,
-        )
-        from volcal.model.fiveaxis import location_parameter_names
-
         ms = [m for m in session.measurements + session.unmeasured if m.kind == self.name]
-        notes: list[str] = []
-        for chain in dict.fromkeys(_keys(m)["chain"].code for m in ms):
-            group = [m for m in ms if _keys(m)["chain"].code == chain]
-            nominal = five_axis_machine(group[0])
-            blocks = [sphere_readings(m, nominal_centres=True) for m in group]
-            Jx, Jn, nn, _, _ = design_jacobian(nominal, blocks)
-            rep = analyse_location(Jx, Jn, location_parameter_names(chain), nn,
-                                   nominal.chain_obj)
-            notes += [f"probe_sphere ({chain}): {msg}" for msg in rep.messages]
-            notes += [f"probe_sphere ({chain}): {msg}"
-                      for msg in separation_advice(nominal, blocks)]
-        return notes
+        return location_notes(self.name, ms, lambda m: _keys(m)["chain"].code,
+                              five_axis_machine,
+                              lambda m: sphere_readings(m, nominal_centres=True))
 
     def report_section(self, inp: Any) -> Any:
         """The location errors with U (:mod:`volcal.report.fiveaxis`).

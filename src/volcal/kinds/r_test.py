@@ -37,7 +37,7 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
-from volcal.kinds.probe_sphere import ProbeSphereKind
+from volcal.kinds.probe_sphere import ProbeSphereKind, location_notes
 from volcal.session.kinds import Kind, ReadContext, RowBlock, register_kind
 from volcal.session.r_test import rtest_angles, rtest_keys
 from volcal.session.r_test import rtest_machine as _machine
@@ -351,25 +351,9 @@ class RTestKind(Kind):
         options : IdentifyOptions
             Unused.
         """
-        from volcal.identify.location import (
-            analyse_location,
-            design_jacobian,
-            separation_advice,
-        )
-        from volcal.model.fiveaxis import location_parameter_names
-
         ms = [m for m in session.measurements + session.unmeasured if m.kind == self.name]
-        notes: list[str] = []
-        for chain in dict.fromkeys(rtest_keys(m)["chain"].code for m in ms):
-            group = [m for m in ms if rtest_keys(m)["chain"].code == chain]
-            nominal = _machine(group[0])
-            blocks = [rtest_readings_block(_zero_readings(m)) for m in group]
-            Jx, Jn, nn, _, _ = design_jacobian(nominal, blocks)
-            rep = analyse_location(Jx, Jn, location_parameter_names(chain), nn,
-                                   nominal.chain_obj)
-            notes += [f"r_test ({chain}): {msg}" for msg in rep.messages]
-            notes += [f"r_test ({chain}): {msg}" for msg in separation_advice(nominal, blocks)]
-        return notes
+        return location_notes(self.name, ms, lambda m: rtest_keys(m)["chain"].code, _machine,
+                              lambda m: rtest_readings_block(_zero_readings(m)))
 
     # the probe_sphere kind's hook itself: a session with both kinds gets one section
     report_section = ProbeSphereKind.report_section

@@ -143,6 +143,21 @@ def tcarr_values(machine: Any) -> tuple[tuple[str, str], dict[int, float | str]]
     return (first, second), vals
 
 
+def _record_motion(values: dict[int, float | str], a1_deg: Any, a2_deg: Any
+                   ) -> tuple[Array, Array, Array, Array]:
+    """The record's offsets ``l2``, ``l3`` [mm] and the two axes' rotations at the angles.
+
+    ``R(v1, a1 - o1)`` and ``R(v2, a2 - o2)`` (shape (m, 3, 3)) from the axis directions
+    ``v1``, ``v2`` and the angle offsets ``o1``, ``o2`` of the record.
+    """
+    def vec(i: int) -> Array:
+        return np.array([float(values[i + k]) for k in range(3)])
+
+    R1 = _rot(vec(7), np.asarray(a1_deg, dtype=float) - float(values[24]))
+    R2 = _rot(vec(10), np.asarray(a2_deg, dtype=float) - float(values[25]))
+    return vec(4), vec(15), R1, R2
+
+
 def tcarr_to_workpiece(values: dict[int, float | str], x: Any, a1_deg: Any, a2_deg: Any
                        ) -> Array:
     """Workpiece coordinates of machine points through the record (the control's model).
@@ -161,13 +176,8 @@ def tcarr_to_workpiece(values: dict[int, float | str], x: Any, a1_deg: Any, a2_d
     ndarray, shape (m, 3)
         ``w`` with ``x = l2 + R(v1, a1 - o1) [l3 + R(v2, a2 - o2) (w - l2 - l3)]`` [mm].
     """
-    def vec(i: int) -> Array:
-        return np.array([float(values[i + k]) for k in range(3)])
-
-    l2, v1, v2, l3 = vec(4), vec(7), vec(10), vec(15)
+    l2, l3, R1, R2 = _record_motion(values, a1_deg, a2_deg)
     x = np.atleast_2d(np.asarray(x, dtype=float))
-    R1 = _rot(v1, np.asarray(a1_deg, dtype=float) - float(values[24]))
-    R2 = _rot(v2, np.asarray(a2_deg, dtype=float) - float(values[25]))
     inner = np.einsum("mji,mj->mi", R1, x - l2) - l3
     return np.einsum("mji,mj->mi", R2, inner) + l2 + l3
 
@@ -190,13 +200,8 @@ def tcarr_to_machine(values: dict[int, float | str], w: Any, a1_deg: Any, a2_deg
     ndarray, shape (m, 3)
         ``x = l2 + R(v1, a1 - o1) [l3 + R(v2, a2 - o2) (w - l2 - l3)]`` [mm].
     """
-    def vec(i: int) -> Array:
-        return np.array([float(values[i + k]) for k in range(3)])
-
-    l2, v1, v2, l3 = vec(4), vec(7), vec(10), vec(15)
+    l2, l3, R1, R2 = _record_motion(values, a1_deg, a2_deg)
     w = np.atleast_2d(np.asarray(w, dtype=float))
-    R1 = _rot(v1, np.asarray(a1_deg, dtype=float) - float(values[24]))
-    R2 = _rot(v2, np.asarray(a2_deg, dtype=float) - float(values[25]))
     inner = np.einsum("mij,mj->mi", R2, w - l2 - l3) + l3
     return np.einsum("mij,mj->mi", R1, inner) + l2
 

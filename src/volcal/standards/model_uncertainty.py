@@ -184,18 +184,31 @@ def _full_factor(result: Any, part: str) -> NDArray[np.float64]:
 
 
 def _volumetric_of(e: NDArray[np.float64]) -> NDArray[np.float64]:
-    """The five volumetric indices of one error field, shape (m, 3) [um]."""
-    from volcal.standards.volumetric import vector_range
+    """The five volumetric indices of each of ``k`` error fields, shape (k, m, 3) [um].
 
-    ptp = np.ptp(e, axis=0)
-    return np.array([ptp[0], ptp[1], ptp[2], float(np.linalg.norm(e, axis=1).max()),
-                     vector_range(e)])
+    Returns an array of shape (k, 5): ``E_VX``, ``E_VY``, ``E_VZ``, ``E_VXYZ``,
+    ``E_VXYZ_range`` of each field, the numbers :func:`volcal.standards.volumetric.
+    volumetric_indices` gives for one.
+    """
+    from volcal.standards.volumetric import vector_ranges
+
+    out = np.empty((e.shape[0], 5))
+    out[:, :3] = np.ptp(e, axis=1)
+    out[:, 3] = np.linalg.norm(e, axis=2).max(axis=1)
+    out[:, 4] = vector_ranges(e)
+    return out
 
 
-def _straightness_of(d: NDArray[np.float64], s: NDArray[np.float64]) -> float:
-    """Range about the least-squares line of deviations ``d`` at positions ``s``."""
-    slope, icpt = np.polyfit(s, d, 1)
-    return float(np.ptp(d - (icpt + slope * s)))
+def _straightness_of(d: NDArray[np.float64], s: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Range about the least-squares line of each column of deviations ``d`` at ``s``.
+
+    ``d`` has shape (n, k) [um], ``s`` shape (n,) [mm]; the line of each column is
+    ``numpy.polyfit(s, d[:, j], 1)`` (:func:`volcal.standards.linefit.line_fits`).
+    """
+    from volcal.standards.linefit import line_fits
+
+    slope, icpt = line_fits(s, d)
+    return np.asarray(np.ptp(d - (icpt[None, :] + slope[None, :] * s[:, None]), axis=0))
 
 
 def _summary(value: float, total: NDArray[np.float64], noise: NDArray[np.float64],
@@ -305,16 +318,16 @@ def _model_uncertainty(result: Any, tool_offset: ArrayLike, n: int, draws: int, 
     ind = volumetric_indices(errors, t, n)
     values = [ind.E_VX, ind.E_VY, ind.E_VZ, ind.E_VXYZ, ind.E_VXYZ_range]
     En, Es = np.asarray(Je @ dn), np.asarray(Je @ ds)
-    tot, non, sys_ = [], [], []
-    for j in range(draws):
-        tot.append(_volumetric_of(e0 + (En[:, j] + Es[:, j]).reshape(-1, 3)))
-        # without a systematic part the draw is the noise part's (``Es`` is zero): the
-        # same indices, not computed twice (half the time of ``history add``'s U)
-        non.append(_volumetric_of(e0 + En[:, j].reshape(-1, 3)) if has_sys else tot[-1])
-        if has_sys:
-            sys_.append(_volumetric_of(e0 + Es[:, j].reshape(-1, 3)))
-    tot_a, non_a = np.array(tot), np.array(non)
-    sys_a = np.array(sys_) if has_sys else None
+
+    def fields(d: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The error field of every draw, shape (draws, m, 3) [um]."""
+        return e0[None, :, :] + d.T.reshape(draws, -1, 3)
+
+    tot_a = _volumetric_of(fields(En + Es))
+    # without a systematic part the draw is the noise part's (``Es`` is zero): the
+    # same indices, not computed twice (half the time of ``history add``'s U)
+    non_a = _volumetric_of(fields(En)) if has_sys else tot_a
+    sys_a = _volumetric_of(fields(Es)) if has_sys else None
     lin = _linear_volumetric(e0, Je, np.hstack([gn, gs]))
     vol = {k: _summary(values[i], tot_a[:, i], non_a[:, i],
                        None if sys_a is None else sys_a[:, i], lin[i])
@@ -336,11 +349,10 @@ def _model_uncertainty(result: Any, tool_offset: ArrayLike, n: int, draws: int, 
 
         d0 = along(theta)
         dN, dS = along(dn), along(ds)
-        val = _straightness_of(d0, s)
-        st = np.array([_straightness_of(d0 + dN[:, j] + dS[:, j], s) for j in range(draws)])
-        sn = np.array([_straightness_of(d0 + dN[:, j], s) for j in range(draws)])
-        ss = (np.array([_straightness_of(d0 + dS[:, j], s) for j in range(draws)])
-              if has_sys else None)
+        val = float(_straightness_of(d0[:, None], s)[0])
+        st = _straightness_of(d0[:, None] + dN + dS, s)
+        sn = _straightness_of(d0[:, None] + dN, s)
+        ss = _straightness_of(d0[:, None] + dS, s) if has_sys else None
         slope, icpt = np.polyfit(s, d0, 1)
         r = d0 - (icpt + slope * s)
         a, b = int(np.argmax(r)), int(np.argmin(r))

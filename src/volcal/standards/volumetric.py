@@ -42,7 +42,7 @@ from volcal.model.kinematics import volumetric_error
 from volcal.standards.iso230_6 import elv
 
 __all__ = ["VolumetricIndices", "elv_from_model", "vector_range", "vector_range_pair",
-           "volumetric_indices", "work_zone_grid"]
+           "vector_range_pairs", "vector_ranges", "volumetric_indices", "work_zone_grid"]
 
 
 @dataclass
@@ -159,6 +159,125 @@ def _hull_points(e: NDArray[np.float64]) -> NDArray[np.intp]:
     return idx
 
 
+def _hull_pair(e: NDArray[np.float64]) -> tuple[int, int]:
+    """The pair of :func:`vector_range_pair` by the convex hull: the definition.
+
+    The largest of the distances between the hull's vertices (all points when the hull
+    cannot be made: fewer than 4 points, all on a plane), each ``sqrt`` of the summed
+    squared differences, the first largest in the order of the vertices' indices.
+    """
+    idx = _hull_points(e)
+    pts = e[idx]
+    d = np.sqrt(((pts[:, None, :] - pts[None, :, :]) ** 2).sum(axis=2))
+    i, j = np.unravel_index(int(np.argmax(d)), d.shape)
+    return int(idx[i]), int(idx[j])
+
+
+#: A pair is taken without the hull when every other pair is shorter by more than this
+#: fraction of its length (:func:`_clear_pairs`).
+CLEAR_MARGIN = 1e-6
+
+#: ... and the cloud is not flat or thin: the smallest eigenvalue of its scatter matrix at
+#: least this fraction of the largest (its thickness at least 1e-3 of its length).
+THIN_RATIO = 1e-6
+
+
+def _clear_pairs(e: NDArray[np.float64]) -> NDArray[np.intp]:
+    """The pair of the largest distance of each cloud where it is clear, without a hull.
+
+    Parameters
+    ----------
+    e : ndarray, shape (k, m, 3)
+        ``k`` clouds of ``m`` error vectors [um].
+
+    Returns
+    -------
+    ndarray of int, shape (k, 2)
+        ``(i, j)``, ``i < j``, of the one pair longer than every other by more than
+        :data:`CLEAR_MARGIN` of its length; ``(-1, -1)`` where no pair is that clear, the
+        cloud is flat or thin (:data:`THIN_RATIO`), not finite, or ``m`` is outside
+        ``4 ... 4000``.
+
+    Notes
+    -----
+    Every point lies within ``r_i + R`` of point ``i`` (``r_i`` its distance from the
+    centre ``c`` of the bounding box, ``R`` the largest ``r``), and a pair of two
+    points found by two farthest-point passes gives ``L``, a lower bound of the largest
+    distance ``D``. Only points with ``r_i + R >= L (1 - 3 margin)`` can be in a pair
+    within ``margin`` of ``D``: the distances among those (a few dozen of ``m``) are
+    computed exactly and the largest taken when no other pair comes within the margin.
+
+    That pair is the hull's (:func:`_hull_pair`): each of its points, ``q``, lies beyond
+    the plane through the other at right angles to the pair's direction ... by ``D``,
+    and every other point within ``D2 < D (1 - margin)`` of that other point, so ``q``
+    is outside the hull of all other points by at least ``D - D2``, far more than the
+    hull's rounding (about 1e-13 of the cloud's size): both points are vertices of the
+    hull, the pair is the largest among the vertices and, unique, it is the hull's
+    choice, in the order ``i < j`` (the vertices are in increasing order; a symmetric
+    distance matrix has its first largest entry above the diagonal).
+    """
+    k, m, _ = e.shape
+    out = np.full((k, 2), -1, dtype=np.intp)
+    if not 4 <= m <= 4000 or k == 0:
+        return out
+    finite = np.isfinite(e).all(axis=(1, 2))
+    if not finite.all():  # left to the hull, as they were
+        e = np.where(finite[:, None, None], e, 0.0)
+    et = np.ascontiguousarray(e.transpose(0, 2, 1))   # (k, 3, m): fast reductions
+    dc = et - ((et.min(axis=2) + et.max(axis=2)) / 2)[:, :, None]  # from the box's centre
+    r = np.sqrt(np.einsum("kim,kim->km", dc, dc))
+    far = dc - dc[np.arange(k), :, np.argmax(r, axis=1)][:, :, None]
+    low = np.sqrt(np.einsum("kim,kim->km", far, far).max(axis=1))  # a pair's length
+    slack = low * (1 - 4 * CLEAR_MARGIN)
+    keep = r + r.max(axis=1)[:, None] >= slack[:, None]  # can reach the largest distance
+    outer = r >= slack[:, None] / 2  # of two such points, one is this far from the centre
+    # the scatter matrix about the mean, from the one about the box's centre
+    mean = dc.mean(axis=2)
+    scatter = np.einsum("kim,kjm->kij", dc, dc) - m * mean[:, :, None] * mean[:, None, :]
+    lam = np.linalg.eigvalsh(scatter)
+    ok = finite & (lam[:, 0] >= THIN_RATIO * lam[:, 2]) & (lam[:, 2] > 0)
+    for t in np.flatnonzero(ok):
+        rows, cols = np.flatnonzero(outer[t]), np.flatnonzero(keep[t])
+        p, q = dc[t][:, rows], dc[t][:, cols]
+        d2 = np.subtract.outer(p[0], q[0]) ** 2
+        d2 += np.subtract.outer(p[1], q[1]) ** 2
+        d2 += np.subtract.outer(p[2], q[2]) ** 2
+        # each pair once: a pair of two outer points where the row's index is smaller
+        d2[outer[t][cols][None, :] & (cols[None, :] <= rows[:, None])] = -1.0
+        flat = int(np.argmax(d2))
+        top = d2.flat[flat]
+        if top > 0 and np.count_nonzero(d2 >= top * (1 - 2 * CLEAR_MARGIN)) == 1:
+            i, j = np.unravel_index(flat, d2.shape)
+            out[t] = sorted((int(rows[i]), int(cols[j])))
+    return out
+
+
+def vector_range_pairs(e: ArrayLike) -> NDArray[np.intp]:
+    """The pair of :func:`vector_range_pair` of each of many clouds of error vectors.
+
+    Parameters
+    ----------
+    e : array_like, shape (k, m, 3)
+        ``k`` sets of ``m`` error vectors [um] (e.g. the Monte Carlo draws of one field
+        over one grid).
+
+    Returns
+    -------
+    ndarray of int, shape (k, 2)
+        For each set, the pair :func:`vector_range_pair` gives, the same indices in the
+        same order: found without the convex hull where one pair is clearly the longest
+        (:func:`_clear_pairs`), by the hull otherwise (ties, flat or thin clouds).
+    """
+    e = np.asarray(e, dtype=float)
+    if e.ndim != 3 or e.shape[2] != 3 or e.shape[1] == 0:
+        raise VolcalInputError("vector range: error vectors of shape (k, m, 3), m >= 1",
+                               column="e")
+    out = _clear_pairs(e)
+    for t in np.flatnonzero(out[:, 0] < 0):
+        out[t] = _hull_pair(e[t])
+    return out
+
+
 def vector_range_pair(e: ArrayLike) -> tuple[int, int]:
     """The two points of the largest distance between two error vectors.
 
@@ -170,14 +289,12 @@ def vector_range_pair(e: ArrayLike) -> tuple[int, int]:
     Returns
     -------
     tuple of int
-        Their indices (it is attained between vertices of the convex hull).
+        Their indices (it is attained between vertices of the convex hull; the first
+        such pair in the order of the vertices' indices, ``i <= j``).
     """
     e = np.asarray(e, dtype=float)
-    idx = _hull_points(e)
-    pts = e[idx]
-    d = np.sqrt(((pts[:, None, :] - pts[None, :, :]) ** 2).sum(axis=2))
-    i, j = np.unravel_index(int(np.argmax(d)), d.shape)
-    return int(idx[i]), int(idx[j])
+    i, j = vector_range_pairs(e.reshape(1, -1, 3))[0]
+    return int(i), int(j)
 
 
 def vector_range(e: ArrayLike) -> float:
@@ -195,6 +312,25 @@ def vector_range(e: ArrayLike) -> float:
     e = np.asarray(e, dtype=float)
     i, j = vector_range_pair(e)
     return float(np.linalg.norm(e[i] - e[j]))
+
+
+def vector_ranges(e: ArrayLike) -> NDArray[np.float64]:
+    """:func:`vector_range` of each of many clouds of error vectors [um].
+
+    Parameters
+    ----------
+    e : array_like, shape (k, m, 3)
+        ``k`` sets of ``m`` error vectors [um].
+
+    Returns
+    -------
+    ndarray, shape (k,)
+        The same numbers as :func:`vector_range` of each set.
+    """
+    e = np.asarray(e, dtype=float)
+    pairs = vector_range_pairs(e)
+    return np.array([float(np.linalg.norm(e[t, i] - e[t, j]))
+                     for t, (i, j) in enumerate(pairs)])
 
 
 def elv_from_model(errors: Any, n: int = 101) -> dict[str, float]:

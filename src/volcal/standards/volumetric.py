@@ -200,27 +200,32 @@ def _clear_pairs(e: NDArray[np.float64]) -> NDArray[np.intp]:
 
     Notes
     -----
-    Every point lies within ``r_i + R`` of point ``i`` (``r_i`` its distance from the
-    centre ``c`` of the bounding box, ``R`` the largest ``r``), and a pair of two
-    points found by two farthest-point passes gives ``L``, a lower bound of the largest
-    distance ``D``. Only points with ``r_i + R >= L (1 - 3 margin)`` can be in a pair
-    within ``margin`` of ``D``: the distances among those (a few dozen of ``m``) are
-    computed exactly and the largest taken when no other pair comes within the margin.
+    The search: every point lies within ``r_i + R`` of point ``i`` (``r_i`` its distance
+    from the centre of the cloud's bounding box, ``R`` the largest ``r``), and the point
+    farthest from the one farthest from the centre gives a pair of length ``L <= D``, the
+    largest distance. A pair within the margin of ``D`` has both points with ``r + R >=
+    L`` and one of them with ``r >= L / 2``: the distances from the few points of the
+    second kind to those of the first (about a fortieth of all pairs on the default
+    session's draws) are computed, and the largest taken when no other pair comes within
+    the margin.
 
-    That pair is the hull's (:func:`_hull_pair`): each of its points, ``q``, lies beyond
-    the plane through the other at right angles to the pair's direction ... by ``D``,
-    and every other point within ``D2 < D (1 - margin)`` of that other point, so ``q``
-    is outside the hull of all other points by at least ``D - D2``, far more than the
-    hull's rounding (about 1e-13 of the cloud's size): both points are vertices of the
-    hull, the pair is the largest among the vertices and, unique, it is the hull's
-    choice, in the order ``i < j`` (the vertices are in increasing order; a symmetric
-    distance matrix has its first largest entry above the diagonal).
+    Why that pair is the hull's (:func:`_hull_pair`): every other point lies within ``D2
+    < D (1 - margin)`` of either end of the pair, so each end is outside the hull of all
+    other points by at least ``D - D2``; both are vertices of the hull, the pair is the
+    longest between vertices and, unique, it is the hull's choice, in the order ``i < j``
+    (the hull's vertices come in increasing order and the first largest entry of a
+    symmetric distance matrix lies above its diagonal). Qhull decides by its rounding
+    where that is not so: a point doubled a hair away (it keeps one of the two as its
+    vertex, which one is its choice) or a cloud nearly flat (it merges facets and drops
+    vertices; such clouds also let a point lie close to the hull's facets far from the
+    hull). The margin and the thickness test leave those to the hull; without either,
+    some of them get another point (tests/standards/test_vector_range_fast.py).
     """
     k, m, _ = e.shape
     out = np.full((k, 2), -1, dtype=np.intp)
     if not 4 <= m <= 4000 or k == 0:
         return out
-    finite = np.isfinite(e).all(axis=(1, 2))
+    finite = np.asarray(np.isfinite(e).all(axis=(1, 2)))
     if not finite.all():  # left to the hull, as they were
         e = np.where(finite[:, None, None], e, 0.0)
     et = np.ascontiguousarray(e.transpose(0, 2, 1))   # (k, 3, m): fast reductions

@@ -34,7 +34,7 @@ def _same_pairs(clouds):
         assert vol.vector_range(c) == float(np.linalg.norm(c[i] - c[j]))  # the same float
     values = vol.vector_ranges(clouds)
     assert [float(v) for v in values] == [vol.vector_range(c) for c in clouds]
-    return vol._clear_pairs(clouds)[:, 0] >= 0  # which took the fast path
+    return vol._clear_pairs(np.ascontiguousarray(clouds.transpose(0, 2, 1)))[:, 0] >= 0
 
 
 def _grid_fields(rng, k, n=6):
@@ -83,6 +83,8 @@ def test_ties_duplicates_and_degenerate_clouds_give_the_hulls_pair():
     cases["an end of the longest pair twice, first"] = np.vstack([base[[i]], base])
     cases["a near tie (1e-9)"] = np.vstack([base, base[j] + 1e-9 * (base[j] - base[i])])
     cases["the whole cloud twice"] = np.vstack([base, base])
+    for k in range(20):  # points of a small lattice: many exactly equal distances
+        cases[f"lattice {k}"] = rng.integers(0, 4, (int(rng.integers(5, 80)), 3)).astype(float)
     for name, c in cases.items():
         got = vol.vector_range_pair(c)
         assert got == vol._hull_pair(c), name

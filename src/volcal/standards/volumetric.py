@@ -182,13 +182,13 @@ CLEAR_MARGIN = 1e-6
 THIN_RATIO = 1e-6
 
 
-def _clear_pairs(e: NDArray[np.float64]) -> NDArray[np.intp]:
+def _clear_pairs(et: NDArray[np.float64]) -> NDArray[np.intp]:
     """The pair of the largest distance of each cloud where it is clear, without a hull.
 
     Parameters
     ----------
-    e : ndarray, shape (k, m, 3)
-        ``k`` clouds of ``m`` error vectors [um].
+    et : ndarray, shape (k, 3, m)
+        ``k`` clouds of ``m`` error vectors [um], components first.
 
     Returns
     -------
@@ -221,18 +221,20 @@ def _clear_pairs(e: NDArray[np.float64]) -> NDArray[np.intp]:
     hull). The margin and the thickness test leave those to the hull; without either,
     some of them get another point (tests/standards/test_vector_range_fast.py).
     """
-    k, m, _ = e.shape
+    k, _, m = et.shape
     out = np.full((k, 2), -1, dtype=np.intp)
     if not 4 <= m <= 4000 or k == 0:
         return out
-    finite = np.asarray(np.isfinite(e).all(axis=(1, 2)))
+    finite = np.asarray(np.isfinite(et).all(axis=(1, 2)))
     if not finite.all():  # left to the hull, as they were
-        e = np.where(finite[:, None, None], e, 0.0)
-    et = np.ascontiguousarray(e.transpose(0, 2, 1))   # (k, 3, m): fast reductions
+        et = np.where(finite[:, None, None], et, 0.0)
     dc = et - ((et.min(axis=2) + et.max(axis=2)) / 2)[:, :, None]  # from the box's centre
-    r = np.sqrt(np.einsum("kim,kim->km", dc, dc))
-    far = dc - dc[np.arange(k), :, np.argmax(r, axis=1)][:, :, None]
-    low = np.sqrt(np.einsum("kim,kim->km", far, far).max(axis=1))  # a pair's length
+    r2 = np.einsum("kim,kim->km", dc, dc)
+    r = np.sqrt(r2)
+    a = dc[np.arange(k), :, np.argmax(r2, axis=1)]      # the point farthest from the centre
+    # |x - a|^2 = |x|^2 - 2 a.x + |a|^2: the longest distance from a, a pair's length
+    far2 = r2 - 2 * np.einsum("kim,ki->km", dc, a) + np.einsum("ki,ki->k", a, a)[:, None]
+    low = np.sqrt(np.maximum(far2.max(axis=1), 0.0))
     slack = low * (1 - 4 * CLEAR_MARGIN)
     keep = r + r.max(axis=1)[:, None] >= slack[:, None]  # can reach the largest distance
     outer = r >= slack[:, None] / 2  # of two such points, one is this far from the centre
@@ -241,30 +243,35 @@ def _clear_pairs(e: NDArray[np.float64]) -> NDArray[np.intp]:
     scatter = np.einsum("kim,kjm->kij", dc, dc) - m * mean[:, :, None] * mean[:, None, :]
     lam = np.linalg.eigvalsh(scatter)
     ok = finite & (lam[:, 0] >= THIN_RATIO * lam[:, 2]) & (lam[:, 2] > 0)
+    # the outer points (rows) against all that can reach (columns), cloud by cloud; a pair
+    # of two outer points comes twice, (i, j) and (j, i), with the same float
+    km, om = np.nonzero(keep)[1], np.nonzero(outer)[1]
+    kend, oend = np.cumsum(keep.sum(axis=1)), np.cumsum(outer.sum(axis=1))
     for t in np.flatnonzero(ok):
-        rows, cols = np.flatnonzero(outer[t]), np.flatnonzero(keep[t])
-        p, q = dc[t][:, rows], dc[t][:, cols]
-        d2 = np.subtract.outer(p[0], q[0]) ** 2
-        d2 += np.subtract.outer(p[1], q[1]) ** 2
-        d2 += np.subtract.outer(p[2], q[2]) ** 2
-        # each pair once: a pair of two outer points where the row's index is smaller
-        d2[outer[t][cols][None, :] & (cols[None, :] <= rows[:, None])] = -1.0
+        cols = km[(kend[t - 1] if t else 0):kend[t]]
+        rows = om[(oend[t - 1] if t else 0):oend[t]]
+        diff = (np.take(dc[t], rows, axis=1)[:, :, None]
+                - np.take(dc[t], cols, axis=1)[:, None, :])
+        d2 = np.einsum("iab,iab->ab", diff, diff)
         flat = int(np.argmax(d2))
         top = d2.flat[flat]
-        if top > 0 and np.count_nonzero(d2 >= top * (1 - 2 * CLEAR_MARGIN)) == 1:
-            i, j = np.unravel_index(flat, d2.shape)
+        i, j = divmod(flat, d2.shape[1])
+        once = 2 if outer[t, cols[j]] else 1
+        if top > 0 and np.count_nonzero(d2 >= top * (1 - 2 * CLEAR_MARGIN)) == once:
             out[t] = sorted((int(rows[i]), int(cols[j])))
     return out
 
 
-def vector_range_pairs(e: ArrayLike) -> NDArray[np.intp]:
+def vector_range_pairs(e: ArrayLike, components_first: bool = False) -> NDArray[np.intp]:
     """The pair of :func:`vector_range_pair` of each of many clouds of error vectors.
 
     Parameters
     ----------
-    e : array_like, shape (k, m, 3)
+    e : array_like, shape (k, m, 3), or (k, 3, m) with ``components_first``
         ``k`` sets of ``m`` error vectors [um] (e.g. the Monte Carlo draws of one field
         over one grid).
+    components_first : bool
+        ``e`` holds each set's x, y, z components as rows (the faster layout here).
 
     Returns
     -------
@@ -273,14 +280,20 @@ def vector_range_pairs(e: ArrayLike) -> NDArray[np.intp]:
         same order: found without the convex hull where one pair is clearly the longest
         (:func:`_clear_pairs`), by the hull otherwise (ties, flat or thin clouds).
     """
+    et = _components_first(e, components_first)
+    out = _clear_pairs(et)
+    for t in np.flatnonzero(out[:, 0] < 0):
+        out[t] = _hull_pair(np.ascontiguousarray(et[t].T))
+    return out
+
+
+def _components_first(e: ArrayLike, already: bool) -> NDArray[np.float64]:
+    """Error vectors as an array of shape (k, 3, m), C-ordered; refuse other shapes."""
     e = np.asarray(e, dtype=float)
-    if e.ndim != 3 or e.shape[2] != 3 or e.shape[1] == 0:
+    if e.ndim != 3 or e.shape[1 if already else 2] != 3 or e.shape[2 if already else 1] == 0:
         raise VolcalInputError("vector range: error vectors of shape (k, m, 3), m >= 1",
                                column="e")
-    out = _clear_pairs(e)
-    for t in np.flatnonzero(out[:, 0] < 0):
-        out[t] = _hull_pair(e[t])
-    return out
+    return np.ascontiguousarray(e if already else e.transpose(0, 2, 1))
 
 
 def vector_range_pair(e: ArrayLike) -> tuple[int, int]:
@@ -319,22 +332,25 @@ def vector_range(e: ArrayLike) -> float:
     return float(np.linalg.norm(e[i] - e[j]))
 
 
-def vector_ranges(e: ArrayLike) -> NDArray[np.float64]:
+def vector_ranges(e: ArrayLike, components_first: bool = False) -> NDArray[np.float64]:
     """:func:`vector_range` of each of many clouds of error vectors [um].
 
     Parameters
     ----------
-    e : array_like, shape (k, m, 3)
+    e : array_like, shape (k, m, 3), or (k, 3, m) with ``components_first``
         ``k`` sets of ``m`` error vectors [um].
+    components_first : bool
+        ``e`` holds each set's x, y, z components as rows.
 
     Returns
     -------
     ndarray, shape (k,)
         The same numbers as :func:`vector_range` of each set.
     """
-    e = np.asarray(e, dtype=float)
-    pairs = vector_range_pairs(e)
-    return np.array([float(np.linalg.norm(e[t, i] - e[t, j]))
+    et = _components_first(e, components_first)
+    pairs = vector_range_pairs(et, components_first=True)
+    # the difference of the two vectors, contiguous, as vector_range takes its norm
+    return np.array([float(np.linalg.norm(np.ascontiguousarray(et[t, :, i] - et[t, :, j])))
                      for t, (i, j) in enumerate(pairs)])
 
 

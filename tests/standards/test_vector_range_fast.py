@@ -183,13 +183,14 @@ def _old_draws(result, n, draws, seed):
     return out
 
 
-def test_model_uncertainty_is_the_draw_by_draw_result():
+@pytest.fixture(scope="module")
+def identified():
+    """A small identified model with a systematic part (the seeds' tests, 6 steps)."""
     from identify_helpers import TRAVEL, exact_fill, seeds_session
 
     from volcal.identify import identify
     from volcal.identify.systematic import attach_systematic
     from volcal.measure.virtual import random_machine
-    from volcal.standards.model_uncertainty import _summary, model_uncertainty
     from volcal.uncertainty.budget import parse_budget
 
     s = seeds_session(steps=6)
@@ -203,6 +204,13 @@ def test_model_uncertainty_is_the_draw_by_draw_result():
                      "expansion_ppm_per_k": 11.5, "u_expansion_ppm_per_k": 1.0},
         "setup": {"u_misalignment_urad": 0.0, "dead_path_mm": 0.0}})
     attach_systematic(r, budget, "b.toml")
+    return r
+
+
+def test_model_uncertainty_is_the_draw_by_draw_result(identified):
+    from volcal.standards.model_uncertainty import _summary, model_uncertainty
+
+    r = identified
     draws, n = 60, 7
     mu = model_uncertainty(r, n=n, draws=draws, seed=4)
     old = _old_draws(r, n, draws, seed=4)
@@ -224,3 +232,24 @@ def test_bad_shapes_are_refused(shape):
 
     with pytest.raises(VolcalInputError, match="shape"):
         vol.vector_range_pairs(np.zeros(shape))
+
+
+def test_predict_gives_the_uncertainty_of_the_one_block_sum(identified):
+    """``predict``'s u sums the factor's rows in blocks of points (in the cache): the
+    floats of the one-block sum of before, for any block size."""
+    from volcal.model.kinematics import volumetric_error
+
+    r = identified
+    q = vol.work_zone_grid(r.errors.travel, 9)
+    t = np.zeros_like(q)
+    L = r._full_factor(r._factor(True))
+    want = np.empty_like(q)
+    for c, terms in enumerate(r._error_rows(q, t)):
+        G = np.zeros((q.shape[0], L.shape[1]))
+        for cols, vals in terms:
+            G += vals[:, None] * L[cols]
+        want[:, c] = np.sqrt(np.einsum("mr,mr->m", G, G) + r.nugget_variance(c, q[:, c]))
+    for chunk in (20000, 100, 7):
+        e, u = r.predict(q, chunk=chunk)
+        assert u.tobytes() == want.tobytes()
+        assert e.tobytes() == volumetric_error(r.errors, q, t).tobytes()

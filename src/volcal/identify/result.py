@@ -275,7 +275,8 @@ class IdentificationResult:
             Tool offset [mm].
         chunk : int
             Points per block at most (memory bound; smaller blocks are taken when the
-            covariance factor is wide).
+            covariance factor is wide, and about 256 kB of the factor's rows at a time for
+            the uncertainty).
         rigid_removed : bool
             Remove the best-fit rigid-body motion over the points ``q`` from the error field
             and from its uncertainty (ISO 230-1 volumetric comparisons; relative laser
@@ -326,13 +327,19 @@ class IdentificationResult:
         t = np.broadcast_to(t, q.shape) if t.ndim == 1 else t.reshape(-1, 3)
         e = volumetric_error(self.errors, q, t)
         L = self._full_factor(factor)
-        step = max(1, min(int(chunk), 2_000_000 // max(L.shape[1], 1)))
+        # blocks of about 256 kB of rows: they stay in the cache while their terms are
+        # summed (the same floats for any block: each point's row is its own sum)
+        width = max(L.shape[1], 1)
+        step = max(1, min(int(chunk), 2_000_000 // width, max(16, 32_768 // width)))
         u = np.empty_like(e)
         for i in range(0, q.shape[0], step):
             for c, terms in enumerate(self._error_rows(q[i:i + step], t[i:i + step])):
                 G = np.zeros((terms[0][1].size, L.shape[1]))
-                for cols, vals in terms:
-                    G += vals[:, None] * L[cols]
+                term = np.empty_like(G)  # one buffer for every term: no new pages each time
+                for cols, vals in terms:  # G += vals[:, None] * L[cols], the same floats
+                    np.take(L, cols, axis=0, out=term)
+                    np.multiply(vals[:, None], term, out=term)
+                    G += term
                 u[i:i + step, c] = np.sqrt(np.einsum("mr,mr->m", G, G)
                                            + self.nugget_variance(c, q[i:i + step, c]))
         return _finite_prediction(e, u, q)

@@ -184,20 +184,20 @@ def _full_factor(result: Any, part: str) -> NDArray[np.float64]:
 
 
 def _volumetric_of(e: NDArray[np.float64]) -> NDArray[np.float64]:
-    """The five volumetric indices of each of ``k`` error fields, shape (k, 3, m) [um].
+    """The five volumetric indices of each of ``k`` error fields, shape (m, 3, k) [um].
 
-    The fields hold their x, y, z components as rows. Returns an array of shape (k, 5):
-    ``E_VX``, ``E_VY``, ``E_VZ``, ``E_VXYZ``, ``E_VXYZ_range`` of each field, the numbers
+    ``e[:, :, t]`` is field ``t``. Returns an array of shape (k, 5): ``E_VX``, ``E_VY``,
+    ``E_VZ``, ``E_VXYZ``, ``E_VXYZ_range`` of each field, the numbers
     :func:`volcal.standards.volumetric.volumetric_indices` gives for one (the lengths
     summed x, y, z in that order, as ``numpy.linalg.norm`` of a vector does).
     """
     from volcal.standards.volumetric import vector_ranges
 
-    out = np.empty((e.shape[0], 5))
-    out[:, :3] = np.ptp(e, axis=2)
+    out = np.empty((e.shape[2], 5))
+    out[:, :3] = np.ptp(e, axis=0).T
     sq = e * e
-    out[:, 3] = np.sqrt(sq[:, 0] + sq[:, 1] + sq[:, 2]).max(axis=1)
-    out[:, 4] = vector_ranges(e, components_first=True)
+    out[:, 3] = np.sqrt(sq[:, 0] + sq[:, 1] + sq[:, 2]).max(axis=0)
+    out[:, 4] = vector_ranges(e, draws_last=True)
     return out
 
 
@@ -322,9 +322,8 @@ def _model_uncertainty(result: Any, tool_offset: ArrayLike, n: int, draws: int, 
     En, Es = np.asarray(Je @ dn), np.asarray(Je @ ds)
 
     def fields(d: NDArray[np.float64]) -> NDArray[np.float64]:
-        """The error field of every draw, components first: shape (draws, 3, m) [um]."""
-        out = np.empty((draws, 3, e0.shape[0]))
-        return np.add(e0.T[None, :, :], d.reshape(-1, 3, draws).transpose(2, 1, 0), out=out)
+        """The error field of every draw, shape (m, 3, draws) [um]: ``e0 + d`` per draw."""
+        return (e0.reshape(-1, 1) + d).reshape(-1, 3, draws)
 
     tot_a = _volumetric_of(fields(En + Es))
     # without a systematic part the draw is the noise part's (``Es`` is zero): the

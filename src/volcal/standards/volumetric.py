@@ -182,13 +182,14 @@ CLEAR_MARGIN = 1e-6
 THIN_RATIO = 1e-6
 
 
-def _clear_pairs(et: NDArray[np.float64]) -> NDArray[np.intp]:
+def _clear_pairs(ef: NDArray[np.float64]) -> NDArray[np.intp]:
     """The pair of the largest distance of each cloud where it is clear, without a hull.
 
     Parameters
     ----------
-    et : ndarray, shape (k, 3, m)
-        ``k`` clouds of ``m`` error vectors [um], components first.
+    ef : ndarray, shape (m, 3, k)
+        ``k`` clouds of ``m`` error vectors [um], the clouds last (as the Monte Carlo
+        draws of a field come: every step below runs along the clouds at once).
 
     Returns
     -------
@@ -221,37 +222,39 @@ def _clear_pairs(et: NDArray[np.float64]) -> NDArray[np.intp]:
     hull). The margin and the thickness test leave those to the hull; without either,
     some of them get another point (tests/standards/test_vector_range_fast.py).
     """
-    k, _, m = et.shape
+    m, _, k = ef.shape
     out = np.full((k, 2), -1, dtype=np.intp)
     if not 4 <= m <= 4000 or k == 0:
         return out
-    finite = np.asarray(np.isfinite(et).all(axis=(1, 2)))
+    finite = np.asarray(np.isfinite(ef).all(axis=(0, 1)))
     if not finite.all():  # left to the hull, as they were
-        et = np.where(finite[:, None, None], et, 0.0)
-    dc = et - ((et.min(axis=2) + et.max(axis=2)) / 2)[:, :, None]  # from the box's centre
-    r2 = np.einsum("kim,kim->km", dc, dc)
+        ef = np.where(finite, ef, 0.0)
+    dc = ef - (ef.min(axis=0) + ef.max(axis=0)) / 2    # from the box's centre, (m, 3, k)
+    r2 = np.einsum("mik,mik->mk", dc, dc)
     r = np.sqrt(r2)
-    a = dc[np.arange(k), :, np.argmax(r2, axis=1)]      # the point farthest from the centre
+    a = dc[np.argmax(r2, axis=0), :, np.arange(k)]      # the point farthest from the centre
     # |x - a|^2 = |x|^2 - 2 a.x + |a|^2: the longest distance from a, a pair's length
-    far2 = r2 - 2 * np.einsum("kim,ki->km", dc, a) + np.einsum("ki,ki->k", a, a)[:, None]
-    low = np.sqrt(np.maximum(far2.max(axis=1), 0.0))
+    far2 = r2 - 2 * np.einsum("mik,ki->mk", dc, a) + np.einsum("ki,ki->k", a, a)
+    low = np.sqrt(np.maximum(far2.max(axis=0), 0.0))
     slack = low * (1 - 4 * CLEAR_MARGIN)
-    keep = r + r.max(axis=1)[:, None] >= slack[:, None]  # can reach the largest distance
-    outer = r >= slack[:, None] / 2  # of two such points, one is this far from the centre
+    keep = (r + r.max(axis=0) >= slack).T   # (k, m): can reach the largest distance
+    outer = (r >= slack / 2).T              # of two such points, one is this far out
     # the scatter matrix about the mean, from the one about the box's centre
-    mean = dc.mean(axis=2)
-    scatter = np.einsum("kim,kjm->kij", dc, dc) - m * mean[:, :, None] * mean[:, None, :]
+    mean = dc.mean(axis=0).T
+    scatter = np.einsum("mik,mjk->kij", dc, dc) - m * mean[:, :, None] * mean[:, None, :]
     lam = np.linalg.eigvalsh(scatter)
     ok = finite & (lam[:, 0] >= THIN_RATIO * lam[:, 2]) & (lam[:, 2] > 0)
     # the outer points (rows) against all that can reach (columns), cloud by cloud; a pair
     # of two outer points comes twice, (i, j) and (j, i), with the same float
-    km, om = np.nonzero(keep)[1], np.nonzero(outer)[1]
+    kt, km = np.nonzero(keep)
+    ot, om = np.nonzero(outer)
+    kxyz = np.ascontiguousarray(dc[km, :, kt].T)        # their coordinates, (3, n) each
+    oxyz = np.ascontiguousarray(dc[om, :, ot].T)
     kend, oend = np.cumsum(keep.sum(axis=1)), np.cumsum(outer.sum(axis=1))
     for t in np.flatnonzero(ok):
-        cols = km[(kend[t - 1] if t else 0):kend[t]]
-        rows = om[(oend[t - 1] if t else 0):oend[t]]
-        diff = (np.take(dc[t], rows, axis=1)[:, :, None]
-                - np.take(dc[t], cols, axis=1)[:, None, :])
+        k0, o0 = (kend[t - 1], oend[t - 1]) if t else (0, 0)
+        cols, rows = km[k0:kend[t]], om[o0:oend[t]]
+        diff = oxyz[:, o0:oend[t], None] - kxyz[:, None, k0:kend[t]]
         d2 = np.einsum("iab,iab->ab", diff, diff)
         flat = int(np.argmax(d2))
         top = d2.flat[flat]
@@ -262,16 +265,16 @@ def _clear_pairs(et: NDArray[np.float64]) -> NDArray[np.intp]:
     return out
 
 
-def vector_range_pairs(e: ArrayLike, components_first: bool = False) -> NDArray[np.intp]:
+def vector_range_pairs(e: ArrayLike, draws_last: bool = False) -> NDArray[np.intp]:
     """The pair of :func:`vector_range_pair` of each of many clouds of error vectors.
 
     Parameters
     ----------
-    e : array_like, shape (k, m, 3), or (k, 3, m) with ``components_first``
+    e : array_like, shape (k, m, 3), or (m, 3, k) with ``draws_last``
         ``k`` sets of ``m`` error vectors [um] (e.g. the Monte Carlo draws of one field
         over one grid).
-    components_first : bool
-        ``e`` holds each set's x, y, z components as rows (the faster layout here).
+    draws_last : bool
+        ``e[:, :, t]`` is set ``t`` (the layout of draws made as columns, and the faster).
 
     Returns
     -------
@@ -280,20 +283,20 @@ def vector_range_pairs(e: ArrayLike, components_first: bool = False) -> NDArray[
         same order: found without the convex hull where one pair is clearly the longest
         (:func:`_clear_pairs`), by the hull otherwise (ties, flat or thin clouds).
     """
-    et = _components_first(e, components_first)
-    out = _clear_pairs(et)
+    ef = _draws_last(e, draws_last)
+    out = _clear_pairs(ef)
     for t in np.flatnonzero(out[:, 0] < 0):
-        out[t] = _hull_pair(np.ascontiguousarray(et[t].T))
+        out[t] = _hull_pair(np.ascontiguousarray(ef[:, :, t]))
     return out
 
 
-def _components_first(e: ArrayLike, already: bool) -> NDArray[np.float64]:
-    """Error vectors as an array of shape (k, 3, m), C-ordered; refuse other shapes."""
+def _draws_last(e: ArrayLike, already: bool) -> NDArray[np.float64]:
+    """Error vectors as an array of shape (m, 3, k) (a view); refuse other shapes."""
     e = np.asarray(e, dtype=float)
-    if e.ndim != 3 or e.shape[1 if already else 2] != 3 or e.shape[2 if already else 1] == 0:
+    if e.ndim != 3 or e.shape[1 if already else 2] != 3 or e.shape[0 if already else 1] == 0:
         raise VolcalInputError("vector range: error vectors of shape (k, m, 3), m >= 1",
                                column="e")
-    return np.ascontiguousarray(e if already else e.transpose(0, 2, 1))
+    return e if already else e.transpose(1, 2, 0)
 
 
 def vector_range_pair(e: ArrayLike) -> tuple[int, int]:
@@ -332,25 +335,25 @@ def vector_range(e: ArrayLike) -> float:
     return float(np.linalg.norm(e[i] - e[j]))
 
 
-def vector_ranges(e: ArrayLike, components_first: bool = False) -> NDArray[np.float64]:
+def vector_ranges(e: ArrayLike, draws_last: bool = False) -> NDArray[np.float64]:
     """:func:`vector_range` of each of many clouds of error vectors [um].
 
     Parameters
     ----------
-    e : array_like, shape (k, m, 3), or (k, 3, m) with ``components_first``
+    e : array_like, shape (k, m, 3), or (m, 3, k) with ``draws_last``
         ``k`` sets of ``m`` error vectors [um].
-    components_first : bool
-        ``e`` holds each set's x, y, z components as rows.
+    draws_last : bool
+        ``e[:, :, t]`` is set ``t``.
 
     Returns
     -------
     ndarray, shape (k,)
         The same numbers as :func:`vector_range` of each set.
     """
-    et = _components_first(e, components_first)
-    pairs = vector_range_pairs(et, components_first=True)
+    ef = _draws_last(e, draws_last)
+    pairs = vector_range_pairs(ef, draws_last=True)
     # the difference of the two vectors, contiguous, as vector_range takes its norm
-    return np.array([float(np.linalg.norm(np.ascontiguousarray(et[t, :, i] - et[t, :, j])))
+    return np.array([float(np.linalg.norm(np.ascontiguousarray(ef[i, :, t] - ef[j, :, t])))
                      for t, (i, j) in enumerate(pairs)])
 
 

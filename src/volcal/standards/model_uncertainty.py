@@ -57,6 +57,9 @@ VOLUMETRIC_KEYS: tuple[str, ...] = ("E_VX", "E_VY", "E_VZ", "E_VXYZ", "E_VXYZ_ra
 #: Coverage factor of the indices (normal posterior, large degrees of freedom).
 K_INDEX = 2.0
 
+#: Draws whose error fields are evaluated together (:func:`model_uncertainty`).
+DRAW_BLOCK = 100
+
 
 @dataclass(frozen=True)
 class IndexUncertainty:
@@ -321,15 +324,26 @@ def _model_uncertainty(result: Any, tool_offset: ArrayLike, n: int, draws: int, 
     values = [ind.E_VX, ind.E_VY, ind.E_VZ, ind.E_VXYZ, ind.E_VXYZ_range]
     En, Es = np.asarray(Je @ dn), np.asarray(Je @ ds)
 
-    def fields(d: NDArray[np.float64]) -> NDArray[np.float64]:
-        """The error field of every draw, shape (m, 3, draws) [um]: ``e0 + d`` per draw."""
-        return (e0.reshape(-1, 1) + d).reshape(-1, 3, draws)
+    def indices(*parts: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The five indices of every draw of ``e0 + sum(parts)``, shape (draws, 5) [um].
 
-    tot_a = _volumetric_of(fields(En + Es))
+        The draws' error fields, (m, 3, draws) arrays, in blocks of ``DRAW_BLOCK`` draws
+        (memory bounded by the block, not by the draws).
+        """
+        out = np.empty((draws, 5))
+        for j in range(0, draws, DRAW_BLOCK):
+            d = parts[0][:, j:j + DRAW_BLOCK]
+            if len(parts) == 2:
+                d = d + parts[1][:, j:j + DRAW_BLOCK]
+            out[j:j + DRAW_BLOCK] = _volumetric_of((e0.reshape(-1, 1) + d).reshape(
+                e0.shape[0], 3, -1))
+        return out
+
+    tot_a = indices(En, Es)
     # without a systematic part the draw is the noise part's (``Es`` is zero): the
     # same indices, not computed twice (half the time of ``history add``'s U)
-    non_a = _volumetric_of(fields(En)) if has_sys else tot_a
-    sys_a = _volumetric_of(fields(Es)) if has_sys else None
+    non_a = indices(En) if has_sys else tot_a
+    sys_a = indices(Es) if has_sys else None
     lin = _linear_volumetric(e0, Je, np.hstack([gn, gs]))
     vol = {k: _summary(values[i], tot_a[:, i], non_a[:, i],
                        None if sys_a is None else sys_a[:, i], lin[i])

@@ -227,3 +227,27 @@ def test_readers_write_nothing_on_a_damaged_header(intact, tmp_path):
         r = volcal_process("history", *args, "--db", path)
         _clean(r, path)
         assert _digest(path) == before, args
+
+
+@pytest.mark.parametrize("value", [95, "x", "2026-13-40", None])
+def test_due_and_fleet_on_a_damaged_date(intact, tmp_path, value):
+    """A record's date overwritten (found by the fuzz run: ``records.date`` = 95 made
+    ``due`` die with "Invalid isoformat string"): ``due`` and ``fleet`` answer without the
+    damaged record, name it as damaged, and write nothing to the store."""
+    path = tmp_path / "h.sqlite"
+    path.write_bytes(intact["bytes"])
+    conn = sqlite3.connect(path)
+    with conn:
+        conn.execute("UPDATE records SET date = ? WHERE id = 'C000003'", (value,))
+    conn.close()
+    before = _digest(path)
+    r = volcal_process("history", "due", "--json", "--db", path)
+    _clean(r, path)
+    assert r.returncode == 0, r.stderr
+    assert "C000003" in r.stderr                        # named as damaged
+    rows = __import__("json").loads(r.stdout)
+    assert rows and all(row["last"] is None or row["last"][:4].isdigit() for row in rows)
+    f = volcal_process("history", "fleet", "-o", tmp_path / "fleet.html", "--db", path)
+    _clean(f, path)
+    assert f.returncode == 0, f.stderr
+    assert _digest(path) == before

@@ -31,7 +31,26 @@ def machine_interval(records: list[Any], machine_id: str) -> int:
             days = r.payload.get("interval_days", days)
         if r.kind == "interval" and r.machine_id == machine_id:
             days = r.payload.get("interval_days", days)
-    return int(days or DEFAULT_INTERVAL_DAYS)
+    try:
+        return int(days or DEFAULT_INTERVAL_DAYS)
+    except (TypeError, ValueError):  # a damaged record (its reader warns of it)
+        return DEFAULT_INTERVAL_DAYS
+
+
+def measured_on(date: Any) -> _dt.date | None:
+    """The date of measurement of a record, or ``None`` where it is not a date.
+
+    Parameters
+    ----------
+    date : str or None
+        The record's ``date`` (ISO 8601, a time may follow). A damaged record's column may
+        hold anything; such a record is left out of the due dates, and the command that
+        read it names it (``volcal.history.store.Store.damaged``).
+    """
+    try:
+        return _dt.date.fromisoformat(str(date)[:10]) if date else None
+    except ValueError:
+        return None
 
 
 def _kinds(history: Any, rec: Any) -> list[str]:
@@ -117,15 +136,17 @@ def due_rows(history: Any, today: _dt.date | None, machines: list[Any], others: 
         last: dict[str, str] = {}
         for r in own:
             if r.kind == "calibration" and r.superseded_by is None:
+                if measured_on(r.date) is None:
+                    continue
                 for k in _kinds(history, r):
-                    if r.date and (k not in last or r.date > last[k]):
+                    if k not in last or r.date > last[k]:
                         last[k] = r.date
         if not last:
             rows.append({"machine": mach.machine_name, "machine_id": mach.id, "test": "-",
                          "last": None, "next": today.isoformat(), "interval_days": interval,
                          "overdue_days": 0})
         for k, d in last.items():
-            nxt = _dt.date.fromisoformat(d[:10]) + _dt.timedelta(days=interval)
+            nxt = _dt.date.fromisoformat(d[:10]) + _dt.timedelta(days=interval)  # checked
             rows.append({"machine": mach.machine_name, "machine_id": mach.id, "test": k,
                          "last": d[:10], "next": nxt.isoformat(), "interval_days": interval,
                          "overdue_days": max(0, (today - nxt).days)})

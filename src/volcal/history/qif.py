@@ -461,7 +461,13 @@ def due_date(date: str | None, interval_days: int | None) -> str | None:
     interval_days : int or None
         Calibration interval [days].
     """
-    if not date or not interval_days:
+    from volcal.history.due import measured_on
+
+    d = measured_on(date)
+    try:
+        days = int(interval_days or 0)
+    except (TypeError, ValueError):  # a damaged record (its reader warns of it)
         return None
-    d = _dt.date.fromisoformat(str(date)[:10])
-    return (d + _dt.timedelta(days=int(interval_days))).isoformat()
+    if d is None or not days:
+        return None
+    return (d + _dt.timedelta(days=days)).isoformat()

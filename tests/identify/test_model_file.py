@@ -164,25 +164,30 @@ def test_a_json_that_names_no_binary_part_loads_without_uncertainty(v3):
 
 
 def test_the_binary_part_is_written_first_and_both_atomically(v2, v3, monkeypatch):
-    import volcal.io.atomic as atomic
+    """The binary part replaces its file first (the JSON names its digest); a failure (a
+    full disk, Ctrl-C) at either replacement leaves the old model whole: both files or
+    neither (volcal.io.atomic.write_together)."""
+    import os
 
     old_json, old_npz = v3.read_bytes(), binary_path(v3).read_bytes()
     v2.residuals = {k: v + 1.0 for k, v in v2.residuals.items()}  # another model
+    real = os.replace
+    for nth in (1, 2):  # the binary part's replacement fails, then the JSON's
+        calls: list[str] = []
 
-    def boom(*_):
-        raise OSError("disk full")
+        def flaky(src, dst, calls=calls, nth=nth):
+            calls.append(str(dst))
+            if len(calls) == nth:
+                raise OSError("disk full")
+            real(src, dst)
 
-    monkeypatch.setattr(atomic, "write_bytes", boom)
-    with pytest.raises(OSError):
-        write_model(v2, v3)
-    assert v3.read_bytes() == old_json and binary_path(v3).read_bytes() == old_npz
-    monkeypatch.undo()
-    monkeypatch.setattr(atomic, "write_text", boom)
-    with pytest.raises(OSError):
-        write_model(v2, v3)
-    assert v3.read_bytes() == old_json  # the old JSON now names a digest that is gone
-    with pytest.warns(ModelFileWarning, match="does not match"):
-        assert not load_model(v3).has_uncertainty
+        monkeypatch.setattr(os, "replace", flaky)
+        with pytest.raises(OSError):
+            write_model(v2, v3)
+        monkeypatch.undo()
+        assert Path(calls[0]).suffix == ".npz"
+        assert v3.read_bytes() == old_json and binary_path(v3).read_bytes() == old_npz
+    assert load_model(v3).has_uncertainty  # the old model, whole
     assert [p.name for p in v3.parent.iterdir() if p.name.startswith(".")] == []
 
 

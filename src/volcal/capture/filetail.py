@@ -42,6 +42,13 @@ class FileTailLaser:
             raise VolcalInputError(f"source {spec.text!r}: from={frm!r}: expected end or start")
         self.from_start = frm == "start"
         self.path, self.where, self.ctx = Path(address), spec.text, ctx
+        if self.path.is_dir():
+            raise VolcalInputError(f"source {spec.text!r}: {address} is a folder: give the "
+                                   "file the vendor program appends its readings to")
+        if not self.path.parent.is_dir():
+            raise VolcalInputError(f"source {spec.text!r}: the folder {str(self.path.parent)!r}"
+                                   " does not exist: give the file the vendor program appends "
+                                   "its readings to (it may be created once the capture runs)")
         self._pos = 0
         self._buf = b""
         self._ready: collections.deque[LaserSample] = collections.deque()

@@ -52,6 +52,13 @@ def _show(file: Path, length_mm: float) -> None:
     from volcal.uncertainty.laser import LaserModel
     from volcal.uncertainty.propagation import Propagator
 
+    import math
+
+    if not (math.isfinite(length_mm) and length_mm >= 0):
+        from volcal.errors import VolcalInputError
+
+        raise VolcalInputError(f"--length-mm {length_mm:g}: expected a finite length >= 0 "
+                               "from the datum [mm]")
     b = read_budget(file)
     prop = Propagator()
     laser = LaserModel(b, prop)

@@ -76,9 +76,11 @@ def abbe(
 
     k = _axis(axis)
     if output is not None and not is_stdout(output):
-        from volcal.io.paths import check_output_file
+        from volcal.io.paths import check_output_file, first_line_is
 
-        check_output_file(output)
+        check_output_file(output, own=first_line_is(*(abbe_csv(j, np.zeros(0), np.zeros(0),
+                                                                np.zeros((0, 2))).strip()
+                                                       for j in range(3))))
     if len(files) < 3:
         raise VolcalInputError(f"need at least 3 files at different Abbe offsets, got {len(files)}")
     targets, devs, points = lines_from_files(files, k)
@@ -153,6 +155,7 @@ def step_diagonal(
         from volcal.io.paths import check_output_file
 
         check_output_file(Path(output).with_suffix(".csv"))
+        check_output_file(Path(output).with_suffix(".toml"))
     s = read_session(session)
     print_session_notes(s)
     r = step_diagonal_session(s)

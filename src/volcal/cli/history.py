@@ -169,7 +169,9 @@ def export_etalon_cmd(
     from volcal.errors import VolcalInputError
     from volcal.history.compare import load_record_model
     from volcal.history.etalon import write_etalon
+    from volcal.io.paths import check_output_file
 
+    check_output_file(output)
     with _open(db) as h:
         r = h.show(record)
         model = load_record_model(h.store, r.id)
@@ -198,6 +200,9 @@ def export_qif_cmd(
 
     if (record is None) == (model is None):
         raise VolcalInputError("give a calibration record id or --model FILE (one of them)")
+    from volcal.io.paths import check_output_file
+
+    check_output_file(output)
     if model is not None:
         from volcal.identify.modelfile import load_model
 
@@ -507,7 +512,9 @@ def fleet_cmd(
 ) -> None:
     """One HTML page: every machine, its last calibration, E_VXYZ ± U, trend, due date."""
     from volcal.history.fleet import write_fleet
+    from volcal.io.paths import check_output_file
 
+    check_output_file(output)
     with _open(db) as h:
         path = write_fleet(h, output, machine)
         _warn_damaged(h)

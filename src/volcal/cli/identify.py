@@ -55,13 +55,14 @@ def identify_cmd(
 ) -> None:
     """Identify the machine's errors from the session; write MODEL.json."""
     from volcal.identify.modelfile import binary_path
+    from volcal.identify.modelwrite import is_binary_part
     from volcal.io.paths import check_output_file
     from volcal.steps.identify import identify as step
 
     console = message_console(output)  # stderr when the model goes to stdout
     if not is_stdout(output):
         check_output_file(output)
-        check_output_file(binary_path(output))  # MODEL.npz, written beside it
+        check_output_file(binary_path(output), own=is_binary_part)  # MODEL.npz, beside it
     with console.status("identifying..."):
         r = step(session, prior=prior, noise_um=noise_um, roll=roll, known=known,
                  known_u=known_u, monte_carlo=monte_carlo, drift=drift,
@@ -108,12 +109,13 @@ def predict_cmd(
                                "it was identified from another session."),
 ) -> None:
     """Predict the volumetric error and its uncertainty at points."""
-    from volcal.io.paths import check_output_file
+    from volcal.io.paths import check_output_file, first_line_is
+    from volcal.steps.predict import COLUMNS
     from volcal.steps.predict import predict as step
 
     console = message_console(output)  # stderr when the CSV goes to stdout
     if not is_stdout(output):
-        check_output_file(output)
+        check_output_file(output, own=first_line_is(",".join(COLUMNS)))
     r = step(model, points, tool_offset=parse_vector(tool_offset, "--tool-offset"),
              session=session, force=force)
     for d in r.warnings:

@@ -50,15 +50,23 @@ def locate_cmd(
     from volcal.steps.locate import locate as step
     from volcal.steps.locate import located_json
 
+    from volcal.io.paths import check_output_file
+
+    # every output checked, and every export made, before the first file is written
+    for path in (linuxcnc_hal, siemens_tcarr, isg_kinematics):
+        if path is not None:
+            check_output_file(path)
+    if json_out and output is not None and not is_stdout(output):
+        check_output_file(output)
     ids = [x.strip() for x in measurements.split(",")] if measurements else None
     r = step(session, model=model, measurements=ids, prior_u=prior_u)
+    exp = r.linuxcnc_trt(z_rot_point_mm) if linuxcnc_hal is not None else None
+    texp = r.siemens_tcarr(tool_carrier) if siemens_tcarr is not None else None
+    iexp = r.isg_location() if isg_kinematics is not None else None
     if linuxcnc_hal is not None:
         from volcal.compensate.linuxcnc_trt import trt_hal
         from volcal.io.atomic import write_text
-        from volcal.io.paths import check_output_file
 
-        check_output_file(linuxcnc_hal)
-        exp = r.linuxcnc_trt(z_rot_point_mm)
         write_text(linuxcnc_hal, trt_hal(exp))
         message_console(output).print(f"{exp.kins} pins -> {linuxcnc_hal}", highlight=False)
         for note in exp.notes[3:]:
@@ -66,10 +74,7 @@ def locate_cmd(
     if siemens_tcarr is not None:
         from volcal.compensate.siemens_tcarr import tcarr_mpf
         from volcal.io.atomic import write_text
-        from volcal.io.paths import check_output_file
 
-        check_output_file(siemens_tcarr)
-        texp = r.siemens_tcarr(tool_carrier)
         write_text(siemens_tcarr, tcarr_mpf(texp))
         message_console(output).print(f"$TC_CARR..[{tool_carrier}] -> {siemens_tcarr} "
                                       f"(predicted dispersion {texp.residual_um.max():.3f} "
@@ -77,10 +82,7 @@ def locate_cmd(
     if isg_kinematics is not None:
         from volcal.compensate.isg_location import isg_location_csv
         from volcal.io.atomic import write_text
-        from volcal.io.paths import check_output_file
 
-        check_output_file(isg_kinematics)
-        iexp = r.isg_location()
         write_text(isg_kinematics, isg_location_csv(iexp))
         message_console(output).print(f"ISG location errors ({', '.join(iexp.errors)}) -> "
                                       f"{isg_kinematics} (predicted dispersion "

@@ -477,7 +477,8 @@ def build_design(session: Session, nodes: list[NDArray[np.float64]] | None = Non
     if not meas:
         raise VolcalInputError("no measurements selected for identification (rotary tests "
                                "are evaluated per axis: volcal evaluate; probe_sphere tests "
-                               "locate the rotary axes: volcal locate; so do r_test tests)")
+                               "locate the rotary axes: volcal locate; so do r_test tests)",
+                               session.path / "session.toml" if session.path else None)
     for m in meas:
         if m.deviation is None:
             raise VolcalInputError("measurement has no deviations (run it or simulate it first)",

@@ -53,6 +53,28 @@ def binary_path(path: str | Path) -> Path:
     return path.with_suffix(BINARY_SUFFIX)
 
 
+
+def is_binary_part(path: str | Path) -> bool:
+    """True when ``path`` is a model's binary part (:func:`binary_path`) written by volcal:
+    a NumPy ``.npz`` archive holding the readings' ``fitted_um``.
+
+    Parameters
+    ----------
+    path : str or Path
+        An existing file.
+
+    Returns
+    -------
+    bool
+    """
+    import zipfile
+
+    try:
+        with zipfile.ZipFile(path) as z:
+            return "fitted_um.npy" in z.namelist()
+    except (OSError, zipfile.BadZipFile):
+        return False
+
 def _npz_bytes(arrays: dict[str, np.ndarray]) -> bytes:
     """An uncompressed ``.npz`` of the arrays, byte for byte the same for the same arrays."""
     buf = io.BytesIO()
@@ -85,7 +107,8 @@ def _json_text(obj: Any, indent: int = 0) -> str:
 
 
 def write_model(result: IdentificationResult, path: str | Path) -> Path:
-    """Write a model file (format ``volcal-model/3``): ``MODEL.npz``, then ``MODEL.json``.
+    """Write a model file (format ``volcal-model/3``): ``MODEL.npz``, then ``MODEL.json``;
+    both or neither replaced (:func:`volcal.io.atomic.write_together`).
 
     Parameters
     ----------
@@ -105,7 +128,7 @@ def write_model(result: IdentificationResult, path: str | Path) -> Path:
         If the model has no uncertainty (loaded without its binary part) or the name ends
         in ``.npz``.
     """
-    from volcal.io.atomic import write_bytes, write_text  # looked up at each call
+    from volcal.io.atomic import write_together  # looked up at each call
 
     path = Path(path)
     bin_path = binary_path(path)
@@ -121,6 +144,6 @@ def write_model(result: IdentificationResult, path: str | Path) -> Path:
     except ValueError as exc:  # NaN or infinity somewhere: not valid JSON
         raise VolcalInputError(f"the model holds a value JSON cannot store ({exc})",
                                path) from None
-    write_bytes(bin_path, data)  # the binary part first: the JSON names its digest
-    write_text(path, text)
+    # the binary part first (the JSON names its digest); both or neither replaced
+    write_together([(bin_path, data), (path, text)])
     return path

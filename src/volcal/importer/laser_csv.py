@@ -38,7 +38,7 @@ from volcal.importer.header import (
 )
 from volcal.importer.units import TO_MM, unit_from_header, unit_name, unsupported_unit
 from volcal.importer.wide import DIRECTION_WORDS, run_columns, to_long
-from volcal.io.atomic import write_text
+from volcal.io.atomic import write_together
 from volcal.io.table import Column, Table, TableSpec, parse_table
 from volcal.io.tomlfmt import dumps as toml_dumps
 from volcal.model.names import AXES
@@ -766,8 +766,7 @@ def write_measurement(folder: Path, m: Measurement, replace: bool, notes: list[s
         entries.append(entry)
     doc["measurements"] = entries
     _merge_calibration(doc, calibration or {}, notes if header_notes is None else header_notes)
-    write_text(folder / m.file, m.to_csv())
-    write_text(toml_path, toml_dumps(doc))
+    write_together([(folder / m.file, m.to_csv()), (toml_path, toml_dumps(doc))])
 
 
 def _merge_calibration(doc: dict[str, Any], found: dict[str, str], notes: list[str]) -> None:

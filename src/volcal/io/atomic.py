@@ -9,7 +9,7 @@ from __future__ import annotations
 import os
 import shutil
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -78,6 +78,58 @@ def write_bytes(path: str | Path, data: bytes) -> None:
             fh.write(data)
             fh.flush()
             os.fsync(fh.fileno())
+
+
+def write_together(files: Sequence[tuple[str | Path, str | bytes]]) -> None:
+    """Write several files as one: all or none of them replaced.
+
+    Every file is written to a temporary beside it first; then they replace their targets
+    in the order given. When that is interrupted (Ctrl-C, a full disk) the files already
+    replaced get their old content back (or are removed when they are new), so that a
+    model's JSON never names a binary part that is not its own and a session's
+    ``session.toml`` never misses a measurement file written with it.
+
+    Parameters
+    ----------
+    files : sequence of (path, content)
+        Target file and its content: text (UTF-8, ``\\n`` line ends) or bytes.
+    """
+    staged: list[tuple[Path, Path, Path | None]] = []  # target, new content, old content
+    done: list[tuple[Path, Path, Path | None]] = []
+    umask = os.umask(0)
+    os.umask(umask)
+    try:
+        for path, content in files:
+            path = Path(path)
+            path.parent.mkdir(parents=True, exist_ok=True)
+            fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+            with os.fdopen(fd, "wb") as fh:
+                fh.write(content if isinstance(content, bytes) else content.encode("utf-8"))
+                fh.flush()
+                os.fsync(fh.fileno())
+            os.chmod(tmp, 0o666 & ~umask)
+            old = None
+            if path.is_file():
+                fd, name = tempfile.mkstemp(prefix=f".{path.name}.old.", dir=path.parent)
+                os.close(fd)
+                old = Path(name)
+                shutil.copy2(path, old)
+            staged.append((path, Path(tmp), old))
+        for item in staged:
+            os.replace(item[1], item[0])
+            done.append(item)
+    except BaseException:
+        for path, _tmp, old in reversed(done):
+            if old is not None:
+                os.replace(old, path)
+            else:
+                path.unlink(missing_ok=True)
+        raise
+    finally:
+        for _path, tmp, old in staged:
+            tmp.unlink(missing_ok=True)
+            if old is not None:
+                old.unlink(missing_ok=True)
 
 
 def _carry_backup(old: Path, new: Path) -> None:

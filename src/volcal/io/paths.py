@@ -2,6 +2,7 @@
 
 Every command checks its outputs first: the folder that will hold the output must be
 writable (missing folders on the way are created), a file output must not be a folder,
+nor a session's file, nor an existing file volcal did not write (:func:`check_replaceable`),
 and a folder output must be new, empty or an earlier output of the same kind. An
 existing folder of another kind (a measured session, say) is never replaced: that would
 lose data. An earlier output holding files volcal did not write there is refused too,
@@ -17,7 +18,9 @@ from pathlib import Path
 
 from volcal.errors import VolcalInputError
 
-__all__ = ["check_output_file", "check_output_folder", "prepare_output_folder"]
+__all__ = ["check_output_file", "check_output_folder", "check_replaceable",
+           "first_line_is", "prepare_output_folder", "session_files",
+           "written_by_volcal"]
 
 
 def _check_parent(path: Path) -> None:
@@ -35,13 +38,129 @@ def _check_parent(path: Path) -> None:
         raise VolcalInputError(f"the folder {str(parent)!r} is not writable", path)
 
 
-def check_output_file(path: str | Path) -> Path:
+MARK = b"volcal"
+"""What every text output of volcal holds near its start (a format name such as
+``volcal-model/1``, or a ``volcal:`` comment line), or its ``.toml`` companion holds."""
+
+_MARK_BYTES = 1 << 16
+
+
+def session_files(folder: Path) -> set[str]:
+    """The files of the session in ``folder``: session.toml and its measurements' files.
+
+    Parameters
+    ----------
+    folder : Path
+        A folder holding ``session.toml``.
+
+    Returns
+    -------
+    set of str
+        Names relative to ``folder``; every ``.csv`` and ``.toml`` file of the folder when
+        session.toml cannot be read.
+    """
+    import tomllib
+
+    names = {"session.toml"}
+    try:
+        doc = tomllib.loads((folder / "session.toml").read_text(encoding="utf-8"))
+        names |= {str(m["file"]) for m in doc.get("measurements", [])
+                  if isinstance(m, dict) and isinstance(m.get("file"), str)}
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        names |= {p.name for p in folder.iterdir() if p.suffix in (".csv", ".toml")}
+    return names
+
+
+def written_by_volcal(path: Path) -> bool:
+    """True when the file ``path`` carries volcal's mark (:data:`MARK`) in its first
+    64 KiB, or its ``.toml`` companion (an error table's) does.
+
+    Parameters
+    ----------
+    path : Path
+        An existing file.
+
+    Returns
+    -------
+    bool
+    """
+    for p in (path, path.with_suffix(".toml")):
+        try:
+            with open(p, "rb") as f:
+                if MARK in f.read(_MARK_BYTES).lower():
+                    return True
+        except OSError:
+            continue
+    return False
+
+
+def first_line_is(*headers: str) -> Callable[[Path], bool]:
+    """A test of an earlier output whose first line is one of ``headers`` (a CSV volcal
+    writes without its mark, such as ``volcal predict``'s).
+
+    Parameters
+    ----------
+    *headers : str
+        The header lines the command writes.
+
+    Returns
+    -------
+    callable
+        ``own(path)`` for :func:`check_output_file`.
+    """
+    def own(path: Path) -> bool:
+        try:
+            with open(path, "rb") as f:
+                first = f.readline(4096).decode("utf-8", "replace").strip()
+        except OSError:
+            return False
+        return first in headers
+
+    return own
+
+
+def check_replaceable(path: str | Path, own: Callable[[Path], bool] | None = None) -> None:
+    """Refuse to replace an existing file that holds measured data or that volcal did not
+    write.
+
+    Parameters
+    ----------
+    path : str or Path
+        Output file (nothing is checked when it does not exist).
+    own : callable, optional
+        ``own(path)`` is True for an earlier output of the same command, which may be
+        replaced; default :func:`written_by_volcal`.
+
+    Raises
+    ------
+    VolcalInputError
+        ``path`` is session.toml or a measurement file of a session (measured data are
+        never overwritten), or an existing file that ``own`` does not recognise.
+    """
+    path = Path(path)
+    if not path.is_file():
+        return
+    folder = path.parent
+    if (folder / "session.toml").is_file() and path.name in session_files(folder):
+        raise VolcalInputError(
+            f"is a file of the session in {str(folder)!r} (measured data or its plan): "
+            "volcal never overwrites it; choose another file name", path)
+    if not (own or written_by_volcal)(path):
+        raise VolcalInputError(
+            "exists and was not written by volcal: volcal never replaces a file it did not "
+            "write; choose another file name, or move the file aside", path)
+
+
+def check_output_file(path: str | Path, own: Callable[[Path], bool] | None = None) -> Path:
     """Check that ``path`` can be written as a file.
 
     Parameters
     ----------
     path : str or Path
-        Output file; it may exist (it is replaced atomically).
+        Output file; it may exist when volcal wrote it (it is replaced atomically).
+    own : callable, optional
+        ``own(path)`` is True for an existing file written earlier by the same command
+        (default: volcal's mark in it, :func:`written_by_volcal`).
 
     Returns
     -------
@@ -51,12 +170,14 @@ def check_output_file(path: str | Path) -> Path:
     ------
     VolcalInputError
         The nearest existing folder above it is a file or read-only, or ``path`` is a
-        folder.
+        folder, or it exists and is a session's file or a file volcal did not write
+        (:func:`check_replaceable`).
     """
     path = Path(path)
     _check_parent(path)
     if path.is_dir():
         raise VolcalInputError("is a folder; give the name of the file to write", path)
+    check_replaceable(path, own)
     return path
 
 

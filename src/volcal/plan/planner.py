@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from volcal.errors import VolcalInputError
+from volcal.errors import ParameterError, VolcalInputError
 from volcal.model.chain import parse_chain
 from volcal.model.names import AXES
 from volcal.plan.geometry import (
@@ -352,8 +352,8 @@ def _linear(c: _Plan, only: str | None = None) -> list[Measurement]:
         lines = abbe_lines(k, c.t, c.chain, c.abbe_tool_offset_mm)
         lo, hi = c.t[k, 0] + c.linear_margin_mm, c.t[k, 1] - c.linear_margin_mm
         if hi <= lo:
-            raise VolcalInputError(f"linear margin {c.linear_margin_mm:g} mm leaves no "
-                                   f"travel on {AXES[k]}")
+            raise ParameterError(f"{{overrun_mm=}}{c.linear_margin_mm:g}: the linear margin "
+                                 f"leaves no travel on {AXES[k]}")
         targets = (iso_targets(lo, hi, c.steps, seed=k) if c.iso_spacing
                    else np.linspace(lo, hi, c.steps + 1))
         for i, (line, toff) in enumerate(lines, start=1):
@@ -376,8 +376,8 @@ def _direct(c: _Plan, only: str | None = None) -> list[Measurement]:
     for k in range(3):
         lo, hi = c.t[k, 0] + c.linear_margin_mm, c.t[k, 1] - c.linear_margin_mm
         if hi <= lo:
-            raise VolcalInputError(f"linear margin {c.linear_margin_mm:g} mm leaves no "
-                                   f"travel on {AXES[k]}")
+            raise ParameterError(f"{{overrun_mm=}}{c.linear_margin_mm:g}: the linear margin "
+                                 f"leaves no travel on {AXES[k]}")
         targets.append(iso_targets(lo, hi, c.steps, seed=k) if c.iso_spacing
                        else np.linspace(lo, hi, c.steps + 1))
     ms = direct_tests(c.t, targets, c.runs, c.off, c.vertical,

@@ -135,6 +135,50 @@ def check_geometry(kind: str, positions: NDArray[np.float64], rows: NDArray[np.i
             f"expected {positions[i, k] - perp[i, k]:g} mm", file, int(rows[i]), _COLS[k])
 
 
+def check_repeats(positions: NDArray[np.float64], rows: NDArray[np.int64],
+                  columns: dict[str, NDArray[Any]], missed: NDArray[np.bool_],
+                  file: str | Path) -> None:
+    """Refuse a pose read twice in one run and direction (a duplicated line).
+
+    Only for files with ``run`` and ``direction`` columns (ISO 230-2 runs); missed
+    captures are not readings and are skipped. Poses within
+    :data:`GEOMETRY_TOLERANCE_MM` are one pose.
+
+    Parameters
+    ----------
+    positions : ndarray, shape (n, 3)
+        Commanded positions [mm].
+    rows : ndarray of int, shape (n,)
+        CSV row of each position (header = row 1).
+    columns : dict
+        The file's other columns by name (``run``, ``direction``).
+    missed : ndarray of bool, shape (n,)
+        Missed captures.
+    file : str or Path
+        CSV file, for the message.
+
+    Raises
+    ------
+    VolcalInputError
+        Naming the second row of the pose and its moving column.
+    """
+    if "run" not in columns or "direction" not in columns or positions.shape[0] < 2:
+        return
+    k = int(np.argmax(np.ptp(positions, axis=0)))
+    seen: dict[tuple[Any, Any, int], int] = {}
+    for i in range(positions.shape[0]):
+        if missed[i]:
+            continue
+        key = (columns["run"][i], columns["direction"][i],
+               int(np.round(positions[i, k] / GEOMETRY_TOLERANCE_MM)))
+        if key in seen:
+            raise VolcalInputError(
+                f"pose {'xyz'[k]} = {positions[i, k]:g} mm read twice in run {key[0]} "
+                f"direction {key[1]} (also on row {seen[key]}): a duplicated line?", file,
+                int(rows[i]), _COLS[k])
+        seen[key] = int(rows[i])
+
+
 def _check_steps(pos: NDArray[np.float64], rows: NDArray[np.int64], meta: dict[str, Any],
                  file: str | Path) -> None:
     moves = np.diff(pos, axis=0)

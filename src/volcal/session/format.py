@@ -754,6 +754,7 @@ def read_session(folder: str | Path, require_deviation: bool = True) -> Session:
 
     vertical = vertical_axis(meta, toml_path)
     references = read_references(doc, toml_path)
+    _check_files_once(raw, toml_path)
     seen: set[str] = set()
     meas: list[Measurement] = []
     unmeasured: list[Measurement] = []
@@ -785,6 +786,22 @@ def read_session(folder: str | Path, require_deviation: bool = True) -> Session:
 
         s.warnings = plausibility_warnings(s)
     return s
+
+
+def _check_files_once(raw: list[Any], toml_path: Path) -> None:
+    """Each measurement has its own file: two entries naming one file would read (and
+    ``volcal simulate`` or ``volcal import`` would write) the same readings twice."""
+    owner: dict[str, str] = {}
+    for i, e in enumerate(raw):
+        if not isinstance(e, dict) or not isinstance(e.get("file"), str) or not e["file"]:
+            continue
+        key = Path(e["file"]).as_posix()
+        if key in owner:
+            raise _err(f"measurement file {e['file']!r} is also the file of {owner[key]}: "
+                       "each measurement has its own file", toml_path, None,
+                       f"measurements[{i}].file")
+        mid = e.get("id")
+        owner[key] = f"measurement {mid!r}" if isinstance(mid, str) else f"measurements[{i}]"
 
 
 def _load_session_toml(folder: Path) -> tuple[Path, Path, dict[str, Any]]:
@@ -865,6 +882,7 @@ def _entry_keys(e: Any, where: str, folder: Path, toml_path: Path, seen: set[str
     """Id, kind, target, file and CSV path of a ``[[measurements]]`` entry, checked."""
     if not isinstance(e, dict):
         raise _err("each [[measurements]] entry must be a table", toml_path, None, where)
+    _check_misspelled(e, where, toml_path)
     mid = e.get("id")
     if not isinstance(mid, str) or not mid:
         raise _err("missing or empty id", toml_path, None, f"{where}.id")
@@ -879,6 +897,10 @@ def _entry_keys(e: Any, where: str, folder: Path, toml_path: Path, seen: set[str
     if not isinstance(file, str) or not file:
         raise _err("missing file name", toml_path, None, f"{where}.file")
     csv_path = folder / file
+    if Path(file).is_absolute() or ".." in Path(file).parts:
+        raise _err(f"measurement file {file!r} is outside the session folder: give a name "
+                   "beside session.toml (or in a subfolder of it)", toml_path, None,
+                   f"{where}.file")
     if not csv_path.is_file():
         raise _err(f"measurement file {file!r} not found beside session.toml", toml_path, None,
                    f"{where}.file")
@@ -888,6 +910,27 @@ def _entry_keys(e: Any, where: str, folder: Path, toml_path: Path, seen: set[str
         raise _err(f"{pre}a {kind} measurement needs target = one of {', '.join(k.targets)}",
                    toml_path, None, f"{where}.target")
     return mid, kind, target, file, csv_path
+
+
+ENTRY_KEYS: tuple[str, ...] = ("id", "kind", "target", "file", "tool_offset_mm",
+                               "beam_direction", "notes", "referred_to_20c", "environment",
+                               "axis", "diagonal", "axis_order", "plane")
+"""The ``[[measurements]]`` keys the session reader itself reads (a kind reads its own)."""
+
+
+def _check_misspelled(e: dict[str, Any], where: str, toml_path: Path) -> None:
+    """Refuse a key that is a misspelling of one of :data:`ENTRY_KEYS` left out of the
+    entry (``tool_ofset_mm`` would otherwise be kept as a note and the offset taken as 0).
+    Other keys of the user's own are kept."""
+    import difflib
+
+    for key in e:
+        if key in ENTRY_KEYS:
+            continue
+        close = [k for k in difflib.get_close_matches(key, ENTRY_KEYS, 1, 0.85) if k not in e]
+        if close:
+            raise _err(f"unknown key {key!r}: did you mean {close[0]!r}?", toml_path, None,
+                       f"{where}.{key}")
 
 
 def _beam(e: dict[str, Any], pos: NDArray[np.float64], where: str, toml_path: Path,
@@ -976,7 +1019,7 @@ def read_laser_entry(e: dict[str, Any], ctx: ReadContext) -> Measurement:
     -------
     Measurement
     """
-    from volcal.session.checks import check_geometry, check_travel
+    from volcal.session.checks import check_geometry, check_repeats, check_travel
 
     where, toml_path, csv_path = ctx.where, ctx.toml_path, ctx.csv_path
     r = _read_rows(csv_path)
@@ -987,6 +1030,7 @@ def read_laser_entry(e: dict[str, Any], ctx: ReadContext) -> Measurement:
     check_travel(r.positions, r.rows, ctx.travel, csv_path)
     check_geometry(ctx.kind, r.positions, r.rows, meta, csv_path,
                    n if "beam_direction" in e else None)
+    check_repeats(r.positions, r.rows, r.columns, r.missed, csv_path)
     r = missed_dropped(r, meta, ctx)
     return Measurement(ctx.id, ctx.kind, ctx.target, r.positions, r.deviation, n,
                        ctx.tool_offset, ctx.file, r.columns, meta, r.rows)

@@ -11,6 +11,8 @@ import numpy as np
 from volcal.errors import ParameterError
 
 if TYPE_CHECKING:
+    from volcal.model.errorfunctions import MachineErrors
+    from volcal.session.format import Session
     from volcal.standards.tolerance import Tolerance
     from volcal.uncertainty.budget import Budget
 
@@ -74,6 +76,60 @@ def vector(name: str, value: object) -> np.ndarray:
         raise ParameterError(f"{{{name}}} {value!r}: expected three finite numbers x, y, z "
                              "[mm]")
     return a
+
+
+def number(name: str, value: object, low: float | None = None, *, strict: bool = False,
+           unit: str = "mm") -> float:
+    """A finite number, at least (``strict``: above) ``low``.
+
+    Parameters
+    ----------
+    name : str
+        The parameter.
+    value : object
+    low : float, optional
+        Smallest value allowed.
+    strict : bool
+        ``low`` itself is not allowed.
+    unit : str
+        Unit of the value, for the message.
+
+    Returns
+    -------
+    float
+    """
+    ok = (not isinstance(value, bool) and isinstance(value, int | float | np.floating | np.integer)
+          and bool(np.isfinite(value)))
+    if ok and low is not None:
+        ok = float(value) > low if strict else float(value) >= low  # type: ignore[arg-type]
+    if not ok:
+        bound = "" if low is None else f" {'>' if strict else '>='} {low:g}"
+        raise ParameterError(f"{{{name}=}}{value!r}: expected a finite number{bound} [{unit}]")
+    return float(value)  # type: ignore[arg-type]
+
+
+def table_machine(errors: MachineErrors, session: Session) -> str | None:
+    """How an error table's machine differs from the session's, or None when its chain and
+    travel are the session's (the name may differ: a simulated truth is "virtual ...").
+
+    Parameters
+    ----------
+    errors : MachineErrors
+        Read from an error table (``.csv`` with its ``.toml``).
+    session : Session
+
+    Returns
+    -------
+    str or None
+        The difference in words (:func:`volcal.session.identity.same_machine`).
+    """
+    from volcal.compensate.manifest import identity_of_errors
+    from volcal.session.identity import MachineIdentity, same_machine
+
+    me = MachineIdentity.of(session)
+    mine = identity_of_errors(errors)
+    same, why = same_machine(MachineIdentity(me.name, mine.chain, mine.travel_mm), me)
+    return None if same else why
 
 
 def travel(value: object) -> np.ndarray:

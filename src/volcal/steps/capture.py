@@ -238,17 +238,41 @@ def capture(session: Session | str | Path, *, control: str, laser: str,
     simulated = is_simulated_control(control)
     if isinstance(session, str | Path) and not (Path(session) / "session.toml").is_file():
         raise VolcalInputError("not a session folder (no session.toml)", session)
+
+    def planned(folder: Path) -> tuple[Session, list[PlannedMeasurement]]:
+        s = read_planned(folder)
+        ids = [m.id for m in s.measurements]
+        chosen = list(measurement) if measurement else ids
+        for mid in chosen:
+            if mid not in ids:
+                raise ParameterError(f"{{measurement=}}{mid!r} is not in the session (its "
+                                     f"measurements: {', '.join(ids)})",
+                                     folder / "session.toml")
+        if len(set(chosen)) != len(chosen):
+            raise ParameterError(f"{{measurement=}}: an id is given twice "
+                                 f"({', '.join(chosen)})")
+        return s, [plan_measurement(s.get(mid), s.travel, opts, programs) for mid in chosen]
+
+    def check_sources(s0: Session, plans0: list[PlannedMeasurement]) -> None:
+        ctx0 = SourceContext(VirtualClock(speed) if simulated else Clock(), s0, plans0,
+                             lambda: None, lambda: None, dict(extras or {}))
+        make_control(control, ctx0)
+        make_laser(laser, ctx0)
+
+    # nothing is written before the sources, the measurements and their files are known good
+    resume = output is not None and (Path(output) / "session.toml").is_file()
+    if not resume:
+        check_sources(*planned(Path(session) if isinstance(session, str | Path)
+                               else Path(session.path or ".")))
     folder = _target_folder(session, output)
-    s = read_planned(folder)
-    ids = [m.id for m in s.measurements]
-    chosen = list(measurement) if measurement else ids
-    for mid in chosen:
-        if mid not in ids:
-            raise ParameterError(f"{{measurement=}}{mid!r} is not in the session (its "
-                                 f"measurements: {', '.join(ids)})", folder / "session.toml")
-    if len(set(chosen)) != len(chosen):
-        raise ParameterError(f"{{measurement=}}: an id is given twice ({', '.join(chosen)})")
-    plans = [plan_measurement(s.get(mid), s.travel, opts, programs) for mid in chosen]
+    s, plans = planned(folder)
+    if resume:
+        check_sources(s, plans)
+    from volcal.capture.sessionfile import render_csv
+
+    for pm in plans:  # a measured reading is never overwritten: refused before writing
+        render_csv(folder / pm.measurement.file, pm.measurement,
+                   read_journal(journal_path(folder, pm.id)), {})
     (folder / JOURNAL_FOLDER).mkdir(exist_ok=True)
     for pm in plans:  # keep each measurement's planned file at its first start
         keep = folder / JOURNAL_FOLDER / (Path(pm.measurement.file).stem + PLANNED_SUFFIX)

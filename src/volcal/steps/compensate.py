@@ -320,7 +320,7 @@ def _identity(model: Any, errors: MachineErrors, sess: Session | None, force: bo
     name may differ: a simulated truth is called "virtual ..."); ``force`` overrides.
     """
     from volcal.compensate.manifest import identity_of_errors, model_identity
-    from volcal.session.identity import MachineIdentity, same_machine
+    from volcal.session.identity import MachineIdentity
 
     if sess is None:
         if isinstance(model, str | Path):
@@ -328,9 +328,8 @@ def _identity(model: Any, errors: MachineErrors, sess: Session | None, force: bo
         return identity_of_errors(errors)
     me = MachineIdentity.of(sess)
     if isinstance(model, str | Path) and Path(model).suffix.lower() == ".csv":
-        mine = identity_of_errors(errors)
-        same, why = same_machine(MachineIdentity(me.name, mine.chain, mine.travel_mm), me)
-        if not same:
+        why = _checks.table_machine(errors, sess)
+        if why is not None:
             text = (f"the error table is not of this session's machine ({why}); the tables "
                     f"would be labelled {me.label()}")
             if not force:

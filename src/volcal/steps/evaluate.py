@@ -15,6 +15,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from volcal import defaults as D
+from volcal.errors import ParameterError
+from volcal.steps import _checks
 
 if TYPE_CHECKING:
     from volcal.identify.result import IdentificationResult
@@ -97,6 +99,13 @@ def evaluate(session: Session, *, model: str | Path | IdentificationResult | Non
     if compensation is not None and tolerance is not None:
         tables = _written_tables(Path(compensation), session, errors, label, force, warned)
     other: tuple[str, ...] = ()
+    if result is None and errors is not None:  # an error table: of this machine?
+        why = _checks.table_machine(errors, session)
+        if why is not None:
+            text = f"the error table is not of this session's machine ({why})"
+            if not force:
+                raise ParameterError(text + "; give {force=True} to evaluate it anyway", model)
+            warned.append(text)
     if result is not None:
         from volcal.identify.modelfile import check_model_session
 

@@ -123,6 +123,8 @@ def import_(csv_file: str | Path, *, session: str | Path | None = None,
 
     if session is None:
         raise ParameterError("give {session=}FOLDER (the session to add the readings to)")
+    parse_sign(sign)  # checked whatever the file, as dwell_s (used by a .rtx only)
+    _checks.number("dwell_s", dwell_s, 0.0, strict=True, unit="s")
     if measurement is not None and _planned_kind(session, measurement) == "probe_sphere":
         from volcal.importer.probe_log import import_probe_log
 

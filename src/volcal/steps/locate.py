@@ -106,6 +106,11 @@ class Located:
         from volcal.identify.location import identify_location
         from volcal.model.names import info
 
+        if z_rot_point_mm is not None and not (
+                isinstance(z_rot_point_mm, int | float) and np.isfinite(z_rot_point_mm)):
+            raise ParameterError(f"{{z_rot_point_mm=}}{z_rot_point_mm!r}: expected a finite "
+                                 "number [mm]")
+
         # the best lines without tilt: the fit with the orientations and zeros held at zero
         m = self.result.machine
         hold = [n for n in self.result.identifiability.names if info(n).kind != "position"]
@@ -133,6 +138,9 @@ class Located:
         """
         from volcal.compensate.siemens_tcarr import tcarr_export
 
+        if isinstance(carrier, bool) or not isinstance(carrier, int) or carrier < 1:
+            raise ParameterError(f"{{tool_carrier=}}{carrier!r}: expected a record number 1, "
+                                 "2, ...")
         m = self.result.machine
         spheres: dict[str, Any] = {}
         for k, v in self.result.nuisances.items():
@@ -237,7 +245,8 @@ def locate(session: str | Path | Session, *,
         ms = [m for m in ms if m.id in measurements]
     if not ms:
         raise VolcalInputError("the session has no probe_sphere test and no r_test test "
-                               "(docs/fiveaxis.md)")
+                               "(docs/fiveaxis.md)",
+                               s.path / "session.toml" if s.path else None)
     for m in ms:
         if m.deviation is None:
             what = ("no reported centres (x_mm, y_mm, z_mm)" if m.kind == "probe_sphere"

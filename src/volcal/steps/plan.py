@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Any
 from numpy.typing import ArrayLike
 
 from volcal import defaults as D
-from volcal.errors import ParameterError
+from volcal.errors import ParameterError, VolcalInputError
 from volcal.steps import _checks
 
 if TYPE_CHECKING:
@@ -126,9 +126,14 @@ def rotary_options(targets: str | Sequence[float] | None,
         else:
             vals = [float(v) for v in targets]
         out["targets_deg"] = vals
-    if rotary_axes is not None:
-        out["axes"] = (rotary_axis_spec(rotary_axes) if isinstance(rotary_axes, str)
-                       else list(rotary_axes))
+    if rotary_axes is not None and isinstance(rotary_axes, str):
+        try:
+            out["axes"] = rotary_axis_spec(rotary_axes)
+        except VolcalInputError as exc:
+            text = str(exc).replace("{", "{{").replace("}", "}}")
+            raise ParameterError(f"{{rotary_axes}}: {text}") from None
+    elif rotary_axes is not None:
+        out["axes"] = list(rotary_axes)
     return out
 
 
@@ -198,6 +203,11 @@ def plan(travel: ArrayLike, *, chain: str = D.CHAIN, steps: int = D.PLAN_STEPS,
 
     t = _checks.travel(travel)
     steps, runs = _checks.whole("steps", steps), _checks.whole("runs", runs)
+    overrun_mm = _checks.number("overrun_mm", overrun_mm, 0.0)
+    abbe_offset_mm = _checks.number("abbe_offset_mm", abbe_offset_mm, 0.0, strict=True)
+    if not isinstance(name, str) or not name.strip():
+        raise ParameterError(f"{{name=}}{name!r}: expected the machine's name (it identifies "
+                             "the machine in reports and the history)")
     ml = multilateration_layout(multilateration)
     old = None
     if output is not None:

@@ -568,11 +568,13 @@ CASES: list[Case] = [
     Case("identify:output-over-measured-csv", ["identify", "{d}/S", "-o", "{d}/S/linear-x1.csv"],
          ("linear-x1.csv",), before="overwrote it"),
     Case("identify:output-over-session-toml", ["identify", "{d}/S", "-o",
-                                               "{d}/S/session.toml"], ("session.toml",), before="overwrote it"),
+                                               "{d}/S/session.toml"], ("session.toml",),
+         before="overwrote it"),
     Case("identify:output-over-foreign", ["identify", "{d}/S", "-o", "{d}/notes.txt"],
          ("notes.txt",), before="overwrote it"),
     Case("predict:output-over-measured-csv", ["predict", M, "--points", "{d}/points.csv", "-o",
-                                              "{d}/S/diag-ppp.csv"], ("diag-ppp.csv",), before="overwrote it"),
+                                              "{d}/S/diag-ppp.csv"], ("diag-ppp.csv",),
+         before="overwrote it"),
     Case("predict:output-over-points", ["predict", M, "--points", "{d}/points.csv", "-o",
                                         "{d}/points.csv"], ("points.csv",), before="overwrote it"),
     Case("compensate:output-session", ["compensate", "{d}/ERRORS.csv", "--format", "csv",
@@ -587,11 +589,13 @@ CASES: list[Case] = [
     Case("budget:template-over-foreign", ["budget", "--template", "-o", "{d}/notes.txt"],
          ("notes.txt",)),
     Case("locate:hal-over-measured", ["locate", "{d}/PS", "--linuxcnc-hal",
-                                      "{d}/PS/probe_sphere.csv"], ("probe_sphere.csv",), before="overwrote it"),
+                                      "{d}/PS/probe_sphere.csv"], ("probe_sphere.csv",),
+         before="overwrote it"),
     Case("locate:json-over-foreign", ["locate", "{d}/PS", "--json", "-o", "{d}/notes.txt"],
          ("notes.txt",), before="overwrote it"),
     Case("locate:tcarr-over-session-toml", ["locate", "{d}/PS", "--siemens-tcarr",
-                                            "{d}/PS/session.toml"], ("session.toml",), before="overwrote it"),
+                                            "{d}/PS/session.toml"], ("session.toml",),
+         before="overwrote it"),
     Case("history:trend-plot-over-measured", ["history", "trend", "VMC-1", "--parameter", "X.A",
                                               "--db", "{d}/H.sqlite", "--plot",
                                               "{d}/S/linear-x1.csv"], ("linear-x1.csv",)),
@@ -608,7 +612,8 @@ CASES: list[Case] = [
     Case("locate:hal-parent-missing", ["locate", "{d}/PS", "--linuxcnc-hal",
                                        "{d}/NOPE/trt.hal"], (), code=0, writes=("NOPE",)),
     Case("history:qif-parent-missing", ["history", "export-qif", "C000002", "--db",
-                                        "{d}/H.sqlite", "-o", "{d}/NOPE/q.qif"], (), code=0, writes=("NOPE",)),
+                                        "{d}/H.sqlite", "-o", "{d}/NOPE/q.qif"], (),
+         code=0, writes=("NOPE",)),
     Case("history:fleet-parent-missing", ["history", "fleet", "--db", "{d}/H.sqlite", "-o",
                                           "{d}/NOPE/f.html"], (), code=0, writes=("NOPE",)),
     # ---- capture ----
@@ -794,7 +799,8 @@ CASES: list[Case] = [
              "tool_ofset_mm = [0.0, 0.0, 100.0]"),
          before="accepted: the key kept as a note, the tool offset taken as 0"),
     Case("identify:toml-kind-typo-key", ["identify", "{d}/S", "-o", "{d}/M2.json"],
-         ("session.toml", "measurements[0].knd", "did you mean 'kind'?"), sub("S/session.toml", 'kind = "step_diagonal"',
+         ("session.toml", "measurements[0].knd", "did you mean 'kind'?"),
+         sub("S/session.toml", 'kind = "step_diagonal"',
                                       'knd = "step_diagonal"'),
          before="refused as 'unknown kind None' naming measurements[0].kind"),
     Case("budget:value-text", ["budget", "{d}/B.toml"], ("B.toml", "u_wavelength_ppm"),
@@ -813,7 +819,8 @@ CASES: list[Case] = [
                                             "--axis", "X", "--chain", "XYFZ", "-o",
                                             "{d}/S/linear-x3.csv"], ("linear-x3.csv",)),
     Case("predict:points-duplicate", ["predict", M, "--points", "{d}/points.csv", "-o",
-                                      "{d}/p.csv"], (), lines_of("points.csv", lambda ls: ls + ls[1:2]),
+                                      "{d}/p.csv"], (),
+         lines_of("points.csv", lambda ls: ls + ls[1:2]),
          code=0, writes=("p.csv",)),
 ]
 
@@ -836,7 +843,8 @@ def test_user_mistake(case: Case, base: Path, tmp_path: Path) -> None:
     r = volcal(*[a.format(d=d) for a in case.args], cwd=d)
     out = r.stdout + r.stderr
     assert "Traceback" not in out, out
-    assert r.returncode == case.code, f"exit {r.returncode}\nstdout:\n{r.stdout}\nstderr:\n{r.stderr}"
+    assert r.returncode == case.code, \
+        f"exit {r.returncode}\nstdout:\n{r.stdout}\nstderr:\n{r.stderr}"
     msg = " ".join(r.stderr.split())
     for e in case.expect:
         assert e.format(d=d) in msg, f"{e!r} not in the message:\n{r.stderr}"

@@ -44,6 +44,8 @@ def budget_cmd(
 
 
 def _show(file: Path, length_mm: float) -> None:
+    import math
+
     from rich.console import Console
     from rich.markup import escape
     from rich.table import Table
@@ -51,8 +53,6 @@ def _show(file: Path, length_mm: float) -> None:
     from volcal.uncertainty.budget import read_budget
     from volcal.uncertainty.laser import LaserModel
     from volcal.uncertainty.propagation import Propagator
-
-    import math
 
     if not (math.isfinite(length_mm) and length_mm >= 0):
         from volcal.errors import VolcalInputError

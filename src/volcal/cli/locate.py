@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import typer
 from rich.console import Console
@@ -47,10 +48,9 @@ def locate_cmd(
                                                 "enters)."),
 ) -> None:
     """Identify the rotary axes' location errors from probe-on-sphere and R-test tests."""
+    from volcal.io.paths import check_output_file
     from volcal.steps.locate import locate as step
     from volcal.steps.locate import located_json
-
-    from volcal.io.paths import check_output_file
 
     # every output checked, and every export made, before the first file is written
     for path in (linuxcnc_hal, siemens_tcarr, isg_kinematics):
@@ -60,9 +60,9 @@ def locate_cmd(
         check_output_file(output)
     ids = [x.strip() for x in measurements.split(",")] if measurements else None
     r = step(session, model=model, measurements=ids, prior_u=prior_u)
-    exp = r.linuxcnc_trt(z_rot_point_mm) if linuxcnc_hal is not None else None
-    texp = r.siemens_tcarr(tool_carrier) if siemens_tcarr is not None else None
-    iexp = r.isg_location() if isg_kinematics is not None else None
+    exp: Any = r.linuxcnc_trt(z_rot_point_mm) if linuxcnc_hal is not None else None
+    texp: Any = r.siemens_tcarr(tool_carrier) if siemens_tcarr is not None else None
+    iexp: Any = r.isg_location() if isg_kinematics is not None else None
     if linuxcnc_hal is not None:
         from volcal.compensate.linuxcnc_trt import trt_hal
         from volcal.io.atomic import write_text

@@ -55,8 +55,9 @@ def binary_path(path: str | Path) -> Path:
 
 
 def is_binary_part(path: str | Path) -> bool:
-    """True when ``path`` is a model's binary part (:func:`binary_path`) written by volcal:
-    a NumPy ``.npz`` archive holding the readings' ``fitted_um``.
+    """True when ``path`` is a model's binary part (:func:`binary_path`) written by volcal.
+
+    A NumPy ``.npz`` archive holding the readings' ``fitted_um``.
 
     Parameters
     ----------
@@ -107,8 +108,9 @@ def _json_text(obj: Any, indent: int = 0) -> str:
 
 
 def write_model(result: IdentificationResult, path: str | Path) -> Path:
-    """Write a model file (format ``volcal-model/3``): ``MODEL.npz``, then ``MODEL.json``;
-    both or neither replaced (:func:`volcal.io.atomic.write_together`).
+    """Write a model file (format ``volcal-model/3``): ``MODEL.npz``, then ``MODEL.json``.
+
+    Both or neither replaced (:func:`volcal.io.atomic.write_together`).
 
     Parameters
     ----------

@@ -99,8 +99,8 @@ def write_together(files: Sequence[tuple[str | Path, str | bytes]]) -> None:
     umask = os.umask(0)
     os.umask(umask)
     try:
-        for path, content in files:
-            path = Path(path)
+        for target, content in files:
+            path = Path(target)
             path.parent.mkdir(parents=True, exist_ok=True)
             fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
             with os.fdopen(fd, "wb") as fh:
@@ -108,7 +108,7 @@ def write_together(files: Sequence[tuple[str | Path, str | bytes]]) -> None:
                 fh.flush()
                 os.fsync(fh.fileno())
             os.chmod(tmp, 0o666 & ~umask)
-            old = None
+            old: Path | None = None
             if path.is_file():
                 fd, name = tempfile.mkstemp(prefix=f".{path.name}.old.", dir=path.parent)
                 os.close(fd)
@@ -119,17 +119,17 @@ def write_together(files: Sequence[tuple[str | Path, str | bytes]]) -> None:
             os.replace(item[1], item[0])
             done.append(item)
     except BaseException:
-        for path, _tmp, old in reversed(done):
-            if old is not None:
-                os.replace(old, path)
+        for done_path, _tmp, done_old in reversed(done):
+            if done_old is not None:
+                os.replace(done_old, done_path)
             else:
-                path.unlink(missing_ok=True)
+                done_path.unlink(missing_ok=True)
         raise
     finally:
-        for _path, tmp, old in staged:
-            tmp.unlink(missing_ok=True)
-            if old is not None:
-                old.unlink(missing_ok=True)
+        for _target, staged_tmp, staged_old in staged:
+            staged_tmp.unlink(missing_ok=True)
+            if staged_old is not None:
+                staged_old.unlink(missing_ok=True)
 
 
 def _carry_backup(old: Path, new: Path) -> None:

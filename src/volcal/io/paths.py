@@ -72,8 +72,10 @@ def session_files(folder: Path) -> set[str]:
 
 
 def written_by_volcal(path: Path) -> bool:
-    """True when the file ``path`` carries volcal's mark (:data:`MARK`) in its first
-    64 KiB, or its ``.toml`` companion (an error table's) does.
+    """True when the file ``path`` or its ``.toml`` companion carries volcal's mark.
+
+    The mark (:data:`MARK`) is looked for in the first 64 KiB; an error table's CSV has
+    it in its ``.toml``.
 
     Parameters
     ----------
@@ -95,8 +97,9 @@ def written_by_volcal(path: Path) -> bool:
 
 
 def first_line_is(*headers: str) -> Callable[[Path], bool]:
-    """A test of an earlier output whose first line is one of ``headers`` (a CSV volcal
-    writes without its mark, such as ``volcal predict``'s).
+    """A test of an earlier output whose first line is one of ``headers``.
+
+    For a CSV volcal writes without its mark, such as ``volcal predict``'s.
 
     Parameters
     ----------
@@ -120,8 +123,7 @@ def first_line_is(*headers: str) -> Callable[[Path], bool]:
 
 
 def check_replaceable(path: str | Path, own: Callable[[Path], bool] | None = None) -> None:
-    """Refuse to replace an existing file that holds measured data or that volcal did not
-    write.
+    """Refuse to replace a session's file, or a file volcal did not write.
 
     Parameters
     ----------

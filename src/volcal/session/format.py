@@ -789,8 +789,11 @@ def read_session(folder: str | Path, require_deviation: bool = True) -> Session:
 
 
 def _check_files_once(raw: list[Any], toml_path: Path) -> None:
-    """Each measurement has its own file: two entries naming one file would read (and
-    ``volcal simulate`` or ``volcal import`` would write) the same readings twice."""
+    """Refuse two entries naming one file.
+
+    Each measurement has its own file: two entries naming one file would read (and
+    ``volcal simulate`` or ``volcal import`` would write) the same readings twice.
+    """
     owner: dict[str, str] = {}
     for i, e in enumerate(raw):
         if not isinstance(e, dict) or not isinstance(e.get("file"), str) or not e["file"]:
@@ -919,9 +922,11 @@ ENTRY_KEYS: tuple[str, ...] = ("id", "kind", "target", "file", "tool_offset_mm",
 
 
 def _check_misspelled(e: dict[str, Any], where: str, toml_path: Path) -> None:
-    """Refuse a key that is a misspelling of one of :data:`ENTRY_KEYS` left out of the
-    entry (``tool_ofset_mm`` would otherwise be kept as a note and the offset taken as 0).
-    Other keys of the user's own are kept."""
+    """Refuse a misspelling of one of :data:`ENTRY_KEYS` that the entry lacks.
+
+    ``tool_ofset_mm`` would otherwise be kept as a note and the offset taken as 0. Other
+    keys of the user's own are kept.
+    """
     import difflib
 
     for key in e:

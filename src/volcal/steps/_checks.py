@@ -109,8 +109,10 @@ def number(name: str, value: object, low: float | None = None, *, strict: bool =
 
 
 def table_machine(errors: MachineErrors, session: Session) -> str | None:
-    """How an error table's machine differs from the session's, or None when its chain and
-    travel are the session's (the name may differ: a simulated truth is "virtual ...").
+    """How an error table's machine differs from the session's (None: the same).
+
+    Its chain and travel must be the session's; the name may differ (a simulated truth
+    is "virtual ...").
 
     Parameters
     ----------

@@ -104,7 +104,8 @@ def evaluate(session: Session, *, model: str | Path | IdentificationResult | Non
         if why is not None:
             text = f"the error table is not of this session's machine ({why})"
             if not force:
-                raise ParameterError(text + "; give {force=True} to evaluate it anyway", model)
+                raise ParameterError(text + "; give {force=True} to evaluate it anyway",
+                                     model if isinstance(model, str | Path) else None)
             warned.append(text)
     if result is not None:
         from volcal.identify.modelfile import check_model_session

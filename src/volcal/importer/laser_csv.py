@@ -459,7 +459,7 @@ def _check_duplicates(table: LaserTable, path: Path, t_col: str) -> None:
     if run is None or dirn is None:
         return
     seen: dict[tuple[float, int, str], int] = {}
-    for j, key in enumerate(zip(table.target_mm.round(9), run, dirn, strict=True)):
+    for j, key in enumerate(zip(table.target_mm.round(6), run, dirn, strict=True)):  # as written
         if key in seen:
             raise VolcalInputError(
                 f"target {key[0]:g} mm appears twice in run {key[1]} direction {key[2]} "

@@ -141,8 +141,8 @@ def check_repeats(positions: NDArray[np.float64], rows: NDArray[np.int64],
     """Refuse a pose read twice in one run and direction (a duplicated line).
 
     Only for files with ``run`` and ``direction`` columns (ISO 230-2 runs); missed
-    captures are not readings and are skipped. Poses within
-    :data:`GEOMETRY_TOLERANCE_MM` are one pose.
+    captures are not readings and are skipped. Poses equal to 1 nm are one pose (as the
+    importer's check, which sees the same positions).
 
     Parameters
     ----------
@@ -165,12 +165,12 @@ def check_repeats(positions: NDArray[np.float64], rows: NDArray[np.int64],
     if "run" not in columns or "direction" not in columns or positions.shape[0] < 2:
         return
     k = int(np.argmax(np.ptp(positions, axis=0)))
-    seen: dict[tuple[Any, Any, int], int] = {}
+    seen: dict[tuple[Any, Any, float], int] = {}
     for i in range(positions.shape[0]):
         if missed[i]:
             continue
         key = (columns["run"][i], columns["direction"][i],
-               int(np.round(positions[i, k] / GEOMETRY_TOLERANCE_MM)))
+               round(float(positions[i, k]), 6))
         if key in seen:
             raise VolcalInputError(
                 f"pose {'xyz'[k]} = {positions[i, k]:g} mm read twice in run {key[0]} "

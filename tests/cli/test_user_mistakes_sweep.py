@@ -793,13 +793,13 @@ CASES: list[Case] = [
     Case("identify:toml-machine-chain-typo", ["identify", "{d}/S", "-o", "{d}/M2.json"],
          ("session.toml", "chain"), sub("S/session.toml", 'chain = "XYFZ"', 'chian = "XYFZ"')),
     Case("identify:toml-tool-offset-typo", ["identify", "{d}/S", "-o", "{d}/M2.json"],
-         ("session.toml", "measurements[0].tool_ofset_mm", "unknown key 'tool_ofset_mm': did "
+         ("session.toml", "measurements[0].tool_offset_mm", "unknown key 'tool_ofset_mm': did "
           "you mean 'tool_offset_mm'?"),
          sub("S/session.toml", "tool_offset_mm = [0.0, 0.0, 0.0]",
              "tool_ofset_mm = [0.0, 0.0, 100.0]"),
          before="accepted: the key kept as a note, the tool offset taken as 0"),
     Case("identify:toml-kind-typo-key", ["identify", "{d}/S", "-o", "{d}/M2.json"],
-         ("session.toml", "measurements[0].knd", "did you mean 'kind'?"),
+         ("session.toml", "measurements[0].kind", "unknown key 'knd': did you mean 'kind'?"),
          sub("S/session.toml", 'kind = "step_diagonal"',
                                       'knd = "step_diagonal"'),
          before="refused as 'unknown kind None' naming measurements[0].kind"),

@@ -935,7 +935,7 @@ def _check_misspelled(e: dict[str, Any], where: str, toml_path: Path) -> None:
         close = [k for k in difflib.get_close_matches(key, ENTRY_KEYS, 1, 0.85) if k not in e]
         if close:
             raise _err(f"unknown key {key!r}: did you mean {close[0]!r}?", toml_path, None,
-                       f"{where}.{key}")
+                       f"{where}.{close[0]}")
 
 
 def _beam(e: dict[str, Any], pos: NDArray[np.float64], where: str, toml_path: Path,

@@ -518,7 +518,7 @@ CASES: list[Case] = [
          ("PS",)),
     Case("report:as-left-same-session", ["report", "{d}/S", "--model", M, "--as-left", "{d}/S",
                                          "-o", "{d}/R"],
-         ("--as-left: the as-left session holds the as-found session's readings",),
+         ("--as-left: the as-left session is the as-found session itself",),
          before="accepted: a certificate pairing the session with itself"),
     Case("report:tables-without-as-left", ["report", "{d}/S", "--model", M, "--tables",
                                            "{d}/COMP", "-o", "{d}/R"], ("--tables",)),

@@ -169,13 +169,12 @@ def certificate_wanted(s: Any, s2: Any, tables: str | Path | None, certificate: 
         tables_of(tables, s)  # a damaged manifest or another machine's tables: refused now
     if s2 is not None:
         from volcal.session.identity import same_machine
-        from volcal.session.provenance import readings_digest
 
-        if readings_digest(s) == readings_digest(s2):
-            raise VolcalInputError("--as-left: the as-left session holds the as-found "
-                                   "session's readings (the same session given twice?): give "
-                                   "the session measured after the compensation was loaded",
-                                   s2.path)
+        if s.path is not None and s2.path is not None and (
+                Path(s.path).resolve() == Path(s2.path).resolve()):
+            raise VolcalInputError("--as-left: the as-left session is the as-found session "
+                                   "itself: give the session measured after the compensation "
+                                   "was loaded", s2.path)
         same, why = same_machine(s.identity, s2.identity)
         if not same:
             raise VolcalInputError(f"--as-left: the sessions are of two machines ({why})",

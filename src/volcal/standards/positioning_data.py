@@ -14,6 +14,7 @@ that missed the target (``allow_incomplete=True`` of the evaluations).
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -84,7 +85,8 @@ POSITIONING_TABLE = TableSpec(
     columns=(Column("target_mm", abs_max=1e6), Column("run", kind="int", min=0),
              Column("direction", kind="choice", choices=("+", "-")),
              Column("deviation_um", abs_max=10_000.0, markers=("missed",))),
-    min_rows=1, min_rows_message="no readings below the header", what="positioning file")
+    min_rows=1, min_rows_message="no readings below the header", what="positioning file",
+    delimiters=",;\t", decimal_comma=True)  # as the session's CSVs: a spreadsheet's save
 """Columns of the ``target_mm,run,direction,deviation_um`` layout."""
 
 
@@ -108,8 +110,9 @@ def read_positioning_csv(path: str | Path) -> PositioningData:
     path = Path(path)
     text = read_text(path, "positioning file")
     first = next((ln for ln in text.splitlines() if ln.strip()), "")
-    if any(h.strip() in ("x_mm", "y_mm", "z_mm") for h in first.split(",")):
-        return _read_measurement_layout(path, [h.strip() for h in first.split(",")])
+    header = [h.strip().lstrip("\ufeff") for h in re.split(r"[,;\t]", first)]
+    if any(h in ("x_mm", "y_mm", "z_mm") for h in header):
+        return _read_measurement_layout(path, header)
     t = parse_table(text, POSITIONING_TABLE, path)
     keep = ~t.marked["deviation_um"]
     notes = []

@@ -194,6 +194,7 @@ class PageServer:
             loop.run_until_complete(self._serve())
         except Exception as e:  # bind errors: reported by start()
             self._error = e
+            loop.close()  # nothing left running on it (no unclosed loop left behind)
             self._ready.set()
             return
         self._ready.set()

@@ -863,6 +863,26 @@ CASES: list[Case] = [
                                     "{d}/p.csv"], (),
          lambda d: _ok(volcal("predict", d / "MODEL.json", "--points", d / "points.csv", "-o",
                               d / "p.csv")), code=0, writes=("p.csv",)),
+    # ---- the same command again over its own earlier output: replaced ----
+    *[Case(f"rerun:{name}", args, (), lambda d, a=args: _ok(volcal(
+        *[x.format(d=d) for x in a], cwd=d)), code=0, writes=writes)
+      for name, args, writes in [
+        ("history-export-qif", ["history", "export-qif", "C000002", "--db", "{d}/H.sqlite",
+                                "-o", "{d}/q.qif"], ("q.qif",)),
+        ("history-export-etalon", ["history", "export-etalon", "C000002", "--db",
+                                   "{d}/H.sqlite", "-o", "{d}/e.txt"], ("e.txt",)),
+        ("history-fleet", ["history", "fleet", "--db", "{d}/H.sqlite", "-o", "{d}/f.html"],
+         ("f.html",)),
+        ("locate-exports", ["locate", "{d}/PS", "--json", "-o", "{d}/loc.json",
+                            "--linuxcnc-hal", "{d}/trt.hal", "--siemens-tcarr", "{d}/t.mpf",
+                            "--isg-kinematics", "{d}/isg.csv"],
+         ("loc.json", "trt.hal", "t.mpf", "isg.csv")),
+        ("classic-step-diagonal", ["classic", "step-diagonal", "{d}/S", "-o", "{d}/T.csv"],
+         ("T.csv", "T.toml")),
+        ("classic-abbe", ["classic", "abbe", "{d}/S/linear-x1.csv", "{d}/S/linear-x2.csv",
+                          "{d}/S/linear-x3.csv", "--axis", "X", "--chain", "XYFZ", "-o",
+                          "{d}/abbe.csv"], ("abbe.csv",)),
+      ]],
     Case("predict:points-duplicate", ["predict", M, "--points", "{d}/points.csv", "-o",
                                       "{d}/p.csv"], (),
          lines_of("points.csv", lambda ls: ls + ls[1:2]),

@@ -614,6 +614,11 @@ CASES: list[Case] = [
     Case("import:new-session-over-foreign", ["import", "{d}/laser.csv", "--map", LASER_MAP,
                                              "--axis", "X", "--id", "lx9", "--session",
                                              "{d}/COMP", "--travel", TRAVEL], ("COMP",)),
+    Case("predict:output-over-empty-file", ["predict", M, "--points", "{d}/points.csv", "-o",
+                                            "{d}/empty.csv"], (), code=0, writes=("empty.csv",)),
+    Case("identify:output-over-empty-file", ["identify", "{d}/S", "-o", "{d}/placeholder.json"],
+         (), mutate=lambda d: (d / "placeholder.json").write_text(""), code=0,
+         writes=("placeholder.json", "placeholder.npz")),
     # ---- outputs in a folder that does not exist ----
     Case("identify:output-parent-missing", ["identify", "{d}/S", "-o", "{d}/NOPE/M.json"],
          (), code=0, writes=("NOPE",)),

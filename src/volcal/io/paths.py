@@ -137,7 +137,9 @@ def check_replaceable(path: str | Path, own: Callable[[Path], bool] | None = Non
     ------
     VolcalInputError
         ``path`` is session.toml or a measurement file of a session (measured data are
-        never overwritten), or an existing file that ``own`` does not recognise.
+        never overwritten), or an existing non-empty file that ``own`` does not
+        recognise (an empty file, such as a temporary file made for the output, is
+        replaced).
     """
     path = Path(path)
     if not path.is_file():
@@ -147,6 +149,8 @@ def check_replaceable(path: str | Path, own: Callable[[Path], bool] | None = Non
         raise VolcalInputError(
             f"is a file of the session in {str(folder)!r} (measured data or its plan): "
             "volcal never overwrites it; choose another file name", path)
+    if path.stat().st_size == 0:  # an empty file holds nothing to lose (a placeholder)
+        return
     if not (own or written_by_volcal)(path):
         raise VolcalInputError(
             "exists and was not written by volcal: volcal never replaces a file it did not "

@@ -19,6 +19,7 @@ and drawn in one pass; the parts matplotlib rasterizes (colour bars) and the hea
 from __future__ import annotations
 
 import re
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -26,14 +27,15 @@ import numpy as np
 from matplotlib.artist import Artist
 from matplotlib.backends.backend_pdf import FigureCanvasPdf, PdfPages, RendererPdf
 from matplotlib.collections import Collection
+from matplotlib.colors import to_rgb
 from matplotlib.figure import Figure
-from matplotlib.font_manager import FontProperties
+from matplotlib.font_manager import FontProperties, findfont, get_font
 from matplotlib.image import AxesImage
 from matplotlib.layout_engine import ConstrainedLayoutEngine
 from matplotlib.lines import Line2D
-from matplotlib.patches import Rectangle
+from matplotlib.path import Path as MplPath
+from matplotlib.transforms import Affine2D
 
-from volcal.plot._figure import new_figure
 from volcal.report.document import Report, Table
 from volcal.report.drawcache import cached_drawing, text_metrics
 from volcal.report.wording import customer_report
@@ -77,25 +79,53 @@ class _Measure:
         self._renderer = RendererPdf(None, _PT, h, w)  # measures only: draws nothing
         self._props: dict[tuple[float, str], FontProperties] = {}
         self._cache: dict[tuple[str, float, str], float] = {}
+        self._heights: dict[tuple[float, str], tuple[float, float]] = {}
 
-    def _prop(self, size: float, weight: str) -> FontProperties:
+    def prop(self, size: float, weight: str = "normal") -> FontProperties:
+        """The font of a text of this size [pt] and weight (one object per font)."""
         return self._props.setdefault((size, weight), FontProperties(size=size, weight=weight))
 
     def width(self, text: str, size: float, weight: str = "normal") -> float:
         key = (text, size, weight)
         if key not in self._cache:
-            w, _, _ = text_metrics(self._renderer, text, self._prop(size, weight))
+            w, _, _ = text_metrics(self._renderer, text, self.prop(size, weight))
             self._cache[key] = w + 0.5  # half a point of slack for rounding
         return self._cache[key]
 
-    def line_metrics(self, size: float) -> tuple[float, float]:
-        """Pitch of the lines of a multi-line text and height of one line [pt].
+    def metrics(self, text: str, prop: FontProperties) -> tuple[float, float, float]:
+        """Width, height and descent of one line of text [pt], as it prints."""
+        return text_metrics(self._renderer, text, prop)
 
-        As matplotlib lays text out (``Text._get_layout``): each line ``h - d`` times the
-        line spacing plus the descent ``d`` below the previous one, ``h`` the height of
-        ``'lp'``.
+    def ascent_descent(self, prop: FontProperties) -> tuple[float, float]:
+        """The font's ascent and descent [pt].
+
+        Its ``OS/2`` typographic metrics, else ``hhea``'s: what matplotlib spaces the lines
+        of a text by.
         """
-        _, h, d = text_metrics(self._renderer, "lp", self._prop(size, "normal"))
+        key = (prop.get_size_in_points(), str(prop.get_weight()))
+        if key not in self._heights:
+            font = get_font(findfont(prop))
+            scale = prop.get_size_in_points() / font.get_sfnt_table("head")["unitsPerEm"]
+            os2, hhea = font.get_sfnt_table("OS/2"), font.get_sfnt_table("hhea")
+            if os2 is not None:
+                a, d = os2["sTypoAscender"], -os2["sTypoDescender"]
+            elif hhea is not None:
+                a, d = hhea["ascent"], -hhea["descent"]
+            else:  # no table: the ink of "lp"
+                _, h, dd = self.metrics("lp", prop)
+                a, d = (h - dd) / scale, dd / scale
+            self._heights[key] = (a * scale, d * scale)
+        return self._heights[key]
+
+    def line_metrics(self, size: float) -> tuple[float, float]:
+        """Pitch of the lines of a table cell and height of one line [pt].
+
+        Each line ``h - d`` times the line spacing plus the descent ``d`` below the
+        previous one, ``h`` the height of ``'lp'`` (matplotlib's rule before 3.11; the
+        text pages draw their cells' lines with it, :meth:`_Flow._row`, and the figure
+        pages' caption band is measured with it).
+        """
+        _, h, d = text_metrics(self._renderer, "lp", self.prop(size, "normal"))
         return _LINESPACING * (h - d) + d, h
 
     def wrap(self, text: str, width: float, size: float, weight: str = "normal") -> list[str]:
@@ -226,43 +256,117 @@ def _column_widths(m: _Measure, cells: list[list[str]], size: float, total: floa
     return [w + extra * s / sum(slack) for w, s in zip(word, slack, strict=True)]
 
 
+@dataclass
+class _TextPage:
+    """What one text page draws, in drawing order.
+
+    The table cells' boxes, then the lines of text (as a matplotlib figure of the same
+    artists would: patches below texts).
+
+    Attributes
+    ----------
+    boxes : list of tuple
+        ``(x, y, width, height, filled)`` of each cell box, lower left corner [pt].
+    lines : list of tuple
+        ``(x, y, text, font, colour)`` of each line of text, its baseline's left end [pt].
+    """
+
+    boxes: list[tuple[float, float, float, float, bool]] = field(default_factory=list)
+    lines: list[tuple[float, float, str, FontProperties, str]] = field(default_factory=list)
+
+
+_CELL_EDGE, _HEAD_FILL = "0.6", "#eef3f8"
+_UNIT_SQUARE = MplPath.unit_rectangle()
+
+
+def _draw_text_page(pdf: PdfPages, page: _TextPage) -> None:
+    """Write a text page straight to the PDF: its boxes as paths, its lines as text.
+
+    No matplotlib figure, no artists, no layout: each line is drawn by matplotlib's PDF
+    renderer (``RendererPdf.draw_text``: the fonts, their embedding and the text objects
+    those of the figure pages) at the place :class:`_Flow` computed for it.
+    """
+    file = pdf._ensure_file()  # PdfPages's file: the pages, fonts and objects of the PDF
+    w, h = A4_PORTRAIT
+    file.newPage(w, h)
+    renderer = RendererPdf(file, _PT, h * _PT, w * _PT)
+    edge = to_rgb(_CELL_EDGE)
+    fill = to_rgb(_HEAD_FILL)
+    for x, y, bw, bh, filled in page.boxes:
+        gc = renderer.new_gc()
+        gc.set_linewidth(0.3)
+        gc.set_foreground(edge)
+        gc.set_joinstyle("miter")
+        gc.set_capstyle("butt")
+        renderer.draw_path(gc, _UNIT_SQUARE, Affine2D().scale(bw, bh).translate(x, y),
+                           fill if filled else None)
+        gc.restore()
+    for x, y, text, prop, color in page.lines:
+        gc = renderer.new_gc()
+        gc.set_foreground(color)
+        renderer.draw_text(gc, x, y, text, prop, 0.0)
+        gc.restore()
+    renderer.finalize()
+    file.endStream()
+
+
 class _Flow:
-    """Text pages filled from the top; a new page when the current one is full."""
+    """Text pages filled from the top; a new page when the current one is full.
+
+    Positions are fractions of the page (``y`` from the bottom) while the page fills, as
+    matplotlib's figure coordinates; the lines are placed in points when they are added.
+    """
 
     def __init__(self, pdf: PdfPages, report: Report) -> None:
         self.pdf = pdf
         self.report = report
         self.page = 0
-        self.fig: Figure | None = None
+        self.current: _TextPage | None = None
         self.y = _TOP
         self.measure = _Measure()
 
     def new_page(self) -> None:
         self.flush()
-        self.fig = new_figure(*A4_PORTRAIT)
-        self.fig.set_layout_engine(None)
+        self.current = _TextPage()
         self.y = _TOP
 
     def flush(self) -> None:
-        if self.fig is not None:
+        if self.current is not None:
             self.page += 1
-            self.fig.text(0.5, 0.025, f"{self.report.title}  ·  page {self.page}", ha="center",
-                          fontsize=7, color="0.4", parse_math=False)
-            self.pdf.savefig(self.fig)
-            self.fig = None
+            footer = f"{self.report.title}  ·  page {self.page}"
+            prop = self.measure.prop(7, "normal")
+            w = self.measure.metrics(footer, prop)[0]
+            # centred, its baseline 2.5 % of the page above the bottom edge
+            self.current.lines.append((0.5 * A4_PORTRAIT[0] * _PT - w / 2,
+                                       0.025 * A4_PORTRAIT[1] * _PT, footer, prop, "0.4"))
+            _draw_text_page(self.pdf, self.current)
+            self.current = None
 
     def need(self, height: float) -> None:
-        if self.fig is None or self.y - height < _BOTTOM:
+        if self.current is None or self.y - height < _BOTTOM:
             self.new_page()
+
+    def _line(self, x: float, top: float, text: str, prop: FontProperties, color: str,
+              right: bool = False) -> None:
+        """One line of text, the top of its line box at ``top`` [pt].
+
+        As matplotlib's ``va='top'``: the baseline the font's ascent below, or the line's
+        own ascent if taller; its left end (``right``: its right end) at ``x`` [pt].
+        """
+        assert self.current is not None
+        w, h, d = self.measure.metrics(text, prop) if text else (0.0, 0.0, 0.0)
+        ascent = max(h - d, self.measure.ascent_descent(prop)[0])
+        if text:
+            self.current.lines.append((x - w if right else x, top - ascent, text, prop, color))
 
     def text(self, s: str, size: float = 9.5, weight: str = "normal", color: str = "black",
              indent: float = 0.0) -> None:
         width = _TEXT_WIDTH_PT - indent * A4_PORTRAIT[0] * _PT
+        prop = self.measure.prop(size, weight)
         for line in self.measure.wrap(s, width, size):
             self.need(_LINE * size / 9.5)
-            assert self.fig is not None
-            self.fig.text(_LEFT + indent, self.y, line, fontsize=size, weight=weight,
-                          color=color, va="top", parse_math=False)
+            self._line((_LEFT + indent) * A4_PORTRAIT[0] * _PT, self.y * A4_PORTRAIT[1] * _PT,
+                       line, prop, color)
             self.y -= _LINE * size / 9.5
 
     def gap(self, lines: float = 0.6) -> None:
@@ -308,23 +412,21 @@ class _Flow:
 
     def _row(self, lines: list[list[str]], widths: list[float], h: float, size: float,
              head: bool = False) -> None:
-        assert self.fig is not None
+        """A table row: a box per cell, the cell's lines ``pitch`` apart from its top."""
+        assert self.current is not None
         page_w = A4_PORTRAIT[0] * _PT
         page_h = A4_PORTRAIT[1] * _PT
-        x = _LEFT
+        prop = self.measure.prop(size, "bold" if head else "normal")
+        pitch, _ = self.measure.line_metrics(size)
+        x = _LEFT * page_w
+        top = self.y * page_h
         for cell, w in zip(lines, widths, strict=True):
-            wf = w / page_w
-            self.fig.add_artist(Rectangle((x, self.y - h), wf, h, transform=self.fig.transFigure,
-                                          facecolor="#eef3f8" if head else "none",
-                                          edgecolor="0.6", linewidth=0.3))
-            text = "\n".join(cell)
-            right = not head and bool(_NUMBER.match(text))
-            self.fig.text(x + (wf - _PAD_X / page_w if right else _PAD_X / page_w),
-                          self.y - _PAD_Y / page_h, text, fontsize=size, va="top",
-                          ha="right" if right else "left", linespacing=_LINESPACING,
-                          multialignment="right" if right else "left",
-                          weight="bold" if head else "normal", parse_math=False)
-            x += wf
+            self.current.boxes.append((x, top - h * page_h, w, h * page_h, head))
+            right = not head and bool(_NUMBER.match("\n".join(cell)))
+            for k, line in enumerate(cell):
+                self._line(x + w - _PAD_X if right else x + _PAD_X, top - _PAD_Y - k * pitch,
+                           line, prop, "black", right)
+            x += w
         self.y -= h
 
     def figure_page(self, fig: Figure, caption: str, number: int) -> None:

@@ -14,9 +14,10 @@ import math
 import multiprocessing
 import os
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
+from contextlib import contextmanager
 
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
@@ -42,6 +43,30 @@ _CACHE = "_volcal_png"
 def _cache(fig: Figure) -> dict[int, bytes]:
     cache: dict[int, bytes] = fig.__dict__.setdefault(_CACHE, {})
     return cache
+
+
+@contextmanager
+def kept_layout(fig: Figure) -> Iterator[None]:
+    """Put the figure's axes back where they were when the block ends.
+
+    A layout engine (constrained layout) starts from where the axes are: a figure laid out
+    once (as a PNG, on its PDF page) is laid out a hair differently the next time. Each
+    drawing of a report's figures starts from the figure as built, so its PNG is the same
+    whether it is drawn before or after the PDF page, here or in a worker process.
+
+    Parameters
+    ----------
+    fig : Figure
+        The figure.
+    """
+    placed = [(ax, ax.get_position(original=True).frozen(), ax.get_position().frozen())
+              for ax in fig.axes]
+    try:
+        yield
+    finally:
+        for ax, original, active in placed:  # not set_position: it takes ax out of layout
+            ax._set_position(original, which="original")  # type: ignore[attr-defined]
+            ax._set_position(active, which="active")  # type: ignore[attr-defined]
 
 
 def png_bytes(fig: Figure, dpi: int = PNG_DPI) -> bytes:
@@ -76,7 +101,7 @@ def png_bytes(fig: Figure, dpi: int = PNG_DPI) -> bytes:
         try:
             fig.dpi = dpi
             canvas._is_saving = True  # type: ignore[attr-defined]  # as savefig does
-            with cached_drawing():
+            with cached_drawing(), kept_layout(fig):
                 canvas.print_png(buf, metadata={"Software": None})
         finally:
             canvas._is_saving = False  # type: ignore[attr-defined]
@@ -170,6 +195,7 @@ class PngDrawing:
         self.figs, self.draw, self.workers = list(figs), draw, workers
         self._pool: ProcessPoolExecutor | None = None
         self._futures: list[Future[bytes]] = []
+        self._order: list[int] = []
         if workers and self.figs:
             _TASK = (draw, self.figs)
             with warnings.catch_warnings():  # a fork beside the console's status thread:
@@ -180,6 +206,7 @@ class PngDrawing:
                 # workers are forked at the first submission, inheriting the figures
                 order = sorted(range(len(self.figs)), key=lambda i: -len(self.figs[i].axes))
                 futures = {i: self._pool.submit(_draw_one, i) for i in order}
+            self._order = order
             self._futures = [futures[i] for i in range(len(self.figs))]
 
     def result(self) -> list[bytes]:
@@ -191,15 +218,30 @@ class PngDrawing:
 
         Notes
         -----
-        A worker that dies (killed, out of memory) does not hang the report: its figures
-        are drawn in this process instead.
+        The figures no worker has started yet are drawn in this process (the last queued
+        first) while the workers finish theirs, so that the two halves of the work end
+        about together whatever the load. A worker that dies (killed, out of memory)
+        does not hang the report: its figures are drawn in this process instead.
         """
         global _TASK
         if self._pool is None:
             return [self.draw(f) for f in self.figs]
+        here: dict[int, bytes] = {}
         out: list[bytes] = []
         try:
-            for fig, future in zip(self.figs, self._futures, strict=True):
+            # the figures no worker has started yet are drawn here, the last queued first,
+            # while the workers draw theirs: both processes finish about together
+            while True:
+                pending = [i for i in self._order if i not in here
+                           and not self._futures[i].running() and not self._futures[i].done()]
+                if not pending:
+                    break
+                if self._futures[pending[-1]].cancel():  # else a worker took it meanwhile
+                    here[pending[-1]] = self.draw(self.figs[pending[-1]])
+            for i, (fig, future) in enumerate(zip(self.figs, self._futures, strict=True)):
+                if i in here:
+                    out.append(here[i])
+                    continue
                 try:
                     data = future.result()
                 except BrokenProcessPool:

@@ -38,6 +38,7 @@ from matplotlib.transforms import Affine2D
 
 from volcal.report.document import Report, Table
 from volcal.report.drawcache import cached_drawing, text_metrics
+from volcal.report.figures import kept_layout
 from volcal.report.wording import customer_report
 
 __all__ = ["RASTER_DPI", "RASTER_POINTS", "write_pdf"]
@@ -105,16 +106,17 @@ class _Measure:
         key = (prop.get_size_in_points(), str(prop.get_weight()))
         if key not in self._heights:
             font = get_font(findfont(prop))
-            scale = prop.get_size_in_points() / font.get_sfnt_table("head")["unitsPerEm"]
+            head = font.get_sfnt_table("head")
             os2, hhea = font.get_sfnt_table("OS/2"), font.get_sfnt_table("hhea")
-            if os2 is not None:
-                a, d = os2["sTypoAscender"], -os2["sTypoDescender"]
-            elif hhea is not None:
-                a, d = hhea["ascent"], -hhea["descent"]
+            if head is not None and (os2 is not None or hhea is not None):
+                scale = prop.get_size_in_points() / head["unitsPerEm"]
+                a, d = ((os2["sTypoAscender"], -os2["sTypoDescender"]) if os2 is not None
+                        else (hhea["ascent"], -hhea["descent"]) if hhea is not None
+                        else (0, 0))
+                self._heights[key] = (a * scale, d * scale)
             else:  # no table: the ink of "lp"
                 _, h, dd = self.metrics("lp", prop)
-                a, d = (h - dd) / scale, dd / scale
-            self._heights[key] = (a * scale, d * scale)
+                self._heights[key] = (h - dd, dd)
         return self._heights[key]
 
     def line_metrics(self, size: float) -> tuple[float, float]:
@@ -487,7 +489,8 @@ def _figure_page(pdf: PdfPages, fig: Figure, caption: str, number: int, footer: 
     try:
         for a in heavy:
             a.set_rasterized(True)
-        _print_page(pdf, fig)
+        with kept_layout(fig):  # the PNG drawn after this page as before it
+            _print_page(pdf, fig)
     finally:
         for a in heavy:
             a.set_rasterized(False)

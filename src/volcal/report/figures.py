@@ -24,13 +24,18 @@ from matplotlib.figure import Figure
 
 from volcal.report.drawcache import cached_drawing
 
-__all__ = ["PNG_DPI", "WORKERS_ENV", "PngDrawing", "draw_pngs", "draw_workers", "png_bytes",
-           "png_data_uri"]
+__all__ = ["PNG_COMPRESSION", "PNG_DPI", "WORKERS_ENV", "PngDrawing", "draw_pngs",
+           "draw_workers", "kept_layout", "png_bytes", "png_data_uri"]
 
 PNG_DPI = 200
 """Resolution of the PNG images [dots per inch], the same in the HTML and the figures
 folder, so that each figure is drawn once for both (the PDF draws them as vectors). At least
 200 dpi, so that a figure printed from the HTML at its natural size stays sharp."""
+
+PNG_COMPRESSION = 3
+"""zlib level of the PNG images (0-9): 3 deflates the report's 8 figures in about two thirds
+of the time of PIL's default 6 (0.53 s instead of 0.80 s), for files about a tenth larger;
+the pixels are the same."""
 
 WORKERS_ENV = "VOLCAL_REPORT_WORKERS"
 """Environment variable: number of processes drawing a report's PNG figures beside the one
@@ -87,9 +92,11 @@ def png_bytes(fig: Figure, dpi: int = PNG_DPI) -> bytes:
     Notes
     -----
     The figure is laid out (its layout engine, constrained layout for volcal's figures)
-    and drawn in one pass on its Agg canvas. ``Figure.savefig`` would lay it out in a
-    drawing pass of its own before the drawing it saves, drawing every figure twice; the
-    bytes are the same (``tests/report/test_report_render.py``). The bytes are kept on the
+    and drawn in one pass on its Agg canvas, from where it was built (:func:`kept_layout`).
+    ``Figure.savefig`` would lay it out in a drawing pass of its own before the drawing it
+    saves, drawing every figure twice; the pixels are the same
+    (``tests/report/test_report_render.py``), deflated at zlib level
+    :data:`PNG_COMPRESSION`. The bytes are kept on the
     figure (per resolution): a report's figures are finished when they are rendered, and
     the HTML and the figures folder share one drawing.
     """
@@ -102,7 +109,8 @@ def png_bytes(fig: Figure, dpi: int = PNG_DPI) -> bytes:
             fig.dpi = dpi
             canvas._is_saving = True  # type: ignore[attr-defined]  # as savefig does
             with cached_drawing(), kept_layout(fig):
-                canvas.print_png(buf, metadata={"Software": None})
+                canvas.print_png(buf, metadata={"Software": None},
+                                 pil_kwargs={"compress_level": PNG_COMPRESSION})
         finally:
             canvas._is_saving = False  # type: ignore[attr-defined]
             fig.dpi = old

@@ -6,6 +6,7 @@ rasterized at RASTER_DPI."""
 import os
 import shutil
 import subprocess
+import time
 
 import numpy as np
 import pytest
@@ -156,6 +157,39 @@ def test_a_worker_that_dies_leaves_its_figures_to_this_process():
     assert drawing.parallel
     expected = [F.png_bytes(f) for f in _small_figures()]
     assert drawing.result() == expected and expected[0] != expected[1]
+
+
+def test_the_figures_no_worker_started_are_drawn_here_the_same():
+    parent = os.getpid()
+    here: list[int] = []
+
+    def draw(fig):
+        if os.getpid() == parent:
+            here.append(id(fig))
+        else:
+            time.sleep(1.0)  # a slow worker: at most two figures are its (one queued)
+        return F.png_bytes(fig)
+
+    figs = [g for _ in range(3) for g in _small_figures()]  # six figures, two kinds
+    drawing = F.draw_pngs(figs, draw, workers=1)
+    assert drawing.parallel
+    pngs = drawing.result()
+    assert 4 <= len(here) < len(figs)  # this process took what the worker had not started
+    expected = [F.png_bytes(f) for f in _small_figures()] * 3
+    assert pngs == expected and expected[0] != expected[1]
+
+
+def test_a_png_drawn_after_the_pdf_page_is_the_same(identified, tmp_path):
+    from volcal.plot import error_functions_plot
+
+    _, r = identified
+    first = F.png_bytes(error_functions_plot(r.errors))
+    fig = error_functions_plot(r.errors)
+    write_pdf(Report("t", [Section("s", "S", figures=[FigureItem(fig, "c", "e")])]),
+              tmp_path / "t.pdf")
+    assert F.png_bytes(fig) == first  # laid out from where it was built, not from the page
+    fig.__dict__.pop("_volcal_png", None)
+    assert F.png_bytes(fig) == first  # and again
 
 
 def test_draw_workers_from_the_environment(monkeypatch):

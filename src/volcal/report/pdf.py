@@ -3,9 +3,10 @@
 Why matplotlib's ``PdfPages``: it is already a dependency, pure Python, and needs no
 system library (WeasyPrint needs Pango and cairo, wkhtmltopdf and headless browsers are
 system binaries); a calibration report must be writable on a locked-down shop-floor PC.
-Text and tables are laid out on A4 portrait pages with a simple flow layout; each figure
-gets an A4 landscape page with its caption. The content is the same document as the HTML
-report.
+Text and tables are laid out on A4 portrait pages with a simple flow layout and written
+straight to the PDF by matplotlib's PDF renderer (no figure or text artists per page: each
+line is placed in points, :class:`_Flow`); each figure gets an A4 landscape page with its
+caption. The content is the same document as the HTML report.
 
 What the customer reads is never cut: paragraphs and table cells are wrapped at word
 boundaries, measured with the font that draws them (a word wider than its column is broken

@@ -263,6 +263,13 @@ class PngDrawing:
             _TASK = None
         return out
 
+    def close(self) -> None:
+        """Stop the workers (after :meth:`result`, or when the report failed meanwhile)."""
+        global _TASK
+        if self._pool is not None:
+            self._pool.shutdown(cancel_futures=True)
+            _TASK = None
+
     @property
     def parallel(self) -> bool:
         """Whether worker processes draw the figures."""

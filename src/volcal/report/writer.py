@@ -74,19 +74,24 @@ def write_report(report: Report, folder: str | Path,
     with atomic_dir(folder) as tmp:
         # each figure drawn once as PNG (HTML and figures folder) and once for the PDF; the
         # PNGs in worker processes while this one prints the PDF, where cores are spare
+        # (and the certificate, which needs no figure of the report's, before this process
+        # takes the PNGs no worker has started)
         drawing = draw_pngs([f.figure for f in figs], png_bytes)
-        pngs = None if drawing.parallel else drawing.result()
-        pages = write_pdf(report, tmp / "report.pdf")
-        if pngs is None:
-            pngs = drawing.result()
+        try:
+            pngs = None if drawing.parallel else drawing.result()
+            pages = write_pdf(report, tmp / "report.pdf")
+            if extra is not None:
+                extra(tmp)
+            if pngs is None:
+                pngs = drawing.result()
+        finally:
+            drawing.close()
         (tmp / "report.html").write_text(render_html(report), encoding="utf-8")
         (tmp / "figures").mkdir()
         for i, (f, png) in enumerate(zip(figs, pngs, strict=True), start=1):
             name = f"{i:02d}-{f.name}.png"
             (tmp / "figures" / name).write_bytes(png)
             names.append(name)
-        if extra is not None:
-            extra(tmp)
     return ReportFiles(folder, folder / "report.html", folder / "report.pdf",
                        [folder / "figures" / n for n in names], pages)
 

@@ -264,3 +264,17 @@ def test_identifiability_caption_names_the_hatching(customer):
     # one hatched bar per undetermined function, plus the legend's key
     bars = [p for p in hatched if str(p.get_gid()).endswith("not determined")]
     assert sorted(str(p.get_gid()).split()[0] for p in bars) == sorted(undetermined)
+
+
+def test_every_page_says_page_k_of_n(written_report, raw_text):
+    """Each page's footer: the title and "page k of n", k = 1..n in order, n the PDF's
+    page count (the text pages and the figure pages alike)."""
+    rep, files = written_report
+    pages = raw_text.split("\f")
+    pages = [p for p in pages if p.strip()]
+    n = len(pages)
+    info = subprocess.run([_tool(shutil.which("pdfinfo")), str(files.pdf)], capture_output=True,
+                          text=True, timeout=scaled_timeout(60))
+    assert f"Pages: {n}" in " ".join(info.stdout.split()), (n, info.stdout)
+    for k, page in enumerate(pages, start=1):
+        assert f"page {k} of {n}" in " ".join(page.split()), (k, page[-300:])

@@ -167,7 +167,9 @@ def test_the_figures_no_worker_started_are_drawn_here_the_same():
         if os.getpid() == parent:
             here.append(id(fig))
         else:
-            time.sleep(1.0)  # a slow worker: at most two figures are its (one queued)
+            # a slow worker (slower on a busy box, where this process is slow to start
+            # drawing too): at most two figures are its (one queued)
+            time.sleep(scaled_timeout(1.0))
         return F.png_bytes(fig)
 
     figs = [g for _ in range(3) for g in _small_figures()]  # six figures, two kinds

@@ -325,6 +325,8 @@ class _Flow:
         self.report = report
         self.page = 0
         self.current: _TextPage | None = None
+        #: the pages in order, printed by :meth:`finish` once their number is known
+        self.pages: list[_TextPage | tuple[Figure, str, int]] = []
         self.y = _TOP
         self.measure = _Measure()
 
@@ -336,14 +338,29 @@ class _Flow:
     def flush(self) -> None:
         if self.current is not None:
             self.page += 1
-            footer = f"{self.report.title}  ·  page {self.page}"
-            prop = self.measure.prop(7, "normal")
-            w = self.measure.metrics(footer, prop)[0]
-            # centred, its baseline 2.5 % of the page above the bottom edge
-            self.current.lines.append((0.5 * A4_PORTRAIT[0] * _PT - w / 2,
-                                       0.025 * A4_PORTRAIT[1] * _PT, footer, prop, "0.4"))
-            _draw_text_page(self.pdf, self.current)
+            self.pages.append(self.current)
             self.current = None
+
+    def footer(self, k: int) -> str:
+        """The footer of page ``k`` (from 1): the title and "page k of n"."""
+        return f"{self.report.title}  ·  page {k} of {len(self.pages)}"
+
+    def finish(self) -> int:
+        """Print every page, each with "page k of n" in its footer; the number of pages."""
+        self.flush()
+        for k, page in enumerate(self.pages, start=1):
+            footer = self.footer(k)
+            if isinstance(page, _TextPage):
+                prop = self.measure.prop(7, "normal")
+                w = self.measure.metrics(footer, prop)[0]
+                # centred, its baseline 2.5 % of the page above the bottom edge
+                page.lines.append((0.5 * A4_PORTRAIT[0] * _PT - w / 2,
+                                   0.025 * A4_PORTRAIT[1] * _PT, footer, prop, "0.4"))
+                _draw_text_page(self.pdf, page)
+            else:
+                fig, caption, number = page
+                _figure_page(self.pdf, fig, caption, number, footer, self.measure)
+        return len(self.pages)
 
     def need(self, height: float) -> None:
         if self.current is None or self.y - height < _BOTTOM:
@@ -435,8 +452,7 @@ class _Flow:
     def figure_page(self, fig: Figure, caption: str, number: int) -> None:
         self.flush()
         self.page += 1
-        _figure_page(self.pdf, fig, caption, number,
-                     f"{self.report.title}  ·  page {self.page}", self.measure)
+        self.pages.append((fig, caption, number))
 
 
 def _figure_page(pdf: PdfPages, fig: Figure, caption: str, number: int, footer: str,
@@ -609,6 +625,5 @@ def write_pdf(report: Report, path: str | Path) -> int:
                 for f in s.figures:
                     number += 1
                     flow.figure_page(f.figure, f.caption, number)
-        flow.flush()
-        pages = flow.page
+        pages = flow.finish()
     return pages

@@ -18,8 +18,9 @@ each STEP one of
   in auto mode to its end, recording the status (``stat.joint_actual_position``,
   ``stat.position``, ``current_line``, ``motion_line``, ``delay_left`` (> 0 while a G4 dwell
   runs)) and ``pins`` every ``poll_s`` seconds (0 or absent: no time
-  series) into ``series[label or program]``; a pause (M0, M1) is resumed at once, as the
-  operator's cycle start (``resume``: true), and listed in the end sample's ``pauses``;
+  series) into ``series[label or program]``; a pause (M0, M1) is resumed, as the
+  operator's cycle start (``resume``: true), ``resume_after_s`` seconds after it is seen
+  (default 0: at once), and listed in the end sample's ``pauses``;
   with the plan's ``sampled_pins``, the same pins of every servo cycle of the program
   (HAL's realtime ``sampler`` in the servo thread, drained by ``halsampler``: nothing is
   lost when this process is not scheduled for a while) into ``sampled[label or program]``
@@ -92,6 +93,20 @@ class Driver:
                 return
             time.sleep(0.005)
         raise RuntimeError("timed out waiting for " + what)
+
+    def wait_started(self, what):
+        """Wait until task has taken the last command (``AUTO_RUN``) and it is done,
+        failed, or the interpreter runs (reading, waiting or paused).
+
+        ``wait_complete`` waits until the command is done, up to its timeout (5 s): while
+        the interpreter cannot read ahead (a ``G38.2`` probing move, an ``M0`` stop at the
+        program's start), ``AUTO_RUN`` is executing: a program paused at its start stood
+        those 5 s before the cycle start.
+        """
+        serial = self.c.serial
+        self.wait(lambda: self.s.echo_serial_number >= serial and (
+            self.s.state != linuxcnc.RCS_EXEC
+            or self.s.interp_state != linuxcnc.INTERP_IDLE), what)
 
     def read_pins(self):
         return {p: hal.get_value(p) for p in self.pins}
@@ -244,13 +259,15 @@ class Driver:
         self.c.wait_complete()
         sampling = self.start_sampling(name) if self.sampled_pins else None
         self.c.auto(linuxcnc.AUTO_RUN, 0)
-        self.c.wait_complete()
+        self.wait_started("the program's start")
         t0 = time.monotonic()
         timeout = float(step.get("timeout_s", self.step_timeout_s))
         started = False
         resume = bool(step.get("resume", True))
+        resume_after_s = float(step.get("resume_after_s", 0.0))
         pauses = []
         was_paused = False
+        paused_at = None  # when the pause not yet resumed was seen
         while True:
             self.s.poll()
             self.poll_errors()
@@ -264,9 +281,12 @@ class Driver:
                 started = True
                 paused = self.s.interp_state == linuxcnc.INTERP_PAUSED or self.s.paused
                 if paused and resume and not was_paused:
-                    # M0/M1: the operator's cycle start (not waited for: the loop polls on)
                     pauses.append({"t": time.monotonic() - t0, "line": self.s.current_line})
+                    paused_at = time.monotonic()
+                if paused_at is not None and time.monotonic() - paused_at >= resume_after_s:
+                    # M0/M1: the operator's cycle start (not waited for: the loop polls on)
                     self.c.auto(linuxcnc.AUTO_RESUME)
+                    paused_at = None
                 was_paused = paused
             elif started or time.monotonic() - t0 > 1.0:
                 break

@@ -38,6 +38,13 @@ from timing import scaled_timeout
 
 SEED = 3
 NOISE_UM = 0.05
+IDLE_S = 1.0
+"""Before run 1 the machine stands idle at home this long [s] with capture A connected:
+longer than the stable windows of the tests (0.35-0.6 s), where a reading taken would be
+one before the program's start."""
+PAUSE_S = 1.0
+"""Each run's operator stop (the ``M0`` at the program's start) lasts this long [s] before
+the cycle start: longer than a stable window, where no reading may be taken (paused)."""
 
 
 def _volcal(*args: str) -> subprocess.Popen[str]:
@@ -124,14 +131,16 @@ def _run(tmp_path: Path, *, steps: int, runs: int, travel: float, dwell_s: float
     def cnc() -> None:
         try:
             result["res"] = run_linuxcnc(
-                xyzc_joints(), [{"home": True}, {"sleep_s": scaled_timeout(4)},
+                xyzc_joints(), [{"home": True},
                                 *[step for k in range(n_prog) for step in (
-                                    # runs 2 and 3 start once the test says the capture
-                                    # that follows them is connected (a loaded box starts a
+                                    # each run starts once the test says the capture that
+                                    # follows it is connected (a loaded box starts a
                                     # capture late: it would join the program mid-run)
-                                    *([{"wait_file": f"go-p{k}",
-                                        "timeout_s": scaled_timeout(600)}] if k else []),
+                                    {"wait_file": f"go-p{k}",
+                                     "timeout_s": scaled_timeout(600)},
+                                    *([{"sleep_s": IDLE_S}] if k == 0 else []),
                                     {"program": "linear_x1.ngc", "label": f"p{k}",
+                                     "resume_after_s": PAUSE_S,
                                      "timeout_s": scaled_timeout(600)})]],
                 files={"linear_x1.ngc": ngc, marker: ""}, timeout_s=900)
         except Exception as e:  # reported by the test below
@@ -157,11 +166,19 @@ def _go(config: Path, name: str, p: subprocess.Popen[str], folder: Path, mid: st
         starts: int) -> None:
     """Let LinuxCNC start its next program once capture ``p`` is connected.
 
-    The capture journals ``start`` after opening its sources; then the file ``name`` in
-    the configuration's folder releases the driver's ``wait_file`` step.
+    The capture's ``starts``-th ``start`` in its journal is followed by a ``control``
+    sample of LinuxCNC (the ``start`` alone is journaled before the bridge reaches
+    LinuxCNC); then the file ``name`` in the configuration's folder releases the driver's
+    ``wait_file`` step.
     """
+    def connected() -> bool:
+        journal = _journal(folder, mid)
+        begun = [k for k, x in enumerate(journal) if x["type"] == "start"]
+        return len(begun) >= starts and any(
+            x["type"] == "control" for x in journal[begun[starts - 1]:])
+
     deadline = time.monotonic() + scaled_timeout(300)
-    while len([x for x in _journal(folder, mid) if x["type"] == "start"]) < starts:
+    while not connected():
         assert p.poll() is None, p.communicate()
         assert time.monotonic() < deadline, f"{name}: the capture did not connect"
         time.sleep(0.02)
@@ -186,6 +203,7 @@ def _captures(tmp_path: Path, s: Path, progs: Path, mid: str, marker: str,
     a_dir, b_dir = tmp_path / "A", tmp_path / "B"
     a = _volcal("capture", *common, "-o", str(a_dir))  # waits for LinuxCNC to come up
     procs.append(a)
+    _go(found[0].parent, "go-p0", a, a_dir, mid, 1)
     out_a = _wait(a, "capture A", scaled_timeout(900))
     assert "captured ->" in out_a
     # capture B during program run 2: killed after two points, resumed at once

@@ -37,9 +37,9 @@ from volcal_cli_helpers import volcal_process
 
 COMP = Path(__file__).with_name("hal") / "volcal_trt_machine.comp"
 MODULES = Path("/usr/lib/linuxcnc/modules")
-SERVO_NS = 250_000
-"""Servo period [ns]: 0.25 ms, so that the probe feed moves 1.67 um per cycle."""
-FEED = 400.0
+SERVO_NS = 100_000
+"""Servo period [ns]: 0.1 ms, so that the probe feed moves 1.67 um per cycle."""
+FEED = 1000.0
 """Probe feed [mm/min]: LinuxCNC latches the position of the first servo cycle in
 contact, up to one cycle's travel past the surface."""
 CONFIGURED = {"x-rot-point": 0.0, "y-rot-point": 0.0, "z-rot-point": 0.0,
@@ -121,8 +121,13 @@ def trt_sim():
     return run_linuxcnc
 
 
+ROTARY_LIMITS = {"max_velocity": 1440.0, "max_acceleration": 28800.0}
+"""The rotary axes' velocity [deg/s] and acceleration [deg/s^2]: the sim turns between the
+poses in a fraction of a second (every probing move is made with them standing)."""
+
+
 def _joints(t: str = "A") -> list[SimJoint]:
-    rot = {"max_velocity": 360.0, "max_acceleration": 3600.0}
+    rot = ROTARY_LIMITS
     return [SimJoint("X"), SimJoint("Y"), SimJoint("Z"),
             SimJoint(t, "ANGULAR", min=-120.0, max=120.0, **rot),
             SimJoint("C", "ANGULAR", min=-720.0, max=720.0, **rot)]

@@ -37,9 +37,9 @@ from volcal_cli_helpers import volcal_process
 
 COMP = Path(__file__).with_name("hal") / "volcal_trt_machine.comp"
 MODULES = Path("/usr/lib/linuxcnc/modules")
-SERVO_NS = 100_000
-"""Servo period [ns]: 0.1 ms, so that the probe feed moves 1.67 um per cycle."""
-FEED = 1000.0
+SERVO_NS = 250_000
+"""Servo period [ns]: 0.25 ms, so that the probe feed moves 1.67 um per cycle."""
+FEED = 400.0
 """Probe feed [mm/min]: LinuxCNC latches the position of the first servo cycle in
 contact, up to one cycle's travel past the surface."""
 CONFIGURED = {"x-rot-point": 0.0, "y-rot-point": 0.0, "z-rot-point": 0.0,

@@ -254,7 +254,7 @@ def _check(tmp_path: Path, s: Path, mid: str, stable_s: float) -> None:
 
 
 def test_capture_on_linuxcnc_trimmed(tmp_path):
-    """A linear test of 2 steps, 1 run (6 dwells of 1 s) run three times: about 40 s."""
+    """A linear test of 2 steps, 1 run (6 dwells of 1 s) run three times: about 30 s."""
     _run(tmp_path, steps=2, runs=1, travel=60.0, dwell_s=1.0, stable_s=0.35, max_gap_s=0.25,
          feed=6000.0)
 

@@ -22,7 +22,8 @@ Measured on these machines: ratio to least squares at most 0.23 (b) and 0.40 (d)
 coverage 0.989 (b) and 0.945 (d; 0.880 before the short-wavelength part of the
 positioning prior, docs/identification.md section 3; 0.925 before the nodes at the
 readings and the smoother rolls).
-Runtime: about 14 s of CPU (16 Bayesian and 8 minimum-norm identifications).
+Runtime: about 25 s of CPU (16 Bayesian and 8 minimum-norm identifications, and 8
+Bayesian with the rolls kept).
 """
 
 from __future__ import annotations

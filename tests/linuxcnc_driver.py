@@ -24,13 +24,15 @@ each STEP one of
   with the plan's ``sampled_pins``, the same pins of every servo cycle of the program
   (HAL's realtime ``sampler`` in the servo thread, drained by ``halsampler``: nothing is
   lost when this process is not scheduled for a while) into ``sampled[label or program]``
-  (``{"pins": [...], "rows": [[cycle, value, ...], ...], "overruns": n}``);
+  (``{"pins": [...], "rows": [[cycle, value, ...], ...], "overruns": n}``); with
+  ``done_file``, that file is written in the configuration's folder when it has ended;
 * ``{"jog": joint, "increment": d, "velocity": v}``: an incremental jog of one joint in
   joint mode, then a sample of ``pins``;
 * ``{"sleep_s": s}``;
-* ``{"wait_file": name, "timeout_s": s}``: wait until the file ``name`` exists in the
-  configuration's folder (the test writes it: a step that waits for the test, e.g. for a
-  capture to be connected before the next program starts).
+* ``{"wait_file": name, "timeout_s": s, "or_end": stop}``: wait until the file ``name``
+  exists in the configuration's folder (the test writes it: a step that waits for the
+  test, e.g. for a capture to be connected before the next program starts); when the
+  file ``stop`` appears first, the plan ends there.
 
 Result (JSON): ``{"ok": bool, "samples": [...], "series": {...}, "sampled": {...},
 "errors": [...], "failed": str | null}``. Only the standard library and LinuxCNC's modules
@@ -297,6 +299,9 @@ class Driver:
             time.sleep(poll_s or 0.01)
         if sampling is not None:
             self.stop_sampling(sampling)
+        if step.get("done_file"):  # tells the test the program has ended
+            with open(os.path.join(_ini_dir(), step["done_file"]), "w"):
+                pass
         self.s.poll()
         self.samples.append({"label": name, "program": step["program"], "end": True,
                              "pauses": pauses, "run_s": time.monotonic() - t0,
@@ -318,8 +323,12 @@ class Driver:
                 time.sleep(float(step["sleep_s"]))
             elif "wait_file" in step:
                 path = os.path.join(_ini_dir(), step["wait_file"])
+                stop = step.get("or_end")
                 end = time.monotonic() + float(step.get("timeout_s", self.step_timeout_s))
                 while not os.path.exists(path):
+                    if stop and os.path.exists(os.path.join(_ini_dir(), stop)):
+                        self.poll_errors()
+                        return  # the test needs no more: the plan ends here
                     if time.monotonic() > end:
                         raise RuntimeError(f"{step['wait_file']} did not appear")
                     time.sleep(0.05)

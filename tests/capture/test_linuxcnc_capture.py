@@ -284,7 +284,7 @@ def test_capture_on_linuxcnc_trimmed(tmp_path):
 
 @pytest.mark.slow
 def test_capture_on_linuxcnc_iso230_2(tmp_path):
-    """The ISO 230-2 cycle, 5 bidirectional runs over 6 targets (60 dwells of 1.5 s), three
-    times: about 8 minutes."""
+    """The ISO 230-2 cycle, 5 bidirectional runs over 6 targets (60 dwells of 1.5 s), two
+    or three times: 4-8 minutes."""
     _run(tmp_path, steps=5, runs=5, travel=300.0, dwell_s=1.5, stable_s=0.6, max_gap_s=0.3,
          feed=6000.0)

@@ -634,8 +634,8 @@ def _sim_options(seed: int) -> SimulationOptions:
 
 
 def run_case(family: Family, design: str, case: Case, limit: Limit | None, steps: int = 10,
-             runs: int = 5, n_grid: int = 9, options: IdentifyOptions | None = None
-             ) -> FamilyResult:
+             runs: int = 5, n_grid: int = 9, options: IdentifyOptions | None = None,
+             least_squares: bool = True) -> FamilyResult:
     """Draw one machine of a family, simulate the full test set, identify and compare.
 
     Parameters
@@ -652,6 +652,8 @@ def run_case(family: Family, design: str, case: Case, limit: Limit | None, steps
         Increments per test, bidirectional runs per line, grid points per axis.
     options : IdentifyOptions, optional
         Options of the default estimator.
+    least_squares : bool
+        Identify with minimum-norm least squares too (``min_norm``; False: left empty).
 
     Returns
     -------
@@ -672,8 +674,9 @@ def run_case(family: Family, design: str, case: Case, limit: Limit | None, steps
     rb = identify(session, o)
     out.bayes = evaluate(rb, truth_g, q)
     out.bayes.update(seconds=time.perf_counter() - t0, sigma_um=float(rb.fit["sigma_um"]))
-    rm = identify(session, replace(o, prior="none"))
-    out.min_norm = evaluate(rm, truth_g, q, rigid=False)
+    if least_squares:
+        rm = identify(session, replace(o, prior="none"))
+        out.min_norm = evaluate(rm, truth_g, q, rigid=False)
     if limit is not None:
         y = np.concatenate([m.deviation for m in session.measurements])
         el = limit.estimate(y)
@@ -684,7 +687,8 @@ def run_case(family: Family, design: str, case: Case, limit: Limit | None, steps
 
 def run_family(family: str, design: str = "full", n_machines: int = 20, steps: int = 10,
                runs: int = 5, n_grid: int = 9, limit: bool = True, n_draws: int = N_DRAWS,
-               options: IdentifyOptions | None = None, progress=None) -> list[FamilyResult]:
+               options: IdentifyOptions | None = None, progress=None,
+               least_squares: bool = True) -> list[FamilyResult]:
     """The study of one family on one design.
 
     Parameters
@@ -705,6 +709,8 @@ def run_family(family: str, design: str = "full", n_machines: int = 20, steps: i
         Options of the default estimator.
     progress : callable, optional
         Called with each :class:`FamilyResult`.
+    least_squares : bool
+        Identify with minimum-norm least squares too (:func:`run_case`).
 
     Returns
     -------
@@ -721,7 +727,7 @@ def run_family(family: str, design: str = "full", n_machines: int = 20, steps: i
                 sess = plan_session(travel, case.chain, steps, TESTS, runs=runs)
                 limits[case.chain] = build_limit(fam, travel, case.chain, sess, n_draws)
             lim = limits[case.chain]
-        r = run_case(fam, design, case, lim, steps, runs, n_grid, options)
+        r = run_case(fam, design, case, lim, steps, runs, n_grid, options, least_squares)
         out.append(r)
         if progress is not None:
             progress(r)

@@ -179,6 +179,16 @@ session identified once; the report rendered once, ``written_report``, about 10 
 test`` gives them to one worker as one unit of work (:func:`pytest_xdist_make_scheduler`),
 so the session is identified and the report rendered once per run, not once per worker."""
 
+HISTORY_FIXTURE_FILES: tuple[str, ...] = (
+    "history/test_uncertainty_stored.py", "history/test_signing.py",
+    "history/test_damaged_store.py", "history/test_qif.py", "history/test_load.py",
+    "history/test_report_previous.py", "history/test_fuzz_store.py",
+)
+"""The test files of tests/history/history_fixtures.py's ``history_two`` (two calibrations
+simulated and identified, one of them added to a store: seconds of CPU), one unit of work
+for ``make test`` (:func:`pytest_xdist_make_scheduler`): built once per run, not once per
+worker."""
+
 LONGEST_FIRST: tuple[str, ...] = (
     *LINUXCNC_FILES, *REPORT_FIXTURE_FILES,
     "cli/test_cli_bad_input.py", "history/test_history.py", "history/test_uncertainty_stored.py",
@@ -206,7 +216,8 @@ in its usual place; the order of the tests inside a file is unchanged."""
 
 def pytest_xdist_make_scheduler(config, log):
     """``--dist loadfile`` with the LinuxCNC files as one unit of work (see LINUXCNC_FILES),
-    and the files of the shared report fixtures as another (see REPORT_FIXTURE_FILES)."""
+    the files of the shared report fixtures as another (see REPORT_FIXTURE_FILES), and the
+    files of the shared history calibrations as a third (see HISTORY_FIXTURE_FILES)."""
     if config.getoption("dist", None) != "loadfile":
         return None
     from xdist.scheduler import LoadFileScheduling
@@ -218,6 +229,8 @@ def pytest_xdist_make_scheduler(config, log):
                 return "linuxcnc"
             if any(path.endswith(f) for f in REPORT_FIXTURE_FILES):
                 return "report_fixtures"
+            if any(path.endswith(f) for f in HISTORY_FIXTURE_FILES):
+                return "history_fixtures"
             return super()._split_scope(nodeid)
 
     return OneLinuxCNC(config, log)

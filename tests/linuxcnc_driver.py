@@ -18,18 +18,21 @@ each STEP one of
   in auto mode to its end, recording the status (``stat.joint_actual_position``,
   ``stat.position``, ``current_line``, ``motion_line``, ``delay_left`` (> 0 while a G4 dwell
   runs)) and ``pins`` every ``poll_s`` seconds (0 or absent: no time
-  series) into ``series[label or program]``; a pause (M0, M1) is resumed at once, as the
-  operator's cycle start (``resume``: true), and listed in the end sample's ``pauses``;
+  series) into ``series[label or program]``; a pause (M0, M1) is resumed, as the
+  operator's cycle start (``resume``: true), ``resume_after_s`` seconds after it is seen
+  (default 0: at once), and listed in the end sample's ``pauses``;
   with the plan's ``sampled_pins``, the same pins of every servo cycle of the program
   (HAL's realtime ``sampler`` in the servo thread, drained by ``halsampler``: nothing is
   lost when this process is not scheduled for a while) into ``sampled[label or program]``
-  (``{"pins": [...], "rows": [[cycle, value, ...], ...], "overruns": n}``);
+  (``{"pins": [...], "rows": [[cycle, value, ...], ...], "overruns": n}``); with
+  ``done_file``, that file is written in the configuration's folder when it has ended;
 * ``{"jog": joint, "increment": d, "velocity": v}``: an incremental jog of one joint in
   joint mode, then a sample of ``pins``;
 * ``{"sleep_s": s}``;
-* ``{"wait_file": name, "timeout_s": s}``: wait until the file ``name`` exists in the
-  configuration's folder (the test writes it: a step that waits for the test, e.g. for a
-  capture to be connected before the next program starts).
+* ``{"wait_file": name, "timeout_s": s, "or_end": stop}``: wait until the file ``name``
+  exists in the configuration's folder (the test writes it: a step that waits for the
+  test, e.g. for a capture to be connected before the next program starts); when the
+  file ``stop`` appears first, the plan ends there.
 
 Result (JSON): ``{"ok": bool, "samples": [...], "series": {...}, "sampled": {...},
 "errors": [...], "failed": str | null}``. Only the standard library and LinuxCNC's modules
@@ -92,6 +95,20 @@ class Driver:
                 return
             time.sleep(0.005)
         raise RuntimeError("timed out waiting for " + what)
+
+    def wait_started(self, what):
+        """Wait until task has taken the last command (``AUTO_RUN``) and it is done,
+        failed, or the interpreter runs (reading, waiting or paused).
+
+        ``wait_complete`` waits until the command is done, up to its timeout (5 s): while
+        the interpreter cannot read ahead (a ``G38.2`` probing move, an ``M0`` stop at the
+        program's start), ``AUTO_RUN`` is executing: a program paused at its start stood
+        those 5 s before the cycle start.
+        """
+        serial = self.c.serial
+        self.wait(lambda: self.s.echo_serial_number >= serial and (
+            self.s.state != linuxcnc.RCS_EXEC
+            or self.s.interp_state != linuxcnc.INTERP_IDLE), what)
 
     def read_pins(self):
         return {p: hal.get_value(p) for p in self.pins}
@@ -244,13 +261,15 @@ class Driver:
         self.c.wait_complete()
         sampling = self.start_sampling(name) if self.sampled_pins else None
         self.c.auto(linuxcnc.AUTO_RUN, 0)
-        self.c.wait_complete()
+        self.wait_started("the program's start")
         t0 = time.monotonic()
         timeout = float(step.get("timeout_s", self.step_timeout_s))
         started = False
         resume = bool(step.get("resume", True))
+        resume_after_s = float(step.get("resume_after_s", 0.0))
         pauses = []
         was_paused = False
+        paused_at = None  # when the pause not yet resumed was seen
         while True:
             self.s.poll()
             self.poll_errors()
@@ -264,9 +283,12 @@ class Driver:
                 started = True
                 paused = self.s.interp_state == linuxcnc.INTERP_PAUSED or self.s.paused
                 if paused and resume and not was_paused:
-                    # M0/M1: the operator's cycle start (not waited for: the loop polls on)
                     pauses.append({"t": time.monotonic() - t0, "line": self.s.current_line})
+                    paused_at = time.monotonic()
+                if paused_at is not None and time.monotonic() - paused_at >= resume_after_s:
+                    # M0/M1: the operator's cycle start (not waited for: the loop polls on)
                     self.c.auto(linuxcnc.AUTO_RESUME)
+                    paused_at = None
                 was_paused = paused
             elif started or time.monotonic() - t0 > 1.0:
                 break
@@ -277,6 +299,9 @@ class Driver:
             time.sleep(poll_s or 0.01)
         if sampling is not None:
             self.stop_sampling(sampling)
+        if step.get("done_file"):  # tells the test the program has ended
+            with open(os.path.join(_ini_dir(), step["done_file"]), "w"):
+                pass
         self.s.poll()
         self.samples.append({"label": name, "program": step["program"], "end": True,
                              "pauses": pauses, "run_s": time.monotonic() - t0,
@@ -298,8 +323,12 @@ class Driver:
                 time.sleep(float(step["sleep_s"]))
             elif "wait_file" in step:
                 path = os.path.join(_ini_dir(), step["wait_file"])
+                stop = step.get("or_end")
                 end = time.monotonic() + float(step.get("timeout_s", self.step_timeout_s))
                 while not os.path.exists(path):
+                    if stop and os.path.exists(os.path.join(_ini_dir(), stop)):
+                        self.poll_errors()
+                        return  # the test needs no more: the plan ends here
                     if time.monotonic() > end:
                         raise RuntimeError(f"{step['wait_file']} did not appear")
                     time.sleep(0.05)

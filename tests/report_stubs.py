@@ -9,9 +9,9 @@ pages: every table cell measured and drawn by matplotlib); a certificate's PDF t
 seconds more (benchmarks/README.md, "make test time"). What is drawn is checked where it
 is drawn for real: tests/report/test_report_render.py, test_report_pdf.py,
 test_report_customer_pdf.py and test_report_browser.py (one shared rendering,
-``report_fixtures.written_report``), test_report_cli.py (``volcal report`` and ``volcal
-demo``), test_certificate*.py (the certificate's PDF read back),
-tests/standards/test_incomplete.py and tests/cli/test_missed_capture_flow.py (reports of
+``report_fixtures.written_report``), test_report_cli.py (``volcal demo``; its ``volcal
+report`` process uses ``use_blank_figures``), test_certificate*.py (the certificate's PDF
+read back), tests/standards/test_incomplete.py and tests/cli/test_missed_capture_flow.py (reports of
 partly measured sessions and missed readings) and every other test that asks for neither
 fixture.
 

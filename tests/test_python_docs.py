@@ -19,8 +19,11 @@ def _blocks() -> list[str]:
 
 def _run_script(script: str, cwd: Path, monkeypatch) -> subprocess.CompletedProcess[str]:
     """Run the walkthrough in ``cwd``: in this process (a fresh namespace, its output
-    captured, its report's figures blank: tests/report_stubs.py, the figures are drawn by
-    tests/report) unless VOLCAL_TEST_SUBPROCESS=1, then in a Python process of its own."""
+    captured, its report's figures blank and its report.pdf and certificate.pdf stubs:
+    tests/report_stubs.py, they are drawn by tests/report; the model's U drawn once per
+    model content: tests/model_u_once.py, the walkthrough asks for the U of the same
+    model more than once) unless VOLCAL_TEST_SUBPROCESS=1, then in a Python process of its
+    own."""
     if SUBPROCESS:
         return subprocess.run([sys.executable, "-c", script], cwd=cwd, capture_output=True,
                               text=True, timeout=scaled_timeout(900))
@@ -28,9 +31,10 @@ def _run_script(script: str, cwd: Path, monkeypatch) -> subprocess.CompletedProc
     import io
     import traceback
 
-    from report_stubs import use_blank_figures
+    from report_stubs import use_blank_figures, use_stub_pdfs
 
     use_blank_figures(monkeypatch)
+    use_stub_pdfs(monkeypatch)
     monkeypatch.chdir(cwd)
     out, err, code = io.StringIO(), io.StringIO(), 0
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
@@ -42,7 +46,7 @@ def _run_script(script: str, cwd: Path, monkeypatch) -> subprocess.CompletedProc
     return subprocess.CompletedProcess(["python"], code, out.getvalue(), err.getvalue())
 
 
-def test_walkthrough_runs_and_writes_every_output(tmp_path, monkeypatch):
+def test_walkthrough_runs_and_writes_every_output(tmp_path, monkeypatch, model_u_once):
     blocks = _blocks()
     assert len(blocks) == 5  # flow, measured session, advise/program/import, budget, tables
     assert len([ln for ln in blocks[0].splitlines() if ln.strip()]) <= 13

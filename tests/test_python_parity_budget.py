@@ -19,6 +19,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from report_stubs import use_stub_pdfs
 from volcal import Calibration
 from volcal.uncertainty.budget import TEMPLATE
 
@@ -169,7 +170,9 @@ def _identity(folder) -> None:
 def fast_report(monkeypatch):
     """The technical report's rendering stubbed (its HTML is the title, its PDF one page):
     rendered, it costs about 12 s per report, and tests/report checks it. The certificate
-    (its document, JSON, HTML and PDF) is written for real."""
+    (its document, JSON and HTML) is written for real; its PDF too, unless the test stubs
+    it (:func:`report_stubs.use_stub_pdfs`, where it compares the JSON only: the PDF, some
+    2-3 s of drawing per certificate, is read back in tests/report/test_certificate.py)."""
     import volcal.report.writer as w
 
     def write_pdf(report, path):
@@ -196,14 +199,15 @@ def test_certificate_from_python_equals_the_clis(sessions, tmp_path, monkeypatch
     cal.result.to_json(tmp_path / "m.json")
     files = cal.report(tmp_path / "py", tolerance_um="X=6,Y=6,Z=6,X.R=3,V=40",
                        decision_rule="guarded", guard_band_um=0.5, budget=sessions.budget)
+    assert cal.certificate is not None  # automatic: the session has [calibration] keys
+    assert cal.certificate.pdf.is_file() and cal.certificate.pdf_pages >= 1  # drawn
+    use_stub_pdfs(monkeypatch)  # the CLI's certificate: its JSON compared, not its PDF
     r = _run(monkeypatch, capsys, "report", str(tmp_path / "s"), "-o", str(tmp_path / "cli"),
              "--model", str(tmp_path / "m.json"), "--tolerance-um", "X=6,Y=6,Z=6,X.R=3,V=40",
              "--decision-rule", "guarded", "--guard-band-um", "0.5", "--budget",
              str(sessions.budget))
     assert r.code == 0, r.err
-    assert cal.certificate is not None  # automatic: the session has [calibration] keys
     assert cal.certificate.json == tmp_path / "py" / "certificate.json"
-    assert cal.certificate.pdf.is_file() and cal.certificate.pdf_pages >= 1
     py = json.loads(cal.certificate.json.read_text("utf-8"))
     cli = json.loads((tmp_path / "cli" / "certificate.json").read_text("utf-8"))
     for doc in (py, cli):
@@ -226,9 +230,12 @@ def test_certificate_from_python_equals_the_clis(sessions, tmp_path, monkeypatch
 def test_as_found_as_left_certificate_equals_the_clis(sessions, tmp_path, monkeypatch,
                                                      capsys, fast_report):
     """as_left= (a Calibration or a folder) and tables= as --as-left and --tables; a
-    budget without a tolerance gives U of both sessions' tests."""
+    budget without a tolerance gives U of both sessions' tests. The certificates' JSON is
+    compared; their PDFs are stubbed (an as-found/as-left certificate's PDF is read back in
+    tests/report/test_certificate.py)."""
     import shutil
 
+    use_stub_pdfs(monkeypatch)
     shutil.copytree(sessions.root / "py", tmp_path / "found")
     shutil.copytree(sessions.root / "py", tmp_path / "left")
     Calibration.open(tmp_path / "left").simulate(seed=8).save(tmp_path / "left")

@@ -58,7 +58,7 @@ def _snapshot(folder: Path) -> dict[str, bytes]:
 
 
 def test_report_over_a_folder_with_a_foreign_file(model, tmp_path, monkeypatch, capsys,
-                                                  blank_figures, stub_pdfs):
+                                                  blank_figures, stub_pdfs, model_u_once):
     session, mfile = model
     out = tmp_path / "R"
     args = ["report", str(session), "--model", str(mfile), "-o", str(out)]

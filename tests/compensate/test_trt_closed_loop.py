@@ -121,8 +121,13 @@ def trt_sim():
     return run_linuxcnc
 
 
+ROTARY_LIMITS = {"max_velocity": 1440.0, "max_acceleration": 28800.0}
+"""The rotary axes' velocity [deg/s] and acceleration [deg/s^2]: the sim turns between the
+poses in a fraction of a second (every probing move is made with them standing)."""
+
+
 def _joints(t: str = "A") -> list[SimJoint]:
-    rot = {"max_velocity": 360.0, "max_acceleration": 3600.0}
+    rot = ROTARY_LIMITS
     return [SimJoint("X"), SimJoint("Y"), SimJoint("Z"),
             SimJoint(t, "ANGULAR", min=-120.0, max=120.0, **rot),
             SimJoint("C", "ANGULAR", min=-720.0, max=720.0, **rot)]

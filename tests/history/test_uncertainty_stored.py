@@ -41,14 +41,21 @@ def _evaluation(folder, budget):
                             optics=True)
 
 
-def test_stored_u_and_compare(store_url, history_two, budget_file):  # noqa: F811
+@pytest.fixture(scope="module")
+def evaluation_a(history_two, budget_file):  # noqa: F811
+    """A's evaluation with the budget (:func:`_evaluation`), made once for both stores:
+    the same files give the same numbers (the model's U from seeded draws)."""
+    return _evaluation(history_two["a"], budget_file)
+
+
+def test_stored_u_and_compare(store_url, history_two, budget_file, evaluation_a):  # noqa: F811
     """Every stored U is the evaluation's own number (never recomputed); compare tests
     each result against U = sqrt(U1^2 + U2^2) of the stored U with a verdict, and says
     "no uncertainty stored" only where a stored U is missing."""
     from volcal.history.api import History
 
     a, b = history_two["a"], history_two["b"]
-    ev = _evaluation(a, budget_file)
+    ev = evaluation_a
     with History(store_url) as h:
         ra = h.add(a, a / "model.json", budget=budget_file)
         rb = h.add(b, b / "model.json", budget=budget_file)

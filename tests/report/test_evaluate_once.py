@@ -10,7 +10,9 @@ correction taken off): they are counted apart.
 
 The reports are written with blank figures and stub PDFs (tests/report_stubs.py): drawing
 evaluates nothing (the figures and the certificate are built from the evaluation before
-they are drawn), and the drawing is checked by the rendering tests of tests/report.
+they are drawn), and the drawing is checked by the rendering tests of tests/report. The
+model's U is drawn once per model content (tests/model_u_once.py): its draws evaluate no
+test either, and the tests here give the same model file again and again.
 """
 
 import shutil
@@ -28,7 +30,7 @@ small_session = _fx.small_session
 
 TOLERANCE = "X=1000,Y=1000,Z=1000,V=1000"
 
-pytestmark = pytest.mark.usefixtures("blank_figures", "stub_pdfs")
+pytestmark = pytest.mark.usefixtures("blank_figures", "stub_pdfs", "model_u_once")
 
 
 class Spy:

@@ -12,10 +12,18 @@ identified = _fx.identified
 small_session = _fx.small_session
 
 VOLCAL = [sys.executable, "-c", "from volcal.cli import main; main()"]
+VOLCAL_BLANK_FIGURES = [sys.executable, "-c", (
+    f"import sys; sys.path.insert(0, {str(Path(__file__).parents[1])!r}); import pytest; "
+    "from report_stubs import use_blank_figures; use_blank_figures(pytest.MonkeyPatch()); "
+    "from volcal.cli import main; main()")]
+"""``volcal`` as a process whose report figures are blank (tests/report_stubs.py): the
+command line, its files and what the report says, without drawing the figures again
+(drawn for real in the demo below and in the shared rendering of the report tests)."""
 
 
-def _run(*args, cwd=None):
-    p = subprocess.run([*VOLCAL, *args], capture_output=True, text=True, cwd=cwd,
+def _run(*args, cwd=None, blank_figures=False):
+    cmd = VOLCAL_BLANK_FIGURES if blank_figures else VOLCAL
+    p = subprocess.run([*cmd, *args], capture_output=True, text=True, cwd=cwd,
                        timeout=scaled_timeout(600))
     # rich wraps long lines at the terminal width; compare words, not line breaks
     p.stdout, p.stderr = " ".join(p.stdout.split()), " ".join(p.stderr.split())
@@ -32,7 +40,8 @@ def test_report_with_a_model_file(identified, tmp_path):
     write_compensation(r.errors, "heidenhain", tmp_path / "comp",
                        CompensationOptions("error", 25.0), "model.json")
     p = _run("report", str(s.path), "--model", str(model), "-o", str(out), "--compensation",
-             str(tmp_path / "comp"), "--tolerance-um", "X=1000,Y=0.001,V=1000")
+             str(tmp_path / "comp"), "--tolerance-um", "X=1000,Y=0.001,V=1000",
+             blank_figures=True)
     assert p.returncode == 0, p.stderr
     html = (out / "report.html").read_text(encoding="utf-8")
     assert html.count("<img ") >= 5

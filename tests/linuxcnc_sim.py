@@ -31,6 +31,9 @@ API (kept stable; issue 29's live capture uses it):
 ``run_linuxcnc(joints, steps, *, pins=(), files={}, timeout_s=60, keep=None) -> dict``
     Run one plan (see tests/linuxcnc_driver.py for the steps) and return ``result.json``;
     raises :class:`LinuxCNCRunError` with LinuxCNC's own output when the run fails.
+    ``locked_file=NAME`` writes the file NAME in the configuration's folder once the run
+    holds the lock (LinuxCNC starts next): a test that starts a client of this LinuxCNC
+    first (a capture) starts it then, not while other runs on the box hold the lock.
     ``sampled_pins=[...]`` records those pins at every servo cycle of a program (HAL's
     realtime ``sampler``), in ``result["sampled"]``.
 ``mdi_samples(joints, moves, *, pins, ...)``
@@ -234,7 +237,8 @@ def run_linuxcnc(joints: Sequence[SimJoint], steps: Sequence[Mapping], *,
                  settle_s: float = 0.03, timeout_s: float = 60.0,
                  keep: str | os.PathLike[str] | None = None,
                  kinematics: str | None = None, halfiles: Sequence[str] = (),
-                 servo_period_ns: int = 1000000, sampled_pins: Iterable[str] = ()) -> dict:
+                 servo_period_ns: int = 1000000, sampled_pins: Iterable[str] = (),
+                 locked_file: str | None = None) -> dict:
     """Run LinuxCNC once on a sim configuration and return the driver's ``result.json``.
 
     Parameters
@@ -263,6 +267,10 @@ def run_linuxcnc(joints: Sequence[SimJoint], steps: Sequence[Mapping], *,
         HAL pins recorded at every servo cycle while a program runs (HAL's ``sampler`` in
         the servo thread, drained by ``halsampler``), into ``result["sampled"]``: a
         realtime record that does not depend on the driver being scheduled.
+    locked_file : str, optional
+        A file of this name is written in the configuration's folder once the run holds
+        :data:`LOCK_FILE`, just before LinuxCNC is started (the wait for the lock, while
+        other runs of the box hold it, is unbounded).
 
     Returns
     -------
@@ -305,6 +313,9 @@ def run_linuxcnc(joints: Sequence[SimJoint], steps: Sequence[Mapping], *,
                    *cmd]
         with open(LOCK_FILE, "a") as lock:
             fcntl.flock(lock, fcntl.LOCK_EX)
+            if locked_file is not None:
+                (folder / locked_file).write_text("")
+                os.chmod(folder / locked_file, 0o644)
             t0 = time.monotonic()
             log = folder / "linuxcnc.log"
             with open(log, "wb") as out:

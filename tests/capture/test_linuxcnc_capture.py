@@ -43,6 +43,9 @@ IDLE_S = 1.0
 """Before run 1 the machine stands idle at home this long [s] with capture A connected:
 longer than the stable windows of the tests (0.35-0.6 s), where a reading taken would be
 one before the program's start."""
+LOCKED = "locked"
+"""The file LinuxCNC's run writes in its configuration's folder once it holds the box's
+LinuxCNC lock (``run_linuxcnc(locked_file=...)``)."""
 PAUSE_S = 1.0
 """Each run's operator stop (the ``M0`` at the program's start) lasts this long [s] before
 the cycle start: longer than a stable window, where no reading may be taken (paused)."""
@@ -99,15 +102,105 @@ def _check_windows(journal: list[dict], targets: np.ndarray, window_mm: float,
             assert np.max(np.abs(p - targets[x["reading"]])) <= window_mm
 
 
-def _wait(p: subprocess.Popen[str], what: str, timeout: float) -> str:
+def _wait(p: subprocess.Popen[str], what: str, timeout: float,
+          outputs: dict[str, tuple[str, str]]) -> str:
     try:
         out, err = p.communicate(timeout=timeout)
     except subprocess.TimeoutExpired:
         p.kill()
         out, err = p.communicate()
-        raise AssertionError(f"{what} did not end: {out}\n{err}") from None
-    assert p.returncode == 0, f"{what}: {out}\n{err}"
+        outputs[what] = (out, err)
+        raise AssertionError(f"{what} did not end") from None
+    outputs[what] = (out, err)
+    assert p.returncode == 0, f"{what} ended with exit code {p.returncode}"
     return out
+
+
+class _CNC:
+    """LinuxCNC's run in its thread, as the test follows it: its configuration folder
+    (found by the test's marker file), when it took the box's LinuxCNC lock, its result."""
+
+    def __init__(self) -> None:
+        self.config: Path | None = None
+        self.result: dict = {}
+        self.thread: threading.Thread | None = None
+        self.t0 = time.monotonic()
+        self.locked_after_s: float | None = None
+
+    def check(self) -> None:
+        """Fail at once (with LinuxCNC's reason) when its run has ended: whatever the test
+        waits for (a capture connecting, a program) will not come."""
+        assert self.thread is not None
+        if not self.thread.is_alive():
+            raise AssertionError("LinuxCNC's run ended before the test was done: "
+                                 + self.state())
+
+    def state(self) -> str:
+        """Where LinuxCNC's run is (for a failure message)."""
+        waited = (f"it waited {self.locked_after_s:.1f} s for the box's LinuxCNC lock"
+                  if self.locked_after_s is not None else
+                  f"it has waited {time.monotonic() - self.t0:.1f} s for the box's LinuxCNC "
+                  "lock (other runs on the box hold it) or its configuration")
+        if "error" in self.result:
+            return f"{waited}; it failed: {self.result['error']}"
+        if "res" in self.result:
+            r = self.result["res"]
+            return (f"{waited}; it ended after {r.get('run_s', 0):.1f} s, ok={r['ok']}, "
+                    f"failed: {r['failed']}, errors: {r['errors'][:5]}")
+        alive = self.thread is not None and self.thread.is_alive()
+        return f"{waited}; {'still running' if alive else 'ended without a result'}"
+
+
+def _tail(text: str, n: int) -> str:
+    return "\n".join(text.splitlines()[-n:])
+
+
+def _diagnostics(tmp_path: Path, mid: str, cnc: _CNC,
+                 outputs: dict[str, tuple[str, str]]) -> str:
+    """What the captures and LinuxCNC did, for a failure message: LinuxCNC's state and
+    log (kept in ``tmp_path/linuxcnc``), each capture's journal summary and output."""
+    parts = [f"LinuxCNC: {cnc.state()}"]
+    log = ""
+    if "res" in cnc.result:
+        log = cnc.result["res"].get("log", "")
+    elif (tmp_path / "linuxcnc" / "linuxcnc.log").is_file():
+        log = (tmp_path / "linuxcnc" / "linuxcnc.log").read_text(errors="replace")
+    parts.append(f"LinuxCNC's log (kept in {tmp_path / 'linuxcnc'}), its end:\n"
+                 + (_tail(log, 40) or "(empty)"))
+    for name in ("A", "B"):
+        journal = _journal(tmp_path / name, mid)
+        if not journal and name not in outputs:
+            continue
+        counts: dict[str, int] = {}
+        for x in journal:
+            counts[x["type"]] = counts.get(x["type"], 0) + 1
+        said = [{k: x.get(k) for k in ("type", "t", "utc", "done", "reason", "text")
+                 if k in x} for x in journal if x["type"] in ("start", "end", "note")]
+        ctrl = [x for x in journal if x["type"] == "control"]
+        parts.append(f"capture {name}: journal {counts}; {json.dumps(said[-10:])}"
+                     + (f"; last control sample {json.dumps(ctrl[-1])}" if ctrl else ""))
+    for name, (out, err) in outputs.items():
+        parts.append(f"{name}: stdout:\n{_tail(out, 15)}\nstderr:\n{_tail(err, 25)}")
+    return "\n\n".join(parts)
+
+
+def _bridge_sees(config: Path) -> str:
+    """What volcal's LinuxCNC bridge reads now for this configuration (about 2 s of its
+    output, for a failure message: its ``waiting`` reasons or a status line)."""
+    from volcal.capture.linuxcnc_source import BRIDGE, system_python
+
+    p = subprocess.Popen([system_python(), str(BRIDGE), "--ini", str(config / "sim.ini"),
+                          "--wait", "5", "--lost", "5", "--period", "0.2"],
+                         stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    time.sleep(2.0)
+    p.send_signal(signal.SIGINT)  # the bridge ends between two polls (never inside one)
+    try:
+        out = p.communicate(timeout=scaled_timeout(10))[0]
+    except subprocess.TimeoutExpired:
+        p.kill()
+        out = p.communicate()[0]
+    seen = list(dict.fromkeys(line[:300] for line in out.splitlines()))
+    return "the bridge reads now: " + ("\n".join(seen[:2] + seen[-1:]) or "nothing")
 
 
 def _run(tmp_path: Path, *, steps: int, runs: int, travel: float, dwell_s: float,
@@ -126,12 +219,12 @@ def _run(tmp_path: Path, *, steps: int, runs: int, travel: float, dwell_s: float
     ngc = (progs / "linear_x1.ngc").read_text()
     mid = "linear-x1"
     marker = f"volcal-capture-{uuid.uuid4().hex}"  # finds this test's LinuxCNC folder
-    result: dict = {}
+    cnc = _CNC()
     n_prog = 3
 
-    def cnc() -> None:
+    def run() -> None:
         try:
-            result["res"] = run_linuxcnc(
+            cnc.result["res"] = run_linuxcnc(
                 xyzc_joints(), [{"home": True},
                                 *[step for k in range(n_prog) for step in (
                                     # each run starts once the test says the capture that
@@ -144,23 +237,43 @@ def _run(tmp_path: Path, *, steps: int, runs: int, travel: float, dwell_s: float
                                     {"program": "linear_x1.ngc", "label": f"p{k}",
                                      "resume_after_s": PAUSE_S, "done_file": f"ended-p{k}",
                                      "timeout_s": scaled_timeout(600)})]],
-                files={"linear_x1.ngc": ngc, marker: ""}, timeout_s=900)
+                files={"linear_x1.ngc": ngc, marker: ""}, timeout_s=900,
+                locked_file=LOCKED, keep=tmp_path / "linuxcnc")
         except Exception as e:  # reported by the test below
-            result["error"] = e
+            cnc.result["error"] = e
 
-    t = threading.Thread(target=cnc, daemon=True)
-    t.start()
-    procs: list[subprocess.Popen[str]] = []
+    cnc.thread = threading.Thread(target=run, daemon=True)
+    cnc.thread.start()
+    procs: dict[str, subprocess.Popen[str]] = {}
+    outputs: dict[str, tuple[str, str]] = {}
+    failed: BaseException | None = None
     try:
-        _captures(tmp_path, s, progs, mid, marker, procs, stable_s, max_gap_s)
+        _captures(tmp_path, s, progs, mid, marker, procs, stable_s, max_gap_s, cnc, outputs)
+    except BaseException as e:
+        failed = e
     finally:
-        for p in procs:  # never leave a capture or LinuxCNC behind
+        for name, p in procs.items():  # never leave a capture or LinuxCNC behind
             if p.poll() is None:
                 p.kill()
-                p.wait()
-        t.join(scaled_timeout(1200))
-    assert "error" not in result, result.get("error")
-    assert result["res"]["ok"], result["res"]["failed"]
+            if name not in outputs:
+                try:
+                    outputs[name] = p.communicate(timeout=scaled_timeout(30))
+                except (ValueError, OSError, subprocess.TimeoutExpired):
+                    pass
+        probe = ""
+        if failed is not None and cnc.config is not None:
+            if cnc.thread.is_alive() and cnc.locked_after_s is not None:
+                probe = _bridge_sees(cnc.config)
+            _release(cnc.config, "stop")  # LinuxCNC's plan ends at its next wait
+        cnc.thread.join(scaled_timeout(1200))
+    if isinstance(failed, AssertionError):
+        raise AssertionError(f"{failed}\n\n{_diagnostics(tmp_path, mid, cnc, outputs)}"
+                             f"\n\n{probe}") from None
+    if failed is not None:
+        raise failed
+    assert not cnc.thread.is_alive(), "LinuxCNC's run did not end"
+    assert "error" not in cnc.result, _diagnostics(tmp_path, mid, cnc, outputs)
+    assert cnc.result["res"]["ok"], _diagnostics(tmp_path, mid, cnc, outputs)
     _check(tmp_path, s, mid, stable_s)
 
 
@@ -180,19 +293,31 @@ def _release(config: Path, name: str) -> None:
     os.chmod(config / name, 0o644)
 
 
+def _ended(p: subprocess.Popen[str], what: str,
+           outputs: dict[str, tuple[str, str]]) -> AssertionError:
+    """The failure of capture ``p`` that ended before its time, with its output."""
+    out, err = p.communicate()
+    outputs[what] = (out, err)
+    return AssertionError(f"{what} ended (exit code {p.returncode}) before its time")
+
+
 def _go(config: Path, name: str, p: subprocess.Popen[str], folder: Path, mid: str,
-        starts: int) -> None:
+        starts: int, cnc: _CNC, what: str, outputs: dict[str, tuple[str, str]]) -> None:
     """Let LinuxCNC start its next program once capture ``p`` is connected
     (:func:`_connected`): the file ``name`` releases the driver's ``wait_file`` step."""
     deadline = time.monotonic() + scaled_timeout(300)
     while not _connected(folder, mid, starts):
-        assert p.poll() is None, p.communicate()
-        assert time.monotonic() < deadline, f"{name}: the capture did not connect"
+        if p.poll() is not None:
+            raise _ended(p, what, outputs)
+        cnc.check()
+        assert time.monotonic() < deadline, f"{name}: {what} did not reach LinuxCNC (no " \
+            "control sample after its start)"
         time.sleep(0.02)
     _release(config, name)
 
 
-def _go_if_needed(config: Path, p: subprocess.Popen[str], folder: Path, mid: str) -> None:
+def _go_if_needed(config: Path, p: subprocess.Popen[str], folder: Path, mid: str,
+                  cnc: _CNC) -> None:
     """Run 3 for the resumed capture ``p`` only if it needs it: resumed at once, it may
     take its remaining readings from run 2 and end there (then the driver's plan ends,
     ``stop``); once run 2 has ended without that, run 3 starts when ``p`` is connected
@@ -205,47 +330,59 @@ def _go_if_needed(config: Path, p: subprocess.Popen[str], folder: Path, mid: str
         if (config / "ended-p1").exists() and _connected(folder, mid, 2):
             _release(config, "go-p2")
             return
+        cnc.check()
         assert time.monotonic() < deadline, "go-p2: the capture did not connect"
         time.sleep(0.02)
 
 
 def _captures(tmp_path: Path, s: Path, progs: Path, mid: str, marker: str,
-              procs: list[subprocess.Popen[str]], stable_s: float, max_gap_s: float) -> None:
+              procs: dict[str, subprocess.Popen[str]], stable_s: float, max_gap_s: float,
+              cnc: _CNC, outputs: dict[str, tuple[str, str]]) -> None:
     deadline = time.monotonic() + scaled_timeout(120)
     found: list[Path] = []
     while not found:
         found = list(Path(tempfile.gettempdir()).glob(f"volcal-cnc-*/{marker}"))
+        cnc.check()
         assert time.monotonic() < deadline, "the LinuxCNC configuration was not written"
         time.sleep(0.05)
-    ini = found[0].with_name("sim.ini")
+    config = cnc.config = found[0].parent
+    # capture A starts once LinuxCNC's run holds the box's lock (LinuxCNC starts then, and
+    # comes up seconds later): started before, its timeout ran while other runs on the box
+    # held the lock (it ended with no control sample after scaled_timeout(120) s: seen twice
+    # in about ten runs on the shared box). The wait for the lock is the lock's, unbounded as
+    # in every LinuxCNC test; it ends when LinuxCNC's run ends.
+    while not (config / LOCKED).exists():
+        cnc.check()
+        time.sleep(0.05)
+    cnc.locked_after_s = time.monotonic() - cnc.t0
+    ini = config / "sim.ini"
     common = [str(s), "--control", f"linuxcnc:{ini}",
               "--laser", f"sim:seed={SEED},noise={NOISE_UM}",
               "--measurement", mid, "--programs", str(progs), "--stable-s", str(stable_s),
               "--max-gap-s", str(max_gap_s), "--poll-s", "0.02",
               "--timeout-s", str(scaled_timeout(120))]
     a_dir, b_dir = tmp_path / "A", tmp_path / "B"
-    a = _volcal("capture", *common, "-o", str(a_dir))  # waits for LinuxCNC to come up
-    procs.append(a)
-    _go(found[0].parent, "go-p0", a, a_dir, mid, 1)
-    out_a = _wait(a, "capture A", scaled_timeout(900))
+    a = procs["capture A"] = _volcal("capture", *common, "-o", str(a_dir))  # LinuxCNC not up
+    _go(config, "go-p0", a, a_dir, mid, 1, cnc, "capture A", outputs)
+    out_a = _wait(a, "capture A", scaled_timeout(900), outputs)
     assert "captured ->" in out_a
     # capture B during program run 2: killed after two points, resumed at once
-    b = _volcal("capture", *common, "-o", str(b_dir))
-    procs.append(b)
-    _go(found[0].parent, "go-p1", b, b_dir, mid, 1)
+    b = procs["capture B"] = _volcal("capture", *common, "-o", str(b_dir))
+    _go(config, "go-p1", b, b_dir, mid, 1, cnc, "capture B", outputs)
     deadline = time.monotonic() + scaled_timeout(600)
     while len([x for x in _journal(b_dir, mid) if x["type"] == "accepted"]) < 2:
-        assert b.poll() is None, b.communicate()
+        if b.poll() is not None:
+            raise _ended(b, "capture B", outputs)
+        cnc.check()
         assert time.monotonic() < deadline, "capture B took no point"
         time.sleep(0.02)
     os.kill(b.pid, signal.SIGKILL)
     b.wait()
     killed_with = [x["reading"] for x in _journal(b_dir, mid) if x["type"] == "accepted"]
     assert len(killed_with) >= 2
-    b2 = _volcal("capture", *common, "-o", str(b_dir))
-    procs.append(b2)
-    _go_if_needed(found[0].parent, b2, b_dir, mid)
-    _wait(b2, "capture B (resumed)", scaled_timeout(900))
+    b2 = procs["capture B (resumed)"] = _volcal("capture", *common, "-o", str(b_dir))
+    _go_if_needed(config, b2, b_dir, mid, cnc)
+    _wait(b2, "capture B (resumed)", scaled_timeout(900), outputs)
 
 
 def _check(tmp_path: Path, s: Path, mid: str, stable_s: float) -> None:

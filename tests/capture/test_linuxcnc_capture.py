@@ -4,7 +4,10 @@ LinuxCNC 2.9 runs headless as an unprivileged user (the fixture of the rotary is
 tests/linuxcnc_sim.py) and executes volcal's own program for a linear test three times;
 ``volcal capture --control linuxcnc`` reads LinuxCNC's status channel through the bridge
 run by /usr/bin/python3, and the simulated laser reads an injected error map (volcal's
-random virtual machine, seed 3) at LinuxCNC's actual position. Checks:
+random virtual machine, seed 3) at LinuxCNC's actual position. Capture A starts once
+LinuxCNC's run holds the box's LinuxCNC lock, before LinuxCNC is up (the bridge waits for
+it); a failure says why (LinuxCNC's state and log, the journals, what the bridge reads).
+Checks:
 
 * capture A (program run 1, uninterrupted): exactly one row per dwell, in order, every
   accepted window inside a dwell of LinuxCNC (no sample of the window in motion, the

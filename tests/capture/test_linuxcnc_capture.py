@@ -352,10 +352,12 @@ def _captures(tmp_path: Path, s: Path, progs: Path, mid: str, marker: str,
     # capture A starts once LinuxCNC's run holds the box's lock (LinuxCNC starts then, and
     # comes up seconds later): started before, its timeout ran while other runs on the box
     # held the lock (it ended with no control sample after scaled_timeout(120) s: seen twice
-    # in about ten runs on the shared box). The wait for the lock is the lock's, unbounded as
-    # in every LinuxCNC test; it ends when LinuxCNC's run ends.
+    # in about ten runs on the shared box). The test waits for the lock as long as other runs
+    # hold it, as every LinuxCNC test does (the deadline only catches a lock never freed).
+    deadline = time.monotonic() + scaled_timeout(1800)
     while not (config / LOCKED).exists():
         cnc.check()
+        assert time.monotonic() < deadline, "the box's LinuxCNC lock was never free"
         time.sleep(0.05)
     cnc.locked_after_s = time.monotonic() - cnc.t0
     ini = config / "sim.ini"

@@ -14,17 +14,16 @@ folder, spoils one thing, runs ``volcal`` in a subprocess as a user does, and as
 
 from __future__ import annotations
 
-import hashlib
 import os
 import shutil
 import subprocess
 import sys
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import pytest
 
+from cli_mutations import Mutation, chain_of, edit, put, remove, rename_column, set_cell, snapshot
 from timing import scaled_timeout
 
 RUN = [sys.executable, "-c", "from volcal.cli import main; main()"]
@@ -135,56 +134,9 @@ def _planned_exports(d: Path) -> None:
     assert np.isfinite(v).all()
 
 
-def snapshot(folder: Path) -> dict[str, tuple[str, str]]:
-    """Every path below ``folder`` with its kind and content hash (or listing)."""
-    out: dict[str, tuple[str, str]] = {}
-    for p in sorted(folder.rglob("*")):
-        rel = str(p.relative_to(folder))
-        if p.is_symlink() or not p.is_dir():
-            out[rel] = ("file", hashlib.sha256(p.read_bytes()).hexdigest())
-        else:
-            out[rel] = ("dir", "")
-    return out
-
-
 # ---------------------------------------------------------------------------------------------
 # mutations: how a case spoils its copy of the inputs
 # ---------------------------------------------------------------------------------------------
-
-Mutation = Callable[[Path], None]
-
-
-def put(rel: str, content: str | bytes) -> Mutation:
-    """Write ``content`` to ``rel`` (creating it)."""
-    def f(d: Path) -> None:
-        p = d / rel
-        p.parent.mkdir(parents=True, exist_ok=True)
-        if isinstance(content, bytes):
-            p.write_bytes(content)
-        else:
-            p.write_text(content)
-    return f
-
-
-def edit(rel: str, fn: Callable[[str], str]) -> Mutation:
-    """Replace the text of ``rel`` by ``fn(text)``."""
-    def f(d: Path) -> None:
-        p = d / rel
-        p.write_text(fn(p.read_text()))
-    return f
-
-
-def set_cell(rel: str, row: int, col: str, value: str) -> Mutation:
-    """Set one cell of a CSV (row 1 = header) to ``value``."""
-    def fn(text: str) -> str:
-        lines = text.splitlines()
-        header = lines[0].split(",")
-        cells = lines[row - 1].split(",")
-        cells[header.index(col)] = value
-        lines[row - 1] = ",".join(cells)
-        return "\n".join(lines) + "\n"
-    return edit(rel, fn)
-
 
 def drop_column(rel: str, col: str) -> Mutation:
     """Remove a column from a CSV."""
@@ -192,15 +144,6 @@ def drop_column(rel: str, col: str) -> Mutation:
         rows = [ln.split(",") for ln in text.splitlines()]
         j = rows[0].index(col)
         return "\n".join(",".join(r[:j] + r[j + 1:]) for r in rows) + "\n"
-    return edit(rel, fn)
-
-
-def rename_column(rel: str, old: str, new: str) -> Mutation:
-    """Rename a column of a CSV (e.g. to a wrong unit)."""
-    def fn(text: str) -> str:
-        lines = text.splitlines()
-        lines[0] = ",".join(new if h == old else h for h in lines[0].split(","))
-        return "\n".join(lines) + "\n"
     return edit(rel, fn)
 
 
@@ -229,22 +172,6 @@ def truncate(rel: str, fraction: float = 0.5) -> Mutation:
         p = d / rel
         b = p.read_bytes()
         p.write_bytes(b[: int(len(b) * fraction)])
-    return f
-
-
-def remove(rel: str) -> Mutation:
-    """Delete a file or a folder."""
-    def f(d: Path) -> None:
-        p = d / rel
-        shutil.rmtree(p) if p.is_dir() else p.unlink()
-    return f
-
-
-def chain_of(*fs: Mutation) -> Mutation:
-    """Apply several mutations in turn."""
-    def f(d: Path) -> None:
-        for g in fs:
-            g(d)
     return f
 
 

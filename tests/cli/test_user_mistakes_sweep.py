@@ -28,7 +28,6 @@ well already; otherwise what went wrong); benchmarks/README.md "User mistakes sw
 
 from __future__ import annotations
 
-import hashlib
 import shutil
 import sqlite3
 from collections.abc import Callable
@@ -37,6 +36,7 @@ from pathlib import Path
 
 import pytest
 
+from cli_mutations import Mutation, chain_of, edit, put, remove, rename_column, set_cell, snapshot
 from volcal_cli_helpers import volcal_process
 
 TRAVEL = "0:400,0:300,0:200"
@@ -99,63 +99,15 @@ def base(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return d
 
 
-def snapshot(folder: Path) -> dict[str, str]:
-    """Every path below ``folder`` with its content hash (``dir`` for a folder)."""
-    out: dict[str, str] = {}
-    for p in sorted(folder.rglob("*")):
-        rel = str(p.relative_to(folder))
-        out[rel] = "dir" if p.is_dir() and not p.is_symlink() else \
-            hashlib.sha256(p.read_bytes()).hexdigest()
-    return out
-
-
 # ---------------------------------------------------------------------------------------------
 # mutations
 # ---------------------------------------------------------------------------------------------
-
-Mutation = Callable[[Path], None]
-
-
-def put(rel: str, content: str | bytes) -> Mutation:
-    def f(d: Path) -> None:
-        p = d / rel
-        p.parent.mkdir(parents=True, exist_ok=True)
-        p.write_bytes(content if isinstance(content, bytes) else content.encode())
-    return f
-
-
-def edit(rel: str, fn: Callable[[str], str]) -> Mutation:
-    def f(d: Path) -> None:
-        p = d / rel
-        p.write_bytes(fn(p.read_bytes().decode()).encode())
-    return f
-
 
 def sub(rel: str, old: str, new: str, count: int = 1) -> Mutation:
     """Replace ``old`` by ``new`` in ``rel`` (the text must hold ``old``)."""
     def fn(t: str) -> str:
         assert old in t, (rel, old)
         return t.replace(old, new, count)
-    return edit(rel, fn)
-
-
-def set_cell(rel: str, row: int, col: str, value: str) -> Mutation:
-    """Set one cell of a CSV (row 1 = header)."""
-    def fn(text: str) -> str:
-        lines = text.splitlines()
-        header = lines[0].split(",")
-        cells = lines[row - 1].split(",")
-        cells[header.index(col)] = value
-        lines[row - 1] = ",".join(cells)
-        return "\n".join(lines) + "\n"
-    return edit(rel, fn)
-
-
-def rename_column(rel: str, old: str, new: str) -> Mutation:
-    def fn(text: str) -> str:
-        lines = text.splitlines()
-        lines[0] = ",".join(new if h == old else h for h in lines[0].split(","))
-        return "\n".join(lines) + "\n"
     return edit(rel, fn)
 
 
@@ -175,20 +127,6 @@ def swap_lines(rel: str, a: int, b: int) -> Mutation:
 def european(rel: str) -> Mutation:
     """A CSV as a German Excel saves it: semicolons, decimal commas."""
     return edit(rel, lambda t: t.replace(",", ";").replace(".", ","))
-
-
-def remove(rel: str) -> Mutation:
-    def f(d: Path) -> None:
-        p = d / rel
-        shutil.rmtree(p) if p.is_dir() else p.unlink()
-    return f
-
-
-def chain_of(*fs: Mutation) -> Mutation:
-    def f(d: Path) -> None:
-        for g in fs:
-            g(d)
-    return f
 
 
 # ---------------------------------------------------------------------------------------------

@@ -371,10 +371,14 @@ def check_program_run(prof, planned, st, res, dwell_s, every: bool = False):
 
 
 def test_rotary_program_runs_to_the_end_on_linuxcnc_with_the_table(tmp_path, linuxcnc_sim):
-    """One run (bidirectional), short dwells: the make-test version."""
+    """One run (bidirectional), short dwells: the make-test version.
+
+    The dwells from HAL's servo-cycle record, every one of them: the driver's status polls
+    missed half of them once under make test's load (11 of 22)."""
     dwell = 0.15
-    _, prof, planned, st, res = run_rotary_program(tmp_path, linuxcnc_sim, 1, dwell, 10000.0)
-    check_program_run(prof, planned, st, res, dwell)
+    _, prof, planned, st, res = run_rotary_program(tmp_path, linuxcnc_sim, 1, dwell, 10000.0,
+                                                   sampled=True)
+    check_program_run(prof, planned, st, res, dwell, every=True)
 
 
 @pytest.mark.slow

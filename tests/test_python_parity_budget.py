@@ -175,7 +175,7 @@ def fast_report(monkeypatch):
     2-3 s of drawing per certificate, is read back in tests/report/test_certificate.py)."""
     import volcal.report.writer as w
 
-    def write_pdf(report, path):
+    def write_pdf(report, path, **keywords):  # no PNGs: the stubbed png_bytes below
         path.write_bytes(b"%PDF-1.4 stub")
         return 1
 

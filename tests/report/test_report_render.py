@@ -1,10 +1,12 @@
-"""Rendering the report fast without changing it (issue 31): each figure drawn once per
-output format, the PNGs drawn in worker processes the same as here, the figures' data
-untouched by the rendering, the PDF's text wrapped as by the greedy rule, heavy artists
-rasterized at RASTER_DPI."""
+"""Rendering the report fast without changing it (issue 31): each figure drawn once (its
+PDF page; the PNG is that page rasterized), figure pages drawn in worker processes the same
+as here, the figures' data untouched by the rendering, the PDF's text wrapped as by the
+greedy rule, heavy artists rasterized at RASTER_DPI."""
 
+import base64
 import os
 import shutil
+import struct
 import subprocess
 import time
 
@@ -83,8 +85,9 @@ def built(identified):
     return build_report(collect_inputs(s, r))
 
 
-def test_rendering_draws_each_figure_once_per_format_and_keeps_its_data(built, tmp_path,
-                                                                        monkeypatch):
+def test_rendering_draws_each_figure_once_and_keeps_its_data(built, tmp_path, monkeypatch):
+    """Each figure drawn once, on its PDF page; its PNG (HTML, figures folder) is that
+    page's figure area rasterized, not a second drawing."""
     from volcal.report.writer import write_report
 
     before = [figure_data(f.figure) for f in built.figures]
@@ -101,8 +104,8 @@ def test_rendering_draws_each_figure_once_per_format_and_keeps_its_data(built, t
     monkeypatch.setenv(F.WORKERS_ENV, "0")  # in this process, where the draws are counted
     files = write_report(built, tmp_path / "r")
     for f in built.figures:
-        assert drawn.get((id(f.figure), "png")) == 1, f.name  # HTML and figures folder
         assert drawn.get((id(f.figure), "pdf")) == 1, f.name  # its PDF page
+        assert (id(f.figure), "png") not in drawn, f.name  # no Agg drawing
     assert len(files.figures) == len(built.figures)
     assert [figure_data(f.figure) for f in built.figures] == before
     # the figures are left as built: their own size, their layout engine, Agg canvas
@@ -110,28 +113,68 @@ def test_rendering_draws_each_figure_once_per_format_and_keeps_its_data(built, t
         assert f.figure.get_layout_engine() is not None
         assert type(f.figure.canvas).__name__ == "FigureCanvasAgg"
         assert not any(a.get_rasterized() for a in f.figure.findobj(Line2D))
+    # the PNGs: the figure's area of its page at PNG_DPI, in the HTML as in the folder
+    html = files.html.read_text()
+    for f, path in zip(built.figures, files.figures, strict=True):
+        png = path.read_bytes()
+        assert png.startswith(b"\x89PNG") and F.png_bytes(f.figure) == png
+        assert base64.b64encode(png).decode() in html
+        w, h = struct.unpack(">II", png[16:24])
+        assert 1000 < w <= round((11.69 - 0.9) * F.PNG_DPI) + 2 and 300 < h < w
+    assert _pdf_pages(files.pdf) == files.pdf_pages
 
 
-def test_pngs_drawn_in_worker_processes_equal_the_ones_drawn_here(identified):
+def _pdf_pages(pdf) -> int:
+    import pypdfium2 as pdfium
+
+    doc = pdfium.PdfDocument(str(pdf))
+    try:
+        return len(doc)
+    finally:
+        doc.close()
+
+
+def _pdf_text(pdf) -> str:
+    tool = shutil.which("pdftotext")
+    if tool is None:
+        pytest.skip("pdftotext is not installed (poppler-utils)")
+    return subprocess.run([tool, "-layout", str(pdf), "-"], capture_output=True, text=True,
+                          timeout=scaled_timeout(60), check=True).stdout
+
+
+def test_figure_pages_drawn_in_workers_equal_the_ones_drawn_here(identified, tmp_path):
+    """Workers draw the figure pages the same as this process: the same PNGs, the same
+    PDF text page by page (footers "page k of n" included)."""
     from volcal.plot import error_functions_plot, linear_deviation_plot
 
     s, r = identified
     lin = next(m for m in s.measurements if m.kind == "linear")
 
-    def figs():
-        return [linear_deviation_plot(lin), error_functions_plot(r.errors),
+    def report():
+        figs = [linear_deviation_plot(lin), error_functions_plot(r.errors),
                 linear_deviation_plot(lin)]
+        items = [FigureItem(f, f"caption {k}", f"f{k}") for k, f in enumerate(figs)]
+        return Report("parallel", [Section("a", "A", paragraphs=["one"], figures=items[:2]),
+                                   Section("b", "B", tables=[Table(["x"], [["1"]])],
+                                           figures=items[2:])]), figs
 
-    forked = figs()
-    drawing = F.draw_pngs(forked, workers=2)
-    assert drawing.parallel
-    data = [figure_data(f) for f in forked]
-    pngs = drawing.result()
-    here = figs()
-    assert F.draw_pngs(here, workers=0).result() == pngs
-    assert pngs[0] == pngs[2] and pngs[0] != pngs[1]
-    assert [F.png_bytes(f) for f in forked] == pngs  # kept on the figures
-    assert [figure_data(f) for f in forked] == data
+    out = {}
+    for workers in (2, 0):
+        rep, figs = report()
+        data = [figure_data(f) for f in figs]
+        pngs: dict = {}
+        pages = write_pdf(rep, tmp_path / f"w{workers}.pdf", pngs=pngs, workers=workers)
+        assert [figure_data(f) for f in figs] == data
+        out[workers] = (pages, [pngs[i] for i in range(3)],
+                        _pdf_text(tmp_path / f"w{workers}.pdf"))
+    assert out[2] == out[0]
+    pages, pngs, text = out[0]
+    assert pages == 5 and pngs[0] == pngs[2] and pngs[0] != pngs[1]
+    pdf_pages = text.split("\f")[:5]
+    assert [f"page {k} of 5" in p for k, p in enumerate(pdf_pages, start=1)] == [True] * 5
+    # the figure pages at their places: A's two figures after its text, B's after B's table
+    assert ["Figure 1: caption 0" in pdf_pages[1], "Figure 2: caption 1" in pdf_pages[2],
+            "2. B" in pdf_pages[3], "Figure 3: caption 2" in pdf_pages[4]] == [True] * 4
 
 
 def _small_figures():
@@ -153,19 +196,31 @@ def test_a_worker_that_dies_leaves_its_figures_to_this_process():
             os._exit(3)  # a worker killed while it draws
         return F.png_bytes(fig)
 
-    drawing = F.draw_pngs(_small_figures(), draw, workers=1)
+    drawing = F.draw_all(_small_figures(), draw, workers=1)
     assert drawing.parallel
     expected = [F.png_bytes(f) for f in _small_figures()]
     assert drawing.result() == expected and expected[0] != expected[1]
 
 
-def test_the_figures_no_worker_started_are_drawn_here_the_same(tmp_path):
-    """The figures no worker has started are drawn by this process, each figure by one
-    process only, and the PNGs are those of a drawing without workers.
+def test_a_worker_that_fails_leaves_its_figure_to_this_process():
+    parent = os.getpid()
 
-    How many each process takes depends on the load (the worker holds one figure running
-    and one queued; a busy box may let it finish and take the next before this process
-    has drawn its share), so the test counts the drawings, not their split."""
+    def draw(fig):
+        if os.getpid() != parent:
+            raise RuntimeError("worker")
+        return F.png_bytes(fig)
+
+    drawing = F.draw_all(_small_figures(), draw, workers=1)
+    expected = [F.png_bytes(f) for f in _small_figures()]
+    assert drawing.result() == expected
+
+
+def test_each_figure_drawn_by_one_process_whichever_is_free(tmp_path):
+    """This process and the worker take the figures in turn from one counter: both draw,
+    none twice, none lost, the same PNGs as a drawing without workers.
+
+    How many each process takes depends on the load, so the test counts the drawings,
+    not their split."""
     parent = os.getpid()
     here: list[int] = []
     log = tmp_path / "worker.log"
@@ -180,24 +235,26 @@ def test_the_figures_no_worker_started_are_drawn_here_the_same(tmp_path):
         return F.png_bytes(fig)
 
     figs = [g for _ in range(3) for g in _small_figures()]  # six figures, two kinds
-    drawing = F.draw_pngs(figs, draw, workers=1)
+    drawing = F.draw_all(figs, draw, workers=1)
     assert drawing.parallel
     pngs = drawing.result()
     by_worker = len(log.read_text().splitlines()) if log.exists() else 0
-    assert here and by_worker  # both drew (this process took what the worker had not)
+    assert here and by_worker  # both drew
     assert len(here) + by_worker == len(figs)  # none twice, none lost
     expected = [F.png_bytes(f) for f in _small_figures()] * 3
     assert pngs == expected and expected[0] != expected[1]
 
 
 def test_a_png_drawn_after_the_pdf_page_is_the_same(identified, tmp_path):
+    """png_bytes (a figure outside a report, at its own size) is not changed by the
+    figure's PDF page: the page lays the figure out again and puts it back as built."""
     from volcal.plot import error_functions_plot
 
     _, r = identified
     first = F.png_bytes(error_functions_plot(r.errors))
     fig = error_functions_plot(r.errors)
     write_pdf(Report("t", [Section("s", "S", figures=[FigureItem(fig, "c", "e")])]),
-              tmp_path / "t.pdf")
+              tmp_path / "t.pdf", workers=0)
     assert F.png_bytes(fig) == first  # laid out from where it was built, not from the page
     fig.__dict__.pop("_volcal_png", None)
     assert F.png_bytes(fig) == first  # and again
@@ -214,6 +271,38 @@ def test_draw_workers_from_the_environment(monkeypatch):
         F.draw_workers(8)
     monkeypatch.delenv(F.WORKERS_ENV)
     assert 0 <= F.draw_workers(8) <= 8
+
+
+@pytest.mark.parametrize(("idle", "cores", "load", "expected"), [
+    (1.0, 2, 1.0, 1),  # one core idle while the report worked: a worker (load average high
+                       # from the run before, not counted)
+    (0.6, 2, 0.0, 1),
+    (0.3, 2, 0.0, 0),  # both cores mostly busy: none
+    (0.0, 2, 0.0, 0),
+    (3.0, 4, 0.0, 3),
+    (None, 2, 0.4, 1),  # no /proc/stat: the load average
+    (None, 2, 0.9, 0),
+])
+def test_draw_workers_from_the_idle_cores(monkeypatch, idle, cores, load, expected):
+    monkeypatch.delenv(F.WORKERS_ENV, raising=False)
+    monkeypatch.setattr(F, "spare_cores", lambda: idle)
+    monkeypatch.setattr(F.os, "cpu_count", lambda: cores)
+    monkeypatch.setattr(F.os, "getloadavg", lambda: (load, load, load))
+    assert F.draw_workers(8) == expected
+
+
+def test_spare_cores_from_proc_stat(monkeypatch):
+    """Idle time over the window since the module was imported, in cores."""
+    times = iter([(100.0, 400.0)])
+    monkeypatch.setattr(F, "_SINCE", ((40.0, 200.0), time.monotonic() - 1.0))
+    monkeypatch.setattr(F, "_cpu_times", lambda: next(times))
+    monkeypatch.setattr(F.os, "cpu_count", lambda: 2)
+    assert F.spare_cores() == pytest.approx(60.0 / 200.0 * 2)
+    monkeypatch.setattr(F, "_SINCE", ((40.0, 200.0), time.monotonic()))  # too short
+    monkeypatch.setattr(F, "_cpu_times", lambda: (100.0, 400.0))
+    assert F.spare_cores() is None
+    monkeypatch.setattr(F, "_SINCE", (None, 0.0))
+    assert F.spare_cores() is None
 
 
 def _greedy(m: _Measure, text: str, width: float, size: float, weight: str = "normal"):

@@ -1,9 +1,12 @@
 """Figures as embedded images: PNG bytes and ``data:`` URIs for a self-contained HTML file.
 
-Each figure is drawn once as PNG for the HTML and the figures folder (:func:`png_bytes`)
-and once as vector graphics for the PDF (:mod:`volcal.report.pdf`). The PNGs of figures
-independent of each other are drawn in parallel while the PDF is printed, where the
-machine has cores to spare (:func:`draw_pngs`, :func:`draw_workers`).
+In a written report each figure is drawn once, as vector graphics on its PDF page, and its
+PNG (the HTML and the figures folder) is that page's figure area rasterized
+(:mod:`volcal.report.pdf`, :mod:`volcal.report.raster`), kept on the figure
+(:func:`keep_png`). Outside a report (:func:`volcal.report.html.render_html` alone, a
+user's own figure) :func:`png_bytes` draws a figure at its own size with matplotlib's Agg.
+Figures independent of each other are drawn in worker processes where the machine has
+cores to spare (:func:`draw_all`, :func:`draw_workers`).
 """
 
 from __future__ import annotations
@@ -13,19 +16,20 @@ import io
 import math
 import multiprocessing
 import os
+import queue
+import time
 import warnings
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import Future, ProcessPoolExecutor
-from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
+from typing import Any, Generic, TypeVar
 
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from volcal.report.drawcache import cached_drawing
 
-__all__ = ["PNG_COMPRESSION", "PNG_DPI", "WORKERS_ENV", "PngDrawing", "draw_pngs",
-           "draw_workers", "kept_layout", "png_bytes", "png_data_uri"]
+__all__ = ["PNG_COMPRESSION", "PNG_DPI", "WORKERS_ENV", "Drawing", "draw_all", "draw_workers",
+           "keep_png", "kept_layout", "png_bytes", "png_data_uri", "spare_cores"]
 
 PNG_DPI = 200
 """Resolution of the PNG images [dots per inch], the same in the HTML and the figures
@@ -118,6 +122,23 @@ def png_bytes(fig: Figure, dpi: int = PNG_DPI) -> bytes:
     return cache[dpi]
 
 
+def keep_png(fig: Figure, data: bytes, dpi: int = PNG_DPI) -> None:
+    """Keep a figure's PNG drawn elsewhere (its PDF page rasterized).
+
+    What :func:`png_bytes` and :func:`png_data_uri` give from now on at ``dpi``.
+
+    Parameters
+    ----------
+    fig : Figure
+        The figure.
+    data : bytes
+        Its PNG.
+    dpi : int
+        The PNG's resolution [dots per inch].
+    """
+    _cache(fig)[dpi] = data
+
+
 def png_data_uri(fig: Figure, dpi: int = PNG_DPI) -> str:
     """Render a figure to a base64 ``data:image/png`` URI (RFC 2397).
 
@@ -135,6 +156,61 @@ def png_data_uri(fig: Figure, dpi: int = PNG_DPI) -> str:
     return "data:image/png;base64," + base64.b64encode(png_bytes(fig, dpi)).decode("ascii")
 
 
+def _cpu_times() -> tuple[float, float] | None:
+    """Idle and total time of all the machine's cores so far [clock ticks], or None.
+
+    From the first line of Linux's ``/proc/stat`` (``proc(5)``): idle is ``idle`` plus
+    ``iowait``, total the sum of the first eight fields (user, nice, system, idle,
+    iowait, irq, softirq, steal).
+    """
+    try:
+        with open("/proc/stat", encoding="ascii") as f:
+            fields = f.readline().split()
+    except OSError:
+        return None
+    if len(fields) < 5 or fields[0] != "cpu":
+        return None
+    try:
+        v = [float(x) for x in fields[1:9]]
+    except ValueError:
+        return None
+    return v[3] + v[4], sum(v)
+
+
+_SINCE = (_cpu_times(), time.monotonic())
+"""The cores' times when this module was imported: the start of the window in which
+:func:`spare_cores` sees how busy the machine is while the report does its own work."""
+
+MIN_WINDOW_S = 0.25
+"""Shortest window [s] over which :func:`spare_cores` trusts the cores' idle time; a
+shorter one falls back on the load average."""
+
+
+def spare_cores() -> float | None:
+    """Cores that stood idle since this module was imported, on average, or None.
+
+    While a report reads, evaluates and builds, this process keeps one core busy; the
+    idle time of the others over that window (``/proc/stat``) is what a worker drawing
+    beside it would get. Unlike the one-minute load average it sees the machine as it is
+    now: a report run just before, which lifts the load average to about 1 for a minute,
+    is not counted as still running.
+
+    Returns
+    -------
+    float or None
+        Idle cores (0 .. core count); None where ``/proc/stat`` is missing or the window
+        is shorter than :data:`MIN_WINDOW_S`.
+    """
+    start, t0 = _SINCE
+    now = _cpu_times()
+    if start is None or now is None or time.monotonic() - t0 < MIN_WINDOW_S:
+        return None
+    total = now[1] - start[1]
+    if total <= 0:
+        return None
+    return (now[0] - start[0]) / total * (os.cpu_count() or 1)
+
+
 def draw_workers(jobs: int, busy: int = 1) -> int:
     """How many worker processes may draw figures now.
 
@@ -143,15 +219,18 @@ def draw_workers(jobs: int, busy: int = 1) -> int:
     jobs : int
         Figures to draw.
     busy : int
-        Processes of this program that stay busy meanwhile (the one printing the PDF).
+        Processes of this program that stay busy meanwhile (this one, printing the PDF's
+        text pages).
 
     Returns
     -------
     int
-        :data:`WORKERS_ENV` when set; else the cores the machine has to spare, its core
-        count less its load (the one-minute load average, :func:`os.getloadavg`) less
-        ``busy``, rounded, at most ``jobs``; 0 (draw in this process) where the load or
-        the ``fork`` start method is not available.
+        :data:`WORKERS_ENV` when set; else the cores that stood idle while this report
+        did its own work (:func:`spare_cores`, rounded: a worker where half a core or
+        more was idle), or, where that is not known, the core count less the one-minute
+        load average (:func:`os.getloadavg`) less ``busy``, rounded; at most ``jobs`` and
+        the core count less ``busy``; 0 (draw in this process) where the ``fork`` start
+        method is not available.
 
     Raises
     ------
@@ -159,146 +238,166 @@ def draw_workers(jobs: int, busy: int = 1) -> int:
         If :data:`WORKERS_ENV` is not a whole number >= 0.
     """
     given = os.environ.get(WORKERS_ENV, "").strip()
+    cores = os.cpu_count() or 1
     if given:
         if not given.isdigit():
             raise ValueError(f"{WORKERS_ENV}={given!r}: expected a whole number >= 0")
         n = int(given)
     else:
-        try:
-            load = os.getloadavg()[0]
-        except (AttributeError, OSError):
-            return 0
-        n = math.floor((os.cpu_count() or 1) - load - busy + 0.5)
+        idle = spare_cores()
+        if idle is None:
+            try:
+                load = os.getloadavg()[0]
+            except (AttributeError, OSError):
+                return 0
+            idle = cores - load - busy
+        n = min(math.floor(idle + 0.5), cores - busy)
     if "fork" not in multiprocessing.get_all_start_methods():
         return 0
     return max(0, min(jobs, n))
 
 
-_TASK: tuple[Callable[[Figure], bytes], Sequence[Figure]] | None = None
-"""What the forked workers draw: set before the fork, inherited by the children."""
+T = TypeVar("T")
+R = TypeVar("R")
+
+_POLL_S = 0.05  # how often a waiting process looks whether its workers still live [s]
 
 
-def _draw_one(i: int) -> bytes:
-    assert _TASK is not None
-    draw, figs = _TASK
-    return draw(figs[i])
-
-
-class PngDrawing:
-    """PNGs of figures being drawn, in worker processes or (none) on :meth:`result`.
+class Drawing(Generic[T, R]):
+    """Items being drawn, in worker processes and in this one, each by one process.
 
     Parameters
     ----------
-    figs : sequence of Figure
-        The figures.
+    items : sequence
+        What to draw (each one independent of the others).
     draw : callable
-        Draws one figure to PNG bytes (:func:`png_bytes`).
+        Draws one item; what it returns is sent back from a worker (picklable).
     workers : int
-        Worker processes (0: the figures are drawn in this process by :meth:`result`).
+        Worker processes, forked now (0: the items are drawn in this process by
+        :meth:`result`).
+    weight : callable, optional
+        The larger, the earlier an item is taken (the largest first, so that the
+        processes finish together).
+
+    Notes
+    -----
+    The items are taken in turn from one shared counter, by the workers as soon as they
+    start and by this process once it calls :meth:`result` (work stealing): whichever
+    process is free takes the next item, so the processes end within about one item of
+    each other whatever the load. A worker that dies (killed, out of memory) or fails
+    does not hang or lose the report: the items it took and did not return are drawn in
+    this process (where a real error then shows itself).
     """
 
-    def __init__(self, figs: Sequence[Figure], draw: Callable[[Figure], bytes],
-                 workers: int) -> None:
-        global _TASK
-        self.figs, self.draw, self.workers = list(figs), draw, workers
-        self._pool: ProcessPoolExecutor | None = None
-        self._futures: list[Future[bytes]] = []
-        self._order: list[int] = []
-        if workers and self.figs:
-            _TASK = (draw, self.figs)
+    def __init__(self, items: Sequence[T], draw: Callable[[T], R], workers: int,
+                 weight: Callable[[T], float] | None = None) -> None:
+        self.items, self.draw = list(items), draw
+        order = list(range(len(self.items)))
+        if weight is not None:
+            order.sort(key=lambda i: -weight(self.items[i]))
+        self._order = order
+        self._procs: list[Any] = []
+        self._shared = bool(workers and self.items)  # the counter is shared, in the workers too
+        if self._shared:
+            ctx = multiprocessing.get_context("fork")
+            self._next = ctx.Value("i", 0)
+            self._results = ctx.Queue()
             with warnings.catch_warnings():  # a fork beside the console's status thread:
                 warnings.simplefilter("ignore", DeprecationWarning)  # the child only draws
-                self._pool = ProcessPoolExecutor(
-                    workers, mp_context=multiprocessing.get_context("fork"))
-                # the largest figures first, so that the workers finish together; the
-                # workers are forked at the first submission, inheriting the figures
-                order = sorted(range(len(self.figs)), key=lambda i: -len(self.figs[i].axes))
-                futures = {i: self._pool.submit(_draw_one, i) for i in order}
-            self._order = order
-            self._futures = [futures[i] for i in range(len(self.figs))]
+                for _ in range(workers):
+                    proc = ctx.Process(target=self._work, daemon=True)
+                    proc.start()
+                    self._procs.append(proc)
 
-    def result(self) -> list[bytes]:
-        """The PNG of every figure, in the order given (also kept on each figure).
+    def _take(self) -> int | None:
+        """The next item nobody has taken, or None."""
+        if not self._shared:
+            return self._order.pop(0) if self._order else None
+        with self._next.get_lock():
+            k = self._next.value
+            if k >= len(self._order):
+                return None
+            self._next.value = k + 1
+        return self._order[k]
+
+    def _work(self) -> None:
+        """A worker's loop: take, draw, send, until nothing is left."""
+        while (i := self._take()) is not None:
+            try:
+                self._results.put((i, True, self.draw(self.items[i])))
+            except BaseException as e:  # sent back: this process draws it again
+                self._results.put((i, False, repr(e)))
+        self._results.close()
+        self._results.join_thread()
+
+    def result(self) -> list[R]:
+        """What each item drew, in the order given.
 
         Returns
         -------
-        list of bytes
-
-        Notes
-        -----
-        The figures no worker has started yet are drawn in this process (the last queued
-        first) while the workers finish theirs, so that the two halves of the work end
-        about together whatever the load. A worker that dies (killed, out of memory)
-        does not hang the report: its figures are drawn in this process instead.
+        list
         """
-        global _TASK
-        if self._pool is None:
-            return [self.draw(f) for f in self.figs]
-        here: dict[int, bytes] = {}
-        out: list[bytes] = []
-        try:
-            # the figures no worker has started yet are drawn here, the last queued first,
-            # while the workers draw theirs: both processes finish about together
-            while True:
-                pending = [i for i in self._order if i not in here
-                           and not self._futures[i].running() and not self._futures[i].done()]
-                if not pending:
-                    break
-                if self._futures[pending[-1]].cancel():  # else a worker took it meanwhile
-                    here[pending[-1]] = self.draw(self.figs[pending[-1]])
-            for i, (fig, future) in enumerate(zip(self.figs, self._futures, strict=True)):
-                if i in here:
-                    out.append(here[i])
-                    continue
-                try:
-                    data = future.result()
-                except BrokenProcessPool:
-                    data = self.draw(fig)
-                else:
-                    if self.draw is png_bytes:  # what png_bytes gives from now on
-                        _cache(fig)[PNG_DPI] = data
-                out.append(data)
-        finally:
-            self._pool.shutdown(cancel_futures=True)
-            _TASK = None
-        return out
+        done: dict[int, R] = {}
+        while (i := self._take()) is not None:
+            done[i] = self.draw(self.items[i])
+        failed: list[int] = []
+        while self._procs and len(done) + len(failed) < len(self.items):
+            try:
+                i, ok, value = self._results.get(timeout=_POLL_S)
+            except queue.Empty:
+                if not any(p.is_alive() for p in self._procs) and self._results.empty():
+                    break  # every worker gone: what they took and did not send is redone
+                continue
+            if ok:
+                done[i] = value
+            else:
+                failed.append(i)
+        self.close()
+        for i in range(len(self.items)):
+            if i not in done:
+                done[i] = self.draw(self.items[i])
+        return [done[i] for i in range(len(self.items))]
 
     def close(self) -> None:
         """Stop the workers (after :meth:`result`, or when the report failed meanwhile)."""
-        global _TASK
-        if self._pool is not None:
-            self._pool.shutdown(cancel_futures=True)
-            _TASK = None
+        for p in self._procs:
+            if p.is_alive():
+                p.terminate()
+            p.join()
+        if self._procs:
+            self._results.close()
+        self._procs = []
 
     @property
     def parallel(self) -> bool:
-        """Whether worker processes draw the figures."""
-        return self._pool is not None
+        """Whether worker processes draw the items."""
+        return bool(self._procs)
 
 
-def draw_pngs(figs: Sequence[Figure], draw: Callable[[Figure], bytes] = png_bytes,
-              workers: int | None = None) -> PngDrawing:
-    """Start drawing the PNGs of figures independent of each other.
+def draw_all(items: Sequence[T], draw: Callable[[T], R], workers: int | None = None,
+             weight: Callable[[T], float] | None = None) -> Drawing[T, R]:
+    """Start drawing items independent of each other.
 
-    With workers, the figures are drawn in processes forked now (each one inherits the
-    figures as they are, so the drawing does not depend on what this process does with
-    them meanwhile) while this process goes on (printing the PDF); without, they are
-    drawn here, first, by :meth:`PngDrawing.result`: call it before the figures are used
-    for anything else, so that both ways give the same bytes.
+    With workers, the items are drawn in processes forked now (each one inherits the
+    items as they are, so the drawing does not depend on what this process does with
+    them meanwhile) while this process goes on; without, they are drawn here by
+    :meth:`Drawing.result`.
 
     Parameters
     ----------
-    figs : sequence of Figure
-        The figures (matplotlib's object-oriented API on Agg canvases: no global state).
+    items : sequence
+        What to draw (matplotlib figures on their own canvases: no global state).
     draw : callable
-        Draws one figure to PNG bytes at :data:`PNG_DPI`.
+        Draws one item.
     workers : int, optional
         Worker processes; :func:`draw_workers` by default.
+    weight : callable, optional
+        Queue order, the largest first.
 
     Returns
     -------
-    PngDrawing
+    Drawing
     """
     if workers is None:
-        workers = draw_workers(len(figs))
-    return PngDrawing(figs, draw, workers)
+        workers = draw_workers(len(items))
+    return Drawing(items, draw, workers, weight)

@@ -15,11 +15,20 @@ vector graphics at the size they are printed (the figure is laid out again on th
 its fonts kept at their point sizes, so a label set in 6.5 pt prints at 6.5 pt), laid out
 and drawn in one pass; the parts matplotlib rasterizes (colour bars) and the heavy artists
 (more than :data:`RASTER_POINTS` points) are embedded at :data:`RASTER_DPI`.
+
+Each figure is drawn once: its page is a PDF of one page (:class:`FigurePage`), drawn in a
+worker process where a core is spare while this one lays out and prints the text pages,
+and put into the report's PDF at its place; the figure's area of that page rasterized is
+the figure's PNG for the HTML report and the figures folder (:mod:`volcal.report.raster`).
 """
 
 from __future__ import annotations
 
+import io
+import multiprocessing
 import re
+import threading
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -39,10 +48,11 @@ from matplotlib.transforms import Affine2D
 
 from volcal.report.document import Report, Table
 from volcal.report.drawcache import cached_drawing, text_metrics
-from volcal.report.figures import kept_layout
+from volcal.report.figures import PNG_COMPRESSION, PNG_DPI, draw_all, draw_workers, kept_layout
+from volcal.report.raster import insert_pages, page_png
 from volcal.report.wording import customer_report
 
-__all__ = ["RASTER_DPI", "RASTER_POINTS", "write_pdf"]
+__all__ = ["RASTER_DPI", "RASTER_POINTS", "FigurePage", "write_pdf"]
 
 A4_PORTRAIT = (8.27, 11.69)
 A4_LANDSCAPE = (11.69, 8.27)
@@ -320,15 +330,15 @@ class _Flow:
     matplotlib's figure coordinates; the lines are placed in points when they are added.
     """
 
-    def __init__(self, pdf: PdfPages, report: Report) -> None:
-        self.pdf = pdf
+    def __init__(self, report: Report, measure: _Measure, jobs: list[_FigureJob]) -> None:
         self.report = report
+        self.jobs = jobs
         self.page = 0
         self.current: _TextPage | None = None
-        #: the pages in order, printed by :meth:`finish` once their number is known
-        self.pages: list[_TextPage | tuple[Figure, str, int]] = []
+        #: the pages in order, with their footers once their number is known (:meth:`close`)
+        self.pages: list[_TextPage | _FigureJob] = []
         self.y = _TOP
-        self.measure = _Measure()
+        self.measure = measure
 
     def new_page(self) -> None:
         self.flush()
@@ -345,22 +355,25 @@ class _Flow:
         """The footer of page ``k`` (from 1): the title and "page k of n"."""
         return f"{self.report.title}  ·  page {k} of {len(self.pages)}"
 
-    def finish(self) -> int:
-        """Print every page, each with "page k of n" in its footer; the number of pages."""
+    def close(self, footers: _Footers) -> list[_TextPage | _FigureJob]:
+        """Every page in order, each with "page k of n" in its footer.
+
+        The figure pages' footers are given to ``footers`` (their pages draw them).
+        """
         self.flush()
+        where = [0] * len(self.jobs)
         for k, page in enumerate(self.pages, start=1):
-            footer = self.footer(k)
             if isinstance(page, _TextPage):
+                footer = self.footer(k)
                 prop = self.measure.prop(7, "normal")
                 w = self.measure.metrics(footer, prop)[0]
                 # centred, its baseline 2.5 % of the page above the bottom edge
                 page.lines.append((0.5 * A4_PORTRAIT[0] * _PT - w / 2,
                                    0.025 * A4_PORTRAIT[1] * _PT, footer, prop, "0.4"))
-                _draw_text_page(self.pdf, page)
             else:
-                fig, caption, number = page
-                _figure_page(self.pdf, fig, caption, number, footer, self.measure)
-        return len(self.pages)
+                where[page.number - 1] = k
+        footers.set(where, len(self.pages))
+        return self.pages
 
     def need(self, height: float) -> None:
         if self.current is None or self.y - height < _BOTTOM:
@@ -449,19 +462,105 @@ class _Flow:
             x += w
         self.y -= h
 
-    def figure_page(self, fig: Figure, caption: str, number: int) -> None:
+    def figure_page(self, number: int) -> None:
+        """The page of figure ``number`` (from 1) next."""
         self.flush()
         self.page += 1
-        self.pages.append((fig, caption, number))
+        self.pages.append(self.jobs[number - 1])
 
 
-def _figure_page(pdf: PdfPages, fig: Figure, caption: str, number: int, footer: str,
-                 measure: _Measure) -> None:
+class _Footers:
+    """The figure pages' footers, "page k of n", known once the pages are laid out.
+
+    Shared with the worker processes, forked before the text is laid out: a worker
+    drawing a figure page asks for its footer only once the figure is drawn, and waits
+    there if the pages are not laid out yet.
+
+    Parameters
+    ----------
+    title : str
+        The report's title, the footers' first words.
+    count : int
+        Number of figures.
+    shared : bool
+        Whether worker processes will be forked (shared memory) or not.
+    """
+
+    def __init__(self, title: str, count: int, shared: bool) -> None:
+        self.title, self.count = title, count
+        self._pages: Any
+        self._ready: Any
+        if shared:
+            ctx = multiprocessing.get_context("fork")
+            self._pages = ctx.Array("i", count + 1, lock=False)
+            self._ready = ctx.Event()
+        else:
+            self._pages = [0] * (count + 1)
+            self._ready = threading.Event()
+
+    def set(self, pages: list[int], total: int) -> None:
+        """Figure ``j``'s page is ``pages[j]`` (from 1) of ``total``."""
+        for j, k in enumerate(pages):
+            self._pages[j] = k
+        self._pages[self.count] = total
+        self._ready.set()
+
+    def get(self, j: int) -> str:
+        """The footer of figure ``j``'s page (from 0), once the pages are laid out."""
+        self._ready.wait()
+        return f"{self.title}  ·  page {self._pages[j]} of {self._pages[self.count]}"
+
+
+@dataclass
+class _FigureJob:
+    """A figure page to draw: the figure, its caption and number, the page's footer."""
+
+    fig: Figure
+    caption: str
+    number: int
+    measure: _Measure
+    footers: _Footers
+
+    def footer(self) -> str:
+        return self.footers.get(self.number - 1)
+
+
+@dataclass(frozen=True)
+class FigurePage:
+    """A figure page drawn: the page as a one-page PDF, the figure's area as PNG.
+
+    Attributes
+    ----------
+    pdf : bytes
+        The A4 landscape page (figure, caption, footer), a PDF file of one page.
+    png : bytes
+        The figure's area of that page (its caption and footer left out) at
+        :data:`volcal.report.figures.PNG_DPI`.
+    """
+
+    pdf: bytes
+    png: bytes
+
+
+def _draw_figure_job(job: _FigureJob) -> FigurePage:
+    """Draw a figure page once as vector PDF and rasterize its figure area as PNG."""
+    buf = io.BytesIO()
+    with PdfPages(buf) as pdf:
+        box = _figure_page(pdf, job.fig, job.caption, job.number, job.footer, job.measure)
+    data = buf.getvalue()
+    return FigurePage(data, page_png(data, box, PNG_DPI, PNG_COMPRESSION))
+
+
+def _figure_page(pdf: PdfPages, fig: Figure, caption: str, number: int,
+                 footer: Callable[[], str],
+                 measure: _Measure) -> tuple[float, float, float, float]:
     """Print a figure on an A4 landscape page as vector graphics, its caption below.
 
     The figure is laid out again in the page's free area (its aspect ratio kept, its fonts
-    at their point sizes) and restored afterwards, so the PNG of the HTML report and the
-    figures folder is unchanged.
+    at their point sizes) and restored afterwards (the figure object as it was built).
+    ``footer()`` gives the page's footer when it is drawn, after the figure.
+    Returns the figure's area on the page, its title included, ``(x0, y0, x1, y1)``
+    from the page's lower left corner [pt].
     """
     pw, ph = A4_LANDSCAPE
     size = 9.0
@@ -499,15 +598,28 @@ def _figure_page(pdf: PdfPages, fig: Figure, caption: str, number: int, footer: 
         old_sup[0].set_in_layout(False)
     y = (top - fh - 0.1) / ph
     added = [fig.text(_FIG_MARGIN / pw, y, "\n".join(lines), fontsize=size, va="top",
-                      linespacing=_LINESPACING, parse_math=False),
-             fig.text(0.5, 0.02, footer, ha="center", fontsize=7, color="0.4",
-                      parse_math=False)]
+                      linespacing=_LINESPACING, parse_math=False)]
+
+    def draw_footer(renderer: Any) -> None:
+        """The footer, centred, its baseline 2 % of the page above the bottom edge.
+
+        As ``fig.text(0.5, 0.02, ha='center')``; known only once the pages are laid out,
+        it is drawn last.
+        """
+        text = footer()
+        prop = measure.prop(7, "normal")
+        gc = renderer.new_gc()
+        gc.set_foreground("0.4")
+        renderer.draw_text(gc, 0.5 * pw * _PT - measure.metrics(text, prop)[0] / 2,
+                           0.02 * ph * _PT, text, prop, 0.0)
+        gc.restore()
+
     heavy = [a for a in _heavy_artists(fig) if not a.get_rasterized()]
     try:
         for a in heavy:
             a.set_rasterized(True)
-        with kept_layout(fig):  # the PNG drawn after this page as before it
-            _print_page(pdf, fig)
+        with kept_layout(fig):  # the figure as built afterwards
+            _print_page(pdf, fig, draw_footer)
     finally:
         for a in heavy:
             a.set_rasterized(False)
@@ -523,6 +635,8 @@ def _figure_page(pdf: PdfPages, fig: Figure, caption: str, number: int, footer: 
             title.set_position(position)
             title._autopos = autopos
             title.set_in_layout(in_layout)
+    return ((pw - fw) / 2 * _PT, (top - fh) * _PT, (pw + fw) / 2 * _PT,
+            (ph - _FIG_MARGIN) * _PT)
 
 
 def _points(a: Artist) -> int:
@@ -554,14 +668,16 @@ class _PageCanvas(FigureCanvasPdf):
         return self.renderer
 
 
-def _print_page(pdf: PdfPages, fig: Figure) -> None:
+def _print_page(pdf: PdfPages, fig: Figure,
+                after: Callable[[Any], None] | None = None) -> None:
     """Print a figure as the next page of ``pdf``, laid out and drawn in one pass.
 
     ``PdfPages.savefig`` lays a figure with a layout engine out in a drawing pass of its
     own, with a renderer of its own, before the drawing it prints; here the layout engine
     runs inside the one drawing (as ``Figure.draw`` does) and measures the texts with the
     renderer that prints them, so each text is measured once. The rasterized parts are
-    drawn at :data:`RASTER_DPI`.
+    drawn at :data:`RASTER_DPI`. ``after(renderer)`` draws more on the page, in points,
+    after the figure.
     """
     canvas, dpi = fig.canvas, fig.dpi
     page = _PageCanvas(fig)
@@ -569,6 +685,8 @@ def _print_page(pdf: PdfPages, fig: Figure) -> None:
     def draw(renderer: Any) -> None:
         page.renderer = renderer
         Figure.draw(fig, renderer)
+        if after is not None:
+            after(renderer)
 
     try:
         fig.dpi = RASTER_DPI  # the resolution of the rasterized parts; the page is in points
@@ -580,7 +698,8 @@ def _print_page(pdf: PdfPages, fig: Figure) -> None:
         fig.dpi = dpi
 
 
-def write_pdf(report: Report, path: str | Path) -> int:
+def write_pdf(report: Report, path: str | Path, *, pngs: dict[int, bytes] | None = None,
+              meanwhile: Callable[[], None] | None = None, workers: int | None = None) -> int:
     """Write the report as PDF (the caller makes the write atomic).
 
     Parameters
@@ -590,40 +709,83 @@ def write_pdf(report: Report, path: str | Path) -> int:
         spells it.
     path : str or Path
         Output file.
+    pngs : dict, optional
+        Filled with each figure's PNG, the figure's area of its page rasterized
+        (:class:`FigurePage`), by its index in ``report.figures``.
+    meanwhile : callable, optional
+        Called once the text pages are printed, while workers may still draw figure
+        pages (the certificate).
+    workers : int, optional
+        Processes drawing the figure pages beside this one;
+        :func:`volcal.report.figures.draw_workers` by default.
 
     Returns
     -------
     int
         Number of pages written.
+
+    Notes
+    -----
+    The pages are laid out first (the text wrapped and paged, so that every footer says
+    "page k of n"); then the figure pages are drawn, each as a PDF of one page, in worker
+    processes where cores are spare, while this process prints the text pages; they are
+    put in at their places (:func:`volcal.report.raster.insert_pages`).
     """
     report = customer_report(report)
-    number = 0
-    with (cached_drawing(),
-          PdfPages(path, metadata={"Title": report.title, "Creator": report.generator}) as pdf):
-        flow = _Flow(pdf, report)
-        flow.new_page()
-        flow.text(report.title, size=18, weight="bold")
-        flow.text(f"Created {report.created} by {report.generator}", size=8.5, color="0.35")
-        flow.gap(1.0)
-        for k, s in enumerate(report.sections, start=1):
-            flow.text(f"{k}. {s.title}", size=10, indent=0.02)
-        for k, s in enumerate(report.sections, start=1):
-            flow.gap(1.2)
-            flow.need(4 * _LINE)
-            flow.text(f"{k}. {s.title}", size=13, weight="bold")
-            flow.gap(0.3)
-            for p in s.paragraphs:
-                flow.text(p)
-                flow.gap(0.4)
-            for w in s.warnings:
-                flow.text("(!) " + w, color="#8a5a00")
+    with cached_drawing():
+        measure = _Measure()
+        figs = [(f.figure, f.caption) for s in report.sections for f in s.figures]
+        if workers is None:
+            workers = draw_workers(len(figs))
+        footers = _Footers(report.title, len(figs), shared=workers > 0 and bool(figs))
+        jobs = [_FigureJob(fig, caption, j + 1, measure, footers)
+                for j, (fig, caption) in enumerate(figs)]
+        # the figure pages start now, in workers, while this process lays the text out
+        drawing = draw_all(jobs, _draw_figure_job, workers, weight=lambda p: len(p.fig.axes))
+        try:
+            flow = _Flow(report, measure, jobs)
+            flow.new_page()
+            flow.text(report.title, size=18, weight="bold")
+            flow.text(f"Created {report.created} by {report.generator}", size=8.5,
+                      color="0.35")
+            flow.gap(1.0)
+            for k, s in enumerate(report.sections, start=1):
+                flow.text(f"{k}. {s.title}", size=10, indent=0.02)
+            number = 0
+            for k, s in enumerate(report.sections, start=1):
+                flow.gap(1.2)
+                flow.need(4 * _LINE)
+                flow.text(f"{k}. {s.title}", size=13, weight="bold")
                 flow.gap(0.3)
-            for t in s.tables:
-                flow.table(t)
-            if s.figures:
-                flow.flush()
-                for f in s.figures:
-                    number += 1
-                    flow.figure_page(f.figure, f.caption, number)
-        pages = flow.finish()
-    return pages
+                for p in s.paragraphs:
+                    flow.text(p)
+                    flow.gap(0.4)
+                for w in s.warnings:
+                    flow.text("(!) " + w, color="#8a5a00")
+                    flow.gap(0.3)
+                for t in s.tables:
+                    flow.table(t)
+                if s.figures:
+                    flow.flush()
+                    for _ in s.figures:
+                        number += 1
+                        flow.figure_page(number)
+            pages = flow.close(footers)
+            text = io.BytesIO()
+            with PdfPages(text, metadata={"Title": report.title,
+                                          "Creator": report.generator}) as pdf:
+                for page in pages:
+                    if isinstance(page, _TextPage):
+                        _draw_text_page(pdf, page)
+            if meanwhile is not None:
+                meanwhile()
+            drawn = drawing.result()
+        finally:
+            drawing.close()
+    where = {page.number: k for k, page in enumerate(pages) if isinstance(page, _FigureJob)}
+    Path(path).write_bytes(insert_pages(text.getvalue(),
+                                        [(where[j.number], d.pdf)
+                                         for j, d in zip(jobs, drawn, strict=True)]))
+    if pngs is not None:
+        pngs.update({j.number - 1: d.png for j, d in zip(jobs, drawn, strict=True)})
+    return len(pages)

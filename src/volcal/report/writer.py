@@ -9,7 +9,7 @@ from pathlib import Path
 
 from volcal.io.atomic import atomic_dir
 from volcal.report.document import Report
-from volcal.report.figures import draw_pngs, png_bytes
+from volcal.report.figures import keep_png, png_bytes
 from volcal.report.html import render_html
 from volcal.report.pdf import write_pdf
 
@@ -72,25 +72,27 @@ def write_report(report: Report, folder: str | Path,
     names = []
     figs = report.figures
     with atomic_dir(folder) as tmp:
-        # each figure drawn once as PNG (HTML and figures folder) and once for the PDF; the
-        # PNGs in worker processes while this one prints the PDF, where cores are spare
-        # (and the certificate, which needs no figure of the report's, before this process
-        # takes the PNGs no worker has started)
-        drawing = draw_pngs([f.figure for f in figs], png_bytes)
-        try:
-            pngs = None if drawing.parallel else drawing.result()
-            pages = write_pdf(report, tmp / "report.pdf")
-            if extra is not None:
+        # each figure drawn once, on its PDF page (in worker processes where cores are
+        # spare, while this one prints the text pages and the certificate, which needs no
+        # figure of the report's); its PNG is that page's figure area rasterized
+        pngs: dict[int, bytes] = {}
+        done: list[bool] = []
+
+        def meanwhile() -> None:
+            if extra is not None and not done:
+                done.append(True)
                 extra(tmp)
-            if pngs is None:
-                pngs = drawing.result()
-        finally:
-            drawing.close()
+
+        pages = write_pdf(report, tmp / "report.pdf", pngs=pngs, meanwhile=meanwhile)
+        meanwhile()  # if write_pdf did not call it
+        for i, f in enumerate(figs):
+            if i in pngs:
+                keep_png(f.figure, pngs[i])
         (tmp / "report.html").write_text(render_html(report), encoding="utf-8")
         (tmp / "figures").mkdir()
-        for i, (f, png) in enumerate(zip(figs, pngs, strict=True), start=1):
+        for i, f in enumerate(figs, start=1):
             name = f"{i:02d}-{f.name}.png"
-            (tmp / "figures" / name).write_bytes(png)
+            (tmp / "figures" / name).write_bytes(png_bytes(f.figure))
             names.append(name)
     return ReportFiles(folder, folder / "report.html", folder / "report.pdf",
                        [folder / "figures" / n for n in names], pages)

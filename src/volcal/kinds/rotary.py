@@ -24,7 +24,6 @@ from __future__ import annotations
 from typing import Any, ClassVar
 
 import numpy as np
-import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from volcal.errors import VolcalInputError
@@ -165,6 +164,8 @@ class RotaryKind(Kind):
         """
         P = sum(6 * len(n) for n in nodes) + 3
         y = np.zeros(m.n) if m.deviation is None else np.asarray(m.deviation, dtype=float)
+        import scipy.sparse as sp  # here: reading a session needs no scipy
+
         return RowBlock(sp.csr_matrix((m.n, P)), y, np.ones((m.n, 1)), [f"{m.id}:offset"])
 
     def simulate(self, m: Any, machine: Any, rng: np.random.Generator, options: Any,

@@ -303,6 +303,8 @@ def test_spare_cores_from_proc_stat(monkeypatch):
     assert F.spare_cores() is None
     monkeypatch.setattr(F, "_SINCE", (None, 0.0))
     assert F.spare_cores() is None
+    F.watch_cores()  # the window starts now: too short yet
+    assert F._SINCE[0] == (100.0, 400.0) and F.spare_cores() is None
 
 
 def _greedy(m: _Measure, text: str, width: float, size: float, weight: str = "normal"):

@@ -29,7 +29,8 @@ from matplotlib.figure import Figure
 from volcal.report.drawcache import cached_drawing
 
 __all__ = ["PNG_COMPRESSION", "PNG_DPI", "WORKERS_ENV", "Drawing", "draw_all", "draw_workers",
-           "keep_png", "kept_layout", "png_bytes", "png_data_uri", "spare_cores"]
+           "keep_png", "kept_layout", "png_bytes", "png_data_uri", "spare_cores",
+           "watch_cores"]
 
 PNG_DPI = 200
 """Resolution of the PNG images [dots per inch], the same in the HTML and the figures
@@ -178,16 +179,27 @@ def _cpu_times() -> tuple[float, float] | None:
 
 
 _SINCE = (_cpu_times(), time.monotonic())
-"""The cores' times when this module was imported: the start of the window in which
-:func:`spare_cores` sees how busy the machine is while the report does its own work."""
+"""The cores' times at the start of the window in which :func:`spare_cores` sees how busy
+the machine is while the report does its own work: when this module was imported, or
+when :func:`watch_cores` was last called."""
 
-MIN_WINDOW_S = 0.25
-"""Shortest window [s] over which :func:`spare_cores` trusts the cores' idle time; a
-shorter one falls back on the load average."""
+
+def watch_cores() -> None:
+    """Start the window of :func:`spare_cores` now (a report's first step).
+
+    A report written in a long-running process (a notebook, a service) would otherwise
+    count every idle minute since the module was imported.
+    """
+    global _SINCE
+    _SINCE = (_cpu_times(), time.monotonic())
+
+MIN_WINDOW_S = 0.1
+"""Shortest window [s] over which :func:`spare_cores` trusts the cores' idle time (ten of
+``/proc/stat``'s 10 ms ticks per core); a shorter one falls back on the load average."""
 
 
 def spare_cores() -> float | None:
-    """Cores that stood idle since this module was imported, on average, or None.
+    """Cores that stood idle since the window started, on average, or None.
 
     While a report reads, evaluates and builds, this process keeps one core busy; the
     idle time of the others over that window (``/proc/stat``) is what a worker drawing

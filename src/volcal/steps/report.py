@@ -178,6 +178,7 @@ def report(session: Session, *, output: str | Path,
     Reported
     """
     from volcal.report.certificate_inputs import certificate_model, certificate_wanted
+    from volcal.report.figures import watch_cores
     from volcal.report.pipeline import collect_inputs
     from volcal.report.sections import build_report
     from volcal.report.writer import write_report
@@ -185,6 +186,7 @@ def report(session: Session, *, output: str | Path,
     from volcal.standards.session import evaluate_session
     from volcal.standards.verdict import GRID_N
 
+    watch_cores()  # how busy the machine is while this report works: its drawing workers
     busy = status or (lambda text: nullcontext())
     warned: list[str] = []
     if compensation is not None:  # refuse another machine's tables before any work

@@ -120,7 +120,8 @@ def test_rendering_draws_each_figure_once_and_keeps_its_data(built, tmp_path, mo
         assert png.startswith(b"\x89PNG") and F.png_bytes(f.figure) == png
         assert base64.b64encode(png).decode() in html
         w, h = struct.unpack(">II", png[16:24])
-        assert 1000 < w <= round((11.69 - 0.9) * F.PNG_DPI) + 2 and 300 < h < w
+        # at most the page's width less its margins, plus 6 pt of white each side
+        assert 1000 < w <= round((11.69 - 0.9 + 12 / 72) * F.PNG_DPI) + 2 and 300 < h < w
     assert _pdf_pages(files.pdf) == files.pdf_pages
 
 

@@ -73,6 +73,7 @@ _TABLE_SIZES = (8.0, 7.0, 6.5)  # font sizes tried for a table until its words f
 _PAD_X, _PAD_Y = 3.0, 2.0  # cell padding [pt]
 _LINESPACING = 1.2  # matplotlib's default, in units of the font's line height
 _FIG_MARGIN = 0.45  # margin of a figure page [inch]
+_FIG_PAD = 6.0  # white around a figure's area in its PNG [pt]
 
 _NUMBER = re.compile(r"^[-+−]?(\d[\d.,]*|∞|-)$|^\(.*\)$")
 
@@ -635,8 +636,9 @@ def _figure_page(pdf: PdfPages, fig: Figure, caption: str, number: int,
             title.set_position(position)
             title._autopos = autopos
             title.set_in_layout(in_layout)
-    return ((pw - fw) / 2 * _PT, (top - fh) * _PT, (pw + fw) / 2 * _PT,
-            (ph - _FIG_MARGIN) * _PT)
+    pad = _FIG_PAD  # the title's ascenders and the outermost labels not cut
+    return ((pw - fw) / 2 * _PT - pad, (top - fh) * _PT - pad, (pw + fw) / 2 * _PT + pad,
+            (ph - _FIG_MARGIN) * _PT + pad)
 
 
 def _points(a: Artist) -> int:

@@ -7,6 +7,7 @@ the HTML and the PDF report always carry the same content.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 
@@ -68,23 +69,81 @@ class Table:
                                  f"expected {len(self.columns)}")
 
 
-@dataclass
+class _Drawn:
+    """One figure, built when first asked for, with its PNG once drawn.
+
+    Shared by the items that show it (the report's and the customer wording's copy).
+    """
+
+    def __init__(self, make: Callable[[], Figure]) -> None:
+        self._make: Callable[[], Figure] | None = make
+        self._figure: Figure | None = None
+        self.png: bytes | None = None
+
+    def figure(self) -> Figure:
+        if self._figure is None:
+            assert self._make is not None
+            self._figure = self._make()
+            self._make = None
+        return self._figure
+
+    def set(self, figure: Figure) -> None:
+        self._figure, self._make, self.png = figure, None, None
+
+
 class FigureItem:
     """A figure with its caption.
 
-    Attributes
+    Parameters
     ----------
-    figure : matplotlib.figure.Figure
-        The figure (Agg canvas).
+    figure : Figure or callable
+        The figure (Agg canvas), or a function of no arguments that builds it: then it is
+        built when first asked for (:attr:`figure`), in the process that draws it (the
+        report's figure pages are drawn in worker processes, :mod:`volcal.report.pdf`).
     caption : str
         What the figure shows, in plain words.
     name : str
         Short file-system-safe name (``'error-functions'``).
+    weight : float
+        How long it takes to draw, relative to the others (the larger are drawn first,
+        so that the processes drawing a report's figures end together).
     """
 
-    figure: Figure
-    caption: str
-    name: str
+    def __init__(self, figure: Figure | Callable[[], Figure] | _Drawn, caption: str,
+                 name: str, weight: float = 1.0) -> None:
+        if isinstance(figure, _Drawn):
+            self._drawn = figure
+        elif isinstance(figure, Figure):
+            self._drawn = _Drawn(lambda: figure)
+            self._drawn.figure()
+        else:
+            self._drawn = _Drawn(figure)
+        self.caption, self.name, self.weight = caption, name, weight
+
+    @property
+    def figure(self) -> Figure:
+        """The figure (built now if it was given as a function)."""
+        return self._drawn.figure()
+
+    @figure.setter
+    def figure(self, figure: Figure) -> None:
+        self._drawn.set(figure)
+
+    @property
+    def png(self) -> bytes | None:
+        """The figure's PNG once a report drew it (its PDF page rasterized), else None."""
+        return self._drawn.png
+
+    @png.setter
+    def png(self, data: bytes | None) -> None:
+        self._drawn.png = data
+
+    def recaptioned(self, caption: str) -> FigureItem:
+        """The same figure (built once for both) with another caption."""
+        return FigureItem(self._drawn, caption, self.name, self.weight)
+
+    def __repr__(self) -> str:
+        return f"FigureItem(name={self.name!r}, caption={self.caption!r})"
 
 
 @dataclass

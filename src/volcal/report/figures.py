@@ -2,10 +2,10 @@
 
 In a written report each figure is drawn once, as vector graphics on its PDF page, and its
 PNG (the HTML and the figures folder) is that page's figure area rasterized
-(:mod:`volcal.report.pdf`, :mod:`volcal.report.raster`), kept on the figure
-(:func:`keep_png`). Outside a report (:func:`volcal.report.html.render_html` alone, a
-user's own figure) :func:`png_bytes` draws a figure at its own size with matplotlib's Agg.
-Figures independent of each other are drawn in worker processes where the machine has
+(:mod:`volcal.report.pdf`, :mod:`volcal.report.raster`), kept on its item
+(:attr:`volcal.report.document.FigureItem.png`). Outside a report
+(:func:`volcal.report.html.render_html` alone, a user's own figure) :func:`png_bytes`
+draws a figure at its own size with matplotlib's Agg. Figures independent of each other are drawn in worker processes where the machine has
 cores to spare (:func:`draw_all`, :func:`draw_workers`).
 """
 
@@ -29,7 +29,7 @@ from matplotlib.figure import Figure
 from volcal.report.drawcache import cached_drawing
 
 __all__ = ["PNG_COMPRESSION", "PNG_DPI", "WORKERS_ENV", "Drawing", "draw_all", "draw_workers",
-           "keep_png", "kept_layout", "png_bytes", "png_data_uri", "spare_cores",
+           "kept_layout", "png_bytes", "png_data_uri", "spare_cores",
            "watch_cores"]
 
 PNG_DPI = 200
@@ -121,23 +121,6 @@ def png_bytes(fig: Figure, dpi: int = PNG_DPI) -> bytes:
             fig.dpi = old
         cache[dpi] = buf.getvalue()
     return cache[dpi]
-
-
-def keep_png(fig: Figure, data: bytes, dpi: int = PNG_DPI) -> None:
-    """Keep a figure's PNG drawn elsewhere (its PDF page rasterized).
-
-    What :func:`png_bytes` and :func:`png_data_uri` give from now on at ``dpi``.
-
-    Parameters
-    ----------
-    fig : Figure
-        The figure.
-    data : bytes
-        Its PNG.
-    dpi : int
-        The PNG's resolution [dots per inch].
-    """
-    _cache(fig)[dpi] = data
 
 
 def png_data_uri(fig: Figure, dpi: int = PNG_DPI) -> str:

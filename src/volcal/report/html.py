@@ -7,6 +7,7 @@ rendered with a jinja2 template with autoescaping on.
 
 from __future__ import annotations
 
+import base64
 import re
 from dataclasses import dataclass
 
@@ -58,7 +59,9 @@ def render_html(report: Report) -> str:
         figs = []
         for f in s.figures:
             number += 1
-            figs.append(_Rendered(f, png_data_uri(f.figure), number))
+            uri = (png_data_uri(f.figure) if f.png is None  # drawn here, at its own size
+                   else "data:image/png;base64," + base64.b64encode(f.png).decode("ascii"))
+            figs.append(_Rendered(f, uri, number))
         tables = [{"title": t.title, "note": t.note, "columns": t.columns,
                    "rows": [[(c, bool(_NUMBER.match(c))) for c in r] for r in t.rows]}
                   for t in s.tables]

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from functools import partial
+
 import numpy as np
 
 from volcal.report.document import FigureItem, Section, Table, fmt
@@ -79,8 +81,8 @@ def multilateration_section(inp) -> Section | None:
             sec.tables.append(Table(["station", "readings", "RMS residual [um]",
                                      "max |residual| [um]"], rows, "Residuals per station"))
     sec.figures.append(FigureItem(
-        multilateration_layout_plot(ms[0].positions + ms[0].tool_offset, nominal, fitted,
-                                    [label[k] for k in keys]),
+        partial(multilateration_layout_plot, ms[0].positions + ms[0].tool_offset, nominal,
+                fitted, [label[k] for k in keys]),
         "Grid path of the first measurement (nominal tool points) and the tracker stations.",
         "multilateration-layout"))
     return sec

@@ -46,7 +46,7 @@ from matplotlib.lines import Line2D
 from matplotlib.path import Path as MplPath
 from matplotlib.transforms import Affine2D
 
-from volcal.report.document import Report, Table
+from volcal.report.document import FigureItem, Report, Table
 from volcal.report.drawcache import cached_drawing, text_metrics
 from volcal.report.figures import PNG_COMPRESSION, PNG_DPI, draw_all, draw_workers, kept_layout
 from volcal.report.raster import insert_pages, page_png
@@ -514,10 +514,9 @@ class _Footers:
 
 @dataclass
 class _FigureJob:
-    """A figure page to draw: the figure, its caption and number, the page's footer."""
+    """A figure page to draw: the figure with its caption, its number, the page's footer."""
 
-    fig: Figure
-    caption: str
+    item: FigureItem
     number: int
     measure: _Measure
     footers: _Footers
@@ -547,7 +546,8 @@ def _draw_figure_job(job: _FigureJob) -> FigurePage:
     """Draw a figure page once as vector PDF and rasterize its figure area as PNG."""
     buf = io.BytesIO()
     with PdfPages(buf) as pdf:
-        box = _figure_page(pdf, job.fig, job.caption, job.number, job.footer, job.measure)
+        box = _figure_page(pdf, job.item.figure, job.item.caption, job.number, job.footer,
+                           job.measure)
     data = buf.getvalue()
     return FigurePage(data, page_png(data, box, PNG_DPI, PNG_COMPRESSION))
 
@@ -736,14 +736,14 @@ def write_pdf(report: Report, path: str | Path, *, pngs: dict[int, bytes] | None
     report = customer_report(report)
     with cached_drawing():
         measure = _Measure()
-        figs = [(f.figure, f.caption) for s in report.sections for f in s.figures]
+        items = report.figures
         if workers is None:
-            workers = draw_workers(len(figs))
-        footers = _Footers(report.title, len(figs), shared=workers > 0 and bool(figs))
-        jobs = [_FigureJob(fig, caption, j + 1, measure, footers)
-                for j, (fig, caption) in enumerate(figs)]
-        # the figure pages start now, in workers, while this process lays the text out
-        drawing = draw_all(jobs, _draw_figure_job, workers, weight=lambda p: len(p.fig.axes))
+            workers = draw_workers(len(items))
+        footers = _Footers(report.title, len(items), shared=workers > 0 and bool(items))
+        jobs = [_FigureJob(item, j + 1, measure, footers) for j, item in enumerate(items)]
+        # the figure pages start now, in workers, while this process lays the text out; a
+        # figure given as a function is built by the process that draws it
+        drawing = draw_all(jobs, _draw_figure_job, workers, weight=lambda p: p.item.weight)
         try:
             flow = _Flow(report, measure, jobs)
             flow.new_page()

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from functools import partial
 from typing import Any
 
 from volcal.report.document import FigureItem, Section, Table, fmt
@@ -112,7 +113,7 @@ def rotary_section(inp: Any, units: str | None = None) -> Section | None:
     for mid, r in res.items():
         m = inp.session.get(mid)
         sec.figures.append(FigureItem(
-            rotary_deviation_plot(m, r, units),
+            partial(rotary_deviation_plot, m, r, units),
             f"{mid}: angular deviation of every run with the mean ± 2 s bands of each "
             "approach direction (ISO 230-2, Figure 1, rotary axis)"
             + (" and x̄ ± U (95 %)" if r.uncertainty is not None else "") + ".",

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -315,18 +316,19 @@ def identification_section(inp: ReportInputs) -> Section | None:
         sec.tables.append(Table(["measurement", "readings", "residual rms [µm]",
                                  "max |residual| [µm]"], rows, "Fit residuals"))
     sec.figures.append(FigureItem(
-        error_functions_plot(est, std, truth, sq_std),
+        partial(error_functions_plot, est, std, truth, sq_std),
         "Identified error functions (blue) with their ± 2 u bands"
         + (" and the simulated truth (dashed)." if truth is not None else "."),
-        "error-functions"))
+        "error-functions", weight=4.0))
     fitted = getattr(r, "fitted", None) or {}
     for kind, label in (("diagonal", "Body diagonals"), ("step_diagonal", "Step diagonals")):
         ms = [m for m in inp.session.measurements if m.kind == kind and m.deviation is not None]
         if ms:
             sec.figures.append(FigureItem(
-                diagonal_fit_plot(ms, fitted, residuals, title=f"{label}: readings and fit"),
+                partial(diagonal_fit_plot, ms, fitted, residuals,
+                        title=f"{label}: readings and fit"),
                 f"{label}: laser readings (dots), the identified model's fit (line) and the "
-                "residuals below.", f"{kind.replace('_', '-')}-fit"))
+                "residuals below.", f"{kind.replace('_', '-')}-fit", weight=2.0))
     return sec
 
 
@@ -375,12 +377,12 @@ def identifiability_section(inp: ReportInputs) -> Section | None:
     std = getattr(r, "std", None)
     if std is not None:
         sec.figures.append(FigureItem(
-            identifiability_plot(std, getattr(r, "squareness_std", None),
-                                 _field(rep, "singular_values", None), frac),
+            partial(identifiability_plot, std, getattr(r, "squareness_std", None),
+                    _field(rep, "singular_values", None), frac),
             "Largest standard uncertainty of each error function (hatched grey and marked "
             "n/i: not determined by the data) and the share of its prior uncertainty the "
             "data remove (red: below 50 %, not determined; orange: 50 to 95 %, weak; green: "
-            "95 % or more, determined).", "identifiability"))
+            "95 % or more, determined).", "identifiability", weight=1.5))
     return sec
 
 
@@ -440,9 +442,9 @@ def volumetric_section(inp: ReportInputs) -> Section | None:
             "ELv ignores straightness, squareness and angular errors; compare it with "
             "E_VXYZ."))
     sec.figures.append(FigureItem(
-        volumetric_map_plot(vm), "Volumetric error of the identified machine on three "
+        partial(volumetric_map_plot, vm), "Volumetric error of the identified machine on three "
         "horizontal slices of the work zone: arrows show the in-plane error (magnified), the "
-        "colour the full vector length.", "volumetric-map"))
+        "colour the full vector length.", "volumetric-map", weight=1.5))
     return sec
 
 
@@ -630,13 +632,15 @@ def positioning_section(inp: ReportInputs) -> Section | None:
         u = uncs.get(m.id)
         if u is None or inp.budget is None:
             sec.figures.append(FigureItem(
-                linear_deviation_plot(m), f"{m.id}: positional deviation of every run with "
-                "the mean ± 2 s envelopes of each approach direction (ISO 230-2, Figure 1).",
+                partial(linear_deviation_plot, m), f"{m.id}: positional deviation of every "
+                "run with the mean ± 2 s envelopes of each approach direction (ISO 230-2, "
+                "Figure 1).",
                 f"{m.id}-deviation"))
             continue
         mc, bars = _corrected_with_bars(m, inp, u)
         sec.figures.append(FigureItem(
-            linear_deviation_plot(mc, uncertainty=bars), f"{m.id}: positional deviation of "
+            partial(linear_deviation_plot, mc, uncertainty=bars), f"{m.id}: positional "
+            "deviation of "
             "every run with the mean ± 2 s "
             "envelopes of each approach direction (ISO 230-2, Figure 1) and the mean "
             "bidirectional deviation of each target with its expanded uncertainty ± U "

@@ -15,7 +15,7 @@ from __future__ import annotations
 import dataclasses
 import re
 
-from volcal.report.document import FigureItem, Report, Section, Table
+from volcal.report.document import Report, Section, Table
 
 __all__ = ["REFERENCES", "SOURCE_NAMES", "customer_report", "customer_text",
            "references_section"]
@@ -100,7 +100,7 @@ def _section(s: Section) -> Section:
         paragraphs=[customer_text(p) for p in s.paragraphs],
         warnings=[customer_text(w) for w in s.warnings],
         tables=[_table(t) for t in s.tables],
-        figures=[FigureItem(f.figure, customer_text(f.caption), f.name) for f in s.figures])
+        figures=[f.recaptioned(customer_text(f.caption)) for f in s.figures])
 
 
 def customer_report(report: Report) -> Report:

@@ -9,7 +9,7 @@ from pathlib import Path
 
 from volcal.io.atomic import atomic_dir
 from volcal.report.document import Report
-from volcal.report.figures import keep_png, png_bytes
+from volcal.report.figures import png_bytes
 from volcal.report.html import render_html
 from volcal.report.pdf import write_pdf
 
@@ -85,14 +85,14 @@ def write_report(report: Report, folder: str | Path,
 
         pages = write_pdf(report, tmp / "report.pdf", pngs=pngs, meanwhile=meanwhile)
         meanwhile()  # if write_pdf did not call it
-        for i, f in enumerate(figs):
-            if i in pngs:
-                keep_png(f.figure, pngs[i])
+        for i, f in enumerate(figs):  # else (write_pdf stubbed) drawn by Agg below
+            f.png = pngs.get(i) or f.png or png_bytes(f.figure)
         (tmp / "report.html").write_text(render_html(report), encoding="utf-8")
         (tmp / "figures").mkdir()
         for i, f in enumerate(figs, start=1):
             name = f"{i:02d}-{f.name}.png"
-            (tmp / "figures" / name).write_bytes(png_bytes(f.figure))
+            assert f.png is not None
+            (tmp / "figures" / name).write_bytes(f.png)
             names.append(name)
     return ReportFiles(folder, folder / "report.html", folder / "report.pdf",
                        [folder / "figures" / n for n in names], pages)

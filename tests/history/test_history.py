@@ -308,10 +308,25 @@ def test_cli_round_trip(tmp_path, calibrations):
                  env=env)
     assert tr.returncode == 0 and f"figure: {fig}" in tr.stderr, tr.stderr
     assert fig.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    first = fig.read_bytes()
+    tr = _volcal("history", "trend", "VMC-1", "--parameter", "X.A", "--plot", str(fig),
+                 "--json", env=env)  # its own figure is replaced
+    assert tr.returncode == 0 and fig.read_bytes() == first, tr.stderr
     tr = _volcal("history", "trend", "VMC-1", "--parameter", "X.A", "--plot",
                  str(tmp_path / "trend.xyz"), env=env)
     assert tr.returncode == 2 and "the figure's format comes from its suffix" in tr.stderr
-    assert not (tmp_path / "trend.xyz").exists()
+    assert not (tmp_path / "trend.xyz").exists() and tr.stdout == ""  # before the table
+    # a figure file volcal did not write, a folder that is a file: refused, nothing written
+    foreign = tmp_path / "photo.png"
+    foreign.write_bytes(b"\x89PNG\r\n\x1a\n a photograph")
+    for target, words in ((foreign, "not written by volcal"),
+                          (foreign / "t.svg", "")):
+        tr = _volcal("history", "trend", "VMC-1", "--parameter", "X.A", "--plot",
+                     str(target), env=env)
+        assert tr.returncode == 2 and str(target.name) in tr.stderr and words in tr.stderr, \
+            tr.stderr
+        assert "Traceback" not in tr.stderr and tr.stdout == ""
+    assert foreign.read_bytes() == b"\x89PNG\r\n\x1a\n a photograph"
     assert _volcal("history", "verify", env=env).returncode == 0
     due = _volcal("history", "due", "--json", env=env)
     rows = json.loads(due.stdout)

@@ -395,6 +395,10 @@ def trend_cmd(
     from volcal.standards.iso230_2_rotary import check_units
 
     check_units(units)
+    if plot is not None:  # refused before the store is read
+        from volcal.plot.trend import check_trend_plot_path
+
+        check_trend_plot_path(plot)
     with _open(db) as h:
         rows = [_in_units(r, units) for r in trend(h, machine, parameter)]
         _warn_damaged(h, {r["id"] for r in rows})

@@ -66,6 +66,40 @@ def trend_plot(rows: Sequence[dict[str, Any]], parameter: str, machine: str) -> 
     return fig
 
 
+TREND_FORMATS = ("png", "svg", "pdf")
+"""Formats of ``volcal history trend --plot`` (from the file's suffix)."""
+
+
+def check_trend_plot_path(path: str | Path) -> Path:
+    """Check a trend figure's file before anything is read or drawn.
+
+    Parameters
+    ----------
+    path : str or Path
+        Figure file (``.png``, ``.svg``, ``.pdf``).
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    VolcalInputError
+        The suffix names none of :data:`TREND_FORMATS`; the folder is missing or read-only;
+        the path is a folder, a session's file or a file volcal did not write
+        (:func:`volcal.io.paths.check_output_file`: a figure volcal wrote carries its mark
+        in its metadata and may be replaced).
+    """
+    from volcal.io.paths import check_output_file
+
+    path = Path(path)
+    fmt = path.suffix.lstrip(".").lower()
+    if fmt not in TREND_FORMATS:
+        raise VolcalInputError("the figure's format comes from its suffix: expected one of "
+                               f"{', '.join('.' + f for f in TREND_FORMATS)}", path)
+    return check_output_file(path)
+
+
 def write_trend_plot(rows: Sequence[dict[str, Any]], parameter: str, machine: str,
                      path: str | Path) -> Path:
     """Write :func:`trend_plot` to a file, atomically; the format from its suffix.
@@ -79,25 +113,24 @@ def write_trend_plot(rows: Sequence[dict[str, Any]], parameter: str, machine: st
     machine : str
         Machine.
     path : str or Path
-        Figure file (``.png``, ``.svg``, ``.pdf``).
+        Figure file (``.png``, ``.svg``, ``.pdf``), checked with
+        :func:`check_trend_plot_path`.
 
     Returns
     -------
     Path
-        The file.
+        The file, with volcal's mark in its metadata (PNG ``Software``, SVG and PDF
+        ``Creator``).
 
     Raises
     ------
     VolcalInputError
-        The suffix names no format matplotlib writes (nothing is written).
+        See :func:`check_trend_plot_path` (nothing is written).
     """
-    path = Path(path)
-    fig = trend_plot(rows, parameter, machine)
+    path = check_trend_plot_path(path)
     fmt = path.suffix.lstrip(".").lower()
-    formats = fig.canvas.get_supported_filetypes()
-    if fmt not in formats:
-        raise VolcalInputError(f"the figure's format comes from its suffix: expected one of "
-                               f"{', '.join('.' + f for f in sorted(formats))}", path)
+    fig = trend_plot(rows, parameter, machine)
+    key = "Software" if fmt == "png" else "Creator"
     with atomic_path(path) as tmp:
-        fig.savefig(tmp, format=fmt)
+        fig.savefig(tmp, format=fmt, metadata={key: "volcal history trend"})
     return path

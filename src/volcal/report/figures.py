@@ -5,8 +5,9 @@ PNG (the HTML and the figures folder) is that page's figure area rasterized
 (:mod:`volcal.report.pdf`, :mod:`volcal.report.raster`), kept on its item
 (:attr:`volcal.report.document.FigureItem.png`). Outside a report
 (:func:`volcal.report.html.render_html` alone, a user's own figure) :func:`png_bytes`
-draws a figure at its own size with matplotlib's Agg. Figures independent of each other are drawn in worker processes where the machine has
-cores to spare (:func:`draw_all`, :func:`draw_workers`).
+draws a figure at its own size with matplotlib's Agg. Figures independent of each other are
+drawn in worker processes where the machine has cores to spare (:func:`draw_all`,
+:func:`draw_workers`).
 """
 
 from __future__ import annotations

@@ -139,7 +139,17 @@ class FigureItem:
         self._drawn.png = data
 
     def recaptioned(self, caption: str) -> FigureItem:
-        """The same figure (built once for both) with another caption."""
+        """The same figure (built once for both) with another caption.
+
+        Parameters
+        ----------
+        caption : str
+            The new caption.
+
+        Returns
+        -------
+        FigureItem
+        """
         return FigureItem(self._drawn, caption, self.name, self.weight)
 
     def __repr__(self) -> str:

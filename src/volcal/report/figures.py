@@ -17,6 +17,7 @@ import io
 import math
 import multiprocessing
 import os
+import pickle
 import queue
 import time
 import warnings
@@ -344,6 +345,8 @@ class Drawing(Generic[T, R]):
                 if not any(p.is_alive() for p in self._procs) and self._results.empty():
                     break  # every worker gone: what they took and did not send is redone
                 continue
+            except (EOFError, OSError, pickle.UnpicklingError):
+                break  # a message cut off by a worker killed as it sent: redone here
             if ok:
                 done[i] = value
             else:

@@ -112,6 +112,11 @@ def test_budget_to_certificate(tmp_path, monkeypatch, capsys):
         return new_figure(1.0, 1.0)
 
     monkeypatch.setattr(sections, "linear_deviation_plot", deviation)
+    # figures are built by the process that draws them: this one, where the calls are
+    # recorded (a drawing worker would record them in its own memory)
+    from volcal.report.figures import WORKERS_ENV
+
+    monkeypatch.setenv(WORKERS_ENV, "0")
     for name in ("error_functions_plot", "diagonal_fit_plot", "identifiability_plot",
                  "volumetric_map_plot"):
         monkeypatch.setattr(sections, name, lambda *a, **k: new_figure(1.0, 1.0))

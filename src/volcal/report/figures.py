@@ -62,9 +62,9 @@ def kept_layout(fig: Figure) -> Iterator[None]:
     """Put the figure's axes back where they were when the block ends.
 
     A layout engine (constrained layout) starts from where the axes are: a figure laid out
-    once (as a PNG, on its PDF page) is laid out a hair differently the next time. Each
-    drawing of a report's figures starts from the figure as built, so its PNG is the same
-    whether it is drawn before or after the PDF page, here or in a worker process.
+    once (on its PDF page, or as a PNG) is laid out a hair differently the next time. A
+    report's figure page puts the figure back as built, so the figure object is left as it
+    was and :func:`png_bytes` gives the same bytes before or after the page.
 
     Parameters
     ----------

@@ -784,10 +784,11 @@ def write_pdf(report: Report, path: str | Path, *, pngs: dict[int, bytes] | None
             drawn = drawing.result()
         finally:
             drawing.close()
-    where = {page.number: k for k, page in enumerate(pages) if isinstance(page, _FigureJob)}
+    # drawn[j] is figure j + 1's page (the jobs are in figure order)
     Path(path).write_bytes(insert_pages(text.getvalue(),
-                                        [(where[j.number], d.pdf)
-                                         for j, d in zip(jobs, drawn, strict=True)]))
+                                        [(k, drawn[page.number - 1].pdf)
+                                         for k, page in enumerate(pages)
+                                         if isinstance(page, _FigureJob)]))
     if pngs is not None:
-        pngs.update({j.number - 1: d.png for j, d in zip(jobs, drawn, strict=True)})
+        pngs.update(enumerate(d.png for d in drawn))
     return len(pages)

@@ -17,6 +17,11 @@ Families (:data:`FAMILIES`; the first mode's standard deviation ``A``):
     shape per millimetre: the modes of wavelength ``2 L / j`` down to 1600 / 8 = 200 mm,
     standard deviation ``A sqrt(min(1, lambda / 1600 mm))``; on an 800 mm axis the law of ``rel``,
     on 6000 mm 60 modes (30 undulations). ``mm0``: no roll.
+``len`` / ``len0``
+    the modes of ``rel``, with the linear errors (positioning wiggles, straightness)
+    growing with the axis' travel: ``A`` times ``L / 800 mm`` (a straightness is the
+    integral of its guideway's slope: the same slopes over a 3 m X give 3.75 times the
+    deviation of an 800 mm axis); the angles as in ``rel``. ``len0``: no roll.
 
 ``A``: positioning 3 um on a scale error of +-10 um/m (uniform), straightness 3 um, pitch
 and yaw 8 urad, rolls 8 urad, squareness +-50 urad (uniform). Seeds' full test set (4 step
@@ -70,13 +75,18 @@ N_DRAWS = 2000
 
 def _wavelengths(span: float, shape: str) -> tuple[np.ndarray, np.ndarray]:
     """Wavelengths [mm] and relative standard deviations of the modes of one function."""
-    if shape == "rel":
+    if shape in ("rel", "len"):
         j = np.arange(1, MODES + 1)
         return 2.0 * span / j, 1.0 / np.sqrt(j)
     shortest = 2.0 * REF_MM / MODES
     j = np.arange(1, int(np.floor(2.0 * span / shortest + 1e-9)) + 1)
     lam = 2.0 * span / j
     return lam, np.sqrt(np.minimum(1.0, lam / (2.0 * REF_MM)))
+
+
+def _growth(span: float, shape: str) -> float:
+    """Factor on the linear errors' amplitude [1]: ``span / 800 mm`` for ``'len'``, else 1."""
+    return span / REF_MM if shape == "len" else 1.0
 
 
 def draw(rng: np.random.Generator, travel, chain: str, shape: str = "rel",
@@ -92,7 +102,8 @@ def draw(rng: np.random.Generator, travel, chain: str, shape: str = "rel",
     chain : str
         Chain code.
     shape : str
-        ``'rel'`` (shape relative to the travel) or ``'mm'`` (per millimetre).
+        ``'rel'`` (shape relative to the travel), ``'mm'`` (per millimetre) or ``'len'``
+        (as ``'rel'``, the linear errors growing with the travel).
     rolls : bool
         Draw the rolls; False: EAX = EBY = ECZ = 0.
     """
@@ -102,15 +113,16 @@ def draw(rng: np.random.Generator, travel, chain: str, shape: str = "rel",
     for k in range(3):
         lo, span = t[k, 0], t[k, 1] - t[k, 0]
         lam, rel = _wavelengths(span, shape)
+        grow = _growth(span, shape)
         shortest = min(shortest, lam.min())
         for c in range(6):
             if c == k:
-                a, g = AMPLITUDE["positioning"], rng.uniform(-1, 1) * SCALE_UM_PER_M * 1e-3
+                a, g = AMPLITUDE["positioning"] * grow, rng.uniform(-1, 1) * SCALE_UM_PER_M * 1e-3
                 f0 = exact_sim.fourier_function(rng, lo, span, lam, a * rel)
                 fs[6 * k + c] = (lambda x, f0=f0, g=g, lo=lo: f0(x) + g * (np.asarray(x) - lo))
             elif c < 3:
-                fs[6 * k + c] = exact_sim.fourier_function(rng, lo, span, lam,
-                                                           AMPLITUDE["straightness"] * rel)
+                fs[6 * k + c] = exact_sim.fourier_function(
+                    rng, lo, span, lam, AMPLITUDE["straightness"] * grow * rel)
             elif c - 3 == k:
                 if rolls:
                     fs[6 * k + c] = exact_sim.fourier_function(rng, lo, span, lam,
@@ -136,13 +148,14 @@ def _terms(travel, shape: str, rolls: bool):
     for k in range(3):
         lo, span = t[k, 0], t[k, 1] - t[k, 0]
         lam, rel = _wavelengths(span, shape)
+        grow = _growth(span, shape)
         for c in range(6):
             if c == k:
-                a = AMPLITUDE["positioning"]
+                a = AMPLITUDE["positioning"] * grow
                 out.append((6 * k + c, lambda x, lo=lo: np.asarray(x) - lo,
                             (SCALE_UM_PER_M * 1e-3) ** 2 / 3))
             elif c < 3:
-                a = AMPLITUDE["straightness"]
+                a = AMPLITUDE["straightness"] * grow
             elif c - 3 == k:
                 if not rolls:
                     continue
@@ -228,6 +241,12 @@ FAMILIES = {
                           lambda rng, t, ch: draw(rng, t, ch, "mm", True)),
     "mm0": families.Family("mm0", "Fourier, shape per mm, no roll",
                            lambda rng, t, ch: draw(rng, t, ch, "mm", False)),
+    "len": families.Family("len", "Fourier, shape relative to the travel, linear errors "
+                           "growing with it, rolls",
+                           lambda rng, t, ch: draw(rng, t, ch, "len", True)),
+    "len0": families.Family("len0", "Fourier, shape relative to the travel, linear errors "
+                            "growing with it, no roll",
+                            lambda rng, t, ch: draw(rng, t, ch, "len", False)),
 }
 
 

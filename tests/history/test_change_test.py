@@ -87,3 +87,36 @@ def test_cli_says_joint_test_decided(tmp_path, monkeypatch):
                                  "over 19 determined combinations; |difference| <= U at "
                                  "the node shown)")
     assert lines["EYY"].endswith("chi-square chi2 49.7 > 42.3")
+
+
+def test_compare_rebuilds_the_prior_with_the_travel_exponents(tmp_path):
+    """The prior ``history compare`` rebuilds from a model file is the fit's own: its group
+    scales, curvature factors and, since session 11 of issue 30, the travel exponents,
+    which scale each axis' functions by ``(L_k / L_mean)^beta``. On 800 x 600 x 500 mm the
+    evidence sets them away from zero (this machine: 0.80 and 0.11), so a rebuild
+    that left them out would give each axis the group's scale (checked: the precision then
+    differs by more than 5 %)."""
+    import scipy.sparse as sp
+
+    from volcal.history.compare import prior_precision
+    from volcal.identify.modelfile import load_model
+    from volcal.identify.modelwrite import write_model
+    from volcal.identify.prior import PriorStructure
+    from volcal.identify.settings import EstimatorSettings
+    from volcal.measure.virtual import random_machine
+
+    r = _model(random_machine(TRAVEL, "XYFZ", seed=11), seed=12, steps=6, runs=2)
+    hyp = r.fit.hyperparameters
+    assert hyp["travel_exponent"] and max(abs(v) for v in hyp["travel_exponent"]) > 0.05
+    model = load_model(write_model(r, tmp_path / "m.json"))
+    got = prior_precision(model)
+    sol = r.solution
+    prior = (PriorStructure.build(model.layout, model.free, sol.kappa,
+                                  settings=EstimatorSettings())
+             .with_trend(sol.trend_um).with_tilt_trend(sol.tilt_trend_urad)
+             .with_axis_kappa(sol.axis_kappa).with_nugget(sol.nugget_um))
+    want = prior.precision(sol.function_scales, 100.0, int(model.free.size), np.zeros(0))
+    g, w = sp.csr_matrix(got).toarray(), sp.csr_matrix(want).toarray()
+    np.testing.assert_allclose(g, w, rtol=1e-6, atol=1e-9 * np.abs(w).max())
+    flat = prior.precision(sol.scales, 100.0, int(model.free.size), np.zeros(0))
+    assert np.abs(sp.csr_matrix(flat).toarray() - w).max() > 0.05 * np.abs(w).max()

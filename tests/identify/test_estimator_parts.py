@@ -563,7 +563,10 @@ def test_identify_says_when_the_readings_look_like_a_machine_without_roll(seed):
     assert "--roll zero" in note[0] and "level" in note[0]
     # the average leans to the fit without roll and is closer to the truth
     assert p_roll < 0.01 and f"weighted {p_roll:.2g}" in note[0]
-    assert errors[0] < 0.9 * errors[1], errors  # seed 6: 0.67, seed 8: 0.85
+    # seed 6: 0.74, seed 8: 0.95 (0.67 and 0.85 before the travel exponents of issue 30,
+    # which improved the fit with rolls kept more, 1.81 -> 1.59 and 1.37 -> 1.24 um, than
+    # the average, 1.20 -> 1.18 and 1.22 -> 1.18 um: the margin measured the reference)
+    assert errors[0] < 0.97 * errors[1], errors
 
 
 def test_identify_says_when_the_readings_leave_the_rolls_open(small, tmp_path):

@@ -67,10 +67,16 @@ ISSUE_30 = {
     "tilt_trend_spread": 3.0,
     "axis_kappa_spread": 6.0,  # each axis' curvature factor chosen by the evidence (3 in round 1)
     "axis_scale_spread": 0.0,
+    # each axis' amplitudes grow with its travel, the exponents chosen by the evidence
+    # (session 11): one for the linear errors, one for the angular ones
+    "travel_exponent_spread": 1.0,
+    "travel_exponent_centre": 0.0,
+    "travel_exponent_groups": ((0, 1), (2, 3)),
+    "travel_exponent_bounds": (-1.0, 2.0),
 }
 # the estimator of volcal before issue 30, through the settings
 OLD = {"hyper_spread": 30.0, "trend_per_metre": False, "tilt_trend_centre_urad": 0.0,
-       "axis_kappa_spread": 0.0}
+       "axis_kappa_spread": 0.0, "travel_exponent_spread": 0.0}
 
 
 @pytest.fixture(scope="module")
@@ -169,6 +175,12 @@ def test_bad_settings_are_refused_with_the_field_named():
         EstimatorSettings(axis_kappa_spread=0.5)
     with pytest.raises(VolcalInputError, match="tilt_trend_centre_urad"):
         EstimatorSettings(tilt_trend_centre_urad=-1.0)
+    with pytest.raises(VolcalInputError, match="travel_exponent_spread"):
+        EstimatorSettings(travel_exponent_spread=-1.0)
+    with pytest.raises(VolcalInputError, match="travel_exponent_bounds"):
+        EstimatorSettings(travel_exponent_bounds=(1.0, -1.0))
+    with pytest.raises(VolcalInputError, match="travel_exponent_groups"):
+        EstimatorSettings(travel_exponent_groups=((0, 5),))
     with pytest.raises(VolcalInputError, match="settings"):
         IdentifyOptions(settings={"roll_factor": 2.0})  # type: ignore[arg-type]
 

@@ -164,7 +164,7 @@ def prior_precision(model: Any) -> Any:
     model : IdentificationResult
         A model whose fit records its hyperparameters.
     """
-    from volcal.identify.prior import PriorStructure
+    from volcal.identify.prior import PriorStructure, function_scales
     from volcal.identify.settings import EstimatorSettings
 
     hyp = model.fit.hyperparameters or {}
@@ -184,7 +184,14 @@ def prior_precision(model: Any) -> Any:
         prior = prior.with_axis_kappa([float(v) for v in axis_kappa])
     if NUGGET_IN_PRIOR:
         prior = prior.with_nugget(hyp.get("positioning_nugget_um") or 0.0)
-    scales = np.array([hyp[k] for k in keys[:4]], dtype=float)
+    scales = function_scales(np.array([hyp[k] for k in keys[:4]], dtype=float))
+    # each axis' amplitude grown with its travel (issue 30; absent before)
+    exponents = hyp.get("travel_exponent")
+    if isinstance(exponents, list) and exponents:
+        groups = hyp.get("travel_exponent_groups") or EstimatorSettings().travel_exponent_groups
+        if len(groups) == len(exponents):
+            scales = scales * np.exp(prior.travel_columns(groups)
+                                     @ np.array(exponents, dtype=float))
     n = int(model.free.size)
     return prior.precision(scales, 100.0, n, np.zeros(0))
 

@@ -532,13 +532,17 @@ def _fit_smooth(session: Session, o: IdentifyOptions, known: dict, weights,
                           tilt_std=tilt_std, settings=st)
         sol.convergence = dict(sol_h.convergence, grid="hyperparameters on "
                                f"{'x'.join(str(len(n)) for n in nodes_h)} nodes")
+        sol.travel_exponent = sol_h.travel_exponent  # in the function scales it gave
     else:
         sol = solve_bayes(design, prior, scales, noise, o.squareness_std_urad, settings=st)
     if noise is None and _too_few_redundant(sol, design):
         notes.append(_noise_note(sol, design, st.default_repeatability_um))
         noise = st.default_repeatability_um
+        exponents = sol.travel_exponent
         sol = solve_bayes(design, prior, scales, noise, o.squareness_std_urad,
                           tilt_std=tilt_std, settings=st)
+        if scales is not None:
+            sol.travel_exponent = exponents
     return design, sol
 
 
@@ -717,6 +721,14 @@ def _result(session: Session, design: Design, sol: Solution, report, o: Identify
                                                    else None),
                          "tilt_trend_urad": (_fin(sol.tilt_trend_urad) if sol.tilt_trend_urad
                                              else None),
+                         # each group set's travel exponent (EstimatorSettings.
+                         # travel_exponent_*): a function's scale is its group's times
+                         # (L_axis / L_mean)^exponent; None when not searched
+                         "travel_exponent": ([_fin(v) for v in sol.travel_exponent]
+                                             if sol.travel_exponent else None),
+                         "travel_exponent_groups": (
+                             [list(g) for g in o.settings.travel_exponent_groups]
+                             if sol.travel_exponent else None),
                          # each axis' curvature factor (EstimatorSettings.axis_kappa_spread)
                          "kappa_axis": ([_fin(v) for v in sol.axis_kappa]
                                         if any(v != 1.0 for v in sol.axis_kappa) else None),

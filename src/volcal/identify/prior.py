@@ -227,6 +227,9 @@ class PriorStructure:
         :attr:`EstimatorSettings.axis_kappa_spread`; 1 otherwise): a 6 m axis whose errors
         keep their wavelengths in millimetres undulates more over its normalised travel
         than the 1 m axis beside it.
+    axis_length : tuple of 3 float
+        Travel of each axis [m] (the span of its nodes; 1 for an axis with one node),
+        for the amplitudes that grow with the travel (:meth:`travel_columns`).
     """
 
     blocks: list[tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.float64], int, int]]
@@ -242,6 +245,7 @@ class PriorStructure:
     nugget_um: float = 0.0
     group_kappa: tuple[float, ...] = _DEFAULT.group_kappa
     axis_kappa: tuple[float, ...] = (1.0, 1.0, 1.0)
+    axis_length: tuple[float, ...] = (1.0, 1.0, 1.0)
     _unit: dict = field(default_factory=dict, repr=False, compare=False)
 
     @classmethod
@@ -280,11 +284,43 @@ class PriorStructure:
                 coords.append(s[sel])
                 maps.append(_boundary_map(s, sel, C, W, st.boundary))
         sq = pos_in_free[layout.squareness_indices()]
-        lengths = (tuple(float(np.ptp(layout.nodes[k])) / 1000.0 if len(layout.nodes[k]) > 1
+        travel_m = tuple(float(np.ptp(layout.nodes[k])) / 1000.0 if len(layout.nodes[k]) > 1
                          else 1.0 for k in range(3))
-                   if st.trend_per_metre else (1.0, 1.0, 1.0))
+        lengths = travel_m if st.trend_per_metre else (1.0, 1.0, 1.0)
         return cls(blocks, sq[sq >= 0], int(free.size), kappa, coords, maps=maps,
-                   group_kappa=tuple(st.group_kappa), trend_length=lengths)
+                   group_kappa=tuple(st.group_kappa), trend_length=lengths,
+                   axis_length=travel_m)
+
+    def travel_columns(self, group_sets) -> NDArray[np.float64]:
+        """How the function scales' logarithms move with each travel exponent.
+
+        The amplitude scale of a function of axis ``k`` in a group of ``group_sets[i]``
+        is its group's times ``(L_k / L_mean)^beta_i`` (``L_k`` the axis' travel,
+        :attr:`axis_length`; ``L_mean`` the geometric mean over the axes with
+        functions, so that the group's scale keeps the mean of the three). Column ``i``
+        holds ``log(L_k / L_mean)`` in the rows of those functions and zero elsewhere.
+
+        Parameters
+        ----------
+        group_sets : sequence of sequence of int
+            Indices into :data:`GROUPS`, one set per exponent.
+
+        Returns
+        -------
+        ndarray, shape (18, len(group_sets))
+            ``d log a_f / d beta_i`` [1].
+        """
+        axes = sorted({f // 6 for *_, f in self.blocks})
+        logl = np.log(np.asarray(self.axis_length, dtype=float))
+        if axes:
+            logl = logl - float(np.mean(logl[axes]))
+        out = np.zeros((18, len(group_sets)))
+        for i, gs in enumerate(group_sets):
+            for k in range(3):
+                for c in range(6):
+                    if function_group(k, c) in tuple(gs):
+                        out[6 * k + c, i] = logl[k]
+        return out
 
     def with_kappa(self, kappa: float) -> PriorStructure:
         """The same prior with another curvature scale.

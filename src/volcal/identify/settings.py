@@ -85,6 +85,21 @@ class EstimatorSettings:
         Spread (a factor) of each axis' amplitude scale around its group's (positioning,
         straightness, tilts; the roll follows its axis' tilts), chosen by the evidence; 0:
         one scale per group [1].
+    travel_exponent_spread : float
+        Spread (one standard deviation) of the travel exponents ``beta`` [1]: the
+        amplitude scale of each function in a group of :attr:`travel_exponent_groups` is
+        its group's times ``(L_k / L_mean)^beta`` (``L_k`` the axis' travel, ``L_mean``
+        their geometric mean), ``beta`` chosen by the evidence within
+        :attr:`travel_exponent_bounds`; 0: one scale per group whatever the travels.
+        A straightness is the integral of its guideway's slope, so on a 3 m X beside a
+        0.8 m Y the same slopes give about 4 times the straightness deviation.
+    travel_exponent_centre : float
+        Centre of the exponents' hyperprior [1] (0: no growth expected).
+    travel_exponent_groups : tuple of tuple of int
+        The groups (indices into :data:`volcal.identify.prior.GROUPS`: 0 positioning,
+        1 straightness, 2 roll, 3 tilts) sharing each exponent.
+    travel_exponent_bounds : tuple of 2 float
+        Bounds of each exponent in the evidence search [1].
     nugget : bool
         Estimate a short-wavelength ("nugget") part of the positioning errors' prior,
         independent at every point (a lead screw's cyclic error shorter than the node
@@ -165,6 +180,10 @@ class EstimatorSettings:
     tilt_trend_spread: float = 3.0
     axis_kappa_spread: float = 6.0
     axis_scale_spread: float = 0.0
+    travel_exponent_spread: float = 1.0
+    travel_exponent_centre: float = 0.0
+    travel_exponent_groups: tuple[tuple[int, ...], ...] = ((0, 1), (2, 3))
+    travel_exponent_bounds: tuple[float, float] = (-1.0, 2.0)
     nugget: bool = True
     nugget_centre_um: float = 0.2
     nugget_spread: float = 10.0
@@ -203,6 +222,18 @@ class EstimatorSettings:
             if not (v == 0.0 or v > 1.0):
                 raise VolcalInputError(f"EstimatorSettings.{name} must be 0 (off) or a factor "
                                        f"above 1, got {v!r}")
+        if not float(self.travel_exponent_spread) >= 0:
+            raise VolcalInputError("EstimatorSettings.travel_exponent_spread must be 0 (off) "
+                                   f"or positive, got {self.travel_exponent_spread!r}")
+        lo, hi = (float(v) for v in self.travel_exponent_bounds)
+        if not lo < hi:
+            raise VolcalInputError("EstimatorSettings.travel_exponent_bounds must be (low, "
+                                   f"high) with low < high, got {self.travel_exponent_bounds!r}")
+        if not all(len(gs) and all(int(g) in (0, 1, 2, 3) for g in gs)
+                   for gs in self.travel_exponent_groups):
+            raise VolcalInputError("EstimatorSettings.travel_exponent_groups must be sets of "
+                                   "group indices 0-3 (positioning, straightness, roll, tilt), "
+                                   f"got {self.travel_exponent_groups!r}")
         if not 0.0 <= self.roll_mixture_absent < 1.0:
             raise VolcalInputError("EstimatorSettings.roll_mixture_absent must be in [0, 1), "
                                    f"got {self.roll_mixture_absent!r}")

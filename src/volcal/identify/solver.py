@@ -125,6 +125,10 @@ class Solution:
         ``P(roll | y)`` of the two-model average
         (:attr:`EstimatorSettings.roll_mixture_absent`); None when the average was not
         taken (off, no roll block, or rolls stated).
+    travel_exponent : tuple of float
+        The evidence's travel exponents, one per set of
+        :attr:`EstimatorSettings.travel_exponent_groups` [1]; empty when not searched
+        (off, scales given, or axes of one travel). Already in :attr:`function_scales`.
     """
 
     x: NDArray[np.float64]
@@ -149,6 +153,7 @@ class Solution:
     nugget_um: float = 0.0
     roll_log_bayes_factor: float | None = None
     roll_probability: float | None = None
+    travel_exponent: tuple[float, ...] = ()
 
 
 def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float64] | None = None,
@@ -215,7 +220,7 @@ def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float6
                     trend_length=ev.prior.trend_length, axis_kappa=ev.prior.axis_kappa,
                     tilt_trend_urad=ev.prior.tilt_trend_urad,
                     nugget_um=ev.prior.nugget_um, roll_log_bayes_factor=roll_lbf,
-                    roll_probability=p_roll)
+                    roll_probability=p_roll, travel_exponent=search.travel_exponents(h_opt))
 
 
 class _HyperSearch:
@@ -257,6 +262,10 @@ class _HyperSearch:
         self.kappa_centre = centre[-1]
         self.hyper_spread = np.log(st.hyper_spread)
         self.extra = self._extra_scales(tilt_std)
+        # the travel exponents: where the scales are free and the axes' travels differ
+        self.n_texp = (len(st.travel_exponent_groups) if self.free_scales
+                       and st.travel_exponent_spread > 0 and self._travels_differ() else 0)
+        self.texp_cols: list[int] = []
         self.M, self.centre, self.spread = self._hyper_map(centre[list(FREE_GROUPS)])
         self.ns = self.M.shape[1]
         # per-axis curvature factors: present only when the evidence may choose them
@@ -297,6 +306,16 @@ class _HyperSearch:
                           np.log(st.nugget_spread)))
         return extra
 
+    def _travels_differ(self) -> bool:
+        """Whether the axes with functions have travels differing by more than 1 %."""
+        axes = self._axes_with_functions()
+        lengths = np.asarray(self.ev.prior.axis_length, dtype=float)[axes]
+        return len(axes) > 1 and float(np.ptp(np.log(lengths))) > 0.01
+
+    def travel_exponents(self, h: NDArray[np.float64]) -> tuple[float, ...]:
+        """The travel exponents in a search vector (empty when not searched)."""
+        return tuple(float(h[i]) for i in self.texp_cols)
+
     def _axes_with_functions(self) -> list[int]:
         """Axes with free function nodes (their curvature factor is searched)."""
         return sorted({f // 6 for *_, f in self.ev.prior.blocks})
@@ -333,6 +352,11 @@ class _HyperSearch:
             M = np.hstack([M, np.array(cols).T])
             centre = np.append(centre, np.zeros(len(cols)))
             spread = np.append(spread, np.full(len(cols), np.log(self.st.axis_scale_spread)))
+        if self.n_texp:  # each axis' amplitude grows with its travel (its exponents)
+            self.texp_cols = list(range(M.shape[1], M.shape[1] + self.n_texp))
+            M = np.hstack([M, self.ev.prior.travel_columns(self.st.travel_exponent_groups)])
+            centre = np.append(centre, np.full(self.n_texp, self.st.travel_exponent_centre))
+            spread = np.append(spread, np.full(self.n_texp, self.st.travel_exponent_spread))
         m0 = M.shape[1]
         for j, (_, c, _, sd) in enumerate(self.extra):
             M = np.vstack([np.hstack([M, np.zeros((M.shape[0], 1))]),
@@ -346,10 +370,12 @@ class _HyperSearch:
         h0: list = []
         bounds: list = []
         if self.free_scales:
-            n_axis_scale = self.ns - len(FREE_GROUPS) - len(self.extra)
+            n_axis_scale = self.ns - len(FREE_GROUPS) - len(self.extra) - self.n_texp
             h0 += list(self.centre) + [np.log(self.k0)] + [0.0] * self.na
+            texp_bounds = tuple(float(v) for v in self.st.travel_exponent_bounds)
             bounds += ([(np.log(1e-2), np.log(1e4))] * len(FREE_GROUPS)
                        + [(np.log(1e-2), np.log(1e2))] * n_axis_scale
+                       + [texp_bounds] * self.n_texp
                        + [bd for _, _, bd, _ in self.extra]
                        + [(np.log(1.0), np.log(1e4))]
                        + [(np.log(0.05), np.log(20.0))] * self.na)

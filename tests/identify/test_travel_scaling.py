@@ -90,6 +90,38 @@ def test_trend_is_a_scale_error_per_metre_of_travel():
             assert p.block_trend(b) == pytest.approx(w)
 
 
+def test_travel_columns_scale_each_axis_by_its_travel_around_the_mean():
+    """The travel exponents' columns: ``log(L_k / L_mean)`` for the functions of the groups
+    of each set, ``L_mean`` the geometric mean over the axes with functions (so the
+    group's geometric-mean scale is unmoved); an axis without functions gets 0. 3000 / 800
+    / 600 mm: X +0.98, Y -0.34, Z -0.63 (X: ``log 3 - mean(log 3, log 0.8, log 0.6)``)."""
+    from dataclasses import replace
+
+    from volcal.identify.prior import function_group
+
+    s = travel_study.session_for(LONG, "FXYZ", "full", steps=4, runs=1)
+    for m in s.measurements:
+        m.deviation = np.zeros(m.n)
+    design = build_design(s, choose_nodes(s, refine=1, max_nodes=41), {})
+    p = PriorStructure.build(design.layout, design.free, 6.0)
+    np.testing.assert_allclose(p.axis_length, (3.0, 0.8, 0.6))
+    cols = p.travel_columns(((0, 1), (2, 3)))
+    logl = np.log([3.0, 0.8, 0.6])
+    for k in range(3):
+        for c in range(6):
+            lin = function_group(k, c) in (0, 1)
+            want = logl[k] - logl.mean()
+            assert cols[6 * k + c, 0] == pytest.approx(want if lin else 0.0)
+            assert cols[6 * k + c, 1] == pytest.approx(0.0 if lin else want)
+    assert cols[0, 0] == pytest.approx(0.977, abs=0.001)
+    # X and Y only (no Z functions): the mean over X and Y, Z's rows zero
+    xy = replace(p, blocks=[b for b in p.blocks if b[4] // 6 != 2])
+    cols = xy.travel_columns(((0, 1, 2, 3),))
+    np.testing.assert_allclose(cols[12:, 0], 0.0)
+    assert cols[0, 0] == pytest.approx(-cols[6, 0]) and cols[0, 0] == pytest.approx(
+        0.5 * np.log(3.0 / 0.8))
+
+
 def test_evidence_gradient_in_each_axis_curvature_factor():
     """The gradient entries of the three axes' curvature factors
     (``evidence.AXIS_KAPPA`` ...) against central differences, with the trend and the

@@ -298,7 +298,8 @@ class PriorStructure:
         is its group's times ``(L_k / L_mean)^beta_i`` (``L_k`` the axis' travel,
         :attr:`axis_length`; ``L_mean`` the geometric mean over the axes with
         functions, so that the group's scale keeps the mean of the three). Column ``i``
-        holds ``log(L_k / L_mean)`` in the rows of those functions and zero elsewhere.
+        holds ``log(L_k / L_mean)`` in the rows of those functions and zero elsewhere
+        (also for an axis without functions).
 
         Parameters
         ----------
@@ -311,9 +312,10 @@ class PriorStructure:
             ``d log a_f / d beta_i`` [1].
         """
         axes = sorted({f // 6 for *_, f in self.blocks})
-        logl = np.log(np.asarray(self.axis_length, dtype=float))
-        if axes:
-            logl = logl - float(np.mean(logl[axes]))
+        logl = np.zeros(3)
+        if axes:  # an axis without functions keeps its group's scale (the mean unmoved)
+            logl[axes] = np.log(np.asarray(self.axis_length, dtype=float)[axes])
+            logl[axes] -= float(np.mean(logl[axes]))
         out = np.zeros((18, len(group_sets)))
         for i, gs in enumerate(group_sets):
             for k in range(3):

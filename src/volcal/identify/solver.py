@@ -227,7 +227,9 @@ class _HyperSearch:
     """The hyperparameters of :func:`solve_bayes` and their search for maximum evidence.
 
     The search vector ``h`` holds, when the scales are free, the log scales of
-    :data:`FREE_GROUPS`, then the extra scale-like hyperparameters (set-up tilts,
+    :data:`FREE_GROUPS` (then, when searched, each axis' scale factors and the travel
+    exponents, :attr:`EstimatorSettings.travel_exponent_groups`), then the extra
+    scale-like hyperparameters (set-up tilts,
     positioning trend, short-wavelength nugget, where the design has them), then
     ``log kappa``; and last ``log sigma`` when the noise is not stated. Each carries a
     log-normal hyperprior (centres and spreads of :class:`EstimatorSettings`). The

@@ -73,10 +73,15 @@ ISSUE_30 = {
     "travel_exponent_centre": 0.0,
     "travel_exponent_groups": ((0, 1), (2, 3)),
     "travel_exponent_bounds": (-1.0, 2.0),
+    # each axis' curvature factor (L_k / L_mean)^gamma, one exponent chosen by the evidence
+    # (session 12), instead of the free factors of axis_kappa_spread
+    "kappa_travel_exponent_spread": 1.0,
+    "kappa_travel_exponent_bounds": (-2.0, 4.0),
 }
 # the estimator of volcal before issue 30, through the settings
 OLD = {"hyper_spread": 30.0, "trend_per_metre": False, "tilt_trend_centre_urad": 0.0,
-       "axis_kappa_spread": 0.0, "travel_exponent_spread": 0.0}
+       "axis_kappa_spread": 0.0, "travel_exponent_spread": 0.0,
+       "kappa_travel_exponent_spread": 0.0}
 
 
 @pytest.fixture(scope="module")
@@ -119,7 +124,8 @@ def test_the_default_fit_is_the_one_volcal_computed_before(default_fit):
     assert {k: fit["prior_scales"][k] for k in want} == pytest.approx(want, rel=1e-7)
     # the hyperparameters issue 30 added are absent from the old estimator's fit
     assert all(fit["prior_scales"][k] is None
-               for k in ("positioning_trend_um_per_m", "tilt_trend_urad", "kappa_axis"))
+               for k in ("positioning_trend_um_per_m", "tilt_trend_urad", "kappa_axis",
+                         "kappa_travel_exponent"))
     rp = fit["roll_presence"]
     assert rp["log_bayes_factor"] == pytest.approx(-1.8115754311829022, rel=1e-7)
     assert rp["probability"] == pytest.approx(0.1404478284047197, rel=1e-7)
@@ -181,6 +187,10 @@ def test_bad_settings_are_refused_with_the_field_named():
         EstimatorSettings(travel_exponent_bounds=(1.0, -1.0))
     with pytest.raises(VolcalInputError, match="travel_exponent_groups"):
         EstimatorSettings(travel_exponent_groups=((0, 5),))
+    with pytest.raises(VolcalInputError, match="kappa_travel_exponent_spread"):
+        EstimatorSettings(kappa_travel_exponent_spread=-0.5)
+    with pytest.raises(VolcalInputError, match="kappa_travel_exponent_bounds"):
+        EstimatorSettings(kappa_travel_exponent_bounds=(2.0, 2.0))
     with pytest.raises(VolcalInputError, match="settings"):
         IdentifyOptions(settings={"roll_factor": 2.0})  # type: ignore[arg-type]
 

@@ -7,7 +7,8 @@
 * the positioning trend is a scale error per metre of travel (one evidence-chosen scale
   in um/m, each axis' trend at the end of its travel that scale times its length);
 * each axis' curvature factor (``EstimatorSettings.axis_kappa_spread``) has the exact
-  evidence gradient;
+  evidence gradient; as one exponent of the travels (``kappa_travel_exponent_spread``)
+  it tells errors kept per millimetre from errors kept relative to the travel;
 * a round trip on a 3000 x 800 x 600 mm machine of the study's family whose functions keep
   their shape relative to the travel (machine 0 of ``travel_study.cases``, read by
   ``exact_sim``, seeds' full test set, 10 increments, 2 runs per line): never worse than
@@ -195,6 +196,31 @@ def test_long_machine_whose_straightness_grows_with_its_travel():
     assert r.bayes["rms_um"] < 0.8 * r0.bayes["rms_um"], (r.bayes, r0.bayes)
     assert r.bayes["rms_um"] < 0.5 * r.min_norm["rms_um"], (r.bayes, r.min_norm)
     assert 0.90 <= r.bayes["coverage"] <= 0.99, r.bayes["coverage"]
+
+
+@pytest.mark.parametrize(("family", "low", "high"), [("mm0", 1.0, 2.5), ("rel0", -0.6, 0.3)])
+def test_curvature_travel_exponent_tells_errors_per_mm_from_errors_per_travel(family, low,
+                                                                              high):
+    """Machine 0 of ``mm0`` (errors keeping their shape per millimetre: the 3 m X undulates
+    3.75 times more over its travel than the 0.8 m Y) and of ``rel0`` (the same number of
+    undulations on every axis), 3000 x 800 x 600 mm, read by the independent simulator:
+    the evidence's curvature exponent ``gamma`` (``EstimatorSettings.
+    kappa_travel_exponent_spread``) is large for the first (measured 1.53; 2 would be the
+    curvature of a per-mm function over the normalised travel) and near 0 for the second
+    (measured -0.23), and each axis' curvature factor is ``(L_k / L_mean)^gamma``."""
+    from volcal.identify import IdentifyOptions, identify
+
+    case = travel_study.cases(1)[0]
+    am = travel_study.FAMILIES[family].draw(np.random.default_rng(case.machine_seed), LONG,
+                                            case.chain)
+    s = travel_study.session_for(LONG, case.chain, "full", 10, 2)
+    exact_sim.simulate(s, travel_study.to_sim(am), case.sim_seed)
+    ps = identify(s, IdentifyOptions(suggest=False)).fit["prior_scales"]
+    gamma = ps["kappa_travel_exponent"]
+    assert low < gamma < high, gamma
+    lengths = LONG[:, 1] - LONG[:, 0]
+    want = (lengths / np.exp(np.mean(np.log(lengths)))) ** gamma
+    np.testing.assert_allclose(ps["kappa_axis"], want, rtol=1e-9)
 
 
 def test_step_diagonals_alone_are_honest_on_a_machine_without_roll():

@@ -533,16 +533,17 @@ def _fit_smooth(session: Session, o: IdentifyOptions, known: dict, weights,
         sol.convergence = dict(sol_h.convergence, grid="hyperparameters on "
                                f"{'x'.join(str(len(n)) for n in nodes_h)} nodes")
         sol.travel_exponent = sol_h.travel_exponent  # in the function scales it gave
+        sol.kappa_travel_exponent = sol_h.kappa_travel_exponent  # in the axis factors
     else:
         sol = solve_bayes(design, prior, scales, noise, o.squareness_std_urad, settings=st)
     if noise is None and _too_few_redundant(sol, design):
         notes.append(_noise_note(sol, design, st.default_repeatability_um))
         noise = st.default_repeatability_um
-        exponents = sol.travel_exponent
+        exponents = sol.travel_exponent, sol.kappa_travel_exponent
         sol = solve_bayes(design, prior, scales, noise, o.squareness_std_urad,
                           tilt_std=tilt_std, settings=st)
         if scales is not None:
-            sol.travel_exponent = exponents
+            sol.travel_exponent, sol.kappa_travel_exponent = exponents
     return design, sol
 
 
@@ -729,9 +730,14 @@ def _result(session: Session, design: Design, sol: Solution, report, o: Identify
                          "travel_exponent_groups": (
                              [list(g) for g in o.settings.travel_exponent_groups]
                              if sol.travel_exponent else None),
-                         # each axis' curvature factor (EstimatorSettings.axis_kappa_spread)
+                         # each axis' curvature factor (EstimatorSettings.
+                         # kappa_travel_exponent_spread, axis_kappa_spread)
                          "kappa_axis": ([_fin(v) for v in sol.axis_kappa]
                                         if any(v != 1.0 for v in sol.axis_kappa) else None),
+                         # the factors' travel exponent: (L_axis / L_mean)^exponent
+                         "kappa_travel_exponent": (_fin(sol.kappa_travel_exponent)
+                                                   if sol.kappa_travel_exponent is not None
+                                                   else None),
                          "setup_tilt_urad": (_fin(sol.tilt_std_urad)
                                              if sol.tilt_std_urad is not None else None)},
         "convergence": dict(sol.convergence),

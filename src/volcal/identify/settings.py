@@ -79,8 +79,22 @@ class EstimatorSettings:
     axis_kappa_spread : float
         Spread (a factor, one standard deviation) of each axis' curvature factor around
         the common ``kappa``, chosen by the evidence
-        (:attr:`volcal.identify.prior.PriorStructure.axis_kappa`); 0: one curvature scale
-        for the three axes [1].
+        (:attr:`volcal.identify.prior.PriorStructure.axis_kappa`), used only when
+        ``kappa_travel_exponent_spread`` is 0; both 0: one curvature scale for the three
+        axes [1].
+    kappa_travel_exponent_spread : float
+        Spread (one standard deviation) of the curvature's travel exponent ``gamma`` [1]:
+        each axis' curvature factor is ``(L_k / L_mean)^gamma`` (``L_k`` the axis' travel,
+        ``L_mean`` the geometric mean over the axes with functions), one exponent chosen
+        by the evidence within ``kappa_travel_exponent_bounds`` (normal hyperprior centred
+        on 0), searched where the travels differ by more than 1 %. Errors that keep their
+        shape per millimetre undulate ``L_k / L_mean`` times more over a long axis'
+        normalised travel (``gamma`` near 2); errors that keep their shape relative to the
+        travel do not (``gamma`` near 0). 0: the free per-axis factors of
+        ``axis_kappa_spread`` instead (volcal <= session 11: two free factors, which
+        step diagonals alone could not inform).
+    kappa_travel_exponent_bounds : tuple of 2 float
+        Bounds of ``gamma`` in the evidence search [1].
     axis_scale_spread : float
         Spread (a factor) of each axis' amplitude scale around its group's (positioning,
         straightness, tilts; the roll follows its axis' tilts), chosen by the evidence; 0:
@@ -179,6 +193,8 @@ class EstimatorSettings:
     tilt_trend_centre_urad: float = 15.0
     tilt_trend_spread: float = 3.0
     axis_kappa_spread: float = 6.0
+    kappa_travel_exponent_spread: float = 1.0
+    kappa_travel_exponent_bounds: tuple[float, float] = (-2.0, 4.0)
     axis_scale_spread: float = 0.0
     travel_exponent_spread: float = 1.0
     travel_exponent_centre: float = 0.0
@@ -225,10 +241,14 @@ class EstimatorSettings:
         if not float(self.travel_exponent_spread) >= 0:
             raise VolcalInputError("EstimatorSettings.travel_exponent_spread must be 0 (off) "
                                    f"or positive, got {self.travel_exponent_spread!r}")
-        lo, hi = (float(v) for v in self.travel_exponent_bounds)
-        if not lo < hi:
-            raise VolcalInputError("EstimatorSettings.travel_exponent_bounds must be (low, "
-                                   f"high) with low < high, got {self.travel_exponent_bounds!r}")
+        if not float(self.kappa_travel_exponent_spread) >= 0:
+            raise VolcalInputError("EstimatorSettings.kappa_travel_exponent_spread must be 0 "
+                                   f"(off) or positive, got {self.kappa_travel_exponent_spread!r}")
+        for name in ("travel_exponent_bounds", "kappa_travel_exponent_bounds"):
+            lo, hi = (float(v) for v in getattr(self, name))
+            if not lo < hi:
+                raise VolcalInputError(f"EstimatorSettings.{name} must be (low, high) with "
+                                       f"low < high, got {getattr(self, name)!r}")
         if not all(len(gs) and all(int(g) in (0, 1, 2, 3) for g in gs)
                    for gs in self.travel_exponent_groups):
             raise VolcalInputError("EstimatorSettings.travel_exponent_groups must be sets of "

@@ -129,6 +129,10 @@ class Solution:
         The evidence's travel exponents, one per set of
         :attr:`EstimatorSettings.travel_exponent_groups` [1]; empty when not searched
         (off, scales given, or axes of one travel). Already in :attr:`function_scales`.
+    kappa_travel_exponent : float or None
+        The evidence's curvature travel exponent
+        (:attr:`EstimatorSettings.kappa_travel_exponent_spread`) [1]; None when not
+        searched. Already in :attr:`axis_kappa`.
     """
 
     x: NDArray[np.float64]
@@ -154,6 +158,7 @@ class Solution:
     roll_log_bayes_factor: float | None = None
     roll_probability: float | None = None
     travel_exponent: tuple[float, ...] = ()
+    kappa_travel_exponent: float | None = None
 
 
 def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float64] | None = None,
@@ -220,7 +225,8 @@ def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float6
                     trend_length=ev.prior.trend_length, axis_kappa=ev.prior.axis_kappa,
                     tilt_trend_urad=ev.prior.tilt_trend_urad,
                     nugget_um=ev.prior.nugget_um, roll_log_bayes_factor=roll_lbf,
-                    roll_probability=p_roll, travel_exponent=search.travel_exponents(h_opt))
+                    roll_probability=p_roll, travel_exponent=search.travel_exponents(h_opt),
+                    kappa_travel_exponent=search.kappa_travel_exponent(h_opt))
 
 
 class _HyperSearch:
@@ -271,12 +277,18 @@ class _HyperSearch:
         self.M, self.centre, self.spread = self._hyper_map(centre[list(FREE_GROUPS)])
         self.ns = self.M.shape[1]
         # per-axis curvature factors: present only when the evidence may choose them
-        self.axes = self._axes_with_functions() if self.free_scales and \
-            st.axis_kappa_spread > 0 else []
-        self.axis_spread = np.log(st.axis_kappa_spread) if self.axes else 1.0
-        # the axes' log factors as contrasts (their sum zero): the common kappa keeps the
-        # mean, so the search has no direction only the hyperprior pins
-        self.contrast = _contrasts(len(self.axes))
+        self.kappa_travel = st.kappa_travel_exponent_spread > 0
+        self.axes = self._axes_with_functions() if self.free_scales and (
+            self.kappa_travel or st.axis_kappa_spread > 0) else []
+        if self.kappa_travel:  # one exponent of the travels: log factor_k = gamma log(L_k/L)
+            self.contrast = self._kappa_travel_column()
+            self.axis_spread = float(st.kappa_travel_exponent_spread)
+            self.axis_bounds = tuple(float(v) for v in st.kappa_travel_exponent_bounds)
+        else:  # the axes' log factors as contrasts (their sum zero): the common kappa keeps
+            # the mean, so the search has no direction only the hyperprior pins
+            self.contrast = _contrasts(len(self.axes))
+            self.axis_spread = np.log(st.axis_kappa_spread) if self.axes else 1.0
+            self.axis_bounds = (float(np.log(0.05)), float(np.log(20.0)))
         self.na = self.contrast.shape[1]
         self.h0, self.bounds = self._start()
 
@@ -317,6 +329,22 @@ class _HyperSearch:
     def travel_exponents(self, h: NDArray[np.float64]) -> tuple[float, ...]:
         """The travel exponents in a search vector (empty when not searched)."""
         return tuple(float(h[i]) for i in self.texp_cols)
+
+    def _kappa_travel_column(self) -> NDArray[np.float64]:
+        """The curvature exponent's column: ``log(L_k / L_mean)`` of the axes with functions.
+
+        Shape (n, 1); (n, 0) when their travels differ by at most 1 % (no exponent).
+        """
+        lengths = np.log(np.asarray(self.ev.prior.axis_length, dtype=float)[self.axes])
+        if len(self.axes) < 2 or float(np.ptp(lengths)) <= 0.01:
+            return np.zeros((len(self.axes), 0))
+        return (lengths - lengths.mean()).reshape(-1, 1)
+
+    def kappa_travel_exponent(self, h: NDArray[np.float64]) -> float | None:
+        """The curvature's travel exponent in a search vector (None when not searched)."""
+        if not (self.kappa_travel and self.na):
+            return None
+        return float(h[self.ns + 1])
 
     def _axes_with_functions(self) -> list[int]:
         """Axes with free function nodes (their curvature factor is searched)."""
@@ -380,7 +408,7 @@ class _HyperSearch:
                        + [texp_bounds] * self.n_texp
                        + [bd for _, _, bd, _ in self.extra]
                        + [(np.log(1.0), np.log(1e4))]
-                       + [(np.log(0.05), np.log(20.0))] * self.na)
+                       + [self.axis_bounds] * self.na)
         if self.free_sigma:
             h0.append(np.log(self.sig0))
             bounds.append((np.log(self.sig_floor), np.log(1e3)))

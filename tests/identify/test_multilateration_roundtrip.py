@@ -80,6 +80,37 @@ def test_stations_off_by_5_mm_converge_to_the_same_result():
         np.testing.assert_allclose(a["fitted_mm"], a["nominal_mm"], atol=2e-4)  # true stations
 
 
+def test_every_relinearisation_runs_the_users_estimator(monkeypatch):
+    """Free hyperparameters, noisy readings, station_mm 5 mm off, and the fast first phase
+    (fixed typical scales) switched off, so that the user's estimator itself re-linearises
+    several times: the final fit is the one of the same readings with the stations written
+    down right, hyperparameters and all (the re-linearisations used to fix the four group
+    scales of the first run, which dropped the trends, the nugget and the axes' curvature
+    factors from the final fit)."""
+    from volcal.identify import multilateration as ml
+
+    truth = random_machine(TRAVEL, "XYFZ", seed=23)
+    s = tracker_session(grid_=(4, 3, 3))
+    simulate_session(s, truth, SimulationOptions(noise_um=0.3, seed=5), QUIET)
+    s5 = tracker_session(grid_=(4, 3, 3))
+    simulate_session(s5, truth, SimulationOptions(noise_um=0.3, seed=5), QUIET)
+    moved(s5, np.array([5.0, -5.0, 5.0]))
+    o = IdentifyOptions(suggest=False)
+    r0 = identify(s, o)
+    monkeypatch.setattr(ml, "_fast_step", lambda session, options: {})
+    r5 = identify(s5, o)
+    assert r5.fit["multilateration"]["converged"]
+    assert r5.fit["multilateration"]["iterations"] >= 4  # 1 empty fast step, 3+ full runs
+    p0, p5 = r0.fit["prior_scales"], r5.fit["prior_scales"]
+    for key in ("positioning_um", "tilt_urad", "kappa", "positioning_trend_um_per_m",
+                "tilt_trend_urad", "positioning_nugget_um"):
+        assert p0[key] is not None, key
+        assert p5[key] == pytest.approx(p0[key], rel=1e-2), key
+    assert p5["kappa_axis"] == pytest.approx(p0["kappa_axis"], rel=1e-2)
+    q = grid(choose_nodes(s, refine=1))
+    np.testing.assert_allclose(r5.predict(q)[0], r0.predict(q)[0], atol=0.01)
+
+
 def test_gauge_by_rank():
     """With 3 tool offsets every unknown (functions, stations, initial distances) is determined:
     the estimator's gauge on the functions also fixes the rigid motion of the stations with the

@@ -26,7 +26,6 @@ the work zone, and with them this one (checked by rank in the tests).
 from __future__ import annotations
 
 from copy import copy
-from dataclasses import replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -240,8 +239,10 @@ def identify_iterated(session: Session, options, identify_fn):
     Returns
     -------
     IdentificationResult
-        The final solution, linearised at the converged stations; ``fit['multilateration']``
-        holds the fitted stations (:func:`station_table`) and the iterations.
+        The final solution, linearised at the converged stations: the user's estimator
+        there, as :func:`volcal.identify.api.identify` of a session whose stations were
+        written down right; ``fit['multilateration']`` holds the fitted stations
+        (:func:`station_table`) and the iterations.
     """
     nominal: dict[str, NDArray[np.float64]] = {}
     for m in session.measurements:
@@ -258,10 +259,12 @@ def identify_iterated(session: Session, options, identify_fn):
         history.append(max((float(np.abs(dv).max()) for dv in step.values()), default=0.0))
         if history[-1] < STATION_TOLERANCE_UM:
             break
-    # 2) the user's estimator at the converged stations; re-linearise if it still moves them
-    final = options
+    # 2) the user's estimator at the converged stations; re-linearise if it still moves them.
+    #    Each re-linearisation runs it whole (its hyperparameters chosen again by the
+    #    evidence): fixing the four group scales of the first run dropped the trends, the
+    #    nugget, the axes' curvature factors and the travel exponents from the final fit
     for _ in range(MAX_ITERATIONS):
-        r = identify_fn(linearised(session, stations), final)
+        r = identify_fn(linearised(session, stations), options)
         step = _updates(r)
         move = max((float(np.abs(dv).max()) for dv in step.values()), default=0.0)
         history.append(move)
@@ -269,11 +272,6 @@ def identify_iterated(session: Session, options, identify_fn):
             break
         for k, dv in step.items():
             stations[k] = stations[k] + dv * 1e-3
-        ps = r.fit["prior_scales"]
-        keys = ("positioning_um", "straightness_um", "roll_urad", "tilt_urad")
-        if options.scales is None and all(ps.get(k) is not None for k in keys):
-            final = replace(options, scales=tuple(ps[k] for k in keys),
-                            kappa=ps.get("kappa") or options.kappa)
     converged = history[-1] < STATION_TOLERANCE_UM
     r.report.messages += design_notes(session)
     r.fit["multilateration"] = {

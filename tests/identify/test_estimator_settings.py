@@ -72,7 +72,8 @@ ISSUE_30 = {
     "travel_exponent_spread": 1.0,
     "travel_exponent_centre": 0.0,
     "travel_exponent_groups": ((0, 1), (2, 3)),
-    "travel_exponent_bounds": (-1.0, 2.0),
+    # the angular exponent (rolls and tilts) bounded below at 0 (session 12)
+    "travel_exponent_bounds": ((-1.0, 2.0), (0.0, 2.0)),
     # each axis' curvature factor (L_k / L_mean)^gamma, one exponent chosen by the evidence
     # (session 12), instead of the free factors of axis_kappa_spread
     "kappa_travel_exponent_spread": 1.0,
@@ -185,6 +186,12 @@ def test_bad_settings_are_refused_with_the_field_named():
         EstimatorSettings(travel_exponent_spread=-1.0)
     with pytest.raises(VolcalInputError, match="travel_exponent_bounds"):
         EstimatorSettings(travel_exponent_bounds=(1.0, -1.0))
+    with pytest.raises(VolcalInputError, match="one such pair per set"):
+        EstimatorSettings(travel_exponent_bounds=((-1.0, 2.0),))  # two sets of groups
+    with pytest.raises(VolcalInputError, match="travel_exponent_bounds"):
+        EstimatorSettings(travel_exponent_bounds=((-1.0, 2.0), (2.0, 0.0)))
+    assert EstimatorSettings(travel_exponent_bounds=(-1.0, 2.0)).travel_exponent_bound_pairs() \
+        == [(-1.0, 2.0), (-1.0, 2.0)]
     with pytest.raises(VolcalInputError, match="travel_exponent_groups"):
         EstimatorSettings(travel_exponent_groups=((0, 5),))
     with pytest.raises(VolcalInputError, match="kappa_travel_exponent_spread"):

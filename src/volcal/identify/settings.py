@@ -112,8 +112,13 @@ class EstimatorSettings:
     travel_exponent_groups : tuple of tuple of int
         The groups (indices into :data:`volcal.identify.prior.GROUPS`: 0 positioning,
         1 straightness, 2 roll, 3 tilts) sharing each exponent.
-    travel_exponent_bounds : tuple of 2 float
-        Bounds of each exponent in the evidence search [1].
+    travel_exponent_bounds : tuple of 2 float, or one such pair per set of groups
+        Bounds of each exponent in the evidence search [1]: one pair for every set of
+        :attr:`travel_exponent_groups`, or one pair per set. The angular exponent's lower
+        bound is 0: the rolls share it, the readings hardly see them, and a negative
+        exponent learned from a long axis' well-seen tilts shrank its unseen roll (the
+        long design of ``benchmarks/families.py``: one machine covered 0.58 of the grid,
+        benchmarks/README.md, lab notebook ``travel_exponent_bounds``).
     nugget : bool
         Estimate a short-wavelength ("nugget") part of the positioning errors' prior,
         independent at every point (a lead screw's cyclic error shorter than the node
@@ -199,7 +204,7 @@ class EstimatorSettings:
     travel_exponent_spread: float = 1.0
     travel_exponent_centre: float = 0.0
     travel_exponent_groups: tuple[tuple[int, ...], ...] = ((0, 1), (2, 3))
-    travel_exponent_bounds: tuple[float, float] = (-1.0, 2.0)
+    travel_exponent_bounds: tuple = ((-1.0, 2.0), (0.0, 2.0))
     nugget: bool = True
     nugget_centre_um: float = 0.2
     nugget_spread: float = 10.0
@@ -244,11 +249,23 @@ class EstimatorSettings:
         if not float(self.kappa_travel_exponent_spread) >= 0:
             raise VolcalInputError("EstimatorSettings.kappa_travel_exponent_spread must be 0 "
                                    f"(off) or positive, got {self.kappa_travel_exponent_spread!r}")
-        for name in ("travel_exponent_bounds", "kappa_travel_exponent_bounds"):
-            lo, hi = (float(v) for v in getattr(self, name))
-            if not lo < hi:
-                raise VolcalInputError(f"EstimatorSettings.{name} must be (low, high) with "
-                                       f"low < high, got {getattr(self, name)!r}")
+        pairs = {"kappa_travel_exponent_bounds": [self.kappa_travel_exponent_bounds]}
+        try:
+            pairs["travel_exponent_bounds"] = self.travel_exponent_bound_pairs()
+        except (TypeError, ValueError):
+            pairs["travel_exponent_bounds"] = [(1.0, 0.0)]  # reported below
+        for name, bounds in pairs.items():
+            for pair in bounds:
+                try:
+                    lo, hi = (float(v) for v in pair)
+                except (TypeError, ValueError):
+                    lo, hi = 1.0, 0.0
+                if not lo < hi:
+                    raise VolcalInputError(
+                        f"EstimatorSettings.{name} must be (low, high) with low < high"
+                        + (", or one such pair per set of travel_exponent_groups"
+                           if name == "travel_exponent_bounds" else "")
+                        + f", got {getattr(self, name)!r}")
         if not all(len(gs) and all(int(g) in (0, 1, 2, 3) for g in gs)
                    for gs in self.travel_exponent_groups):
             raise VolcalInputError("EstimatorSettings.travel_exponent_groups must be sets of "
@@ -270,3 +287,25 @@ class EstimatorSettings:
             if not float(getattr(self, name)) > 0:
                 raise VolcalInputError(f"EstimatorSettings.{name} must be positive, got "
                                        f"{getattr(self, name)!r}")
+
+    def travel_exponent_bound_pairs(self) -> list[tuple[float, float]]:
+        """The bounds of each travel exponent, one ``(low, high)`` per set of groups.
+
+        Returns
+        -------
+        list of tuple of 2 float
+            :attr:`travel_exponent_bounds` repeated for every set of
+            :attr:`travel_exponent_groups` when it is one pair, else its pairs.
+
+        Raises
+        ------
+        ValueError
+            Pairs whose number differs from that of the sets, or not pairs of numbers.
+        """
+        b = self.travel_exponent_bounds
+        if len(b) == 2 and all(isinstance(v, int | float) for v in b):
+            return [(float(b[0]), float(b[1]))] * len(self.travel_exponent_groups)
+        pairs = [(float(lo), float(hi)) for lo, hi in b]
+        if len(pairs) != len(self.travel_exponent_groups):
+            raise ValueError("one pair of bounds per set of travel_exponent_groups")
+        return pairs

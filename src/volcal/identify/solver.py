@@ -402,10 +402,10 @@ class _HyperSearch:
         if self.free_scales:
             n_axis_scale = self.ns - len(FREE_GROUPS) - len(self.extra) - self.n_texp
             h0 += list(self.centre) + [np.log(self.k0)] + [0.0] * self.na
-            texp_bounds = tuple(float(v) for v in self.st.travel_exponent_bounds)
+            texp_bounds = self.st.travel_exponent_bound_pairs() if self.n_texp else []
             bounds += ([(np.log(1e-2), np.log(1e4))] * len(FREE_GROUPS)
                        + [(np.log(1e-2), np.log(1e2))] * n_axis_scale
-                       + [texp_bounds] * self.n_texp
+                       + list(texp_bounds)
                        + [bd for _, _, bd, _ in self.extra]
                        + [(np.log(1.0), np.log(1e4))]
                        + [self.axis_bounds] * self.na)

@@ -302,8 +302,10 @@ class EstimatorSettings:
         ValueError
             Pairs whose number differs from that of the sets, or not pairs of numbers.
         """
+        from numbers import Real
+
         b = self.travel_exponent_bounds
-        if len(b) == 2 and all(isinstance(v, int | float) for v in b):
+        if len(b) == 2 and all(isinstance(v, Real) for v in b):
             return [(float(b[0]), float(b[1]))] * len(self.travel_exponent_groups)
         pairs = [(float(lo), float(hi)) for lo, hi in b]
         if len(pairs) != len(self.travel_exponent_groups):

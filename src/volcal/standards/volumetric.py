@@ -168,6 +168,18 @@ def _hull_pair(e: NDArray[np.float64]) -> tuple[int, int]:
     """
     idx = _hull_points(e)
     pts = e[idx]
+    if np.isfinite(pts).all() and pts.shape[0] > 2:
+        # only the vertices that can reach the largest distance: a pair of length D has
+        # d <= r_i + r_j <= r_i + R (r from the bounding box's centre), and D is at least
+        # the longest distance from the vertex farthest out; the pair and its place in
+        # the vertices' order are the same among them (a thin cloud's hull, e.g. the
+        # field of one measured axis, has thousands of vertices, and all pairs took
+        # seconds per draw of the model's uncertainty)
+        dc = pts - (pts.min(axis=0) + pts.max(axis=0)) / 2
+        r = np.sqrt((dc**2).sum(axis=1))
+        low = np.sqrt(((dc - dc[np.argmax(r)]) ** 2).sum(axis=1)).max()
+        keep = np.flatnonzero(r + r.max() >= low * (1.0 - 1e-9))
+        idx, pts = idx[keep], pts[keep]
     d = np.sqrt(((pts[:, None, :] - pts[None, :, :]) ** 2).sum(axis=2))
     i, j = np.unravel_index(int(np.argmax(d)), d.shape)
     return int(idx[i]), int(idx[j])

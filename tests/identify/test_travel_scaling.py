@@ -207,7 +207,7 @@ def test_curvature_travel_exponent_tells_errors_per_mm_from_errors_per_travel(fa
     3.75 times more over its travel than the 0.8 m Y) and of ``rel0`` (the same number of
     undulations on every axis), 3000 x 800 x 600 mm, read by the independent simulator:
     the evidence's curvature exponent ``gamma`` (``EstimatorSettings.
-    kappa_travel_exponent_spread``) is large for the first (measured 1.53; 2 would be the
+    kappa_travel_exponent_spread``) is large for the first (measured 1.52; 2 would be the
     curvature of a per-mm function over the normalised travel) and near 0 for the second
     (measured -0.23), and each axis' curvature factor is ``(L_k / L_mean)^gamma``."""
     from volcal.identify import IdentifyOptions, identify

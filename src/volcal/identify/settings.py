@@ -111,7 +111,9 @@ class EstimatorSettings:
         Centre of the exponents' hyperprior [1] (0: no growth expected).
     travel_exponent_groups : tuple of tuple of int
         The groups (indices into :data:`volcal.identify.prior.GROUPS`: 0 positioning,
-        1 straightness, 2 roll, 3 tilts) sharing each exponent.
+        1 straightness, 2 roll, 3 tilts) sharing each exponent; with another number of
+        sets, :attr:`travel_exponent_bounds` changes with them (one pair for all, or one
+        per set).
     travel_exponent_bounds : tuple of 2 float, or one such pair per set of groups
         Bounds of each exponent in the evidence search [1]: one pair for every set of
         :attr:`travel_exponent_groups`, or one pair per set. The angular exponent's lower
@@ -249,6 +251,11 @@ class EstimatorSettings:
         if not float(self.kappa_travel_exponent_spread) >= 0:
             raise VolcalInputError("EstimatorSettings.kappa_travel_exponent_spread must be 0 "
                                    f"(off) or positive, got {self.kappa_travel_exponent_spread!r}")
+        if not all(len(gs) and all(int(g) in (0, 1, 2, 3) for g in gs)
+                   for gs in self.travel_exponent_groups):
+            raise VolcalInputError("EstimatorSettings.travel_exponent_groups must be sets of "
+                                   "group indices 0-3 (positioning, straightness, roll, tilt), "
+                                   f"got {self.travel_exponent_groups!r}")
         pairs = {"kappa_travel_exponent_bounds": [self.kappa_travel_exponent_bounds]}
         try:
             pairs["travel_exponent_bounds"] = self.travel_exponent_bound_pairs()
@@ -266,11 +273,6 @@ class EstimatorSettings:
                         + (", or one such pair per set of travel_exponent_groups"
                            if name == "travel_exponent_bounds" else "")
                         + f", got {getattr(self, name)!r}")
-        if not all(len(gs) and all(int(g) in (0, 1, 2, 3) for g in gs)
-                   for gs in self.travel_exponent_groups):
-            raise VolcalInputError("EstimatorSettings.travel_exponent_groups must be sets of "
-                                   "group indices 0-3 (positioning, straightness, roll, tilt), "
-                                   f"got {self.travel_exponent_groups!r}")
         if not 0.0 <= self.roll_mixture_absent < 1.0:
             raise VolcalInputError("EstimatorSettings.roll_mixture_absent must be in [0, 1), "
                                    f"got {self.roll_mixture_absent!r}")

@@ -291,6 +291,28 @@ class PriorStructure:
                    group_kappa=tuple(st.group_kappa), trend_length=lengths,
                    axis_length=travel_m)
 
+    def axes_with_functions(self) -> list[int]:
+        """The axes (0, 1, 2 = X, Y, Z) with free function nodes, in order."""
+        return sorted({f // 6 for *_, f in self.blocks})
+
+    def log_travel_ratios(self) -> NDArray[np.float64]:
+        """``log(L_k / L_mean)`` of each axis [1], the travel exponents' lever.
+
+        ``L_k`` is the axis' travel (:attr:`axis_length`), ``L_mean`` the geometric mean
+        over :meth:`axes_with_functions`; zero for an axis without functions (it keeps
+        its group's scale and curvature, the mean unmoved).
+
+        Returns
+        -------
+        ndarray, shape (3,)
+        """
+        axes = self.axes_with_functions()
+        logl = np.zeros(3)
+        if axes:
+            logl[axes] = np.log(np.asarray(self.axis_length, dtype=float)[axes])
+            logl[axes] -= float(np.mean(logl[axes]))
+        return logl
+
     def travel_columns(self, group_sets) -> NDArray[np.float64]:
         """How the function scales' logarithms move with each travel exponent.
 
@@ -311,11 +333,7 @@ class PriorStructure:
         ndarray, shape (18, len(group_sets))
             ``d log a_f / d beta_i`` [1].
         """
-        axes = sorted({f // 6 for *_, f in self.blocks})
-        logl = np.zeros(3)
-        if axes:  # an axis without functions keeps its group's scale (the mean unmoved)
-            logl[axes] = np.log(np.asarray(self.axis_length, dtype=float)[axes])
-            logl[axes] -= float(np.mean(logl[axes]))
+        logl = self.log_travel_ratios()
         out = np.zeros((18, len(group_sets)))
         for i, gs in enumerate(group_sets):
             for k in range(3):

@@ -323,8 +323,7 @@ class _HyperSearch:
     def _travels_differ(self) -> bool:
         """Whether the axes with functions have travels differing by more than 1 %."""
         axes = self._axes_with_functions()
-        lengths = np.asarray(self.ev.prior.axis_length, dtype=float)[axes]
-        return len(axes) > 1 and float(np.ptp(np.log(lengths))) > 0.01
+        return len(axes) > 1 and float(np.ptp(self.ev.prior.log_travel_ratios()[axes])) > 0.01
 
     def travel_exponents(self, h: NDArray[np.float64]) -> tuple[float, ...]:
         """The travel exponents in a search vector (empty when not searched)."""
@@ -335,10 +334,9 @@ class _HyperSearch:
 
         Shape (n, 1); (n, 0) when their travels differ by at most 1 % (no exponent).
         """
-        lengths = np.log(np.asarray(self.ev.prior.axis_length, dtype=float)[self.axes])
-        if len(self.axes) < 2 or float(np.ptp(lengths)) <= 0.01:
+        if not self.axes or not self._travels_differ():
             return np.zeros((len(self.axes), 0))
-        return (lengths - lengths.mean()).reshape(-1, 1)
+        return self.ev.prior.log_travel_ratios()[self.axes].reshape(-1, 1)
 
     def kappa_travel_exponent(self, h: NDArray[np.float64]) -> float | None:
         """The curvature's travel exponent in a search vector (None when not searched)."""
@@ -348,7 +346,7 @@ class _HyperSearch:
 
     def _axes_with_functions(self) -> list[int]:
         """Axes with free function nodes (their curvature factor is searched)."""
-        return sorted({f // 6 for *_, f in self.ev.prior.blocks})
+        return self.ev.prior.axes_with_functions()
 
     def _hyper_map(self, group_centre: NDArray[np.float64]):
         """Log function scales and extra scales as a linear map of the search vector.

@@ -26,7 +26,8 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-from volcal.session.kinds import Kind, ReadContext, RowBlock, register_kind
+from volcal.kinds.outside_design import OutsideDesignKind
+from volcal.session.kinds import ReadContext, register_kind
 from volcal.session.probe_sphere import (
     _angles,
     _keys,
@@ -137,7 +138,7 @@ def location_notes(kind: str, ms: list[Any], chain_of: Callable[[Any], str],
     return notes
 
 
-class ProbeSphereKind(Kind):
+class ProbeSphereKind(OutsideDesignKind):
     """Sphere centres probed at rotary poses (5-axis location errors)."""
 
     name: ClassVar[str] = "probe_sphere"
@@ -148,7 +149,6 @@ class ProbeSphereKind(Kind):
     beam_in_session: ClassVar[bool] = False
     bidirectional: ClassVar[bool] = False
     standard: ClassVar[str | None] = None
-    in_design: ClassVar[bool] = False
     linear_nodes: ClassVar[bool] = False
     plan_tests: ClassVar[tuple[str, ...]] = ("probe_sphere",)
     description: ClassVar[str] = ("sphere centres probed at rotary poses: location errors of "
@@ -228,29 +228,6 @@ class ProbeSphereKind(Kind):
         sphere = setup.sphere_mm if setup is not None else k["sphere_mm"]
         fm = five_axis_machine(m, machine if hasattr(machine, "chain_obj") else None, loc)
         return probe_centres(fm, _angles(m), sphere, m.tool_offset)
-
-    def rows(self, chain_order: Any, nodes: Any, m: Any, *, drift: bool = False,
-             tilts: bool = True) -> RowBlock:
-        """No rows on the linear axes' parameters (:attr:`in_design` is False).
-
-        Parameters
-        ----------
-        chain_order : sequence of int
-            ``Chain.order``.
-        nodes : list of 3 arrays
-            Node positions per axis [mm].
-        m : Measurement
-            The measurement.
-        drift : bool
-            Unused.
-        tilts : bool
-            Unused.
-        """
-        P = sum(6 * len(n) for n in nodes) + 3
-        y = np.zeros(m.n) if m.deviation is None else np.asarray(m.deviation, dtype=float)
-        import scipy.sparse as sp  # here: reading a session needs no scipy
-
-        return RowBlock(sp.csr_matrix((m.n, P)), y, np.ones((m.n, 1)), [f"{m.id}:offset"])
 
     def simulate(self, m: Any, machine: Any, rng: np.random.Generator, options: Any,
                  shared: dict[str, Any]) -> Any:

@@ -36,8 +36,9 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
+from volcal.kinds.outside_design import OutsideDesignKind
 from volcal.kinds.probe_sphere import ProbeSphereKind, location_notes
-from volcal.session.kinds import Kind, ReadContext, RowBlock, register_kind
+from volcal.session.kinds import ReadContext, register_kind
 from volcal.session.r_test import rtest_angles, rtest_keys
 from volcal.session.r_test import rtest_machine as _machine
 
@@ -141,7 +142,7 @@ def rtest_paths(pair: str) -> dict[str, NDArray[np.float64]]:
     return {"C": np.array(c_list), tilt: np.array(t_list)}
 
 
-class RTestKind(Kind):
+class RTestKind(OutsideDesignKind):
     """R-test: the sphere's displacement in a nest of three sensors along rotary paths."""
 
     name: ClassVar[str] = "r_test"
@@ -152,7 +153,6 @@ class RTestKind(Kind):
     beam_in_session: ClassVar[bool] = False
     bidirectional: ClassVar[bool] = False
     standard: ClassVar[str | None] = None
-    in_design: ClassVar[bool] = False
     plan_tests: ClassVar[tuple[str, ...]] = ("r_test",)
     description: ClassVar[str] = ("R-test: a sphere's 3-D displacement in a nest of sensors "
                                   "along rotary paths, location errors of the rotary axes "
@@ -263,29 +263,6 @@ class RTestKind(Kind):
         r = rtest_readings(fm, m.positions, ang, sphere, m.tool_offset)
         d = np.einsum("mij,mj->mi", head_rotation(k["chain"], ang), r)
         return np.asarray(d - d[0], dtype=float)
-
-    def rows(self, chain_order: Any, nodes: Any, m: Any, *, drift: bool = False,
-             tilts: bool = True) -> RowBlock:
-        """No rows on the linear axes' parameters (:attr:`in_design` is False).
-
-        Parameters
-        ----------
-        chain_order : sequence of int
-            ``Chain.order``.
-        nodes : list of 3 arrays
-            Node positions per axis [mm].
-        m : Measurement
-            The measurement.
-        drift : bool
-            Unused.
-        tilts : bool
-            Unused.
-        """
-        P = sum(6 * len(n) for n in nodes) + 3
-        y = np.zeros(m.n) if m.deviation is None else np.asarray(m.deviation, dtype=float)
-        import scipy.sparse as sp  # here: reading a session needs no scipy
-
-        return RowBlock(sp.csr_matrix((m.n, P)), y, np.ones((m.n, 1)), [f"{m.id}:offset"])
 
     def simulate(self, m: Any, machine: Any, rng: np.random.Generator, options: Any,
                  shared: dict[str, Any]) -> Any:

@@ -27,7 +27,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from volcal.errors import VolcalInputError
-from volcal.session.kinds import Kind, ReadContext, RowBlock, register_kind
+from volcal.kinds.outside_design import OutsideDesignKind
+from volcal.session.kinds import ReadContext, register_kind
 from volcal.session.rotary import check_rotary_keys
 
 __all__ = ["RotaryKind"]
@@ -36,7 +37,7 @@ AXIS_VECTOR = {"a": (1.0, 0.0, 0.0), "b": (0.0, 1.0, 0.0), "c": (0.0, 0.0, 1.0)}
 """Direction of each rotary axis' rotation vector (A about X, B about Y, C about Z)."""
 
 
-class RotaryKind(Kind):
+class RotaryKind(OutsideDesignKind):
     """Angular positioning of a rotary axis (ISO 230-2), readings in urad."""
 
     name: ClassVar[str] = "rotary"
@@ -47,7 +48,6 @@ class RotaryKind(Kind):
     beam_in_session: ClassVar[bool] = False
     bidirectional: ClassVar[bool] = True
     standard: ClassVar[str | None] = "ISO 230-2"
-    in_design: ClassVar[bool] = False
     plan_tests: ClassVar[tuple[str, ...]] = ("rotary",)
     description: ClassVar[str] = ("angular positioning of a rotary axis: angular "
                                   "interferometer on a rotary calibrator or index table")
@@ -141,32 +141,6 @@ class RotaryKind(Kind):
             e = axes.get(m.meta["axis"])
             setup = None if e is None else RotarySetup(e)
         return rotary_exact(setup, m.columns["target_deg"], m.columns.get("direction"))
-
-    def rows(self, chain_order: Any, nodes: Any, m: Any, *, drift: bool = False,
-             tilts: bool = True) -> RowBlock:
-        """No rows on the linear axes' parameters: a zero block with the reading offset.
-
-        The rotary kind is not part of the linear identification (:attr:`in_design`);
-        the estimator leaves its measurements out. This block says so in numbers.
-
-        Parameters
-        ----------
-        chain_order : sequence of int
-            ``Chain.order``.
-        nodes : list of 3 arrays
-            Node positions per axis [mm].
-        m : Measurement
-            The measurement.
-        drift : bool
-            Unused.
-        tilts : bool
-            Unused.
-        """
-        P = sum(6 * len(n) for n in nodes) + 3
-        y = np.zeros(m.n) if m.deviation is None else np.asarray(m.deviation, dtype=float)
-        import scipy.sparse as sp  # here: reading a session needs no scipy
-
-        return RowBlock(sp.csr_matrix((m.n, P)), y, np.ones((m.n, 1)), [f"{m.id}:offset"])
 
     def simulate(self, m: Any, machine: Any, rng: np.random.Generator, options: Any,
                  shared: dict[str, Any]) -> Any:

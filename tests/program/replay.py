@@ -22,6 +22,7 @@ import re
 import shutil
 import subprocess
 import tempfile
+import time
 from pathlib import Path
 
 import numpy as np
@@ -87,6 +88,49 @@ def replay_fanuc(text: str):
 _CANON = re.compile(r"^\s*\d+\s+N\.+\s+([A-Z_]+)\((.*)\)\s*$")
 
 
+def rs274_output(folder: Path, text: str, variables: str = "5220\t1.000000\n") -> str:
+    """LinuxCNC's interpreter run on a program in ``folder``: its canonical commands' text.
+
+    Writes ``tool.tbl``, ``rs274ngc.var`` (``variables``) and ``p.ngc`` there and runs
+    ``rs274 -g``; up to twice more after a failure, a second apart: the program is
+    deterministic, so a refusal repeats, while a one-off does not (rs274 exited with no
+    output, or by SIGBUS, beside the LinuxCNC sims of a full make test).
+
+    Parameters
+    ----------
+    folder : Path
+        Working folder.
+    text : str
+        Program text.
+    variables : str
+        The parameter file's lines (``5220`` the coordinate system; ``5221..`` G54's
+        offsets [inch]).
+
+    Returns
+    -------
+    str
+        ``out.txt``, one canonical command per line.
+    """
+    assert RS274 is not None
+    (folder / "tool.tbl").write_text("T1 P1 Z0 D0 ;unused\n")
+    (folder / "rs274ngc.var").write_text(variables)
+    (folder / "p.ngc").write_text(text)
+    tries: list[str] = []
+    for attempt in range(3):
+        if attempt:
+            time.sleep(1.0)
+        r = subprocess.run([RS274, "-g", "-t", str(folder / "tool.tbl"), "-v",
+                            str(folder / "rs274ngc.var"), str(folder / "p.ngc"),
+                            str(folder / "out.txt")],
+                           stdin=subprocess.DEVNULL, capture_output=True, text=True,
+                           timeout=scaled_timeout(120))
+        out = (folder / "out.txt").read_text() if (folder / "out.txt").is_file() else ""
+        if r.returncode == 0:
+            return out
+        tries.append(f"exit {r.returncode}: {r.stdout[-500:]}{r.stderr}{out[-500:]}")
+    raise AssertionError("rs274 refused the program: " + " | ".join(tries))
+
+
 def run_rs274(text: str, strip_fanuc: bool = False, axes: int = 3
               ) -> list[tuple[str, list[float]]]:
     """Run LinuxCNC's interpreter on a program; return its canonical commands.
@@ -113,23 +157,8 @@ def run_rs274(text: str, strip_fanuc: bool = False, axes: int = 3
                          if ln.strip() != "%" and not re.match(r"O\d+", ln)) + "\n"
     with tempfile.TemporaryDirectory() as d:
         d = Path(d)
-        (d / "tool.tbl").write_text("T1 P1 Z0 D0 ;unused\n")
-        (d / "rs274ngc.var").write_text("5220\t1.000000\n" + "".join(
+        out = rs274_output(d, text, "5220\t1.000000\n" + "".join(
             f"{5221 + k}\t{v:.6f}\n" for k, v in enumerate(WORK_OFFSET_INCH)))
-        (d / "p.ngc").write_text(text)
-        tries = []
-        for _ in range(2):  # once more after a failure: the program is deterministic, so
-            # a refusal repeats; a one-off (rs274 exited non-zero with no output once, in a
-            # full make test beside the LinuxCNC sims) does not
-            r = subprocess.run([RS274, "-g", "-t", str(d / "tool.tbl"), "-v",
-                                str(d / "rs274ngc.var"), str(d / "p.ngc"), str(d / "out.txt")],
-                               stdin=subprocess.DEVNULL, capture_output=True, text=True,
-                               timeout=scaled_timeout(120))
-            out = (d / "out.txt").read_text() if (d / "out.txt").is_file() else ""
-            if r.returncode == 0:
-                break
-            tries.append(f"exit {r.returncode}: {r.stdout[-500:]}{r.stderr}{out[-500:]}")
-        assert r.returncode == 0, "rs274 refused the program: " + " | ".join(tries)
     cmds = []
     for line in out.splitlines():
         m = _CANON.match(line)

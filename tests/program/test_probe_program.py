@@ -10,12 +10,11 @@ from __future__ import annotations
 
 import re
 import shutil
-import subprocess
 
 import numpy as np
 import pytest
 
-from timing import scaled_timeout
+from program.replay import rs274_output
 from volcal.measure.spheres import probe_centres
 from volcal.plan.planner import plan_session
 from volcal.program.probe_sphere import CLEARANCE_MM, OVERTRAVEL_MM
@@ -51,15 +50,9 @@ def _program(dialect="linuxcnc", safe_z_mm=SAFE_Z):
                     "(make linuxcnc-deps)")
 def test_probe_moves_in_rs274(tmp_path):
     m, text, _ = _program()
-    (tmp_path / "tool.tbl").write_text("T1 P1 Z0 D0 ;unused\n")
-    (tmp_path / "rs274ngc.var").write_text("5220\t1.000000\n")
-    (tmp_path / "p.ngc").write_text(text)
-    r = subprocess.run([RS274, "-g", "-t", "tool.tbl", "-v", "rs274ngc.var", "p.ngc",
-                        "out.txt"], cwd=tmp_path, stdin=subprocess.DEVNULL, capture_output=True,
-                       text=True, timeout=scaled_timeout(120))
-    assert r.returncode == 0, r.stdout[-500:] + r.stderr
+    out = rs274_output(tmp_path, text)
     canon = [(g.group(1), [float(x) for x in g.group(2).split(",") if x.strip()])
-             for g in map(_CANON.match, (tmp_path / "out.txt").read_text().splitlines())
+             for g in map(_CANON.match, out.splitlines())
              if g and g.group(1) in ("STRAIGHT_TRAVERSE", "STRAIGHT_PROBE")]
     k = _keys(m)
     centres = probe_centres(five_axis_machine(m), _angles(m), k["sphere_mm"])

@@ -12,12 +12,11 @@ from __future__ import annotations
 
 import re
 import shutil
-import subprocess
 
 import numpy as np
 import pytest
 
-from timing import scaled_timeout
+from program.replay import rs274_output
 from volcal.errors import VolcalInputError
 from volcal.kinds import kind_of
 from volcal.model.fiveaxis import exact_pose5
@@ -52,15 +51,9 @@ def test_path_in_rs274(tmp_path):
     text, warnings = kind_of("r_test").program_text(m, "linuxcnc", "R", 1,
                                                     ProgramOptions(safe_z_mm=SAFE_Z))
     assert not warnings
-    (tmp_path / "tool.tbl").write_text("T1 P1 Z0 D0 ;unused\n")
-    (tmp_path / "rs274ngc.var").write_text("5220\t1.000000\n")
-    (tmp_path / "r.ngc").write_text(text)
-    r = subprocess.run([RS274, "-g", "-t", "tool.tbl", "-v", "rs274ngc.var", "r.ngc",
-                        "out.txt"], cwd=tmp_path, stdin=subprocess.DEVNULL, capture_output=True,
-                       text=True, timeout=scaled_timeout(120))
-    assert r.returncode == 0, r.stdout[-500:] + r.stderr
+    out = rs274_output(tmp_path, text)
     canon = []
-    for g in map(_CANON.match, (tmp_path / "out.txt").read_text().splitlines()):
+    for g in map(_CANON.match, out.splitlines()):
         if g and g.group(1) in ("STRAIGHT_TRAVERSE", "STRAIGHT_FEED", "DWELL",
                                 "SET_FEED_RATE", "PROGRAM_STOP"):
             canon.append((g.group(1), [float(x) for x in g.group(2).split(",") if x.strip()]))

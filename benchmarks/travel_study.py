@@ -17,6 +17,11 @@ Families (:data:`FAMILIES`; the first mode's standard deviation ``A``):
     shape per millimetre: the modes of wavelength ``2 L / j`` down to 1600 / 8 = 200 mm,
     standard deviation ``A sqrt(min(1, lambda / 1600 mm))``; on an 800 mm axis the law of ``rel``,
     on 6000 mm 60 modes (30 undulations). ``mm0``: no roll.
+``fine``
+    as ``rel`` with 16 modes (wavelengths ``2 L / j``, ``j = 1..16``: at 10 increments the
+    shortest eight alias between the readings), rolls present: the short machines of the
+    issue's independent generator in figures (0.52x least squares, 1.11x the limit on
+    800 mm; benchmarks/README.md, session 13).
 ``len`` / ``len0``
     the modes of ``rel``, with the linear errors (positioning wiggles, straightness)
     growing with the axis' travel: ``A`` times ``L / 800 mm`` (a straightness is the
@@ -69,14 +74,16 @@ AMPLITUDE = {"positioning": 3.0, "straightness": 3.0, "tilt": 8.0, "roll": 8.0}
 SCALE_UM_PER_M = 10.0
 SQUARENESS_URAD = 50.0
 MODES = 8
+FINE_MODES = 16
+"""Modes of the ``fine`` family (``MODES`` for ``rel`` and ``len``)."""
 REF_MM = 800.0
 N_DRAWS = 2000
 
 
 def _wavelengths(span: float, shape: str) -> tuple[np.ndarray, np.ndarray]:
     """Wavelengths [mm] and relative standard deviations of the modes of one function."""
-    if shape in ("rel", "len"):
-        j = np.arange(1, MODES + 1)
+    if shape in ("rel", "len", "fine"):
+        j = np.arange(1, (FINE_MODES if shape == "fine" else MODES) + 1)
         return 2.0 * span / j, 1.0 / np.sqrt(j)
     shortest = 2.0 * REF_MM / MODES
     j = np.arange(1, int(np.floor(2.0 * span / shortest + 1e-9)) + 1)
@@ -102,8 +109,9 @@ def draw(rng: np.random.Generator, travel, chain: str, shape: str = "rel",
     chain : str
         Chain code.
     shape : str
-        ``'rel'`` (shape relative to the travel), ``'mm'`` (per millimetre) or ``'len'``
-        (as ``'rel'``, the linear errors growing with the travel).
+        ``'rel'`` (shape relative to the travel), ``'mm'`` (per millimetre), ``'len'``
+        (as ``'rel'``, the linear errors growing with the travel) or ``'fine'`` (as
+        ``'rel'`` with :data:`FINE_MODES` modes).
     rolls : bool
         Draw the rolls; False: EAX = EBY = ECZ = 0.
     """
@@ -241,6 +249,8 @@ FAMILIES = {
                           lambda rng, t, ch: draw(rng, t, ch, "mm", True)),
     "mm0": families.Family("mm0", "Fourier, shape per mm, no roll",
                            lambda rng, t, ch: draw(rng, t, ch, "mm", False)),
+    "fine": families.Family("fine", "Fourier, shape relative to the travel, 16 modes, rolls",
+                            lambda rng, t, ch: draw(rng, t, ch, "fine", True)),
     "len": families.Family("len", "Fourier, shape relative to the travel, linear errors "
                            "growing with it, rolls",
                            lambda rng, t, ch: draw(rng, t, ch, "len", True)),

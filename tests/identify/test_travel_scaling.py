@@ -260,3 +260,24 @@ def test_step_diagonals_alone_are_honest_on_a_machine_without_roll():
                               min_norm=False)
     assert 0.90 <= r.bayes["coverage"] <= 0.99, r.bayes["coverage"]
     assert r.bayes["rms_um"] < r.truth_rms_um  # and it is a correction
+
+
+def test_long_machines_of_the_family_with_the_issues_short_machine_figures():
+    """Machines 0-2 of the study's family ``fine`` (16 modes keeping their shape relative to
+    the travel, rolls present: on 800 mm 0.55x least squares and 1.11x the limit, the
+    figures of the issue's independent generator) on 6000 x 1000 x 800 mm, the seeds' full
+    set, read by the independent simulator. The issue's long machines were at 1.02x least
+    squares; here each of the three stays well below (measured with 2 runs per line: 0.46,
+    0.53, 0.58; the 20 machines with 5 runs: median 0.51, the worst 0.88), and the three
+    cover 0.88-0.93 of the grid (mean 0.909; the 20 machines pooled 0.920,
+    benchmarks/README.md "fine"). The lower bound 0.87 is the family's pooled band's edge
+    (0.90) less what three machines scatter around it (0.03: their mean ranges 0.88-0.97
+    over the 20 machines' consecutive triples with 5 runs)."""
+    ratios, cover = [], []
+    for case in travel_study.cases(3):
+        r = travel_study.run_case(travel_study.FAMILIES["fine"], "t6000", "full", case, None,
+                                  runs=2, n_grid=7)
+        ratios.append(r.bayes["rms_um"] / r.min_norm["rms_um"])
+        cover.append(r.bayes["coverage"])
+    assert max(ratios) <= 0.7, ratios
+    assert 0.87 <= float(np.mean(cover)) <= 0.99, cover

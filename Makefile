@@ -77,11 +77,12 @@ postgres-deps:
 # (benchmarks/README.md, "make test time"). --no-loadscope-reorder: the files go out in
 # collection order, the longest first (tests/conftest.py, LONGEST_FIRST), instead of
 # xdist's default by number of tests, which left the files of one or two long tests
-# (test_python_docs.py) to the end, one worker running them alone. -n 3 on the 2 cores:
-# the LinuxCNC, OPC UA and browser tests wait in real time (one worker at ~10 % of a core
-# for about 100 s), a third worker fills that core (337 s -> 258 s on the idle box).
+# (test_python_docs.py) to the end, one worker running them alone. Two workers: a third
+# fills the core the real-time tests leave idle (337 s -> 258-304 s) but starves the
+# capture processes beside LinuxCNC (a resumed capture missed a dwell; benchmarks/README.md,
+# "Three workers").
 test: $(STAMP) bytecode browser-deps linuxcnc-deps postgres-deps opcua-deps
-	$(BIN)/python -m pytest -n 3 --dist loadfile --no-loadscope-reorder -m "not slow"
+	$(BIN)/python -m pytest -n 2 --dist loadfile --no-loadscope-reorder -m "not slow"
 
 # ruff, then the import contracts of pyproject.toml (docs/architecture.md; make test runs
 # them too, tests/test_architecture.py), then mypy on src/volcal ([tool.mypy] of

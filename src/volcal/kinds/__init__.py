@@ -1,10 +1,11 @@
 """Measurement kinds as plug-ins.
 
 One module per built-in kind (:mod:`volcal.kinds.linear`, ``diagonal``,
-``step_diagonal``, ``multilateration``, ``straightness``, ``angular``; the shared parts in
-:mod:`volcal.kinds.laser` and :mod:`volcal.kinds.optics`) and the registry's API, which
-lives low beside the session format (:mod:`volcal.session.kinds`) so that every room can
-look a kind up (``docs/architecture.md``, "Adding a measurement kind").
+``step_diagonal``, ``multilateration``, ``straightness``, ``angular``, ``rotary``,
+``probe_sphere``, ``r_test``; the shared parts in :mod:`volcal.kinds.laser`,
+:mod:`volcal.kinds.optics` and :mod:`volcal.kinds.outside_design`) and the registry's
+API, which lives low beside the session format (:mod:`volcal.session.kinds`) so that
+every room can look a kind up (``docs/architecture.md``, "Adding a measurement kind").
 """
 
 from volcal.session.kinds import (

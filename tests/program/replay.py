@@ -85,7 +85,8 @@ def replay_fanuc(text: str):
     return tuple(out)
 
 
-_CANON = re.compile(r"^\s*\d+\s+N\.+\s+([A-Z_]+)\((.*)\)\s*$")
+CANON = re.compile(r"^\s*\d+\s+N\.+\s+([A-Z_]+)\((.*)\)\s*$")
+"""One canonical command of ``rs274 -g``: its name and its arguments."""
 
 
 def rs274_output(folder: Path, text: str, variables: str = "5220\t1.000000\n") -> str:
@@ -161,7 +162,7 @@ def run_rs274(text: str, strip_fanuc: bool = False, axes: int = 3
             f"{5221 + k}\t{v:.6f}\n" for k, v in enumerate(WORK_OFFSET_INCH)))
     cmds = []
     for line in out.splitlines():
-        m = _CANON.match(line)
+        m = CANON.match(line)
         if not m or m.group(1) not in ("STRAIGHT_TRAVERSE", "STRAIGHT_FEED", "DWELL",
                                        "PROGRAM_STOP", "MESSAGE", "PROGRAM_END"):
             continue

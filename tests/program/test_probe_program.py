@@ -8,22 +8,17 @@ coordinates; the probe log is opened and closed.
 
 from __future__ import annotations
 
-import re
-import shutil
-
 import numpy as np
 import pytest
 
-from program.replay import rs274_output
+from program.replay import CANON, RS274, rs274_output
 from volcal.measure.spheres import probe_centres
 from volcal.plan.planner import plan_session
 from volcal.program.probe_sphere import CLEARANCE_MM, OVERTRAVEL_MM
 from volcal.program.steps import ProgramOptions
 from volcal.session.probe_sphere import _angles, _keys, five_axis_machine
 
-RS274 = shutil.which("rs274")
 TRAVEL = np.array([[0.0, 800.0], [0.0, 600.0], [0.0, 500.0]])
-_CANON = re.compile(r"^\s*\d+\s+N\.+\s+([A-Z_]+)\((.*)\)\s*$")
 
 
 SAFE_Z = 500.0
@@ -52,7 +47,7 @@ def test_probe_moves_in_rs274(tmp_path):
     m, text, _ = _program()
     out = rs274_output(tmp_path, text)
     canon = [(g.group(1), [float(x) for x in g.group(2).split(",") if x.strip()])
-             for g in map(_CANON.match, out.splitlines())
+             for g in map(CANON.match, out.splitlines())
              if g and g.group(1) in ("STRAIGHT_TRAVERSE", "STRAIGHT_PROBE")]
     k = _keys(m)
     centres = probe_centres(five_axis_machine(m), _angles(m), k["sphere_mm"])

@@ -10,13 +10,10 @@ tool axis, slowly, from the approach distance.
 
 from __future__ import annotations
 
-import re
-import shutil
-
 import numpy as np
 import pytest
 
-from program.replay import rs274_output
+from program.replay import CANON, RS274, rs274_output
 from volcal.errors import VolcalInputError
 from volcal.kinds import kind_of
 from volcal.model.fiveaxis import exact_pose5
@@ -26,9 +23,7 @@ from volcal.program.steps import ProgramOptions
 from volcal.session.r_test import rtest_angles
 from volcal.session.r_test import rtest_machine as _machine
 
-RS274 = shutil.which("rs274")
 TRAVEL = np.array([[0.0, 800.0], [0.0, 600.0], [0.0, 500.0]])
-_CANON = re.compile(r"^\s*\d+\s+N\.+\s+([A-Z_]+)\((.*)\)\s*$")
 SAFE_Z = 500.0
 
 
@@ -53,7 +48,7 @@ def test_path_in_rs274(tmp_path):
     assert not warnings
     out = rs274_output(tmp_path, text)
     canon = []
-    for g in map(_CANON.match, out.splitlines()):
+    for g in map(CANON.match, out.splitlines()):
         if g and g.group(1) in ("STRAIGHT_TRAVERSE", "STRAIGHT_FEED", "DWELL",
                                 "SET_FEED_RATE", "PROGRAM_STOP"):
             canon.append((g.group(1), [float(x) for x in g.group(2).split(",") if x.strip()]))

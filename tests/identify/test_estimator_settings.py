@@ -78,11 +78,14 @@ ISSUE_30 = {
     # (session 12), instead of the free factors of axis_kappa_spread
     "kappa_travel_exponent_spread": 1.0,
     "kappa_travel_exponent_bounds": (-2.0, 4.0),
+    # the nodes between the readings: the prior's conditional variance times 1 + this
+    # (session 14), the estimate unchanged
+    "between_readings_factor": 2.0,
 }
 # the estimator of volcal before issue 30, through the settings
 OLD = {"hyper_spread": 30.0, "trend_per_metre": False, "tilt_trend_centre_urad": 0.0,
        "axis_kappa_spread": 0.0, "travel_exponent_spread": 0.0,
-       "kappa_travel_exponent_spread": 0.0}
+       "kappa_travel_exponent_spread": 0.0, "between_readings_factor": 0.0}
 
 
 @pytest.fixture(scope="module")

@@ -182,7 +182,11 @@ def test_long_machine_whose_straightness_grows_with_its_travel():
     stayed at 1.7-2.1 times the limit on this family (benchmarks/README.md, "travel
     exponents"); the evidence's travel exponents find the growth and the residual falls.
     Measured (2 runs per line): 5.78 um against 8.28 um without the exponents, least
-    squares 13.16 um, coverage 0.988 (0.922 without)."""
+    squares 13.16 um, coverage 0.991 (0.922 without). The upper bound is 0.995, as for the
+    family ``rel`` above, since session 14: the variance between the readings
+    (:mod:`volcal.identify.between`) took this smooth machine from 339 to 340 of the 343
+    grid points (0.988 -> 0.991); the smooth families cover 0.99 pooled with the prior's
+    interpolation alone (benchmarks/README.md, lab notebook ``between_readings_factor``)."""
     from dataclasses import replace
 
     from volcal.identify import IdentifyOptions
@@ -197,7 +201,7 @@ def test_long_machine_whose_straightness_grows_with_its_travel():
                                    travel_exponent_spread=0.0)))
     assert r.bayes["rms_um"] < 0.8 * r0.bayes["rms_um"], (r.bayes, r0.bayes)
     assert r.bayes["rms_um"] < 0.5 * r.min_norm["rms_um"], (r.bayes, r.min_norm)
-    assert 0.90 <= r.bayes["coverage"] <= 0.99, r.bayes["coverage"]
+    assert 0.90 <= r.bayes["coverage"] <= 0.995, r.bayes["coverage"]
 
 
 @pytest.mark.parametrize(("family", "low", "high"), [("mm0", 1.0, 2.5), ("rel0", -0.6, 0.3)])
@@ -269,10 +273,11 @@ def test_long_machines_of_the_family_with_the_issues_short_machine_figures():
     set, read by the independent simulator. The issue's long machines were at 1.02x least
     squares; here each of the three stays well below (measured with 2 runs per line: 0.46,
     0.53, 0.58; the 20 machines with 5 runs: median 0.51, the worst 0.88), and the three
-    cover 0.88-0.93 of the grid (mean 0.909; the 20 machines pooled 0.920,
-    benchmarks/README.md "fine"). The lower bound 0.87 is the family's pooled band's edge
-    (0.90) less what three machines scatter around it (0.03: their mean ranges 0.88-0.97
-    over the 20 machines' consecutive triples with 5 runs)."""
+    cover 0.92-0.97 of the grid (mean 0.943; 0.909 before the variance between the
+    readings of session 14, ``test_between_readings.py``; the 20 machines pooled 0.920
+    before it, benchmarks/README.md "fine"). The lower bound 0.87 is the family's pooled
+    band's edge (0.90) less what three machines scatter around it (0.03: their mean ranged
+    0.88-0.97 over the 20 machines' consecutive triples with 5 runs)."""
     ratios, cover = [], []
     for case in travel_study.cases(3):
         r = travel_study.run_case(travel_study.FAMILIES["fine"], "t6000", "full", case, None,

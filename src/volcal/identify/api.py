@@ -15,6 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from volcal.errors import VolcalInputError
+from volcal.identify.between import between_factor, fitted_prior
 from volcal.identify.design import (
     Design,
     build_design,
@@ -558,10 +559,7 @@ def _identifiability(session: Session, o: IdentifyOptions, known: dict, weights,
     design1 = design if same else build_design(session, nodes_a, known, o.drift,
                                                o.measurement_ids, o.tilts, weights=weights)
     kappa = sol.kappa if np.isfinite(sol.kappa) else o.kappa
-    prior1 = (PriorStructure.build(design1.layout, design1.free, kappa, settings=st)
-              .with_trend(sol.trend_um).with_kappa_factor(sol.kappa_factor)
-              .with_nugget(sol.nugget_um).with_axis_kappa(sol.axis_kappa)
-              .with_tilt_trend(sol.tilt_trend_urad))
+    prior1 = fitted_prior(design1.layout, design1.free, sol, st, kappa)
     scales = (sol.function_scales if sol.function_scales is not None
               else sol.scales if np.all(np.isfinite(sol.scales))
               else np.array(st.typical_scales))
@@ -661,8 +659,11 @@ def _result(session: Session, design: Design, sol: Solution, report, o: Identify
                                "or the number of measurements")
     cff = cov[:nf, :nf]
     factor = _covariance_factor((cff + cff.T) / 2)
+    between = between_factor(design, sol, o.settings)  # a part of its own, beside the noise
     var_full = np.zeros(design.layout.size)
     var_full[design.free] = np.clip(np.diag(cff), 0, None)
+    if between is not None:
+        var_full[design.free] += np.sum(between**2, axis=1)
     sd = np.sqrt(var_full)
     std = [sd[design.layout.starts[k]:design.layout.starts[k + 1]].reshape(-1, 6)
            for k in range(3)]
@@ -759,7 +760,7 @@ def _result(session: Session, design: Design, sol: Solution, report, o: Identify
     return IdentificationResult(session.name, errors, design.layout, design.free, factor, std,
                                 sq_std, report, FitRecord.from_dict(fit), residuals, fitted,
                                 nuis, outliers,
-                                design=design, solution=sol,
+                                design=design, solution=sol, between_factor=between,
                                 session=session_identity(session))
 
 

@@ -16,7 +16,8 @@ identity and with an untyped ``fit``) still load. ``volcal identify -o -`` write
                          "EAX_urad": [...], "u_EAX_urad": [...], ...}, "Y": ..., "Z": ...},
      "squareness_urad": {"EC0Y": v, ...}, "u_squareness_urad": {...},
      "covariance": {"free_index": [...], "parts": {"noise": "noise_factor",
-                                                    "systematic": "systematic_factor"}},
+                    "between_readings": "between_readings_factor",  (nodes no reading touches)
+                    "systematic": "systematic_factor"}},  (with a budget only)
      "systematic": {"inputs": [...], "budget": "..."},  (with a budget only)
      "identifiability": {...}, "fit": {...}, "nuisances": {...}, "outliers": [...],
      "readings": {"arrays": ["fitted_um", "residual_um"],
@@ -105,6 +106,11 @@ class IdentificationResult:
         the noise factor ``cov_factor``. ``predict`` and ``function_std`` combine both.
     sys_labels : list of str
         Input of each column of ``sys_factor``.
+    between_factor : ndarray, shape (len(free), k) or None
+        Covariance factor of the variance between the readings (nodes no reading
+        touches: :mod:`volcal.identify.between`), one column per node; kept apart from
+        ``cov_factor`` (the history's change test leaves it out), combined with it by
+        ``predict``, ``function_std`` and the U of the model's indices; in ``std``.
     sys_source : str
         The budget file the systematic part came from.
     uncertainty_missing : str or None
@@ -138,16 +144,32 @@ class IdentificationResult:
     sys_factor: NDArray[np.float64] | None = None
     sys_labels: list[str] = field(default_factory=list)
     sys_source: str = ""
+    between_factor: NDArray[np.float64] | None = None
     uncertainty_missing: str | None = None
     uncertainty_file: str | None = None
 
-    def _factor(self, systematic: bool = True) -> NDArray[np.float64] | None:
-        """Covariance factor: noise, with the systematic columns appended if any."""
+    def statistical_factor(self) -> NDArray[np.float64] | None:
+        """Covariance factor of the fit: the noise part and the part between the readings.
+
+        Returns
+        -------
+        ndarray, shape (len(free), r) or None
+            ``cov_factor`` with the columns of ``between_factor`` appended when there
+            are any; None without uncertainty.
+        """
         if self.cov_factor is None:
             return None
-        if not systematic or self.sys_factor is None or self.sys_factor.shape[1] == 0:
+        if self.between_factor is None or self.between_factor.shape[1] == 0:
             return self.cov_factor
-        return np.hstack([np.asarray(self.cov_factor), self.sys_factor])
+        return np.hstack([np.asarray(self.cov_factor), self.between_factor])
+
+    def _factor(self, systematic: bool = True) -> NDArray[np.float64] | None:
+        """Covariance factor: :meth:`statistical_factor`, the systematic columns appended."""
+        stat = self.statistical_factor()
+        if (stat is None or not systematic or self.sys_factor is None
+                or self.sys_factor.shape[1] == 0):
+            return stat
+        return np.hstack([stat, self.sys_factor])
 
     def nugget_variance(self, k: int, x: ArrayLike) -> NDArray[np.float64]:
         """Variance of the positioning error of axis ``k`` between its nodes [um^2].
@@ -491,13 +513,16 @@ class IdentificationResult:
         return arrays, index
 
     def _part_names(self) -> list[str]:
-        """The covariance parts: ``noise``, and ``systematic`` with a budget."""
-        return ["noise"] + (["systematic"] if self.sys_factor is not None else [])
+        """The covariance parts: ``noise``, ``between_readings`` and ``systematic``."""
+        return (["noise"] + (["between_readings"] if self.between_factor is not None else [])
+                + (["systematic"] if self.sys_factor is not None else []))
 
     def _parts(self) -> dict[str, NDArray[np.float64]]:
         """The covariance factor by part (of a model with uncertainty)."""
         assert self.cov_factor is not None  # the callers check require_uncertainty
         parts = {"noise": self.cov_factor}
+        if self.between_factor is not None:
+            parts["between_readings"] = self.between_factor
         if self.sys_factor is not None:
             parts["systematic"] = self.sys_factor
         return parts
@@ -570,8 +595,10 @@ class IdentificationResult:
         assert self.cov_factor is not None
         doc = self.to_dict()
         doc["format"] = "volcal-model/2"
+        stat = self.statistical_factor()  # one factor in this format: both parts in it
+        assert stat is not None
         doc["covariance"] = {"free_index": [int(i) for i in self.free],
-                             "factor": [_r(row) for row in self.cov_factor]}
+                             "factor": [_r(row) for row in stat]}
         doc["readings"] = {mid: {"fitted_um": _r(self.fitted[mid]),
                                  "residual_um": _r(self.residuals[mid])}
                            for mid in self.fitted if mid in self.residuals}
@@ -685,6 +712,7 @@ class IdentificationResult:
             raise VolcalInputError("invalid 'readings' section", source, None,
                                    "readings") from None
         sys_f, sys_l, sys_src = None, [], ""
+        btw_f: NDArray[np.float64] | None = None
         if doc.get("systematic") is not None:
             try:
                 sd = doc["systematic"]
@@ -709,6 +737,7 @@ class IdentificationResult:
                     raise VolcalInputError("covariance: no 'noise' part", source, None,
                                            "covariance")
                 sys_f = parts.pop("systematic", None)
+                btw_f = parts.pop("between_readings", None)
                 if sys_f is not None and sys_f.shape[1] != len(sys_l):
                     raise VolcalInputError(f"systematic: {len(sys_l)} inputs named, the "
                                            f"factor has {sys_f.shape[1]} columns", source,
@@ -738,6 +767,7 @@ class IdentificationResult:
                    doc.get("identifiability", {}), fit, resid, fitted,
                    nuisances=nuis, outliers=outliers, session=ident, format=str(fmt),
                    sys_factor=sys_f, sys_labels=sys_l, sys_source=sys_src,
+                   between_factor=btw_f,
                    uncertainty_missing=None if fac is not None else missing)
 
 

@@ -185,6 +185,13 @@ class EstimatorSettings:
     no_roll_note_factor : float
         Bayes factor in favour of "no roll errors" over rolls of the prior's size above
         which `identify` says that the readings look like a machine without roll [1].
+    between_readings_factor : float
+        Variance added at each node no reading touches, as a multiple of the fitted
+        prior's conditional variance of that node given its neighbours
+        (:mod:`volcal.identify.between`): readings at one spacing cannot show wiggles
+        shorter than twice it, and guideways are often rougher between the readings than
+        a cubic spline's prior assumes. The estimate is unchanged; 0: the prior's own
+        interpolation uncertainty (volcal <= session 13) [1].
     """
 
     typical_scales: tuple[float, float, float, float] = (10.0, 5.0, 15.0, 15.0)
@@ -227,6 +234,7 @@ class EstimatorSettings:
     robust_iterations: int = 5
     default_repeatability_um: float = 0.5
     no_roll_note_factor: float = 100.0
+    between_readings_factor: float = 2.0
 
     def __post_init__(self) -> None:
         from volcal.errors import VolcalInputError

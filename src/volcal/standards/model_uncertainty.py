@@ -176,8 +176,11 @@ def has_covariance(result: Any) -> bool:
 def _full_factor(result: Any, part: str) -> NDArray[np.float64]:
     """Covariance factor of one part over the full parameter vector (fixed rows zero)."""
     free = np.asarray(result.free, dtype=np.intp)
-    if part == "noise":
+    if part == "noise":  # the fit's statistical part: with the part between the readings
+        bf = getattr(result, "between_factor", None)
         g = np.asarray(result.cov_factor, dtype=float)
+        if bf is not None and bf.shape[1]:
+            g = np.hstack([g, np.asarray(bf, dtype=float)])
     else:
         sf = getattr(result, "sys_factor", None)
         g = np.zeros((free.size, 0)) if sf is None else np.asarray(sf, dtype=float)
@@ -287,7 +290,8 @@ _CACHE: dict[int, tuple[Any, tuple[Any, ...], ModelUncertainty]] = {}
 def _cache_key(result: Any, tool_offset: ArrayLike, n: int, draws: int, seed: int
                ) -> tuple[Any, ...]:
     """Identity of an evaluation: the result object and its arrays, the options."""
-    arrays = (result.cov_factor, getattr(result, "sys_factor", None), result.free)
+    arrays = (result.cov_factor, getattr(result, "sys_factor", None),
+              getattr(result, "between_factor", None), result.free)
     return (id(result), *(id(a) for a in arrays),
             tuple(float(v) for v in np.asarray(tool_offset, dtype=float).ravel()),
             int(n), int(draws), int(seed))

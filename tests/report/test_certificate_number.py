@@ -181,7 +181,10 @@ def test_with_a_budget_the_model_carries_the_systematic_part(cal):
     assert vol["systematic_included"] is True
     assert vol["uncertainty_note"].startswith("the model's systematic part (laser wavelength")
     assert vol["E_VXYZ"] == vol0["E_VXYZ"]  # the values are the model's, unchanged
-    assert vol["U_um"]["E_VXYZ"] > vol0["U_um"]["E_VXYZ"]
+    # every index's U grows with the added part (the parts in quadrature: the joint draws'
+    # spread of a maximum is not monotone, E_VXYZ 5.262 -> 5.253 um here before)
+    for key, u0 in vol0["U_um"].items():
+        assert vol["U_um"][key] > u0, key
     (st,) = [x for x in doc["conformity"]["statements"]
              if x["quantity"].startswith("volumetric")]
     assert "qualified" not in st["note"]

@@ -250,14 +250,19 @@ def test_due_does_not_use_an_altered_session_file(store):
 
 
 def test_corrupted_page_clean_message(store, base):
-    """A page of garbage: every command a clear message naming the store, nothing written."""
+    """Pages of garbage: every command a clear message naming the store, nothing written.
+
+    Every page from the third on (the header and the first table page intact): which
+    pages a command reads depends on the store's layout, and with every third page
+    ``show`` found its rows intact once the model files' binary parts shrank (session 14,
+    the part between the readings stored as one variance per parameter) and succeeded."""
     _sqlite_only(store)
     p = Path(store)
     data = bytearray(p.read_bytes())
     page = 4096
     n = len(data) // page
     assert n > 6
-    for k in range(2, n, 3):                      # every third page from the third on
+    for k in range(2, n):                         # every page from the third on
         data[k * page + 100:k * page + 600] = b"\xa5" * 500
     p.write_bytes(bytes(data))
     snap = _snapshot(store)

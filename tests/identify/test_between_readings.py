@@ -98,7 +98,10 @@ def test_the_model_file_keeps_the_part_apart(fits, tmp_path):
     on, _ = fits
     path = on.to_json(tmp_path / "MODEL.json")
     doc = json.loads(path.read_text())
-    assert doc["covariance"]["parts"]["between_readings"] == "between_readings_factor"
+    assert doc["covariance"]["parts"]["between_readings"] == "between_readings_variance"
+    # one variance per parameter in the binary part, not a mostly-zero factor
+    assert doc["arrays"]["members"]["between_readings_variance"]["shape"] == [
+        on.between_factor.shape[0]]
     back = load_model(path)
     np.testing.assert_array_equal(back.between_factor, on.between_factor)
     np.testing.assert_array_equal(back.cov_factor, on.cov_factor)

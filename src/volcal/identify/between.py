@@ -38,6 +38,7 @@ from numpy.typing import NDArray
 
 from volcal.identify.design import Design
 from volcal.identify.prior import PriorStructure
+from volcal.identify.result import diagonal_factor
 from volcal.identify.settings import EstimatorSettings
 from volcal.identify.solver import Solution
 from volcal.model.parameters import ParameterLayout
@@ -152,9 +153,4 @@ def between_factor(design: Design, sol: Solution,
         return None
     prior = fitted_prior(design.layout, design.free, sol, settings)
     add = between_readings_variance(design, prior, np.asarray(sol.function_scales), factor)
-    rows = np.flatnonzero(add > 0)
-    if rows.size == 0:
-        return None
-    out = np.zeros((design.n_free, rows.size))
-    out[rows, np.arange(rows.size)] = np.sqrt(add[rows])
-    return out
+    return diagonal_factor(add) if np.any(add > 0) else None

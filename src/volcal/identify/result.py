@@ -16,7 +16,7 @@ identity and with an untyped ``fit``) still load. ``volcal identify -o -`` write
                          "EAX_urad": [...], "u_EAX_urad": [...], ...}, "Y": ..., "Z": ...},
      "squareness_urad": {"EC0Y": v, ...}, "u_squareness_urad": {...},
      "covariance": {"free_index": [...], "parts": {"noise": "noise_factor",
-                    "between_readings": "between_readings_factor",  (nodes no reading touches)
+                    "between_readings": "between_readings_variance",  (1-D: one per parameter)
                     "systematic": "systematic_factor"}},  (with a budget only)
      "systematic": {"inputs": [...], "budget": "..."},  (with a budget only)
      "identifiability": {...}, "fit": {...}, "nuisances": {...}, "outliers": [...],
@@ -61,6 +61,36 @@ MAX_POSITION_MM = 1e6
 
 __all__ = ["MODEL_FORMAT", "MODEL_FORMATS_READ", "Convergence", "FitRecord",
            "IdentificationResult", "SessionIdentity"]
+
+
+DIAGONAL_PARTS: tuple[str, ...] = ("between_readings",)
+"""Covariance parts stored as one variance per parameter (``<part>_variance``, 1-D) in the
+model file's binary part; the others as a factor (``<part>_factor``)."""
+
+
+def _member(part: str) -> str:
+    """The binary part's member of a covariance part."""
+    return f"{part}_variance" if part in DIAGONAL_PARTS else f"{part}_factor"
+
+
+def diagonal_factor(variance: ArrayLike) -> NDArray[np.float64]:
+    """Factor of a diagonal covariance: one column per non-zero variance.
+
+    Parameters
+    ----------
+    variance : array_like, shape (n,)
+        Variance of each parameter [um^2 or urad^2].
+
+    Returns
+    -------
+    ndarray, shape (n, k)
+        ``F`` with ``F F^T = diag(variance)``, ``k`` the non-zero variances.
+    """
+    v = np.asarray(variance, dtype=float)
+    rows = np.flatnonzero(v > 0)
+    out = np.zeros((v.size, rows.size))
+    out[rows, np.arange(rows.size)] = np.sqrt(v[rows])
+    return out
 
 
 @dataclass
@@ -483,7 +513,8 @@ class IdentificationResult:
         -------
         arrays : dict of str to ndarray
             ``<part>_factor`` for each covariance part (``noise_factor``: shape
-            (len(free), r)), ``fitted_um`` and ``residual_um``: the readings of every
+            (len(free), r)), ``<part>_variance`` (shape (len(free),)) for a part of
+            :data:`DIAGONAL_PARTS`, ``fitted_um`` and ``residual_um``: the readings of every
             measurement one after another [um].
         index : dict of str to [first, count]
             Where each measurement's readings are in ``fitted_um`` and ``residual_um``.
@@ -495,7 +526,8 @@ class IdentificationResult:
         """
         self.require_uncertainty("writing the model file")
         arrays: dict[str, NDArray[np.float64]] = {
-            f"{name}_factor": np.ascontiguousarray(f, dtype=np.float64)
+            _member(name): np.ascontiguousarray(
+                np.sum(f**2, axis=1) if name in DIAGONAL_PARTS else f, dtype=np.float64)
             for name, f in self._parts().items()}
         index: dict[str, list[int]] = {}
         fitted, resid = [], []
@@ -565,7 +597,7 @@ class IdentificationResult:
             "squareness_urad": dict(zip(SQUARENESS_NAMES, _r(self.errors.squareness), strict=True)),
             "u_squareness_urad": dict(zip(SQUARENESS_NAMES, _r(self.squareness_std), strict=True)),
             "covariance": {"free_index": [int(i) for i in self.free],
-                           "parts": {name: f"{name}_factor" for name in self._part_names()}},
+                           "parts": {name: _member(name) for name in self._part_names()}},
             "identifiability": rep,
             "fit": self.fit.to_dict(),
             "nuisances": {k: {"value": _f(v[0]), "u": _f(v[1])} for k, v in self.nuisances.items()},
@@ -728,10 +760,17 @@ class IdentificationResult:
             if arrays is not None:
                 for name, member in part_names.items():
                     f = arrays.get(member)
-                    if f is None or f.ndim != 2 or f.shape[0] != free.size:
+                    if f is None or f.ndim not in (1, 2) or f.shape[0] != free.size:
                         raise VolcalInputError(
                             f"covariance part {name!r}: array {member!r} missing or not of "
                             f"{free.size} rows", source, None, "covariance")
+                    if f.ndim == 1:  # a diagonal part: the variance of each parameter
+                        if not np.all(np.isfinite(f) & (f >= 0)):
+                            raise VolcalInputError(
+                                f"covariance part {name!r}: array {member!r} holds "
+                                "variances: expected finite values >= 0", source, None,
+                                "covariance")
+                        f = diagonal_factor(f)
                     parts[name] = f
                 if "noise" not in parts:
                     raise VolcalInputError("covariance: no 'noise' part", source, None,

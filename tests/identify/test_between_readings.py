@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 from identify_helpers import TRAVEL, exact_fill, load_benchmark, seeds_session
 
+from volcal.errors import VolcalInputError
 from volcal.identify import EstimatorSettings, IdentifyOptions, identify
 from volcal.identify.between import fitted_prior, untouched_parameters
 from volcal.identify.modelfile import load_model
@@ -139,3 +140,24 @@ def test_rough_long_machines_of_an_independent_simulator_cover_more():
         gain.append(r_on.bayes["coverage"] - r_off.bayes["coverage"])
     assert min(gain) >= 0.0, gain
     assert float(np.mean(gain)) >= 0.015, gain
+
+
+def test_the_single_file_model_keeps_the_part_apart(fits, tmp_path):
+    """``volcal identify -o -`` (format 2, one JSON): the part between the readings is the
+    factor's last columns, counted by ``covariance.between_readings_columns``; a reader
+    that does not know the key still has the whole statistical factor."""
+    on, _ = fits
+    doc = on.to_single_file_dict()
+    k = on.between_factor.shape[1]
+    assert doc["covariance"]["between_readings_columns"] == k
+    assert np.asarray(doc["covariance"]["factor"]).shape[1] == on.cov_factor.shape[1] + k
+    path = tmp_path / "one.json"
+    path.write_text(json.dumps(doc))
+    back = load_model(path)
+    # the format's text keeps 7 significant digits
+    np.testing.assert_allclose(back.cov_factor, on.cov_factor, rtol=1e-6, atol=1e-9)
+    np.testing.assert_allclose(back.between_factor, on.between_factor, rtol=1e-6, atol=1e-9)
+    doc["covariance"]["between_readings_columns"] = -1
+    path.write_text(json.dumps(doc))
+    with pytest.raises(VolcalInputError, match="between_readings_columns"):
+        load_model(path)

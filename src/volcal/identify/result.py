@@ -627,10 +627,12 @@ class IdentificationResult:
         assert self.cov_factor is not None
         doc = self.to_dict()
         doc["format"] = "volcal-model/2"
-        stat = self.statistical_factor()  # one factor in this format: both parts in it
-        assert stat is not None
+        stat = self.statistical_factor()  # one factor in this format: both parts in it,
+        assert stat is not None          # the part between the readings its last columns
         doc["covariance"] = {"free_index": [int(i) for i in self.free],
                              "factor": [_r(row) for row in stat]}
+        if self.between_factor is not None and self.between_factor.shape[1]:
+            doc["covariance"]["between_readings_columns"] = int(self.between_factor.shape[1])
         doc["readings"] = {mid: {"fitted_um": _r(self.fitted[mid]),
                                  "residual_um": _r(self.residuals[mid])}
                            for mid in self.fitted if mid in self.residuals}
@@ -683,6 +685,7 @@ class IdentificationResult:
         IdentificationResult
         """
         fac: NDArray[np.float64] | None  # the covariance factor, when the model has one
+        btw_f: NDArray[np.float64] | None = None  # the part between the readings
         try:
             fmt = doc.get("format")
             if fmt not in MODEL_FORMATS_READ:
@@ -715,6 +718,13 @@ class IdentificationResult:
             else:
                 part_names = {}
                 fac = np.array(doc["covariance"]["factor"], dtype=float).reshape(free.size, -1)
+                nb = doc["covariance"].get("between_readings_columns", 0)
+                if not isinstance(nb, int) or isinstance(nb, bool) or not 0 <= nb < fac.shape[1]:
+                    raise ValueError(f"covariance.between_readings_columns: expected a count "
+                                     f"of the factor's last columns (0-{fac.shape[1] - 1}), "
+                                     f"got {nb!r}")
+                if nb:
+                    btw_f, fac = fac[:, -nb:], fac[:, :-nb]
         except VolcalInputError:
             raise
         except (KeyError, TypeError, ValueError, IndexError, OverflowError) as exc:
@@ -744,7 +754,6 @@ class IdentificationResult:
             raise VolcalInputError("invalid 'readings' section", source, None,
                                    "readings") from None
         sys_f, sys_l, sys_src = None, [], ""
-        btw_f: NDArray[np.float64] | None = None
         if doc.get("systematic") is not None:
             try:
                 sd = doc["systematic"]

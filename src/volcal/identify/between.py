@@ -11,8 +11,10 @@ slowly), and the 95 % intervals between the readings then under-cover where the 
 are exact enough to pin the nodes at the readings (benchmarks/README.md, lab notebook
 ``between_readings_factor``).
 
-:func:`between_factor` gives, at each node that no reading touches (the nodes the
-estimator places between the visited positions, :func:`volcal.identify.design.choose_nodes`),
+:func:`between_factor` gives, at each node value no reading depends on (a zero column of
+the design: the nodes the estimator places between the visited positions,
+:func:`volcal.identify.design.choose_nodes`, and a function's nodes where it moves no
+reading, whose value is the prior's interpolation as well),
 ``factor`` times that conditional variance, ``a^2 / P_ii`` of the fitted prior, as a
 covariance part of its own beside the posterior's (``between_readings`` in the model file:
 the history's change test, which compares two calibrations of one machine, leaves it out,

@@ -124,6 +124,14 @@ def uncertainty_section(inp: Any) -> Section | None:
                 "reading noise and prior): the model was identified without an "
                 "uncertainty budget, so the systematic part (laser wavelength, air, "
                 "material) is not included; `volcal identify --budget FILE` adds it.")
+        bf = getattr(r, "between_factor", None)
+        if bf is not None and getattr(bf, "shape", (0, 0))[1] > 0:
+            sec.paragraphs.append(
+                "Between the readings the noise part includes what the readings cannot show "
+                f"there: at the {bf.shape[1]} node values no reading touches, twice the "
+                "fitted smoothness prior's conditional variance (volcal's estimator "
+                "setting between_readings_factor; docs/identification.md, section 4). The "
+                "estimate and every uncertainty at the readings are without it.")
         sec.tables.append(model_parts_table(r))
         vol = getattr(inp, "volumetric", None)
         mu = getattr(vol, "uncertainty", None)
@@ -134,7 +142,7 @@ def uncertainty_section(inp: Any) -> Section | None:
                 f"parameters: they come from {mu.draws} draws of the model's posterior "
                 "(GUM Supplement 1, JCGM 101:2008), U = 2 u; the squareness is a parameter "
                 "of the model, its U is linear. The noise and systematic parts are given "
-                "apart.")
+                "apart; with both, u is their quadrature sum.")
             rows = []
             for k, e in mu.straightness.items():
                 rows.append([f"straightness {k}", "µm", _f(e.value), _f(e.U), _f(e.u_noise),

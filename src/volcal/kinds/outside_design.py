@@ -50,8 +50,10 @@ class OutsideDesignKind(Kind):
             ``m.n`` zero rows over the ``6 n + 3`` parameters, the readings (zeros when
             not measured) and one offset column ``<id>:offset``.
         """
-        P = sum(6 * len(n) for n in nodes) + 3
         y = np.zeros(m.n) if m.deviation is None else np.asarray(m.deviation, dtype=float)
         import scipy.sparse as sp  # here: reading a session needs no scipy
 
+        from volcal.model.parameters import ParameterLayout
+
+        P = ParameterLayout.of_nodes(nodes).size  # 6 per node and the 3 squareness
         return RowBlock(sp.csr_matrix((m.n, P)), y, np.ones((m.n, 1)), [f"{m.id}:offset"])

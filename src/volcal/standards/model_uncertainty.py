@@ -183,10 +183,7 @@ def _full_factor(result: Any, part: str) -> NDArray[np.float64]:
     """Covariance factor of one part over the full parameter vector (fixed rows zero)."""
     free = np.asarray(result.free, dtype=np.intp)
     if part == "noise":  # the fit's statistical part: with the part between the readings
-        bf = getattr(result, "between_factor", None)
-        g = np.asarray(result.cov_factor, dtype=float)
-        if bf is not None and bf.shape[1]:
-            g = np.hstack([g, np.asarray(bf, dtype=float)])
+        g = np.asarray(result.statistical_factor(), dtype=float)
     else:
         sf = getattr(result, "sys_factor", None)
         g = np.zeros((free.size, 0)) if sf is None else np.asarray(sf, dtype=float)

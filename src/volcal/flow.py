@@ -479,7 +479,8 @@ class Calibration:
             command line's names: ``measurements`` (``measurement_ids`` too),
             ``monte_carlo``; ``known`` may be the path of a CSV of errors measured
             separately (as ``--known``), with ``known_u`` [um or urad] to use them as
-            priors.
+            priors; ``settings`` an :class:`~volcal.identify.EstimatorSettings` or the
+            path of an estimator settings file (TOML, as ``--estimator-settings``).
 
         Returns
         -------

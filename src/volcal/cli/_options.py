@@ -26,6 +26,7 @@ RENAMED: dict[str, str] = {
     "session": "--session",
     "output": "--output",
     "location_tolerance": "--location-tolerance-um",
+    "settings": "--estimator-settings",
 }
 
 #: Every parameter the command line names in an error of a step.
@@ -47,7 +48,7 @@ OPTIONS: dict[str, str] = {
         "deviation_units", "optics", "sign", "slope_removed",
         # identify, advise
         "prior", "roll", "known", "known_u", "monte_carlo", "drift", "measurements",
-        "max_nodes", "robust", "candidates", "top",
+        "max_nodes", "robust", "candidates", "top", "settings",
         # predict
         "points", "force",
         # compensate

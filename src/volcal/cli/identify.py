@@ -52,6 +52,10 @@ def identify_cmd(
                                        "air per set-up, material per axis, the scale "
                                        "of each direct optic) propagated "
                                        "through the fit, kept apart in the model file."),
+    estimator_settings: Path | None = typer.Option(
+        None, help="Estimator settings (TOML: fields of EstimatorSettings, e.g. "
+        "between_readings_factor = 0.0; docs/formats.md); the fields that differ from "
+        "volcal's defaults are recorded in the model file (fit.estimator_settings)."),
 ) -> None:
     """Identify the machine's errors from the session; write MODEL.json."""
     from volcal.identify.modelfile import binary_path
@@ -67,7 +71,7 @@ def identify_cmd(
         r = step(session, prior=prior, noise_um=noise_um, roll=roll, known=known,
                  known_u=known_u, monte_carlo=monte_carlo, drift=drift,
                  measurements=measurements, max_nodes=max_nodes, robust=robust,
-                 budget=budget)
+                 budget=budget, settings=estimator_settings)
     print_session_notes(r.session)
     res = r.result
     if is_stdout(output):  # one file on standard output: format 2, everything as text

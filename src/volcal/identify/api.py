@@ -29,6 +29,7 @@ from volcal.identify.prior import PriorStructure
 from volcal.identify.record import FitRecord, session_identity
 from volcal.identify.result import IdentificationResult
 from volcal.identify.settings import EstimatorSettings
+from volcal.identify.settings_file import changed_settings
 from volcal.identify.solver import Solution, solve_bayes, solve_min_norm
 from volcal.model.names import ROLL_NAMES
 from volcal.session.format import Measurement, Session
@@ -120,7 +121,8 @@ class IdentifyOptions:
 
     def __post_init__(self) -> None:
         if not isinstance(self.settings, EstimatorSettings):
-            raise VolcalInputError("settings: expected a volcal.identify.EstimatorSettings, "
+            raise VolcalInputError("settings: expected a volcal.identify.EstimatorSettings "
+                                   "(or, in volcal.steps.identify, a settings file), "
                                    f"got {type(self.settings).__name__}")
 
 
@@ -755,6 +757,9 @@ def _result(session: Session, design: Design, sol: Solution, report, o: Identify
         # what the session reader noted (unmeasured, missed captures) and flagged as implausible
         "notes": [*session.notes, *(f"warning: {w}" for w in session.warnings)],
     }
+    changed = changed_settings(o.settings)
+    if changed:  # what differs from volcal's estimator, so that the fit can be repeated
+        fit["estimator_settings"] = changed
     if sol.method == "bayes":
         report.messages.extend(_roll_messages(sol, std, o.settings))
     return IdentificationResult(session.name, errors, design.layout, design.free, factor, std,

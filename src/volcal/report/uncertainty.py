@@ -124,14 +124,23 @@ def uncertainty_section(inp: Any) -> Section | None:
                 "reading noise and prior): the model was identified without an "
                 "uncertainty budget, so the systematic part (laser wavelength, air, "
                 "material) is not included; `volcal identify --budget FILE` adds it.")
+        fit = getattr(r, "fit", None)
+        changed = dict(fit.get("estimator_settings") or {}) if fit is not None else {}
         bf = getattr(r, "between_factor", None)
         if bf is not None and getattr(bf, "shape", (0, 0))[1] > 0:
+            factor = float(changed.get("between_readings_factor", 2.0))
+            times = "twice" if factor == 2.0 else f"{factor:g} times"
             sec.paragraphs.append(
                 "Between the readings the noise part includes what the readings cannot show "
-                f"there: at the {bf.shape[1]} node values no reading touches, twice the "
+                f"there: at the {bf.shape[1]} node values no reading touches, {times} the "
                 "fitted smoothness prior's conditional variance (volcal's estimator "
                 "setting between_readings_factor; docs/identification.md, section 4). The "
                 "estimate and every uncertainty at the readings are without it.")
+        if changed:
+            sec.paragraphs.append(
+                "The estimator's settings differ from volcal's defaults (volcal identify "
+                "--estimator-settings; recorded in the model file as fit.estimator_settings): "
+                + "; ".join(f"{k} = {v}" for k, v in changed.items()) + ".")
         sec.tables.append(model_parts_table(r))
         vol = getattr(inp, "volumetric", None)
         mu = getattr(vol, "uncertainty", None)

@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -14,7 +14,7 @@ from volcal.errors import ParameterError
 from volcal.steps import _checks
 
 if TYPE_CHECKING:
-    from volcal.identify import IdentifyOptions
+    from volcal.identify import EstimatorSettings, IdentifyOptions
     from volcal.identify.result import IdentificationResult
     from volcal.session.format import Session
     from volcal.uncertainty.budget import Budget
@@ -118,7 +118,9 @@ def identify(session: Session | str | Path, *, prior: str = D.PRIOR,
              known_u: float | None = None, monte_carlo: int = D.MONTE_CARLO,
              drift: bool = False, measurements: str | Sequence[str] | None = None,
              max_nodes: int = D.MAX_NODES, robust: bool = False,
-             budget: str | Path | Budget | None = None, **options: Any) -> Identified:
+             budget: str | Path | Budget | None = None,
+             settings: EstimatorSettings | str | Path | None = None,
+             **options: Any) -> Identified:
     """Identify the machine's errors with their uncertainties.
 
     Parameters
@@ -150,6 +152,9 @@ def identify(session: Session | str | Path, *, prior: str = D.PRIOR,
         Down-weight the readings the outlier check flags and fit again.
     budget : str, Path or Budget, optional
         Uncertainty budget: its systematic inputs propagated through the fit, kept apart.
+    settings : EstimatorSettings, str or Path, optional
+        The estimator's settings, or the path of an estimator settings file (TOML, as
+        ``--estimator-settings``; :mod:`volcal.identify.settings_file`); default volcal's.
     **options
         Other fields of :class:`volcal.identify.IdentifyOptions` (``scales``, ``kappa``,
         ``zero``, ``tilts``...; ``measurement_ids`` is ``measurements``).
@@ -169,7 +174,7 @@ def identify(session: Session | str | Path, *, prior: str = D.PRIOR,
                                         noise_um=noise_um, roll=roll, known=known,
                                         known_u=known_u, drift=drift,
                                         measurements=measurements, max_nodes=max_nodes,
-                                        robust=robust, **options)
+                                        robust=robust, settings=settings, **options)
     trials = _checks.whole("monte_carlo", monte_carlo)
     if trials < 0:
         raise ParameterError(f"{{monte_carlo=}}{monte_carlo}: expected 0 (off) or more "
@@ -210,7 +215,9 @@ def identify_options(also: Sequence[str] = ("known_u",), **values: Any
         The step's other keywords, listed with the valid options of an unknown one.
     **values
         Fields of IdentifyOptions; ``measurements`` (or ``measurement_ids``), ``known``
-        as a dict or a path (read by :func:`identify`), ``known_u``.
+        as a dict or a path (read by :func:`identify`), ``known_u``; ``settings`` an
+        :class:`~volcal.identify.EstimatorSettings` or the path of an estimator settings
+        file (TOML, :func:`volcal.identify.settings_file.read_estimator_settings`).
 
     Returns
     -------
@@ -222,13 +229,17 @@ def identify_options(also: Sequence[str] = ("known_u",), **values: Any
     from volcal.identify import IdentifyOptions
 
     valid = [f.name for f in fields(IdentifyOptions)]
-    given = {k: v for k, v in values.items() if not (k in ("known", "known_u",
-                                                            "measurements") and v is None)}
+    given = {k: v for k, v in values.items() if not (k in ("known", "known_u", "measurements",
+                                                            "settings") and v is None)}
     if "measurement_ids" in given and "measurements" in given:
         raise ParameterError("give {measurements} or measurement_ids, not both")
     if "measurements" in given:
         given["measurement_ids"] = given.pop("measurements")
     known_u = given.pop("known_u", None)
+    if isinstance(given.get("settings"), str | Path):  # an estimator settings file (TOML)
+        from volcal.identify.settings_file import read_estimator_settings
+
+        given["settings"] = read_estimator_settings(cast(str | Path, given["settings"]))
     for key in given:
         if key not in valid:
             raise _checks.unknown(key, [*(v if v != "measurement_ids" else "measurements"

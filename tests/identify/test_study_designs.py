@@ -90,8 +90,22 @@ leaves it above 1.01 (the lab notebook)."""
 COVERAGE_XFAIL: dict[str, str] = {}
 """Coverage checks not met. Step diagonals alone covered 0.875 pooled (0.50 on machine 6:
 the positioning slope / mirror tilt confound was not in the uncertainty); now 0.95."""
-ROLL_XFAIL: dict[str, str] = {}
-"""Roll checks not met (none since they judge a roll by its reported uncertainty)."""
+ROLL_XFAIL: dict[str, str] = {
+    "long": "the rolls' pooled coverage 0.897 (bound 0.90): ECZ of machines 0, 1, 3, 5, 7 "
+            "covers 0.38-0.86; a bias of the prior, not of the noise part "
+            "(benchmarks/README.md, lab notebook, ECZ on the long machine)",
+}
+"""Roll checks not met. None from the time they judged a roll by its reported uncertainty
+until the long machine's pooled roll coverage fell to 0.889-0.897 (issue 30's travel
+exponents, session 11; found in session 14, when ``make study`` was run in full). The
+misses are ECZ, the short Z's roll on the 3000 x 800 x 600 mm machine, which only the step
+diagonals see (without them its posterior is its prior). Ten noise draws of machine 3: the
+estimate's spread 1.7-3.7 urad is within the reported 3.9-5.0 (the noise part is honest);
+its mean is off by 4-6.5 urad over the first half of the travel in every draw, and with
+0.01 um of noise it is recovered to 0.2-0.6 urad (the model is right). Machine 3's ECZ is
+19 urad RMS against the rolls' prior scale of 8-9 urad (the tilts' times ``roll_factor``);
+a larger ``roll_factor`` or rolls as rough as the tilts fix machines 1, 3 and 5 and not 0
+and 7 (session 14), and cost accuracy on the families (lab notebook, ``roll_factor``)."""
 
 
 def test_step_diagonals_never_worse_than_minimum_norm_on_two_machines():

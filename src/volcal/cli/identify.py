@@ -92,6 +92,9 @@ def identify_cmd(
                       f"and prior {u.noise_um:.3f} um, systematic (budget: {u.n_inputs} "
                       f"inputs) {u.systematic_um:.3f} um, both {u.total_um:.3f} um",
                       highlight=False)
+    if r.between is not None:
+        console.print("between the readings: " + r.between.describe(), highlight=False,
+                      markup=False)
     for note in r.notes:
         console.print(f"note: {note}", highlight=False, markup=False)
     console.print("model -> " + ("standard output" if is_stdout(output)

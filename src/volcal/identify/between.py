@@ -45,7 +45,11 @@ from volcal.identify.settings import EstimatorSettings
 from volcal.identify.solver import Solution
 from volcal.model.parameters import ParameterLayout
 
-__all__ = ["between_factor", "between_readings_variance", "fitted_prior", "untouched_parameters"]
+__all__ = ["UNTOUCHED_TOL", "between_factor", "between_readings_variance", "fitted_prior",
+           "untouched_parameters"]
+
+UNTOUCHED_TOL = 1e-6
+"""A column of the design below this share of its largest entry is untouched [1]."""
 
 
 def untouched_parameters(design: Design) -> NDArray[np.bool_]:
@@ -59,10 +63,15 @@ def untouched_parameters(design: Design) -> NDArray[np.bool_]:
     Returns
     -------
     ndarray of bool, shape (design.n_free,)
-        True where the column of ``A`` is zero.
+        True where the column of ``A`` is zero, or below :data:`UNTOUCHED_TOL` times the
+        design's largest entry: a reading within a millionth of the node spacing of the
+        neighbouring node (a position computed in floating point, 133.3333333 mm, beside
+        the node it was rounded to, 133.333333 mm) touches that node as a reading read
+        back from its file does, not at all.
     """
     a = design.A.tocsc()[:, :design.n_free]
-    return np.asarray(abs(a).max(axis=0).toarray().ravel() == 0)
+    col = np.asarray(abs(a).max(axis=0).toarray().ravel())
+    return col <= UNTOUCHED_TOL * (col.max() if col.size else 0.0)
 
 
 def between_readings_variance(design: Design, prior: PriorStructure,

@@ -136,6 +136,11 @@ def uncertainty_section(inp: Any) -> Section | None:
                 "fitted smoothness prior's conditional variance (volcal's estimator "
                 "setting between_readings_factor; docs/identification.md, section 4). The "
                 "estimate and every uncertainty at the readings are without it.")
+            from volcal.identify.between_share import between_share
+
+            share = between_share(r)
+            if share is not None:
+                sec.paragraphs.append("Its share: the " + share.describe() + ".")
         if changed:
             sec.paragraphs.append(
                 "The estimator's settings differ from volcal's defaults (volcal identify "

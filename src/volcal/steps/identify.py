@@ -15,6 +15,7 @@ from volcal.steps import _checks
 
 if TYPE_CHECKING:
     from volcal.identify import EstimatorSettings, IdentifyOptions
+    from volcal.identify.between_share import BetweenShare
     from volcal.identify.result import IdentificationResult
     from volcal.session.format import Session
     from volcal.uncertainty.budget import Budget
@@ -96,6 +97,9 @@ class Identified:
     monte_carlo : MonteCarloSummary or None
     systematic : SystematicSummary or None
         With a budget.
+    between : BetweenShare or None
+        The volumetric uncertainty with and without the part between the readings
+        (:func:`volcal.identify.between_share.between_share`); None without that part.
     notes : tuple of str
         What the user should know beyond the report's messages.
     """
@@ -105,6 +109,7 @@ class Identified:
     monte_carlo: MonteCarloSummary | None = None
     systematic: SystematicSummary | None = None
     notes: tuple[str, ...] = ()
+    between: BetweenShare | None = None
 
     @property
     def messages(self) -> list[str]:
@@ -202,7 +207,9 @@ def identify(session: Session | str | Path, *, prior: str = D.PRIOR,
         if (any(k.endswith("_scale_pct") for k in b[0].defaulted)
                 and any(lab.startswith("optics scale") for lab in res.sys_labels)):
             notes.append(OPTICS_DEFAULTED_NOTE)
-    return Identified(res, s, mc, sys_summary, tuple(notes))
+    from volcal.identify.between_share import between_share
+
+    return Identified(res, s, mc, sys_summary, tuple(notes), between_share(res))
 
 
 def identify_options(also: Sequence[str] = ("known_u",), **values: Any

@@ -1,0 +1,89 @@
+"""The share of the volumetric uncertainty between the readings
+(volcal.identify.between_share): what ``volcal identify`` prints and the report states.
+
+Checked against a second computation (the first-order Jacobian of the volumetric error
+times the part's factor, not through ``predict``), against the design (readings at half
+the spacing leave about an eighth of the part's variance), through both faces, and the
+same for a session in memory and read back from its folder (the positions a file rounds
+touch the same nodes).
+"""
+
+from __future__ import annotations
+
+import sys
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from volcal import Calibration
+from volcal.identify import EstimatorSettings
+from volcal.identify.between_share import GRID_PER_AXIS, between_share, share_grid
+from volcal.model.kinematics import pose_jacobian
+
+TRAVEL = [[0, 1500], [0, 400], [0, 300]]
+TESTS = ["diagonal", "linear", "step-diagonal"]
+
+
+@pytest.fixture(scope="module")
+def fits():
+    """One virtual machine measured at 3 and at 6 increments."""
+    out = {}
+    for steps in (3, 6):
+        c = Calibration.plan(TRAVEL, steps=steps, runs=2, tests=TESTS, name="SHARE")
+        out[steps] = c.simulate(seed=7)
+        out[steps].identify()
+    return out
+
+
+def test_share_is_the_part_through_the_jacobian(fits):
+    """``between_um`` = the largest ``|J B|`` over the grid (J the volumetric error's
+    Jacobian, B the part's factor); ``u^2 = u_without^2 + part^2`` at that point."""
+    r = fits[3].result
+    share = between_share(r)
+    q = share_grid(r)
+    assert q.shape == (GRID_PER_AXIS**3, 3) and share.points == q.shape[0]
+    Je, _ = pose_jacobian(r.errors.chain_obj.order, r.layout.nodes, q)
+    G = np.asarray(Je[:, r.free] @ r.between_factor)
+    part = np.sqrt(np.sum(G**2, axis=1))
+    assert share.between_um == pytest.approx(part.max(), rel=1e-9)
+    assert share.nodes == r.between_factor.shape[1] > 0
+    assert share.u_without_um < share.u_um
+    assert share.u_um**2 <= share.u_without_um**2 + share.between_um**2 + 1e-9
+
+
+def test_half_the_spacing_leaves_about_an_eighth(fits):
+    """3 -> 6 increments: the part's largest variance falls to 1/16-1/4 of itself
+    (measured 0.171: 2.05 -> 0.85 um; the cube of the spacing would give 1/8)."""
+    b3, b6 = (between_share(fits[s].result).between_um for s in (3, 6))
+    assert 1 / 16 <= (b6 / b3) ** 2 <= 1 / 4, (b3, b6)
+
+
+def test_none_without_the_part(fits):
+    """Nothing to share without the part (factor 0) or for minimum norm."""
+    c = fits[3]
+    assert between_share(c.identify(settings=EstimatorSettings(
+        between_readings_factor=0.0))) is None
+    assert between_share(c.identify(prior="none")) is None
+    c.identify()
+
+
+def test_both_faces_say_it(fits, tmp_path, monkeypatch, capsys):
+    """``volcal identify`` prints the sentence; the report's uncertainty section states it
+    with the same numbers (one function, one grid)."""
+    from volcal.cli import main
+    from volcal.report.uncertainty import uncertainty_section
+
+    fits[3].save(tmp_path / "s")
+    monkeypatch.setattr(sys, "argv", ["volcal", "identify", str(tmp_path / "s"), "-o",
+                                      str(tmp_path / "m.json")])
+    with pytest.raises(SystemExit) as e:
+        main()
+    assert not e.value.code
+    out = capsys.readouterr().out
+    share = between_share(fits[3].result)
+    line = next(x for x in out.splitlines() if x.startswith("between the readings: "))
+    assert line == "between the readings: " + share.describe()  # the folder's = memory's
+    assert f"{share.between_um:.3f} um" in line
+    sec = uncertainty_section(SimpleNamespace(result=fits[3].result, volumetric=None))
+    assert "Its share: the " + share.describe() + "." in sec.paragraphs

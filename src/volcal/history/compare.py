@@ -40,7 +40,7 @@ References
 from __future__ import annotations
 
 import tempfile
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -153,8 +153,39 @@ def load_record_model(store: Any, rid: str, record: Any = None) -> Any:
         return load_model(Path(tmp) / main)
 
 
+def recorded_settings(model: Any) -> Any:
+    """The estimator settings a model was identified with, as far as its file records them.
+
+    Parameters
+    ----------
+    model : IdentificationResult
+        A model; its ``fit.estimator_settings`` holds the fields that differed from the
+        defaults (volcal identify --estimator-settings; absent: the defaults).
+
+    Returns
+    -------
+    EstimatorSettings
+        The defaults with the recorded fields; a field this volcal does not know (a model
+        of a later volcal) is left out, and recorded values it refuses give the defaults.
+    """
+    from dataclasses import fields
+
+    from volcal.identify.settings import EstimatorSettings
+    from volcal.identify.settings_file import settings_from_mapping
+
+    changed = model.fit.get("estimator_settings") or {}
+    known = {f.name for f in fields(EstimatorSettings)}
+    try:
+        return settings_from_mapping({k: v for k, v in dict(changed).items() if k in known})
+    except (VolcalInputError, TypeError, ValueError):
+        return EstimatorSettings()
+
+
 def prior_precision(model: Any) -> Any:
     """Prior precision of a model's free parameters, rebuilt from its hyperparameters.
+
+    With the estimator settings the model records (:func:`recorded_settings`: a prior's
+    ``group_kappa`` or ``boundary`` other than the defaults changes its precision).
 
     ``None`` when the model file does not record them (then the posterior covariance
     is used as it is).
@@ -165,15 +196,15 @@ def prior_precision(model: Any) -> Any:
         A model whose fit records its hyperparameters.
     """
     from volcal.identify.prior import PriorStructure, function_scales
-    from volcal.identify.settings import EstimatorSettings
 
     hyp = model.fit.hyperparameters or {}
     keys = ("positioning_um", "straightness_um", "roll_urad", "tilt_urad", "kappa")
     if not all(isinstance(hyp.get(k), int | float) for k in keys):
         return None
     per_metre = isinstance(hyp.get("positioning_trend_um_per_m"), int | float)
+    settings = replace(recorded_settings(model), trend_per_metre=per_metre)
     prior = PriorStructure.build(model.layout, model.free, float(hyp["kappa"]),
-                                 settings=EstimatorSettings(trend_per_metre=per_metre))
+                                 settings=settings)
     # a model of volcal <= issue 29 records one trend at the end of every travel [um]
     prior = prior.with_trend(hyp["positioning_trend_um_per_m"] if per_metre
                              else hyp.get("positioning_trend_um") or 0.0)
@@ -188,7 +219,7 @@ def prior_precision(model: Any) -> Any:
     # each axis' amplitude grown with its travel (issue 30; absent before)
     exponents = hyp.get("travel_exponent")
     if isinstance(exponents, list) and exponents:
-        groups = hyp.get("travel_exponent_groups") or EstimatorSettings().travel_exponent_groups
+        groups = hyp.get("travel_exponent_groups") or settings.travel_exponent_groups
         if len(groups) == len(exponents):
             scales = scales * np.exp(prior.travel_columns(groups)
                                      @ np.array(exponents, dtype=float))

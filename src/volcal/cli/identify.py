@@ -145,12 +145,16 @@ def advise_cmd(
                             "candidates to list per chain."),
     json_out: bool = typer.Option(False, "--json", help="Write the advice as JSON "
                                   "(volcal-advice/1) to standard output."),
+    estimator_settings: Path | None = typer.Option(
+        None, help="Estimator settings (TOML, as volcal identify --estimator-settings): "
+        "typical_scales is the prior of the advice."),
 ) -> None:
     """Before measuring: what the planned tests will and will not determine."""
     from volcal.steps.advise import advise as step
 
     with console.status("analysing the design..."):
-        r = step(session, roll=roll, candidates=candidates, top=top)
+        r = step(session, roll=roll, candidates=candidates, top=top,
+                 settings=estimator_settings)
     if json_out:
         import json
 

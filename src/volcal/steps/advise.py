@@ -10,6 +10,7 @@ from volcal import defaults as D
 from volcal.errors import ParameterError
 
 if TYPE_CHECKING:
+    from volcal.identify import EstimatorSettings
     from volcal.identify.identifiability import IdentifiabilityReport
     from volcal.identify.location_advice import PoseRanking
     from volcal.session.format import Session
@@ -133,6 +134,7 @@ def _location_only(session: Session) -> IdentifiabilityReport:
 
 def advise(session: Session | str | Path, *, roll: str = D.ROLL,
            candidates: str | Path | None = None, top: int = D.ADVISE_TOP,
+           settings: EstimatorSettings | str | Path | None = None,
            **options: Any) -> Advice:
     """What the planned tests will and will not determine (the readings are not used).
 
@@ -148,6 +150,10 @@ def advise(session: Session | str | Path, *, roll: str = D.ROLL,
         (``docs/fiveaxis.md``); default a generated set.
     top : int
         With probe_sphere tests: how many ranked candidates to list per chain.
+    settings : EstimatorSettings, str or Path, optional
+        The estimator's settings (its ``typical_scales`` are the prior of the advice), or
+        the path of an estimator settings file (TOML, as ``--estimator-settings``);
+        default volcal's.
     **options
         Other fields of :class:`volcal.identify.IdentifyOptions` (``known`` as a dict
         or a path, with ``known_u``...), checked as by :func:`volcal.steps.identify.identify`.
@@ -161,7 +167,8 @@ def advise(session: Session | str | Path, *, roll: str = D.ROLL,
 
     if isinstance(top, bool) or not isinstance(top, int) or top < 1:
         raise ParameterError(f"{{top=}}{top}: expected a whole number of candidates >= 1")
-    opts, known_file = identify_options(("known_u",), roll=roll, **options)
+    opts, known_file = identify_options(("known_u",), roll=roll, settings=settings,
+                                        **options)
     if isinstance(session, str | Path):
         from volcal.session.format import read_session
 

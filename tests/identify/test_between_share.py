@@ -18,8 +18,9 @@ import pytest
 
 from volcal import Calibration
 from volcal.identify import EstimatorSettings
-from volcal.identify.between_share import GRID_PER_AXIS, between_share, share_grid
+from volcal.identify.between_share import between_share, share_grid
 from volcal.model.kinematics import pose_jacobian
+from volcal.standards.volumetric import work_zone_grid
 
 TRAVEL = [[0, 1500], [0, 400], [0, 300]]
 TESTS = ["diagonal", "linear", "step-diagonal"]
@@ -42,7 +43,8 @@ def test_share_is_the_part_through_the_jacobian(fits):
     r = fits[3].result
     share = between_share(r)
     q = share_grid(r)
-    assert q.shape == (GRID_PER_AXIS**3, 3) and share.points == q.shape[0]
+    np.testing.assert_array_equal(q, work_zone_grid(TRAVEL))  # the indices' grid
+    assert share.points == q.shape[0] == 11**3 and "11 x 11 x 11 grid" in share.describe()
     Je, _ = pose_jacobian(r.errors.chain_obj.order, r.layout.nodes, q)
     G = np.asarray(Je[:, r.free] @ r.between_factor)
     part = np.sqrt(np.sum(G**2, axis=1))
@@ -54,7 +56,7 @@ def test_share_is_the_part_through_the_jacobian(fits):
 
 def test_half_the_spacing_leaves_about_an_eighth(fits):
     """3 -> 6 increments: the part's largest variance falls to 1/16-1/4 of itself
-    (measured 0.171: 2.05 -> 0.85 um; the cube of the spacing would give 1/8)."""
+    (measured 0.105: 2.17 -> 0.71 um; the cube of the spacing would give 1/8)."""
     b3, b6 = (between_share(fits[s].result).between_um for s in (3, 6))
     assert 1 / 16 <= (b6 / b3) ** 2 <= 1 / 4, (b3, b6)
 

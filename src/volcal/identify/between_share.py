@@ -7,9 +7,9 @@ integrated Wiener process) the conditional variance between two readings falls a
 cube of their spacing (Wahba 1990, ch. 1), so readings at half the spacing leave about an
 eighth of it (benchmarks/README.md, lab notebook ``between_readings_factor``, has the
 measurement). :func:`between_share` gives the largest standard uncertainty of the
-volumetric error (noise part) over one grid, :func:`share_grid`, with and without the
-part: ``volcal identify`` prints it and the report's uncertainty section states it, both
-from this function on this grid.
+volumetric error (noise part) over the volumetric indices' grid, :func:`share_grid`, with
+and without the part: ``volcal identify`` prints it and the report's uncertainty section
+states it, both from this function on this grid.
 
 References
 ----------
@@ -31,10 +31,7 @@ from numpy.typing import NDArray
 if TYPE_CHECKING:
     from volcal.identify.result import IdentificationResult
 
-__all__ = ["BetweenShare", "GRID_PER_AXIS", "between_share", "share_grid"]
-
-GRID_PER_AXIS = 9
-"""Points per axis of :func:`share_grid` (the volumetric study's 9 x 9 x 9)."""
+__all__ = ["BetweenShare", "between_share", "share_grid"]
 
 
 @dataclass(frozen=True)
@@ -65,8 +62,9 @@ class BetweenShare:
 
     def describe(self) -> str:
         """One plain sentence."""
-        return (f"largest standard uncertainty of the volumetric error (noise part) over a "
-                f"{GRID_PER_AXIS} x {GRID_PER_AXIS} x {GRID_PER_AXIS} grid of the travel: "
+        n = round(self.points ** (1 / 3))
+        return (f"largest standard uncertainty of the volumetric error (noise part) over the "
+                f"volumetric indices' {n} x {n} x {n} grid of the travel: "
                 f"{self.u_um:.3f} um, {self.u_without_um:.3f} um without the part between "
                 f"the readings (up to {self.between_um:.3f} um of it, in quadrature, at the "
                 f"{self.nodes} node values no reading touches; readings at half the spacing "
@@ -74,7 +72,7 @@ class BetweenShare:
 
 
 def share_grid(result: IdentificationResult) -> NDArray[np.float64]:
-    """The grid of :func:`between_share`: :data:`GRID_PER_AXIS` points per axis.
+    """The grid of :func:`between_share`: the volumetric indices' grid of the model's travel.
 
     Parameters
     ----------
@@ -82,11 +80,14 @@ def share_grid(result: IdentificationResult) -> NDArray[np.float64]:
 
     Returns
     -------
-    ndarray, shape (GRID_PER_AXIS**3, 3)
-        Evenly spaced over each axis' nodes (its travel) [mm], X varying slowest.
+    ndarray, shape (m, 3)
+        :func:`volcal.standards.volumetric.work_zone_grid` of ``result.errors.travel`` with
+        its default points per axis, the grid of the volumetric indices
+        (:func:`volcal.standards.volumetric.volumetric_indices`) [mm].
     """
-    ax = [np.linspace(n[0], n[-1], GRID_PER_AXIS) for n in result.layout.nodes]
-    return np.stack(np.meshgrid(*ax, indexing="ij"), -1).reshape(-1, 3)
+    from volcal.standards.volumetric import work_zone_grid
+
+    return work_zone_grid(result.errors.travel)
 
 
 def between_share(result: IdentificationResult,

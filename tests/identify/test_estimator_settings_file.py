@@ -132,6 +132,9 @@ def test_changed_settings_round_trip():
     ("\n\nroll_mixture_absent = 1.5\n", 3, "roll_mixture_absent", "must be in [0, 1)"),
     ("[estimator]\nroll_factor = 1\n[solver]\nx = 1\n", 3, "solver", "unknown table"),
     ("roll_factor = 1\n[estimator]\nroll_factor = 2\n", 1, "roll_factor", "given twice"),
+    ("between_readings_factor = -1.0\n", 1, "between_readings_factor",
+     "must be 0 (off) or a positive number"),
+    ("# grids\nhyper_max_nodes = 2\n", 2, "hyper_max_nodes", "a whole number >= 3"),
 ])
 def test_mistakes_name_file_line_and_key(session, tmp_path, monkeypatch, capsys, text, row,
                                          key, words):

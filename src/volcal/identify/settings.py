@@ -237,6 +237,9 @@ class EstimatorSettings:
     between_readings_factor: float = 2.0
 
     def __post_init__(self) -> None:
+        from math import inf
+        from numbers import Integral, Real
+
         from volcal.errors import VolcalInputError
 
         if self.roll_mixture_covariance not in ("roll", "mixture"):
@@ -289,6 +292,18 @@ class EstimatorSettings:
             if len(v) != 4 or not all(float(x) > 0 for x in v):
                 raise VolcalInputError(f"EstimatorSettings.{name} must be 4 positive numbers, "
                                        f"got {v!r}")
+        v = self.between_readings_factor
+        if isinstance(v, bool) or not isinstance(v, Real) or not 0.0 <= float(v) < inf:
+            raise VolcalInputError("EstimatorSettings.between_readings_factor must be 0 (off) "
+                                   f"or a positive number, got {v!r}")
+        for name, low in (("hyper_max_nodes", 3), ("analysis_max_nodes", 3),
+                          ("robust_iterations", 1), ("sigma_fixed_point_steps", 0),
+                          ("dense_qr_limit", 0), ("dense_qr_entries", 0),
+                          ("dense_covariance_limit", 0)):
+            w = getattr(self, name)
+            if isinstance(w, bool) or not isinstance(w, Integral) or w < low:
+                raise VolcalInputError(f"EstimatorSettings.{name} must be a whole number "
+                                       f">= {low}, got {w!r}")
         for name in ("kappa_centre", "hyper_spread", "tilt_centre_urad", "tilt_spread",
                      "trend_centre_um", "trend_spread", "trend_centre_um_per_m",
                      "tilt_trend_spread", "nugget_centre_um", "nugget_spread",

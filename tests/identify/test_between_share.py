@@ -1,8 +1,8 @@
 """The share of the volumetric uncertainty between the readings
 (volcal.identify.between_share): what ``volcal identify`` prints and the report states.
 
-Checked against a second computation (the first-order Jacobian of the volumetric error
-times the part's factor, not through ``predict``), against the design (readings at half
+Checked against a second computation (two predictions, with and without the part, where
+the share computes the part through the Jacobian), against the design (readings at half
 the spacing leave about an eighth of the part's variance), through both faces, and the
 same for a session in memory and read back from its folder (the positions a file rounds
 touch the same nodes).
@@ -19,7 +19,6 @@ import pytest
 from volcal import Calibration
 from volcal.identify import EstimatorSettings
 from volcal.identify.between_share import between_share, share_grid
-from volcal.model.kinematics import pose_jacobian
 from volcal.standards.volumetric import work_zone_grid
 
 TRAVEL = [[0, 1500], [0, 400], [0, 300]]
@@ -37,21 +36,27 @@ def fits():
     return out
 
 
-def test_share_is_the_part_through_the_jacobian(fits):
-    """``between_um`` = the largest ``|J B|`` over the grid (J the volumetric error's
-    Jacobian, B the part's factor); ``u^2 = u_without^2 + part^2`` at that point."""
+def test_share_is_the_prediction_with_and_without_the_part(fits):
+    """``u_um`` is ``predict``'s largest u with the whole noise part (the part between the
+    readings among its columns), ``u_without_um`` the same model's without it, and
+    ``between_um`` the largest ``sqrt(u^2 - u_without^2)``: the share computes the part
+    through the Jacobian (one prediction), this test through two predictions."""
+    import copy
+
     r = fits[3].result
     share = between_share(r)
     q = share_grid(r)
     np.testing.assert_array_equal(q, work_zone_grid(TRAVEL))  # the indices' grid
     assert share.points == q.shape[0] == 11**3 and "11 x 11 x 11 grid" in share.describe()
-    Je, _ = pose_jacobian(r.errors.chain_obj.order, r.layout.nodes, q)
-    G = np.asarray(Je[:, r.free] @ r.between_factor)
-    part = np.sqrt(np.sum(G**2, axis=1))
-    assert share.between_um == pytest.approx(part.max(), rel=1e-9)
+    u = r.predict(q, systematic=False)[1]
+    bare = copy.copy(r)
+    bare.between_factor = None
+    u0 = bare.predict(q, systematic=False)[1]
+    assert share.u_um == pytest.approx(u.max(), rel=1e-9)
+    assert share.u_without_um == pytest.approx(u0.max(), rel=1e-9)
+    assert share.between_um == pytest.approx(np.sqrt(u**2 - u0**2).max(), rel=1e-6)
     assert share.nodes == r.between_factor.shape[1] > 0
     assert share.u_without_um < share.u_um
-    assert share.u_um**2 <= share.u_without_um**2 + share.between_um**2 + 1e-9
 
 
 def test_half_the_spacing_leaves_about_an_eighth(fits):

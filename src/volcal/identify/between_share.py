@@ -110,11 +110,18 @@ def between_share(result: IdentificationResult,
     bf = result.between_factor
     if bf is None or bf.shape[1] == 0 or result.cov_factor is None:
         return None
+    from volcal.model.kinematics import pose_jacobian
+
     q = share_grid(result) if q is None else np.asarray(q, dtype=float).reshape(-1, 3)
-    u = result.predict(q, systematic=False)[1]
-    bare = copy.copy(result)  # the same model without the part (shallow: arrays shared)
+    # the rest without the part (the narrower factor), and the part's own variance at each
+    # point, |J B|^2 (J the first-order Jacobian of the volumetric error, B the part's
+    # factor): the parts are independent, u^2 = u_without^2 + |J B|^2
+    bare = copy.copy(result)  # shallow: the arrays are shared
     bare.between_factor = None
     u0 = bare.predict(q, systematic=False)[1]
-    part = np.sqrt(np.maximum(u**2 - u0**2, 0.0))
+    Je, _ = pose_jacobian(result.errors.chain_obj.order, result.layout.nodes, q)
+    G = Je[:, result.free] @ np.asarray(bf)
+    part = np.sqrt(np.sum(np.asarray(G) ** 2, axis=1)).reshape(-1, 3)
+    u = np.sqrt(u0**2 + part**2)
     return BetweenShare(float(u.max()), float(u0.max()), float(part.max()), int(bf.shape[1]),
                         int(q.shape[0]))

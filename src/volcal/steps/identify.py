@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields
+from functools import cached_property
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, cast
 
@@ -97,9 +98,6 @@ class Identified:
     monte_carlo : MonteCarloSummary or None
     systematic : SystematicSummary or None
         With a budget.
-    between : BetweenShare or None
-        The volumetric uncertainty with and without the part between the readings
-        (:func:`volcal.identify.between_share.between_share`); None without that part.
     notes : tuple of str
         What the user should know beyond the report's messages.
     """
@@ -109,7 +107,18 @@ class Identified:
     monte_carlo: MonteCarloSummary | None = None
     systematic: SystematicSummary | None = None
     notes: tuple[str, ...] = ()
-    between: BetweenShare | None = None
+
+    @cached_property
+    def between(self) -> BetweenShare | None:
+        """The volumetric uncertainty with and without the part between the readings.
+
+        :func:`volcal.identify.between_share.between_share` of the result, computed when
+        asked (``volcal identify`` prints it; ``Calibration.identify`` does not need it);
+        None without that part.
+        """
+        from volcal.identify.between_share import between_share
+
+        return between_share(self.result)
 
     @property
     def messages(self) -> list[str]:
@@ -207,9 +216,7 @@ def identify(session: Session | str | Path, *, prior: str = D.PRIOR,
         if (any(k.endswith("_scale_pct") for k in b[0].defaulted)
                 and any(lab.startswith("optics scale") for lab in res.sys_labels)):
             notes.append(OPTICS_DEFAULTED_NOTE)
-    from volcal.identify.between_share import between_share
-
-    return Identified(res, s, mc, sys_summary, tuple(notes), between_share(res))
+    return Identified(res, s, mc, sys_summary, tuple(notes))
 
 
 def identify_options(also: Sequence[str] = ("known_u",), **values: Any

@@ -20,13 +20,13 @@ the session and the model in use:
 from __future__ import annotations
 
 import hashlib
-import tomllib
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from volcal.errors import VolcalInputError
+from volcal.io.tomlread import read_toml
 from volcal.model.errorfunctions import MachineErrors
 from volcal.model.names import AXES
 from volcal.session.identity import MACHINE_KEYS, MachineIdentity, same_machine
@@ -154,10 +154,7 @@ def read_manifest(folder: str | Path) -> dict[str, Any]:
     if not path.is_file():
         raise VolcalInputError(f"no {MANIFEST} here (is it a volcal compensation folder?)",
                                folder)
-    try:
-        return tomllib.loads(path.read_text(encoding="utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise VolcalInputError(f"invalid TOML: {exc}", path) from None
+    return read_toml(path, "compensation manifest")[0]
 
 
 def manifest_identity(manifest: dict[str, Any], folder: str | Path | None = None

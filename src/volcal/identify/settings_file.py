@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import math
 import re
-import tomllib
 from collections.abc import Mapping
 from dataclasses import fields, replace
 from pathlib import Path
@@ -186,19 +185,10 @@ def read_estimator_settings(path: str | Path) -> EstimatorSettings:
         Missing or unreadable file, invalid TOML, or a problem of
         :func:`settings_from_mapping`.
     """
-    path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise VolcalInputError("no such estimator settings file", path) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise VolcalInputError(f"cannot read the estimator settings file: {exc}",
-                               path) from None
-    try:
-        doc = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise VolcalInputError(f"invalid TOML: {exc}", path) from None
-    return settings_from_mapping(doc, path, text)
+    from volcal.io.tomlread import read_toml
+
+    doc, text = read_toml(path, "estimator settings file")
+    return settings_from_mapping(doc, Path(path), text)
 
 
 def _plain(v: object) -> object:

@@ -23,7 +23,6 @@ from __future__ import annotations
 import csv
 import io
 import math
-import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -32,6 +31,7 @@ from volcal.errors import VolcalInputError
 from volcal.io.atomic import write_text
 from volcal.io.table import Column, Table, TableSpec, read_table
 from volcal.io.tomlfmt import dumps as toml_dumps
+from volcal.io.tomlread import read_toml
 from volcal.model.errorfunctions import MachineErrors
 from volcal.model.names import AXES, SQUARENESS_NAMES
 
@@ -153,10 +153,7 @@ def _number_key(doc: dict, table: str, key: str, unit: str, toml_path: Path) -> 
 
 def _read_errors_toml(toml_path: Path, chain: str | None, name: str
                       ) -> tuple[str | None, str, np.ndarray, np.ndarray]:
-    try:
-        doc = tomllib.loads(toml_path.read_text(encoding="utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError, OSError) as exc:
-        raise VolcalInputError(f"invalid TOML: {exc}", toml_path) from None
+    doc, _ = read_toml(toml_path, "error table")
     if doc.get("format") != ERRORS_FORMAT:
         raise VolcalInputError(f"expected format = \"{ERRORS_FORMAT}\"", toml_path, None,
                                "format")

@@ -68,7 +68,6 @@ References
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -476,18 +475,10 @@ def read_budget(path: str | Path) -> Budget:
     VolcalInputError
         Missing or unreadable file, invalid TOML, or any problem of :func:`parse_budget`.
     """
-    path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise VolcalInputError("no such budget file", path) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise VolcalInputError(f"cannot read the budget file: {exc}", path) from None
-    try:
-        doc = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise VolcalInputError(f"invalid TOML: {exc}", path) from None
-    return parse_budget(doc, path)
+    from volcal.io.tomlread import read_toml
+
+    doc, _ = read_toml(path, "budget file")
+    return parse_budget(doc, Path(path))
 
 
 #: The template written by ``volcal budget --template``.

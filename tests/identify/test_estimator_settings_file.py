@@ -12,7 +12,11 @@ is simulated once; the CLI runs in-process.
 from __future__ import annotations
 
 import json
+import re
 import sys
+import tomllib
+from dataclasses import fields
+from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
@@ -201,3 +205,18 @@ def test_advise_takes_the_file(session, tmp_path, monkeypatch, capsys):
     py = Calibration.open(session).advise(settings=f)
     assert py.ambiguity_um == pytest.approx(amb["file"], rel=1e-12)
     assert 1.5 < amb["file"] / amb["default"] <= 2.0
+
+
+def test_the_template_lists_every_field_with_its_default():
+    """docs/estimator-settings.toml: every field once, commented out with its default; as
+    it is and with every field uncommented it reads as volcal's defaults."""
+    path = Path(__file__).resolve().parents[2] / "docs" / "estimator-settings.toml"
+    text = path.read_text("utf-8")
+    lines = [ln for ln in text.splitlines() if re.match(r"^# \w+ = ", ln)]
+    names = [ln[2:].split(" = ")[0] for ln in lines]
+    assert names == [f.name for f in fields(EstimatorSettings)]
+    assert read_estimator_settings(path) == EstimatorSettings()
+    uncommented = "\n".join(ln[2:] if ln in lines else ln for ln in text.splitlines())
+    doc = tomllib.loads(uncommented)
+    assert set(doc["estimator"]) == set(names)
+    assert settings_from_mapping(doc, path, uncommented) == EstimatorSettings()

@@ -130,11 +130,12 @@ def test_compare_rebuilds_the_prior_with_the_recorded_settings(tmp_path):
     import scipy.sparse as sp
 
     from volcal.flow import Calibration
-    from volcal.history.compare import prior_precision, recorded_settings
+    from volcal.history.compare import prior_precision
     from volcal.identify.modelfile import load_model
     from volcal.identify.modelwrite import write_model
     from volcal.identify.prior import PriorStructure
     from volcal.identify.settings import EstimatorSettings
+    from volcal.identify.settings_file import recorded_settings
     from volcal.measure.virtual import random_machine
 
     st = EstimatorSettings(group_kappa=(1.0, 1.0, 1.0, 1.0))

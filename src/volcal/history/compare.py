@@ -153,39 +153,12 @@ def load_record_model(store: Any, rid: str, record: Any = None) -> Any:
         return load_model(Path(tmp) / main)
 
 
-def recorded_settings(model: Any) -> Any:
-    """The estimator settings a model was identified with, as far as its file records them.
-
-    Parameters
-    ----------
-    model : IdentificationResult
-        A model; its ``fit.estimator_settings`` holds the fields that differed from the
-        defaults (volcal identify --estimator-settings; absent: the defaults).
-
-    Returns
-    -------
-    EstimatorSettings
-        The defaults with the recorded fields; a field this volcal does not know (a model
-        of a later volcal) is left out, and recorded values it refuses give the defaults.
-    """
-    from dataclasses import fields
-
-    from volcal.identify.settings import EstimatorSettings
-    from volcal.identify.settings_file import settings_from_mapping
-
-    changed = model.fit.get("estimator_settings") or {}
-    known = {f.name for f in fields(EstimatorSettings)}
-    try:
-        return settings_from_mapping({k: v for k, v in dict(changed).items() if k in known})
-    except (VolcalInputError, TypeError, ValueError):
-        return EstimatorSettings()
-
-
 def prior_precision(model: Any) -> Any:
     """Prior precision of a model's free parameters, rebuilt from its hyperparameters.
 
-    With the estimator settings the model records (:func:`recorded_settings`: a prior's
-    ``group_kappa`` or ``boundary`` other than the defaults changes its precision).
+    With the estimator settings the model records
+    (:func:`volcal.identify.settings_file.recorded_settings`: a prior's ``group_kappa`` or
+    ``boundary`` other than the defaults changes its precision).
 
     ``None`` when the model file does not record them (then the posterior covariance
     is used as it is).
@@ -196,6 +169,7 @@ def prior_precision(model: Any) -> Any:
         A model whose fit records its hyperparameters.
     """
     from volcal.identify.prior import PriorStructure, function_scales
+    from volcal.identify.settings_file import recorded_settings
 
     hyp = model.fit.hyperparameters or {}
     keys = ("positioning_um", "straightness_um", "roll_urad", "tilt_urad", "kappa")

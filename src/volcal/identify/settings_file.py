@@ -24,8 +24,10 @@ from typing import Any
 
 from volcal.errors import VolcalInputError
 from volcal.identify.settings import EstimatorSettings
+from volcal.io.tomlread import read_toml
 
-__all__ = ["SECTION", "changed_settings", "read_estimator_settings", "settings_from_mapping"]
+__all__ = ["SECTION", "changed_settings", "read_estimator_settings", "recorded_settings",
+           "settings_from_mapping"]
 
 SECTION = "estimator"
 """The optional table holding the fields."""
@@ -66,6 +68,11 @@ def _nested(v: object, whole: bool) -> object:
     return _number(v, whole)
 
 
+def _leaves(v: object) -> list[object]:
+    """The numbers of a (nested) tuple default."""
+    return [y for x in v for y in _leaves(x)] if isinstance(v, tuple) else [v]
+
+
 def _value(key: str, v: object) -> object:
     """A TOML value as the field ``key`` expects it (its default's kind)."""
     d = getattr(_DEFAULTS, key)
@@ -82,8 +89,7 @@ def _value(key: str, v: object) -> object:
     if isinstance(d, tuple):
         if not isinstance(v, list):
             raise ValueError(f"expected an array (e.g. {_toml(d)}), got {v!r}")
-        whole = key == "travel_exponent_groups"
-        out = _nested(v, whole)
+        out = _nested(v, whole=all(isinstance(x, int) for x in _leaves(d)))
         if all(not isinstance(x, tuple) for x in d) and key != "travel_exponent_bounds" \
                 and len(v) != len(d):
             raise ValueError(f"expected {len(d)} numbers (e.g. {_toml(d)}), got "
@@ -185,8 +191,6 @@ def read_estimator_settings(path: str | Path) -> EstimatorSettings:
         Missing or unreadable file, invalid TOML, or a problem of
         :func:`settings_from_mapping`.
     """
-    from volcal.io.tomlread import read_toml
-
     doc, text = read_toml(path, "estimator settings file")
     return settings_from_mapping(doc, Path(path), text)
 
@@ -217,3 +221,27 @@ def changed_settings(settings: EstimatorSettings) -> dict[str, object]:
         if _plain(v) != _plain(getattr(_DEFAULTS, f.name)):
             out[f.name] = _plain(v)
     return out
+
+
+def recorded_settings(model: Any) -> EstimatorSettings:
+    """The estimator settings a model was identified with, as far as its file records them.
+
+    Parameters
+    ----------
+    model : IdentificationResult
+        A model; its ``fit.estimator_settings`` holds the fields that differed from the
+        defaults (:func:`changed_settings`; absent: the defaults).
+
+    Returns
+    -------
+    EstimatorSettings
+        The defaults with the recorded fields; a field this volcal does not know (a model
+        of a later volcal) is left out, and recorded values it refuses give the defaults.
+    """
+    fit = getattr(model, "fit", None)
+    changed = (fit.get("estimator_settings") if fit is not None else None) or {}
+    known = {f.name for f in fields(EstimatorSettings)}
+    try:
+        return settings_from_mapping({k: v for k, v in dict(changed).items() if k in known})
+    except (VolcalInputError, TypeError, ValueError):
+        return _DEFAULTS

@@ -124,11 +124,13 @@ def uncertainty_section(inp: Any) -> Section | None:
                 "reading noise and prior): the model was identified without an "
                 "uncertainty budget, so the systematic part (laser wavelength, air, "
                 "material) is not included; `volcal identify --budget FILE` adds it.")
-        fit = getattr(r, "fit", None)
-        changed = dict(fit.get("estimator_settings") or {}) if fit is not None else {}
+        from volcal.identify.settings_file import changed_settings, recorded_settings
+
+        settings = recorded_settings(r)
+        changed = changed_settings(settings)
         bf = getattr(r, "between_factor", None)
         if bf is not None and getattr(bf, "shape", (0, 0))[1] > 0:
-            factor = float(changed.get("between_readings_factor", 2.0))
+            factor = settings.between_readings_factor
             times = "twice" if factor == 2.0 else f"{factor:g} times"
             sec.paragraphs.append(
                 "Between the readings the noise part includes what the readings cannot show "

@@ -75,6 +75,7 @@ from typing import Any
 from volcal.environment.limits import ENVIRONMENT_LIMITS, Limit, range_message
 from volcal.environment.refractive import FORMULAS, HENE_VACUUM_WAVELENGTH_NM
 from volcal.errors import VolcalInputError
+from volcal.io.tomlread import read_toml
 
 __all__ = ["DISTRIBUTIONS", "OPERATING_KEYS", "OPTIC_KEYS", "Budget", "BudgetWarning", "Input",
            "cross_check_referral", "parse_budget", "read_budget", "template_text"]
@@ -475,8 +476,6 @@ def read_budget(path: str | Path) -> Budget:
     VolcalInputError
         Missing or unreadable file, invalid TOML, or any problem of :func:`parse_budget`.
     """
-    from volcal.io.tomlread import read_toml
-
     doc, _ = read_toml(path, "budget file")
     return parse_budget(doc, Path(path))
 

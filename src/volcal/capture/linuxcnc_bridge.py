@@ -76,8 +76,10 @@ def main():
                 if ours(st):
                     return st
                 why = f"the LinuxCNC running is another one's ({st.ini_filename})"
-            except linuxcnc.error as e:
-                why = str(e)
+            except (linuxcnc.error, SystemError) as e:
+                # SystemError: poll() of a status channel LinuxCNC is still setting up (or
+                # tearing down) "returned NULL without setting an exception"
+                why = str(e) or type(e).__name__
             if time.monotonic() > deadline:
                 emit({"error": f"LinuxCNC is not running: {why}"})
                 return None
@@ -94,7 +96,7 @@ def main():
         try:
             s.poll()
             lost = not ours(s)
-        except linuxcnc.error:
+        except (linuxcnc.error, SystemError):  # SystemError: see connect
             lost = True
         if lost:  # LinuxCNC starting, restarting or replaced: connect again
             s = connect(a.lost)

@@ -450,7 +450,11 @@ def test_roll_mixture_equals_the_fit_without_roll(rolls_rescaled):
     conditioned on no roll) equals a full refit with the three roll scales multiplied by
     1e-6; the weight is ``P(roll | y)`` from the full evidence's Bayes factor; the
     mean is ``P x + (1 - P) x0``; the covariance the fit's plus ``(1 - P)^2 d d'``
-    (default) or the mixture's own ``P C + (1 - P) C0 + P (1 - P) d d'``."""
+    (``'roll'``), the mixture's own ``P C + (1 - P) C0 + P (1 - P) d d'`` (``'mixture'``)
+    or the mean square error of that mean over the two models weighted at another prior
+    probability of no roll, ``P' (C + (1 - P)^2 d d') + (1 - P') (C0 + P^2 d d')``
+    (``'cautious'``, default), which is ``'mixture'`` at the estimate's prior probability
+    and ``'roll'`` at none."""
     from volcal.identify import solver
 
     _, prior, fs, fit, log_evidence = rolls_rescaled
@@ -463,18 +467,31 @@ def test_roll_mixture_equals_the_fit_without_roll(rolls_rescaled):
     assert 0.01 < P < 0.99, P  # both models weigh: a real check
     lbf = solver.roll_log_bayes_factor(prior, fs, x, cov)
     assert lbf == pytest.approx(L, abs=1e-5)
-    for mode in ("roll", "mixture"):
+    pc_abs = 0.05  # the cautious weight's prior probability of no roll
+    Pc = (1 - pc_abs) * np.exp(L) / ((1 - pc_abs) * np.exp(L) + pc_abs)
+    assert Pc - P > 0.15, (P, Pc)  # the cautious weight differs: a real check
+    d = x - x0
+    dd = np.outer(d, d)
+    cases = {"roll": cov + (1 - P) ** 2 * dd,
+             "mixture": P * cov + (1 - P) * c0 + P * (1 - P) * dd,
+             "cautious": Pc * (cov + (1 - P) ** 2 * dd) + (1 - Pc) * (c0 + P**2 * dd)}
+    for mode, want in cases.items():
         xm, cm, shrink, p_roll = solver._roll_mixture(prior, fs, x, cov, lbf, p,
-                                                      covariance=mode)
+                                                      covariance=mode, p_absent_cov=pc_abs)
         assert p_roll == pytest.approx(P, rel=1e-5)
         scale = np.abs(x).max()
         np.testing.assert_allclose(xm, P * x + (1 - P) * x0, rtol=1e-6, atol=1e-6 * scale)
         np.testing.assert_allclose(shrink(x), xm, rtol=1e-9, atol=1e-9 * scale)
-        d = x - x0
-        want = (cov + (1 - P) ** 2 * np.outer(d, d) if mode == "roll" else
-                P * cov + (1 - P) * c0 + P * (1 - P) * np.outer(d, d))
         np.testing.assert_allclose(cm, want, rtol=1e-5, atol=1e-6 * np.abs(want).max())
+        assert solver.covariance_roll_weight(mode, lbf, p_roll, pc_abs) == pytest.approx(
+            {"roll": 1.0, "mixture": P, "cautious": Pc}[mode], rel=1e-5)
     assert np.abs(d).max() > 0.05 * scale  # the two fits differ
+    # 'cautious' at the estimate's own prior probability is 'mixture', at none 'roll'
+    for pc_abs, mode in ((p, "mixture"), (0.0, "roll")):
+        got = solver._roll_mixture(prior, fs, x, cov, lbf, p, covariance="cautious",
+                                   p_absent_cov=pc_abs)[1]
+        np.testing.assert_allclose(got, cases[mode], rtol=1e-5,
+                                   atol=1e-6 * np.abs(cases[mode]).max())
 
 
 def test_every_reading_sits_on_a_node_when_the_visited_positions_fit(monkeypatch):

@@ -81,11 +81,16 @@ ISSUE_30 = {
     # the nodes between the readings: the prior's conditional variance times 1 + this
     # (session 14), the estimate unchanged
     "between_readings_factor": 2.0,
+    # the rolls' uncertainty dropped where the readings are decisive against rolls
+    # (session 16), the estimate unchanged
+    "roll_mixture_covariance": "cautious",
+    "roll_covariance_absent": 0.01,
 }
 # the estimator of volcal before issue 30, through the settings
 OLD = {"hyper_spread": 30.0, "trend_per_metre": False, "tilt_trend_centre_urad": 0.0,
        "axis_kappa_spread": 0.0, "travel_exponent_spread": 0.0,
-       "kappa_travel_exponent_spread": 0.0, "between_readings_factor": 0.0}
+       "kappa_travel_exponent_spread": 0.0, "between_readings_factor": 0.0,
+       "roll_mixture_covariance": "roll"}
 
 
 @pytest.fixture(scope="module")

@@ -30,7 +30,7 @@ from volcal.identify.record import FitRecord, session_identity
 from volcal.identify.result import IdentificationResult
 from volcal.identify.settings import EstimatorSettings
 from volcal.identify.settings_file import changed_settings
-from volcal.identify.solver import Solution, solve_bayes, solve_min_norm
+from volcal.identify.solver import Solution, covariance_roll_weight, solve_bayes, solve_min_norm
 from volcal.model.names import ROLL_NAMES
 from volcal.session.format import Measurement, Session
 from volcal.session.kinds import kind_of
@@ -749,7 +749,14 @@ def _result(session: Session, design: Design, sol: Solution, report, o: Identify
         "roll_presence": ({"log_bayes_factor": _fin(sol.roll_log_bayes_factor),
                            "probability": (None if sol.roll_probability is None
                                            else float(sol.roll_probability)),
-                           "prior_probability_absent": float(o.settings.roll_mixture_absent)}
+                           "prior_probability_absent": float(o.settings.roll_mixture_absent),
+                           # the rolls' weight in the uncertainty (roll_mixture_covariance)
+                           "uncertainty_weight": (
+                               None if sol.roll_probability is None else covariance_roll_weight(
+                                   o.settings.roll_mixture_covariance,
+                                   float(sol.roll_log_bayes_factor),
+                                   float(sol.roll_probability),
+                                   o.settings.roll_covariance_absent))}
                           if sol.roll_log_bayes_factor is not None else None),
         "measurements": [m.id for m in design.measurements],
         "known": sorted(design.fixed_names),

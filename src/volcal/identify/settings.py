@@ -138,9 +138,20 @@ class EstimatorSettings:
         the estimate (Bayes factor of :func:`volcal.identify.solver.roll_log_bayes_factor`,
         Kass & Raftery 1995; model average, Hoeting et al. 1999); 0: no average [1].
     roll_mixture_covariance : str
-        Covariance of that average: ``'roll'`` the fit with rolls' plus the shift of the
-        mean, ``C + (1 - P)^2 d d'`` (keeps the unseen rolls' full uncertainty);
-        ``'mixture'`` the mixture's own, ``P C + (1 - P) C0 + P (1 - P) d d'``.
+        Covariance of that average: ``'cautious'`` (default) its mean square error over
+        the two models weighted as the readings weigh them at the prior probability of no
+        roll :attr:`roll_covariance_absent`, ``P' (C + (1 - P)^2 d d') + (1 - P') (C0 + P^2
+        d d')`` with ``P'`` that weight (the rolls' uncertainty is dropped only where the
+        readings are decisive against rolls); ``'roll'`` the fit with rolls' plus the shift
+        of the mean, ``C + (1 - P)^2 d d'`` (``P' = 1``: keeps the rolls' full uncertainty
+        on a machine without roll); ``'mixture'`` the mixture's own, ``P C + (1 - P) C0 + P
+        (1 - P) d d'`` (``P' = P``).
+    roll_covariance_absent : float
+        Prior probability of no roll in the weight ``P'`` of ``'cautious'`` [1]: 0.01 holds
+        the rolls' uncertainty until the readings favour no roll by a Bayes factor of about
+        100 (``P' = 0.5`` at ``log`` factor -4.6); refusing the rolls' presence on weaker
+        evidence let a machine with rolls the readings did not see (log factor -3.5) cover
+        0.32 of its grid (benchmarks/README.md, ``roll_covariance_absent``).
     group_kappa : tuple of 4 float
         Fixed curvature factor of each prior group (positioning, straightness, roll,
         tilt) over ``kappa`` [1]: 0.6 makes the rolls smoother (the twist of a pair of
@@ -219,7 +230,8 @@ class EstimatorSettings:
     nugget_spread: float = 10.0
     roll_factor: float = 1.5
     roll_mixture_absent: float = 0.5
-    roll_mixture_covariance: str = "roll"
+    roll_mixture_covariance: str = "cautious"
+    roll_covariance_absent: float = 0.01
     group_kappa: tuple[float, float, float, float] = (1.0, 1.0, 0.6, 1.0)
     boundary: str = "difference"
     evidence_tol: float = 0.05
@@ -242,9 +254,10 @@ class EstimatorSettings:
 
         from volcal.errors import VolcalInputError
 
-        if self.roll_mixture_covariance not in ("roll", "mixture"):
-            raise VolcalInputError("EstimatorSettings.roll_mixture_covariance must be 'roll' "
-                                   f"or 'mixture', got {self.roll_mixture_covariance!r}")
+        if self.roll_mixture_covariance not in ("roll", "mixture", "cautious"):
+            raise VolcalInputError("EstimatorSettings.roll_mixture_covariance must be 'roll', "
+                                   f"'mixture' or 'cautious', got "
+                                   f"{self.roll_mixture_covariance!r}")
         if self.boundary not in ("difference", "conditional", "start"):
             raise VolcalInputError("EstimatorSettings.boundary must be 'difference', "
                                    f"'conditional' or 'start', got {self.boundary!r}")
@@ -284,6 +297,9 @@ class EstimatorSettings:
                         + (", or one such pair per set of travel_exponent_groups"
                            if name == "travel_exponent_bounds" else "")
                         + f", got {getattr(self, name)!r}")
+        if not 0.0 <= self.roll_covariance_absent < 1.0:
+            raise VolcalInputError("EstimatorSettings.roll_covariance_absent must be in [0, 1), "
+                                   f"got {self.roll_covariance_absent!r}")
         if not 0.0 <= self.roll_mixture_absent < 1.0:
             raise VolcalInputError("EstimatorSettings.roll_mixture_absent must be in [0, 1), "
                                    f"got {self.roll_mixture_absent!r}")

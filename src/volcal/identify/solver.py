@@ -50,7 +50,7 @@ from volcal.identify.prior import (
 )
 from volcal.identify.settings import EstimatorSettings
 
-__all__ = ["Solution", "solve_bayes", "solve_min_norm"]
+__all__ = ["Solution", "covariance_roll_weight", "solve_bayes", "solve_min_norm"]
 
 FREE_GROUPS: tuple[int, ...] = (0, 1, 3)
 """Groups of :data:`volcal.identify.prior.GROUPS` with a scale of their own in the
@@ -631,7 +631,8 @@ def _roll_presence(prior: PriorStructure, design: Design, fscales, H, cf, x, cov
     p_roll = None
     if st.roll_mixture_absent > 0 and log_bf is not None:
         mixed = _roll_mixture(prior, fscales, x, cov, log_bf, st.roll_mixture_absent,
-                              design.extra_precision, st.roll_mixture_covariance)
+                              design.extra_precision, st.roll_mixture_covariance,
+                              st.roll_covariance_absent)
         if mixed is not None:
             x, cov, shrink, p_roll = mixed
             if shrink is not None:
@@ -800,8 +801,45 @@ def roll_log_bayes_factor(prior: PriorStructure, fscales, x, cov) -> float | Non
     return float(_roll_log_likelihood(k, b2, 1.0))
 
 
+def _p_roll(log_bf: float, p_absent: float) -> float:
+    """``P(roll | y)`` from the log Bayes factor and the prior probability of no roll."""
+    if p_absent <= 0:
+        return 1.0
+    z = np.log(p_absent) - np.log1p(-p_absent) - log_bf
+    return float(np.exp(-np.logaddexp(0.0, z)))
+
+
+def covariance_roll_weight(covariance: str, log_bf: float, p_roll: float,
+                           p_absent_cov: float) -> float:
+    """Weight ``P'`` of the model with rolls in the two-model average's covariance.
+
+    Parameters
+    ----------
+    covariance : str
+        :attr:`EstimatorSettings.roll_mixture_covariance`.
+    log_bf : float
+        Log Bayes factor of the rolls (:func:`roll_log_bayes_factor`).
+    p_roll : float
+        ``P(roll | y)`` of the estimate's average [1].
+    p_absent_cov : float
+        :attr:`EstimatorSettings.roll_covariance_absent` [1].
+
+    Returns
+    -------
+    float
+        1 for ``'roll'``, ``p_roll`` for ``'mixture'``, ``P(roll | y)`` at the prior
+        probability ``p_absent_cov`` of no roll for ``'cautious'`` [1].
+    """
+    if covariance == "roll":
+        return 1.0
+    if covariance == "mixture":
+        return p_roll
+    return _p_roll(log_bf, p_absent_cov)
+
+
 def _roll_mixture(prior: PriorStructure, fscales, x, cov, log_bf: float, p_absent: float,
-                  soft: NDArray[np.float64] | None = None, covariance: str = "roll"):
+                  soft: NDArray[np.float64] | None = None, covariance: str = "roll",
+                  p_absent_cov: float = 0.01):
     """Average of the fit with rolls and the fit without, weighted by the readings.
 
     The fit without roll is the fit with rolls conditioned on zero roll at every free
@@ -810,9 +848,13 @@ def _roll_mixture(prior: PriorStructure, fscales, x, cov, log_bf: float, p_absen
     K C_RR K'`` with ``K = C_:R C_RR^-1``. With ``P = P(roll | y)`` from the log Bayes
     factor ``log_bf`` and
     the prior probability ``p_absent`` of no roll, the mixture's mean is ``x_m = x - (1 -
-    P) d``, ``d = K x_R`` (Hoeting et al. 1999, Bayesian model averaging); its covariance
-    (``covariance``) ``C + (1 - P)^2 d d'`` (default) or the mixture's
-    own ``C - (1 - P) K C_RR K' + P (1 - P) d d'``.
+    P) d``, ``d = K x_R`` (Hoeting et al. 1999, Bayesian model averaging). Its covariance
+    (``covariance``) is the mean square error of ``x_m`` over the two models weighted
+    ``P'`` and ``1 - P'``: ``P' (C + (1 - P)^2 d d') + (1 - P') (C0 + P^2 d d')`` =
+    ``C - (1 - P') K C_RR K' + (P' (1 - P)^2 + (1 - P') P^2) d d'``, with ``P'`` the
+    weight of the rolls at the prior probability of no roll ``p_absent_cov``
+    (``'cautious'``), 1 (``'roll'``: ``C + (1 - P)^2 d d'``) or ``P`` (``'mixture'``, the
+    mixture's own: ``C - (1 - P) K C_RR K' + P (1 - P) d d'``).
 
     Parameters
     ----------
@@ -831,8 +873,11 @@ def _roll_mixture(prior: PriorStructure, fscales, x, cov, log_bf: float, p_absen
         The design's extra precision of stated values: rolls stated by the user are left
         as they are.
     covariance : str
-        ``'roll'`` (default) or ``'mixture'``
+        ``'roll'``, ``'mixture'`` or ``'cautious'``
         (:attr:`EstimatorSettings.roll_mixture_covariance`).
+    p_absent_cov : float
+        Prior probability of no roll in ``P'`` of ``'cautious'``
+        (:attr:`EstimatorSettings.roll_covariance_absent`).
 
     Returns
     -------
@@ -853,8 +898,7 @@ def _roll_mixture(prior: PriorStructure, fscales, x, cov, log_bf: float, p_absen
     R = np.concatenate(idx)
     if soft is not None and np.any(soft[R]):  # the user stated the rolls to so much
         return None
-    z = np.log(p_absent) - np.log1p(-p_absent) - log_bf
-    p_roll = float(np.exp(-np.logaddexp(0.0, z)))
+    p_roll = _p_roll(log_bf, p_absent)
     q = 1.0 - p_roll
     if q < 1e-9:  # the readings settle it: the fit with rolls
         return x, cov, None, p_roll
@@ -867,10 +911,8 @@ def _roll_mixture(prior: PriorStructure, fscales, x, cov, log_bf: float, p_absen
     K = (cov[:, R] / T) @ (V / sv) @ V.T / T  # C_:R C_RR^-1
     d = K @ x[R]
     xm = x - q * d
-    if covariance == "roll":
-        cm = cov + q * q * np.outer(d, d)
-    else:
-        cm = cov - q * (K @ cov[R, :]) + p_roll * q * np.outer(d, d)
+    qc = 1.0 - (pc := covariance_roll_weight(covariance, log_bf, p_roll, p_absent_cov))
+    cm = cov + (pc * q * q + qc * p_roll * p_roll) * np.outer(d, d) - qc * (K @ cov[R, :])
 
     def shrink(v):
         return v - q * (K @ v[R])

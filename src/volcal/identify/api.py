@@ -9,7 +9,7 @@ identifiability report (:mod:`.identifiability`) -> residual check -> result
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -35,8 +35,12 @@ from volcal.model.names import ROLL_NAMES
 from volcal.session.format import Measurement, Session
 from volcal.session.kinds import kind_of
 
+if TYPE_CHECKING:
+    from volcal.identify.between_share import BetweenForecast
+
 __all__ = ["IdentifyOptions", "advise", "default_outlier_threshold", "identify",
            "standardised_residuals"]
+
 
 @dataclass
 class IdentifyOptions:
@@ -324,11 +328,31 @@ def advise(session: Session, options: IdentifyOptions | None = None):
                               f"{straight:g} um, roll and tilts {tilt:g} urad); the measured "
                               "data will refine them.")
     report.messages.extend(_kind_notes(design.measurements))  # what each kind adds
+    report.between = _between_forecast(planned, o, known)
+    if report.between is not None:
+        report.messages.append(report.between.describe())
     from volcal.session.kinds import hooks_of
 
     for notes in hooks_of([m.kind for m in session.measurements], "advise_notes"):
         report.messages += notes(session, planned, o)  # a kind's own advice (tracker layout)
     return report
+
+
+def _between_forecast(planned: Session, o: IdentifyOptions, known: dict
+                      ) -> BetweenForecast | None:
+    """:func:`~volcal.identify.between_share.forecast_between` on the identification's grid.
+
+    The nodes and design :func:`identify` would use for the planned session (its fine grid:
+    ``refine``, ``max_nodes``); None when the part is off or every node is read.
+    """
+    from volcal.identify.between_share import forecast_between
+
+    st = o.settings
+    if st.between_readings_factor <= 0:
+        return None
+    nodes = choose_nodes(planned, refine=o.refine, max_nodes=o.max_nodes, settings=st)
+    design = build_design(planned, nodes, known, o.drift, o.measurement_ids, o.tilts)
+    return forecast_between(design, st, planned.travel)
 
 
 def identify(session: Session, options: IdentifyOptions | None = None) -> IdentificationResult:

@@ -24,6 +24,7 @@ eigenproblem).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -33,6 +34,9 @@ from volcal.identify.prior import PriorStructure
 from volcal.identify.settings import EstimatorSettings
 from volcal.model.kinematics import pose_jacobian
 from volcal.model.names import COMPONENT_NAMES, ROLL_NAMES, SQUARENESS_NAMES, describe, kind
+
+if TYPE_CHECKING:
+    from volcal.identify.between_share import BetweenForecast
 
 __all__ = ["IdentifiabilityReport", "analyse", "describe", "parameter_names", "rigid_projector"]
 
@@ -62,6 +66,11 @@ class IdentifiabilityReport:
         Extra measurements that would determine more, best first.
     null_groups : list of list of str
         For each group of undetermined combinations, the functions they mix.
+    between : BetweenForecast or None
+        Before measuring (:func:`volcal.identify.api.advise`): the part between the
+        readings the plan would leave on a typical machine
+        (:func:`volcal.identify.between_share.forecast_between`); not in :meth:`to_dict`
+        (the advice's document carries it as ``between_readings``).
     """
 
     n_parameters: int
@@ -73,6 +82,7 @@ class IdentifiabilityReport:
     messages: list[str] = field(default_factory=list)
     suggestions: list[str] = field(default_factory=list)
     null_groups: list[list[str]] = field(default_factory=list)
+    between: BetweenForecast | None = None
 
     def to_dict(self) -> dict:
         """JSON-ready dictionary."""

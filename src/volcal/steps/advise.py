@@ -44,8 +44,10 @@ class Advice:
 
     def to_dict(self) -> dict[str, Any]:
         """The document of ``volcal advise --json`` (NaN, a figure there is none of: null)."""
+        between = getattr(self.report, "between", None)
         return _plain({"format": "volcal-advice/1", "messages": self.messages,
                        "identifiability": self.report.to_dict(),
+                       "between_readings": None if between is None else between.to_dict(),
                        "location_candidates": [r.to_dict() for r in self.locations]})
 
 

@@ -3,6 +3,11 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
+# One BLAS thread per test worker: two pytest workers on the 2-core box, each with
+# OpenBLAS's default of one thread per core, made four busy threads on two cores;
+# tests/identify took 134-145 s with them and 91-105 s with one (session 16,
+# benchmarks/README.md "make test time"). volcal's own commands keep the default.
+ONE_BLAS_THREAD := OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 MKL_NUM_THREADS=1
 
 .PHONY: all install bytecode test lint demo bench study clean browser-deps linuxcnc-deps postgres-deps opcua-deps
 
@@ -82,7 +87,7 @@ postgres-deps:
 # capture processes beside LinuxCNC (a resumed capture missed a dwell; benchmarks/README.md,
 # "Three workers").
 test: $(STAMP) bytecode browser-deps linuxcnc-deps postgres-deps opcua-deps
-	$(BIN)/python -m pytest -n 2 --dist loadfile --no-loadscope-reorder -m "not slow"
+	$(ONE_BLAS_THREAD) $(BIN)/python -m pytest -n 2 --dist loadfile --no-loadscope-reorder -m "not slow"
 
 # ruff, then the import contracts of pyproject.toml (docs/architecture.md; make test runs
 # them too, tests/test_architecture.py), then mypy on src/volcal ([tool.mypy] of
@@ -99,7 +104,7 @@ bench: $(STAMP) bytecode postgres-deps
 	$(BIN)/python benchmarks/run.py
 
 study: $(STAMP)
-	$(BIN)/python -m pytest -n 2 --dist loadfile -m slow
+	$(ONE_BLAS_THREAD) $(BIN)/python -m pytest -n 2 --dist loadfile -m slow
 	$(BIN)/python benchmarks/history_study.py --pairs 40 --power-pairs 20
 	$(BIN)/python benchmarks/history_study.py --detectability --steps 4,6,10,20 --runs 1,2,5
 	HYPOTHESIS_PROFILE=fuzz VOLCAL_FUZZ_STORES=10000 $(BIN)/python -m pytest -q -p no:cacheprovider tests/history/test_fuzz_store.py

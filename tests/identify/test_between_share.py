@@ -62,6 +62,8 @@ def test_share_is_the_prediction_with_and_without_the_part(fits):
     u, u0 = (m.predict(qp, systematic=False)[1] for m in (r, bare))
     assert share.between_um == pytest.approx(np.sqrt(u**2 - u0**2).max(), rel=1e-6)
     given = between_share(r, q)  # points given: every figure over them
+    assert given.part_points == given.points == 11**3 and "midpoints" not in given.describe()
+    assert share.part_points == 21**3
     assert given.between_um == pytest.approx(
         np.sqrt(np.maximum(r.predict(q, systematic=False)[1] ** 2
                            - bare.predict(q, systematic=False)[1] ** 2, 0)).max(), rel=1e-6)

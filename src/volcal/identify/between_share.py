@@ -63,7 +63,9 @@ class BetweenShare:
     nodes : int
         Node values no reading touches (the part's columns).
     points : int
-        Points of :func:`share_grid`.
+        Points of the uncertainties' grid (:func:`share_grid`, or the points given).
+    part_points : int
+        Points of the part's grid (:func:`part_grid`, or the points given).
     """
 
     u_um: float
@@ -71,17 +73,21 @@ class BetweenShare:
     between_um: float
     nodes: int
     points: int
+    part_points: int
 
     def describe(self) -> str:
         """One plain sentence."""
         n = round(self.points ** (1 / 3))
-        return (f"largest standard uncertainty of the volumetric error (noise part) over the "
-                f"volumetric indices' {n} x {n} x {n} grid of the travel: "
-                f"{self.u_um:.3f} um, {self.u_without_um:.3f} um without the part between "
-                f"the readings; the part itself up to {self.between_um:.3f} um (in "
-                f"quadrature) over that grid with its midpoints ({2 * n - 1} x {2 * n - 1} x "
-                f"{2 * n - 1}), at the {self.nodes} node values no reading touches; readings "
-                "at half the spacing would leave about an eighth of its variance")
+        m = round(self.part_points ** (1 / 3))
+        grid = (f"the volumetric indices' {n} x {n} x {n} grid of the travel"
+                if n**3 == self.points else f"{self.points} points")
+        where = ("there" if self.part_points == self.points
+                 else f"over that grid with its midpoints ({m} x {m} x {m})")
+        return (f"largest standard uncertainty of the volumetric error (noise part) over "
+                f"{grid}: {self.u_um:.3f} um, {self.u_without_um:.3f} um without the part "
+                f"between the readings; the part itself up to {self.between_um:.3f} um (in "
+                f"quadrature) {where}, at the {self.nodes} node values no reading touches; "
+                "readings at half the spacing would leave about an eighth of its variance")
 
 
 @dataclass(frozen=True)
@@ -210,10 +216,10 @@ def between_share(result: IdentificationResult,
     order, layout = result.errors.chain_obj.order, result.layout
     part = _part(order, layout, cols, var, q)
     u = np.sqrt(u0**2 + part**2)
-    largest = float((part if given else _part(order, layout, cols, var,
-                                              part_grid(result.errors.travel))).max())
-    return BetweenShare(float(u.max()), float(u0.max()), largest, int(bf.shape[1]),
-                        int(q.shape[0]))
+    if not given:
+        part = _part(order, layout, cols, var, part_grid(result.errors.travel))
+    return BetweenShare(float(u.max()), float(u0.max()), float(part.max()), int(bf.shape[1]),
+                        int(q.shape[0]), int(part.shape[0]))
 
 
 def forecast_between(design: Design, settings: EstimatorSettings,

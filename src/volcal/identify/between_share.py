@@ -214,10 +214,13 @@ def between_share(result: IdentificationResult,
     cols = np.asarray(result.free)[var > 0]
     var = var[var > 0]
     order, layout = result.errors.chain_obj.order, result.layout
-    part = _part(order, layout, cols, var, q)
-    u = np.sqrt(u0**2 + part**2)
-    if not given:
+    if given:
+        part = here = _part(order, layout, cols, var, q)
+    else:  # one Jacobian: the indices' grid is the part grid's even-indexed points
         part = _part(order, layout, cols, var, part_grid(result.errors.travel))
+        n = 2 * SHARE_POINTS - 1
+        here = part.reshape(n, n, n, 3)[::2, ::2, ::2].reshape(-1, 3)
+    u = np.sqrt(u0**2 + here**2)
     return BetweenShare(float(u.max()), float(u0.max()), float(part.max()), int(bf.shape[1]),
                         int(q.shape[0]), int(part.shape[0]))
 

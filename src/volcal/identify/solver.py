@@ -912,7 +912,9 @@ def _roll_mixture(prior: PriorStructure, fscales, x, cov, log_bf: float, p_absen
     d = K @ x[R]
     xm = x - q * d
     qc = 1.0 - (pc := covariance_roll_weight(covariance, log_bf, p_roll, p_absent_cov))
-    cm = cov + (pc * q * q + qc * p_roll * p_roll) * np.outer(d, d) - qc * (K @ cov[R, :])
+    cm = cov + (pc * q * q + qc * p_roll * p_roll) * np.outer(d, d)
+    if qc:  # 'roll' (P' = 1) keeps the rolls' uncertainty: no K C_RR K' to form
+        cm = cm - qc * (K @ cov[R, :])
 
     def shrink(v):
         return v - q * (K @ v[R])

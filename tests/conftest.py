@@ -166,8 +166,10 @@ LINUXCNC_FILES: tuple[str, ...] = (
     "compensate/test_linuxcnc_control.py", "compensate/test_trt_halcmd.py",
 )
 """The test files that run LinuxCNC (one at a time per box: ``linuxcnc_sim``'s lock).
-``make test`` gives them to one worker as one unit of work (:func:`pytest_xdist_make_scheduler`),
-first, so the other worker never waits on the lock while they run."""
+``make test`` runs them in a process of its own beside the workers (the Makefile's
+REALTIME_TESTS); a plain ``pytest -n 2 --dist loadfile`` gives them to one worker as one
+unit of work (:func:`pytest_xdist_make_scheduler`), first, so the other worker never waits
+on the lock while they run."""
 
 REPORT_FIXTURE_FILES: tuple[str, ...] = (
     "report/test_report_render.py", "report/test_report_cli.py", "report/test_evaluate_once.py",

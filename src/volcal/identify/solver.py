@@ -842,19 +842,17 @@ def _roll_mixture(prior: PriorStructure, fscales, x, cov, log_bf: float, p_absen
                   p_absent_cov: float = 0.01):
     """Average of the fit with rolls and the fit without, weighted by the readings.
 
-    The fit without roll is the fit with rolls conditioned on zero roll at every free
-    node (the rolls' prior is independent of the other unknowns, so conditioning the
-    posterior equals refitting with the rolls removed): ``x0 = x - K x_R``, ``C0 = C -
-    K C_RR K'`` with ``K = C_:R C_RR^-1``. With ``P = P(roll | y)`` from the log Bayes
-    factor ``log_bf`` and
-    the prior probability ``p_absent`` of no roll, the mixture's mean is ``x_m = x - (1 -
-    P) d``, ``d = K x_R`` (Hoeting et al. 1999, Bayesian model averaging). Its covariance
-    (``covariance``) is the mean square error of ``x_m`` over the two models weighted
-    ``P'`` and ``1 - P'``: ``P' (C + (1 - P)^2 d d') + (1 - P') (C0 + P^2 d d')`` =
-    ``C - (1 - P') K C_RR K' + (P' (1 - P)^2 + (1 - P') P^2) d d'``, with ``P'`` the
-    weight of the rolls at the prior probability of no roll ``p_absent_cov``
-    (``'cautious'``), 1 (``'roll'``: ``C + (1 - P)^2 d d'``) or ``P`` (``'mixture'``, the
-    mixture's own: ``C - (1 - P) K C_RR K' + P (1 - P) d d'``).
+    The fit without roll is the fit with rolls conditioned on zero roll at every free node (the
+    rolls' prior is independent of the other unknowns, so conditioning the posterior equals
+    refitting with the rolls removed): ``x0 = x - K x_R``, ``C0 = C - K C_RR K'`` with ``K =
+    C_:R C_RR^-1``. With ``P = P(roll | y)`` from the log Bayes factor ``log_bf`` and the prior
+    probability ``p_absent`` of no roll, the mixture's mean is ``x_m = x - (1 - P) d``, ``d = K
+    x_R`` (Hoeting et al. 1999, Bayesian model averaging). Its covariance (``covariance``) is
+    the mean square error of ``x_m`` over the two models weighted ``P'``, ``1 - P'``: ``P' (C +
+    (1 - P)^2 d d') + (1 - P') (C0 + P^2 d d')`` = ``C - (1 - P') K C_RR K' + (P' (1 - P)^2 +
+    (1 - P') P^2) d d'``, with ``P'`` the weight of the rolls at the prior probability of no roll
+    ``p_absent_cov`` (``'cautious'``), 1 (``'roll'``: ``C + (1 - P)^2 d d'``) or ``P``
+    (``'mixture'``, the mixture's own: ``C - (1 - P) K C_RR K' + P (1 - P) d d'``).
 
     Parameters
     ----------
@@ -912,9 +910,8 @@ def _roll_mixture(prior: PriorStructure, fscales, x, cov, log_bf: float, p_absen
     d = K @ x[R]
     xm = x - q * d
     qc = 1.0 - (pc := covariance_roll_weight(covariance, log_bf, p_roll, p_absent_cov))
-    cm = cov + (pc * q * q + qc * p_roll * p_roll) * np.outer(d, d)
-    if qc:  # 'roll' (P' = 1) keeps the rolls' uncertainty: no K C_RR K' to form
-        cm = cm - qc * (K @ cov[R, :])
+    cm = cov + (pc * q * q + qc * p_roll * p_roll) * np.outer(d, d) - (  # no K C_RR K'
+        qc * (K @ cov[R, :]) if qc else 0.0)  # to form for 'roll' (P' = 1)
 
     def shrink(v):
         return v - q * (K @ v[R])

@@ -39,7 +39,7 @@ if TYPE_CHECKING:
     from volcal.model.parameters import ParameterLayout
 
 __all__ = ["BetweenForecast", "BetweenShare", "between_share", "forecast_between",
-           "part_grid", "share_grid"]
+           "part_grid", "read_functions", "share_grid"]
 
 SHARE_POINTS = 11
 """Points per axis of :func:`share_grid`: the volumetric indices' grid
@@ -61,7 +61,8 @@ class BetweenShare:
         Largest part between the readings at a point and component of :func:`part_grid`
         (the grid with its midpoints; in quadrature with the rest) [um].
     nodes : int
-        Node values no reading touches (the part's columns).
+        Node values no reading touches, of the functions the readings move
+        (:func:`read_functions`; the part's columns).
     points : int
         Points of the uncertainties' grid (:func:`share_grid`, or the points given).
     part_points : int
@@ -102,7 +103,8 @@ class BetweenForecast:
         centre (the hyperprior's centres: :attr:`EstimatorSettings.typical_scales`,
         ``kappa_centre``) [um].
     nodes : int
-        Node values of the identification's grid no planned reading touches.
+        Node values of the identification's grid no planned reading touches, of the
+        functions the planned readings move (:func:`read_functions`).
     points : int
         Points of :func:`part_grid`.
     """
@@ -181,6 +183,38 @@ def _part(order, layout: ParameterLayout, cols: NDArray[np.intp], var: NDArray[n
     return np.sqrt(np.asarray(J.multiply(J) @ var)).reshape(-1, 3)
 
 
+def read_functions(layout: ParameterLayout, free: NDArray[np.intp],
+                   untouched: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """The free parameters of the functions some reading moves.
+
+    A function none of whose free nodes a reading touches (a straightness of a session of
+    linear tests) is not measured at all: the whole function is the prior's, which the
+    identifiability report states, and denser readings would not change it. The part
+    between the readings is that of the functions the readings do move.
+
+    Parameters
+    ----------
+    layout : ParameterLayout
+        The parameter layout.
+    free : ndarray of int
+        Free parameters of ``layout``.
+    untouched : ndarray of bool, shape (free.size,)
+        Free parameters no reading moves.
+
+    Returns
+    -------
+    ndarray of bool, shape (free.size,)
+        True at the free parameters of a function with at least one touched free node.
+    """
+    out = np.zeros(free.size, dtype=bool)
+    for k in range(3):
+        for c in range(6):
+            m = np.isin(free, layout.indices(k, c))
+            if m.any() and not untouched[m].all():
+                out |= m
+    return out
+
+
 def between_share(result: IdentificationResult,
                   q: NDArray[np.float64] | None = None) -> BetweenShare | None:
     """The volumetric uncertainty with and without the part between the readings.
@@ -196,23 +230,29 @@ def between_share(result: IdentificationResult,
     Returns
     -------
     BetweenShare or None
-        None when the model has no such part (every node read, minimum norm, no
-        uncertainty).
+        None when the model has no such part (every node read, or unread only in
+        functions no reading moves; minimum norm; no uncertainty).
     """
     bf = result.between_factor
     if bf is None or bf.shape[1] == 0 or result.cov_factor is None:
         return None
+    bf = np.asarray(bf)
+    var = np.sum(bf**2, axis=1)
+    free, untouched = np.asarray(result.free), var > 0
+    keep = untouched & read_functions(result.layout, free, untouched)
+    if not keep.any():  # only functions no reading moves: nothing between readings
+        return None
     given = q is not None
     q = np.asarray(q, dtype=float).reshape(-1, 3) if given else share_grid(result)
-    # the rest without the part (the narrower factor) and the part's own variance at each
-    # point, |J B|^2 (J the first-order Jacobian of the volumetric error, B the part's
-    # factor, one node per column): the parts are independent, u^2 = u_without^2 + |J B|^2
+    # the rest without the part (the narrower factor: the columns of the functions no
+    # reading moves stay) and the part's own variance at each point, |J B|^2 (J the
+    # first-order Jacobian of the volumetric error, B the part's factor, one node per
+    # column): the parts are independent, u^2 = u_without^2 + |J B|^2
     bare = copy.copy(result)  # shallow: the arrays are shared
-    bare.between_factor = None
+    rest = ~keep[untouched]  # bf's columns are the untouched rows in order
+    bare.between_factor = bf[:, rest] if rest.any() else None
     u0 = bare.predict(q, systematic=False)[1]
-    var = np.sum(np.asarray(bf) ** 2, axis=1)
-    cols = np.asarray(result.free)[var > 0]
-    var = var[var > 0]
+    cols, var = free[keep], var[keep]
     order, layout = result.errors.chain_obj.order, result.layout
     if given:
         part = here = _part(order, layout, cols, var, q)
@@ -221,7 +261,7 @@ def between_share(result: IdentificationResult,
         n = 2 * SHARE_POINTS - 1
         here = part.reshape(n, n, n, 3)[::2, ::2, ::2].reshape(-1, 3)
     u = np.sqrt(u0**2 + here**2)
-    return BetweenShare(float(u.max()), float(u0.max()), float(part.max()), int(bf.shape[1]),
+    return BetweenShare(float(u.max()), float(u0.max()), float(part.max()), int(keep.sum()),
                         int(q.shape[0]), int(part.shape[0]))
 
 
@@ -247,7 +287,8 @@ def forecast_between(design: Design, settings: EstimatorSettings,
     Returns
     -------
     BetweenForecast or None
-        None when the part is off (factor 0) or every node is read.
+        None when the part is off (factor 0) or every node of the functions the
+        readings move is read.
     """
     from volcal.identify.between import between_readings_variance
     from volcal.identify.identifiability import _reference_prior
@@ -257,12 +298,12 @@ def forecast_between(design: Design, settings: EstimatorSettings,
                                     function_scales(np.asarray(settings.typical_scales,
                                                                dtype=float)),
                                     float(settings.between_readings_factor))
-    touched = var > 0
-    if not touched.any():
+    free, untouched = np.asarray(design.free), var > 0
+    keep = untouched & read_functions(design.layout, free, untouched)
+    if not keep.any():
         return None
     from volcal.model.chain import parse_chain
 
     q = part_grid(travel)
-    part = _part(parse_chain(design.chain).order, design.layout,
-                 np.asarray(design.free)[touched], var[touched], q)
-    return BetweenForecast(float(part.max()), int(touched.sum()), int(q.shape[0]))
+    part = _part(parse_chain(design.chain).order, design.layout, free[keep], var[keep], q)
+    return BetweenForecast(float(part.max()), int(keep.sum()), int(q.shape[0]))

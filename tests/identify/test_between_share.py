@@ -167,10 +167,16 @@ def test_functions_no_reading_moves_are_not_between_the_readings():
     all (the identifiability report says so), their nodes are not "between the readings",
     and denser readings would not change them. Forecast and share count only the unread
     nodes of those three functions (session 16 counted every node of the unmeasured
-    functions too: the forecast said 28.25 um for this plan, 0.89 um now)."""
+    functions too: the forecast said 28.25 um for this plan, 0.89 um now). The messages
+    say why Y's and Z's functions are undetermined: no test moves those axes."""
     c = Calibration.plan([[0, 800], [0, 600], [0, 500]], steps=10, runs=2,
                          tests=["linear:x"], name="LINX")
-    f = c.advise().between
+    rep = c.advise()
+    f = rep.between
+    said = {m.split()[0]: m for m in rep.messages if "is not determined" in m}
+    for n in ("EYY", "EAY", "EBY", "EZZ", "ECZ"):  # why: the axis is never moved
+        assert "No test here moves the " + n[2] + " axis" in said[n], said[n]
+    assert "No test here moves" not in said["EAX"] and "lever arms" in said["EAX"]
     c.simulate(seed=5)
     r = c.identify()
     free = np.asarray(r.free)

@@ -400,6 +400,22 @@ def _order(design: Design):
     return parse_chain(design.chain).order
 
 
+def _unmoved_axes(design: Design) -> set[str]:
+    """The axes (``'X'``, ``'Y'``, ``'Z'``) none of whose function values a reading moves."""
+    from volcal.identify.between import untouched_parameters
+
+    if not design.measurements:
+        return set()
+    untouched = untouched_parameters(design)
+    free = np.asarray(design.free)
+    out = set()
+    for k, axis in enumerate("XYZ"):
+        m = np.isin(free, np.concatenate([design.layout.indices(k, c) for c in range(6)]))
+        if m.any() and untouched[m].all():
+            out.add(axis)
+    return out
+
+
 def _messages(rep: IdentifiabilityReport, design: Design) -> None:
     kinds = sorted({m.kind for m in design.measurements})
     rep.messages.append(
@@ -409,10 +425,13 @@ def _messages(rep: IdentifiabilityReport, design: Design) -> None:
     poor = [n for n, f in rep.determined_fraction.items() if f < 0.5]
     weak = [n for n, f in rep.determined_fraction.items() if 0.5 <= f < 0.95]
     rolls = [n for n in poor if n in ROLL_NAMES]
+    unmoved = _unmoved_axes(design)
     for n in poor:
         f = rep.determined_fraction[n]
         why = ""
-        if n in ROLL_NAMES:
+        if n in COMPONENT_NAMES and "XYZ"[COMPONENT_NAMES.index(n) // 6] in unmoved:
+            why = f" No test here moves the {n[2]} axis, so no reading depends on its errors."
+        elif n in ROLL_NAMES:
             why = (" Roll acts only through lever arms across the beam; linear tests along the "
                    "axis cannot see it. Its estimate leans on the prior (zero); measure it with "
                    "an electronic level or give it as a known error.")

@@ -135,7 +135,7 @@ def candidate_additions(travel: ArrayLike, vertical_axis: int = 2) -> list[Addit
     t = np.asarray(travel, dtype=float).reshape(3, 2)
     out = [Addition(f"the 3 linear lines of {a.upper()} (reference line and 2 Abbe offsets)",
                     (f"linear:{a}",)) for a in "xyz"]
-    out.append(Addition("the 4 step diagonals again with a retroreflector", ("step-diagonal",),
+    out.append(Addition("the 4 step diagonals with a retroreflector", ("step-diagonal",),
                         {"step_target": "retroreflector"}))
     out.append(Addition("the 4 step diagonals in axis order zyx", ("step-diagonal",),
                         {"step_orders": ("zyx",)}))

@@ -38,7 +38,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from volcal.identify.design import Design
+from volcal.identify.design import UNTOUCHED_TOL, Design, untouched_parameters
 from volcal.identify.prior import PriorStructure
 from volcal.identify.result import diagonal_factor
 from volcal.identify.settings import EstimatorSettings
@@ -47,32 +47,6 @@ from volcal.model.parameters import ParameterLayout
 
 __all__ = ["UNTOUCHED_TOL", "between_factor", "between_readings_variance", "fitted_prior",
            "untouched_parameters"]
-
-UNTOUCHED_TOL = 1e-6
-"""A column of the design below this share of its largest entry is untouched [1]."""
-
-
-def untouched_parameters(design: Design) -> NDArray[np.bool_]:
-    """Free parameters no reading depends on (nodes between the readings).
-
-    Parameters
-    ----------
-    design : Design
-        Assembled observation system.
-
-    Returns
-    -------
-    ndarray of bool, shape (design.n_free,)
-        True where the column of ``A`` is zero, or below :data:`UNTOUCHED_TOL` times the
-        design's largest entry: a reading within a millionth of the node spacing of the
-        neighbouring node (a position computed in floating point, 133.3333333 mm, beside
-        the node it was rounded to, 133.333333 mm) touches that node as a reading read
-        back from its file does, not at all.
-    """
-    a = design.A.tocsc()[:, :design.n_free]
-    col = np.asarray(abs(a).max(axis=0).toarray().ravel())
-    return col <= UNTOUCHED_TOL * (col.max() if col.size else 0.0)
-
 
 def between_readings_variance(design: Design, prior: PriorStructure,
                               function_scales: NDArray[np.float64],

@@ -87,7 +87,8 @@ class BetweenShare:
         return (f"largest standard uncertainty of the volumetric error (noise part) over "
                 f"{grid}: {self.u_um:.3f} um, {self.u_without_um:.3f} um without the part "
                 f"between the readings; the part itself up to {self.between_um:.3f} um (in "
-                f"quadrature) {where}, at the {self.nodes} node values no reading touches; "
+                f"quadrature) {where}, at the {self.nodes} node values no reading touches "
+                "of the functions the readings move; "
                 "readings at half the spacing would leave about an eighth of its variance")
 
 
@@ -120,7 +121,8 @@ class BetweenForecast:
                 f"planned increments leave up to {self.between_um:.2f} um (standard "
                 f"uncertainty) of the volumetric error between the readings, over the "
                 f"volumetric indices' grid with its midpoints ({n} x {n} x {n}; "
-                f"{self.nodes} node values no reading touches); readings at half the "
+                f"{self.nodes} node values no planned reading touches of the functions the "
+                "readings move); readings at half the "
                 "spacing would leave about a third of it. The measured data set the "
                 "machine's own roughness, and volcal identify states the part it found.")
 

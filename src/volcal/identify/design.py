@@ -31,7 +31,8 @@ from volcal.model.parameters import ParameterLayout
 from volcal.session.format import Measurement, Session
 from volcal.session.kinds import kind_of
 
-__all__ = ["Design", "build_design", "choose_nodes", "laser_rows"]
+__all__ = ["UNTOUCHED_TOL", "Design", "build_design", "choose_nodes", "laser_rows",
+           "untouched_parameters"]
 
 # The rows of each kind of measurement, and the priors of its nuisances, come from the
 # registry of kinds (volcal.kinds: Kind.rows, Kind.nuisance_priors); the laser readings'
@@ -577,3 +578,29 @@ def build_design(session: Session, nodes: list[NDArray[np.float64]] | None = Non
     return Design(layout, chain.code, session.travel.copy(), free, fixed_values, A.tocsr(),
                   y, nnames, rows, meas, fixed_names, prior_mean=mean, extra_precision=extra,
                   row_scale=row_scale)
+
+
+UNTOUCHED_TOL = 1e-6
+"""A column of the design below this share of its largest entry is untouched [1]."""
+
+
+def untouched_parameters(design: Design) -> NDArray[np.bool_]:
+    """Free parameters no reading depends on (nodes between the readings).
+
+    Parameters
+    ----------
+    design : Design
+        Assembled observation system.
+
+    Returns
+    -------
+    ndarray of bool, shape (design.n_free,)
+        True where the column of ``A`` is zero, or below :data:`UNTOUCHED_TOL` times the
+        design's largest entry: a reading within a millionth of the node spacing of the
+        neighbouring node (a position computed in floating point, 133.3333333 mm, beside
+        the node it was rounded to, 133.333333 mm) touches that node as a reading read
+        back from its file does, not at all.
+    """
+    a = design.A.tocsc()[:, :design.n_free]
+    col = np.asarray(abs(a).max(axis=0).toarray().ravel())
+    return col <= UNTOUCHED_TOL * (col.max() if col.size else 0.0)

@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from volcal.identify.design import Design
+from volcal.identify.design import Design, untouched_parameters
 from volcal.identify.prior import PriorStructure
 from volcal.identify.settings import EstimatorSettings
 from volcal.model.kinematics import pose_jacobian
@@ -402,8 +402,6 @@ def _order(design: Design):
 
 def _unmoved_axes(design: Design) -> set[str]:
     """The axes (``'X'``, ``'Y'``, ``'Z'``) none of whose function values a reading moves."""
-    from volcal.identify.between import untouched_parameters
-
     if not design.measurements:
         return set()
     untouched = untouched_parameters(design)

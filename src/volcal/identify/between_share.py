@@ -251,7 +251,7 @@ def between_share(result: IdentificationResult,
     # first-order Jacobian of the volumetric error, B the part's factor, one node per
     # column): the parts are independent, u^2 = u_without^2 + |J B|^2
     bare = copy.copy(result)  # shallow: the arrays are shared
-    rest = ~keep[untouched]  # bf's columns are the untouched rows in order
+    rest = ~keep[np.abs(bf).argmax(axis=0)]  # each column: one node's row
     bare.between_factor = bf[:, rest] if rest.any() else None
     u0 = bare.predict(q, systematic=False)[1]
     cols, var = free[keep], var[keep]

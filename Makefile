@@ -89,10 +89,11 @@ postgres-deps:
 #
 # The files that wait on real time (LinuxCNC running its programs, the OPC UA server's
 # dwells, the browser: REALTIME_TESTS, 133 s of wall time for 24 s of CPU) run in a pytest
-# process of their own beside the two workers, which run at nice 10: the workers no longer
-# sit idle while a LinuxCNC program runs, and the capture processes beside LinuxCNC get a
-# core when they need it (a resumed capture starved by two busy workers missed a dwell;
-# benchmarks/README.md, "make test time", session 17). Its output follows the workers'.
+# process of their own beside the two workers, which run at nice 10: the capture processes
+# beside LinuxCNC get a core when they need it (a resumed capture starved by two busy
+# workers missed a dwell), and the workers no longer wait on LinuxCNC's real time (3-5 %
+# of the wall time on the 2-core box: 509 / 492 s against 521-534 s; benchmarks/README.md,
+# "make test time", session 17). Its output follows the workers'.
 REALTIME_TESTS := tests/compensate/test_trt_closed_loop.py tests/capture/test_linuxcnc_capture.py \
 	tests/compensate/test_linuxcnc_control.py tests/compensate/test_trt_halcmd.py \
 	tests/capture/test_capture_opcua.py tests/capture/test_capture_page_browser.py \

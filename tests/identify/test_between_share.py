@@ -19,6 +19,7 @@ import pytest
 from volcal import Calibration
 from volcal.identify import EstimatorSettings
 from volcal.identify.between_share import between_share, part_grid, share_grid
+from volcal.model.names import COMPONENT_NAMES
 from volcal.standards.volumetric import work_zone_grid
 
 TRAVEL = [[0, 1500], [0, 400], [0, 300]]
@@ -168,14 +169,18 @@ def test_functions_no_reading_moves_are_not_between_the_readings():
     and denser readings would not change them. Forecast and share count only the unread
     nodes of those three functions (session 16 counted every node of the unmeasured
     functions too: the forecast said 28.25 um for this plan, 0.89 um now). The messages
-    say why Y's and Z's functions are undetermined: no test moves those axes."""
+    say why Y's and Z's functions are undetermined: no test moves those axes (all twelve:
+    session 16 left out the four straightnesses, which have no free node on the analysis'
+    grid, Y and Z each read at their two ends only)."""
     c = Calibration.plan([[0, 800], [0, 600], [0, 500]], steps=10, runs=2,
                          tests=["linear:x"], name="LINX")
     rep = c.advise()
     f = rep.between
     said = {m.split()[0]: m for m in rep.messages if "is not determined" in m}
-    for n in ("EYY", "EAY", "EBY", "EZZ", "ECZ"):  # why: the axis is never moved
+    for n in COMPONENT_NAMES[6:]:  # all 12 of Y and Z, why: the axis is never moved (the
+        # straightnesses, held at both ends of the two positions read, were left out)
         assert "No test here moves the " + n[2] + " axis" in said[n], said[n]
+        assert rep.determined_fraction[n] == 0.0
     assert "No test here moves" not in said["EAX"] and "lever arms" in said["EAX"]
     c.simulate(seed=5)
     r = c.identify()

@@ -375,6 +375,11 @@ def analyse(design: Design, prior: PriorStructure, scales: NDArray[np.float64],
     # parameters, so only (points x null dimension) products are needed
     var = _null_variance(GN, np.eye(N.shape[1]), NQN)
     amb = np.sqrt(np.clip(var, 0, None))
+    for axis in _unmoved_axes(design):  # a function of an axis no test moves may have no
+        k = "XYZ".index(axis)  # free node on these nodes (a straightness held at both
+        for n in COMPONENT_NAMES[6 * k:6 * k + 6]:  # ends): it is still undetermined
+            frac.setdefault(n, 0.0)
+    frac = {n: frac[n] for n in (*COMPONENT_NAMES, *SQUARENESS_NAMES) if n in frac}
     report = IdentifiabilityReport(nf, rank, nf - rank, frac, float(amb.max()),
                                    float(np.sqrt(np.mean(amb**2))))
     # groups of undetermined combinations

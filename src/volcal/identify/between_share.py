@@ -32,6 +32,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from volcal.identify.design import read_functions
+
 if TYPE_CHECKING:
     from volcal.identify.design import Design
     from volcal.identify.result import IdentificationResult
@@ -39,7 +41,7 @@ if TYPE_CHECKING:
     from volcal.model.parameters import ParameterLayout
 
 __all__ = ["BetweenForecast", "BetweenShare", "between_share", "forecast_between",
-           "part_grid", "read_functions", "share_grid"]
+           "part_grid", "share_grid"]
 
 SHARE_POINTS = 11
 """Points per axis of :func:`share_grid`: the volumetric indices' grid
@@ -62,7 +64,7 @@ class BetweenShare:
         (the grid with its midpoints; in quadrature with the rest) [um].
     nodes : int
         Node values no reading touches, of the functions the readings move
-        (:func:`read_functions`; the part's columns).
+        (:func:`volcal.identify.design.read_functions`; the part's columns).
     points : int
         Points of the uncertainties' grid (:func:`share_grid`, or the points given).
     part_points : int
@@ -105,7 +107,8 @@ class BetweenForecast:
         ``kappa_centre``) [um].
     nodes : int
         Node values of the identification's grid no planned reading touches, of the
-        functions the planned readings move (:func:`read_functions`).
+        functions the planned readings move
+        (:func:`volcal.identify.design.read_functions`).
     points : int
         Points of :func:`part_grid`.
     """
@@ -183,38 +186,6 @@ def _part(order, layout: ParameterLayout, cols: NDArray[np.intp], var: NDArray[n
     Je, _ = pose_jacobian(order, layout.nodes, q)
     J = Je[:, cols].tocsr()
     return np.sqrt(np.asarray(J.multiply(J) @ var)).reshape(-1, 3)
-
-
-def read_functions(layout: ParameterLayout, free: NDArray[np.intp],
-                   untouched: NDArray[np.bool_]) -> NDArray[np.bool_]:
-    """The free parameters of the functions some reading moves.
-
-    A function none of whose free nodes a reading touches (a straightness of a session of
-    linear tests) is not measured at all: the whole function is the prior's, which the
-    identifiability report states, and denser readings would not change it. The part
-    between the readings is that of the functions the readings do move.
-
-    Parameters
-    ----------
-    layout : ParameterLayout
-        The parameter layout.
-    free : ndarray of int
-        Free parameters of ``layout``.
-    untouched : ndarray of bool, shape (free.size,)
-        Free parameters no reading moves.
-
-    Returns
-    -------
-    ndarray of bool, shape (free.size,)
-        True at the free parameters of a function with at least one touched free node.
-    """
-    out = np.zeros(free.size, dtype=bool)
-    for k in range(3):
-        for c in range(6):
-            m = np.isin(free, layout.indices(k, c))
-            if m.any() and not untouched[m].all():
-                out |= m
-    return out
 
 
 def between_share(result: IdentificationResult,

@@ -32,7 +32,7 @@ from volcal.session.format import Measurement, Session
 from volcal.session.kinds import kind_of
 
 __all__ = ["UNTOUCHED_TOL", "Design", "build_design", "choose_nodes", "laser_rows",
-           "untouched_parameters"]
+           "read_functions", "untouched_parameters"]
 
 # The rows of each kind of measurement, and the priors of its nuisances, come from the
 # registry of kinds (volcal.kinds: Kind.rows, Kind.nuisance_priors); the laser readings'
@@ -604,3 +604,35 @@ def untouched_parameters(design: Design) -> NDArray[np.bool_]:
     a = design.A.tocsc()[:, :design.n_free]
     col = np.asarray(abs(a).max(axis=0).toarray().ravel())
     return col <= UNTOUCHED_TOL * (col.max() if col.size else 0.0)
+
+
+def read_functions(layout: ParameterLayout, free: NDArray[np.intp],
+                   untouched: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """The free parameters of the functions some reading moves.
+
+    A function none of whose free nodes a reading touches (a straightness of a session of
+    linear tests) is not measured at all: the whole function is the prior's, which the
+    identifiability report states, and denser readings would not change it. The part
+    between the readings is that of the functions the readings do move.
+
+    Parameters
+    ----------
+    layout : ParameterLayout
+        The parameter layout.
+    free : ndarray of int
+        Free parameters of ``layout``.
+    untouched : ndarray of bool, shape (free.size,)
+        Free parameters no reading moves.
+
+    Returns
+    -------
+    ndarray of bool, shape (free.size,)
+        True at the free parameters of a function with at least one touched free node.
+    """
+    out = np.zeros(free.size, dtype=bool)
+    for k in range(3):
+        for c in range(6):
+            m = np.isin(free, layout.indices(k, c))
+            if m.any() and not untouched[m].all():
+                out |= m
+    return out

@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from volcal.identify.design import Design, untouched_parameters
+from volcal.identify.design import Design, read_functions, untouched_parameters
 from volcal.identify.prior import PriorStructure
 from volcal.identify.settings import EstimatorSettings
 from volcal.model.kinematics import pose_jacobian
@@ -375,10 +375,10 @@ def analyse(design: Design, prior: PriorStructure, scales: NDArray[np.float64],
     # parameters, so only (points x null dimension) products are needed
     var = _null_variance(GN, np.eye(N.shape[1]), NQN)
     amb = np.sqrt(np.clip(var, 0, None))
-    for axis in _unmoved_axes(design):  # a function of an axis no test moves may have no
-        k = "XYZ".index(axis)  # free node on these nodes (a straightness held at both
-        for n in COMPONENT_NAMES[6 * k:6 * k + 6]:  # ends): it is still undetermined
-            frac.setdefault(n, 0.0)
+    unmoved = _unmoved_axes(design)
+    for k in unmoved:  # a function of an axis no test moves may have no free node on these
+        for n in COMPONENT_NAMES[6 * k:6 * k + 6]:  # nodes (a straightness held at both
+            frac.setdefault(n, 0.0)  # ends): it is still undetermined
     frac = {n: frac[n] for n in (*COMPONENT_NAMES, *SQUARENESS_NAMES) if n in frac}
     report = IdentifiabilityReport(nf, rank, nf - rank, frac, float(amb.max()),
                                    float(np.sqrt(np.mean(amb**2))))
@@ -393,7 +393,7 @@ def analyse(design: Design, prior: PriorStructure, scales: NDArray[np.float64],
         total = share.sum(axis=0)
         mixed = [keys[i] for i in np.argsort(-total) if total[i] > 0.05 * total.max()]
         report.null_groups.append(mixed)
-    _messages(report, design)
+    _messages(report, design, unmoved)
     if candidates:
         _suggest(report, scale, thr, candidates, N, GN, NQN)
     return report
@@ -405,21 +405,22 @@ def _order(design: Design):
     return parse_chain(design.chain).order
 
 
-def _unmoved_axes(design: Design) -> set[str]:
-    """The axes (``'X'``, ``'Y'``, ``'Z'``) none of whose function values a reading moves."""
+def _unmoved_axes(design: Design) -> set[int]:
+    """The axes (0, 1, 2 = X, Y, Z) with free nodes but no function a reading moves."""
     if not design.measurements:
         return set()
-    untouched = untouched_parameters(design)
     free = np.asarray(design.free)
+    read = read_functions(design.layout, free, untouched_parameters(design))
     out = set()
-    for k, axis in enumerate("XYZ"):
+    for k in range(3):
         m = np.isin(free, np.concatenate([design.layout.indices(k, c) for c in range(6)]))
-        if m.any() and untouched[m].all():
-            out.add(axis)
+        if m.any() and not read[m].any():
+            out.add(k)
     return out
 
 
-def _messages(rep: IdentifiabilityReport, design: Design) -> None:
+def _messages(rep: IdentifiabilityReport, design: Design,
+              unmoved: set[int] | None = None) -> None:
     kinds = sorted({m.kind for m in design.measurements})
     rep.messages.append(
         f"{len(design.measurements)} measurements ({', '.join(kinds)}) determine {rep.rank} of "
@@ -428,11 +429,12 @@ def _messages(rep: IdentifiabilityReport, design: Design) -> None:
     poor = [n for n, f in rep.determined_fraction.items() if f < 0.5]
     weak = [n for n, f in rep.determined_fraction.items() if 0.5 <= f < 0.95]
     rolls = [n for n in poor if n in ROLL_NAMES]
-    unmoved = _unmoved_axes(design)
+    if unmoved is None:
+        unmoved = _unmoved_axes(design)
     for n in poor:
         f = rep.determined_fraction[n]
         why = ""
-        if n in COMPONENT_NAMES and "XYZ"[COMPONENT_NAMES.index(n) // 6] in unmoved:
+        if n in COMPONENT_NAMES and COMPONENT_NAMES.index(n) // 6 in unmoved:
             why = f" No test here moves the {n[2]} axis, so no reading depends on its errors."
         elif n in ROLL_NAMES:
             why = (" Roll acts only through lever arms across the beam; linear tests along the "

@@ -861,7 +861,11 @@ CASES: list[Case] = [
         ("folder", "EMPTY", [], ("EMPTY",), None),
         ("empty", "empty.csv", [], ("empty.csv",), None),
         ("binary", "garbage.bin", [], ("garbage.bin",), None),
-        ("json", "MODEL.json", [], ("MODEL.json",), None),
+        # a model is read (its estimate's indices); a JSON that is no model is refused
+        ("json-not-a-model", "notes.json", [], ("notes.json", "unknown model format"),
+         put("notes.json", '{"a": 1}\n')),
+        ("named-json-not-a-model", "notes", [], ("notes", "unknown model format"),
+         put("notes", '{"a": 1}\n')),
         ("missing-column", "ERRORS.csv", [], ("ERRORS.csv", "row 1", "EA_urad"),
          drop_column("ERRORS.csv", "EA_urad")),
         ("text", "ERRORS.csv", [], ("ERRORS.csv", "row 2", "EB_urad"),

@@ -705,17 +705,19 @@ def _print_verdict(verdict: Any, has_model: bool) -> None:
 
 @evaluate_app.command("volumetric")
 def volumetric_cmd(
-    errors: Path = typer.Argument(..., help="Error table CSV (ERRORS.csv)."),
+    errors: Path = typer.Argument(..., help="Error table CSV (ERRORS.csv) or identified "
+                                  "model (MODEL.json: the indices of its estimate; "
+                                  "`volcal report` states them with their U)."),
     tool_offset: str = typer.Option("0,0,0", help="Tool point offset x,y,z [mm]."),
     n: int = typer.Option(11, min=2, max=201, help="Grid points per axis."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ) -> None:
-    """ISO 230-1 volumetric indices E_VX, E_VY, E_VZ, E_VXYZ of an error table; ELv."""
+    """ISO 230-1 volumetric indices E_VX, E_VY, E_VZ, E_VXYZ of an error table or a model; ELv."""
     from volcal.cli._common import parse_vector
-    from volcal.session.errortable import read_error_table
+    from volcal.compensate.source import load_errors
     from volcal.standards.volumetric import elv_from_model, volumetric_indices
 
-    m = read_error_table(errors)
+    m = load_errors(errors)
     res = volumetric_indices(m, parse_vector(tool_offset, "--tool-offset"), n)
     out = {**res.to_dict(), **elv_from_model(m)}
     if as_json:

@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from volcal.errors import VolcalInputError
+from volcal.io.sniff import is_model_file
 from volcal.io.tomlread import read_toml
 from volcal.model.errorfunctions import MachineErrors
 from volcal.model.names import AXES
@@ -105,7 +106,7 @@ def model_identity(path: str | Path, errors: MachineErrors) -> MachineIdentity:
     """
     base = identity_of_errors(errors)
     path = Path(path)
-    if path.suffix.lower() != ".json":
+    if not is_model_file(path):
         return base
     import json
 

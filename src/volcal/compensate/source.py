@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from volcal.errors import VolcalInputError
+from volcal.io.sniff import is_model_file
 from volcal.model.errorfunctions import MachineErrors
 
 
@@ -25,8 +26,7 @@ def load_errors(path: str | Path) -> MachineErrors:
     path = Path(path)
     if not path.is_file():
         raise VolcalInputError("model file not found", path)
-    suffix = path.suffix.lower()
-    if suffix == ".json":
+    if is_model_file(path):
         try:
             from volcal.identify.modelfile import load_model_errors
         except ImportError:
@@ -38,8 +38,6 @@ def load_errors(path: str | Path) -> MachineErrors:
             raise
         except (ValueError, KeyError, TypeError) as exc:
             raise VolcalInputError(f"not a volcal model file ({exc})", path) from None
-    if suffix == ".csv":
-        from volcal.session.errortable import read_error_table
+    from volcal.session.errortable import read_error_table
 
-        return read_error_table(path)
-    raise VolcalInputError("expected an identified model (.json) or an error table (.csv)", path)
+    return read_error_table(path)

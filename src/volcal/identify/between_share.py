@@ -91,7 +91,8 @@ class BetweenShare:
                 f"between the readings; the part itself up to {self.between_um:.3f} um (in "
                 f"quadrature) {where}, at the {self.nodes} node values no reading touches "
                 "of the functions the readings move; "
-                "readings at half the spacing would leave about an eighth of its variance")
+                "readings at half the spacing would leave about a third of it (an eighth of "
+                "its variance)")
 
 
 @dataclass(frozen=True)

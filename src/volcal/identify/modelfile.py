@@ -33,6 +33,7 @@ import numpy as np
 from volcal.errors import VolcalInputError
 from volcal.identify.modelwrite import BINARY_SUFFIX, binary_path, write_model
 from volcal.identify.result import MODEL_FORMAT, IdentificationResult
+from volcal.io.sniff import is_model_file
 from volcal.model.errorfunctions import MachineErrors
 
 if TYPE_CHECKING:
@@ -267,7 +268,7 @@ def check_model_file_session(model: str | Path, session: str | Path | None,
     list of str
         The differences found.
     """
-    if session is None or Path(model).suffix.lower() != ".json":
+    if session is None or not is_model_file(model):
         return []
     from volcal.session.format import read_session
 

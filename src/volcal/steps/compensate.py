@@ -11,6 +11,7 @@ from numpy.typing import ArrayLike
 
 from volcal import defaults as D
 from volcal.errors import ParameterError
+from volcal.io.sniff import is_model_file
 from volcal.steps import _checks
 
 if TYPE_CHECKING:
@@ -327,7 +328,7 @@ def _identity(model: Any, errors: MachineErrors, sess: Session | None, force: bo
             return model_identity(model, errors)
         return identity_of_errors(errors)
     me = MachineIdentity.of(sess)
-    if isinstance(model, str | Path) and Path(model).suffix.lower() == ".csv":
+    if isinstance(model, str | Path) and not is_model_file(model):
         why = _checks.table_machine(errors, sess)
         if why is not None:
             text = (f"the error table is not of this session's machine ({why}); the tables "

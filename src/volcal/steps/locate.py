@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from volcal.errors import ParameterError, VolcalInputError
+from volcal.io.sniff import is_model_file
 
 if TYPE_CHECKING:
     from volcal.identify.location import LocationResult
@@ -188,7 +189,7 @@ def _linear_model(model: Any):
     if model is None or hasattr(model, "chain_obj") or hasattr(model, "layout"):
         return model
     p = Path(model)
-    if p.suffix.lower() == ".json":
+    if is_model_file(p):
         from volcal.identify.modelfile import load_model
 
         return load_model(p)

@@ -1,0 +1,45 @@
+"""What a file given as a model is: an identified model (JSON) or an error table (CSV).
+
+``volcal identify -o NAME`` writes the model where it is told, with or without the
+``.json`` suffix (``NAME`` and ``NAME.npz`` beside it). Every command that takes either an
+identified model or an error table (``compensate``, ``evaluate volumetric``, ``report
+--model``, ``locate``, ``history add``) asks :func:`is_model_file`, so that a model
+named without the suffix is read as the model it is, not as a table with a broken
+header.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+__all__ = ["is_model_file"]
+
+_BOM = b"\xef\xbb\xbf"
+
+
+def is_model_file(path: str | Path) -> bool:
+    """Whether ``path`` is read as an identified model rather than an error table.
+
+    Parameters
+    ----------
+    path : str or Path
+        A file named as a model.
+
+    Returns
+    -------
+    bool
+        True for the suffix ``.json``; False for ``.csv``; for any other suffix (or none),
+        True when the file's first character other than white space (and a UTF-8 byte
+        order mark) is ``{``, the start of a JSON object. A missing or unreadable file
+        is False (the table reader then names the problem).
+    """
+    p = Path(path)
+    suffix = p.suffix.lower()
+    if suffix in (".json", ".csv"):
+        return suffix == ".json"
+    try:
+        with p.open("rb") as f:
+            head = f.read(256)
+    except OSError:
+        return False
+    return head.removeprefix(_BOM).lstrip().startswith(b"{")

@@ -132,7 +132,14 @@ def test_without_budget(tmp_path, history_two, budget_file):  # noqa: F811
     assert rb.results["V.E_VXYZ"]["U"] > 0                        # the model's U
     r = volcal_process("history", "compare", ra.id, rb.id, "--db", db)
     line = next(ln for ln in r.stdout.splitlines() if ln.startswith("X.A\t"))
-    assert line.endswith("\t-\tum\tundecided\t|d| > U: no uncertainty stored for the later")
+    assert line.endswith("\t-\tum\tundecided\tnot tested: no uncertainty stored for the "
+                         "later")
+    assert "results not tested for want of a stored U: `volcal history add --budget " \
+        "FILE` stores" in r.stdout
+    assert not any(ln.startswith(("diag-ppp.length_mm", "diag-ppp.points_"))
+                   for ln in r.stdout.splitlines())  # the test's descriptors, not tested
+    assert rb.results["diag-ppp.length_mm"]["unit"] == "mm"
+    assert rb.results["diag-ppp.points_measured"]["unit"] == "points"
     v = rb.results["V.E_VXYZ"]
     assert f"<td>{v['value']:.2f} ± {v['U']:.2f}</td>" in page
     assert '<polygon fill="#cde"' in page and "E_VXYZ trend with U" in page

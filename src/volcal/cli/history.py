@@ -461,12 +461,18 @@ def compare_cmd(
             test = f"{e.test} {extra}".rstrip()
         elif e.U is not None:  # a result against the combined U of the two calibrations
             test = f"|d| {abs(e.difference):.4f} {'>' if e.changed else '<='} U {e.U:.4f}"
+        elif e.test == "|d| > U":  # a result without a stored U: no test made
+            test = f"not tested: {e.reason}"
         else:
             test = f"{e.test}: {e.reason}"
         typer.echo(f"{e.name}\t{e.difference:+.4f}\t{u}\t{e.unit}\t{e.verdict}\t{test}")
     n = sum(1 for e in entries if e.changed)
     typer.echo(f"{n} of {sum(1 for e in entries if e.changed is not None)} decided entries "
                f"changed (functions: family-wise level {level:g})")
+    untested = sum(1 for e in entries if e.U is None and e.test == "|d| > U")
+    if untested:
+        typer.echo(f"{untested} results not tested for want of a stored U: `volcal history "
+                   "add --budget FILE` stores the U of the ISO 230-2 and diagonal results")
 
 
 @history_app.command("interval")

@@ -431,12 +431,15 @@ def compare_models(m1: Any, m2: Any, level: float = 0.05) -> list[Entry]:
 
 
 def _result_entries(r1: Any, r2: Any, models: bool) -> list[Entry]:
+    from volcal.history.record import DESCRIPTOR_UNITS
     from volcal.model.names import SQUARENESS_NAMES
 
     out = []
     for name in sorted(set(r1.results) & set(r2.results)):
         if models and name in SQUARENESS_NAMES:
             continue  # tested with the functions, from the two models' covariances
+        if name.rpartition(".")[2] in DESCRIPTOR_UNITS:
+            continue  # a diagonal's length or point count: the test, not the machine
         a, b = r1.results[name], r2.results[name]
         if a["value"] is None or b["value"] is None:
             continue

@@ -21,6 +21,12 @@ from typing import Any
 
 from volcal.history.store import NewRecord
 
+#: The diagonals' stored values that describe the test rather than measure the machine,
+#: with their units (before session 18 stored as "um"); ``history compare`` does not test
+#: them.
+DESCRIPTOR_UNITS = {"length_mm": "mm", "points_measured": "points",
+                    "points_planned": "points"}
+
 ISO230_2_KEYS = ("A", "A_up", "A_down", "E", "E_up", "E_down", "M", "R", "R_up", "R_down",
                  "B", "B_mean")
 SKIP_DIRS = ("backup", "truth")
@@ -175,7 +181,8 @@ def results_from_evaluation(ev: Any, model: Any = None
             if key.startswith(("U_", "u_", "k_")) or key == "k":
                 continue
             if isinstance(value, int | float) and not isinstance(value, bool):
-                rows.append((f"{mid}.{key}", _num(value), _num(d.get(f"U_{key}")), "um"))
+                rows.append((f"{mid}.{key}", _num(value), _num(d.get(f"U_{key}")),
+                             DESCRIPTOR_UNITS.get(key, "um")))
     if ev.volumetric is not None:
         v = ev.volumetric.to_dict()
         for key in ("E_VX", "E_VY", "E_VZ", "E_VXYZ", "E_VXYZ_range"):

@@ -213,9 +213,11 @@ def candidate_steps(nodes) -> int:
     Returns
     -------
     int
-        Between 2 and 20.
+        Between 2 and 20: the intervals of the finest axis' nodes (an axis no test moves
+        has only its two ends as nodes; taking the coarsest axis, as before session 18,
+        suggested 2 increments per test after X's linear tests alone).
     """
-    return max(2, min(20, min(len(n) for n in nodes) - 1))
+    return max(2, min(20, max(len(n) for n in nodes) - 1))
 
 
 def add_command(report, session: Session, steps: int) -> str | None:

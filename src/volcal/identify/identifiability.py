@@ -428,23 +428,32 @@ def _messages(rep: IdentifiabilityReport, design: Design,
         f"{rep.null_dimension} combinations are seen by no reading.")
     poor = [n for n, f in rep.determined_fraction.items() if f < 0.5]
     weak = [n for n, f in rep.determined_fraction.items() if 0.5 <= f < 0.95]
-    rolls = [n for n in poor if n in ROLL_NAMES]
     if unmoved is None:
         unmoved = _unmoved_axes(design)
+    still = {n for n in poor if n in COMPONENT_NAMES and COMPONENT_NAMES.index(n) // 6 in unmoved}
+    for k in sorted(unmoved):  # one line per axis no test moves, not one per function
+        names = [n for n in poor if n in still and COMPONENT_NAMES.index(n) // 6 == k]
+        if names:
+            rep.messages.append(
+                f"No test here moves the {'XYZ'[k]} axis, so no reading depends on its "
+                f"errors: {', '.join(names)} are not determined by the data (0% of their prior "
+                "uncertainty removed); their estimates are the prior's (zero), with its "
+                "uncertainty carried into the predictions.")
+    poor = [n for n in poor if n not in still]
+    rolls = [n for n in poor if n in ROLL_NAMES]
     for n in poor:
         f = rep.determined_fraction[n]
         why = ""
-        if n in COMPONENT_NAMES and COMPONENT_NAMES.index(n) // 6 in unmoved:
-            why = f" No test here moves the {n[2]} axis, so no reading depends on its errors."
-        elif n in ROLL_NAMES:
+        if n in ROLL_NAMES:
             why = (" Roll acts only through lever arms across the beam; linear tests along the "
                    "axis cannot see it. Its estimate leans on the prior (zero); measure it with "
                    "an electronic level or give it as a known error.")
         elif kind(n) == "tilt":
             why = (" This rotation has (almost) no lever arm to the target in these set-ups, so "
                    "it changes the tool orientation only; a flat mirror sees that weakly.")
-        rep.messages.append(f"{describe(n)} is not determined by the data: only {100 * f:.0f}% "
-                            f"of its prior uncertainty is removed.{why}")
+        share = (f"only {100 * f:.0f}% of its prior uncertainty is removed" if f >= 0.005
+                 else "none of its prior uncertainty is removed")
+        rep.messages.append(f"{describe(n)} is not determined by the data: {share}.{why}")
     if weak:
         rep.messages.append("Weakly determined (50-95% of the prior uncertainty removed): "
                             + ", ".join(describe(n) for n in weak) + ".")

@@ -13,16 +13,18 @@ are exact enough to pin the nodes at the readings (benchmarks/README.md, lab not
 
 :func:`between_factor` gives, at each node value no reading depends on (a zero column of
 the design: the nodes the estimator places between the visited positions,
-:func:`volcal.identify.design.choose_nodes`, and a function's nodes where it moves no
-reading, whose value is the prior's interpolation as well),
+:func:`volcal.identify.design.choose_nodes`) of a function some reading moves,
 ``factor`` times that conditional variance, ``a^2 / P_ii`` of the fitted prior, as a
 covariance part of its own beside the posterior's (``between_readings`` in the model file:
 the history's change test, which compares two calibrations of one machine, leaves it out,
 as it leaves out the prior's share). The estimate, the residuals and every figure at the
-readings are unchanged;
-the uncertainty between the readings grows with the roughness the evidence found (a
-smooth function's conditional variance is small) and vanishes where the readings are
-dense (every node visited).
+readings are unchanged. A function no reading moves at all
+(:func:`volcal.identify.design.read_functions`: the straightnesses of a session of linear
+tests) is not "between the readings": its whole prior is its uncertainty, and it gets no
+part (session 18; before, its nodes had the part on top of the prior). The uncertainty
+between the readings grows with the roughness the evidence found (a smooth function's
+conditional variance is small) and vanishes where the readings are dense (every node
+visited).
 
 References
 ----------
@@ -38,7 +40,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from volcal.identify.design import UNTOUCHED_TOL, Design, untouched_parameters
+from volcal.identify.design import UNTOUCHED_TOL, Design, read_functions, untouched_parameters
 from volcal.identify.prior import PriorStructure
 from volcal.identify.result import diagonal_factor
 from volcal.identify.settings import EstimatorSettings
@@ -67,13 +69,15 @@ def between_readings_variance(design: Design, prior: PriorStructure,
     Returns
     -------
     ndarray, shape (design.n_free,)
-        ``factor * 1 / P_ii`` at the untouched nodes of each function (``P`` the block's
-        prior precision), 0 elsewhere [um^2 or urad^2].
+        ``factor * 1 / P_ii`` at the untouched nodes of each function some reading moves
+        (``P`` the block's prior precision), 0 elsewhere [um^2 or urad^2].
     """
     out = np.zeros(design.n_free)
     if factor <= 0:
         return out
     free = untouched_parameters(design)
+    # a function no reading moves keeps its whole prior (session 18: it had the part too)
+    free &= read_functions(design.layout, np.asarray(design.free), free)
     for b, block in enumerate(prior.blocks):
         idx = block[0]
         sel = free[idx]

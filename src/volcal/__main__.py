@@ -2,4 +2,5 @@
 
 from volcal.cli import main
 
-main()
+if __name__ == "__main__":  # importing it (the tests walk every module) runs nothing
+    main()

@@ -56,7 +56,14 @@ def test_step_diagonals_alone_report_the_slope_mirror_confusion():
     first_order_fill(s, truth)
     r = identify(s)
     assert "confounded with the mirror tilts" in " ".join(r.report.messages)
+    assert "add linear measurements of two axes" in " ".join(r.report.messages)
     assert r.report.suggestions
+    # X's lines alone: the advice names the other axes (session 18: it said "X or Y")
+    s1 = seeds_session("XYFZ", tests=("step-diagonal", "linear"))
+    s1.measurements = [m for m in s1.measurements if m.kind != "linear" or m.axis == 0]
+    first_order_fill(s1, truth)
+    said = " ".join(identify(s1, IdentifyOptions(suggest=False)).report.messages)
+    assert "add a linear measurement of a second axis (Y or Z)." in said
     # following the advice (linear lines) determines more and removes the warning
     s2 = seeds_session("XYFZ", tests=("step-diagonal", "linear"))
     first_order_fill(s2, truth)

@@ -475,7 +475,10 @@ def _messages(rep: IdentifiabilityReport, design: Design,
             "The slopes of the positioning errors are confounded with the mirror tilts of the "
             "step diagonals (Soons, section 4): only the assumption that the set-ups' tilts "
             "are independent and small separates them, weakly, and their uncertainty is "
-            "carried into the predictions; add a linear measurement of X or Y.")
+            "carried into the predictions; "
+            + ("add linear measurements of two axes (X and Y, say)." if not linears else
+               "add a linear measurement of a second axis ("
+               + " or ".join("XYZ"[k] for k in range(3) if k not in linears) + ")."))
 
 
 def _null_variance(GPs: NDArray[np.float64], N: NDArray[np.float64],

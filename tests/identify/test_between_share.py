@@ -198,3 +198,20 @@ def test_functions_no_reading_moves_are_not_between_the_readings():
     assert f.nodes == share.nodes == int(unread_x.sum()) > 0, (f, share)
     assert f.between_um < 2.0, f
     assert share.between_um < 2.0 and share.u_um > 10.0, share  # the unmeasured: the rest
+
+
+def test_errors_of_a_kind_no_reading_sees_are_one_line():
+    """The linear tests of all three axes see no straightness, roll or squareness: one
+    line per kind lists them (session 18: twelve lines, one per function, each "only 0 %
+    of its prior uncertainty is removed"); the determined fractions stay per function."""
+    rep = Calibration.plan([[0, 800], [0, 600], [0, 500]], steps=10, runs=2,
+                           tests=["linear"], name="LIN").advise()
+    lines = {m.split(" errors ")[0]: m for m in rep.messages if m.startswith("The ")}
+    for what, names in (("straightness", "EYX, EZX, EXY, EZY, EXZ, EYZ"),
+                        ("roll", "EAX, EBY, ECZ"), ("squareness", "EC0Y, EB0Z, EA0Z")):
+        assert lines[f"The {what}"].startswith(
+            f"The {what} errors {names} are not determined by the data (none of their "
+            "prior uncertainty removed): "), lines
+        assert all(rep.determined_fraction[n] < 0.005 for n in names.split(", "))
+    assert not any("is not determined" in m for m in rep.messages), rep.messages
+    assert "Roll: EAX, EBY, ECZ not measured" in " ".join(rep.messages)

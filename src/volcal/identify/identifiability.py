@@ -419,6 +419,19 @@ def _unmoved_axes(design: Design) -> set[int]:
     return out
 
 
+#: Why a kind of error no reading sees is unseen, for the one line that lists them all.
+_UNSEEN_WHY = {
+    "straightness": "no reading here moves across an axis' direction of travel (a linear "
+                    "test reads along it); diagonals, step diagonals or a straightness optic "
+                    "would.",
+    "roll": "roll acts only through lever arms across the beam, and no test here has them. "
+            "Their estimates lean on the prior (zero); measure them with an electronic level "
+            "or give them as known errors.",
+    "squareness": "no test here relates the directions of two axes; body or face "
+                  "diagonals, or an optical square, would.",
+}
+
+
 def _messages(rep: IdentifiabilityReport, design: Design,
               unmoved: set[int] | None = None) -> None:
     kinds = sorted({m.kind for m in design.measurements})
@@ -436,11 +449,17 @@ def _messages(rep: IdentifiabilityReport, design: Design,
         if names:
             rep.messages.append(
                 f"No test here moves the {'XYZ'[k]} axis, so no reading depends on its "
-                f"errors: {', '.join(names)} are not determined by the data (0% of their prior "
-                "uncertainty removed); their estimates are the prior's (zero), with its "
+                f"errors: {', '.join(names)} are not determined by the data (none of their "
+                "prior uncertainty removed); their estimates are the prior's (zero), with its "
                 "uncertainty carried into the predictions.")
     poor = [n for n in poor if n not in still]
     rolls = [n for n in poor if n in ROLL_NAMES]
+    for what, why in _UNSEEN_WHY.items():  # one line per kind no reading sees at all
+        unseen = [n for n in poor if kind(n) == what and rep.determined_fraction[n] < 0.005]
+        if len(unseen) > 1:
+            rep.messages.append(f"The {what} errors {', '.join(unseen)} are not determined by "
+                                f"the data (none of their prior uncertainty removed): {why}")
+            poor = [n for n in poor if n not in unseen]
     for n in poor:
         f = rep.determined_fraction[n]
         why = ""

@@ -356,7 +356,8 @@ class Calibration:
                  mirror_misalignment_urad: float = D.SIM_MIRROR_URAD,
                  drift_um_per_h: float = D.SIM_DRIFT_UM_PER_H,
                  reversal_um: float = D.SIM_REVERSAL_UM, *,
-                 budget: str | Path | Budget | None = None) -> Calibration:
+                 budget: str | Path | Budget | None = None,
+                 compensation: str | Path | None = None, force: bool = False) -> Calibration:
         """Fill the readings from a virtual machine (in memory; :meth:`save` writes them).
 
         Calls :func:`volcal.steps.simulate.simulate`.
@@ -384,6 +385,13 @@ class Calibration:
             from their distributions (seeded by ``seed``) and applied to the readings, as
             ``volcal simulate --budget``; :meth:`save` records the draw in
             ``truth/systematic.toml`` (:mod:`volcal.measure.systematic`).
+        compensation : str or Path, optional
+            Folder written by :meth:`compensate` (or ``volcal compensate``): the machine
+            runs with these tables active, the as-left measurement of the virtual machine
+            (``machine`` or ``seed`` the machine as found), as ``volcal simulate
+            --compensation``; :attr:`truth` is then the machine with the tables active.
+        force : bool
+            With ``compensation``: apply tables written for another machine.
 
         Returns
         -------
@@ -396,7 +404,7 @@ class Calibration:
         r = simulate(self.session, machine=machine, seed=seed, noise_um=noise_um,
                      mirror_misalignment_urad=mirror_misalignment_urad,
                      drift_um_per_h=drift_um_per_h, reversal_um=reversal_um, budget=budget,
-                     overwrite=True)
+                     overwrite=True, compensation=compensation, force=force)
         self._simulated = r
         self.truth = r.machine
         self.result = self.evaluation = None
@@ -680,7 +688,7 @@ class Calibration:
                    linuxcnc_type: int = D.COMP_LINUXCNC_TYPE,
                    squareness: bool = D.COMP_SQUARENESS,
                    tool_offset: ArrayLike | str = D.TOOL_OFFSET_MM, *,
-                   replace: bool = False) -> list[str]:
+                   replace: bool = False, bidirectional: bool = False) -> list[str]:
         """Write controller compensation tables of the identified model.
 
         Calls :func:`volcal.steps.compensate.compensate` with this calibration's model and
@@ -726,6 +734,11 @@ class Calibration:
         replace : bool
             The folder holds files volcal did not write there: move them into its
             ``backup/<UTC time>/`` instead of refusing, as ``--replace``.
+        bidirectional : bool
+            As ``volcal compensate --session`` with this calibration's session: its
+            bidirectional ISO 230-2 tests give forward and reverse tables (LinuxCNC,
+            Fanuc, Heidenhain ``BACKLASH``) and the line checks before and after; False
+            (default): one table per axis, as the command without ``--session``.
 
         Returns
         -------
@@ -749,7 +762,7 @@ class Calibration:
                        squareness=squareness,
                        tool_offset=A.vector_mm(tool_offset, "tool_offset"),
                        machine=MachineIdentity.of(self.session), replace=replace,
-                       session=self.session if rotary_only else None)
+                       session=self.session if rotary_only or bidirectional else None)
         if r.sign_note is not None:
             warnings.warn(spell(r.sign_note, {}), UserWarning, stacklevel=3)
         if r.rotary_only:  # as the command line's note

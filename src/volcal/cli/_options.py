@@ -38,7 +38,7 @@ OPTIONS: dict[str, str] = {
         "output", "add", "replace", "targets", "rotary_axes",
         # simulate
         "seed", "noise_um", "mirror_misalignment_urad", "drift_um_per_h", "reversal_um",
-        "machine", "overwrite", "budget",
+        "machine", "overwrite", "budget", "compensation",
         # evaluate, verdict, report
         "decision_rule", "guard_band_um", "tolerance_um",
         # program

@@ -142,6 +142,13 @@ def simulate(
                                        "material per axis, the scale of each direct "
                                        "optic) and apply them to the readings; "
                                        "the draw is kept in SESSION/truth/systematic.toml."),
+    compensation: Path | None = typer.Option(None, help="Folder written by `volcal "
+                                             "compensate`: the virtual machine runs with "
+                                             "these tables active (an as-left measurement); "
+                                             "give the machine as found with --machine "
+                                             "FOUND/truth/machine.csv (or its --seed)."),
+    force: bool = typer.Option(False, "--force", help="With --compensation: apply tables "
+                               "written for another machine."),
 ) -> None:
     """Fill the deviations from a virtual machine; keep its truth in SESSION/truth/.
 
@@ -153,7 +160,7 @@ def simulate(
     r = step.simulate(session, machine=machine, seed=seed, noise_um=noise_um,
                       mirror_misalignment_urad=mirror_misalignment_urad,
                       drift_um_per_h=drift_um_per_h, reversal_um=reversal_um, budget=budget,
-                      overwrite=overwrite)
+                      overwrite=overwrite, compensation=compensation, force=force)
     for note in r.notes:
         console.print(f"[yellow]note:[/] {escape(note)}", highlight=False)
     backup = step.save(r, session)
@@ -163,6 +170,8 @@ def simulate(
     console.print(f"simulated {len(r.session.measurements)} measurements on '{r.machine.name}' "
                   f"(noise {noise_um} um, mirror {mirror_misalignment_urad} urad"
                   + (f", systematic errors drawn from {budget}" if budget is not None else "")
+                  + (f", the tables of {compensation} active" if compensation is not None
+                     else "")
                   + f"); truth in {session}/truth/")
 
 

@@ -103,6 +103,26 @@ class WrittenTables:
             out[:, t.output_axis] += sign_factor(t.sign) * v
         return out
 
+    def table_correction(self, table: AxisTable, x: ArrayLike) -> NDArray[np.float64]:
+        """The error one per-axis table removes at positions of its input axis [um].
+
+        Parameters
+        ----------
+        table : AxisTable
+            One of :attr:`forward` or :attr:`reverse`.
+        x : array_like, shape (m,)
+            Positions of ``table.input_axis`` [mm].
+
+        Returns
+        -------
+        ndarray, shape (m,)
+            Its value with this folder's interpolation rule, in the error sign (added to
+            ``table.output_axis`` by :meth:`correction`).
+        """
+        q = np.zeros((np.size(x), 3))
+        q[:, table.input_axis] = np.asarray(x, dtype=float).reshape(-1)
+        return self._axis_part([table], q)[:, table.output_axis]
+
     def correction(self, points: ArrayLike, tool_offset: ArrayLike | None = None,
                    direction: ArrayLike | None = None) -> NDArray[np.float64]:
         """The error the tables remove at commanded positions [um] (error sign).

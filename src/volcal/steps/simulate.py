@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -45,6 +45,10 @@ class Simulated:
         Ids of the measured readings replaced (``overwrite=True``).
     notes : tuple of str
         What the user should know (an error table without its ``.toml``...).
+    compensation : dict or None
+        With compensation tables: their folder, format, sign and the machine as found
+        (recorded in ``truth/compensation.toml``); ``machine`` is then the machine with
+        the tables active.
     """
 
     session: Session
@@ -55,6 +59,7 @@ class Simulated:
     budget: str | None = None
     replaced: tuple[str, ...] = ()
     notes: tuple[str, ...] = ()
+    compensation: dict[str, Any] | None = None
 
     def truth_files(self) -> dict[str, str]:
         """The files of ``truth/`` (relative path -> text), the systematic draw included."""
@@ -67,6 +72,11 @@ class Simulated:
             out["truth/systematic.toml"] = toml_dumps({"format": "volcal-systematic/1",
                                                        "budget": self.budget,
                                                        **self.systematic.to_dict()})
+        if self.compensation is not None:
+            from volcal.io.tomlfmt import dumps as toml_dumps
+
+            out["truth/compensation.toml"] = toml_dumps(
+                {"format": "volcal-simulated-compensation/1", **self.compensation})
         return out
 
 
@@ -76,7 +86,8 @@ def simulate(session: Session | str | Path, *,
              mirror_misalignment_urad: float = D.SIM_MIRROR_URAD,
              drift_um_per_h: float = D.SIM_DRIFT_UM_PER_H,
              reversal_um: float = D.SIM_REVERSAL_UM,
-             budget: str | Path | Budget | None = None, overwrite: bool = False) -> Simulated:
+             budget: str | Path | Budget | None = None, overwrite: bool = False,
+             compensation: str | Path | None = None, force: bool = False) -> Simulated:
     """Fill the readings of a session from a virtual machine.
 
     Parameters
@@ -104,6 +115,16 @@ def simulate(session: Session | str | Path, *,
     overwrite : bool
         Replace readings that a simulation did not write (measured ones); refused
         otherwise.
+    compensation : str or Path, optional
+        Folder written by ``volcal compensate``: the machine runs with these tables
+        active (:func:`volcal.compensate.applied.compensated_machine`), the as-left
+        measurement of a virtual machine; ``machine`` is the machine as found (its error
+        table ``FOUND/truth/machine.csv``, or the same ``seed`` as the as-found
+        simulation). ``truth/`` then holds the machine with the tables active and
+        ``truth/compensation.toml``.
+    force : bool
+        With ``compensation``: apply tables written for another machine (a note instead
+        of the refusal).
 
     Returns
     -------
@@ -148,6 +169,10 @@ def simulate(session: Session | str | Path, *,
                             ranges=ErrorRanges(reversal_um=(0.0, reversal_um)),
                             name=f"virtual {s.name}")
         label = f"random (seed {seed})"
+    applied = None
+    if compensation is not None:
+        vm, applied = _with_tables(vm, Path(compensation), s, force, notes)
+        label += f", tables of {compensation} active"
     opts = SimulationOptions(noise_um=noise_um, mirror_misalignment_urad=mirror_misalignment_urad,
                              drift_um_per_h=drift_um_per_h, seed=seed)
     setups = simulate_session(s, vm, opts)
@@ -159,9 +184,33 @@ def simulate(session: Session | str | Path, *,
         apply_systematic(s, draw)
     s.provenance = simulated_provenance(
         s, seed=int(seed), noise_um=float(noise_um), mirror_urad=float(mirror_misalignment_urad),
-        drift_um_per_h=float(drift_um_per_h), machine=label)
+        drift_um_per_h=float(drift_um_per_h), machine=label,
+        **({} if applied is None else {"compensation": applied["folder"]}))
     return Simulated(s, vm, setups, opts, draw, None if b is None else b[1],
-                     tuple(measured), tuple(notes))
+                     tuple(measured), tuple(notes), applied)
+
+
+def _with_tables(vm: MachineErrors, folder: Path, s: Session, force: bool, notes: list[str]
+                 ) -> tuple[MachineErrors, dict[str, Any]]:
+    """The virtual machine with the tables of ``folder`` active, and their record."""
+    from volcal.compensate.applied import compensated_machine
+    from volcal.compensate.manifest import check_manifest, read_manifest
+    from volcal.compensate.readback import read_written_tables
+    from volcal.session.identity import MachineIdentity
+
+    if not folder.is_dir():
+        raise ParameterError("{compensation=}: not a folder written by `volcal compensate`",
+                             folder)
+    manifest = read_manifest(folder)
+    notes += check_manifest(manifest, folder, MachineIdentity.of(s), None, force,
+                            "the virtual machine")
+    tables = read_written_tables(folder, manifest, s.travel)
+    record = {"folder": str(folder), "controller_format": tables.controller_format,
+              "sign": str(manifest.get("sign", "error")),
+              "bidirectional": tables.reverse is not None, "files": list(tables.files),
+              "as_found_machine": vm.name,
+              "note": "truth/machine.csv is the machine with these tables active"}
+    return compensated_machine(vm, tables), record
 
 
 def _error_table(path: Path, s: Session, notes: list[str]) -> MachineErrors:

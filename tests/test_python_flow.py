@@ -172,7 +172,7 @@ def test_unknown_keyword_lists_every_valid_option(cal):
     assert str(e.value) == (
         "Calibration.simulate: unknown option 'noise' (did you mean 'noise_um'?); valid "
         "options: machine, seed, noise_um, mirror_misalignment_urad, drift_um_per_h, "
-        "reversal_um, budget")
+        "reversal_um, budget, compensation, force")
 
 
 def test_identified_functions_as_a_table(cal):

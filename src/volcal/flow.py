@@ -688,7 +688,7 @@ class Calibration:
                    linuxcnc_type: int = D.COMP_LINUXCNC_TYPE,
                    squareness: bool = D.COMP_SQUARENESS,
                    tool_offset: ArrayLike | str = D.TOOL_OFFSET_MM, *,
-                   replace: bool = False, bidirectional: bool = False) -> list[str]:
+                   replace: bool = False) -> list[str]:
         """Write controller compensation tables of the identified model.
 
         Calls :func:`volcal.steps.compensate.compensate` with this calibration's model and
@@ -734,11 +734,6 @@ class Calibration:
         replace : bool
             The folder holds files volcal did not write there: move them into its
             ``backup/<UTC time>/`` instead of refusing, as ``--replace``.
-        bidirectional : bool
-            As ``volcal compensate --session`` with this calibration's session: its
-            bidirectional ISO 230-2 tests give forward and reverse tables (LinuxCNC,
-            Fanuc, Heidenhain ``BACKLASH``) and the line checks before and after; False
-            (default): one table per axis, as the command without ``--session``.
 
         Returns
         -------
@@ -762,7 +757,7 @@ class Calibration:
                        squareness=squareness,
                        tool_offset=A.vector_mm(tool_offset, "tool_offset"),
                        machine=MachineIdentity.of(self.session), replace=replace,
-                       session=self.session if rotary_only or bidirectional else None)
+                       session=self.session if rotary_only else None)
         if r.sign_note is not None:
             warnings.warn(spell(r.sign_note, {}), UserWarning, stacklevel=3)
         if r.rotary_only:  # as the command line's note

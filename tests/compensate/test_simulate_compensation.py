@@ -29,7 +29,10 @@ def found(tmp_path_factory):
     c = Calibration.plan(TRAVEL, steps=6, runs=2, name="ASLEFT").simulate(seed=4)
     c.save(d / "FOUND")
     c.identify()
-    c.compensate(d / "COMP", "linuxcnc", bidirectional=True)
+    c.result.to_json(d / "model.json")
+    r = CliRunner().invoke(app, ["compensate", str(d / "model.json"), "--format", "linuxcnc",
+                                 "--session", str(d / "FOUND"), "-o", str(d / "COMP")])
+    assert r.exit_code == 0, r.output  # --session: forward and reverse tables
     assert "bidirectional = true" in (d / "COMP" / "volcal-compensation.toml").read_text()
     return c, d
 

@@ -9,6 +9,8 @@ with its own."""
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 from typer.testing import CliRunner
@@ -95,6 +97,12 @@ def test_cli_writes_the_record_and_refuses_a_grid_and_another_machine(found, tmp
     assert 'controller_format = "linuxcnc"' in record and "bidirectional = true" in record
     s = read_session(tmp_path / "LEFT")
     assert s.provenance["compensation"] == str(d / "COMP")
+    from volcal.report.pipeline import read_truth
+    from volcal.report.sections import machine_section
+
+    said = machine_section(SimpleNamespace(session=s, truth=read_truth(s))).paragraphs[-1]
+    assert said.startswith("This session was simulated on a virtual machine running with "
+                           f"the compensation tables of {d / 'COMP'} (an as-left")
     c.compensate(d / "GRID", "grid")
     with pytest.raises(VolcalInputError, match="3-D grid"):
         Calibration.plan(TRAVEL, steps=6, name="ASLEFT").simulate(

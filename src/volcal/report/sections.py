@@ -133,8 +133,13 @@ def machine_section(inp: ReportInputs) -> Section:
     sec.paragraphs.append(f"The session holds {len(s.measurements)} measurements with "
                           f"{n} laser readings" + (f" (folder {s.path})." if s.path else "."))
     if inp.truth is not None:
-        sec.paragraphs.append("This session was simulated on a virtual machine; its true "
-                              "errors are shown beside the estimates.")
+        tables = (s.provenance or {}).get("compensation")
+        sec.paragraphs.append(
+            "This session was simulated on a virtual machine; its true errors are shown "
+            "beside the estimates." if not isinstance(tables, str) else
+            "This session was simulated on a virtual machine running with the compensation "
+            f"tables of {tables} (an as-left measurement); its true errors, those of the "
+            "machine with the tables active, are shown beside the estimates.")
     sec.tables.append(Table(["axis", "min [mm]", "max [mm]", "travel [mm]"], rows,
                             "Work zone"))
     return sec

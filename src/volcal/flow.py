@@ -42,6 +42,7 @@ if TYPE_CHECKING:
     from volcal.session.format import Session
     from volcal.standards.iso230_2_uncertainty import Iso2302Uncertainty
     from volcal.standards.session import SessionEvaluation
+    from volcal.steps.compensate import Compensated
     from volcal.steps.locate import Located
     from volcal.steps.predict import Prediction
     from volcal.steps.simulate import Simulated
@@ -69,6 +70,9 @@ class Calibration:
         Set by :meth:`evaluate`.
     compensation : Path or None
         Folder written by :meth:`compensate`.
+    compensated : Compensated or None
+        What :meth:`compensate` wrote: files, sign and, with ``session=``, the line checks
+        (ISO 230-2 A of each measured line before and after the tables).
     imported : ImportResult or None
         What :meth:`import_` read (notes on units and columns).
     uncertainties : dict of str to Iso2302Uncertainty, or None
@@ -86,6 +90,7 @@ class Calibration:
         self.result: IdentificationResult | None = None
         self.evaluation: SessionEvaluation | None = None
         self.compensation: Path | None = None
+        self.compensated: Compensated | None = None
         self.imported: ImportResult | None = None
         self.uncertainties: dict[str, Iso2302Uncertainty] | None = None
         self.certificate: CertificateFiles | None = None
@@ -688,7 +693,8 @@ class Calibration:
                    linuxcnc_type: int = D.COMP_LINUXCNC_TYPE,
                    squareness: bool = D.COMP_SQUARENESS,
                    tool_offset: ArrayLike | str = D.TOOL_OFFSET_MM, *,
-                   replace: bool = False) -> list[str]:
+                   replace: bool = False,
+                   session: str | Path | Session | None = None) -> list[str]:
         """Write controller compensation tables of the identified model.
 
         Calls :func:`volcal.steps.compensate.compensate` with this calibration's model and
@@ -734,6 +740,13 @@ class Calibration:
         replace : bool
             The folder holds files volcal did not write there: move them into its
             ``backup/<UTC time>/`` instead of refusing, as ``--replace``.
+        session : str, Path or Session, optional
+            As ``volcal compensate --session``: the session (this calibration's
+            :attr:`session`, or a folder) whose bidirectional ISO 230-2 linear tests give
+            forward and reverse tables (LinuxCNC, Fanuc, Heidenhain ``BACKLASH``), the
+            model checked against it; None (default): one table per axis, as the
+            command without ``--session``. The line checks before and after are in
+            :attr:`compensated`.
 
         Returns
         -------
@@ -757,7 +770,8 @@ class Calibration:
                        squareness=squareness,
                        tool_offset=A.vector_mm(tool_offset, "tool_offset"),
                        machine=MachineIdentity.of(self.session), replace=replace,
-                       session=self.session if rotary_only else None)
+                       session=session if session is not None
+                       else self.session if rotary_only else None)
         if r.sign_note is not None:
             warnings.warn(spell(r.sign_note, {}), UserWarning, stacklevel=3)
         if r.rotary_only:  # as the command line's note
@@ -766,6 +780,7 @@ class Calibration:
                           stacklevel=3)
         files = list(r.files)
         self.compensation = Path(folder)
+        self.compensated = r
         return files
 
     @A.checked

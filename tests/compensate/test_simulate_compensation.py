@@ -31,11 +31,16 @@ def found(tmp_path_factory):
     c = Calibration.plan(TRAVEL, steps=6, runs=2, name="ASLEFT").simulate(seed=4)
     c.save(d / "FOUND")
     c.identify()
+    c.compensate(d / "COMP", "linuxcnc", session=c.session)  # as --session: both directions
+    assert "bidirectional = true" in (d / "COMP" / "volcal-compensation.toml").read_text()
+    assert c.compensated is not None and len(c.compensated.line_checks) == 9
     c.result.to_json(d / "model.json")
     r = CliRunner().invoke(app, ["compensate", str(d / "model.json"), "--format", "linuxcnc",
-                                 "--session", str(d / "FOUND"), "-o", str(d / "COMP")])
-    assert r.exit_code == 0, r.output  # --session: forward and reverse tables
-    assert "bidirectional = true" in (d / "COMP" / "volcal-compensation.toml").read_text()
+                                 "--session", str(d / "FOUND"), "-o", str(d / "COMP-CLI")])
+    assert r.exit_code == 0, r.output  # the command's tables: the same numbers
+    for axis in "XYZ":
+        np.testing.assert_array_equal(np.loadtxt(d / "COMP" / f"{axis}.comp"),
+                                      np.loadtxt(d / "COMP-CLI" / f"{axis}.comp"))
     return c, d
 
 

@@ -112,6 +112,11 @@ def test_cli_writes_the_record_and_refuses_a_grid_and_another_machine(found, tmp
     with pytest.raises(VolcalInputError, match="3-D grid"):
         Calibration.plan(TRAVEL, steps=6, name="ASLEFT").simulate(
             machine=c.truth, compensation=d / "GRID")
+    r = runner.invoke(app, ["simulate", str(tmp_path / "LEFT"), "--compensation", "NOPE"])
+    assert isinstance(r.exception, VolcalInputError)  # main() prints it, exit status 2
+    assert str(r.exception).startswith("--compensation NOPE: not a folder"), r.exception
+    with pytest.raises(VolcalInputError, match="compensation=NOPE: not a folder"):
+        Calibration.plan(TRAVEL, steps=6, name="ASLEFT").simulate(compensation="NOPE")
     other = Calibration.plan([[0, 900], [0, 600], [0, 500]], steps=6, name="OTHER")
     with pytest.raises(VolcalInputError, match="force"):
         other.simulate(compensation=d / "COMP")

@@ -199,8 +199,8 @@ def _with_tables(vm: MachineErrors, folder: Path, s: Session, force: bool, notes
     from volcal.session.identity import MachineIdentity
 
     if not folder.is_dir():
-        raise ParameterError("{compensation=}: not a folder written by `volcal compensate`",
-                             folder)
+        raise ParameterError(f"{{compensation=}}{folder}: not a folder (the tables that "
+                             "`volcal compensate` wrote)")
     manifest = read_manifest(folder)
     notes += check_manifest(manifest, folder, MachineIdentity.of(s), None, force,
                             "the virtual machine")

@@ -186,6 +186,11 @@ def test_functions_no_reading_moves_are_not_between_the_readings():
         assert all(rep.determined_fraction[n] == 0.0 and n not in said for n in names)
     assert "No test here moves" not in said["EAX"] and "lever arms" in said["EAX"]
     assert not any(m.startswith("Roll:") and "EBY" in m for m in rep.messages)
+    # the suggested tests at the finest axis' increments (session 18: "--steps 2", the
+    # two ends of the unmoved Y and Z), as for the linear tests of all three axes
+    add = next(m for m in rep.messages if m.startswith("To add it:"))
+    steps = int(add.split("--steps ")[1].split()[0])
+    assert steps >= 10, add
     c.simulate(seed=5)
     r = c.identify()
     free = np.asarray(r.free)

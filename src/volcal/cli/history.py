@@ -461,10 +461,8 @@ def compare_cmd(
             test = f"{e.test} {extra}".rstrip()
         elif e.U is not None:  # a result against the combined U of the two calibrations
             test = f"|d| {abs(e.difference):.4f} {'>' if e.changed else '<='} U {e.U:.4f}"
-        elif e.test == "|d| > U":  # a result without a stored U: no test made
+        else:  # a result without a stored U (the two tests are chi-square and |d| > U)
             test = f"not tested: {e.reason}"
-        else:
-            test = f"{e.test}: {e.reason}"
         typer.echo(f"{e.name}\t{e.difference:+.4f}\t{u}\t{e.unit}\t{e.verdict}\t{test}")
     n = sum(1 for e in entries if e.changed)
     typer.echo(f"{n} of {sum(1 for e in entries if e.changed is not None)} decided entries "

@@ -213,6 +213,7 @@ def between_share(result: IdentificationResult,
     bf = np.asarray(bf)
     var = np.sum(bf**2, axis=1)
     free, untouched = np.asarray(result.free), var > 0
+    # a model written before session 18 has the part at the functions no reading moves too
     keep = untouched & read_functions(result.layout, free, untouched)
     if not keep.any():  # only functions no reading moves: nothing between readings
         return None
@@ -272,10 +273,11 @@ def forecast_between(design: Design, settings: EstimatorSettings,
                                     function_scales(np.asarray(settings.typical_scales,
                                                                dtype=float)),
                                     float(settings.between_readings_factor))
-    free, untouched = np.asarray(design.free), var > 0
-    keep = untouched & read_functions(design.layout, free, untouched)
+    # var > 0: the untouched nodes of the functions the readings move (the variance's rule)
+    keep = var > 0
     if not keep.any():
         return None
+    free = np.asarray(design.free)
     from volcal.model.chain import parse_chain
 
     q = part_grid(travel)

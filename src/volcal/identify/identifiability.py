@@ -443,16 +443,17 @@ def _messages(rep: IdentifiabilityReport, design: Design,
     weak = [n for n, f in rep.determined_fraction.items() if 0.5 <= f < 0.95]
     if unmoved is None:
         unmoved = _unmoved_axes(design)
-    still = {n for n in poor if n in COMPONENT_NAMES and COMPONENT_NAMES.index(n) // 6 in unmoved}
+    of_unmoved = {n for n in poor
+                  if n in COMPONENT_NAMES and COMPONENT_NAMES.index(n) // 6 in unmoved}
     for k in sorted(unmoved):  # one line per axis no test moves, not one per function
-        names = [n for n in poor if n in still and COMPONENT_NAMES.index(n) // 6 == k]
+        names = [n for n in poor if n in of_unmoved and COMPONENT_NAMES.index(n) // 6 == k]
         if names:
             rep.messages.append(
                 f"No test here moves the {'XYZ'[k]} axis, so no reading depends on its "
                 f"errors: {', '.join(names)} are not determined by the data (none of their "
                 "prior uncertainty removed); their estimates are the prior's (zero), with its "
                 "uncertainty carried into the predictions.")
-    poor = [n for n in poor if n not in still]
+    poor = [n for n in poor if n not in of_unmoved]
     rolls = [n for n in poor if n in ROLL_NAMES]
     for what, why in _UNSEEN_WHY.items():  # one line per kind no reading sees at all
         unseen = [n for n in poor if kind(n) == what and rep.determined_fraction[n] < 0.005]

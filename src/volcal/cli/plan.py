@@ -163,7 +163,8 @@ def simulate(
                       overwrite=overwrite, compensation=compensation, force=force)
     for note in r.notes:
         console.print(f"[yellow]note:[/] {escape(note)}", highlight=False)
-    backup = step.save(r, session)
+    folder = r.session.path or session  # the folder, also where session.toml was named
+    backup = step.save(r, folder)
     if backup is not None:
         console.print(f"replaced the readings of {len(r.replaced)} measurements; the old "
                       f"files are kept in {backup}/", highlight=False)
@@ -172,7 +173,7 @@ def simulate(
                   + (f", systematic errors drawn from {budget}" if budget is not None else "")
                   + (f", the tables of {compensation} active" if compensation is not None
                      else "")
-                  + f"); truth in {session}/truth/")
+                  + f"); truth in {folder}/truth/")
 
 
 def _multilateration_options(grid: str, stations: str, tool_offsets: str) -> dict:

@@ -33,7 +33,7 @@ import numpy as np
 from volcal.errors import VolcalInputError
 from volcal.identify.modelwrite import BINARY_SUFFIX, binary_path, write_model
 from volcal.identify.result import MODEL_FORMAT, IdentificationResult
-from volcal.io.sniff import is_model_file
+from volcal.io.sniff import is_model_file, not_a_model_file
 from volcal.model.errorfunctions import MachineErrors
 
 if TYPE_CHECKING:
@@ -132,7 +132,7 @@ def load_model(path: str | Path) -> IdentificationResult:
     """
     path = Path(path)
     if not path.is_file():
-        raise VolcalInputError("model file not found", path)
+        raise VolcalInputError(not_a_model_file(path), path)
     if path.suffix.lower() == BINARY_SUFFIX:
         raise VolcalInputError(f"this is the binary part of a model; give the model's JSON "
                                f"({path.with_suffix('.json').name})", path)

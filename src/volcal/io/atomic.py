@@ -163,8 +163,19 @@ def atomic_dir(path: str | Path, overwrite: bool = True) -> Iterator[Path]:
     ------
     Path
         Temporary folder to fill.
+
+    Raises
+    ------
+    VolcalInputError
+        If ``path`` is a file: a folder never replaces a file (a session named by its
+        ``session.toml``, a report named by a file).
     """
     path = Path(path)
+    if path.exists() and not path.is_dir():
+        from volcal.errors import VolcalInputError
+
+        raise VolcalInputError("a file, not a folder: the folder written here would replace "
+                               "it (name the folder)", path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent))
     umask = os.umask(0)

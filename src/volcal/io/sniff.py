@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-__all__ = ["is_model_file"]
+__all__ = ["is_model_file", "not_a_model_file"]
 
 _BOM = b"\xef\xbb\xbf"
 
@@ -43,3 +43,27 @@ def is_model_file(path: str | Path) -> bool:
     except OSError:
         return False
     return head.removeprefix(_BOM).lstrip().startswith(b"{")
+
+
+def not_a_model_file(path: str | Path) -> str:
+    """Why ``path``, given as a model or error table, cannot be read: for the error message.
+
+    Parameters
+    ----------
+    path : str or Path
+        What was given as a model (a file that is not there).
+
+    Returns
+    -------
+    str
+        ``'model file not found'``, or for a folder what it is and what to give instead:
+        a session folder is identified first (``volcal identify``), another folder is no
+        model.
+    """
+    p = Path(path)
+    if not p.is_dir():
+        return "model file not found"
+    if (p / "session.toml").is_file():
+        return (f"a session folder, not a model: identify it first "
+                f"(volcal identify {p} -o model.json) and give the model")
+    return "a folder, not a model file (an identified model .json or an error table .csv)"

@@ -295,7 +295,11 @@ def read_text(path: str | Path, what: str = "file") -> str:
         return path.read_text(encoding="utf-8-sig")
     except FileNotFoundError:
         raise VolcalInputError(f"{what} not found", path) from None
-    except (UnicodeDecodeError, IsADirectoryError, PermissionError) as exc:
+    except IsADirectoryError:
+        hint = (" (a session folder: name one of its measurement files)"
+                if (path / "session.toml").is_file() else "")
+        raise VolcalInputError(f"a folder, not a {what}{hint}", path) from None
+    except (UnicodeDecodeError, PermissionError) as exc:
         raise VolcalInputError(f"cannot read the file as UTF-8 text ({exc.__class__.__name__})",
                                path) from None
 

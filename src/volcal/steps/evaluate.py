@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 
 from volcal import defaults as D
 from volcal.errors import ParameterError
-from volcal.io.sniff import is_model_file
+from volcal.io.sniff import is_model_file, not_a_model_file
 from volcal.steps import _checks
 
 if TYPE_CHECKING:
@@ -138,7 +138,7 @@ def _model(model: str | Path | IdentificationResult | None
         if not Path(model).is_file():
             from volcal.errors import VolcalInputError
 
-            raise VolcalInputError("model file not found", model)
+            raise VolcalInputError(not_a_model_file(model), model)
         if is_model_file(model):
             from volcal.identify.modelfile import load_model
 

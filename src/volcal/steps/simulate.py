@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from volcal import defaults as D
-from volcal.errors import ParameterError
+from volcal.errors import ParameterError, VolcalInputError
 from volcal.steps import _checks
 
 if TYPE_CHECKING:
@@ -148,6 +148,10 @@ def simulate(session: Session | str | Path, *,
     if isinstance(s, str | Path):
         from volcal.session.format import read_session
 
+        if not (Path(s) / "session.toml").is_file() and not Path(s).is_file():
+            raise VolcalInputError(
+                "no planned session here (no session.toml): `volcal simulate` fills the "
+                f"readings of a plan; plan it first (volcal plan -o {s} ...)", s)
         s = read_session(s, require_deviation=False)
     measured = measured_ids(s)
     if measured and not overwrite:

@@ -78,3 +78,14 @@ def test_a_folder_given_as_a_file(planned):
         assert f"{s}: a session folder, not a model: identify it first" in text, text
     assert "a folder, not a model file" in refused(["evaluate", "volumetric", str(planned)])
     assert not (planned / "C").exists()
+
+
+def test_a_table_separated_by_semicolons(tmp_path):
+    from volcal.io.table import Column, TableSpec, read_table
+
+    f = tmp_path / "points.csv"
+    f.write_text("x_mm;y_mm;z_mm\n0;0;0\n", encoding="utf-8")
+    spec = TableSpec(columns=(Column("x_mm"), Column("y_mm"), Column("z_mm")), what="points")
+    with pytest.raises(VolcalInputError, match="separated by semicolons or tabs") as exc:
+        read_table(f, spec)
+    assert "row 1, column 'x_mm'" in str(exc.value)

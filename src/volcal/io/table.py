@@ -509,8 +509,12 @@ def _missing_column(header: list[str], c: Column, known: set[str], path: Path | 
     if len(shown) > 120:
         shown = shown[:117] + "..."
     unknown = [h for h in header if h not in known]
+    sep = ""
+    if len(header) == 1 and (";" in header[0] or "\t" in header[0]):
+        sep = ("; the file is separated by semicolons or tabs: volcal reads comma-separated "
+               "values with a decimal point")
     return VolcalInputError(f"missing required column '{c.name}'{_closest_hint(c.name, unknown)} "
-                            f"(header: {shown})", path, row, c.name)
+                            f"(header: {shown}){sep}", path, row, c.name)
 
 
 def _named_columns(header: list[str], spec: TableSpec, path: Path | None, row: int

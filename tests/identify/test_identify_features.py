@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -252,3 +253,28 @@ def test_report_states_how_well_each_roll_was_measured(noisy):
     for k, name in enumerate(("EAX", "EBY", "ECZ")):
         u = np.sqrt(np.mean(r.function_std(name, r.errors.nodes[k]) ** 2))
         assert f"{name} {u:.1f} urad" in msg
+    # each roll beside its prior's RMS over the same nodes: the seeds' set sees EBY and ECZ
+    # through the diagonals' lever arms (far below the prior), EAX hardly (session 19: the
+    # message compared them with one angular scale, 9 urad, that a 3 m axis' roll prior
+    # of 19 urad exceeded, so an unmeasured roll read as "above the prior")
+    prior = {n: float(p) for n, p in re.findall(r"(E[ABC][XYZ]) [\d.]+ urad \(prior ([\d.]+)\)",
+                                               msg)}
+    assert sorted(prior) == ["EAX", "EBY", "ECZ"]
+    for k, name in enumerate(("EAX", "EBY", "ECZ")):
+        u = np.sqrt(np.mean(r.function_std(name, r.errors.nodes[k]) ** 2))
+        assert u < prior[name]
+    assert all(np.sqrt(np.mean(r.function_std(n, r.errors.nodes[k]) ** 2)) < 0.5 * prior[n]
+               for k, n in ((1, "EBY"), (2, "ECZ")))
+
+
+def test_an_unseen_roll_keeps_its_prior():
+    """Linear tests alone see no roll: each roll's uncertainty is its prior's, which the
+    message states beside it (computed from the prior's precision, not the fit)."""
+    s = seeds_session("XYFZ", steps=6, tests=("linear",), runs=1)
+    exact_fill(s, random_machine(TRAVEL, "XYFZ", seed=3), seed=1)
+    r = identify(s)
+    msg = next(m for m in r.report.messages if m.startswith("Rolls as measured"))
+    found = re.findall(r"(E[ABC][XYZ]) ([\d.]+) urad \(prior ([\d.]+)\)", msg)
+    assert [n for n, *_ in found] == ["EAX", "EBY", "ECZ"]
+    for _, u, p in found:
+        assert abs(float(u) - float(p)) <= 0.1 + 0.01 * float(p)

@@ -794,7 +794,8 @@ def _result(session: Session, design: Design, sol: Solution, report, o: Identify
     if changed:  # what differs from volcal's estimator, so that the fit can be repeated
         fit["estimator_settings"] = changed
     if sol.method == "bayes":
-        report.messages.extend(_roll_messages(sol, std, o.settings))
+        report.messages.extend(_roll_messages(sol, std, o.settings,
+                                              _roll_prior_rms(design, sol, o.settings)))
     return IdentificationResult(session.name, errors, design.layout, design.free, factor, std,
                                 sq_std, report, FitRecord.from_dict(fit), residuals, fitted,
                                 nuis, outliers,
@@ -802,7 +803,27 @@ def _result(session: Session, design: Design, sol: Solution, report, o: Identify
                                 session=session_identity(session))
 
 
-def _roll_messages(sol: Solution, std, settings: EstimatorSettings) -> list[str]:
+def _roll_prior_rms(design: Design, sol: Solution, settings: EstimatorSettings
+                    ) -> list[float | None]:
+    """RMS prior standard deviation of each roll over its nodes [urad] (None: not estimated).
+
+    The fit's prior (its hyperparameters) on the fit's nodes, the gauge node at zero as in
+    the posterior's; what a roll's uncertainty is when no reading sees it.
+    """
+    if sol.function_scales is None:
+        return [None, None, None]
+    prior = fitted_prior(design.layout, design.free, sol, settings)
+    out: list[float | None] = [None, None, None]
+    for b, block in enumerate(prior.blocks):
+        k, c = divmod(block[-1], 6)
+        if c == 3 + k:
+            var = np.diag(np.linalg.inv(prior.block_precision(b, sol.function_scales)))
+            out[k] = float(np.sqrt(np.sum(var) / len(design.layout.nodes[k])))
+    return out
+
+
+def _roll_messages(sol: Solution, std, settings: EstimatorSettings,
+                   prior_rms: list[float | None]) -> list[str]:
     """What the report says about the rolls: their uncertainty and their presence.
 
     Parameters
@@ -813,6 +834,9 @@ def _roll_messages(sol: Solution, std, settings: EstimatorSettings) -> list[str]
         Standard uncertainty of every function at the nodes, per axis [um, urad].
     settings : EstimatorSettings
         Its ``no_roll_note_factor``.
+    prior_rms : list of 3 float or None
+        Each roll's RMS prior standard deviation over the same nodes [urad]
+        (:func:`_roll_prior_rms`).
 
     Returns
     -------
@@ -821,10 +845,12 @@ def _roll_messages(sol: Solution, std, settings: EstimatorSettings) -> list[str]
     out: list[str] = []
     roll_u = [float(np.sqrt(np.mean(std[k][:, 3 + k] ** 2))) for k in range(3)]
     out.append(
-        "Rolls as measured (RMS standard uncertainty over the travel, noise included): "
-        + ", ".join(f"{n} {u:.1f} urad" for n, u in zip(ROLL_NAMES, roll_u, strict=True))
-        + f"; near the prior scale ({sol.scales[2]:.0f} urad) means not measured by these "
-        "tests, whatever share the design could determine without noise.")
+        "Rolls as measured (RMS standard uncertainty over the travel, noise included; "
+        "before measuring, the prior's): "
+        + ", ".join(f"{n} {u:.1f} urad" + ("" if p is None else f" (prior {p:.1f})")
+                    for n, u, p in zip(ROLL_NAMES, roll_u, prior_rms, strict=True))
+        + "; near the prior means not measured by these tests, whatever share the design "
+        "could determine without noise.")
     lbf = sol.roll_log_bayes_factor
     if lbf is not None and -lbf > np.log(settings.no_roll_note_factor):
         p_roll = sol.roll_probability

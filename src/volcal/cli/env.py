@@ -21,9 +21,20 @@ def refractive_index_cmd(
 ) -> None:
     """Print the refractive index of air n (NIST EMToolbox formulation)."""
     from volcal.environment.refractive import refractive_index
+    from volcal.errors import VolcalInputError
 
-    n = refractive_index(temperature_c, pressure_pa, humidity_pct, wavelength_nm, formula,
-                         co2_ppm)
+    try:
+        n = refractive_index(temperature_c, pressure_pa, humidity_pct, wavelength_nm, formula,
+                             co2_ppm)
+    except VolcalInputError as exc:  # the equations name their inputs as a table's columns
+        if exc.column is None:
+            raise
+        option = "--" + exc.column.replace("_", "-")
+        hint = (" (in Pa: 1013.25 hPa is 101325 Pa)"
+                if exc.column == "pressure_pa" and 500 <= pressure_pa <= 1100 else "")
+        text = exc.message.removeprefix(f"{exc.column} = ")
+        raise VolcalInputError(f"{option} {text}{hint}" if text != exc.message
+                               else f"{option}: {text}{hint}") from None
     typer.echo(f"{float(n):.9f}")
 
 

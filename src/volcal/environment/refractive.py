@@ -112,8 +112,9 @@ def _check(t_c, p_pa, h_pct, wl_nm, co2_ppm) -> None:
         if not np.all(np.isfinite(a)):
             raise VolcalInputError(f"{name} must be a finite number", column=name)
         if np.any(a < lo) or np.any(a > hi):
+            shown = f"{a.min():g}" if a.min() == a.max() else f"{a.min():g}..{a.max():g}"
             raise VolcalInputError(
-                f"{name} = {a.min():g}..{a.max():g} outside the range of validity "
+                f"{name} = {shown} outside the range of validity "
                 f"[{lo:g}, {hi:g}] of the refractive-index equations", column=name)
 
 

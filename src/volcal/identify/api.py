@@ -193,13 +193,30 @@ def candidate_designs(session: Session, nodes, known) -> dict[str, Design]:
     t = session.travel
     steps = candidate_steps(nodes)
     vertical = vertical_axis(session.meta)
+    # the candidates depend on the geometry alone (no reading): kept for the next
+    # identification of the same travel, chain and nodes (a report's as-found and as-left,
+    # Calibration, the studies); not with known errors (their values are in the design)
+    key = None if known else (np.asarray(t, dtype=float).tobytes(), str(session.chain),
+                              vertical, steps,
+                              tuple(np.asarray(n, dtype=float).tobytes() for n in nodes))
+    if key is not None and key in _CANDIDATES:
+        return dict(_CANDIDATES[key])
     out = {}
     for add in candidate_additions(t, vertical):
         ms = [Measurement(f"c-{m.id}", m.kind, m.target, m.positions, np.zeros(m.n),
                           m.beam_direction, m.tool_offset, f"c-{m.file}", m.columns, m.meta)
               for m in add.plan(t, session.chain, steps, vertical)]
         out[add.label] = build_design(Session(session.name, session.chain, t, ms), nodes, known)
-    return out
+    if key is not None:
+        while len(_CANDIDATES) >= _CANDIDATES_KEPT:
+            _CANDIDATES.pop(next(iter(_CANDIDATES)))
+        _CANDIDATES[key] = out
+    return dict(out)
+
+
+_CANDIDATES: dict[tuple, dict[str, Design]] = {}
+"""The candidate designs of the last geometries (:func:`candidate_designs`)."""
+_CANDIDATES_KEPT = 4
 
 
 def candidate_steps(nodes) -> int:

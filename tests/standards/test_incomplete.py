@@ -258,6 +258,10 @@ def test_report_lists_missed_readings_and_unmeasured_tests(S, tmp_path, monkeypa
     _write(S / "linear-z3.csv", r)
     code, _, err = run_cli(monkeypatch, capsys, "report", S, "-o", tmp_path / "R")
     assert code == 0, err
+    # the one PDF drawn of a report with missed readings and an unmeasured test (the
+    # missed-capture flow of tests/cli stubs its own)
+    assert (tmp_path / "R" / "report.pdf").read_bytes()[:5] == b"%PDF-"
+    assert (tmp_path / "R" / "report.pdf").stat().st_size > 20_000
     html = (tmp_path / "R" / "report.html").read_text()
     text = " ".join(html.replace("<", " <").replace(">", "> ").split())
     assert "Completeness and plausibility of the readings" in text

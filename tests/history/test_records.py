@@ -165,6 +165,31 @@ def test_as_left_of_must_be_the_same_machine_measured_before(store_url, sessions
         assert h.verify()[0]
 
 
+def test_compare_says_what_the_two_calibrations_are(store_url, sessions):
+    """An as-found / as-left pair is named as one by compare (its differences are the
+    tables' as much as the machine's), and two given latest first are said to be
+    (session 19: the table read "CHANGED" for every function of a pair, silently)."""
+    from volcal.history.api import History
+    from volcal.history.compare import pair_notes
+
+    with History(store_url) as h:
+        a1 = _add(h, sessions["a1"])                                # 2026-01-10
+        a2 = _add(h, sessions["a2"])                                # 2026-07-10
+        left = _add(h, sessions["a2same"], as_left_of=a2.id)       # its as-left
+        assert pair_notes(h.store, a1.id, a2.id) == []
+        assert pair_notes(h.store, a2.id, left.id) == [
+            f"{left.id} is the as-left of {a2.id} (measured with the compensation tables "
+            "active): the differences are what the tables corrected as much as the "
+            f"machine's change; the machine's change since is the next as-found against "
+            f"{left.id}"]
+        assert pair_notes(h.store, a2.id, a1.id) == [
+            f"{a2.id} was measured after {a1.id} (2026-07-10, 2026-01-10): the differences "
+            "are the earlier minus the later (give the earlier first)"]
+        df = h.compare(a2.id, left.id)
+        assert df.attrs["notes"] == pair_notes(h.store, a2.id, left.id)
+        assert len(df) > 0
+
+
 # ------------------------------------------------------------------ 4. store hygiene
 def test_no_store_is_made_by_a_typo(tmp_path, sessions):
     s = sessions["a1"]

@@ -433,13 +433,15 @@ def compare_cmd(
     """Has the machine changed? Each result and identified function against its U."""
     from dataclasses import replace
 
-    from volcal.history.compare import compare
+    from volcal.history.compare import compare, pair_notes
     from volcal.standards.iso230_2_rotary import UNITS, check_units
 
     check_units(units)
     with _open(db) as h:
         entries = compare(h.store, first, second, level)
         _warn_damaged(h, _current_ids(h, (first, second)))
+        for note in pair_notes(h.store, first, second):
+            _err(f"note: {note}")
     if units != "urad":  # display: the differences of angles and their U
         f = UNITS[units]
         entries = [replace(e, difference=e.difference * f, unit=units,

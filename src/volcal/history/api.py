@@ -284,7 +284,9 @@ class History:
     def compare(self, id1: str, id2: str, level: float = 0.05) -> Any:
         """The change test between two calibrations, as a DataFrame.
 
-        See :func:`volcal.history.compare.compare` for the columns.
+        See :func:`volcal.history.compare.compare` for the columns; ``attrs["notes"]``
+        says what the two are to each other (:func:`volcal.history.compare.pair_notes`:
+        an as-found/as-left pair, or given latest first).
 
         Parameters
         ----------
@@ -295,7 +297,7 @@ class History:
         """
         import pandas as pd
 
-        from volcal.history.compare import compare
+        from volcal.history.compare import compare, pair_notes
 
         df = pd.DataFrame([e.to_dict() for e in compare(self.store, id1, id2, level)],
                           columns=["name", "difference", "U", "changed", "unit", "test",
@@ -304,6 +306,7 @@ class History:
         for col in ("difference", "U", "statistic", "threshold", "dof", "position_mm"):
             df[col] = pd.to_numeric(df[col], errors="coerce").astype(float)
         df["changed"] = df["changed"].astype("boolean")
+        df.attrs["notes"] = pair_notes(self.store, id1, id2)  # an as-found/as-left pair
         return df
 
     def trend(self, machine: str, parameter: str) -> Any:

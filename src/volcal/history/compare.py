@@ -494,6 +494,42 @@ def compare(store: Any, id1: str, id2: str, level: float = 0.05) -> list[Entry]:
     return out
 
 
+def pair_notes(store: Any, id1: str, id2: str) -> list[str]:
+    """What the two calibrations compared are to each other, for the reader of the test.
+
+    Parameters
+    ----------
+    store : Store
+        The history.
+    id1, id2 : str
+        The calibrations given as earlier and later.
+
+    Returns
+    -------
+    list of str
+        An as-found / as-left pair: its differences are the compensation's as much as the
+        machine's (the machine's change is the next as-found against the as-left); the
+        two given in the reverse order of their dates: the differences are then earlier
+        minus later.
+    """
+    with store.reading():
+        r1, r2 = store.current(id1), store.current(id2)
+    out = []
+    ids1, ids2 = {id1, r1.id}, {id2, r2.id}
+    if r2.as_left_of in ids1 or r1.as_left_of in ids2:
+        found, left = (r1, r2) if r2.as_left_of in ids1 else (r2, r1)
+        out.append(f"{left.id} is the as-left of {found.id} (measured with the compensation "
+                   "tables active): the differences are what the tables corrected as much "
+                   f"as the machine's change; the machine's change since is the next "
+                   f"as-found against {left.id}")
+    d1, d2 = str(r1.date or "")[:19], str(r2.date or "")[:19]
+    if d1 and d2 and d1 > d2:
+        n = 10 if d1[:10] != d2[:10] else 19  # the day, or the time on one day
+        out.append(f"{r1.id} was measured after {r2.id} ({d1[:n]}, {d2[:n]}): the "
+                   "differences are the earlier minus the later (give the earlier first)")
+    return out
+
+
 @dataclass
 class _Results:
     """Results of a calibration not (yet) stored, shaped as a record's ``results``."""

@@ -99,4 +99,4 @@ def test_env_refractive_index(monkeypatch, capsys):
         assert abs(float(out) - n) < 2e-8
     code, _, err = run_volcal(monkeypatch, capsys, "env", "refractive-index", "--temperature-c",
                               "20", "--pressure-pa", "1013", "--humidity-pct", "50")
-    assert code == 2 and "pressure_pa" in err
+    assert code == 2 and "--pressure-pa 1013 outside" in err and "hPa" in err

@@ -80,6 +80,7 @@ def test_cli_says_joint_test_decided(tmp_path, monkeypatch):
     entries = [cm.Entry("EXX", -0.53, 0.61, True, "um", "chi-square", 49.7, 42.3, 19),
                cm.Entry("EYY", 3.0, 0.61, True, "um", "chi-square", 49.7, 42.3, 19)]
     monkeypatch.setattr(cm, "compare", lambda *a, **k: entries)
+    monkeypatch.setattr(cm, "pair_notes", lambda *a, **k: [])  # no records C1, C2 here
     res = CliRunner().invoke(app, ["history", "compare", "C1", "C2", "--db", db])
     assert res.exit_code == 0, res.output
     lines = {ln.split("\t")[0]: ln for ln in res.output.splitlines()}

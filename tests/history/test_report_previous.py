@@ -97,3 +97,30 @@ def test_cli_missing_history_refused_before_work(history_two, tmp_path):
                        capture_output=True, text=True)
     assert r.returncode == 2 and "no such history file" in r.stderr
     assert not (tmp_path / "r").exists()
+
+
+def test_previous_section_of_an_as_left(history_two, tmp_path):
+    """B stored as the as-left of A: the section says that its changes are the tables' as
+    much as the machine's (session 19); B stored as a plain calibration: it does not."""
+    import shutil
+
+    from volcal.history.api import History
+    from volcal.history.previous import previous_section
+    from volcal.identify.modelfile import load_model
+    from volcal.report.pipeline import collect_inputs
+    from volcal.session.format import read_session
+
+    b = history_two["b"]
+    inp = collect_inputs(read_session(b), load_model(b / "model.json"))
+    texts = {}
+    for kind in ("as-left", "plain"):
+        db = tmp_path / f"{kind}.sqlite"
+        shutil.copy(history_two["db"], db)  # A stored; B added here as kind
+        with History(str(db)) as h:
+            h.add(b, b / "model.json",
+                  as_left_of=history_two["id"] if kind == "as-left" else None)
+        texts[kind] = " ".join(previous_section(inp, str(db)).paragraphs)
+    said = (f"This calibration is stored as the as-left of {history_two['id']} (measured "
+            "with the compensation tables active)")
+    assert said in texts["as-left"] and said not in texts["plain"]
+    assert f"record {history_two['id']}, measured 2026-01-10" in texts["plain"]

@@ -598,6 +598,36 @@ def previous_calibration(store: Any, session: Any) -> Any:
     return max(cands, key=lambda r: (str(r.date or ""), r.id)) if cands else None
 
 
+def stored_as_left_of(store: Any, session: Any) -> str | None:
+    """The as-found calibration this session is stored as the as-left of, if any.
+
+    Parameters
+    ----------
+    store : Store
+        The history.
+    session : Session
+        A session read from its folder.
+
+    Returns
+    -------
+    str or None
+        ``as_left_of`` of the current record holding the session's files (``history add
+        --as-left-of``); None when the session is not stored or not as an as-left.
+    """
+    from volcal.history.machines import match
+
+    if session.path is None:
+        return None
+    machine = match(store.records("machine"), session.identity)
+    if machine is None:
+        return None
+    own = session_digest(session)
+    for r in store.records("calibration", machine_id=machine.id):
+        if r.superseded_by is None and r.payload.get("session_sha256") == own:
+            return r.as_left_of
+    return None
+
+
 def compare_with_model(store: Any, earlier: str, session: Any, model: Any,
                        level: float = 0.05, evaluation: Any = None) -> list[Entry]:
     """The change test between a stored calibration and one not stored (yet).

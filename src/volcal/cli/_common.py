@@ -22,6 +22,9 @@ def parse_travel(text: str) -> np.ndarray:
     if len(parts) != 3:
         raise VolcalInputError(f"--travel {text!r}: expected three ranges min:max,min:max,min:max")
     out = np.empty((3, 2))
+    if all(":" not in p for p in parts):  # the lengths alone: name the ranges
+        raise VolcalInputError(f"--travel {text!r}: expected three ranges min:max [mm], "
+                               f"e.g. {','.join(f'0:{p.strip()}' for p in parts)}")
     for i, p in enumerate(parts):
         try:
             lo, hi = (float(v) for v in p.split(":"))

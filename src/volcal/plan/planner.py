@@ -274,9 +274,9 @@ def _check_options(tests: Sequence[str], steps: int, runs: int, step_target: str
     for x in tests:
         split_test(x)
     if steps < 1 or steps > 10000:
-        raise VolcalInputError("steps must be between 1 and 10000")
+        raise ParameterError(f"{{steps=}}{steps}: expected 1 to 10000 increments per test")
     if runs < 1:
-        raise VolcalInputError("runs must be at least 1")
+        raise ParameterError(f"{{runs=}}{runs}: expected at least 1 run per linear test")
     from volcal.session.format import TARGETS
 
     if step_target not in TARGETS:

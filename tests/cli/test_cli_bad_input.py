@@ -516,6 +516,11 @@ CASES: list[Case] = [
                               "--spacing", "-20"], ("spacing",), None),
         ("spacing-nan", ["{d}/ERRORS.csv", "--format", "siemens", "--sign", "error",
                          "--spacing", "nan"], ("spacing",), None),
+        # session 19: 900 mm on an 800 mm travel wrote LinuxCNC's X.comp with the points
+        # 0 and 900 mm, the second holding the value at 800 mm
+        ("spacing-over-travel", ["{d}/ERRORS.csv", "--format", "linuxcnc",
+                                 "--spacing", "5000"], ("--spacing 5000: longer than the "
+                                                        "travel of LinuxCNC X",), None),
         ("max-points-zero", ["{d}/ERRORS.csv", "--format", "fanuc", "--sign", "error",
                              "--max-points", "0"], ("max-points",), None),
         ("reference-bad", ["{d}/ERRORS.csv", "--format", "fanuc", "--sign", "error",

@@ -111,9 +111,22 @@ def axis_grid(lo: float, hi: float, spacing: float, anchor: float | None = None,
     -------
     ndarray
         Grid positions [mm]; the first ``<= lo``, the last ``>= hi``.
+
+    Raises
+    ------
+    ParameterError
+        A spacing that is not positive, or longer than the travel ``hi - lo``.
+    VolcalInputError
+        More points than ``max_points``.
     """
     if not math.isfinite(spacing) or spacing <= 0:
         raise ParameterError(f"{{spacing=}}{spacing}: expected a positive distance [mm]")
+    if hi > lo and spacing > hi - lo + 1e-9:
+        raise ParameterError(
+            f"{{spacing=}}{spacing:g}: longer than the travel of {what} ({hi - lo:g} mm): the "
+            "table would hold one point inside the travel and take the error for a straight "
+            "line through a value beyond it; use a spacing of a fraction of the travel "
+            "(volcal's default 20 mm)")
     a = lo if anchor is None else float(anchor)
     j0 = math.floor((lo - a) / spacing + 1e-9)
     j1 = math.ceil((hi - a) / spacing - 1e-9)

@@ -8,6 +8,7 @@ identifiability report (:mod:`.identifiability`) -> residual check -> result
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -199,8 +200,11 @@ def candidate_designs(session: Session, nodes, known) -> dict[str, Design]:
     key = None if known else (np.asarray(t, dtype=float).tobytes(), str(session.chain),
                               vertical, steps,
                               tuple(np.asarray(n, dtype=float).tobytes() for n in nodes))
-    if key is not None and key in _CANDIDATES:
-        return dict(_CANDIDATES[key])
+    if key is not None:
+        with _CANDIDATES_LOCK:
+            kept = _CANDIDATES.get(key)
+        if kept is not None:
+            return dict(kept)
     out = {}
     for add in candidate_additions(t, vertical):
         ms = [Measurement(f"c-{m.id}", m.kind, m.target, m.positions, np.zeros(m.n),
@@ -208,15 +212,17 @@ def candidate_designs(session: Session, nodes, known) -> dict[str, Design]:
               for m in add.plan(t, session.chain, steps, vertical)]
         out[add.label] = build_design(Session(session.name, session.chain, t, ms), nodes, known)
     if key is not None:
-        while len(_CANDIDATES) >= _CANDIDATES_KEPT:
-            _CANDIDATES.pop(next(iter(_CANDIDATES)))
-        _CANDIDATES[key] = out
+        with _CANDIDATES_LOCK:
+            while len(_CANDIDATES) >= _CANDIDATES_KEPT:
+                _CANDIDATES.pop(next(iter(_CANDIDATES)))
+            _CANDIDATES[key] = out
     return dict(out)
 
 
 _CANDIDATES: dict[tuple, dict[str, Design]] = {}
 """The candidate designs of the last geometries (:func:`candidate_designs`)."""
 _CANDIDATES_KEPT = 4
+_CANDIDATES_LOCK = threading.Lock()
 
 
 def candidate_steps(nodes) -> int:

@@ -25,6 +25,7 @@ estimator's rows, the planners and the report's sections) and are found by name
 from __future__ import annotations
 
 import importlib
+import threading
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -535,15 +536,28 @@ class Kind:
 
 _REGISTRY: dict[str, Kind] = {}
 _BUILTINS_LOADED = False
+_LOAD_LOCK = threading.Lock()
+_LOADER: int | None = None  # the thread importing the built-in kinds
 
 
 def _load_builtins() -> None:
-    global _BUILTINS_LOADED
-    if _BUILTINS_LOADED:
+    # Loaded is set only once every module is imported, under a lock: a second thread
+    # waits for the first instead of reading a registry still being filled (two threads
+    # reading sessions at once saw "unknown kind 'step_diagonal': expected one of "). The
+    # loading thread's own calls (each module registers its kind) return at once.
+    global _BUILTINS_LOADED, _LOADER
+    if _BUILTINS_LOADED or _LOADER == threading.get_ident():
         return
-    _BUILTINS_LOADED = True
-    for module in BUILTIN_KINDS.values():
-        importlib.import_module(module)
+    with _LOAD_LOCK:
+        if _BUILTINS_LOADED:
+            return
+        _LOADER = threading.get_ident()
+        try:
+            for module in BUILTIN_KINDS.values():
+                importlib.import_module(module)
+            _BUILTINS_LOADED = True
+        finally:
+            _LOADER = None
 
 
 def register_kind(kind: Kind | type[Kind], replace: bool = False) -> Kind:

@@ -868,8 +868,8 @@ def _roll_messages(sol: Solution, std, settings: EstimatorSettings,
     out: list[str] = []
     roll_u = [float(np.sqrt(np.mean(std[k][:, 3 + k] ** 2))) for k in range(3)]
     out.append(
-        "Rolls as measured (RMS standard uncertainty over the travel, noise included; "
-        "before measuring, the prior's): "
+        "Rolls as measured (RMS standard uncertainty over the travel, noise included; in "
+        "brackets the fitted prior's alone, what no reading of the roll leaves): "
         + ", ".join(f"{n} {u:.1f} urad" + ("" if p is None else f" (prior {p:.1f})")
                     for n, u, p in zip(ROLL_NAMES, roll_u, prior_rms, strict=True))
         + "; near the prior means not measured by these tests, whatever share the design "

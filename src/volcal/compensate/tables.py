@@ -122,11 +122,11 @@ def axis_grid(lo: float, hi: float, spacing: float, anchor: float | None = None,
     if not math.isfinite(spacing) or spacing <= 0:
         raise ParameterError(f"{{spacing=}}{spacing}: expected a positive distance [mm]")
     if hi > lo and spacing > hi - lo + 1e-9:
+        tenth = float(f"{(hi - lo) / 10:.2g}")
         raise ParameterError(
             f"{{spacing=}}{spacing:g}: longer than the travel of {what} ({hi - lo:g} mm): the "
             "table would hold one point inside the travel and take the error for a straight "
-            "line through a value beyond it; use a spacing of a fraction of the travel "
-            "(volcal's default 20 mm)")
+            f"line through a value beyond it; use a fraction of the travel (e.g. {tenth:g})")
     a = lo if anchor is None else float(anchor)
     j0 = math.floor((lo - a) / spacing + 1e-9)
     j1 = math.ceil((hi - a) / spacing - 1e-9)

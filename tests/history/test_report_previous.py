@@ -124,3 +124,21 @@ def test_previous_section_of_an_as_left(history_two, tmp_path):
             "with the compensation tables active)")
     assert said in texts["as-left"] and said not in texts["plain"]
     assert f"record {history_two['id']}, measured 2026-01-10" in texts["plain"]
+
+
+def test_trend_of_an_axis_result_names_its_line(history_two):
+    """``X.A`` is the first X line's: with three X lines, trend says so and names the
+    others' parameters (session 19: a user trending X.A did not learn it)."""
+    from volcal.history.api import History
+    from volcal.history.trend import axis_lines_note, trend
+
+    with History(history_two["db"]) as h:
+        rows = trend(h, "VMC-1", "X.A")
+        rid = rows[-1]["id"]
+        res = h.store.current(rid).results
+        assert res["X.A"]["value"] == res["linear-x1.A"]["value"]
+        assert axis_lines_note(h, rows, "X.A") == (
+            f"X.A is the first X line's (linear-x1); {rid} has 3 X lines: --parameter "
+            "linear-x2.A, linear-x3.A for the others")
+        assert axis_lines_note(h, trend(h, "VMC-1", "linear-x2.A"), "linear-x2.A") is None
+        assert axis_lines_note(h, trend(h, "VMC-1", "V.E_VXYZ"), "V.E_VXYZ") is None

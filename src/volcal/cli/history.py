@@ -391,7 +391,7 @@ def trend_cmd(
         "urad or arcsec.")] = "urad",
 ) -> None:
     """One parameter over the calibrations of a machine, with its U (k = 2)."""
-    from volcal.history.trend import trend
+    from volcal.history.trend import axis_lines_note, trend
     from volcal.standards.iso230_2_rotary import check_units
 
     check_units(units)
@@ -402,6 +402,9 @@ def trend_cmd(
     with _open(db) as h:
         rows = [_in_units(r, units) for r in trend(h, machine, parameter)]
         _warn_damaged(h, {r["id"] for r in rows})
+        note = axis_lines_note(h, rows, parameter)
+    if note is not None:
+        _err(f"note: {note}")
     if as_json:
         typer.echo(json.dumps(rows, indent=1))
     else:

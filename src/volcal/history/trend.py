@@ -83,6 +83,41 @@ def _trend(history: Any, machine: str, parameter: str) -> list[dict[str, Any]]:
     return rows
 
 
+def axis_lines_note(history: Any, rows: list[dict[str, Any]], parameter: str) -> str | None:
+    """Which test an axis' result is (``X.A``: the first X line's), when there are others.
+
+    Parameters
+    ----------
+    history : History
+        The store.
+    rows : list of dict
+        The trend's rows (:func:`trend`); the newest record is read.
+    parameter : str
+        The parameter trended.
+
+    Returns
+    -------
+    str or None
+        ``"X.A is the first X line's (linear-x1); the newest calibration has 3: ..."``
+        naming the others' parameters, or None (not an axis' result, one line only).
+    """
+    m = re.fullmatch(r"([XYZABC])\.(\w+)", parameter)
+    if m is None or not rows:
+        return None
+    axis, p = m.group(1), m.group(2)
+    results = history.store.current(rows[-1]["id"]).results
+    pat = re.compile(rf"((?:linear|rotary)-{axis.lower()}\d+)\.{re.escape(p)}")
+    lines = sorted(n for n in results if pat.fullmatch(n))
+    if len(lines) < 2:
+        return None
+    mine = next((n for n in lines if results[n].get("value") == results[parameter]["value"]),
+                lines[0]) if parameter in results else lines[0]
+    others = [n for n in lines if n != mine]
+    return (f"{parameter} is the first {axis} line's ({mine.split('.')[0]}); "
+            f"{rows[-1]['id']} has {len(lines)} {axis} lines: --parameter "
+            + ", ".join(others) + " for the others")
+
+
 def _within_travel(model: Any, name: str, pos: float, parameter: str, rid: str) -> None:
     """Refuse a position outside the identified travel of the function's axis [mm].
 

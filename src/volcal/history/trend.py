@@ -98,8 +98,9 @@ def axis_lines_note(history: Any, rows: list[dict[str, Any]], parameter: str) ->
     Returns
     -------
     str or None
-        ``"X.A is the first X line's (linear-x1); the newest calibration has 3: ..."``
-        naming the others' parameters, or None (not an axis' result, one line only).
+        ``"X.A is the first X line's (linear-x1); C000004 has 3 X lines: --parameter
+        linear-x2.A, linear-x3.A for the others"`` (the newest calibration of the rows),
+        or None (not an axis' result, or one line only).
     """
     m = re.fullmatch(r"([XYZABC])\.(\w+)", parameter)
     if m is None or not rows:

@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from volcal.errors import VolcalInputError
-from volcal.io.sniff import is_model_file, not_a_model_file
+from volcal.io.sniff import is_model_file, model_path
 from volcal.model.errorfunctions import MachineErrors
 
 
@@ -23,9 +23,7 @@ def load_errors(path: str | Path) -> MachineErrors:
     -------
     MachineErrors
     """
-    path = Path(path)
-    if not path.is_file():
-        raise VolcalInputError(not_a_model_file(path), path)
+    path = model_path(path)
     if is_model_file(path):
         try:
             from volcal.identify.modelfile import load_model_errors

@@ -582,50 +582,51 @@ def previous_calibration(store: Any, session: Any) -> Any:
     VolcalInputError
         The session matches several machines of the history.
     """
-    from volcal.history.machines import match
-    from volcal.session.identity import parse_date
-
-    machine = match(store.records("machine"), session.identity)
-    if machine is None:
-        return None
-    recs = store.records("calibration", machine_id=machine.id)  # its own: indexed
-    own = session_digest(session) if session.path is not None else None
-    when = session.calibration.get("date") or session.provenance.get("date")
-    day = None if when is None else str(parse_date(when))[:10]
-    cands = [r for r in recs if r.kind == "calibration" and r.machine_id == machine.id
-             and r.superseded_by is None and r.payload.get("session_sha256") != own
-             and (day is None or r.date is None or str(r.date)[:10] <= day)]
-    return max(cands, key=lambda r: (str(r.date or ""), r.id)) if cands else None
+    return previous_and_own(store, session)[0]
 
 
-def stored_as_left_of(store: Any, session: Any) -> str | None:
-    """The as-found calibration this session is stored as the as-left of, if any.
+def previous_and_own(store: Any, session: Any) -> tuple[Any, Any]:
+    """The previous calibration (:func:`previous_calibration`) and the session's own record.
+
+    One match of the machine, one digest of the session's files and one read of its
+    calibrations for both (the report's "Previous calibration" needs both: an as-left
+    stored with ``history add --as-left-of`` is said to be one).
 
     Parameters
     ----------
     store : Store
         The history.
     session : Session
-        A session read from its folder.
+        The calibration being reported (read from its folder).
 
     Returns
     -------
-    str or None
-        ``as_left_of`` of the current record holding the session's files (``history add
-        --as-left-of``); None when the session is not stored or not as an as-left.
+    (Record or None, Record or None)
+        The previous calibration, and the current record holding the session's files
+        (``None`` when it is not stored, or the session has no folder).
+
+    Raises
+    ------
+    VolcalInputError
+        The session matches several machines of the history.
     """
     from volcal.history.machines import match
+    from volcal.session.identity import parse_date
 
-    if session.path is None:
-        return None
     machine = match(store.records("machine"), session.identity)
     if machine is None:
-        return None
-    own = session_digest(session)
-    for r in store.records("calibration", machine_id=machine.id):
-        if r.superseded_by is None and r.payload.get("session_sha256") == own:
-            return r.as_left_of
-    return None
+        return None, None
+    recs = [r for r in store.records("calibration", machine_id=machine.id)  # indexed
+            if r.kind == "calibration" and r.machine_id == machine.id
+            and r.superseded_by is None]
+    own = session_digest(session) if session.path is not None else None
+    mine = [r for r in recs if own is not None and r.payload.get("session_sha256") == own]
+    when = session.calibration.get("date") or session.provenance.get("date")
+    day = None if when is None else str(parse_date(when))[:10]
+    cands = [r for r in recs if r.payload.get("session_sha256") != own
+             and (day is None or r.date is None or str(r.date)[:10] <= day)]
+    prev = max(cands, key=lambda r: (str(r.date or ""), r.id)) if cands else None
+    return prev, (mine[0] if mine else None)
 
 
 def compare_with_model(store: Any, earlier: str, session: Any, model: Any,

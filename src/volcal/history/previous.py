@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from volcal.errors import VolcalInputError
-from volcal.history.compare import compare_with_model, previous_calibration, stored_as_left_of
+from volcal.history.compare import compare_with_model, previous_and_own
 from volcal.history.store import Store
 from volcal.history.url import resolve_url
 from volcal.report.document import Section, Table
@@ -89,14 +89,13 @@ def previous_section(inp: Any, db: str, level: float = 0.05) -> Section:
     sec = Section("previous", "Previous calibration")
     store = Store(db, create=False)
     try:
-        prev = previous_calibration(store, inp.session)
+        prev, own = previous_and_own(store, inp.session)
         if prev is None:
             sec.paragraphs.append(f"The history ({store.where}) holds no earlier calibration "
                                   f"of {inp.session.name}: nothing to compare with.")
             return sec
         entries = compare_with_model(store, prev.id, inp.session, inp.result, level,
                                      getattr(inp, "evaluation", None))
-        as_left_of = stored_as_left_of(store, inp.session)
     finally:
         store.close()
     sec.paragraphs.append(
@@ -106,7 +105,7 @@ def previous_section(inp: Any, db: str, level: float = 0.05) -> Section:
         f"uncertainty U of the difference (k = 2); each identified error function and "
         f"squareness is tested once over its nodes (chi-square with the covariance of "
         f"the difference) at a family-wise false-alarm level of {level:.0%}.")
-    if as_left_of == prev.id:
+    if own is not None and own.as_left_of == prev.id:
         sec.paragraphs.append(
             f"This calibration is stored as the as-left of {prev.id} (measured with the "
             "compensation tables active): the changes below are what the tables corrected "

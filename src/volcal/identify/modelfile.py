@@ -33,7 +33,7 @@ import numpy as np
 from volcal.errors import VolcalInputError
 from volcal.identify.modelwrite import BINARY_SUFFIX, binary_path, write_model
 from volcal.identify.result import MODEL_FORMAT, IdentificationResult
-from volcal.io.sniff import is_model_file, not_a_model_file
+from volcal.io.sniff import is_model_file, model_path
 from volcal.model.errorfunctions import MachineErrors
 
 if TYPE_CHECKING:
@@ -130,9 +130,7 @@ def load_model(path: str | Path) -> IdentificationResult:
         number, or not plausible (:func:`~volcal.identify.result.check_model_values`),
         in the JSON or in its binary part (the message names the file and the key).
     """
-    path = Path(path)
-    if not path.is_file():
-        raise VolcalInputError(not_a_model_file(path), path)
+    path = model_path(path)
     if path.suffix.lower() == BINARY_SUFFIX:
         raise VolcalInputError(f"this is the binary part of a model; give the model's JSON "
                                f"({path.with_suffix('.json').name})", path)

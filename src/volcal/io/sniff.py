@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-__all__ = ["is_model_file", "not_a_model_file"]
+__all__ = ["is_model_file", "model_path"]
 
 _BOM = b"\xef\xbb\xbf"
 
@@ -45,25 +45,39 @@ def is_model_file(path: str | Path) -> bool:
     return head.removeprefix(_BOM).lstrip().startswith(b"{")
 
 
-def not_a_model_file(path: str | Path) -> str:
-    """Why ``path``, given as a model or error table, cannot be read: for the error message.
+def model_path(path: str | Path) -> Path:
+    """``path`` as a model or error table to read, or the error that says why it is none.
+
+    The one check of every reader of a model or error table
+    (:func:`volcal.identify.modelfile.load_model`,
+    :func:`volcal.compensate.source.load_errors`).
 
     Parameters
     ----------
     path : str or Path
-        What was given as a model (a file that is not there).
+        What was given as a model.
 
     Returns
     -------
-    str
+    Path
+        ``path``, a file.
+
+    Raises
+    ------
+    VolcalInputError
         ``'model file not found'``, or for a folder what it is and what to give instead:
         a session folder is identified first (``volcal identify``), another folder is no
         model.
     """
+    from volcal.errors import VolcalInputError
+
     p = Path(path)
+    if p.is_file():
+        return p
     if not p.is_dir():
-        return "model file not found"
+        raise VolcalInputError("model file not found", p)
     if (p / "session.toml").is_file():
-        return (f"a session folder, not a model: identify it first "
-                f"(volcal identify {p} -o model.json) and give the model")
-    return "a folder, not a model file (an identified model .json or an error table .csv)"
+        raise VolcalInputError(f"a session folder, not a model: identify it first "
+                               f"(volcal identify {p} -o model.json) and give the model", p)
+    raise VolcalInputError("a folder, not a model file (an identified model .json or an error "
+                           "table .csv)", p)

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 
 from volcal import defaults as D
 from volcal.errors import ParameterError
-from volcal.io.sniff import is_model_file, not_a_model_file
+from volcal.io.sniff import is_model_file
 from volcal.steps import _checks
 
 if TYPE_CHECKING:
@@ -135,11 +135,7 @@ def _model(model: str | Path | IdentificationResult | None
     if isinstance(model, str | Path):
         from volcal.compensate.source import load_errors
 
-        if not Path(model).is_file():
-            from volcal.errors import VolcalInputError
-
-            raise VolcalInputError(not_a_model_file(model), model)
-        if is_model_file(model):
+        if is_model_file(model):  # either reader refuses a path that is no file, saying why
             from volcal.identify.modelfile import load_model
 
             result = load_model(model)

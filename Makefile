@@ -13,20 +13,31 @@ ONE_BLAS_THREAD := OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 MKL_NUM_THREADS=1
 
 all: test
 
+# Python writes the bytecode of what it imports (__pycache__/, ignored by git) in every
+# recipe, although this box sets PYTHONDONTWRITEBYTECODE: without it each process compiles
+# every module it imports again (numpy, scipy, matplotlib, pandas and volcal: 6.4 s to
+# import in place of 2.2 s; make test starts about 70 Python processes).
+export PYTHONDONTWRITEBYTECODE :=
+
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install --quiet --upgrade pip
 
+# uv (PyPI) installs the project and its extras in 5-10 s where pip took 77 s (66 s of it
+# compiling the bytecode of every installed module, most of which the tests never import;
+# benchmarks/README.md, "Session 20: the set-up"); pip when uv cannot be had.
+EXTRAS := ".[test,history,dataframe,qif,capture]"
 $(STAMP): $(BIN)/python pyproject.toml
-	$(BIN)/python -m pip install --quiet -e ".[test,history,dataframe,qif,capture]"
+	if $(BIN)/python -m pip install --quiet uv && \
+	  $(BIN)/uv pip install --python $(BIN)/python --quiet -e $(EXTRAS); then :; \
+	else $(BIN)/python -m pip install --quiet -e $(EXTRAS); fi
 	touch $(STAMP)
 
 install: $(STAMP) bytecode
 
-# Compile volcal's modules to bytecode (__pycache__/) now: with PYTHONDONTWRITEBYTECODE
-# set, Python never writes it and compiles every module again at each start (0.1-0.2 s
-# of every `volcal` command). Existing bytecode is read either way; only changed modules
-# are compiled again.
+# Compile volcal's modules to bytecode (__pycache__/) now, for the `volcal` commands run
+# outside make (a shell where PYTHONDONTWRITEBYTECODE is set never writes it and compiles
+# every module again at each start: 0.1-0.2 s of every command). Existing bytecode is read
+# either way; only changed modules are compiled again.
 bytecode: $(STAMP)
 	$(BIN)/python -m compileall -q src
 

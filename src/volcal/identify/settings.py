@@ -164,7 +164,8 @@ class EstimatorSettings:
         the start is held.
     evidence_tol : float
         The evidence optimiser stops when three iterations improve ``-2 log evidence`` by
-        less than this [1].
+        less than this, its simplex fallback when ``2 n`` iterations do (``n``
+        hyperparameters searched) [1].
     sigma_fixed_point_steps : int
         MacKay fixed-point updates of the noise before the quasi-Newton search.
     dense_qr_limit : int

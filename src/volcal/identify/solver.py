@@ -549,18 +549,47 @@ class _HyperSearch:
                            "in 3 iterations")
         name = "L-BFGS-B"
         if not res.success:
-            def value(h: NDArray[np.float64]) -> float:
-                return self.objective(h)[0]
-
-            res2 = minimize(value, res.x, method="Nelder-Mead",
-                            bounds=bounds,
-                            options={"xatol": 5e-3, "fatol": 1e-3, "maxiter": 600})
+            res2 = self._simplex(res.x)
             if res2.fun <= res.fun:
                 res, name = res2, "L-BFGS-B, then Nelder-Mead"
         return res.x, float(res.fun), {"optimiser": name, "converged": bool(res.success),
                                        "iterations": int(res.nit),
                                        "evaluations": int(self.ev.evaluations),
                                        "message": str(res.message)}
+
+    def _simplex(self, h0: NDArray[np.float64]):
+        """Nelder-Mead from ``h0``, stopped when the evidence is flat.
+
+        The simplex moves one vertex per iteration, so the flat rule of the quasi-Newton
+        search (three iterations) is taken over ``2 n`` iterations (``n`` search
+        dimensions): ``2 n`` iterations improving ``-2 log evidence`` by less than
+        :attr:`EstimatorSettings.evidence_tol` end it. Without that rule the simplex ran
+        to its tolerances in ``h`` (``xatol`` 5e-3, ``fatol`` 1e-3): 653 evaluations,
+        17 s, on the seeds' step diagonals with one axis' lines, for an estimate 0.001 um
+        from the one found after 189 (benchmarks/README.md, "Session 20: the simplex").
+        """
+        tol, window = self.st.evidence_tol, 2 * len(h0)
+        history: list[float] = []
+
+        def value(h: NDArray[np.float64]) -> float:
+            return self.objective(h)[0]
+
+        def flat() -> bool:
+            return len(history) > window and history[-window - 1] - history[-1] < tol
+
+        def stop_when_flat(intermediate_result):
+            history.append(float(intermediate_result.fun))
+            if flat():
+                raise StopIteration
+
+        res = minimize(value, h0, method="Nelder-Mead", bounds=self.bounds,
+                       callback=stop_when_flat,
+                       options={"xatol": 5e-3, "fatol": 1e-3, "maxiter": 600})
+        if flat():
+            res.success = True
+            res.message = (f"CONVERGENCE: -2 log evidence improved by less than {tol:g} "
+                           f"in {window} simplex iterations")
+        return res
 
     def _preconditioner(self) -> NDArray[np.float64]:
         """Diagonal scaling of the search vector for the quasi-Newton search.

@@ -33,9 +33,11 @@ def plan(
                               help="Comma-separated: step-diagonal, diagonal, linear, "
                               "face-diagonal, face-step-diagonal, multilateration, direct "
                               "(direct optics: straightness, angular, level, optical squares; "
-                              "docs/formats.md), rotary (a rotary axis, ISO 230-2); one axis "
-                              "or plane: linear:x, face-diagonal:xy, face-step-diagonal:yz, "
-                              "rotary:c."),
+                              "docs/formats.md), rotary (a rotary axis, ISO 230-2), "
+                              "probe_sphere, r_test (a trunnion's location errors, volcal "
+                              "locate); one axis or plane: linear:x, face-diagonal:xy, "
+                              "face-step-diagonal:yz, rotary:c, probe_sphere:cb. Case and "
+                              "'-' or '_' do not matter."),
     runs: int = typer.Option(D.PLAN_RUNS, help="Bidirectional runs per linear test "
                              "(ISO 230-2)."),
     step_orders: str = typer.Option(",".join(D.PLAN_STEP_ORDERS),

@@ -183,6 +183,7 @@ def plan_session(travel: ArrayLike, chain: str = "XYFZ", steps: int = 10,
     """
     t = np.asarray(travel, dtype=float).reshape(3, 2)
     parse_chain(chain)
+    tests = [canonical_test(x) for x in tests]
     _check_options(tests, steps, runs, step_target, linear_margin_mm, abbe_tool_offset_mm)
     c = _Plan(t, chain, steps, runs, tuple(step_orders), np.asarray(tool_offset, dtype=float),
               step_target, abbe_tool_offset_mm, iso_spacing, linear_margin_mm,
@@ -219,6 +220,31 @@ def plan_test_names() -> tuple[str, ...]:
 
     extra = [t for k in kinds() for t in k.plan_tests if t not in TEST_NAMES]
     return (*TEST_NAMES, *extra)
+
+
+def canonical_test(test: str) -> str:
+    """A test name as :func:`plan_test_names` spells it.
+
+    Whatever its case and whether its words are joined by ``-`` or ``_``
+    (``Probe-Sphere:CA`` -> ``probe_sphere:CA``, ``step_diagonal`` -> ``step-diagonal``);
+    a name that matches none is returned as given (refused then by the checks, which list
+    the names).
+
+    Parameters
+    ----------
+    test : str
+        A test name, optionally ``:axis`` or ``:plane``.
+
+    Returns
+    -------
+    str
+    """
+    base, sep, only = test.strip().partition(":")
+    key = base.strip().lower().replace("_", "-")
+    for name in plan_test_names():
+        if name.replace("_", "-") == key:
+            return f"{name}{sep}{only}"
+    return test
 
 
 def split_test(test: str) -> tuple[str, str | None]:

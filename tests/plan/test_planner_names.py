@@ -1,0 +1,28 @@
+"""Test names as users type them: case, and '-' or '_' between the words."""
+
+from __future__ import annotations
+
+import pytest
+
+from volcal.errors import VolcalInputError
+from volcal.plan.planner import canonical_test, plan_session
+
+TRAVEL = [[0, 400], [0, 300], [0, 200]]
+
+
+@pytest.mark.parametrize(("typed", "name"), [
+    ("probe-sphere:ca", "probe_sphere:ca"), ("R-Test", "r_test"), ("r_test:cb", "r_test:cb"),
+    ("step_diagonal", "step-diagonal"), ("Face_Step_Diagonal:XY", "face-step-diagonal:XY"),
+    ("LINEAR:x", "linear:x"), ("spiral", "spiral")])
+def test_canonical_names(typed, name):
+    assert canonical_test(typed) == name
+
+
+def test_plan_takes_either_spelling_and_refuses_the_unknown():
+    a = plan_session(TRAVEL, tests=["probe-sphere:ca", "Linear:X", "step_diagonal"], steps=3)
+    b = plan_session(TRAVEL, tests=["probe_sphere:ca", "linear:x", "step-diagonal"], steps=3)
+    assert [m.kind for m in a.measurements] == [m.kind for m in b.measurements]
+    assert [m.id for m in a.measurements] == [m.id for m in b.measurements]
+    assert {m.kind for m in a.measurements} >= {"probe_sphere", "linear", "step_diagonal"}
+    with pytest.raises(VolcalInputError, match="unknown test.*spiral"):
+        plan_session(TRAVEL, tests=["spiral"])

@@ -165,11 +165,7 @@ def measurements_section(inp: ReportInputs) -> Section:
                      _vec(m.beam_direction), _vec(m.tool_offset), str(m.n), runs,
                      str(m.meta.get("notes", ""))])
     sec = Section("measurements", "Measurements and set-ups")
-    sec.paragraphs.append(
-        "Linear tests read the positioning of one axis on a line at a given Abbe offset; "
-        "body diagonals (ISO 230-6) move all axes together with a retroreflector on the "
-        "tool; sequential step diagonals (Wang & Liotto 2003) move one axis at a time with a "
-        "flat mirror on the tool, so the straightness errors enter the readings.")
+    sec.paragraphs.append(_kinds_paragraph(inp.session))
     sec.tables.append(Table(["id", "kind", "target", "beam direction", "tool offset [mm]",
                              "readings", "runs", "notes"], rows, "Measurements"))
     thermal = _thermal_rows(inp.session)
@@ -180,6 +176,27 @@ def measurements_section(inp: ReportInputs) -> Section:
                                 "(readings, referred_to_20c, environment: docs/formats.md); "
                                 "an uncertainty budget never changes a value."))
     return sec
+
+
+def _kinds_paragraph(session: Any) -> str:
+    """One clause per kind of measurement the session holds, in the order they appear.
+
+    Each kind's :attr:`volcal.session.kinds.Kind.description` with its count: a report of
+    rotary tests alone no longer explains linear tests and diagonals.
+    """
+    from volcal.session.kinds import kind_of
+
+    seen: list[str] = []
+    for m in session.measurements:
+        if m.kind not in seen:
+            seen.append(m.kind)
+    parts = []
+    for name in seen:
+        k = kind_of(name)
+        n = sum(m.kind == name for m in session.measurements)
+        label = f"{name.replace('_', ' ')} ({n})"
+        parts.append(f"{label}: {k.description}" if k.description else label)
+    return "The measurements by kind: " + "; ".join(parts) + "."
 
 
 def _thermal_rows(session: Any) -> list[list[str]]:

@@ -1,0 +1,32 @@
+"""The report's "Measurements and set-ups" explains the kinds the session holds, no others."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+from volcal.plan.planner import plan_session
+from volcal.report.sections import measurements_section
+
+TRAVEL = [[0, 800], [0, 600], [0, 500]]
+
+
+def _paragraph(tests):
+    s = plan_session(TRAVEL, tests=tests, steps=3, runs=2)
+    return measurements_section(SimpleNamespace(session=s)).paragraphs[0]
+
+
+def test_default_tests_explained_in_their_order():
+    p = _paragraph(["step-diagonal", "diagonal", "linear"])
+    assert p.startswith("The measurements by kind: step diagonal (4): sequential step "
+                        "diagonal (Wang & Liotto 2003)")
+    assert "diagonal (4): body or face diagonal (ISO 230-6)" in p
+    assert "linear (9): positioning of one axis on a line" in p
+    assert p.index("step diagonal (4)") < p.index("; diagonal (4)") < p.index("linear (9)")
+
+
+def test_rotary_alone_says_nothing_of_linear_tests_or_diagonals():
+    """Session 20: a report of one rotary test explained linear tests, body and step
+    diagonals, none of which it held."""
+    p = _paragraph(["rotary:c"])
+    assert p == ("The measurements by kind: rotary (1): angular positioning of a rotary "
+                 "axis: angular interferometer on a rotary calibrator or index table.")

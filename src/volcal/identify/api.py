@@ -477,6 +477,7 @@ def _identify_weighted(session: Session, o: IdentifyOptions,
         report.messages.append("Known errors given by the user (held fixed, or priors with "
                                "their uncertainty): " + ", ".join(design.fixed_names) + ".")
     report.messages.extend(_kind_notes(design.measurements))  # what each kind adds
+    report.messages.extend(_outside_notes(session, o))
     return _result(session, design, sol, report, o)
 
 
@@ -485,6 +486,27 @@ def _trend_words(st: EstimatorSettings) -> str:
     if st.trend_per_metre:
         return f"{st.trend_centre_um_per_m:g} um per metre of travel"
     return f"{st.trend_centre_um:g} um over the travel"
+
+
+def _outside_notes(session: Session, o: IdentifyOptions) -> list[str]:
+    """The measurements left out for their kind, and what evaluates them instead.
+
+    Kinds with ``in_design`` False (rotary, probe_sphere, r_test); their evaluation is
+    :attr:`volcal.kinds.Kind.evaluated_by`.
+    """
+    from volcal.session.kinds import kind_of
+
+    by_kind: dict[str, list] = {}
+    for m in session.measurements:
+        if (o.measurement_ids is None or m.id in o.measurement_ids) \
+                and not kind_of(m.kind).in_design:
+            by_kind.setdefault(m.kind, []).append(m)
+    out = []
+    for name, ms in by_kind.items():
+        what = ", ".join(f"{m.id} ({name}, {m.n} readings)" for m in ms)
+        how = kind_of(name).evaluated_by or "evaluated on its own"
+        out.append(f"Left out of this identification of the linear axes: {what}: {how}.")
+    return out
 
 
 def _kind_notes(measurements: list) -> list[str]:

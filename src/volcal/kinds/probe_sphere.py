@@ -153,6 +153,7 @@ class ProbeSphereKind(OutsideDesignKind):
     plan_tests: ClassVar[tuple[str, ...]] = ("probe_sphere",)
     description: ClassVar[str] = ("sphere centres probed at rotary poses: location errors of "
                                   "the rotary axes (docs/fiveaxis.md)")
+    evaluated_by: ClassVar[str] = "the rotary axes' location errors, volcal locate"
 
     # -- session -----------------------------------------------------------------------
     def read(self, entry: dict[str, Any], ctx: ReadContext) -> Any:

@@ -157,6 +157,7 @@ class RTestKind(OutsideDesignKind):
     description: ClassVar[str] = ("R-test: a sphere's 3-D displacement in a nest of sensors "
                                   "along rotary paths, location errors of the rotary axes "
                                   "(docs/fiveaxis.md)")
+    evaluated_by: ClassVar[str] = "the rotary axes' location errors, volcal locate"
 
     # -- session -----------------------------------------------------------------------
     def read(self, entry: dict[str, Any], ctx: ReadContext) -> Any:

@@ -51,6 +51,8 @@ class RotaryKind(OutsideDesignKind):
     plan_tests: ClassVar[tuple[str, ...]] = ("rotary",)
     description: ClassVar[str] = ("angular positioning of a rotary axis: angular "
                                   "interferometer on a rotary calibrator or index table")
+    evaluated_by: ClassVar[str] = ("ISO 230-2 per axis, volcal evaluate session (its table: "
+                                   "volcal compensate --session)")
 
     # -- session -----------------------------------------------------------------------
     def read(self, entry: dict[str, Any], ctx: ReadContext) -> Any:

@@ -176,6 +176,9 @@ class Kind:
         of ``probe_sphere``: dozens of positions without a reading of the linear axes).
     description : str
         One line for the documentation and the report.
+    evaluated_by : str
+        For a kind outside the identification (:attr:`in_design` False): what evaluates
+        it instead, as `volcal identify` says when it leaves such measurements out.
     """
 
     name: ClassVar[str] = ""
@@ -194,6 +197,7 @@ class Kind:
     referable: ClassVar[bool] = False
     linear_nodes: ClassVar[bool] = True
     description: ClassVar[str] = ""
+    evaluated_by: ClassVar[str] = ""
 
     # -- session ---------------------------------------------------------------------
     def read(self, entry: dict[str, Any], ctx: ReadContext) -> Any:

@@ -225,8 +225,9 @@ def linear_prior_note(prior: LinearPrior, model: Any) -> str:
     ----------
     prior : LinearPrior
         The prior.
-    model : object
-        What was given (a path or the model).
+    model : IdentificationResult or MachineErrors
+        The linear model as loaded: the functions its readings hardly determine
+        (``report.determined_fraction`` below :data:`UNDETERMINED_FRACTION`) are named.
     """
     name = "the error table given" if prior.source == "error table" else "the model given"
     if not prior.has_uncertainty:
@@ -239,4 +240,26 @@ def linear_prior_note(prior: LinearPrior, model: Any) -> str:
             f"covariance on the {prior.parameters} parameters the poses' linear positions "
             f"touch moves the readings by up to {s.max():.2f} um (1 standard deviation, RMS "
             f"{np.sqrt(np.mean(s**2)):.2f} um), and the location errors' U includes it.")
-    return " ".join([text] + prior.notes)
+    return " ".join([text, *_undetermined_note(model), *prior.notes])
+
+
+#: Share of a function's prior variance its readings remove below which the linear model is
+#: said not to measure it (``IdentifiabilityReport.determined_fraction``).
+UNDETERMINED_FRACTION = 0.5
+
+
+def _undetermined_note(model: Any) -> list[str]:
+    """The functions the model's readings hardly determine, whose U is the prior's."""
+    report = getattr(model, "report", None)
+    frac = (report.get("determined_fraction") if isinstance(report, dict)
+            else getattr(report, "determined_fraction", None)) or {}
+    under = [n for n, f in frac.items() if float(f) < UNDETERMINED_FRACTION]
+    if not under:
+        return []
+    return [f"The model's readings determine less than half of the prior variance of "
+            f"{', '.join(under)}: their share of that U is the identification's prior for a "
+            "typical machine, not a measurement of this one, and where this machine's errors "
+            "are larger the location errors are covered less (a laser model without its "
+            "rolls measured: 0.89 of them within 2u; benchmarks/README.md, \"fused with the "
+            "laser model\"). Measuring them (volcal advise on the laser session) makes U this "
+            "machine's."]

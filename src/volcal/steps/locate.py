@@ -275,7 +275,7 @@ def locate(session: str | Path | Session, *,
         from volcal.identify.location_linear import linear_prior, linear_prior_note
 
         prior = linear_prior(loaded, nominal, blocks)
-        msgs_linear.append(linear_prior_note(prior, model))
+        msgs_linear.append(linear_prior_note(prior, loaded))
     else:
         msgs_linear.append("No linear model given: the linear axes are taken as perfect; their "
                            "errors along the poses' linear positions go into the location "

@@ -36,7 +36,7 @@ from numpy.typing import NDArray
 from volcal.measure.spheres import SphereReadings, probe_centres, rtest_readings
 from volcal.model.fiveaxis import FiveAxisMachine
 
-__all__ = ["LinearPrior", "linear_prior", "linear_prior_note"]
+__all__ = ["LinearPrior", "linear_prior", "linear_prior_note", "undetermined"]
 
 Array = NDArray[np.float64]
 UM = 1e-3
@@ -61,6 +61,10 @@ class LinearPrior:
         Layout parameters the poses' linear positions touch.
     notes : list of str
         What is left out (positions outside the model's travel).
+    undetermined : list of str
+        The model's functions its readings hardly determine (``determined_fraction``
+        below :data:`UNDETERMINED_FRACTION`): their covariance is the identification's
+        prior, not a measurement of this machine.
     """
 
     source: str
@@ -68,6 +72,7 @@ class LinearPrior:
     nugget_var: Array = field(default_factory=lambda: np.zeros(0))
     parameters: int = 0
     notes: list[str] = field(default_factory=list)
+    undetermined: list[str] = field(default_factory=list)
 
     @property
     def has_uncertainty(self) -> bool:
@@ -104,7 +109,7 @@ class LinearPrior:
                 "parameters": self.parameters,
                 "reading_u_um_max": float(s.max()) if s.size else 0.0,
                 "reading_u_um_rms": float(np.sqrt(np.mean(s**2))) if s.size else 0.0,
-                "notes": list(self.notes)}
+                "notes": list(self.notes), "undetermined": list(self.undetermined)}
 
 
 def _predict_um(machine: FiveAxisMachine, blocks: Sequence[SphereReadings]) -> Array:
@@ -215,7 +220,7 @@ def linear_prior(model: Any, nominal: FiveAxisMachine, blocks: Sequence[SphereRe
             v = np.einsum("mki,mk->mi", R**2, v)  # diagonal of R^T diag(v) R
         nug[row:row + 3 * b.n_poses] = v.reshape(-1)
         row += 3 * b.n_poses
-    return LinearPrior("model with covariance", F, nug, len(idx), notes)
+    return LinearPrior("model with covariance", F, nug, len(idx), notes, undetermined(model))
 
 
 def linear_prior_note(prior: LinearPrior, model: Any) -> str:
@@ -240,7 +245,7 @@ def linear_prior_note(prior: LinearPrior, model: Any) -> str:
             f"covariance on the {prior.parameters} parameters the poses' linear positions "
             f"touch moves the readings by up to {s.max():.2f} um (1 standard deviation, RMS "
             f"{np.sqrt(np.mean(s**2)):.2f} um), and the location errors' U includes it.")
-    return " ".join([text, *_undetermined_note(model), *prior.notes])
+    return " ".join([text, *_undetermined_note(prior.undetermined), *prior.notes])
 
 
 #: Share of a function's prior variance its readings remove below which the linear model is
@@ -248,12 +253,28 @@ def linear_prior_note(prior: LinearPrior, model: Any) -> str:
 UNDETERMINED_FRACTION = 0.5
 
 
-def _undetermined_note(model: Any) -> list[str]:
-    """The functions the model's readings hardly determine, whose U is the prior's."""
+def undetermined(model: Any) -> list[str]:
+    """The functions a model's readings hardly determine.
+
+    Parameters
+    ----------
+    model : IdentificationResult or object
+        A model with ``report.determined_fraction`` (a dict report, as loaded, or the
+        report object); anything else has none.
+
+    Returns
+    -------
+    list of str
+        Function names whose determined fraction is below :data:`UNDETERMINED_FRACTION`.
+    """
     report = getattr(model, "report", None)
     frac = (report.get("determined_fraction") if isinstance(report, dict)
             else getattr(report, "determined_fraction", None)) or {}
-    under = [n for n, f in frac.items() if float(f) < UNDETERMINED_FRACTION]
+    return [n for n, f in frac.items() if float(f) < UNDETERMINED_FRACTION]
+
+
+def _undetermined_note(under: list[str]) -> list[str]:
+    """The sentence on the functions whose share of U is the prior's."""
     if not under:
         return []
     return [f"The model's readings determine less than half of the prior variance of "

@@ -29,6 +29,7 @@ class MultilaterationKind(Kind):
     own_targets: ClassVar[tuple[str, ...]] = ("cat_eye",)
     value_column: ClassVar[str] = "length_mm"
     beam_in_session: ClassVar[bool] = False
+    along_beam: ClassVar[bool] = False
     raw_readings: ClassVar[bool] = True
     plan_tests: ClassVar[tuple[str, ...]] = ("multilateration",)
     description: ClassVar[str] = "tracking interferometer: distance from a station"

@@ -23,6 +23,7 @@ class OutsideDesignKind(Kind):
     """A kind whose readings stay out of the linear identification (``in_design`` False)."""
 
     in_design: ClassVar[bool] = False
+    along_beam: ClassVar[bool] = False
 
     def rows(self, chain_order: Any, nodes: Any, m: Any, *, drift: bool = False,
              tilts: bool = True) -> RowBlock:

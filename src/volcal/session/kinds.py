@@ -176,6 +176,11 @@ class Kind:
         of ``probe_sphere``: dozens of positions without a reading of the linear axes).
     description : str
         One line for the documentation and the report.
+    along_beam : bool
+        Its poses run along its beam direction (a line, a diagonal, the steps of a step
+        diagonal, an optic along its axis): the session's plausibility check warns when
+        they run against it (rows in reverse order). False for poses that circle or
+        spread around (a tracker's grid, the R-test's paths, probed sphere centres).
     evaluated_by : str
         For a kind outside the identification (:attr:`in_design` False): what evaluates
         it instead, as `volcal identify` says when it leaves such measurements out.
@@ -197,6 +202,7 @@ class Kind:
     referable: ClassVar[bool] = False
     linear_nodes: ClassVar[bool] = True
     description: ClassVar[str] = ""
+    along_beam: ClassVar[bool] = True
     evaluated_by: ClassVar[str] = ""
 
     # -- session ---------------------------------------------------------------------

@@ -297,7 +297,7 @@ def _order(m: Measurement) -> list[str]:
     out = []
     d = m.positions - m.positions[0]
     far = int(np.argmax(np.linalg.norm(d, axis=1)))
-    if d[far] @ m.beam_direction < -1e-9:
+    if kind_of(m.kind).along_beam and d[far] @ m.beam_direction < -1e-9:
         out.append(f"{m.id}: the poses move against the beam direction of session.toml: "
                    f"rows of {m.file} in reverse order?")
     elif kind_of(m.kind).bidirectional and m.direction is not None and m.axis is not None:

@@ -1,0 +1,36 @@
+"""The rows-in-reverse-order warning only for kinds whose poses run along their beam."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from volcal.measure.simulate import SimulationOptions, simulate_session
+from volcal.measure.virtual import random_machine
+from volcal.plan.planner import plan_session
+from volcal.session.plausibility import plausibility_warnings
+
+TRAVEL = [[0, 800], [0, 600], [0, 500]]
+
+
+def _session(tests):
+    s = plan_session(TRAVEL, tests=tests, steps=4, runs=2)
+    simulate_session(s, random_machine(TRAVEL, "XYFZ", seed=1), SimulationOptions(seed=2))
+    return s
+
+
+@pytest.mark.parametrize("tests", [["multilateration"], ["r_test:ca"]])
+def test_no_order_warning_for_poses_around(tests):
+    """Session 20: every tracker measurement but one and the R-test warned "the poses move
+    against the beam direction of session.toml: rows ... in reverse order?" on sessions
+    volcal itself planned and simulated (their poses spread around, no beam runs along)."""
+    assert not [w for w in plausibility_warnings(_session(tests)) if "against the beam" in w]
+
+
+def test_a_reversed_diagonal_still_warns():
+    s = _session(["diagonal"])
+    m = s.measurements[0]
+    for name in ("positions", "deviation"):
+        setattr(m, name, np.asarray(getattr(m, name))[::-1].copy())
+    w = [x for x in plausibility_warnings(s) if "against the beam" in x]
+    assert w and w[0].startswith(f"{m.id}: the poses move against the beam direction")

@@ -30,6 +30,8 @@ class MultilaterationKind(Kind):
     value_column: ClassVar[str] = "length_mm"
     beam_in_session: ClassVar[bool] = False
     along_beam: ClassVar[bool] = False
+    captured_by: ClassVar[str] = ("a tracking interferometer records its own lengths: import "
+                                  "its export (volcal import)")
     raw_readings: ClassVar[bool] = True
     plan_tests: ClassVar[tuple[str, ...]] = ("multilateration",)
     description: ClassVar[str] = "tracking interferometer: distance from a station"

@@ -153,6 +153,8 @@ class ProbeSphereKind(OutsideDesignKind):
     plan_tests: ClassVar[tuple[str, ...]] = ("probe_sphere",)
     description: ClassVar[str] = ("sphere centres probed at rotary poses: location errors of "
                                   "the rotary axes (docs/fiveaxis.md)")
+    captured_by: ClassVar[str] = ("its readings are its probe program's log (volcal import "
+                                  "LOG --session S --measurement ID; docs/fiveaxis.md)")
     evaluated_by: ClassVar[str] = "the rotary axes' location errors, volcal locate"
 
     # -- session -----------------------------------------------------------------------

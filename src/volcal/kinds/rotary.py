@@ -51,6 +51,9 @@ class RotaryKind(OutsideDesignKind):
     plan_tests: ClassVar[tuple[str, ...]] = ("rotary",)
     description: ClassVar[str] = ("angular positioning of a rotary axis: angular "
                                   "interferometer on a rotary calibrator or index table")
+    captured_by: ClassVar[str] = ("its readings come from the rotary calibrator's software "
+                                  "(volcal import FILE --session S --measurement ID; "
+                                  "docs/formats.md, rotary)")
     evaluated_by: ClassVar[str] = ("ISO 230-2 per axis, volcal evaluate session (its table: "
                                    "volcal compensate --session)")
 

@@ -243,7 +243,12 @@ def _motion(m: Measurement, pos: NDArray[np.float64], travel: NDArray[np.float64
 
     from volcal.session.kinds import kind_of
 
-    bidirectional = kind_of(m.kind).bidirectional  # ISO 230-2 approach and overrun
+    # ISO 230-2 approach and overrun: a kind approached from both sides, and any measurement
+    # along one axis whose rows say their approach direction (the direct optics' runs: without
+    # the overrun the two readings at a reversal were one stand of the machine, neither
+    # approached from its side, and a capture could not tell them apart)
+    bidirectional = kind_of(m.kind).bidirectional or (m.direction is not None
+                                                      and m.axis is not None)
     linear = bidirectional and options.overrun_mm > 0
     k = m.axis if bidirectional else None
     dirs = _directions(m, k) if linear and k is not None else None

@@ -181,6 +181,10 @@ class Kind:
         diagonal, an optic along its axis): the session's plausibility check warns when
         they run against it (rows in reverse order). False for poses that circle or
         spread around (a tracker's grid, the R-test's paths, probed sphere centres).
+    captured_by : str
+        Empty when ``volcal capture`` takes its readings (one value per dwell of its part
+        program at a position of the linear axes); else how its readings reach the session
+        instead, as ``volcal capture`` says when it passes such a measurement over.
     evaluated_by : str
         For a kind outside the identification (:attr:`in_design` False): what evaluates
         it instead, as `volcal identify` says when it leaves such measurements out.
@@ -203,6 +207,7 @@ class Kind:
     linear_nodes: ClassVar[bool] = True
     description: ClassVar[str] = ""
     along_beam: ClassVar[bool] = True
+    captured_by: ClassVar[str] = ""
     evaluated_by: ClassVar[str] = ""
 
     # -- session ---------------------------------------------------------------------

@@ -24,6 +24,34 @@ PLANNED_SUFFIX = ".planned.csv"
 """``capture/<id>.planned.csv``: the measurement's file as planned, kept at the first start."""
 
 
+def _capturable(s: Session, chosen: list[str], named: bool, passed_over: list[str],
+                folder: Path) -> list[str]:
+    """The chosen measurements ``volcal capture`` takes (:attr:`Kind.captured_by` empty).
+
+    A measurement of another kind named by the user is refused; among every measurement of
+    the session (none named) it is passed over with a note in ``passed_over``. Refused
+    too when none is left.
+    """
+    from volcal.session.kinds import kind_of
+
+    keep = []
+    for mid in chosen:
+        m = s.get(mid)
+        how = kind_of(m.kind).captured_by
+        if not how:
+            keep.append(mid)
+            continue
+        said = (f"{mid} ({m.kind}) is not captured by volcal capture, which takes one reading "
+                f"per dwell at the linear axes' positions: {how}")
+        if named:
+            raise ParameterError(f"{{measurement=}}{said}", folder / "session.toml")
+        passed_over.append(f"{said}; passed over")
+    if not keep:
+        raise VolcalInputError("nothing to capture: " + "; ".join(passed_over),
+                               folder / "session.toml")
+    return keep
+
+
 @dataclass(frozen=True)
 class Captured:
     """What :func:`capture` recorded.
@@ -239,6 +267,8 @@ def capture(session: Session | str | Path, *, control: str, laser: str,
     if isinstance(session, str | Path) and not (Path(session) / "session.toml").is_file():
         raise VolcalInputError("not a session folder (no session.toml)", session)
 
+    passed_over: list[str] = []
+
     def planned(folder: Path) -> tuple[Session, list[PlannedMeasurement]]:
         s = read_planned(folder)
         ids = [m.id for m in s.measurements]
@@ -251,6 +281,7 @@ def capture(session: Session | str | Path, *, control: str, laser: str,
         if len(set(chosen)) != len(chosen):
             raise ParameterError(f"{{measurement=}}: an id is given twice "
                                  f"({', '.join(chosen)})")
+        chosen = _capturable(s, chosen, bool(measurement), passed_over, folder)
         return s, [plan_measurement(s.get(mid), s.travel, opts, programs) for mid in chosen]
 
     def check_sources(s0: Session, plans0: list[PlannedMeasurement]) -> None:
@@ -290,7 +321,7 @@ def capture(session: Session | str | Path, *, control: str, laser: str,
     ctx = SourceContext(clock, s, plans, lambda: state["latest"], lambda: state["current"],
                         dict(extras or {}))
     outcomes: list[Outcome] = []
-    notes: list[str] = []
+    notes: list[str] = list(dict.fromkeys(passed_over))
     if todo:
         ctrl = make_control(control, ctx)
         las = make_laser(laser, ctx)

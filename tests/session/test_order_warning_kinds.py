@@ -34,3 +34,16 @@ def test_a_reversed_diagonal_still_warns():
         setattr(m, name, np.asarray(getattr(m, name))[::-1].copy())
     w = [x for x in plausibility_warnings(s) if "against the beam" in x]
     assert w and w[0].startswith(f"{m.id}: the poses move against the beam direction")
+
+
+def test_first_reading_far_from_zero_only_for_laser_displacements():
+    """Session 20: an imported rotary calibrator's export warned "the first reading is -4.85
+    um, not ~0 (readings count from the first row)": a rotary deviation (in urad) does not
+    count from the first row. A linear test's still warns."""
+    s = _session(["rotary:c", "linear:x"])
+    for m in s.measurements:
+        m.deviation = np.asarray(m.deviation, dtype=float) + 50.0
+    w = [x for x in plausibility_warnings(s) if "the first reading is" in x]
+    rot = next(m.id for m in s.measurements if m.kind == "rotary")
+    assert w and not [x for x in w if x.startswith(rot)]
+    assert {x.split(":")[0] for x in w} == {m.id for m in s.measurements if m.kind == "linear"}

@@ -25,8 +25,9 @@ the reader itself (``docs/formats.md``, "Plausibility"). The checks:
   each other (``|o1 - o2| < SIGN_RATIO |o1 + o2|``), is flagged;
 * **order** (a reversed CSV): poses moving against the beam direction of
   ``session.toml``; in a linear test, ``+`` rows whose positions descend; a first
-  reading far from 0 (readings count from the first row, so reversed deviations start
-  with the last reading).
+  reading far from 0 in a laser displacement (its readings count from the first row, so
+  reversed deviations start with the last reading; not a rotary test's or an optic's,
+  whose first reading is an error like any other).
 """
 
 from __future__ import annotations
@@ -310,6 +311,9 @@ def _order(m: Measurement) -> list[str]:
         if up < 0 or down > 0:
             out.append(f"{m.id}: positions descend in the '+' rows (or ascend in the '-' "
                        f"rows) of {m.file}: rows in reverse order?")
+    kind = kind_of(m.kind)
+    if not (kind.beam_in_session and kind.value_column == "deviation_um"):
+        return out  # readings that do not count from the first row (rotary, optics)
     dev = _readings(m)
     dev0 = float(dev[0])
     if abs(dev0) > max(FIRST_READING_UM, 0.2 * float(np.ptp(dev))):

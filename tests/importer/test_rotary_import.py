@@ -88,10 +88,18 @@ def test_a_wide_export_in_urad_fills_a_planned_rotary_test(tmp_path, monkeypatch
                                 str(tmp_path / "s"), "--measurement", "rotary-c", "--map",
                                 "target=Target,deviation=Run*")
     assert code == 0, err
+    # the planned file held no reading: nothing "replaced" kept (session 20: it was read by
+    # the linear reader, refused, and backed up as "the replaced readings of rotary-c")
+    assert "replaced readings" not in out and not (tmp_path / "s" / "backup").exists()
     m = read_session(tmp_path / "s").get("rotary-c")
     t, dev = expected_long()
     np.testing.assert_array_equal(m.columns["target_deg"], t)
     np.testing.assert_allclose(m.deviation, dev / ARCSEC * 4.0, rtol=0, atol=5e-7)
+    # imported again with --replace: these readings are kept
+    code, out, err = run_volcal(monkeypatch, capsys, "import", str(f), "--session",
+                                str(tmp_path / "s"), "--measurement", "rotary-c", "--map",
+                                "target=Target,deviation=Run*", "--replace")
+    assert code == 0 and "the replaced readings of rotary-c are kept in" in out, (out, err)
     # a wrong target is refused naming the row
     lines[3] = lines[3].replace("127.25", "127.5", 1)
     f.write_text("\n".join(lines) + "\n")

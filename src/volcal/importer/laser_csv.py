@@ -754,7 +754,7 @@ def write_measurement(folder: Path, m: Measurement, replace: bool, notes: list[s
         raise VolcalInputError(f"{m.file!r} exists in the session and is not a measurement's "
                                "file: choose another --id (nothing is overwritten)", toml_path)
     old = [f for f in old_files if isinstance(f, str) and (folder / f).is_file()]
-    if same and _has_readings(folder, old):  # never discard readings: keep the replaced files
+    if same and _has_readings(folder, old, m.kind):  # never discard readings: keep them
         from volcal.session.provenance import backup_files
 
         kept = backup_files(folder, old)
@@ -796,15 +796,27 @@ def _merge_calibration(doc: dict[str, Any], found: dict[str, str], notes: list[s
     doc.update({**head, **rest})
 
 
-def _has_readings(folder: Path, files: list[str]) -> bool:
-    from volcal.session.format import read_measurement_csv
+def _has_readings(folder: Path, files: list[str], kind: str) -> bool:
+    """Whether any of ``files`` holds a reading in its kind's value column.
 
+    A file not laid out as the kind's, or that cannot be read, counts as holding readings
+    (it is kept). A planned rotary test's file was read by the linear reader, refused, and
+    so backed up as "the replaced readings" it never held (session 20).
+    """
+    import csv
+
+    from volcal.session.kinds import kind_of
+
+    column = kind_of(kind).value_column
     for f in files:
         try:
-            _, dev, _ = read_measurement_csv(folder / f, require_deviation=False)
-        except VolcalInputError:
-            return True  # unreadable: keep it, to be safe
-        if dev is not None:
+            with open(folder / f, newline="", encoding="utf-8") as fh:
+                rows = list(csv.DictReader(fh))
+        except (OSError, UnicodeDecodeError, csv.Error):
+            return True
+        if not rows or column not in rows[0]:
+            return True
+        if any((r.get(column) or "").strip() for r in rows):
             return True
     return False
 

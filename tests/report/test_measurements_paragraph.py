@@ -19,6 +19,8 @@ def test_default_tests_explained_in_their_order():
     p = _paragraph(["step-diagonal", "diagonal", "linear"])
     assert p.startswith("The measurements by kind: step diagonal (4): sequential step "
                         "diagonal (Wang & Liotto 2003)")
+    # the target is each measurement's (the table beside it), not the kind's
+    assert "mirror" not in p and "retroreflector" not in p
     assert "diagonal (4): body or face diagonal (ISO 230-6)" in p
     assert "linear (9): positioning of one axis on a line" in p
     assert p.index("step diagonal (4)") < p.index("; diagonal (4)") < p.index("linear (9)")

@@ -21,8 +21,8 @@ class DiagonalKind(LaserKind):
     name: ClassVar[str] = "diagonal"
     standard: ClassVar[str | None] = "ISO 230-6"
     plan_tests: ClassVar[tuple[str, ...]] = ("diagonal", "face-diagonal")
-    description: ClassVar[str] = ("body or face diagonal (ISO 230-6): the axes move together, "
-                                  "a retroreflector on the tool")
+    description: ClassVar[str] = ("body or face diagonal (ISO 230-6): the axes move "
+                                  "together along the diagonal")
 
     def plan(self, test: str, options: Any, only: str | None = None) -> list[Any]:
         """The 4 body diagonals, or the face diagonals (of the plane ``only``).

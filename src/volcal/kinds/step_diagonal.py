@@ -23,8 +23,8 @@ class StepDiagonalKind(LaserKind):
     name: ClassVar[str] = "step_diagonal"
     plan_tests: ClassVar[tuple[str, ...]] = ("step-diagonal", "face-step-diagonal")
     description: ClassVar[str] = ("sequential step diagonal (Wang & Liotto 2003): one axis "
-                                  "at a time, a flat mirror on the tool, so the straightness "
-                                  "errors enter the readings")
+                                  "at a time along a diagonal, so the straightness errors "
+                                  "enter the readings (the target: the table's)")
 
     def plan(self, test: str, options: Any, only: str | None = None) -> list[Any]:
         """The 4 body step diagonals per axis order, or the face step diagonals.

@@ -24,7 +24,7 @@ class StepDiagonalKind(LaserKind):
     plan_tests: ClassVar[tuple[str, ...]] = ("step-diagonal", "face-step-diagonal")
     description: ClassVar[str] = ("sequential step diagonal (Wang & Liotto 2003): one axis "
                                   "at a time along a diagonal, so the straightness errors "
-                                  "enter the readings (the target: the table's)")
+                                  "enter the readings")
 
     def plan(self, test: str, options: Any, only: str | None = None) -> list[Any]:
         """The 4 body step diagonals per axis order, or the face step diagonals.

@@ -266,7 +266,7 @@ def add_tests(folder: str | Path, planned: Session) -> AddResult:
             meta["reference"] = refs[meta["reference"]]
         added.append(Measurement(mid, m.kind, m.target, m.positions, None, m.beam_direction,
                                  m.tool_offset, f"{mid}.csv", m.columns, meta))
-    text = _appended_toml(folder / "session.toml", s, added)
+    text = _with_rotary_axes(_appended_toml(folder / "session.toml", s, added), s, planned)
     with atomic_dir(folder) as tmp:
         shutil.copytree(folder, tmp, symlinks=True, dirs_exist_ok=True)
         _write(tmp, text, added)
@@ -275,6 +275,33 @@ def add_tests(folder: str | Path, planned: Session) -> AddResult:
         if ids[:len(every)] != [m.id for m in every] or len(ids) != len(every) + len(added):
             raise RuntimeError("session.toml did not read back with the added tests")
     return AddResult(folder, added, renamed, len(every))
+
+
+def _with_rotary_axes(text: str, s: Session, planned: Session) -> str:
+    """``session.toml`` with the plan's rotary axes the machine does not list yet.
+
+    ``volcal plan --add S --tests rotary:a`` on a session whose ``[[machine.rotary_axes]]``
+    lists C alone added the test of A and left the machine without its axis (session 20).
+    The entries are appended as text when that reads back as the merged list, else the
+    document is rewritten.
+    """
+    from volcal.session.rotary import read_rotary_axes
+
+    have = {a.name for a in read_rotary_axes(s.meta)}
+    new = [a for a in planned.meta.get("rotary_axes", []) if a["name"] not in have]
+    if not new:
+        return text
+    doc = tomllib.loads(text)
+    machine = doc.setdefault("machine", {})
+    merged = [*machine.get("rotary_axes", []), *new]
+    tail = "".join("\n[[machine.rotary_axes]]\n" + toml_dumps(a) for a in new)
+    try:
+        if tomllib.loads(text + tail).get("machine", {}).get("rotary_axes") == merged:
+            return text + tail
+    except tomllib.TOMLDecodeError:
+        pass
+    machine["rotary_axes"] = merged
+    return toml_dumps(doc)
 
 
 def _fresh_references(planned: list[Measurement], every: list[Measurement]) -> dict[str, str]:

@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from volcal.errors import ParameterError, VolcalInputError
-from volcal.io.sniff import is_model_file
+from volcal.io.sniff import is_model_file, model_path
 
 if TYPE_CHECKING:
     from volcal.identify.location import LocationResult
@@ -188,7 +188,7 @@ def _linear_model(model: Any):
     """None, MachineErrors (an error table) or IdentificationResult (a model file)."""
     if model is None or hasattr(model, "chain_obj") or hasattr(model, "layout"):
         return model
-    p = Path(model)
+    p = model_path(model)  # a folder (a session's) said for what it is, as every reader does
     if is_model_file(p):
         from volcal.identify.modelfile import load_model
 

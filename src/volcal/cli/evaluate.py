@@ -498,7 +498,10 @@ def session_cmd(
     why_skipped = {k: why for k, why in ev.skipped.items() if why != "no readings yet"}
     skipped = list(why_skipped)
     if not results and not ev.rotary:
-        raise VolcalInputError("no linear measurement with run and direction columns", session)
+        why = "; ".join(f"{k}: {w}" for k, w in why_skipped.items())
+        raise VolcalInputError("no linear or rotary measurement to evaluate to ISO 230-2"
+                               + (f" ({why})" if why else " (none with run and direction "
+                                  "columns)"), session)
     elv_val = None if ev.elv is None else ev.elv["ELv"]
     verdict = None if done.verdicts is None else list(done.verdicts)
     uncs = ev.uncertainties

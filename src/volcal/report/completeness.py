@@ -1,7 +1,9 @@
 """The report's account of what was not measured and what looks wrong in the readings.
 
 One section, left out when there is nothing to say: the planned tests without readings
-(``Session.unmeasured``), every missed capture (which measurement, which row, run,
+(``Session.unmeasured``), the tests measured but not evaluated to their standard (the
+evaluation's ``skipped``: one run per direction, too many missed captures), every missed
+capture (which measurement, which row, run,
 direction and target, and what the evaluation did with it: the per-target ``n`` of an
 incomplete ISO 230-2 test, an incomplete diagonal left out of the largest E_D) and the
 plausibility warnings of the readings (:mod:`volcal.session.plausibility`). The console
@@ -90,7 +92,9 @@ def completeness_section(inp: Any) -> Section | None:
     unmeasured = list(getattr(s, "unmeasured", []) or [])
     missed = missed_rows(inp)
     warnings = list(getattr(s, "warnings", []) or [])
-    if not (unmeasured or missed or warnings):
+    skipped = {k: why for k, why in (getattr(inp.evaluation, "skipped", None) or {}).items()
+               if why != "no readings yet"}  # measured, not evaluated to their standard
+    if not (unmeasured or missed or warnings or skipped):
         return None
     sec = Section("completeness", "Completeness and plausibility of the readings")
     planned = len(s.measurements) + len(unmeasured)
@@ -122,5 +126,11 @@ def completeness_section(inp: Any) -> Section | None:
         sec.warnings.append(f"incomplete tests (missed readings): {', '.join(ids)}")
     else:
         sec.paragraphs.append("No reading was missed.")
+    if skipped:
+        sec.tables.append(Table(
+            ["measurement", "kind", "why"],
+            [[k, s.get(k).kind.replace("_", " "), why] for k, why in skipped.items()],
+            "Tests measured but not evaluated to their standard"))
+        sec.warnings.append(f"not evaluated to their standard: {', '.join(skipped)}")
     sec.warnings.extend(f"implausible readings: {w}" for w in warnings)
     return sec

@@ -266,6 +266,16 @@ def _plain(v: Any) -> Any:
     return v
 
 
+def _runs_per_direction(m: Any) -> int:
+    """The fewest distinct runs of a test in one approach direction (readings present)."""
+    import numpy as np
+
+    run = np.asarray(m.columns["run"])
+    direction = np.asarray(m.columns["direction"])
+    counts = [len(np.unique(run[direction == d])) for d in np.unique(direction)]
+    return min(counts) if counts else 0
+
+
 def evaluate_session(session: Any, result: Any = None, edition: str = "2014",
                      model_uncertainty: bool = False, *, budget: Any = None,
                      work_zone_n: int | None = None, optics: bool = False
@@ -320,7 +330,9 @@ def evaluate_session(session: Any, result: Any = None, edition: str = "2014",
     it and marked incomplete (``complete``, ``missing``, ``notes`` of its result); an
     incomplete diagonal is marked likewise (:mod:`volcal.standards.iso230_6`). A test with
     too few captures left for any evaluation (e.g. one run in a direction) is listed in
-    ``skipped`` with the reason, and the others are evaluated.
+    ``skipped`` with the reason, and the others are evaluated; so is a test planned with
+    one run per direction (``volcal plan --runs 1``: its readings serve the
+    identification, not ISO 230-2).
 
     ELv = sqrt(ELx^2 + ELy^2 + ELz^2), ELx = max Dx(x) - min Dx(x) (seed 002); see the
     module docstring for the measured and model sources.
@@ -352,6 +364,12 @@ def evaluate_session(session: Any, result: Any = None, edition: str = "2014",
             continue
         if standard == "ISO 230-2" and ("run" not in m.columns or "direction" not in m.columns):
             skipped[m.id] = "no run/direction columns"
+            continue
+        if standard == "ISO 230-2" and (few := _runs_per_direction(m)) < 2:
+            skipped[m.id] = (f"{few} run per direction as planned: ISO 230-2 needs at least 2 "
+                             "to estimate the repeatability (it asks for 5)"
+                             + ("; its readings still enter the identification"
+                                if kind.in_design else ""))
             continue
         try:
             own = (kind.evaluate_positioning(m, edition, budget) if standard == "ISO 230-2"

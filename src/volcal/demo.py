@@ -156,7 +156,8 @@ def _capture(folder: Path, session_dir: Path, vm: object) -> list[str]:
     from volcal.steps.capture import capture
     from volcal.steps.plan import plan
 
-    plan(DEMO_TRAVEL, tests="diagonal", steps=4, name="VMC-800", output=folder)
+    plan(DEMO_TRAVEL, tests="diagonal", steps=4, name="VMC-800", output=folder,
+         replace=(folder / "session.toml").is_file())  # a demo run again: a fresh capture
     machine = session_dir / "truth" / "machine.csv"  # the simulated machine, as a table
     r = capture(folder, control="sim", laser=f"sim:machine={machine},noise=0.05",
                 measurement=["diag-ppp"], dwell_s=2.0, stable_s=0.6, max_gap_s=0.3,

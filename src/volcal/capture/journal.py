@@ -39,11 +39,9 @@ from pathlib import Path
 from typing import Any
 
 from volcal.errors import VolcalInputError
+from volcal.io.folders import JOURNAL_FOLDER  # one definition (volcal.io)
 
 __all__ = ["JOURNAL_FOLDER", "Journal", "Recorded", "journal_path", "read_journal"]
-
-JOURNAL_FOLDER = "capture"
-"""Sub-folder of the session holding the journals."""
 
 
 def journal_path(session_folder: str | Path, measurement_id: str) -> Path:

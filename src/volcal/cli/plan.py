@@ -78,8 +78,9 @@ def plan(
                                     "tests with fresh ids (its travel, chain and name are "
                                     "used; its measurements and readings are untouched)."),
     replace: bool = typer.Option(False, "--replace", help="With -o: replace an existing "
-                                 "session; its session.toml, measurement CSVs and truth/ are "
-                                 "moved to OUTPUT/backup/<UTC time>/."),
+                                 "session; its session.toml, measurement CSVs, truth/ and "
+                                 "capture journal (capture/) are moved to OUTPUT/backup/<UTC "
+                                 "time>/."),
 ) -> None:
     """Write a session skeleton: the commanded poses of every test, deviations empty.
 

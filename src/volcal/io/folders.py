@@ -22,11 +22,15 @@ from pathlib import Path
 
 from volcal.errors import VolcalInputError
 
-__all__ = ["BACKUP_FOLDER", "backup_name", "claim_folder", "foreign_files", "manifest_files",
-           "move_to_backup"]
+__all__ = ["BACKUP_FOLDER", "JOURNAL_FOLDER", "backup_name", "claim_folder", "foreign_files",
+           "manifest_files", "move_to_backup"]
 
 BACKUP_FOLDER = "backup"
 """Sub-folder of a volcal folder that holds what a ``--replace`` moved aside."""
+
+JOURNAL_FOLDER = "capture"
+"""Sub-folder of a session holding the capture journals (:mod:`volcal.capture.journal`);
+``volcal plan --replace`` moves it aside with the old plan's files."""
 
 _SHOWN = 8
 """Foreign files named in a refusal (the rest counted)."""

@@ -23,6 +23,7 @@ from numpy.typing import ArrayLike
 
 from volcal.errors import VolcalInputError
 from volcal.io.atomic import atomic_dir
+from volcal.io.folders import JOURNAL_FOLDER
 from volcal.io.tomlfmt import dumps as toml_dumps
 from volcal.session.format import Measurement, Session, read_session
 
@@ -118,9 +119,10 @@ def refusal(e: ExistingSession, shown: str | None = None) -> VolcalInputError:
 def replace_session(session: Session, folder: str | Path, old: ExistingSession) -> str:
     """Write ``session`` into ``folder`` in place of an existing session, keeping a backup.
 
-    The old ``session.toml``, the measurement files it names and ``truth/`` are moved
-    into ``backup/<UTC time>/`` in the same atomic replacement of the folder; every
-    other file of the folder (notes, results, earlier backups) is kept.
+    The old ``session.toml``, the measurement files it names, ``truth/`` and the capture
+    journal ``capture/`` are moved into ``backup/<UTC time>/`` in the same atomic
+    replacement of the folder; every other file of the folder (notes, results, earlier
+    backups) is kept.
 
     Parameters
     ----------
@@ -152,6 +154,10 @@ def replace_session(session: Session, folder: str | Path, old: ExistingSession) 
                 p.unlink()  # moved: it is in the backup now
         if (tmp / "truth").is_dir():
             shutil.rmtree(tmp / "truth")
+        journal = tmp / JOURNAL_FOLDER  # the old plan's capture journal goes with its files:
+        if journal.is_dir():  # left here, a capture of the new plan resumed it (session 20)
+            shutil.copytree(journal, tmp / rel / JOURNAL_FOLDER)
+            shutil.rmtree(journal)
         _write(tmp, toml_dumps(session.to_toml()), session.measurements)
     session.path = folder
     return rel

@@ -44,6 +44,14 @@ def test_one_run_tests_are_skipped_with_the_reason_and_the_others_evaluated():
     table = next(t for t in sec.tables if t.title.startswith("Tests measured but not"))
     assert [r[0] for r in table.rows] == [*x, *rot]
     assert f"not evaluated to their standard: {', '.join([*x, *rot])}" in sec.warnings
+    # with no linear test evaluated the positioning section is left out (it said that its
+    # tests were evaluated as ISO 230-2 asks, above no table)
+    from volcal.report.sections import positioning_section
+
+    only_x = Session(s.name, s.chain, s.travel, [s.get(k) for k in [*x, *rot]], s.meta)
+    ev_x = evaluate_session(only_x)
+    assert ev_x.iso230_2 == {} and positioning_section(SimpleNamespace(
+        session=only_x, evaluation=ev_x, iso230_2={})) is None
 
 
 def test_evaluate_iso230_2_of_the_one_run_file_still_refuses(tmp_path, monkeypatch, capsys):

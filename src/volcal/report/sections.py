@@ -612,11 +612,13 @@ def positioning_section(inp: ReportInputs) -> Section | None:
     Returns
     -------
     Section or None
-        None when the session has no linear test with deviations.
+        None when the session has no linear test with deviations, or none of them was
+        evaluated (each in the evaluation's ``skipped``, e.g. one run per direction).
     """
     lin = [m for m in inp.session.measurements if m.kind == "linear" and m.deviation is not None]
-    if not lin:
-        return None
+    skipped = getattr(inp.evaluation, "skipped", None) or {}
+    if not lin or (not inp.iso230_2 and all(m.id in skipped for m in lin)):
+        return None  # none evaluated: the completeness section says why
     sec = Section("iso230-2", "Positioning (ISO 230-2)")
     sec.paragraphs.append(
         "Linear tests with bidirectional runs, evaluated as ISO 230-2:2014 asks: mean "

@@ -48,11 +48,10 @@ class Reading:
     def __init__(self, m: Any) -> None:
         k = kind_of(m.kind)
         self.column = str(k.value_column)
-        if self.column == "length_mm":
-            raise VolcalInputError(f"measurement {m.id!r} ({m.kind}): a tracking "
-                                   "interferometer is not captured by volcal capture; "
-                                   "import its export (volcal import)")
-        self.displacement = bool(k.beam_in_session) and self.column == "deviation_um"
+        if k.captured_by:  # the capture step passes these over (Kind.captured_by)
+            raise VolcalInputError(f"measurement {m.id!r} ({m.kind}) is not captured by "
+                                   f"volcal capture: {k.captured_by}")
+        self.displacement = k.displacement
         self.unit = "urad" if self.column.endswith("_urad") else "um"
         self.positions = np.asarray(m.positions, float)
         b = np.asarray(m.beam_direction, float)

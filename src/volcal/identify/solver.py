@@ -522,16 +522,7 @@ class _HyperSearch:
         derivative-free simplex continues from the best point found.
         """
         tol, bounds = self.st.evidence_tol, self.bounds
-        history: list[float] = []
-
-        def flat() -> bool:
-            return len(history) > 3 and history[-4] - history[-1] < tol
-
-        def stop_when_flat(intermediate_result):
-            history.append(float(intermediate_result.fun))
-            if flat():
-                raise StopIteration
-
+        stop = _FlatStop(tol, 3)
         w = self._preconditioner()
 
         def fun_w(z):  # the search runs on h * w: curvatures of order one
@@ -540,10 +531,10 @@ class _HyperSearch:
 
         res = minimize(fun_w, np.array(self.h0) * w, method="L-BFGS-B", jac=True,
                        bounds=[(lo * wi, hi * wi) for (lo, hi), wi in zip(bounds, w, strict=True)],
-                       callback=stop_when_flat,
+                       callback=stop,
                        options={"maxiter": 200, "ftol": 1e-10, "gtol": 1e-2})
         res.x = res.x / w
-        if flat():
+        if stop.flat():
             res.success = True
             res.message = (f"CONVERGENCE: -2 log evidence improved by less than {tol:g} "
                            "in 3 iterations")
@@ -569,23 +560,14 @@ class _HyperSearch:
         from the one found after 189 (benchmarks/README.md, "Session 20: the simplex").
         """
         tol, window = self.st.evidence_tol, 2 * len(h0)
-        history: list[float] = []
+        stop = _FlatStop(tol, window)
 
         def value(h: NDArray[np.float64]) -> float:
             return self.objective(h)[0]
 
-        def flat() -> bool:
-            return len(history) > window and history[-window - 1] - history[-1] < tol
-
-        def stop_when_flat(intermediate_result):
-            history.append(float(intermediate_result.fun))
-            if flat():
-                raise StopIteration
-
-        res = minimize(value, h0, method="Nelder-Mead", bounds=self.bounds,
-                       callback=stop_when_flat,
+        res = minimize(value, h0, method="Nelder-Mead", bounds=self.bounds, callback=stop,
                        options={"xatol": 5e-3, "fatol": 1e-3, "maxiter": 600})
-        if flat():
+        if stop.flat():
             res.success = True
             res.message = (f"CONVERGENCE: -2 log evidence improved by less than {tol:g} "
                            f"in {window} simplex iterations")
@@ -615,6 +597,29 @@ class _HyperSearch:
         if self.free_sigma:
             c.append(2.0 * abs(g[19]))
         return np.sqrt(np.maximum(np.array(c), 1.0))
+
+
+class _FlatStop:
+    """Optimiser callback: stop when the evidence is flat.
+
+    ``window`` iterations improving the objective by less than ``tol``
+    (:attr:`EstimatorSettings.evidence_tol`): the two evidence searches' one rule (3
+    quasi-Newton iterations, ``2 n`` simplex iterations).
+    """
+
+    def __init__(self, tol: float, window: int) -> None:
+        self.tol, self.window = tol, window
+        self.history: list[float] = []
+
+    def flat(self) -> bool:
+        """Whether the last ``window`` iterations improved by less than ``tol``."""
+        h, w = self.history, self.window
+        return len(h) > w and h[-w - 1] - h[-1] < self.tol
+
+    def __call__(self, intermediate_result) -> None:
+        self.history.append(float(intermediate_result.fun))
+        if self.flat():
+            raise StopIteration
 
 
 def _contrasts(n: int) -> NDArray[np.float64]:

@@ -156,8 +156,7 @@ def replace_session(session: Session, folder: str | Path, old: ExistingSession) 
             shutil.rmtree(tmp / "truth")
         journal = tmp / JOURNAL_FOLDER  # the old plan's capture journal goes with its files:
         if journal.is_dir():  # left here, a capture of the new plan resumed it (session 20)
-            shutil.copytree(journal, tmp / rel / JOURNAL_FOLDER)
-            shutil.rmtree(journal)
+            shutil.move(journal, tmp / rel / JOURNAL_FOLDER)
         _write(tmp, toml_dumps(session.to_toml()), session.measurements)
     session.path = folder
     return rel

@@ -184,18 +184,15 @@ def _kinds_paragraph(session: Any) -> str:
     Each kind's :attr:`volcal.session.kinds.Kind.description` with its count: a report of
     rotary tests alone no longer explains linear tests and diagonals.
     """
+    from collections import Counter
+
     from volcal.session.kinds import kind_of
 
-    seen: list[str] = []
-    for m in session.measurements:
-        if m.kind not in seen:
-            seen.append(m.kind)
     parts = []
-    for name in seen:
-        k = kind_of(name)
-        n = sum(m.kind == name for m in session.measurements)
+    for name, n in Counter(m.kind for m in session.measurements).items():  # first-seen order
         label = f"{name.replace('_', ' ')} ({n})"
-        parts.append(f"{label}: {k.description}" if k.description else label)
+        text = kind_of(name).description
+        parts.append(f"{label}: {text}" if text else label)
     return "The measurements by kind: " + "; ".join(parts) + "."
 
 

@@ -210,6 +210,16 @@ class Kind:
     captured_by: ClassVar[str] = ""
     evaluated_by: ClassVar[str] = ""
 
+    @property
+    def displacement(self) -> bool:
+        """Its readings are laser displacements along its beam, counted from the first row.
+
+        ``beam_in_session`` and read in ``deviation_um``: ``volcal capture`` writes each
+        reading as the change since the first, and the plausibility check expects the first
+        near 0 (a rotary test's or an optic's first reading is an error like any other).
+        """
+        return bool(self.beam_in_session) and self.value_column == "deviation_um"
+
     # -- session ---------------------------------------------------------------------
     def read(self, entry: dict[str, Any], ctx: ReadContext) -> Any:
         """Read one ``[[measurements]]`` entry and its CSV file.

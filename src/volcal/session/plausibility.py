@@ -311,8 +311,7 @@ def _order(m: Measurement) -> list[str]:
         if up < 0 or down > 0:
             out.append(f"{m.id}: positions descend in the '+' rows (or ascend in the '-' "
                        f"rows) of {m.file}: rows in reverse order?")
-    kind = kind_of(m.kind)
-    if not (kind.beam_in_session and kind.value_column == "deviation_um"):
+    if not kind_of(m.kind).displacement:
         return out  # readings that do not count from the first row (rotary, optics)
     dev = _readings(m)
     dev0 = float(dev[0])

@@ -87,6 +87,28 @@ def test_iso230_2_approach_and_overrun(tmp_path, dialect):
     assert extra == 1 + 3 + 2
 
 
+@pytest.mark.skipif(RS274 is None, reason="LinuxCNC's rs274 is not installed "
+                    "(make linuxcnc-deps)")
+def test_direct_optics_reverse_with_the_overrun_in_rs274(tmp_path):
+    """Session 20: a direct optic's program dwelt twice at each reversal without a move
+    (its runs have directions, its kind is not ISO 230-2 bidirectional). LinuxCNC's
+    interpreter runs it now: every dwell at its planned pose, reached from its side."""
+    s = plan_session(TRAVEL, "XYFZ", 3, ["direct:x"], 2)
+    write_session(s, tmp_path / "s")
+    s = read_session(tmp_path / "s", require_deviation=False)
+    folder, _ = write_programs(s, "linuxcnc", tmp_path / "p", ProgramOptions(dwell_s=1.0))
+    m = s.get("str-xy")
+    dwell, _, moves = REPLAY["linuxcnc"]((folder / "str_xy.ngc").read_text())
+    np.testing.assert_array_equal(dwell, m.positions)
+    moves = moves[2:]  # after the safe start
+    last = -1
+    for i, p in enumerate(m.positions):
+        j = next(t for t in range(last + 1, len(moves)) if np.array_equal(moves[t], p))
+        sign = 1.0 if m.direction[i] == "+" else -1.0
+        assert j >= 1 and sign * (p[0] - moves[j - 1][0]) > 0, f"reading {i} from the wrong side"
+        last = j
+
+
 def test_hand_computed_fanuc_block(tmp_path):
     m = Measurement("t", "diagonal", "retroreflector", [[0, 0, 0], [266.6666667, 12.5, -0.0004]],
                     None, [1, 0, 0])

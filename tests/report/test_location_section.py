@@ -89,6 +89,11 @@ def test_report_and_certificate_sections(session, tmp_path, monkeypatch, capsys)
     html = (out / "report.html").read_text()
     assert "ISO 10791-6-style test of the sphere centre per path" in html
     assert "fail as found with the configured kinematics; pass predicted" in html
+    # its References list the five-axis sources it cites, not the diagonal papers (session
+    # 21: every report listed the same nine, none of these three)
+    refs = html[html.index('id="references"'):]
+    assert "ISO 10791-6:2014" in refs and "Weikert" in refs and "Ibaraki" in refs
+    assert "LAMDAMAP" not in refs and "step-diagonal test" not in refs
     doc = json.loads((out / "certificate.json").read_text())
     jsonschema.validate(doc, schema(), cls=jsonschema.Draft202012Validator)
     method = next(x for x in doc["methods"] if x["id"] == "ISO 230-1 location errors")

@@ -592,7 +592,9 @@ def build_report(inp: ReportInputs, title: str | None = None) -> Report:
                 uncertainty_section]
     sections = [s for s in (b(inp) for b in builders) if s is not None]
     sections.extend(inp.extra_sections)
-    sections.append(references_section())
+    refs = references_section(sections)
+    if refs.paragraphs:  # a report citing nothing has no References
+        sections.append(refs)
     return Report(title or f"Calibration report: {inp.session.name}", sections,
                   generator=f"volcal {__version__}")
 

@@ -17,7 +17,7 @@ import re
 
 from volcal.report.document import Report, Section, Table
 
-__all__ = ["REFERENCES", "SOURCE_NAMES", "customer_report", "customer_text",
+__all__ = ["CITED_AS", "REFERENCES", "SOURCE_NAMES", "customer_report", "customer_text",
            "references_section"]
 
 REFERENCES: tuple[str, ...] = (
@@ -42,8 +42,25 @@ REFERENCES: tuple[str, ...] = (
     "axes' positioning ranges).",
     "J. A. Soons, \"Analysis of the step-diagonal test\", National Institute of Standards "
     "and Technology (NIST), Proceedings of LAMDAMAP 2005.",
+    "ISO 10791-6:2014, Test conditions for machining centres - Part 6: Accuracy of speeds "
+    "and interpolations (ISO, Geneva); its five-axis kinematic tests, whose clauses and "
+    "tolerances are not public, are followed in style (\"ISO 10791-6-style\").",
+    "S. Weikert, \"R-Test, a new device for accuracy measurements on five axis machine "
+    "tools\", CIRP Annals 53(1) (2004) 429-432.",
+    "S. Ibaraki, C. Oyama, H. Otsubo, \"Construction of an error map of rotary axes on a "
+    "five-axis machining center by static R-test\", International Journal of Machine Tools "
+    "and Manufacture 51 (2011) 190-200.",
 )
 """Full citations of the standards and papers the report's methods and wording rest on."""
+
+CITED_AS: tuple[str, ...] = (
+    r"ISO 230-1\b", r"ISO 230-2\b", r"ISO 230-6\b", r"ASME B5\.54", r"\bGUM\b|JCGM 100",
+    r"Wang & Liotto", r"Optodyne application note", r"Wang, Optodyne", r"\bSoons\b",
+    r"ISO 10791-6", r"\bWeikert\b", r"\bIbaraki\b",
+)
+"""How the report's text cites each entry of :data:`REFERENCES` (a regular expression per
+entry, matched after :func:`customer_text`, which turns the seed numbers into the
+:data:`SOURCE_NAMES`)."""
 
 SOURCE_NAMES: dict[str, str] = {
     "000": "Wang & Liotto 2003",
@@ -119,14 +136,35 @@ def customer_report(report: Report) -> Report:
                                sections=[_section(s) for s in report.sections])
 
 
-def references_section() -> Section:
-    """The References section: full citations of the standards and papers.
+def _texts(s: Section) -> list[str]:
+    out = [s.title, *s.paragraphs, *s.warnings, *(f.caption for f in s.figures)]
+    for t in s.tables:
+        out.extend([t.title, t.note, *t.columns, *(c for r in t.rows for c in r)])
+    return out
+
+
+def references_section(sections: list[Section] | None = None) -> Section:
+    """The References section: full citations of the standards and papers the report cites.
+
+    Parameters
+    ----------
+    sections : list of Section, optional
+        The report's other sections. An entry of :data:`REFERENCES` is listed when their
+        text (titles, paragraphs, warnings, tables, captions, after :func:`customer_text`)
+        cites it (:data:`CITED_AS`): a report of rotary tests alone does not list the
+        diagonal papers. None lists every entry.
 
     Returns
     -------
     Section
-        One numbered paragraph per entry of :data:`REFERENCES`.
+        One numbered paragraph per entry listed, in the order of :data:`REFERENCES`.
     """
+    if sections is None:
+        listed = list(REFERENCES)
+    else:
+        text = "\n".join(customer_text(t) for s in sections for t in _texts(s))
+        listed = [r for r, cite in zip(REFERENCES, CITED_AS, strict=True)
+                  if re.search(cite, text)]
     sec = Section("references", "References")
-    sec.paragraphs.extend(f"[{i}] {r}" for i, r in enumerate(REFERENCES, start=1))
+    sec.paragraphs.extend(f"[{i}] {r}" for i, r in enumerate(listed, start=1))
     return sec

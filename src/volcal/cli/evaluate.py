@@ -498,9 +498,12 @@ def session_cmd(
     why_skipped = {k: why for k, why in ev.skipped.items() if why != "no readings yet"}
     skipped = list(why_skipped)
     if not results and not ev.rotary:
-        why = "; ".join(f"{k}: {w}" for k, w in why_skipped.items())
+        by_reason: dict[str, list[str]] = {}
+        for k, w in why_skipped.items():
+            by_reason.setdefault(w, []).append(k)
+        why = "".join(f"\n  {', '.join(ks)}: {w}" for w, ks in by_reason.items())
         raise VolcalInputError("no linear or rotary measurement to evaluate to ISO 230-2"
-                               + (f" ({why})" if why else " (none with run and direction "
+                               + (f":{why}" if why else " (none with run and direction "
                                   "columns)"), session)
     elv_val = None if ev.elv is None else ev.elv["ELv"]
     verdict = None if done.verdicts is None else list(done.verdicts)

@@ -18,10 +18,14 @@ from numpy.typing import ArrayLike, NDArray
 
 from volcal.errors import VolcalInputError
 
-__all__ = ["GroupedRuns", "MissingReading", "group_runs", "target_statistics"]
+__all__ = ["MIN_RUNS", "GroupedRuns", "MissingReading", "group_runs", "target_statistics"]
 
 #: Targets closer than this are the same target [mm].
 TARGET_TOLERANCE_MM = 1e-4
+
+#: Fewest runs in each direction a positioning evaluation accepts (a standard deviation
+#: needs two; ISO 230-2 asks for five).
+MIN_RUNS = 2
 
 
 @dataclass(frozen=True)
@@ -89,7 +93,7 @@ def _row(rows: NDArray[np.int64] | None, i: int) -> int | None:
 
 def group_runs(targets_mm: ArrayLike, run: ArrayLike, direction: ArrayLike,
                deviation_um: ArrayLike, file: str | None = None,
-               rows: ArrayLike | None = None, min_runs: int = 2, *,
+               rows: ArrayLike | None = None, min_runs: int = MIN_RUNS, *,
                allow_incomplete: bool = False, target_column: str = "target_mm"
                ) -> GroupedRuns:
     """Check and arrange bidirectional positioning readings.
@@ -109,7 +113,7 @@ def group_runs(targets_mm: ArrayLike, run: ArrayLike, direction: ArrayLike,
     rows : array_like of int, optional
         Row number (in ``file``) of each reading, for error messages.
     min_runs : int
-        Fewest runs accepted in each direction (2: a standard deviation needs two).
+        Fewest runs accepted in each direction (:data:`MIN_RUNS`).
     allow_incomplete : bool
         Accept runs that miss targets (missed captures): their cells are NaN and listed
         in :attr:`GroupedRuns.missing`. False (default): refused, naming the first.

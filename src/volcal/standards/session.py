@@ -345,6 +345,7 @@ def evaluate_session(session: Any, result: Any = None, edition: str = "2014",
     """
     from volcal.errors import VolcalInputError
     from volcal.session.kinds import kind_of
+    from volcal.standards.runs import MIN_RUNS
 
     lin: dict[str, Any] = {}
     axis: dict[str, str] = {}
@@ -365,9 +366,9 @@ def evaluate_session(session: Any, result: Any = None, edition: str = "2014",
         if standard == "ISO 230-2" and ("run" not in m.columns or "direction" not in m.columns):
             skipped[m.id] = "no run/direction columns"
             continue
-        if standard == "ISO 230-2" and (few := _runs_per_direction(m)) < 2:
-            skipped[m.id] = (f"{few} run per direction as planned: ISO 230-2 needs at least 2 "
-                             "to estimate the repeatability (it asks for 5)"
+        if standard == "ISO 230-2" and (few := _runs_per_direction(m)) < MIN_RUNS:
+            skipped[m.id] = (f"{few} run per direction as planned: ISO 230-2 needs at least "
+                             f"{MIN_RUNS} to estimate the repeatability (it asks for 5)"
                              + ("; its readings still enter the identification"
                                 if kind.in_design else ""))
             continue

@@ -288,3 +288,26 @@ def test_dataframes_are_typed(store_url, sessions):
         assert cmp["U"].dtype == cmp["difference"].dtype == np.float64
         assert list(cmp.name[cmp.changed.fillna(False) & (cmp.test == "chi-square")]) \
             == ["EXX"]
+
+
+def test_a_record_number_alone_is_answered_with_its_id(store_url, sessions):
+    """Session 21: `volcal history show 2` and `--as-left-of 2` said "no record '2'"
+    without saying that ids are C000002; a number (or a lower-case id) names the record of
+    that number, which the message proposes."""
+    from volcal.history.api import History
+
+    with History(store_url) as h:
+        _add(h, sessions["a2"])                              # M000001, C000002
+        for given in ("2", "000002", "c000002"):
+            with pytest.raises(VolcalInputError) as exc:
+                h.show(given)
+            assert str(exc.value).endswith(f"no record {given!r} in the history "
+                                           f"{h.store.where}; did you mean C000002 "
+                                           "(calibration)?"), str(exc.value)
+        with pytest.raises(VolcalInputError) as exc:
+            _add(h, sessions["a2same"], as_left_of="2")
+        assert "did you mean C000002 (calibration)?" in str(exc.value)
+        with pytest.raises(VolcalInputError) as exc:
+            h.show("9")
+        assert "ids are a letter and six digits, e.g. C000002" in str(exc.value)
+        assert [r.id for r in h.list()] == ["M000001", "C000002"]    # nothing appended

@@ -297,7 +297,7 @@ class Store:
         for ref in (rec.supersedes, rec.as_left_of, rec.machine_id):
             if ref is not None and conn.execute(
                     select(t.records.c.seq).where(t.records.c.id == ref)).first() is None:
-                raise VolcalInputError(f"no record {ref!r} in the history {self.where}")
+                raise self.no_record(ref, conn)
         return self._insert(conn, rec)
 
     def _same_content(self, rid: str, digest: str) -> Record:
@@ -429,6 +429,38 @@ class Store:
                 yield
             finally:
                 self._reader = None
+
+    def no_record(self, rid: str, conn=None) -> VolcalInputError:
+        """The error for a record id the history does not hold, with the id meant if clear.
+
+        Ids are a kind's letter and six digits (``C000002``); a number alone (``2``,
+        ``000002``) or a lower-case id names the record of that number, which the message
+        proposes.
+
+        Parameters
+        ----------
+        rid : str
+            The id as given.
+        conn : Connection, optional
+            The connection of the transaction asking (the writers' lock), else a reader.
+
+        Returns
+        -------
+        VolcalInputError
+        """
+        from volcal.history import schema as t
+
+        letters = "".join(KIND_PREFIX.values())
+        digits = rid.strip().lstrip(letters + letters.lower())
+        hint = ""
+        if digits.isdigit() and int(digits) > 0:
+            near = self._rows(t.records.c.seq == int(digits), conn)
+            if near:
+                hint = f"; did you mean {near[0].id} ({near[0].kind})?"
+        if not hint:
+            hint = ("; ids are a letter and six digits, e.g. C000002 (volcal history list "
+                    "--all shows them)")
+        return VolcalInputError(f"no record {rid!r} in the history {self.where}{hint}")
 
     def _rows(self, where=None, conn=None) -> list[Record]:
         from volcal.history.integrity import guard
@@ -657,7 +689,7 @@ class Store:
 
         rows = self._rows(t.records.c.id == rid)
         if not rows:
-            raise VolcalInputError(f"no record {rid!r} in the history {self.where}")
+            raise self.no_record(rid)
         self._mark_superseded(rows)
         return rows[0]
 

@@ -280,7 +280,8 @@ def _undetermined_note(under: list[str]) -> list[str]:
     return [f"The model's readings determine less than half of the prior variance of "
             f"{', '.join(under)}: their share of that U is the identification's prior for a "
             "typical machine, not a measurement of this one, and where this machine's errors "
-            "are larger the location errors are covered less (a laser model without its "
-            "rolls measured: 0.89 of them within 2u; benchmarks/README.md, \"fused with the "
-            "laser model\"). Measuring them (volcal advise on the laser session) makes U this "
-            "machine's."]
+            "are larger the location errors are covered less (on virtual machines, of the "
+            "R-test's location errors within 2u: 0.89 with a laser model without its rolls "
+            "measured, 0.49 with a model of X's lines alone; benchmarks/README.md, \"fused "
+            "with the laser model\"). Measuring them (volcal advise on the laser session) "
+            "makes U this machine's."]

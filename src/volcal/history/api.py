@@ -382,7 +382,7 @@ def _check_as_left(store: Store, conn: Any, rec: NewRecord, machine: Record | No
     rid = rec.as_left_of
     found = store._rows(t.records.c.id == rid, conn)  # noqa: SLF001 - the store's reader
     if not found:
-        raise store.no_record(rid, conn)
+        raise store.no_record(str(rid), conn)
     ref = found[0]
     if ref.kind != "calibration":
         raise VolcalInputError(f"--as-left-of {rid}: {rid} is a {ref.kind} record, not a "

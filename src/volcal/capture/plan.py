@@ -123,7 +123,8 @@ def program_options(programs: str | Path | None = None, **overrides: Any) -> Pro
         except (OSError, tomllib.TOMLDecodeError) as e:
             raise VolcalInputError(f"cannot read the program index: {e}", index) from None
         for key, name in (("dwell_s", "dwell_s"), ("feed_mm_min", "feed"),
-                          ("overrun_mm", "overrun_mm"), ("safe_z_machine_mm", "safe_z_mm")):
+                          ("overrun_mm", "overrun_mm"), ("safe_z_machine_mm", "safe_z_mm"),
+                          ("overrun_deg", "overrun_deg")):
             if key in doc:
                 base[name] = float(doc[key])
     base.update({k: v for k, v in overrides.items() if v is not None})

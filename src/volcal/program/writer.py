@@ -89,7 +89,7 @@ def write_programs(session: Session, dialect: str, folder: str | Path,
     doc = {"format": "volcal-programs/1", "dialect": dialect, "session": session.name,
            "dwell_s": options.dwell_s, "feed_mm_min": options.feed,
            "overrun_mm": options.overrun_mm, "safe_z_machine_mm": options.safe_z_mm,
-           "programs": index}
+           "overrun_deg": options.overrun_deg, "programs": index}
     with atomic_dir(folder) as tmp:
         for fname, text in files.items():
             (tmp / fname).write_text(text, encoding="ascii", newline="\n")

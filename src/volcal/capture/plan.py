@@ -4,6 +4,13 @@ The capture does not parse the part program: it rebuilds the program's steps wit
 :func:`volcal.program.steps.build_steps` from the session and the program options (read
 from the program folder's index ``volcal-programs.toml`` when given), so the targets, the
 approach moves and the dwell time are exactly those of the program on the control.
+
+A rotary test's program turns one rotary axis (:func:`volcal.program.rotary.rotary_moves`:
+incremental turns, the overrun before each reversal, a dwell per reading); its dwells are
+planned in that axis' frame (:func:`volcal.capture.frame.rotary_frame`): the commanded
+angle [deg] and the sign of the turn that reaches it. The linear axes stand where the
+program's safe start left them (Z up in machine coordinates, X and Y not moved): their pose
+is carried (``pose_mm``, the plan's fixed pose) but not compared.
 """
 
 from __future__ import annotations
@@ -17,7 +24,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from volcal.capture.frame import LINEAR, Frame, rotary_frame
 from volcal.errors import VolcalInputError
+from volcal.program.rotary import RotaryMoves, rotary_moves
 from volcal.program.steps import ProgramOptions, Step, build_steps
 
 __all__ = ["PlannedDwell", "PlannedMeasurement", "dwell_lines", "plan_measurement",
@@ -35,11 +44,13 @@ class PlannedDwell:
     ----------
     reading : int
         Data row of the measurement's CSV (0-based; the CSV row is ``reading + 2``).
-    target : ndarray, shape (3,)
-        Commanded position X, Y, Z [mm].
-    approach : ndarray, shape (3,), or None
+    target : ndarray, shape (3,) or (1,)
+        Commanded position in the measurement's frame (:class:`PlannedMeasurement`
+        ``frame``): X, Y, Z [mm]; a rotary test's commanded angle [deg].
+    approach : ndarray, shape (3,) or (1,), or None
         Unit vector of the move that reaches the target (the ISO 230-2 approach
-        direction); None for a dwell reached by the start positioning only.
+        direction; a rotary test's ``[+1]`` or ``[-1]``, the sign of the turn); None for
+        a dwell reached by the start positioning only.
     seconds : float
         Programmed dwell [s].
     run : int or None
@@ -50,6 +61,10 @@ class PlannedDwell:
         Lines of the part program (1-based) a control reports while the machine dwells
         here: the dwell block and the move before it (LinuxCNC's ``motion_line`` names the
         move); empty when the program file is not known.
+    pose_mm : ndarray, shape (3,), or None
+        A rotary test's pose of the linear axes X, Y, Z [mm] (the plan's fixed pose:
+        zeros, not recorded; not compared); None for a dwell of the linear axes, whose
+        ``target`` is its pose.
     """
 
     reading: int
@@ -59,6 +74,7 @@ class PlannedDwell:
     run: int | None = None
     direction: str | None = None
     lines: tuple[int, ...] = ()
+    pose_mm: NDArray[np.float64] | None = None
 
 
 @dataclass(frozen=True)
@@ -73,11 +89,17 @@ class PlannedMeasurement:
         The program's steps (start positioning, operator stop, moves, dwells).
     dwells : tuple of PlannedDwell
         One per reading, in the program's order.
-    waypoints : ndarray, shape (k, 3)
+    waypoints : ndarray, shape (k, 3) or (k, 1)
         End points of the moves that are not readings (start pose, approach and overrun
-        points) [mm]: a stop there is no reading.
+        points) [mm], in the frame (a rotary test's angles [deg]): a stop there is no
+        reading.
     options : ProgramOptions
         The program's options.
+    frame : Frame
+        The coordinates of the targets (:data:`volcal.capture.frame.LINEAR`, or a rotary
+        axis' angle).
+    rotary : RotaryMoves or None
+        A rotary test's turns and dwells (its program's); ``steps`` is then empty.
     """
 
     measurement: Any
@@ -85,10 +107,15 @@ class PlannedMeasurement:
     dwells: tuple[PlannedDwell, ...]
     waypoints: NDArray[np.float64]
     options: ProgramOptions
+    frame: Frame = LINEAR
+    rotary: RotaryMoves | None = None
 
     @property
     def start(self) -> NDArray[np.float64] | None:
-        """The start pose: where the program stands at its operator stop [mm]."""
+        """The start pose: where the program stands at its operator stop [mm or deg]."""
+        if self.rotary is not None:
+            turns = sum(v for k, v, _ in self.rotary.items[:self.rotary.stop] if k == "turn")
+            return np.array([self.rotary.start_deg + turns])
         st = next((s for s in self.steps if s.kind == "start"), None)
         return None if st is None or st.position is None else np.asarray(st.position, float)
 
@@ -191,6 +218,8 @@ def plan_measurement(m: Any, travel: NDArray[np.float64], options: ProgramOption
     -------
     PlannedMeasurement
     """
+    if "target_deg" in m.columns and m.meta.get("axis") in ("a", "b", "c"):
+        return _plan_rotary(m, options, programs)
     sl = build_steps(m, travel, options)
     dwells: list[PlannedDwell] = []
     waypoints: list[tuple[float, float, float]] = []
@@ -225,3 +254,35 @@ def plan_measurement(m: Any, travel: NDArray[np.float64], options: ProgramOption
         waypoints.insert(0, start)
     return PlannedMeasurement(m, tuple(sl.steps), tuple(dwells),
                               np.asarray(waypoints, float).reshape(-1, 3), options)
+
+
+def _plan_rotary(m: Any, options: ProgramOptions, programs: str | Path | None
+                 ) -> PlannedMeasurement:
+    """The dwells of a rotary test: the angles its program turns to, and from which side."""
+    mv = rotary_moves(m, options)
+    frame = rotary_frame(str(m.meta["axis"]), bool(m.meta.get("modulo", True)))
+    here = mv.start_deg
+    last = 0.0
+    dwells: list[PlannedDwell] = []
+    waypoints: list[float] = []
+    run, direction = m.columns.get("run"), m.columns.get("direction")
+    pose = np.asarray(m.positions, float)
+    for k, (kind, v, row) in enumerate(mv.items):
+        if kind == "turn":
+            here, last = here + v, float(np.sign(v))
+            nxt = next((it for it in mv.items[k + 1:] if it[0] != "run"), None)
+            if nxt is None or nxt[0] != "dwell":
+                waypoints.append(here)  # an overrun or approach point: no reading
+        elif kind == "dwell" and row is not None:
+            i = int(row)
+            dwells.append(PlannedDwell(
+                i, np.array([here]), np.array([last]) if last else None, float(v),
+                None if run is None else int(run[i]),
+                None if direction is None else str(direction[i]), pose_mm=pose[i].copy()))
+    lines = dwell_lines(programs, m.id)
+    if len(lines) == len(dwells):
+        dwells = [replace(d, lines=lines[k]) for k, d in enumerate(dwells)]
+    pm = PlannedMeasurement(m, (), tuple(dwells), np.zeros((0, 1)), options, frame, mv)
+    start = pm.start
+    points = ([] if start is None else [float(start[0])]) + waypoints
+    return replace(pm, waypoints=np.asarray(points, float).reshape(-1, 1))

@@ -151,18 +151,22 @@ def capture_measurement(pm: PlannedMeasurement, folder: Path, control: ControlSo
     journal = Journal(jpath)
     emit = observer or (lambda e: None)
     notes: list[str] = []
-    rule = TriggerRule(pm.dwells, params, pm.waypoints, reading.unit, rec.done, m.id, pm.start)
+    rule = TriggerRule(pm.dwells, params, pm.waypoints, reading.unit, rec.done, m.id, pm.start,
+                       pm.frame)
     t_start = clock.now()
     journal.write("start", {
         "measurement": m.id, "control": sources[0], "laser": sources[1],
         "params": {k: getattr(params, k) for k in params.__dataclass_fields__},
         "program": {"dwell_s": pm.options.dwell_s, "feed": pm.options.feed,
-                    "overrun_mm": pm.options.overrun_mm},
+                    "overrun_mm": pm.options.overrun_mm,
+                    **({"overrun_deg": pm.options.overrun_deg} if pm.frame.rotary else {})},
+        "axes": list(pm.frame.axes), "axes_unit": pm.frame.unit,
         "readings": len(pm.dwells), "done": sorted(rec.done),
         "utc": datetime.now(UTC).isoformat(timespec="milliseconds"), "t": t_start},
         sync=True)
     emit(CaptureEvent("start", m.id, t_start, {
         "readings": len(pm.dwells), "targets": [d.target.tolist() for d in pm.dwells],
+        "axes": list(pm.frame.axes), "axes_unit": pm.frame.unit,
         "directions": [d.direction for d in pm.dwells], "runs": [d.run for d in pm.dwells],
         "done": sorted(rec.done), "column": reading.column, "unit": reading.unit,
         "values": reading.values(rec), "missed": sorted(rec.missed)}))

@@ -160,13 +160,14 @@ class CaptureEvent:
     ----------
     kind : str
         ``'start'`` (a measurement's capture begins: ``data`` has ``readings``, the planned
-        ``targets`` [[x, y, z] mm], ``directions``, ``runs``, ``done`` (readings already
-        recorded), ``column``, ``unit``), ``'control'`` / ``'laser'`` (a sample: ``data``
-        is its JSON form), ``'accepted'`` (``reading``, ``value`` of the CSV column,
-        ``raw`` laser value, ``sigma``, ``pos``...), ``'missed'`` (``reading``, ``reason``),
-        ``'replayed'``, ``'note'`` (``text``), ``'stale'`` (``source``: ``'control'`` or
-        ``'laser'``, ``silent_s``: a source stopped sending), ``'fresh'`` (it sends
-        again), ``'end'`` (``reason``, ``complete``).
+        ``targets`` [[x, y, z] mm], or [[angle] deg] of a rotary test, ``axes`` (their
+        letters), ``axes_unit`` (``'mm'`` or ``'deg'``), ``directions``, ``runs``, ``done``
+        (readings already recorded), ``column``, ``unit``), ``'control'`` / ``'laser'`` (a
+        sample: ``data`` is its JSON form), ``'accepted'`` (``reading``, ``value`` of the
+        CSV column, ``raw`` laser value, ``sigma``, ``pos``...), ``'missed'`` (``reading``,
+        ``reason``), ``'replayed'``, ``'note'`` (``text``), ``'stale'`` (``source``:
+        ``'control'`` or ``'laser'``, ``silent_s``: a source stopped sending), ``'fresh'``
+        (it sends again), ``'end'`` (``reason``, ``complete``).
     measurement : str or None
         The measurement's id.
     time_s : float

@@ -11,8 +11,12 @@ The reading column of the displacement tests (linear, diagonal, step diagonal: t
 kinds whose beam is in ``session.toml``) is the deviation ``(L_i - L_ref) - 1000 (p_i -
 p_ref) . b`` [um] (docs/formats.md): laser reading minus commanded displacement along
 the nominal beam ``b``, from the reference row ``ref`` (the first row; the first
-accepted row when the first was missed). A direct optic's reading (straightness [um],
-angle [urad]) is written as the optic gave it.
+accepted row when the first was missed). A rotary test's reading (the angular
+interferometer on the rotary calibrator: the axis' angular positioning error, actual -
+commanded angle [urad]) counts from the first row as its kind's file does (the
+calibrator is zeroed there; :attr:`volcal.session.kinds.Kind.from_first_row`):
+``R_i - R_ref``. A direct optic's reading (straightness [um], angle [urad]) is written as
+the optic gave it.
 
 A cell holding a reading that the journal does not hold (measured or typed by someone
 else) is never overwritten: the capture refuses, naming the file, row and column.
@@ -52,6 +56,7 @@ class Reading:
             raise VolcalInputError(f"measurement {m.id!r} ({m.kind}) is not captured by "
                                    f"volcal capture: {k.captured_by}")
         self.displacement = k.displacement
+        self.from_first = k.displacement or k.from_first_row
         self.unit = "urad" if self.column.endswith("_urad") else "um"
         self.positions = np.asarray(m.positions, float)
         b = np.asarray(m.beam_direction, float)
@@ -71,10 +76,12 @@ class Reading:
             Reading (0-based data row) -> value.
         """
         raw = {i: float(r["value"]) for i, r in rec.accepted.items()}
-        if not self.displacement or not raw:
+        if not self.from_first or not raw:
             return raw
         ref = 0 if 0 in raw else min(raw)
         p0, l0 = self.positions[ref], raw[ref]
+        if not self.displacement:
+            return {i: v - l0 for i, v in raw.items()}
         return {i: (v - l0) - 1000.0 * float((self.positions[i] - p0) @ self.beam)
                 for i, v in raw.items()}
 

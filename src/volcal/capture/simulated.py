@@ -4,20 +4,28 @@
 :func:`volcal.program.steps.build_steps` writes the program from) on a simulated clock:
 the start positioning (Z to the safe height, then X and Y, then Z down), the operator
 stop (``stop_s`` seconds, the program paused), then every move with a trapezoidal
-velocity profile (feed, acceleration ``accel``) and every dwell. Keys:
+velocity profile (feed, acceleration ``accel``) and every dwell
+(:mod:`volcal.capture.timeline`). A rotary test's program turns its rotary axis (Z up,
+the turn to the first target, the overrun, the operator stop, the incremental turns and
+dwells of :func:`volcal.program.rotary.rotary_moves`): the control then reports the
+axis' angle by its letter (``C`` [deg]) beside X, Y, Z, and keeps reporting it. Keys:
 
 ============  =======  ==========================================================
 key           default  meaning
 ============  =======  ==========================================================
-``accel``     500      acceleration of every axis move [mm/s^2]
+``accel``     500      acceleration of every axis move [mm/s^2] (a turn: [deg/s^2])
 ``noise``     0.0001   servo noise of the actual positions, standard deviation [mm]
+                       (an angle: [deg])
 ``overshoot`` 0        overshoot at the end of each move [mm] (damped, 3 Hz, 0.2 s)
 ``stop_s``    1        length of the operator stop before the first reading [s]
 ``flags``     1        report ``in_motion`` and ``program_running`` (0: positions only,
                        like a control that exposes no state)
 ``seed``      0        seed of the servo noise
 ``home``      -        position before the first program, ``x/y/z`` [mm] (default:
-                       the middle of the X and Y travel at the safe Z)
+                       the middle of the X and Y travel at the safe Z), or
+                       ``x/y/z/angle`` with the rotary axes' angle [deg] (default 0)
+``wrap``      0        1: report a full-circle rotary axis' angle modulo 360 (0..360,
+                       as LinuxCNC's ``WRAPPED_ROTARY``); 0: counting on (362 past 360)
 ============  =======  ==========================================================
 
 Each measurement's program starts when the capture turns to it; after a kill, the
@@ -27,10 +35,16 @@ program runs again from its start (the rule passes over the readings already rec
 position (the latest control sample): the displacement along the beam since the first
 target plus the machine's exact reading error at the nearest planned target
 (:meth:`volcal.session.kinds.Kind.exact`), plus white noise; a direct optic reads its
-error alone. Keys: ``seed`` (the random machine's and the noise's, default 0),
-``noise`` (standard deviation [um or urad], default 0.05), ``machine`` (an error table
-``ERRORS.csv`` instead of the random machine), ``rate`` (readings per second, default
-50), ``creep`` (drift of the reading during each dwell [um/s], default 0).
+error alone. A rotary test's calibrator reads the virtual rotary axis' angular
+positioning error at the control's actual angle, approached in the direction of its last
+turn, counted from the first target (:mod:`volcal.capture.virtual_rotary`: the axis
+``volcal simulate --seed`` draws). Keys: ``seed`` (the random machine's and the noise's,
+default 0), ``noise`` (standard deviation [um or urad], default 0.05), ``machine`` (an
+error table ``ERRORS.csv`` instead of the random machine), ``rate`` (readings per second,
+default 50), ``creep`` (drift of the reading during each dwell [um/s or urad/s], default
+0), ``unit`` (the unit of the values sent: ``um``, ``mm``, ``nm``... for a length,
+``urad``, ``arcsec``, ``mrad``... for an angle; default ``um`` or ``urad``,
+:data:`volcal.capture.samples.ANGULAR_UNITS`).
 """
 
 from __future__ import annotations
@@ -38,15 +52,13 @@ from __future__ import annotations
 import math
 import random
 import zlib
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from volcal.capture.plan import PlannedMeasurement
-from volcal.capture.samples import ControlSample, LaserSample
+from volcal.capture.samples import ANGULAR_UNITS, LINEAR_UNITS, ControlSample, LaserSample
 from volcal.capture.sources import (
     SourceContext,
     SourceSpec,
@@ -54,112 +66,16 @@ from volcal.capture.sources import (
     register_control,
     register_laser,
 )
+from volcal.capture.timeline import (
+    Segment,
+    move_along,
+    move_time,
+    program_timeline,
+    rotary_timeline,
+)
 from volcal.errors import VolcalInputError
 
 __all__ = ["Segment", "SimulatedControl", "SimulatedLaser", "program_timeline"]
-
-
-@dataclass(frozen=True)
-class Segment:
-    """One piece of the simulated program: a move, a dwell or a stop.
-
-    Attributes
-    ----------
-    t0, t1 : float
-        Start and end, seconds from the program's start [s].
-    p0, p1 : ndarray, shape (3,)
-        Position at the start and the end [mm].
-    kind : str
-        ``'move'``, ``'dwell'`` or ``'stop'``.
-    """
-
-    t0: float
-    t1: float
-    p0: NDArray[np.float64]
-    p1: NDArray[np.float64]
-    kind: str
-
-
-def _move_time(d: float, v: float, a: float) -> float:
-    """Duration of a trapezoidal (or triangular) move of length ``d`` [s]."""
-    if d <= 0:
-        return 0.0
-    if d >= v * v / a:
-        return d / v + v / a
-    return 2.0 * math.sqrt(d / a)
-
-
-def _along(d: float, v: float, a: float, t: float) -> float:
-    """Distance covered after ``t`` seconds of that move [mm]."""
-    T = _move_time(d, v, a)
-    t = min(max(t, 0.0), T)
-    if d >= v * v / a:
-        ta = v / a
-        if t < ta:
-            return 0.5 * a * t * t
-        if t > T - ta:
-            r = T - t
-            return d - 0.5 * a * r * r
-        return 0.5 * a * ta * ta + v * (t - ta)
-    th = T / 2.0
-    if t < th:
-        return 0.5 * a * t * t
-    r = T - t
-    return d - 0.5 * a * r * r
-
-
-def program_timeline(pm: PlannedMeasurement, here: NDArray[np.float64], accel: float,
-                     stop_s: float) -> list[Segment]:
-    """The segments of the measurement's program, starting from position ``here``.
-
-    Parameters
-    ----------
-    pm : PlannedMeasurement
-    here : ndarray, shape (3,)
-        Position when the program starts [mm].
-    accel : float
-        Acceleration [mm/s^2].
-    stop_s : float
-        Length of the operator stop [s].
-
-    Returns
-    -------
-    list of Segment
-    """
-    segs: list[Segment] = []
-    t = 0.0
-    p = np.asarray(here, float).copy()
-    v_default = pm.options.feed / 60.0
-
-    def move(q: NDArray[np.float64], feed: float | None) -> None:
-        nonlocal t, p
-        d = float(np.linalg.norm(q - p))
-        if d <= 1e-12:
-            return
-        dt = _move_time(d, (feed or pm.options.feed) / 60.0 if feed else v_default, accel)
-        segs.append(Segment(t, t + dt, p.copy(), q.copy(), "move"))
-        t, p = t + dt, q.copy()
-
-    for st in pm.steps:
-        if st.kind == "start" and st.position is not None:
-            q = np.asarray(st.position, float)
-            up = p.copy()
-            up[2] = pm.options.safe_z_mm
-            move(up, st.feed)
-            xy = up.copy()
-            xy[:2] = q[:2]
-            move(xy, st.feed)
-            move(q, st.feed)
-        elif st.kind == "stop":
-            segs.append(Segment(t, t + stop_s, p.copy(), p.copy(), "stop"))
-            t += stop_s
-        elif st.kind == "move" and st.position is not None:
-            move(np.asarray(st.position, float), st.feed)
-        elif st.kind == "dwell":
-            dt = float(st.seconds or 0.0)
-            segs.append(Segment(t, t + dt, p.copy(), p.copy(), "dwell"))
-            t += dt
-    return segs
 
 
 def _float(opts: dict[str, str], key: str, default: float, where: str) -> float:
@@ -185,7 +101,7 @@ def _gauss(seed: int, mid: str, tick: int, salt: int, sigma: float, n: int = 1
 class SimulatedControl:
     """The ``sim`` control source (see the module's docstring)."""
 
-    KEYS = ("accel", "noise", "overshoot", "stop_s", "flags", "seed", "home")
+    KEYS = ("accel", "noise", "overshoot", "stop_s", "flags", "seed", "home", "wrap")
 
     def __init__(self, spec: SourceSpec, ctx: SourceContext) -> None:
         o = options(spec.argument, spec.text, self.KEYS)
@@ -196,20 +112,23 @@ class SimulatedControl:
         self.stop_s = _float(o, "stop_s", 1.0, spec.text)
         self.flags = _float(o, "flags", 1.0, spec.text) != 0
         self.seed = int(_float(o, "seed", 0.0, spec.text))
+        self.wrap = _float(o, "wrap", 0.0, spec.text) != 0
         self.home: NDArray[np.float64] | None = None
         if "home" in o:
             try:
                 self.home = np.array([float(v) for v in o["home"].split("/")], float)
             except ValueError:
                 self.home = None
-            if self.home is None or self.home.shape != (3,):
+            if self.home is None or self.home.shape not in ((3,), (4,)):
                 raise VolcalInputError(f"source {spec.text!r}: home={o['home']!r} is not "
-                                       "x/y/z [mm]")
+                                       "x/y/z [mm] or x/y/z/angle [mm, deg]")
         self._mid: str | None = None
         self._segs: list[Segment] = []
         self._t0 = 0.0
         self._last_t: float | None = None
-        self._pos: NDArray[np.float64] | None = None
+        self._here: dict[str, float] = {}   # every axis' position where the program left it
+        self._axes: tuple[str, ...] = ("X", "Y", "Z")
+        self._period: float | None = None
 
     def open(self) -> None:
         """Nothing to connect."""
@@ -219,13 +138,20 @@ class SimulatedControl:
 
     def _start(self, mid: str) -> None:
         pm = next(p for p in self.ctx.measurements if p.id == mid)
-        if self._pos is None:
+        if not self._here:
             if self.home is not None:
-                self._pos = self.home
+                self._here = dict(zip("XYZ", map(float, self.home[:3]), strict=True))
             else:
                 tr = np.asarray(self.ctx.session.travel, float)
-                self._pos = np.array([tr[0].mean(), tr[1].mean(), pm.options.safe_z_mm])
-        self._segs = program_timeline(pm, self._pos, self.accel, self.stop_s)
+                self._here = {"X": float(tr[0].mean()), "Y": float(tr[1].mean()),
+                              "Z": float(pm.options.safe_z_mm)}
+        frame = pm.frame
+        self._axes = ("X", "Y", "Z", *frame.axes) if frame.rotary else ("X", "Y", "Z")
+        self._period = frame.period
+        angle0 = float(self.home[3]) if self.home is not None and self.home.size == 4 else 0.0
+        here = np.array([self._here.get(a, angle0) for a in self._axes])
+        self._segs = (rotary_timeline(pm, here, self.accel, self.stop_s) if frame.rotary
+                      else program_timeline(pm, here, self.accel, self.stop_s))
         self._mid, self._t0 = mid, self.ctx.clock.now()
 
     def _at(self, tr: float) -> tuple[NDArray[np.float64], bool, bool, bool]:
@@ -234,7 +160,7 @@ class SimulatedControl:
             if tr < s.t1:
                 if s.kind == "move":
                     d = float(np.linalg.norm(s.p1 - s.p0))
-                    f = _along(d, self._v(s), self.accel, tr - s.t0) / d
+                    f = move_along(d, self._v(s), self.accel, tr - s.t0) / d
                     return s.p0 + f * (s.p1 - s.p0), True, True, False
                 p = s.p1.copy()
                 prev = next((q for q in reversed(self._segs[:k]) if q.kind == "move"), None)
@@ -244,14 +170,14 @@ class SimulatedControl:
                     p = p + u * self.overshoot * math.exp(-dt / 0.2) * math.cos(
                         2 * math.pi * 3.0 * dt)
                 return p, False, s.kind != "stop", False
-        end = self._segs[-1].p1 if self._segs else np.zeros(3)
+        end = self._segs[-1].p1 if self._segs else np.array([self._here[a] for a in self._axes])
         return end.copy(), False, False, True
 
     def _v(self, s: Segment) -> float:
         d = float(np.linalg.norm(s.p1 - s.p0))
         # the feed that gives this segment's duration (every move of a program shares it)
         for v in (self.ctx.measurements[0].options.feed / 60.0,):
-            if abs(_move_time(d, v, self.accel) - (s.t1 - s.t0)) < 1e-9:
+            if abs(move_time(d, v, self.accel) - (s.t1 - s.t0)) < 1e-9:
                 return v
         return d / max(s.t1 - s.t0, 1e-12)
 
@@ -268,10 +194,15 @@ class SimulatedControl:
         self._last_t = t
         tr = t - self._t0
         p, moving, running, ended = self._at(tr)
-        self._pos = p
+        self._here.update(zip(self._axes, map(float, p), strict=True))
         if self.noise > 0:
-            p = p + np.array(_gauss(self.seed, mid, round(tr * 1e6), 1, self.noise, 3))
-        pos = {a: float(v) for a, v in zip("XYZ", p, strict=True)}
+            p = p + np.array(_gauss(self.seed, mid, round(tr * 1e6), 1, self.noise,
+                                    len(self._axes)))
+        pos = dict(self._here)  # a rotary axis turned before keeps being reported
+        pos.update(zip(self._axes, map(float, p), strict=True))
+        if self.wrap:
+            for a in pos.keys() - {"X", "Y", "Z"}:
+                pos[a] = pos[a] % 360.0
         if not self.flags:
             return ControlSample(t, pos, status="ended" if ended else "ok")
         return ControlSample(t, pos, moving, running, "ended" if ended else "ok")
@@ -280,7 +211,7 @@ class SimulatedControl:
 class SimulatedLaser:
     """The ``sim`` laser source (see the module's docstring)."""
 
-    KEYS = ("seed", "noise", "machine", "rate", "creep")
+    KEYS = ("seed", "noise", "machine", "rate", "creep", "unit")
 
     def __init__(self, spec: SourceSpec, ctx: SourceContext) -> None:
         o = options(spec.argument, spec.text, self.KEYS)
@@ -290,13 +221,20 @@ class SimulatedLaser:
         self.rate = _float(o, "rate", 50.0, spec.text) or 50.0
         self.creep = _float(o, "creep", 0.0, spec.text)
         self.machine_path = Path(o["machine"]) if "machine" in o else None
+        self.unit = o.get("unit")
+        if self.unit is not None and self.unit not in LINEAR_UNITS | ANGULAR_UNITS:
+            raise VolcalInputError(
+                f"source {spec.text!r}: unit={self.unit!r} is not one of "
+                f"{', '.join(sorted(set(LINEAR_UNITS) | set(ANGULAR_UNITS)))}")
         self._vm: Any = None
         self._tables: dict[str, tuple[NDArray[np.float64], NDArray[np.float64], bool, str]] = {}
+        self._rotary: dict[str, Any] | None = None
         self._mid: str | None = None
         self._t0 = 0.0
         self._next = 0.0
         self._last_t: float | None = None
         self._rest: tuple[NDArray[np.float64], float] | None = None
+        self._turn: tuple[float, str] | None = None  # last angle seen, direction of its turn
 
     def open(self) -> None:
         """Build the virtual machine."""
@@ -318,6 +256,25 @@ class SimulatedLaser:
         """The virtual machine (:class:`volcal.model.errorfunctions.MachineErrors`)."""
         return self._vm
 
+    def rotary_truth(self, mid: str) -> Any:
+        """The rotary axis a rotary test reads (:class:`~.virtual_rotary.RotaryTruth`).
+
+        Parameters
+        ----------
+        mid : str
+            A rotary test's id.
+
+        Returns
+        -------
+        RotaryTruth
+            The axis ``volcal simulate --seed`` draws for it (seed = this laser's).
+        """
+        if self._rotary is None:
+            from volcal.capture.virtual_rotary import rotary_truths
+
+            self._rotary = rotary_truths(self.ctx.session, self._vm, self.seed)
+        return self._rotary[mid]
+
     def exact(self, mid: str) -> NDArray[np.float64]:
         """Exact readings of measurement ``mid`` at its planned targets [um or urad].
 
@@ -331,6 +288,12 @@ class SimulatedLaser:
         ndarray
             From the first row, in the measurement's unit.
         """
+        pm = next(p for p in self.ctx.measurements if p.id == mid)
+        if pm.frame.rotary:
+            m, truth = pm.measurement, self.rotary_truth(mid)
+            d = m.columns.get("direction")
+            return np.array([truth.reading(float(a), "+" if d is None else str(d[i]))
+                             for i, a in enumerate(m.columns["target_deg"])])
         return self._table(mid)[1]
 
     def _table(self, mid: str) -> tuple[NDArray[np.float64], NDArray[np.float64], bool, str]:
@@ -345,6 +308,33 @@ class SimulatedLaser:
             self._tables[mid] = (np.asarray(m.positions, float), e, r.displacement, r.unit)
         return self._tables[mid]
 
+    def _linear(self, mid: str, c: ControlSample) -> tuple[float, str, NDArray[np.float64]]:
+        """The reading [um or urad] at the control's position, its unit, the position."""
+        pos, e, displacement, unit = self._table(mid)
+        p = np.array([c.positions[a] for a in "XYZ"], float)
+        i = int(np.argmin(np.linalg.norm(pos - p, axis=1)))
+        value = float(e[i])
+        if displacement:
+            pm = next(q for q in self.ctx.measurements if q.id == mid)
+            b = np.asarray(pm.measurement.beam_direction, float)
+            value += 1000.0 * float((p - pos[0]) @ (b / np.linalg.norm(b)))
+        return value, unit, p
+
+    def _angular(self, mid: str, c: ControlSample) -> tuple[float, str, NDArray[np.float64]]:
+        """The calibrator's reading [urad] at the control's actual angle (last turn's way)."""
+        pm = next(q for q in self.ctx.measurements if q.id == mid)
+        axis = pm.frame.axes[0]
+        if axis not in c.positions:
+            raise VolcalInputError(f"the simulated laser of {mid} reads axis {axis}: the "
+                                   f"control reports {', '.join(c.positions)}")
+        a = float(c.positions[axis])
+        last = self._turn or (a, "+")
+        d = float(pm.frame.delta(np.array([a]), np.array([last[0]]))[0])
+        if abs(d) > 1e-3:  # a turn (not the servo noise of a standing axis)
+            last = (a, "+" if d > 0 else "-")
+        self._turn = last
+        return self.rotary_truth(mid).reading(a, last[1]), "urad", np.array([a])
+
     def poll(self) -> LaserSample | None:
         """The reading now, at ``rate`` readings per second."""
         mid = self.ctx.current()
@@ -358,14 +348,8 @@ class SimulatedLaser:
             return None
         self._last_t = t
         self._next = max(self._next + 1.0 / self.rate, t)
-        pos, e, displacement, unit = self._table(mid)
-        p = np.array([c.positions[a] for a in "XYZ"], float)
-        i = int(np.argmin(np.linalg.norm(pos - p, axis=1)))
-        value = float(e[i])
-        if displacement:
-            pm = next(q for q in self.ctx.measurements if q.id == mid)
-            b = np.asarray(pm.measurement.beam_direction, float)
-            value += 1000.0 * float((p - pos[0]) @ (b / np.linalg.norm(b)))
+        rotary = next(q for q in self.ctx.measurements if q.id == mid).frame.rotary
+        value, unit, p = (self._angular if rotary else self._linear)(mid, c)
         if self.creep > 0:  # drift during a rest: the reading creeps while the axes stand
             if c.in_motion is False and (self._rest is None or
                                          float(np.max(np.abs(self._rest[0] - p))) > 0.005):
@@ -377,6 +361,10 @@ class SimulatedLaser:
         tick = round((t - self._t0) * 1e6)
         if self.noise > 0:
             value += _gauss(self.seed, mid, tick, 2, self.noise)[0]
+        if self.unit is not None and self.unit != unit:
+            table = ANGULAR_UNITS if unit == "urad" else LINEAR_UNITS
+            if self.unit in table:
+                return LaserSample(t, value / table[self.unit], self.unit)
         return LaserSample(t, value, unit)
 
 

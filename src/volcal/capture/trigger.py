@@ -9,7 +9,10 @@ A point is accepted when
    hold of a control that reports it) and the axes do not move (``in_motion`` is not True);
 3. the control stands at the **expected** planned target: every axis within
    ``window_mm`` of it, reached from the planned **approach direction** (the last
-   ``approach_mm`` of the path points within 60 degrees of the programmed move). A rest at
+   ``approach_mm`` of the path points within 60 degrees of the programmed move); a rotary
+   test compares its rotary axis' angle (``window_deg``, ``approach_deg``; modulo 360 on
+   a full-circle axis, :mod:`volcal.capture.frame`) and its approach direction (the sign
+   of the last turn: ISO 230-2's bidirectional runs with the program's overrun). A rest at
    the expected target from the wrong side, at another reading's target, or a rest as long
    as the programmed dwell where the plan has none, is refused
    (:class:`CaptureMismatch`, naming the planned and the seen positions); a stop at an
@@ -61,14 +64,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from volcal.capture.frame import LINEAR, Frame
 from volcal.capture.plan import PlannedDwell
 from volcal.capture.samples import ControlSample, LaserSample, to_base_unit
 from volcal.errors import ParameterError, VolcalInputError
 
 __all__ = ["Accepted", "CaptureMismatch", "Missed", "Note", "Replayed", "TriggerEvent",
            "TriggerParams", "TriggerRule", "noise_sigma", "is_stable"]
-
-AXES3 = ("X", "Y", "Z")
 
 
 @dataclass(frozen=True)
@@ -95,6 +97,14 @@ class TriggerParams:
     approach_mm : float
         Length of path looked back to find the approach direction [mm] (longer than an
         overshoot, shorter than the overrun).
+    window_deg : float
+        Target window of a rotary test: the rotary axis within this angle of the
+        commanded one [deg].
+    control_noise_deg : float
+        Floor of the control's angle noise [deg] (a rotary test).
+    approach_deg : float
+        Angle looked back to find the approach direction of a rotary test [deg] (longer
+        than an overshoot, shorter than the overrun ``volcal program`` turns, 2 deg).
     """
 
     window_mm: float = 0.010
@@ -105,6 +115,9 @@ class TriggerParams:
     max_gap_s: float = 0.5
     min_samples: int = 5
     approach_mm: float = 0.2
+    window_deg: float = 0.005
+    control_noise_deg: float = 0.0005
+    approach_deg: float = 0.2
 
     def check(self, program_dwell_s: float | None = None) -> None:
         """Raise :class:`~volcal.errors.ParameterError` for a value the rule cannot use.
@@ -115,7 +128,8 @@ class TriggerParams:
             The programmed dwell [s]: ``stable_s`` must fit in 3/4 of it.
         """
         for name in ("window_mm", "stable_s", "k_sigma", "laser_noise", "control_noise_mm",
-                     "max_gap_s", "approach_mm"):
+                     "max_gap_s", "approach_mm", "window_deg", "control_noise_deg",
+                     "approach_deg"):
             v = getattr(self, name)
             if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
                 raise ParameterError(f"{{{name}=}}{v!r}: expected a positive number")
@@ -150,7 +164,8 @@ class Accepted:
     n : int
         Laser samples averaged.
     position_mm : tuple of float
-        Mean control position X, Y, Z over the window [mm].
+        Mean control position over the window, in the measurement's frame: X, Y, Z [mm],
+        or the rotary axis' angle [deg] (:class:`volcal.capture.frame.Frame`).
     window_s : tuple of float
         Start and end of the window [s].
     """
@@ -161,7 +176,7 @@ class Accepted:
     unit: str
     sigma: float
     n: int
-    position_mm: tuple[float, float, float]
+    position_mm: tuple[float, ...]
     window_s: tuple[float, float]
 
     def to_json(self) -> dict[str, Any]:
@@ -354,25 +369,35 @@ class TriggerRule:
         The program's start pose [mm] (its operator stop). After a resume, the machine
         standing there means the program was started again: the rule follows it from
         the first reading.
+    frame : Frame
+        The coordinates compared (:data:`volcal.capture.frame.LINEAR`, or a rotary axis'
+        angle): ``dwells``' targets and approaches, ``waypoints`` and ``start`` are in
+        them.
     """
 
     def __init__(self, dwells: Sequence[PlannedDwell], params: TriggerParams | None = None,
                  waypoints: NDArray[np.float64] | None = None, unit: str = "um",
                  done: Collection[int] = (), label: str = "",
-                 start: NDArray[np.float64] | None = None) -> None:
+                 start: NDArray[np.float64] | None = None, frame: Frame = LINEAR) -> None:
         self.start = None if start is None else np.asarray(start, float)
         self.p = params or TriggerParams()
         self.p.check(min((d.seconds for d in dwells), default=None))
+        self.frame = frame
+        n = len(frame.axes)
+        self._window, self._cnoise, self._approach = (
+            (self.p.window_deg, self.p.control_noise_deg, self.p.approach_deg)
+            if frame.rotary else (self.p.window_mm, self.p.control_noise_mm,
+                                  self.p.approach_mm))
         self.dwells = list(dwells)
-        self.waypoints = (np.zeros((0, 3)) if waypoints is None
-                          else np.asarray(waypoints, float).reshape(-1, 3))
+        self.waypoints = (np.zeros((0, n)) if waypoints is None
+                          else np.asarray(waypoints, float).reshape(-1, n))
         self.unit = unit
         self.label = label
         self.done: set[int] = {int(i) for i in done}
         self.cursor = self._next_undone(0)
         self._may_replay = bool(self.done) and self.cursor > 0
         horizon = 2.0 * self.p.stable_s + self.p.max_gap_s
-        self._ctrl = _Signal(horizon, 3)
+        self._ctrl = _Signal(horizon, n)
         self._laser = _Signal(horizon, 1)
         self._path: deque[NDArray[np.float64]] = deque(maxlen=4096)
         self._first_pos: NDArray[np.float64] | None = None
@@ -434,11 +459,7 @@ class TriggerRule:
         """
         if s.status not in ("ok", "ended") or self.complete:
             return []
-        try:
-            p = np.array([float(s.positions[a]) for a in AXES3])
-        except KeyError as e:
-            raise VolcalInputError(f"the control sample has no axis {e.args[0]!r} "
-                                   f"(axes: {', '.join(s.positions)})") from None
+        p = self.frame.follow(self.frame.read(s.positions), self._pos)
         t = float(s.time_s)
         self.last_time = max(self.last_time, t)
         if self._first_pos is None:
@@ -447,10 +468,10 @@ class TriggerRule:
         self._line = s.line
         if not self.armed and (s.program_running is True or s.in_motion is True
                                or float(np.max(np.abs(p - self._first_pos)))
-                               > self.p.window_mm):
+                               > self._window):
             self.armed = True
         if not self._path or float(np.linalg.norm(p - self._path[-1])) \
-                >= self.p.approach_mm / 20.0:
+                >= self._approach / 20.0:
             self._path.append(p)
         if self._ctrl.add(t, p, self.p.max_gap_s, pool=self._dwell is not None):
             self._ctrl_gap = True
@@ -484,14 +505,15 @@ class TriggerRule:
     # ---------------------------------------------------------------- the rule
     def _near(self, target: NDArray[np.float64]) -> bool:
         assert self._pos is not None
-        return float(np.max(np.abs(self._pos - target))) <= self.p.window_mm
+        return float(np.max(np.abs(self.frame.delta(self._pos, target)))) <= self._window
 
     def _ctrl_stable(self, t0: float, t1: float) -> tuple[bool, NDArray[np.float64]]:
         tt, v = self._ctrl.window(t0, t1)
+        n = len(self.frame.axes)
         if tt.size == 0:
-            return False, np.full(3, np.nan)
-        sig = self._ctrl.sigma(self.p.control_noise_mm, v)
-        ok = all(is_stable(tt, v[:, j], float(sig[j]), t0, t1, self.p) for j in range(3))
+            return False, np.full(n, np.nan)
+        sig = self._ctrl.sigma(self._cnoise, v)
+        ok = all(is_stable(tt, v[:, j], float(sig[j]), t0, t1, self.p) for j in range(n))
         return ok, v.mean(axis=0)
 
     def _approach_seen(self) -> NDArray[np.float64] | None:
@@ -499,7 +521,7 @@ class TriggerRule:
         for q in reversed(self._path):
             d = self._pos - q
             n = float(np.linalg.norm(d))
-            if n >= self.p.approach_mm:
+            if n >= self._approach:
                 return d / n
         return None
 
@@ -650,8 +672,8 @@ class TriggerRule:
             return []
         self._decided = True
         return [self._record(d, Accepted(d.reading, t, float(lv[:, 0].mean()), self.unit, sig,
-                                         int(lt.size), (float(pos[0]), float(pos[1]),
-                                                        float(pos[2])), (t0, t)))]
+                                         int(lt.size), tuple(float(v) for v in pos),
+                                         (t0, t)))]
 
     def _missed(self, d: PlannedDwell, t: float) -> TriggerEvent:
         lt, lv = self._laser.window(t - self.p.stable_s, t)
@@ -674,9 +696,8 @@ class TriggerRule:
         return ev
 
     # ---------------------------------------------------------------- words
-    @staticmethod
-    def _fmt(p: NDArray[np.float64]) -> str:
-        return " ".join(f"{a}={v:.4f}" for a, v in zip(AXES3, p, strict=True)) + " mm"
+    def _fmt(self, p: NDArray[np.float64]) -> str:
+        return self.frame.fmt(p)
 
     @staticmethod
     def _vec(u: NDArray[np.float64]) -> str:

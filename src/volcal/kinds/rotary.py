@@ -51,9 +51,8 @@ class RotaryKind(OutsideDesignKind):
     plan_tests: ClassVar[tuple[str, ...]] = ("rotary",)
     description: ClassVar[str] = ("angular positioning of a rotary axis: angular "
                                   "interferometer on a rotary calibrator or index table")
-    captured_by: ClassVar[str] = ("its readings come from the rotary calibrator's software "
-                                  "(volcal import FILE --session S --measurement ID; "
-                                  "docs/formats.md, rotary)")
+    captured_by: ClassVar[str] = ""  # volcal capture turns with the axis (docs/capture.md)
+    from_first_row: ClassVar[bool] = True
     evaluated_by: ClassVar[str] = ("ISO 230-2 per axis, volcal evaluate session (its table: "
                                    "volcal compensate --session)")
 

@@ -183,8 +183,14 @@ class Kind:
         spread around (a tracker's grid, the R-test's paths, probed sphere centres).
     captured_by : str
         Empty when ``volcal capture`` takes its readings (one value per dwell of its part
-        program at a position of the linear axes); else how its readings reach the session
-        instead, as ``volcal capture`` says when it passes such a measurement over.
+        program at a position of the linear axes, or at an angle of a rotary axis: a
+        ``rotary`` test); else how its readings reach the session instead, as ``volcal
+        capture`` says when it passes such a measurement over.
+    from_first_row : bool
+        Its readings count from the first row (the instrument zeroed there: a rotary
+        calibrator) though they are no displacement along a beam: ``volcal capture``
+        writes each reading minus the first's (a displacement kind is counted from the
+        first row anyway, :attr:`displacement`).
     evaluated_by : str
         For a kind outside the identification (:attr:`in_design` False): what evaluates
         it instead, as `volcal identify` says when it leaves such measurements out.
@@ -208,6 +214,7 @@ class Kind:
     description: ClassVar[str] = ""
     along_beam: ClassVar[bool] = True
     captured_by: ClassVar[str] = ""
+    from_first_row: ClassVar[bool] = False
     evaluated_by: ClassVar[str] = ""
 
     @property

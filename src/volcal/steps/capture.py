@@ -42,7 +42,8 @@ def _capturable(s: Session, chosen: list[str], named: bool, passed_over: list[st
             keep.append(mid)
             continue
         said = (f"{mid} ({m.kind}) is not captured by volcal capture, which takes one reading "
-                f"per dwell at the linear axes' positions: {how}")
+                f"per dwell at a position of the linear axes or an angle of a rotary axis: "
+                f"{how}")
         if named:
             raise ParameterError(f"{{measurement=}}{said}", folder / "session.toml")
         passed_over.append(f"{said}; passed over")

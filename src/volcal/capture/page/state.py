@@ -177,7 +177,8 @@ class LiveState:
             self._bump(points=kind in ("start", "accepted", "missed", "replayed"))
 
     def _start(self, mid: str, data: dict[str, Any]) -> None:
-        targets = np.array(data.get("targets") or [], float).reshape(-1, 3)
+        dim = len(data.get("axes") or "XYZ")  # a rotary test's targets are angles [deg]
+        targets = np.array(data.get("targets") or [], float).reshape(-1, dim)
         if len(targets) >= 2:
             first = targets[0]
             far = targets[int(np.argmax(np.linalg.norm(targets - first, axis=1)))]

@@ -1,0 +1,146 @@
+"""The coordinates a capture compares with the plan: the linear axes, or one rotary axis.
+
+A linear, diagonal, step-diagonal or direct-optic test dwells at positions of the linear
+axes X, Y, Z [mm]; a rotary test at angles of one rotary axis A, B or C [deg] (the linear
+axes stand where the program's safe start left them and are not compared). The trigger
+rule (:mod:`volcal.capture.trigger`) reads the control's sample in the measurement's
+frame: a target, an approach direction, a window and the noise floor are in its unit.
+
+On a full-circle (modulo 360) rotary axis a control may report the angle wrapped (LinuxCNC
+``WRAPPED_ROTARY``, a Fanuc roll-over axis, a SINUMERIK modulo axis: 0..360) or counting on
+(362 after a turn past 360): the frame follows the reported angle continuously
+(:meth:`Frame.follow`) and compares it with a target modulo 360 (:meth:`Frame.delta`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from volcal.errors import VolcalInputError
+
+__all__ = ["LINEAR", "Frame", "rotary_frame"]
+
+
+@dataclass(frozen=True)
+class Frame:
+    """The axes a capture reads from the control for one measurement.
+
+    Attributes
+    ----------
+    axes : tuple of str
+        Axis letters of :attr:`volcal.capture.samples.ControlSample.positions`, in order.
+    unit : str
+        ``'mm'`` (linear axes) or ``'deg'`` (a rotary axis).
+    period : float or None
+        360 for a full-circle rotary axis [deg]: angles compared modulo it; None otherwise.
+    """
+
+    axes: tuple[str, ...]
+    unit: str = "mm"
+    period: float | None = None
+
+    @property
+    def rotary(self) -> bool:
+        """The frame is a rotary axis' angle."""
+        return self.unit == "deg"
+
+    def read(self, positions: Mapping[str, float]) -> NDArray[np.float64]:
+        """The frame's coordinates of a control sample.
+
+        Parameters
+        ----------
+        positions : mapping of str to float
+            The sample's positions by axis letter [mm, deg].
+
+        Returns
+        -------
+        ndarray, shape (len(axes),)
+
+        Raises
+        ------
+        VolcalInputError
+            The sample has no such axis (a rotary test read from a control reporting the
+            linear axes only), naming the axes it has.
+        """
+        try:
+            return np.array([float(positions[a]) for a in self.axes])
+        except KeyError as e:
+            what = (f"; a rotary test of axis {e.args[0]} needs a control that reports it"
+                    if self.rotary else "")
+            raise VolcalInputError(f"the control sample has no axis {e.args[0]!r} (axes: "
+                                   f"{', '.join(positions) or 'none'}){what}") from None
+
+    def delta(self, a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``a - b``, modulo the period on a full-circle axis (into [-180, 180) deg).
+
+        Parameters
+        ----------
+        a, b : ndarray
+            Coordinates [mm or deg]; ``b`` may be a stack of points, shape (k, n).
+
+        Returns
+        -------
+        ndarray
+        """
+        d = np.asarray(a, float) - np.asarray(b, float)
+        if self.period is not None:
+            h = 0.5 * self.period
+            d = (d + h) % self.period - h
+        return np.asarray(d, float)
+
+    def follow(self, p: NDArray[np.float64], previous: NDArray[np.float64] | None
+               ) -> NDArray[np.float64]:
+        """The reported coordinates made continuous with the previous ones (a full circle).
+
+        Parameters
+        ----------
+        p : ndarray
+            As reported [mm or deg].
+        previous : ndarray or None
+            The previous sample's, as returned by this method.
+
+        Returns
+        -------
+        ndarray
+            ``p`` on a frame without a period; else ``previous + delta(p, previous)``, so
+            that a wrapped angle (359.9 then 0.1) turns on (360.1).
+        """
+        if self.period is None or previous is None:
+            return p
+        return previous + self.delta(p, previous)
+
+    def fmt(self, p: NDArray[np.float64]) -> str:
+        """Coordinates for a message (``X=1.0000 Y=... mm``, ``C=90.0000 deg``).
+
+        Parameters
+        ----------
+        p : ndarray
+            Coordinates [mm or deg].
+        """
+        return " ".join(f"{a}={v:.4f}" for a, v in zip(self.axes, p, strict=True)) \
+            + f" {self.unit}"
+
+
+LINEAR = Frame(("X", "Y", "Z"))
+"""The linear axes [mm]: every kind but ``rotary``."""
+
+
+def rotary_frame(axis: str, modulo: bool) -> Frame:
+    """The frame of a rotary test of ``axis``.
+
+    Parameters
+    ----------
+    axis : str
+        ``'a'``, ``'b'`` or ``'c'`` (either case).
+    modulo : bool
+        A full-circle axis: angles compared modulo 360.
+
+    Returns
+    -------
+    Frame
+    """
+    return Frame((axis.upper(),), "deg", 360.0 if modulo else None)

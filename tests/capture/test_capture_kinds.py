@@ -3,7 +3,8 @@
 Session 20: a rotary test captured on the simulated control recorded 1 of its 8 readings
 (the control reports X, Y, Z only, every dwell at the same position) and asked to "run the
 same command again"; a probe_sphere or r_test test ended in a traceback of the simulated
-laser.
+laser. Session 21: rotary tests are captured (tests/capture/test_capture_rotary.py); the
+kinds still passed over are the tracker's, probe_sphere and r_test.
 """
 
 from __future__ import annotations
@@ -16,36 +17,38 @@ from volcal.steps.plan import plan
 
 from .conftest import FAST
 
-TRAVEL = ((0.0, 200.0), (0.0, 150.0), (0.0, 100.0))
+TRAVEL = ((0.0, 800.0), (0.0, 600.0), (0.0, 500.0))
 
 
 @pytest.fixture(scope="module")
 def mixed(tmp_path_factory):
     out = tmp_path_factory.mktemp("kinds") / "S"
-    plan(TRAVEL, steps=2, tests="linear:x,rotary:c", runs=1, output=out)
+    plan(TRAVEL, steps=2, tests="linear:x,probe_sphere:ca", runs=1, output=out)
     return out
 
 
-def test_the_rotary_test_is_passed_over_with_how_its_readings_come(mixed, tmp_path):
-    before = (mixed / "rotary-c.csv").read_text()
+def test_a_kind_not_captured_is_passed_over_with_how_its_readings_come(mixed, tmp_path):
+    """(A rotary test was passed over so until session 21: rotary tests are captured now,
+    tests/capture/test_capture_rotary.py.)"""
+    before = (mixed / "probe_sphere.csv").read_text()
     r = capture(mixed, control="sim", laser="sim", output=tmp_path / "C",
                 measurement=None, **FAST)
     assert r.complete and [o.measurement for o in r.outcomes] == \
         ["linear-x1", "linear-x2", "linear-x3"]
-    assert [n for n in r.notes if n.startswith("rotary-c (rotary) is not captured")] == [
-        "rotary-c (rotary) is not captured by volcal capture, which takes one reading per "
-        "dwell at the linear axes' positions: its readings come from the rotary calibrator's "
-        "software (volcal import FILE --session S --measurement ID; docs/formats.md, rotary)"
-        "; passed over"]
-    assert (tmp_path / "C" / "rotary-c.csv").read_text() == before  # not a reading made up
-    assert not (tmp_path / "C" / "capture" / "rotary-c.jsonl").exists()
+    assert [n for n in r.notes if n.startswith("probe_sphere (probe_sphere) is not")] == [
+        "probe_sphere (probe_sphere) is not captured by volcal capture, which takes one "
+        "reading per dwell at a position of the linear axes or an angle of a rotary axis: "
+        "its readings are its probe program's log (volcal import LOG --session S "
+        "--measurement ID; docs/fiveaxis.md); passed over"]
+    assert (tmp_path / "C" / "probe_sphere.csv").read_text() == before  # nothing made up
+    assert not (tmp_path / "C" / "capture" / "probe_sphere.jsonl").exists()
 
 
 def test_naming_it_is_refused_before_anything_is_written(mixed, tmp_path):
-    with pytest.raises(ParameterError, match=r"measurement=rotary-c \(rotary\) is not "
-                                             "captured by volcal capture"):
+    with pytest.raises(ParameterError, match=r"measurement=probe_sphere \(probe_sphere\) is "
+                                             "not captured by volcal capture"):
         capture(mixed, control="sim", laser="sim", output=tmp_path / "C",
-                measurement=["rotary-c"], **FAST)
+                measurement=["probe_sphere"], **FAST)
     assert not (tmp_path / "C").exists()
 
 

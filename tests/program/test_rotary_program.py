@@ -140,3 +140,24 @@ def test_a_short_limited_range_shortens_the_overrun_with_a_warning(tmp_path):
                              "targets_deg": [0.5, 30.2, 61.7, 89.5]})
     _, warnings = write_programs(s, "linuxcnc", tmp_path / "p", ProgramOptions())
     assert warnings and "overrun shortened by the range of axis B" in warnings[0]
+
+
+@NO_RS274
+@pytest.mark.parametrize("axis", ["c", "a"])
+def test_the_operator_stop_stands_at_the_first_readings_approach_point(tmp_path, axis):
+    """Session 21: the stop stood at the first target (reached from wherever the axis was);
+    a capture reading a control without program state took it for the first dwell, or
+    refused it as reached from the wrong side. Now the axis turns on past the first target
+    by the overrun before the stop, and the first reading is approached from its side."""
+    for dialect in ("linuxcnc", "fanuc"):
+        m, text, _ = _programs(tmp_path, axis, dialect)
+        k = 3 + "abc".index(axis)
+        pos = None
+        for name, v in run_rs274(text, strip_fanuc=dialect == "fanuc", axes=6):
+            if name.startswith("STRAIGHT"):
+                pos = v
+            elif name == "PROGRAM_STOP":
+                break
+        t0 = float(m.columns["target_deg"][0])
+        sign = 1.0 if m.columns["direction"][0] == "+" else -1.0
+        assert pos[k] == pytest.approx(t0 - sign * 2.0, abs=1e-6), (dialect, pos[k], t0)

@@ -320,13 +320,17 @@ class SimulatedLaser:
             value += 1000.0 * float((p - pos[0]) @ (b / np.linalg.norm(b)))
         return value, unit, p
 
-    def _angular(self, mid: str, c: ControlSample) -> tuple[float, str, NDArray[np.float64]]:
-        """The calibrator's reading [urad] at the control's actual angle (last turn's way)."""
+    def _angular(self, mid: str, c: ControlSample
+                 ) -> tuple[float, str, NDArray[np.float64]] | None:
+        """The calibrator's reading [urad] at the control's actual angle (last turn's way).
+
+        None while the control reports no angle of the axis (its sample of the program
+        before; a control of the linear axes only: the trigger rule says so).
+        """
         pm = next(q for q in self.ctx.measurements if q.id == mid)
         axis = pm.frame.axes[0]
         if axis not in c.positions:
-            raise VolcalInputError(f"the simulated laser of {mid} reads axis {axis}: the "
-                                   f"control reports {', '.join(c.positions)}")
+            return None
         a = float(c.positions[axis])
         last = self._turn or (a, "+")
         d = float(pm.frame.delta(np.array([a]), np.array([last[0]]))[0])
@@ -349,7 +353,10 @@ class SimulatedLaser:
         self._last_t = t
         self._next = max(self._next + 1.0 / self.rate, t)
         rotary = next(q for q in self.ctx.measurements if q.id == mid).frame.rotary
-        value, unit, p = (self._angular if rotary else self._linear)(mid, c)
+        got = self._angular(mid, c) if rotary else self._linear(mid, c)
+        if got is None:
+            return None
+        value, unit, p = got
         if self.creep > 0:  # drift during a rest: the reading creeps while the axes stand
             if c.in_motion is False and (self._rest is None or
                                          float(np.max(np.abs(self._rest[0] - p))) > 0.005):
@@ -361,10 +368,9 @@ class SimulatedLaser:
         tick = round((t - self._t0) * 1e6)
         if self.noise > 0:
             value += _gauss(self.seed, mid, tick, 2, self.noise)[0]
-        if self.unit is not None and self.unit != unit:
-            table = ANGULAR_UNITS if unit == "urad" else LINEAR_UNITS
-            if self.unit in table:
-                return LaserSample(t, value / table[self.unit], self.unit)
+        if self.unit is not None and self.unit != unit:  # the unit the laser declares (a
+            table = ANGULAR_UNITS if unit == "urad" else LINEAR_UNITS  # length for an angle:
+            return LaserSample(t, value / table.get(self.unit, 1.0), self.unit)  # refused)
         return LaserSample(t, value, unit)
 
 

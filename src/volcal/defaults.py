@@ -127,6 +127,8 @@ TOOL_OFFSET_MM: tuple[float, float, float] = (0.0, 0.0, 0.0)
 # -- capture (volcal capture) --------------------------------------------------------------
 CAPTURE_WINDOW_MM = 0.010
 """Target window of the trigger rule: every axis within this distance of the target [mm]."""
+CAPTURE_WINDOW_DEG = 0.005
+"""Target window of a rotary test: the rotary axis within this angle of the target [deg]."""
 CAPTURE_STABLE_S = 1.0
 """Time both signals must be stable before a point is accepted [s]."""
 CAPTURE_K_SIGMA = 4.0

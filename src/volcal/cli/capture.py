@@ -17,7 +17,8 @@ err_console = Console(stderr=True, soft_wrap=True)
 
 SOURCES_HELP = ("control: sim, linuxcnc[:INI], opcua:opc.tcp://HOST:4840; laser: sim, "
                 "stream:tcp://HOST:PORT, stream:/dev/ttyUSB0, stream:- (standard input), "
-                "file:PATH, typed (docs/capture.md)")
+                "file:PATH, typed; ';unit=arcsec' for a rotary test's angles "
+                "(docs/capture.md)")
 
 
 def capture(
@@ -25,7 +26,10 @@ def capture(
     control: Annotated[str, typer.Option(help="Control SOURCE: sim, linuxcnc[:INI], "
                                          "opcua:opc.tcp://HOST:4840.")],
     laser: Annotated[str, typer.Option(help="Laser SOURCE: sim, stream:tcp://HOST:PORT, "
-                                       "stream:/dev/ttyUSB0, stream:-, file:PATH, typed.")],
+                                       "stream:/dev/ttyUSB0, stream:-, file:PATH, typed; "
+                                       "the unit of a line without one after ';': "
+                                       "unit=um (a length), unit=arcsec or unit=urad (a "
+                                       "rotary test's angular reading).")],
     measurement: Annotated[list[str] | None, typer.Option(
         help="Capture this measurement (repeat; default: every one, in the plan's order).")
     ] = None,
@@ -42,6 +46,8 @@ def capture(
         help="Programmed overrun [mm] (default: from --programs, else 5).")] = None,
     window_mm: Annotated[float, typer.Option(help="Target window [mm].")
                          ] = D.CAPTURE_WINDOW_MM,
+    window_deg: Annotated[float, typer.Option(
+        help="Target window of a rotary test's axis [deg].")] = D.CAPTURE_WINDOW_DEG,
     stable_s: Annotated[float, typer.Option(
         help="Time both signals must be stable before a point is taken [s].")
     ] = D.CAPTURE_STABLE_S,
@@ -82,7 +88,8 @@ def capture(
     try:
         r = step(session, control=control, laser=laser, measurement=measurement,
                  output=output, programs=programs, dwell_s=dwell_s, feed=feed,
-                 overrun_mm=overrun_mm, window_mm=window_mm, stable_s=stable_s,
+                 overrun_mm=overrun_mm, window_mm=window_mm, window_deg=window_deg,
+                 stable_s=stable_s,
                  k_sigma=k_sigma, laser_noise=laser_noise, control_noise_mm=control_noise_mm,
                  max_gap_s=max_gap_s, poll_s=poll_s, timeout_s=timeout_s, speed=speed,
                  observer=page.observer if page else None,

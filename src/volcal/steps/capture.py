@@ -173,7 +173,8 @@ def capture(session: Session | str | Path, *, control: str, laser: str,
             measurement: Sequence[str] | None = None, output: str | Path | None = None,
             programs: str | Path | None = None, dwell_s: float | None = None,
             feed: float | None = None, overrun_mm: float | None = None,
-            window_mm: float = D.CAPTURE_WINDOW_MM, stable_s: float = D.CAPTURE_STABLE_S,
+            window_mm: float = D.CAPTURE_WINDOW_MM, window_deg: float = D.CAPTURE_WINDOW_DEG,
+            stable_s: float = D.CAPTURE_STABLE_S,
             k_sigma: float = D.CAPTURE_K_SIGMA, laser_noise: float = D.CAPTURE_LASER_NOISE,
             control_noise_mm: float = D.CAPTURE_CONTROL_NOISE_MM,
             max_gap_s: float = D.CAPTURE_MAX_GAP_S, poll_s: float = D.CAPTURE_POLL_S,
@@ -198,7 +199,8 @@ def capture(session: Session | str | Path, *, control: str, laser: str,
         (:mod:`volcal.capture.sources`).
     laser : str
         Laser ``SOURCE``: ``'sim'``, ``'stream:tcp://host:port'``, ``'stream:/dev/ttyUSB0'``,
-        ``'stream:-'``, ``'file:PATH'``, ``'typed'``.
+        ``'stream:-'``, ``'file:PATH'``, ``'typed'``; a rotary test's readings are angles
+        (``'stream:/dev/ttyUSB0;unit=arcsec'``: the unit of a line that names none).
     measurement : sequence of str, optional
         Ids of the measurements to capture, in this order (default: every one).
     output : str or Path, optional
@@ -211,6 +213,8 @@ def capture(session: Session | str | Path, *, control: str, laser: str,
         ``programs`` (default: volcal program's defaults).
     window_mm : float
         Target window [mm].
+    window_deg : float
+        Target window of a rotary test's axis [deg].
     stable_s : float
         Time both signals must be stable [s] (at most 3/4 of the dwell).
     k_sigma : float
@@ -251,7 +255,8 @@ def capture(session: Session | str | Path, *, control: str, laser: str,
     )
     from volcal.capture.trigger import TriggerParams
 
-    params = TriggerParams(window_mm=window_mm, stable_s=stable_s, k_sigma=k_sigma,
+    params = TriggerParams(window_mm=window_mm, window_deg=window_deg, stable_s=stable_s,
+                           k_sigma=k_sigma,
                            laser_noise=laser_noise, control_noise_mm=control_noise_mm,
                            max_gap_s=max_gap_s)
     params.check()

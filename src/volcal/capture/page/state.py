@@ -203,7 +203,9 @@ class LiveState:
                            "raw": None, "position": None, "t": None,
                            "reason": "recorded before" if i in done else None})
         m = {"id": mid, "column": str(data.get("column", "")),
-             "unit": str(data.get("unit", "um")), "dwells": dwells}
+             "unit": str(data.get("unit", "um")), "dwells": dwells,
+             "axes": [str(a) for a in data.get("axes") or "XYZ"],
+             "axes_unit": str(data.get("axes_unit", "mm"))}
         if mid in self._by_id:
             self.measurements[self.measurements.index(self._by_id[mid])] = m
         else:
@@ -337,11 +339,15 @@ class LiveState:
             out["control_spread_mm"] = _num(spread, 5)
             out["state"] = "moving" if spread > self.window_mm else "at rest"
             m = self._by_id.get(self.current or "")
-            if m is not None and self.expected is not None and set("XYZ") <= set(keys):
+            axes = list(m.get("axes", "XYZ")) if m is not None else list("XYZ")
+            if m is not None and self.expected is not None and set(axes) <= set(keys):
                 d = next((d for d in m["dwells"] if d["reading"] == self.expected), None)
                 if d is not None:
-                    here = np.array([ctrl[-1][k] for k in "XYZ"])
-                    dist = float(np.max(np.abs(here - np.array(d["target"], float))))
+                    here = np.array([ctrl[-1][k] for k in axes])
+                    off = here - np.array(d["target"], float)
+                    if m.get("axes_unit") == "deg":  # a rotary axis: [deg], modulo 360
+                        off = (off + 180.0) % 360.0 - 180.0
+                    dist = float(np.max(np.abs(off)))
                     out["distance_mm"] = _num(dist, 4)
                     if out["state"] == "at rest" and dist <= self.window_mm:
                         out["state"] = "at target"

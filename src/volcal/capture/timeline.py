@@ -44,7 +44,21 @@ class Segment:
 
 
 def move_time(d: float, v: float, a: float) -> float:
-    """Duration of a trapezoidal (or triangular) move of length ``d`` [s]."""
+    """Duration of a trapezoidal (or triangular) move of length ``d`` [s].
+
+    Parameters
+    ----------
+    d : float
+        Length of the move [mm or deg].
+    v : float
+        Feed [mm/s or deg/s].
+    a : float
+        Acceleration [mm/s^2 or deg/s^2].
+
+    Returns
+    -------
+    float
+    """
     if d <= 0:
         return 0.0
     if d >= v * v / a:
@@ -53,7 +67,23 @@ def move_time(d: float, v: float, a: float) -> float:
 
 
 def move_along(d: float, v: float, a: float, t: float) -> float:
-    """Distance covered after ``t`` seconds of that move [mm]."""
+    """Distance covered after ``t`` seconds of that move [mm or deg].
+
+    Parameters
+    ----------
+    d : float
+        Length of the move [mm or deg].
+    v : float
+        Feed [mm/s or deg/s].
+    a : float
+        Acceleration [mm/s^2 or deg/s^2].
+    t : float
+        Time since the move's start [s].
+
+    Returns
+    -------
+    float
+    """
     T = move_time(d, v, a)
     t = min(max(t, 0.0), T)
     if d >= v * v / a:

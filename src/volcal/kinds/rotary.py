@@ -12,6 +12,12 @@ deviation_urad`` (``deviation_arcsec`` accepted), ``missed`` for a missed captur
 commanded angle, positive counter-clockwise looking from the positive end of the axis
 towards the origin (ISO 841, ``docs/conventions.md``).
 
+Its readings come in while the program turns the axis (``volcal capture``: the control's
+angle of the axis matched with the commanded one, from the planned side, modulo 360 on a
+full circle; the calibrator's reading in an angular unit, written in urad counted from the
+first row, :attr:`from_first_row`; ``docs/capture.md``, "Rotary tests"), or from the
+calibrator software's export (``volcal import FILE --session S --measurement ID``).
+
 The kind does not enter the identification of the linear axes (:attr:`in_design` is
 False): a rotary test is evaluated per axis (ISO 230-2; its ECC, EAA or EBB); the
 location errors of rotary axes and 5-axis identification come with issue 28.

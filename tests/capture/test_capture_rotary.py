@@ -247,8 +247,7 @@ def test_sigkill_in_the_middle_and_resume_give_the_same_file(rotary_planned, tmp
     cmd = [sys.executable, "-c", "from volcal.cli import main; main()", "capture",
            str(rotary_planned), "--control", "sim", "--laser", f"sim:seed={SEED}", "-o",
            str(out), "--measurement", ROT, *FAST_CLI, "--speed", "20"]
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
-    p = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env)
+    p = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     journal = out / "capture" / f"{ROT}.jsonl"
     deadline = time.monotonic() + scaled_timeout(120)
     try:

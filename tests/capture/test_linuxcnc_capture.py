@@ -19,6 +19,13 @@ Checks:
 
 The trimmed check (6 dwells) runs in make test; the ISO 230-2 cycle (5 runs, 60 dwells)
 runs in make study.
+
+A rotary test (session 21, trimmed: 3 targets of the C axis, one bidirectional run, 6
+dwells): LinuxCNC runs volcal's rotary program once (the turn to the overrun before the
+first target, the operator stop there, incremental turns); the bridge reports C by its
+letter; the capture takes one reading per dwell, every window inside LinuxCNC's dwell at
+the reading's angle and lines, equal to the virtual axis ``volcal simulate --seed 3``
+draws within the noise.
 """
 
 from __future__ import annotations
@@ -338,9 +345,9 @@ def _go_if_needed(config: Path, p: subprocess.Popen[str], folder: Path, mid: str
         time.sleep(0.02)
 
 
-def _captures(tmp_path: Path, s: Path, progs: Path, mid: str, marker: str,
-              procs: dict[str, subprocess.Popen[str]], stable_s: float, max_gap_s: float,
-              cnc: _CNC, outputs: dict[str, tuple[str, str]]) -> None:
+def _locked_config(cnc: _CNC, marker: str) -> Path:
+    """LinuxCNC's configuration folder (found by ``marker``), once its run holds the box's
+    LinuxCNC lock."""
     deadline = time.monotonic() + scaled_timeout(120)
     found: list[Path] = []
     while not found:
@@ -360,6 +367,13 @@ def _captures(tmp_path: Path, s: Path, progs: Path, mid: str, marker: str,
         assert time.monotonic() < deadline, "the box's LinuxCNC lock was never free"
         time.sleep(0.05)
     cnc.locked_after_s = time.monotonic() - cnc.t0
+    return config
+
+
+def _captures(tmp_path: Path, s: Path, progs: Path, mid: str, marker: str,
+              procs: dict[str, subprocess.Popen[str]], stable_s: float, max_gap_s: float,
+              cnc: _CNC, outputs: dict[str, tuple[str, str]]) -> None:
+    config = _locked_config(cnc, marker)
     ini = config / "sim.ini"
     common = [str(s), "--control", f"linuxcnc:{ini}",
               "--laser", f"sim:seed={SEED},noise={NOISE_UM}",
@@ -430,3 +444,110 @@ def test_capture_on_linuxcnc_iso230_2(tmp_path):
     or three times: 4-8 minutes."""
     _run(tmp_path, steps=5, runs=5, travel=300.0, dwell_s=1.5, stable_s=0.6, max_gap_s=0.3,
          feed=6000.0)
+
+
+def _rotary_truth(s: Path, tmp_path: Path, mid: str) -> np.ndarray:
+    """The exact readings of the C axis ``volcal simulate --seed 3`` draws (its truth)."""
+    import shutil
+    import tomllib
+
+    from volcal.measure.rotary import RotaryAxisErrors, RotarySetup, rotary_exact
+    from volcal.session.format import read_session
+    from volcal.steps.simulate import save, simulate
+
+    sim = tmp_path / "truth"
+    shutil.copytree(s, sim)
+    save(simulate(sim, seed=SEED), sim)
+    doc = tomllib.loads((sim / "truth" / "setup.toml").read_text())["setup"][mid]
+    ax = dict(doc["rotary_axis"])
+    setup = RotarySetup(RotaryAxisErrors(**{**ax, "range_deg": tuple(ax["range_deg"]),
+                                            "smooth_urad": tuple(ax["smooth_urad"])}),
+                        doc["eccentricity_mm"], doc["eccentricity_phase_rad"])
+    m = read_session(s, require_deviation=False).get(mid)
+    return rotary_exact(setup, m.columns["target_deg"], m.columns["direction"])
+
+
+def _check_rotary(tmp_path: Path, s: Path, mid: str, stable_s: float) -> None:
+    """One row per dwell, each window inside LinuxCNC's dwell at the reading's angle and
+    program lines, the readings equal to the truth within the noise."""
+    from volcal.capture.plan import dwell_lines
+    from volcal.session.format import read_session
+
+    planned = read_session(s, require_deviation=False).get(mid)
+    ja = _journal(tmp_path / "A", mid)
+    assert [x["reading"] for x in ja if x["type"] == "accepted"] == list(range(planned.n))
+    lines = dwell_lines(tmp_path / "P", mid)
+    assert len(lines) == planned.n
+    first_running = min(x["t"] for x in ja if x["type"] == "control" and x.get("running"))
+    for x in (x for x in ja if x["type"] == "accepted"):
+        lo, hi = x["window"]
+        assert lo > first_running
+        inside = [c for c in ja[:ja.index(x)] if c["type"] == "control" and lo <= c["t"] <= hi]
+        assert len(inside) >= 5
+        target = planned.columns["target_deg"][x["reading"]]
+        for c in inside:
+            assert c["running"] and not c["moving"] and c["line"] in lines[x["reading"]], c
+            assert abs((c["pos"]["C"] - target + 180.0) % 360.0 - 180.0) <= 0.005, c
+    m = read_session(tmp_path / "A").get(mid)
+    tol = 5 * NOISE_UM * np.sqrt(2 / (stable_s / 0.02))
+    truth = _rotary_truth(s, tmp_path, mid)
+    assert np.max(np.abs(m.deviation - truth)) < tol, m.deviation - truth
+
+
+def test_rotary_capture_on_linuxcnc_trimmed(tmp_path):
+    """A C-axis test (3 targets, 1 bidirectional run: 6 dwells of 1 s) run once by
+    LinuxCNC: the bridge reports C by its letter, the capture takes one reading per dwell
+    at the commanded angle from its side, equal to the virtual axis: 15-25 s."""
+    from volcal.steps.plan import plan
+    from volcal.steps.program import program
+
+    why = linuxcnc_missing()
+    if why:
+        pytest.skip(why)
+    s, progs, mid, stable_s = tmp_path / "S", tmp_path / "P", "rotary-c", 0.35
+    plan(((0.0, 60.0), (0.0, 50.0), (0.0, 40.0)), steps=2, tests="rotary:c", runs=1,
+         output=s)
+    program(s, dialect="linuxcnc", output=progs, dwell_s=1.0, feed=10000.0)
+    ngc = (progs / "rotary_c.ngc").read_text()
+    marker = f"volcal-capture-{uuid.uuid4().hex}"
+    cnc = _CNC()
+
+    def run() -> None:
+        try:
+            cnc.result["res"] = run_linuxcnc(
+                xyzc_joints(), [{"home": True},
+                                {"wait_file": "go-p0", "or_end": "stop",
+                                 "timeout_s": scaled_timeout(600)},
+                                {"program": "rotary_c.ngc", "label": "p0",
+                                 "resume_after_s": PAUSE_S, "done_file": "ended-p0",
+                                 "timeout_s": scaled_timeout(600)}],
+                files={"rotary_c.ngc": ngc, marker: ""}, timeout_s=600,
+                locked_file=LOCKED, keep=tmp_path / "linuxcnc")
+        except Exception as e:  # reported below
+            cnc.result["error"] = e
+
+    cnc.thread = threading.Thread(target=run, daemon=True)
+    cnc.thread.start()
+    outputs: dict[str, tuple[str, str]] = {}
+    a: subprocess.Popen[str] | None = None
+    try:
+        config = _locked_config(cnc, marker)
+        a = _volcal("capture", str(s), "--control", f"linuxcnc:{config / 'sim.ini'}",
+                    "--laser", f"sim:seed={SEED},noise={NOISE_UM}", "--measurement", mid,
+                    "--programs", str(progs), "--stable-s", str(stable_s), "--max-gap-s",
+                    "0.25", "--poll-s", "0.02", "--timeout-s", str(scaled_timeout(120)),
+                    "-o", str(tmp_path / "A"))
+        _go(config, "go-p0", a, tmp_path / "A", mid, 1, cnc, "capture A", outputs)
+        assert "captured ->" in _wait(a, "capture A", scaled_timeout(600), outputs)
+    except AssertionError as e:
+        if cnc.config is not None:
+            _release(cnc.config, "stop")
+        raise AssertionError(f"{e}\n\n{_diagnostics(tmp_path, mid, cnc, outputs)}") from None
+    finally:
+        if a is not None and a.poll() is None:
+            a.kill()
+            a.communicate()
+        cnc.thread.join(scaled_timeout(600))
+    assert "error" not in cnc.result, _diagnostics(tmp_path, mid, cnc, outputs)
+    assert cnc.result["res"]["ok"], _diagnostics(tmp_path, mid, cnc, outputs)
+    _check_rotary(tmp_path, s, mid, stable_s)

@@ -310,3 +310,44 @@ def test_a_control_without_the_rotary_axis_is_refused_clearly(rotary_planned, tm
                               "--measurement", ROT, "-o", str(tmp_path / "V"), *FAST_CLI)
     assert code == 2 and "the laser sends 'um' readings; rotary-c measurement needs an " \
         "angle" in err and "Traceback" not in err
+
+
+def _dwell_at(angle: float, t0: float, moving_from: float) -> list:
+    """Control samples at 50 Hz: a turn from ``moving_from`` to ``angle`` (1 s), a 3 s
+    dwell there; laser samples beside them."""
+    from volcal.capture.samples import ControlSample
+
+    out: list = []
+    for k in range(200):
+        t = t0 + k * 0.02
+        f = min(k / 50.0, 1.0)
+        c = moving_from + f * (angle - moving_from)
+        pos = {"X": 100.0, "Y": 75.0, "Z": 0.0, "C": c % 360.0}  # a wrapped control
+        out.append(ControlSample(t, pos, f < 1.0, True))
+        out.append(LaserSample(t + 0.01, 3.0 + 0.01 * (k % 3), "urad"))
+    return out
+
+
+def test_a_resumed_capture_does_not_take_360_for_the_programs_first_reading():
+    """Resumed with reading 1 (0 deg, '+') recorded, the program on: it dwells at 360 deg
+    turning '+', which a wrapped control reports as 0, the first reading's angle and side.
+    Taken for the program's restart, run 1's remaining readings would have been taken from
+    the wrong dwells; the rule waits for the program's start pose (or the reading)."""
+    from volcal.capture.plan import plan_measurement
+    from volcal.capture.trigger import Note, Replayed, TriggerParams, TriggerRule
+    from volcal.plan.planner import plan_session
+    from volcal.program.steps import ProgramOptions
+
+    s = plan_session(np.array(TRAVEL), tests=["rotary:c"], steps=2, runs=1)
+    pm = plan_measurement(s.measurements[0], s.travel, ProgramOptions(dwell_s=2.0))
+    assert [float(d.target[0]) for d in pm.dwells][2] == 360.0
+    rule = TriggerRule(pm.dwells, TriggerParams(stable_s=0.6, max_gap_s=0.3), pm.waypoints,
+                       "urad", done={0}, label=ROT, start=pm.start, frame=pm.frame)
+    events = []
+    for smp in _dwell_at(360.0, 0.0, 300.0):
+        events += (rule.feed_control(smp) if hasattr(smp, "positions")
+                   else rule.feed_laser(smp))
+    assert not [e for e in events if isinstance(e, Replayed)], events
+    assert any(isinstance(e, Note) and "resumed, waiting for reading 2" in e.text
+               for e in events), events
+    assert rule.cursor == 1

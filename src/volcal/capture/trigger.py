@@ -41,6 +41,8 @@ machine stands at the program's start pose (its operator stop) or dwells at the 
 reading, the program was started again: the rule follows it from there and passes over
 the readings already recorded (:class:`Replayed`, never written again). Until one of
 the two happens, the program's other stops are passed over (with a note), not refused.
+On a full-circle rotary axis only the start pose says so: the first target (0 deg) is
+also the pass' last (360 deg), reached from the same side.
 When the control reports the program line and the dwells know theirs
 (:attr:`PlannedDwell.lines`, from ``--programs``), the line names the dwell the machine
 stands in: a later run's dwell at the same target is never taken for the missing one.
@@ -576,8 +578,10 @@ class TriggerRule:
         if self._near(d.target) and self._direction_ok(d, seen):
             return self._enter(d, t)
         first = self.dwells[0]
-        if (self._may_replay and not self._by_line and self._near(first.target)
-                and self._direction_ok(first, seen)):
+        if (self._may_replay and not self._by_line and self.frame.period is None
+                and self._near(first.target) and self._direction_ok(first, seen)):
+            # (not on a full circle: its first target, 0 deg, is 360 deg too, read at the
+            # end of the pass from the same side: the program's start pose says it restarted)
             events.append(Note(t, f"{self.label}: the program runs again from its first "
                                   "reading; the readings already recorded are kept"))
             return events + self._enter(first, t)

@@ -49,7 +49,7 @@
     }
     keys.forEach((k, i) => {
       text(tb.rows[i].cells[0], k);
-      text(tb.rows[i].cells[1], fmt(pos[k], 4) + " mm");
+      text(tb.rows[i].cells[1], fmt(pos[k], 4) + ("ABC".includes(k) ? " deg" : " mm"));
     });
     const unit = s.laser.unit || "";
     text($("laser-value"), s.laser.value === null ? "–" : fmt(s.laser.value, 3) + " " + unit);

@@ -9,8 +9,11 @@ module              what it holds
 ``samples``         :class:`ControlSample`, :class:`LaserSample`, unit conversion
 ``sources``         the :class:`ControlSource` / :class:`LaserSource` protocols, the
                     source registry (``--control SOURCE``, ``--laser SOURCE``)
+``frame``           the coordinates compared with the plan: X, Y, Z [mm], or a rotary
+                    test's axis [deg] (modulo 360 on a full circle)
 ``plan``            the planned dwells of a measurement (targets, approach directions),
                     rebuilt from the same step list the part program was written from
+                    (a rotary test: its program's turns)
 ``trigger``         the trigger rule (:class:`TriggerRule`, :class:`TriggerParams`): a
                     pure state machine fed samples, returning accepted points and missed
                     dwells
@@ -19,6 +22,8 @@ module              what it holds
 ``runner``          the polling loop: sources -> rule -> journal -> CSV
 ``simulated``       a simulated control (timed motion of the planned program) and laser
                     (volcal's virtual machine)
+``timeline``        the simulated control's timed program (moves, dwells, operator stop)
+``virtual_rotary``  the rotary axis the simulated laser reads (``volcal simulate``'s)
 ``stream``          line-stream laser source (TCP, serial port, pipe) and its parser
 ``filetail``        laser readings appended to a file by a vendor program
 ``linuxcnc_source`` LinuxCNC control source through a bridge run by the system Python

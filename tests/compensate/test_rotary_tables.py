@@ -213,6 +213,18 @@ def test_formats_without_rotary_tables_say_so():
     assert files == {} and entries == [] and "no rotary tables" in skipped[0]
 
 
+@pytest.mark.parametrize("fmt, manual", [
+    ("linuxcnc", "usrmotintf.cc"), ("heidenhain", "6.10.3 Nonlinear axis error compensation"),
+    ("siemens", "K3 4.4 Interpolatory compensation"), ("fanuc", "B-63980EN/01"),
+    ("isg", "P-COMP-00017")])
+def test_the_notes_name_the_manual_the_tables_follow(fmt, manual):
+    """Session 21: the rotary notes said the sign, limits and activation but not the
+    manual the tables follow (the linear formats' README says it)."""
+    files, _, _ = rotary_tables([rotary_profile(hand_measurement())], fmt, RotaryOptions())
+    source = [ln for ln in files["ROTARY_NOTES.TXT"].splitlines() if ln.startswith("Source: ")]
+    assert len(source) == 1 and manual in source[0], files["ROTARY_NOTES.TXT"]
+
+
 def test_deg_per_urad():
     assert DEG_PER_URAD == pytest.approx(180 / math.pi / 1e6)
 

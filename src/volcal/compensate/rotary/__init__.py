@@ -30,7 +30,7 @@ from volcal.compensate.rotary.profile import DEG_PER_URAD, RotaryProfile, rotary
 from volcal.compensate.tables import sign_factor
 from volcal.errors import VolcalInputError
 
-__all__ = ["ROTARY_FORMATS", "RotaryOptions", "RotaryProfile", "rotary_profiles",
+__all__ = ["ROTARY_FORMATS", "ROTARY_SOURCES", "RotaryOptions", "RotaryProfile", "rotary_profiles",
            "rotary_removed_urad", "rotary_tables"]
 
 ROTARY_FORMATS: dict[str, str] = {
@@ -38,6 +38,31 @@ ROTARY_FORMATS: dict[str, str] = {
     "isg": "error"}
 """Formats with rotary tables -> the control's own sign."""
 NOTES_FILE = "ROTARY_NOTES.TXT"
+
+ROTARY_SOURCES: dict[str, str] = {
+    "linuxcnc": ("LinuxCNC documentation, INI Configuration [JOINT_<num>] COMP_FILE, "
+                 "COMP_FILE_TYPE, and the Integrator's manual, Lead screw compensation; "
+                 "LinuxCNC source usrmotintf.cc (loader), command.c (256 entries), control.c "
+                 "(applied by direction)."),
+    "heidenhain": ("HEIDENHAIN MANUALplus 620 Technical Manual (01/2012), 6.10.3 Nonlinear "
+                   "axis error compensation, pp. 713-716 (BACKLASH p. 716); iTNC 530 HSCI "
+                   "Technical Manual, KinematicsComp, Rotary axes - Recommendation for COM "
+                   "file (positioning error EAA), p. 680."),
+    "siemens": ("SINUMERIK 840D sl Function Manual Extended Functions (6FC5397-1BP40-3BA1, "
+                "03/2013), K3 4.4 Interpolatory compensation ($AA_ENC_COMP, "
+                "$AA_ENC_COMP_IS_MODULO, $AN_CEC_DIRECTION, $AN_CEC_IS_MODULO); Function "
+                "Manual Axes and Spindles, R2 (MD30330, MD30340)."),
+    "fanuc": ("FANUC Series 0i-PB Parameter Manual B-63980EN/01, parameters 3620-3625, "
+              "Example 2) For the rotation axis, p. 100; FANUC 16i/18i technical report "
+              "A-77810E (3625 for a rotation axis); FANUC 30i/31i/32i-MODEL A Parameter Manual "
+              "B-63950EN/02 (parameter I/O format); the sign rule from the GSK983Ma connection "
+              "and operation manual, Appendix 8 (docs/controllers.md)."),
+    "isg": ("Beckhoff TF5200 TwinCAT 3 CNC, Axis compensation: Leadscrew error compensation "
+            "(kw.ssfk.*), P-COMP-00017 ... P-COMP-00025, P-COMP-00059; Axis parameters "
+            "P-AXIS-00175, P-AXIS-00243 (infosys.beckhoff.com)."),
+}
+"""The manuals (and pages) each format's rotary tables follow, as the notes file states
+them (each module's References in full)."""
 
 
 @dataclass(frozen=True)
@@ -122,7 +147,8 @@ def rotary_tables(profiles: Sequence[RotaryProfile], fmt: str, o: RotaryOptions
              "Input: the mean deviation per target and approach direction of each rotary "
              "ISO 230-2 test (deviation = actual - commanded angle, ISO 841 positive "
              "counter-clockwise); the table removes it. Full-circle axes: periodic, 0 deg "
-             "and 360 deg one position."]
+             "and 360 deg one position.",
+             f"Source: {ROTARY_SOURCES[fmt]}"]
     names = _names(profiles)
     if fmt == "siemens":
         f, n = siemens.siemens_rotary_files(list(profiles), o.spacing_deg, sign)

@@ -123,15 +123,17 @@ def _repeatability_2s(targets: NDArray[np.float64], deviation: NDArray[np.float6
     """Largest 2 s over the (target, direction) groups read by two runs or more [um]."""
     if run is None or direction is None:
         return None
-    key = np.round(np.asarray(targets, dtype=float), 3)
+    key = np.round(np.asarray(targets, dtype=float), 3) + 0.0  # -0.0 is 0.0's target
+    side = np.unique(np.asarray(direction).astype(str), return_inverse=True)[1].ravel()
+    order = np.lexsort((key, side))  # stable: each group's readings in the file's order
+    k, d = key[order], side[order]
+    dev = np.asarray(deviation)[order]
+    starts = np.flatnonzero(np.r_[True, (np.diff(k) != 0) | (np.diff(d) != 0), True])
     worst = None
-    for sign in np.unique(np.asarray(direction).astype(str)):
-        sel = np.asarray(direction).astype(str) == sign
-        for t in np.unique(key[sel]):
-            v = deviation[sel & (key == t)]
-            if v.size >= 2:
-                s2 = 2.0 * float(np.std(v, ddof=1))
-                worst = s2 if worst is None else max(worst, s2)
+    for a, b in zip(starts[:-1], starts[1:], strict=True):
+        if b - a >= 2:
+            s2 = 2.0 * float(np.std(dev[a:b], ddof=1))
+            worst = s2 if worst is None else max(worst, s2)
     return worst
 
 

@@ -2,9 +2,11 @@
 
 ``tests/opcua/cnc_server.mjs`` (run by Node.js) loads the official CNC nodeset
 (``Opc.Ua.CNC.NodeSet.xml`` from npm ``node-opcua-nodesets``), instantiates three
-``CncAxisType`` axes X, Y, Z and writes their ``PosDirect/ActPos`` when told on its standard
-input. ``make opcua-deps`` installs the npm packages into ``tests/opcua/node_modules``; the
-tests skip, with the reason, where Node.js or the packages are missing.
+``CncAxisType`` axes X, Y, Z (or those asked: a rotary axis ``C:deg`` too, ``IsRotational``
+true and its positions' ``EngineeringUnits`` degree) and writes their ``PosDirect/ActPos``
+when told on its standard input. ``make opcua-deps`` installs the npm packages into
+``tests/opcua/node_modules``; the tests skip, with the reason, where Node.js or the
+packages are missing.
 """
 
 from __future__ import annotations
@@ -46,19 +48,23 @@ def free_port() -> int:
 class CncServer:
     """A running ``cnc_server.mjs``: ``set(X=..., ...)`` writes positions, ``stop()`` ends it."""
 
-    def __init__(self, port: int | None = None, pki: Path | None = None) -> None:
-        """``pki``: serve signed and encrypted channels only, certificates in that folder."""
+    def __init__(self, port: int | None = None, pki: Path | None = None,
+                 axes: tuple[str, ...] | None = None) -> None:
+        """``pki``: serve signed and encrypted channels only, certificates in that folder.
+        ``axes``: the axes, ``NAME`` or ``NAME:UNIT`` (``mm``, ``deg``, ``rad``, ``rot``:
+        cnc_server.mjs); default X, Y, Z."""
         self.port = free_port() if port is None else port
         self.url = f"opc.tcp://127.0.0.1:{self.port}/"
-        secure = [] if pki is None else ["secure", str(pki)]
+        args = [] if pki is None else ["secure", str(pki)]
+        if axes is not None:
+            args.append("axes=" + ",".join(axes))
         self.proc = subprocess.Popen(
-            ["node", str(SCRIPT), str(self.port), *secure], cwd=HERE, stdin=subprocess.PIPE,
+            ["node", str(SCRIPT), str(self.port), *args], cwd=HERE, stdin=subprocess.PIPE,
             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, bufsize=1)
         self.lines: list[str] = []
         self._cond = threading.Condition()
         threading.Thread(target=self._read, daemon=True).start()
         self._wait(lambda: any(x.startswith("READY") for x in self.lines), 60.0, "start")
-        self.served = 0
 
     def _read(self) -> None:
         assert self.proc.stdout is not None
@@ -82,13 +88,29 @@ class CncServer:
                 self._cond.wait(min(left, 0.5))
 
     def set(self, **axes: float) -> None:
-        """Write ``ActPos`` of the named axes [mm]; returns once the server applied it."""
+        """Write ``ActPos`` of the named axes [mm, deg]; returns once the server applied it."""
+        self._command({"set": axes}, "apply a position")
+
+    def add(self, *axes: str) -> None:
+        """Instantiate axes, ``NAME`` or ``NAME:UNIT`` (as ``axes`` of the constructor)."""
+        self._command({"add": list(axes)}, "add axes")
+
+    def remove(self, *names: str) -> None:
+        """Delete the named axes from the address space."""
+        self._command({"remove": list(names)}, "remove axes")
+
+    def _command(self, cmd: dict, what: str) -> None:
+        """Send one command; wait for its ``OK n`` (an ``ERROR`` answer raises)."""
         assert self.proc.stdin is not None
-        self.served += 1
-        n = self.served
-        self.proc.stdin.write(json.dumps({"set": axes}) + "\n")
+        with self._cond:
+            start = len(self.lines)
+        self.proc.stdin.write(json.dumps(cmd) + "\n")
         self.proc.stdin.flush()
-        self._wait(lambda: f"OK {n}" in self.lines, 10.0, "apply a position")
+        self._wait(lambda: any(x.startswith(("OK ", "ERROR")) for x in self.lines[start:]),
+                   10.0, what)
+        answer = next(x for x in self.lines[start:] if x.startswith(("OK ", "ERROR")))
+        if not answer.startswith("OK "):
+            raise RuntimeError(f"the OPC UA test server refused {cmd}: {answer}")
 
     def stop(self) -> None:
         """Shut the server down (the client sees the connection drop)."""

@@ -9,6 +9,7 @@ connection as a status, never as a position.
 
 from __future__ import annotations
 
+import math
 import threading
 import time
 
@@ -24,7 +25,12 @@ pytest.importorskip("asyncua", reason="the capture extra (asyncua) is not instal
 from volcal.capture.plan import plan_measurement, program_options  # noqa: E402
 from volcal.capture.runner import LoopOptions, capture_measurement  # noqa: E402
 from volcal.capture.samples import LaserSample  # noqa: E402
-from volcal.capture.sources import Clock, SourceContext, make_control  # noqa: E402
+from volcal.capture.sources import (  # noqa: E402
+    Clock,
+    SourceContext,
+    make_control,
+    register_laser,
+)
 from volcal.capture.trigger import TriggerParams  # noqa: E402
 from volcal.plan.planner import plan_session  # noqa: E402
 from volcal.session.format import read_session, write_session  # noqa: E402
@@ -177,6 +183,248 @@ def test_capture_over_opcua_one_row_per_dwell(cnc_server, tmp_path, steps, dwell
     # laser's error of 0.02 um per mm of X at the positions the control reported
     expect = 0.02 * (m.positions[:, 0] - m.positions[0, 0])
     assert np.max(np.abs(got.deviation - expect)) < 0.05
+
+
+# -- a rotary axis (the server's A, B, C added for these tests, removed after) -----------
+
+ROT = "rotary-c"
+HOME_DEG = 90.0  # where C stands before the program
+DWELL_S, STABLE_S = 1.0, 0.5
+ARCSEC_URAD = math.pi / 648000.0 * 1e6
+NOISE_ARCSEC = 0.003
+# a reading is the difference of two means of >= 20 samples of 0.003 arcsec (0.0145 urad):
+# sigma <= 0.0145 * sqrt(2 / 20) = 0.0046 urad
+TOL_URAD = 0.03
+
+
+@pytest.fixture
+def rotary_server(cnc_server):  # noqa: F811
+    """The server with three rotary axes as a 5-axis CNC exposes them (OPC 40502): A
+    rotational without EngineeringUnits, B in radians (UNECE C81), C in degrees (DD)."""
+    cnc_server.add("A:rot", "B:rad", "C:deg")
+    try:
+        yield cnc_server
+    finally:
+        cnc_server.remove("A", "B", "C")
+
+
+def calibrator_arcsec(angle_deg: float, side: float) -> float:
+    """The scripted calibrator's reading at the axis' true angle, reached turning ``side``
+    [arcsec]: distinct at 0 and 360 deg and on each side, so that a reading taken at
+    another dwell would show."""
+    return 1.5 + 0.004 * angle_deg + (0.6 if side < 0 else 0.0)
+
+
+def test_rotary_axes_are_found_and_read_in_degrees(rotary_server):
+    server = rotary_server
+    ctx = SourceContext(clock=Clock())
+    src = make_control(f"opcua:{server.url};publishing_ms=20", ctx)
+    src.open()
+    try:
+        axes = {a.name: a for a in src.link.snapshot().axes}
+        assert {n: (a.rotary, a.unit) for n, a in axes.items()} == {
+            "X": (False, ""), "Y": (False, ""), "Z": (False, ""),
+            "A": (True, ""), "B": (True, "C81"), "C": (True, "DD")}
+        server.set(X=12.5, A=-30.25, B=math.pi / 4, C=359.875)
+        s = _poll_until(src, lambda s: s.status == "ok" and s.positions.get("C") == 359.875)
+        assert s.positions["C"] == 359.875  # degrees as the server gives them, not wrapped
+        assert s.positions["A"] == -30.25  # rotational without units: the model's degrees
+        assert s.positions["B"] == pytest.approx(45.0, abs=1e-12)  # radians to degrees
+        assert s.positions["X"] == 12.5
+    finally:
+        src.close()
+        server.set(X=0.0, A=0.0, B=0.0, C=0.0)
+
+
+class _Machine:
+    """The C axis as the test turns it: its true angle, the side of the last turn, the
+    dwell it stands in (None while moving), and when the capture opened its laser."""
+
+    def __init__(self) -> None:
+        self.angle = HOME_DEG
+        self.side = 1.0
+        self.dwell: int | None = None
+        self.go = threading.Event()
+        self.stop = threading.Event()
+
+
+MACHINE = _Machine()
+
+
+class _Calibrator:
+    """The scripted calibrator: one reading [arcsec] per poll of the capture's loop, of
+    the axis' true angle and side, with 0.003 arcsec of noise; it logs the dwell each
+    sample was taken in."""
+
+    def __init__(self, spec, ctx):
+        self.ctx = ctx
+        self.rng = np.random.default_rng(7)
+        self.last: float | None = None
+        self.log: list[tuple[float, int | None]] = []
+
+    def open(self):
+        MACHINE.go.set()  # the control is connected (opened first): the program starts
+
+    def close(self):
+        pass
+
+    def poll(self) -> LaserSample | None:
+        now = self.ctx.clock.now()
+        if self.last is not None and now - self.last < 0.005:
+            return None
+        self.last = now
+        m = MACHINE
+        self.log.append((now, m.dwell))
+        v = calibrator_arcsec(m.angle, m.side) + self.rng.normal(0.0, NOISE_ARCSEC)
+        return LaserSample(time_s=now, value=float(v), unit="arcsec")
+
+
+CALIBRATORS: list[_Calibrator] = []
+
+
+def _calibrator(spec, ctx):
+    c = _Calibrator(spec, ctx)
+    CALIBRATORS.append(c)
+    return c
+
+
+def _turn(server, to: float, speed_deg_s: float = 720.0, tick_s: float = 0.025) -> None:
+    """Turn C from its angle to ``to`` [deg], written wrapped into 0..360; at least 8
+    updates a turn, so that the 2 deg overrun is seen (50 ms publishing), as on a machine."""
+    m = MACHINE
+    here = m.angle
+    n = max(8, math.ceil(abs(to - here) / (speed_deg_s * tick_s)))
+    if to != here:
+        m.side = 1.0 if to > here else -1.0
+    for k in range(1, n + 1):
+        m.angle = here + (to - here) * k / n
+        server.set(C=m.angle % 360.0)
+        time.sleep(tick_s)
+
+
+def _play_rotary(server, pm) -> None:
+    """Play the rotary program on the server: the start (to the first target and on by
+    the overrun), the operator stop, then the turns and the silent dwells."""
+    mv = pm.rotary
+    m = MACHINE
+    if not m.go.wait(scaled_timeout(30.0)):
+        return
+    time.sleep(0.2)
+    _turn(server, mv.start_deg)
+    for i, (kind, value, row) in enumerate(mv.items):
+        if m.stop.is_set():
+            return
+        if i == mv.stop:
+            time.sleep(0.3)  # the operator stop, at the first reading's approach point
+        if kind == "turn":
+            _turn(server, m.angle + float(value))
+        elif kind == "dwell":
+            m.dwell = row
+            time.sleep(float(value))  # silence: the server writes nothing
+            m.dwell = None
+
+
+def test_rotary_capture_over_opcua_one_reading_per_dwell(rotary_server, tmp_path):
+    import json
+
+    from volcal.capture.journal import journal_path
+    from volcal.capture.plan import plan_measurement, program_options
+    from volcal.session.format import read_session
+    from volcal.steps.capture import capture
+    from volcal.steps.plan import plan
+
+    server = rotary_server
+    s = tmp_path / "S"
+    plan(((0.0, 400.0), (0.0, 300.0), (0.0, 250.0)), steps=2, tests="rotary:c", runs=1,
+         output=s)
+    planned = read_session(s, require_deviation=False)
+    m = planned.get(ROT)
+    pm = plan_measurement(m, planned.travel, program_options(dwell_s=DWELL_S))
+    targets, sides = m.columns["target_deg"], m.columns["direction"]
+    assert list(targets) == [0.0, 158.545, 360.0, 360.0, 158.545, 0.0]  # 0 and 360: one pose
+    register_laser("calibrator-opcua-test", _calibrator, "a scripted angular calibrator")
+    server.set(X=0.0, Y=0.0, Z=0.0, C=HOME_DEG)
+    MACHINE.__init__()
+    driver = threading.Thread(target=_play_rotary, args=(server, pm), daemon=True)
+    driver.start()
+    out = tmp_path / "C"
+    try:
+        r = capture(s, control=f"opcua:{server.url};publishing_ms=20",
+                    laser="calibrator-opcua-test", measurement=[ROT], output=out,
+                    dwell_s=DWELL_S, stable_s=STABLE_S, max_gap_s=0.25, poll_s=0.02,
+                    timeout_s=scaled_timeout(10.0))
+    finally:
+        MACHINE.stop.set()
+        driver.join(timeout=scaled_timeout(30.0))
+    n = len(pm.dwells)
+    assert r.complete, r.outcomes
+    assert [(o.measurement, o.accepted, o.missed) for o in r.outcomes] == [(ROT, n, [])]
+    # the CSV: the planned rows, the known readings in urad from the first row
+    rows = (out / f"{ROT}.csv").read_text().splitlines()
+    assert rows[0] == "target_deg,run,direction,deviation_urad,time_s"
+    assert [x.split(",")[:3] for x in rows[1:]] == \
+        [x.split(",")[:3] for x in (s / f"{ROT}.csv").read_text().splitlines()[1:]]
+    side = np.where(sides == "+", 1.0, -1.0)
+    known = np.array([calibrator_arcsec(t, d) for t, d in zip(targets, side, strict=True)])
+    want = (known - known[0]) * ARCSEC_URAD
+    got = read_session(out).get(ROT).deviation
+    assert got[0] == 0.0
+    assert np.max(np.abs(got - want)) < TOL_URAD, got - want
+    assert np.min(np.abs(np.diff(want))) > 2.0  # each neighbour's reading differs: a
+    # reading taken at the wrong dwell (360 for 0, the other side) would fail
+    # one reading per dwell, inside it: the calibrator's samples of each accepted window
+    # were all taken while the machine stood in that reading's dwell
+    recs = [json.loads(x) for x in journal_path(out, ROT).read_text().splitlines()]
+    acc = [x for x in recs if x["type"] == "accepted"]
+    assert sorted(a["reading"] for a in acc) == list(range(n))
+    log = CALIBRATORS[-1].log
+    for a in acc:
+        t0, t1 = a["window"]
+        inside = {d for t, d in log if t0 <= t <= t1}
+        assert inside == {a["reading"]}, (a["reading"], inside)
+        assert a["pos"][0] == pytest.approx(targets[a["reading"]], abs=0.005)
+    _check_sides(recs, acc, targets, side)
+
+
+def _check_sides(recs, acc, targets, side) -> None:
+    """The server's C as reported: wrapped into 0..360 (-2 deg read 358, 362 read 2);
+    unwrapped, the last 0.5 deg turned before each accepted window is on the reading's
+    side."""
+    ctrl = [(x["t"], x["pos"]["C"]) for x in recs if x["type"] == "control" and x["pos"]]
+    t = np.array([c[0] for c in ctrl])
+    c = np.array([c[1] for c in ctrl])
+    assert np.all((c >= 0.0) & (c < 360.0)) and c.max() > 357.9  # the overrun below 0
+    u = np.unwrap(c, period=360.0)
+    assert u[0] == pytest.approx(HOME_DEG) and -2.01 < u.min() < -1.9 \
+        and 361.9 < u.max() < 362.01
+    for a in acc:
+        i = a["reading"]
+        before = u[t < a["window"][0]]
+        far = before[np.abs(before - targets[i]) > 0.5][-1]
+        assert side[i] * (targets[i] - far) > 0, (i, targets[i], far)
+
+
+def test_a_rotary_test_from_a_server_without_the_axis_is_refused_naming_the_option(
+        cnc_server, tmp_path, monkeypatch, capsys):  # noqa: F811
+    """The server exposes X, Y, Z only: exit 2 once connected, naming --control, the
+    rotary test's axis and the axes found; no traceback, no reading recorded."""
+    from volcal.steps.plan import plan
+    from volcal_cli_helpers import run_volcal
+
+    s = tmp_path / "S"
+    plan(((0.0, 400.0), (0.0, 300.0), (0.0, 250.0)), steps=2, tests="rotary:c", runs=1,
+         output=s)
+    code, _, err = run_volcal(monkeypatch, capsys, "capture", str(s), "--control",
+                              f"opcua:{cnc_server.url};timeout_s=2", "--laser", "sim",
+                              "--measurement", "rotary-c", "-o", str(tmp_path / "O"),
+                              "--dwell-s", "2")
+    assert code == 2, err
+    assert f"--control opcua:{cnc_server.url};timeout_s=2: measurement rotary-c turns axis " \
+           "C (rotary [deg]), but the server reports no such CncAxisType object; the " \
+           "server's axes: X (linear [mm]), Y (linear [mm]), Z (linear [mm]). Give a " \
+           "control that reports C" in err, err
+    assert "Traceback" not in err
+    assert not (tmp_path / "O" / "capture" / "rotary-c.jsonl").exists()  # nothing captured
 
 
 def test_a_dropped_connection_is_a_status_not_a_position(cnc_server):  # noqa: F811

@@ -1,21 +1,30 @@
 // An independent OPC UA server for volcal's capture tests: node-opcua (npm) loading the
 // official OPC 40502 CNC information model (Opc.Ua.CNC.NodeSet.xml, shipped in npm
-// node-opcua-nodesets), with three axes X, Y, Z instantiated from CncAxisType under
-// Objects/CncInterface/CncAxisList. The test writes positions on request.
+// node-opcua-nodesets), with three axes X, Y, Z (or those of axes=) instantiated from
+// CncAxisType under Objects/CncInterface/CncAxisList. The test writes positions on request.
 //
-// Usage: node cnc_server.mjs PORT [secure PKI_FOLDER]
+// Usage: node cnc_server.mjs PORT [secure PKI_FOLDER] [axes=SPEC,...]
 // With "secure", the server offers only signed and encrypted channels (Basic256Sha256,
 // SignAndEncrypt), keeps its certificates in PKI_FOLDER and accepts any client certificate.
+// With "axes=", the axes instantiated (default X,Y,Z), each NAME or NAME:UNIT, as a CNC
+// exposes them under OPC 40502: NAME alone a linear axis as the defaults (IsRotational
+// false, no EngineeringUnits: the model's mm); NAME:mm a linear axis in millimetres
+// (UNECE MMT); NAME:deg a rotary axis in degrees (IsRotational true, UNECE DD), NAME:rad
+// in radians (C81), NAME:rot a rotary axis without EngineeringUnits. The units are set on
+// PosDirect's and PosIndirect's EngineeringUnits property (CncPositionVariableType).
 // Prints one line "READY opc.tcp://127.0.0.1:PORT/ NSURI" on stdout once it serves, then
 // reads one JSON command per line on stdin:
 //   {"set": {"X": 10.0, "Y": 0.0}}   write PosDirect.ActPos (and the PosDirect structure)
+//   {"add": ["C:deg"]}                instantiate axes (as axes=), at position 0
+//   {"remove": ["C"]}                 delete axes (a client browsing afterwards sees none)
 //   {"quit": true}                    shut down (closing stdin does the same)
-// and answers each "set" with "OK <n>" (n: the count of commands served).
+// and answers each other command with "OK <n>" (n: the count of commands served).
 // Only loopback: the endpoint is bound to 127.0.0.1.
 
 import readline from "node:readline";
 import {
   OPCUAServer, OPCUACertificateManager, DataType, MessageSecurityMode, SecurityPolicy,
+  makeEUInformation,
 } from "node-opcua";
 import { nodesets } from "node-opcua-nodesets";
 
@@ -23,6 +32,21 @@ const port = Number(process.argv[2] || 4840);
 const CNC_URI = "http://opcfoundation.org/UA/CNC";
 
 const secure = process.argv[3] === "secure";
+const axesArg = process.argv.slice(3).find((a) => a.startsWith("axes="));
+function axisSpec(a) {
+  const [name, unit = ""] = a.split(":");
+  if (!["", "mm", "deg", "rad", "rot"].includes(unit)) {
+    throw new Error(`axis ${a}: unit ${unit} is not one of mm, deg, rad, rot`);
+  }
+  return { name, unit };
+}
+const axisSpecs = (axesArg ? axesArg.slice(5) : "X,Y,Z").split(",").map(axisSpec);
+// UNECE Rec. 20 common codes of the units (EUInformation.unitId is the code's bytes)
+const UNITS = {
+  mm: makeEUInformation("MMT", "mm", "millimetre"),
+  deg: makeEUInformation("DD", "°", "degree [unit of angle]"),
+  rad: makeEUInformation("C81", "rad", "radian"),
+};
 const security = secure ? {
   securityModes: [MessageSecurityMode.SignAndEncrypt],
   securityPolicies: [SecurityPolicy.Basic256Sha256],
@@ -60,13 +84,45 @@ const iface = own.addObject({
 const axisList = own.addObject({ browseName: "CncAxisList", componentOf: iface });
 
 const axes = {};
-for (const name of ["X", "Y", "Z"]) {
+for (const { name, unit } of axisSpecs) {
+  add(name, unit);
+}
+
+function add(name, unit) {
+  if (axes[name]) {
+    throw new Error(`axis ${name} exists`);
+  }
   const axis = axisType.instantiate({ browseName: name, componentOf: axisList });
   const posDirect = axis.getComponentByName("PosDirect", nsCnc);
   const actPos = posDirect.getComponentByName("ActPos", nsCnc);
   const cmdPos = posDirect.getComponentByName("CmdPos", nsCnc);
+  if (unit) {
+    describe(axis, unit);
+  }
   axes[name] = { axis, posDirect, actPos, cmdPos };
   set(name, 0.0);
+}
+
+function remove(name) {
+  if (!axes[name]) {
+    throw new Error(`no axis ${name}`);
+  }
+  addressSpace.deleteNode(axes[name].axis);
+  delete axes[name];
+}
+
+function describe(axis, unit) {
+  // IsRotational (a mandatory component of CncAxisType) and the positions' units
+  const rotary = unit !== "mm";
+  axis.getComponentByName("IsRotational", nsCnc)
+    .setValueFromSource({ dataType: DataType.Boolean, value: rotary });
+  if (!UNITS[unit]) {
+    return; // "rot": a rotary axis whose positions carry no EngineeringUnits
+  }
+  for (const pos of ["PosDirect", "PosIndirect"]) {
+    const eu = axis.getComponentByName(pos, nsCnc).getPropertyByName("EngineeringUnits", nsCnc);
+    eu.setValueFromSource({ dataType: DataType.ExtensionObject, value: UNITS[unit] });
+  }
 }
 
 function set(name, value) {
@@ -113,6 +169,13 @@ rl.on("line", (line) => {
     return;
   }
   try {
+    for (const a of cmd.add || []) {
+      const { name, unit } = axisSpec(a);
+      add(name, unit);
+    }
+    for (const name of cmd.remove || []) {
+      remove(name);
+    }
     for (const [name, value] of Object.entries(cmd.set || {})) {
       set(name, Number(value));
     }

@@ -10,6 +10,13 @@ on how many notifications arrived. A lost connection is a sample with status
 ``'lost: <reason>'`` and no position (never the last position: a lost control must not look
 like a dwell); the link connects again by itself and the samples resume.
 
+A rotary axis (``IsRotational`` true, or its position in degrees or radians) is reported
+in degrees under its browse name (``C``), as the server gives it (0..360 or counting on:
+the capture follows either). When the capture opens the source, each measurement's axes
+are checked against the server's: a rotary test of an axis the server does not report,
+or reports as linear, is refused, naming ``--control`` and the axes found
+(:class:`ControlAxesError`).
+
 Options after the URL, separated by ``;``:
 
 =================  =======  ===============================================================
@@ -45,19 +52,28 @@ from volcal.capture.sources import (
     options,
     register_control,
 )
-from volcal.errors import VolcalInputError
+from volcal.errors import ParameterError, VolcalInputError
 from volcal.extras import require_extra
 
 if TYPE_CHECKING:
-    from volcal.capture.opcua_link import Security
+    from volcal.capture.opcua_link import AxisNode, Security
+    from volcal.capture.plan import PlannedMeasurement
 
-__all__ = ["OpcUaControl", "STATUS_LOST", "make"]
+__all__ = ["ControlAxesError", "OpcUaControl", "STATUS_LOST", "check_axes", "make"]
 
 STATUS_LOST = "lost"
 """First word of the status of a sample taken while the connection is down."""
 
 OPTION_KEYS = ("position", "publishing_ms", "timeout_s", "watch_s", "policy", "mode", "cert",
                "key", "server_cert")
+
+class ControlAxesError(SourceError, ParameterError):
+    """The control does not report an axis a measurement reads, or of the other kind.
+
+    A rotary test's axis reported as linear, or a linear axis as rotary. The message names
+    the ``control`` parameter (``--control`` on the command line).
+    """
+
 
 MIN_INTERVAL_S = 0.005
 """A poll within this time [s] of the last sample returns None: the capture's loop drains
@@ -83,14 +99,19 @@ class OpcUaControl:
         Interval of the liveness check [s].
     security : Security, optional
         A signed channel (:class:`volcal.capture.opcua_link.Security`).
+    source : str, optional
+        The source as the user gave it (``opcua:URL;KEY=V``), for messages (default:
+        ``opcua:URL``).
     """
 
     def __init__(self, url: str, context: SourceContext, *, position: str = "direct",
                  publishing_ms: float = 50.0, timeout_s: float = 4.0,
-                 watch_s: float = 0.5, security: Security | None = None) -> None:
+                 watch_s: float = 0.5, security: Security | None = None,
+                 source: str | None = None) -> None:
         from volcal.capture.opcua_link import OpcUaLink
 
         self.url = url
+        self.source = source or f"opcua:{url}"
         self.context = context
         self.timeout_s = timeout_s
         self.link = OpcUaLink(url, position=position, publishing_ms=publishing_ms,
@@ -116,6 +137,11 @@ class OpcUaControl:
             self.link.close()
             raise SourceError(f"control source opcua:{self.url}: cannot connect "
                               f"({snap.reason or 'no answer'})")
+        try:
+            check_axes(snap.axes, self.context.measurements, self.source)
+        except ControlAxesError:
+            self.link.close()
+            raise
 
     def poll(self) -> ControlSample | None:
         """The last position of every axis, at the time of this poll.
@@ -123,7 +149,8 @@ class OpcUaControl:
         Returns
         -------
         ControlSample or None
-            ``status`` ``'ok'`` with the positions [mm] while connected; ``'lost: ...'``
+            ``status`` ``'ok'`` with the positions [mm; a rotary axis' in deg] while
+            connected; ``'lost: ...'``
             with no position while the connection is down; None when the last sample is
             less than :data:`MIN_INTERVAL_S` old (the loop asks again at once).
         """
@@ -145,6 +172,46 @@ class OpcUaControl:
     def axes(self) -> list[str]:
         """The names of the axes found (after :meth:`open`)."""
         return [a.name for a in self.link.snapshot().axes]
+
+
+def check_axes(axes: list[AxisNode], measurements: list[PlannedMeasurement],
+               source: str) -> None:
+    """Refuse a control that lacks an axis of the measurements, or has it of the other kind.
+
+    Parameters
+    ----------
+    axes : list of AxisNode
+        The server's axes (name, rotary or linear).
+    measurements : list of PlannedMeasurement
+        The measurements to capture; each reads the axes of its frame (X, Y, Z [mm], or
+        one rotary axis [deg]).
+    source : str
+        The control source as given (``opcua:opc.tcp://...``), for the message.
+
+    Raises
+    ------
+    ControlAxesError
+        Naming the measurement, the axis, the axes found and ``--control``.
+    """
+    found = {a.name: a for a in axes}
+    listed = ", ".join(f"{a.name} ({a.kind})" for a in axes) or "none"
+    for pm in measurements:
+        frame = pm.frame
+        want = "rotary [deg]" if frame.rotary else "linear [mm]"
+        verb = "turns" if frame.rotary else "moves"
+        for name in frame.axes:
+            got = found.get(name)
+            if got is None:
+                why = "the server reports no such CncAxisType object"
+            elif got.rotary != frame.rotary:
+                why = (f"the server's axis {name} is {got.kind} (IsRotational, "
+                       f"EngineeringUnits {got.unit or 'none'})")
+            else:
+                continue
+            raise ControlAxesError(
+                f"{{control=}}{source}: measurement {pm.id} {verb} axis {name} "
+                f"({want}), but {why}; the server's axes: {listed}. Give a control that "
+                f"reports {name} (docs/capture_opcua.md)")
 
 
 def make(spec: SourceSpec, context: SourceContext) -> OpcUaControl:
@@ -190,7 +257,8 @@ def make(spec: SourceSpec, context: SourceContext) -> OpcUaControl:
     elif "mode" in opts:
         raise VolcalInputError(f"control source {spec.text!r}: mode= needs policy=, cert= "
                                "and key= (docs/capture_opcua.md)")
-    return OpcUaControl(url, context, position=position, security=security, **kw)
+    return OpcUaControl(url, context, position=position, security=security,
+                        source=spec.text, **kw)
 
 
 def _security(opts: dict[str, str], where: str) -> Security:

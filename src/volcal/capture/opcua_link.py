@@ -6,6 +6,12 @@ namespace ``http://opcfoundation.org/UA/CNC``, subscribes to each axis' ``PosDir
 (or ``PosIndirect/ActPos``), keeps the last value of each and watches the connection by
 reading the server's state every ``watch_s`` seconds.
 
+A linear axis' position is kept in mm, a rotary axis' in degrees, under the axis' browse
+name (``X``, ``C``). An axis is rotary when its ``IsRotational`` is true or its position's
+``EngineeringUnits`` is an angle (UNECE ``DD`` degree, ``C81`` radian: converted to
+degrees); the angle is passed on as the server reports it, wrapped (0..360) or counting on
+(:func:`axis_scale`).
+
 A subscription notifies only on change: while the machine dwells at a target, the server
 sends nothing. :meth:`OpcUaLink.snapshot` therefore answers from the values kept, never from a
 count of notifications; the caller stamps them with the time of its poll. When the
@@ -16,8 +22,10 @@ every ``retry_s`` seconds, browses again and subscribes again.
 References
 ----------
 OPC Foundation, OPC 40502 "OPC UA for Computerized Numerical Control (CNC) Systems" 1.00
-(2017): section 6.8.2 ``CncAxisType``, 7.3.2 ``CncPositionVariableType`` (``ActPos``,
-``CmdPos``, ``RemDist``). The nodeset file is ``Opc.Ua.CNC.NodeSet.xml``.
+(2017): section 6.8.2 ``CncAxisType`` (``IsRotational``: true for a rotational axis),
+7.3.2 ``CncPositionVariableType`` (``ActPos``, ``CmdPos``, ``RemDist``, its
+``EngineeringUnits``). The nodeset file is ``Opc.Ua.CNC.NodeSet.xml``. UN/CEFACT
+Recommendation 20, the codes of ``EUInformation.UnitId`` (OPC 10000-8, 5.6.3).
 """
 
 from __future__ import annotations
@@ -25,6 +33,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
+import math
 import threading
 import time
 from dataclasses import dataclass, field
@@ -103,14 +112,27 @@ class AxisNode:
     value_id : str
         The node id of the ``ActPos`` variable subscribed to.
     factor : float
-        Millimetres (or degrees) per unit of the server's value, from the position's
-        ``EngineeringUnits`` (1 when it has none: OPC 40502 positions are in mm).
+        Millimetres (a rotary axis: degrees) per unit of the server's value, from the
+        position's ``EngineeringUnits`` (1 when it has none: the model's mm, or deg).
+    rotary : bool
+        A rotary axis (``IsRotational`` true, or its position in an angle): its position
+        is in degrees.
+    unit : str
+        What the server says of the unit, for messages (``'DD'``, ``'mm'``; empty when
+        the position has no ``EngineeringUnits``).
     """
 
     name: str
     node_id: str
     value_id: str
     factor: float = 1.0
+    rotary: bool = False
+    unit: str = ""
+
+    @property
+    def kind(self) -> str:
+        """``'rotary [deg]'`` or ``'linear [mm]'``, for messages."""
+        return "rotary [deg]" if self.rotary else "linear [mm]"
 
 
 @dataclass
@@ -122,7 +144,8 @@ class Snapshot:
     connected : bool
         The connection is up and subscribed.
     positions : dict of str to float
-        Last ``ActPos`` per axis name [mm] (empty while not connected).
+        Last ``ActPos`` per axis name [mm; a rotary axis' in deg] (empty while not
+        connected).
     changed_at : float
         ``time.time()`` when a position last changed [s] (0 before the first value).
     notifications : int
@@ -447,32 +470,107 @@ async def find_axes(client: Any, position: str = "direct") -> list[AxisNode]:
         except Exception as exc:  # BadNoMatch and the like
             raise OpcUaError(f"{url}: axis {name} ({key}) has no {var}/ActPos: "
                              f"{_describe(exc)}") from exc
-        factor = await _unit_factor(client, key, idx, var, url, name)
+        unit_id, text = await _units(client, key, idx, var)
+        rotational = await _is_rotational(client, key, idx)
+        factor, rotary = axis_scale(unit_id, text, rotational, f"{url}: axis {name} {var}")
         axes.append(AxisNode(name=name, node_id=key, value_id=node.nodeid.to_string(),
-                             factor=factor))
+                             factor=factor, rotary=rotary,
+                             unit=unece_code(unit_id) if unit_id else ""))
     return axes
 
 
-UNIT_FACTORS = {5066068: 1.0, 4804168: 25.4, 5067858: 1000.0, 17476: 1.0}
-"""UNECE unit id (``EUInformation.UnitId``) -> factor to mm (or deg): MMT, INH, MTR, DD."""
+def unece_code(unit_id: int) -> str:
+    """The UN/CEFACT common code of an ``EUInformation.UnitId`` (``17476`` -> ``'DD'``).
+
+    Parameters
+    ----------
+    unit_id : int
+        The code's characters, one byte each (OPC 10000-8, 5.6.3).
+
+    Returns
+    -------
+    str
+        The code, or the number when it is not one.
+    """
+    raw = int(unit_id).to_bytes(4, "big", signed=int(unit_id) < 0).lstrip(b"\0")
+    return raw.decode("ascii") if raw and raw.isalnum() else str(unit_id)
 
 
-async def _unit_factor(client: Any, key: str, idx: int, var: str, url: str,
-                       name: str) -> float:
-    """The factor of the position's ``EngineeringUnits`` to mm (1 when it has none)."""
+LENGTH_UNITS = {"MMT": 1.0, "INH": 25.4, "MTR": 1000.0}
+"""UNECE common code -> factor to mm: millimetre, inch, metre."""
+
+ANGLE_UNITS = {"DD": 1.0, "C81": 180.0 / math.pi}
+"""UNECE common code -> factor to degrees: degree (unit of angle), radian."""
+
+
+def axis_scale(unit_id: int | None, text: str, rotational: bool | None,
+               where: str) -> tuple[float, bool]:
+    """The factor of an axis' position to mm or deg, and whether the axis is rotary.
+
+    The unit decides when it is an angle (a rotary axis whose ``IsRotational`` was left
+    at the type's default false is still read in degrees); a length on an axis whose
+    ``IsRotational`` is true is a contradiction, refused. Without ``EngineeringUnits``
+    the position is in the model's unit: mm, or deg on a rotational axis.
+
+    Parameters
+    ----------
+    unit_id : int or None
+        ``EUInformation.UnitId`` of the position (None or 0: no unit given).
+    text : str
+        Its ``DisplayName``, for messages.
+    rotational : bool or None
+        The axis' ``IsRotational`` (None: the server does not expose it).
+    where : str
+        The server and axis, for messages.
+
+    Returns
+    -------
+    factor : float
+        mm (rotary: deg) per unit of the server's value.
+    rotary : bool
+
+    Raises
+    ------
+    OpcUaError
+        A unit that is neither a length nor an angle volcal knows, or a length on a
+        rotational axis.
+    """
+    if not unit_id:
+        return 1.0, bool(rotational)
+    code = unece_code(unit_id)
+    if code in ANGLE_UNITS:
+        return ANGLE_UNITS[code], True
+    if code in LENGTH_UNITS:
+        if rotational:
+            raise OpcUaError(f"{where} is in {text or code} but the axis' IsRotational is "
+                             "true: a rotary axis' position must be an angle (UNECE DD, "
+                             "C81)")
+        return LENGTH_UNITS[code], False
+    raise OpcUaError(f"{where} is in {text or code}: expected mm, m, inch (UNECE MMT, MTR, "
+                     "INH), or deg or rad on a rotary axis (DD, C81)")
+
+
+async def _units(client: Any, key: str, idx: int, var: str) -> tuple[int | None, str]:
+    """``UnitId`` and display name of the position's ``EngineeringUnits`` (None: none)."""
     pos = client.get_node(key)
-    eu = None
     for browse in (f"{idx}:{var}/{idx}:EngineeringUnits", f"{idx}:{var}/0:EngineeringUnits"):
         try:
             node = await pos.get_child(browse.split("/"))
             eu = await node.read_value()
             break
-        except Exception:  # absent or empty: the model's mm
+        except Exception:  # absent or empty: the model's unit
             continue
-    if eu is None or not getattr(eu, "UnitId", None):
-        return 1.0
-    if eu.UnitId in UNIT_FACTORS:
-        return UNIT_FACTORS[eu.UnitId]
+    else:
+        return None, ""
     text = getattr(getattr(eu, "DisplayName", None), "Text", "") or ""
-    raise OpcUaError(f"{url}: axis {name} {var} is in {text or eu.UnitId}: expected mm, "
-                     f"m, inch or deg (UNECE MMT, MTR, INH, DD)")
+    return getattr(eu, "UnitId", None) or None, text
+
+
+async def _is_rotational(client: Any, key: str, idx: int) -> bool | None:
+    """The axis' ``IsRotational`` (mandatory in ``CncAxisType``; None: not exposed)."""
+    try:
+        node = await client.get_node(key).get_child([f"{idx}:IsRotational"])
+        value = await node.read_value()
+    except Exception:  # absent: the unit alone decides
+        return None
+    return None if value is None else bool(value)

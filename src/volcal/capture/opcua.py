@@ -67,6 +67,7 @@ STATUS_LOST = "lost"
 OPTION_KEYS = ("position", "publishing_ms", "timeout_s", "watch_s", "policy", "mode", "cert",
                "key", "server_cert")
 
+
 class ControlAxesError(SourceError, ParameterError):
     """The control does not report an axis a measurement reads, or of the other kind.
 
@@ -150,9 +151,9 @@ class OpcUaControl:
         -------
         ControlSample or None
             ``status`` ``'ok'`` with the positions [mm; a rotary axis' in deg] while
-            connected; ``'lost: ...'``
-            with no position while the connection is down; None when the last sample is
-            less than :data:`MIN_INTERVAL_S` old (the loop asks again at once).
+            connected; ``'lost: ...'`` with no position while the connection is down;
+            None when the last sample is less than :data:`MIN_INTERVAL_S` old (the loop
+            asks again at once).
         """
         now = self.context.clock.now()
         if self._last_t is not None and now - self._last_t < MIN_INTERVAL_S:

@@ -248,22 +248,20 @@ class _Machine:
         self.stop = threading.Event()
 
 
-MACHINE = _Machine()
-
-
 class _Calibrator:
     """The scripted calibrator: one reading [arcsec] per poll of the capture's loop, of
     the axis' true angle and side, with 0.003 arcsec of noise; it logs the dwell each
     sample was taken in."""
 
-    def __init__(self, spec, ctx):
+    def __init__(self, ctx, machine: _Machine):
         self.ctx = ctx
+        self.machine = machine
         self.rng = np.random.default_rng(7)
         self.last: float | None = None
         self.log: list[tuple[float, int | None]] = []
 
     def open(self):
-        MACHINE.go.set()  # the control is connected (opened first): the program starts
+        self.machine.go.set()  # the control is connected (opened first): the program starts
 
     def close(self):
         pass
@@ -273,25 +271,16 @@ class _Calibrator:
         if self.last is not None and now - self.last < 0.005:
             return None
         self.last = now
-        m = MACHINE
+        m = self.machine
         self.log.append((now, m.dwell))
         v = calibrator_arcsec(m.angle, m.side) + self.rng.normal(0.0, NOISE_ARCSEC)
         return LaserSample(time_s=now, value=float(v), unit="arcsec")
 
 
-CALIBRATORS: list[_Calibrator] = []
-
-
-def _calibrator(spec, ctx):
-    c = _Calibrator(spec, ctx)
-    CALIBRATORS.append(c)
-    return c
-
-
-def _turn(server, to: float, speed_deg_s: float = 720.0, tick_s: float = 0.025) -> None:
+def _turn(server, m: _Machine, to: float, speed_deg_s: float = 720.0,
+          tick_s: float = 0.025) -> None:
     """Turn C from its angle to ``to`` [deg], written wrapped into 0..360; at least 8
     updates a turn, so that the 2 deg overrun is seen (50 ms publishing), as on a machine."""
-    m = MACHINE
     here = m.angle
     n = max(8, math.ceil(abs(to - here) / (speed_deg_s * tick_s)))
     if to != here:
@@ -304,15 +293,14 @@ def _turn(server, to: float, speed_deg_s: float = 720.0, tick_s: float = 0.025) 
     # returns at the update that reaches ``to``: a dwell starts there
 
 
-def _play_rotary(server, pm) -> None:
+def _play_rotary(server, pm, m: _Machine) -> None:
     """Play the rotary program on the server: the start (to the first target and on by
     the overrun), the operator stop, then the turns and the silent dwells."""
     mv = pm.rotary
-    m = MACHINE
     if not m.go.wait(scaled_timeout(30.0)):
         return
     time.sleep(0.2)
-    _turn(server, mv.start_deg)
+    _turn(server, m, mv.start_deg)
     turned = True
     for i, (kind, value, row) in enumerate(mv.items):
         if m.stop.is_set():
@@ -322,7 +310,7 @@ def _play_rotary(server, pm) -> None:
         if kind == "turn":
             if turned:
                 time.sleep(0.025)  # a reversal (the overrun) holds one update, as a move's
-            _turn(server, m.angle + float(value))
+            _turn(server, m, m.angle + float(value))
             turned = True
         elif kind == "dwell":
             m.dwell = row
@@ -349,10 +337,15 @@ def test_rotary_capture_over_opcua_one_reading_per_dwell(rotary_server, tmp_path
     pm = plan_measurement(m, planned.travel, program_options(dwell_s=DWELL_S))
     targets, sides = m.columns["target_deg"], m.columns["direction"]
     assert list(targets) == [0.0, 158.545, 360.0, 360.0, 158.545, 0.0]  # 0 and 360: one pose
-    register_laser("calibrator-opcua-test", _calibrator, "a scripted angular calibrator")
+    machine, calibrators = _Machine(), []
+
+    def calibrator(spec, ctx):
+        calibrators.append(_Calibrator(ctx, machine))
+        return calibrators[-1]
+
+    register_laser("calibrator-opcua-test", calibrator, "a scripted angular calibrator")
     server.set(X=0.0, Y=0.0, Z=0.0, C=HOME_DEG)
-    MACHINE.__init__()
-    driver = threading.Thread(target=_play_rotary, args=(server, pm), daemon=True)
+    driver = threading.Thread(target=_play_rotary, args=(server, pm, machine), daemon=True)
     driver.start()
     out = tmp_path / "C"
     try:
@@ -361,7 +354,7 @@ def test_rotary_capture_over_opcua_one_reading_per_dwell(rotary_server, tmp_path
                     dwell_s=DWELL_S, stable_s=STABLE_S, max_gap_s=0.25, poll_s=0.02,
                     timeout_s=scaled_timeout(10.0))
     finally:
-        MACHINE.stop.set()
+        machine.stop.set()
         driver.join(timeout=scaled_timeout(30.0))
     n = len(pm.dwells)
     assert r.complete, r.outcomes
@@ -384,7 +377,7 @@ def test_rotary_capture_over_opcua_one_reading_per_dwell(rotary_server, tmp_path
     recs = [json.loads(x) for x in journal_path(out, ROT).read_text().splitlines()]
     acc = [x for x in recs if x["type"] == "accepted"]
     assert sorted(a["reading"] for a in acc) == list(range(n))
-    log = CALIBRATORS[-1].log
+    log = calibrators[-1].log
     for a in acc:
         t0, t1 = a["window"]
         inside = {d for t, d in log if t0 <= t <= t1}

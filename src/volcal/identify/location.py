@@ -336,6 +336,11 @@ class LocationResult:
     u_without_linear : dict of str to float or None
         With a linear prior carrying a covariance: the standard uncertainty the readings'
         noise alone would give [um, urad] (the linear model's share is ``u`` beside it).
+    u_without_undetermined : dict of str to float or None
+        With a linear prior whose model leaves functions undetermined
+        (:attr:`LinearPrior.undetermined`): the standard uncertainty with those functions
+        taken as known [um, urad]; the rest of ``u``'s variance is the identification's
+        prior statement about them, not a measurement of this machine.
     """
 
     names: tuple[str, ...]
@@ -352,6 +357,7 @@ class LocationResult:
     iterations: int
     linear: Any = None
     u_without_linear: dict[str, float] | None = None
+    u_without_undetermined: dict[str, float] | None = None
 
     def to_rows(self) -> list[dict[str, object]]:
         """One row per location error of the chain: name, meaning, value, u, status."""
@@ -484,16 +490,25 @@ def identify_location(nominal: FiveAxisMachine, blocks: Sequence[SphereReadings]
     u = np.sqrt(np.diag(cov))
     est = {n: float(x[i]) for n, i in zip(fitted, free, strict=True)}
     A0, r0 = step(x, nuis, True, white=False)
-    u_noise = None
+    u_noise = u_det = None
     if K is not None:
         u0 = np.sqrt(np.diag(np.linalg.pinv(A0.T @ A0 + np.diag(L), hermitian=True)[:nf, :nf]))
         u_noise = {n: float(u0[k]) for k, n in enumerate(fitted)}
+        Cd = linear.covariance_determined(y.size)
+        if Cd is not None:
+            from scipy.linalg import solve_triangular
+
+            Kd = solve_triangular(np.linalg.cholesky(np.eye(y.size) + Cd * np.outer(w, w)),
+                                  np.eye(y.size), lower=True)
+            Ad = Kd @ A0
+            ud = np.sqrt(np.diag(np.linalg.pinv(Ad.T @ Ad + np.diag(L), hermitian=True)[:nf, :nf]))
+            u_det = {n: float(ud[k]) for k, n in enumerate(fitted)}
     return LocationResult(
         names=fitted, estimate=est, u={n: float(u[k]) for k, n in enumerate(fitted)},
         covariance=cov, nuisances=nuis, identifiability=ident, machine=base.with_location(x),
         rms_before_um=rms_before, rms_after_um=float(np.sqrt(np.mean((r0 / w) ** 2))),
         chi2=float(r @ r), dof=int(r.size - A.shape[1]), iterations=iterations,
-        linear=linear, u_without_linear=u_noise)
+        linear=linear, u_without_linear=u_noise, u_without_undetermined=u_det)
 
 
 def identifiability_markdown(reports: dict[tuple[str, str], LocationIdentifiability]) -> str:

@@ -65,6 +65,9 @@ class LinearPrior:
         The model's functions its readings hardly determine (``determined_fraction``
         below :data:`UNDETERMINED_FRACTION`): their covariance is the identification's
         prior, not a measurement of this machine.
+    determined_rows : ndarray, shape (n, r), or None
+        ``factor_rows`` with the undetermined functions' parameters left out (taken as
+        known); None when none is undetermined.
     """
 
     source: str
@@ -73,6 +76,7 @@ class LinearPrior:
     parameters: int = 0
     notes: list[str] = field(default_factory=list)
     undetermined: list[str] = field(default_factory=list)
+    determined_rows: Array | None = None
 
     @property
     def has_uncertainty(self) -> bool:
@@ -100,6 +104,28 @@ class LinearPrior:
         if not self.has_uncertainty:
             return np.zeros((n, n))
         F = self.factor_rows
+        return np.asarray(F @ F.T + np.diag(self.nugget_var))
+
+    def covariance_determined(self, n: int) -> Array | None:
+        """The readings' covariance from the model's determined functions alone [um^2].
+
+        The part of :meth:`covariance` left when the functions the model's readings hardly
+        determine (:attr:`undetermined`) are taken as known: what the location errors' U
+        would be without the identification's prior statement about them.
+
+        Parameters
+        ----------
+        n : int
+            Number of readings.
+
+        Returns
+        -------
+        ndarray, shape (n, n), or None
+            None when no function is undetermined.
+        """
+        if self.determined_rows is None:
+            return None
+        F = self.determined_rows
         return np.asarray(F @ F.T + np.diag(self.nugget_var))
 
     def to_json(self) -> dict[str, Any]:
@@ -207,6 +233,18 @@ def linear_prior(model: Any, nominal: FiveAxisMachine, blocks: Sequence[SphereRe
         G[:, col[int(j)]] = ((_predict_um(machine(up), blocks)
                               - _predict_um(machine(down), blocks)) / (2 * h))
     F = G @ L[idx]
+    under = undetermined(model)
+    determined_rows = None
+    if under:
+        from volcal.model.names import COMPONENT_NAMES, SQUARENESS_NAMES
+
+        owner = np.empty(layout.size, dtype=object)
+        for k in range(3):
+            for c in range(6):
+                owner[layout.indices(k, c)] = COMPONENT_NAMES[6 * k + c]
+        owner[layout.squareness_indices()] = SQUARENESS_NAMES
+        keep = np.array([owner[j] not in under for j in idx], dtype=bool)
+        determined_rows = G[:, keep] @ L[idx][keep]
     # positioning errors between the nodes: uncorrelated, along the machine axes
     nug = np.zeros(n)
     from volcal.session.r_test import head_rotation
@@ -220,7 +258,8 @@ def linear_prior(model: Any, nominal: FiveAxisMachine, blocks: Sequence[SphereRe
             v = np.einsum("mki,mk->mi", R**2, v)  # diagonal of R^T diag(v) R
         nug[row:row + 3 * b.n_poses] = v.reshape(-1)
         row += 3 * b.n_poses
-    return LinearPrior("model with covariance", F, nug, len(idx), notes, undetermined(model))
+    return LinearPrior("model with covariance", F, nug, len(idx), notes, under,
+                       determined_rows)
 
 
 def linear_prior_note(prior: LinearPrior, model: Any) -> str:

@@ -89,6 +89,8 @@ class Located:
             "linear_model": None if r.linear is None else r.linear.to_json(),
             "u_without_linear": (None if r.u_without_linear is None
                                  else dict(r.u_without_linear)),
+            "u_without_undetermined": (None if r.u_without_undetermined is None
+                                       else dict(r.u_without_undetermined)),
         }
 
     def linuxcnc_trt(self, z_rot_point_mm: float | None = None) -> Any:
@@ -182,6 +184,24 @@ class Located:
             U = f"{COVERAGE_K * u:9.2f}" if not math.isnan(u) else f"{'redundant':>9}"
             lines.append(f"{row['name']:6} {val} {U}  {row['unit']:4}  {row['meaning']}")
         return "\n".join(lines + [f"- {m}" for m in self.messages]) + "\n"
+
+
+def _undetermined_share(res: Any) -> list[str]:
+    """The share of the location errors' U that rests on the undetermined functions' prior."""
+    ud = res.u_without_undetermined
+    if not ud:
+        return []
+    share = {n: 1.0 - (ud[n] / res.u[n]) ** 2 for n in ud if res.u[n] > 0}
+    if not share:
+        return []
+    from volcal.model.names import info
+
+    worst = max(share, key=lambda n: share[n])
+    unit = info(worst).unit
+    return [f"The undetermined functions' prior carries up to {100 * share[worst]:.0f} % of a "
+            f"location error's variance ({worst}: u {res.u[worst]:.3g} {unit}, "
+            f"{ud[worst]:.3g} {unit} with them taken as known; per error in the JSON, "
+            "u_without_undetermined): that part of U is an assumption about this machine."]
 
 
 def _linear_model(model: Any):
@@ -292,6 +312,7 @@ def locate(session: str | Path | Session, *,
         f"Scatter of the readings: RMS {res.rms_before_um:.2f} um with the configured "
         f"kinematics, {res.rms_after_um:.2f} um with the identified location errors "
         f"(chi-square {res.chi2:.1f} on {res.dof} degrees of freedom)."] + msgs_linear
+    msgs += _undetermined_share(res)
     if any(m.kind == "r_test" for m in ms):
         msgs.append("R-test readings carry the rotary axes' error motions over the angle "
                     "(radial, axial, tilt) too; they are not estimated and not separated from "

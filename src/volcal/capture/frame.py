@@ -1,4 +1,4 @@
-"""The coordinates a capture compares with the plan: the linear axes, or one rotary axis.
+"""The coordinates a capture compares with the plan: linear axes, rotary axes, or both.
 
 A linear, diagonal, step-diagonal or direct-optic test dwells at positions of the linear
 axes X, Y, Z [mm]; a rotary test at angles of one rotary axis A, B or C [deg] (the linear
@@ -10,6 +10,10 @@ On a full-circle (modulo 360) rotary axis a control may report the angle wrapped
 ``WRAPPED_ROTARY``, a Fanuc roll-over axis, a SINUMERIK modulo axis: 0..360) or counting on
 (362 after a turn past 360): the frame follows the reported angle continuously
 (:meth:`Frame.follow`) and compares it with a target modulo 360 (:meth:`Frame.delta`).
+
+An R-test dwells at poses of all the axes its program commands: X, Y, Z [mm] and the
+chain's rotary axes [deg] (:func:`mixed_frame`): each axis is compared in its own unit,
+within the window of its unit, a full-circle axis modulo 360.
 """
 
 from __future__ import annotations
@@ -22,7 +26,7 @@ from numpy.typing import NDArray
 
 from volcal.errors import VolcalInputError
 
-__all__ = ["LINEAR", "Frame", "rotary_frame"]
+__all__ = ["LINEAR", "Frame", "mixed_frame", "rotary_frame"]
 
 
 @dataclass(frozen=True)
@@ -37,11 +41,40 @@ class Frame:
         ``'mm'`` (linear axes) or ``'deg'`` (a rotary axis).
     period : float or None
         360 for a full-circle rotary axis [deg]: angles compared modulo it; None otherwise.
+    units : tuple of str
+        A mixed frame's unit of each axis (``'mm'`` or ``'deg'``; ``unit`` is then
+        ``'mm+deg'``); empty: every axis in ``unit``.
+    modulo : tuple of bool
+        A mixed frame's full-circle axes (compared modulo 360 [deg]); empty: ``period``.
     """
 
     axes: tuple[str, ...]
     unit: str = "mm"
     period: float | None = None
+    units: tuple[str, ...] = ()
+    modulo: tuple[bool, ...] = ()
+
+    @property
+    def mixed(self) -> bool:
+        """The frame holds linear axes [mm] and rotary axes [deg] (an R-test's pose)."""
+        return bool(self.units)
+
+    def per_axis(self, mm: float, deg: float) -> NDArray[np.float64]:
+        """A value per axis, by its unit (a window, a noise floor).
+
+        Parameters
+        ----------
+        mm : float
+            For a linear axis [mm].
+        deg : float
+            For a rotary axis [deg].
+
+        Returns
+        -------
+        ndarray, shape (len(axes),)
+        """
+        units = self.units or (self.unit,) * len(self.axes)
+        return np.array([deg if u == "deg" else mm for u in units], float)
 
     @property
     def rotary(self) -> bool:
@@ -70,7 +103,9 @@ class Frame:
             return np.array([float(positions[a]) for a in self.axes])
         except KeyError as e:
             what = (f"; a rotary test of axis {e.args[0]} needs a control that reports it"
-                    if self.rotary else "")
+                    if self.rotary else
+                    f"; the R-test's program commands {', '.join(self.axes)}: it needs a "
+                    "control that reports them all" if self.mixed else "")
             raise VolcalInputError(f"the control sample has no axis {e.args[0]!r} (axes: "
                                    f"{', '.join(positions) or 'none'}){what}") from None
 
@@ -90,6 +125,9 @@ class Frame:
         if self.period is not None:
             h = 0.5 * self.period
             d = (d + h) % self.period - h
+        elif any(self.modulo):
+            m = np.array(self.modulo, bool)
+            d = np.where(m, (d + 180.0) % 360.0 - 180.0, d)
         return np.asarray(d, float)
 
     def follow(self, p: NDArray[np.float64], previous: NDArray[np.float64] | None
@@ -109,7 +147,7 @@ class Frame:
             ``p`` on a frame without a period; else ``previous + delta(p, previous)``, so
             that a wrapped angle (359.9 then 0.1) turns on (360.1).
         """
-        if self.period is None or previous is None:
+        if (self.period is None and not any(self.modulo)) or previous is None:
             return p
         return previous + self.delta(p, previous)
 
@@ -121,6 +159,9 @@ class Frame:
         p : ndarray
             Coordinates [mm or deg].
         """
+        if self.mixed:
+            return " ".join(f"{a}={v:.4f} {u}" for a, v, u
+                            in zip(self.axes, p, self.units, strict=True))
         return " ".join(f"{a}={v:.4f}" for a, v in zip(self.axes, p, strict=True)) \
             + f" {self.unit}"
 
@@ -144,3 +185,22 @@ def rotary_frame(axis: str, modulo: bool) -> Frame:
     Frame
     """
     return Frame((axis.upper(),), "deg", 360.0 if modulo else None)
+
+
+def mixed_frame(rotary: tuple[str, ...], full_circle: tuple[bool, ...]) -> Frame:
+    """The frame of an R-test's poses: X, Y, Z [mm] and its rotary axes [deg].
+
+    Parameters
+    ----------
+    rotary : tuple of str
+        The rotary axes' letters, in the chain's order (``('C', 'A')``).
+    full_circle : tuple of bool
+        Per rotary axis: a full circle (compared modulo 360).
+
+    Returns
+    -------
+    Frame
+    """
+    letters = tuple(a.upper() for a in rotary)
+    return Frame(("X", "Y", "Z", *letters), "mm+deg", None,
+                 ("mm",) * 3 + ("deg",) * len(letters), (False,) * 3 + tuple(full_circle))

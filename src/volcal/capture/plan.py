@@ -11,6 +11,14 @@ planned in that axis' frame (:func:`volcal.capture.frame.rotary_frame`): the com
 angle [deg] and the sign of the turn that reaches it. The linear axes stand where the
 program's safe start left them (Z up in machine coordinates, X and Y not moved): their pose
 is carried (``pose_mm``, the plan's fixed pose) but not compared.
+
+An R-test's program (:func:`volcal.program.r_test.rtest_program_path`: the blocks
+:func:`volcal.program.r_test.rtest_program` writes) turns the rotary axes with the linear
+axes following and dwells at each pose: its dwells are planned in a mixed frame
+(:func:`volcal.capture.frame.mixed_frame`): X, Y, Z [mm] and the rotary axes [deg] as
+the program commands them (the control's angles), without an approach direction (the
+nest reads the sphere from wherever the path comes). Its start pose is the first pose,
+where the program's ``M0`` zeroes the sensors.
 """
 
 from __future__ import annotations
@@ -24,7 +32,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from volcal.capture.frame import LINEAR, Frame, rotary_frame
+from volcal.capture.frame import LINEAR, Frame, mixed_frame, rotary_frame
 from volcal.errors import VolcalInputError
 from volcal.program.rotary import RotaryMoves, rotary_moves
 from volcal.program.steps import ProgramOptions, Step, build_steps
@@ -100,6 +108,9 @@ class PlannedMeasurement:
         axis' angle).
     rotary : RotaryMoves or None
         A rotary test's turns and dwells (its program's); ``steps`` is then empty.
+    path : tuple or None
+        An R-test's program blocks (:func:`volcal.program.r_test.rtest_program_path`);
+        ``steps`` is then empty.
     """
 
     measurement: Any
@@ -109,10 +120,13 @@ class PlannedMeasurement:
     options: ProgramOptions
     frame: Frame = LINEAR
     rotary: RotaryMoves | None = None
+    path: tuple[tuple[str, NDArray[np.float64], int | None], ...] | None = None
 
     @property
     def start(self) -> NDArray[np.float64] | None:
         """The start pose: where the program stands at its operator stop [mm or deg]."""
+        if self.path is not None:
+            return next((p.copy() for k, p, _ in self.path if k == "stop"), None)
         if self.rotary is not None:
             turns = sum(v for k, v, _ in self.rotary.items[:self.rotary.stop] if k == "turn")
             return np.array([self.rotary.start_deg + turns])
@@ -220,6 +234,8 @@ def plan_measurement(m: Any, travel: NDArray[np.float64], options: ProgramOption
     """
     if "target_deg" in m.columns and m.meta.get("axis") in ("a", "b", "c"):
         return _plan_rotary(m, options, programs)
+    if m.kind == "r_test":
+        return _plan_rtest(m, options, programs)
     sl = build_steps(m, travel, options)
     dwells: list[PlannedDwell] = []
     waypoints: list[tuple[float, float, float]] = []
@@ -286,3 +302,35 @@ def _plan_rotary(m: Any, options: ProgramOptions, programs: str | Path | None
     start = pm.start
     points = ([] if start is None else [float(start[0])]) + waypoints
     return replace(pm, waypoints=np.asarray(points, float).reshape(-1, 1))
+
+
+def _plan_rtest(m: Any, options: ProgramOptions, programs: str | Path | None
+                ) -> PlannedMeasurement:
+    """The dwells of an R-test: the poses of every axis its program commands."""
+    from volcal.program.r_test import rtest_program_path
+    from volcal.session.r_test import rtest_keys
+
+    k = rtest_keys(m)
+    letters = tuple(k["chain"].rotary)
+    frame = mixed_frame(letters, tuple(a.upper() == "C" for a in letters))
+    path = tuple(rtest_program_path(m, options))
+    pose = np.asarray(m.positions, float)
+    dwells = [PlannedDwell(int(i), p.copy(), None, float(options.dwell_s),
+                           pose_mm=pose[int(i)].copy())
+              for kind, p, i in path if kind == "dwell" and i is not None]
+    lines = dwell_lines(programs, m.id)
+    if len(lines) == len(dwells):
+        dwells = [replace(d, lines=lines[j]) for j, d in enumerate(dwells)]
+    # the approach point above the sphere, the points between poses, the retract: no
+    # reading there (an axis a block does not command stands where the block before left it)
+    stops: list[NDArray[np.float64]] = []
+    here = np.full(len(frame.axes), np.nan)
+    for kind, p, _ in path:
+        here = np.where(np.isnan(p), here, p)
+        if kind == "move" and not np.isnan(here).any():
+            stops.append(here.copy())
+    below = {tuple(d.target) for d in dwells}
+    waypoints = [p for p in stops if tuple(p) not in below]
+    return PlannedMeasurement(m, (), tuple(dwells),
+                              np.asarray(waypoints, float).reshape(-1, len(frame.axes)),
+                              options, frame, None, path)

@@ -99,6 +99,9 @@ class LaserSample:
         The laser's own timestamp [s], where it gives one (journal only).
     extra : mapping
         Further fields a parser found (air temperature...), journal only.
+    channels : tuple of float
+        A reading of several channels (an R-test nest's three sensors, in ``unit``): every
+        channel's value, ``value`` the first; empty for a laser of one channel.
     """
 
     time_s: float
@@ -107,6 +110,12 @@ class LaserSample:
     status: str = STATUS_OK
     device_time_s: float | None = None
     extra: Mapping[str, Any] = field(default_factory=dict)
+    channels: tuple[float, ...] = ()
+
+    @property
+    def values(self) -> tuple[float, ...]:
+        """Every channel's value (one for a laser) [``unit``]."""
+        return self.channels or (self.value,)
 
     def to_json(self) -> dict[str, Any]:
         """The sample as a JSON object (journal line)."""
@@ -117,6 +126,8 @@ class LaserSample:
             d["device_t"] = self.device_time_s
         if self.extra:
             d["extra"] = dict(self.extra)
+        if self.channels:
+            d["ch"] = list(self.channels)
         return d
 
 

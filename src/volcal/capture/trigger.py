@@ -170,6 +170,9 @@ class Accepted:
         or the rotary axis' angle [deg] (:class:`volcal.capture.frame.Frame`).
     window_s : tuple of float
         Start and end of the window [s].
+    values : tuple of float
+        A reading of several channels (an R-test's three sensors): each channel's mean
+        [``unit``], ``value`` the first; empty for one channel.
     """
 
     reading: int
@@ -180,12 +183,16 @@ class Accepted:
     n: int
     position_mm: tuple[float, ...]
     window_s: tuple[float, float]
+    values: tuple[float, ...] = ()
 
     def to_json(self) -> dict[str, Any]:
         """As a journal object."""
-        return {"reading": self.reading, "t": self.time_s, "value": self.value,
-                "unit": self.unit, "sigma": self.sigma, "n": self.n,
-                "pos": list(self.position_mm), "window": list(self.window_s)}
+        d = {"reading": self.reading, "t": self.time_s, "value": self.value,
+             "unit": self.unit, "sigma": self.sigma, "n": self.n,
+             "pos": list(self.position_mm), "window": list(self.window_s)}
+        if self.values:
+            d["values"] = list(self.values)
+        return d
 
 
 @dataclass(frozen=True)
@@ -303,7 +310,7 @@ class _Signal:
         self.diffs: deque[NDArray[np.float64]] = deque(maxlen=512)
         self.dim = dim
         self._added = 0
-        self._pooled: tuple[int, float, NDArray[np.float64]] | None = None
+        self._pooled: tuple[int, tuple[float, ...], NDArray[np.float64]] | None = None
 
     def add(self, t: float, v: NDArray[np.float64], max_gap: float, pool: bool) -> bool:
         """Append; True when a gap longer than ``max_gap`` preceded the sample."""
@@ -325,13 +332,14 @@ class _Signal:
              else np.zeros((0, self.dim)))
         return t[sel], v[sel]
 
-    def sigma(self, floor: float, local: NDArray[np.float64]) -> NDArray[np.float64]:
+    def sigma(self, floor: float | NDArray[np.float64], local: NDArray[np.float64]
+              ) -> NDArray[np.float64]:
         """Per-component noise: pooled differences at rest, else the window's own.
 
         Parameters
         ----------
-        floor : float
-            The smallest value [signal's unit].
+        floor : float or ndarray, shape (dim,)
+            The smallest value [signal's unit], or one per component (a mixed frame).
         local : ndarray, shape (n, dim)
             The window's samples.
 
@@ -339,16 +347,18 @@ class _Signal:
         -------
         ndarray, shape (dim,)
         """
+        fl = np.broadcast_to(np.asarray(floor, float), (self.dim,))
+        key = tuple(float(v) for v in fl)
         if len(self.diffs) >= 16:  # the pooled estimate, renewed every 16 differences
             c = self._pooled
-            if c is None or c[1] != floor or self._added - c[0] >= 16:
+            if c is None or c[1] != key or self._added - c[0] >= 16:
                 pooled = np.array(self.diffs, float).reshape(-1, self.dim)
-                c = (self._added, floor,
-                     np.array([noise_sigma(pooled[:, j], floor) for j in range(self.dim)]))
+                c = (self._added, key,
+                     np.array([noise_sigma(pooled[:, j], fl[j]) for j in range(self.dim)]))
                 self._pooled = c
             return c[2]
         d = np.diff(local, axis=0)
-        return np.array([noise_sigma(d[:, j], floor) for j in range(self.dim)])
+        return np.array([noise_sigma(d[:, j], fl[j]) for j in range(self.dim)])
 
 
 class TriggerRule:
@@ -372,24 +382,33 @@ class TriggerRule:
         standing there means the program was started again: the rule follows it from
         the first reading.
     frame : Frame
-        The coordinates compared (:data:`volcal.capture.frame.LINEAR`, or a rotary axis'
-        angle): ``dwells``' targets and approaches, ``waypoints`` and ``start`` are in
-        them.
+        The coordinates compared (:data:`volcal.capture.frame.LINEAR`, a rotary axis'
+        angle, or an R-test's pose of every axis, each within the window of its unit):
+        ``dwells``' targets and approaches, ``waypoints`` and ``start`` are in them.
+    channels : int
+        Values of each laser sample (3: an R-test nest's sensors, each tested stable).
     """
 
     def __init__(self, dwells: Sequence[PlannedDwell], params: TriggerParams | None = None,
                  waypoints: NDArray[np.float64] | None = None, unit: str = "um",
                  done: Collection[int] = (), label: str = "",
-                 start: NDArray[np.float64] | None = None, frame: Frame = LINEAR) -> None:
+                 start: NDArray[np.float64] | None = None, frame: Frame = LINEAR,
+                 channels: int = 1) -> None:
         self.start = None if start is None else np.asarray(start, float)
         self.p = params or TriggerParams()
         self.p.check(min((d.seconds for d in dwells), default=None))
         self.frame = frame
         n = len(frame.axes)
+        self._window: float | NDArray[np.float64]
+        self._cnoise: float | NDArray[np.float64]
         self._window, self._cnoise, self._approach = (
             (self.p.window_deg, self.p.control_noise_deg, self.p.approach_deg)
             if frame.rotary else (self.p.window_mm, self.p.control_noise_mm,
                                   self.p.approach_mm))
+        if frame.mixed:
+            self._window = frame.per_axis(self.p.window_mm, self.p.window_deg)
+            self._cnoise = frame.per_axis(self.p.control_noise_mm, self.p.control_noise_deg)
+        self.channels = int(channels)
         self.dwells = list(dwells)
         self.waypoints = (np.zeros((0, n)) if waypoints is None
                           else np.asarray(waypoints, float).reshape(-1, n))
@@ -400,7 +419,7 @@ class TriggerRule:
         self._may_replay = bool(self.done) and self.cursor > 0
         horizon = 2.0 * self.p.stable_s + self.p.max_gap_s
         self._ctrl = _Signal(horizon, n)
-        self._laser = _Signal(horizon, 1)
+        self._laser = _Signal(horizon, self.channels)
         self._path: deque[NDArray[np.float64]] = deque(maxlen=4096)
         self._first_pos: NDArray[np.float64] | None = None
         self._pos: NDArray[np.float64] | None = None
@@ -469,8 +488,7 @@ class TriggerRule:
         self._moving, self._running = s.in_motion, s.program_running
         self._line = s.line
         if not self.armed and (s.program_running is True or s.in_motion is True
-                               or float(np.max(np.abs(p - self._first_pos)))
-                               > self._window):
+                               or bool(np.any(np.abs(p - self._first_pos) > self._window))):
             self.armed = True
         if not self._path or float(np.linalg.norm(p - self._path[-1])) \
                 >= self._approach / 20.0:
@@ -492,22 +510,29 @@ class TriggerRule:
         list of TriggerEvent
             The events it decided (usually none).
         """
-        if s.status != "ok" or self.complete or not math.isfinite(s.value):
+        if s.status != "ok" or self.complete or not all(map(math.isfinite, s.values)):
             return []
-        v, base = to_base_unit(float(s.value), s.unit)
-        if base != self.unit:
+        if len(s.values) != self.channels:
+            raise VolcalInputError(
+                f"the laser sends {len(s.values)} value(s) per reading; "
+                f"{self.label or 'the'} measurement needs {self.channels}"
+                + (" (an R-test: the nest's three sensors, e.g. a stream line 'dx,dy,dz' "
+                   "with channels=3)" if self.channels == 3 else ""))
+        conv = [to_base_unit(float(x), s.unit) for x in s.values]
+        if any(base != self.unit for _, base in conv):
             raise VolcalInputError(f"the laser sends {s.unit!r} readings; {self.label or 'the '}"
                                    f"{' ' if self.label else ''}measurement needs "
                                    f"{'a length' if self.unit == 'um' else 'an angle'}")
         t = float(s.time_s)
         self.last_time = max(self.last_time, t)
-        self._laser.add(t, np.array([v]), self.p.max_gap_s, pool=self._dwell is not None)
+        self._laser.add(t, np.array([v for v, _ in conv]), self.p.max_gap_s,
+                        pool=self._dwell is not None)
         return self._evaluate(t)
 
     # ---------------------------------------------------------------- the rule
     def _near(self, target: NDArray[np.float64]) -> bool:
         assert self._pos is not None
-        return float(np.max(np.abs(self.frame.delta(self._pos, target)))) <= self._window
+        return bool(np.all(np.abs(self.frame.delta(self._pos, target)) <= self._window))
 
     def _ctrl_stable(self, t0: float, t1: float) -> tuple[bool, NDArray[np.float64]]:
         tt, v = self._ctrl.window(t0, t1)
@@ -595,7 +620,8 @@ class TriggerRule:
                 f"{self._dir(d.approach)}; the control reached it moving "
                 f"{self._vec(seen)}. The program on the control is not the planned one "
                 "(approach and overrun moves differ): write it with volcal program")
-        if any(self._near(w) for w in self.waypoints):
+        if self.waypoints.size and bool(np.any(np.all(
+                np.abs(self.frame.delta(self._pos, self.waypoints)) <= self._window, axis=1))):
             self._passed = True  # a stop at a start, approach or overrun point
             return []
         if self._may_replay:  # resumed: wait for the program to reach the first missing
@@ -671,20 +697,24 @@ class TriggerRule:
         if not ok:
             return []
         lt, lv = self._laser.window(t0, t)
-        sig = float(self._laser.sigma(self.p.laser_noise, lv)[0]) if lv.size else math.inf
-        if lv.size == 0 or not is_stable(lt, lv[:, 0], sig, t0, t, self.p):
+        sig = (self._laser.sigma(self.p.laser_noise, lv) if lv.size
+               else np.full(self.channels, math.inf))
+        if lv.size == 0 or not all(is_stable(lt, lv[:, j], float(sig[j]), t0, t, self.p)
+                                   for j in range(self.channels)):
             return []
         self._decided = True
-        return [self._record(d, Accepted(d.reading, t, float(lv[:, 0].mean()), self.unit, sig,
-                                         int(lt.size), tuple(float(v) for v in pos),
-                                         (t0, t)))]
+        mean = lv.mean(axis=0)
+        return [self._record(d, Accepted(
+            d.reading, t, float(mean[0]), self.unit, float(sig.max()), int(lt.size),
+            tuple(float(v) for v in pos), (t0, t),
+            tuple(float(v) for v in mean) if self.channels > 1 else ()))]
 
     def _missed(self, d: PlannedDwell, t: float) -> TriggerEvent:
         lt, lv = self._laser.window(t - self.p.stable_s, t)
         if lv.size == 0:
             why = "no laser reading during the dwell"
         else:
-            sig = float(self._laser.sigma(self.p.laser_noise, lv)[0])
+            sig = float(self._laser.sigma(self.p.laser_noise, lv).max())
             why = (f"the readings never stood still for {self.p.stable_s:g} s (last "
                    f"{self.p.stable_s:g} s: spread {float(np.ptp(lv)):.3g} {self.unit} against a "
                    f"noise of {sig:.3g} {self.unit})")

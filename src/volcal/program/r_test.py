@@ -47,6 +47,7 @@ from volcal.errors import VolcalInputError
 from volcal.program.dialects import _paren_comment
 
 __all__ = ["APPROACH_FEED_MM_MIN", "CLEARANCE_MM", "MAX_STEP_DEG", "rtest_path_points",
+           "rtest_program_path",
            "rtest_program", "rtest_program_positions"]
 
 CLEARANCE_MM = 30.0
@@ -282,3 +283,81 @@ def rtest_program_positions(m: Any) -> list[tuple[str, np.ndarray]]:
             out.append((f"between pose {a + 1} and {(a + 1) % m.n + 1}", q[n]))
     return out
 
+
+
+def rtest_program_path(m: Any, options: Any) -> list[tuple[str, np.ndarray, int | None]]:
+    """The LinuxCNC path of :func:`rtest_program`, block by block, in the control's axes.
+
+    The capture's plan and its simulated control follow it (they never parse the
+    G-code): the same poses, the same intermediate points of the following moves
+    (:func:`rtest_path_points`), the same approach and retract as the program writes.
+
+    Parameters
+    ----------
+    m : Measurement
+        The planned test.
+    options : volcal.program.steps.ProgramOptions
+        ``safe_z_mm`` and ``dwell_s``.
+
+    Returns
+    -------
+    list of (str, ndarray, int or None)
+        ``('move', p, None)``: a move to ``p`` = X, Y, Z [mm] then the rotary axes in the
+        chain's order [deg, the control's angles: ``control_angle_sign`` times volcal's];
+        NaN for an axis the block does not command (the first, ``G53 G0 Z``: Z only);
+        ``('stop', p, None)``: the operator stop ``M0`` (the sensors zeroed at pose 1);
+        ``('dwell', p, i)``: the ``G4`` dwell at pose ``i`` (0-based CSV row).
+    """
+    from volcal.measure.spheres import probe_centres
+    from volcal.model.fiveaxis import exact_pose5
+    from volcal.session.r_test import rtest_angles, rtest_keys
+    from volcal.session.r_test import rtest_machine as _machine
+
+    k = rtest_keys(m)
+    nominal = _machine(m)
+    ang = rtest_angles(m)
+    letters = list(ang)
+    sign = float(k["control_angle_sign"])
+    s = np.asarray(k["sphere_mm"], dtype=float)
+    t = np.asarray(m.tool_offset, dtype=float)
+    pos = np.asarray(m.positions, dtype=float)
+    tcp = k["control_kinematics"] == "tcp"
+    clear = m.meta.get("approach_mm", CLEARANCE_MM)
+    clear = float(clear) if isinstance(clear, int | float) and not isinstance(clear, bool) \
+        else CLEARANCE_MM
+    nan = np.full(3, np.nan)
+    first = {a: ang[a][:1] for a in letters}
+    _, R0 = exact_pose5(nominal, pos[:1], first, t)
+    axis0 = R0[0][:, 2]
+    above = s + clear * axis0 if tcp else probe_centres(nominal, first, s + clear * axis0, t)[0]
+
+    def at(q: np.ndarray, src: dict[str, np.ndarray], i: int) -> np.ndarray:
+        return np.concatenate([q, [sign * float(src[a][i]) for a in letters]])
+
+    def linear(q: np.ndarray) -> np.ndarray:
+        return np.concatenate([q, np.full(len(letters), np.nan)])
+
+    z = np.array([np.nan, np.nan, float(options.safe_z_mm)])
+    out: list[tuple[str, np.ndarray, int | None]] = [
+        ("move", linear(z), None), ("move", at(nan, ang, 0), None),
+        ("move", linear(np.array([above[0], above[1], np.nan])), None),
+        ("move", linear(np.array([np.nan, np.nan, above[2]])), None),
+        ("move", linear(s if tcp else pos[0]), None)]
+    out += [("stop", at(s if tcp else pos[0], ang, 0), None),
+            ("dwell", at(s if tcp else pos[0], ang, 0), 0)]
+    for src, stops, back in ((ang, True, False),
+                             ({a: np.array([ang[a][-1], ang[a][0]]) for a in letters}, False,
+                              True)):
+        pts, is_pose = rtest_path_points(src)
+        mid = np.flatnonzero(is_pose < 0)
+        q_mid = (probe_centres(nominal, {a: pts[a][mid] for a in letters}, s, t)
+                 if mid.size and not tcp else np.zeros((mid.size, 3)))
+        qi = {int(j): (s if tcp else q_mid[n]) for n, j in enumerate(mid)}
+        for j in range(1, is_pose.size):
+            p = int(is_pose[j])
+            q = qi[j] if p < 0 else (s if tcp else pos[0] if back else pos[p])
+            out.append(("move", at(q, pts, j), None))
+            if p >= 0 and stops:
+                out.append(("dwell", at(q, pts, j), p))
+    out += [("move", linear(above), None), ("move", linear(z), None)]
+    return out

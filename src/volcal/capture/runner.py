@@ -152,7 +152,7 @@ def capture_measurement(pm: PlannedMeasurement, folder: Path, control: ControlSo
     emit = observer or (lambda e: None)
     notes: list[str] = []
     rule = TriggerRule(pm.dwells, params, pm.waypoints, reading.unit, rec.done, m.id, pm.start,
-                       pm.frame)
+                       pm.frame, reading.channels)
     t_start = clock.now()
     journal.write("start", {
         "measurement": m.id, "control": sources[0], "laser": sources[1],
@@ -191,6 +191,8 @@ def capture_measurement(pm: PlannedMeasurement, folder: Path, control: ControlSo
             data = ev.to_json()
             if isinstance(ev, Accepted):
                 data = {**data, "raw": ev.value, "value": reading.values(rec)[ev.reading]}
+                if ev.values:
+                    data["values"] = list(reading.rows(rec)[ev.reading])
             emit(CaptureEvent(typ, m.id, t, data))
         elif isinstance(ev, Replayed):
             replayed += 1

@@ -16,7 +16,10 @@ interferometer on the rotary calibrator: the axis' angular positioning error, ac
 commanded angle [urad]) counts from the first row as its kind's file does (the
 calibrator is zeroed there; :attr:`volcal.session.kinds.Kind.from_first_row`):
 ``R_i - R_ref``. A direct optic's reading (straightness [um], angle [urad]) is written as
-the optic gave it.
+the optic gave it. An R-test's reading is the nest's three sensors [um], written into its
+three reading columns (``dx_um, dy_um, dz_um``, or ``s1_um, s2_um, s3_um`` when the planned
+file has them) as the sensors give them: they are zeroed at the program's operator stop
+at the first pose (docs/fiveaxis.md), so they count from there already.
 
 A cell holding a reading that the journal does not hold (measured or typed by someone
 else) is never overwritten: the capture refuses, naming the file, row and column.
@@ -52,6 +55,11 @@ class Reading:
     def __init__(self, m: Any) -> None:
         k = kind_of(m.kind)
         self.column = str(k.value_column)
+        self.columns: tuple[str, ...] = (self.column,)
+        if m.kind == "r_test":  # the nest's three sensors
+            cols = (("s1_um", "s2_um", "s3_um") if "s1_um" in m.columns
+                    else ("dx_um", "dy_um", "dz_um"))
+            self.column, self.columns = cols[0], cols
         if k.captured_by:  # the capture step passes these over (Kind.captured_by)
             raise VolcalInputError(f"measurement {m.id!r} ({m.kind}) is not captured by "
                                    f"volcal capture: {k.captured_by}")
@@ -61,6 +69,29 @@ class Reading:
         self.positions = np.asarray(m.positions, float)
         b = np.asarray(m.beam_direction, float)
         self.beam = b / np.linalg.norm(b)
+
+    @property
+    def channels(self) -> int:
+        """Values of each reading (3 for an R-test's sensors)."""
+        return len(self.columns)
+
+    def rows(self, rec: Recorded) -> dict[int, tuple[float, ...]]:
+        """Each accepted reading's value in every reading column [um or urad].
+
+        Parameters
+        ----------
+        rec : Recorded
+            The journal's records.
+
+        Returns
+        -------
+        dict of int to tuple of float
+            Reading (0-based data row) -> one value per column of :attr:`columns`.
+        """
+        if self.channels == 1:
+            return {i: (v,) for i, v in self.values(rec).items()}
+        return {i: tuple(float(x) for x in r.get("values", [r["value"]]))
+                for i, r in rec.accepted.items()}
 
     def values(self, rec: Recorded) -> dict[int, float]:
         """Value of each accepted reading in the file's column [um or urad].
@@ -135,8 +166,9 @@ def render_csv(path: Path, m: Any, rec: Recorded, time_offsets: dict[int, float]
     if not rows:
         raise VolcalInputError("empty measurement file", path)
     head = rows[0]
-    if r.column not in head:
-        raise VolcalInputError(f"no column {r.column!r}", path, 1)
+    for c in r.columns:
+        if c not in head:
+            raise VolcalInputError(f"no column {c!r}", path, 1)
     body = [row for row in rows[1:] if any(c.strip() for c in row)]
     if len(body) != m.n_planned:
         raise VolcalInputError(f"{len(body)} rows, the plan has {m.n_planned}: the file "
@@ -144,26 +176,29 @@ def render_csv(path: Path, m: Any, rec: Recorded, time_offsets: dict[int, float]
     if "time_s" not in head:
         head = [*head, "time_s"]
         body = [[*row, ""] for row in body]
-    col, tcol = head.index(r.column), head.index("time_s")
-    values = r.values(rec)
+    cols, tcol = [head.index(c) for c in r.columns], head.index("time_s")
+    values = r.rows(rec)
     n = 0
     for i, row in enumerate(body):
         row += [""] * (len(head) - len(row))
+        t = f"{time_offsets.get(i, 0.0):.3f}"
         if i in values:
-            new, t = f"{values[i]:.6f}", f"{time_offsets.get(i, 0.0):.3f}"
+            new = [f"{v:.6f}" for v in values[i]]
         elif i in rec.missed:
-            new, t = MISSED, f"{time_offsets.get(i, 0.0):.3f}"
+            new = [MISSED] * len(cols)
         else:
-            new, t = "", row[tcol]
-        old = row[col].strip()
-        if old and old != new:
-            raise VolcalInputError(
-                f"holds the reading {old!r}, which the capture journal does not hold"
-                f"{'' if not new else f' (it holds {new})'}: a measured reading is never "
-                "overwritten; capture into a new session (-o) or move the file aside",
-                path, i + 2, r.column)
-        row[col], row[tcol] = new, t
-        n += bool(new)
+            new, t = [""] * len(cols), row[tcol]
+        for col, name, cell in zip(cols, r.columns, new, strict=True):
+            old = row[col].strip()
+            if old and old != cell:
+                raise VolcalInputError(
+                    f"holds the reading {old!r}, which the capture journal does not hold"
+                    f"{'' if not cell else f' (it holds {cell})'}: a measured reading is "
+                    "never overwritten; capture into a new session (-o) or move the file "
+                    "aside", path, i + 2, name)
+            row[col] = cell
+        row[tcol] = t
+        n += bool(new[0])
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(head)

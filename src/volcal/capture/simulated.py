@@ -72,6 +72,7 @@ from volcal.capture.timeline import (
     move_time,
     program_timeline,
     rotary_timeline,
+    rtest_timeline,
 )
 from volcal.errors import VolcalInputError
 
@@ -129,6 +130,7 @@ class SimulatedControl:
         self._here: dict[str, float] = {}   # every axis' position where the program left it
         self._axes: tuple[str, ...] = ("X", "Y", "Z")
         self._period: float | None = None
+        self._limited: set[str] = set()
 
     def open(self) -> None:
         """Nothing to connect."""
@@ -146,11 +148,15 @@ class SimulatedControl:
                 self._here = {"X": float(tr[0].mean()), "Y": float(tr[1].mean()),
                               "Z": float(pm.options.safe_z_mm)}
         frame = pm.frame
-        self._axes = ("X", "Y", "Z", *frame.axes) if frame.rotary else ("X", "Y", "Z")
+        self._axes = (frame.axes if frame.mixed else ("X", "Y", "Z", *frame.axes)
+                      if frame.rotary else ("X", "Y", "Z"))
         self._period = frame.period
+        self._limited = {a for a, m in zip(frame.axes, frame.modulo, strict=True)
+                         if not m and a not in "XYZ"}  # an R-test's tilting axis: not wrapped
         angle0 = float(self.home[3]) if self.home is not None and self.home.size == 4 else 0.0
         here = np.array([self._here.get(a, angle0) for a in self._axes])
-        self._segs = (rotary_timeline(pm, here, self.accel, self.stop_s) if frame.rotary
+        self._segs = (rtest_timeline(pm, here, self.accel, self.stop_s) if frame.mixed
+                      else rotary_timeline(pm, here, self.accel, self.stop_s) if frame.rotary
                       else program_timeline(pm, here, self.accel, self.stop_s))
         self._mid, self._t0 = mid, self.ctx.clock.now()
 
@@ -176,7 +182,8 @@ class SimulatedControl:
     def _v(self, s: Segment) -> float:
         d = float(np.linalg.norm(s.p1 - s.p0))
         # the feed that gives this segment's duration (every move of a program shares it)
-        for v in (self.ctx.measurements[0].options.feed / 60.0,):
+        feed = self.ctx.measurements[0].options.feed
+        for v in (feed / 60.0, min(feed, 1000.0) / 60.0):  # (an R-test's following feed)
             if abs(move_time(d, v, self.accel) - (s.t1 - s.t0)) < 1e-9:
                 return v
         return d / max(s.t1 - s.t0, 1e-12)
@@ -201,7 +208,7 @@ class SimulatedControl:
         pos = dict(self._here)  # a rotary axis turned before keeps being reported
         pos.update(zip(self._axes, map(float, p), strict=True))
         if self.wrap:
-            for a in pos.keys() - {"X", "Y", "Z"}:
+            for a in pos.keys() - {"X", "Y", "Z"} - self._limited:
                 pos[a] = pos[a] % 360.0
         if not self.flags:
             return ControlSample(t, pos, status="ended" if ended else "ok")
@@ -229,6 +236,7 @@ class SimulatedLaser:
         self._vm: Any = None
         self._tables: dict[str, tuple[NDArray[np.float64], NDArray[np.float64], bool, str]] = {}
         self._rotary: dict[str, Any] | None = None
+        self._rtest: dict[str, Any] | None = None
         self._mid: str | None = None
         self._t0 = 0.0
         self._next = 0.0
@@ -339,6 +347,50 @@ class SimulatedLaser:
         self._turn = last
         return self.rotary_truth(mid).reading(a, last[1]), "urad", np.array([a])
 
+    def rtest_truth(self, mid: str) -> Any:
+        """The sphere an R-test's nest reads (:class:`~.virtual_rtest.RTestTruth`).
+
+        Parameters
+        ----------
+        mid : str
+            An R-test's id.
+
+        Returns
+        -------
+        RTestTruth
+            The set-up ``volcal simulate --seed`` draws for it (seed = this laser's).
+        """
+        if self._rtest is None:
+            from volcal.capture.virtual_rtest import rtest_truths
+
+            self._rtest = rtest_truths(self.ctx.session, self._vm, self.seed)
+        return self._rtest[mid]
+
+    def _nest(self, mid: str, c: ControlSample
+              ) -> tuple[NDArray[np.float64], str, NDArray[np.float64]] | None:
+        """The nest's three readings [um] at the control's actual pose.
+
+        None while the control reports no angle of the test's rotary axes (its sample of
+        the program before; a control without them: the trigger rule says so).
+        """
+        from volcal.session.r_test import rtest_keys
+
+        pm = next(q for q in self.ctx.measurements if q.id == mid)
+        if any(a not in c.positions for a in pm.frame.axes):
+            return None
+        truth = self.rtest_truth(mid)
+        k = rtest_keys(pm.measurement)
+        sign = float(k["control_angle_sign"])
+        p = np.array([c.positions[a] for a in pm.frame.axes], float)
+        ang = {a: sign * float(v) for a, v in zip(pm.frame.axes[3:], p[3:], strict=True)}
+        q = p[:3]
+        if k["control_kinematics"] == "tcp":  # X Y Z are the table's: the joints follow
+            targets = np.array([d.target[3:] for d in pm.dwells])
+            i = int(np.argmin(np.abs(pm.frame.delta(p, np.array([d.target for d in pm.dwells]))
+                                     [:, 3:]).max(axis=1))) if targets.size else 0
+            q = pm.dwells[i].pose_mm + (q - pm.dwells[i].target[:3])
+        return truth.reading(q, ang), "um", p
+
     def poll(self) -> LaserSample | None:
         """The reading now, at ``rate`` readings per second."""
         mid = self.ctx.current()
@@ -352,8 +404,10 @@ class SimulatedLaser:
             return None
         self._last_t = t
         self._next = max(self._next + 1.0 / self.rate, t)
-        rotary = next(q for q in self.ctx.measurements if q.id == mid).frame.rotary
-        got = self._angular(mid, c) if rotary else self._linear(mid, c)
+        frame = next(q for q in self.ctx.measurements if q.id == mid).frame
+        if frame.mixed:
+            return self._nest_sample(mid, c, t)
+        got = self._angular(mid, c) if frame.rotary else self._linear(mid, c)
         if got is None:
             return None
         value, unit, p = got
@@ -372,6 +426,22 @@ class SimulatedLaser:
             table = ANGULAR_UNITS if unit == "urad" else LINEAR_UNITS  # length for an angle:
             return LaserSample(t, value / table.get(self.unit, 1.0), self.unit)  # refused)
         return LaserSample(t, value, unit)
+
+
+    def _nest_sample(self, mid: str, c: ControlSample, t: float) -> LaserSample | None:
+        """An R-test's sample: three channels, each with its own noise."""
+        got = self._nest(mid, c)
+        if got is None:
+            return None
+        v = got[0].copy()
+        if self.noise > 0:
+            v += np.array(_gauss(self.seed, mid, round((t - self._t0) * 1e6), 2, self.noise, 3))
+        unit = self.unit or "um"
+        if unit not in LINEAR_UNITS:
+            raise VolcalInputError(f"the simulated laser: unit={unit!r} for an R-test, whose "
+                                   "sensors read lengths (um, mm...)")
+        vals = tuple(float(x) / LINEAR_UNITS[unit] for x in v)
+        return LaserSample(t, vals[0], unit, channels=vals)
 
 
 register_control("sim", SimulatedControl, "simulated control: the planned program, timed",

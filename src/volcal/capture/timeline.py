@@ -210,3 +210,50 @@ def rotary_timeline(pm: PlannedMeasurement, here: NDArray[np.float64], accel: fl
         elif kind == "dwell":
             rest(float(value), "dwell")
     return segs
+
+
+def rtest_timeline(pm: PlannedMeasurement, here: NDArray[np.float64], accel: float,
+                   stop_s: float) -> list[Segment]:
+    """The segments of an R-test's program, starting from ``here``.
+
+    The blocks of :func:`volcal.program.r_test.rtest_program_path`: Z up to the safe
+    height, the rotary axes to the first pose, X Y then Z above the sphere, the nest
+    lowered onto it, the operator stop (the sensors zeroed), then the following moves
+    through every intermediate point with a dwell at each pose, and back. A move runs at
+    the program's feed along the path of all the axes (mm and deg alike, a rehearsal's
+    timing).
+
+    Parameters
+    ----------
+    pm : PlannedMeasurement
+        An R-test's (``pm.path`` set).
+    here : ndarray, shape (3 + r,)
+        X, Y, Z [mm] and the rotary axes [deg] when the program starts.
+    accel : float
+        Acceleration [mm/s^2, deg/s^2].
+    stop_s : float
+        Length of the operator stop [s].
+
+    Returns
+    -------
+    list of Segment
+    """
+    if pm.path is None:
+        raise ValueError(f"{pm.id} is not an R-test")
+    segs: list[Segment] = []
+    t = 0.0
+    p = np.asarray(here, float).copy()
+    v = min(pm.options.feed, 1000.0) / 60.0
+    for kind, q, _ in pm.path:
+        q = np.where(np.isnan(q), p, q)
+        if kind == "move":
+            d = float(np.linalg.norm(q - p))
+            if d > 1e-12:
+                dt = move_time(d, v, accel)
+                segs.append(Segment(t, t + dt, p.copy(), q.copy(), "move"))
+                t, p = t + dt, q.copy()
+        else:
+            dt = stop_s if kind == "stop" else float(pm.options.dwell_s)
+            segs.append(Segment(t, t + dt, p.copy(), p.copy(), kind))
+            t += dt
+    return segs

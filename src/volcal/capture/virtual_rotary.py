@@ -24,7 +24,7 @@ from typing import Any
 
 from volcal import defaults as D
 
-__all__ = ["RotaryTruth", "rotary_truths"]
+__all__ = ["RotaryTruth", "rotary_truths", "simulated_setups"]
 
 
 @dataclass(frozen=True)
@@ -93,17 +93,8 @@ def rotary_truths(session: Any, machine: Any, seed: int) -> dict[str, RotaryTrut
         By measurement id.
     """
     from volcal.measure.rotary import RotarySetup
-    from volcal.measure.simulate import SimulationOptions, simulate_session
 
-    last = max((i for i, m in enumerate(session.measurements) if _is_rotary(m)), default=-1)
-    if last < 0:
-        return {}
-    s = copy.deepcopy(session)
-    s.measurements = s.measurements[:last + 1]  # the draws before the last rotary test
-    opts = SimulationOptions(noise_um=D.SIM_NOISE_UM,
-                             mirror_misalignment_urad=D.SIM_MIRROR_URAD,
-                             drift_um_per_h=D.SIM_DRIFT_UM_PER_H, seed=int(seed))
-    setups = simulate_session(s, machine, opts)
+    s, setups = simulated_setups(session, machine, seed, _is_rotary)
     out: dict[str, RotaryTruth] = {}
     for m in s.measurements:
         st = setups.get(m.id)
@@ -111,3 +102,41 @@ def rotary_truths(session: Any, machine: Any, seed: int) -> dict[str, RotaryTrut
             d0 = str(m.columns["direction"][0]) if "direction" in m.columns else "+"
             out[m.id] = RotaryTruth(st, _error(st, float(m.columns["target_deg"][0]), d0))
     return out
+
+
+def simulated_setups(session: Any, machine: Any, seed: int, pick: Any
+                     ) -> tuple[Any, dict[str, Any]]:
+    """``volcal simulate --seed``'s hidden set-ups, up to the last measurement picked.
+
+    Parameters
+    ----------
+    session : Session
+        The planned session (not changed: a copy is simulated).
+    machine : MachineErrors
+        The virtual machine.
+    seed : int
+        ``volcal simulate --seed``.
+    pick : callable
+        True for a measurement whose set-up is wanted: the simulation runs the session's
+        measurements up to the last one picked (the random draws before it), with
+        ``volcal simulate``'s default options.
+
+    Returns
+    -------
+    session : Session
+        The simulated copy (its measurements up to the last picked).
+    setups : dict of str to object
+        :func:`volcal.measure.simulate.simulate_session`'s set-ups by measurement id
+        (empty when none is picked).
+    """
+    from volcal.measure.simulate import SimulationOptions, simulate_session
+
+    last = max((i for i, m in enumerate(session.measurements) if pick(m)), default=-1)
+    s = copy.deepcopy(session)
+    s.measurements = s.measurements[:last + 1]  # the draws before the last one picked
+    if last < 0:
+        return s, {}
+    opts = SimulationOptions(noise_um=D.SIM_NOISE_UM,
+                             mirror_misalignment_urad=D.SIM_MIRROR_URAD,
+                             drift_um_per_h=D.SIM_DRIFT_UM_PER_H, seed=int(seed))
+    return s, simulate_session(s, machine, opts)

@@ -157,9 +157,7 @@ class RTestKind(OutsideDesignKind):
     description: ClassVar[str] = ("R-test: a sphere's 3-D displacement in a nest of sensors "
                                   "along rotary paths, location errors of the rotary axes "
                                   "(docs/fiveaxis.md)")
-    captured_by: ClassVar[str] = ("its readings are the nest's three sensors at each dwell of "
-                                  "its program, written into its CSV (docs/fiveaxis.md, "
-                                  "\"With an R-test\")")
+    captured_by: ClassVar[str] = ""
     evaluated_by: ClassVar[str] = "the rotary axes' location errors, volcal locate"
 
     # -- session -----------------------------------------------------------------------

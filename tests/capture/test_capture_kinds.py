@@ -3,8 +3,9 @@
 Session 20: a rotary test captured on the simulated control recorded 1 of its 8 readings
 (the control reports X, Y, Z only, every dwell at the same position) and asked to "run the
 same command again"; a probe_sphere or r_test test ended in a traceback of the simulated
-laser. Session 21: rotary tests are captured (tests/capture/test_capture_rotary.py); the
-kinds still passed over are the tracker's, probe_sphere and r_test.
+laser. Session 21: rotary tests are captured (tests/capture/test_capture_rotary.py), then
+R-tests (tests/capture/test_capture_rtest.py); the kinds still passed over are the
+tracker's and probe_sphere.
 """
 
 from __future__ import annotations
@@ -37,7 +38,8 @@ def test_a_kind_not_captured_is_passed_over_with_how_its_readings_come(mixed, tm
         ["linear-x1", "linear-x2", "linear-x3"]
     assert [n for n in r.notes if n.startswith("probe_sphere (probe_sphere) is not")] == [
         "probe_sphere (probe_sphere) is not captured by volcal capture, which takes one "
-        "reading per dwell at a position of the linear axes or an angle of a rotary axis: "
+        "reading per dwell at a position of the linear axes, an angle of a rotary axis or a "
+        "pose of an R-test: "
         "its readings are its probe program's log (volcal import LOG --session S "
         "--measurement ID; docs/fiveaxis.md); passed over"]
     assert (tmp_path / "C" / "probe_sphere.csv").read_text() == before  # nothing made up
@@ -52,10 +54,12 @@ def test_naming_it_is_refused_before_anything_is_written(mixed, tmp_path):
     assert not (tmp_path / "C").exists()
 
 
-@pytest.mark.parametrize("tests", ["probe_sphere:ca", "r_test:ca"])
-def test_nothing_to_capture(tests, tmp_path):
+def test_nothing_to_capture(tmp_path):
+    """(An r_test alone was "nothing to capture" until session 21: R-tests are captured now,
+    tests/capture/test_capture_rtest.py.)"""
     s = tmp_path / "S"
-    plan(((0.0, 800.0), (0.0, 600.0), (0.0, 500.0)), steps=2, tests=tests, output=s)
+    plan(((0.0, 800.0), (0.0, 600.0), (0.0, 500.0)), steps=2, tests="probe_sphere:ca",
+         output=s)
     with pytest.raises(VolcalInputError, match="nothing to capture: .* is not captured"):
         capture(s, control="sim", laser="sim", output=tmp_path / "C", **FAST)
     assert not (tmp_path / "C").exists()

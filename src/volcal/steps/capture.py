@@ -42,7 +42,8 @@ def _capturable(s: Session, chosen: list[str], named: bool, passed_over: list[st
             keep.append(mid)
             continue
         said = (f"{mid} ({m.kind}) is not captured by volcal capture, which takes one reading "
-                f"per dwell at a position of the linear axes or an angle of a rotary axis: "
+                f"per dwell at a position of the linear axes, an angle of a rotary axis or a "
+                f"pose of an R-test: "
                 f"{how}")
         if named:
             raise ParameterError(f"{{measurement=}}{said}", folder / "session.toml")

@@ -49,6 +49,7 @@ default 50), ``creep`` (drift of the reading during each dwell [um/s or urad/s],
 
 from __future__ import annotations
 
+import bisect
 import math
 import random
 import zlib
@@ -125,6 +126,7 @@ class SimulatedControl:
                                        "x/y/z [mm] or x/y/z/angle [mm, deg]")
         self._mid: str | None = None
         self._segs: list[Segment] = []
+        self._ends: list[float] = []
         self._t0 = 0.0
         self._last_t: float | None = None
         self._here: dict[str, float] = {}   # every axis' position where the program left it
@@ -158,11 +160,13 @@ class SimulatedControl:
         self._segs = (rtest_timeline(pm, here, self.accel, self.stop_s) if frame.mixed
                       else rotary_timeline(pm, here, self.accel, self.stop_s) if frame.rotary
                       else program_timeline(pm, here, self.accel, self.stop_s))
+        self._ends = [s.t1 for s in self._segs]
         self._mid, self._t0 = mid, self.ctx.clock.now()
 
     def _at(self, tr: float) -> tuple[NDArray[np.float64], bool, bool, bool]:
         """Position, moving, running, ended at ``tr`` seconds into the program."""
-        for k, s in enumerate(self._segs):
+        for k in range(bisect.bisect_right(self._ends, tr), len(self._segs)):
+            s = self._segs[k]
             if tr < s.t1:
                 if s.kind == "move":
                     d = float(np.linalg.norm(s.p1 - s.p0))
@@ -237,6 +241,8 @@ class SimulatedLaser:
         self._tables: dict[str, tuple[NDArray[np.float64], NDArray[np.float64], bool, str]] = {}
         self._rotary: dict[str, Any] | None = None
         self._rtest: dict[str, Any] | None = None
+        self._nest_cache: dict[str, tuple[NDArray[np.float64], NDArray[np.float64],
+                                          NDArray[np.float64]]] = {}
         self._mid: str | None = None
         self._t0 = 0.0
         self._next = 0.0
@@ -370,26 +376,55 @@ class SimulatedLaser:
               ) -> tuple[NDArray[np.float64], str, NDArray[np.float64]] | None:
         """The nest's three readings [um] at the control's actual pose.
 
-        None while the control reports no angle of the test's rotary axes (its sample of
-        the program before; a control without them: the trigger rule says so).
+        The first-order expansion of the exact readings
+        (:meth:`~.virtual_rtest.RTestTruth.reading`) about the nearest planned pose, in
+        every axis: exact to the servo noise's second order where a reading is taken (the
+        axes at rest at a pose), a continuous value while they move. None while the
+        control reports no angle of the test's rotary axes (its sample of the program
+        before; a control without them: the trigger rule says so).
         """
-        from volcal.session.r_test import rtest_keys
-
         pm = next(q for q in self.ctx.measurements if q.id == mid)
         if any(a not in c.positions for a in pm.frame.axes):
             return None
-        truth = self.rtest_truth(mid)
-        k = rtest_keys(pm.measurement)
-        sign = float(k["control_angle_sign"])
         p = np.array([c.positions[a] for a in pm.frame.axes], float)
-        ang = {a: sign * float(v) for a, v in zip(pm.frame.axes[3:], p[3:], strict=True)}
-        q = p[:3]
-        if k["control_kinematics"] == "tcp":  # X Y Z are the table's: the joints follow
-            targets = np.array([d.target[3:] for d in pm.dwells])
-            i = int(np.argmin(np.abs(pm.frame.delta(p, np.array([d.target for d in pm.dwells]))
-                                     [:, 3:]).max(axis=1))) if targets.size else 0
-            q = pm.dwells[i].pose_mm + (q - pm.dwells[i].target[:3])
-        return truth.reading(q, ang), "um", p
+        targets, values, jac = self._nest_table(mid)
+        i = int(np.argmin(np.abs(pm.frame.delta(p, targets)
+                                 / pm.frame.per_axis(1.0, 0.1)).max(axis=1)))
+        return values[i] + jac[i] @ pm.frame.delta(p, targets[i]), "um", p
+
+    def _nest_table(self, mid: str
+                    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """Per planned pose: its target, reading [um] and derivatives [um/mm, um/deg].
+
+        The target in the control's axes; the derivatives of the reading by each axis by
+        central differences.
+        """
+        if mid not in self._nest_cache:
+            from volcal.session.r_test import rtest_keys
+
+            pm = next(q for q in self.ctx.measurements if q.id == mid)
+            truth = self.rtest_truth(mid)
+            k = rtest_keys(pm.measurement)
+            sign, tcp = float(k["control_angle_sign"]), k["control_kinematics"] == "tcp"
+            letters = pm.frame.axes[3:]
+
+            def read(d: Any, p: NDArray[np.float64]) -> NDArray[np.float64]:
+                # tcp: X Y Z are the table's coordinates, the joints follow the pose's
+                q = d.pose_mm + (p[:3] - d.target[:3]) if tcp else p[:3]
+                return np.asarray(truth.reading(q, {a: sign * float(v) for a, v
+                                                    in zip(letters, p[3:], strict=True)}))
+
+            targets = np.array([d.target for d in pm.dwells], float)
+            values = np.array([read(d, d.target) for d in pm.dwells])
+            h = pm.frame.per_axis(1e-3, 1e-3)
+            jac = np.zeros((len(pm.dwells), 3, targets.shape[1]))
+            for i, d in enumerate(pm.dwells):
+                for j in range(targets.shape[1]):
+                    e = np.zeros(targets.shape[1])
+                    e[j] = h[j]
+                    jac[i, :, j] = (read(d, d.target + e) - read(d, d.target - e)) / (2 * h[j])
+            self._nest_cache[mid] = (targets, values, jac)
+        return self._nest_cache[mid]
 
     def poll(self) -> LaserSample | None:
         """The reading now, at ``rate`` readings per second."""

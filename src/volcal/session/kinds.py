@@ -184,8 +184,9 @@ class Kind:
     captured_by : str
         Empty when ``volcal capture`` takes its readings (one value per dwell of its part
         program at a position of the linear axes, or at an angle of a rotary axis: a
-        ``rotary`` test; three values per pose of an ``r_test``); else how its readings reach the session instead, as ``volcal
-        capture`` says when it passes such a measurement over.
+        ``rotary`` test; three values per pose of an ``r_test``); else how its readings
+        reach the session instead, as ``volcal capture`` says when it passes such a
+        measurement over.
     from_first_row : bool
         Its readings count from the first row (the instrument zeroed there: a rotary
         calibrator) though they are no displacement along a beam: ``volcal capture``

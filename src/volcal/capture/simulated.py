@@ -153,8 +153,9 @@ class SimulatedControl:
         self._axes = (frame.axes if frame.mixed else ("X", "Y", "Z", *frame.axes)
                       if frame.rotary else ("X", "Y", "Z"))
         self._period = frame.period
-        self._limited = {a for a, m in zip(frame.axes, frame.modulo, strict=True)
-                         if not m and a not in "XYZ"}  # an R-test's tilting axis: not wrapped
+        self._limited = ({a for a, m in zip(frame.axes, frame.modulo, strict=True)
+                          if not m and a not in "XYZ"} if frame.mixed
+                         else set())  # an R-test's tilting axis: not wrapped
         angle0 = float(self.home[3]) if self.home is not None and self.home.size == 4 else 0.0
         here = np.array([self._here.get(a, angle0) for a in self._axes])
         self._segs = (rtest_timeline(pm, here, self.accel, self.stop_s) if frame.mixed

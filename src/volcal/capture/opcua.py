@@ -198,13 +198,15 @@ def check_axes(axes: list[AxisNode], measurements: list[PlannedMeasurement],
     listed = ", ".join(f"{a.name} ({a.kind})" for a in axes) or "none"
     for pm in measurements:
         frame = pm.frame
-        want = "rotary [deg]" if frame.rotary else "linear [mm]"
-        verb = "turns" if frame.rotary else "moves"
-        for name in frame.axes:
+        units = frame.units or (frame.unit,) * len(frame.axes)  # an R-test: mm and deg
+        for name, unit in zip(frame.axes, units, strict=True):
+            rotary = unit == "deg"
+            want = "rotary [deg]" if rotary else "linear [mm]"
+            verb = "turns" if rotary else "moves"
             got = found.get(name)
             if got is None:
                 why = "the server reports no such CncAxisType object"
-            elif got.rotary != frame.rotary:
+            elif got.rotary != rotary:
                 why = (f"the server's axis {name} is {got.kind} (IsRotational, "
                        f"EngineeringUnits {got.unit or 'none'})")
             else:

@@ -294,3 +294,22 @@ def test_the_plan_follows_the_programs_blocks(rt_planned):
     assert len(pm.dwells) == N == len(poses)
     assert np.allclose([d.target for d in pm.dwells], poses, atol=1e-3)
     assert np.allclose(pm.start, poses[0]) and pm.frame.axes == ("X", "Y", "Z", "C", "A")
+
+
+def test_a_stream_line_of_three_values_is_one_reading_of_three_channels():
+    """``--laser stream:ADDRESS;channels=3``: the nest's ``dx,dy,dz`` on one line (the
+    first three numbers, or three CSV columns from ``column``), in the line's unit; a line
+    with fewer is no reading (counted unparsed)."""
+    from volcal.capture.stream import LineParser
+
+    p = LineParser({"channels": "3", "unit": "um"}, "stream:-;channels=3")
+    s = p.parse("1.5 um, -2.25, 3e-1", 7.0)
+    assert s is not None and s.channels == (1.5, -2.25, 0.3) and s.unit == "um"
+    assert s.to_json()["ch"] == [1.5, -2.25, 0.3]
+    p = LineParser({"channels": "3", "format": "csv", "column": "2", "unit": "mm",
+                    "scale": "-1"}, "stream:-")
+    s = p.parse("12.0,0.001,0.002,-0.003", 0.0)
+    assert s is not None and s.values == (-0.001, -0.002, 0.003) and s.unit == "mm"
+    assert p.parse("12.0,0.001", 0.0) is None and p.unparsed == 1
+    with pytest.raises(VolcalInputError, match="channels='0': expected a count >= 1"):
+        LineParser({"channels": "0"}, "stream:-")

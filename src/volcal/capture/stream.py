@@ -24,6 +24,11 @@ key             default         meaning
                                 counts the other way)
 ``bad``         -               a regular expression: a matching line is a reading the
                                 laser marks as bad (``BEAM|ERR``), never used
+``channels``    1               values per reading: 3 for an R-test's nest
+                                (``dx,dy,dz`` or the three sensors): ``csv``: the
+                                columns ``column`` and the next ones; ``regex``: the
+                                first ``channels`` matches of ``pattern`` in the line
+                                (the default pattern: its first numbers)
 ``baud``        9600            serial port speed
 ==============  ==============  ==========================================================
 
@@ -66,7 +71,7 @@ DEFAULT_PATTERN = (r"(?P<value>[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*"
 """The first number of the line, and the unit written after it if any."""
 
 PARSER_KEYS = ("format", "pattern", "sep", "column", "unit_column", "time_column", "unit",
-               "scale", "bad")
+               "scale", "bad", "channels")
 
 
 class LineParser:
@@ -104,6 +109,7 @@ class LineParser:
         self.column = self._col(opts, "column", 1)
         self.unit_column = self._col(opts, "unit_column", None)
         self.time_column = self._col(opts, "time_column", None)
+        self.channels = self._col(opts, "channels", 1) or 1
         self.unparsed = 0
 
     def _regex(self, text: str, key: str) -> re.Pattern[str]:
@@ -122,7 +128,7 @@ class LineParser:
             c = 0
         if c < 1:
             raise VolcalInputError(f"source {self.where!r}: {key}={opts[key]!r}: expected a "
-                                   "column number >= 1")
+                                   f"{'count' if key == 'channels' else 'column number'} >= 1")
         return c
 
     def parse(self, line: str, time_s: float) -> LaserSample | None:
@@ -144,16 +150,39 @@ class LineParser:
             return None
         if self.bad is not None and self.bad.search(text):
             return LaserSample(time_s, float("nan"), self.unit, status="bad")
+        if self.channels > 1:
+            return self._several(text, time_s)
         value, unit, dev_t = (self._csv(text) if self.format == "csv" else self._re(text))
         if value is None:
             self.unparsed += 1
             return None
         return LaserSample(time_s, value * self.scale, unit or self.unit, device_time_s=dev_t)
 
+    def _several(self, text: str, time_s: float) -> LaserSample | None:
+        """A reading of ``channels`` values (an R-test's nest), or None (counted unparsed)."""
+        got: list[tuple[float | None, str | None, float | None]] = []
+        if self.format == "csv":
+            for k in range(self.channels):
+                c = self.column + k if self.column is not None else None
+                got.append(self._csv(text, c))
+        else:
+            for m in list(self.pattern.finditer(text))[:self.channels]:
+                got.append(self._match(m))
+        if len(got) < self.channels or any(v is None for v, _, _ in got):
+            self.unparsed += 1
+            return None
+        vals = tuple(float(v) * self.scale for v, _, _ in got if v is not None)
+        unit = next((u for _, u, _ in got if u), None) or self.unit
+        return LaserSample(time_s, vals[0], unit, device_time_s=got[0][2], channels=vals)
+
     def _re(self, text: str) -> tuple[float | None, str | None, float | None]:
         m = self.pattern.search(text)
         if m is None:
             return None, None, None
+        return self._match(m)
+
+    @staticmethod
+    def _match(m: re.Match[str]) -> tuple[float | None, str | None, float | None]:
         g = m.groupdict()
         try:
             v = float(g["value"].replace(",", ".")) if g.get("value") else None
@@ -162,14 +191,15 @@ class LineParser:
             return None, None, None
         return v, g.get("unit") or None, t
 
-    def _csv(self, text: str) -> tuple[float | None, str | None, float | None]:
+    def _csv(self, text: str, column: int | None = None
+             ) -> tuple[float | None, str | None, float | None]:
         cells = [c.strip() for c in text.split(self.sep)]
 
         def cell(k: int | None) -> str | None:
             return cells[k - 1] if k is not None and k <= len(cells) else None
 
         try:
-            v = float(cell(self.column) or "x")
+            v = float(cell(column or self.column) or "x")
         except ValueError:
             return None, None, None
         t = cell(self.time_column)

@@ -8,7 +8,10 @@ velocity profile (feed, acceleration ``accel``) and every dwell
 (:mod:`volcal.capture.timeline`). A rotary test's program turns its rotary axis (Z up,
 the turn to the first target, the overrun, the operator stop, the incremental turns and
 dwells of :func:`volcal.program.rotary.rotary_moves`): the control then reports the
-axis' angle by its letter (``C`` [deg]) beside X, Y, Z, and keeps reporting it. Keys:
+axis' angle by its letter (``C`` [deg]) beside X, Y, Z, and keeps reporting it. An
+R-test's program (:func:`volcal.program.r_test.rtest_program_path`) moves all its axes,
+the linear ones following the rotary ones, with a dwell at each pose
+(:func:`volcal.capture.timeline.rtest_timeline`). Keys:
 
 ============  =======  ==========================================================
 key           default  meaning
@@ -38,7 +41,9 @@ target plus the machine's exact reading error at the nearest planned target
 error alone. A rotary test's calibrator reads the virtual rotary axis' angular
 positioning error at the control's actual angle, approached in the direction of its last
 turn, counted from the first target (:mod:`volcal.capture.virtual_rotary`: the axis
-``volcal simulate --seed`` draws). Keys: ``seed`` (the random machine's and the noise's,
+``volcal simulate --seed`` draws). An R-test's nest sends three channels: the sphere's
+displacement ``volcal simulate --seed`` would read at the control's actual pose, zeroed
+at the first pose (:mod:`volcal.capture.virtual_rtest`), each with its own noise. Keys: ``seed`` (the random machine's and the noise's,
 default 0), ``noise`` (standard deviation [um or urad], default 0.05), ``machine`` (an
 error table ``ERRORS.csv`` instead of the random machine), ``rate`` (readings per second,
 default 50), ``creep`` (drift of the reading during each dwell [um/s or urad/s], default

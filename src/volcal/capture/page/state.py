@@ -347,6 +347,8 @@ class LiveState:
                     off = here - np.array(d["target"], float)
                     if m.get("axes_unit") == "deg":  # a rotary axis: [deg], modulo 360
                         off = (off + 180.0) % 360.0 - 180.0
+                    elif m.get("axes_unit") == "mm+deg":  # an R-test: X Y Z, the angles
+                        off[3:] = (off[3:] + 180.0) % 360.0 - 180.0
                     dist = float(np.max(np.abs(off)))
                     out["distance_mm"] = _num(dist, 4)
                     if out["state"] == "at rest" and dist <= self.window_mm:

@@ -44,11 +44,12 @@ turn, counted from the first target (:mod:`volcal.capture.virtual_rotary`: the a
 ``volcal simulate --seed`` draws). An R-test's nest sends three channels: the sphere's
 displacement ``volcal simulate --seed`` would read at the control's actual pose, zeroed
 at the first pose (:mod:`volcal.capture.virtual_rtest`), each with its own noise.
-Keys: ``seed`` (the random machine's and the noise's, default 0), ``noise`` (standard deviation [um or urad], default 0.05), ``machine`` (an
-error table ``ERRORS.csv`` instead of the random machine), ``rate`` (readings per second,
-default 50), ``creep`` (drift of the reading during each dwell [um/s or urad/s], default
-0), ``unit`` (the unit of the values sent: ``um``, ``mm``, ``nm``... for a length,
-``urad``, ``arcsec``, ``mrad``... for an angle; default ``um`` or ``urad``,
+Keys: ``seed`` (the random machine's and the noise's, default 0), ``noise`` (standard
+deviation [um or urad], default 0.05), ``machine`` (an error table ``ERRORS.csv`` instead
+of the random machine), ``rate`` (readings per second, default 50), ``creep`` (drift of
+the reading during each dwell [um/s or urad/s], default 0; not an R-test's), ``unit``
+(the unit of the values sent: ``um``, ``mm``, ``nm``... for a length, ``urad``,
+``arcsec``, ``mrad``... for an angle; default ``um`` or ``urad``,
 :data:`volcal.capture.samples.ANGULAR_UNITS`).
 """
 

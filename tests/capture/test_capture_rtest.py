@@ -313,3 +313,25 @@ def test_a_stream_line_of_three_values_is_one_reading_of_three_channels():
     assert p.parse("12.0,0.001", 0.0) is None and p.unparsed == 1
     with pytest.raises(VolcalInputError, match="channels='0': expected a count >= 1"):
         LineParser({"channels": "0"}, "stream:-")
+
+
+def test_a_nest_sending_its_sensors_readings_is_written_as_the_displacement(rt_planned,
+                                                                            captured, tmp_path):
+    """With ``sensor_directions`` the nest's three values are the sensors' readings ``N d``:
+    written into ``dx_um, dy_um, dz_um`` as ``N^-1 s``, the readings of a nest sending the
+    displacement within the capture's noise."""
+    s = tmp_path / "S"
+    shutil.copytree(rt_planned, s)
+    toml = (s / "session.toml").read_text()
+    (s / "session.toml").write_text(toml.replace(
+        "noise_um = 0.5\n", "noise_um = 0.5\nsensor_directions = [[0.8, 0.0, -0.6], "
+        "[-0.4, 0.69282032, -0.6], [-0.4, -0.69282032, -0.6]]\n", 1))
+    r = capture(s, control="sim", laser=f"sim:seed={SEED}", output=tmp_path / "C", **FAST)
+    assert r.complete and r.outcomes[0].accepted == N
+    lines = journal_path(tmp_path / "C", RT).read_text().splitlines()
+    first = next(json.loads(x) for x in lines if '"type":"accepted"' in x and
+                 '"reading":1,' in x)
+    n = np.array([[0.8, 0.0, -0.6], [-0.4, 0.69282032, -0.6], [-0.4, -0.69282032, -0.6]])
+    got = _readings(tmp_path / "C")
+    assert np.allclose(first["values"], n @ got[1], atol=1e-4)  # the sensors' own readings
+    assert np.max(np.abs(got - _readings(captured[0]))) < TOL_UM

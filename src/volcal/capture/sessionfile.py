@@ -19,7 +19,10 @@ calibrator is zeroed there; :attr:`volcal.session.kinds.Kind.from_first_row`):
 the optic gave it. An R-test's reading is the nest's three sensors [um], written into its
 three reading columns (``dx_um, dy_um, dz_um``, or ``s1_um, s2_um, s3_um`` when the planned
 file has them) as the sensors give them: they are zeroed at the program's operator stop
-at the first pose (docs/fiveaxis.md), so they count from there already.
+at the first pose (docs/fiveaxis.md), so they count from there already. With
+``sensor_directions`` the three values are the sensors' own readings ``s``: written into
+``dx_um...`` as the displacement ``N^-1 s`` (:func:`volcal.session.r_test.
+sensor_displacement`).
 
 A cell holding a reading that the journal does not hold (measured or typed by someone
 else) is never overwritten: the capture refuses, naming the file, row and column.
@@ -60,6 +63,11 @@ class Reading:
             cols = (("s1_um", "s2_um", "s3_um") if "s1_um" in m.columns
                     else ("dx_um", "dy_um", "dz_um"))
             self.column, self.columns = cols[0], cols
+        self.sensors = None  # the directions of a nest that sends its sensors' readings
+        if m.kind == "r_test":
+            from volcal.session.r_test import rtest_keys
+
+            self.sensors = rtest_keys(m)["sensor_directions"]
         if k.captured_by:  # the capture step passes these over (Kind.captured_by)
             raise VolcalInputError(f"measurement {m.id!r} ({m.kind}) is not captured by "
                                    f"volcal capture: {k.captured_by}")
@@ -166,9 +174,19 @@ def render_csv(path: Path, m: Any, rec: Recorded, time_offsets: dict[int, float]
     if not rows:
         raise VolcalInputError("empty measurement file", path)
     head = rows[0]
-    for c in r.columns:
+    names = r.columns
+    sensors = ("s1_um", "s2_um", "s3_um")
+    if r.channels == 3 and names[0] not in head and all(c in head for c in sensors):
+        names = sensors  # a planned file of the sensors' own readings (sensor_directions)
+    for c in names:
         if c not in head:
             raise VolcalInputError(f"no column {c!r}", path, 1)
+    values = r.rows(rec)
+    if names[0] == "dx_um" and r.sensors is not None:  # the sensors' readings: d = N^-1 s
+        from volcal.session.r_test import sensor_displacement
+
+        values = {i: tuple(float(x) for x in sensor_displacement(np.array([v]), r.sensors)[0])
+                  for i, v in values.items()}
     body = [row for row in rows[1:] if any(c.strip() for c in row)]
     if len(body) != m.n_planned:
         raise VolcalInputError(f"{len(body)} rows, the plan has {m.n_planned}: the file "
@@ -176,8 +194,7 @@ def render_csv(path: Path, m: Any, rec: Recorded, time_offsets: dict[int, float]
     if "time_s" not in head:
         head = [*head, "time_s"]
         body = [[*row, ""] for row in body]
-    cols, tcol = [head.index(c) for c in r.columns], head.index("time_s")
-    values = r.rows(rec)
+    cols, tcol = [head.index(c) for c in names], head.index("time_s")
     n = 0
     for i, row in enumerate(body):
         row += [""] * (len(head) - len(row))
@@ -188,7 +205,7 @@ def render_csv(path: Path, m: Any, rec: Recorded, time_offsets: dict[int, float]
             new = [MISSED] * len(cols)
         else:
             new, t = [""] * len(cols), row[tcol]
-        for col, name, cell in zip(cols, r.columns, new, strict=True):
+        for col, name, cell in zip(cols, names, new, strict=True):
             old = row[col].strip()
             if old and old != cell:
                 raise VolcalInputError(

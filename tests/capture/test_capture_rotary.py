@@ -33,6 +33,7 @@ from volcal.steps.plan import plan
 from volcal_cli_helpers import run_volcal
 
 from .conftest import FAST, FAST_CLI
+from .fake_sources import NoRotary
 
 TRAVEL = ((0.0, 200.0), (0.0, 150.0), (0.0, 100.0))
 SEED = 3
@@ -268,32 +269,9 @@ def test_sigkill_in_the_middle_and_resume_give_the_same_file(rotary_planned, tmp
     assert (out / f"{ROT}.csv").read_text() == (ref / f"{ROT}.csv").read_text()
 
 
-class _NoRotary:
-    """The simulated control reporting the linear axes only (as an OPC UA server might)."""
-
-    def __init__(self, spec, ctx):
-        from volcal.capture.simulated import SimulatedControl
-
-        self.inner = SimulatedControl(spec, ctx)
-
-    def open(self):
-        self.inner.open()
-
-    def close(self):
-        self.inner.close()
-
-    def poll(self):
-        from dataclasses import replace
-
-        s = self.inner.poll()
-        if s is None:
-            return None
-        return replace(s, positions={a: v for a, v in s.positions.items() if a in "XYZ"})
-
-
 def test_a_control_without_the_rotary_axis_is_refused_clearly(rotary_planned, tmp_path,
                                                                monkeypatch, capsys):
-    register_control("xyz-only-test", _NoRotary, "the simulated control, X Y Z only",
+    register_control("xyz-only-test", NoRotary, "the simulated control, X Y Z only",
                      simulated=True)
     with pytest.raises(VolcalInputError, match=r"the control sample has no axis 'C' \(axes: "
                                                r"X, Y, Z\); a rotary test of axis C needs a "

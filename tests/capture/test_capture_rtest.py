@@ -29,6 +29,7 @@ from volcal.steps.plan import plan
 from volcal_cli_helpers import run_volcal
 
 from .conftest import FAST, FAST_CLI
+from .fake_sources import NoRotary
 
 TRAVEL = ((0.0, 800.0), (0.0, 600.0), (0.0, 500.0))
 SEED = 3
@@ -209,27 +210,6 @@ def test_a_missed_pose_and_a_resume_keep_every_reading(rt_planned, captured, tmp
     assert done == (captured[0] / f"{RT}.csv").read_text()
 
 
-class _NoRotary:
-    """The simulated control reporting the linear axes only."""
-
-    def __init__(self, spec, ctx):
-        from volcal.capture.simulated import SimulatedControl
-
-        self.inner = SimulatedControl(spec, ctx)
-
-    def open(self):
-        self.inner.open()
-
-    def close(self):
-        self.inner.close()
-
-    def poll(self):
-        s = self.inner.poll()
-        if s is None:
-            return None
-        return replace(s, positions={a: v for a, v in s.positions.items() if a in "XYZ"})
-
-
 class _OneChannel:
     """The simulated nest sending its first sensor only (a laser of one channel)."""
 
@@ -251,7 +231,7 @@ class _OneChannel:
 
 def test_a_control_without_the_rotary_axes_or_a_one_channel_laser_is_refused(
         rt_planned, tmp_path, monkeypatch, capsys):
-    register_control("xyz-only-rtest-test", _NoRotary, "the simulated control, X Y Z only",
+    register_control("xyz-only-rtest-test", NoRotary, "the simulated control, X Y Z only",
                      simulated=True)
     register_laser("one-channel-rtest-test", _OneChannel, "the simulated nest, one channel")
     with pytest.raises(VolcalInputError, match=r"the control sample has no axis 'C' \(axes: "

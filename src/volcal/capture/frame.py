@@ -37,27 +37,30 @@ class Frame:
     ----------
     axes : tuple of str
         Axis letters of :attr:`volcal.capture.samples.ControlSample.positions`, in order.
-    unit : str
-        ``'mm'`` (linear axes) or ``'deg'`` (a rotary axis).
-    period : float or None
-        360 for a full-circle rotary axis [deg]: angles compared modulo it; None otherwise.
     units : tuple of str
-        A mixed frame's unit of each axis (``'mm'`` or ``'deg'``; ``unit`` is then
-        ``'mm+deg'``); empty: every axis in ``unit``.
+        Each axis' unit: ``'mm'`` (a linear axis) or ``'deg'`` (a rotary axis).
     modulo : tuple of bool
-        A mixed frame's full-circle axes (compared modulo 360 [deg]); empty: ``period``.
+        Each axis: a full-circle rotary axis, compared modulo 360 [deg].
     """
 
     axes: tuple[str, ...]
-    unit: str = "mm"
-    period: float | None = None
-    units: tuple[str, ...] = ()
-    modulo: tuple[bool, ...] = ()
+    units: tuple[str, ...]
+    modulo: tuple[bool, ...]
+
+    @property
+    def unit(self) -> str:
+        """The frame's unit: ``'mm'``, ``'deg'``, or ``'mm+deg'`` for a mixed frame."""
+        return self.units[0] if len(set(self.units)) == 1 else "mm+deg"
 
     @property
     def mixed(self) -> bool:
         """The frame holds linear axes [mm] and rotary axes [deg] (an R-test's pose)."""
-        return bool(self.units)
+        return len(set(self.units)) > 1
+
+    @property
+    def period(self) -> float | None:
+        """360 for a rotary test's full-circle axis [deg]; None for any other frame."""
+        return 360.0 if self.rotary and all(self.modulo) else None
 
     def per_axis(self, mm: float, deg: float) -> NDArray[np.float64]:
         """A value per axis, by its unit (a window, a noise floor).
@@ -73,8 +76,7 @@ class Frame:
         -------
         ndarray, shape (len(axes),)
         """
-        units = self.units or (self.unit,) * len(self.axes)
-        return np.array([deg if u == "deg" else mm for u in units], float)
+        return np.array([deg if u == "deg" else mm for u in self.units], float)
 
     @property
     def rotary(self) -> bool:
@@ -122,12 +124,8 @@ class Frame:
         ndarray
         """
         d = np.asarray(a, float) - np.asarray(b, float)
-        if self.period is not None:
-            h = 0.5 * self.period
-            d = (d + h) % self.period - h
-        elif any(self.modulo):
-            m = np.array(self.modulo, bool)
-            d = np.where(m, (d + 180.0) % 360.0 - 180.0, d)
+        if any(self.modulo):
+            d = np.where(np.array(self.modulo, bool), (d + 180.0) % 360.0 - 180.0, d)
         return np.asarray(d, float)
 
     def follow(self, p: NDArray[np.float64], previous: NDArray[np.float64] | None
@@ -147,7 +145,7 @@ class Frame:
             ``p`` on a frame without a period; else ``previous + delta(p, previous)``, so
             that a wrapped angle (359.9 then 0.1) turns on (360.1).
         """
-        if (self.period is None and not any(self.modulo)) or previous is None:
+        if not any(self.modulo) or previous is None:
             return p
         return previous + self.delta(p, previous)
 
@@ -166,7 +164,7 @@ class Frame:
             + f" {self.unit}"
 
 
-LINEAR = Frame(("X", "Y", "Z"))
+LINEAR = Frame(("X", "Y", "Z"), ("mm",) * 3, (False,) * 3)
 """The linear axes [mm]: every kind but ``rotary``."""
 
 
@@ -184,7 +182,7 @@ def rotary_frame(axis: str, modulo: bool) -> Frame:
     -------
     Frame
     """
-    return Frame((axis.upper(),), "deg", 360.0 if modulo else None)
+    return Frame((axis.upper(),), ("deg",), (bool(modulo),))
 
 
 def mixed_frame(rotary: tuple[str, ...], full_circle: tuple[bool, ...]) -> Frame:
@@ -202,5 +200,5 @@ def mixed_frame(rotary: tuple[str, ...], full_circle: tuple[bool, ...]) -> Frame
     Frame
     """
     letters = tuple(a.upper() for a in rotary)
-    return Frame(("X", "Y", "Z", *letters), "mm+deg", None,
-                 ("mm",) * 3 + ("deg",) * len(letters), (False,) * 3 + tuple(full_circle))
+    return Frame(("X", "Y", "Z", *letters), ("mm",) * 3 + ("deg",) * len(letters),
+                 (False,) * 3 + tuple(bool(f) for f in full_circle))

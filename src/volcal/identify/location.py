@@ -442,10 +442,7 @@ def identify_location(nominal: FiveAxisMachine, blocks: Sequence[SphereReadings]
     # the linear model's covariance: whiten the weighted readings by K = chol(C_w)^-1
     K = None
     if linear is not None and linear.has_uncertainty:
-        from scipy.linalg import solve_triangular
-
-        Cw = np.eye(y.size) + linear.covariance(y.size) * np.outer(w, w)
-        K = solve_triangular(np.linalg.cholesky(Cw), np.eye(y.size), lower=True)  # K^-1
+        K = _whitener(linear.covariance(y.size), w)
 
     def step(xv: Array, nv: dict[str, float], with_errors: bool, white: bool = True):
         m = base.with_location(xv)
@@ -492,23 +489,36 @@ def identify_location(nominal: FiveAxisMachine, blocks: Sequence[SphereReadings]
     A0, r0 = step(x, nuis, True, white=False)
     u_noise = u_det = None
     if K is not None:
-        u0 = np.sqrt(np.diag(np.linalg.pinv(A0.T @ A0 + np.diag(L), hermitian=True)[:nf, :nf]))
-        u_noise = {n: float(u0[k]) for k, n in enumerate(fitted)}
+        u_noise = dict(zip(fitted, _u(A0, L, nf), strict=True))
         Cd = linear.covariance_determined(y.size)
         if Cd is not None:
-            from scipy.linalg import solve_triangular
-
-            Kd = solve_triangular(np.linalg.cholesky(np.eye(y.size) + Cd * np.outer(w, w)),
-                                  np.eye(y.size), lower=True)
-            Ad = Kd @ A0
-            ud = np.sqrt(np.diag(np.linalg.pinv(Ad.T @ Ad + np.diag(L), hermitian=True)[:nf, :nf]))
-            u_det = {n: float(ud[k]) for k, n in enumerate(fitted)}
+            u_det = dict(zip(fitted, _u(_whitener(Cd, w) @ A0, L, nf), strict=True))
     return LocationResult(
         names=fitted, estimate=est, u={n: float(u[k]) for k, n in enumerate(fitted)},
         covariance=cov, nuisances=nuis, identifiability=ident, machine=base.with_location(x),
         rms_before_um=rms_before, rms_after_um=float(np.sqrt(np.mean((r0 / w) ** 2))),
         chi2=float(r @ r), dof=int(r.size - A.shape[1]), iterations=iterations,
         linear=linear, u_without_linear=u_noise, u_without_undetermined=u_det)
+
+
+def _whitener(C: Array, w: Array) -> Array:
+    """The whitening ``K = chol(I + C w w^T)^-1`` of readings weighted by ``w``.
+
+    ``C`` is the readings' covariance from the linear model [um^2].
+    """
+    from scipy.linalg import solve_triangular
+
+    Cw = np.eye(w.size) + C * np.outer(w, w)
+    return solve_triangular(np.linalg.cholesky(Cw), np.eye(w.size), lower=True)
+
+
+def _u(A: Array, lam: Array, nf: int) -> list[float]:
+    """Standard uncertainty of the first ``nf`` parameters of the whitened system ``A``.
+
+    With the prior precisions ``lam``; a pseudo-inverse (nuisances one with another).
+    """
+    cov = np.linalg.pinv(A.T @ A + np.diag(lam), hermitian=True)[:nf, :nf]
+    return [float(v) for v in np.sqrt(np.diag(cov))]
 
 
 def identifiability_markdown(reports: dict[tuple[str, str], LocationIdentifiability]) -> str:

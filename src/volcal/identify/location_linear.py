@@ -103,7 +103,10 @@ class LinearPrior:
         """
         if not self.has_uncertainty:
             return np.zeros((n, n))
-        F = self.factor_rows
+        return self._from(self.factor_rows)
+
+    def _from(self, F: Array) -> Array:
+        """``F F^T`` plus the nugget's diagonal [um^2]."""
         return np.asarray(F @ F.T + np.diag(self.nugget_var))
 
     def covariance_determined(self, n: int) -> Array | None:
@@ -125,8 +128,7 @@ class LinearPrior:
         """
         if self.determined_rows is None:
             return None
-        F = self.determined_rows
-        return np.asarray(F @ F.T + np.diag(self.nugget_var))
+        return self._from(self.determined_rows)
 
     def to_json(self) -> dict[str, Any]:
         """The ``linear_model`` entry of ``volcal locate --json``."""

@@ -1,17 +1,25 @@
-"""Sources the capture tests register to play a control or a laser that lacks something."""
+"""What the capture tests share: sources that play a control or a laser lacking something,
+and the readings a journal holds as accepted."""
 
 from __future__ import annotations
 
+import json
 from dataclasses import replace
+from pathlib import Path
+from typing import Any
 
 
-class NoRotary:
-    """The simulated control reporting the linear axes only (as an OPC UA server might)."""
+class Wrapped:
+    """A simulated source (``wraps``: ``'control'`` or ``'laser'``) whose samples
+    :meth:`alter` may change or withhold; opened and closed as the simulated one."""
+
+    wraps = "laser"
 
     def __init__(self, spec, ctx):
-        from volcal.capture.simulated import SimulatedControl
+        from volcal.capture.simulated import SimulatedControl, SimulatedLaser
 
-        self.inner = SimulatedControl(spec, ctx)
+        self.inner = (SimulatedControl if self.wraps == "control" else SimulatedLaser)(spec, ctx)
+        self.ctx = ctx
 
     def open(self):
         self.inner.open()
@@ -21,6 +29,33 @@ class NoRotary:
 
     def poll(self):
         s = self.inner.poll()
-        if s is None:
-            return None
+        return None if s is None else self.alter(s)
+
+    def alter(self, s: Any) -> Any:
+        """The sample as this source gives it (None: withheld)."""
+        return s
+
+
+class NoRotary(Wrapped):
+    """The simulated control reporting the linear axes only (as an OPC UA server might)."""
+
+    wraps = "control"
+
+    def alter(self, s):
         return replace(s, positions={a: v for a, v in s.positions.items() if a in "XYZ"})
+
+
+def accepted(journal: Path) -> list[int]:
+    """The readings a capture journal records as accepted, in its order (a line being
+    written is skipped)."""
+    if not journal.is_file():
+        return []
+    out = []
+    for line in journal.read_bytes().splitlines():
+        try:
+            x = json.loads(line)
+        except json.JSONDecodeError:
+            continue  # the line being written
+        if x.get("type") == "accepted":
+            out.append(x["reading"])
+    return out

@@ -16,6 +16,7 @@ from volcal.steps.capture import capture
 from volcal_cli_helpers import run_volcal
 
 from .conftest import FAST, FAST_CLI
+from .fake_sources import Wrapped
 
 IDS = ["linear-x1", "diag-ppp"]
 
@@ -103,29 +104,16 @@ def test_a_reading_not_in_the_journal_is_never_overwritten(planned, tmp_path):
     assert f.read_text() == text
 
 
-class _Flaky:
+class _Flaky(Wrapped):
     """The simulated laser, disconnected after ``n`` readings (a cable pulled)."""
 
     n = 400
+    count = 0
 
-    def __init__(self, spec, ctx):
-        from volcal.capture.simulated import SimulatedLaser
-
-        self.inner = SimulatedLaser(spec, ctx)
-        self.count = 0
-
-    def open(self):
-        self.inner.open()
-
-    def close(self):
-        self.inner.close()
-
-    def poll(self) -> LaserSample | None:
-        s = self.inner.poll()
-        if s is not None:
-            self.count += 1
-            if self.count > self.n:
-                raise SourceError("laser: connection reset")
+    def alter(self, s: LaserSample) -> LaserSample:
+        self.count += 1
+        if self.count > self.n:
+            raise SourceError("laser: connection reset")
         return s
 
 

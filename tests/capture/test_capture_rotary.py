@@ -33,7 +33,7 @@ from volcal.steps.plan import plan
 from volcal_cli_helpers import run_volcal
 
 from .conftest import FAST, FAST_CLI
-from .fake_sources import NoRotary
+from .fake_sources import NoRotary, Wrapped, accepted
 
 TRAVEL = ((0.0, 200.0), (0.0, 150.0), (0.0, 100.0))
 SEED = 3
@@ -174,26 +174,13 @@ def test_a_positions_only_control_takes_no_reading_at_the_operator_stop(rotary_p
     assert np.max(np.abs(m.deviation - truth)) < TOL_URAD
 
 
-class _Blind:
+class _Blind(Wrapped):
     """The simulated laser, silent while the axis stands at the test's second target."""
 
-    def __init__(self, spec, ctx):
-        from volcal.capture.simulated import SimulatedLaser
-
-        self.inner = SimulatedLaser(spec, ctx)
-        self.ctx = ctx
-
-    def open(self):
-        self.inner.open()
-
-    def close(self):
-        self.inner.close()
-
-    def poll(self) -> LaserSample | None:
-        s = self.inner.poll()
+    def alter(self, s: LaserSample) -> LaserSample | None:
         c = self.ctx.latest_control()
         target = self.ctx.measurements[0].dwells[1].target[0]
-        if s is not None and c is not None and abs(c.positions.get("C", 0) - target) < 0.01:
+        if c is not None and abs(c.positions.get("C", 0) - target) < 0.01:
             return None  # the beam is blocked at this angle
         return s
 
@@ -224,22 +211,6 @@ def test_a_missed_dwell_is_written_missed(rotary_planned, truth, tmp_path):
     assert np.max(np.abs(m.deviation - truth[keep])) < TOL_URAD
 
 
-def _accepted(journal: Path) -> list[int]:
-    import json
-
-    if not journal.is_file():
-        return []
-    out = []
-    for line in journal.read_bytes().splitlines():
-        try:
-            x = json.loads(line)
-        except json.JSONDecodeError:
-            continue  # the line being written
-        if x.get("type") == "accepted":
-            out.append(x["reading"])
-    return out
-
-
 def test_sigkill_in_the_middle_and_resume_give_the_same_file(rotary_planned, tmp_path):
     ref = tmp_path / "A"
     assert capture(rotary_planned, control="sim", laser=f"sim:seed={SEED}", measurement=[ROT],
@@ -252,7 +223,7 @@ def test_sigkill_in_the_middle_and_resume_give_the_same_file(rotary_planned, tmp
     journal = out / "capture" / f"{ROT}.jsonl"
     deadline = time.monotonic() + scaled_timeout(120)
     try:
-        while len(_accepted(journal)) < 5:
+        while len(accepted(journal)) < 5:
             assert p.poll() is None, p.stderr.read().decode() if p.stderr else ""
             assert time.monotonic() < deadline, "the capture did not accept points"
             time.sleep(0.01)
@@ -260,12 +231,12 @@ def test_sigkill_in_the_middle_and_resume_give_the_same_file(rotary_planned, tmp
     finally:
         p.wait(timeout=scaled_timeout(30))
     assert p.returncode == -signal.SIGKILL
-    before = _accepted(journal)
+    before = accepted(journal)
     assert 5 <= len(before) < N and before == list(range(len(before)))
     r = capture(rotary_planned, control="sim", laser=f"sim:seed={SEED}", measurement=[ROT],
                 output=out, **FAST)
     assert r.complete and r.outcomes[0].replayed >= len(before)
-    assert sorted(_accepted(journal)) == list(range(N))  # none lost, none twice
+    assert sorted(accepted(journal)) == list(range(N))  # none lost, none twice
     assert (out / f"{ROT}.csv").read_text() == (ref / f"{ROT}.csv").read_text()
 
 

@@ -29,7 +29,7 @@ from volcal.steps.plan import plan
 from volcal_cli_helpers import run_volcal
 
 from .conftest import FAST, FAST_CLI
-from .fake_sources import NoRotary
+from .fake_sources import NoRotary, Wrapped
 
 TRAVEL = ((0.0, 800.0), (0.0, 600.0), (0.0, 500.0))
 SEED = 3
@@ -150,25 +150,12 @@ def test_locate_gives_the_simulated_sessions_location_errors(captured, simulated
     assert code == 0 and "EB0A" in o and "Traceback" not in err
 
 
-class _Blind:
+class _Blind(Wrapped):
     """The simulated nest, silent at the test's third pose (C = 240, A = 0)."""
 
-    def __init__(self, spec, ctx):
-        from volcal.capture.simulated import SimulatedLaser
-
-        self.inner = SimulatedLaser(spec, ctx)
-        self.ctx = ctx
-
-    def open(self):
-        self.inner.open()
-
-    def close(self):
-        self.inner.close()
-
-    def poll(self) -> LaserSample | None:
-        s = self.inner.poll()
+    def alter(self, s: LaserSample) -> LaserSample | None:
         c = self.ctx.latest_control()
-        if s is not None and c is not None and abs(c.positions.get("C", 0) - 240.0) < 0.01 \
+        if c is not None and abs(c.positions.get("C", 0) - 240.0) < 0.01 \
                 and abs(c.positions.get("A", 0)) < 0.01:
             return None
         return s
@@ -210,23 +197,11 @@ def test_a_missed_pose_and_a_resume_keep_every_reading(rt_planned, captured, tmp
     assert done == (captured[0] / f"{RT}.csv").read_text()
 
 
-class _OneChannel:
+class _OneChannel(Wrapped):
     """The simulated nest sending its first sensor only (a laser of one channel)."""
 
-    def __init__(self, spec, ctx):
-        from volcal.capture.simulated import SimulatedLaser
-
-        self.inner = SimulatedLaser(spec, ctx)
-
-    def open(self):
-        self.inner.open()
-
-    def close(self):
-        self.inner.close()
-
-    def poll(self):
-        s = self.inner.poll()
-        return None if s is None else replace(s, channels=())
+    def alter(self, s):
+        return replace(s, channels=())
 
 
 def test_a_control_without_the_rotary_axes_or_a_one_channel_laser_is_refused(

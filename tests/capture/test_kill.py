@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import os
 import signal
 import subprocess
@@ -16,22 +15,9 @@ from timing import scaled_timeout
 from volcal.steps.capture import capture
 
 from .conftest import FAST, FAST_CLI
+from .fake_sources import accepted
 
 IDS = ["linear-x1", "diag-ppp"]
-
-
-def _accepted(journal: Path) -> list[int]:
-    if not journal.is_file():
-        return []
-    out = []
-    for line in journal.read_bytes().splitlines():
-        try:
-            x = json.loads(line)
-        except json.JSONDecodeError:
-            continue  # the line being written
-        if x.get("type") == "accepted":
-            out.append(x["reading"])
-    return out
 
 
 def _kill_after(planned: Path, out: Path, n: int, speed: float = 20.0) -> list[int]:
@@ -43,7 +29,7 @@ def _kill_after(planned: Path, out: Path, n: int, speed: float = 20.0) -> list[i
     journal = out / "capture" / "linear-x1.jsonl"
     deadline = time.monotonic() + scaled_timeout(120)
     try:
-        while len(_accepted(journal)) < n:
+        while len(accepted(journal)) < n:
             assert p.poll() is None, p.stderr.read().decode() if p.stderr else ""
             assert time.monotonic() < deadline, "the capture did not accept points"
             time.sleep(0.01)
@@ -51,7 +37,7 @@ def _kill_after(planned: Path, out: Path, n: int, speed: float = 20.0) -> list[i
     finally:
         p.wait(timeout=scaled_timeout(30))
     assert p.returncode == -signal.SIGKILL
-    return _accepted(journal)
+    return accepted(journal)
 
 
 @pytest.fixture(scope="module")
@@ -69,7 +55,7 @@ def test_sigkill_in_the_middle_and_resume_give_the_same_session(planned, uninter
     assert 4 <= len(before) < 16 and before == list(range(len(before)))
     r = capture(planned, control="sim", laser="sim", measurement=IDS, output=out, **FAST)
     assert r.complete
-    after = _accepted(out / "capture" / "linear-x1.jsonl")
+    after = accepted(out / "capture" / "linear-x1.jsonl")
     assert sorted(after) == list(range(16))  # no point lost, none twice
     assert r.outcomes[0].replayed >= len(before)
     for mid in IDS:
@@ -89,6 +75,6 @@ def test_sigkill_anywhere_and_resume_give_the_same_session(planned, uninterrupte
         _kill_after(planned, out, n + 1)
     assert capture(planned, control="sim", laser="sim", measurement=IDS, output=out,
                    **FAST).complete
-    assert sorted(_accepted(out / "capture" / "linear-x1.jsonl")) == list(range(16))
+    assert sorted(accepted(out / "capture" / "linear-x1.jsonl")) == list(range(16))
     for mid in IDS:
         assert (out / f"{mid}.csv").read_text() == (uninterrupted / f"{mid}.csv").read_text()

@@ -123,9 +123,12 @@ def test_first_row_cannot_be_missed(S):
     set_cell(S / "diag-pnp.csv", 2, "deviation_um", "missed")
     with pytest.raises(VolcalInputError) as exc:
         read_session(S)
-    assert _msg(exc) == ("diag-pnp.csv", 2, "deviation_um",
-                         "the first row is the reference of the readings (deviation 0 by "
-                         "definition): it cannot be a missed capture")
+    file, row, column, message = _msg(exc)
+    assert (file, row, column) == ("diag-pnp.csv", 2, "deviation_um")
+    assert message.startswith("the first row is the reference of the readings (deviation 0 "
+                              "by definition): it cannot be a missed capture; capture the "
+                              "measurement again (volcal capture SESSION --measurement ID "
+                              "--again")
 
 
 def test_all_rows_missed_is_not_measured(S):

@@ -211,8 +211,9 @@ def render_csv(path: Path, m: Any, rec: Recorded, time_offsets: dict[int, float]
                 raise VolcalInputError(
                     f"holds the reading {old!r}, which the capture journal does not hold"
                     f"{'' if not cell else f' (it holds {cell})'}: a measured reading is "
-                    "never overwritten; capture into a new session (-o) or move the file "
-                    "aside", path, i + 2, name)
+                    "never overwritten; capture into a new session (-o), or capture it "
+                    "again here (--measurement ID --again: the file is kept in backup/)",
+                    path, i + 2, name)
             row[col] = cell
         row[tcol] = t
         n += bool(new[0])

@@ -61,7 +61,7 @@ OPTIONS: dict[str, str] = {
         "location_tolerance_um", "location_tolerance",
         # capture
         "control", "laser", "programs", "window_mm", "stable_s", "k_sigma", "laser_noise",
-        "control_noise_mm", "max_gap_s", "poll_s", "timeout_s", "speed",
+        "control_noise_mm", "max_gap_s", "poll_s", "timeout_s", "speed", "window_deg", "again",
     )
 }
 

@@ -75,6 +75,9 @@ def capture(
         help="Address the page binds (127.0.0.1: this computer only).")] = "127.0.0.1",
     port: Annotated[int, typer.Option(help="TCP port of the page (0: any free one).")
                     ] = 8765,
+    again: Annotated[bool, typer.Option(
+        "--again", help="Capture the --measurement(s) again from their first reading; their "
+        "earlier capture (file and journal) is kept in SESSION/backup/<UTC time>/.")] = False,
 ) -> None:
     """Capture the readings while the part programs run: one row per dwell (resumable)."""
     from volcal.steps.capture import capture as step
@@ -93,7 +96,7 @@ def capture(
                  k_sigma=k_sigma, laser_noise=laser_noise, control_noise_mm=control_noise_mm,
                  max_gap_s=max_gap_s, poll_s=poll_s, timeout_s=timeout_s, speed=speed,
                  observer=page.observer if page else None,
-                 extras=page.extras if page else None)
+                 extras=page.extras if page else None, again=again)
     except BaseException as e:
         if page is not None:
             page.close("capture stopped", str(e) or type(e).__name__)
@@ -104,14 +107,18 @@ def capture(
         console.print(f"{mid}: already complete (journal), skipped")
     for o in r.outcomes:
         missed = f", {len(o.missed)} missed" if o.missed else ""
-        again = f", {o.replayed} replayed" if o.replayed else ""
+        replayed = f", {o.replayed} replayed" if o.replayed else ""
         console.print(f"{o.measurement}: {o.accepted + len(o.missed)} of {o.planned} "
-                      f"readings recorded ({o.accepted} accepted{missed}{again})")
+                      f"readings recorded ({o.accepted} accepted{missed}{replayed})")
     for n in r.notes:
         err_console.print(f"[yellow]note:[/] {escape(n)}", highlight=False)
     console.print(f"{'captured' if r.complete else 'capture stopped'} -> {r.folder}")
     if not r.complete:
         raise typer.Exit(3)
+    if r.unreadable:
+        err_console.print(f"error: {', '.join(r.unreadable)}: captured to the end, but "
+                          "unreadable (see the notes above)", highlight=False)
+        raise typer.Exit(1)
 
 
 def register(app: typer.Typer) -> None:

@@ -31,6 +31,7 @@ from volcal.session.identity import (
     read_machine_identity,
 )
 from volcal.session.kinds import ReadContext, kind_names, kind_of, kinds, target_names
+from volcal.session.missed import FIRST_ROW_MISSED, MISSED
 
 SESSION_FORMAT = "volcal-session/1"
 KINDS: tuple[str, ...] = ("linear", "diagonal", "step_diagonal", "multilateration",
@@ -45,8 +46,6 @@ TARGETS: tuple[str, ...] = ("flat_mirror", "retroreflector", "retroreflector_mir
 :mod:`volcal.kinds` lists its own (:func:`volcal.kinds.target_names`)."""
 MULTILATERATION_COLUMN = "length_mm"
 """Reading column of a multilateration CSV: change of the station-to-reflector distance."""
-MISSED = "missed"
-"""Word marking a missed capture in ``deviation_um`` (or in the optional ``status`` column)."""
 REQUIRED_COLUMNS: tuple[str, ...] = ("x_mm", "y_mm", "z_mm", "deviation_um")
 OPTIONAL_COLUMNS: dict[str, str] = {
     "run": "int",
@@ -617,8 +616,7 @@ def _read_rows(path: str | Path, value_column: str = "deviation_um") -> _Rows:
         raise t.error(f"missing deviation: write the reading, or '{MISSED}' for a missed "
                       "capture (docs/formats.md)", int(np.argmax(empty)), value_column)
     if missed[0]:
-        raise t.error("the first row is the reference of the readings (deviation 0 by "
-                      "definition): it cannot be a missed capture", 0, value_column)
+        raise t.error(FIRST_ROW_MISSED, 0, value_column)
     dev = np.where(missed, np.nan, dev)
     return _Rows(pos, dev, cols, t.rows, missed)
 

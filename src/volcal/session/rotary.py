@@ -28,6 +28,7 @@ from numpy.typing import NDArray
 
 from volcal.errors import VolcalInputError
 from volcal.io.table import Column, TableSpec, read_table
+from volcal.session.missed import FIRST_ROW_MISSED, MISSED
 
 __all__ = [
     "ARCSEC_URAD",
@@ -55,7 +56,6 @@ ROTARY_COLUMNS: tuple[str, ...] = ("target_deg", "run", "direction", "deviation_
 """Columns of a rotary CSV as volcal writes it (``deviation_arcsec`` read as well)."""
 DEVIATION_ABS_MAX_URAD = 1.0e5
 """Largest plausible |deviation| [urad] (0.1 rad, 5.7 deg): larger values are errors."""
-MISSED = "missed"
 
 
 def arcsec_to_urad(v: Any) -> Any:
@@ -336,8 +336,7 @@ def read_rotary_csv(path: str | Path) -> RotaryRows:
         raise t.error(f"missing deviation: write the reading, or '{MISSED}' for a missed "
                       "capture (docs/formats.md)", int(np.argmax(empty)), col)
     if missed[0]:
-        raise t.error("the first row is the reference of the readings (deviation 0 by "
-                      "definition): it cannot be a missed capture", 0, col)
+        raise t.error(FIRST_ROW_MISSED, 0, col)
     return RotaryRows(target, np.where(missed, np.nan, dev), cols, t.rows, missed)
 
 

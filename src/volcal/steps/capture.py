@@ -70,6 +70,10 @@ class Captured:
         Every asked measurement is complete.
     notes : tuple of str
         What the user should know (missed rows, where to resume).
+    unreadable : tuple of str
+        Measurements captured to the end whose file the session reader refuses: their
+        first reading (the reference of the others) or every reading missed. Capture
+        them again (``again=True``).
     """
 
     folder: Path
@@ -77,6 +81,7 @@ class Captured:
     skipped: tuple[str, ...]
     complete: bool
     notes: tuple[str, ...]
+    unreadable: tuple[str, ...] = ()
 
 
 def read_planned(folder: str | Path) -> Session:
@@ -170,6 +175,71 @@ def _target_folder(session: Any, output: str | Path | None) -> Path:
     return out
 
 
+def _start_again(folder: Path, measurements: list[Any]) -> str:
+    """Put captured measurements back as planned, their earlier capture kept in a backup.
+
+    Each measurement's file and journal are copied into one new ``backup/<UTC time>/`` of
+    the session (each copy written atomically), then its journal is removed and its
+    planned file (``capture/<id>.planned.csv``) written back in its place. Every
+    measurement is checked before anything is written. Killed in between, the same call
+    starts again: a file holding readings no journal holds is what ``again`` is for.
+
+    Parameters
+    ----------
+    folder : Path
+        The session folder captured into.
+    measurements : list of Measurement
+        The measurements (as planned).
+
+    Returns
+    -------
+    str
+        The backup folder, relative to ``folder``.
+    """
+    from volcal.capture.journal import JOURNAL_FOLDER, journal_path
+    from volcal.io.atomic import write_text
+    from volcal.session.provenance import backup_files
+
+    def kept(m: Any) -> Path:
+        return folder / JOURNAL_FOLDER / (Path(m.file).stem + PLANNED_SUFFIX)
+
+    for m in measurements:
+        if not kept(m).is_file():
+            raise ParameterError(f"{{again=True}}: {m.id} was never captured here (no "
+                                 f"{JOURNAL_FOLDER}/{kept(m).name}): its readings, if any, "
+                                 "came from elsewhere; capture into a new folder with "
+                                 "{output}", folder / m.file)
+    files = [f for m in measurements
+             for f in (m.file, journal_path(folder, m.id).relative_to(folder).as_posix())]
+    rel = backup_files(folder, [f for f in files if (folder / f).is_file()])
+    for m in measurements:
+        journal_path(folder, m.id).unlink(missing_ok=True)
+        write_text(folder / m.file, kept(m).read_text(encoding="utf-8"))
+    return rel.relative_to(folder).as_posix()
+
+
+def _unreadable_notes(outcomes: list[Outcome], files: dict[str, Path]
+                      ) -> tuple[list[str], list[str]]:
+    """The measurements captured to the end that the session reader refuses, and why."""
+    ids, notes = [], []
+    for out in outcomes:
+        if not out.complete:
+            continue
+        if out.accepted == 0:
+            why = (f"{out.measurement}: no reading accepted (every one of the {out.planned} "
+                   "missed: did the laser send readings? the journal's laser samples say); "
+                   f"the session reads {files[out.measurement]} as not measured")
+        elif 2 in out.missed:
+            why = (f"{out.measurement}: the first reading (row 2), the reference of the "
+                   f"others, was missed; the session reader refuses {files[out.measurement]}")
+        else:
+            continue
+        ids.append(out.measurement)
+        notes.append(f"{why}: capture it again (the same command with --measurement "
+                     f"{out.measurement} --again)")
+    return ids, notes
+
+
 def capture(session: Session | str | Path, *, control: str, laser: str,
             measurement: Sequence[str] | None = None, output: str | Path | None = None,
             programs: str | Path | None = None, dwell_s: float | None = None,
@@ -181,7 +251,7 @@ def capture(session: Session | str | Path, *, control: str, laser: str,
             max_gap_s: float = D.CAPTURE_MAX_GAP_S, poll_s: float = D.CAPTURE_POLL_S,
             timeout_s: float | None = None, speed: float | None = None,
             observer: Callable[[CaptureEvent], None] | None = None,
-            extras: dict[str, Any] | None = None) -> Captured:
+            extras: dict[str, Any] | None = None, again: bool = False) -> Captured:
     """Capture the planned measurements of a session while their part programs run.
 
     Each measurement is captured in the plan's order (or the order of ``measurement``):
@@ -238,6 +308,12 @@ def capture(session: Session | str | Path, *, control: str, laser: str,
         Called with every :class:`volcal.capture.samples.CaptureEvent` (the page).
     extras : dict, optional
         Objects handed to the sources (:attr:`volcal.capture.sources.SourceContext.extras`).
+    again : bool
+        Capture the measurements named in ``measurement`` again from their first reading
+        (one whose first reading was missed, a set-up found wrong): each one's earlier
+        file and journal are kept in ``backup/<UTC time>/`` of the session, then it is
+        captured as planned. Only measurements captured before (their planned file kept
+        in ``capture/``); ``measurement`` required.
 
     Returns
     -------
@@ -268,6 +344,9 @@ def capture(session: Session | str | Path, *, control: str, laser: str,
         raise ParameterError(f"{{timeout_s=}}{timeout_s!r}: expected a positive time [s]")
     if speed is not None and not speed > 0:
         raise ParameterError(f"{{speed=}}{speed!r}: expected a positive factor")
+    if again and not measurement:
+        raise ParameterError("{again=True} needs {measurement}: name the measurements to "
+                             "capture again (their earlier capture is kept in backup/)")
     opts = program_options(programs, dwell_s=dwell_s, feed=feed, overrun_mm=overrun_mm)
     params.check(opts.dwell_s)
     simulated = is_simulated_control(control)
@@ -308,6 +387,11 @@ def capture(session: Session | str | Path, *, control: str, laser: str,
         check_sources(s, plans)
     from volcal.capture.sessionfile import render_csv
 
+    notes: list[str] = list(dict.fromkeys(passed_over))
+    if again:
+        rel = _start_again(folder, [pm.measurement for pm in plans])
+        notes += [f"{pm.id}: captured again from its first reading; the earlier capture is "
+                  f"kept in {rel}/" for pm in plans]
     for pm in plans:  # a measured reading is never overwritten: refused before writing
         render_csv(folder / pm.measurement.file, pm.measurement,
                    read_journal(journal_path(folder, pm.id)), {})
@@ -328,7 +412,6 @@ def capture(session: Session | str | Path, *, control: str, laser: str,
     ctx = SourceContext(clock, s, plans, lambda: state["latest"], lambda: state["current"],
                         dict(extras or {}))
     outcomes: list[Outcome] = []
-    notes: list[str] = list(dict.fromkeys(passed_over))
     if todo:
         ctrl = make_control(control, ctx)
         las = make_laser(laser, ctx)
@@ -357,10 +440,8 @@ def capture(session: Session | str | Path, *, control: str, laser: str,
         if not out.complete:
             notes.append(f"{out.measurement}: {out.reason}; {out.accepted} of {out.planned} "
                          "readings recorded. Run the same command again to resume")
-        elif 2 in out.missed:
-            notes.append(f"{out.measurement}: the first reading (row 2), the reference of "
-                         "the others, was missed: the session reader refuses the file; "
-                         "capture the measurement again into a new session (-o)")
+    unreadable, said = _unreadable_notes(
+        outcomes, {pm.id: folder / pm.measurement.file for pm in plans})
     done = len(outcomes) == len(todo) and all(o.complete for o in outcomes)
     return Captured(folder, tuple(outcomes), tuple(pm.id for pm in skipped), done,
-                    tuple(notes))
+                    tuple(notes + said), tuple(unreadable))

@@ -72,10 +72,13 @@ def test_a_folder_given_as_a_file(planned):
     text = refused(["evaluate", "iso230-2", str(s)])
     assert f"{s}: a folder, not a positioning file" in text
     assert "a session folder: name one of its measurement files" in text
-    for args in (["evaluate", "volumetric", str(s)],
-                 ["compensate", str(s), "--format", "linuxcnc", "-o", str(planned / "C")]):
-        text = refused(args)
-        assert f"{s}: a session folder, not a model: identify it first" in text, text
+    text = refused(["evaluate", "volumetric", str(s)])
+    assert f"{s}: a session folder, not a model: identify it first" in text, text
+    # compensate takes a session too, as --session (its rotary tests' tables)
+    text = refused(["compensate", str(s), "--format", "linuxcnc", "-o", str(planned / "C")])
+    assert (f"{s / 'session.toml'}: a session folder, not a model: give a session as "
+            f"--session {s} (its rotary tests' tables") in text, text
+    assert f"(volcal identify {s} -o model.json)" in text
     assert "a folder, not a model file" in refused(["evaluate", "volumetric", str(planned)])
     assert not (planned / "C").exists()
 

@@ -215,6 +215,13 @@ def compensate(model: str | Path | IdentificationResult | MachineErrors | None, 
         raise ParameterError("no model given: the tables of the linear axes need one "
                              "(MODEL.json or an error table); a session with rotary tests "
                              "gives its rotary tables without a model")
+    if session is None and isinstance(model, str | Path) and (Path(model) /
+                                                               "session.toml").is_file():
+        raise ParameterError("a session folder, not a model: give a session as {session=}"
+                             f"{model} (its rotary tests' tables, its "
+                             "bidirectional linear tests' reversal), and for the linear axes' "
+                             f"tables the model identified from it (volcal identify {model} "
+                             "-o model.json)", Path(model) / "session.toml")
     moved = _checks.output_folder(output, "compensation", lambda p: (p / MANIFEST).is_file(),
                                   manifest_files(MANIFEST, "files"), replace)
     if moved is not None and on_moved is not None:

@@ -236,6 +236,24 @@ def test_rotary_axes_are_found_and_read_in_degrees(rotary_server):
         server.set(X=0.0, A=0.0, B=0.0, C=0.0)
 
 
+def test_a_table_named_c1_is_read_as_c_with_the_axes_key(cnc_server):  # noqa: F811
+    """A control naming its rotary table C1 (a machine axis name): ``axes=C:C1`` reads it
+    as volcal's C, in degrees, beside the linear axes under their own names."""
+    cnc_server.add("C1:deg")
+    ctx = SourceContext(clock=Clock())
+    src = make_control(f"opcua:{cnc_server.url};publishing_ms=20;axes=C:C1", ctx)
+    try:
+        src.open()
+        assert src.axes == ["X", "Y", "Z", "C"]
+        cnc_server.set(X=4.5, C1=123.25)
+        s = _poll_until(src, lambda s: s.status == "ok" and s.positions.get("C") == 123.25)
+        assert s.positions == {"X": 4.5, "Y": 0.0, "Z": 0.0, "C": 123.25}
+    finally:
+        src.close()
+        cnc_server.set(X=0.0)
+        cnc_server.remove("C1")
+
+
 class _Machine:
     """The C axis as the test turns it: its true angle, the side of the last turn, the
     dwell it stands in (None while moving), and when the capture opened its laser."""

@@ -35,6 +35,10 @@ key                default  meaning
                             key (PEM), required with ``policy``
 ``server_cert``    -        the server's certificate (DER or PEM); without it the endpoints
                             are asked over an unsecured channel first
+``axes``           -        volcal's axis letter and the server's axis name, ``LETTER:NAME``
+                            separated by ``/`` (``X:X1/Y:Y1/Z:Z1/C:C1``): a control whose
+                            axes are not named by their letters; an axis not listed is
+                            read under its own name
 =================  =======  ===============================================================
 
 Requires the ``capture`` extra (PyPI ``asyncua``).
@@ -65,7 +69,10 @@ STATUS_LOST = "lost"
 """First word of the status of a sample taken while the connection is down."""
 
 OPTION_KEYS = ("position", "publishing_ms", "timeout_s", "watch_s", "policy", "mode", "cert",
-               "key", "server_cert")
+               "key", "server_cert", "axes")
+
+AXIS_LETTERS = "XYZABC"
+"""The axis letters of volcal's plans (ISO 841), the left side of ``axes=``."""
 
 
 class ControlAxesError(SourceError, ParameterError):
@@ -103,14 +110,18 @@ class OpcUaControl:
     source : str, optional
         The source as the user gave it (``opcua:URL;KEY=V``), for messages (default:
         ``opcua:URL``).
+    names : dict of str to str, optional
+        The server's axis name -> volcal's letter (``axes=``): the axis is reported under
+        the letter, and a server axis named as one of these letters is left out.
     """
 
     def __init__(self, url: str, context: SourceContext, *, position: str = "direct",
                  publishing_ms: float = 50.0, timeout_s: float = 4.0,
                  watch_s: float = 0.5, security: Security | None = None,
-                 source: str | None = None) -> None:
+                 source: str | None = None, names: dict[str, str] | None = None) -> None:
         from volcal.capture.opcua_link import OpcUaLink
 
+        self.names = dict(names or {})
         self.url = url
         self.source = source or f"opcua:{url}"
         self.context = context
@@ -139,10 +150,33 @@ class OpcUaControl:
             raise SourceError(f"control source opcua:{self.url}: cannot connect "
                               f"({snap.reason or 'no answer'})")
         try:
-            check_axes(snap.axes, self.context.measurements, self.source)
+            check_axes(self._renamed(snap.axes), self.context.measurements, self.source)
         except ControlAxesError:
             self.link.close()
             raise
+
+    def _renamed(self, axes: list[AxisNode]) -> list[AxisNode]:
+        """The server's axes under volcal's letters (``axes=``).
+
+        A mapped name the server does not have is refused, naming the axes it has.
+        """
+        from dataclasses import replace
+
+        have = {a.name for a in axes}
+        lost = [f"{letter}:{name}" for name, letter in self.names.items() if name not in have]
+        if lost:
+            raise ControlAxesError(
+                f"{{control=}}{self.source}: axes={'/'.join(lost)}: the server reports no "
+                f"CncAxisType object of that name; the server's axes: "
+                f"{', '.join(f'{a.name} ({a.kind})' for a in axes) or 'none'} "
+                "(docs/capture_opcua.md)")
+        return [replace(a, name=self.names.get(a.name, a.name)) for a in axes
+                if a.name not in self._shadowed]
+
+    @property
+    def _shadowed(self) -> set[str]:
+        """Server axes named as a letter ``axes=`` gives to another axis: left out."""
+        return set(self.names.values()) - set(self.names)
 
     def poll(self) -> ControlSample | None:
         """The last position of every axis, at the time of this poll.
@@ -163,7 +197,11 @@ class OpcUaControl:
         if not snap.connected:
             return ControlSample(time_s=now, positions={},
                                  status=f"{STATUS_LOST}: {snap.reason or snap.status}")
-        return ControlSample(time_s=now, positions=snap.positions)
+        if not self.names:
+            return ControlSample(time_s=now, positions=snap.positions)
+        return ControlSample(time_s=now, positions={
+            self.names.get(n, n): v for n, v in snap.positions.items()
+            if n not in self._shadowed})
 
     def close(self) -> None:
         """Disconnect (may be called twice)."""
@@ -171,8 +209,11 @@ class OpcUaControl:
 
     @property
     def axes(self) -> list[str]:
-        """The names of the axes found (after :meth:`open`)."""
-        return [a.name for a in self.link.snapshot().axes]
+        """The names of the axes found (after :meth:`open`).
+
+        volcal's letters for the axes ``axes=`` renames.
+        """
+        return [a.name for a in self._renamed(self.link.snapshot().axes)]
 
 
 def check_axes(axes: list[AxisNode], measurements: list[PlannedMeasurement],
@@ -214,7 +255,8 @@ def check_axes(axes: list[AxisNode], measurements: list[PlannedMeasurement],
             raise ControlAxesError(
                 f"{{control=}}{source}: measurement {pm.id} {verb} axis {name} "
                 f"({want}), but {why}; the server's axes: {listed}. Give a control that "
-                f"reports {name} (docs/capture_opcua.md)")
+                f"reports {name}, or name the server's axis: axes={name}:NAME "
+                "(docs/capture_opcua.md)")
 
 
 def make(spec: SourceSpec, context: SourceContext) -> OpcUaControl:
@@ -261,7 +303,26 @@ def make(spec: SourceSpec, context: SourceContext) -> OpcUaControl:
         raise VolcalInputError(f"control source {spec.text!r}: mode= needs policy=, cert= "
                                "and key= (docs/capture_opcua.md)")
     return OpcUaControl(url, context, position=position, security=security,
-                        source=spec.text, **kw)
+                        source=spec.text, names=_axis_names(opts.get("axes"), spec.text), **kw)
+
+
+def _axis_names(text: str | None, where: str) -> dict[str, str]:
+    """``axes=X:X1/C:C1`` as server name -> letter, each letter and name once."""
+    if text is None:
+        return {}
+    out: dict[str, str] = {}
+    for part in text.split("/"):
+        letter, colon, name = (v.strip() for v in part.partition(":"))
+        letter = letter.upper()
+        if not colon or len(letter) != 1 or letter not in AXIS_LETTERS or not name:
+            raise VolcalInputError(f"control source {where!r}: axes={text!r}: {part!r} is not "
+                                   f"LETTER:NAME with LETTER one of {', '.join(AXIS_LETTERS)} "
+                                   "(axes=X:X1/Y:Y1/Z:Z1/C:C1)")
+        if letter in out.values() or name in out:
+            raise VolcalInputError(f"control source {where!r}: axes={text!r}: "
+                                   f"{letter if letter in out.values() else name} given twice")
+        out[name] = letter
+    return out
 
 
 def _security(opts: dict[str, str], where: str) -> Security:

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from volcal.capture.journal import Journal, journal_path, read_journal
+from volcal.capture.page.state import LiveState
 from volcal.capture.samples import LaserSample
 from volcal.capture.sources import SourceError, register_laser
 from volcal.errors import VolcalInputError
@@ -126,11 +127,22 @@ def test_a_disconnected_laser_stops_and_the_capture_resumes(captured, planned, t
     assert any("Run the same command again to resume" in n for n in r.notes)
     got = read_journal(journal_path(out, "linear-x1"))
     assert 0 < len(got.accepted) < 16
-    r2 = capture(planned, control="sim", laser="sim", measurement=IDS, output=out, **FAST)
+    page = LiveState("resumed")  # the technician's page (--serve) follows the resume
+    r2 = capture(planned, control="sim", laser="sim", measurement=IDS, output=out,
+                 observer=page, **FAST)
     assert r2.complete and r2.outcomes[0].replayed == len(got.accepted)
     ref, _ = captured
     for mid in IDS:  # the same session as the uninterrupted capture
         assert (out / f"{mid}.csv").read_text() == (ref / f"{mid}.csv").read_text()
+    # the page shows every reading, those recorded before the resume too (before session
+    # 22 it showed each such reading's number as its value, or raised IndexError at the
+    # resumed start, stopping the capture, when a reading was missed before)
+    from volcal.session.format import read_session
+
+    shown = {m["id"]: [d["value"] for d in m["dwells"]]
+             for m in page.snapshot()["measurements"]}
+    for mid in IDS:
+        assert np.allclose(shown[mid], read_session(out).get(mid).deviation, atol=1e-6)
 
 
 def test_a_journal_line_cut_by_a_kill_is_dropped(tmp_path):

@@ -21,6 +21,7 @@ import numpy as np
 import pytest
 
 from volcal.capture.journal import journal_path, read_journal
+from volcal.capture.page.state import LiveState
 from volcal.capture.samples import CaptureEvent, LaserSample
 from volcal.capture.sources import register_control, register_laser
 from volcal.errors import VolcalInputError
@@ -190,11 +191,19 @@ def test_a_missed_pose_and_a_resume_keep_every_reading(rt_planned, captured, tmp
         capture(rt_planned, control="sim", laser=f"sim:seed={SEED}", output=res,
                 observer=stop_after_five, **FAST)
     partial = (res / f"{RT}.csv").read_text()
-    r = capture(rt_planned, control="sim", laser=f"sim:seed={SEED}", output=res, **FAST)
+    page = LiveState("resumed")  # the technician's page follows the resumed capture
+    r = capture(rt_planned, control="sim", laser=f"sim:seed={SEED}", output=res,
+                observer=page, **FAST)
     assert r.complete and r.outcomes[0].replayed >= 5
     done = (res / f"{RT}.csv").read_text()
     assert done.splitlines()[:6] == partial.splitlines()[:6]  # never overwritten
     assert done == (captured[0] / f"{RT}.csv").read_text()
+    # the page shows the three sensors of every pose, those recorded before the resume too
+    (m,) = page.snapshot()["measurements"]
+    assert m["columns"] == ["dx_um", "dy_um", "dz_um"]
+    shown = np.array([d["values"] for d in m["dwells"]], float)
+    assert np.allclose(shown, _readings(res), atol=1e-6)
+    assert len(page.snapshot()["laser"]["channels"]) == 3
 
 
 class _OneChannel(Wrapped):

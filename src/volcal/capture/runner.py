@@ -169,7 +169,10 @@ def capture_measurement(pm: PlannedMeasurement, folder: Path, control: ControlSo
         "axes": list(pm.frame.axes), "axes_unit": pm.frame.unit,
         "directions": [d.direction for d in pm.dwells], "runs": [d.run for d in pm.dwells],
         "done": sorted(rec.done), "column": reading.column, "unit": reading.unit,
-        "values": reading.values(rec), "missed": sorted(rec.missed)}))
+        "values": reading.values(rec), "missed": sorted(rec.missed),
+        "columns": list(reading.columns),
+        "rows": ({i: list(v) for i, v in reading.rows(rec).items()}
+                 if reading.channels > 1 else {})}))
     replayed = 0
     last = {"control": t_start, "laser": t_start}
     stale = {"control": False, "laser": False}

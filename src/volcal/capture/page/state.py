@@ -150,7 +150,8 @@ class LiveState:
                 value = _num(data.get("v"))
                 self.laser_src.seen(self._wall(), status, value)
                 self.laser = {"t": data.get("t"), "v": value, "unit": data.get("unit"),
-                              "status": status}
+                              "status": status,
+                              "ch": [_num(v) for v in data["ch"]] if data.get("ch") else None}
                 typed = (data.get("extra") or {}).get("typed")
                 if typed is not None:
                     for e in self.typed_log:
@@ -190,7 +191,10 @@ class LiveState:
         k = len(targets)
         runs = list(data.get("runs") or [None] * k)
         dirs = list(data.get("directions") or [None] * k)
-        values = list(data.get("values") or [None] * k)
+        # readings recorded before (a resumed capture): reading -> value, and for a reading
+        # of several channels (an R-test's sensors) reading -> the channels' values
+        values = {int(i): v for i, v in (data.get("values") or {}).items()}
+        rows = {int(i): v for i, v in (data.get("rows") or {}).items()}
         done = {int(i) for i in data.get("done") or []}
         missed = {int(i) for i in data.get("missed") or []}
         dwells = []
@@ -199,10 +203,13 @@ class LiveState:
             dwells.append({"reading": i, "target": [_num(v, 4) for v in targets[i]],
                            "along": _num(along[i], 4), "run": runs[i], "direction": dirs[i],
                            "status": status,
-                           "value": _num(values[i]) if status == "accepted" else None,
+                           "value": _num(values.get(i)) if status == "accepted" else None,
+                           "values": ([_num(v) for v in rows[i]]
+                                      if status == "accepted" and i in rows else None),
                            "raw": None, "position": None, "t": None,
                            "reason": "recorded before" if i in done else None})
         m = {"id": mid, "column": str(data.get("column", "")),
+             "columns": [str(c) for c in data.get("columns") or [data.get("column", "")]],
              "unit": str(data.get("unit", "um")), "dwells": dwells,
              "axes": [str(a) for a in data.get("axes") or "XYZ"],
              "axes_unit": str(data.get("axes_unit", "mm"))}
@@ -225,6 +232,8 @@ class LiveState:
         d = m["dwells"][i]
         if kind == "accepted":
             d.update(status="accepted", value=_num(data.get("value")),
+                     values=([_num(v) for v in data["values"]] if data.get("values")
+                             else None),
                      raw=_num(data.get("raw")), t=_num(t, 3), reason=None,
                      position=[_num(v, 5) for v in data.get("pos") or []])
         elif kind == "missed":
@@ -382,6 +391,7 @@ class LiveState:
             laser = self._source_view(self.laser_src, now, typed=self.laser_is_typed,
                                       flagged=self.flagged["laser"])
             laser.update(value=la["v"] if la is not None else None,
+                         channels=la["ch"] if la is not None else None,
                          unit=la["unit"] if la is not None else None,
                          t=_num(la["t"], 3) if la is not None else None,
                          typed=self.laser_is_typed)

@@ -52,7 +52,8 @@
       text(tb.rows[i].cells[1], fmt(pos[k], 4) + ("ABC".includes(k) ? " deg" : " mm"));
     });
     const unit = s.laser.unit || "";
-    text($("laser-value"), s.laser.value === null ? "–" : fmt(s.laser.value, 3) + " " + unit);
+    text($("laser-value"), s.laser.value === null ? "–" :
+      (s.laser.channels ? s.laser.channels.map((v) => fmt(v, 3)).join(" / ") : fmt(s.laser.value, 3)) + " " + unit);
     const st = s.stability || {};
     const el = $("stability");
     el.className = "stability " + String(st.state || "waiting").replace(/ /g, "-");
@@ -86,7 +87,8 @@
       tb.dataset.measurement = m.id;
       tb.innerHTML = "<tr class=\"group\"><td colspan=\"8\"></td></tr>" +
         rows.map(() => "<tr><td></td><td></td><td></td><td></td><td></td><td></td><td></td><td></td></tr>").join("");
-      text(tb.rows[0].cells[0], m.id + ": " + rows.length + " readings, " + (m.column || "reading") +
+      text(tb.rows[0].cells[0], m.id + ": " + rows.length + " readings, " +
+        ((m.columns && m.columns.length > 1 ? m.columns.join(" / ") : m.column) || "reading") +
         " [" + m.unit + "]");
       $("typed-unit").value = m.unit === "urad" ? "urad" : "um";  // the measurement's unit
     }
@@ -98,7 +100,8 @@
       tr.dataset.reading = d.reading;
       const cells = [String(d.reading + 1), fmt(d.target[0], 3), fmt(d.target[1], 3), fmt(d.target[2], 3),
         d.run === null || d.run === undefined ? "" : String(d.run), d.direction || "", d.status,
-        d.value === null ? (d.reason && d.status === "missed" ? d.reason : "") : fmt(d.value, 3) + " " + m.unit];
+        d.value === null ? (d.reason && d.status === "missed" ? d.reason : "") :
+          (d.values ? d.values.map((v) => fmt(v, 3)).join(" / ") : fmt(d.value, 3)) + " " + m.unit];
       cells.forEach((v, j) => text(tr.cells[j], v));
       tr.title = d.reason || "";
     });

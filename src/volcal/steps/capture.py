@@ -319,7 +319,6 @@ def capture(session: Session | str | Path, *, control: str, laser: str,
     -------
     Captured
     """
-    from volcal.capture.journal import JOURNAL_FOLDER, journal_path, read_journal
     from volcal.capture.plan import plan_measurement, program_options
     from volcal.capture.runner import LoopOptions, capture_measurement
     from volcal.capture.sources import (
@@ -336,17 +335,7 @@ def capture(session: Session | str | Path, *, control: str, laser: str,
                            k_sigma=k_sigma,
                            laser_noise=laser_noise, control_noise_mm=control_noise_mm,
                            max_gap_s=max_gap_s)
-    params.check()
-    if not (isinstance(poll_s, int | float) and 0 < poll_s <= max_gap_s):
-        raise ParameterError(f"{{poll_s=}}{poll_s!r}: expected 0 < poll <= {{max_gap_s=}}"
-                             f"{max_gap_s:g} s")
-    if timeout_s is not None and not timeout_s > 0:
-        raise ParameterError(f"{{timeout_s=}}{timeout_s!r}: expected a positive time [s]")
-    if speed is not None and not speed > 0:
-        raise ParameterError(f"{{speed=}}{speed!r}: expected a positive factor")
-    if again and not measurement:
-        raise ParameterError("{again=True} needs {measurement}: name the measurements to "
-                             "capture again (their earlier capture is kept in backup/)")
+    _check_options(params, poll_s, timeout_s, speed, again, measurement)
     opts = program_options(programs, dwell_s=dwell_s, feed=feed, overrun_mm=overrun_mm)
     params.check(opts.dwell_s)
     simulated = is_simulated_control(control)
@@ -357,17 +346,8 @@ def capture(session: Session | str | Path, *, control: str, laser: str,
 
     def planned(folder: Path) -> tuple[Session, list[PlannedMeasurement]]:
         s = read_planned(folder)
-        ids = [m.id for m in s.measurements]
-        chosen = list(measurement) if measurement else ids
-        for mid in chosen:
-            if mid not in ids:
-                raise ParameterError(f"{{measurement=}}{mid!r} is not in the session (its "
-                                     f"measurements: {', '.join(ids)})",
-                                     folder / "session.toml")
-        if len(set(chosen)) != len(chosen):
-            raise ParameterError(f"{{measurement=}}: an id is given twice "
-                                 f"({', '.join(chosen)})")
-        chosen = _capturable(s, chosen, bool(measurement), passed_over, folder)
+        chosen = _capturable(s, _chosen(s, measurement, folder), bool(measurement),
+                             passed_over, folder)
         return s, [plan_measurement(s.get(mid), s.travel, opts, programs) for mid in chosen]
 
     def check_sources(s0: Session, plans0: list[PlannedMeasurement]) -> None:
@@ -385,54 +365,121 @@ def capture(session: Session | str | Path, *, control: str, laser: str,
     s, plans = planned(folder)
     if resume:
         check_sources(s, plans)
-    from volcal.capture.sessionfile import render_csv
-
     notes: list[str] = list(dict.fromkeys(passed_over))
     if again:
         rel = _start_again(folder, [pm.measurement for pm in plans])
         notes += [f"{pm.id}: captured again from its first reading; the earlier capture is "
                   f"kept in {rel}/" for pm in plans]
-    for pm in plans:  # a measured reading is never overwritten: refused before writing
+    _prepare_files(folder, plans)
+    todo, skipped = _split_done(folder, plans)
+    outcomes: list[Outcome] = []
+    if todo:
+        clock = VirtualClock(speed) if simulated else Clock()
+        state: dict[str, Any] = {"latest": None, "current": None}
+        ctx = SourceContext(clock, s, plans, lambda: state["latest"],
+                            lambda: state["current"], dict(extras or {}))
+
+        def one(pm: PlannedMeasurement, ctrl: Any, las: Any) -> Outcome:
+            state["current"] = pm.id
+            return capture_measurement(
+                pm, folder, ctrl, las, clock, params, sources=(control, laser),
+                loop=LoopOptions(poll_s=poll_s, timeout_s=timeout_s), observer=observer,
+                latest=lambda c: state.__setitem__("latest", c))
+
+        outcomes = _run(todo, make_control(control, ctx), make_laser(laser, ctx), one)
+        notes += [n for out in outcomes for n in out.notes]
+    unreadable, said = _unreadable_notes(
+        outcomes, {pm.id: folder / pm.measurement.file for pm in plans})
+    done = len(outcomes) == len(todo) and all(o.complete for o in outcomes)
+    return Captured(folder, tuple(outcomes), tuple(pm.id for pm in skipped), done,
+                    tuple(notes + _outcome_notes(outcomes) + said), tuple(unreadable))
+
+
+def _run(todo: list[PlannedMeasurement], ctrl: Any, las: Any,
+         one: Callable[[PlannedMeasurement, Any, Any], Outcome]) -> list[Outcome]:
+    """Open both sources, capture each measurement in turn until one stops, close both."""
+    outcomes: list[Outcome] = []
+    ctrl.open()
+    try:
+        las.open()
+        try:
+            for pm in todo:
+                outcomes.append(one(pm, ctrl, las))
+                if not outcomes[-1].complete:
+                    break
+        finally:
+            las.close()
+    finally:
+        ctrl.close()
+    return outcomes
+
+
+def _check_options(params: Any, poll_s: float, timeout_s: float | None, speed: float | None,
+                   again: bool, measurement: Sequence[str] | None) -> None:
+    """Refuse option values the capture cannot use, before anything is read or written."""
+    params.check()
+    if not (isinstance(poll_s, int | float) and 0 < poll_s <= params.max_gap_s):
+        raise ParameterError(f"{{poll_s=}}{poll_s!r}: expected 0 < poll <= {{max_gap_s=}}"
+                             f"{params.max_gap_s:g} s")
+    if timeout_s is not None and not timeout_s > 0:
+        raise ParameterError(f"{{timeout_s=}}{timeout_s!r}: expected a positive time [s]")
+    if speed is not None and not speed > 0:
+        raise ParameterError(f"{{speed=}}{speed!r}: expected a positive factor")
+    if again and not measurement:
+        raise ParameterError("{again=True} needs {measurement}: name the measurements to "
+                             "capture again (their earlier capture is kept in backup/)")
+
+
+def _chosen(s: Session, measurement: Sequence[str] | None, folder: Path) -> list[str]:
+    """The ids ``measurement`` names (every measurement of ``s`` when None), checked."""
+    ids = [m.id for m in s.measurements]
+    chosen = list(measurement) if measurement else ids
+    for mid in chosen:
+        if mid not in ids:
+            raise ParameterError(f"{{measurement=}}{mid!r} is not in the session (its "
+                                 f"measurements: {', '.join(ids)})", folder / "session.toml")
+    if len(set(chosen)) != len(chosen):
+        raise ParameterError(f"{{measurement=}}: an id is given twice ({', '.join(chosen)})")
+    return chosen
+
+
+def _prepare_files(folder: Path, plans: list[PlannedMeasurement]) -> None:
+    """Refuse a file holding a reading its journal does not hold; keep each planned file.
+
+    A measured reading is never overwritten: every file is checked before the first is
+    written. Each measurement's file as planned is kept at its first start, in
+    ``capture/<id>.planned.csv``.
+    """
+    from volcal.capture.journal import JOURNAL_FOLDER, journal_path, read_journal
+    from volcal.capture.sessionfile import render_csv
+    from volcal.io.atomic import write_text
+
+    for pm in plans:
         render_csv(folder / pm.measurement.file, pm.measurement,
                    read_journal(journal_path(folder, pm.id)), {})
     (folder / JOURNAL_FOLDER).mkdir(exist_ok=True)
-    for pm in plans:  # keep each measurement's planned file at its first start
+    for pm in plans:
         keep = folder / JOURNAL_FOLDER / (Path(pm.measurement.file).stem + PLANNED_SUFFIX)
         if not keep.is_file():
-            from volcal.io.atomic import write_text
-
             write_text(keep, (folder / pm.measurement.file).read_text(encoding="utf-8"))
+
+
+def _split_done(folder: Path, plans: list[PlannedMeasurement]
+                ) -> tuple[list[PlannedMeasurement], list[PlannedMeasurement]]:
+    """The measurements still to capture, and those their journals hold complete."""
+    from volcal.capture.journal import journal_path, read_journal
+
     todo: list[PlannedMeasurement] = []
     skipped: list[PlannedMeasurement] = []
     for pm in plans:
         rec = read_journal(journal_path(folder, pm.id))
         (skipped if rec.done >= {d.reading for d in pm.dwells} else todo).append(pm)
-    clock = VirtualClock(speed) if simulated else Clock()
-    state: dict[str, Any] = {"latest": None, "current": None}
-    ctx = SourceContext(clock, s, plans, lambda: state["latest"], lambda: state["current"],
-                        dict(extras or {}))
-    outcomes: list[Outcome] = []
-    if todo:
-        ctrl = make_control(control, ctx)
-        las = make_laser(laser, ctx)
-        ctrl.open()
-        try:
-            las.open()
-            try:
-                for pm in todo:
-                    state["current"] = pm.id
-                    out = capture_measurement(
-                        pm, folder, ctrl, las, clock, params, sources=(control, laser),
-                        loop=LoopOptions(poll_s=poll_s, timeout_s=timeout_s),
-                        observer=observer, latest=lambda c: state.__setitem__("latest", c))
-                    outcomes.append(out)
-                    notes += out.notes
-                    if not out.complete:
-                        break
-            finally:
-                las.close()
-        finally:
-            ctrl.close()
+    return todo, skipped
+
+
+def _outcome_notes(outcomes: list[Outcome]) -> list[str]:
+    """The missed rows of each measurement captured, and where a stopped one resumes."""
+    notes = []
     for out in outcomes:
         if out.missed:
             notes.append(f"{out.measurement}: missed at row(s) {', '.join(map(str, out.missed))}"
@@ -440,8 +487,4 @@ def capture(session: Session | str | Path, *, control: str, laser: str,
         if not out.complete:
             notes.append(f"{out.measurement}: {out.reason}; {out.accepted} of {out.planned} "
                          "readings recorded. Run the same command again to resume")
-    unreadable, said = _unreadable_notes(
-        outcomes, {pm.id: folder / pm.measurement.file for pm in plans})
-    done = len(outcomes) == len(todo) and all(o.complete for o in outcomes)
-    return Captured(folder, tuple(outcomes), tuple(pm.id for pm in skipped), done,
-                    tuple(notes + said), tuple(unreadable))
+    return notes

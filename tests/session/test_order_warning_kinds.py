@@ -47,3 +47,20 @@ def test_first_reading_far_from_zero_only_for_laser_displacements():
     rot = next(m.id for m in s.measurements if m.kind == "rotary")
     assert w and not [x for x in w if x.startswith(rot)]
     assert {x.split(":")[0] for x in w} == {m.id for m in s.measurements if m.kind == "linear"}
+
+
+def test_no_scale_warning_for_an_r_test_beside_linear_tests():
+    """Session 22: ``volcal report`` of a 5-axis session (linear tests, step diagonals and
+    an R-test, planned and simulated by volcal) warned "r_test: deviations ~697x larger
+    than the session's other r test tests (1.06e+04 um/m against a median of 15.2 um/m):
+    mm entered as um?": the nest's displacements while the axes circle divided by the
+    poses' extent, compared with the linear tests' errors per metre. A linear test entered
+    in mm still warns, naming the tests it was compared with."""
+    s = _session(["linear", "step-diagonal", "r_test:ca"])
+    assert not [w for w in plausibility_warnings(s) if "larger than" in w or
+                "smaller than" in w]
+    m = next(m for m in s.measurements if m.kind == "linear")
+    m.deviation = np.asarray(m.deviation, dtype=float) * 1000.0
+    w = [x for x in plausibility_warnings(s) if "larger than" in x]
+    assert [x.split(":")[0] for x in w] == [m.id]
+    assert "larger than the session's other linear tests" in w[0]

@@ -6,8 +6,9 @@ the reader itself (``docs/formats.md``, "Plausibility"). The checks:
 
 * **scale** (um entered as nm, or mm entered as um): a measurement's robust spread per
   metre of travel (the 5th to 95th percentile range of its deviations divided by its
-  length) is compared with the median of the session's measurements of the same kind
-  (all measurements when fewer than 3 share its kind); more than :data:`SCALE_RATIO`
+  length; measurements whose poses run along a line, ``Kind.along_beam``) is compared
+  with the median of the session's measurements of the same kind (all measurements when
+  fewer than 3 share its kind); more than :data:`SCALE_RATIO`
   times the median (the median floored at :data:`SCALE_FLOOR_UM_PER_M`) is flagged as
   too large, less than the median over :data:`SCALE_RATIO` (the median at least
   :data:`SCALE_FLOOR_UM_PER_M`) as too small;
@@ -89,31 +90,35 @@ def _spread_um_per_m(m: Measurement) -> float:
 
 def _scale(ms: list[Measurement]) -> list[str]:
     out = []
-    ms = [m for m in ms if _length_mm(m) > 0]  # a rotary test's poses do not move
+    # a spread per metre of the poses' extent is a common scale only for readings along a
+    # line of poses (Kind.along_beam): not a rotary test's (its poses do not move), an
+    # R-test's (the nest's displacements while the axes circle) or a tracker grid's
+    ms = [m for m in ms if _length_mm(m) > 0 and kind_of(m.kind).along_beam]
     dens = {m.id: _spread_um_per_m(m) for m in ms}
     for m in ms:
         ang = _in_urad(m)  # angles, never compared with displacements
         group = [o for o in ms if o.kind == m.kind and o is not m]
+        kind = f"{m.kind.replace('_', ' ')} tests"
         if len(group) < 2:
             group = [o for o in ms if o is not m and _in_urad(o) == ang]
+            kind = "tests"
         if len(group) < 2:
             continue
         med = max(float(np.median([dens[o.id] for o in group])), SCALE_FLOOR_UM_PER_M)
         ratio = dens[m.id] / med
         raw = float(np.median([dens[o.id] for o in group]))
-        kind = m.kind.replace("_", " ")
         u = "urad/m" if ang else "um/m"
         if ratio > SCALE_RATIO:
             hint = ("mrad (or mm/m) entered as urad" if ang else "mm entered as um")
             out.append(f"{m.id}: deviations ~{ratio:.0f}x larger than the session's other "
-                       f"{kind} tests ({dens[m.id]:.3g} {u} against a "
+                       f"{kind} ({dens[m.id]:.3g} {u} against a "
                        f"median of {med:.3g} {u}): {hint} in {m.file}?")
         elif raw >= SCALE_FLOOR_UM_PER_M and dens[m.id] * SCALE_RATIO < raw:
             small = raw / max(dens[m.id], 1e-12)
             hint = ("readings 1000x too small (mrad typed into angle_urad)" if ang else
                     "readings 1000x too small (mm typed into deviation_um)")
             out.append(f"{m.id}: deviations ~{small:.0f}x smaller than the session's other "
-                       f"{kind} tests ({dens[m.id]:.3g} {u} against a median of "
+                       f"{kind} ({dens[m.id]:.3g} {u} against a median of "
                        f"{raw:.3g} {u}): {hint} in {m.file}?")
     return out
 

@@ -6,6 +6,7 @@ from functools import partial
 from typing import Any
 
 from volcal.report.document import FigureItem, Section, Table, fmt
+from volcal.report.wording import ISO230_2_HEADS, ISO230_2_LEGEND
 
 __all__ = ["NO_LINEAR_MODEL", "parse_rotary_tolerance", "rotary_results", "rotary_section",
            "rotary_verdicts"]
@@ -90,11 +91,10 @@ def rotary_section(inp: Any, units: str | None = None) -> Section | None:
         sec.warnings.extend(f"{mid}: {n}" for n in r.iso.notes)
     edition = next(iter(res.values())).iso.edition
     sec.tables.append(Table(
-        ["measurement", "axis", *(f"{k.replace('_up', '↑').replace('_down', '↓')} [{u}]"
-                                  for k in _KEYS), f"closure ↑ / ↓ [{u}]"],
+        ["measurement", "axis", *(f"{ISO230_2_HEADS[k]} [{u}]" for k in _KEYS),
+         f"closure ↑ / ↓ [{u}]"],
         rows, f"ISO 230-2:{edition} positioning parameters of the rotary axes",
-        "A accuracy, E systematic error, M range of the mean bidirectional deviation, R "
-        "repeatability, B reversal value, B_mean mean reversal value; ↑/↓ one direction."))
+        ISO230_2_LEGEND))
     with_u = {k: r for k, r in res.items() if r.uncertainty is not None}
     if with_u:
         sec.tables.append(Table(

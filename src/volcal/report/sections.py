@@ -28,6 +28,7 @@ from volcal.plot import (
 )
 from volcal.plot.identifiability import FRACTION_LIMITS
 from volcal.report.document import FigureItem, Report, Section, Table, fmt
+from volcal.report.wording import ISO230_2_HEADS, ISO230_2_LEGEND
 from volcal.session.format import Session
 
 __all__ = ["ReportInputs", "build_report", "fmt"]
@@ -638,12 +639,8 @@ def positioning_section(inp: ReportInputs) -> Section | None:
                             for n in getattr(res, "notes", []) or [])
         edition = next(iter(inp.iso230_2.values())).edition
         sec.tables.append(Table(
-            ["measurement", "axis", "A [µm]", "A↑ [µm]", "A↓ [µm]", "E [µm]", "M [µm]",
-             "R [µm]", "R↑ [µm]", "R↓ [µm]", "B [µm]", "B̄ [µm]"], rows,
-            f"ISO 230-2:{edition} positioning parameters",
-            "A accuracy, E systematic error, M range of the mean bidirectional deviation, "
-            "R repeatability, B reversal value, B̄ mean reversal value; ↑/↓ one approach "
-            "direction only."))
+            ["measurement", "axis", *(f"{ISO230_2_HEADS[k]} [µm]" for k in keys)], rows,
+            f"ISO 230-2:{edition} positioning parameters", ISO230_2_LEGEND))
     uncs = inp.iso230_2_uncertainty or {}
     if inp.iso230_2 and uncs:
         _positioning_uncertainty(sec, inp, uncs)
@@ -685,7 +682,7 @@ def _positioning_uncertainty(sec: Section, inp: ReportInputs, uncs: Mapping[str,
         rows.append([mid, *(fmt(u.parameters[k].U) for k in _U_KEYS),
                      fmt(u.parameters["A"].k)])
     sec.tables.append(Table(
-        ["measurement", *(f"U({k}) [µm]" for k in ("A", "E", "M", "R", "B", "B̄")), "k (A)"],
+        ["measurement", *(f"U({ISO230_2_HEADS[k]}) [µm]" for k in _U_KEYS), "k (A)"],
         rows, "Expanded uncertainty of the ISO 230-2 parameters (95 %)",
         "U = k u, k from the effective degrees of freedom (Welch-Satterthwaite); the "
         "budget gives uncertainties only: the values are those of the readings as the "

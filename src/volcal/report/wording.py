@@ -62,6 +62,16 @@ CITED_AS: tuple[str, ...] = (
 entry, matched after :func:`customer_text`, which turns the seed numbers into the
 :data:`SOURCE_NAMES`)."""
 
+ISO230_2_HEADS: dict[str, str] = {
+    "A": "A", "A_up": "A↑", "A_down": "A↓", "E": "E", "M": "M", "R": "R", "R_up": "R↑",
+    "R_down": "R↓", "B": "B", "B_mean": "B̄"}
+"""The report's column head of each ISO 230-2 parameter, linear and rotary axes alike."""
+
+ISO230_2_LEGEND = ("A accuracy, E systematic error, M range of the mean bidirectional "
+                   "deviation, R repeatability, B reversal value, B̄ mean reversal value; "
+                   "↑/↓ one approach direction only.")
+"""The legend under the report's tables of ISO 230-2 parameters."""
+
 SOURCE_NAMES: dict[str, str] = {
     "000": "Wang & Liotto 2003",
     "001": "Optodyne application note",

@@ -131,6 +131,11 @@ def test_command_line_exit_codes(planned, tmp_path, monkeypatch, capsys):
                               *FAST_CLI)
     assert code == 2 and "diag-ppp.csv" in err and "was never captured here" in err
     assert not (out / "backup").exists()  # refused before anything was written
+    code, o, err = run_volcal(monkeypatch, capsys, "capture", str(planned), "--control", "sim",
+                              "--laser", "sim", "--again", "--measurement", MID, "-o",
+                              str(tmp_path / "NEW"), *FAST_CLI)
+    assert code == 2 and "--again: --output " in err and "holds no capture" in err
+    assert not (tmp_path / "NEW").exists()
     code, o, err = run_volcal(monkeypatch, capsys, "capture", str(out), "--control", "sim",
                               "--laser", "sim", "--again", "--measurement", MID, *FAST_CLI)
     assert code == 0, err

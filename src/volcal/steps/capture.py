@@ -358,6 +358,9 @@ def capture(session: Session | str | Path, *, control: str, laser: str,
 
     # nothing is written before the sources, the measurements and their files are known good
     resume = output is not None and (Path(output) / "session.toml").is_file()
+    if again and output is not None and not resume:
+        raise ParameterError(f"{{again=True}}: {{output=}}{output} holds no capture to take "
+                             "again: capture into it without {again=True}")
     if not resume:
         check_sources(*planned(Path(session) if isinstance(session, str | Path)
                                else Path(session.path or ".")))

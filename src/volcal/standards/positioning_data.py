@@ -124,7 +124,42 @@ def read_positioning_csv(path: str | Path) -> PositioningData:
                            t["deviation_um"][keep], t.rows[keep], str(path), notes=notes)
 
 
+def _kind_in_session(path: Path) -> tuple[str, str] | None:
+    """The id and kind ``session.toml`` beside ``path`` gives the file, if it names it."""
+    import tomllib
+
+    try:
+        doc = tomllib.loads((path.parent / "session.toml").read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        return None
+    for e in doc.get("measurements", []):
+        if isinstance(e, dict) and e.get("file") == path.name:
+            return str(e.get("id", path.stem)), str(e.get("kind", ""))
+    return None
+
+
+def _evaluated_by(kind: str, folder: Path) -> str:
+    """What evaluates a measurement of ``kind`` (:attr:`volcal.kinds.Kind.evaluated_by`)."""
+    from volcal.session.kinds import kind_of
+
+    try:
+        k = kind_of(kind)
+    except VolcalInputError:
+        return f"see docs/formats.md for the kinds (volcal evaluate session {folder})"
+    if k.evaluated_by:
+        return f"its readings give {k.evaluated_by}"
+    if k.standard and k.standard != "ISO 230-2":
+        return f"{k.standard}: volcal evaluate session {folder}"
+    return (f"its readings enter the identification of the linear axes (volcal identify "
+            f"{folder}), whose model volcal evaluate volumetric evaluates")
+
+
 def _read_measurement_layout(path: Path, header: list[str]) -> PositioningData:
+    named = _kind_in_session(path)
+    if named is not None and named[1] not in ("", "linear"):
+        raise VolcalInputError(f"{named[0]} is of kind {named[1]} (session.toml), not a "
+                               "linear test with runs, which ISO 230-2 evaluates; "
+                               + _evaluated_by(named[1], path.parent), path)
     for c in ("run", "direction"):
         if c not in header:
             raise VolcalInputError(f"missing column '{c}': ISO 230-2 needs the run and the "

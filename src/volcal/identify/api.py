@@ -136,6 +136,17 @@ def _too_few_redundant(sol: Solution, design: Design) -> bool:
     return sol.dof < max(10.0, 0.1 * design.y.size)
 
 
+def _surely_redundant(design: Design) -> bool:
+    """True when the readings show their own noise whatever the fit (:func:`_too_few_redundant`).
+
+    The residual degrees of freedom ``n - edf`` are at least ``n - N`` (the effective
+    number of parameters is at most the ``N`` unknowns); 1 % of ``N`` and one more are
+    the margin for rounding. Then the fit need not be solved to know it.
+    """
+    n, N = design.A.shape
+    return n - 1.01 * N - 1.0 >= max(10.0, 0.1 * design.y.size)
+
+
 def _noise_note(sol: Solution, design: Design, repeatability_um: float) -> str:
     return (f"The readings have too little redundancy to show their own noise ({sol.dof:.0f} "
             f"residual degrees of freedom for {design.y.size} readings): a repeatability of "
@@ -566,13 +577,16 @@ def _coarse_hyperparameters(session: Session, o: IdentifyOptions, known: dict, w
     design_h = coarsen(design, nodes_h) or build_design(
         session, nodes_h, known, o.drift, o.measurement_ids, o.tilts, weights=weights)
     prior_h = PriorStructure.build(design_h.layout, design_h.free, o.kappa, settings=st)
+    # the coarse estimate is not kept: solved only when its residual degrees of freedom
+    # decide whether the noise can be estimated
+    check = noise is None and not _surely_redundant(design_h)
     sol_h = solve_bayes(design_h, prior_h, None, noise, o.squareness_std_urad,
-                        roll_presence=False, settings=st)
-    if noise is None and _too_few_redundant(sol_h, design_h):
+                        roll_presence=False, settings=st, estimate=check)
+    if check and _too_few_redundant(sol_h, design_h):
         notes.append(_noise_note(sol_h, design_h, st.default_repeatability_um))
         noise = st.default_repeatability_um
         sol_h = solve_bayes(design_h, prior_h, None, noise, o.squareness_std_urad,
-                            roll_presence=False, settings=st)
+                            roll_presence=False, settings=st, estimate=False)
     return sol_h, noise
 
 

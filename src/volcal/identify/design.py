@@ -359,7 +359,7 @@ def _visible_tilts(m: Measurement) -> tuple[NDArray[np.float64], list[int]]:
     return T, [j for j in range(2) if s[j] > 1e-6 * s[0]]
 
 
-def _alignment_rows(chain_order, nodes, m: Measurement, T: NDArray[np.float64],
+def _alignment_rows(Je: sp.csr_matrix, m: Measurement, T: NDArray[np.float64],
                     visible: list[int]) -> sp.csr_matrix:
     """Readings' dependence on the errors through the beam alignment [um per parameter].
 
@@ -368,13 +368,13 @@ def _alignment_rows(chain_order, nodes, m: Measurement, T: NDArray[np.float64],
     the nominal one by ``B (e(q_far) - e(q_0)) / L`` [rad], ``B`` the basis perpendicular
     to the beam: the readings gain ``T B (e_far - e_0) / L``, the tilt columns ``T`` acting
     on that direction. With this term the tilt nuisances are the residual misalignment of
-    the set-up, independent of the machine, which their prior describes.
+    the set-up, independent of the machine, which their prior describes. ``Je`` is the
+    test's pose Jacobian (:func:`volcal.model.kinematics.pose_jacobian` at its positions).
     """
     q = m.positions
     far = int(np.argmax(np.linalg.norm(q - q[0], axis=1)))
     L = float(np.linalg.norm(q[far] - q[0]))
-    Je, _ = pose_jacobian(chain_order, nodes, q[[0, far]], m.tool_offset)
-    de = sp.csr_matrix(Je[3:6] - Je[0:3])  # [um per parameter], a few dozen columns
+    de = sp.csr_matrix(Je[3 * far:3 * far + 3] - Je[0:3])  # [um per parameter]
     B = perpendicular_basis(m.beam_direction)[visible] * (UM / URAD) / L
     G = sp.csr_matrix(B) @ de  # [urad per parameter]
     return (sp.csr_matrix(T[:, visible]) @ G).tocsr()
@@ -426,11 +426,12 @@ def laser_rows(chain_order, nodes, m: Measurement, drift: bool = False, tilts: b
         Nuisance columns: offset, tilts, reversal, drift.
     names : list of str
     """
-    J = reading_jacobian(chain_order, nodes, m)
+    jacobians = pose_jacobian(chain_order, nodes, m.positions, m.tool_offset)
+    J = reading_jacobian(chain_order, nodes, m, jacobians)
     T, visible = _visible_tilts(m)
     N, names = _nuisance_columns(m, drift, tilts, T, visible)
     if tilts and visible:
-        J = (J + _alignment_rows(chain_order, nodes, m, T, visible)).tocsr()
+        J = (J + _alignment_rows(jacobians[0], m, T, visible)).tocsr()
     return J, m.deviation, N, names
 
 

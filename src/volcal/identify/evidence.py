@@ -11,6 +11,8 @@ gradient block by block.
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
+
 import numpy as np
 import scipy.linalg as sla
 from numpy.typing import NDArray
@@ -91,6 +93,7 @@ class _Evidence:
         self._outside = ~in_block  # unknowns on the diagonal only
         self._flat = [np.ravel_multi_index(np.ix_(idx, idx), (self.N, self.N)).ravel()
                       for idx, *_ in prior.blocks]
+        self._kept: _Kept | None = None
 
     @property
     def has_tilts(self) -> bool:
@@ -159,10 +162,47 @@ class _Evidence:
 
     def _prior_blocks(self, scales, kappa=None):
         """Function scales (18) and per-block precisions at these hyperparameters."""
+        kept = self._prior(scales, kappa)
+        return kept.fs, kept.blocks
+
+    def _prior(self, scales, kappa=None) -> _Kept:
+        """The prior's parts at these hyperparameters, kept for the next evaluation.
+
+        The scan of the noise (:meth:`_HyperSearch._start_sigma`) and the factorisation
+        after a search or after the value at given hyperparameters evaluate the same
+        prior again; its parts (and the posterior's factor, :meth:`_posterior`) are
+        computed once, the same numbers.
+        """
         if kappa is not None and kappa != self.prior.kappa:
             self.prior = self.prior.with_kappa(kappa)
         fs = function_scales(scales)
-        return fs, self._block_precisions(fs)
+        key = (fs.tobytes(), self._diag.tobytes(), _hyper_key(self.prior))
+        kept = self._kept
+        if kept is not None and kept.key == key and kept.structure is self.prior.blocks:
+            return kept
+        blocks = self._block_precisions(fs)
+        self._kept = _Kept(key, self.prior.blocks, fs.copy(), blocks, self._assemble(blocks))
+        return self._kept
+
+    def _posterior(self, kept: _Kept, sigma: float):
+        """``H = A'A / sigma^2 + Q`` and its lower Cholesky factor, kept with the prior."""
+        if kept.sigma != sigma or kept.factor is None:
+            H = self.AtA / sigma**2 + kept.Q
+            kept.factor = sla.cho_factor(H, lower=True, check_finite=False)
+            kept.H, kept.sigma = H, sigma
+        return kept.H, kept.factor
+
+    def _log_det_prior(self, kept: _Kept):
+        """``log det Q`` block by block, and the blocks' Cholesky factors (kept)."""
+        if kept.logdet is None:
+            logdet_q = float(np.sum(np.log(self._diag[self._outside])))
+            qinv = []
+            for Qb, ex in kept.blocks:
+                cb = sla.cho_factor(Qb + np.diag(ex), lower=True, check_finite=False)
+                logdet_q += 2.0 * float(np.sum(np.log(np.diag(cb[0]))))
+                qinv.append(cb)
+            kept.logdet, kept.qinv = logdet_q, qinv
+        return kept.logdet, kept.qinv
 
     def _assemble(self, blocks) -> NDArray[np.float64]:
         """Dense ``Q`` from the per-block precisions and the diagonal."""
@@ -173,13 +213,14 @@ class _Evidence:
         return Q
 
     def prior_dense(self, scales, kappa=None):
-        """Dense prior precision ``Q`` for group (4) or function (18) scales."""
-        return self._assemble(self._prior_blocks(scales, kappa)[1])
+        """Dense prior precision ``Q`` for group (4) or function (18) scales (a copy)."""
+        return self._prior(scales, kappa).Q.copy()
 
     def factor(self, scales, sigma, kappa=None):
-        Q = self.prior_dense(scales, kappa)
-        H = self.AtA / sigma**2 + Q
-        return H, Q, sla.cho_factor(H, lower=True, check_finite=False)
+        """``(H, Q, cho_factor(H))`` at these hyperparameters (arrays to read, not write)."""
+        kept = self._prior(scales, kappa)
+        H, cf = self._posterior(kept, sigma)
+        return H, kept.Q, cf
 
     def _value(self, scales, sigma, kappa=None):
         """``neg2`` with the parts its gradient reuses.
@@ -187,9 +228,9 @@ class _Evidence:
         Returns ``(value, Q, cf, x, |r|^2, block Cholesky factors of Q, block precisions)``;
         the block precisions are computed once per evaluation.
         """
-        fs, blocks = self._prior_blocks(scales, kappa)
-        Q = self._assemble(blocks)
-        cf = sla.cho_factor(self.AtA / sigma**2 + Q, lower=True, check_finite=False)
+        kept = self._prior(scales, kappa)
+        Q, blocks = kept.Q, kept.blocks
+        cf = self._posterior(kept, sigma)[1]
         b = self.Aty / sigma**2
         x = sla.cho_solve(cf, b, check_finite=False)
         # the data term y'y/s^2 - b'H^-1 b as the minimum it is, |y - A x|^2/s^2 + x'Q x:
@@ -201,12 +242,7 @@ class _Evidence:
         logdet_h = 2.0 * float(np.sum(np.log(np.diag(cf[0]))))
         # log det Q block by block (Q is block diagonal); the block factors serve the
         # gradient's tr(Q^-1 dQ) terms
-        logdet_q = float(np.sum(np.log(self._diag[self._outside])))
-        qinv = []
-        for Qb, ex in blocks:
-            cb = sla.cho_factor(Qb + np.diag(ex), lower=True, check_finite=False)
-            logdet_q += 2.0 * float(np.sum(np.log(np.diag(cb[0]))))
-            qinv.append(cb)
+        logdet_q, qinv = self._log_det_prior(kept)
         val = data + logdet_h - logdet_q + self.n * np.log(2 * np.pi * sigma**2)
         return float(val), Q, cf, x, rr, qinv, blocks
 
@@ -285,6 +321,35 @@ class _Evidence:
                 out[function_group(k, c)] += g[6 * k + c]
         out[ng:] = g[18:20]
         return val, out
+
+
+def _hyper_key(prior: PriorStructure) -> tuple:
+    """The prior's hyperparameters besides the function scales (what its blocks depend on)."""
+    return (prior.kappa, prior.trend_um, prior.trend_length, prior.tilt_trend_urad,
+            prior.kappa_factor, prior.nugget_um, prior.group_kappa, prior.axis_kappa)
+
+
+@dataclass(eq=False)
+class _Kept:
+    """The prior's parts at one set of hyperparameters (:meth:`_Evidence._prior`).
+
+    ``key`` the hyperparameters (function scales, diagonal, :func:`_hyper_key`),
+    ``structure`` the prior's blocks they were computed on, ``fs`` the function scales,
+    ``blocks`` each block's precision and diagonal extra, ``Q`` the dense prior precision;
+    filled when first needed: the posterior precision ``H`` and its factor at ``sigma``,
+    ``log det Q`` and the blocks' factors.
+    """
+
+    key: tuple
+    structure: list
+    fs: NDArray[np.float64]
+    blocks: list
+    Q: NDArray[np.float64]
+    sigma: float = float("nan")
+    H: NDArray[np.float64] | None = None
+    factor: tuple | None = None
+    logdet: float | None = None
+    qinv: list = field(default_factory=list)
 
 
 def _inverse_from_cholesky(cf) -> NDArray[np.float64]:

@@ -164,8 +164,8 @@ class Solution:
 def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float64] | None = None,
                 noise_um: float | None = None, squareness_std: float = 100.0,
                 covariance: bool = True, tilt_std: float | None = None,
-                roll_presence: bool = True, settings: EstimatorSettings | None = None
-                ) -> Solution:
+                roll_presence: bool = True, settings: EstimatorSettings | None = None,
+                estimate: bool = True) -> Solution:
     """Bayesian least squares with evidence-optimised hyperparameters.
 
     Four steps, each a function of its own: the hyperparameters of maximum evidence
@@ -197,6 +197,10 @@ def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float6
         chooses the hyperparameters, whose estimate is not kept.
     settings : EstimatorSettings, optional
         The estimator's settings; default ``EstimatorSettings()``.
+    estimate : bool
+        Solve the linear system at the hyperparameters found (default). False for a
+        search that only chooses the hyperparameters (a coarse grid's): no estimate, no
+        covariance, and the residual statistics (``dof``, ``sigma_residual_um``) nan.
 
     Returns
     -------
@@ -213,10 +217,14 @@ def solve_bayes(design: Design, prior: PriorStructure, scales: NDArray[np.float6
     scales_opt = _group_scales(f_opt)
     if kappa != ev.prior.kappa:
         ev.prior = ev.prior.with_kappa(kappa)
-    H, _, cf, x_fit, cov_fit = _final_solve(ev, design, f_opt, sigma, covariance, st)
-    x, cov, solve, roll_lbf, p_roll = _roll_presence(ev.prior, design, f_opt, H, cf, x_fit,
-                                                     cov_fit, roll_presence, st)
-    x, dof, s_res = _fit_summary(ev, design, x, cov_fit, sigma)
+    if estimate:
+        H, _, cf, x_fit, cov_fit = _final_solve(ev, design, f_opt, sigma, covariance, st)
+        x, cov, solve, roll_lbf, p_roll = _roll_presence(ev.prior, design, f_opt, H, cf,
+                                                         x_fit, cov_fit, roll_presence, st)
+        x, dof, s_res = _fit_summary(ev, design, x, cov_fit, sigma)
+    else:  # the hyperparameters alone: no linear solve
+        x, cov, solve, roll_lbf, p_roll = np.zeros(0), None, None, None, None
+        dof = s_res = float("nan")
     return Solution(x, cov, sigma, s_res, scales_opt, -0.5 * neg2, dof, "bayes",
                     solve=solve, kappa=kappa,
                     convergence=convergence, function_scales=f_opt, ata=ev.AtA,

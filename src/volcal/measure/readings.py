@@ -205,7 +205,9 @@ def reading_first_order(errors: MachineErrors, meas: Measurement,
     return dev
 
 
-def reading_jacobian(chain_order, nodes, meas: Measurement) -> sp.csr_matrix:
+def reading_jacobian(chain_order, nodes, meas: Measurement,
+                     jacobians: tuple[sp.csr_matrix, sp.csr_matrix] | None = None
+                     ) -> sp.csr_matrix:
     """Jacobian of the first-order deviations with respect to the node values.
 
     Parameters
@@ -216,6 +218,9 @@ def reading_jacobian(chain_order, nodes, meas: Measurement) -> sp.csr_matrix:
         Node positions per axis [mm] (layout of :class:`volcal.model.parameters.ParameterLayout`).
     meas : Measurement
         The test.
+    jacobians : (Je, Jo), optional
+        :func:`volcal.model.kinematics.pose_jacobian` at the test's positions, when the
+        caller has them already.
 
     Returns
     -------
@@ -226,12 +231,14 @@ def reading_jacobian(chain_order, nodes, meas: Measurement) -> sp.csr_matrix:
     q = meas.positions
     n = meas.beam_direction
     m = q.shape[0]
-    Je, Jo = pose_jacobian(chain_order, nodes, q, meas.tool_offset)
+    if jacobians is None:
+        jacobians = pose_jacobian(chain_order, nodes, q, meas.tool_offset)
+    Je, Jo = jacobians
     # project the 3 rows of each point on the beam: D is (m, 3m)
     rows = np.repeat(np.arange(m), 3)
     cols = np.arange(3 * m)
     D = sp.csr_matrix((np.tile(n, m), (rows, cols)), shape=(m, 3 * m))
-    A = D @ Je
+    A = DJ = D @ Je
     if meas.target == "flat_mirror":
         c = np.cross(n, q - q[0]).ravel() * (URAD / UM)
         Dc = sp.csr_matrix((c, (rows, cols)), shape=(m, 3 * m))
@@ -241,5 +248,5 @@ def reading_jacobian(chain_order, nodes, meas: Measurement) -> sp.csr_matrix:
         A = A - sp.csr_matrix(np.cross(n, q - q[0]) * (URAD / UM)) @ first
     A = A.tocsr()
     # subtract the first row's volumetric part (counted from the first row)
-    A = A - sp.csr_matrix(np.ones((m, 1))) @ sp.csr_matrix((D @ Je)[0])
+    A = A - sp.csr_matrix(np.ones((m, 1))) @ sp.csr_matrix(DJ[0])
     return sp.csr_matrix(A)

@@ -294,43 +294,65 @@ def pose_jacobian(chain_order, nodes: Sequence[NDArray[np.float64]], q: ArrayLik
         Volumetric error rows (point-major: e_x, e_y, e_z of point 0, then point 1...) [um].
     Jo : scipy.sparse.csr_matrix, shape (3m, P)
         Orientation error rows [urad].
-    """
-    import scipy.sparse as sp  # here, not at the top: predicting from a model needs no scipy
 
+    Notes
+    -----
+    Every row has the same pattern of columns (the two nodes around the point on each
+    axis, then the squareness), so the matrices are written in their canonical CSR form
+    directly: sorted columns, the entries of an axis with a single node (its two
+    "neighbours" the same node) summed, the zeros of the pattern stored, as a COO
+    assembly would give them.
+    """
     q = _points(q)
     m = q.shape[0]
     t = np.array(_offsets(tool_offset, m))
     levers = _levers(tuple(chain_order), q, t)
-    sizes = [len(n) * 6 for n in nodes]
-    starts = np.concatenate([[0], np.cumsum(sizes)])
+    starts = np.concatenate([[0], np.cumsum([len(n) * 6 for n in nodes])])
     P = int(starts[-1]) + 3
-    rows_e, cols_e, vals_e = [], [], []
-    rows_o, cols_o, vals_o = [], [], []
-    pts = np.arange(m)
+    slots_e: list[list] = [[], [], []]  # per row component: (columns, values), in column order
+    slots_o: list[list] = [[], [], []]
     for k in range(3):
         i0, i1, w = interp_weights(nodes[k], q[:, k])
-        for node_idx, weight in ((i0, 1.0 - w), (i1, w)):
-            base = starts[k] + node_idx * 6
-            for c in range(3):  # translations
-                rows_e.append(3 * pts + c)
-                cols_e.append(base + c)
-                vals_e.append(weight)
-            crosses = _cross_matrix_columns(levers[k])
-            for a in range(3):  # rotations
-                for c in range(3):
-                    rows_e.append(3 * pts + c)
-                    cols_e.append(base + 3 + a)
-                    vals_e.append(weight * crosses[a][:, c] * (URAD / UM))
-                rows_o.append(3 * pts + a)
-                cols_o.append(base + 3 + a)
-                vals_o.append(weight)
-    sq = starts[-1]
-    for col, comp, val in ((sq, 0, -q[:, 1]), (sq + 1, 0, q[:, 2]), (sq + 2, 1, -q[:, 2])):
-        rows_e.append(3 * pts + comp)
-        cols_e.append(np.full(m, col))
-        vals_e.append(val * (URAD / UM))
-    Je = sp.csr_matrix((np.concatenate(vals_e), (np.concatenate(rows_e), np.concatenate(cols_e))),
-                       shape=(3 * m, P))
-    Jo = sp.csr_matrix((np.concatenate(vals_o), (np.concatenate(rows_o), np.concatenate(cols_o))),
-                       shape=(3 * m, P))
-    return Je, Jo
+        crosses = _cross_matrix_columns(levers[k])
+        per_node = [(starts[k] + i0 * 6, 1.0 - w), (starts[k] + i1 * 6, w)]
+        for c in range(3):
+            _node_slots(slots_e[c], per_node, len(nodes[k]) == 1,
+                        [(c, None)] + [(3 + a, crosses[a][:, c]) for a in range(3)])
+            _node_slots(slots_o[c], per_node, len(nodes[k]) == 1, [(3 + c, None)])
+    sq = int(starts[-1])
+    s = URAD / UM
+    slots_e[0] += [(np.full(m, sq), -q[:, 1] * s), (np.full(m, sq + 1), q[:, 2] * s)]
+    slots_e[1] += [(np.full(m, sq + 2), -q[:, 2] * s)]
+    return _pattern_csr(slots_e, m, P), _pattern_csr(slots_o, m, P)
+
+
+def _node_slots(out: list, per_node, merged: bool, parts) -> None:
+    """Append the entries of one axis' two nodes to a row's slots (in column order).
+
+    ``per_node``: ``(base column, weight)`` of the left and the right node; ``parts``:
+    ``(column offset, lever or None)``, the value ``weight * lever * URAD / UM`` (a
+    rotation's, [um/urad]) or ``weight`` (None: a translation's or an orientation's).
+    ``merged``: the axis has one node, both nodes are the same column: one entry, the two
+    values summed.
+    """
+    vals = [[(wt if f is None else wt * f * (URAD / UM)) for _, f in parts]
+            for _, wt in per_node]
+    if merged:
+        base = per_node[0][0]
+        out += [(base + off, v0 + v1)
+                for (off, _), v0, v1 in zip(parts, vals[0], vals[1], strict=True)]
+        return
+    for (base, _), vs in zip(per_node, vals, strict=True):
+        out += [(base + off, v) for (off, _), v in zip(parts, vs, strict=True)]
+
+
+def _pattern_csr(slots: list[list], m: int, n_cols: int):
+    """CSR matrix of rows ``3 p + c`` holding ``slots[c]`` at point ``p`` (shape (3m, n_cols))."""
+    import scipy.sparse as sp  # here, not at the top: predicting from a model needs no scipy
+
+    cols = np.concatenate([np.stack([np.broadcast_to(col, (m,)) for col, _ in sl], 1)
+                           for sl in slots], axis=1)
+    vals = np.concatenate([np.stack([v for _, v in sl], 1) for sl in slots], axis=1)
+    counts = np.tile([len(sl) for sl in slots], m)
+    indptr = np.concatenate([[0], np.cumsum(counts)])
+    return sp.csr_matrix((vals.ravel(), cols.ravel(), indptr), shape=(3 * m, n_cols))

@@ -106,9 +106,19 @@ class _Evidence:
         self._diag[self._tilt] = self._tilt_extra + 1.0 / self.tilt_std**2
 
     def _block_precisions(self, fscales):
-        """Per block: its prior precision and its diagonal extra precision."""
-        return [(self.prior.block_precision(b, fscales), self._diag[idx])
-                for b, (idx, *_) in enumerate(self.prior.blocks)]
+        """Per block: its prior precision and its diagonal extra precision.
+
+        Blocks with the same :meth:`PriorStructure.block_key` (the straightness errors of
+        one axis, its two tilts) share one precision array (to read, not to write).
+        """
+        done: dict[tuple, NDArray[np.float64]] = {}
+        out = []
+        for b, (idx, *_) in enumerate(self.prior.blocks):
+            key = self.prior.block_key(b, fscales)
+            if key not in done:
+                done[key] = self.prior.block_precision(b, fscales)
+            out.append((done[key], self._diag[idx]))
+        return out
 
     def _block_derivatives(self, b: int, fscales, Qb):
         """:meth:`_block_derivatives_kappa` with the axis' curvature factor.
@@ -197,8 +207,12 @@ class _Evidence:
         if kept.logdet is None:
             logdet_q = float(np.sum(np.log(self._diag[self._outside])))
             qinv = []
+            done: dict[tuple, tuple] = {}  # one factor of blocks sharing their precision
             for Qb, ex in kept.blocks:
-                cb = sla.cho_factor(Qb + np.diag(ex), lower=True, check_finite=False)
+                key = (id(Qb), ex.tobytes())
+                if key not in done:
+                    done[key] = sla.cho_factor(Qb + np.diag(ex), lower=True, check_finite=False)
+                cb = done[key]
                 logdet_q += 2.0 * float(np.sum(np.log(np.diag(cb[0]))))
                 qinv.append(cb)
             kept.logdet, kept.qinv = logdet_q, qinv
@@ -282,18 +296,21 @@ class _Evidence:
         except (np.linalg.LinAlgError, sla.LinAlgError):
             return 1e300, np.zeros(N_HYPER)
         fs = function_scales(scales)
-        Hinv = _inverse_from_cholesky(cf)
+        inv, lower = _inverse_lower(cf)  # H^-1: only its diagonal and diagonal blocks
+        # the diagonal as a strided view, as of the whole inverse (a dot product's sum
+        # depends on the stride); potri's diagonal is the whole inverse's
+        hdiag = np.diag(inv)
         grad = np.zeros(N_HYPER)
         gamma = np.zeros(N_HYPER)  # effective number of parameters each hyperparameter governs
-        tr_hq = float(np.diag(Hinv) @ self._diag)
+        tr_hq = float(hdiag @ self._diag)
+        shared: dict[tuple, tuple] = {}
         for bi, ((idx, *_), cb, (Qb, _)) in enumerate(
                 zip(self.prior.blocks, qinv, blocks, strict=True)):
-            Hb = Hinv[np.ix_(idx, idx)]
+            Hb = _symmetric(inv[np.ix_(idx, idx)]) if lower else inv[np.ix_(idx, idx)]
             xb = x[idx]
-            Qb_inv = sla.cho_solve(cb, np.eye(idx.size), check_finite=False)
             tr_hq += float(np.sum(Hb * Qb))
-            for j, dQ in self._block_derivatives(bi, fs, Qb):
-                t_h, t_q = float(np.sum(Hb * dQ)), float(np.sum(Qb_inv * dQ))
+            for j, dQ, t_q in self._block_terms(bi, fs, Qb, cb, shared):
+                t_h = float(np.sum(Hb * dQ))
                 grad[j] += float(xb @ (dQ @ xb)) + t_h - t_q
                 gamma[j] += 0.5 * (t_h - t_q)
         grad[19] = -2.0 * rr / sigma**2 - 2.0 * (self.N - tr_hq) + 2.0 * self.n
@@ -302,11 +319,28 @@ class _Evidence:
         if self.has_tilts:  # dQ/dlog tau = -2 / tau^2 on the tilts' diagonal
             t = self._tilt
             w = 1.0 / self.tilt_std**2
-            grad[20] = (-2.0 * w * float(x[t] @ x[t] + np.sum(np.diag(Hinv)[t]))
+            grad[20] = (-2.0 * w * float(x[t] @ x[t] + np.sum(hdiag[t]))
                         + 2.0 * float(np.sum(w / self._diag[t])))
-            gamma[20] = float(np.sum(w / self._diag[t]) - w * np.sum(np.diag(Hinv)[t]))
+            gamma[20] = float(np.sum(w / self._diag[t]) - w * np.sum(hdiag[t]))
         self.last_gamma = gamma
         return float(val), grad
+
+    def _block_terms(self, b: int, fscales, Qb, cb, shared: dict) -> list:
+        """``[(gradient index, dQ_b, tr(Q_b^-1 dQ_b))]`` of block ``b``.
+
+        The derivatives of :meth:`_block_derivatives`. Blocks of one group sharing their
+        precision and its factor (:meth:`_block_precisions`: an axis' two straightness
+        errors, its two tilts) have the same ones but for the function's own index:
+        computed once per evaluation (``shared``), the same numbers.
+        """
+        _, _, _, g, f = self.prior.blocks[b]
+        key = (g, id(Qb), id(cb))
+        if key not in shared:
+            Qb_inv = sla.cho_solve(cb, np.eye(Qb.shape[0]), check_finite=False)
+            shared[key] = (f, [(j, dQ, float(np.sum(Qb_inv * dQ)))
+                               for j, dQ in self._block_derivatives(b, fscales, Qb)])
+        f0, terms = shared[key]
+        return [(f if j == f0 else j, dQ, t_q) for j, dQ, t_q in terms]
 
     def neg2_grad(self, scales, sigma, kappa=None) -> tuple[float, NDArray[np.float64]]:
         """``neg2`` and its gradient in ``log`` of (the four group scales, kappa, sigma).
@@ -357,8 +391,26 @@ def _inverse_from_cholesky(cf) -> NDArray[np.float64]:
 
     LAPACK ``potri``: a third of the work of solving against the identity.
     """
+    inv, lower = _inverse_lower(cf)
+    return _symmetric(inv) if lower else inv
+
+
+def _inverse_lower(cf) -> tuple[NDArray[np.float64], bool]:
+    """``H^-1`` as LAPACK ``potri`` leaves it: its lower triangle (True).
+
+    When ``potri`` fails, the whole inverse solved against the identity (False).
+    """
     inv, info = sla.lapack.dpotri(cf[0], lower=True)
     if info != 0:
-        return sla.cho_solve(cf, np.eye(cf[0].shape[0]), check_finite=False)
-    inv = np.tril(inv)
-    return inv + np.tril(inv, -1).T
+        return sla.cho_solve(cf, np.eye(cf[0].shape[0]), check_finite=False), False
+    return inv, True
+
+
+def _symmetric(low: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The symmetric matrix of a lower triangle (what lies above the diagonal ignored).
+
+    A diagonal block ``H^-1[idx, idx]`` (``idx`` increasing) of the lower triangle of
+    ``potri`` gives the block of the whole inverse, the same numbers.
+    """
+    low = np.tril(low)
+    return low + np.tril(low, -1).T

@@ -384,12 +384,8 @@ def analyse(design: Design, prior: PriorStructure, scales: NDArray[np.float64],
                                    float(np.sqrt(np.mean(amb**2))))
     # groups of undetermined combinations
     if N.shape[1]:
-        share = np.zeros((N.shape[1], len(frac)))
         keys = list(frac)
-        for j in range(N.shape[1]):
-            v = N[:, j] ** 2
-            for i, n in enumerate(keys):
-                share[j, i] = v[names == n].sum()
+        share = _null_shares(N, names, keys)
         total = share.sum(axis=0)
         mixed = [keys[i] for i in np.argsort(-total) if total[i] > 0.05 * total.max()]
         report.null_groups.append(mixed)
@@ -397,6 +393,19 @@ def analyse(design: Design, prior: PriorStructure, scales: NDArray[np.float64],
     if candidates:
         _suggest(report, scale, thr, candidates, N, GN, NQN)
     return report
+
+
+def _null_shares(N: NDArray[np.float64], names: NDArray[np.str_], keys: list[str]
+                 ) -> NDArray[np.float64]:
+    """Each function's share of each null direction: ``N[:, j]^2`` summed over its parameters.
+
+    Returns shape (null dimension, len(keys)); a function per column, each direction's sum
+    over a contiguous row (the sum of ``(N[:, j]^2)[names == key]``, in its order).
+    """
+    share = np.zeros((N.shape[1], len(keys)))
+    for i, key in enumerate(keys):
+        share[:, i] = np.ascontiguousarray((N[names == key] ** 2).T).sum(axis=1)
+    return share
 
 
 def _order(design: Design):

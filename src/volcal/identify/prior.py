@@ -230,6 +230,10 @@ class PriorStructure:
     axis_length : tuple of 3 float
         Travel of each axis [m] (the span of its nodes; 1 for an axis with one node),
         for the amplitudes that grow with the travel (:meth:`travel_columns`).
+    shapes : list of int
+        Per block, the first block of the same axis with the same free nodes: their
+        curvature and amplitude parts, positions and boundary maps are the same, so are
+        their unit blocks (:meth:`unit_block`), computed once (empty: every block its own).
     """
 
     blocks: list[tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.float64], int, int]]
@@ -246,6 +250,7 @@ class PriorStructure:
     group_kappa: tuple[float, ...] = _DEFAULT.group_kappa
     axis_kappa: tuple[float, ...] = (1.0, 1.0, 1.0)
     axis_length: tuple[float, ...] = (1.0, 1.0, 1.0)
+    shapes: list[int] = field(default_factory=list)
     _unit: dict = field(default_factory=dict, repr=False, compare=False)
 
     @classmethod
@@ -268,7 +273,8 @@ class PriorStructure:
         st = settings if settings is not None else _DEFAULT
         pos_in_free = -np.ones(layout.size, dtype=np.intp)
         pos_in_free[free] = np.arange(free.size)
-        blocks, coords, maps = [], [], []
+        blocks, coords, maps, shapes = [], [], [], []
+        first: dict[tuple[int, bytes], int] = {}
         for k in range(3):
             C, W = unit_parts(layout.nodes[k])
             x = np.asarray(layout.nodes[k], dtype=float)
@@ -283,13 +289,14 @@ class PriorStructure:
                                function_group(k, c), 6 * k + c))
                 coords.append(s[sel])
                 maps.append(_boundary_map(s, sel, C, W, st.boundary))
+                shapes.append(first.setdefault((k, sel.tobytes()), len(blocks) - 1))
         sq = pos_in_free[layout.squareness_indices()]
         travel_m = tuple(float(np.ptp(layout.nodes[k])) / 1000.0 if len(layout.nodes[k]) > 1
                          else 1.0 for k in range(3))
         lengths = travel_m if st.trend_per_metre else (1.0, 1.0, 1.0)
         return cls(blocks, sq[sq >= 0], int(free.size), kappa, coords, maps=maps,
                    group_kappa=tuple(st.group_kappa), trend_length=lengths,
-                   axis_length=travel_m)
+                   axis_length=travel_m, shapes=shapes)
 
     def axes_with_functions(self) -> list[int]:
         """The axes (0, 1, 2 = X, Y, Z) with free function nodes, in order."""
@@ -455,7 +462,7 @@ class PriorStructure:
             and :meth:`nugget_shape`.
         """
         P, K = self.unit_block(b)
-        key = ("inv", b, self.block_kappa(b))
+        key = ("inv", self._shape(b), self.block_kappa(b))
         Pinv = self._unit.get(key)
         if Pinv is None:
             Pinv = np.linalg.inv(P)
@@ -568,7 +575,7 @@ class PriorStructure:
             prior (:attr:`EstimatorSettings.boundary`).
         """
         kb = self.block_kappa(b)
-        key = (b, kb)
+        key = (self._shape(b), kb)
         hit = self._unit.get(key)
         if hit is not None:
             return hit
@@ -589,6 +596,29 @@ class PriorStructure:
             self._unit.clear()
         self._unit[key] = out
         return out
+
+    def _shape(self, b: int) -> int:
+        """The first block with block ``b``'s axis and free nodes (:attr:`shapes`)."""
+        return self.shapes[b] if b < len(self.shapes) else b
+
+    def block_key(self, b: int, fscales: NDArray[np.float64]) -> tuple:
+        """What block ``b``'s precision depends on: blocks with equal keys have equal ones.
+
+        Parameters
+        ----------
+        b : int
+            Block index.
+        fscales : ndarray, shape (18,)
+            Function scales.
+
+        Returns
+        -------
+        tuple
+            Its shape (:attr:`shapes`), curvature scale, amplitude scale, trend and
+            whether it has the short-wavelength part.
+        """
+        return (self._shape(b), self.block_kappa(b), float(fscales[self.blocks[b][4]]),
+                self.block_trend(b), self.has_nugget(b))
 
     def block_precision(self, b: int, fscales: NDArray[np.float64]) -> NDArray[np.float64]:
         """Prior precision of block ``b`` (dense, its free nodes).

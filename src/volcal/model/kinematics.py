@@ -309,50 +309,64 @@ def pose_jacobian(chain_order, nodes: Sequence[NDArray[np.float64]], q: ArrayLik
     levers = _levers(tuple(chain_order), q, t)
     starts = np.concatenate([[0], np.cumsum([len(n) * 6 for n in nodes])])
     P = int(starts[-1]) + 3
-    slots_e: list[list] = [[], [], []]  # per row component: (columns, values), in column order
-    slots_o: list[list] = [[], [], []]
-    for k in range(3):
-        i0, i1, w = interp_weights(nodes[k], q[:, k])
-        crosses = _cross_matrix_columns(levers[k])
-        per_node = [(starts[k] + i0 * 6, 1.0 - w), (starts[k] + i1 * 6, w)]
-        for c in range(3):
-            _node_slots(slots_e[c], per_node, len(nodes[k]) == 1,
-                        [(c, None)] + [(3 + a, crosses[a][:, c]) for a in range(3)])
-            _node_slots(slots_o[c], per_node, len(nodes[k]) == 1, [(3 + c, None)])
+    parts = [_axis_entries(np.asarray(nodes[k], dtype=float), q[:, k], levers[k],
+                           int(starts[k])) for k in range(3)]
     sq = int(starts[-1])
     s = URAD / UM
-    slots_e[0] += [(np.full(m, sq), -q[:, 1] * s), (np.full(m, sq + 1), q[:, 2] * s)]
-    slots_e[1] += [(np.full(m, sq + 2), -q[:, 2] * s)]
-    return _pattern_csr(slots_e, m, P), _pattern_csr(slots_o, m, P)
+    # the squareness: two entries in the rows of e_x, one in those of e_y
+    sq_cols = np.broadcast_to(np.array([[sq, sq + 1], [sq + 2, 0], [0, 0]])[:, :, None],
+                              (3, 2, m))
+    sq_vals = np.zeros((3, 2, m))
+    sq_vals[0, 0], sq_vals[0, 1], sq_vals[1, 0] = -q[:, 1] * s, q[:, 2] * s, -q[:, 2] * s
+    keep = np.array([[True, True], [True, False], [False, False]])
+    Je = _pattern_csr([p[0] for p in parts] + [sq_cols], [p[1] for p in parts] + [sq_vals],
+                      keep, P)
+    Jo = _pattern_csr([p[2] for p in parts], [p[3] for p in parts], None, P)
+    return Je, Jo
 
 
-def _node_slots(out: list, per_node, merged: bool, parts) -> None:
-    """Append the entries of one axis' two nodes to a row's slots (in column order).
+def _axis_entries(nodes: NDArray[np.float64], qk: NDArray[np.float64],
+                  lever: NDArray[np.float64], start: int):
+    """One axis' entries in each row of the pose Jacobian, in column order.
 
-    ``per_node``: ``(base column, weight)`` of the left and the right node; ``parts``:
-    ``(column offset, lever or None)``, the value ``weight * lever * URAD / UM`` (a
-    rotation's, [um/urad]) or ``weight`` (None: a translation's or an orientation's).
-    ``merged``: the axis has one node, both nodes are the same column: one entry, the two
-    values summed.
+    Returns ``(cols_e, vals_e, cols_o, vals_o)``, each of shape (3 rows, entries, m): per
+    row ``c`` of a point, the left node's translation ``c`` and its three rotations, then
+    the right node's (volumetric rows; a rotation's value is its weight times the lever
+    [um/urad]), and the left and right node's rotation ``c`` (orientation rows). An axis
+    with one node has both neighbours in that node: one entry each, the two values summed.
     """
-    vals = [[(wt if f is None else wt * f * (URAD / UM)) for _, f in parts]
-            for _, wt in per_node]
-    if merged:
-        base = per_node[0][0]
-        out += [(base + off, v0 + v1)
-                for (off, _), v0, v1 in zip(parts, vals[0], vals[1], strict=True)]
-        return
-    for (base, _), vs in zip(per_node, vals, strict=True):
-        out += [(base + off, v) for (off, _), v in zip(parts, vs, strict=True)]
+    i0, i1, w = interp_weights(nodes, qk)
+    m = qk.size
+    wts = np.array([1.0 - w, w])[None, :, None, :]  # (1, node, 1, m)
+    X = np.array(_cross_matrix_columns(lever)).transpose(2, 0, 1)[:, None]  # (c, 1, a, m)
+    base = np.array([start + i0 * 6, start + i1 * 6])[None, :, None, :]
+    comp = np.arange(3)
+    vals_e = np.concatenate([np.broadcast_to(wts, (3, 2, 1, m)), wts * X * (URAD / UM)], axis=2)
+    cols_e = np.concatenate([base + comp[:, None, None, None],
+                             np.broadcast_to(base + 3 + comp[None, None, :, None], (3, 2, 3, m))],
+                            axis=2)
+    vals_o = np.broadcast_to(wts[:, :, 0], (3, 2, m))
+    cols_o = base[:, :, 0] + 3 + comp[:, None, None]
+    if nodes.size == 1:
+        return (cols_e[:, 0], vals_e[:, 0] + vals_e[:, 1],
+                cols_o[:, :1], vals_o[:, :1] + vals_o[:, 1:])
+    return cols_e.reshape(3, 8, m), vals_e.reshape(3, 8, m), cols_o, vals_o
 
 
-def _pattern_csr(slots: list[list], m: int, n_cols: int):
-    """CSR matrix of rows ``3 p + c`` holding ``slots[c]`` at point ``p`` (shape (3m, n_cols))."""
+def _pattern_csr(cols: list, vals: list, keep: NDArray[np.bool_] | None, n_cols: int):
+    """CSR matrix of rows ``3 p + c`` holding the entries ``[c, :, p]`` of the blocks.
+
+    ``cols``, ``vals``: blocks of shape (3, entries, m), concatenated along the entries;
+    ``keep`` (3, entries of the last block) masks the last block's padding (None: all).
+    """
     import scipy.sparse as sp  # here, not at the top: predicting from a model needs no scipy
 
-    cols = np.concatenate([np.stack([np.broadcast_to(col, (m,)) for col, _ in sl], 1)
-                           for sl in slots], axis=1)
-    vals = np.concatenate([np.stack([v for _, v in sl], 1) for sl in slots], axis=1)
-    counts = np.tile([len(sl) for sl in slots], m)
-    indptr = np.concatenate([[0], np.cumsum(counts)])
-    return sp.csr_matrix((vals.ravel(), cols.ravel(), indptr), shape=(3 * m, n_cols))
+    C = np.concatenate(cols, axis=1).transpose(2, 0, 1)  # (m, row, entry)
+    V = np.concatenate(vals, axis=1).transpose(2, 0, 1)
+    mask = np.ones(C.shape[1:], dtype=bool)
+    if keep is not None:
+        mask[:, -keep.shape[1]:] = keep
+    m = C.shape[0]
+    indptr = np.concatenate([[0], np.cumsum(np.tile(mask.sum(axis=1), m))])
+    full = np.broadcast_to(mask, C.shape)
+    return sp.csr_matrix((V[full], C[full], indptr), shape=(3 * m, n_cols))

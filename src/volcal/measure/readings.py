@@ -205,6 +205,17 @@ def reading_first_order(errors: MachineErrors, meas: Measurement,
     return dev
 
 
+def _point_rows(values: NDArray[np.float64]) -> sp.csr_matrix:
+    """``(m, 3m)`` matrix whose row ``p`` holds ``values[3p:3p + 3]`` in columns ``3p..3p+2``.
+
+    Written in its canonical CSR form (the zeros of ``values`` stored, as a COO assembly
+    keeps them).
+    """
+    m = values.size // 3
+    return sp.csr_matrix((values, np.arange(3 * m), np.arange(0, 3 * m + 1, 3)),
+                         shape=(m, 3 * m))
+
+
 def reading_jacobian(chain_order, nodes, meas: Measurement,
                      jacobians: tuple[sp.csr_matrix, sp.csr_matrix] | None = None
                      ) -> sp.csr_matrix:
@@ -235,18 +246,16 @@ def reading_jacobian(chain_order, nodes, meas: Measurement,
         jacobians = pose_jacobian(chain_order, nodes, q, meas.tool_offset)
     Je, Jo = jacobians
     # project the 3 rows of each point on the beam: D is (m, 3m)
-    rows = np.repeat(np.arange(m), 3)
-    cols = np.arange(3 * m)
-    D = sp.csr_matrix((np.tile(n, m), (rows, cols)), shape=(m, 3 * m))
-    A = DJ = D @ Je
+    A = DJ = _point_rows(np.tile(n, m)) @ Je
     if meas.target == "flat_mirror":
-        c = np.cross(n, q - q[0]).ravel() * (URAD / UM)
-        Dc = sp.csr_matrix((c, (rows, cols)), shape=(m, 3 * m))
-        A = A + Dc @ Jo
+        lever = np.cross(n, q - q[0])
+        A = A + _point_rows(lever.ravel() * (URAD / UM)) @ Jo
         # minus the orientation at the first reading, weighted by the same lever
         first = sp.csr_matrix(Jo[:3])
-        A = A - sp.csr_matrix(np.cross(n, q - q[0]) * (URAD / UM)) @ first
+        A = A - sp.csr_matrix(lever * (URAD / UM)) @ first
     A = A.tocsr()
     # subtract the first row's volumetric part (counted from the first row)
-    A = A - sp.csr_matrix(np.ones((m, 1))) @ sp.csr_matrix(DJ[0])
+    ones = sp.csr_matrix((np.ones(m), np.zeros(m, dtype=np.int32), np.arange(m + 1)),
+                         shape=(m, 1))
+    A = A - ones @ sp.csr_matrix(DJ[0])
     return sp.csr_matrix(A)

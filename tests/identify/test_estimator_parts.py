@@ -238,6 +238,48 @@ def test_evidence_gradient_in_every_hyperparameter(small):
     assert all(abs(grad[f]) > 1e-6 for f in TREND_FUNCTIONS)
 
 
+@pytest.mark.parametrize("nugget", [0.0, 0.3])
+def test_evidence_shared_and_kept_parts_change_no_bit(small, nugget):
+    """Blocks with the same precision (an axis' two straightness errors and its two tilts
+    at their group's scale) share their parts in an evaluation, and the prior's parts and
+    the posterior's factor are kept for the next evaluation at the same hyperparameters:
+    the value and the gradient equal, bit for bit, those with every block on its own and
+    nothing kept."""
+    from dataclasses import replace
+
+    from volcal.identify.evidence import _Evidence
+    from volcal.identify.prior import function_scales
+
+    _, design, prior = small
+    prior = prior.with_trend(12.0).with_tilt_trend(5.0).with_nugget(nugget)
+    assert len(set(prior.shapes)) < len(prior.blocks)  # some blocks do share
+    fs = function_scales(np.array([8.0, 3.0, 12.0, 20.0]))
+    ev = _Evidence(design, prior, 100.0)
+    value, grad = ev.neg2_grad_functions(fs, 0.4, 7.0)
+    again = ev.neg2_grad_functions(fs, 0.4, 7.0)  # the kept parts
+    alone = _Evidence(design, replace(prior, shapes=[], _unit={}), 100.0)
+    for v, g in (again, alone.neg2_grad_functions(fs, 0.4, 7.0)):
+        assert v == value and g.tobytes() == grad.tobytes()
+    H, Q, cf = ev.factor(fs, 0.4, 7.0)
+    H1, Q1, cf1 = alone.factor(fs, 0.4, 7.0)
+    assert H.tobytes() == H1.tobytes() and cf[0].tobytes() == cf1[0].tobytes()
+
+
+def test_coarse_search_without_the_linear_solve(small):
+    """``solve_bayes(estimate=False)`` (the coarse grid's search, whose estimate is not
+    kept) finds the same hyperparameters, bit for bit, and leaves the estimate out."""
+    _, design, prior = small
+    full = solve_bayes(design, prior, roll_presence=False)
+    hyper = solve_bayes(design, prior, roll_presence=False, estimate=False)
+    for name in ("function_scales", "scales"):
+        assert getattr(hyper, name).tobytes() == getattr(full, name).tobytes()
+    assert (hyper.sigma_um, hyper.kappa, hyper.tilt_std_urad, hyper.trend_um,
+            hyper.log_evidence, hyper.convergence) == (
+        full.sigma_um, full.kappa, full.tilt_std_urad, full.trend_um, full.log_evidence,
+        full.convergence)
+    assert hyper.x.size == 0 and hyper.covariance is None and np.isnan(hyper.dof)
+
+
 def test_evidence_gradient_with_the_nugget(small):
     """With the short-wavelength (nugget) part of the positioning prior, the gradient in
     every hyperparameter (function scales, kappa, sigma, tilts, trend and the nugget,

@@ -284,3 +284,15 @@ def test_an_unseen_roll_keeps_its_prior():
     assert [n for n, *_ in found] == ["EAX", "EBY", "ECZ"]
     for _, u, p in found:
         assert abs(float(u) - float(p)) <= 0.1 + 0.01 * float(p)
+
+
+def test_the_coarse_grid_decides_the_noise_note():
+    """Step diagonals alone, noise-free, 12 increments: the hyperparameters are chosen on a
+    coarser grid, whose fit leaves too few residual degrees of freedom to show the noise;
+    its linear solve (skipped when the readings are surely redundant) decides the note."""
+    s = seeds_session("XYFZ", steps=12, tests=("step-diagonal",))
+    exact_fill(s, random_machine(TRAVEL, "XYFZ", seed=3), seed=1, noise_um=0.0)
+    r = identify(s, IdentifyOptions(suggest=False))
+    assert r.solution.convergence["grid"] == "hyperparameters on 21x21x21 nodes"
+    assert r.fit["sigma_um"] == pytest.approx(0.5)
+    assert any("too little redundancy" in m for m in r.report.messages)

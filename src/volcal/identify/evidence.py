@@ -197,7 +197,8 @@ class _Evidence:
     def _posterior(self, kept: _Kept, sigma: float):
         """``H = A'A / sigma^2 + Q`` and its lower Cholesky factor, kept with the prior."""
         if kept.sigma != sigma or kept.factor is None:
-            H = self.AtA / sigma**2 + kept.Q
+            H = self.AtA / sigma**2
+            H += kept.Q  # A'A / sigma^2 + Q without a second temporary
             kept.factor = sla.cho_factor(H, lower=True, check_finite=False)
             kept.H, kept.sigma = H, sigma
         return kept.H, kept.factor

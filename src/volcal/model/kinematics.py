@@ -26,11 +26,15 @@ the step-diagonal test", Lamdamap 2005 (seed 004); ISO 230-1:2012, annex A.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from volcal.model.errorfunctions import MachineErrors, interp_weights
+
+if TYPE_CHECKING:
+    import scipy.sparse
 
 UM = 1e-3  # mm per um
 URAD = 1e-6  # rad per urad
@@ -326,7 +330,9 @@ def pose_jacobian(chain_order, nodes: Sequence[NDArray[np.float64]], q: ArrayLik
 
 
 def _axis_entries(nodes: NDArray[np.float64], qk: NDArray[np.float64],
-                  lever: NDArray[np.float64], start: int):
+                  lever: NDArray[np.float64], start: int
+                  ) -> tuple[NDArray[np.intp], NDArray[np.float64], NDArray[np.intp],
+                             NDArray[np.float64]]:
     """One axis' entries in each row of the pose Jacobian, in column order.
 
     Returns ``(cols_e, vals_e, cols_o, vals_o)``, each of shape (3 rows, entries, m): per
@@ -353,7 +359,8 @@ def _axis_entries(nodes: NDArray[np.float64], qk: NDArray[np.float64],
     return cols_e.reshape(3, 8, m), vals_e.reshape(3, 8, m), cols_o, vals_o
 
 
-def _pattern_csr(cols: list, vals: list, keep: NDArray[np.bool_] | None, n_cols: int):
+def _pattern_csr(cols: list, vals: list, keep: NDArray[np.bool_] | None,
+                 n_cols: int) -> scipy.sparse.csr_matrix:
     """CSR matrix of rows ``3 p + c`` holding the entries ``[c, :, p]`` of the blocks.
 
     ``cols``, ``vals``: blocks of shape (3, entries, m), concatenated along the entries;

@@ -180,3 +180,39 @@ def test_a_typed_reading_is_stored_in_the_session(browser, session):
     row = (folder / f"{mid}.csv").read_text(encoding="utf-8").splitlines()[1].split(",")
     head = (folder / f"{mid}.csv").read_text(encoding="utf-8").splitlines()[0].split(",")
     assert float(row[head.index("deviation_um")]) == 0.0
+
+
+def test_an_r_test_shows_every_axis_of_its_poses_and_the_three_sensors(browser, tmp_path):
+    """Session 22: the page headed an R-test's targets X, Y, Z [mm] (its rotary angles not
+    shown), gave the first sensor alone as the reading and plotted it against a "position
+    along the line [mm]" mixing mm and deg."""
+    from volcal.steps.plan import plan
+
+    folder = tmp_path / "rt"
+    plan(((0.0, 400.0), (0.0, 300.0), (0.0, 250.0)), steps=2, tests="r_test:ca",
+         output=folder)
+    page = Page("PAGE-RT", "gated-sim", "sim:seed=3", port=0)
+    th, out = _run(folder, "r_test", "sim:seed=3", page, speed=8.0)
+    try:
+        browser.get(page.url)
+        _wait(browser, "const r = document.querySelectorAll('#points tr.accepted');"
+                       "return r.length >= 2 ? r.length : false;", 30.0, "rows")
+        heads = browser.execute_script(
+            "return Array.from(document.querySelectorAll('#points thead th'))"
+            ".map(h => h.textContent);")
+        shown = browser.execute_script(
+            "return Array.from(document.querySelectorAll('#points tr.accepted'))"
+            ".map(r => [Number(r.dataset.reading), r.cells[r.cells.length - 1].textContent]);")
+        label = browser.find_element("id", "plot-unit").text
+    finally:
+        _finish(th, out, page)
+    assert heads[:4] == ["#", "X [mm]", "Y [mm]", "Z [mm]"]
+    assert sorted(heads[4:6]) == ["A [deg]", "C [deg]"]
+    assert heads[6:] == ["run", "dir", "status", "reading"]
+    assert label.endswith("against the pose")
+    csv = (folder / "r_test.csv").read_text(encoding="utf-8").splitlines()
+    head = csv[0].split(",")
+    cols = [head.index(c) for c in ("dx_um", "dy_um", "dz_um")]
+    for reading, cell in shown:
+        row = csv[reading + 1].split(",")
+        assert cell == " / ".join(f"{float(row[c]):.3f}" for c in cols) + " um"

@@ -180,7 +180,9 @@ class LiveState:
     def _start(self, mid: str, data: dict[str, Any]) -> None:
         dim = len(data.get("axes") or "XYZ")  # a rotary test's targets are angles [deg]
         targets = np.array(data.get("targets") or [], float).reshape(-1, dim)
-        if len(targets) >= 2:
+        if data.get("axes_unit") == "mm+deg":  # an R-test: poses, no line to follow
+            along = np.arange(1.0, len(targets) + 1.0)
+        elif len(targets) >= 2:
             first = targets[0]
             far = targets[int(np.argmax(np.linalg.norm(targets - first, axis=1)))]
             u = far - first

@@ -83,10 +83,16 @@
     const tb = $("points").tBodies[0];
     if (!m) { tb.innerHTML = ""; return; }
     const rows = m.dwells;
+    const axes = m.axes && m.axes.length ? m.axes : ["X", "Y", "Z"];  // one column per axis
+    const ncol = axes.length + 5;
     if (tb.dataset.measurement !== m.id || tb.rows.length !== rows.length + 1) {
       tb.dataset.measurement = m.id;
-      tb.innerHTML = "<tr class=\"group\"><td colspan=\"8\"></td></tr>" +
-        rows.map(() => "<tr><td></td><td></td><td></td><td></td><td></td><td></td><td></td><td></td></tr>").join("");
+      $("points").tHead.rows[0].innerHTML = "<th>#</th>" +
+        axes.map(() => "<th></th>").join("") + "<th>run</th><th>dir</th><th>status</th><th>reading</th>";
+      axes.forEach((a, j) => text($("points").tHead.rows[0].cells[j + 1],
+        a + ("ABC".includes(a) ? " [deg]" : " [mm]")));
+      tb.innerHTML = `<tr class="group"><td colspan="${ncol}"></td></tr>` +
+        rows.map(() => "<tr>" + "<td></td>".repeat(ncol) + "</tr>").join("");
       text(tb.rows[0].cells[0], m.id + ": " + rows.length + " readings, " +
         ((m.columns && m.columns.length > 1 ? m.columns.join(" / ") : m.column) || "reading") +
         " [" + m.unit + "]");
@@ -98,7 +104,7 @@
       const cls = d.status + (s.expected === d.reading && s.current === m.id ? " expected" : "");
       if (tr.className !== cls) tr.className = cls;
       tr.dataset.reading = d.reading;
-      const cells = [String(d.reading + 1), fmt(d.target[0], 3), fmt(d.target[1], 3), fmt(d.target[2], 3),
+      const cells = [String(d.reading + 1), ...axes.map((_, j) => fmt(d.target[j], 3)),
         d.run === null || d.run === undefined ? "" : String(d.run), d.direction || "", d.status,
         d.value === null ? (d.reason && d.status === "missed" ? d.reason : "") :
           (d.values ? d.values.map((v) => fmt(v, 3)).join(" / ") : fmt(d.value, 3)) + " " + m.unit];
@@ -112,7 +118,9 @@
     const m = currentMeasurement(s);
     const W = 600, H = 300, L = 56, R = 12, T = 12, B = 36;
     if (!m) { svg.innerHTML = ""; return; }
-    text($("plot-unit"), "[" + m.unit + "] against position along the line [mm]");
+    text($("plot-unit"), "[" + m.unit + "] against " + ({
+      deg: "the angle from the first target [deg]",
+      "mm+deg": "the pose"}[m.axes_unit] || "position along the line [mm]"));
     const all = m.dwells;
     const pts = all.filter((d) => d.status === "accepted" && d.value !== null);
     const xs = all.map((d) => d.along);

@@ -32,3 +32,20 @@ def test_rotary_alone_says_nothing_of_linear_tests_or_diagonals():
     p = _paragraph(["rotary:c"])
     assert p == ("The measurements by kind: rotary (1): angular positioning of a rotary "
                  "axis: angular interferometer on a rotary calibrator or index table.")
+
+
+def test_the_table_gives_a_beam_only_to_tests_along_a_line():
+    """Session 22: a rotary test and an R-test were listed with a beam direction (0, 0, 1),
+    and the machine section counted their readings as "laser readings"."""
+    from volcal.report.sections import machine_section
+
+    s = plan_session(TRAVEL, tests=["linear:x", "rotary:c", "r_test:ca"], steps=3, runs=2)
+    t = measurements_section(SimpleNamespace(session=s)).tables[0]
+    beams = {r[0]: r[t.columns.index("beam direction")] for r in t.rows}
+    assert beams["linear-x1"] == "(1, 0, 0)"
+    assert {k: v for k, v in beams.items() if not k.startswith("linear")} == {
+        "rotary-c": "-", "r_test": "-"}
+    text = machine_section(SimpleNamespace(session=s, truth=None)).paragraphs[1]
+    n = sum(m.n for m in s.measurements)
+    assert text.startswith(f"The session holds {len(s.measurements)} measurements with {n} "
+                           "readings")

@@ -132,7 +132,7 @@ def machine_section(inp: ReportInputs) -> Section:
         "µrad; every component error is the error motion of the tool relative to the "
         "workpiece caused by that axis.")
     sec.paragraphs.append(f"The session holds {len(s.measurements)} measurements with "
-                          f"{n} laser readings" + (f" (folder {s.path})." if s.path else "."))
+                          f"{n} readings" + (f" (folder {s.path})." if s.path else "."))
     if inp.truth is not None:
         tables = (s.provenance or {}).get("compensation")
         sec.paragraphs.append(
@@ -159,11 +159,14 @@ def measurements_section(inp: ReportInputs) -> Section:
     Section
         Always present.
     """
+    from volcal.session.kinds import kind_of
+
     rows = []
     for m in inp.session.measurements:
         runs = "-" if m.run is None else str(len(np.unique(m.run)))
+        beam = _vec(m.beam_direction) if kind_of(m.kind).along_beam else "-"  # no line
         rows.append([m.id, m.kind.replace("_", " "), m.target.replace("_", " "),
-                     _vec(m.beam_direction), _vec(m.tool_offset), str(m.n), runs,
+                     beam, _vec(m.tool_offset), str(m.n), runs,
                      str(m.meta.get("notes", ""))])
     sec = Section("measurements", "Measurements and set-ups")
     sec.paragraphs.append(_kinds_paragraph(inp.session))

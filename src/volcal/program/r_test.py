@@ -39,7 +39,7 @@ reference (G1, G4, G53, M0).
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -120,7 +120,6 @@ def rtest_program(m: Any, dialect: str, name: str, number: int, options: Any
     -------
     (text, warnings)
     """
-    from volcal.measure.spheres import probe_centres
     from volcal.model.fiveaxis import exact_pose5
     from volcal.session.r_test import rtest_angles, rtest_keys
     from volcal.session.r_test import rtest_machine as _machine
@@ -166,70 +165,50 @@ def rtest_program(m: Any, dialect: str, name: str, number: int, options: Any
         warnings.append(f"{m.id}: the {dialect} program lists the poses; volcal writes the "
                         "R-test path for LinuxCNC only")
         return "\n".join(lines) + "\n", warnings
-    # the tool axis at the first and last pose, workpiece coordinates (for the approach)
-    first = {a: ang[a][:1] for a in letters}
-    _, R0 = exact_pose5(nominal, m.positions[:1], first, t)
+    _, R0 = exact_pose5(nominal, m.positions[:1], {a: ang[a][:1] for a in letters}, t)
     axis0 = R0[0][:, 2]
     safe = float(options.safe_z_mm)
-    out = [_paren_comment(h) for h in head] + ["G21 G90 G17 G40 G49 G94 G54"]
-
-    def rot(i: int, src: dict[str, np.ndarray]) -> str:
-        return " ".join(f"{a}{_f(sign * src[a][i], d)}" for a in letters)
-
-    def xyz(v: np.ndarray) -> str:
-        return " ".join(f"{ax}{_f(x, d)}" for ax, x in zip("XYZ", v, strict=True))
-
+    blocks, above = _blocks(m, options)
     if tcp:
         if not np.allclose(axis0, [0.0, 0.0, 1.0], atol=1e-9):
             raise VolcalInputError("control_kinematics = \"tcp\": the first pose must hold the "
                                    "tool along the table's Z (the approach and retract go "
                                    "along it)", None, None, f"measurements.{m.id}.file")
-        above = s + clear * axis0
         if safe < above[2]:
             raise VolcalInputError(f"--safe-z-mm {safe:g}: below the approach point "
                                    f"{above[2]:g} mm above the sphere (table coordinates)")
-        out += [f"G0 Z{_f(safe, d)}", "G0 " + rot(0, ang),
-                f"G0 X{_f(above[0], d)} Y{_f(above[1], d)}", f"G0 Z{_f(above[2], d)}",
-                f"G1 {xyz(s)} F{APPROACH_FEED_MM_MIN:g}"]
-    else:
-        above = probe_centres(nominal, first, s + clear * axis0, t)[0]
-        if safe < above[2]:
-            raise VolcalInputError(f"--safe-z-mm {safe:g}: below the approach point "
-                                   f"{above[2]:g} mm (machine coordinates, {clear:g} mm above "
-                                   "the sphere's working position): the nest would hit the "
-                                   "sphere")
-        out += [f"G53 G0 Z{_f(safe, d)}", "G0 " + rot(0, ang),
-                f"G0 X{_f(above[0], d)} Y{_f(above[1], d)}", f"G0 Z{_f(above[2], d)}",
-                f"G1 {xyz(m.positions[0])} F{APPROACH_FEED_MM_MIN:g}"]
-    out += ["M0 (the sphere in the nest: zero the sensors, start recording, cycle start)",
-            _paren_comment(f"pose 1 of {m.n}"), f"G4 P{options.dwell_s:g}"]
-    # intermediate points: the configured kinematics' positions (joints) or none (tcp)
-    mid = np.flatnonzero(is_pose < 0)
-    q_mid = (probe_centres(nominal, {a: pts[a][mid] for a in letters}, s, t)
-             if mid.size and not tcp else np.zeros((0, 3)))
-    qi = {int(j): q_mid[n] for n, j in enumerate(mid)} if not tcp else {}
+    elif safe < above[2]:
+        raise VolcalInputError(f"--safe-z-mm {safe:g}: below the approach point "
+                               f"{above[2]:g} mm (machine coordinates, {clear:g} mm above "
+                               "the sphere's working position): the nest would hit the "
+                               "sphere")
+    out = [_paren_comment(h) for h in head] + ["G21 G90 G17 G40 G49 G94 G54"]
+    words = ["X", "Y", "Z", *letters]
 
-    def follow(j: int, q: np.ndarray) -> str:
-        return f"G1 {rot(j, pts)}" + ("" if tcp else f" {xyz(q)}") + f" F{feed:g}"
+    def said(v: np.ndarray, order: range | list[int] = range(3 + len(letters))) -> str:
+        return " ".join(f"{words[j]}{_f(v[j], d)}" for j in order if not np.isnan(v[j]))
 
-    for j in range(1, is_pose.size):
-        p = int(is_pose[j])
-        out.append(follow(j, m.positions[p] if p >= 0 else qi.get(j, np.zeros(3))))
-        if p >= 0:
-            out += [_paren_comment(f"pose {p + 1} of {m.n}"), f"G4 P{options.dwell_s:g}"]
-    # back to the first pose, following, then lift the nest off along the tool axis
-    back = {a: np.array([ang[a][-1], ang[a][0]]) for a in letters}
-    bpts, bpose = rtest_path_points(back)
-    bmid = np.flatnonzero(bpose < 0)
-    bq = (probe_centres(nominal, {a: bpts[a][bmid] for a in letters}, s, t)
-          if bmid.size and not tcp else np.zeros((0, 3)))
-    out.append(_paren_comment("back to the first pose, following"))
-    for n, jb in enumerate(bmid):
-        out.append(f"G1 {rot(int(jb), bpts)}" + ("" if tcp else f" {xyz(bq[n])}") + f" F{feed:g}")
-    out.append(f"G1 {rot(0, ang)}" + ("" if tcp else f" {xyz(m.positions[0])}") + f" F{feed:g}")
-    out.append(f"G1 {xyz(above)} F{APPROACH_FEED_MM_MIN:g}")
-    out += [f"G0 Z{_f(safe, d)}" if tcp else f"G53 G0 Z{_f(safe, d)}", "M2"]
-    return "\n".join(out) + "\n", warnings
+    # a following move: the rotary axes, then (unless the control follows) X, Y, Z
+    follow_order = [*range(3, 3 + len(letters)), *([] if tcp else range(3))]
+
+    for b in blocks:
+        if b.how == "safe":
+            out.append(f"G0 Z{_f(safe, d)}" if tcp else f"G53 G0 Z{_f(safe, d)}")
+        elif b.how == "rapid":
+            out.append(f"G0 {said(b.target)}")
+        elif b.how == "slow":
+            out.append(f"G1 {said(b.target)} F{APPROACH_FEED_MM_MIN:g}")
+        elif b.how == "follow":
+            out.append(f"G1 {said(b.target, follow_order)} F{feed:g}")
+        elif b.kind == "stop":
+            out.append("M0 (the sphere in the nest: zero the sensors, start recording, cycle "
+                       "start)")
+        elif b.kind == "dwell" and b.pose is not None:
+            out += [_paren_comment(f"pose {b.pose + 1} of {m.n}"),
+                    f"G4 P{options.dwell_s:g}"]
+        elif b.kind == "note":
+            out.append(_paren_comment(b.how))
+    return "\n".join(out + ["M2"]) + "\n", warnings
 
 
 def rtest_program_positions(m: Any) -> list[tuple[str, np.ndarray]]:
@@ -285,12 +264,22 @@ def rtest_program_positions(m: Any) -> list[tuple[str, np.ndarray]]:
 
 
 
+class _Block(NamedTuple):
+    """One block of an R-test's LinuxCNC path (:func:`_blocks`)."""
+
+    kind: str  # 'move', 'stop', 'dwell', 'note'
+    target: np.ndarray  # X, Y, Z [mm], the rotary axes [deg, the control's]; NaN: not commanded
+    pose: int | None  # a dwell's pose (0-based CSV row)
+    how: str  # a move: 'safe', 'rapid', 'slow' (onto and off the sphere), 'follow'; a note's text
+
+
 def rtest_program_path(m: Any, options: Any) -> list[tuple[str, np.ndarray, int | None]]:
     """The LinuxCNC path of :func:`rtest_program`, block by block, in the control's axes.
 
     The capture's plan and its simulated control follow it (they never parse the
-    G-code): the same poses, the same intermediate points of the following moves
-    (:func:`rtest_path_points`), the same approach and retract as the program writes.
+    G-code): the blocks :func:`rtest_program` writes (:func:`_blocks`), the same poses,
+    the same intermediate points of the following moves (:func:`rtest_path_points`), the
+    same approach and retract.
 
     Parameters
     ----------
@@ -307,6 +296,32 @@ def rtest_program_path(m: Any, options: Any) -> list[tuple[str, np.ndarray, int 
         NaN for an axis the block does not command (the first, ``G53 G0 Z``: Z only);
         ``('stop', p, None)``: the operator stop ``M0`` (the sensors zeroed at pose 1);
         ``('dwell', p, i)``: the ``G4`` dwell at pose ``i`` (0-based CSV row).
+    """
+    return [(b.kind, b.target, b.pose) for b in _blocks(m, options)[0] if b.kind != "note"]
+
+
+def _blocks(m: Any, options: Any) -> tuple[list[_Block], np.ndarray]:
+    """The blocks of an R-test's LinuxCNC path, and the approach point above the sphere.
+
+    Z up to ``safe_z_mm``, the rotary axes to the first pose, X Y then Z above the sphere
+    (the approach point, ``approach_mm`` along the tool axis), the nest lowered onto the
+    sphere, the operator stop and the first dwell; the following moves through every
+    intermediate point with a dwell at each pose; back to the first pose, following; the
+    nest lifted off to the approach point and Z up. With ``control_kinematics = "tcp"``
+    the linear targets are the sphere's table coordinates (the control follows).
+
+    Parameters
+    ----------
+    m : Measurement
+        The planned test.
+    options : volcal.program.steps.ProgramOptions
+        ``safe_z_mm``.
+
+    Returns
+    -------
+    blocks : list of _Block
+    above : ndarray, shape (3,)
+        The approach point [mm] (machine coordinates; table coordinates for ``"tcp"``).
     """
     from volcal.measure.spheres import probe_centres
     from volcal.model.fiveaxis import exact_pose5
@@ -338,16 +353,17 @@ def rtest_program_path(m: Any, options: Any) -> list[tuple[str, np.ndarray, int 
         return np.concatenate([q, np.full(len(letters), np.nan)])
 
     z = np.array([np.nan, np.nan, float(options.safe_z_mm)])
-    out: list[tuple[str, np.ndarray, int | None]] = [
-        ("move", linear(z), None), ("move", at(nan, ang, 0), None),
-        ("move", linear(np.array([above[0], above[1], np.nan])), None),
-        ("move", linear(np.array([np.nan, np.nan, above[2]])), None),
-        ("move", linear(s if tcp else pos[0]), None)]
-    out += [("stop", at(s if tcp else pos[0], ang, 0), None),
-            ("dwell", at(s if tcp else pos[0], ang, 0), 0)]
+    out = [_Block("move", linear(z), None, "safe"), _Block("move", at(nan, ang, 0), None, "rapid"),
+           _Block("move", linear(np.array([above[0], above[1], np.nan])), None, "rapid"),
+           _Block("move", linear(np.array([np.nan, np.nan, above[2]])), None, "rapid"),
+           _Block("move", linear(s if tcp else pos[0]), None, "slow"),
+           _Block("stop", at(s if tcp else pos[0], ang, 0), None, ""),
+           _Block("dwell", at(s if tcp else pos[0], ang, 0), 0, "")]
     for src, stops, back in ((ang, True, False),
                              ({a: np.array([ang[a][-1], ang[a][0]]) for a in letters}, False,
                               True)):
+        if back:
+            out.append(_Block("note", nan, None, "back to the first pose, following"))
         pts, is_pose = rtest_path_points(src)
         mid = np.flatnonzero(is_pose < 0)
         q_mid = (probe_centres(nominal, {a: pts[a][mid] for a in letters}, s, t)
@@ -356,8 +372,8 @@ def rtest_program_path(m: Any, options: Any) -> list[tuple[str, np.ndarray, int 
         for j in range(1, is_pose.size):
             p = int(is_pose[j])
             q = qi[j] if p < 0 else (s if tcp else pos[0] if back else pos[p])
-            out.append(("move", at(q, pts, j), None))
+            out.append(_Block("move", at(q, pts, j), None, "follow"))
             if p >= 0 and stops:
-                out.append(("dwell", at(q, pts, j), p))
-    out += [("move", linear(above), None), ("move", linear(z), None)]
-    return out
+                out.append(_Block("dwell", at(q, pts, j), p, ""))
+    out += [_Block("move", linear(above), None, "slow"), _Block("move", linear(z), None, "safe")]
+    return out, above

@@ -261,8 +261,14 @@ def locate(session: str | Path | Session, *,
     if measurements is not None:
         unknown = sorted(set(measurements) - {m.id for m in ms})
         if unknown:
-            raise ParameterError(f"{{measurements=}}{unknown[0]!r}: no probe_sphere test of "
-                                 "that id in the session (nor an r_test test)")
+            other = next((m for m in s.measurements if m.id == unknown[0]), None)
+            usable = ", ".join(m.id for m in ms) or "none"
+            raise ParameterError(
+                f"{{measurements=}}{unknown[0]!r}: "
+                + (f"a {other.kind} test, not a probe_sphere or r_test test"
+                   if other is not None else "no probe_sphere test of that id in the "
+                   "session (nor an r_test test)")
+                + f"; the session's tests that locate the rotary axes: {usable}")
         ms = [m for m in ms if m.id in measurements]
     if not ms:
         raise VolcalInputError("the session has no probe_sphere test and no r_test test "

@@ -15,11 +15,12 @@ from __future__ import annotations
 import os
 from collections.abc import Callable, Iterable
 from pathlib import Path
+from typing import Any
 
 from volcal.errors import VolcalInputError
 
 __all__ = ["check_output_file", "check_output_folder", "check_replaceable",
-           "first_line_is", "prepare_output_folder", "session_files",
+           "first_line_is", "prepare_output_folder", "session_entries", "session_files",
            "written_by_volcal"]
 
 
@@ -45,6 +46,33 @@ MARK = b"volcal"
 _MARK_BYTES = 1 << 16
 
 
+def session_entries(folder: Path) -> list[dict[str, Any]] | None:
+    """The ``[[measurements]]`` entries of ``folder/session.toml`` that name a file.
+
+    Read leniently, without the session reader's checks: for what a command needs to know
+    of a session before (or without) reading it.
+
+    Parameters
+    ----------
+    folder : Path
+        A folder holding ``session.toml``.
+
+    Returns
+    -------
+    list of dict, or None
+        The entries whose ``file`` is a string, in the file's order; None when
+        ``session.toml`` is missing or cannot be read as TOML.
+    """
+    import tomllib
+
+    try:
+        doc = tomllib.loads((folder / "session.toml").read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        return None
+    return [m for m in doc.get("measurements", [])
+            if isinstance(m, dict) and isinstance(m.get("file"), str)]
+
+
 def session_files(folder: Path) -> set[str]:
     """The files of the session in ``folder``: session.toml and its measurements' files.
 
@@ -59,16 +87,11 @@ def session_files(folder: Path) -> set[str]:
         Names relative to ``folder``; every ``.csv`` and ``.toml`` file of the folder when
         session.toml cannot be read.
     """
-    import tomllib
-
     names = {"session.toml"}
-    try:
-        doc = tomllib.loads((folder / "session.toml").read_text(encoding="utf-8"))
-        names |= {str(m["file"]) for m in doc.get("measurements", [])
-                  if isinstance(m, dict) and isinstance(m.get("file"), str)}
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
-        names |= {p.name for p in folder.iterdir() if p.suffix in (".csv", ".toml")}
-    return names
+    entries = session_entries(folder)
+    if entries is None:
+        return names | {p.name for p in folder.iterdir() if p.suffix in (".csv", ".toml")}
+    return names | {str(m["file"]) for m in entries}
 
 
 def written_by_volcal(path: Path) -> bool:

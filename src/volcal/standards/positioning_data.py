@@ -126,14 +126,10 @@ def read_positioning_csv(path: str | Path) -> PositioningData:
 
 def _kind_in_session(path: Path) -> tuple[str, str] | None:
     """The id and kind ``session.toml`` beside ``path`` gives the file, if it names it."""
-    import tomllib
+    from volcal.io.paths import session_entries
 
-    try:
-        doc = tomllib.loads((path.parent / "session.toml").read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
-        return None
-    for e in doc.get("measurements", []):
-        if isinstance(e, dict) and e.get("file") == path.name:
+    for e in session_entries(path.parent) or []:
+        if e["file"] == path.name:
             return str(e.get("id", path.stem)), str(e.get("kind", ""))
     return None
 

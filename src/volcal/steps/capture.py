@@ -102,6 +102,7 @@ def read_planned(folder: str | Path) -> Session:
         Read with ``require_deviation=False``; ``path`` is ``folder``.
     """
     from volcal.capture.journal import JOURNAL_FOLDER
+    from volcal.io.paths import session_entries
     from volcal.session.format import read_session
 
     folder = Path(folder)
@@ -112,37 +113,14 @@ def read_planned(folder: str | Path) -> Session:
         copy = Path(tmp) / "s"
         shutil.copytree(folder, copy, ignore=shutil.ignore_patterns(
             JOURNAL_FOLDER, "backup", "truth", ".*.tmp"))
-        s0 = read_session_toml_files(copy)
-        for rel in s0:
+        for e in session_entries(copy) or []:
+            rel = str(e["file"])
             src = planned / (Path(rel).stem + PLANNED_SUFFIX)
             if src.is_file():
                 shutil.copyfile(src, copy / rel)
         s = read_session(copy, require_deviation=False)
     s.path = folder
     return s
-
-
-def read_session_toml_files(folder: Path) -> list[str]:
-    """The measurement files ``session.toml`` names.
-
-    Parameters
-    ----------
-    folder : Path
-        A session folder.
-
-    Returns
-    -------
-    list of str
-        Relative paths.
-    """
-    import tomllib
-
-    try:
-        doc = tomllib.loads((folder / "session.toml").read_text(encoding="utf-8"))
-    except (OSError, tomllib.TOMLDecodeError):
-        return []
-    return [str(e["file"]) for e in doc.get("measurements", []) if isinstance(e, dict)
-            and isinstance(e.get("file"), str)]
 
 
 def _target_folder(session: Any, output: str | Path | None) -> Path:

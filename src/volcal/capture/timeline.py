@@ -101,6 +101,29 @@ def move_along(d: float, v: float, a: float, t: float) -> float:
     return d - 0.5 * a * r * r
 
 
+class _Timeline:
+    """Segments laid one after another from a start position (each program's timeline)."""
+
+    def __init__(self, here: NDArray[np.float64], accel: float) -> None:
+        self.segs: list[Segment] = []
+        self.t = 0.0
+        self.p = np.asarray(here, float).copy()
+        self.accel = accel
+
+    def move(self, q: NDArray[np.float64], v: float) -> None:
+        """A move to ``q`` at the feed ``v`` [mm/s or deg/s]; none when already there."""
+        d = float(np.linalg.norm(q - self.p))
+        if d > 1e-12:
+            dt = move_time(d, v, self.accel)
+            self.segs.append(Segment(self.t, self.t + dt, self.p.copy(), q.copy(), "move"))
+            self.t, self.p = self.t + dt, q.copy()
+
+    def rest(self, seconds: float, kind: str) -> None:
+        """Standing still ``seconds`` [s]: a ``'dwell'`` or the operator's ``'stop'``."""
+        self.segs.append(Segment(self.t, self.t + seconds, self.p.copy(), self.p.copy(), kind))
+        self.t += seconds
+
+
 def program_timeline(pm: PlannedMeasurement, here: NDArray[np.float64], accel: float,
                      stop_s: float) -> list[Segment]:
     """The segments of the measurement's program, starting from position ``here``.
@@ -119,24 +142,16 @@ def program_timeline(pm: PlannedMeasurement, here: NDArray[np.float64], accel: f
     -------
     list of Segment
     """
-    segs: list[Segment] = []
-    t = 0.0
-    p = np.asarray(here, float).copy()
+    tl = _Timeline(here, accel)
     v_default = pm.options.feed / 60.0
 
     def move(q: NDArray[np.float64], feed: float | None) -> None:
-        nonlocal t, p
-        d = float(np.linalg.norm(q - p))
-        if d <= 1e-12:
-            return
-        dt = move_time(d, (feed or pm.options.feed) / 60.0 if feed else v_default, accel)
-        segs.append(Segment(t, t + dt, p.copy(), q.copy(), "move"))
-        t, p = t + dt, q.copy()
+        tl.move(q, (feed or pm.options.feed) / 60.0 if feed else v_default)
 
     for st in pm.steps:
         if st.kind == "start" and st.position is not None:
             q = np.asarray(st.position, float)
-            up = p.copy()
+            up = tl.p.copy()
             up[2] = pm.options.safe_z_mm
             move(up, st.feed)
             xy = up.copy()
@@ -144,15 +159,12 @@ def program_timeline(pm: PlannedMeasurement, here: NDArray[np.float64], accel: f
             move(xy, st.feed)
             move(q, st.feed)
         elif st.kind == "stop":
-            segs.append(Segment(t, t + stop_s, p.copy(), p.copy(), "stop"))
-            t += stop_s
+            tl.rest(stop_s, "stop")
         elif st.kind == "move" and st.position is not None:
             move(np.asarray(st.position, float), st.feed)
         elif st.kind == "dwell":
-            dt = float(st.seconds or 0.0)
-            segs.append(Segment(t, t + dt, p.copy(), p.copy(), "dwell"))
-            t += dt
-    return segs
+            tl.rest(float(st.seconds or 0.0), "dwell")
+    return tl.segs
 
 
 
@@ -182,34 +194,20 @@ def rotary_timeline(pm: PlannedMeasurement, here: NDArray[np.float64], accel: fl
     mv = pm.rotary
     if mv is None:
         raise ValueError(f"{pm.id} is not a rotary test")
-    segs: list[Segment] = []
-    t = 0.0
-    p = np.asarray(here, float).copy()
+    tl = _Timeline(here, accel)
     v = pm.options.feed / 60.0
-
-    def move(q: NDArray[np.float64]) -> None:
-        nonlocal t, p
-        d = float(np.linalg.norm(q - p))
-        if d > 1e-12:
-            dt = move_time(d, v, accel)
-            segs.append(Segment(t, t + dt, p.copy(), q.copy(), "move"))
-            t, p = t + dt, q.copy()
-
-    def rest(seconds: float, kind: str) -> None:
-        nonlocal t
-        segs.append(Segment(t, t + seconds, p.copy(), p.copy(), kind))
-        t += seconds
-
-    move(np.array([p[0], p[1], pm.options.safe_z_mm, p[3]]))
-    move(np.array([p[0], p[1], p[2], mv.start_deg]))
+    p = tl.p
+    tl.move(np.array([p[0], p[1], pm.options.safe_z_mm, p[3]]), v)
+    p = tl.p
+    tl.move(np.array([p[0], p[1], p[2], mv.start_deg]), v)
     for k, (kind, value, _row) in enumerate(mv.items):
         if k == mv.stop:
-            rest(stop_s, "stop")
+            tl.rest(stop_s, "stop")
         if kind == "turn":
-            move(p + np.array([0.0, 0.0, 0.0, value]))
+            tl.move(tl.p + np.array([0.0, 0.0, 0.0, value]), v)
         elif kind == "dwell":
-            rest(float(value), "dwell")
-    return segs
+            tl.rest(float(value), "dwell")
+    return tl.segs
 
 
 def rtest_timeline(pm: PlannedMeasurement, here: NDArray[np.float64], accel: float,
@@ -240,20 +238,14 @@ def rtest_timeline(pm: PlannedMeasurement, here: NDArray[np.float64], accel: flo
     """
     if pm.path is None:
         raise ValueError(f"{pm.id} is not an R-test")
-    segs: list[Segment] = []
-    t = 0.0
-    p = np.asarray(here, float).copy()
-    v = min(pm.options.feed, 1000.0) / 60.0
+    from volcal.program.r_test import FOLLOW_FEED_MAX_MM_MIN
+
+    tl = _Timeline(here, accel)
+    v = min(pm.options.feed, FOLLOW_FEED_MAX_MM_MIN) / 60.0
     for kind, q, _ in pm.path:
-        q = np.where(np.isnan(q), p, q)
+        q = np.where(np.isnan(q), tl.p, q)
         if kind == "move":
-            d = float(np.linalg.norm(q - p))
-            if d > 1e-12:
-                dt = move_time(d, v, accel)
-                segs.append(Segment(t, t + dt, p.copy(), q.copy(), "move"))
-                t, p = t + dt, q.copy()
+            tl.move(q, v)
         else:
-            dt = stop_s if kind == "stop" else float(pm.options.dwell_s)
-            segs.append(Segment(t, t + dt, p.copy(), p.copy(), kind))
-            t += dt
-    return segs
+            tl.rest(stop_s if kind == "stop" else float(pm.options.dwell_s), kind)
+    return tl.segs

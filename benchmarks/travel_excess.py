@@ -18,10 +18,12 @@ squareness errors):
     RMS of volcal's error over its standard uncertainty at the interior nodes (about 1
     for honest uncertainties, 0.5: intervals twice too wide).
 
-Also each machine's hyperparameters (group scales, kappa, travel exponents, the rolls'
-log Bayes factor and probability). Command line::
+With ``--cut-modes``, also the limits of priors whose modes stop elsewhere
+(:func:`cut_limit`). Also each machine's hyperparameters (group scales, kappa, travel
+exponents, the rolls' log Bayes factor and probability). Command line::
 
     python benchmarks/travel_excess.py --family len0 --travel t6000 --machines 8
+    python benchmarks/travel_excess.py --family rel0 --travel t800 --cut-modes 6,10,12,16
 """
 
 from __future__ import annotations
@@ -75,8 +77,12 @@ def _ms(m: MachineErrors, truth: MachineErrors, q) -> float:
 
 
 def machine(fam_key: str, travel_key: str, case: ts.Case, limit, options=None,
-            n_grid: int = 9) -> dict:
-    """The decomposition of one machine (full test set)."""
+            n_grid: int = 9, other_limits: dict | None = None) -> dict:
+    """The decomposition of one machine (full test set).
+
+    ``other_limits``: ``{J: limit}`` of priors cut after mode ``J`` (:func:`cut_limit`),
+    whose RMS on the same readings is ``rms_limit_modes[J]``.
+    """
     fam = ts.FAMILIES[fam_key]
     travel = np.array(ts.TRAVELS[travel_key])
     am = fam.draw(np.random.default_rng(case.machine_seed), travel, case.chain)
@@ -92,7 +98,9 @@ def machine(fam_key: str, travel_key: str, case: ts.Case, limit, options=None,
     lim = _on(limit.estimate(y), nodes, case.chain)
     ms_v, ms_l = _ms(est, truth, q), _ms(lim, truth, q)
     out = {"case": case.index, "chain": case.chain, "rms_volcal": ms_v**0.5,
-           "rms_limit": ms_l**0.5, "swap": {}, "err_volcal": {}, "err_limit": {}, "z": {}}
+           "rms_limit": ms_l**0.5, "swap": {}, "err_volcal": {}, "err_limit": {}, "z": {},
+           "rms_limit_modes": {j: _ms(_on(lj.estimate(y), nodes, case.chain), truth, q) ** 0.5
+                               for j, lj in (other_limits or {}).items()}}
     for name in NAMES:
         out["swap"][name] = ms_v - _ms(_swap(est, lim, name), truth, q)
         if name in SQUARENESS_NAMES:
@@ -125,18 +133,38 @@ def machine(fam_key: str, travel_key: str, case: ts.Case, limit, options=None,
     return out
 
 
+def cut_limit(modes: int, rolls: bool, travel, chain: str, session):
+    """The best linear estimator for a prior of ``rel``'s modes cut after mode ``modes``.
+
+    :func:`travel_study.exact_limit` of the ``fine`` family with
+    :data:`travel_study.FINE_MODES` set to ``modes`` (variance ``1 / j``, no growth with
+    the travel): how much the limit owes to knowing where the family's spectrum stops.
+    """
+    keep = ts.FINE_MODES
+    ts.FINE_MODES = int(modes)
+    try:
+        return ts.exact_limit("fine", rolls, travel, chain, session)
+    finally:
+        ts.FINE_MODES = keep
+
+
 def run(fam_key: str, travel_key: str, n: int, first: int = 0, options=None,
-        n_grid: int = 9) -> list[dict]:
-    """Machines ``first .. n - 1``."""
+        n_grid: int = 9, cut_modes: tuple[int, ...] = ()) -> list[dict]:
+    """Machines ``first .. n - 1`` (``cut_modes``: the limits of :func:`cut_limit` too)."""
     travel = np.array(ts.TRAVELS[travel_key])
+    rolls = not fam_key.endswith("0")
     limits: dict = {}
+    others: dict = {}
     out = []
     for case in ts.cases(n)[first:]:
         if case.chain not in limits:
             sess = ts.session_for(travel, case.chain, "full")
-            limits[case.chain] = ts.exact_limit(fam_key.rstrip("0"), not fam_key.endswith("0"),
-                                                travel, case.chain, sess)
-        r = machine(fam_key, travel_key, case, limits[case.chain], options, n_grid)
+            limits[case.chain] = ts.exact_limit(fam_key.rstrip("0"), rolls, travel, case.chain,
+                                                sess)
+            others[case.chain] = {j: cut_limit(j, rolls, travel, case.chain, sess)
+                                  for j in cut_modes}
+        r = machine(fam_key, travel_key, case, limits[case.chain], options, n_grid,
+                    others[case.chain])
         h = r["hyper"]
         print(f"{fam_key} {travel_key} #{case.index} {case.chain} volcal {r['rms_volcal']:.3f} "
               f"limit {r['rms_limit']:.3f} ratio {r['rms_volcal'] / r['rms_limit']:.2f} "
@@ -158,6 +186,11 @@ def table(rows: list[dict]) -> str:
              f"{np.mean([sum(r['swap'].values()) for r in rows]):.3f}",
              "| function | swap [um^2] | share | err volcal | err limit | z volcal |",
              "|---|---|---|---|---|---|"]
+    for j in reversed(list(rows[0]["rms_limit_modes"])):
+        lines.insert(1, f"prior cut after mode {j}: median RMS "
+                     f"{np.median([r['rms_limit_modes'][j] for r in rows]):.3f} um, ratio to "
+                     "the limit "
+                     f"{np.median([r['rms_limit_modes'][j] / r['rms_limit'] for r in rows]):.2f}")
     order = sorted(NAMES, key=lambda n: -np.mean([r["swap"][n] for r in rows]))
     for name in order:
         s = np.mean([r["swap"][name] for r in rows])
@@ -179,16 +212,20 @@ def main(argv=None) -> int:
     p.add_argument("--roll", default=None, help="IdentifyOptions.roll (e.g. zero)")
     p.add_argument("--grid", type=int, default=9,
                    help="points per axis of the grid (11: at the readings of 10 increments)")
+    p.add_argument("--cut-modes", default="",
+                   help="comma-separated J: also the limits of priors cut after mode J")
     p.add_argument("--json", type=Path)
     a = p.parse_args(argv)
     o = IdentifyOptions(suggest=False)
     if a.settings:
-        kw = {k: (tuple(v) if isinstance(v, list) else v)
-              for k, v in json.loads(a.settings).items()}
+        def tup(v):
+            return tuple(tup(x) for x in v) if isinstance(v, list) else v
+        kw = {k: tup(v) for k, v in json.loads(a.settings).items()}
         o = replace(o, settings=replace(o.settings, **kw))
     if a.roll:
         o = replace(o, roll=a.roll)
-    rows = run(a.family, a.travel, a.machines, a.first, o, a.grid)
+    cut = tuple(int(j) for j in a.cut_modes.split(",") if j)
+    rows = run(a.family, a.travel, a.machines, a.first, o, a.grid, cut)
     print(table(rows))
     if a.json:
         a.json.write_text(json.dumps(rows, indent=1, default=float))

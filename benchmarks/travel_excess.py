@@ -9,9 +9,9 @@ squareness errors):
     the squared volumetric error [um^2] volcal loses against the limit in that function
     alone: ``RMS^2(volcal) - RMS^2(volcal with that function replaced by the limit's)``
     (rigid-body motion removed, the study's 9 x 9 x 9 grid, or ``--grid 11``: the
-    readings' positions); positive: the limit does
-    better on it. Summed over the functions it need not equal the total excess (cross
-    terms), which is printed beside it.
+    readings' positions); positive: the limit does better on it. Summed over the
+    functions it need not equal the total excess (cross terms), which is printed beside
+    it.
 ``err``
     RMS of volcal's and the limit's function error over the nodes [um, urad];
 ``z``

@@ -160,7 +160,7 @@ def run(fam_key: str, travel_key: str, n: int, first: int = 0, options=None,
         if case.chain not in limits:
             sess = ts.session_for(travel, case.chain, "full")
             limits[case.chain] = ts.exact_limit(fam_key.rstrip("0"), rolls, travel, case.chain,
-                                                sess)
+                                                sess, options)
             others[case.chain] = {j: cut_limit(j, rolls, travel, case.chain, sess)
                                   for j in cut_modes}
         r = machine(fam_key, travel_key, case, limits[case.chain], options, n_grid,

@@ -39,6 +39,8 @@ Command line::
     nice -n 15 python benchmarks/travel_study.py --machines 20 --design full,step \\
         --json travel.json --markdown
     python benchmarks/travel_study.py --from-json travel.json --markdown
+    python benchmarks/travel_study.py --family mm0 --travel t6000 --design full \
+        --settings '{"between_readings_factor": 0}'   # another EstimatorSettings
 """
 
 from __future__ import annotations
@@ -180,8 +182,12 @@ def _terms(travel, shape: str, rolls: bool):
     return out
 
 
-def exact_limit(shape: str, rolls: bool, travel, chain: str, session) -> families.Limit:
+def exact_limit(shape: str, rolls: bool, travel, chain: str, session,
+                options: IdentifyOptions | None = None) -> families.Limit:
     """The limit with the family's exact prior covariance (no sampling).
+
+    On the nodes of volcal's estimate with ``options`` (default ``IdentifyOptions()``: its
+    ``refine``, ``max_nodes`` and settings), so that the limit and volcal share the grid.
 
     :func:`families.build_limit` estimates the prior from draws, which for the Fourier
     families' ~300 random terms per machine leaves the small eigenvalues of the sample
@@ -201,8 +207,8 @@ def exact_limit(shape: str, rolls: bool, travel, chain: str, session) -> familie
     s.measurements = [copy(m) for m in session.measurements]
     for m in s.measurements:
         m.deviation = np.zeros(m.n)
-    nodes = choose_nodes(s, refine=IdentifyOptions().refine,
-                         max_nodes=IdentifyOptions().max_nodes)
+    o = options or IdentifyOptions()
+    nodes = choose_nodes(s, refine=o.refine, max_nodes=o.max_nodes, settings=o.settings)
     design = build_design(s, nodes)
     t = np.asarray(travel, dtype=float)
     G = []
@@ -339,7 +345,7 @@ def run(fam_key: str, travel_key: str, design: str, n: int, limit: bool = True,
             if case.chain not in limits:
                 sess = session_for(travel, case.chain, design, steps, runs)
                 limits[case.chain] = exact_limit(fam_key.rstrip("0"), not fam_key.endswith("0"),
-                                                 travel, case.chain, sess)
+                                                 travel, case.chain, sess, options)
             lim = limits[case.chain]
         r = run_case(fam, travel_key, design, case, lim, steps, runs, options=options,
                      min_norm=design == "full")
@@ -420,6 +426,8 @@ def main(argv=None) -> int:
     p.add_argument("--markdown", action="store_true")
     p.add_argument("--json", type=Path)
     p.add_argument("--from-json", type=Path)
+    p.add_argument("--settings", default="",
+                   help="EstimatorSettings fields as JSON (volcal's and the limit's grid)")
     a = p.parse_args(argv)
     if a.from_json:
         saved = json.loads(a.from_json.read_text())["machines"]
@@ -432,6 +440,12 @@ def main(argv=None) -> int:
         print(markdown(summaries) if a.markdown else json.dumps(summaries, indent=1))
         return 0
     families.CACHE = a.cache
+    options = IdentifyOptions(suggest=False)
+    if a.settings:
+        def tup(v):
+            return tuple(tup(x) for x in v) if isinstance(v, list) else v
+        kw = {k: tup(v) for k, v in json.loads(a.settings).items()}
+        options = replace(options, settings=replace(options.settings, **kw))
     fams = list(FAMILIES) if a.family == "all" else a.family.split(",")
     travels = list(TRAVELS) if a.travel == "all" else a.travel.split(",")
     everything, summaries = [], []
@@ -439,7 +453,7 @@ def main(argv=None) -> int:
         for t in travels:
             for f in fams:
                 res = run(f, t, design, a.machines, not a.no_limit, a.draws, first=a.first,
-                          progress=_print)
+                          options=options, progress=_print)
                 summaries.append(summarise(res))
                 everything += [{"family": r.family, "design": r.design,
                                 "case": r.case.__dict__, "truth_rms_um": r.truth_rms_um,

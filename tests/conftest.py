@@ -238,8 +238,34 @@ def pytest_xdist_make_scheduler(config, log):
     return OneLinuxCNC(config, log)
 
 
+POSTGRESQL_IN_MAKE_TEST: tuple[str, ...] = (
+    "history/test_history.py", "history/test_damaged_store.py",
+)
+"""The test files whose store tests run on both backends in ``make test``. Elsewhere a test
+given the store's backend as a parameter (``store_url``, or a module fixture's ``sqlite`` /
+``postgresql``) runs on SQLite in ``make test`` and on PostgreSQL too in ``make study``
+(marked ``slow`` here): the store reaches both through SQLAlchemy, and what differs between
+them (the engine, the server's URL, locking, concurrent writers, the integrity checks of a
+damaged store) is what these two files test on both (benchmarks/README.md, "Session 23:
+make test within its budget")."""
+
+
+def _second_backend(item) -> bool:
+    """Whether ``item`` is a store test on PostgreSQL outside :data:`POSTGRESQL_IN_MAKE_TEST`."""
+    params = getattr(getattr(item, "callspec", None), "params", {})
+    if "postgresql" not in params.values():
+        return False
+    path = str(item.path).replace(os.sep, "/")
+    return not any(path.endswith(f) for f in POSTGRESQL_IN_MAKE_TEST)
+
+
+@pytest.hookimpl(tryfirst=True)
 def pytest_collection_modifyitems(session, config, items):
-    """Collect the files of :data:`LONGEST_FIRST` first, in that order."""
+    """Collect the files of :data:`LONGEST_FIRST` first, in that order; mark the second
+    backend's store tests ``slow`` (:data:`POSTGRESQL_IN_MAKE_TEST`)."""
+    for it in items:
+        if _second_backend(it):
+            it.add_marker(pytest.mark.slow)
     root = Path(__file__).parent
     rank = {str(root / f): k for k, f in enumerate(LONGEST_FIRST)}
     late = len(LONGEST_FIRST)

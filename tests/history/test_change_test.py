@@ -36,22 +36,38 @@ def test_determined_statistic_by_hand():
     assert dof == 2 and stat == pytest.approx(9.0 / 4.0 + 16.0)
 
 
-def test_unchanged_pairs_few_increments_within_band():
-    """10 unchanged pairs at 6 increments, 2 runs: at most binom.ppf(0.95, 10, 0.05) = 2
-    pair with any function flagged at the 5 % family-wise level (these seeds: 0; before
-    the fix 3, pairs 3, 6 and 9)."""
+def _unchanged_pairs_flagged(pairs) -> int:
+    """Of the unchanged pairs ``pairs`` (machine seed ``500 + k``, readings' seeds ``10 k + 7``
+    and ``10 k + 8``), how many have any function flagged at the 5 % family-wise level."""
     from volcal.measure.virtual import random_machine
 
-    n = 10
-    limit = int(binom.ppf(0.95, n, LEVEL))
-    assert limit == 2
     flagged = 0
-    for k in range(n):
+    for k in pairs:
         m = random_machine(TRAVEL, "XYFZ", seed=500 + k)
         entries = compare_models(_model(m, 10 * k + 7), _model(m, 10 * k + 8), LEVEL)
         assert len(entries) == 21
         flagged += any(e.changed for e in entries)
-    assert flagged <= limit
+    return flagged
+
+
+def test_unchanged_pairs_flagged_before_the_fix_are_not():
+    """The three unchanged pairs at 6 increments, 2 runs that were flagged before the fix
+    (pairs 3, 6 and 9): at most binom.ppf(0.95, 3, 0.05) = 1 flagged (these seeds: 0). The
+    ten pairs' rate is :func:`test_unchanged_pairs_few_increments_within_band` (make study)."""
+    limit = int(binom.ppf(0.95, 3, LEVEL))
+    assert limit == 1
+    assert _unchanged_pairs_flagged((3, 6, 9)) <= limit
+
+
+@pytest.mark.slow  # 20 identifications: make study; make test keeps the three pairs above
+def test_unchanged_pairs_few_increments_within_band():
+    """10 unchanged pairs at 6 increments, 2 runs: at most binom.ppf(0.95, 10, 0.05) = 2
+    pair with any function flagged at the 5 % family-wise level (these seeds: 0; before
+    the fix 3, pairs 3, 6 and 9)."""
+    n = 10
+    limit = int(binom.ppf(0.95, n, LEVEL))
+    assert limit == 2
+    assert _unchanged_pairs_flagged(range(n)) <= limit
 
 
 def test_scale_change_detected_few_increments():

@@ -119,6 +119,7 @@ def test_readings_at_every_node_get_nothing(session):
         np.testing.assert_array_equal(on.std[k], off.std[k])
 
 
+@pytest.mark.slow  # 6 identifications at 6000 mm: make study (make test's budget)
 def test_rough_long_machines_of_an_independent_simulator_cover_more():
     """Machines 0-2 of ``travel_study``'s family ``fine`` (16 modes, the shortest eight
     aliased between readings 600 mm apart) on 6000 x 1000 x 800 mm, read by the exact

@@ -59,7 +59,16 @@ def _mark(family: str):
     return family
 
 
-@pytest.mark.parametrize("family", ["b", "d"])
+def _study_only(family):
+    """``family`` (a name or a ``pytest.param``) marked ``slow``: family ``b`` runs in ``make
+    study`` only, ``make test`` keeps family ``d`` (``b`` with rolls and a cyclic error, the
+    harder of the two) within its budget."""
+    if isinstance(family, str):
+        return pytest.param(family, marks=pytest.mark.slow)
+    return pytest.param(*family.values, marks=[*family.marks, pytest.mark.slow])
+
+
+@pytest.mark.parametrize("family", [_study_only("b"), "d"])
 def test_never_above_least_squares(family):
     res = _results(family)
     ratios = {r.case.index: round(r.ratio_ls, 3) for r in res}
@@ -70,7 +79,7 @@ def test_never_above_least_squares(family):
     assert np.median(list(ratios.values())) < 0.8
 
 
-@pytest.mark.parametrize("family", [_mark("b"), _mark("d")])
+@pytest.mark.parametrize("family", [_study_only(_mark("b")), _mark("d")])
 def test_95_percent_intervals_cover_90_to_99_percent(family):
     res = _results(family)
     cover = float(np.mean([r.bayes["coverage"] for r in res]))
@@ -117,6 +126,7 @@ def _rolls_kept(family: str):
                                options=kept, least_squares=False)
 
 
+@pytest.mark.slow  # 16 identifications more: make study (make test's budget)
 def test_the_average_over_the_rolls_presence_serves_machines_with_and_without_roll():
     """The default estimate averages the fits with and without rolls by the readings'
     Bayes factor (``EstimatorSettings.roll_mixture_absent``). On family b (no roll) it is closer to

@@ -150,16 +150,41 @@ def _evaluated_by(kind: str, folder: Path) -> str:
             f"{folder}), whose model volcal evaluate volumetric evaluates")
 
 
+def _kind_by_columns(header: list[str]) -> tuple[str, str] | None:
+    """The kind, and its value column, whose own value column ``header`` has.
+
+    Only a value column one kind alone writes names the kind (an R-test's ``dx_um``, a
+    rotary test's ``deviation_urad``); ``deviation_um`` and the positions are every linear
+    kind's. None when no kind's or several kinds' columns are there.
+    """
+    from volcal.session.kinds import kinds
+
+    shared = {"deviation_um", "x_mm", "y_mm", "z_mm"}
+    found = [(k.name, k.value_column) for k in kinds()
+             if k.value_column not in shared and k.value_column in header]
+    return found[0] if len(found) == 1 else None
+
+
 def _read_measurement_layout(path: Path, header: list[str]) -> PositioningData:
     named = _kind_in_session(path)
     if named is not None and named[1] not in ("", "linear"):
         raise VolcalInputError(f"{named[0]} is of kind {named[1]} (session.toml), not a "
                                "linear test with runs, which ISO 230-2 evaluates; "
                                + _evaluated_by(named[1], path.parent), path)
+    by_columns = _kind_by_columns(header) if named is None else None
+    if by_columns is not None:
+        kind, column = by_columns
+        raise VolcalInputError(f"column '{column}' is the readings' column of kind {kind} (no "
+                               "session.toml beside the file names its kind), not of a linear "
+                               "test with runs, which ISO 230-2 evaluates; "
+                               + _evaluated_by(kind, path.parent), path, 1, column)
     for c in ("run", "direction"):
         if c not in header:
+            hint = ("; a diagonal, step-diagonal or straightness test's file has none "
+                    "(volcal evaluate session evaluates its session)" if named is None
+                    else "")
             raise VolcalInputError(f"missing column '{c}': ISO 230-2 needs the run and the "
-                                   "approach direction of every reading", path, 1, c)
+                                   f"approach direction of every reading{hint}", path, 1, c)
     from volcal.session.format import _drop_missed, _read_rows
 
     notes: list[str] = []

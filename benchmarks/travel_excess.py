@@ -216,12 +216,7 @@ def main(argv=None) -> int:
                    help="comma-separated J: also the limits of priors cut after mode J")
     p.add_argument("--json", type=Path)
     a = p.parse_args(argv)
-    o = IdentifyOptions(suggest=False)
-    if a.settings:
-        def tup(v):
-            return tuple(tup(x) for x in v) if isinstance(v, list) else v
-        kw = {k: tup(v) for k, v in json.loads(a.settings).items()}
-        o = replace(o, settings=replace(o.settings, **kw))
+    o = ts.with_settings(IdentifyOptions(suggest=False), a.settings)
     if a.roll:
         o = replace(o, roll=a.roll)
     cut = tuple(int(j) for j in a.cut_modes.split(",") if j)

@@ -411,6 +411,22 @@ def _print(r: Result) -> None:
           f"({b['seconds']:.2f} s)", flush=True)
 
 
+def with_settings(options: IdentifyOptions, settings_json: str) -> IdentifyOptions:
+    """``options`` with the :class:`EstimatorSettings` fields of ``settings_json`` replaced.
+
+    ``settings_json`` is a JSON object of field names and values (its lists read as
+    tuples, as the settings' fields are); an empty string leaves ``options`` as they are.
+    """
+    if not settings_json:
+        return options
+
+    def tup(v):
+        return tuple(tup(x) for x in v) if isinstance(v, list) else v
+
+    kw = {k: tup(v) for k, v in json.loads(settings_json).items()}
+    return replace(options, settings=replace(options.settings, **kw))
+
+
 def main(argv=None) -> int:
     """Command line (``python benchmarks/travel_study.py --help``)."""
     p = argparse.ArgumentParser(description="The estimator on short and long machines "
@@ -440,12 +456,7 @@ def main(argv=None) -> int:
         print(markdown(summaries) if a.markdown else json.dumps(summaries, indent=1))
         return 0
     families.CACHE = a.cache
-    options = IdentifyOptions(suggest=False)
-    if a.settings:
-        def tup(v):
-            return tuple(tup(x) for x in v) if isinstance(v, list) else v
-        kw = {k: tup(v) for k, v in json.loads(a.settings).items()}
-        options = replace(options, settings=replace(options.settings, **kw))
+    options = with_settings(IdentifyOptions(suggest=False), a.settings)
     fams = list(FAMILIES) if a.family == "all" else a.family.split(",")
     travels = list(TRAVELS) if a.travel == "all" else a.travel.split(",")
     everything, summaries = [], []

@@ -23,7 +23,16 @@ from pathlib import Path
 
 import pytest
 
-from cli_mutations import Mutation, chain_of, edit, put, remove, rename_column, set_cell, snapshot
+from cli_mutations import (
+    Mutation,
+    chain_of,
+    edit,
+    put,
+    remove,
+    rename_column,
+    set_cell,
+    touch_snapshot,
+)
 from timing import scaled_timeout
 
 RUN = [sys.executable, "-c", "from volcal.cli import main; main()"]
@@ -90,7 +99,8 @@ POINTS = "x_mm,y_mm,z_mm\n0,0,0\n100,50,20\n400,300,200\n"
 
 @pytest.fixture(scope="module")
 def base(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """Build once: ``P`` planned, ``S`` measured, ``MODEL.json``, ``ERRORS.csv``, ``COMP``."""
+    """Build once: ``P`` planned, ``S`` measured, ``L`` and ``D`` (its linear tests, its
+    diagonals: :func:`_extra_sessions`), ``MODEL.json``, ``ERRORS.csv``, ``COMP``."""
     d = tmp_path_factory.mktemp("base")
     r = volcal("plan", "--travel", TRAVEL, "--steps", "3", "--runs", "2", "-o", d / "P")
     assert r.returncode == 0, r.stderr
@@ -111,6 +121,7 @@ def base(tmp_path_factory: pytest.TempPathFactory) -> Path:
     (d / "EMPTY").mkdir()
     (d / "empty.csv").write_text("")
     (d / "garbage.bin").write_bytes(bytes(range(256)) * 8)
+    _extra_sessions(d)
     return d
 
 
@@ -931,10 +942,9 @@ def _ids(cases: list[Case]) -> list[str]:
 def test_bad_input(case: Case, base: Path, tmp_path: Path) -> None:
     d = tmp_path / "w"
     shutil.copytree(base, d)
-    _extra_sessions(d)
     if case.mutate is not None:
         case.mutate(d)
-    before = snapshot(d)
+    before = touch_snapshot(d)
     r = volcal(*[a.format(d=d) for a in case.args], cwd=d)
     out = r.stdout + r.stderr
     assert "Traceback" not in out, out
@@ -942,7 +952,7 @@ def test_bad_input(case: Case, base: Path, tmp_path: Path) -> None:
     msg = " ".join(r.stderr.split())
     for e in case.expect:
         assert e.format(d=d) in msg, f"{e!r} not in the message:\n{r.stderr}"
-    assert snapshot(d) == before, "the command changed its inputs or left an output"
+    assert touch_snapshot(d) == before, "the command changed its inputs or left an output"
 
 
 @pytest.mark.skipif(os.name != "posix" or os.geteuid() == 0,
@@ -959,12 +969,12 @@ def test_output_in_read_only_folder(args: list[str], base: Path, tmp_path: Path)
     (d / "RO").mkdir()
     (d / "RO").chmod(0o555)
     try:
-        before = snapshot(d)
+        before = touch_snapshot(d)
         r = volcal(*[a.format(d=d) for a in args], cwd=d)
         assert "Traceback" not in r.stdout + r.stderr, r.stderr
         assert r.returncode == 2, r.stderr
         assert "not writable" in r.stderr and "RO" in r.stderr
-        assert snapshot(d) == before
+        assert touch_snapshot(d) == before
     finally:
         (d / "RO").chmod(0o755)
 

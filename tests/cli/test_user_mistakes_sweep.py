@@ -37,7 +37,16 @@ from pathlib import Path
 
 import pytest
 
-from cli_mutations import Mutation, chain_of, edit, put, remove, rename_column, set_cell, snapshot
+from cli_mutations import (
+    Mutation,
+    chain_of,
+    edit,
+    put,
+    remove,
+    rename_column,
+    set_cell,
+    touch_snapshot,
+)
 from volcal_cli_helpers import volcal_process
 
 TRAVEL = "0:400,0:300,0:200"
@@ -870,7 +879,7 @@ def test_user_mistake(case: Case, base: Path, tmp_path: Path) -> None:
     shutil.copytree(base, d)
     if case.mutate is not None:
         case.mutate(d)
-    before = snapshot(d)
+    before = touch_snapshot(d)
     r = volcal(*[a.format(d=d) for a in case.args], cwd=d)
     out = r.stdout + r.stderr
     assert "Traceback" not in out, out
@@ -879,7 +888,7 @@ def test_user_mistake(case: Case, base: Path, tmp_path: Path) -> None:
     msg = " ".join(r.stderr.split())
     for e in case.expect:
         assert e.format(d=d) in msg, f"{e!r} not in the message:\n{r.stderr}"
-    after = snapshot(d)
+    after = touch_snapshot(d)
     changed = {k for k in set(before) | set(after) if before.get(k) != after.get(k)}
     stray = {k for k in changed if not any(k == w or k.startswith(w + "/") for w in case.writes)}
     assert not stray, f"changed: {sorted(stray)}\n{r.stderr}"
@@ -926,7 +935,7 @@ def test_ctrl_c_midway(case: Interrupt, base: Path, tmp_path: Path,
 
     d = tmp_path / "w"
     shutil.copytree(base, d)
-    before = snapshot(d)
+    before = touch_snapshot(d)
     real, calls = os.replace, [0]
 
     def replace(src: object, dst: object) -> None:
@@ -941,6 +950,6 @@ def test_ctrl_c_midway(case: Interrupt, base: Path, tmp_path: Path,
     assert calls[0] >= case.nth, "the command did not reach the interrupted write"
     assert "Traceback" not in r.stdout + r.stderr, r.stderr
     assert r.returncode == 130, r.stdout + r.stderr
-    after = snapshot(d)
+    after = touch_snapshot(d)
     changed = sorted(k for k in set(before) | set(after) if before.get(k) != after.get(k))
     assert not changed, f"left behind: {changed}"

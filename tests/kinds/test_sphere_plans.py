@@ -107,3 +107,65 @@ def test_program_refuses_a_pose_outside_the_travel(tmp_path):
         write_programs(s, "linuxcnc", tmp_path / "p2", _options())
     assert ("r_test test 'r_test': pose 26: Z = -35.000 mm lies outside the session's "
             "travel Z 0..500 mm") in str(e.value)
+
+
+@pytest.mark.parametrize("axes,pair,chain,fixed", [
+    # a cradle tilting from -120 to +30: the default fixed tilts fit, the sweep is cut
+    ("c:0:360:modulo,a:-120:30:limited", "", "XYFZ", [0.0, -45.0, -90.0]),
+    # a B cradle from -5 to +110 (a limited C of -180..180): the fixed tilts span the range
+    # from the angle nearest 0, 0 -> 110 (hand: the middle 55)
+    ("c:-180:180:limited,b:-5:110:limited", ":cb", "FXYZ", [0.0, 55.0, 110.0]),
+])
+def test_plans_keep_within_the_machines_limited_rotary_axes(tmp_path, axes, pair, chain, fixed):
+    """``--rotary-axes`` with a limited axis: both sphere plans command angles within its
+    range only (the default plans' -90..+90 deg tilt would overrun a cradle's limit), still
+    one configuration inside the travel that locates together, and ``volcal program`` writes
+    them."""
+    from volcal.plan.rotary import rotary_axis_spec
+
+    given = rotary_axis_spec(axes)
+    s = plan_session(TRAVEL, chain, steps=4, tests=(f"probe_sphere{pair}", f"r_test{pair}"),
+                     runs=2, rotary={"axes": given})
+    probe, rt = s.measurements
+    assert probe.meta["pivot_mm"] == rt.meta["pivot_mm"]
+    limited = {a.name: a.range_deg for a in given if not a.modulo}
+    tilt = (pair[-1] if pair else "a")
+    for m in (probe, rt):
+        for letter, (lo, hi) in limited.items():
+            v = m.columns[f"{letter}_deg"]
+            assert v.min() >= lo and v.max() <= hi, (m.id, letter)
+        # the tilting axis' whole range is used: both ends reached
+        t = m.columns[f"{tilt}_deg"]
+        assert t.min() == limited[tilt][0] and t.max() == limited[tilt][1], m.id
+    c_turns = rt.columns["c_deg"][:12]
+    lo_c = limited["c"][0] if "c" in limited else 0.0
+    np.testing.assert_allclose(c_turns, lo_c + 30.0 * np.arange(12))
+    assert sorted(set(rt.columns[f"{tilt}_deg"][:36])) == sorted(fixed)
+    pts = np.array([p for _, p in rtest_program_positions(rt)]
+                   + [p for _, p in probe_program_positions(probe, "linuxcnc")])
+    assert (pts >= TRAVEL[:, 0]).all() and (pts <= TRAVEL[:, 1]).all()
+    s.meta["rotary_axes"] = [a.to_toml() for a in given]
+    write_programs(s, "linuxcnc", tmp_path / "prog", _options())
+    # simulated, they still locate together at the noise (one configuration)
+    machine = random_machine(TRAVEL, chain, seed=3)
+    simulate_session(s, machine, SimulationOptions(seed=9))
+    r = locate(s, model=machine).result
+    assert r.rms_before_um > 100.0 and r.chi2 / r.dof < 1.5
+
+
+def test_program_refuses_a_pose_beyond_a_limited_axis(tmp_path):
+    """The default R-test sweeps A from -90 to +90 deg at C = 0 after its three C turns
+    (36 poses): on a cradle limited to -120..+30 deg its pose 46 (A = -90 + 9 x 15 = 45 deg,
+    row 47 under the header) is the first beyond; refused naming file, row and column, no
+    folder written. The same axis declared modulo turns freely."""
+    s = plan_session(TRAVEL, "XYFZ", steps=4, tests=("r_test",), runs=2)
+    s.meta["rotary_axes"] = [{"name": "a", "range_deg": [-120.0, 30.0], "modulo": False}]
+    with pytest.raises(VolcalInputError) as e:
+        write_programs(s, "linuxcnc", tmp_path / "p", _options())
+    assert ("r_test test 'r_test': pose 46: A = 45 deg lies beyond the range -120..30 deg of "
+            "axis A") in str(e.value)
+    assert "(4 of 49 poses beyond)" in str(e.value)
+    assert (e.value.file, e.value.row, e.value.column) == ("r_test.csv", 47, "a_deg")
+    assert not (tmp_path / "p").exists()
+    s.meta["rotary_axes"] = [{"name": "a", "range_deg": [-120.0, 30.0], "modulo": True}]
+    write_programs(s, "linuxcnc", tmp_path / "p", _options())

@@ -70,7 +70,8 @@ def plan(
     rotary_axes: str | None = typer.Option(None, "--rotary-axes", help="The machine's rotary "
                                            "axes name:min:max[:modulo|limited] [deg], e.g. "
                                            "c:0:360:modulo,a:-120:30:limited (default for "
-                                           "rotary:a|b|c: a full circle)."),
+                                           "rotary:a|b|c: a full circle); probe_sphere and "
+                                           "r_test keep within a limited axis."),
     output: Path | None = typer.Option(None, "-o", "--output", help="Session folder to write "
                                        "(a new or empty folder; an existing session only "
                                        "with --replace)."),

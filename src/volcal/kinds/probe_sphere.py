@@ -369,8 +369,9 @@ class ProbeSphereKind(OutsideDesignKind):
         letters, e.g. ``cb``, read workpiece side first); the pivots and sphere of
         :func:`volcal.plan.fiveaxis.default_trunnion` (the r_test plan's: planned together
         the two locate together; every pose's sphere centre inside the travel;
-        ``docs/fiveaxis.md``). Edit the session's pivots, sphere and poses to the
-        machine's.
+        ``docs/fiveaxis.md``); the angles within the machine's limited rotary axes
+        (:func:`volcal.plan.fiveaxis.trunnion_ranges`). Edit the session's pivots, sphere
+        and poses to the machine's.
 
         Parameters
         ----------
@@ -384,7 +385,7 @@ class ProbeSphereKind(OutsideDesignKind):
         from volcal.errors import VolcalInputError
         from volcal.measure.fiveaxis_virtual import pose_grid
         from volcal.model.chain import parse_machine_chain
-        from volcal.plan.fiveaxis import default_trunnion
+        from volcal.plan.fiveaxis import default_trunnion, trunnion_ranges
         from volcal.session.format import Measurement
 
         pair = (only or "ca").lower()
@@ -392,9 +393,12 @@ class ProbeSphereKind(OutsideDesignKind):
             raise VolcalInputError(f"probe_sphere:{only}: expected ca or cb (C on an A or B "
                                    "cradle)")
         chain = parse_machine_chain(pair.upper() + options.chain)
-        lay = default_trunnion(pair, options.chain, options.t)
+        ranges = trunnion_ranges(pair, options.rotary.get("axes"))
+        lay = default_trunnion(pair, options.chain, options.t, ranges)
         pivots, sphere = lay.pivot_mm, lay.sphere_mm
-        ang = pose_grid(chain.code)
+        c_lo, c_hi = ranges.c
+        ang = pose_grid(chain.code, {"C": (c_lo, c_lo + 360.0) if ranges.c_full else (c_lo, c_hi),
+                                     pair[1].upper(): ranges.tilt})
         n = ang["C"].size
         meta = {"chain": chain.code, "pivot_mm": pivots, "sphere": "S1", "sphere_mm": sphere,
                 "noise_um": 1.0}

@@ -50,7 +50,8 @@ C_STEP_DEG = 30.0
 TILT_FIXED_DEG = (0.0, -45.0, -90.0)
 """Default plan: the tilting axis' fixed angles of the C paths [deg]."""
 TILT_SWEEP_DEG = (-90.0, 90.0, 15.0)
-"""Default plan: the tilting axis' sweep at C = 0 (from, to, step) [deg]."""
+"""Default plan: the tilting axis' sweep at C = 0 (from, to, step) [deg]; from and to are
+:data:`volcal.plan.fiveaxis.TILT_RANGE_DEG`, the tilting axis' default range."""
 DEFAULT_NOISE_UM = 0.5
 """Default repeatability of one displacement component [um]."""
 
@@ -110,34 +111,47 @@ def rtest_readings_block(m: Any):
                           np.asarray(m.positions, dtype=float), k["noise_um"])
 
 
-def rtest_paths(pair: str) -> dict[str, NDArray[np.float64]]:
+def rtest_paths(pair: str, ranges: Any = None) -> dict[str, NDArray[np.float64]]:
     """The default R-test paths of a trunnion (ISO 10791-6; Ibaraki et al. 2010).
 
     C turns a full circle in steps of :data:`C_STEP_DEG` at each fixed angle
     :data:`TILT_FIXED_DEG` of the tilting axis (serpentine: up, down, up), then the tilting
-    axis sweeps :data:`TILT_SWEEP_DEG` with C at 0.
+    axis sweeps :data:`TILT_SWEEP_DEG` with C at its first angle. Within the machine's
+    limited axes (``ranges``): C over its range; the fixed tilts three angles spanning the
+    tilting axis' range from the angle nearest 0 where :data:`TILT_FIXED_DEG` do not all
+    fit; the sweep over the whole range.
 
     Parameters
     ----------
     pair : str
         ``'ca'`` or ``'cb'``.
+    ranges : volcal.plan.fiveaxis.TrunnionRanges, optional
+        The angles the machine's axes allow (default: C a full turn, the tilt -90..+90).
 
     Returns
     -------
     dict of str to ndarray
         ``C`` and the tilting axis' letter: angle per pose [deg].
     """
+    from volcal.plan.fiveaxis import TrunnionRanges
+
+    r = ranges or TrunnionRanges()
     tilt = pair[1].upper()
-    cs = np.arange(0.0, 360.0, C_STEP_DEG)
+    cs = r.c_angles(C_STEP_DEG)
+    lo, hi = r.tilt
+    fixed = [float(a) for a in TILT_FIXED_DEG]
+    if not all(lo <= a <= hi for a in fixed):
+        near = min(max(0.0, lo), hi)
+        far = hi if hi - near >= near - lo else lo
+        fixed = [near, 0.5 * (near + far), far]
     c_list: list[float] = []
     t_list: list[float] = []
-    for i, a in enumerate(TILT_FIXED_DEG):
+    for i, a in enumerate(fixed):
         seq = cs if i % 2 == 0 else cs[::-1]
         c_list += [float(c) for c in seq]
         t_list += [a] * seq.size
-    lo, hi, step = TILT_SWEEP_DEG
-    sweep = np.arange(lo, hi + 0.5 * step, step)
-    c_list += [0.0] * sweep.size
+    sweep = r.tilt_angles(TILT_SWEEP_DEG[2])
+    c_list += [float(cs[0])] * sweep.size
     t_list += [float(v) for v in sweep]
     return {"C": np.array(c_list), tilt: np.array(t_list)}
 
@@ -381,9 +395,11 @@ class RTestKind(OutsideDesignKind):
         The chain is ``CA`` + the plan's linear chain (``only`` = ``cb`` for a B cradle);
         the pivots and sphere of :func:`volcal.plan.fiveaxis.default_trunnion` (the
         probe_sphere plan's: the two locate together; every position of the paths inside
-        the travel); the paths of :func:`rtest_paths`; the commanded positions are the
-        configured kinematics' (the nest on the nominal sphere). Edit the session's pivots,
-        sphere, nest offset and paths to the machine's.
+        the travel); the paths of :func:`rtest_paths` within the machine's limited rotary
+        axes (``options.rotary["axes"]``, ``--rotary-axes`` or the session's
+        ``[[machine.rotary_axes]]``: :func:`volcal.plan.fiveaxis.trunnion_ranges`); the
+        commanded positions are the configured kinematics' (the nest on the nominal
+        sphere). Edit the session's pivots, sphere, nest offset and paths to the machine's.
 
         Parameters
         ----------
@@ -399,18 +415,19 @@ class RTestKind(OutsideDesignKind):
         from volcal.model.chain import parse_machine_chain
         from volcal.model.fiveaxis import FiveAxisMachine
         from volcal.model.rotary import RotaryAxis
-        from volcal.plan.fiveaxis import default_trunnion
+        from volcal.plan.fiveaxis import default_trunnion, trunnion_ranges
         from volcal.session.format import Measurement
 
         pair = (only or "ca").lower()
         if len(pair) != 2 or pair[0] != "c" or pair[1] not in "ab":
             raise VolcalInputError(f"r_test:{only}: expected ca or cb (C on an A or B cradle)")
         chain = parse_machine_chain(pair.upper() + options.chain)
-        lay = default_trunnion(pair, options.chain, options.t)
+        ranges = trunnion_ranges(pair, options.rotary.get("axes"))
+        lay = default_trunnion(pair, options.chain, options.t, ranges)
         pivots = lay.pivot_mm
         sphere = np.array(lay.sphere_mm)
         pc, pt = np.array(pivots["c"]), np.array(pivots[pair[1]])
-        ang = rtest_paths(pair)
+        ang = rtest_paths(pair, ranges)
         rot = {"C": RotaryAxis("C", pc), pair[1].upper(): RotaryAxis(pair[1].upper(), pt,
                                                                       full_circle=False)}
         q = probe_centres(FiveAxisMachine(chain, rot), ang, sphere, np.zeros(3))

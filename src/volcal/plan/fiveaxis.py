@@ -17,6 +17,7 @@ short for it, the layout is shrunk about the C pivot until it fits (``docs/fivea
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -24,7 +25,7 @@ from numpy.typing import ArrayLike, NDArray
 from volcal.errors import VolcalInputError
 
 __all__ = ["PIVOT_DROP_MM", "SPHERE_OFFSET_MM", "TRAVEL_MARGIN_MM", "TrunnionLayout",
-           "default_trunnion"]
+           "TrunnionRanges", "default_trunnion", "trunnion_ranges"]
 
 PIVOT_DROP_MM = 120.0
 """The tilting axis' line this far below the C pivot [mm] (a trunnion's)."""
@@ -35,7 +36,8 @@ TRAVEL_MARGIN_MM = 35.0
 approach (30 mm above the sphere) and the probe's (sphere and tip radius plus clearance,
 about 20 mm) stay inside it."""
 TILT_RANGE_DEG = (-90.0, 90.0)
-"""The tilting axis' range the layout keeps inside the travel [deg] (the default plans')."""
+"""The tilting axis' range the layout keeps inside the travel [deg] (the default plans'
+where the machine's ``[[machine.rotary_axes]]`` do not limit it: :func:`trunnion_ranges`)."""
 ENVELOPE_STEP_DEG = 2.0
 """Angle step of the poses the layout's envelope is computed on [deg]."""
 MIN_SCALE = 0.2
@@ -64,7 +66,95 @@ class TrunnionLayout:
     scale: float
 
 
-def _envelope(tilt: str, drop: float, offset: NDArray[np.float64]) -> NDArray[np.float64]:
+@dataclass(frozen=True)
+class TrunnionRanges:
+    """The angles a trunnion's sphere tests may command [deg].
+
+    Attributes
+    ----------
+    c : (float, float)
+        C's range; a full turn from its first value where :attr:`c_full`.
+    c_full : bool
+        C turns full circles (a modulo axis, or a range of 360 deg or more).
+    tilt : (float, float)
+        The tilting axis' (A or B) range.
+    """
+
+    c: tuple[float, float] = (0.0, 360.0)
+    c_full: bool = True
+    tilt: tuple[float, float] = TILT_RANGE_DEG
+
+    def c_angles(self, step_deg: float) -> NDArray[np.float64]:
+        """C's angles in steps of ``step_deg`` over its range [deg].
+
+        A full turn without its end (0 and 360 deg are one pose), or a limited range with
+        both ends.
+
+        Parameters
+        ----------
+        step_deg : float
+            Step between the angles [deg] (a limited range: about it, evenly spaced).
+
+        Returns
+        -------
+        ndarray
+        """
+        lo, hi = self.c
+        if self.c_full:
+            return lo + np.arange(0.0, 360.0 - 1e-9, step_deg)
+        return np.linspace(lo, hi, max(2, int(round((hi - lo) / step_deg)) + 1))
+
+    def tilt_angles(self, step_deg: float) -> NDArray[np.float64]:
+        """The tilting axis' angles over its range [deg].
+
+        Evenly spaced, about ``step_deg`` apart, both ends included.
+
+        Parameters
+        ----------
+        step_deg : float
+            Step between the angles [deg].
+
+        Returns
+        -------
+        ndarray
+        """
+        lo, hi = self.tilt
+        return np.linspace(lo, hi, max(2, int(round((hi - lo) / step_deg)) + 1))
+
+
+def trunnion_ranges(pair: str, axes: Any = None) -> TrunnionRanges:
+    """The angles the sphere tests of a trunnion may command, from the machine's axes.
+
+    A limited axis of ``[[machine.rotary_axes]]`` (``modulo = false``) bounds the plan's
+    angles: the tilting axis' (the default plans' -90..+90 deg otherwise,
+    :data:`TILT_RANGE_DEG`) and C's (a full turn from 0 otherwise). A modulo axis turns
+    freely: C a full turn, the tilting axis the default range.
+
+    Parameters
+    ----------
+    pair : str
+        ``'ca'`` or ``'cb'``.
+    axes : sequence of volcal.session.rotary.RotaryAxis, optional
+        The machine's rotary axes (``name``, ``range_deg``, ``modulo``).
+
+    Returns
+    -------
+    TrunnionRanges
+    """
+    given = {a.name.lower(): a for a in axes or []}
+    c, tilt = given.get("c"), given.get(pair[1].lower())
+    out = TrunnionRanges()
+    if c is not None and not c.modulo:
+        lo, hi = (float(v) for v in c.range_deg)
+        out = TrunnionRanges((lo, hi), hi - lo >= 360.0 - 1e-9, out.tilt)
+    if tilt is not None and not tilt.modulo:
+        out = TrunnionRanges(out.c, out.c_full, (float(tilt.range_deg[0]),
+                                                  float(tilt.range_deg[1])))
+    return out
+
+
+def _envelope(tilt: str, drop: float, offset: NDArray[np.float64],
+              ranges: TrunnionRanges) -> NDArray[np.float64]:
     """Lowest and highest sphere centre over the angles, the C pivot at 0 [mm], (3, 2).
 
     The sphere turned about the vertical C line through the pivot, then about the tilting
@@ -72,10 +162,11 @@ def _envelope(tilt: str, drop: float, offset: NDArray[np.float64]) -> NDArray[np
     point; over a full turn of C and a tilt range symmetric about 0 the envelope does not
     depend on the direction the angles count (``docs/fiveaxis.md``), and on a table-table
     chain the configured kinematics put the tool point there (the programs' positions).
+    Every angle of ``ranges`` (C and the tilt, and those between: the R-test's following
+    moves), sampled every :data:`ENVELOPE_STEP_DEG`.
     """
-    c = np.deg2rad(np.arange(0.0, 360.0, ENVELOPE_STEP_DEG))
-    lo, hi = TILT_RANGE_DEG
-    t = np.deg2rad(np.linspace(lo, hi, int(round((hi - lo) / ENVELOPE_STEP_DEG)) + 1))
+    c = np.deg2rad(ranges.c_angles(ENVELOPE_STEP_DEG))
+    t = np.deg2rad(ranges.tilt_angles(ENVELOPE_STEP_DEG))
     C, T = (v.ravel() for v in np.meshgrid(c, t))
     x = offset[0] * np.cos(C) - offset[1] * np.sin(C)
     y = offset[0] * np.sin(C) + offset[1] * np.cos(C)
@@ -88,7 +179,8 @@ def _envelope(tilt: str, drop: float, offset: NDArray[np.float64]) -> NDArray[np
     return np.column_stack([q.min(axis=0), q.max(axis=0)])
 
 
-def default_trunnion(pair: str, chain: str, travel: ArrayLike) -> TrunnionLayout:
+def default_trunnion(pair: str, chain: str, travel: ArrayLike,
+                     ranges: TrunnionRanges | None = None) -> TrunnionLayout:
     """The default pivots and sphere of a trunnion in a travel (both sphere kinds' plans).
 
     Parameters
@@ -99,6 +191,8 @@ def default_trunnion(pair: str, chain: str, travel: ArrayLike) -> TrunnionLayout
         The plan's linear chain (``XYFZ`` ...).
     travel : array_like, shape (3, 2)
         The travel [mm].
+    ranges : TrunnionRanges, optional
+        The angles the tests command (:func:`trunnion_ranges`; default its default).
 
     Returns
     -------
@@ -116,7 +210,7 @@ def default_trunnion(pair: str, chain: str, travel: ArrayLike) -> TrunnionLayout
     off = np.array(SPHERE_OFFSET_MM)
     if pair.lower() == "cb":
         off = off[[1, 0, 2]]
-    env = _envelope(pair[1].upper(), PIVOT_DROP_MM, off)
+    env = _envelope(pair[1].upper(), PIVOT_DROP_MM, off, ranges or TrunnionRanges())
     room = (t[:, 1] - t[:, 0]) - 2.0 * TRAVEL_MARGIN_MM
     span = env[:, 1] - env[:, 0]
     scale = float(min(1.0, np.floor(1e3 * (room / span).min()) / 1e3))

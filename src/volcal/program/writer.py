@@ -13,6 +13,7 @@ from volcal.session.format import Session
 from volcal.session.kinds import kind_of
 
 _TRAVEL_TOL_MM = 1e-3
+_ANGLE_TOL_DEG = 1e-6
 """Tolerance of the travel check of a kind's own program [mm]."""
 INDEX_FILE = "volcal-programs.toml"
 """Index written into every program folder (program file -> measurement id)."""
@@ -46,7 +47,8 @@ def write_programs(session: Session, dialect: str, folder: str | Path,
     Raises
     ------
     VolcalInputError
-        Unknown dialect, bad options, poses outside the travel, unsafe output folder.
+        Unknown dialect, bad options, poses outside the travel or beyond a limited rotary
+        axis' range, unsafe output folder.
     """
     dialect = dialect.lower()
     if dialect not in DIALECTS:
@@ -73,6 +75,7 @@ def write_programs(session: Session, dialect: str, folder: str | Path,
             fname = name + EXTENSIONS[dialect]
             n += 1
         _check_travel(m, kind_of(m.kind).program_positions(m, dialect), session.travel)
+        _check_angles(m, session)
         own = kind_of(m.kind).program_text(m, dialect, name, first_number + i, options)
         if own is not None:  # a kind with its own program (rotary: incremental turns)
             files[fname], more = own
@@ -131,3 +134,48 @@ def _check_travel(m, positions, travel) -> None:
                 "command it. Edit the test's pivot_mm, sphere_mm or poses to the machine's, "
                 "or the session's travel_mm", m.file, None, f"{ax.lower()}_mm")
 
+
+
+def _check_angles(m, session: Session) -> None:
+    """Refuse a program that turns a limited rotary axis beyond its range.
+
+    The angles of a test's poses (its ``<axis>_deg`` columns: a probe-on-sphere test, an
+    R-test) against ``[[machine.rotary_axes]]``: an axis with ``modulo = false`` stops at
+    the ends of its ``range_deg`` (the control's limits), so a pose beyond them would stop
+    the program there, or turn the table into something its range keeps it from. The moves
+    between two poses stay between their angles. Modulo axes turn freely.
+
+    Parameters
+    ----------
+    m : Measurement
+        The measurement.
+    session : Session
+        Its session (``meta``: the ``[machine]`` table).
+
+    Raises
+    ------
+    VolcalInputError
+        Naming the measurement's file, the first row beyond the range (1-based, the header
+        being row 1) and its column.
+    """
+    import numpy as np
+
+    from volcal.session.rotary import read_rotary_axes
+
+    limited = {a.name: a.range_deg for a in read_rotary_axes(session.meta) if not a.modulo}
+    for col, values in m.columns.items():
+        letter = col[:-4] if col.endswith("_deg") else ""
+        if letter not in limited:
+            continue
+        lo, hi = limited[letter]
+        v = np.asarray(values, dtype=float)
+        bad = np.flatnonzero((v < lo - _ANGLE_TOL_DEG) | (v > hi + _ANGLE_TOL_DEG))
+        if bad.size:
+            i = int(bad[0])
+            raise VolcalInputError(
+                f"{m.kind} test {m.id!r}: pose {i + 1}: {letter.upper()} = {v[i]:g} deg lies "
+                f"beyond the range {lo:g}..{hi:g} deg of axis {letter.upper()} "
+                "([[machine.rotary_axes]] of session.toml, modulo = false); the program would "
+                f"command it ({bad.size} of {v.size} poses beyond). Plan the test with the "
+                "machine's --rotary-axes (volcal plan keeps its poses within them), edit its "
+                "poses, or correct the axis' range_deg", m.file, i + 2, col)

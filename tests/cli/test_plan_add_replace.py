@@ -10,8 +10,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_cli_bad_input import snapshot, volcal
+from test_cli_bad_input import volcal
 
+from cli_mutations import snapshot
 from volcal.plan.additions import candidate_additions
 from volcal.session.format import read_session
 

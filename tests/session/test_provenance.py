@@ -11,8 +11,9 @@ from pathlib import Path
 import pytest
 
 sys.path.insert(0, str(Path(__file__).parents[1] / "cli"))
-from test_cli_bad_input import snapshot, volcal  # noqa: E402
+from test_cli_bad_input import volcal  # noqa: E402
 
+from cli_mutations import snapshot  # noqa: E402
 from volcal.session.format import read_session  # noqa: E402
 from volcal.session.provenance import readings_digest  # noqa: E402
 

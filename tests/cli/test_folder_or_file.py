@@ -72,6 +72,9 @@ def test_a_folder_given_as_a_file(planned):
     text = refused(["evaluate", "iso230-2", str(s)])
     assert f"{s}: a folder, not a positioning file" in text
     assert "a session folder: name one of its measurement files" in text
+    # which ones (its linear tests, the first three), and what evaluates them all
+    assert (f"files: {s / 'linear-x1.csv'}, {s / 'linear-x2.csv'}, {s / 'linear-x3.csv'} ...; "
+            f"volcal evaluate session {s} evaluates every test") in text, text
     text = refused(["evaluate", "volumetric", str(s)])
     assert f"{s}: a session folder, not a model: identify it first" in text, text
     # compensate takes a session too, as --session (its rotary tests' tables)
@@ -92,3 +95,27 @@ def test_a_table_separated_by_semicolons(tmp_path):
     with pytest.raises(VolcalInputError, match="separated by semicolons or tabs") as exc:
         read_table(f, spec)
     assert "row 1, column 'x_mm'" in str(exc.value)
+
+
+def test_a_planned_session_of_other_kinds_names_their_readings_columns(tmp_path):
+    """A planned session of R-test and probe-on-sphere tests: ``evaluate iso230-2`` on its
+    folder says it has no test ISO 230-2 evaluates, and the session reader names the
+    columns the readings go in (an R-test's dx_um, a probed centre's x_mm), not
+    deviation_um; a rotary test's is deviation_urad, of its one measurement."""
+    s = tmp_path / "S"
+    r = runner.invoke(app, ["plan", "--tests", "r_test,probe_sphere", "-o", str(s)])
+    assert r.exit_code == 0, r.output
+    text = refused(["evaluate", "iso230-2", str(s)])
+    assert (f"{s}: a folder, not a positioning file (a session folder without linear or "
+            f"rotary tests, which ISO 230-2 evaluates; volcal evaluate session {s} evaluates "
+            "its tests)") in text, text
+    text = refused(["evaluate", "session", str(s)])
+    assert ("no readings yet: the dx_um, x_mm columns of all 2 measurements are empty "
+            "(measure them,") in text, text
+    r = runner.invoke(app, ["plan", "--tests", "rotary:c", "-o", str(tmp_path / "R")])
+    assert r.exit_code == 0, r.output
+    text = refused(["evaluate", "session", str(tmp_path / "R")])
+    assert ("column 'deviation_urad': no readings yet: the deviation_urad column of its one "
+            "measurement is empty (measure it,") in text, text
+    text = refused(["evaluate", "iso230-2", str(tmp_path / "R")])
+    assert f"files: {tmp_path / 'R' / 'rotary-c.csv'}; volcal evaluate session" in text, text

@@ -110,6 +110,33 @@ def _iso_decisions(res: Any, unc: Any, tolerance_um: str, rule: str,
             "decision_rule": {"name": rule, "text": RULE_TEXT[rule]}}
 
 
+def _refuse_session_folder(path: Path) -> None:
+    """Refuse a session folder given to ``evaluate iso230-2``, naming what would evaluate.
+
+    Its linear and rotary tests' files (what ``evaluate iso230-2`` reads, one at a time;
+    ``session.toml`` read leniently, a planned session too) and ``volcal evaluate
+    session`` (every test at once); a folder whose ``session.toml`` is not TOML is left to
+    the reader's own message.
+    """
+    if not (path.is_dir() and (path / "session.toml").is_file()):
+        return
+    from volcal.errors import VolcalInputError
+    from volcal.io.paths import session_entries
+
+    entries = session_entries(path)
+    if entries is None:
+        return
+    files = [m["file"] for m in entries if m.get("kind") in ("linear", "rotary")]
+    if not files:
+        raise VolcalInputError("a folder, not a positioning file (a session folder without "
+                               "linear or rotary tests, which ISO 230-2 evaluates; volcal "
+                               f"evaluate session {path} evaluates its tests)", path)
+    some = f"{', '.join(str(path / f) for f in files[:3])}{' ...' if len(files) > 3 else ''}"
+    raise VolcalInputError(f"a folder, not a positioning file (a session folder: name one of "
+                           f"its measurement files: {some}; volcal evaluate session {path} "
+                           "evaluates every test)", path)
+
+
 @evaluate_app.command("iso230-2")
 def iso230_2_cmd(
     file: Path = typer.Argument(..., help="CSV: target_mm,run,direction,deviation_um or a "
@@ -141,6 +168,7 @@ def iso230_2_cmd(
     from volcal.standards.iso230_2_rotary import is_rotary_csv
     from volcal.standards.positioning_data import read_positioning_csv
 
+    _refuse_session_folder(file)
     rule = _checked_rule(decision_rule, guard_band_um)
     b = _budget_or_none(budget)
     if is_rotary_csv(file):

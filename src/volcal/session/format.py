@@ -767,9 +767,16 @@ def read_session(folder: str | Path, require_deviation: bool = True) -> Session:
         m = prepare_readings(m, f"{toml_path} [{m.id}]", f"measurements[{i}]", kinds())
         (unmeasured if require_deviation and m.deviation is None else meas).append(m)
     if require_deviation and not meas:
-        raise _err(f"no readings yet: the deviation_um column of all {len(unmeasured)} "
-                   "measurements is empty (measure them, `volcal import` or `volcal simulate` "
-                   "first)", toml_path, None, "deviation_um")
+        from volcal.session.kinds import kind_of
+
+        # each kind's readings column (an R-test's dx_um, a rotary test's deviation_urad)
+        cols = sorted({kind_of(m.kind).value_column for m in unmeasured})
+        n = len(unmeasured)
+        raise _err(f"no readings yet: the {', '.join(cols)} column{'s' * (len(cols) > 1)} of "
+                   f"{f'all {n} measurements' if n > 1 else 'its one measurement'} "
+                   f"{'are' if len(cols) > 1 else 'is'} empty (measure "
+                   f"{'them' if n > 1 else 'it'}, `volcal import` or `volcal simulate` first)",
+                   toml_path, None, cols[0] if len(cols) == 1 else None)
     if unmeasured:
         notes.insert(0, f"no readings yet: {', '.join(m.id for m in unmeasured)} "
                      f"(working on the {len(meas)} measured)")

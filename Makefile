@@ -99,7 +99,9 @@ postgres-deps:
 # "Three workers").
 #
 # The files that wait on real time (LinuxCNC running its programs, the OPC UA server's
-# dwells, the browser: REALTIME_TESTS, 133 s of wall time for 24 s of CPU) run in a pytest
+# dwells, the browser, a simulated R-test capture run at 20 times real time until it is
+# killed: REALTIME_TESTS; 170-200 s of wall time for about 70 s of CPU in session 24,
+# chromium's and the OPC UA server's the most) run in a pytest
 # process of their own beside the two workers, which run at nice 10: the capture processes
 # beside LinuxCNC get a core when they need it (a resumed capture starved by two busy
 # workers missed a dwell), and the workers no longer wait on LinuxCNC's real time (3-5 %
@@ -108,7 +110,7 @@ postgres-deps:
 REALTIME_TESTS := tests/compensate/test_trt_closed_loop.py tests/capture/test_linuxcnc_capture.py \
 	tests/compensate/test_linuxcnc_control.py tests/compensate/test_trt_halcmd.py \
 	tests/capture/test_capture_opcua.py tests/capture/test_capture_page_browser.py \
-	tests/capture/test_capture_page.py
+	tests/capture/test_capture_page.py tests/capture/test_capture_rtest_kill.py
 #
 # The tests' temporary folders (pytest's tmp_path, the PostgreSQL cluster, LinuxCNC's
 # configurations: TMPDIR) in a folder of their own made for the run on the memory file

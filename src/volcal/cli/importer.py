@@ -24,12 +24,12 @@ Two ways:
 created with --travel if it does not exist);
 
 * the readings of a planned measurement (linear, diagonal, step diagonal, straightness,
-angular; from ``volcal plan``): --measurement diag-ppp. Angle readings in urad, arcsec,
+angular, rotary; from ``volcal plan``): --measurement diag-ppp. Angle readings in urad, arcsec,
 mm/m, um/m, mrad or deg (header or --deviation-units); --sign - for optics that read the
 workpiece side relative to the tool side; --slope-removed when the vendor took the slope
 out of a straightness. The file must hold one reading per planned
-pose, in the planned order; its targets (distance from the first pose along the beam)
-are checked against the plan.
+pose, in the planned order; its targets (distance from the first pose along the beam, a
+rotary test's angles) are checked against the plan.
 
 Layouts (--map, see docs/formats.md "Laser exports"):
 

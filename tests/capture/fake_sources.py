@@ -1,5 +1,5 @@
 """What the capture tests share: sources that play a control or a laser lacking something,
-and the readings a journal holds as accepted."""
+the readings a journal holds as accepted, and a capture process killed midway."""
 
 from __future__ import annotations
 
@@ -59,3 +59,29 @@ def accepted(journal: Path) -> list[int]:
         if x.get("type") == "accepted":
             out.append(x["reading"])
     return out
+
+
+def kill_capture_after(args: list[str], journal: Path, n: int) -> list[int]:
+    """Run ``volcal capture ARGS`` as a process of its own and SIGKILL it (no handler
+    runs) once ``journal`` holds ``n`` accepted readings; the accepted readings then."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    from timing import scaled_timeout
+
+    cmd = [sys.executable, "-c", "from volcal.cli import main; main()", "capture", *args]
+    p = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + scaled_timeout(120)
+    try:
+        while len(accepted(journal)) < n:
+            assert p.poll() is None, p.stderr.read().decode() if p.stderr else ""
+            assert time.monotonic() < deadline, "the capture did not accept readings"
+            time.sleep(0.01)
+        os.kill(p.pid, signal.SIGKILL)
+    finally:
+        p.wait(timeout=scaled_timeout(30))
+    assert p.returncode == -signal.SIGKILL
+    return accepted(journal)

@@ -11,19 +11,13 @@ to ISO 230-2, resumed after a SIGKILL, a missed dwell written ``missed``.
 
 from __future__ import annotations
 
-import os
 import shutil
-import signal
-import subprocess
-import sys
-import time
 import tomllib
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from timing import scaled_timeout
 from volcal.capture.journal import journal_path, read_journal
 from volcal.capture.samples import LaserSample
 from volcal.capture.sources import register_control, register_laser
@@ -33,7 +27,7 @@ from volcal.steps.plan import plan
 from volcal_cli_helpers import run_volcal
 
 from .conftest import FAST, FAST_CLI
-from .fake_sources import NoRotary, Wrapped, accepted
+from .fake_sources import NoRotary, Wrapped, accepted, kill_capture_after
 
 TRAVEL = ((0.0, 200.0), (0.0, 150.0), (0.0, 100.0))
 SEED = 3
@@ -216,21 +210,10 @@ def test_sigkill_in_the_middle_and_resume_give_the_same_file(rotary_planned, tmp
     assert capture(rotary_planned, control="sim", laser=f"sim:seed={SEED}", measurement=[ROT],
                    output=ref, **FAST).complete
     out = tmp_path / "B"
-    cmd = [sys.executable, "-c", "from volcal.cli import main; main()", "capture",
-           str(rotary_planned), "--control", "sim", "--laser", f"sim:seed={SEED}", "-o",
-           str(out), "--measurement", ROT, *FAST_CLI, "--speed", "20"]
-    p = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     journal = out / "capture" / f"{ROT}.jsonl"
-    deadline = time.monotonic() + scaled_timeout(120)
-    try:
-        while len(accepted(journal)) < 5:
-            assert p.poll() is None, p.stderr.read().decode() if p.stderr else ""
-            assert time.monotonic() < deadline, "the capture did not accept points"
-            time.sleep(0.01)
-        os.kill(p.pid, signal.SIGKILL)
-    finally:
-        p.wait(timeout=scaled_timeout(30))
-    assert p.returncode == -signal.SIGKILL
+    kill_capture_after([str(rotary_planned), "--control", "sim", "--laser", f"sim:seed={SEED}",
+                        "-o", str(out), "--measurement", ROT, *FAST_CLI, "--speed", "20"],
+                       journal, 5)
     before = accepted(journal)
     assert 5 <= len(before) < N and before == list(range(len(before)))
     r = capture(rotary_planned, control="sim", laser=f"sim:seed={SEED}", measurement=[ROT],

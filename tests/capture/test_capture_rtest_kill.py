@@ -8,18 +8,11 @@ real-time process beside the two workers (the Makefile's REALTIME_TESTS).
 
 from __future__ import annotations
 
-import os
-import signal
-import subprocess
-import sys
-import time
-
-from timing import scaled_timeout
 from volcal.capture.journal import journal_path
 from volcal.steps.capture import capture
 
 from .conftest import FAST, FAST_CLI
-from .fake_sources import accepted
+from .fake_sources import accepted, kill_capture_after
 from .test_capture_rtest import RT, SEED, N, rt_planned  # noqa: F401 - the module's fixture
 
 
@@ -30,21 +23,9 @@ def test_sigkill_in_the_middle_and_resume_give_the_same_file(rt_planned, tmp_pat
     assert capture(rt_planned, control="sim", laser=f"sim:seed={SEED}", output=ref,
                    **FAST).complete
     out = tmp_path / "K"
-    cmd = [sys.executable, "-c", "from volcal.cli import main; main()", "capture",
-           str(rt_planned), "--control", "sim", "--laser", f"sim:seed={SEED}", "-o", str(out),
-           *FAST_CLI, "--speed", "20"]
-    p = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     journal = journal_path(out, RT)
-    deadline = time.monotonic() + scaled_timeout(120)
-    try:
-        while len(accepted(journal)) < 3:
-            assert p.poll() is None, p.stderr.read().decode() if p.stderr else ""
-            assert time.monotonic() < deadline, "the capture did not accept poses"
-            time.sleep(0.01)
-        os.kill(p.pid, signal.SIGKILL)
-    finally:
-        p.wait(timeout=scaled_timeout(30))
-    assert p.returncode == -signal.SIGKILL
+    kill_capture_after([str(rt_planned), "--control", "sim", "--laser", f"sim:seed={SEED}",
+                        "-o", str(out), *FAST_CLI, "--speed", "20"], journal, 3)
     before = accepted(journal)
     assert 3 <= len(before) < N and before == list(range(len(before)))
     r = capture(rt_planned, control="sim", laser=f"sim:seed={SEED}", output=out, **FAST)

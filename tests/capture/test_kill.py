@@ -2,42 +2,24 @@
 
 from __future__ import annotations
 
-import os
-import signal
-import subprocess
-import sys
-import time
 from pathlib import Path
 
 import pytest
 
-from timing import scaled_timeout
 from volcal.steps.capture import capture
 
 from .conftest import FAST, FAST_CLI
-from .fake_sources import accepted
+from .fake_sources import accepted, kill_capture_after
 
 IDS = ["linear-x1", "diag-ppp"]
 
 
 def _kill_after(planned: Path, out: Path, n: int, speed: float = 20.0) -> list[int]:
     """Start ``volcal capture`` in a process, SIGKILL it after ``n`` accepted points."""
-    cmd = [sys.executable, "-c", "from volcal.cli import main; main()", "capture",
-           str(planned), "--control", "sim", "--laser", "sim", "-o", str(out),
-           *[a for i in IDS for a in ("--measurement", i)], *FAST_CLI, "--speed", str(speed)]
-    p = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    journal = out / "capture" / "linear-x1.jsonl"
-    deadline = time.monotonic() + scaled_timeout(120)
-    try:
-        while len(accepted(journal)) < n:
-            assert p.poll() is None, p.stderr.read().decode() if p.stderr else ""
-            assert time.monotonic() < deadline, "the capture did not accept points"
-            time.sleep(0.01)
-        os.kill(p.pid, signal.SIGKILL)
-    finally:
-        p.wait(timeout=scaled_timeout(30))
-    assert p.returncode == -signal.SIGKILL
-    return accepted(journal)
+    return kill_capture_after([str(planned), "--control", "sim", "--laser", "sim", "-o",
+                               str(out), *[a for i in IDS for a in ("--measurement", i)],
+                               *FAST_CLI, "--speed", str(speed)],
+                              out / "capture" / "linear-x1.jsonl", n)
 
 
 @pytest.fixture(scope="module")

@@ -17,50 +17,61 @@ import re
 
 from volcal.report.document import Report, Section, Table
 
-__all__ = ["CITED_AS", "REFERENCES", "SOURCE_NAMES", "customer_report", "customer_text",
-           "references_section"]
+__all__ = ["CITED_AS", "REFERENCES", "REFERENCE_TABLE", "SOURCE_NAMES", "customer_report",
+           "customer_text", "references_section"]
 
-REFERENCES: tuple[str, ...] = (
-    "ISO 230-1:2012, Test code for machine tools - Part 1: Geometric accuracy of machines "
-    "operating under no-load or quasi-static conditions (ISO, Geneva).",
-    "ISO 230-2:2014, Test code for machine tools - Part 2: Determination of accuracy and "
-    "repeatability of positioning of numerically controlled axes (ISO, Geneva).",
-    "ISO 230-6:2002, Test code for machine tools - Part 6: Determination of positioning "
-    "accuracy on body and face diagonals (Diagonal displacement tests) (ISO, Geneva).",
-    "ASME B5.54-2005, Methods for performance evaluation of computer numerically controlled "
-    "machining centers (ASME, New York).",
-    "JCGM 100:2008, Evaluation of measurement data - Guide to the expression of uncertainty "
-    "in measurement (GUM).",
-    "C. Wang, G. Liotto, \"A theoretical analysis of 4 body diagonal displacement "
-    "measurement and sequential step diagonal measurement\", Proceedings of the 6th "
-    "LAMDAMAP Conference, Huddersfield, 2003, pp. 463-471.",
-    "Optodyne, Inc., application note \"Pitch and yaw angular error measurement using a "
-    "MCV-500 laser calibration system\" (pitch and yaw from three linear measurements at "
-    "different Abbe offsets).",
-    "C. Wang, Optodyne, Inc., body diagonal displacement errors as a quick volumetric check "
-    "and the definitions of volumetric error (ELv, the root sum of squares of the three "
-    "axes' positioning ranges).",
-    "J. A. Soons, \"Analysis of the step-diagonal test\", National Institute of Standards "
-    "and Technology (NIST), Proceedings of LAMDAMAP 2005.",
-    "ISO 10791-6:2014, Test conditions for machining centres - Part 6: Accuracy of speeds "
-    "and interpolations (ISO, Geneva); its five-axis kinematic tests, whose clauses and "
-    "tolerances are not public, are followed in style (\"ISO 10791-6-style\").",
-    "S. Weikert, \"R-Test, a new device for accuracy measurements on five axis machine "
-    "tools\", CIRP Annals 53(1) (2004) 429-432.",
-    "S. Ibaraki, C. Oyama, H. Otsubo, \"Construction of an error map of rotary axes on a "
-    "five-axis machining center by static R-test\", International Journal of Machine Tools "
-    "and Manufacture 51 (2011) 190-200.",
+REFERENCE_TABLE: tuple[tuple[str, str], ...] = (
+    ("ISO 230-1:2012, Test code for machine tools - Part 1: Geometric accuracy of machines "
+     "operating under no-load or quasi-static conditions (ISO, Geneva).",
+     r"ISO 230-1\b"),
+    ("ISO 230-2:2014, Test code for machine tools - Part 2: Determination of accuracy and "
+     "repeatability of positioning of numerically controlled axes (ISO, Geneva).",
+     r"ISO 230-2\b"),
+    ("ISO 230-6:2002, Test code for machine tools - Part 6: Determination of positioning "
+     "accuracy on body and face diagonals (Diagonal displacement tests) (ISO, Geneva).",
+     r"ISO 230-6\b"),
+    ("ASME B5.54-2005, Methods for performance evaluation of computer numerically controlled "
+     "machining centers (ASME, New York).",
+     r"ASME B5\.54"),
+    ("JCGM 100:2008, Evaluation of measurement data - Guide to the expression of uncertainty "
+     "in measurement (GUM).",
+     r"\bGUM\b|JCGM 100"),
+    ("C. Wang, G. Liotto, \"A theoretical analysis of 4 body diagonal displacement "
+     "measurement and sequential step diagonal measurement\", Proceedings of the 6th "
+     "LAMDAMAP Conference, Huddersfield, 2003, pp. 463-471.",
+     r"Wang & Liotto"),
+    ("Optodyne, Inc., application note \"Pitch and yaw angular error measurement using a "
+     "MCV-500 laser calibration system\" (pitch and yaw from three linear measurements at "
+     "different Abbe offsets).",
+     r"Optodyne application note"),
+    ("C. Wang, Optodyne, Inc., body diagonal displacement errors as a quick volumetric check "
+     "and the definitions of volumetric error (ELv, the root sum of squares of the three "
+     "axes' positioning ranges).",
+     r"Wang, Optodyne"),
+    ("J. A. Soons, \"Analysis of the step-diagonal test\", National Institute of Standards "
+     "and Technology (NIST), Proceedings of LAMDAMAP 2005.",
+     r"\bSoons\b"),
+    ("ISO 10791-6:2014, Test conditions for machining centres - Part 6: Accuracy of speeds "
+     "and interpolations (ISO, Geneva); its five-axis kinematic tests, whose clauses and "
+     "tolerances are not public, are followed in style (\"ISO 10791-6-style\").",
+     r"ISO 10791-6"),
+    ("S. Weikert, \"R-Test, a new device for accuracy measurements on five axis machine "
+     "tools\", CIRP Annals 53(1) (2004) 429-432.",
+     r"\bWeikert\b"),
+    ("S. Ibaraki, C. Oyama, H. Otsubo, \"Construction of an error map of rotary axes on a "
+     "five-axis machining center by static R-test\", International Journal of Machine Tools "
+     "and Manufacture 51 (2011) 190-200.",
+     r"\bIbaraki\b"),
 )
+"""The standards and papers the report's methods and wording rest on: each one's full
+citation and how the report's text cites it (a regular expression, matched after
+:func:`customer_text`, which turns the seed numbers into the :data:`SOURCE_NAMES`)."""
+
+REFERENCES: tuple[str, ...] = tuple(r for r, _ in REFERENCE_TABLE)
 """Full citations of the standards and papers the report's methods and wording rest on."""
 
-CITED_AS: tuple[str, ...] = (
-    r"ISO 230-1\b", r"ISO 230-2\b", r"ISO 230-6\b", r"ASME B5\.54", r"\bGUM\b|JCGM 100",
-    r"Wang & Liotto", r"Optodyne application note", r"Wang, Optodyne", r"\bSoons\b",
-    r"ISO 10791-6", r"\bWeikert\b", r"\bIbaraki\b",
-)
-"""How the report's text cites each entry of :data:`REFERENCES` (a regular expression per
-entry, matched after :func:`customer_text`, which turns the seed numbers into the
-:data:`SOURCE_NAMES`)."""
+CITED_AS: tuple[str, ...] = tuple(c for _, c in REFERENCE_TABLE)
+"""How the report's text cites each entry of :data:`REFERENCES` (:data:`REFERENCE_TABLE`)."""
 
 ISO230_2_HEADS: dict[str, str] = {
     "A": "A", "A_up": "A↑", "A_down": "A↓", "E": "E", "M": "M", "R": "R", "R_up": "R↑",
@@ -173,8 +184,7 @@ def references_section(sections: list[Section] | None = None) -> Section:
         listed = list(REFERENCES)
     else:
         text = "\n".join(customer_text(t) for s in sections for t in _texts(s))
-        listed = [r for r, cite in zip(REFERENCES, CITED_AS, strict=True)
-                  if re.search(cite, text)]
+        listed = [r for r, cite in REFERENCE_TABLE if re.search(cite, text)]
     sec = Section("references", "References")
     sec.paragraphs.extend(f"[{i}] {r}" for i, r in enumerate(listed, start=1))
     return sec

@@ -169,3 +169,19 @@ def test_program_refuses_a_pose_beyond_a_limited_axis(tmp_path):
     assert not (tmp_path / "p").exists()
     s.meta["rotary_axes"] = [{"name": "a", "range_deg": [-120.0, 30.0], "modulo": True}]
     write_programs(s, "linuxcnc", tmp_path / "p", _options())
+
+
+@pytest.mark.parametrize("test", ["r_test", "probe_sphere"])
+def test_a_cradle_the_machine_does_not_have_is_refused(test):
+    """The default pair is C on an A cradle; a machine declaring B (and no A) asks for
+    ``:cb``: planning ``:ca`` there would write A moves for a machine without A."""
+    from volcal.plan.rotary import rotary_axis_spec
+
+    with pytest.raises(VolcalInputError, match=r"a sphere test of a C table on an A cradle "
+                       r"\(:ca\), but the machine's rotary axes .* have B and no A: plan "
+                       r"probe_sphere:cb or r_test:cb, or declare A"):
+        plan_session(TRAVEL, "XYFZ", steps=4, tests=(test,), runs=2,
+                     rotary={"axes": rotary_axis_spec("c:0:360:modulo,b:-10:110:limited")})
+    s = plan_session(TRAVEL, "FXYZ", steps=4, tests=(f"{test}:cb",), runs=2,
+                     rotary={"axes": rotary_axis_spec("c:0:360:modulo,b:-10:110:limited")})
+    assert s.measurements[0].meta["chain"] == "CBFXYZ"

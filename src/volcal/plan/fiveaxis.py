@@ -140,9 +140,23 @@ def trunnion_ranges(pair: str, axes: Any = None) -> TrunnionRanges:
     Returns
     -------
     TrunnionRanges
+
+    Raises
+    ------
+    VolcalInputError
+        The axes have the other tilting axis and not this pair's (``cb`` planned on a
+        machine with A).
     """
     given = {a.name.lower(): a for a in axes or []}
     c, tilt = given.get("c"), given.get(pair[1].lower())
+    other = "b" if pair[1].lower() == "a" else "a"
+    if tilt is None and other in given:
+        raise VolcalInputError(
+            f"a sphere test of a C table on {'an A' if pair[1].lower() == 'a' else 'a B'} "
+            f"cradle (:{pair.lower()}), but the machine's rotary axes (--rotary-axes, or "
+            f"[[machine.rotary_axes]] of the session) have {other.upper()} and no "
+            f"{pair[1].upper()}: plan probe_sphere:c{other} or r_test:c{other}, or declare "
+            f"{pair[1].upper()}")
     out = TrunnionRanges()
     if c is not None and not c.modulo:
         lo, hi = (float(v) for v in c.range_deg)

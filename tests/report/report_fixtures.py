@@ -4,6 +4,7 @@ name elsewhere, so this folder has no conftest.py of its own)."""
 import shutil
 import subprocess
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -60,18 +61,112 @@ def identified(small_session):
     return _shared("identified", make)
 
 
+def figure_data(fig) -> list:
+    """What a figure shows, axes by axes: the data of its lines, collections (scatter,
+    bands, arrows, bars), images and patches, and its titles, labels and legends, in
+    drawing order (not its pixels; tick marks and tick labels are made by the drawing)."""
+    from matplotlib.collections import Collection
+    from matplotlib.image import AxesImage
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Rectangle
+    from matplotlib.quiver import Quiver
+    from matplotlib.text import Text
+
+    out: list = []
+
+    def text(t):
+        if t is not None and t.get_text():
+            out.append(("text", t.get_text()))
+
+    for ax in fig.axes:
+        for a in ax.get_children():
+            if isinstance(a, Line2D):
+                out.append(("line", a.get_gid(), np.asarray(a.get_xydata(), float).tolist(),
+                            a.get_marker(), a.get_linestyle(), a.get_color()))
+            elif isinstance(a, Quiver):  # the arrows' shapes are made by the drawing
+                out.append(("quiver", a.get_gid(), np.asarray(a.get_offsets()).tolist(),
+                            np.asarray(a.U).tolist(), np.asarray(a.V).tolist(),
+                            np.asarray(a.get_array()).tolist(), a.scale))
+            elif isinstance(a, Collection):
+                arr = a.get_array()
+                out.append(("collection", type(a).__name__, a.get_gid(),
+                            np.asarray(a.get_offsets(), float).tolist(),
+                            [np.asarray(p.vertices).tolist() for p in a.get_paths()],
+                            None if arr is None else np.asarray(arr).tolist()))
+            elif isinstance(a, AxesImage):
+                out.append(("image", np.asarray(a.get_array()).tolist()))
+            elif isinstance(a, Rectangle) and a is not ax.patch:
+                out.append(("rectangle", a.get_gid(), a.get_xy(), a.get_width(),
+                            a.get_height(), a.get_hatch()))
+            elif isinstance(a, Text):
+                text(a)
+        for t in (ax.xaxis.label, ax.yaxis.label):
+            text(t)
+        legend = ax.get_legend()
+        for t in legend.get_texts() if legend is not None else []:
+            text(t)
+    for t in fig.texts:
+        text(t)
+    text(getattr(fig, "_suptitle", None))
+    return out
+
+
 @pytest.fixture(scope="session")
 def written_report(identified, tmp_path_factory):
+    """The small session's report built and written once (drawn for real, in this process:
+    see :func:`written_report_drawing`)."""
     from volcal.report.pipeline import collect_inputs
     from volcal.report.sections import build_report
     from volcal.report.writer import write_report
 
     def make():
+        from matplotlib.lines import Line2D
+
         s, r = identified
         rep = build_report(collect_inputs(s, r))
-        return rep, write_report(rep, tmp_path_factory.mktemp("rep") / "report")
+        with pytest.MonkeyPatch.context() as mp:
+            drawing = _watch_drawing(mp, rep)
+            files = write_report(rep, tmp_path_factory.mktemp("rep") / "report")
+        drawing.after = [figure_data(f.figure) for f in rep.figures]
+        drawing.left = [(f.figure.get_layout_engine() is not None,
+                         type(f.figure.canvas).__name__,
+                         any(a.get_rasterized() for a in f.figure.findobj(Line2D)))
+                        for f in rep.figures]
+        _SHARED["written_report_drawing"] = drawing
+        return rep, files
 
     return _shared("written_report", make)
+
+
+def _watch_drawing(mp: pytest.MonkeyPatch, rep) -> SimpleNamespace:
+    """Count each figure's drawings while ``mp`` holds, by renderer ("pdf": its PDF page,
+    "png": an Agg drawing), all in this process (no drawing workers, where the drawings
+    could not be counted); record what the figures show before."""
+    from matplotlib.figure import Figure
+
+    from volcal.report.figures import WORKERS_ENV
+
+    watched = SimpleNamespace(before=[figure_data(f.figure) for f in rep.figures], drawn={})
+    draw = Figure.draw
+
+    def counting(fig, renderer):
+        key = (id(fig), "pdf" if type(renderer).__name__ == "MixedModeRenderer" else "png")
+        watched.drawn[key] = watched.drawn.get(key, 0) + 1
+        return draw(fig, renderer)
+
+    mp.setattr(Figure, "draw", counting)
+    mp.setenv(WORKERS_ENV, "0")
+    return watched
+
+
+@pytest.fixture(scope="session")
+def written_report_drawing(written_report) -> SimpleNamespace:
+    """How :func:`written_report` was drawn: ``drawn`` {(id(figure), "pdf" | "png"):
+    count}; ``before`` and ``after`` the figures' data (:func:`figure_data`) before and
+    after the writing; ``left`` per figure (has a layout engine, its canvas's type name,
+    any line rasterized) after the writing. Recorded as it was written (a later test may
+    use the figures)."""
+    return _SHARED["written_report_drawing"]
 
 
 @pytest.fixture

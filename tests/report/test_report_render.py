@@ -14,13 +14,6 @@ import time
 import numpy as np
 import pytest
 import report_fixtures as _fx
-from matplotlib.collections import Collection
-from matplotlib.figure import Figure
-from matplotlib.image import AxesImage
-from matplotlib.lines import Line2D
-from matplotlib.patches import Rectangle
-from matplotlib.quiver import Quiver
-from matplotlib.text import Text
 
 from timing import scaled_timeout
 from volcal.plot._figure import new_figure
@@ -31,89 +24,34 @@ from volcal.report.pdf import RASTER_DPI, RASTER_POINTS, _Measure, write_pdf
 # pytest fixtures shared by the report tests (see report_fixtures.py)
 identified = _fx.identified
 small_session = _fx.small_session
+written_report = _fx.written_report
+written_report_drawing = _fx.written_report_drawing
+figure_data = _fx.figure_data
 
 
-def figure_data(fig: Figure) -> list:
-    """What a figure shows, axes by axes: the data of its lines, collections (scatter,
-    bands, arrows, bars), images and patches, and its titles, labels and legends, in
-    drawing order (not its pixels; tick marks and tick labels are made by the drawing)."""
-    out: list = []
-
-    def text(t):
-        if t is not None and t.get_text():
-            out.append(("text", t.get_text()))
-
-    for ax in fig.axes:
-        for a in ax.get_children():
-            if isinstance(a, Line2D):
-                out.append(("line", a.get_gid(), np.asarray(a.get_xydata(), float).tolist(),
-                            a.get_marker(), a.get_linestyle(), a.get_color()))
-            elif isinstance(a, Quiver):  # the arrows' shapes are made by the drawing
-                out.append(("quiver", a.get_gid(), np.asarray(a.get_offsets()).tolist(),
-                            np.asarray(a.U).tolist(), np.asarray(a.V).tolist(),
-                            np.asarray(a.get_array()).tolist(), a.scale))
-            elif isinstance(a, Collection):
-                arr = a.get_array()
-                out.append(("collection", type(a).__name__, a.get_gid(),
-                            np.asarray(a.get_offsets(), float).tolist(),
-                            [np.asarray(p.vertices).tolist() for p in a.get_paths()],
-                            None if arr is None else np.asarray(arr).tolist()))
-            elif isinstance(a, AxesImage):
-                out.append(("image", np.asarray(a.get_array()).tolist()))
-            elif isinstance(a, Rectangle) and a is not ax.patch:
-                out.append(("rectangle", a.get_gid(), a.get_xy(), a.get_width(),
-                            a.get_height(), a.get_hatch()))
-            elif isinstance(a, Text):
-                text(a)
-        for t in (ax.xaxis.label, ax.yaxis.label):
-            text(t)
-        legend = ax.get_legend()
-        for t in legend.get_texts() if legend is not None else []:
-            text(t)
-    for t in fig.texts:
-        text(t)
-    text(getattr(fig, "_suptitle", None))
-    return out
-
-
-@pytest.fixture(scope="module")
-def built(identified):
-    """A report built and not yet rendered (its own figures, not the shared fixture's)."""
-    from volcal.report.pipeline import collect_inputs
-    from volcal.report.sections import build_report
-
-    s, r = identified
-    return build_report(collect_inputs(s, r))
-
-
-def test_rendering_draws_each_figure_once_and_keeps_its_data(built, tmp_path, monkeypatch):
+def test_rendering_draws_each_figure_once_and_keeps_its_data(written_report,
+                                                              written_report_drawing):
     """Each figure drawn once, on its PDF page; its PNG (HTML, figures folder) is that
-    page's figure area rasterized, not a second drawing."""
-    from volcal.report.writer import write_report
+    page's figure area rasterized, not a second drawing.
 
-    before = [figure_data(f.figure) for f in built.figures]
+    The report is the one shared by the report tests (report_fixtures.written_report,
+    the same build_report of the same session this test built and wrote for itself):
+    it is written with its drawings counted, in this process, and this test reads the
+    record (report_fixtures.written_report_drawing)."""
+    built, files = written_report
+    drawing = written_report_drawing
+    before, drawn = drawing.before, drawing.drawn
     assert all(before) and len(built.figures) >= 6
-    drawn: dict = {}
-    draw = Figure.draw
-
-    def counting(fig, renderer):
-        key = (id(fig), "pdf" if type(renderer).__name__ == "MixedModeRenderer" else "png")
-        drawn[key] = drawn.get(key, 0) + 1
-        return draw(fig, renderer)
-
-    monkeypatch.setattr(Figure, "draw", counting)
-    monkeypatch.setenv(F.WORKERS_ENV, "0")  # in this process, where the draws are counted
-    files = write_report(built, tmp_path / "r")
     for f in built.figures:
         assert drawn.get((id(f.figure), "pdf")) == 1, f.name  # its PDF page
         assert (id(f.figure), "png") not in drawn, f.name  # no Agg drawing
     assert len(files.figures) == len(built.figures)
-    assert [figure_data(f.figure) for f in built.figures] == before
+    assert drawing.after == before
     # the figures are left as built: their own size, their layout engine, Agg canvas
-    for f in built.figures:
-        assert f.figure.get_layout_engine() is not None
-        assert type(f.figure.canvas).__name__ == "FigureCanvasAgg"
-        assert not any(a.get_rasterized() for a in f.figure.findobj(Line2D))
+    for engine, canvas, rasterized in drawing.left:
+        assert engine
+        assert canvas == "FigureCanvasAgg"
+        assert not rasterized
     # the PNGs: the figure's area of its page at PNG_DPI, in the HTML as in the folder
     html = files.html.read_text()
     for f, path in zip(built.figures, files.figures, strict=True):
@@ -367,7 +305,10 @@ def _greedy(m: _Measure, text: str, width: float, size: float, weight: str = "no
     return lines or [""]
 
 
-def test_wrap_breaks_the_lines_of_the_greedy_rule(built):
+def test_wrap_breaks_the_lines_of_the_greedy_rule(written_report):
+    """The texts of the shared report (its paragraphs, warnings and table cells, as built:
+    writing the report does not change its document) and hard cases."""
+    built = written_report[0]
     m = _Measure()
     paragraphs = [p for s in built.sections for p in s.paragraphs + s.warnings]
     cells = sorted({c for s in built.sections for t in s.tables for r in t.rows for c in r})

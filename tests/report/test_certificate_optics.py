@@ -6,7 +6,8 @@ Two sessions:
 
 * the direct set of ``plan --tests direct``, simulated on a random machine, certified with
   a budget: every number of ``results.as_found.direct_optics`` must be the number
-  ``volcal evaluate optics --budget B --json`` prints (run as its own process), the JSON
+  ``volcal evaluate optics --budget B --json`` prints (run in-process unless
+  VOLCAL_TEST_SUBPROCESS=1: tests/volcal_cli_helpers.py), the JSON
   must validate against the schema, the PDF (read back with pdftotext) must carry the
   tables;
 * three hand-made lines (4 readings each) whose results are worked out by hand in
@@ -39,6 +40,7 @@ from volcal.report.certificate_layout import layout
 from volcal.session.format import Session, read_session, write_session
 from volcal.standards.tolerance import Tolerance, parse_tolerance
 from volcal.uncertainty.budget import TEMPLATE, read_budget
+from volcal_cli_helpers import volcal_process
 
 TRAVEL = np.array([[0.0, 800.0], [0.0, 600.0], [0.0, 500.0]])
 VOLCAL = [sys.executable, "-c", "from volcal.cli import main; main()"]
@@ -56,8 +58,7 @@ def sim(tmp_path_factory):
                      SimulationOptions(noise_um=0.3, seed=4))
     write_session(s, root / "s")
     (root / "b.toml").write_text(TEMPLATE, encoding="utf-8")
-    p = subprocess.run([*VOLCAL, "evaluate", "optics", str(root / "s"), "--budget",
-                        str(root / "b.toml"), "--json"], capture_output=True, text=True,
+    p = volcal_process("evaluate", "optics", root / "s", "--budget", root / "b.toml", "--json",
                        timeout=scaled_timeout(300))
     assert p.returncode == 0, p.stderr
     s = read_session(root / "s")
@@ -334,11 +335,9 @@ def test_evaluate_optics_states_the_same_verdicts(tmp_path):
     import tomli_w
 
     (tmp_path / "b.toml").write_text(tomli_w.dumps(doc), encoding="utf-8")
-    p = subprocess.run([*VOLCAL, "evaluate", "optics", str(tmp_path / "s"), "--budget",
-                        str(tmp_path / "b.toml"), "--tolerance-um",
-                        "X.straightness_um=2,EC0Y.squareness_urad=15",
-                        "--decision-rule", "guarded", "--json"],
-                       capture_output=True, text=True, timeout=scaled_timeout(300))
+    p = volcal_process("evaluate", "optics", tmp_path / "s", "--budget", tmp_path / "b.toml",
+                       "--tolerance-um", "X.straightness_um=2,EC0Y.squareness_urad=15",
+                       "--decision-rule", "guarded", "--json", timeout=scaled_timeout(300))
     assert p.returncode == 0, p.stderr
     conf = json.loads(p.stdout)["conformity"]
     st, sq = conf["statements"]
@@ -346,6 +345,7 @@ def test_evaluate_optics_states_the_same_verdicts(tmp_path):
     assert st["U_um"] == pytest.approx(2 * math.sqrt(0.162081))
     assert sq["value_urad"] == pytest.approx(17.0) and sq["verdict"] == "fail"
     assert conf["decision_rule"] == "guarded"
+    # a real process: the exit code of the refusal (the verdicts above run in-process)
     p = subprocess.run([*VOLCAL, "evaluate", "optics", str(tmp_path / "s"),
                         "--tolerance-um", "X=10"], capture_output=True, text=True,
                        timeout=scaled_timeout(300))
@@ -357,10 +357,10 @@ def test_classic_optics_is_evaluate_optics(sim):
     """`volcal classic optics` (each optic on its own, no model) prints what `volcal
     evaluate optics --json` prints without a budget; it calls the same command function
     and must pass every option (a new option once broke it with typer's defaults)."""
-    a = subprocess.run([*VOLCAL, "classic", "optics", str(sim.root / "s"), "--json"],
-                       capture_output=True, text=True, timeout=scaled_timeout(300))
-    b = subprocess.run([*VOLCAL, "evaluate", "optics", str(sim.root / "s"), "--json"],
-                       capture_output=True, text=True, timeout=scaled_timeout(300))
+    a = volcal_process("classic", "optics", sim.root / "s", "--json",
+                       timeout=scaled_timeout(300))
+    b = volcal_process("evaluate", "optics", sim.root / "s", "--json",
+                       timeout=scaled_timeout(300))
     assert a.returncode == 0 and b.returncode == 0, a.stderr + b.stderr
     assert json.loads(a.stdout) == json.loads(b.stdout)
     assert json.loads(a.stdout)["straightness"]

@@ -5,32 +5,33 @@ from pathlib import Path
 
 import report_fixtures as _fx
 
+from report_stubs import use_blank_figures
 from timing import scaled_timeout
+from volcal_cli_helpers import volcal_process
 
 # pytest fixtures shared by the report tests (see report_fixtures.py)
 identified = _fx.identified
 small_session = _fx.small_session
 
 VOLCAL = [sys.executable, "-c", "from volcal.cli import main; main()"]
-VOLCAL_BLANK_FIGURES = [sys.executable, "-c", (
-    f"import sys; sys.path.insert(0, {str(Path(__file__).parents[1])!r}); import pytest; "
-    "from report_stubs import use_blank_figures; use_blank_figures(pytest.MonkeyPatch()); "
-    "from volcal.cli import main; main()")]
-"""``volcal`` as a process whose report figures are blank (tests/report_stubs.py): the
-command line, its files and what the report says, without drawing the figures again
-(drawn for real in the demo below and in the shared rendering of the report tests)."""
-
-
-def _run(*args, cwd=None, blank_figures=False):
-    cmd = VOLCAL_BLANK_FIGURES if blank_figures else VOLCAL
-    p = subprocess.run([*cmd, *args], capture_output=True, text=True, cwd=cwd,
+def _run(*args, cwd=None):
+    """``volcal *args`` as a process (the refusals' exit codes)."""
+    p = subprocess.run([*VOLCAL, *args], capture_output=True, text=True, cwd=cwd,
                        timeout=scaled_timeout(600))
     # rich wraps long lines at the terminal width; compare words, not line breaks
     p.stdout, p.stderr = " ".join(p.stdout.split()), " ".join(p.stderr.split())
     return p
 
 
-def test_report_with_a_model_file(identified, tmp_path):
+def _in_process(*args):
+    """``volcal *args`` in-process unless VOLCAL_TEST_SUBPROCESS=1 (volcal_cli_helpers:
+    a process costs seconds of imports), white space squeezed as by :func:`_run`."""
+    p = volcal_process(*args, timeout=scaled_timeout(600))
+    p.stdout, p.stderr = " ".join(p.stdout.split()), " ".join(p.stderr.split())
+    return p
+
+
+def test_report_with_a_model_file(identified, tmp_path, monkeypatch):
     s, r = identified
     model = tmp_path / "model.json"
     r.to_json(model)
@@ -39,9 +40,13 @@ def test_report_with_a_model_file(identified, tmp_path):
 
     write_compensation(r.errors, "heidenhain", tmp_path / "comp",
                        CompensationOptions("error", 25.0), "model.json")
-    p = _run("report", str(s.path), "--model", str(model), "-o", str(out), "--compensation",
-             str(tmp_path / "comp"), "--tolerance-um", "X=1000,Y=0.001,V=1000",
-             blank_figures=True)
+    # in-process (volcal_process): the command's files and words, not its process; the
+    # report's figures blank (tests/report_stubs.py: drawn for real in the demo below and
+    # in the shared rendering of the report tests)
+    use_blank_figures(monkeypatch)
+    p = _in_process("report", str(s.path), "--model", str(model), "-o", str(out),
+                    "--compensation", str(tmp_path / "comp"), "--tolerance-um",
+                    "X=1000,Y=0.001,V=1000")
     assert p.returncode == 0, p.stderr
     html = (out / "report.html").read_text(encoding="utf-8")
     assert html.count("<img ") >= 5
@@ -68,7 +73,7 @@ def test_report_with_a_broken_model_is_a_user_error(small_session, tmp_path):
 
 def test_demo_writes_a_report_with_at_least_five_figures(tmp_path):
     out = tmp_path / "demo-output"
-    p = _run("demo", "-o", str(out))
+    p = _in_process("demo", "-o", str(out))  # its files and words, not its process
     assert p.returncode == 0, p.stderr
     html_path = out / "report" / "report.html"
     assert str(html_path.resolve()) in p.stdout

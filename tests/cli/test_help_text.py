@@ -3,24 +3,24 @@
 Typer renders help with Rich markup by default, and Rich takes ``[s]`` (strike) and any
 other ``[word]`` for a style tag and drops it, so "Dwell at each reading pose [s]" was
 printed as "Dwell at each reading pose ." The console script turns markup off.
+
+The commands run in-process (:func:`volcal_cli_helpers.volcal_process`, the same ``main()``
+and output streams; VOLCAL_TEST_SUBPROCESS=1 runs them as processes): the text is what is
+tested, not the process (tests/cli/test_startup.py starts the processes).
 """
 
 from __future__ import annotations
 
 import os
-import subprocess
-import sys
 
 import pytest
 
 from timing import scaled_timeout
-
-RUN = [sys.executable, "-c", "from volcal.cli import main; main()"]
+from volcal_cli_helpers import volcal_process
 
 
 def _help(*args: str) -> str:
-    r = subprocess.run([*RUN, *args, "--help"], capture_output=True, text=True,
-                       timeout=scaled_timeout(120),
+    r = volcal_process(*args, "--help", timeout=scaled_timeout(120),
                        env={**os.environ, "COLUMNS": "200"})
     assert r.returncode == 0, r.stderr
     return " ".join(r.stdout.split())  # undo line wrapping
@@ -50,8 +50,8 @@ def test_error_message_keeps_its_brackets(tmp_path):
     """A located error names '<session.toml> [<measurement id>]'; Rich markup used to eat
     the bracket, leaving 'session.toml , column ...'."""
     s = tmp_path / "S"
-    r = subprocess.run([*RUN, "plan", "-o", str(s), "--tests", "linear", "--steps", "2",
-                        "--runs", "1"], capture_output=True, text=True, timeout=scaled_timeout(120))
+    r = volcal_process("plan", "-o", s, "--tests", "linear", "--steps", "2", "--runs", "1",
+                       timeout=scaled_timeout(120))
     assert r.returncode == 0, r.stderr
     toml = (s / "session.toml").read_text()
     i = toml.index('id = "linear-x1"')
@@ -70,8 +70,8 @@ def test_error_message_keeps_its_brackets(tmp_path):
             v[k] = "0"
             out.append(",".join(v))
         f.write_text("\n".join(out) + "\n")
-    r = subprocess.run([*RUN, "evaluate", "session", str(s)], capture_output=True, text=True,
-                       timeout=scaled_timeout(120), env={**os.environ, "COLUMNS": "400"})
+    r = volcal_process("evaluate", "session", s, timeout=scaled_timeout(120),
+                       env={**os.environ, "COLUMNS": "400"})
     assert r.returncode == 2
     first = r.stderr.strip().splitlines()[0]
     assert ("session.toml [linear-x1], column 'measurements[0].environment.air_pressure_hpa'"

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from volcal.errors import VolcalInputError
+from volcal_cli_helpers import volcal_process
 
 # pytest fixtures shared by the history tests (see history_fixtures.py)
 history_two = _fx.history_two
@@ -189,8 +190,9 @@ def test_cli_export_record(stored, tmp_path):
 
     db, rid, model, _ = stored
     out = tmp_path / "c.qif"
-    r = subprocess.run([*RUN, "history", "export-qif", rid, "-o", str(out), "--db", db],
-                       capture_output=True, text=True)
+    # in-process (volcal_process: main(), its streams and exit code; the refusal below
+    # is a real process)
+    r = volcal_process("history", "export-qif", rid, "-o", out, "--db", db)
     assert r.returncode == 0, r.stderr
     assert r.stdout.strip() == str(out)
     back = read_qif(out, "XYFZ")

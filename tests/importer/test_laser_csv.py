@@ -9,6 +9,7 @@ from volcal.importer import import_csv, parse_mapping, read_laser_csv
 from volcal.importer.units import unit_from_header
 from volcal.plan.planner import plan_session
 from volcal.session.format import read_session, write_session
+from volcal_cli_helpers import volcal_process
 
 TRAVEL = np.array([[0.0, 800.0], [0.0, 600.0], [0.0, 500.0]])
 EXPORT = """Laser XL export;;;
@@ -134,8 +135,9 @@ def test_cli(tmp_path):
            "--map", MAP, "--axis", "Z", "--session", str(tmp_path / "s"), "--id", "lz"]
     r = subprocess.run(cmd, capture_output=True, text=True)
     assert r.returncode == 2 and "needs --travel" in r.stderr and "Traceback" not in r.stderr
-    r = subprocess.run([*cmd, "--travel", "0:800,0:600,0:500", "--line-mm", "0,0,100"],
-                       capture_output=True, text=True)
+    # the import itself in-process (volcal_process: main(), its streams and exit code);
+    # the refusal above is a real process
+    r = volcal_process(*cmd[3:], "--travel", "0:800,0:600,0:500", "--line-mm", "0,0,100")
     assert r.returncode == 0, r.stderr
     assert "mm (detected from the header)" in r.stdout
     np.testing.assert_array_equal(read_session(tmp_path / "s").get("lz").positions[:, 2],

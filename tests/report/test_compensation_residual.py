@@ -23,6 +23,7 @@ from volcal.report.pipeline import compensation_summary
 from volcal.report.sections import ReportInputs, compensation_section
 from volcal.session.format import Measurement, Session
 from volcal.standards.tolerance import Tolerance, Verdict, parse_tolerance
+from volcal_cli_helpers import volcal_process
 
 TRAVEL = np.array([[0.0, 800.0], [0.0, 600.0], [0.0, 500.0]])
 A = 1e-4  # um/mm^2
@@ -226,14 +227,17 @@ def test_evaluate_session_verdict_cli(tmp_path):
     e = _exx_model(reversal_x=b)
     write_error_table(e, tmp_path / "m.csv")
     write_compensation(e, "csv", tmp_path / "c", CompensationOptions("error", 25.0), "m.csv")
-    r = _cli("evaluate", "session", str(tmp_path / "s"), "--json", "--tolerance-um", "X=5,V=1",
-             "--model", str(tmp_path / "m.csv"), "--compensation", str(tmp_path / "c"))
+    # the verdicts in-process (volcal_process: main(), its streams and exit code); the
+    # refusals below are real processes
+    r = volcal_process("evaluate", "session", tmp_path / "s", "--json", "--tolerance-um",
+                       "X=5,V=1", "--model", tmp_path / "m.csv", "--compensation",
+                       tmp_path / "c")
     assert r.returncode == 0, r.stderr
     vol, ax = json.loads(r.stdout)["verdict"]
     assert ax["before_um"] == pytest.approx(A * (795**2 - 5**2) + b, abs=1e-6)
     assert (ax["before"], ax["after"], vol["before"], vol["after"]) == ("fail", "pass",
                                                                         "fail", "pass")
-    r = _cli("evaluate", "session", str(tmp_path / "s"), "--tolerance-um", "X=70")
+    r = volcal_process("evaluate", "session", tmp_path / "s", "--tolerance-um", "X=70")
     assert r.returncode == 0 and "pass" in r.stdout and "--compensation" in r.stdout
     # a volumetric tolerance needs the model; tables need the model they came from
     r = _cli("evaluate", "session", str(tmp_path / "s"), "--tolerance-um", "5")

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import csv
 import re
+import shutil
 import tomllib
 from pathlib import Path
 
@@ -21,7 +22,7 @@ from volcal.compensate.heidenhain import read_heidenhain
 from volcal.compensate.linuxcnc import load_linuxcnc_comp
 from volcal.identify.record import readings_sha256
 from volcal.session.format import read_session
-from volcal_cli_helpers import run_volcal
+from volcal_cli_helpers import run_volcal, volcal_process
 
 # the model's U drawn once per model in this process (tests/model_u_once.py)
 pytestmark = pytest.mark.usefixtures("model_u_once")
@@ -51,14 +52,22 @@ def _reversal_by_hand(path: Path) -> tuple[np.ndarray, np.ndarray]:
     return t, b
 
 
-@pytest.fixture
-def missed(tmp_path, monkeypatch, capsys):
-    """A simulated session (the machine has reversal) with one missed reading on X."""
-    s = tmp_path / "S"
+@pytest.fixture(scope="module")
+def _simulated(tmp_path_factory):
+    """The planned and simulated session, made once (the tests change their own copy)."""
+    s = tmp_path_factory.mktemp("missed") / "S"
     for args in (("plan", "-o", str(s), "--steps", "4"),
                  ("simulate", str(s), "--reversal-um", "8")):
-        code, _, err = run_volcal(monkeypatch, capsys, *args)
-        assert code == 0, err
+        p = volcal_process(*args)
+        assert p.returncode == 0, p.stderr
+    return s
+
+
+@pytest.fixture
+def missed(_simulated, tmp_path):
+    """A simulated session (the machine has reversal) with one missed reading on X: a copy
+    of the same plan and simulation each test made for itself."""
+    s = Path(shutil.copytree(_simulated, tmp_path / "S"))
     _mark_missed(s / "linear-x1.csv", MISSED_ROW)
     return s
 

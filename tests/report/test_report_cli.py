@@ -15,7 +15,7 @@ small_session = _fx.small_session
 
 VOLCAL = [sys.executable, "-c", "from volcal.cli import main; main()"]
 def _run(*args, cwd=None):
-    """``volcal *args`` as a process (the refusals' exit codes)."""
+    """``volcal *args`` as a process (the demo end to end, the refusals' exit codes)."""
     p = subprocess.run([*VOLCAL, *args], capture_output=True, text=True, cwd=cwd,
                        timeout=scaled_timeout(600))
     # rich wraps long lines at the terminal width; compare words, not line breaks
@@ -73,7 +73,7 @@ def test_report_with_a_broken_model_is_a_user_error(small_session, tmp_path):
 
 def test_demo_writes_a_report_with_at_least_five_figures(tmp_path):
     out = tmp_path / "demo-output"
-    p = _in_process("demo", "-o", str(out))  # its files and words, not its process
+    p = _run("demo", "-o", str(out))
     assert p.returncode == 0, p.stderr
     html_path = out / "report" / "report.html"
     assert str(html_path.resolve()) in p.stdout

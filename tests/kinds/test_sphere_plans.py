@@ -185,3 +185,19 @@ def test_a_cradle_the_machine_does_not_have_is_refused(test):
     s = plan_session(TRAVEL, "FXYZ", steps=4, tests=(f"{test}:cb",), runs=2,
                      rotary={"axes": rotary_axis_spec("c:0:360:modulo,b:-10:110:limited")})
     assert s.measurements[0].meta["chain"] == "CBFXYZ"
+
+
+def test_the_range_is_the_controls_angles(tmp_path):
+    """``range_deg`` holds the control's limits: a test whose control counts the angles the
+    other way (``control_angle_sign = -1``, LinuxCNC's trt kinematics) turns to minus
+    volcal's angles, and those are checked. The default R-test's tilts run -90..+90:
+    negated, the C turns at volcal's A = -45 are at the control's +45 (pose 13, the first
+    beyond +30 on a cradle of -120..+30)."""
+    s = plan_session(TRAVEL, "XYFZ", steps=4, tests=("r_test",), runs=2)
+    s.measurements[0].meta["control_angle_sign"] = -1
+    s.meta["rotary_axes"] = [{"name": "a", "range_deg": [-120.0, 30.0], "modulo": False}]
+    with pytest.raises(VolcalInputError) as e:
+        write_programs(s, "linuxcnc", tmp_path / "p", _options())
+    assert ("pose 13: A = 45 deg (the control's angle: control_angle_sign = -1) lies beyond "
+            "the range -120..30 deg of axis A") in str(e.value)
+    assert (e.value.row, e.value.column) == (14, "a_deg")

@@ -140,8 +140,9 @@ def _check_angles(m, session: Session) -> None:
     """Refuse a program that turns a limited rotary axis beyond its range.
 
     The angles of a test's poses (its ``<axis>_deg`` columns: a probe-on-sphere test, an
-    R-test) against ``[[machine.rotary_axes]]``: an axis with ``modulo = false`` stops at
-    the ends of its ``range_deg`` (the control's limits), so a pose beyond them would stop
+    R-test), as the control turns to them (times the test's ``control_angle_sign``),
+    against ``[[machine.rotary_axes]]``: an axis with ``modulo = false`` stops at the ends
+    of its ``range_deg`` (the control's limits), so a pose beyond them would stop
     the program there, or turn the table into something its range keeps it from. The moves
     between two poses stay between their angles. Modulo axes turn freely.
 
@@ -163,17 +164,20 @@ def _check_angles(m, session: Session) -> None:
     from volcal.session.rotary import read_rotary_axes
 
     limited = {a.name: a.range_deg for a in read_rotary_axes(session.meta) if not a.modulo}
+    sign = float(m.meta.get("control_angle_sign", 1))  # the control's angles: volcal's x it
     for col, values in m.columns.items():
         letter = col[:-4] if col.endswith("_deg") else ""
         if letter not in limited:
             continue
         lo, hi = limited[letter]
-        v = np.asarray(values, dtype=float)
+        v = sign * np.asarray(values, dtype=float)
         bad = np.flatnonzero((v < lo - _ANGLE_TOL_DEG) | (v > hi + _ANGLE_TOL_DEG))
         if bad.size:
             i = int(bad[0])
+            whose = " (the control's angle: control_angle_sign = -1)" if sign < 0 else ""
             raise VolcalInputError(
-                f"{m.kind} test {m.id!r}: pose {i + 1}: {letter.upper()} = {v[i]:g} deg lies "
+                f"{m.kind} test {m.id!r}: pose {i + 1}: {letter.upper()} = {v[i]:g} deg{whose} "
+                "lies "
                 f"beyond the range {lo:g}..{hi:g} deg of axis {letter.upper()} "
                 "([[machine.rotary_axes]] of session.toml, modulo = false); the program would "
                 f"command it ({bad.size} of {v.size} poses beyond). Plan the test with the "

@@ -13,8 +13,9 @@ from volcal.session.format import Session
 from volcal.session.kinds import kind_of
 
 _TRAVEL_TOL_MM = 1e-3
-_ANGLE_TOL_DEG = 1e-6
 """Tolerance of the travel check of a kind's own program [mm]."""
+_ANGLE_TOL_DEG = 1e-6
+"""Tolerance of the check of the poses' angles against a limited axis' range [deg]."""
 INDEX_FILE = "volcal-programs.toml"
 """Index written into every program folder (program file -> measurement id)."""
 
@@ -135,7 +136,6 @@ def _check_travel(m, positions, travel) -> None:
                 "or the session's travel_mm", m.file, None, f"{ax.lower()}_mm")
 
 
-
 def _check_angles(m, session: Session) -> None:
     """Refuse a program that turns a limited rotary axis beyond its range.
 
@@ -177,8 +177,7 @@ def _check_angles(m, session: Session) -> None:
             whose = " (the control's angle: control_angle_sign = -1)" if sign < 0 else ""
             raise VolcalInputError(
                 f"{m.kind} test {m.id!r}: pose {i + 1}: {letter.upper()} = {v[i]:g} deg{whose} "
-                "lies "
-                f"beyond the range {lo:g}..{hi:g} deg of axis {letter.upper()} "
+                f"lies beyond the range {lo:g}..{hi:g} deg of axis {letter.upper()} "
                 "([[machine.rotary_axes]] of session.toml, modulo = false); the program would "
                 f"command it ({bad.size} of {v.size} poses beyond). Plan the test with the "
                 "machine's --rotary-axes (volcal plan keeps its poses within them), edit its "

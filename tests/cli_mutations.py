@@ -4,8 +4,7 @@ Shared by ``tests/cli/test_cli_bad_input.py`` and ``tests/cli/test_user_mistakes
 a case copies the prepared inputs, applies its :data:`Mutation` to the copy, runs a
 command, and compares :func:`touch_snapshot` of the folder before and after (nothing
 written; :func:`snapshot`, the content's hashes, where a case compares two folders' files).
-Text is read and
-written as UTF-8 bytes (no newline translation), whatever the locale.
+Text is read and written as UTF-8 bytes (no newline translation), whatever the locale.
 """
 
 from __future__ import annotations

@@ -75,6 +75,9 @@ def test_a_folder_given_as_a_file(planned):
     # which ones (its linear tests, the first three), and what evaluates them all
     assert (f"files: {s / 'linear-x1.csv'}, {s / 'linear-x2.csv'}, {s / 'linear-x3.csv'} ...; "
             f"volcal evaluate session {s} evaluates every test") in text, text
+    text = refused(["evaluate", "vdi3441", str(s)])  # the same layouts, the same answer
+    assert (f"files: {s / 'linear-x1.csv'}, {s / 'linear-x2.csv'}, {s / 'linear-x3.csv'} ...; "
+            f"volcal evaluate session {s} evaluates every test") in text, text
     text = refused(["evaluate", "volumetric", str(s)])
     assert f"{s}: a session folder, not a model: identify it first" in text, text
     # compensate takes a session too, as --session (its rotary tests' tables)
@@ -119,3 +122,6 @@ def test_a_planned_session_of_other_kinds_names_their_readings_columns(tmp_path)
             "measurement is empty (measure it,") in text, text
     text = refused(["evaluate", "iso230-2", str(tmp_path / "R")])
     assert f"files: {tmp_path / 'R' / 'rotary-c.csv'}; volcal evaluate session" in text, text
+    text = refused(["evaluate", "vdi3441", str(tmp_path / "R")])  # linear axes only
+    assert ("(a session folder without linear tests, which VDI/DGQ 3441 evaluates; volcal "
+            f"evaluate session {tmp_path / 'R'} evaluates its tests)") in text, text

@@ -110,13 +110,23 @@ def _iso_decisions(res: Any, unc: Any, tolerance_um: str, rule: str,
             "decision_rule": {"name": rule, "text": RULE_TEXT[rule]}}
 
 
-def _refuse_session_folder(path: Path) -> None:
-    """Refuse a session folder given to ``evaluate iso230-2``, naming what would evaluate.
+def _refuse_session_folder(path: Path, standard: str = "ISO 230-2",
+                           kinds: tuple[str, ...] = ("linear", "rotary")) -> None:
+    """Refuse a session folder given where one positioning file is read, naming what would do.
 
-    Its linear and rotary tests' files (what ``evaluate iso230-2`` reads, one at a time;
-    ``session.toml`` read leniently, a planned session too) and ``volcal evaluate
-    session`` (every test at once); a folder whose ``session.toml`` is not TOML is left to
-    the reader's own message.
+    The files of its tests of ``kinds`` (what the command reads, one at a time;
+    ``session.toml`` read leniently, a planned session too) and ``volcal evaluate session``
+    (every test at once); a folder whose ``session.toml`` is not TOML is left to the
+    reader's own message.
+
+    Parameters
+    ----------
+    path : Path
+        What the user named as the file.
+    standard : str
+        The standard the command evaluates, for the message.
+    kinds : tuple of str
+        The measurement kinds whose files the command reads.
     """
     if not (path.is_dir() and (path / "session.toml").is_file()):
         return
@@ -126,11 +136,11 @@ def _refuse_session_folder(path: Path) -> None:
     entries = session_entries(path)
     if entries is None:
         return
-    files = [m["file"] for m in entries if m.get("kind") in ("linear", "rotary")]
+    files = [m["file"] for m in entries if m.get("kind") in kinds]
     if not files:
-        raise VolcalInputError("a folder, not a positioning file (a session folder without "
-                               "linear or rotary tests, which ISO 230-2 evaluates; volcal "
-                               f"evaluate session {path} evaluates its tests)", path)
+        raise VolcalInputError(f"a folder, not a positioning file (a session folder without "
+                               f"{' or '.join(kinds)} tests, which {standard} evaluates; "
+                               f"volcal evaluate session {path} evaluates its tests)", path)
     some = f"{', '.join(str(path / f) for f in files[:3])}{' ...' if len(files) > 3 else ''}"
     raise VolcalInputError(f"a folder, not a positioning file (a session folder: name one of "
                            f"its measurement files: {some}; volcal evaluate session {path} "
@@ -373,6 +383,7 @@ def vdi3441_cmd(
     from volcal.standards.positioning_data import read_positioning_csv
     from volcal.standards.vdi3441 import evaluate
 
+    _refuse_session_folder(file, "VDI/DGQ 3441", ("linear",))
     d = read_positioning_csv(file)
     res = evaluate(d.targets_mm, d.run, d.direction, d.deviation_um, **d.evaluate_kwargs())
     _file_notes(d)

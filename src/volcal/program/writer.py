@@ -64,6 +64,9 @@ def write_programs(session: Session, dialect: str, folder: str | Path,
                                "choose a new or empty folder", folder)
     if not 1 <= first_number <= 9999 - len(session.measurements):
         raise VolcalInputError(f"program numbers {first_number}.. do not fit O1..O9999")
+    from volcal.session.rotary import read_rotary_axes
+
+    limited = {a.name: a.range_deg for a in read_rotary_axes(session.meta) if not a.modulo}
     files: dict[str, str] = {}
     index: list[dict[str, object]] = []
     warnings: list[str] = []
@@ -76,7 +79,7 @@ def write_programs(session: Session, dialect: str, folder: str | Path,
             fname = name + EXTENSIONS[dialect]
             n += 1
         _check_travel(m, kind_of(m.kind).program_positions(m, dialect), session.travel)
-        _check_angles(m, session)
+        _check_angles(m, limited)
         own = kind_of(m.kind).program_text(m, dialect, name, first_number + i, options)
         if own is not None:  # a kind with its own program (rotary: incremental turns)
             files[fname], more = own
@@ -136,7 +139,7 @@ def _check_travel(m, positions, travel) -> None:
                 "or the session's travel_mm", m.file, None, f"{ax.lower()}_mm")
 
 
-def _check_angles(m, session: Session) -> None:
+def _check_angles(m, limited: dict[str, tuple[float, float]]) -> None:
     """Refuse a program that turns a limited rotary axis beyond its range.
 
     The angles of a test's poses (its ``<axis>_deg`` columns: a probe-on-sphere test, an
@@ -150,8 +153,8 @@ def _check_angles(m, session: Session) -> None:
     ----------
     m : Measurement
         The measurement.
-    session : Session
-        Its session (``meta``: the ``[machine]`` table).
+    limited : dict of str to (float, float)
+        The session's limited axes (``modulo = false``): letter -> ``range_deg`` [deg].
 
     Raises
     ------
@@ -161,9 +164,6 @@ def _check_angles(m, session: Session) -> None:
     """
     import numpy as np
 
-    from volcal.session.rotary import read_rotary_axes
-
-    limited = {a.name: a.range_deg for a in read_rotary_axes(session.meta) if not a.modulo}
     sign = float(m.meta.get("control_angle_sign", 1))  # the control's angles: volcal's x it
     for col, values in m.columns.items():
         letter = col[:-4] if col.endswith("_deg") else ""

@@ -148,3 +148,23 @@ def test_tcp_program_holds_the_sphere_and_turns_the_rotary_axes_only():
                                                        ProgramOptions(safe_z_mm=SAFE_Z))
     assert "(POSE 2: C=-30.000 A=0.000 LINEAR AXES X=529.904 Y=225.000 Z=375.353)" in listing
     assert warnings and "LinuxCNC only" in warnings[0]
+
+
+@pytest.mark.skipif(RS274 is None, reason="LinuxCNC's rs274 is not installed "
+                    "(make linuxcnc-deps installs linuxcnc-uspace)")
+def test_linuxcnc_reads_a_path_within_a_limited_cradle(tmp_path):
+    """Planned with the machine's cradle limited to -120..+30 deg, the R-test's program as
+    LinuxCNC's own interpreter reads it turns A over exactly that range (both ends, and
+    nothing beyond: the default plan's sweep reached +90 deg)."""
+    from program.replay import run_rs274
+    from volcal.plan.rotary import rotary_axis_spec
+    from volcal.program.writer import write_programs
+
+    s = plan_session(np.array([[0.0, 800.0], [0.0, 600.0], [0.0, 500.0]]), "XYFZ", steps=4,
+                     tests=("r_test",), runs=2,
+                     rotary={"axes": rotary_axis_spec("c:0:360:modulo,a:-120:30:limited")})
+    s.meta["rotary_axes"] = [{"name": "a", "range_deg": [-120.0, 30.0], "modulo": False}]
+    write_programs(s, "linuxcnc", tmp_path / "p", ProgramOptions(safe_z_mm=480.0))
+    cmds = run_rs274((tmp_path / "p" / "r_test.ngc").read_text(), axes=6)
+    a = [v[3] for name, v in cmds if "STRAIGHT" in name]
+    assert len(a) > 300 and min(a) == pytest.approx(-120.0) and max(a) == pytest.approx(30.0)

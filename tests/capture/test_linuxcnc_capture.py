@@ -551,3 +551,147 @@ def test_rotary_capture_on_linuxcnc_trimmed(tmp_path):
     assert "error" not in cnc.result, _diagnostics(tmp_path, mid, cnc, outputs)
     assert cnc.result["res"]["ok"], _diagnostics(tmp_path, mid, cnc, outputs)
     _check_rotary(tmp_path, s, mid, stable_s)
+
+
+RT_POSES = [(0, 0), (30, 0), (0, -15), (0, -30)]
+"""(c, a) [deg] of the default ``r_test:ca`` plan kept in the trimmed R-test on LinuxCNC:
+C turns and A tilts, the linear axes following (some 20 s of motion at the following
+moves' capped feed)."""
+RT_TRAVEL = ((0.0, 800.0), (0.0, 600.0), (0.0, 500.0))
+RT_SAFE_Z_MM = 480.0
+"""Above the sphere's top plus the approach's clearance on the default R-test layout."""
+
+
+def _rtest_planned(tmp_path: Path) -> Path:
+    """The default R-test of a CA trunnion, cut to :data:`RT_POSES`."""
+    from volcal.steps.plan import plan
+
+    s = tmp_path / "S"
+    plan(RT_TRAVEL, steps=2, tests="r_test:ca", output=s)
+    p = s / "r_test.csv"
+    rows = p.read_text().splitlines()
+    keep = {(float(c), float(a)): r for r in rows[1:] for c, a in [r.split(",")[:2]]}
+    p.write_text("\n".join([rows[0], *(keep[(float(c), float(a))] for c, a in RT_POSES)])
+                 + "\n")
+    return s
+
+
+def _rtest_truth(s: Path, tmp_path: Path) -> np.ndarray:
+    """The exact readings of the nest at the planned poses for the machine, location errors
+    and sphere ``volcal simulate --seed 3`` draws (its ``truth/``) [um], shape (n, 3)."""
+    import shutil
+    import tomllib
+
+    from volcal.kinds import kind_of
+    from volcal.kinds.r_test import RTestSetup
+    from volcal.session.errortable import read_error_table
+    from volcal.session.format import read_session
+    from volcal.steps.simulate import save, simulate
+
+    sim = tmp_path / "truth"
+    shutil.copytree(s, sim)
+    save(simulate(sim, seed=SEED), sim)
+    doc = tomllib.loads((sim / "truth" / "setup.toml").read_text())["setup"]["r_test"]
+    setup = RTestSetup(doc["chain"], doc["location"], np.array(doc["sphere_mm"]))
+    planned = read_session(s, require_deviation=False)
+    vm = read_error_table(sim / "truth" / "machine.csv", chain=planned.chain)
+    return np.asarray(kind_of("r_test").exact(vm, planned.get("r_test"), setup))
+
+
+def _check_rtest(tmp_path: Path, s: Path, stable_s: float) -> None:
+    """One row per pose, each window inside LinuxCNC's dwell at the pose (X, Y, Z within
+    10 um, A and C within 0.005 deg) on that pose's program lines, the three sensors'
+    readings equal to the truth within the noise."""
+    from volcal.capture.plan import dwell_lines
+    from volcal.session.format import read_session
+
+    mid = "r_test"
+    planned = read_session(s, require_deviation=False).get(mid)
+    ja = _journal(tmp_path / "A", mid)
+    assert [x["reading"] for x in ja if x["type"] == "accepted"] == list(range(planned.n))
+    assert not [x for x in ja if x["type"] == "missed"]
+    lines = dwell_lines(tmp_path / "P", mid)
+    assert len(lines) == planned.n
+    first_running = min(x["t"] for x in ja if x["type"] == "control" and x.get("running"))
+    for x in (x for x in ja if x["type"] == "accepted"):
+        i = x["reading"]
+        lo, hi = x["window"]
+        assert lo > first_running
+        inside = [c for c in ja[:ja.index(x)] if c["type"] == "control" and lo <= c["t"] <= hi]
+        assert len(inside) >= 5
+        for c in inside:
+            assert c["running"] and not c["moving"] and c["line"] in lines[i], c
+            p = np.array([c["pos"][a] for a in "XYZ"])
+            assert np.max(np.abs(p - planned.positions[i])) <= 0.010, (i, c)
+            for a, col in (("C", "c_deg"), ("A", "a_deg")):
+                d = (c["pos"][a] - planned.columns[col][i] + 180.0) % 360.0 - 180.0
+                assert abs(d) <= 0.005, (i, a, c)
+    m = read_session(tmp_path / "A").get(mid)
+    got = np.column_stack([m.columns[k] for k in ("dx_um", "dy_um", "dz_um")])
+    truth = _rtest_truth(s, tmp_path)
+    assert np.max(np.abs(truth)) > 50.0  # hidden location errors of some 100 um
+    # each reading the difference of two window means (the first pose's zero) of >=
+    # stable_s / 0.02 samples of the laser's noise
+    tol = 5 * NOISE_UM * np.sqrt(2 / (stable_s / 0.02))
+    assert np.max(np.abs(got - truth)) < tol, got - truth
+
+
+def test_rtest_capture_on_linuxcnc_trimmed(tmp_path):
+    """volcal's R-test program (the default ``r_test:ca`` plan cut to 4 poses) run once by
+    LinuxCNC on X, Y, Z, A, C joints: the rotary axes turn with the linear axes following,
+    a dwell at each pose; ``volcal capture --control linuxcnc`` takes one row per pose from
+    the bridge's X, Y, Z, A and C, the simulated nest reading the machine ``volcal simulate
+    --seed 3`` draws at LinuxCNC's actual pose: 40-60 s."""
+    from volcal.steps.program import program
+
+    why = linuxcnc_missing()
+    if why:
+        pytest.skip(why)
+    from linuxcnc_sim import xyzac_joints
+
+    mid, stable_s = "r_test", 0.35
+    s, progs = _rtest_planned(tmp_path), tmp_path / "P"
+    program(s, dialect="linuxcnc", output=progs, dwell_s=1.0, safe_z_mm=RT_SAFE_Z_MM)
+    ngc = (progs / "r_test.ngc").read_text()
+    marker = f"volcal-capture-{uuid.uuid4().hex}"
+    cnc = _CNC()
+
+    def run() -> None:
+        try:
+            cnc.result["res"] = run_linuxcnc(
+                xyzac_joints(), [{"home": True},
+                                 {"wait_file": "go-p0", "or_end": "stop",
+                                  "timeout_s": scaled_timeout(600)},
+                                 {"program": "r_test.ngc", "label": "p0",
+                                  "resume_after_s": PAUSE_S, "done_file": "ended-p0",
+                                  "timeout_s": scaled_timeout(600)}],
+                files={"r_test.ngc": ngc, marker: ""}, timeout_s=600,
+                locked_file=LOCKED, keep=tmp_path / "linuxcnc")
+        except Exception as e:  # reported below
+            cnc.result["error"] = e
+
+    cnc.thread = threading.Thread(target=run, daemon=True)
+    cnc.thread.start()
+    outputs: dict[str, tuple[str, str]] = {}
+    a: subprocess.Popen[str] | None = None
+    try:
+        config = _locked_config(cnc, marker)
+        a = _volcal("capture", str(s), "--control", f"linuxcnc:{config / 'sim.ini'}",
+                    "--laser", f"sim:seed={SEED},noise={NOISE_UM}", "--measurement", mid,
+                    "--programs", str(progs), "--stable-s", str(stable_s), "--max-gap-s",
+                    "0.25", "--poll-s", "0.02", "--timeout-s", str(scaled_timeout(120)),
+                    "-o", str(tmp_path / "A"))
+        _go(config, "go-p0", a, tmp_path / "A", mid, 1, cnc, "capture A", outputs)
+        assert "captured ->" in _wait(a, "capture A", scaled_timeout(600), outputs)
+    except AssertionError as e:
+        if cnc.config is not None:
+            _release(cnc.config, "stop")
+        raise AssertionError(f"{e}\n\n{_diagnostics(tmp_path, mid, cnc, outputs)}") from None
+    finally:
+        if a is not None and a.poll() is None:
+            a.kill()
+            a.communicate()
+        cnc.thread.join(scaled_timeout(600))
+    assert "error" not in cnc.result, _diagnostics(tmp_path, mid, cnc, outputs)
+    assert cnc.result["res"]["ok"], _diagnostics(tmp_path, mid, cnc, outputs)
+    _check_rtest(tmp_path, s, stable_s)

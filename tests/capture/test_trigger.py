@@ -343,3 +343,29 @@ def test_a_resumed_rule_knows_the_dwell_from_the_program_line():
         [(e.reading, e.value) for e in full[2:]]
     waits = [e.text for e in events if isinstance(e, Note)]
     assert any("the program dwells at reading 4 (line 106)" in w for w in waits)
+
+
+def test_an_operator_stop_at_the_first_target_is_no_part_of_its_dwell():
+    """An R-test's program stops (``M0``) at its first pose, where the operator puts the
+    sphere in the nest and zeroes the sensors, then dwells there: the machine stands still
+    at the target through both. The stop reads ``program_running`` False; the sensors read
+    7 um off until the cycle start. The window of reading 1 lies after the stop (a window
+    reaching back into it took the reading of the stop, 7 um off: LinuxCNC, session 25)."""
+    from volcal.capture.samples import ControlSample, LaserSample
+
+    p = Program([0.0, 25.0, 50.0], [1, 1, 1], laser_noise_um=0.05, lines=True)
+    a, _ = p.dwell_intervals()[0]
+    go = a + 1.5  # the cycle start: 1.5 s of the 3 s dwell paused
+    stream = []
+    for s in p.stream():
+        if a <= s.time_s < go:
+            if isinstance(s, ControlSample):
+                s = ControlSample(s.time_s, s.positions, False, False, line=s.line)
+            else:
+                s = LaserSample(s.time_s, s.value + 7.0, s.unit)
+        stream.append(s)
+    ev = decided(run(rule_for(p, stable_s=1.0), stream))
+    assert [e.reading for e in ev] == [0, 1, 2] and all(isinstance(e, Accepted) for e in ev)
+    assert ev[0].window_s[0] > go - 1.0 / p.rate
+    dev = deviation(p, {e.reading: e.value for e in ev})
+    assert abs(dev[0] - p.error(0)) < 0.1, dev[0] - p.error(0)

@@ -18,7 +18,10 @@ A point is accepted when
    (:class:`CaptureMismatch`, naming the planned and the seen positions); a stop at an
    approach, overrun or start point is no reading and is passed over;
 4. **both signals are stable for** ``stable_s`` seconds, tested against their noise: over
-   the trailing ``stable_s`` window (which must lie inside the dwell), the means of its two
+   the trailing ``stable_s`` window (which must lie inside the dwell, after the last
+   control sample paused or in motion: an R-test's operator stop, where the sphere is put
+   in the nest and the sensors zeroed, stands at its first pose and is no part of the
+   dwell that follows it), the means of its two
    halves differ by at most ``k_sigma`` standard errors (``k_sigma * sigma * sqrt(1/n1 +
    1/n2)``: catches creep and settling), and no sample lies farther than ``k_sigma + 2``
    sigma from the window's mean (catches a jump); ``sigma`` is the signal's noise,
@@ -430,6 +433,7 @@ class TriggerRule:
         self._decided = False                 # that dwell already gave its event
         self._in_window_since: float | None = None
         self._rest_since: float | None = None
+        self._blocked_at: float | None = None  # the last sample paused, moving or unarmed
         self._passed = False                  # the current rest is passed over
         self._ctrl_gap = False                # a control gap since the last dwell
         self._line: int | None = None         # the program line the control reports
@@ -578,6 +582,7 @@ class TriggerRule:
                             "already recorded")]
         if not self.armed or self._running is False or self._moving is True:
             self._rest_since, self._passed = None, False
+            self._blocked_at = t  # a reading's window starts after it (the dwell's own)
             return []
         ok, _ = self._ctrl_stable(t - self.p.stable_s, t)
         if not ok:
@@ -691,8 +696,8 @@ class TriggerRule:
             return []
         t0 = t - self.p.stable_s
         start = self._in_window_since if self._in_window_since is not None else t
-        if t0 < start:
-            return []
+        if t0 < start or (self._blocked_at is not None and t0 <= self._blocked_at):
+            return []  # (an operator stop just before the dwell is no part of it)
         ok, pos = self._ctrl_stable(t0, t)
         if not ok:
             return []

@@ -59,6 +59,11 @@ MAX_STEP_DEG = 1.0
 """Largest angle between two interpolated points of a following move [deg]."""
 FOLLOW_FEED_MAX_MM_MIN = 1000.0
 """Largest feed of a following move [mm/min]."""
+POSE_DECIMALS = 6
+"""Decimals of the moves that end at a pose (at least: ``decimals`` if larger) [mm, deg]:
+the session file's, so that the machine dwells at the position its row states (the
+program's 3 decimals put the nest up to 0.5 um off it, which the sensors read as a
+location error)."""
 
 
 def _f(v: float, d: int) -> str:
@@ -185,13 +190,20 @@ def rtest_program(m: Any, dialect: str, name: str, number: int, options: Any
     out = [_paren_comment(h) for h in head] + ["G21 G90 G17 G40 G49 G94 G54"]
     words = ["X", "Y", "Z", *letters]
 
-    def said(v: np.ndarray, order: range | list[int] = range(3 + len(letters))) -> str:
-        return " ".join(f"{words[j]}{_f(v[j], d)}" for j in order if not np.isnan(v[j]))
+    def said(v: np.ndarray, order: range | list[int] = range(3 + len(letters)),
+             dd: int = d) -> str:
+        return " ".join(f"{words[j]}{_f(v[j], dd)}" for j in order if not np.isnan(v[j]))
 
     # a following move: the rotary axes, then (unless the control follows) X, Y, Z
     follow_order = [*range(3, 3 + len(letters)), *([] if tcp else range(3))]
 
-    for b in blocks:
+    for i, b in enumerate(blocks):
+        ends_at_pose = i + 1 < len(blocks) and blocks[i + 1].kind in ("stop", "dwell")
+        if ends_at_pose and b.how in ("slow", "follow"):
+            order = follow_order if b.how == "follow" else range(3 + len(letters))
+            feed_word = feed if b.how == "follow" else APPROACH_FEED_MM_MIN
+            out.append(f"G1 {said(b.target, order, max(d, POSE_DECIMALS))} F{feed_word:g}")
+            continue
         if b.how == "safe":
             out.append(f"G0 Z{_f(safe, d)}" if tcp else f"G53 G0 Z{_f(safe, d)}")
         elif b.how == "rapid":

@@ -562,8 +562,10 @@ RT_SAFE_Z_MM = 480.0
 """Above the sphere's top plus the approach's clearance on the default R-test layout."""
 
 
-def _rtest_planned(tmp_path: Path) -> Path:
-    """The default R-test of a CA trunnion, cut to :data:`RT_POSES`."""
+def _rtest_planned(tmp_path: Path, poses: list[tuple[int, int]], tcp: bool) -> Path:
+    """The default R-test of a CA trunnion, cut to ``poses``; with ``tcp`` the session
+    states LinuxCNC's trt kinematics (``control_kinematics = "tcp"``, its angles counted
+    the other way: ``control_angle_sign = -1``)."""
     from volcal.steps.plan import plan
 
     s = tmp_path / "S"
@@ -571,9 +573,29 @@ def _rtest_planned(tmp_path: Path) -> Path:
     p = s / "r_test.csv"
     rows = p.read_text().splitlines()
     keep = {(float(c), float(a)): r for r in rows[1:] for c, a in [r.split(",")[:2]]}
-    p.write_text("\n".join([rows[0], *(keep[(float(c), float(a))] for c, a in RT_POSES)])
+    p.write_text("\n".join([rows[0], *(keep[(float(c), float(a))] for c, a in poses)])
                  + "\n")
+    if tcp:
+        toml = s / "session.toml"
+        text = toml.read_text()
+        assert text.count('sphere = "R1"\n') == 1
+        toml.write_text(text.replace('sphere = "R1"\n', 'sphere = "R1"\ncontrol_kinematics = '
+                                     '"tcp"\ncontrol_angle_sign = -1\n'))
     return s
+
+
+def _trt_pins(s: Path) -> str:
+    """HAL ``setp`` lines of xyzac-trt-kins for the plan's pivots: the C line's point
+    (``x/y/z-rot-point``) and the A line's offset from it (``y-offset``, ``z-offset``), as
+    ``volcal locate --linuxcnc-hal`` writes them (tests/compensate/test_trt_closed_loop.py
+    closes that loop)."""
+    from volcal.session.format import read_session
+
+    piv = read_session(s, require_deviation=False).get("r_test").meta["pivot_mm"]
+    c, a = np.asarray(piv["c"], float), np.asarray(piv["a"], float)
+    pins = {"x-rot-point": c[0], "y-rot-point": c[1], "z-rot-point": c[2],
+            "y-offset": a[1] - c[1], "z-offset": a[2] - c[2]}
+    return "".join(f"setp xyzac-trt-kins.{k} {v:.6f}\n" for k, v in pins.items())
 
 
 def _rtest_truth(s: Path, tmp_path: Path) -> np.ndarray:
@@ -598,15 +620,17 @@ def _rtest_truth(s: Path, tmp_path: Path) -> np.ndarray:
     return np.asarray(kind_of("r_test").exact(vm, planned.get("r_test"), setup))
 
 
-def _check_rtest(tmp_path: Path, s: Path, stable_s: float) -> None:
+def _check_rtest(tmp_path: Path, s: Path, stable_s: float, tcp: bool) -> None:
     """One row per pose, each window inside LinuxCNC's dwell at the pose (X, Y, Z within
-    10 um, A and C within 0.005 deg) on that pose's program lines, the three sensors'
-    readings equal to the truth within the noise."""
+    10 um: the pose's machine positions, or with ``tcp`` the sphere's table coordinates;
+    A and C within 0.005 deg of the control's angles) on that pose's program lines, the
+    three sensors' readings equal to the truth within the noise."""
     from volcal.capture.plan import dwell_lines
     from volcal.session.format import read_session
 
     mid = "r_test"
     planned = read_session(s, require_deviation=False).get(mid)
+    sign = -1.0 if tcp else 1.0
     ja = _journal(tmp_path / "A", mid)
     assert [x["reading"] for x in ja if x["type"] == "accepted"] == list(range(planned.n))
     assert not [x for x in ja if x["type"] == "missed"]
@@ -619,12 +643,13 @@ def _check_rtest(tmp_path: Path, s: Path, stable_s: float) -> None:
         assert lo > first_running
         inside = [c for c in ja[:ja.index(x)] if c["type"] == "control" and lo <= c["t"] <= hi]
         assert len(inside) >= 5
+        want = np.asarray(planned.meta["sphere_mm"], float) if tcp else planned.positions[i]
         for c in inside:
             assert c["running"] and not c["moving"] and c["line"] in lines[i], c
             p = np.array([c["pos"][a] for a in "XYZ"])
-            assert np.max(np.abs(p - planned.positions[i])) <= 0.010, (i, c)
+            assert np.max(np.abs(p - want)) <= 0.010, (i, c)
             for a, col in (("C", "c_deg"), ("A", "a_deg")):
-                d = (c["pos"][a] - planned.columns[col][i] + 180.0) % 360.0 - 180.0
+                d = (c["pos"][a] - sign * planned.columns[col][i] + 180.0) % 360.0 - 180.0
                 assert abs(d) <= 0.005, (i, a, c)
     m = read_session(tmp_path / "A").get(mid)
     got = np.column_stack([m.columns[k] for k in ("dx_um", "dy_um", "dz_um")])
@@ -636,12 +661,7 @@ def _check_rtest(tmp_path: Path, s: Path, stable_s: float) -> None:
     assert np.max(np.abs(got - truth)) < tol, got - truth
 
 
-def test_rtest_capture_on_linuxcnc_trimmed(tmp_path):
-    """volcal's R-test program (the default ``r_test:ca`` plan cut to 4 poses) run once by
-    LinuxCNC on X, Y, Z, A, C joints: the rotary axes turn with the linear axes following,
-    a dwell at each pose; ``volcal capture --control linuxcnc`` takes one row per pose from
-    the bridge's X, Y, Z, A and C, the simulated nest reading the machine ``volcal simulate
-    --seed 3`` draws at LinuxCNC's actual pose: 40-60 s."""
+def _rtest_on_linuxcnc(tmp_path: Path, poses: list[tuple[int, int]], tcp: bool) -> None:
     from volcal.steps.program import program
 
     why = linuxcnc_missing()
@@ -650,10 +670,15 @@ def test_rtest_capture_on_linuxcnc_trimmed(tmp_path):
     from linuxcnc_sim import xyzac_joints
 
     mid, stable_s = "r_test", 0.35
-    s, progs = _rtest_planned(tmp_path), tmp_path / "P"
+    s, progs = _rtest_planned(tmp_path, poses, tcp), tmp_path / "P"
     program(s, dialect="linuxcnc", output=progs, dwell_s=1.0, safe_z_mm=RT_SAFE_Z_MM)
     ngc = (progs / "r_test.ngc").read_text()
     marker = f"volcal-capture-{uuid.uuid4().hex}"
+    files = {"r_test.ngc": ngc, marker: ""}
+    kins: dict = {}
+    if tcp:
+        files["pins.hal"] = _trt_pins(s)
+        kins = {"kinematics": "xyzac-trt-kins", "halfiles": ("pins.hal",)}
     cnc = _CNC()
 
     def run() -> None:
@@ -664,9 +689,10 @@ def test_rtest_capture_on_linuxcnc_trimmed(tmp_path):
                                   "timeout_s": scaled_timeout(600)},
                                  {"program": "r_test.ngc", "label": "p0",
                                   "resume_after_s": PAUSE_S, "done_file": "ended-p0",
-                                  "timeout_s": scaled_timeout(600)}],
-                files={"r_test.ngc": ngc, marker: ""}, timeout_s=600,
-                locked_file=LOCKED, keep=tmp_path / "linuxcnc")
+                                  "timeout_s": scaled_timeout(600),
+                                  "poll_s": 0.02 if tcp else 0.0}],
+                files=files, timeout_s=600, locked_file=LOCKED, keep=tmp_path / "linuxcnc",
+                **kins)
         except Exception as e:  # reported below
             cnc.result["error"] = e
 
@@ -694,4 +720,47 @@ def test_rtest_capture_on_linuxcnc_trimmed(tmp_path):
         cnc.thread.join(scaled_timeout(600))
     assert "error" not in cnc.result, _diagnostics(tmp_path, mid, cnc, outputs)
     assert cnc.result["res"]["ok"], _diagnostics(tmp_path, mid, cnc, outputs)
-    _check_rtest(tmp_path, s, stable_s)
+    _check_rtest(tmp_path, s, stable_s, tcp)
+    if tcp:
+        _check_trt_joints(cnc.result["res"]["series"]["p0"], s, tmp_path / "P")
+
+
+def _check_trt_joints(series: list[dict], s: Path, progs: Path) -> None:
+    """LinuxCNC's trt kinematics put its joints where volcal computed the machine
+    positions of each pose (X, Y, Z within 10 um; A, C the control's angles within 0.005
+    deg), during each pose's ``G4`` (the driver's samples of the program): what the
+    simulated nest assumes when it reads the machine at the pose's positions."""
+    from volcal.capture.plan import dwell_lines
+    from volcal.session.format import read_session
+
+    m = read_session(s, require_deviation=False).get("r_test")
+    lines = dwell_lines(progs, "r_test")
+    for i, pair in enumerate(lines):
+        # (LinuxCNC's current line in a G4 is the move's before it, or the G4's)
+        at = [x for x in series if x["delay_left"] > 0 and x["line"] in pair]
+        assert len(at) >= 10, (i, pair, len(at))
+        want = [*m.positions[i], -m.columns["a_deg"][i], -m.columns["c_deg"][i]]
+        for x in at:
+            got = np.asarray(x["joint_actual_position"][:5], float)
+            assert np.max(np.abs(got[:3] - want[:3])) <= 0.010, (i, got, want)
+            assert np.max(np.abs(got[3:] - want[3:])) <= 0.005, (i, got, want)
+
+
+def test_rtest_capture_on_linuxcnc_trimmed(tmp_path):
+    """volcal's R-test program (the default ``r_test:ca`` plan cut to 4 poses) run once by
+    LinuxCNC on X, Y, Z, A, C joints (trivial kinematics: the program's X, Y, Z are the
+    machine positions volcal computed): the rotary axes turn with the linear axes
+    following, a dwell at each pose; ``volcal capture --control linuxcnc`` takes one row
+    per pose from the bridge's X, Y, Z, A and C, the simulated nest reading the machine
+    ``volcal simulate --seed 3`` draws at LinuxCNC's actual pose: 35-45 s."""
+    _rtest_on_linuxcnc(tmp_path, RT_POSES, tcp=False)
+
+
+def test_rtest_capture_on_linuxcnc_tcp_trimmed(tmp_path):
+    """The same on LinuxCNC's own ``xyzac-trt-kins`` with the plan's pivots as its pins
+    (``control_kinematics = "tcp"``, ``control_angle_sign = -1``): the program holds X, Y, Z
+    at the sphere's table coordinates and turns the rotary axes alone, LinuxCNC's
+    kinematics move the joints, during each dwell to the machine positions volcal computed;
+    the bridge reports the table coordinates and the control's angles, the capture matches
+    each pose in them, the nest reads the machine at the pose: 3 poses, 30-40 s."""
+    _rtest_on_linuxcnc(tmp_path, RT_POSES[:3], tcp=True)

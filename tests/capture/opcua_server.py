@@ -49,15 +49,18 @@ class CncServer:
     """A running ``cnc_server.mjs``: ``set(X=..., ...)`` writes positions, ``stop()`` ends it."""
 
     def __init__(self, port: int | None = None, pki: Path | None = None,
-                 axes: tuple[str, ...] | None = None) -> None:
+                 axes: tuple[str, ...] | None = None, channel: bool = False) -> None:
         """``pki``: serve signed and encrypted channels only, certificates in that folder.
         ``axes``: the axes, ``NAME`` or ``NAME:UNIT`` (``mm``, ``deg``, ``rad``, ``rot``:
-        cnc_server.mjs); default X, Y, Z."""
+        cnc_server.mjs); default X, Y, Z. ``channel``: a CncChannelType object whose
+        ``ActProgramStatus`` :meth:`program` writes (Stopped at the start)."""
         self.port = free_port() if port is None else port
         self.url = f"opc.tcp://127.0.0.1:{self.port}/"
         args = [] if pki is None else ["secure", str(pki)]
         if axes is not None:
             args.append("axes=" + ",".join(axes))
+        if channel:
+            args.append("channel")
         self.proc = subprocess.Popen(
             ["node", str(SCRIPT), str(self.port), *args], cwd=HERE, stdin=subprocess.PIPE,
             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, bufsize=1)
@@ -90,6 +93,10 @@ class CncServer:
     def set(self, **axes: float) -> None:
         """Write ``ActPos`` of the named axes [mm, deg]; returns once the server applied it."""
         self._command({"set": axes}, "apply a position")
+
+    def program(self, status: int) -> None:
+        """Write the channel's ``ActProgramStatus`` (0 Stopped, 1 Running, 3 Interrupted)."""
+        self._command({"program": int(status)}, "apply a program status")
 
     def add(self, *axes: str) -> None:
         """Instantiate axes, ``NAME`` or ``NAME:UNIT`` (as ``axes`` of the constructor)."""

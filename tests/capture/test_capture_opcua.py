@@ -82,6 +82,11 @@ def test_a_dwell_is_reported_at_every_poll_with_the_poll_time(cnc_server, contro
     assert np.all(np.diff(times) > 0)
 
 
+def test_a_server_without_a_channel_reports_no_program_status(control):
+    s = _poll_until(control, lambda s: s is not None and s.status == "ok")
+    assert s.program_running is None and control.link.snapshot().program_status is None
+
+
 class _Laser:
     """A laser on X: the displacement [um] plus an error of 2 um per 100 mm, plus 0.02 um of
     noise, at every poll."""
@@ -580,3 +585,36 @@ def test_bad_source_text_is_refused(text, match):
 
     with pytest.raises(VolcalInputError, match=match):
         make_control(text, SourceContext(clock=Clock()))
+
+
+def test_the_channels_program_status_says_whether_the_program_runs():
+    """A server with one CncChannelType object: its ActProgramStatus (OPC 40502, 7.2.5)
+    gives each sample's program_running: Stopped false, Running true, Interrupted (an M0,
+    a feed hold) false, so that the trigger takes no reading at an operator stop (an
+    R-test's first pose); ``program=off`` leaves it unknown; the module's server, without
+    a channel, reports none (the samples' program_running None, as before)."""
+    from .opcua_server import CncServer, skip_reason
+
+    why = skip_reason()
+    if why:
+        pytest.skip(why)
+    server = CncServer(channel=True)
+    srcs = []
+    try:
+        on = make_control(f"opcua:{server.url};publishing_ms=20", SourceContext(clock=Clock()))
+        off = make_control(f"opcua:{server.url};publishing_ms=20;program=off",
+                           SourceContext(clock=Clock()))
+        for src in (on, off):
+            src.open()
+            srcs.append(src)
+        ok = lambda s: s is not None and s.status == "ok"  # noqa: E731
+        assert _poll_until(on, ok).program_running is False
+        for status, want in ((1, True), (3, False), (1, True), (0, False), (2, None)):
+            server.program(status)
+            _poll_until(on, lambda s, w=want: ok(s) and s.program_running is w)
+            assert _poll_until(off, ok).program_running is None
+        assert on.link.snapshot().program_status == 2
+    finally:
+        for src in srcs:
+            src.close()
+        server.stop()

@@ -3,7 +3,10 @@
 // node-opcua-nodesets), with three axes X, Y, Z (or those of axes=) instantiated from
 // CncAxisType under Objects/CncInterface/CncAxisList. The test writes positions on request.
 //
-// Usage: node cnc_server.mjs PORT [secure PKI_FOLDER] [axes=SPEC,...]
+// Usage: node cnc_server.mjs PORT [secure PKI_FOLDER] [axes=SPEC,...] [channel]
+// With "channel", one CncChannelType object (Objects/CncInterface/CncChannelList/Channel1)
+// whose ActProgramStatus (CncChannelProgramStatus: Stopped 0, Running 1, Waiting 2,
+// Interrupted 3, Canceled 4) starts Stopped and is written by {"program": N}.
 // With "secure", the server offers only signed and encrypted channels (Basic256Sha256,
 // SignAndEncrypt), keeps its certificates in PKI_FOLDER and accepts any client certificate.
 // With "axes=", the axes instantiated (default X,Y,Z), each NAME or NAME:UNIT, as a CNC
@@ -17,6 +20,7 @@
 //   {"set": {"X": 10.0, "Y": 0.0}}   write PosDirect.ActPos (and the PosDirect structure)
 //   {"add": ["C:deg"]}                instantiate axes (as axes=), at position 0
 //   {"remove": ["C"]}                 delete axes (a client browsing afterwards sees none)
+//   {"program": 3}                    write the channel's ActProgramStatus (with "channel")
 //   {"quit": true}                    shut down (closing stdin does the same)
 // and answers each other command with "OK <n>" (n: the count of commands served).
 // Only loopback: the endpoint is bound to 127.0.0.1.
@@ -86,6 +90,22 @@ const axisList = own.addObject({ browseName: "CncAxisList", componentOf: iface }
 const axes = {};
 for (const { name, unit } of axisSpecs) {
   add(name, unit);
+}
+
+let programStatus = null;
+if (process.argv.slice(3).includes("channel")) {
+  const channelType = addressSpace.findObjectType("CncChannelType", nsCnc);
+  const channelList = own.addObject({ browseName: "CncChannelList", componentOf: iface });
+  const channel = channelType.instantiate({ browseName: "Channel1", componentOf: channelList });
+  programStatus = channel.getComponentByName("ActProgramStatus", nsCnc);
+  setProgram(0);
+}
+
+function setProgram(value) {
+  if (!programStatus) {
+    throw new Error("no channel (start the server with channel)");
+  }
+  programStatus.setValueFromSource({ dataType: DataType.Int32, value });
 }
 
 function add(name, unit) {
@@ -178,6 +198,9 @@ rl.on("line", (line) => {
     }
     for (const [name, value] of Object.entries(cmd.set || {})) {
       set(name, Number(value));
+    }
+    if (cmd.program !== undefined) {
+      setProgram(Number(cmd.program));
     }
     served += 1;
     process.stdout.write(`OK ${served}\n`);

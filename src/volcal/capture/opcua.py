@@ -39,7 +39,16 @@ key                default  meaning
                             separated by ``/`` (``X:X1/Y:Y1/Z:Z1/C:C1``): a control whose
                             axes are not named by their letters; an axis not listed is
                             read under its own name
+``program``        on       ``on``: the channel's ``ActProgramStatus`` says whether the
+                            program runs (:data:`PROGRAM_RUNNING`); ``off``: not read (a
+                            server that does not keep it up to date)
 =================  =======  ===============================================================
+
+Where the server has one ``CncChannelType`` object, its ``ActProgramStatus`` (OPC 40502,
+7.2.5) gives the samples' ``program_running``: Running true; Stopped, Interrupted (an
+``M0``, a feed hold) and Canceled false, so that no reading is taken while the program
+stands at an operator stop (an R-test's first pose, where the sensors are zeroed);
+Waiting unknown. Without a channel, or with several, it stays unknown (None), as before.
 
 Requires the ``capture`` extra (PyPI ``asyncua``).
 """
@@ -69,7 +78,11 @@ STATUS_LOST = "lost"
 """First word of the status of a sample taken while the connection is down."""
 
 OPTION_KEYS = ("position", "publishing_ms", "timeout_s", "watch_s", "policy", "mode", "cert",
-               "key", "server_cert", "axes")
+               "key", "server_cert", "axes", "program")
+
+PROGRAM_RUNNING = {0: False, 1: True, 2: None, 3: False, 4: False}
+"""``ActProgramStatus`` (Stopped, Running, Waiting, Interrupted, Canceled) -> the samples'
+``program_running`` (a value not listed: None)."""
 
 AXIS_LETTERS = "XYZABC"
 """The axis letters of volcal's plans (ISO 841), the left side of ``axes=``."""
@@ -113,15 +126,19 @@ class OpcUaControl:
     names : dict of str to str, optional
         The server's axis name -> volcal's letter (``axes=``): the axis is reported under
         the letter, and a server axis named as one of these letters is left out.
+    program : bool
+        Report the channel's program status (``program=on``, default) or not (``off``).
     """
 
     def __init__(self, url: str, context: SourceContext, *, position: str = "direct",
                  publishing_ms: float = 50.0, timeout_s: float = 4.0,
                  watch_s: float = 0.5, security: Security | None = None,
-                 source: str | None = None, names: dict[str, str] | None = None) -> None:
+                 source: str | None = None, names: dict[str, str] | None = None,
+                 program: bool = True) -> None:
         from volcal.capture.opcua_link import OpcUaLink
 
         self.names = dict(names or {})
+        self.program = program
         self.url = url
         self.source = source or f"opcua:{url}"
         self.context = context
@@ -197,11 +214,14 @@ class OpcUaControl:
         if not snap.connected:
             return ControlSample(time_s=now, positions={},
                                  status=f"{STATUS_LOST}: {snap.reason or snap.status}")
+        running = (PROGRAM_RUNNING.get(snap.program_status)
+                   if self.program and snap.program_status is not None else None)
         if not self.names:
-            return ControlSample(time_s=now, positions=snap.positions)
+            return ControlSample(time_s=now, positions=snap.positions,
+                                 program_running=running)
         return ControlSample(time_s=now, positions={
             self.names.get(n, n): v for n, v in snap.positions.items()
-            if n not in self._shadowed})
+            if n not in self._shadowed}, program_running=running)
 
     def close(self) -> None:
         """Disconnect (may be called twice)."""
@@ -302,8 +322,13 @@ def make(spec: SourceSpec, context: SourceContext) -> OpcUaControl:
     elif "mode" in opts:
         raise VolcalInputError(f"control source {spec.text!r}: mode= needs policy=, cert= "
                                "and key= (docs/capture_opcua.md)")
+    program = opts.get("program", "on").lower()
+    if program not in ("on", "off"):
+        raise VolcalInputError(f"control source {spec.text!r}: program={program!r}: "
+                               "expected on or off")
     return OpcUaControl(url, context, position=position, security=security,
-                        source=spec.text, names=_axis_names(opts.get("axes"), spec.text), **kw)
+                        source=spec.text, names=_axis_names(opts.get("axes"), spec.text),
+                        program=program == "on", **kw)
 
 
 def _axis_names(text: str | None, where: str) -> dict[str, str]:

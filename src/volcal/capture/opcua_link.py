@@ -4,7 +4,9 @@ A background thread runs an asyncio loop with an :mod:`asyncua` client. It brows
 server's ``Objects`` folder for objects whose type is ``CncAxisType`` (or a subtype) of the
 namespace ``http://opcfoundation.org/UA/CNC``, subscribes to each axis' ``PosDirect/ActPos``
 (or ``PosIndirect/ActPos``), keeps the last value of each and watches the connection by
-reading the server's state every ``watch_s`` seconds.
+reading the server's state every ``watch_s`` seconds. Where the server has exactly one
+object of type ``CncChannelType``, the channel's ``ActProgramStatus`` is subscribed to as
+well (whether its program runs, or stands interrupted at an ``M0`` or a feed hold).
 
 A linear axis' position is kept in mm, a rotary axis' in degrees, under the axis' browse
 name (``X``, ``C``). An axis is rotary when its ``IsRotational`` is true or its position's
@@ -22,7 +24,9 @@ every ``retry_s`` seconds, browses again and subscribes again.
 References
 ----------
 OPC Foundation, OPC 40502 "OPC UA for Computerized Numerical Control (CNC) Systems" 1.00
-(2017): section 6.8.2 ``CncAxisType`` (``IsRotational``: true for a rotational axis),
+(2017): section 6.6.2 ``CncChannelType`` (``ActProgramStatus``, mandatory), 7.2.5
+``CncChannelProgramStatus`` (Stopped 0, Running 1, Waiting 2, Interrupted 3, Canceled 4),
+6.8.2 ``CncAxisType`` (``IsRotational``: true for a rotational axis),
 7.3.2 ``CncPositionVariableType`` (``ActPos``, ``CmdPos``, ``RemDist``, its
 ``EngineeringUnits``). The nodeset file is ``Opc.Ua.CNC.NodeSet.xml``. UN/CEFACT
 Recommendation 20, the codes of ``EUInformation.UnitId`` (OPC 10000-8, 5.6.3).
@@ -47,6 +51,12 @@ CNC_NAMESPACES = ("http://opcfoundation.org/UA/CNC", "http://opcfoundation.org/U
 
 CNC_AXIS_TYPE_ID = 1004
 """Numeric node id of ``CncAxisType`` in the CNC namespace (``Opc.Ua.CNC.NodeSet.xml``)."""
+
+CNC_CHANNEL_TYPE_ID = 1002
+"""Numeric node id of ``CncChannelType`` (its ``ActProgramStatus``: OPC 40502, 6.6.2)."""
+
+PROGRAM_STATUS = {0: "Stopped", 1: "Running", 2: "Waiting", 3: "Interrupted", 4: "Canceled"}
+"""``CncChannelProgramStatus`` (OPC 40502, 7.2.5): the value of ``ActProgramStatus``."""
 
 POLICIES = ("Basic256Sha256", "Aes128_Sha256_RsaOaep", "Aes256_Sha256_RsaPss")
 """Security policies of a signed channel (OPC UA's current ones; the deprecated Basic128Rsa15
@@ -158,6 +168,9 @@ class Snapshot:
         ``time.time()`` of the last change of ``status`` [s].
     axes : list of AxisNode
         The axes subscribed to.
+    program_status : int or None
+        The channel's last ``ActProgramStatus`` (:data:`PROGRAM_STATUS`); None when the
+        server has no single channel or has not sent it.
     """
 
     connected: bool = False
@@ -168,17 +181,24 @@ class Snapshot:
     reason: str = ""
     since: float = 0.0
     axes: list[AxisNode] = field(default_factory=list)
+    program_status: int | None = None
 
 
 class _Handler:
     """asyncua subscription handler: stores each notified value under the link's lock."""
 
-    def __init__(self, link: OpcUaLink, axes: list[AxisNode]) -> None:
+    def __init__(self, link: OpcUaLink, axes: list[AxisNode],
+                 status_id: str | None = None) -> None:
         self.link = link
         self.axes = {a.value_id: a for a in axes}  # node id string -> axis
+        self.status_id = status_id
 
     def datachange_notification(self, node: Any, val: Any, data: Any) -> None:
-        axis = self.axes.get(node.nodeid.to_string())
+        key = node.nodeid.to_string()
+        if key == self.status_id:
+            self.link._store_status(val)
+            return
+        axis = self.axes.get(key)
         if axis is None or val is None:
             return
         self.link._store(axis.name, float(val) * axis.factor)
@@ -267,7 +287,8 @@ class OpcUaLink:
                             positions=dict(s.positions) if s.connected else {},
                             changed_at=s.changed_at, notifications=s.notifications,
                             status=s.status, reason=s.reason, since=s.since,
-                            axes=list(s.axes))
+                            axes=list(s.axes),
+                            program_status=s.program_status if s.connected else None)
 
     def close(self) -> None:
         """Stop the thread and disconnect."""
@@ -287,6 +308,13 @@ class OpcUaLink:
             s.positions[name] = value
             s.notifications += 1
 
+    def _store_status(self, value: Any) -> None:
+        with self._lock:
+            try:
+                self._snap.program_status = None if value is None else int(value)
+            except (TypeError, ValueError):
+                self._snap.program_status = None
+
     def _set_status(self, status: str, reason: str = "") -> None:
         with self._lock:
             s = self._snap
@@ -297,6 +325,7 @@ class OpcUaLink:
             s.connected = status == "connected"
             if not s.connected:
                 s.positions = {}
+                s.program_status = None
 
     def _lost(self, reason: str) -> None:
         self._set_status("lost", reason)
@@ -335,9 +364,11 @@ class OpcUaLink:
             if self.security is not None:
                 await _secure(client, self.security)
             await client.connect()
-            axes = await find_axes(client, self.position)
-            handler = _Handler(self, axes)
+            axes, status_id = await find_cnc(client, self.position)
+            handler = _Handler(self, axes, status_id)
             nodes = [client.get_node(a.value_id) for a in axes]
+            if status_id is not None:
+                nodes.append(client.get_node(status_id))
             values = await client.read_values(nodes)
             sub = await client.create_subscription(self.publishing_ms, handler)
             from asyncua import ua
@@ -347,8 +378,10 @@ class OpcUaLink:
             with self._lock:
                 self._snap.axes = axes
             self._set_status("connected")
-            for a, v in zip(axes, values, strict=True):
+            for a, v in zip(axes, values, strict=False):
                 self._store(a.name, float(v) * a.factor)
+            if status_id is not None:
+                self._store_status(values[-1])
             self._first.set()
             state = client.nodes.server_state
             while not self._stop.is_set():
@@ -393,8 +426,9 @@ def _describe(exc: Exception) -> str:
     return f"{type(exc).__name__}: {text}" if text != type(exc).__name__ else text
 
 
-async def find_axes(client: Any, position: str = "direct") -> list[AxisNode]:
-    """Browse ``Objects`` for the CNC axes and the ``ActPos`` variable of each.
+async def find_cnc(client: Any, position: str = "direct"
+                   ) -> tuple[list[AxisNode], str | None]:
+    """Browse ``Objects`` for the CNC axes (their ``ActPos``) and the channel's status.
 
     Parameters
     ----------
@@ -405,8 +439,11 @@ async def find_axes(client: Any, position: str = "direct") -> list[AxisNode]:
 
     Returns
     -------
-    list of AxisNode
+    axes : list of AxisNode
         In browse order.
+    status : str or None
+        The node id of ``ActProgramStatus`` of the one object of type ``CncChannelType``;
+        None when there is none or several (which runs the program is not known).
 
     Raises
     ------
@@ -421,17 +458,11 @@ async def find_axes(client: Any, position: str = "direct") -> list[AxisNode]:
     if idx is None:
         raise OpcUaError(f"{client.server_url.geturl()}: the server has no OPC 40502 CNC "
                          f"namespace ({CNC_NAMESPACES[0]}); namespaces: {', '.join(uris)}")
-    axis_type = ua.NodeId(ua.Int32(CNC_AXIS_TYPE_ID), ua.Int16(idx))
-    types = {axis_type.to_string()}
-    todo = [axis_type]
-    while todo:  # subtypes of CncAxisType
-        children = await client.get_node(todo.pop()).get_children(
-            refs=ua.ObjectIds.HasSubtype, nodeclassmask=ua.NodeClass.ObjectType)
-        for c in children:
-            if c.nodeid.to_string() not in types:
-                types.add(c.nodeid.to_string())
-                todo.append(c.nodeid)
+    types = await _subtypes(client, ua.NodeId(ua.Int32(CNC_AXIS_TYPE_ID), ua.Int16(idx)))
+    channel_types = await _subtypes(client, ua.NodeId(ua.Int32(CNC_CHANNEL_TYPE_ID),
+                                                      ua.Int16(idx)))
     found: list[tuple[str, str]] = []
+    channels: list[str] = []
     seen = {client.nodes.objects.nodeid.to_string(), client.nodes.server.nodeid.to_string()}
     level = [client.nodes.objects]
     for _ in range(MAX_BROWSE_DEPTH):
@@ -447,6 +478,8 @@ async def find_axes(client: Any, position: str = "direct") -> list[AxisNode]:
                 if r.TypeDefinition.to_string() in types:
                     found.append((r.BrowseName.Name, key))
                 else:
+                    if r.TypeDefinition.to_string() in channel_types:
+                        channels.append(key)
                     nxt.append(client.get_node(r.NodeId))
                 if len(seen) > MAX_BROWSE_NODES:
                     break
@@ -476,7 +509,30 @@ async def find_axes(client: Any, position: str = "direct") -> list[AxisNode]:
         axes.append(AxisNode(name=name, node_id=key, value_id=node.nodeid.to_string(),
                              factor=factor, rotary=rotary,
                              unit=unece_code(unit_id) if unit_id else ""))
-    return axes
+    status = None
+    if len(channels) == 1:
+        try:
+            status = (await client.get_node(channels[0]).get_child(
+                [f"{idx}:ActProgramStatus"])).nodeid.to_string()
+        except Exception:  # not exposed: the program's state stays unknown
+            status = None
+    return axes, status
+
+
+async def _subtypes(client: Any, base: Any) -> set[str]:
+    """Node ids of ``base`` and of its subtypes (object types), as strings."""
+    from asyncua import ua
+
+    types = {base.to_string()}
+    todo = [base]
+    while todo:
+        children = await client.get_node(todo.pop()).get_children(
+            refs=ua.ObjectIds.HasSubtype, nodeclassmask=ua.NodeClass.ObjectType)
+        for c in children:
+            if c.nodeid.to_string() not in types:
+                types.add(c.nodeid.to_string())
+                todo.append(c.nodeid)
+    return types
 
 
 def unece_code(unit_id: int) -> str:

@@ -76,7 +76,7 @@ class _Link:
         from types import SimpleNamespace
 
         self.snap = SimpleNamespace(connected=True, axes=axes, positions=positions,
-                                    reason="", status="ok")
+                                    reason="", status="ok", program_status=None)
 
     def snapshot(self):
         return self.snap

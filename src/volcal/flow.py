@@ -394,7 +394,9 @@ class Calibration:
             Folder written by :meth:`compensate` (or ``volcal compensate``): the machine
             runs with these tables active, the as-left measurement of the virtual machine
             (``machine`` or ``seed`` the machine as found), as ``volcal simulate
-            --compensation``; :attr:`truth` is then the machine with the tables active.
+            --compensation``; :attr:`truth` is then the machine with the tables active
+            (None with a 3-D grid: the machine as found with its commanded positions
+            shifted, which no error table holds).
         force : bool
             With ``compensation``: apply tables written for another machine.
 
@@ -411,7 +413,7 @@ class Calibration:
                      drift_um_per_h=drift_um_per_h, reversal_um=reversal_um, budget=budget,
                      overwrite=True, compensation=compensation, force=force)
         self._simulated = r
-        self.truth = r.machine
+        self.truth = None if (r.compensation or {}).get("grid") else r.machine
         self.result = self.evaluation = None
         return self
 

@@ -129,7 +129,7 @@ def simulate_laser(kind: LaserKind, m: Any, machine: Any, rng: np.random.Generat
     rng : numpy.random.Generator
         Random source (the draws in the documented order: mirror tilt, beam tilt, noise).
     o : SimulationOptions
-        Noise, misalignments, drift, dwell, reversal.
+        Noise, misalignments, drift, dwell, reversal, a controller's grid correction.
     path : Path, optional
         Session folder, for the message of an absurd reading.
 
@@ -151,6 +151,8 @@ def simulate_laser(kind: LaserKind, m: Any, machine: Any, rng: np.random.Generat
         k = m.axis
         sign = np.where(m.direction == "+", 0.5, -0.5)
         q_act[:, k] += sign * machine.reversal[k] * UM
+    if o.axis_correction_um is not None:  # a 3-D grid active: the controller's shift
+        q_act -= np.asarray(o.axis_correction_um(m.positions), dtype=float) * UM
     dev = kind.exact(machine, m, setup, q_act)
     time_s = np.arange(m.n) * o.dwell_s
     dev = dev + o.drift_um_per_h * time_s / 3600.0

@@ -6,7 +6,8 @@ The machine's truth (error table and every set-up error) is kept beside the sess
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -46,6 +47,12 @@ class SimulationOptions:
         Apply the machine's reversal to readings approached in the negative direction.
     seed : int, optional
         Seed of the noise and set-up errors.
+    axis_correction_um : callable, optional
+        A controller's correction of the commanded positions active (a 3-D grid of
+        vectors, :meth:`volcal.compensate.readback.WrittenTables.correction`): commanded
+        positions ``(m, 3)`` [mm] -> the error it removes there ``(m, 3)`` [um]; the axes
+        go that much less far, so the tool point's error left is the machine's error at
+        the shifted position minus it. Laser tests only (:mod:`volcal.kinds.laser`).
     """
 
     noise_um: float = 0.5
@@ -55,6 +62,7 @@ class SimulationOptions:
     dwell_s: float = 4.0
     reversal: bool = True
     seed: int | None = 0
+    axis_correction_um: Callable[[Any], Any] | None = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
         """Reject values no simulation can use (negative, NaN, infinite)."""

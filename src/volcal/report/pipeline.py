@@ -192,6 +192,11 @@ def compensation_summary(result: Any, travel: Any, truth: MachineErrors | None =
 def read_truth(session: Session) -> MachineErrors | None:
     """Read the simulated truth ``SESSION/truth/machine.csv`` if there is one.
 
+    None too for an as-left session simulated with a 3-D grid of corrections
+    (``truth/compensation.toml`` ``grid = true``): its ``machine.csv`` is the machine as
+    found, and the machine the readings show (that machine, its commanded positions
+    shifted by the grid) has no error table to compare a model with.
+
     Parameters
     ----------
     session : Session
@@ -204,7 +209,18 @@ def read_truth(session: Session) -> MachineErrors | None:
     if session.path is None:
         return None
     path = session.path / "truth" / "machine.csv"
-    return read_error_table(path, chain=session.chain) if path.is_file() else None
+    if not path.is_file():
+        return None
+    comp = session.path / "truth" / "compensation.toml"
+    if comp.is_file():
+        import tomllib
+
+        try:
+            if tomllib.loads(comp.read_text(encoding="utf-8")).get("grid") is True:
+                return None
+        except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+            return None  # a truth record volcal cannot read is no truth to compare with
+    return read_error_table(path, chain=session.chain)
 
 
 def collect_inputs(session: Session, result: Any = None, truth: MachineErrors | None = None,

@@ -48,7 +48,10 @@ class Simulated:
     compensation : dict or None
         With compensation tables: their folder, format, sign and the machine as found
         (recorded in ``truth/compensation.toml``); ``machine`` is then the machine with
-        the tables active.
+        the tables active, except for a 3-D grid (``grid = true``): one correction of the
+        commanded positions over the work zone, no set of error functions, so
+        ``machine`` stays the machine as found and the controller's shift is applied to
+        the laser tests' positions (:attr:`SimulationOptions.axis_correction_um`).
     """
 
     session: Session
@@ -173,12 +176,12 @@ def simulate(session: Session | str | Path, *,
                             ranges=ErrorRanges(reversal_um=(0.0, reversal_um)),
                             name=f"virtual {s.name}")
         label = f"random (seed {seed})"
-    applied = None
+    applied = shift = None
     if compensation is not None:
-        vm, applied = _with_tables(vm, Path(compensation), s, force, notes)
+        vm, applied, shift = _with_tables(vm, Path(compensation), s, force, notes)
         label += f", tables of {compensation} active"
     opts = SimulationOptions(noise_um=noise_um, mirror_misalignment_urad=mirror_misalignment_urad,
-                             drift_um_per_h=drift_um_per_h, seed=seed)
+                             drift_um_per_h=drift_um_per_h, seed=seed, axis_correction_um=shift)
     setups = simulate_session(s, vm, opts)
     draw = None
     if b is not None:
@@ -195,8 +198,13 @@ def simulate(session: Session | str | Path, *,
 
 
 def _with_tables(vm: MachineErrors, folder: Path, s: Session, force: bool, notes: list[str]
-                 ) -> tuple[MachineErrors, dict[str, Any]]:
-    """The virtual machine with the tables of ``folder`` active, and their record."""
+                 ) -> tuple[MachineErrors, dict[str, Any], Any]:
+    """The virtual machine with the tables of ``folder`` active, and their record.
+
+    The third value is a 3-D grid's correction of the commanded positions; None for the
+    other tables, which :func:`volcal.compensate.applied.compensated_machine` folds into
+    the functions.
+    """
     from volcal.compensate.applied import compensated_machine
     from volcal.compensate.manifest import check_manifest, read_manifest
     from volcal.compensate.readback import read_written_tables
@@ -214,7 +222,25 @@ def _with_tables(vm: MachineErrors, folder: Path, s: Session, force: bool, notes
               "bidirectional": tables.reverse is not None, "files": list(tables.files),
               "as_found_machine": vm.name,
               "note": "truth/machine.csv is the machine with these tables active"}
-    return compensated_machine(vm, tables), record
+    if tables.grid_axes is None:
+        return compensated_machine(vm, tables), record, None
+    from volcal.kinds.laser import LaserKind
+    from volcal.session.kinds import kind_of
+
+    other = [f"{m.id} ({m.kind})" for m in s.measurements
+             if not isinstance(kind_of(m.kind), LaserKind)]
+    if other:
+        raise VolcalInputError(
+            f"{tables.controller_format} tables: a 3-D grid of correction vectors shifts the "
+            "commanded positions; volcal applies it to the laser tests (linear, diagonal, "
+            f"step diagonal) and not to {', '.join(other[:4])}"
+            + (f" and {len(other) - 4} more" if len(other) > 4 else "")
+            + ": simulate those without --compensation", folder)
+    record.update(grid=True, note="truth/machine.csv is the machine as found: the 3-D grid "
+                  "is the controller's correction of the commanded positions (interpolated "
+                  "trilinearly, held constant outside), not a change of the error functions; "
+                  "the as-left machine has no error table (reports show no truth)")
+    return vm, record, tables.correction
 
 
 def _error_table(path: Path, s: Session, notes: list[str]) -> MachineErrors:

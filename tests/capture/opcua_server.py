@@ -49,11 +49,13 @@ class CncServer:
     """A running ``cnc_server.mjs``: ``set(X=..., ...)`` writes positions, ``stop()`` ends it."""
 
     def __init__(self, port: int | None = None, pki: Path | None = None,
-                 axes: tuple[str, ...] | None = None, channel: bool = False) -> None:
+                 axes: tuple[str, ...] | None = None, channel: bool = False,
+                 channels: tuple[str, ...] = ()) -> None:
         """``pki``: serve signed and encrypted channels only, certificates in that folder.
         ``axes``: the axes, ``NAME`` or ``NAME:UNIT`` (``mm``, ``deg``, ``rad``, ``rot``:
         cnc_server.mjs); default X, Y, Z. ``channel``: a CncChannelType object whose
-        ``ActProgramStatus`` :meth:`program` writes (Stopped at the start)."""
+        ``ActProgramStatus`` :meth:`program` writes (Stopped at the start); ``channels``:
+        several, by name."""
         self.port = free_port() if port is None else port
         self.url = f"opc.tcp://127.0.0.1:{self.port}/"
         args = [] if pki is None else ["secure", str(pki)]
@@ -61,6 +63,8 @@ class CncServer:
             args.append("axes=" + ",".join(axes))
         if channel:
             args.append("channel")
+        if channels:
+            args.append("channels=" + ",".join(channels))
         self.proc = subprocess.Popen(
             ["node", str(SCRIPT), str(self.port), *args], cwd=HERE, stdin=subprocess.PIPE,
             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, bufsize=1)
@@ -94,9 +98,13 @@ class CncServer:
         """Write ``ActPos`` of the named axes [mm, deg]; returns once the server applied it."""
         self._command({"set": axes}, "apply a position")
 
-    def program(self, status: int) -> None:
-        """Write the channel's ``ActProgramStatus`` (0 Stopped, 1 Running, 3 Interrupted)."""
-        self._command({"program": int(status)}, "apply a program status")
+    def program(self, status: int, channel: str | None = None) -> None:
+        """Write a channel's ``ActProgramStatus`` (0 Stopped, 1 Running, 3 Interrupted);
+        default the first channel."""
+        cmd: dict = {"program": int(status)}
+        if channel is not None:
+            cmd["channel"] = channel
+        self._command(cmd, "apply a program status")
 
     def add(self, *axes: str) -> None:
         """Instantiate axes, ``NAME`` or ``NAME:UNIT`` (as ``axes`` of the constructor)."""

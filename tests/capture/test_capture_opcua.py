@@ -618,3 +618,49 @@ def test_the_channels_program_status_says_whether_the_program_runs():
         for src in srcs:
             src.close()
         server.stop()
+
+
+def test_a_control_of_two_channels_reads_the_one_named():
+    """Two CncChannelType objects: which runs the program is not known, so the status is
+    left unknown; ``channel=Channel2`` reads that one (Channel1's status changes nothing);
+    a channel the server lacks is refused at the connection, naming the two it has."""
+    from volcal.capture.sources import SourceError
+
+    from .opcua_server import CncServer, skip_reason
+
+    why = skip_reason()
+    if why:
+        pytest.skip(why)
+    server = CncServer(channels=("Channel1", "Channel2"))
+    srcs = []
+    ok = lambda s: s is not None and s.status == "ok"  # noqa: E731
+    try:
+        both = make_control(f"opcua:{server.url};publishing_ms=20",
+                            SourceContext(clock=Clock()))
+        named = make_control(f"opcua:{server.url};publishing_ms=20;channel=Channel2",
+                             SourceContext(clock=Clock()))
+        for src in (both, named):
+            src.open()
+            srcs.append(src)
+        assert _poll_until(named, ok).program_running is False  # Stopped at the start
+        server.program(1, "Channel2")
+        _poll_until(named, lambda s: ok(s) and s.program_running is True)
+        server.program(3, "Channel1")  # the other channel interrupted: not ours
+        server.program(3, "Channel2")
+        _poll_until(named, lambda s: ok(s) and s.program_running is False)
+        server.program(1, "Channel2")
+        _poll_until(named, lambda s: ok(s) and s.program_running is True)
+        assert named.link.snapshot().program_status == 1
+        assert _poll_until(both, ok).program_running is None
+        assert both.link.snapshot().program_status is None
+        wrong = make_control(f"opcua:{server.url};timeout_s=2;channel=Channel3",
+                             SourceContext(clock=Clock()))
+        with pytest.raises(SourceError, match="channel=Channel3: no CncChannelType object of "
+                                              "that name; the server's channels: Channel1, "
+                                              "Channel2"):
+            wrong.open()
+        wrong.close()
+    finally:
+        for src in srcs:
+            src.close()
+        server.stop()

@@ -4,9 +4,11 @@
 // CncAxisType under Objects/CncInterface/CncAxisList. The test writes positions on request.
 //
 // Usage: node cnc_server.mjs PORT [secure PKI_FOLDER] [axes=SPEC,...] [channel]
+//        [channels=NAME,...]
 // With "channel", one CncChannelType object (Objects/CncInterface/CncChannelList/Channel1)
 // whose ActProgramStatus (CncChannelProgramStatus: Stopped 0, Running 1, Waiting 2,
-// Interrupted 3, Canceled 4) starts Stopped and is written by {"program": N}.
+// Interrupted 3, Canceled 4) starts Stopped and is written by {"program": N}; with
+// "channels=", those channels ({"program": N, "channel": NAME}; default the first).
 // With "secure", the server offers only signed and encrypted channels (Basic256Sha256,
 // SignAndEncrypt), keeps its certificates in PKI_FOLDER and accepts any client certificate.
 // With "axes=", the axes instantiated (default X,Y,Z), each NAME or NAME:UNIT, as a CNC
@@ -21,6 +23,7 @@
 //   {"add": ["C:deg"]}                instantiate axes (as axes=), at position 0
 //   {"remove": ["C"]}                 delete axes (a client browsing afterwards sees none)
 //   {"program": 3}                    write the channel's ActProgramStatus (with "channel")
+//   {"program": 3, "channel": "C2"}   the same, of the channel named C2 ("channels=")
 //   {"quit": true}                    shut down (closing stdin does the same)
 // and answers each other command with "OK <n>" (n: the count of commands served).
 // Only loopback: the endpoint is bound to 127.0.0.1.
@@ -92,20 +95,26 @@ for (const { name, unit } of axisSpecs) {
   add(name, unit);
 }
 
-let programStatus = null;
-if (process.argv.slice(3).includes("channel")) {
+const programStatus = {};
+const channelsArg = process.argv.slice(3).find((a) => a.startsWith("channels="));
+const channelNames = channelsArg ? channelsArg.slice(9).split(",")
+  : (process.argv.slice(3).includes("channel") ? ["Channel1"] : []);
+if (channelNames.length) {
   const channelType = addressSpace.findObjectType("CncChannelType", nsCnc);
   const channelList = own.addObject({ browseName: "CncChannelList", componentOf: iface });
-  const channel = channelType.instantiate({ browseName: "Channel1", componentOf: channelList });
-  programStatus = channel.getComponentByName("ActProgramStatus", nsCnc);
-  setProgram(0);
+  for (const name of channelNames) {
+    const channel = channelType.instantiate({ browseName: name, componentOf: channelList });
+    programStatus[name] = channel.getComponentByName("ActProgramStatus", nsCnc);
+    setProgram(0, name);
+  }
 }
 
-function setProgram(value) {
-  if (!programStatus) {
-    throw new Error("no channel (start the server with channel)");
+function setProgram(value, name) {
+  const node = programStatus[name || channelNames[0]];
+  if (!node) {
+    throw new Error(`no channel ${name || ""} (start the server with channel or channels=)`);
   }
-  programStatus.setValueFromSource({ dataType: DataType.Int32, value });
+  node.setValueFromSource({ dataType: DataType.Int32, value });
 }
 
 function add(name, unit) {
@@ -200,7 +209,7 @@ rl.on("line", (line) => {
       set(name, Number(value));
     }
     if (cmd.program !== undefined) {
-      setProgram(Number(cmd.program));
+      setProgram(Number(cmd.program), cmd.channel);
     }
     served += 1;
     process.stdout.write(`OK ${served}\n`);

@@ -42,13 +42,17 @@ key                default  meaning
 ``program``        on       ``on``: the channel's ``ActProgramStatus`` says whether the
                             program runs (:data:`PROGRAM_RUNNING`); ``off``: not read (a
                             server that does not keep it up to date)
+``channel``        -        the browse name of the channel that runs the measurement's
+                            program (a control of several channels; default: the only one)
 =================  =======  ===============================================================
 
 Where the server has one ``CncChannelType`` object, its ``ActProgramStatus`` (OPC 40502,
 7.2.5) gives the samples' ``program_running``: Running true; Stopped, Interrupted (an
 ``M0``, a feed hold) and Canceled false, so that no reading is taken while the program
 stands at an operator stop (an R-test's first pose, where the sensors are zeroed);
-Waiting unknown. Without a channel, or with several, it stays unknown (None), as before.
+Waiting unknown. Without a channel, or with several and none named by ``channel=``, it
+stays unknown (None), as before; a ``channel=`` the server lacks is refused at the
+connection, naming the channels it has.
 
 Requires the ``capture`` extra (PyPI ``asyncua``).
 """
@@ -78,7 +82,7 @@ STATUS_LOST = "lost"
 """First word of the status of a sample taken while the connection is down."""
 
 OPTION_KEYS = ("position", "publishing_ms", "timeout_s", "watch_s", "policy", "mode", "cert",
-               "key", "server_cert", "axes", "program")
+               "key", "server_cert", "axes", "program", "channel")
 
 PROGRAM_RUNNING = {0: False, 1: True, 2: None, 3: False, 4: False}
 """``ActProgramStatus`` (Stopped, Running, Waiting, Interrupted, Canceled) -> the samples'
@@ -128,13 +132,15 @@ class OpcUaControl:
         the letter, and a server axis named as one of these letters is left out.
     program : bool
         Report the channel's program status (``program=on``, default) or not (``off``).
+    channel : str, optional
+        The channel whose status is read (``channel=``; default the only one).
     """
 
     def __init__(self, url: str, context: SourceContext, *, position: str = "direct",
                  publishing_ms: float = 50.0, timeout_s: float = 4.0,
                  watch_s: float = 0.5, security: Security | None = None,
                  source: str | None = None, names: dict[str, str] | None = None,
-                 program: bool = True) -> None:
+                 program: bool = True, channel: str | None = None) -> None:
         from volcal.capture.opcua_link import OpcUaLink
 
         self.names = dict(names or {})
@@ -144,7 +150,8 @@ class OpcUaControl:
         self.context = context
         self.timeout_s = timeout_s
         self.link = OpcUaLink(url, position=position, publishing_ms=publishing_ms,
-                              timeout_s=timeout_s, watch_s=watch_s, security=security)
+                              timeout_s=timeout_s, watch_s=watch_s, security=security,
+                              channel=channel if program else None)
         self._last_t: float | None = None
 
     def open(self) -> None:
@@ -326,9 +333,15 @@ def make(spec: SourceSpec, context: SourceContext) -> OpcUaControl:
     if program not in ("on", "off"):
         raise VolcalInputError(f"control source {spec.text!r}: program={program!r}: "
                                "expected on or off")
+    channel = opts.get("channel")
+    if channel is not None and (not channel.strip() or program == "off"):
+        raise VolcalInputError(f"control source {spec.text!r}: channel={channel!r}: "
+                               + ("expected the channel's browse name" if not channel.strip()
+                                  else "names the channel whose status program=off ignores"))
     return OpcUaControl(url, context, position=position, security=security,
                         source=spec.text, names=_axis_names(opts.get("axes"), spec.text),
-                        program=program == "on", **kw)
+                        program=program == "on",
+                        channel=None if channel is None else channel.strip(), **kw)
 
 
 def _axis_names(text: str | None, where: str) -> dict[str, str]:

@@ -226,11 +226,15 @@ class OpcUaLink:
         Delay before connecting again after a loss [s].
     security : Security, optional
         A signed channel (default: message security None).
+    channel : str, optional
+        Browse name of the ``CncChannelType`` object whose ``ActProgramStatus`` is read
+        (a control of several channels); default: the server's only channel, if it has
+        exactly one.
     """
 
     def __init__(self, url: str, *, position: str = "direct", publishing_ms: float = 50.0,
                  timeout_s: float = 4.0, watch_s: float = 0.5, retry_s: float = 1.0,
-                 security: Security | None = None) -> None:
+                 security: Security | None = None, channel: str | None = None) -> None:
         if not url.startswith("opc.tcp://"):
             raise OpcUaError(f"OPC UA source {url!r}: expected opc.tcp://host:port")
         if position not in POSITION_NODES:
@@ -243,6 +247,7 @@ class OpcUaLink:
         self.watch_s = float(watch_s)
         self.retry_s = float(retry_s)
         self.security = security
+        self.channel = channel
         self._lock = threading.Lock()
         self._snap = Snapshot(since=time.time())
         self._loop: asyncio.AbstractEventLoop | None = None
@@ -364,7 +369,7 @@ class OpcUaLink:
             if self.security is not None:
                 await _secure(client, self.security)
             await client.connect()
-            axes, status_id = await find_cnc(client, self.position)
+            axes, status_id = await find_cnc(client, self.position, self.channel)
             handler = _Handler(self, axes, status_id)
             nodes = [client.get_node(a.value_id) for a in axes]
             if status_id is not None:
@@ -426,7 +431,7 @@ def _describe(exc: Exception) -> str:
     return f"{type(exc).__name__}: {text}" if text != type(exc).__name__ else text
 
 
-async def find_cnc(client: Any, position: str = "direct"
+async def find_cnc(client: Any, position: str = "direct", channel: str | None = None
                    ) -> tuple[list[AxisNode], str | None]:
     """Browse ``Objects`` for the CNC axes (their ``ActPos``) and the channel's status.
 
@@ -436,20 +441,24 @@ async def find_cnc(client: Any, position: str = "direct"
         A connected client.
     position : {'direct', 'indirect'}
         ``PosDirect`` or ``PosIndirect``.
+    channel : str, optional
+        Browse name of the channel to read; default the only one.
 
     Returns
     -------
     axes : list of AxisNode
         In browse order.
     status : str or None
-        The node id of ``ActProgramStatus`` of the one object of type ``CncChannelType``;
-        None when there is none or several (which runs the program is not known).
+        The node id of ``ActProgramStatus`` of the channel named ``channel``, or of the
+        one object of type ``CncChannelType``; None when there is none or several and
+        none is named (which runs the program is not known).
 
     Raises
     ------
     OpcUaError
         No CNC namespace, no object of type ``CncAxisType``, an axis without the position
-        variable, or two axes of one name.
+        variable, two axes of one name, or no channel named ``channel`` (naming those
+        there are).
     """
     from asyncua import ua
 
@@ -462,7 +471,7 @@ async def find_cnc(client: Any, position: str = "direct"
     channel_types = await _subtypes(client, ua.NodeId(ua.Int32(CNC_CHANNEL_TYPE_ID),
                                                       ua.Int16(idx)))
     found: list[tuple[str, str]] = []
-    channels: list[str] = []
+    channels: list[tuple[str, str]] = []
     seen = {client.nodes.objects.nodeid.to_string(), client.nodes.server.nodeid.to_string()}
     level = [client.nodes.objects]
     for _ in range(MAX_BROWSE_DEPTH):
@@ -479,7 +488,7 @@ async def find_cnc(client: Any, position: str = "direct"
                     found.append((r.BrowseName.Name, key))
                 else:
                     if r.TypeDefinition.to_string() in channel_types:
-                        channels.append(key)
+                        channels.append((r.BrowseName.Name, key))
                     nxt.append(client.get_node(r.NodeId))
                 if len(seen) > MAX_BROWSE_NODES:
                     break
@@ -509,12 +518,25 @@ async def find_cnc(client: Any, position: str = "direct"
         axes.append(AxisNode(name=name, node_id=key, value_id=node.nodeid.to_string(),
                              factor=factor, rotary=rotary,
                              unit=unece_code(unit_id) if unit_id else ""))
+    if channel is not None:
+        chosen = [k for n, k in channels if n == channel]
+        if len(chosen) != 1:
+            raise OpcUaError(f"{url}: channel={channel}: "
+                             + ("no CncChannelType object of that name" if not chosen else
+                                f"{len(chosen)} CncChannelType objects of that name")
+                             + "; the server's channels: "
+                             + (", ".join(n for n, _ in channels) or "none"))
+    else:
+        chosen = [k for _, k in channels] if len(channels) == 1 else []
     status = None
-    if len(channels) == 1:
+    if chosen:
         try:
-            status = (await client.get_node(channels[0]).get_child(
+            status = (await client.get_node(chosen[0]).get_child(
                 [f"{idx}:ActProgramStatus"])).nodeid.to_string()
-        except Exception:  # not exposed: the program's state stays unknown
+        except Exception as exc:  # not exposed: unknown, unless the user named it
+            if channel is not None:
+                raise OpcUaError(f"{url}: channel={channel} has no ActProgramStatus: "
+                                 f"{_describe(exc)}") from exc
             status = None
     return axes, status
 

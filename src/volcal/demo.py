@@ -6,8 +6,11 @@ top of the rooms it calls (docs/architecture.md).
 A virtual machining centre (travel 800 x 600 x 500 mm, chain XYFZ: the table carries X
 and Y, the column carries Z) is measured with the seeds' full test set (4 step diagonals
 with a flat mirror, 4 body diagonals, 3 linear lines per axis with 5 bidirectional runs;
-10 increments each), identified, evaluated to ISO 230-2 / 230-6, compensated and
-reported. Last, one body diagonal of a new plan is captured live (``volcal capture``) on the
+10 increments each), identified, evaluated to ISO 230-2 / 230-6 and compensated with a
+3-D error grid; the as-left measurement is rehearsed (the same plan simulated on the same
+machine with the grid active, ``volcal simulate --compensation``) and identified, and the
+report pairs as found and as left. Last, one body diagonal of a new plan is captured live
+(``volcal capture``) on the
 simulated control, which runs volcal's part program with acceleration and dwells, and the
 simulated laser reading the same virtual machine; its readings are compared with the
 machine's truth. Every output is written atomically.
@@ -31,7 +34,7 @@ DEMO_TRAVEL = np.array([[0.0, 800.0], [0.0, 600.0], [0.0, 500.0]])
 """Work zone of the demo machine [mm]."""
 
 DEMO_STEPS: tuple[str, ...] = ("plan", "simulate", "identify", "compensate", "evaluate",
-                               "report", "capture")
+                               "as-left", "report", "capture")
 
 
 @dataclass
@@ -54,6 +57,8 @@ class DemoOutput:
         The session captured live on the simulated control and laser.
     summary : list of str
         Plain-text lines describing the run.
+    as_left : Path or None
+        The as-left session: the plan simulated with the compensation grid active.
     """
 
     folder: Path
@@ -63,6 +68,7 @@ class DemoOutput:
     report: ReportFiles
     capture: Path | None = None
     summary: list[str] = field(default_factory=list)
+    as_left: Path | None = None
 
 
 def _noop(*_args: object) -> None:
@@ -77,8 +83,8 @@ def run_demo(folder: str | Path, seed: int = 7,
     Parameters
     ----------
     folder : str or Path
-        Output folder; ``session/``, ``model.json``, ``compensation/`` and ``report/``
-        are written inside it.
+        Output folder; ``session/``, ``model.json``, ``compensation/``, ``as-left/``,
+        ``report/`` and ``capture/`` are written inside it.
     seed : int
         Seed of the virtual machine and of the simulated noise.
     on_step : callable, optional
@@ -137,16 +143,37 @@ def run_demo(folder: str | Path, seed: int = 7,
                      f"{cs.truth_residual_max_um:.1f} µm remain (truth)")
     on_done()
 
+    on_step("rehearsing the as-left with the grid loaded")
+    left = Calibration.plan(DEMO_TRAVEL, "XYFZ", 10, ("step-diagonal", "diagonal", "linear"),
+                            5, name="VMC-800")
+    left.simulate(vm, seed=seed + 1, noise_um=noise, mirror_misalignment_urad=mirror,
+                  compensation=comp_dir)
+    left_dir = folder / "as-left"
+    left.save(left_dir)
+    left.identify()
+    ev_left = left.evaluate()
+    if ev.volumetric is not None and ev_left.volumetric is not None:
+        lines.append(f"as-left: the same plan with the grid active -> {left_dir}; E_VXYZ "
+                     f"{ev_left.volumetric.E_VXYZ:.1f} µm (as found "
+                     f"{ev.volumetric.E_VXYZ:.1f} µm)")
+    on_done()
+
     on_step("writing the HTML and PDF report")
-    files = cal.report(folder / "report", compensation=comp_dir)
+    files = cal.report(folder / "report", compensation=comp_dir, as_left=left,
+                       tables=comp_dir)
     lines.append(f"report: {files.pdf_pages} PDF pages, {len(files.figures)} figures")
+    cert = files.folder / "certificate.pdf"
+    if cert.is_file():
+        elv = [(e or {}).get("ELv") for e in (ev.elv, ev_left.elv)]
+        said = (f", ELv {elv[0]:.1f} -> {elv[1]:.1f} µm" if None not in elv else "")
+        lines.append(f"certificate: as found and as left{said} -> {cert}")
     on_done()
 
     on_step("capturing a diagonal live on the simulated control and laser")
     captured = folder / "capture"
     lines += _capture(captured, session_dir, vm)
     on_done()
-    return DemoOutput(folder, session_dir, model, comp_dir, files, captured, lines)
+    return DemoOutput(folder, session_dir, model, comp_dir, files, captured, lines, left_dir)
 
 
 def _capture(folder: Path, session_dir: Path, vm: object) -> list[str]:

@@ -1,3 +1,4 @@
+import json
 import re
 import subprocess
 import sys
@@ -88,3 +89,12 @@ def test_demo_writes_a_report_with_at_least_five_figures(tmp_path):
     # the tables the demo wrote are summarised (Calibration.report(compensation=...))
     assert "Compensation tables for the &#39;grid&#39; format were written" in html
     assert Path(out / "session" / "session.toml").is_file()
+    # the as-left rehearsal: the plan simulated with the demo's grid active, paired with
+    # the as-found on the certificate
+    assert "grid = true" in (out / "as-left" / "truth" / "compensation.toml").read_text()
+    cert = json.loads((out / "report" / "certificate.json").read_text(encoding="utf-8"))
+    found, left = cert["results"]["as_found"], cert["results"]["as_left"]
+    assert left["simulated"] and len(left["positioning"]) == 9
+    assert cert["tables"]["controller_format"] == "grid"
+    assert left["elv"]["ELv"] < 0.2 * found["elv"]["ELv"]  # seed 7: 22.8 -> 0.9 um
+    assert "certificate: as found and as left" in p.stdout

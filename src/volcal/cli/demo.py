@@ -58,6 +58,9 @@ def demo_cmd(
     # soft_wrap: never break a path, the user copies it into a browser
     console.print(f"\n[bold]Report:[/] {out.report.html.resolve()}\n"
                   f"        {out.report.pdf.resolve()}", soft_wrap=True)
+    cert = out.report.folder / "certificate.pdf"
+    if cert.is_file():
+        console.print(f"[bold]Certificate:[/] {cert.resolve()}", soft_wrap=True)
 
 
 def register(app: typer.Typer) -> None:

@@ -125,9 +125,13 @@ def _drive(server, pm, stop, speed_mm_s=800.0, tick_s=0.025):
             time.sleep(0.3)
         elif st.kind == "move" and st.position is not None:
             to = np.array(st.position, float)
-            # at least 8 updates a move: a short reversal (overrun) lasts long enough for
-            # the subscription (50 ms publishing) to see it, as on a machine
-            n = max(8, int(np.ceil(np.linalg.norm(to - here) / (speed_mm_s * tick_s))))
+            # at least 16 updates a move (0.4 s): a short reversal (the 5 mm overrun at
+            # the end of a run) lasts long enough for the subscription (20-50 ms
+            # publishing) to see it on a loaded box, as on a machine. With 8 (0.2 s) the
+            # slow variant failed once in three runs beside a make test: the overrun
+            # unseen, the rule took the machine for standing at reading 5's target
+            # through reading 6's dwell (the same position) and refused the next stop.
+            n = max(16, int(np.ceil(np.linalg.norm(to - here) / (speed_mm_s * tick_s))))
             for k in range(1, n + 1):
                 p = here + (to - here) * k / n
                 server.set(X=float(p[0]), Y=float(p[1]), Z=float(p[2]))

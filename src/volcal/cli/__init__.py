@@ -52,8 +52,8 @@ COMMANDS: dict[str, tuple[str, str]] = {
                "(atomically)."),
     "report": ("report", "Write the calibration report of a session as self-contained "
                "HTML and as PDF."),
-    "demo": ("demo", "Plan, simulate, identify, evaluate, compensate and report a virtual "
-             "machine."),
+    "demo": ("demo", "Plan, simulate, identify, compensate, rehearse the as-left, report a "
+             "virtual machine."),
     "classic": ("classic", "The seeds' classic solvers: Abbe lines, body diagonals, "
                 "sequential step diagonal (docs/classic.md)."),
     "evaluate": ("evaluate", "Evaluate measurements to the standards (ISO 230-2, VDI/DGQ "

@@ -19,7 +19,7 @@ def demo_cmd(
                                  "write there: move them into its backup/<UTC time>/ "
                                  "instead of refusing."),
 ) -> None:
-    """Plan, simulate, identify, evaluate, compensate and report a virtual machine."""
+    """Plan, simulate, identify, compensate, rehearse the as-left, report a virtual machine."""
     from volcal.cli._common import note_moved
     from volcal.compensate.manifest import MANIFEST
     from volcal.io.folders import manifest_files

@@ -591,18 +591,30 @@ def test_bad_source_text_is_refused(text, match):
         make_control(text, SourceContext(clock=Clock()))
 
 
-def test_the_channels_program_status_says_whether_the_program_runs():
-    """A server with one CncChannelType object: its ActProgramStatus (OPC 40502, 7.2.5)
-    gives each sample's program_running: Stopped false, Running true, Interrupted (an M0,
-    a feed hold) false, so that the trigger takes no reading at an operator stop (an
-    R-test's first pose); ``program=off`` leaves it unknown; the module's server, without
-    a channel, reports none (the samples' program_running None, as before)."""
+@pytest.fixture(scope="module")
+def five_axis_server():
+    """A server of a 5-axis CNC with one channel: X, Y, Z in mm, C, A in degrees, the
+    channel's ActProgramStatus written by the tests (started once for the module's)."""
     from .opcua_server import CncServer, skip_reason
 
     why = skip_reason()
     if why:
         pytest.skip(why)
-    server = CncServer(channel=True)
+    server = CncServer(axes=("X:mm", "Y:mm", "Z:mm", "C:deg", "A:deg"), channel=True)
+    try:
+        yield server
+    finally:
+        server.stop()
+
+
+def test_the_channels_program_status_says_whether_the_program_runs(five_axis_server):
+    """A server with one CncChannelType object: its ActProgramStatus (OPC 40502, 7.2.5)
+    gives each sample's program_running: Stopped false, Running true, Interrupted (an M0,
+    a feed hold) false, so that the trigger takes no reading at an operator stop (an
+    R-test's first pose); ``program=off`` leaves it unknown; the module's server, without
+    a channel, reports none (the samples' program_running None, as before)."""
+    server = five_axis_server
+    server.program(0)
     srcs = []
     try:
         on = make_control(f"opcua:{server.url};publishing_ms=20", SourceContext(clock=Clock()))
@@ -621,7 +633,6 @@ def test_the_channels_program_status_says_whether_the_program_runs():
     finally:
         for src in srcs:
             src.close()
-        server.stop()
 
 
 def test_a_control_of_two_channels_reads_the_one_named():
@@ -668,3 +679,146 @@ def test_a_control_of_two_channels_reads_the_one_named():
         for src in srcs:
             src.close()
         server.stop()
+
+
+# -- an R-test over OPC UA: five axes and the channel's program status --------------------
+
+RT_POSES = [(0, 0), (30, 0), (0, -15)]
+"""(c, a) [deg] of the default ``r_test:ca`` plan kept (a C turn and an A tilt)."""
+NEST_OFF_UM = (7.0, -5.0, 3.0)
+"""What the nest reads during the operator stop at pose 1, before its sensors are zeroed."""
+
+
+def _nest_um(i: int) -> np.ndarray:
+    """The scripted nest's three readings at pose ``i`` (zero at pose 1: zeroed there) [um]."""
+    return np.array([12.5 * i, -8.0 * i, 3.5 * i * i])
+
+
+class _Cell:
+    """Where the played R-test stands: its pose's dwell (None elsewhere), the stop."""
+
+    def __init__(self) -> None:
+        self.dwell: int | None = None
+        self.stopped = False
+        self.go = threading.Event()
+        self.stop = threading.Event()
+
+
+class _Nest:
+    """The nest's three sensors: their scripted values in a dwell, the unzeroed ones during
+    the operator stop, a value changing with time between (the nest follows the sphere),
+    0.02 um of noise."""
+
+    def __init__(self, ctx, cell: _Cell):
+        self.ctx, self.cell = ctx, cell
+        self.rng = np.random.default_rng(11)
+        self.last: float | None = None
+
+    def open(self):
+        pass
+
+    def close(self):
+        pass
+
+    def poll(self):
+        now = self.ctx.clock.now()
+        if self.last is not None and now - self.last < 0.005:
+            return None
+        self.last = now
+        c = self.cell
+        v = (np.array(NEST_OFF_UM) if c.stopped else
+             _nest_um(c.dwell) if c.dwell is not None else np.full(3, 50.0 * np.sin(now)))
+        v = v + self.rng.normal(0.0, 0.02, 3)
+        return LaserSample(time_s=now, value=float(v[0]), unit="um",
+                           channels=tuple(float(x) for x in v))
+
+
+def _play_rtest(server, pm, cell: _Cell, axes: tuple[str, ...], tick_s: float = 0.025):
+    """Play the R-test's path (pm.path: moves in the control's axes, the stop, the dwells)
+    on the server, its channel's ActProgramStatus as a control sets it: Running, Interrupted
+    at the operator stop, Stopped at the end."""
+    if not cell.go.wait(scaled_timeout(30.0)):
+        return
+    time.sleep(0.3)  # the capture's loop polls the standing machine first
+    here = None
+    server.program(1)
+    for kind, p, i in pm.path:
+        if cell.stop.is_set():
+            return
+        if kind == "move":
+            to = np.asarray(p, float) if here is None else np.where(np.isnan(p), here, p)
+            if here is None or np.isnan(here).any():
+                here = np.where(np.isnan(to), 0.0, to)
+                to = here
+            for k in range(1, 5):  # 0.1 s a move: the path's points are 1 deg apart
+                q = here + (to - here) * k / 4
+                server.set(**{a: float(v) for a, v in zip(axes, q, strict=True)})
+                time.sleep(tick_s)
+            here = to
+        elif kind == "stop":
+            server.program(3)  # M0: the operator puts the sphere in the nest, zeroes it
+            cell.stopped = True
+            time.sleep(1.2)
+            cell.stopped = False
+            server.program(1)  # cycle start
+        elif kind == "dwell":
+            cell.dwell = int(i)
+            time.sleep(float(pm.options.dwell_s))
+            cell.dwell = None
+    server.program(0)
+
+
+@pytest.mark.parametrize("status", ["on", pytest.param("off", marks=pytest.mark.slow)])
+def test_rtest_over_opcua_takes_pose_1_after_the_operator_stop(five_axis_server, tmp_path,
+                                                              status):
+    """An R-test played on the OPC UA server (X, Y, Z in mm, C, A in degrees, one channel):
+    the nest reads 7, -5, 3 um during the operator stop at pose 1 (not zeroed yet) and its
+    scripted values in each dwell. With the channel's status (the default) the capture
+    takes pose 1 in the dwell after the cycle start: every row its dwell's values. With
+    ``program=off`` (a position-only control) the stop, long enough to be stable, gives
+    pose 1's row: the limitation docs/capture_opcua.md states."""
+    from volcal.steps.plan import plan
+
+    server = five_axis_server
+    server.program(0)
+    folder = tmp_path / "S"
+    plan(((0.0, 800.0), (0.0, 600.0), (0.0, 500.0)), steps=2, tests="r_test:ca",
+         output=folder)
+    p = folder / "r_test.csv"
+    rows = p.read_text().splitlines()
+    keep = {(float(c), float(a)): r for r in rows[1:] for c, a in [r.split(",")[:2]]}
+    p.write_text("\n".join([rows[0], *(keep[(float(c), float(a))] for c, a in RT_POSES)])
+                 + "\n")
+    s = read_session(folder, require_deviation=False)
+    m = s.get("r_test")
+    pm = plan_measurement(m, s.travel, program_options(dwell_s=1.5, safe_z_mm=480.0))
+    axes = pm.frame.axes
+    assert axes == ("X", "Y", "Z", "C", "A")  # as the server names them
+    cell = _Cell()
+    clock = Clock()
+    latest: dict = {}
+    ctx = SourceContext(clock=clock, latest_control=lambda: latest.get("c"))
+    control = make_control(f"opcua:{server.url};publishing_ms=20;program={status}", ctx)
+    nest = _Nest(ctx, cell)
+    driver = threading.Thread(target=_play_rtest, args=(server, pm, cell, axes), daemon=True)
+    try:
+        control.open()
+        cell.go.set()
+        driver.start()
+        out = capture_measurement(pm, folder, control, nest, clock,
+                                  TriggerParams(stable_s=0.5, max_gap_s=0.25),
+                                  loop=LoopOptions(poll_s=0.02, timeout_s=scaled_timeout(30.0)),
+                                  latest=lambda c: latest.__setitem__("c", c))
+    finally:
+        cell.stop.set()
+        driver.join(timeout=scaled_timeout(30.0))
+        control.close()
+    assert out.complete, out.reason
+    got = read_session(folder).get("r_test")
+    d = np.column_stack([got.columns[c] for c in ("dx_um", "dy_um", "dz_um")])
+    want = np.array([_nest_um(i) for i in range(len(RT_POSES))])
+    if status == "on":
+        np.testing.assert_allclose(d, want, atol=0.05)
+    else:  # pose 1 from the stop: the sensors before their zeroing
+        np.testing.assert_allclose(d[0], NEST_OFF_UM, atol=0.05)
+        np.testing.assert_allclose(d[1:], want[1:], atol=0.05)

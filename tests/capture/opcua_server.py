@@ -50,12 +50,12 @@ class CncServer:
 
     def __init__(self, port: int | None = None, pki: Path | None = None,
                  axes: tuple[str, ...] | None = None, channel: bool = False,
-                 channels: tuple[str, ...] = ()) -> None:
+                 channels: tuple[str, ...] = (), unreadable: bool = False) -> None:
         """``pki``: serve signed and encrypted channels only, certificates in that folder.
         ``axes``: the axes, ``NAME`` or ``NAME:UNIT`` (``mm``, ``deg``, ``rad``, ``rot``:
         cnc_server.mjs); default X, Y, Z. ``channel``: a CncChannelType object whose
         ``ActProgramStatus`` :meth:`program` writes (Stopped at the start); ``channels``:
-        several, by name."""
+        several, by name; ``unreadable``: their status without read access."""
         self.port = free_port() if port is None else port
         self.url = f"opc.tcp://127.0.0.1:{self.port}/"
         args = [] if pki is None else ["secure", str(pki)]
@@ -65,6 +65,8 @@ class CncServer:
             args.append("channel")
         if channels:
             args.append("channels=" + ",".join(channels))
+        if unreadable:
+            args.append("unreadable")
         self.proc = subprocess.Popen(
             ["node", str(SCRIPT), str(self.port), *args], cwd=HERE, stdin=subprocess.PIPE,
             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, bufsize=1)

@@ -630,9 +630,32 @@ def test_the_channels_program_status_says_whether_the_program_runs(five_axis_ser
             _poll_until(on, lambda s, w=want: ok(s) and s.program_running is w)
             assert _poll_until(off, ok).program_running is None
         assert on.link.snapshot().program_status == 2
+        assert off.link.snapshot().program_status is None  # not even looked for
     finally:
         for src in srcs:
             src.close()
+
+
+def test_a_status_the_server_cannot_give_leaves_it_unknown():
+    """A channel whose ActProgramStatus the server lists without read access
+    (BadNotReadable): the axes are read as without a channel, the status unknown; the
+    connection is not lost over it."""
+    from .opcua_server import CncServer, skip_reason
+
+    why = skip_reason()
+    if why:
+        pytest.skip(why)
+    server = CncServer(channel=True, unreadable=True)
+    src = make_control(f"opcua:{server.url};publishing_ms=20", SourceContext(clock=Clock()))
+    try:
+        src.open()
+        server.set(X=12.5, Y=1.0, Z=2.0)
+        s = _poll_until(src, lambda s: s is not None and s.positions.get("X") == 12.5)
+        assert s.status == "ok" and s.program_running is None
+        assert src.link.snapshot().program_status is None
+    finally:
+        src.close()
+        server.stop()
 
 
 def test_a_control_of_two_channels_reads_the_one_named():

@@ -4,11 +4,12 @@
 // CncAxisType under Objects/CncInterface/CncAxisList. The test writes positions on request.
 //
 // Usage: node cnc_server.mjs PORT [secure PKI_FOLDER] [axes=SPEC,...] [channel]
-//        [channels=NAME,...]
+//        [channels=NAME,...] [unreadable]
 // With "channel", one CncChannelType object (Objects/CncInterface/CncChannelList/Channel1)
 // whose ActProgramStatus (CncChannelProgramStatus: Stopped 0, Running 1, Waiting 2,
 // Interrupted 3, Canceled 4) starts Stopped and is written by {"program": N}; with
-// "channels=", those channels ({"program": N, "channel": NAME}; default the first).
+// "channels=", those channels ({"program": N, "channel": NAME}; default the first); with
+// "unreadable", their ActProgramStatus has no read access (a server that lists it only).
 // With "secure", the server offers only signed and encrypted channels (Basic256Sha256,
 // SignAndEncrypt), keeps its certificates in PKI_FOLDER and accepts any client certificate.
 // With "axes=", the axes instantiated (default X,Y,Z), each NAME or NAME:UNIT, as a CNC
@@ -106,6 +107,11 @@ if (channelNames.length) {
     const channel = channelType.instantiate({ browseName: name, componentOf: channelList });
     programStatus[name] = channel.getComponentByName("ActProgramStatus", nsCnc);
     setProgram(0, name);
+    if (process.argv.slice(3).includes("unreadable")) {
+      // a server that exposes the status without letting it be read (BadNotReadable)
+      programStatus[name].accessLevel = 0;
+      programStatus[name].userAccessLevel = 0;
+    }
   }
 }
 

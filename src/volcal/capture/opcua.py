@@ -151,7 +151,7 @@ class OpcUaControl:
         self.timeout_s = timeout_s
         self.link = OpcUaLink(url, position=position, publishing_ms=publishing_ms,
                               timeout_s=timeout_s, watch_s=watch_s, security=security,
-                              channel=channel if program else None)
+                              channel=channel if program else None, program=program)
         self._last_t: float | None = None
 
     def open(self) -> None:

@@ -230,11 +230,16 @@ class OpcUaLink:
         Browse name of the ``CncChannelType`` object whose ``ActProgramStatus`` is read
         (a control of several channels); default: the server's only channel, if it has
         exactly one.
+    program : bool
+        Read the channel's ``ActProgramStatus`` at all (False: the channels are not looked
+        for; a status that cannot be read is left unknown either way, never a lost
+        connection).
     """
 
     def __init__(self, url: str, *, position: str = "direct", publishing_ms: float = 50.0,
                  timeout_s: float = 4.0, watch_s: float = 0.5, retry_s: float = 1.0,
-                 security: Security | None = None, channel: str | None = None) -> None:
+                 security: Security | None = None, channel: str | None = None,
+                 program: bool = True) -> None:
         if not url.startswith("opc.tcp://"):
             raise OpcUaError(f"OPC UA source {url!r}: expected opc.tcp://host:port")
         if position not in POSITION_NODES:
@@ -248,6 +253,7 @@ class OpcUaLink:
         self.retry_s = float(retry_s)
         self.security = security
         self.channel = channel
+        self.program = program
         self._lock = threading.Lock()
         self._snap = Snapshot(since=time.time())
         self._loop: asyncio.AbstractEventLoop | None = None
@@ -369,12 +375,18 @@ class OpcUaLink:
             if self.security is not None:
                 await _secure(client, self.security)
             await client.connect()
-            axes, status_id = await find_cnc(client, self.position, self.channel)
-            handler = _Handler(self, axes, status_id)
+            axes, status_id = await find_cnc(client, self.position, self.channel,
+                                             self.program)
             nodes = [client.get_node(a.value_id) for a in axes]
-            if status_id is not None:
-                nodes.append(client.get_node(status_id))
             values = await client.read_values(nodes)
+            status = None
+            if status_id is not None:
+                try:  # a status the server cannot give leaves it unknown, the axes read on
+                    status = await client.get_node(status_id).read_value()
+                    nodes.append(client.get_node(status_id))
+                except Exception:
+                    status_id = None
+            handler = _Handler(self, axes, status_id)
             sub = await client.create_subscription(self.publishing_ms, handler)
             from asyncua import ua
 
@@ -383,10 +395,10 @@ class OpcUaLink:
             with self._lock:
                 self._snap.axes = axes
             self._set_status("connected")
-            for a, v in zip(axes, values, strict=False):
+            for a, v in zip(axes, values, strict=True):
                 self._store(a.name, float(v) * a.factor)
             if status_id is not None:
-                self._store_status(values[-1])
+                self._store_status(status)
             self._first.set()
             state = client.nodes.server_state
             while not self._stop.is_set():
@@ -431,8 +443,8 @@ def _describe(exc: Exception) -> str:
     return f"{type(exc).__name__}: {text}" if text != type(exc).__name__ else text
 
 
-async def find_cnc(client: Any, position: str = "direct", channel: str | None = None
-                   ) -> tuple[list[AxisNode], str | None]:
+async def find_cnc(client: Any, position: str = "direct", channel: str | None = None,
+                   program: bool = True) -> tuple[list[AxisNode], str | None]:
     """Browse ``Objects`` for the CNC axes (their ``ActPos``) and the channel's status.
 
     Parameters
@@ -443,6 +455,8 @@ async def find_cnc(client: Any, position: str = "direct", channel: str | None = 
         ``PosDirect`` or ``PosIndirect``.
     channel : str, optional
         Browse name of the channel to read; default the only one.
+    program : bool
+        Look for the channel's status at all (False: ``status`` is None).
 
     Returns
     -------
@@ -518,6 +532,8 @@ async def find_cnc(client: Any, position: str = "direct", channel: str | None = 
         axes.append(AxisNode(name=name, node_id=key, value_id=node.nodeid.to_string(),
                              factor=factor, rotary=rotary,
                              unit=unece_code(unit_id) if unit_id else ""))
+    if not program:
+        return axes, None
     if channel is not None:
         chosen = [k for n, k in channels if n == channel]
         if len(chosen) != 1:

@@ -216,3 +216,42 @@ def test_an_r_test_shows_every_axis_of_its_poses_and_the_three_sensors(browser, 
     for reading, cell in shown:
         row = csv[reading + 1].split(",")
         assert cell == " / ".join(f"{float(row[c]):.3f}" for c in cols) + " um"
+
+
+def test_a_rotary_test_shows_its_angles_and_its_readings_in_urad(browser, tmp_path):
+    """A rotary test (C axis, ``volcal capture --control sim --laser sim``): the page heads
+    its targets C [deg] (no X, Y, Z), shows each reading in urad as the CSV holds it,
+    plots them against the angle, and offers urad for a typed reading."""
+    from volcal.steps.plan import plan
+
+    folder = tmp_path / "rot"
+    plan(((0.0, 400.0), (0.0, 300.0), (0.0, 250.0)), steps=4, tests="rotary:c", runs=1,
+         output=folder)
+    page = Page("PAGE-ROT", "gated-sim", "sim:seed=3", port=0)
+    th, out = _run(folder, "rotary-c", "sim:seed=3", page, speed=8.0)
+    try:
+        browser.get(page.url)
+        _wait(browser, "const r = document.querySelectorAll('#points tr.accepted');"
+                       "return r.length >= 3 ? r.length : false;", 30.0, "rows")
+        heads = browser.execute_script(
+            "return Array.from(document.querySelectorAll('#points thead th'))"
+            ".map(h => h.textContent);")
+        shown = browser.execute_script(
+            "return Array.from(document.querySelectorAll('#points tr.accepted'))"
+            ".map(r => [Number(r.dataset.reading), r.cells[1].textContent,"
+            " r.cells[r.cells.length - 1].textContent]);")
+        label = browser.find_element("id", "plot-unit").text
+        typed_unit = browser.execute_script("return document.getElementById('typed-unit').value;")
+    finally:
+        _finish(th, out, page)
+    assert heads == ["#", "C [deg]", "run", "dir", "status", "reading"]
+    assert label == "[urad] against the angle from the first target [deg]"
+    assert typed_unit == "urad"
+    csv = (folder / "rotary-c.csv").read_text(encoding="utf-8").splitlines()
+    head = csv[0].split(",")
+    col, tgt = head.index("deviation_urad"), head.index("target_deg")
+    assert len(shown) >= 3
+    for reading, target, cell in shown:
+        row = csv[reading + 1].split(",")
+        assert target == f"{float(row[tgt]):.3f}"
+        assert cell == f"{float(row[col]):.3f} urad"

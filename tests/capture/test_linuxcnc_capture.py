@@ -446,6 +446,58 @@ def test_capture_on_linuxcnc_iso230_2(tmp_path):
          feed=6000.0)
 
 
+def _capture_one_run(tmp_path: Path, s: Path, progs: Path, mid: str, ngc_name: str,
+                     joints: list, stable_s: float, *, files: dict | None = None,
+                     poll_s: float = 0.0, **kins) -> _CNC:
+    """LinuxCNC runs the program ``progs/ngc_name`` once (the driver's operator stop
+    resumed after :data:`PAUSE_S`), ``volcal capture --control linuxcnc`` of ``mid``
+    connected first, into ``tmp_path/A``; the finished run (its driver's samples of the
+    program every ``poll_s`` when > 0). A failure says what LinuxCNC and the capture did."""
+    marker = f"volcal-capture-{uuid.uuid4().hex}"
+    files = {ngc_name: (progs / ngc_name).read_text(), marker: "", **(files or {})}
+    cnc = _CNC()
+
+    def run() -> None:
+        try:
+            cnc.result["res"] = run_linuxcnc(
+                joints, [{"home": True},
+                         {"wait_file": "go-p0", "or_end": "stop",
+                          "timeout_s": scaled_timeout(600)},
+                         {"program": ngc_name, "label": "p0", "resume_after_s": PAUSE_S,
+                          "done_file": "ended-p0", "timeout_s": scaled_timeout(600),
+                          "poll_s": poll_s}],
+                files=files, timeout_s=600, locked_file=LOCKED, keep=tmp_path / "linuxcnc",
+                **kins)
+        except Exception as e:  # reported below
+            cnc.result["error"] = e
+
+    cnc.thread = threading.Thread(target=run, daemon=True)
+    cnc.thread.start()
+    outputs: dict[str, tuple[str, str]] = {}
+    a: subprocess.Popen[str] | None = None
+    try:
+        config = _locked_config(cnc, marker)
+        a = _volcal("capture", str(s), "--control", f"linuxcnc:{config / 'sim.ini'}",
+                    "--laser", f"sim:seed={SEED},noise={NOISE_UM}", "--measurement", mid,
+                    "--programs", str(progs), "--stable-s", str(stable_s), "--max-gap-s",
+                    "0.25", "--poll-s", "0.02", "--timeout-s", str(scaled_timeout(120)),
+                    "-o", str(tmp_path / "A"))
+        _go(config, "go-p0", a, tmp_path / "A", mid, 1, cnc, "capture A", outputs)
+        assert "captured ->" in _wait(a, "capture A", scaled_timeout(600), outputs)
+    except AssertionError as e:
+        if cnc.config is not None:
+            _release(cnc.config, "stop")
+        raise AssertionError(f"{e}\n\n{_diagnostics(tmp_path, mid, cnc, outputs)}") from None
+    finally:
+        if a is not None and a.poll() is None:
+            a.kill()
+            a.communicate()
+        cnc.thread.join(scaled_timeout(600))
+    assert "error" not in cnc.result, _diagnostics(tmp_path, mid, cnc, outputs)
+    assert cnc.result["res"]["ok"], _diagnostics(tmp_path, mid, cnc, outputs)
+    return cnc
+
+
 def _rotary_truth(s: Path, tmp_path: Path, mid: str) -> np.ndarray:
     """The exact readings of the C axis ``volcal simulate --seed 3`` draws (its truth)."""
     import shutil
@@ -508,48 +560,7 @@ def test_rotary_capture_on_linuxcnc_trimmed(tmp_path):
     plan(((0.0, 60.0), (0.0, 50.0), (0.0, 40.0)), steps=2, tests="rotary:c", runs=1,
          output=s)
     program(s, dialect="linuxcnc", output=progs, dwell_s=1.0, feed=10000.0)
-    ngc = (progs / "rotary_c.ngc").read_text()
-    marker = f"volcal-capture-{uuid.uuid4().hex}"
-    cnc = _CNC()
-
-    def run() -> None:
-        try:
-            cnc.result["res"] = run_linuxcnc(
-                xyzc_joints(), [{"home": True},
-                                {"wait_file": "go-p0", "or_end": "stop",
-                                 "timeout_s": scaled_timeout(600)},
-                                {"program": "rotary_c.ngc", "label": "p0",
-                                 "resume_after_s": PAUSE_S, "done_file": "ended-p0",
-                                 "timeout_s": scaled_timeout(600)}],
-                files={"rotary_c.ngc": ngc, marker: ""}, timeout_s=600,
-                locked_file=LOCKED, keep=tmp_path / "linuxcnc")
-        except Exception as e:  # reported below
-            cnc.result["error"] = e
-
-    cnc.thread = threading.Thread(target=run, daemon=True)
-    cnc.thread.start()
-    outputs: dict[str, tuple[str, str]] = {}
-    a: subprocess.Popen[str] | None = None
-    try:
-        config = _locked_config(cnc, marker)
-        a = _volcal("capture", str(s), "--control", f"linuxcnc:{config / 'sim.ini'}",
-                    "--laser", f"sim:seed={SEED},noise={NOISE_UM}", "--measurement", mid,
-                    "--programs", str(progs), "--stable-s", str(stable_s), "--max-gap-s",
-                    "0.25", "--poll-s", "0.02", "--timeout-s", str(scaled_timeout(120)),
-                    "-o", str(tmp_path / "A"))
-        _go(config, "go-p0", a, tmp_path / "A", mid, 1, cnc, "capture A", outputs)
-        assert "captured ->" in _wait(a, "capture A", scaled_timeout(600), outputs)
-    except AssertionError as e:
-        if cnc.config is not None:
-            _release(cnc.config, "stop")
-        raise AssertionError(f"{e}\n\n{_diagnostics(tmp_path, mid, cnc, outputs)}") from None
-    finally:
-        if a is not None and a.poll() is None:
-            a.kill()
-            a.communicate()
-        cnc.thread.join(scaled_timeout(600))
-    assert "error" not in cnc.result, _diagnostics(tmp_path, mid, cnc, outputs)
-    assert cnc.result["res"]["ok"], _diagnostics(tmp_path, mid, cnc, outputs)
+    _capture_one_run(tmp_path, s, progs, mid, "rotary_c.ngc", xyzc_joints(), stable_s)
     _check_rotary(tmp_path, s, mid, stable_s)
 
 
@@ -672,54 +683,12 @@ def _rtest_on_linuxcnc(tmp_path: Path, poses: list[tuple[int, int]], tcp: bool) 
     mid, stable_s = "r_test", 0.35
     s, progs = _rtest_planned(tmp_path, poses, tcp), tmp_path / "P"
     program(s, dialect="linuxcnc", output=progs, dwell_s=1.0, safe_z_mm=RT_SAFE_Z_MM)
-    ngc = (progs / "r_test.ngc").read_text()
-    marker = f"volcal-capture-{uuid.uuid4().hex}"
-    files = {"r_test.ngc": ngc, marker: ""}
     kins: dict = {}
     if tcp:
-        files["pins.hal"] = _trt_pins(s)
-        kins = {"kinematics": "xyzac-trt-kins", "halfiles": ("pins.hal",)}
-    cnc = _CNC()
-
-    def run() -> None:
-        try:
-            cnc.result["res"] = run_linuxcnc(
-                xyzac_joints(), [{"home": True},
-                                 {"wait_file": "go-p0", "or_end": "stop",
-                                  "timeout_s": scaled_timeout(600)},
-                                 {"program": "r_test.ngc", "label": "p0",
-                                  "resume_after_s": PAUSE_S, "done_file": "ended-p0",
-                                  "timeout_s": scaled_timeout(600),
-                                  "poll_s": 0.02 if tcp else 0.0}],
-                files=files, timeout_s=600, locked_file=LOCKED, keep=tmp_path / "linuxcnc",
-                **kins)
-        except Exception as e:  # reported below
-            cnc.result["error"] = e
-
-    cnc.thread = threading.Thread(target=run, daemon=True)
-    cnc.thread.start()
-    outputs: dict[str, tuple[str, str]] = {}
-    a: subprocess.Popen[str] | None = None
-    try:
-        config = _locked_config(cnc, marker)
-        a = _volcal("capture", str(s), "--control", f"linuxcnc:{config / 'sim.ini'}",
-                    "--laser", f"sim:seed={SEED},noise={NOISE_UM}", "--measurement", mid,
-                    "--programs", str(progs), "--stable-s", str(stable_s), "--max-gap-s",
-                    "0.25", "--poll-s", "0.02", "--timeout-s", str(scaled_timeout(120)),
-                    "-o", str(tmp_path / "A"))
-        _go(config, "go-p0", a, tmp_path / "A", mid, 1, cnc, "capture A", outputs)
-        assert "captured ->" in _wait(a, "capture A", scaled_timeout(600), outputs)
-    except AssertionError as e:
-        if cnc.config is not None:
-            _release(cnc.config, "stop")
-        raise AssertionError(f"{e}\n\n{_diagnostics(tmp_path, mid, cnc, outputs)}") from None
-    finally:
-        if a is not None and a.poll() is None:
-            a.kill()
-            a.communicate()
-        cnc.thread.join(scaled_timeout(600))
-    assert "error" not in cnc.result, _diagnostics(tmp_path, mid, cnc, outputs)
-    assert cnc.result["res"]["ok"], _diagnostics(tmp_path, mid, cnc, outputs)
+        kins = {"files": {"pins.hal": _trt_pins(s)}, "kinematics": "xyzac-trt-kins",
+                "halfiles": ("pins.hal",), "poll_s": 0.02}
+    cnc = _capture_one_run(tmp_path, s, progs, mid, "r_test.ngc", xyzac_joints(), stable_s,
+                           **kins)
     _check_rtest(tmp_path, s, stable_s, tcp)
     if tcp:
         _check_trt_joints(cnc.result["res"]["series"]["p0"], s, tmp_path / "P")

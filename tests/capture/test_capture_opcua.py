@@ -116,7 +116,7 @@ class _Laser:
 def _drive(server, pm, stop, speed_mm_s=800.0, tick_s=0.025):
     """Play the program's steps on the server: moves interpolated, dwells silent."""
     here = None
-    for st in pm.steps:
+    for i, st in enumerate(pm.steps):
         if stop.is_set():
             return
         if st.kind == "start" and st.position is not None:
@@ -137,6 +137,13 @@ def _drive(server, pm, stop, speed_mm_s=800.0, tick_s=0.025):
                 server.set(X=float(p[0]), Y=float(p[1]), Z=float(p[2]))
                 time.sleep(tick_s)
             here = to
+            nxt = pm.steps[i + 1] if i + 1 < len(pm.steps) else None
+            if nxt is not None and nxt.kind == "move":
+                # a move on to another (the reversal at the overrun): the machine stops
+                # there (decelerates to rest) for 0.2 s, as a part program's two G1s do;
+                # still no reading (no dwell), and the stop makes the reversal plain to
+                # the rule even when the box is loaded (session 25: the unseen overrun)
+                time.sleep(0.2)
         elif st.kind == "dwell":
             time.sleep(float(st.seconds))  # silence: the server writes nothing
 

@@ -98,9 +98,12 @@ def run_demo(folder: str | Path, seed: int = 7,
     """
     folder = Path(folder)
     lines: list[str] = []
+    def planned() -> Calibration:  # the seeds' full test set, as found and as left
+        return Calibration.plan(DEMO_TRAVEL, "XYFZ", 10, ("step-diagonal", "diagonal",
+                                                          "linear"), 5, name="VMC-800")
+
     on_step("planning the seeds' full test set")
-    cal = Calibration.plan(DEMO_TRAVEL, "XYFZ", 10, ("step-diagonal", "diagonal", "linear"), 5,
-                           name="VMC-800")
+    cal = planned()
     s = cal.session
     lines.append(f"plan: {len(s.measurements)} measurements, "
                  f"{sum(m.n for m in s.measurements)} readings")
@@ -144,8 +147,7 @@ def run_demo(folder: str | Path, seed: int = 7,
     on_done()
 
     on_step("rehearsing the as-left with the grid loaded")
-    left = Calibration.plan(DEMO_TRAVEL, "XYFZ", 10, ("step-diagonal", "diagonal", "linear"),
-                            5, name="VMC-800")
+    left = planned()
     left.simulate(vm, seed=seed + 1, noise_um=noise, mirror_misalignment_urad=mirror,
                   compensation=comp_dir)
     left_dir = folder / "as-left"

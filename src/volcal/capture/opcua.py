@@ -85,8 +85,9 @@ OPTION_KEYS = ("position", "publishing_ms", "timeout_s", "watch_s", "policy", "m
                "key", "server_cert", "axes", "program", "channel")
 
 PROGRAM_RUNNING = {0: False, 1: True, 2: None, 3: False, 4: False}
-"""``ActProgramStatus`` (Stopped, Running, Waiting, Interrupted, Canceled) -> the samples'
-``program_running`` (a value not listed: None)."""
+"""``ActProgramStatus`` (``CncChannelProgramStatus``, OPC 40502 7.2.5: Stopped 0, Running
+1, Waiting 2, Interrupted 3, Canceled 4) -> the samples' ``program_running`` (a value not
+listed: None)."""
 
 AXIS_LETTERS = "XYZABC"
 """The axis letters of volcal's plans (ISO 841), the left side of ``axes=``."""

@@ -55,9 +55,6 @@ CNC_AXIS_TYPE_ID = 1004
 CNC_CHANNEL_TYPE_ID = 1002
 """Numeric node id of ``CncChannelType`` (its ``ActProgramStatus``: OPC 40502, 6.6.2)."""
 
-PROGRAM_STATUS = {0: "Stopped", 1: "Running", 2: "Waiting", 3: "Interrupted", 4: "Canceled"}
-"""``CncChannelProgramStatus`` (OPC 40502, 7.2.5): the value of ``ActProgramStatus``."""
-
 POLICIES = ("Basic256Sha256", "Aes128_Sha256_RsaOaep", "Aes256_Sha256_RsaPss")
 """Security policies of a signed channel (OPC UA's current ones; the deprecated Basic128Rsa15
 and Basic256 are left out)."""
@@ -169,8 +166,9 @@ class Snapshot:
     axes : list of AxisNode
         The axes subscribed to.
     program_status : int or None
-        The channel's last ``ActProgramStatus`` (:data:`PROGRAM_STATUS`); None when the
-        server has no single channel or has not sent it.
+        The channel's last ``ActProgramStatus`` (``CncChannelProgramStatus``, OPC 40502
+        7.2.5: :data:`volcal.capture.opcua.PROGRAM_RUNNING`); None when the server has no
+        single channel or has not sent it.
     """
 
     connected: bool = False
@@ -482,8 +480,8 @@ async def find_cnc(client: Any, position: str = "direct", channel: str | None = 
         raise OpcUaError(f"{client.server_url.geturl()}: the server has no OPC 40502 CNC "
                          f"namespace ({CNC_NAMESPACES[0]}); namespaces: {', '.join(uris)}")
     types = await _subtypes(client, ua.NodeId(ua.Int32(CNC_AXIS_TYPE_ID), ua.Int16(idx)))
-    channel_types = await _subtypes(client, ua.NodeId(ua.Int32(CNC_CHANNEL_TYPE_ID),
-                                                      ua.Int16(idx)))
+    channel_types = (await _subtypes(client, ua.NodeId(ua.Int32(CNC_CHANNEL_TYPE_ID),
+                                                       ua.Int16(idx))) if program else set())
     found: list[tuple[str, str]] = []
     channels: list[tuple[str, str]] = []
     seen = {client.nodes.objects.nodeid.to_string(), client.nodes.server.nodeid.to_string()}

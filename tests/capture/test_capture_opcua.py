@@ -47,6 +47,11 @@ def _poll_until(src, pred, nominal_s=10.0):
     return s
 
 
+def ok(s) -> bool:
+    """A sample taken while connected (a poll may return None: too soon after the last)."""
+    return s is not None and s.status == "ok"
+
+
 @pytest.fixture
 def control(cnc_server):  # noqa: F811
     ctx = SourceContext(clock=Clock())
@@ -83,7 +88,7 @@ def test_a_dwell_is_reported_at_every_poll_with_the_poll_time(cnc_server, contro
 
 
 def test_a_server_without_a_channel_reports_no_program_status(control):
-    s = _poll_until(control, lambda s: s is not None and s.status == "ok")
+    s = _poll_until(control, ok)
     assert s.program_running is None and control.link.snapshot().program_status is None
 
 
@@ -630,7 +635,6 @@ def test_the_channels_program_status_says_whether_the_program_runs(five_axis_ser
         for src in (on, off):
             src.open()
             srcs.append(src)
-        ok = lambda s: s is not None and s.status == "ok"  # noqa: E731
         assert _poll_until(on, ok).program_running is False
         for status, want in ((1, True), (3, False), (1, True), (0, False), (2, None)):
             server.program(status)
@@ -678,7 +682,6 @@ def test_a_control_of_two_channels_reads_the_one_named():
         pytest.skip(why)
     server = CncServer(channels=("Channel1", "Channel2"))
     srcs = []
-    ok = lambda s: s is not None and s.status == "ok"  # noqa: E731
     try:
         both = make_control(f"opcua:{server.url};publishing_ms=20",
                             SourceContext(clock=Clock()))
@@ -807,18 +810,12 @@ def test_rtest_over_opcua_takes_pose_1_after_the_operator_stop(five_axis_server,
     takes pose 1 in the dwell after the cycle start: every row its dwell's values. With
     ``program=off`` (a position-only control) the stop, long enough to be stable, gives
     pose 1's row: the limitation docs/capture_opcua.md states."""
-    from volcal.steps.plan import plan
+    from .rtest_plan import plan_rtest
 
     server = five_axis_server
     server.program(0)
-    folder = tmp_path / "S"
-    plan(((0.0, 800.0), (0.0, 600.0), (0.0, 500.0)), steps=2, tests="r_test:ca",
-         output=folder)
-    p = folder / "r_test.csv"
-    rows = p.read_text().splitlines()
-    keep = {(float(c), float(a)): r for r in rows[1:] for c, a in [r.split(",")[:2]]}
-    p.write_text("\n".join([rows[0], *(keep[(float(c), float(a))] for c, a in RT_POSES)])
-                 + "\n")
+    folder = plan_rtest(tmp_path / "S", ((0.0, 800.0), (0.0, 600.0), (0.0, 500.0)),
+                        RT_POSES)
     s = read_session(folder, require_deviation=False)
     m = s.get("r_test")
     pm = plan_measurement(m, s.travel, program_options(dwell_s=1.5, safe_z_mm=480.0))

@@ -110,6 +110,20 @@ def _run(folder, mid, laser, page, **kw):
     return th, out
 
 
+def _table(drv, rows: int) -> tuple[list[str], list[list], str]:
+    """Once the page shows ``rows`` accepted rows: the table's headings, each accepted row
+    (its reading, then its cells' texts) and the plot's unit line."""
+    _wait(drv, "const r = document.querySelectorAll('#points tr.accepted');"
+               f"return r.length >= {rows} ? r.length : false;", 30.0, "rows")
+    heads = drv.execute_script(
+        "return Array.from(document.querySelectorAll('#points thead th'))"
+        ".map(h => h.textContent);")
+    shown = drv.execute_script(
+        "return Array.from(document.querySelectorAll('#points tr.accepted'))"
+        ".map(r => [Number(r.dataset.reading), ...Array.from(r.cells, c => c.textContent)]);")
+    return heads, shown, drv.find_element("id", "plot-unit").text
+
+
 def _finish(th, out, page):
     GATE.fail.set()
     th.join(scaled_timeout(20.0))
@@ -195,15 +209,7 @@ def test_an_r_test_shows_every_axis_of_its_poses_and_the_three_sensors(browser, 
     th, out = _run(folder, "r_test", "sim:seed=3", page, speed=8.0)
     try:
         browser.get(page.url)
-        _wait(browser, "const r = document.querySelectorAll('#points tr.accepted');"
-                       "return r.length >= 2 ? r.length : false;", 30.0, "rows")
-        heads = browser.execute_script(
-            "return Array.from(document.querySelectorAll('#points thead th'))"
-            ".map(h => h.textContent);")
-        shown = browser.execute_script(
-            "return Array.from(document.querySelectorAll('#points tr.accepted'))"
-            ".map(r => [Number(r.dataset.reading), r.cells[r.cells.length - 1].textContent]);")
-        label = browser.find_element("id", "plot-unit").text
+        heads, shown, label = _table(browser, 2)
     finally:
         _finish(th, out, page)
     assert heads[:4] == ["#", "X [mm]", "Y [mm]", "Z [mm]"]
@@ -213,9 +219,9 @@ def test_an_r_test_shows_every_axis_of_its_poses_and_the_three_sensors(browser, 
     csv = (folder / "r_test.csv").read_text(encoding="utf-8").splitlines()
     head = csv[0].split(",")
     cols = [head.index(c) for c in ("dx_um", "dy_um", "dz_um")]
-    for reading, cell in shown:
+    for reading, *cells in shown:
         row = csv[reading + 1].split(",")
-        assert cell == " / ".join(f"{float(row[c]):.3f}" for c in cols) + " um"
+        assert cells[-1] == " / ".join(f"{float(row[c]):.3f}" for c in cols) + " um"
 
 
 def test_a_rotary_test_shows_its_angles_and_its_readings_in_urad(browser, tmp_path):
@@ -231,16 +237,7 @@ def test_a_rotary_test_shows_its_angles_and_its_readings_in_urad(browser, tmp_pa
     th, out = _run(folder, "rotary-c", "sim:seed=3", page, speed=8.0)
     try:
         browser.get(page.url)
-        _wait(browser, "const r = document.querySelectorAll('#points tr.accepted');"
-                       "return r.length >= 3 ? r.length : false;", 30.0, "rows")
-        heads = browser.execute_script(
-            "return Array.from(document.querySelectorAll('#points thead th'))"
-            ".map(h => h.textContent);")
-        shown = browser.execute_script(
-            "return Array.from(document.querySelectorAll('#points tr.accepted'))"
-            ".map(r => [Number(r.dataset.reading), r.cells[1].textContent,"
-            " r.cells[r.cells.length - 1].textContent]);")
-        label = browser.find_element("id", "plot-unit").text
+        heads, shown, label = _table(browser, 3)
         typed_unit = browser.execute_script("return document.getElementById('typed-unit').value;")
     finally:
         _finish(th, out, page)
@@ -251,7 +248,7 @@ def test_a_rotary_test_shows_its_angles_and_its_readings_in_urad(browser, tmp_pa
     head = csv[0].split(",")
     col, tgt = head.index("deviation_urad"), head.index("target_deg")
     assert len(shown) >= 3
-    for reading, target, cell in shown:
+    for reading, *cells in shown:
         row = csv[reading + 1].split(",")
-        assert target == f"{float(row[tgt]):.3f}"
-        assert cell == f"{float(row[col]):.3f} urad"
+        assert cells[1] == f"{float(row[tgt]):.3f}"  # after the row's number
+        assert cells[-1] == f"{float(row[col]):.3f} urad"

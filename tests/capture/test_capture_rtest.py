@@ -26,11 +26,11 @@ from volcal.capture.samples import CaptureEvent, LaserSample
 from volcal.capture.sources import register_control, register_laser
 from volcal.errors import VolcalInputError
 from volcal.steps.capture import capture
-from volcal.steps.plan import plan
 from volcal_cli_helpers import run_volcal
 
 from .conftest import FAST, FAST_CLI
 from .fake_sources import NoRotary, Wrapped
+from .rtest_plan import plan_rtest
 
 TRAVEL = ((0.0, 800.0), (0.0, 600.0), (0.0, 500.0))
 SEED = 3
@@ -56,13 +56,7 @@ def _readings(folder: Path) -> np.ndarray:
 @pytest.fixture(scope="module")
 def rt_planned(tmp_path_factory) -> Path:
     """The default R-test of a CA trunnion, cut to the 9 poses of :data:`POSES`."""
-    out = tmp_path_factory.mktemp("rtest") / "S"
-    plan(TRAVEL, steps=2, tests="r_test:ca", output=out)
-    p = out / f"{RT}.csv"
-    rows = p.read_text().splitlines()
-    keep = {(float(c), float(a)): r for r in rows[1:] for c, a in [r.split(",")[:2]]}
-    p.write_text("\n".join([rows[0], *(keep[(float(c), float(a))] for c, a in POSES)]) + "\n")
-    return out
+    return plan_rtest(tmp_path_factory.mktemp("rtest") / "S", TRAVEL, POSES)
 
 
 @pytest.fixture(scope="module")

@@ -577,15 +577,9 @@ def _rtest_planned(tmp_path: Path, poses: list[tuple[int, int]], tcp: bool) -> P
     """The default R-test of a CA trunnion, cut to ``poses``; with ``tcp`` the session
     states LinuxCNC's trt kinematics (``control_kinematics = "tcp"``, its angles counted
     the other way: ``control_angle_sign = -1``)."""
-    from volcal.steps.plan import plan
+    from .rtest_plan import plan_rtest
 
-    s = tmp_path / "S"
-    plan(RT_TRAVEL, steps=2, tests="r_test:ca", output=s)
-    p = s / "r_test.csv"
-    rows = p.read_text().splitlines()
-    keep = {(float(c), float(a)): r for r in rows[1:] for c, a in [r.split(",")[:2]]}
-    p.write_text("\n".join([rows[0], *(keep[(float(c), float(a))] for c, a in poses)])
-                 + "\n")
+    s = plan_rtest(tmp_path / "S", RT_TRAVEL, poses)
     if tcp:
         toml = s / "session.toml"
         text = toml.read_text()

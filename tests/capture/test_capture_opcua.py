@@ -807,9 +807,10 @@ def test_rtest_over_opcua_takes_pose_1_after_the_operator_stop(five_axis_server,
     """An R-test played on the OPC UA server (X, Y, Z in mm, C, A in degrees, one channel):
     the nest reads 7, -5, 3 um during the operator stop at pose 1 (not zeroed yet) and its
     scripted values in each dwell. With the channel's status (the default) the capture
-    takes pose 1 in the dwell after the cycle start: every row its dwell's values. With
-    ``program=off`` (a position-only control) the stop, long enough to be stable, gives
-    pose 1's row: the limitation docs/capture_opcua.md states."""
+    takes pose 1 in the dwell after the cycle start; with ``program=off`` (a position-only
+    control, where the stop and the dwell look alike) the last stable window before the
+    machine leaves pose 1 (session 25 took the stop's 7, -5, 3 um there): every row its
+    dwell's values."""
     from .rtest_plan import plan_rtest
 
     server = five_axis_server
@@ -844,8 +845,4 @@ def test_rtest_over_opcua_takes_pose_1_after_the_operator_stop(five_axis_server,
     got = read_session(folder).get("r_test")
     d = np.column_stack([got.columns[c] for c in ("dx_um", "dy_um", "dz_um")])
     want = np.array([_nest_um(i) for i in range(len(RT_POSES))])
-    if status == "on":
-        np.testing.assert_allclose(d, want, atol=0.05)
-    else:  # pose 1 from the stop: the sensors before their zeroing
-        np.testing.assert_allclose(d[0], NEST_OFF_UM, atol=0.05)
-        np.testing.assert_allclose(d[1:], want[1:], atol=0.05)
+    np.testing.assert_allclose(d, want, atol=0.05)

@@ -229,7 +229,8 @@ def test_a_control_without_the_rotary_axes_or_a_one_channel_laser_is_refused(
 
 def test_the_plan_follows_the_programs_blocks(rt_planned):
     """The capture's dwells are the LinuxCNC program's G4 blocks, at the pose of the move
-    before each (the program parsed here, in the test only)."""
+    before each (the program parsed here, in the test only); the one after the program's
+    ``M0`` says so (:attr:`PlannedDwell.after_stop`)."""
     import re
 
     from volcal.capture.plan import plan_measurement, program_options
@@ -242,15 +243,20 @@ def test_the_plan_follows_the_programs_blocks(rt_planned):
     pm = plan_measurement(m, s.travel, opts)
     text, _ = rtest_program(m, "linuxcnc", "T", 1, opts)
     here: dict[str, float] = {}
-    poses = []
+    poses, after_stop, last = [], [], ""
     for line in text.splitlines():
         for a, v in re.findall(r"\b([XYZCA])(-?[0-9.]+)", re.sub(r"\(.*?\)", "", line)):
             if not line.startswith("G53"):
                 here[a] = float(v)
         if line.startswith("G4"):
             poses.append([here[a] for a in "XYZCA"])
+            after_stop.append(last.startswith("M0"))
+        if not line.startswith("("):  # (the dwell's comment names its pose)
+            last = line
     assert len(pm.dwells) == N == len(poses)
     assert np.allclose([d.target for d in pm.dwells], poses, atol=1e-3)
+    # the dwell the program reaches through its operator stop (pose 1), and no other
+    assert [d.after_stop for d in pm.dwells] == after_stop == [True] + [False] * (N - 1)
     assert np.allclose(pm.start, poses[0]) and pm.frame.axes == ("X", "Y", "Z", "C", "A")
 
 

@@ -369,3 +369,72 @@ def test_an_operator_stop_at_the_first_target_is_no_part_of_its_dwell():
     assert ev[0].window_s[0] > go - 1.0 / p.rate
     dev = deviation(p, {e.reading: e.value for e in ev})
     assert abs(dev[0] - p.error(0)) < 0.1, dev[0] - p.error(0)
+
+
+def _stop_then_dwell(p: Program, go: float, flags: bool) -> list:
+    """``p``'s stream with an operator stop at the first target until ``go`` [s]: the
+    sensors 7 um off until they are zeroed at the cycle start; with ``flags`` the control
+    reports the stop (``program_running`` False), without it reports nothing."""
+    from volcal.capture.samples import ControlSample, LaserSample
+
+    a, _ = p.dwell_intervals()[0]
+    out = []
+    for s in p.stream():
+        if a <= s.time_s < go:
+            if isinstance(s, ControlSample):
+                s = ControlSample(s.time_s, s.positions, False if flags else None,
+                                  False if flags else None, line=s.line)
+            else:
+                s = LaserSample(s.time_s, s.value + 7.0, s.unit)
+        out.append(s)
+    return out
+
+
+def _rule_after_stop(p: Program) -> TriggerRule:
+    from dataclasses import replace
+
+    dwells = p.dwells()
+    dwells[0] = replace(dwells[0], after_stop=True)  # an R-test's first pose
+    return TriggerRule(dwells, TriggerParams(stable_s=1.0), p.waypoints(), "um",
+                       label="r_test")
+
+
+def test_a_control_without_program_status_reads_the_dwell_after_the_stop():
+    """A control that reports positions only (no pause flag, no program status) cannot
+    show an R-test's operator stop at its first pose: the machine stands at the target
+    through the stop (the sensors 7 um off, then zeroed) and the dwell after the cycle
+    start. The reading is the last stable window before the machine leaves, in the dwell
+    (the first stable window, in the stop, gave the reading 7 um off: sessions 23-25's
+    limitation); the other readings as always."""
+    p = Program([0.0, 25.0, 50.0], [1, 1, 1], laser_noise_um=0.05, flags=False, dwell_s=5.0)
+    a, b = p.dwell_intervals()[0]
+    go = a + 2.5  # 2.5 s of stop (stable for 1 s: a reading before), 2.5 s of dwell
+    ev = decided(run(_rule_after_stop(p), _stop_then_dwell(p, go, flags=False)))
+    assert [e.reading for e in ev] == [0, 1, 2] and all(isinstance(e, Accepted) for e in ev)
+    assert go <= ev[0].window_s[0] and ev[0].window_s[1] <= b + 1.0 / p.rate
+    assert ev[0].window_s[1] > b - 0.2  # the last window, not the first after the zeroing
+    dev = deviation(p, {e.reading: e.value for e in ev})
+    assert max(abs(dev[i] - p.error(i)) for i in range(3)) < 0.1, dev
+
+
+def test_a_dwell_after_the_stop_too_short_to_read_is_missed_not_the_stop():
+    """As above, the cycle start 0.5 s before the dwell ends (shorter than ``stable_s``):
+    no stable window after the zeroing, so the reading is missed, never the stop's."""
+    p = Program([0.0, 25.0], [1, 1], laser_noise_um=0.05, flags=False, dwell_s=5.0)
+    _, b = p.dwell_intervals()[0]
+    ev = decided(run(_rule_after_stop(p), _stop_then_dwell(p, b - 0.5, flags=False)))
+    assert [type(e).__name__ for e in ev] == ["Missed", "Accepted"], ev
+
+
+def test_a_control_reporting_the_stop_takes_the_first_window_after_it():
+    """With the program's status reported, a dwell after a stop is read as any other: the
+    first stable window after the cycle start (the rule does not wait for the machine to
+    leave)."""
+    p = Program([0.0, 25.0, 50.0], [1, 1, 1], laser_noise_um=0.05, dwell_s=5.0)
+    a, _ = p.dwell_intervals()[0]
+    go = a + 2.5
+    ev = decided(run(_rule_after_stop(p), _stop_then_dwell(p, go, flags=True)))
+    assert all(isinstance(e, Accepted) for e in ev) and len(ev) == 3
+    assert go <= ev[0].window_s[0] and ev[0].window_s[1] < go + 1.0 + 2.0 / p.rate
+    dev = deviation(p, {e.reading: e.value for e in ev})
+    assert abs(dev[0] - p.error(0)) < 0.1

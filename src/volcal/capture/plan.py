@@ -73,6 +73,11 @@ class PlannedDwell:
         A rotary test's pose of the linear axes X, Y, Z [mm] (the plan's fixed pose:
         zeros, not recorded; not compared); None for a dwell of the linear axes, whose
         ``target`` is its pose.
+    after_stop : bool
+        The program stops (``M0``) at this dwell's target just before it: an R-test's
+        first pose, where the sensors are zeroed. A control that reports no program
+        status cannot show the cycle start, so the reading is the last stable window
+        before the machine leaves (:class:`volcal.capture.trigger.TriggerRule`).
     """
 
     reading: int
@@ -83,6 +88,7 @@ class PlannedDwell:
     direction: str | None = None
     lines: tuple[int, ...] = ()
     pose_mm: NDArray[np.float64] | None = None
+    after_stop: bool = False
 
 
 @dataclass(frozen=True)
@@ -315,9 +321,11 @@ def _plan_rtest(m: Any, options: ProgramOptions, programs: str | Path | None
     frame = mixed_frame(letters, tuple(a.upper() == "C" for a in letters))
     path = tuple(rtest_program_path(m, options))
     pose = np.asarray(m.positions, float)
+    kinds = [kind for kind, _, _ in path]
     dwells = [PlannedDwell(int(i), p.copy(), None, float(options.dwell_s),
-                           pose_mm=pose[int(i)].copy())
-              for kind, p, i in path if kind == "dwell" and i is not None]
+                           pose_mm=pose[int(i)].copy(),
+                           after_stop=j > 0 and kinds[j - 1] == "stop")
+              for j, (kind, p, i) in enumerate(path) if kind == "dwell" and i is not None]
     lines = dwell_lines(programs, m.id)
     if len(lines) == len(dwells):
         dwells = [replace(d, lines=lines[j]) for j, d in enumerate(dwells)]

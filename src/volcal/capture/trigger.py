@@ -21,7 +21,10 @@ A point is accepted when
    the trailing ``stable_s`` window (which must lie inside the dwell, after the last
    control sample paused or in motion: an R-test's operator stop, where the sphere is put
    in the nest and the sensors zeroed, stands at its first pose and is no part of the
-   dwell that follows it), the means of its two
+   dwell that follows it; a control that reports no program status cannot show that
+   stop, and there the reading of a dwell the program reaches through an operator stop,
+   :attr:`PlannedDwell.after_stop`, is the **last** stable window before the machine
+   leaves: the dwell after the cycle start ends the stop), the means of its two
    halves differ by at most ``k_sigma`` standard errors (``k_sigma * sigma * sqrt(1/n1 +
    1/n2)``: catches creep and settling), and no sample lies farther than ``k_sigma + 2``
    sigma from the window's mean (catches a jump); ``sigma`` is the signal's noise,
@@ -434,6 +437,9 @@ class TriggerRule:
         self._in_window_since: float | None = None
         self._rest_since: float | None = None
         self._blocked_at: float | None = None  # the last sample paused, moving or unarmed
+        self._status_seen = False             # the control reports its program's status
+        self._held: Accepted | None = None    # the latest window of a dwell after a stop
+        self._unsettled_at: float | None = None  # the sensors changed after it, at rest
         self._passed = False                  # the current rest is passed over
         self._ctrl_gap = False                # a control gap since the last dwell
         self._line: int | None = None         # the program line the control reports
@@ -490,6 +496,7 @@ class TriggerRule:
         if self._first_pos is None:
             self._first_pos = p
         self._moving, self._running = s.in_motion, s.program_running
+        self._status_seen = self._status_seen or s.program_running is not None
         self._line = s.line
         if not self.armed and (s.program_running is True or s.in_motion is True
                                or bool(np.any(np.abs(p - self._first_pos) > self._window))):
@@ -686,7 +693,8 @@ class TriggerRule:
         if leaving:
             events: list[TriggerEvent] = []
             if not self._decided:
-                events.append(self._missed(d, t))
+                events.append(self._leave_held(d, t))
+            self._held, self._unsettled_at = None, None
             self._dwell = None
             self._in_window_since = None
             self._rest_since, self._passed = None, False
@@ -706,13 +714,38 @@ class TriggerRule:
                else np.full(self.channels, math.inf))
         if lv.size == 0 or not all(is_stable(lt, lv[:, j], float(sig[j]), t0, t, self.p)
                                    for j in range(self.channels)):
+            if self._held is not None and self._unsettled_at is None:
+                self._unsettled_at = t  # the sensors change with the machine at rest
+            return []
+        mean = lv.mean(axis=0)
+        ev = Accepted(d.reading, t, float(mean[0]), self.unit, float(sig.max()), int(lt.size),
+                      tuple(float(v) for v in pos), (t0, t),
+                      tuple(float(v) for v in mean) if self.channels > 1 else ())
+        if d.after_stop and not self._status_seen:
+            # the operator stop and the dwell after it look alike here: hold the latest
+            # window, taken when the machine leaves (the dwell ends what the stop began)
+            self._held, self._unsettled_at = ev, None
             return []
         self._decided = True
-        mean = lv.mean(axis=0)
-        return [self._record(d, Accepted(
-            d.reading, t, float(mean[0]), self.unit, float(sig.max()), int(lt.size),
-            tuple(float(v) for v in pos), (t0, t),
-            tuple(float(v) for v in mean) if self.channels > 1 else ()))]
+        return [self._record(d, ev)]
+
+    def _leave_held(self, d: PlannedDwell, t: float) -> TriggerEvent:
+        """The machine leaves ``d``: its held window (a dwell after a stop), else missed.
+
+        The window is taken when the sensors did not change after it, but for the last
+        ``max_gap_s`` before the control's sample showed the machine leaving (the laser
+        sees the motion first); a longer change at rest is the sensors zeroed after the
+        window (in the operator stop), and no stable window followed: missed.
+        """
+        held, since = self._held, self._unsettled_at
+        if held is None:
+            return self._missed(d, t)
+        if since is not None and t - since > self.p.max_gap_s:
+            return self._record(d, Missed(
+                d.reading, t, f"the sensors changed {t - since:.3g} s before the machine left "
+                f"(zeroed after the operator stop?) and did not stand still again for "
+                f"{self.p.stable_s:g} s"))
+        return self._record(d, held)
 
     def _missed(self, d: PlannedDwell, t: float) -> TriggerEvent:
         lt, lv = self._laser.window(t - self.p.stable_s, t)

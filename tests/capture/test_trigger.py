@@ -409,7 +409,10 @@ def test_a_control_without_program_status_reads_the_dwell_after_the_stop():
     p = Program([0.0, 25.0, 50.0], [1, 1, 1], laser_noise_um=0.05, flags=False, dwell_s=5.0)
     a, b = p.dwell_intervals()[0]
     go = a + 2.5  # 2.5 s of stop (stable for 1 s: a reading before), 2.5 s of dwell
-    ev = decided(run(_rule_after_stop(p), _stop_then_dwell(p, go, flags=False)))
+    events = run(_rule_after_stop(p), _stop_then_dwell(p, go, flags=False))
+    notes = [e.text for e in events if isinstance(e, Note)]
+    assert len(notes) == 1 and "last stable window before the machine leaves" in notes[0]
+    ev = decided(events)
     assert [e.reading for e in ev] == [0, 1, 2] and all(isinstance(e, Accepted) for e in ev)
     assert go <= ev[0].window_s[0] and ev[0].window_s[1] <= b + 1.0 / p.rate
     assert ev[0].window_s[1] > b - 0.2  # the last window, not the first after the zeroing

@@ -440,6 +440,7 @@ class TriggerRule:
         self._status_seen = False             # the control reports its program's status
         self._held: Accepted | None = None    # the latest window of a dwell after a stop
         self._unsettled_at: float | None = None  # the sensors changed after it, at rest
+        self._held_noted: set[int] = set()    # the readings whose hold was said (a Note)
         self._passed = False                  # the current rest is passed over
         self._ctrl_gap = False                # a control gap since the last dwell
         self._line: int | None = None         # the program line the control reports
@@ -724,8 +725,14 @@ class TriggerRule:
         if d.after_stop and not self._status_seen:
             # the operator stop and the dwell after it look alike here: hold the latest
             # window, taken when the machine leaves (the dwell ends what the stop began)
+            first = self._held is None and d.reading not in self._held_noted
             self._held, self._unsettled_at = ev, None
-            return []
+            if not first:
+                return []
+            self._held_noted.add(d.reading)
+            return [Note(t, f"{self._where(d)}: the program stops at this pose (M0) and the "
+                            "control reports no program status: the reading is the last "
+                            "stable window before the machine leaves the pose")]
         self._decided = True
         return [self._record(d, ev)]
 

@@ -26,3 +26,18 @@ def test_plan_takes_either_spelling_and_refuses_the_unknown():
     assert {m.kind for m in a.measurements} >= {"probe_sphere", "linear", "step_diagonal"}
     with pytest.raises(VolcalInputError, match="unknown test.*spiral"):
         plan_session(TRAVEL, tests=["spiral"])
+
+
+@pytest.mark.parametrize(("tests", "message"), [
+    (["linear", "linear:x"], "'linear' and 'linear:x' both plan the measurement 'linear-x1'"
+                             ": name each test once \\('linear' alone plans every axis"),
+    (["Face_Step_Diagonal:YZ", "face-step-diagonal"],
+     "'face-step-diagonal:YZ' and 'face-step-diagonal' both plan the measurement "
+     "'fstep-yz-pp'"),
+    (["diagonal", "Diagonal"], "--tests names 'diagonal' twice"),
+    (["linear:x", "linear:X"], "--tests names 'linear:x' twice")])
+def test_a_test_named_twice_or_inside_another_is_refused_naming_both(tests, message):
+    """A user's ``--tests linear,linear:x``: both plan linear-x1. The refusal names the two
+    tests (it named only the duplicate id, from deep in the session's checks)."""
+    with pytest.raises(VolcalInputError, match=message):
+        plan_session(TRAVEL, tests=tests, steps=3)

@@ -189,13 +189,29 @@ def plan_session(travel: ArrayLike, chain: str = "XYFZ", steps: int = 10,
               step_target, abbe_tool_offset_mm, iso_spacing, linear_margin_mm,
               multilateration or {}, int(vertical_axis), dict(rotary or {}))
     meas: list[Measurement] = []
+    planned_by: dict[str, str] = {}
     for test in tests:
         base, only = split_test(test)
-        meas += _planner_of(base).plan(base, c, only)  # the kind that plans it (volcal.kinds)
+        for m in _planner_of(base).plan(base, c, only):  # the kind that plans it (volcal.kinds)
+            _check_once(m.id, test, planned_by.get(m.id))
+            planned_by[m.id] = test
+            meas.append(m)
     from volcal.plan.rotary import machine_rotary_axes
 
     axes = machine_rotary_axes(meas, c.rotary.get("axes"))
     return Session(name, chain, t, meas, {"rotary_axes": axes} if axes else {})
+
+
+def _check_once(mid: str, test: str, earlier: str | None) -> None:
+    """Refuse a measurement ``mid`` that the test ``earlier`` planned already."""
+    if earlier is None:
+        return
+    if earlier.lower() == test.lower():
+        raise VolcalInputError(f"--tests names {earlier!r} twice: name each test once")
+    whole = [t for t in (earlier, test) if ":" not in t]
+    raise VolcalInputError(
+        f"--tests: {earlier!r} and {test!r} both plan the measurement {mid!r}: name each "
+        "test once" + (f" ({whole[0]!r} alone plans every axis or plane)" if whole else ""))
 
 
 def _planner_of(test: str):

@@ -89,6 +89,9 @@ COMP_LINUXCNC_TYPE = 1
 """LinuxCNC ``COMP_FILE_TYPE``."""
 COMP_SQUARENESS = True
 """Siemens CEC tables carry the squareness terms."""
+COMP_ROTARY_SPACING_DEG = 5.0
+"""Distance between the points of a rotary axis' Siemens and Fanuc tables [deg]
+(:class:`volcal.compensate.rotary.RotaryOptions`)."""
 
 # -- program (volcal program, Calibration.program) -----------------------------------------
 PROG_DWELL_S = 4.0

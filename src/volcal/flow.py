@@ -696,7 +696,8 @@ class Calibration:
                    squareness: bool = D.COMP_SQUARENESS,
                    tool_offset: ArrayLike | str = D.TOOL_OFFSET_MM, *,
                    replace: bool = False,
-                   session: str | Path | Session | None = None) -> list[str]:
+                   session: str | Path | Session | None = None,
+                   rotary_spacing: float = D.COMP_ROTARY_SPACING_DEG) -> list[str]:
         """Write controller compensation tables of the identified model.
 
         Calls :func:`volcal.steps.compensate.compensate` with this calibration's model and
@@ -749,6 +750,9 @@ class Calibration:
             model checked against it; None (default): one table per axis, as the
             command without ``--session``. The line checks before and after are in
             :attr:`compensated`.
+        rotary_spacing : float
+            Distance between the points of the rotary tests' Siemens and Fanuc tables
+            [deg] (a divisor of 360 on a full-circle axis), as ``--rotary-spacing``.
 
         Returns
         -------
@@ -769,7 +773,7 @@ class Calibration:
                        else A.vector_mm(reference_mm, "reference_mm"), unit_um=unit_um,
                        magnification=magnification, max_increment=max_increment,
                        fanuc_series=fanuc_series, linuxcnc_type=linuxcnc_type,
-                       squareness=squareness,
+                       squareness=squareness, rotary_spacing=rotary_spacing,
                        tool_offset=A.vector_mm(tool_offset, "tool_offset"),
                        machine=MachineIdentity.of(self.session), replace=replace,
                        session=session if session is not None

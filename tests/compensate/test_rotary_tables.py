@@ -19,6 +19,7 @@ between 11 (270) and 1.5 (360 = 0): 6.25; down at 45 deg: (6 + 15) / 2 = 10.5.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from types import SimpleNamespace
 
 import numpy as np
@@ -291,3 +292,52 @@ def test_fanuc_rotary_points_must_not_reuse_the_linear_ones(tmp_path, monkeypatc
     code, out, err = run_volcal(monkeypatch, capsys, *args, "-o", str(tmp_path / "b"))
     assert code == 0, err
     assert (tmp_path / "b" / "FANUC_ROTARY_PITCH_C.TXT").is_file()
+
+
+def test_fanuc_two_full_circle_axes_share_the_table_below_its_end(tmp_path):
+    """Two full-circle axes at the default 5 deg: 73 points each from 900 ran past point
+    1023 and the command refused them (naming an option it does not have). The tables now
+    end at point 1023: 878..950 and 951..1023, each read back as written."""
+    p = rotary_profile(hand_measurement())
+    q = replace(rotary_profile(hand_measurement()), id="rot-a", axis="a")
+    files, entries, _ = rotary_tables([p, q], "fanuc", RotaryOptions())
+    par = [files[f"FANUC_ROTARY_PARAM_{s}.TXT"].splitlines() for s in ("C", "A")]
+    assert "N03620Q1A4P878" in par[0] and "N03622Q1A4P950" in par[0]
+    assert "N03620Q1A5P951" in par[1] and "N03622Q1A5P1023" in par[1]
+    pts = [int(line[2:6]) for name in ("C", "A")
+           for line in files[f"FANUC_ROTARY_PITCH_{name}.TXT"].splitlines()
+           if line.startswith("N1")]
+    assert pts == list(range(878, 1024))
+    assert "take points 878..1023 of the shared table of 1024" in files["ROTARY_NOTES.TXT"]
+    folder = write(files, tmp_path / "f")
+    a = np.arange(0.0, 360.0, 5.0)
+    for e in entries:  # each table removes the hand data's mean error at its points
+        got = rotary_removed_urad(folder, "fanuc", e, a, ["+"] * a.size)
+        assert np.all(np.abs(got) < 25.0) and np.ptp(got) > 15.0
+    # one axis keeps the default start
+    one, _, _ = rotary_tables([p], "fanuc", RotaryOptions())
+    assert "N03620Q1A4P900" in one["FANUC_ROTARY_PARAM_C.TXT"].splitlines()
+
+
+@pytest.mark.parametrize(("spacing", "message"), [
+    ("0.25", "do not fit the table of 1024 points shared by all axes; use a larger "
+             "--rotary-spacing"),
+    ("7", "--rotary-spacing 7: parameter 3624 must divide 360 deg"),
+    ("-5", "--rotary-spacing -5.0: expected a finite number > 0 [deg]")])
+def test_compensate_rotary_spacing_option(tmp_path, monkeypatch, capsys, spacing, message):
+    """``--rotary-spacing`` sets the rotary tables' points; its refusals name it (they
+    named ``--rotary-spacing`` before the command had it)."""
+    from volcal_cli_helpers import run_volcal
+
+    s = tmp_path / "s"
+    assert run_volcal(monkeypatch, capsys, "plan", "--tests", "rotary:c", "-o", str(s))[0] == 0
+    assert run_volcal(monkeypatch, capsys, "simulate", str(s), "--seed", "4")[0] == 0
+    args = ["compensate", "--format", "fanuc", "--session", str(s)]
+    code, out, err = run_volcal(monkeypatch, capsys, *args, "-o", str(tmp_path / "a"),
+                                "--rotary-spacing", spacing)
+    assert code == 2 and "Traceback" not in err and message in err, err
+    assert not (tmp_path / "a").exists()
+    code, out, err = run_volcal(monkeypatch, capsys, *args, "-o", str(tmp_path / "b"),
+                                "--rotary-spacing", "10")
+    assert code == 0, err
+    assert "N03624Q1A4P10.000" in (tmp_path / "b" / "FANUC_ROTARY_PARAM_C.TXT").read_text()

@@ -170,6 +170,24 @@ def test_locate_refusals(simulated, tmp_path):
         locate(s)
 
 
+def test_locate_names_each_configuration_of_a_session_that_mixes_them(tmp_path):
+    """A CA trunnion's probe test beside a CB trunnion's R-test (one session, two machine
+    configurations): refused naming each test's chain and pivots and the option that
+    picks one (it said only "another chain or pivots"); with it, located."""
+    folder = tmp_path / "s"
+    assert run_cli(["plan", "--tests", "probe_sphere:ca,r_test:cb", "-o", str(folder)]
+                   ).exit_code == 0
+    assert run_cli(["simulate", str(folder), "--seed", "3"]).exit_code == 0
+    r = run_cli(["locate", str(folder)])
+    assert r.exit_code == 2 and "Traceback" not in r.output, r.output
+    assert ("the session's sphere tests describe 2 machine configurations: probe_sphere "
+            "(chain CAXYFZ, pivots A (" in r.output)
+    assert "r_test_cb (chain CBXYFZ, pivots B (" in r.output
+    assert "locate one at a time, e.g. --measurements probe_sphere" in r.output
+    r = run_cli(["locate", str(folder), "--measurements", "r_test_cb"])
+    assert r.exit_code == 0, r.output
+
+
 def test_simulation_shares_one_machine_between_tests():
     """Two tests of one chain (a second sphere): one hidden machine, two spheres."""
     import copy

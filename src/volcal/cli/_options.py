@@ -53,7 +53,7 @@ OPTIONS: dict[str, str] = {
         "points", "force",
         # compensate
         "format", "spacing", "max_points", "reference_mm", "unit_um", "magnification",
-        "max_increment", "fanuc_series", "linuxcnc_type", "squareness",
+        "max_increment", "fanuc_series", "linuxcnc_type", "squareness", "rotary_spacing",
         # locate
         "model", "prior_u", "linuxcnc_hal", "z_rot_point_mm", "siemens_tcarr", "tool_carrier",
         "isg_kinematics",

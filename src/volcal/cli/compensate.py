@@ -67,6 +67,10 @@ def compensate(
     units: Annotated[str, typer.Option(
         "--units", help="With --session: the rotary tests' A before and after in urad or "
         "arcsec (display only).")] = "urad",
+    rotary_spacing: Annotated[float, typer.Option(
+        help="With --session: distance between the points of the rotary tests' Siemens and "
+        "Fanuc tables [deg]; divides 360 on a full-circle axis.")
+    ] = D.COMP_ROTARY_SPACING_DEG,
 ) -> None:
     """Write compensation tables of a model for a controller, resampled onto its grid."""
     from volcal.cli._options import OPTIONS
@@ -85,6 +89,7 @@ def compensate(
              else parse_vector(reference_mm, "--reference-mm"),
              unit_um=unit_um, magnification=magnification, max_increment=max_increment,
              fanuc_series=fanuc_series, linuxcnc_type=linuxcnc_type, squareness=squareness,
+             rotary_spacing=rotary_spacing,
              tool_offset=parse_vector(tool_offset, "--tool-offset"), replace=replace,
              on_moved=lambda rel: note_moved(output, rel))
     if r.session is not None:

@@ -231,9 +231,11 @@ def write_compensation(errors: MachineErrors, fmt: str, folder: str | Path,
 
             clash2 = fanuc_point_clash(files)
             if clash2 is not None:
-                raise VolcalInputError(f"Fanuc pitch error compensation: {clash2} (one table "
-                                       "for all axes): the rotary table starts at point 900; "
-                                       "use a larger --spacing for the linear axes")
+                raise ParameterError(f"Fanuc pitch error compensation: {clash2} (one table "
+                                     "for all axes: the linear axes' points count from 0, "
+                                     "the rotary axes' from 900, or lower where they would "
+                                     "not fit below 1024); use a larger {spacing} for the "
+                                     "linear axes or a larger {rotary_spacing}")
     carries = list(info.carries)
     if fmt == "siemens" and not options.include_squareness:
         carries = [c for c in carries if c not in SQUARENESS_NAMES]

@@ -144,6 +144,7 @@ def compensate(model: str | Path | IdentificationResult | MachineErrors | None, 
                fanuc_series: str = D.COMP_FANUC_SERIES,
                linuxcnc_type: int = D.COMP_LINUXCNC_TYPE,
                squareness: bool = D.COMP_SQUARENESS,
+               rotary_spacing: float = D.COMP_ROTARY_SPACING_DEG,
                tool_offset: ArrayLike = D.TOOL_OFFSET_MM, replace: bool = False,
                machine: MachineIdentity | None = None,
                on_moved: Callable[[str], None] | None = None) -> Compensated:
@@ -190,6 +191,10 @@ def compensate(model: str | Path | IdentificationResult | MachineErrors | None, 
         LinuxCNC ``COMP_FILE_TYPE``, 1 (trims) or 0.
     squareness : bool
         Siemens CEC: add squareness terms.
+    rotary_spacing : float
+        With ``session``: distance between the points of the rotary tests' Siemens and
+        Fanuc tables [deg]; it divides 360 on a full-circle axis (Fanuc: and is a whole
+        number of detection units).
     tool_offset : array_like, shape (3,)
         3-D grid: target on the tool [mm].
     replace : bool
@@ -227,6 +232,10 @@ def compensate(model: str | Path | IdentificationResult | MachineErrors | None, 
     if moved is not None and on_moved is not None:
         on_moved(moved)
     ref = None if reference_mm is None else tuple(_checks.vector("reference_mm", reference_mm))
+    rotary_options = {"sign": sign, "linuxcnc_type": linuxcnc_type, "fanuc_series": fanuc_series,
+                      "magnification": magnification, "max_increment": max_increment,
+                      "spacing_deg": _checks.number("rotary_spacing", rotary_spacing, 0.0,
+                                                    strict=True, unit="deg")}
     directional, sess, none_bidir = None, None, False
     dnotes: tuple[str, ...] = ()
     if session is not None:
@@ -236,8 +245,8 @@ def compensate(model: str | Path | IdentificationResult | MachineErrors | None, 
         # the readings as identify and evaluate read them: missed captures skipped
         sess = session if isinstance(session, Session) else read_session(session)
         if model is None:
-            return _rotary_only(sess, fmt, output, sign, note, moved, machine, linuxcnc_type,
-                                fanuc_series, magnification, max_increment, float(spacing))
+            return _rotary_only(sess, fmt, output, note, moved, machine, float(spacing),
+                                rotary_options)
         directional = directional_from_session(sess)
         dnotes = tuple(directional.notes())
         if not directional.source:
@@ -256,8 +265,7 @@ def compensate(model: str | Path | IdentificationResult | MachineErrors | None, 
     errors, label = _errors(model)
     if machine is None:
         machine = _identity(model, errors, sess, force, forced)
-    rotary, rot_skipped = _rotary(sess, fmt, sign, linuxcnc_type, fanuc_series,
-                                  magnification, max_increment)
+    rotary, rot_skipped = _rotary(sess, fmt, rotary_options)
     files = write_compensation(errors, fmt, output, opts, label, machine, rotary)
     out = Compensated(tuple(files), Path(output), fmt, opts.sign_for(fmt), sign is None,
                       float(spacing), note, sess, dnotes, none_bidir, tuple(forced),
@@ -267,10 +275,9 @@ def compensate(model: str | Path | IdentificationResult | MachineErrors | None, 
     return _checked(out, sess, errors, [] if rotary is None else rotary[1])
 
 
-def _rotary_only(sess: Session, fmt: str, output: str | Path, sign: str | None,
-                 note: str | None, moved: str | None, machine: MachineIdentity | None,
-                 linuxcnc_type: int, fanuc_series: str, magnification: int,
-                 max_increment: int, spacing: float) -> Compensated:
+def _rotary_only(sess: Session, fmt: str, output: str | Path, note: str | None,
+                 moved: str | None, machine: MachineIdentity | None, spacing: float,
+                 rotary_options: dict[str, Any]) -> Compensated:
     """The rotary tables of the session alone, checked: no linear model (``model=None``)."""
     from volcal.compensate.formats import write_rotary_compensation
     from volcal.compensate.rotary import ROTARY_FORMATS
@@ -281,11 +288,11 @@ def _rotary_only(sess: Session, fmt: str, output: str | Path, sign: str | None,
         raise ParameterError("no model given and the session has no rotary test: the "
                              "tables of the linear axes need a model (volcal identify)",
                              sess.path)
-    rotary, skipped = _rotary(sess, fmt, sign, linuxcnc_type, fanuc_series, magnification,
-                              max_increment)
+    rotary, skipped = _rotary(sess, fmt, rotary_options)
     if rotary is None:
         raise ParameterError(f"no model given, and no rotary table in the {fmt} format "
                              f"({'; '.join(skipped) or 'no rotary test'})", sess.path)
+    sign = rotary_options["sign"]
     rsign = sign if sign is not None else ROTARY_FORMATS[fmt]
     files = write_rotary_compensation(fmt, output, rsign, machine or MachineIdentity.of(sess),
                                       rotary)
@@ -295,19 +302,17 @@ def _rotary_only(sess: Session, fmt: str, output: str | Path, sign: str | None,
                        rotary_not_written=tuple(skipped) + tuple(rskipped), rotary_only=True)
 
 
-def _rotary(sess: Session | None, fmt: str, sign: str | None, linuxcnc_type: int,
-            fanuc_series: str, magnification: int, max_increment: int
+def _rotary(sess: Session | None, fmt: str, options: dict[str, Any]
             ) -> tuple[tuple[dict[str, str], list[dict[str, Any]]] | None, list[str]]:
-    """The rotary tables of the session's rotary tests (none without a session)."""
+    """The rotary tables of the session's rotary tests (none without a session).
+
+    ``options`` are :class:`volcal.compensate.rotary.RotaryOptions`' fields.
+    """
     if sess is None or not any(m.kind == "rotary" for m in sess.measurements):
         return None, []
     from volcal.compensate.rotary import RotaryOptions, rotary_profiles, rotary_tables
 
-    files, entries, skipped = rotary_tables(
-        rotary_profiles(sess), fmt, RotaryOptions(sign=sign, linuxcnc_type=linuxcnc_type,
-                                                  fanuc_series=fanuc_series,
-                                                  magnification=magnification,
-                                                  max_increment=max_increment))
+    files, entries, skipped = rotary_tables(rotary_profiles(sess), fmt, RotaryOptions(**options))
     return ((files, entries) if files else None), skipped
 
 

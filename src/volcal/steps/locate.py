@@ -218,6 +218,28 @@ def _linear_model(model: Any):
     return read_error_table(p)
 
 
+
+def _one_configuration(ms: list[Any]) -> None:
+    """Refuse sphere tests of several machine configurations (chain or pivots), naming them.
+
+    Each configuration's test ids are listed with its chain and pivots, so that the
+    message says what to pass as ``measurements``.
+    """
+    groups: dict[tuple[str, str], list[str]] = {}
+    for m in ms:
+        piv = m.meta.get("pivot_mm") or {}
+        where = " ".join(f"{a.upper()} ({', '.join(f'{float(v):g}' for v in p)})"
+                         for a, p in sorted(piv.items())) or "none"
+        groups.setdefault((str(m.meta.get("chain")), where), []).append(m.id)
+    if len(groups) < 2:
+        return
+    said = "; ".join(f"{', '.join(ids)} (chain {chain}, pivots {piv} mm)"
+                     for (chain, piv), ids in groups.items())
+    first = ",".join(next(iter(groups.values())))
+    raise ParameterError(f"the session's sphere tests describe {len(groups)} machine "
+                         f"configurations: {said}; locate one at a time, e.g. "
+                         f"{{measurements=}}{first}")
+
 def locate(session: str | Path | Session, *,
            model: str | Path | MachineErrors | IdentificationResult | None = None,
            measurements: list[str] | None = None, prior_u: float | None = None) -> Located:
@@ -279,13 +301,7 @@ def locate(session: str | Path | Session, *,
             what = ("no reported centres (x_mm, y_mm, z_mm)" if m.kind == "probe_sphere"
                     else "no readings (dx_um, dy_um, dz_um or s1_um, s2_um, s3_um)")
             raise VolcalInputError(f"{m.kind} test {m.id!r} is not measured: its CSV has {what}")
-    ref = ms[0].meta
-    for m in ms[1:]:
-        if m.meta.get("chain") != ref.get("chain") or m.meta.get("pivot_mm") != ref.get(
-                "pivot_mm"):
-            raise VolcalInputError(f"{ms[0].kind} test {ms[0].id!r} and {m.kind} test {m.id!r} "
-                                   "give another chain or pivots: locate one machine "
-                                   "configuration at a time")
+    _one_configuration(ms)
     loaded = _linear_model(model)
     linear = getattr(loaded, "errors", loaded)
     nominal = five_axis_machine(ms[0], linear)

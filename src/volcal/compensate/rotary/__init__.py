@@ -107,6 +107,27 @@ def _names(profiles: Sequence[RotaryProfile]) -> list[str]:
                                                                           strict=True)]
 
 
+def _fanuc_first_point(profiles: Sequence[RotaryProfile], o: RotaryOptions
+                       ) -> tuple[int, list[str]]:
+    """Parameter 3620 of the first Fanuc rotary table, and a note when it is not the default.
+
+    The full-circle axes' tables follow each other from ``o.fanuc_reference_number``
+    (900) in the table all axes share (:data:`~volcal.compensate.rotary.fanuc.
+    TABLE_POINTS`); where they would run past its end (two axes at 5 deg: 146 points from
+    900), they start lower, so that the last ends at its last point. Whether the linear
+    axes' tables (from point 0) reach them is checked when both are written.
+    """
+    from volcal.compensate.rotary.fanuc import TABLE_POINTS
+
+    ref = o.fanuc_reference_number
+    need = sum(int(round(360.0 / o.spacing_deg)) + 1 for p in profiles if p.modulo)
+    if ref + need <= TABLE_POINTS or need > TABLE_POINTS:
+        return ref, []
+    first = TABLE_POINTS - need
+    return first, [f"Fanuc: the rotary tables take points {first}..{TABLE_POINTS - 1} of the "
+                   f"shared table of {TABLE_POINTS} (from point {ref} they would not fit)"]
+
+
 def rotary_tables(profiles: Sequence[RotaryProfile], fmt: str, o: RotaryOptions
                   ) -> tuple[dict[str, str], list[dict[str, Any]], list[str]]:
     """The rotary tables of ``fmt``.
@@ -160,6 +181,9 @@ def rotary_tables(profiles: Sequence[RotaryProfile], fmt: str, o: RotaryOptions
     else:
         cma: dict[str, str] = {}
         ref = o.fanuc_reference_number
+        if fmt == "fanuc":
+            ref, moved = _fanuc_first_point(profiles, o)
+            notes += moved
         for i, (p, stem) in enumerate(zip(profiles, names, strict=True)):
             e: dict[str, Any] = {"id": p.id, "axis": p.axis, "sign": sign, "modulo": p.modulo}
             if fmt == "linuxcnc":

@@ -72,12 +72,15 @@ ROT_PITCH_FILE = "FANUC_ROTARY_PITCH_{}.TXT"
 """File names; ``{}`` is the axis letter (with the test id when an axis repeats)."""
 DEFAULT_SIGN = "correction"
 DEFAULT_REFERENCE_NUMBER = 900
+TABLE_POINTS = 1024
+"""Points of the pitch error table all axes share (0..1023; parameters 3620-3622 of
+FANUC B-63980EN/01 take 0..1023)."""
 
 
 def fanuc_rotary_files(p: RotaryProfile, spacing_deg: float, sign: str = DEFAULT_SIGN,
                        unit_deg: float = 0.001, magnification: int = 1,
                        max_increment: int = 7, reference_number: int = DEFAULT_REFERENCE_NUMBER,
-                       axis_number: int = 4, max_points: int = 1024, series: str = "30i",
+                       axis_number: int = 4, max_points: int = TABLE_POINTS, series: str = "30i",
                        stem: str = "C") -> tuple[dict[str, str], list[str]]:
     """Parameter and pitch data lines of one full-circle rotary axis.
 
@@ -129,8 +132,9 @@ def fanuc_rotary_files(p: RotaryProfile, spacing_deg: float, sign: str = DEFAULT
     npts = int(round(n))
     last = reference_number + npts
     if reference_number < 0 or last > max_points - 1:
-        raise VolcalInputError(f"Fanuc rotary table of {p.id}: points {reference_number}.."
-                               f"{last} do not fit the table of {max_points} points")
+        raise ParameterError(f"Fanuc rotary table of {p.id}: points {reference_number}.."
+                             f"{last} do not fit the table of {max_points} points shared by "
+                             "all axes; use a larger {rotary_spacing}")
     g = spacing_deg * np.arange(npts + 1)
     corr = s * p.error_urad(g) * DEG_PER_URAD  # mean of both directions [deg]
     corr = corr - corr[0]  # zero at the reference position
@@ -140,10 +144,10 @@ def fanuc_rotary_files(p: RotaryProfile, spacing_deg: float, sign: str = DEFAULT
     big = np.flatnonzero(np.abs(inc) > max_increment)
     if big.size:
         k = int(big[0]) + 1
-        raise VolcalInputError(f"Fanuc rotary table of {p.id}: point {reference_number + k} "
-                               f"({g[k]:g} deg) needs {inc[k - 1]} units, more than "
-                               f"{max_increment}; use a smaller --rotary-spacing or a larger "
-                               "--magnification / --max-increment")
+        raise ParameterError(f"Fanuc rotary table of {p.id}: point {reference_number + k} "
+                             f"({g[k]:g} deg) needs {inc[k - 1]} units, more than "
+                             f"{max_increment}; use a smaller {{rotary_spacing}} or a larger "
+                             "{magnification} / {max_increment}")
     real = series == "30i"
 
     def par(num: int, v: object) -> str:

@@ -123,8 +123,8 @@ def siemens_rotary_files(profiles: list[RotaryProfile], spacing_deg: float,
         ax = f"AX{4 + i}"
         g = siemens_grid(p, spacing_deg)
         if g.size > max_points:
-            raise VolcalInputError(f"Siemens LEC {ax}: {g.size} points exceed "
-                                   f"MD38000 = {max_points}; use a larger --rotary-spacing")
+            raise ParameterError(f"Siemens LEC {ax}: {g.size} points exceed "
+                                 f"MD38000 = {max_points}; use a larger {{rotary_spacing}}")
         mean = s * p.error_urad(g) * DEG_PER_URAD
         if p.modulo:
             mean[-1] = mean[0]  # 0 and 360 deg: one position

@@ -202,6 +202,28 @@ def test_failed_add_leaves_nothing(store_url, calibrations, monkeypatch):
         assert len(h.list()) == n
 
 
+@pytest.mark.parametrize(("what", "message"), [
+    ("session", "NOPE: session folder not found"),
+    ("model", "nope.json: model file not found"),
+    ("budget", "nob.toml: no such budget file"),
+    ("certificate", "no certificate.json: --certificate names the folder")])
+def test_a_failed_add_with_create_makes_no_store(tmp_path, calibrations, what, message):
+    """``volcal history add ... --create`` with a typo in a path: refused, and no new empty
+    history left behind (it was created before the inputs were read, session 26)."""
+    folder, model = calibrations["a"]
+    args = {"session": [str(folder)], "model": ["--model", str(model)]}
+    bad = {"session": [str(tmp_path / "NOPE")], "model": ["--model", str(tmp_path / "nope.json")],
+           "budget": ["--budget", str(tmp_path / "nob.toml")],
+           "certificate": ["--certificate", str(tmp_path / "nocert")]}
+    given = {**args, what: bad[what]}
+    db = tmp_path / "new.sqlite"
+    r = _volcal("history", "add", *given["session"], *given["model"],
+                *(bad[what] if what in ("budget", "certificate") else []), "--db", str(db),
+                "--create")
+    assert r.returncode == 2 and message in r.stderr and "Traceback" not in r.stderr, r.stderr
+    assert not db.exists() and "created a new history" not in r.stderr
+
+
 def test_migration_from_first_revision(tmp_path):
     """A store of revision 0001 with a record upgrades to the head and keeps its chain."""
     from sqlalchemy import text

@@ -29,15 +29,27 @@ def test_plan_takes_either_spelling_and_refuses_the_unknown():
 
 
 @pytest.mark.parametrize(("tests", "message"), [
-    (["linear", "linear:x"], "'linear' and 'linear:x' both plan the measurement 'linear-x1'"
-                             ": name each test once \\('linear' alone plans every axis"),
+    (["linear", "linear:x"], "tests: 'linear' and 'linear:x' both plan the measurement "
+                             "'linear-x1': name each test once \\('linear' alone plans every "
+                             "axis"),
     (["Face_Step_Diagonal:YZ", "face-step-diagonal"],
      "'face-step-diagonal:YZ' and 'face-step-diagonal' both plan the measurement "
      "'fstep-yz-pp'"),
-    (["diagonal", "Diagonal"], "--tests names 'diagonal' twice"),
-    (["linear:x", "linear:X"], "--tests names 'linear:x' twice")])
+    (["diagonal", "Diagonal"], "tests names 'diagonal' twice"),
+    (["linear:x", "linear:X"], "tests names 'linear:x' twice")])
 def test_a_test_named_twice_or_inside_another_is_refused_naming_both(tests, message):
     """A user's ``--tests linear,linear:x``: both plan linear-x1. The refusal names the two
     tests (it named only the duplicate id, from deep in the session's checks)."""
     with pytest.raises(VolcalInputError, match=message):
         plan_session(TRAVEL, tests=tests, steps=3)
+
+
+def test_each_face_names_the_tests_its_own_way(tmp_path):
+    """The command line says ``--tests``, Python ``tests`` (one message, spelled by each)."""
+    from volcal import Calibration
+    from volcal_cli_helpers import volcal_process
+
+    p = volcal_process("plan", "-o", str(tmp_path / "S"), "--tests", "linear,linear:x")
+    assert p.returncode == 2 and "--tests: 'linear' and 'linear:x' both plan" in p.stderr
+    with pytest.raises(VolcalInputError, match=r"^Calibration.plan: tests: 'linear' and"):
+        Calibration.plan(TRAVEL, tests=["linear", "linear:x"])

@@ -96,6 +96,6 @@ def test_linuxcnc_safe_z_below_the_swept_sphere_is_refused():
     # the planned sphere: centre Z at the poses and between them at most 99.3 mm above the
     # C pivot (z 335.353 mm), + 14 mm (radii) + clearance
     assert 400.0 < need <= 335.353 + 99.3 + 14.0 + CLEARANCE_MM < SAFE_Z
-    with pytest.raises(VolcalInputError, match=f"--safe-z-mm 0: below {need:.3f} mm"):
+    with pytest.raises(VolcalInputError, match=f"safe_z_mm=0: below {need:.3f} mm"):
         _program(safe_z_mm=0.0)
     _program(safe_z_mm=need)  # exactly clear: accepted

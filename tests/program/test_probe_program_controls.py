@@ -268,7 +268,7 @@ def test_safe_z_below_the_swept_sphere_is_refused(simulated):
 
     m = read_session(simulated[1], require_deviation=False).measurements[0]
     for dialect in ("heidenhain", "siemens"):
-        with pytest.raises(VolcalInputError, match="--safe-z-mm 300: below") as e:
+        with pytest.raises(VolcalInputError, match="safe_z_mm=300: below") as e:
             kind_of("probe_sphere").program_text(m, dialect, "PS", 1,
                                                  ProgramOptions(safe_z_mm=300.0))
         need = float(_re.search(r"below ([0-9.]+) mm", str(e.value)).group(1))

@@ -48,7 +48,7 @@ def test_tcp_program_probes_the_same_table_points_at_every_pose():
 
 def test_tcp_program_refuses_a_retract_below_the_sphere_and_a_bad_key():
     _, m = _test(sphere_mm=[100.0, 0.0, 40.0])
-    with pytest.raises(VolcalInputError, match="safe-z-mm -10: below the top approach"):
+    with pytest.raises(VolcalInputError, match="safe_z_mm=-10: below the top approach"):
         kind_of("probe_sphere").program_text(m, "linuxcnc", "P", 1,
                                              ProgramOptions(safe_z_mm=-10.0))
     _, m = _test(control_kinematics="rtcp")

@@ -35,7 +35,7 @@ def _measurement():
 def test_safe_z_below_the_approach_is_refused():
     m = _measurement()
     with pytest.raises(VolcalInputError,
-                       match="--safe-z-mm 0: below the approach point 405.353 mm"):
+                       match="safe_z_mm=0: below the approach point 405.353 mm"):
         kind_of("r_test").program_text(m, "linuxcnc", "R", 1, ProgramOptions(safe_z_mm=0.0))
 
 

@@ -53,6 +53,29 @@ def _open(db: str | None, create: bool = False, private_key: Path | None = None)
     return h
 
 
+def _given_files_exist(session: Path, model: Path | None, budget: Path | None,
+                       certificate: Path | None) -> None:
+    """Refuse a missing session, model, budget or certificate before any store is opened.
+
+    ``--create`` would otherwise leave a new, empty history behind a typo.
+    """
+    from volcal.errors import VolcalInputError
+    from volcal.io.sniff import model_path
+
+    if not (Path(session) / "session.toml").is_file():
+        raise VolcalInputError("session folder not found (no session.toml here)", session)
+    if model is not None:
+        model_path(model)
+    if budget is not None and not Path(budget).is_file():
+        raise VolcalInputError("no such budget file", budget)
+    if certificate is not None:
+        cert = Path(certificate)
+        cert = cert / "certificate.json" if cert.is_dir() else cert
+        if not cert.is_file():
+            raise VolcalInputError("no certificate.json: --certificate names the folder "
+                                   "`volcal report --certificate` wrote", cert)
+
+
 def _err(text: str) -> None:
     from rich.console import Console
     from rich.markup import escape
@@ -122,6 +145,7 @@ def add_cmd(
     The same readings and model stored again (a retried add) append nothing: the stored
     record's id is printed, with a note on standard error.
     """
+    _given_files_exist(session, model, budget, certificate)  # before a new store is made
     with _open(db, create, private_key) as h:
         rec = h.add(session, model, as_left_of, supersedes, machine, force, certificate,
                     budget)
@@ -151,6 +175,11 @@ def add_etalon_cmd(
     create: CreateOption = False,
 ) -> None:
     """Store another system's result (Etalon exchange file); prints the record id."""
+    from volcal.errors import VolcalInputError
+
+    if not Path(file).is_file():
+        raise VolcalInputError("no such file (the Etalon exchange file)", file)
+    _given_files_exist(session, None, None, None)  # before a new store is made
     with _open(db, create, private_key) as h:
         rec = h.add_etalon(file, session, date, machine)
         if rec.payload.get("not_mapped"):

@@ -207,10 +207,10 @@ def _check_once(mid: str, test: str, earlier: str | None) -> None:
     if earlier is None:
         return
     if earlier.lower() == test.lower():
-        raise VolcalInputError(f"--tests names {earlier!r} twice: name each test once")
+        raise ParameterError(f"{{tests}} names {earlier!r} twice: name each test once")
     whole = [t for t in (earlier, test) if ":" not in t]
-    raise VolcalInputError(
-        f"--tests: {earlier!r} and {test!r} both plan the measurement {mid!r}: name each "
+    raise ParameterError(
+        f"{{tests}}: {earlier!r} and {test!r} both plan the measurement {mid!r}: name each "
         "test once" + (f" ({whole[0]!r} alone plans every axis or plane)" if whole else ""))
 
 
@@ -308,7 +308,7 @@ def _check_options(tests: Sequence[str], steps: int, runs: int, step_target: str
                    linear_margin_mm: float, abbe_tool_offset_mm: float) -> None:
     names = plan_test_names()
     if not tests:
-        raise VolcalInputError(f"--tests: no test given; expected any of {', '.join(names)}")
+        raise ParameterError(f"{{tests}}: no test given; expected any of {', '.join(names)}")
     unknown = [x for x in tests if x.partition(":")[0] not in names]
     if unknown:
         raise VolcalInputError(f"unknown test(s) {', '.join(unknown)}: expected any of "

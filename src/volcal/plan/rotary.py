@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from volcal.errors import VolcalInputError
+from volcal.errors import ParameterError, VolcalInputError
 from volcal.plan.geometry import iso_targets
 from volcal.session.format import Measurement
 from volcal.session.rotary import ROTARY_AXES, RotaryAxis
@@ -103,11 +103,11 @@ def rotary_targets(axis: RotaryAxis, steps: int, margin_deg: float = DEFAULT_MAR
     if targets_deg is not None:
         t = np.sort(np.asarray(targets_deg, dtype=float))
         if t.size < 2 or not np.all(np.isfinite(t)):
-            raise VolcalInputError("--targets: at least two angles [deg] are needed")
+            raise ParameterError("{targets}: at least two angles [deg] are needed")
         if np.any(np.diff(t) <= 0):
-            raise VolcalInputError("--targets: each angle once")
+            raise ParameterError("{targets}: each angle once")
         if t[0] < lo or t[-1] > hi:
-            raise VolcalInputError(f"--targets: the angles must lie in the range of axis "
+            raise ParameterError(f"{{targets}}: the angles must lie in the range of axis "
                                    f"{axis.name.upper()} [{lo:g}, {hi:g}] deg")
         return t
     if not axis.modulo:

@@ -68,7 +68,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from volcal.errors import VolcalInputError
+from volcal.errors import ParameterError, VolcalInputError
 from volcal.program.dialects import _ascii, _num
 
 __all__ = ["ProbeMove", "check_safe_z", "heidenhain_format_file", "probe_moves",
@@ -238,7 +238,7 @@ def check_safe_z(m: Any, angles: dict[str, Array], safe_z_mm: float, above_mm: f
     """
     need = safe_height(m, angles, above_mm)
     if safe_z_mm < need:
-        raise VolcalInputError(f"--safe-z-mm {safe_z_mm:g}: below {need:.3f} mm, the "
+        raise ParameterError(f"{{safe_z_mm=}}{safe_z_mm:g}: below {need:.3f} mm, the "
                                "highest point of the sphere (plus tip and clearance) at the "
                                "poses and while the rotary axes turn between them; this program "
                                "retracts there before every rotary move (machine coordinates = "

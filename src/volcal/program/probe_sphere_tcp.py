@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from volcal.errors import VolcalInputError
+from volcal.errors import ParameterError
 from volcal.program.dialects import _ascii, _paren_comment
 
 __all__ = ["probe_program_tcp"]
@@ -68,7 +68,7 @@ def probe_program_tcp(m: Any, name: str, options: Any, *, feed: float, clearance
     top = c[2] + r + clearance
     safe = float(options.safe_z_mm)
     if safe < top:
-        raise VolcalInputError(f"--safe-z-mm {safe:g}: below the top approach point "
+        raise ParameterError(f"{{safe_z_mm=}}{safe:g}: below the top approach point "
                                f"{top:g} mm of the sphere (table coordinates of a tool centre "
                                "point control): the retract must clear the sphere")
     letters = list(ang)

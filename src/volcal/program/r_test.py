@@ -43,7 +43,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from volcal.errors import VolcalInputError
+from volcal.errors import ParameterError, VolcalInputError
 from volcal.program.dialects import _paren_comment
 
 __all__ = ["APPROACH_FEED_MM_MIN", "CLEARANCE_MM", "MAX_STEP_DEG", "rtest_path_points",
@@ -180,10 +180,10 @@ def rtest_program(m: Any, dialect: str, name: str, number: int, options: Any
                                    "tool along the table's Z (the approach and retract go "
                                    "along it)", None, None, f"measurements.{m.id}.file")
         if safe < above[2]:
-            raise VolcalInputError(f"--safe-z-mm {safe:g}: below the approach point "
+            raise ParameterError(f"{{safe_z_mm=}}{safe:g}: below the approach point "
                                    f"{above[2]:g} mm above the sphere (table coordinates)")
     elif safe < above[2]:
-        raise VolcalInputError(f"--safe-z-mm {safe:g}: below the approach point "
+        raise ParameterError(f"{{safe_z_mm=}}{safe:g}: below the approach point "
                                f"{above[2]:g} mm (machine coordinates, {clear:g} mm above "
                                "the sphere's working position): the nest would hit the "
                                "sphere")

@@ -441,3 +441,21 @@ def test_a_control_reporting_the_stop_takes_the_first_window_after_it():
     assert go <= ev[0].window_s[0] and ev[0].window_s[1] < go + 1.0 + 2.0 / p.rate
     dev = deviation(p, {e.reading: e.value for e in ev})
     assert abs(dev[0] - p.error(0)) < 0.1
+
+
+def test_position_noise_across_the_window_is_no_departure():
+    """A control whose position jitters by 2 um (sigma, each axis) with a target window of
+    5 um: samples cross the window's edge while the machine dwells. Each dwell still gives
+    its one reading (the machine leaves a dwell only beyond the window by more than
+    ``k_sigma`` times its noise). Before (session 26's random journeys) a jitter across the
+    edge ended the dwell, and the next sample at the same target was refused as "the target
+    of reading N" (or the dwell was missed)."""
+    p = Program(TARGETS, SIGNS, control_noise_mm=0.002, laser_noise_um=0.05, seed=5)
+    events = run(rule_for(p, window_mm=0.005), p.stream())
+    ev = decided(events)
+    assert [e.reading for e in ev] == list(range(len(TARGETS)))
+    assert all(isinstance(e, Accepted) for e in ev), ev
+    dwell = p.dwell_intervals()
+    for e in ev:
+        a, b = dwell[e.reading]
+        assert a - 1.0 / p.rate <= e.window_s[0] and e.window_s[1] <= b + 1.0 / p.rate

@@ -38,8 +38,10 @@ A point is accepted when
 The accepted value is the mean of the laser samples of the window, the position the mean
 of the control's. Each programmed dwell gives **exactly one** event: the accepted point,
 or, when the control leaves the target before a stable window was found, ``missed``
-(never a guess). A rest at the *next* target after a polling gap that swallowed a whole
-dwell records that dwell as missed too.
+(never a guess). The control has left a dwell when it moves, the program pauses, or an
+axis lies beyond the window by more than ``k_sigma`` times its noise at rest (jitter
+across the window's edge is no departure). A rest at the *next* target after a polling
+gap that swallowed a whole dwell records that dwell as missed too.
 
 After a resume (``done`` lists the readings already recorded) the rule expects the first
 reading not recorded: the program may have gone on while the capture was down. If the
@@ -542,9 +544,24 @@ class TriggerRule:
         return self._evaluate(t)
 
     # ---------------------------------------------------------------- the rule
-    def _near(self, target: NDArray[np.float64]) -> bool:
+    def _near(self, target: NDArray[np.float64], slack: float | NDArray[np.float64] = 0.0
+              ) -> bool:
         assert self._pos is not None
-        return bool(np.all(np.abs(self.frame.delta(self._pos, target)) <= self._window))
+        return bool(np.all(np.abs(self.frame.delta(self._pos, target))
+                           <= self._window + slack))
+
+    def _noise_slack(self, t: float) -> NDArray[np.float64]:
+        """How far past the window the control's noise may carry a machine at rest.
+
+        ``k_sigma`` times the control's noise per axis (pooled at rest, never below the
+        floor): a machine in a dwell has left it only beyond the window by more than
+        that (its jitter across the window's edge is no departure).
+        """
+        _, v = self._ctrl.window(t - self.p.stable_s, t)
+        floor = np.broadcast_to(np.asarray(self._cnoise, float), (len(self.frame.axes),))
+        if v.shape[0] < 3:
+            return self.p.k_sigma * floor
+        return self.p.k_sigma * self._ctrl.sigma(self._cnoise, v)
 
     def _ctrl_stable(self, t0: float, t1: float) -> tuple[bool, NDArray[np.float64]]:
         tt, v = self._ctrl.window(t0, t1)
@@ -690,7 +707,8 @@ class TriggerRule:
     def _in_dwell(self, t: float) -> list[TriggerEvent]:
         assert self._dwell is not None
         d = self.dwells[self._dwell]
-        leaving = not self._near(d.target) or self._moving is True or self._running is False
+        leaving = (self._moving is True or self._running is False
+                   or not self._near(d.target, self._noise_slack(t)))
         if leaving:
             events: list[TriggerEvent] = []
             if not self._decided:

@@ -13,10 +13,15 @@ cannot serve, refused with its message), never a traceback: the sweep of known m
 combination of legitimate options reaches an unhandled error. Slow (``make study``): each
 journey takes 10-60 s.
 
+Capture journeys (:func:`test_a_random_capture_journey_records_every_dwell`): a short
+test captured with a simulated control of random acceleration, position noise, overshoot
+and flags, and random trigger options: every dwell gives its row.
+
 Found by these journeys (session 26), fixed: ``--tests linear,linear:x`` refused naming
 only the duplicate id; two full-circle rotary axes' Fanuc tables refused, naming an option
 the command did not have (``--rotary-spacing``, now there); a session of a CA and a CB
-trunnion refused by ``locate`` without naming the tests of each.
+trunnion refused by ``locate`` without naming the tests of each; a control's position
+noise across the target window ended a dwell and refused the next sample as a mismatch.
 """
 
 from __future__ import annotations
@@ -82,3 +87,38 @@ def test_a_random_journey_ends_each_step_with_a_result_or_a_refusal(tmp_path: Pa
             if args[0] in ("plan", "simulate"):
                 break  # nothing to go on with (the refusal checked)
     assert refused < 20
+
+
+def _capture_journey(seed: int) -> list[tuple[str, ...]]:
+    """Plan a short test, capture it with a simulated control and laser of random
+    behaviour (acceleration, position noise, overshoot, with or without its flags) and
+    random trigger options, capture it again, evaluate and identify or locate it."""
+    rng = random.Random(seed)
+    tests = rng.choice(["linear:x", "linear:y", "rotary:c", "rotary:a", "diagonal",
+                        "step-diagonal", "linear:z,rotary:c"])
+    travel = ",".join(rng.choice(["0:200", "-100:100", "-300:0"]) for _ in range(3))
+    control = "sim:" + ",".join(f"{k}={v}" for k, v in (
+        ("flags", rng.choice([0, 1])), ("noise", rng.choice([0, 0.0001, 0.002])),
+        ("overshoot", rng.choice([0, 0.003])), ("accel", rng.choice([50, 500, 5000]))))
+    opts = ("--dwell-s", str(rng.choice([1.5, 2, 4])), "--stable-s", "0.5", "--max-gap-s",
+            "0.3", "--poll-s", "0.05", "--timeout-s", "120", "--window-mm",
+            str(rng.choice([0.005, 0.01, 0.05])))
+    capture = ("capture", "S", "--control", control, "--laser",
+               rng.choice(["sim:seed=3", "sim:seed=1,noise=0.2"]), *opts)
+    return [("plan", "-o", "S", "--travel", travel, "--tests", tests, "--steps", "3", "--runs",
+             "2"), capture, capture, ("evaluate", "session", "S"),
+            ("identify", "S", "-o", "M.json")]
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_a_random_capture_journey_records_every_dwell(tmp_path: Path, seed: int):
+    """Every capture of a random simulated control is complete: one accepted row per dwell
+    (the control's noise up to 2 um across windows down to 5 um: session 26's fix), and
+    the second capture finds nothing left to do."""
+    for args in _capture_journey(20261128 + seed):
+        p = volcal_process(*args, cwd=tmp_path)
+        assert "Traceback" not in p.stderr + p.stdout, (args, p.stderr[-3000:])
+        assert p.returncode in (0, 2), (args, p.returncode, p.stderr[-2000:])
+        if args[0] == "capture":
+            assert p.returncode == 0, (args, p.stderr[-2000:])
+            assert "missed" not in p.stdout.replace("0 missed", ""), p.stdout

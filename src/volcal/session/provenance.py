@@ -37,15 +37,24 @@ def readings_digest(session: Session) -> str:
     Returns
     -------
     str
-        Hex digest over the measurement ids (sorted) and their deviations formatted as
-        in the CSV (``%.6f`` um, ``missed``, empty).
+        Hex digest over the measurement ids (sorted) and their reading column as the CSV
+        holds it (each kind's column and format, :meth:`volcal.session.kinds.Kind.
+        csv_values`: ``%.6f`` um of the deviation for most kinds, ``missed``, empty), so
+        that the readings read back from the files give the digest of the readings
+        written. (A multilateration test's ``length_mm``, 8 decimals of mm, gives back
+        deviations that differ from the simulated ones in the sixth decimal of a um: its
+        digest was of the deviations until session 26, and a simulated session with one
+        counted as measured.)
     """
+    from volcal.session.kinds import kind_of
+
     h = hashlib.sha256()
     for m in sorted([*session.measurements, *session.unmeasured], key=lambda m: m.id):
         h.update(m.id.encode() + b"\n")
         if m.deviation is not None:
-            h.update(",".join("missed" if np.isnan(v) else f"{v:.6f}"
-                              for v in m.deviation).encode())
+            _, values, fmt = kind_of(m.kind).csv_values(m)
+            h.update(",".join("missed" if np.isnan(v) else fmt.format(v)
+                              for v in np.asarray(values, float)).encode())
         h.update(b"\n")
     return h.hexdigest()
 

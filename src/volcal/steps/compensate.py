@@ -227,15 +227,15 @@ def compensate(model: str | Path | IdentificationResult | MachineErrors | None, 
                              "bidirectional linear tests' reversal), and for the linear axes' "
                              f"tables the model identified from it (volcal identify {model} "
                              "-o model.json)", Path(model) / "session.toml")
-    moved = _checks.output_folder(output, "compensation", lambda p: (p / MANIFEST).is_file(),
-                                  manifest_files(MANIFEST, "files"), replace)
-    if moved is not None and on_moved is not None:
-        on_moved(moved)
-    ref = None if reference_mm is None else tuple(_checks.vector("reference_mm", reference_mm))
     rotary_options = {"sign": sign, "linuxcnc_type": linuxcnc_type, "fanuc_series": fanuc_series,
                       "magnification": magnification, "max_increment": max_increment,
                       "spacing_deg": _checks.number("rotary_spacing", rotary_spacing, 0.0,
                                                     strict=True, unit="deg")}
+    ref = None if reference_mm is None else tuple(_checks.vector("reference_mm", reference_mm))
+    moved = _checks.output_folder(output, "compensation", lambda p: (p / MANIFEST).is_file(),
+                                  manifest_files(MANIFEST, "files"), replace)
+    if moved is not None and on_moved is not None:
+        on_moved(moved)
     directional, sess, none_bidir = None, None, False
     dnotes: tuple[str, ...] = ()
     if session is not None:

@@ -218,27 +218,29 @@ def _linear_model(model: Any):
     return read_error_table(p)
 
 
-
 def _one_configuration(ms: list[Any]) -> None:
     """Refuse sphere tests of several machine configurations (chain or pivots), naming them.
 
     Each configuration's test ids are listed with its chain and pivots, so that the
     message says what to pass as ``measurements``.
     """
-    groups: dict[tuple[str, str], list[str]] = {}
+    groups: dict[tuple[str, str], list[str]] = {}  # (chain, exact pivots) -> test ids
+    shown: dict[tuple[str, str], str] = {}
     for m in ms:
-        piv = m.meta.get("pivot_mm") or {}
-        where = " ".join(f"{a.upper()} ({', '.join(f'{float(v):g}' for v in p)})"
-                         for a, p in sorted(piv.items())) or "none"
-        groups.setdefault((str(m.meta.get("chain")), where), []).append(m.id)
+        piv = sorted((m.meta.get("pivot_mm") or {}).items())
+        key = (str(m.meta.get("chain")), repr([(a, [float(v) for v in p]) for a, p in piv]))
+        groups.setdefault(key, []).append(m.id)
+        shown[key] = " ".join(f"{a.upper()} ({', '.join(f'{float(v):g}' for v in p)})"
+                              for a, p in piv) or "none"
     if len(groups) < 2:
         return
-    said = "; ".join(f"{', '.join(ids)} (chain {chain}, pivots {piv} mm)"
-                     for (chain, piv), ids in groups.items())
+    said = "; ".join(f"{', '.join(ids)} (chain {key[0]}, pivots {shown[key]} mm)"
+                     for key, ids in groups.items())
     first = ",".join(next(iter(groups.values())))
     raise ParameterError(f"the session's sphere tests describe {len(groups)} machine "
                          f"configurations: {said}; locate one at a time, e.g. "
                          f"{{measurements=}}{first}")
+
 
 def locate(session: str | Path | Session, *,
            model: str | Path | MachineErrors | IdentificationResult | None = None,

@@ -224,6 +224,16 @@ def test_a_failed_add_with_create_makes_no_store(tmp_path, calibrations, what, m
     assert not db.exists() and "created a new history" not in r.stderr
 
 
+def test_add_with_create_takes_the_session_toml_for_its_folder(tmp_path, calibrations):
+    """The checks made before the store are the add's own: ``S/session.toml`` stands for
+    the folder S there as everywhere (the first version of those checks refused it)."""
+    folder, model = calibrations["a"]
+    db = tmp_path / "toml.sqlite"
+    r = _volcal("history", "add", str(folder / "session.toml"), "--model", str(model),
+                "--db", str(db), "--create")
+    assert r.returncode == 0 and r.stdout == "C000002\n", r.stderr
+
+
 def test_migration_from_first_revision(tmp_path):
     """A store of revision 0001 with a record upgrades to the head and keeps its chain."""
     from sqlalchemy import text

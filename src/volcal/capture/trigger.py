@@ -708,7 +708,8 @@ class TriggerRule:
         assert self._dwell is not None
         d = self.dwells[self._dwell]
         leaving = (self._moving is True or self._running is False
-                   or not self._near(d.target, self._noise_slack(t)))
+                   or (not self._near(d.target)  # the noise margin only when it matters
+                       and not self._near(d.target, self._noise_slack(t))))
         if leaving:
             events: list[TriggerEvent] = []
             if not self._decided:

@@ -57,23 +57,21 @@ def _given_files_exist(session: Path, model: Path | None, budget: Path | None,
                        certificate: Path | None) -> None:
     """Refuse a missing session, model, budget or certificate before any store is opened.
 
-    ``--create`` would otherwise leave a new, empty history behind a typo.
+    ``--create`` would otherwise leave a new, empty history behind a typo. Each is found
+    as the add finds it (the same functions, the same messages).
     """
-    from volcal.errors import VolcalInputError
+    from volcal.history.record import certificate_file
     from volcal.io.sniff import model_path
+    from volcal.session.format import session_toml
+    from volcal.uncertainty.budget import read_budget
 
-    if not (Path(session) / "session.toml").is_file():
-        raise VolcalInputError("session folder not found (no session.toml here)", session)
+    session_toml(session)
     if model is not None:
         model_path(model)
-    if budget is not None and not Path(budget).is_file():
-        raise VolcalInputError("no such budget file", budget)
+    if budget is not None:
+        read_budget(budget)
     if certificate is not None:
-        cert = Path(certificate)
-        cert = cert / "certificate.json" if cert.is_dir() else cert
-        if not cert.is_file():
-            raise VolcalInputError("no certificate.json: --certificate names the folder "
-                                   "`volcal report --certificate` wrote", cert)
+        certificate_file(certificate)
 
 
 def _err(text: str) -> None:
@@ -175,11 +173,10 @@ def add_etalon_cmd(
     create: CreateOption = False,
 ) -> None:
     """Store another system's result (Etalon exchange file); prints the record id."""
-    from volcal.errors import VolcalInputError
+    from volcal.history.etalon import read_etalon
 
-    if not Path(file).is_file():
-        raise VolcalInputError("no such file (the Etalon exchange file)", file)
-    _given_files_exist(session, None, None, None)  # before a new store is made
+    read_etalon(file)  # the file and the session as the add reads them, before a new store
+    _given_files_exist(session, None, None, None)
     with _open(db, create, private_key) as h:
         rec = h.add_etalon(file, session, date, machine)
         if rec.payload.get("not_mapped"):

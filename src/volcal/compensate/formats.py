@@ -227,15 +227,20 @@ def write_compensation(errors: MachineErrors, fmt: str, folder: str | Path,
             raise VolcalInputError(f"rotary table {clash[0]} would replace a linear one")
         files = {**files, **rotary[0]}
         if fmt == "fanuc":
-            from volcal.compensate.rotary.fanuc import fanuc_point_clash
+            from volcal.compensate.rotary.fanuc import (
+                DEFAULT_REFERENCE_NUMBER,
+                TABLE_POINTS,
+                fanuc_point_clash,
+            )
 
             clash2 = fanuc_point_clash(files)
             if clash2 is not None:
                 raise ParameterError(f"Fanuc pitch error compensation: {clash2} (one table "
                                      "for all axes: the linear axes' points count from 0, "
-                                     "the rotary axes' from 900, or lower where they would "
-                                     "not fit below 1024); use a larger {spacing} for the "
-                                     "linear axes or a larger {rotary_spacing}")
+                                     f"the rotary axes' from {DEFAULT_REFERENCE_NUMBER}, or "
+                                     f"lower where they would not fit below {TABLE_POINTS}); "
+                                     "use a larger {spacing} for the linear axes or a larger "
+                                     "{rotary_spacing}")
     carries = list(info.carries)
     if fmt == "siemens" and not options.include_squareness:
         carries = [c for c in carries if c not in SQUARENESS_NAMES]

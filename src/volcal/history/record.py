@@ -261,6 +261,34 @@ def _once(session: list[tuple[str, str, bytes]], models: list[tuple[str, str, by
     return [f for f in session if hashlib.sha256(f[2]).digest() not in model_digests] + models
 
 
+def certificate_file(certificate: str | Path) -> Path:
+    """The ``certificate.json`` that ``--certificate`` names.
+
+    Parameters
+    ----------
+    certificate : str or Path
+        The folder ``volcal report --certificate`` wrote, or its ``certificate.json``.
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    VolcalInputError
+        There is no such file.
+    """
+    from volcal.errors import VolcalInputError
+
+    path = Path(certificate)
+    if path.is_dir():
+        path = path / "certificate.json"
+    if not path.is_file():
+        raise VolcalInputError("no certificate.json: --certificate names the folder "
+                               "`volcal report --certificate` wrote", path)
+    return path
+
+
 def certificate_number(certificate: str | Path | None, session: Any) -> str | None:
     """The number of the calibration certificate of a session (``records.report_id``).
 
@@ -287,14 +315,9 @@ def certificate_number(certificate: str | Path | None, session: Any) -> str | No
     if certificate is None:
         given = (session.calibration or {}).get("report_id")
         return None if given in (None, "") else str(given).strip()
-    path = Path(certificate)
-    if path.is_dir():
-        path = path / "certificate.json"
+    path = certificate_file(certificate)
     try:
         doc = json.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise VolcalInputError("no certificate.json: --certificate names the folder "
-                               "`volcal report --certificate` wrote", path) from None
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise VolcalInputError(f"not a readable certificate ({exc})", path) from None
     number = doc.get("report_id") if isinstance(doc, dict) else None

@@ -31,7 +31,7 @@ from volcal.session.identity import (
     read_machine_identity,
 )
 from volcal.session.kinds import ReadContext, kind_names, kind_of, kinds, target_names
-from volcal.session.missed import FIRST_ROW_MISSED, MISSED
+from volcal.session.missed import FIRST_ROW_MISSED, MISSED, reading_cells
 
 SESSION_FORMAT = "volcal-session/1"
 KINDS: tuple[str, ...] = ("linear", "diagonal", "step_diagonal", "multilateration",
@@ -70,6 +70,7 @@ __all__ = [
     "Measurement",
     "Session",
     "read_measurement_csv",
+    "session_toml",
     "read_session",
     "write_session",
 ]
@@ -220,13 +221,11 @@ class Measurement:
         w = csv.writer(buf, lineterminator="\n")
         header = list(REQUIRED_COLUMNS)
         header[3], values, fmt = kind_of(self.kind).csv_values(self)  # the kind's column
+        cells = None if values is None else reading_cells(values, fmt)
         w.writerow([*header, *extra])
         for i in range(self.n):
             row = [_fmt(v) for v in self.positions[i]]
-            if values is None:
-                row.append("")
-            else:
-                row.append(MISSED if np.isnan(values[i]) else fmt.format(values[i]))
+            row.append("" if cells is None else cells[i])
             for c in extra:
                 v = self.columns[c][i]
                 row.append(str(v) if OPTIONAL_COLUMNS[c] in ("int", "dir", "text")
@@ -812,8 +811,24 @@ def _check_files_once(raw: list[Any], toml_path: Path) -> None:
         owner[key] = f"measurement {mid!r}" if isinstance(mid, str) else f"measurements[{i}]"
 
 
-def _load_session_toml(folder: Path) -> tuple[Path, Path, dict[str, Any]]:
-    """The session folder, its ``session.toml`` and the parsed document (format checked)."""
+def session_toml(folder: str | Path) -> tuple[Path, Path]:
+    """The session folder and its ``session.toml``, as :func:`read_session` finds them.
+
+    Parameters
+    ----------
+    folder : str or Path
+        A session folder, or its ``session.toml``.
+
+    Returns
+    -------
+    folder, toml_path : Path
+
+    Raises
+    ------
+    VolcalInputError
+        No such folder, another file, or a folder without ``session.toml``.
+    """
+    folder = Path(folder)
     if folder.is_file():
         if folder.name != "session.toml":
             raise _err("a file, not a session folder (a folder with session.toml)", folder)
@@ -823,6 +838,12 @@ def _load_session_toml(folder: Path) -> tuple[Path, Path, dict[str, Any]]:
     toml_path = folder / "session.toml"
     if not toml_path.is_file():
         raise _err("no session.toml in this folder (is it a volcal session?)", folder)
+    return folder, toml_path
+
+
+def _load_session_toml(folder: Path) -> tuple[Path, Path, dict[str, Any]]:
+    """The session folder, its ``session.toml`` and the parsed document (format checked)."""
+    folder, toml_path = session_toml(folder)
     try:
         doc = tomllib.loads(toml_path.read_text(encoding="utf-8"))
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:

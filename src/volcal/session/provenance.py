@@ -15,8 +15,6 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
 from volcal.io.folders import BACKUP_FOLDER, backup_name  # one definition (volcal.io)
 
 if TYPE_CHECKING:  # annotations only: format imports this module (backup_session_files)
@@ -47,14 +45,14 @@ def readings_digest(session: Session) -> str:
         counted as measured.)
     """
     from volcal.session.kinds import kind_of
+    from volcal.session.missed import reading_cells
 
     h = hashlib.sha256()
     for m in sorted([*session.measurements, *session.unmeasured], key=lambda m: m.id):
         h.update(m.id.encode() + b"\n")
-        if m.deviation is not None:
-            _, values, fmt = kind_of(m.kind).csv_values(m)
-            h.update(",".join("missed" if np.isnan(v) else fmt.format(v)
-                              for v in np.asarray(values, float)).encode())
+        _, values, fmt = kind_of(m.kind).csv_values(m)  # None: no readings (a skeleton)
+        if values is not None:
+            h.update(",".join(reading_cells(values, fmt)).encode())
         h.update(b"\n")
     return h.hexdigest()
 

@@ -117,10 +117,10 @@ def _fanuc_first_point(profiles: Sequence[RotaryProfile], o: RotaryOptions
     900), they start lower, so that the last ends at its last point. Whether the linear
     axes' tables (from point 0) reach them is checked when both are written.
     """
-    from volcal.compensate.rotary.fanuc import TABLE_POINTS
+    from volcal.compensate.rotary.fanuc import TABLE_POINTS, table_points
 
     ref = o.fanuc_reference_number
-    need = sum(int(round(360.0 / o.spacing_deg)) + 1 for p in profiles if p.modulo)
+    need = sum(table_points(o.spacing_deg) for p in profiles if p.modulo)
     if ref + need <= TABLE_POINTS or need > TABLE_POINTS:
         return ref, []
     first = TABLE_POINTS - need
@@ -206,7 +206,7 @@ def rotary_tables(profiles: Sequence[RotaryProfile], fmt: str, o: RotaryOptions
                     p, o.spacing_deg, sign, o.fanuc_unit_deg, o.magnification,
                     o.max_increment, ref, 4 + i, series=o.fanuc_series, stem=stem)
                 e.update(fanuc_unit_deg=o.fanuc_unit_deg, fanuc_stem=stem)
-                ref += int(round(360.0 / o.spacing_deg)) + 1
+                ref += fanuc.table_points(o.spacing_deg)
             files.update(f)
             notes += n
             e["files"] = sorted(f)

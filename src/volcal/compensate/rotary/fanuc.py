@@ -64,8 +64,8 @@ from volcal.compensate.rotary.profile import DEG_PER_URAD, RotaryProfile
 from volcal.compensate.tables import sign_factor
 from volcal.errors import ParameterError, VolcalInputError
 
-__all__ = ["ROT_PARAM_FILE", "ROT_PITCH_FILE", "fanuc_point_clash", "fanuc_rotary_files",
-           "read_fanuc_rotary"]
+__all__ = ["ROT_PARAM_FILE", "ROT_PITCH_FILE", "TABLE_POINTS", "fanuc_point_clash",
+           "fanuc_rotary_files", "read_fanuc_rotary", "table_points"]
 
 ROT_PARAM_FILE = "FANUC_ROTARY_PARAM_{}.TXT"
 ROT_PITCH_FILE = "FANUC_ROTARY_PITCH_{}.TXT"
@@ -75,6 +75,21 @@ DEFAULT_REFERENCE_NUMBER = 900
 TABLE_POINTS = 1024
 """Points of the pitch error table all axes share (0..1023; parameters 3620-3622 of
 FANUC B-63980EN/01 take 0..1023)."""
+
+
+def table_points(spacing_deg: float) -> int:
+    """Points a full-circle axis' table takes: ``n_ref .. n_ref + 360 / spacing`` [1].
+
+    Parameters
+    ----------
+    spacing_deg : float
+        Parameter 3624 [deg].
+
+    Returns
+    -------
+    int
+    """
+    return int(round(360.0 / spacing_deg)) + 1
 
 
 def fanuc_rotary_files(p: RotaryProfile, spacing_deg: float, sign: str = DEFAULT_SIGN,
